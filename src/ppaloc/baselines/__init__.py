@@ -1,0 +1,1 @@
+"""ppaloc.baselines (see docs/architecture.md)."""

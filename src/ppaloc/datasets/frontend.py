@@ -1,0 +1,55 @@
+"""The sensor front-end: any frame becomes the 256x256 grey image the PPA sees."""
+
+from __future__ import annotations
+
+import numpy as np
+from PIL import Image
+
+__all__ = ["SENSOR_SHAPE", "to_grey", "to_sensor"]
+
+SENSOR_SHAPE = (256, 256)
+"""(rows, cols) of the SCAMP-5 pixel array."""
+
+
+def to_grey(frame: np.ndarray) -> np.ndarray:
+    """Return a 2-D ``uint8`` grey image from a grey, RGB or RGBA frame.
+
+    Colour is converted with the ITU-R 601 luma weights (0.299 R + 0.587 G + 0.114 B),
+    the rule Pillow's ``convert("L")`` uses; alpha is ignored; float frames are taken as
+    [0, 1] and scaled to [0, 255].
+    """
+    a = np.asarray(frame)
+    if a.ndim == 3 and a.shape[2] in (3, 4):
+        a = a[..., :3].astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)
+        a = np.rint(a) if np.issubdtype(np.asarray(frame).dtype, np.integer) else a
+    elif a.ndim == 3 and a.shape[2] == 1:
+        a = a[..., 0]
+    elif a.ndim != 2:
+        raise ValueError(f"a frame must be 2-D grey or HxWx3/4 colour, got shape {a.shape}")
+    if np.issubdtype(a.dtype, np.floating) and a.size and float(np.nanmax(a)) <= 1.0:
+        a = a * 255.0
+    return np.clip(a, 0, 255).astype(np.uint8)
+
+
+def to_sensor(frame: np.ndarray) -> np.ndarray:
+    """Return the (256, 256) ``uint8`` image the PPA sees for any input frame.
+
+    The rule, the same for every method: convert to grey (:func:`to_grey`), then resize
+    the *whole* frame to 256x256 with Pillow's bilinear filter (which widens its support
+    when shrinking, so downsampling is anti-aliased). Nothing is cropped: the aspect ratio
+    is not kept (Nordland's 64x32 is stretched 4x by 8x, Gardens Point's 960x540 squeezed),
+    so every method sees the full field of view, as in OpenSeqSLAM's resize to 64x32.
+
+    Examples
+    --------
+    >>> to_sensor(np.zeros((32, 64), np.uint8)).shape
+    (256, 256)
+    """
+    grey = to_grey(frame)
+    if grey.shape == SENSOR_SHAPE:
+        return grey
+    if grey.size == 0:
+        raise ValueError("an empty frame cannot be shown to the sensor")
+    size = (SENSOR_SHAPE[1], SENSOR_SHAPE[0])  # Pillow takes (width, height)
+    out = Image.fromarray(grey).resize(size, Image.Resampling.BILINEAR)
+    return np.asarray(out, dtype=np.uint8)

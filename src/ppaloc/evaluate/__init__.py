@@ -1,0 +1,1 @@
+"""ppaloc.evaluate (see docs/architecture.md)."""

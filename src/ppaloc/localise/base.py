@@ -1,0 +1,72 @@
+"""The interface every localisation method implements, and what it returns per frame."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from ppaloc.topomap import TopoMap
+
+__all__ = ["Estimate", "Localiser"]
+
+
+@dataclass(frozen=True, slots=True)
+class Estimate:
+    """One localisation result for one query frame.
+
+    Parameters
+    ----------
+    node : int
+        Index of the predicted map node (0-based, map order).
+    score : float
+        Confidence, higher = surer. PR curves threshold on it, so it must be comparable
+        across the frames of one run (not necessarily across methods).
+    moved : bool or None
+        The motion model's decision for this frame (forward = True), None where the method
+        has no motion model.
+    ranking : ndarray of int, shape (K,), optional
+        The K best nodes, best first, for recall@K; None where the method does not rank.
+    weights : ndarray, shape (N,), optional
+        Per-node weights or scores after this frame, only when the localiser was asked to
+        record them (they cost a copy of N values per frame).
+    modelled_latency_ms : float, optional
+        Modelled on-sensor time for this frame (simulated methods only).
+    energy_mj : float, optional
+        Modelled on-sensor energy for this frame (simulated methods only).
+    """
+
+    node: int
+    score: float
+    moved: bool | None = None
+    ranking: np.ndarray | None = None
+    weights: np.ndarray | None = None
+    modelled_latency_ms: float | None = None
+    energy_mj: float | None = None
+
+
+@runtime_checkable
+class Localiser(Protocol):
+    """An online, past-only localiser over a 1-D topological map.
+
+    Every frame handed to a localiser is a sensor frame: a 2-D ``uint8`` array of shape
+    (256, 256) as produced by :func:`ppaloc.datasets.to_sensor`. ``step`` sees one new frame
+    and nothing of the future.
+    """
+
+    name: str
+
+    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
+        """Build (and keep) the map from a reference traversal; one node per frame."""
+        ...
+
+    def reset(self) -> None:
+        """Forget all per-query state (weights, history); keep the map."""
+        ...
+
+    def step(self, frame: np.ndarray) -> Estimate:
+        """Localise one new query frame."""
+        ...

@@ -1,0 +1,1 @@
+"""ppaloc.onsensor (see docs/architecture.md)."""

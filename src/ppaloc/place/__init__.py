@@ -1,0 +1,1 @@
+"""ppaloc.place (see docs/architecture.md)."""

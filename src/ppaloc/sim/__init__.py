@@ -1,0 +1,1 @@
+"""ppaloc.sim (see docs/architecture.md)."""
