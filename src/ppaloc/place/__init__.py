@@ -1,1 +1,34 @@
-"""ppaloc.place (see docs/architecture.md)."""
+"""Place representations on the host: 8x8 low-resolution images and 32-bit LBP descriptors.
+
+Both start from the exact 8x8 block means of a (256, 256) uint8 sensor frame
+(docs/ppa8.md). Low-res nodes are compared by the sum of absolute differences (:func:`sad`),
+LBP descriptors by Hamming distance (:func:`hamming`). Everything is vectorised over
+leading axes (frames) or N nodes and exact.
+"""
+
+from ppaloc.place.grid import SENSOR_SIZE, block_means, block_sums, lowres_image
+from ppaloc.place.lbp import (
+    LBP_BITS,
+    hamming,
+    lbp_descriptor,
+    lbp_from_grid,
+    lbp_grid,
+    pack_bits,
+    unpack_bits,
+)
+from ppaloc.place.sad import sad
+
+__all__ = [
+    "LBP_BITS",
+    "SENSOR_SIZE",
+    "block_means",
+    "block_sums",
+    "hamming",
+    "lbp_descriptor",
+    "lbp_from_grid",
+    "lbp_grid",
+    "lowres_image",
+    "pack_bits",
+    "sad",
+    "unpack_bits",
+]

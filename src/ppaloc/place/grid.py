@@ -1,0 +1,104 @@
+"""Block means of sensor frames: the grid every place representation starts from."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["SENSOR_SIZE", "block_means", "block_sums", "lowres_image"]
+
+SENSOR_SIZE = 256
+"""Rows (= columns) of a sensor frame, the SCAMP-5 pixel array."""
+
+
+def _check_frames(frames: np.ndarray) -> np.ndarray:
+    a = np.asarray(frames)
+    if a.ndim < 2 or a.shape[-2:] != (SENSOR_SIZE, SENSOR_SIZE):
+        raise ValueError(
+            f"sensor frames must have shape (..., 256, 256), got {a.shape}; "
+            "convert frames with ppaloc.datasets.frontend.to_sensor first"
+        )
+    if a.dtype != np.uint8:
+        raise ValueError(
+            f"sensor frames must be uint8, got {a.dtype}; "
+            "convert frames with ppaloc.datasets.frontend.to_sensor first"
+        )
+    return a
+
+
+def block_sums(frames: np.ndarray, grid: int = 8) -> np.ndarray:
+    """Return the exact pixel sums over a ``grid`` x ``grid`` partition of each frame.
+
+    Parameters
+    ----------
+    frames : ndarray of uint8, shape (..., 256, 256)
+        Sensor frames (any number of leading axes).
+    grid : int
+        Blocks per side; must divide 256. Each block is ``256 // grid`` pixels square.
+
+    Returns
+    -------
+    ndarray of uint32, shape (..., grid, grid)
+        Sum of the pixels of each block (at most ``255 * 256**2``, so uint32 is exact).
+    """
+    a = _check_frames(frames)
+    if not isinstance(grid, int | np.integer) or grid < 1 or SENSOR_SIZE % grid:
+        raise ValueError(f"grid={grid!r} must be a positive integer dividing 256 (e.g. 8)")
+    b = SENSOR_SIZE // grid
+    lead = a.shape[:-2]
+    # Sum along columns first (contiguous), then along rows.
+    cols = a.reshape(*lead, SENSOR_SIZE, grid, b).sum(axis=-1, dtype=np.uint32)
+    return cols.reshape(*lead, grid, b, grid).sum(axis=-2, dtype=np.uint32)
+
+
+def block_means(frames: np.ndarray, grid: int = 8) -> np.ndarray:
+    """Return the exact block means of sensor frames.
+
+    Parameters
+    ----------
+    frames : ndarray of uint8, shape (..., 256, 256)
+        Sensor frames (any number of leading axes).
+    grid : int
+        Blocks per side; must divide 256 (default 8: 32x32-pixel blocks, the paper's grid).
+
+    Returns
+    -------
+    ndarray of float64, shape (..., grid, grid)
+        Mean pixel value of each block, in [0, 255]. Exact: a block sum divided by a
+        power of two is representable in float64.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> block_means(np.full((256, 256), 7, np.uint8), grid=2)
+    array([[7., 7.],
+           [7., 7.]])
+    """
+    sums = block_sums(frames, grid)
+    b = SENSOR_SIZE // grid
+    return sums / float(b * b)
+
+
+def lowres_image(frames: np.ndarray) -> np.ndarray:
+    """Return the low-resolution node image: ``floor(block sum / 1024)`` on the 8x8 grid.
+
+    This is the node held in a map of kind ``"lowres"`` (docs/ppa8.md): the 8x8 block
+    means rounded down to integers, so a node fits one uint8 per block.
+
+    Parameters
+    ----------
+    frames : ndarray of uint8, shape (..., 256, 256)
+
+    Returns
+    -------
+    ndarray of uint8, shape (..., 8, 8)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> frame = np.zeros((256, 256), np.uint8)
+    >>> frame[:32, :32] = 200
+    >>> frame[0, 0] = 0  # the top-left block's mean drops to 199.8...
+    >>> lowres_image(frame)[0, :2]
+    array([199,   0], dtype=uint8)
+    """
+    return (block_sums(frames, 8) >> 10).astype(np.uint8)
