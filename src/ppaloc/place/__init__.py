@@ -7,6 +7,7 @@ leading axes (frames) or N nodes and exact.
 """
 
 from ppaloc.place.grid import SENSOR_SIZE, block_means, block_sums, lowres_image
+from ppaloc.place.index import LowresIndex
 from ppaloc.place.lbp import (
     LBP_BITS,
     hamming,
@@ -21,6 +22,7 @@ from ppaloc.place.sad import sad
 __all__ = [
     "LBP_BITS",
     "SENSOR_SIZE",
+    "LowresIndex",
     "block_means",
     "block_sums",
     "hamming",
