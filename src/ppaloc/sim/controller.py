@@ -1,18 +1,772 @@
-"""Host-side (controller) API of the simulated SCAMP-5: the ``scamp5_*`` functions."""
+"""Host-side (controller) API of the simulated SCAMP-5: the ``scamp5_*`` functions.
+
+On SCAMP-5 the host program (on the vision system's micro-controller) drives the array
+through a library of controller functions: it loads constants through the DAC, loads
+address patterns into digital registers, shifts whole planes, and reads results out
+through the ADC, the wired-OR and the event (address) readout. :class:`ControllerMixin`
+gives :class:`ppaloc.sim.engine.Scamp5` those functions with SCAMP-5's names and argument
+order (the ``scamp5_`` prefix may be dropped; both spellings exist), and charges every call
+to the timing model (``self.timing.charge_call``).
+
+Coordinates
+-----------
+Arrays are ``[row, col]``, row 0 north (top), col growing east (right), everywhere in
+ppaloc. SCAMP-5's own *hardware addresses* put column address 0 at the **east** edge: the
+official headers describe ``scamp5_load_rect``'s ``(r0, c0)`` as the *top-right* corner and
+the ``scamp5_scan_areg`` buffers as "column-major, starting from top right"; and the
+public precursor of the weighted-node pipeline numbers its nodes from hardware column 0
+while the paper's snake starts at the top-right. So hardware address ``(r, c)`` is array
+element ``[r, cols - 1 - c]``.
+
+Every function here takes and returns **array coordinates** by default. Pass
+``scamp_addr=True`` to give (and get) hardware addresses instead, e.g. to port SCAMP-5
+code with its literal constants: ``load_pattern(R6, 0, 0, 0b11111100, 0b11100011,
+scamp_addr=True)`` sets the same elements the hardware would. Readout *order* (the order
+of ``scan_events`` results) always follows the hardware scan, documented per function.
+
+Readouts through the ADC return SCAMP-5's 8-bit codes ``clip(round(v) + 128, 0, 255)``
+(``v`` in register units, [-128, 127]); with noise, each conversion adds Gaussian noise of
+the register's temporal standard deviation before rounding (one more analogue transfer,
+to the column ADC). Digital readouts are exact.
+"""
 
 from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["ControllerMixin"]
+import numpy as np
+
+from ppaloc.errors import RegisterMisuseError, SimulatorError
+from ppaloc.sim.registers import (
+    DNEWS_SELECTORS,
+    FLAG,
+    IN,
+    NEWS,
+    R1,
+    R2,
+    R3,
+    R4,
+    SELECT,
+    Direction,
+    Register,
+)
+
+if TYPE_CHECKING:
+    from ppaloc.sim.timing import TimingModel
+
+__all__ = ["MAX_EVENTS", "ControllerMixin", "from_scamp_buffer", "to_scamp_buffer"]
+
+#: Largest ``max_num`` of ``scan_events`` (``SCAMP5_MAX_AER_ITERATIONS`` in the headers).
+MAX_EVENTS = 4000
+
+
+def to_scamp_buffer(grid: np.ndarray) -> np.ndarray:
+    """Flatten a 2-D readout (array orientation) into SCAMP-5's buffer order.
+
+    SCAMP-5's ``scamp5_scan_areg*`` buffers are column-major starting from the top-right
+    element: ``buffer[3]`` is the first column from the right, fourth row down.
+
+    Parameters
+    ----------
+    grid : numpy.ndarray, shape (n_rows, n_cols)
+        A readout in array orientation (row 0 north, col 0 west).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_rows * n_cols,)
+
+    Examples
+    --------
+    >>> to_scamp_buffer(np.array([[1, 2], [3, 4]])).tolist()
+    [2, 4, 1, 3]
+    """
+    return np.ascontiguousarray(np.asarray(grid)[:, ::-1].T).ravel()
+
+
+def from_scamp_buffer(buffer: np.ndarray, n_rows: int, n_cols: int) -> np.ndarray:
+    """Inverse of :func:`to_scamp_buffer`: a SCAMP-5 buffer back to array orientation.
+
+    Examples
+    --------
+    >>> from_scamp_buffer(np.array([2, 4, 1, 3]), 2, 2).tolist()
+    [[1, 2], [3, 4]]
+    """
+    return np.asarray(buffer).reshape(n_cols, n_rows).T[:, ::-1].copy()
+
+
+def _as_int(call: str, name: str, value: Any, lo: int, hi: int) -> int:
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
+        raise SimulatorError(f"{call}: {name}={value!r} must be an integer in [{lo}, {hi}]")
+    if not lo <= int(value) <= hi:
+        raise SimulatorError(f"{call}: {name}={value!r} is out of range; use [{lo}, {hi}]")
+    return int(value)
+
+
+def _pattern_args(call: str, r: Any, c: Any, rx: Any, cx: Any) -> dict[str, int]:
+    names = ("r", "c", "rx", "cx")
+    return {n: _as_int(call, n, v, 0, 255) for n, v in zip(names, (r, c, rx, cx), strict=True)}
 
 
 class ControllerMixin:
-    """Controller calls mixed into :class:`ppaloc.sim.engine.Scamp5`."""
+    """Controller (host) calls of SCAMP-5, mixed into :class:`ppaloc.sim.engine.Scamp5`.
+
+    Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
+    ``_dplane``, ``_write_analog``, ``_write_digital``, ``rng``, ``noise`` and ``timing``.
+    """
+
+    rows: int
+    cols: int
+    timing: TimingModel
+    noise: Any
+    rng: np.random.Generator
+
+    if TYPE_CHECKING:
+
+        def _aplane(self, reg: Register) -> np.ndarray: ...
+        def _dplane(self, reg: Register) -> np.ndarray: ...
+        def _write_analog(self, reg: Register, values: np.ndarray) -> None: ...
+        def _write_digital(self, reg: Register, bools: np.ndarray) -> None: ...
+
+    # ----------------------------------------------------------------------------------
+    # Stages
 
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
-        """Group modelled costs charged inside the block under ``name``."""
-        with self.timing.stage(name):  # type: ignore[attr-defined]
+        """Charge every kernel and call inside the ``with`` block to stage ``name``.
+
+        Examples
+        --------
+        >>> from ppaloc.sim import Scamp5, A
+        >>> sim = Scamp5(8, 8)
+        >>> with sim.stage("constants"):
+        ...     sim.scamp5_in(A, 10)
+        >>> sim.timing.report().stage("constants").calls
+        {'scamp5_in': 1}
+        """
+        with self.timing.stage(name):
             yield
+
+    # ----------------------------------------------------------------------------------
+    # Checks and conversions
+
+    def _areg(self, call: str, reg: Any, *, source: bool = False) -> Register:
+        ok = isinstance(reg, Register) and reg.kind == "analog"
+        if ok and not source:
+            ok = reg.role in ("general", "news")
+        elif ok:
+            ok = reg.role != "neighbour"
+        if not ok:
+            want = "an analogue register" if source else "one of A-F or NEWS"
+            raise RegisterMisuseError(f"{call}: {reg!r} is not {want}")
+        return reg
+
+    def _dreg(self, call: str, reg: Any, *, source: bool = False) -> Register:
+        ok = isinstance(reg, Register) and reg.kind == "digital"
+        if ok and not source:
+            ok = reg.role == "general"
+        if not ok:
+            want = "a digital register" if source else "one of R0-R12"
+            raise RegisterMisuseError(f"{call}: {reg!r} is not {want}")
+        return reg
+
+    def _col_index(self, c: int, scamp_addr: bool) -> int:
+        """Array column of column ``c`` given in array (or hardware) coordinates."""
+        return self.cols - 1 - c if scamp_addr else c
+
+    def _coord(self, call: str, name: str, value: Any, size: int) -> int:
+        return _as_int(call, name, value, 0, size - 1)
+
+    def _flag(self) -> np.ndarray:
+        return self._dplane(FLAG)
+
+    def _catch_up(self) -> None:
+        """Apply the engine's time-dependent decay up to now before a readout (noisy)."""
+        if not self.noise.ideal:
+            elapse = getattr(self, "_elapse", None)
+            if elapse is not None:
+                elapse()
+
+    def _readout_sd(self) -> float:
+        if self.noise.ideal:
+            return 0.0
+        params = getattr(self.noise, "params", None)
+        return float(getattr(params, "temporal_sd", 0.0)) if params is not None else 0.0
+
+    def _adc(self, values: np.ndarray) -> np.ndarray:
+        """8-bit ADC codes of analogue values: nearest of v + 128 (halves up), clipped."""
+        v = np.asarray(values, dtype=np.float64)
+        sd = self._readout_sd()
+        if sd > 0:
+            v = v + self.rng.normal(0.0, sd, v.shape)
+        return np.clip(np.floor(v + 128.5), 0, 255).astype(np.uint8)
+
+    def _block_means(self, call: str, plane: np.ndarray, n: int) -> np.ndarray:
+        if self.rows % n or self.cols % n:
+            raise SimulatorError(
+                f"{call} needs rows and cols divisible by {n}, the array is "
+                f"{self.rows}x{self.cols}; use a {n * 32}x{n * 32} or 256x256 array"
+            )
+        br, bc = self.rows // n, self.cols // n
+        return plane.reshape(n, br, n, bc).mean(axis=(1, 3), dtype=np.float64)
+
+    def _address_mask(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> np.ndarray:
+        rows = np.arange(self.rows)
+        cols = np.arange(self.cols)
+        if scamp_addr:
+            cols = self.cols - 1 - cols
+        row_ok = (rows & ~rx) == (r & ~rx)
+        col_ok = (cols & ~cx) == (c & ~cx)
+        return row_ok[:, None] & col_ok[None, :]
+
+    # ----------------------------------------------------------------------------------
+    # DAC
+
+    def _dac_value(self, call: str, value: Any) -> int:
+        return _as_int(call, "value", value, -128, 127)
+
+    def _write_masked(self, reg: Register, values: np.ndarray, *, noisy: bool) -> None:
+        """Write an analogue plane where FLAG is set (analogue writes obey FLAG)."""
+        flag = self._flag()
+        current = self._aplane(reg)
+        if noisy:
+            keep = None if flag.all() else current[~flag].copy()
+            self._write_analog(reg, values)
+            if keep is not None:
+                current[~flag] = keep
+        else:
+            current[flag] = np.clip(values, -128, 127)[flag]
+
+    def scamp5_in(self, areg: Register, value: int) -> None:
+        """Load a constant into ``areg`` through the DAC, with error correction.
+
+        The DAC drives ``IN`` with ``value`` and the value is copied into ``areg`` where
+        FLAG is set (``NEWS``, the library's temporary, is left holding ``-value``).
+        ``scamp5_in`` corrects the DAC's offset, so with noise only the temporal noise of
+        one write remains (compare :meth:`load_in`).
+
+        Parameters
+        ----------
+        areg : Register
+            Destination, one of A-F or NEWS.
+        value : int
+            Integer in [-128, 127].
+
+        Raises
+        ------
+        SimulatorError
+            If ``value`` is not an integer in [-128, 127].
+        """
+        call = "scamp5_in"
+        self._areg(call, areg)
+        v = self._dac_value(call, value)
+        self.timing.charge_call(call)
+        shape = (self.rows, self.cols)
+        self._aplane(IN)[...] = v
+        target = np.full(shape, float(v))
+        sd = self._readout_sd()
+        if sd > 0:
+            target = target + self.rng.normal(0.0, sd, shape)
+        if areg is not NEWS:
+            self._write_masked(NEWS, np.full(shape, -float(v)), noisy=False)
+        self._write_masked(areg, target, noisy=False)
+
+    def load_in(self, areg_or_value: Register | int, value: int | None = None) -> None:
+        """``scamp5_load_in``: load a constant through the DAC without error correction.
+
+        Two forms, as in SCAMP-5: ``load_in(value)`` only drives ``IN`` (for kernels that
+        read ``IN``); ``load_in(areg, value)`` also copies it into ``areg`` where FLAG is
+        set, as a plain analogue write (with the write noise and fixed-pattern offset of
+        the engine's noise model).
+
+        Raises
+        ------
+        SimulatorError
+            If the value is not an integer in [-128, 127].
+        """
+        call = "load_in"
+        if value is None:
+            if isinstance(areg_or_value, Register):
+                raise SimulatorError(
+                    "load_in: give a value, load_in(value) or load_in(areg, value)"
+                )
+            v = self._dac_value(call, areg_or_value)
+            self.timing.charge_call(call)
+            self._aplane(IN)[...] = v
+            return
+        areg = self._areg(call, areg_or_value)
+        v = self._dac_value(call, value)
+        self.timing.charge_call(call)
+        self._aplane(IN)[...] = v
+        self._write_masked(areg, np.full((self.rows, self.cols), float(v)), noisy=True)
+
+    # ----------------------------------------------------------------------------------
+    # Address patterns
+
+    def load_pattern(
+        self, dreg: Register, r: int, c: int, rx: int, cx: int, *, scamp_addr: bool = False
+    ) -> None:
+        """Set ``dreg`` to 1 where the element's address matches (r, c) under masks.
+
+        An element at row ``row``, column ``col`` is set where ``(row & ~rx) == (r & ~rx)``
+        and ``(col & ~cx) == (c & ~cx)``, i.e. the bits set in ``rx``/``cx`` are ignored;
+        elsewhere ``dreg`` is cleared (official header: masking bits "allow a match to
+        occur periodically"; mask 192 makes addresses 3, 67, 131 and 195 match 3).
+        Digital writes ignore FLAG.
+
+        Parameters
+        ----------
+        dreg : Register
+            Destination, one of R0-R12.
+        r, c : int
+            Address to match, 8-bit (array coordinates, or hardware addresses with
+            ``scamp_addr=True``).
+        rx, cx : int
+            Bits of the row/column address to ignore, 8-bit.
+
+        Examples
+        --------
+        >>> from ppaloc.sim import Scamp5, R5
+        >>> sim = Scamp5(4, 4)
+        >>> sim.load_pattern(R5, 0, 1, 0b10, 0b10)   # rows 0 and 2, cols 1 and 3
+        >>> sim.read(R5).astype(int)
+        array([[0, 1, 0, 1],
+               [0, 0, 0, 0],
+               [0, 1, 0, 1],
+               [0, 0, 0, 0]])
+        """
+        call = "load_pattern"
+        self._dreg(call, dreg)
+        args = _pattern_args(call, r, c, rx, cx)
+        self.timing.charge_call(call)
+        self._write_digital(dreg, self._address_mask(**args, scamp_addr=scamp_addr))
+
+    def load_point(self, dreg: Register, r: int, c: int, *, scamp_addr: bool = False) -> None:
+        """Set ``dreg`` to 1 at element (r, c) and to 0 elsewhere.
+
+        Raises
+        ------
+        SimulatorError
+            If (r, c) is outside the array.
+        """
+        call = "load_point"
+        self._dreg(call, dreg)
+        r = self._coord(call, "r", r, self.rows)
+        c = self._coord(call, "c", c, self.cols)
+        self.timing.charge_call(call)
+        plane = np.zeros((self.rows, self.cols), dtype=bool)
+        plane[r, self._col_index(c, scamp_addr)] = True
+        self._write_digital(dreg, plane)
+
+    def _rect(self, call: str, r0: int, c0: int, r1: int, c1: int, scamp_addr: bool) -> np.ndarray:
+        r0, r1 = (self._coord(call, n, v, self.rows) for n, v in (("r0", r0), ("r1", r1)))
+        c0, c1 = (self._coord(call, n, v, self.cols) for n, v in (("c0", c0), ("c1", c1)))
+        ca, cb = sorted((self._col_index(c0, scamp_addr), self._col_index(c1, scamp_addr)))
+        ra, rb = sorted((r0, r1))
+        plane = np.zeros((self.rows, self.cols), dtype=bool)
+        plane[ra : rb + 1, ca : cb + 1] = True
+        return plane
+
+    def load_rect(
+        self, dreg: Register, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False
+    ) -> None:
+        """Set ``dreg`` to 1 inside the rectangle with corners (r0, c0) and (r1, c1).
+
+        Both corners are included and their order does not matter. (SCAMP-5 documents
+        ``(r0, c0)`` as the top-right corner in hardware addresses; with
+        ``scamp_addr=True`` the same call sets the same elements.)
+        """
+        call = "load_rect"
+        self._dreg(call, dreg)
+        plane = self._rect(call, r0, c0, r1, c1, scamp_addr)
+        self.timing.charge_call(call)
+        self._write_digital(dreg, plane)
+
+    def select_pattern(self, r: int, c: int, rx: int, cx: int, *, scamp_addr: bool = False) -> None:
+        """Like :meth:`load_pattern`, into ``SELECT``."""
+        call = "select_pattern"
+        args = _pattern_args(call, r, c, rx, cx)
+        self.timing.charge_call(call)
+        self._dplane(SELECT)[...] = self._address_mask(**args, scamp_addr=scamp_addr)
+
+    def select_point(self, r: int, c: int, *, scamp_addr: bool = False) -> None:
+        """Like :meth:`load_point`, into ``SELECT``."""
+        call = "select_point"
+        r = self._coord(call, "r", r, self.rows)
+        c = self._coord(call, "c", c, self.cols)
+        self.timing.charge_call(call)
+        plane = self._dplane(SELECT)
+        plane[...] = False
+        plane[r, self._col_index(c, scamp_addr)] = True
+
+    def select_rect(self, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False) -> None:
+        """Like :meth:`load_rect`, into ``SELECT``."""
+        call = "select_rect"
+        plane = self._rect(call, r0, c0, r1, c1, scamp_addr)
+        self.timing.charge_call(call)
+        self._dplane(SELECT)[...] = plane
+
+    # ----------------------------------------------------------------------------------
+    # Shifts
+
+    def shift(self, reg: Register, h: int, v: int, boundary: int = 0) -> None:
+        """``scamp5_shift``: move a whole register plane by (h, v) elements.
+
+        Parameters
+        ----------
+        reg : Register
+            An analogue register (A-F, NEWS) or a digital one (R0-R12).
+        h : int
+            Horizontal shift; positive moves the picture east (right), negative west.
+        v : int
+            Vertical shift; positive moves the picture north (up), negative south.
+        boundary : int
+            Digital registers only: the value (0 or 1) shifted in at the edge. Analogue
+            registers shift in 0.
+
+        Notes
+        -----
+        After ``shift(reg, h, v)``, ``new[row, col] = old[row + v, col - h]``. Analogue
+        shifts write where FLAG is set, as one analogue write (the library's optimised
+        method; its intermediate transfers are not modelled) and leave NEWS as it was.
+        Digital shifts ignore FLAG and, like the ``DNEWS`` macro they are built from,
+        leave R1-R4 selecting the direction of the last step.
+
+        Examples
+        --------
+        >>> from ppaloc.sim import Scamp5, A
+        >>> sim = Scamp5(1, 4)
+        >>> sim.write(A, np.array([[1.0, 2.0, 3.0, 4.0]]))
+        >>> sim.shift(A, 1, 0)
+        >>> sim.read(A).tolist()
+        [[0.0, 1.0, 2.0, 3.0]]
+        """
+        call = "shift"
+        if not isinstance(reg, Register):
+            raise RegisterMisuseError(f"{call}: {reg!r} is not a register")
+        h = _as_int(call, "h", h, -(self.cols - 1), self.cols - 1)
+        v = _as_int(call, "v", v, -(self.rows - 1), self.rows - 1)
+        b = _as_int(call, "boundary", boundary, 0, 1)
+        if reg.kind == "analog":
+            self._areg(call, reg)
+            old = self._aplane(reg)
+            new = self._shifted(old, h, v, 0.0)
+            self.timing.charge_call("shift_areg", abs(h) + abs(v))
+            self._write_masked(reg, new, noisy=True)
+        else:
+            self._dreg(call, reg)
+            old = self._dplane(reg)
+            new = self._shifted(old, h, v, bool(b))
+            self.timing.charge_call("shift_dreg", abs(h) + abs(v))
+            last = None
+            if v:
+                last = Direction.south if v > 0 else Direction.north
+            elif h:
+                last = Direction.west if h > 0 else Direction.east
+            if last is not None:
+                for sel in (R1, R2, R3, R4):
+                    self._write_digital(sel, np.full(old.shape, DNEWS_SELECTORS[last] is sel))
+            self._write_digital(reg, new)
+
+    @staticmethod
+    def _shifted(plane: np.ndarray, h: int, v: int, fill: float | bool) -> np.ndarray:
+        rows, cols = plane.shape
+        out = np.full_like(plane, fill)
+        # new[r, c] = old[r + v, c - h]
+        r_dst = slice(max(0, -v), min(rows, rows - v))
+        r_src = slice(max(0, v), min(rows, rows + v))
+        c_dst = slice(max(0, h), min(cols, cols + h))
+        c_src = slice(max(0, -h), min(cols, cols - h))
+        out[r_dst, c_dst] = plane[r_src, c_src]
+        return out
+
+    # ----------------------------------------------------------------------------------
+    # Global readouts
+
+    def global_sum_16(self, areg: Register, out: np.ndarray | None = None) -> int:
+        """``scamp5_global_sum_16``: a value proportional to the sum of ``areg``.
+
+        The array is cut into a 4 x 4 grid of blocks; each block's mean is converted by
+        the ADC (code = mean + 128); the result is the sum of the 16 codes, so a plane of
+        constant ``v`` gives ``16 * (v + 128)``.
+
+        Parameters
+        ----------
+        areg : Register
+            The analogue register to sum.
+        out : numpy.ndarray, shape (4, 4), optional
+            Filled with the 16 codes, in array orientation.
+
+        Returns
+        -------
+        int
+            Sum of the 16 codes, in [0, 4080].
+        """
+        return self._global_sum("global_sum_16", areg, 4, out)
+
+    def global_sum_64(self, areg: Register, out: np.ndarray | None = None) -> int:
+        """``scamp5_global_sum_64``: as :meth:`global_sum_16` on an 8 x 8 grid (sum of 64
+        codes, in [0, 16320]); slower and finer."""
+        return self._global_sum("global_sum_64", areg, 8, out)
+
+    def _global_sum(self, call: str, areg: Register, n: int, out: np.ndarray | None) -> int:
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        codes = self._adc(self._block_means(call, self._aplane(areg), n))
+        self.timing.charge_call(call)
+        if out is not None:
+            if out.shape != (n, n):
+                raise SimulatorError(f"{call}: out has shape {out.shape}; it must be ({n}, {n})")
+            out[...] = codes
+        return int(codes.sum(dtype=np.int64))
+
+    def global_or(
+        self,
+        dreg: Register,
+        r: int = 0,
+        c: int = 0,
+        rx: int = 255,
+        cx: int = 255,
+        *,
+        scamp_addr: bool = False,
+    ) -> int:
+        """``scamp5_global_or``: 1 if any selected element of ``dreg`` is 1, else 0.
+
+        The optional (r, c, rx, cx) pattern selects elements as in :meth:`load_pattern`;
+        the default selects the whole array.
+        """
+        call = "global_or"
+        self._catch_up()
+        self._dreg(call, dreg, source=True)
+        args = _pattern_args(call, r, c, rx, cx)
+        mask = self._address_mask(**args, scamp_addr=scamp_addr)
+        self.timing.charge_call(call)
+        return int(bool(np.any(self._dplane(dreg) & mask)))
+
+    def global_count(self, dreg: Register, temp: Register, options: int = 0) -> int:
+        """``scamp5_global_count``: an estimate of the number of 1s in ``dreg``.
+
+        As on SCAMP-5, ``temp`` is overwritten with an analogue image of ``dreg`` (127
+        where 1, -128 where 0) that a global sum reads (4 x 4 blocks with ``options=0``,
+        8 x 8 with ``options=1``); the result is scaled to [0, 4095]:
+        ``4095 * sum(codes) / (255 * n_blocks)`` rounded half up. Quantisation by the ADC makes it
+        an estimate: exact for 0 and all-ones, within ``4095 / 510`` of
+        ``4095 * count / (rows * cols)`` in ideal mode.
+        """
+        call = "global_count"
+        self._catch_up()
+        self._dreg(call, dreg, source=True)
+        self._areg(call, temp)
+        o = _as_int(call, "options", options, 0, 1)
+        n = 4 if o == 0 else 8
+        plane = np.where(self._dplane(dreg), 127.0, -128.0)
+        self._aplane(temp)[...] = plane
+        codes = self._adc(self._block_means(call, self._aplane(temp), n))
+        self.timing.charge_call("global_count" if o == 0 else "global_count_64")
+        total = int(codes.sum(dtype=np.int64))
+        return int(np.floor(4095 * total / (255 * n * n) + 0.5))
+
+    # ----------------------------------------------------------------------------------
+    # Image readouts
+
+    def read_areg(self, areg: Register, r: int, c: int, *, scamp_addr: bool = False) -> int:
+        """``scamp5_read_areg``: the ADC code (0-255) of one element."""
+        call = "read_areg"
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        r = self._coord(call, "r", r, self.rows)
+        c = self._coord(call, "c", c, self.cols)
+        value = self._aplane(areg)[r, self._col_index(c, scamp_addr)]
+        self.timing.charge_call("scan_areg", 1)
+        return int(self._adc(np.array(value)))
+
+    def scan_areg(
+        self,
+        areg: Register,
+        r0: int = 0,
+        c0: int = 0,
+        r1: int | None = None,
+        c1: int | None = None,
+        rs: int = 1,
+        cs: int = 1,
+        *,
+        scamp_addr: bool = False,
+    ) -> np.ndarray:
+        """``scamp5_scan_areg``: ADC codes of a grid of elements.
+
+        Rows ``r0, r0 + rs, ... <= r1`` and columns ``c0, c0 + cs, ... <= c1`` (inclusive;
+        ``r1``/``c1`` default to the last row/column).
+
+        Returns
+        -------
+        numpy.ndarray of uint8, shape (n_rows, n_cols)
+            Codes in array orientation (row 0 north, col 0 west) whatever the address
+            frame; :func:`to_scamp_buffer` gives SCAMP-5's flat buffer order.
+        """
+        call = "scan_areg"
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        r1 = self.rows - 1 if r1 is None else r1
+        c1 = self.cols - 1 if c1 is None else c1
+        r0, r1 = (self._coord(call, n, x, self.rows) for n, x in (("r0", r0), ("r1", r1)))
+        c0, c1 = (self._coord(call, n, x, self.cols) for n, x in (("c0", c0), ("c1", c1)))
+        rs = _as_int(call, "rs", rs, 1, max(self.rows, 1))
+        cs = _as_int(call, "cs", cs, 1, max(self.cols, 1))
+        if r1 < r0 or c1 < c0:
+            raise SimulatorError(
+                f"{call}: empty region r0={r0}..r1={r1}, c0={c0}..c1={c1}; need r0 <= r1, c0 <= c1"
+            )
+        rows = np.arange(r0, r1 + 1, rs)
+        cols = np.sort([self._col_index(c, scamp_addr) for c in range(c0, c1 + 1, cs)])
+        values = self._aplane(areg)[np.ix_(rows, cols)]
+        self.timing.charge_call(call, values.size)
+        return self._adc(values)
+
+    def scan_areg_8x8(self, areg: Register) -> np.ndarray:
+        """``scamp5_scan_areg_8x8``: ADC codes of an 8 x 8 grid of single elements.
+
+        Samples hardware addresses ``(k * rows/8, l * cols/8)``, k, l = 0..7 (the first
+        element of each block in hardware order, as the open JSS simulator assumes): in
+        array coordinates rows ``k * rows/8`` and columns ``cols - 1 - l * cols/8``, i.e.
+        the top-*right* element of each block.
+
+        Returns
+        -------
+        numpy.ndarray of uint8, shape (8, 8), array orientation.
+        """
+        call = "scan_areg_8x8"
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        if self.rows < 8 or self.cols < 8:
+            raise SimulatorError(
+                f"{call} needs an array of at least 8x8, not {self.rows}x{self.cols}"
+            )
+        sr, sc = self.rows // 8, self.cols // 8
+        rows = np.arange(8) * sr
+        cols = np.sort(self.cols - 1 - np.arange(8) * sc)
+        values = self._aplane(areg)[np.ix_(rows, cols)]
+        self.timing.charge_call(call)
+        return self._adc(values)
+
+    def scan_areg_mean_8x8(self, areg: Register) -> np.ndarray:
+        """``scamp5_scan_areg_mean_8x8``: ADC codes of the means of 8 x 8 blocks.
+
+        Returns
+        -------
+        numpy.ndarray of uint8, shape (8, 8), array orientation; block (i, j) covers rows
+        ``i * rows/8 ...`` and columns ``j * cols/8 ...``.
+        """
+        call = "scan_areg_mean_8x8"
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        means = self._block_means(call, self._aplane(areg), 8)
+        self.timing.charge_call(call)
+        return self._adc(means)
+
+    def scan_dreg(self, dreg: Register, r0: int = 0, r1: int | None = None) -> np.ndarray:
+        """``scamp5_scan_dreg``: rows ``r0..r1`` (inclusive) of a digital register.
+
+        Returns
+        -------
+        numpy.ndarray of bool, shape (r1 - r0 + 1, cols), array orientation (SCAMP-5
+        packs each row into 32 bytes; this returns the bits unpacked).
+        """
+        call = "scan_dreg"
+        self._catch_up()
+        self._dreg(call, dreg, source=True)
+        r1 = self.rows - 1 if r1 is None else r1
+        r0 = self._coord(call, "r0", r0, self.rows)
+        r1 = self._coord(call, "r1", r1, self.rows)
+        if r1 < r0:
+            raise SimulatorError(f"{call}: r1={r1} is before r0={r0}; need r0 <= r1")
+        self.timing.charge_call(call, r1 - r0 + 1)
+        return self._dplane(dreg)[r0 : r1 + 1].copy()
+
+    def scan_events(
+        self,
+        dreg: Register,
+        max_num: int = 1,
+        h_dir: int = 0,
+        v_dir: int = 0,
+        *,
+        scamp_addr: bool = False,
+    ) -> np.ndarray:
+        """``scamp5_scan_events``: coordinates of the 1s of ``dreg``, up to ``max_num``.
+
+        The hardware scan finds the column address first: it walks hardware columns
+        0 -> cols-1 (``h_dir=1``: the reverse), i.e. array columns from **east to west**,
+        and within a column the rows 0 -> rows-1 (north to south; ``v_dir=1``: the
+        reverse). Events come back in that order.
+
+        Parameters
+        ----------
+        dreg : Register
+            Digital register to scan.
+        max_num : int
+            Number of event slots, 1..4000; the modelled time is proportional to it, not
+            to the number of events found.
+        h_dir, v_dir : int
+            Scan directions (0 or 1) in hardware addresses, as in SCAMP-5.
+
+        Returns
+        -------
+        numpy.ndarray of int64, shape (n_events, 2)
+            ``(row, col)`` pairs in array coordinates (hardware addresses with
+            ``scamp_addr=True``), ``n_events <= max_num``. Unlike SCAMP-5's buffer there is
+            no ``(0, 0)`` end marker, so an event at (0, 0) is not lost.
+
+        Examples
+        --------
+        >>> from ppaloc.sim import Scamp5, R5
+        >>> sim = Scamp5(4, 4)
+        >>> sim.write(R5, np.eye(4, dtype=bool))
+        >>> sim.scan_events(R5, 4).tolist()    # east column first
+        [[3, 3], [2, 2], [1, 1], [0, 0]]
+        """
+        call = "scan_events"
+        self._catch_up()
+        self._dreg(call, dreg, source=True)
+        n = _as_int(call, "max_num", max_num, 1, MAX_EVENTS)
+        h = _as_int(call, "h_dir", h_dir, 0, 1)
+        v = _as_int(call, "v_dir", v_dir, 0, 1)
+        addr = self._dplane(dreg)[:, ::-1]  # [row, hardware column]
+        if h:
+            addr = addr[:, ::-1]
+        if v:
+            addr = addr[::-1, :]
+        a, r = np.nonzero(addr.T)  # column-major: hardware column outer, row inner
+        a, r = a[:n], r[:n]
+        if h:
+            a = self.cols - 1 - a
+        if v:
+            r = self.rows - 1 - r
+        self.timing.charge_call(call, n)
+        cols = a if scamp_addr else self.cols - 1 - a
+        return np.stack([r, cols], axis=1).astype(np.int64)
+
+
+# SCAMP-5 spellings of every controller call, so published host code ports line by line.
+for _name in (
+    "load_in",
+    "load_pattern",
+    "load_point",
+    "load_rect",
+    "select_pattern",
+    "select_point",
+    "select_rect",
+    "shift",
+    "global_sum_16",
+    "global_sum_64",
+    "global_or",
+    "global_count",
+    "read_areg",
+    "scan_areg",
+    "scan_areg_8x8",
+    "scan_areg_mean_8x8",
+    "scan_dreg",
+    "scan_events",
+):
+    setattr(ControllerMixin, f"scamp5_{_name}", getattr(ControllerMixin, _name))
+ControllerMixin.in_ = ControllerMixin.scamp5_in  # type: ignore[attr-defined]
+del _name
