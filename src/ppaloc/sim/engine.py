@@ -1,0 +1,611 @@
+"""The simulated SCAMP-5 array: register file, primitive semantics, FLAG and R0 rules.
+
+Each register is one plane of shape (rows, cols): analogue planes are float32 in
+[-128, 127], digital planes bool. Instructions are compiled once into closures over these
+planes (bound, in-place numpy operations) and run as often as needed, so a recorded kernel
+replays with little Python overhead.
+
+Semantics (docs/sim.md has the reasoning):
+
+- An analogue write happens only in elements whose ``FLAG`` is 1; digital instructions
+  ignore ``FLAG``. A digital write to ``R12`` happens only where ``R0`` is 1.
+- Analogue values saturate at [-128, 127] after every write, in every noise mode.
+- A neighbour transfer links an element's bus with the ``NEWS`` of its neighbour. It takes
+  effect only where both are flagged: a neighbour term (``XE`` as a source) contributes the
+  neighbour's ``NEWS`` only if the neighbour is flagged, and a pushed value (``XW`` as a
+  destination) carries the sender's sum only if the sender is flagged; otherwise, and
+  beyond the array edge, the link carries 0. The written element must itself be flagged.
+- ``DNEWS0``/``DNEWS1``: every element ORs the source of the neighbours its own selectors
+  R1 (south), R2 (west), R3 (north), R4 (east) name; beyond the edge the source reads 0/1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+from ppaloc.errors import KernelError, SimulatorError
+from ppaloc.sim.controller import ControllerMixin
+from ppaloc.sim.isa import CLOCK_CLASSES, Instruction
+from ppaloc.sim.macros import ProgramAPI
+from ppaloc.sim.noise import NoiseModel, NoiseParams
+from ppaloc.sim.registers import (
+    ANALOG_PLANES,
+    DIGITAL_PLANES,
+    DNEWS_SELECTORS,
+    FLAG,
+    NEWS,
+    PIX,
+    R0,
+    R12,
+    Register,
+)
+from ppaloc.sim.timing import TimingModel
+
+try:  # the ufunc behind np.clip, without the wrapper's per-call overhead
+    from numpy._core.umath import clip as _clip
+except ImportError:  # numpy < 2
+    from numpy.core.umath import clip as _clip
+
+__all__ = ["Scamp5"]
+
+_LO = np.float32(-128.0)
+_HI = np.float32(127.0)
+_FLAG_I = FLAG.index
+_NEWS_I = NEWS.index
+_N_ANALOG = len(ANALOG_PLANES)
+_N_DIGITAL = len(DIGITAL_PLANES)
+_DECAYING = tuple(r.index for r in ANALOG_PLANES if r.role in ("general", "news"))
+
+Op = Callable[[], None]
+
+
+def _slices(dr: int, dc: int) -> tuple[tuple[slice, slice], tuple[slice, slice]]:
+    """(out, in) slices so that ``out_plane[out] = in_plane[in]`` reads (r + dr, c + dc)."""
+
+    def one(d: int) -> tuple[slice, slice]:
+        if d == 0:
+            return slice(None), slice(None)
+        if d > 0:
+            return slice(0, -d), slice(d, None)
+        return slice(-d, None), slice(0, d)
+
+    (ro, ri), (co, ci) = one(dr), one(dc)
+    return (ro, co), (ri, ci)
+
+
+def _edge_slices(dr: int, dc: int, rows: int, cols: int) -> list[tuple[slice, slice]]:
+    """The parts of a plane whose (r + dr, c + dc) lies beyond the edge."""
+    out = []
+    if dr > 0:
+        out.append((slice(rows - dr, None), slice(None)))
+    elif dr < 0:
+        out.append((slice(0, -dr), slice(None)))
+    if dc > 0:
+        out.append((slice(None), slice(cols - dc, None)))
+    elif dc < 0:
+        out.append((slice(None), slice(0, -dc)))
+    return out
+
+
+class Scamp5(ControllerMixin, ProgramAPI):
+    """A simulated SCAMP-5 pixel processor array.
+
+    Parameters
+    ----------
+    rows, cols : int
+        Array size (256 x 256 on the chip; small arrays make readable tests).
+    noise : str or NoiseParams
+        ``"ideal"`` (exact, saturation only), ``"low"``, ``"typical"``, ``"high"`` or a
+        :class:`~ppaloc.sim.noise.NoiseParams`.
+    seed : int
+        Seed of every random draw (noise, digital decay); same seed, same bytes.
+    clock_hz : float
+        ICW clock of the timing model.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ppaloc.sim import Scamp5, A, B, east
+    >>> sim = Scamp5(rows=2, cols=3)
+    >>> sim.write(A, np.array([[1, 2, 3], [4, 5, 6]]))
+    >>> with sim.kernel() as k:
+    ...     k.movx(B, A, east)
+    >>> sim.read(B)
+    array([[2., 3., 0.],
+           [5., 6., 0.]], dtype=float32)
+    """
+
+    def __init__(
+        self,
+        rows: int = 256,
+        cols: int = 256,
+        noise: str | NoiseParams = "ideal",
+        seed: int = 0,
+        clock_hz: float = 10e6,
+    ) -> None:
+        for name, v in (("rows", rows), ("cols", cols)):
+            if not isinstance(v, int | np.integer) or isinstance(v, bool) or v < 1:
+                raise SimulatorError(f"{name}={v!r} is invalid: use a positive integer")
+        self.rows, self.cols = int(rows), int(cols)
+        shape = (self.rows, self.cols)
+        self.rng = np.random.default_rng(seed)
+        self.noise = NoiseModel(noise, shape, _N_ANALOG, seed)
+        self.timing = TimingModel(clock_hz=clock_hz)
+        self._a = np.zeros((_N_ANALOG, *shape), dtype=np.float32)
+        self._d = np.zeros((_N_DIGITAL, *shape), dtype=bool)
+        self._d[_FLAG_I] = True
+        self._t = [np.zeros(shape, dtype=np.float32) for _ in range(3)]
+        self._tb = [np.zeros(shape, dtype=bool) for _ in range(2)]
+        self._latch = np.zeros(shape, dtype=bool)
+        self._mask = np.zeros(shape, dtype=np.uint32)
+        self._flag_masked: bool | None = False  # None: unknown, recompute
+        self._image: np.ndarray | None = None
+        self._last_us = 0.0
+        self._dtouch_us = np.zeros(_N_DIGITAL)
+        if not self.noise.ideal:
+            self._a[PIX.index] = self.noise.pixel_offset
+
+    # ------------------------------------------------------------------ inspection
+    def __repr__(self) -> str:
+        mode = "ideal" if self.noise.ideal else "noisy"
+        return f"Scamp5(rows={self.rows}, cols={self.cols}, {mode})"
+
+    def _aplane(self, reg: Register) -> np.ndarray:
+        """The live float32 plane of analogue ``reg`` (a view; writes bypass FLAG)."""
+        if not isinstance(reg, Register) or reg.kind != "analog" or reg.role == "neighbour":
+            raise SimulatorError(
+                f"{reg!r} is not an analogue register plane: use A..F, NEWS, PIX or IN"
+            )
+        return self._a[reg.index]
+
+    def _dplane(self, reg: Register) -> np.ndarray:
+        """The live bool plane of digital ``reg`` (incl. FLAG and SELECT; a view)."""
+        if not isinstance(reg, Register) or reg.kind != "digital":
+            raise SimulatorError(f"{reg!r} is not a digital register: use R0..R12, FLAG or SELECT")
+        if reg.index == _FLAG_I:
+            self._flag_masked = None  # the caller may change FLAG through the view
+        return self._d[reg.index]
+
+    def _as_plane(self, reg: Register, values: object, dtype: type) -> np.ndarray:
+        arr = np.asarray(values)
+        if arr.ndim != 0 and arr.shape != (self.rows, self.cols):
+            raise SimulatorError(
+                f"cannot write an array of shape {arr.shape} into {reg.name}: "
+                f"use shape ({self.rows}, {self.cols}) or a scalar"
+            )
+        if dtype is bool and arr.dtype != bool:
+            if not np.isin(arr, (0, 1)).all():
+                raise SimulatorError(
+                    f"cannot write non-binary values into digital {reg.name}: use 0/1 or bools"
+                )
+        return np.broadcast_to(arr, (self.rows, self.cols))
+
+    def _write_analog(self, reg: Register, values: object) -> None:
+        """Set analogue ``reg`` everywhere (clipped; with write noise when not ideal)."""
+        plane = self._aplane(reg)
+        t = self._t[2]
+        np.copyto(t, self._as_plane(reg, values, float), casting="unsafe")
+        if not self.noise.ideal:
+            self.noise.perturb(t, reg.index, divided=False)
+        _clip(t, _LO, _HI, out=plane)
+
+    def _write_digital(self, reg: Register, values: object) -> None:
+        """Set digital ``reg`` everywhere (no R0 rule: this is the host's pattern load)."""
+        plane = self._dplane(reg)
+        np.copyto(plane, self._as_plane(reg, values, bool), casting="unsafe")
+        self._dtouch_us[reg.index] = self.timing.now_us
+
+    def read(self, reg: Register) -> np.ndarray:
+        """A copy of ``reg``'s plane: float32 in [-128, 127] (analogue) or bool (digital).
+
+        An inspection tool: untimed, no readout noise.
+        """
+        if isinstance(reg, Register) and reg.kind == "digital":
+            return self._d[reg.index].copy()
+        return self._aplane(reg) + np.float32(0.0)  # a copy; -0.0 shown as 0.0
+
+    def write(self, reg: Register, values: object) -> None:
+        """Set ``reg``'s plane exactly (analogue values clipped to [-128, 127]).
+
+        An inspection tool: untimed, noiseless, ignores FLAG and R0.
+        """
+        if isinstance(reg, Register) and reg.kind == "digital":
+            self._write_digital(reg, values)
+        else:
+            plane = self._aplane(reg)
+            arr = self._as_plane(reg, values, float)
+            if not np.isfinite(arr).all():
+                raise SimulatorError(f"cannot write NaN or infinity into {reg.name}")
+            np.copyto(plane, np.clip(arr, -128, 127), casting="unsafe")
+
+    def set_image(self, image: np.ndarray) -> None:
+        """Set the scene ``PIX`` sees until the next ``rpix``: a uint8 (rows, cols) image.
+
+        ``PIX`` then reads ``p/4 - 32`` (half range) for a pixel ``p``, so ``get_image(y, h)``
+        yields ``y = p/2 - 64`` in ideal mode (docs/ppa8.md).
+        """
+        img = np.asarray(image)
+        if img.dtype != np.uint8 or img.shape != (self.rows, self.cols):
+            raise SimulatorError(
+                f"set_image needs a uint8 array of shape ({self.rows}, {self.cols}), got "
+                f"{img.dtype} {img.shape}: convert frames with ppaloc.datasets.to_sensor"
+            )
+        self._image = img.copy()
+        pix = self._a[PIX.index]
+        np.multiply(img, np.float32(0.25), out=pix, casting="unsafe")
+        np.subtract(pix, np.float32(32.0), out=pix)
+        if not self.noise.ideal:
+            np.add(pix, self.noise.pixel_offset, out=pix)
+
+    # --------------------------------------------------------------------- kernels
+    def kernel(self):
+        """A recorder: ``with sim.kernel() as k: k.mov(A, B)`` records, then runs once.
+
+        Returns
+        -------
+        Kernel
+            Replay it with ``k.run()`` or ``sim.run(k)``.
+        """
+        from ppaloc.sim.kernel import Kernel
+
+        return Kernel(self)
+
+    def run(self, kernel) -> None:
+        """Run a recorded kernel of this simulator (same as ``kernel.run()``)."""
+        if getattr(kernel, "sim", None) is not self:
+            raise KernelError("this kernel was recorded on another Scamp5; record it on this one")
+        kernel.run()
+
+    def _emit(self, instructions: tuple[Instruction, ...]) -> None:
+        """Instructions issued directly on the simulator run at once as a kernel of their own."""
+        ops = [self._compile(ins) for ins in instructions]
+        self._run_ops(ops, count_clocks(instructions), written_digital(instructions))
+
+    def _run_ops(self, ops: list[Op], counts: dict[str, int], dwritten: np.ndarray) -> None:
+        if not self.noise.ideal:
+            self._elapse()
+        for op in ops:
+            op()
+        self.timing.charge_kernel(counts)
+        if dwritten.size:
+            self._dtouch_us[dwritten] = self.timing.now_us
+
+    def _elapse(self) -> None:
+        """Apply analogue droop and digital decay for the modelled time since last time."""
+        now = self.timing.now_us
+        elapsed = now - self._last_us
+        self._last_us = now
+        if elapsed <= 0:
+            return
+        for i in _DECAYING:
+            self.noise.droop(self._a[i], elapsed)
+        for i in range(R12.index + 1):
+            self.noise.digital_decay(self._d[i], now - self._dtouch_us[i], elapsed)
+
+    # ------------------------------------------------------------- FLAG machinery
+    def _flag_mask(self) -> np.ndarray | None:
+        """None where FLAG is 1 everywhere, else a uint32 mask (all ones where flagged)."""
+        masked = self._flag_masked
+        if masked is None:
+            flag = self._d[_FLAG_I]
+            masked = not flag.all()
+            if masked:
+                np.copyto(self._mask, flag, casting="unsafe")
+                np.negative(self._mask, out=self._mask)
+            self._flag_masked = masked
+        return self._mask if masked else None
+
+    @staticmethod
+    def _blend(dst: np.ndarray, val: np.ndarray, mask: np.ndarray) -> None:
+        """``dst := val`` where ``mask`` bits are set, exactly (bitwise; destroys ``val``)."""
+        du = dst.view(np.uint32)
+        vu = val.view(np.uint32)
+        np.bitwise_xor(vu, du, out=vu)
+        np.bitwise_and(vu, mask, out=vu)
+        np.bitwise_xor(du, vu, out=du)
+
+    # ---------------------------------------------------------------- compilation
+    def _compile(self, ins: Instruction) -> Op:
+        """A closure performing ``ins`` on this simulator's planes."""
+        return getattr(self, f"_compile_{ins.op}")(ins)
+
+    def _compile_nop(self, ins: Instruction) -> Op:
+        return _noop
+
+    def _compile_rpix(self, ins: Instruction) -> Op:
+        pix = self._a[PIX.index]
+        level = self.noise.pixel_offset
+
+        def rpix() -> None:
+            np.copyto(pix, level)
+
+        return rpix
+
+    def _sum_closure(self, srcs: Iterable[Register]) -> Callable[[np.ndarray], None]:
+        """A function writing the sum of analogue ``srcs`` (with neighbour terms) into out."""
+        a = self._a
+        local = [a[s.index] for s in srcs if s.role != "neighbour"]
+        nbr = [_slices(*s.direction.offset) for s in srcs if s.role == "neighbour"]
+        news = a[_NEWS_I]
+        gated = self._t[1]
+        gated_u = gated.view(np.uint32)
+        news_u = news.view(np.uint32)
+        mask_of = self._flag_mask
+
+        def total(out: np.ndarray) -> None:
+            if not local:
+                out.fill(0)
+            elif len(local) == 1:
+                np.copyto(out, local[0])
+            else:
+                np.add(local[0], local[1], out=out)
+                for x in local[2:]:
+                    np.add(out, x, out=out)
+            if nbr:
+                mask = mask_of()
+                src = news
+                if mask is not None:  # an unflagged neighbour's NEWS is not connected
+                    np.bitwise_and(news_u, mask, out=gated_u)
+                    src = gated
+                for o, i in nbr:
+                    np.add(out[o], src[i], out=out[o])
+
+        return total
+
+    def _compile_bus(self, ins: Instruction) -> Op:
+        return self._analog_transfer(ins, 1)
+
+    def _compile_bus2(self, ins: Instruction) -> Op:
+        return self._analog_transfer(ins, 2)
+
+    def _compile_bus3(self, ins: Instruction) -> Op:
+        return self._analog_transfer(ins, 3)
+
+    def _analog_transfer(self, ins: Instruction, parts: int) -> Op:
+        """``dst := -(sum of sources) / parts`` for every destination, FLAG-masked."""
+        a = self._a
+        total = self._sum_closure(ins.srcs)
+        t0, t1, t2 = self._t
+        noise = self.noise
+        ideal = noise.ideal
+        divided = parts > 1
+        mask_of = self._flag_mask
+        blend = self._blend
+        rows, cols = self.rows, self.cols
+        dsts = []
+        for d in ins.dsts:
+            if d.role == "neighbour":
+                # NEWS[r] := value of the element r - offset(d) (the sender)
+                dr, dc = d.direction.offset
+                o, i = _slices(-dr, -dc)
+                edges = _edge_slices(-dr, -dc, rows, cols)
+                dsts.append((a[_NEWS_I], d.index, (o, i, edges)))
+            else:
+                dsts.append((a[d.index], d.index, None))
+        single = len(dsts) == 1
+        has_nbr_src = any(s.role == "neighbour" for s in ins.srcs)
+        direct_ok = (
+            ideal and single and dsts[0][2] is None and not (dsts[0][1] == _NEWS_I and has_nbr_src)
+        )
+
+        def scale(out: np.ndarray) -> None:
+            if ideal:
+                if parts == 1:
+                    np.negative(out, out=out)
+                else:
+                    np.divide(out, np.float32(-parts), out=out)
+            else:
+                np.multiply(out, np.float32(noise.negated_gain() / parts), out=out)
+
+        if direct_ok:
+            dst0 = dsts[0][0]
+
+            def run_ideal() -> None:
+                mask = mask_of()
+                if mask is None:
+                    total(dst0)
+                    scale(dst0)
+                    _clip(dst0, _LO, _HI, out=dst0)
+                else:
+                    total(t0)
+                    scale(t0)
+                    _clip(t0, _LO, _HI, out=t0)
+                    blend(dst0, t0, mask)
+
+            return run_ideal
+
+        def run() -> None:
+            mask = mask_of()
+            total(t0)
+            scale(t0)
+            for plane, index, shift in dsts:
+                val = t0 if single else t1
+                if not single:
+                    np.copyto(t1, t0)
+                if not ideal:
+                    noise.perturb(val, index, divided)
+                if shift is not None:
+                    o, i, edges = shift
+                    if mask is not None:  # an unflagged sender drives nothing
+                        vu = val.view(np.uint32)
+                        np.bitwise_and(vu, mask, out=vu)
+                    np.copyto(t2[o], val[i])
+                    for e in edges:
+                        t2[e] = 0
+                    val = t2
+                _clip(val, _LO, _HI, out=val)
+                if mask is None:
+                    np.copyto(plane, val)
+                else:
+                    blend(plane, val, mask)
+
+        return run
+
+    def _compile_where(self, ins: Instruction) -> Op:
+        total = self._sum_closure(ins.srcs)
+        t0 = self._t[0]
+        flag = self._d[_FLAG_I]
+        noise = self.noise
+        zero = np.float32(0)
+
+        def where() -> None:
+            total(t0)
+            if not noise.ideal:  # the comparator sees a noisy sum
+                np.add(t0, noise.window(), out=t0)
+            np.greater(t0, zero, out=flag)
+            self._flag_masked = None
+
+        return where
+
+    def _compile_all(self, ins: Instruction) -> Op:
+        flag = self._d[_FLAG_I]
+
+        def all_() -> None:
+            flag.fill(True)
+            self._flag_masked = False
+
+        return all_
+
+    # -------------------------------------------------------------- digital ops
+    def _digital_store(self, dst: Register, compute: Callable[[np.ndarray], None]) -> Op:
+        """Wrap ``compute(out)`` so that R12 is written only where R0 = 1."""
+        plane = self._d[dst.index]
+        if dst.index != R12.index:
+            return lambda: compute(plane)
+        tb = self._tb[0]
+        r0 = self._d[R0.index]
+
+        def masked() -> None:
+            compute(tb)
+            np.bitwise_xor(tb, plane, out=tb)
+            np.bitwise_and(tb, r0, out=tb)
+            np.bitwise_xor(plane, tb, out=plane)
+
+        return masked
+
+    def _dsrc(self, ins: Instruction) -> list[np.ndarray]:
+        return [self._d[s.index] for s in ins.srcs]
+
+    def _compile_SET(self, ins: Instruction) -> Op:
+        return self._set_clear(ins, True)
+
+    def _compile_CLR(self, ins: Instruction) -> Op:
+        return self._set_clear(ins, False)
+
+    def _set_clear(self, ins: Instruction, value: bool) -> Op:
+        planes = [self._d[d.index] for d in ins.dsts if d.index != R12.index]
+        r12 = any(d.index == R12.index for d in ins.dsts)
+        p12 = self._d[R12.index]
+        r0 = self._d[R0.index]
+
+        def set_clear() -> None:
+            for p in planes:
+                p.fill(value)
+            if r12:
+                if value:
+                    np.logical_or(p12, r0, out=p12)
+                else:
+                    np.greater(p12, r0, out=p12)  # p12 AND NOT r0
+
+        return set_clear
+
+    def _compile_MOV(self, ins: Instruction) -> Op:
+        (s,) = self._dsrc(ins)
+        return self._digital_store(ins.dsts[0], lambda out: np.copyto(out, s))
+
+    def _compile_NOT(self, ins: Instruction) -> Op:
+        (s,) = self._dsrc(ins)
+        return self._digital_store(ins.dsts[0], lambda out: np.logical_not(s, out=out))
+
+    def _or_into(self, srcs: list[np.ndarray], invert: bool) -> Callable[[np.ndarray], None]:
+        first, rest = srcs[0], srcs[1:]
+
+        def compute(out: np.ndarray) -> None:
+            if rest:
+                np.logical_or(first, rest[0], out=out)
+                for x in rest[1:]:
+                    np.logical_or(out, x, out=out)
+            else:
+                np.copyto(out, first)
+            if invert:
+                np.logical_not(out, out=out)
+
+        return compute
+
+    def _compile_OR(self, ins: Instruction) -> Op:
+        return self._digital_store(ins.dsts[0], self._or_into(self._dsrc(ins), False))
+
+    def _compile_NOR(self, ins: Instruction) -> Op:
+        return self._digital_store(ins.dsts[0], self._or_into(self._dsrc(ins), True))
+
+    def _compile_WHERE(self, ins: Instruction) -> Op:
+        compute = self._or_into(self._dsrc(ins), False)
+        flag = self._d[_FLAG_I]
+
+        def where() -> None:
+            compute(flag)
+            self._flag_masked = None
+
+        return where
+
+    def _compile_LATCH(self, ins: Instruction) -> Op:
+        compute = self._or_into(self._dsrc(ins), False)
+        return lambda: compute(self._latch)
+
+    def _compile_LATCHN(self, ins: Instruction) -> Op:
+        compute = self._or_into(self._dsrc(ins), True)
+        return lambda: compute(self._latch)
+
+    def _compile_UNLATCH(self, ins: Instruction) -> Op:
+        latch = self._latch
+        return self._digital_store(ins.dsts[0], lambda out: np.copyto(out, latch))
+
+    def _compile_DNEWS0(self, ins: Instruction) -> Op:
+        return self._dnews(ins, False)
+
+    def _compile_DNEWS1(self, ins: Instruction) -> Op:
+        return self._dnews(ins, True)
+
+    def _dnews(self, ins: Instruction, edge: bool) -> Op:
+        (src,) = self._dsrc(ins)
+        tb = self._tb[1]
+        rows, cols = self.rows, self.cols
+        parts = []
+        for direction, sel in DNEWS_SELECTORS.items():
+            dr, dc = direction.offset
+            o, i = _slices(dr, dc)
+            parts.append((self._d[sel.index], o, i, _edge_slices(dr, dc, rows, cols)))
+
+        def compute(out: np.ndarray) -> None:
+            out.fill(False)
+            for sel, o, i, edges in parts:
+                np.copyto(tb[o], src[i])
+                for e in edges:
+                    tb[e] = edge
+                np.logical_and(tb, sel, out=tb)
+                np.logical_or(out, tb, out=out)
+
+        return self._digital_store(ins.dsts[0], compute)
+
+
+def _noop() -> None:
+    return None
+
+
+def count_clocks(instructions: Iterable[Instruction]) -> dict[str, int]:
+    """ICWs per clock class (every class present, zeros included)."""
+    counts = dict.fromkeys(CLOCK_CLASSES, 0)
+    for ins in instructions:
+        counts[ins.clock] += 1
+    return counts
+
+
+def written_digital(instructions: Iterable[Instruction]) -> np.ndarray:
+    """Indices of the digital planes the instructions write (for retention bookkeeping)."""
+    idx = sorted({d.index for ins in instructions for d in ins.dsts if d.kind == "digital"})
+    return np.asarray(idx, dtype=np.intp)
+
+
+__all__ += ["count_clocks", "written_digital"]

@@ -1,0 +1,187 @@
+"""The instruction set: one immutable record per ICW and one table describing every primitive.
+
+An *instruction control word* (ICW) is what the SCAMP-5 controller broadcasts to all
+processing elements in one clock. Here an ICW is an :class:`Instruction`: an operation
+name, its destination and source registers, and (for messages and listings) the macro call
+it came from. :data:`OPS` describes every primitive once: its clock class (which sets its
+cost), how many destinations and sources of which kind it takes, and a one-line meaning.
+The engine turns an instruction into a bound numpy operation by calling
+``engine._compile_<op>``; to add an instruction, add a row here and that one method.
+
+Clock classes follow the ICW's clock field in the SCAMP-5 headers: analogue bus operations,
+``where``, ``all``/``ALL`` and ``rpix`` use the analogue clock; ``SET``/``CLR``/``MOV``/
+``OR``/``NOR``/``NOT``/``WHERE`` and the two halves of ``REFRESH`` the digital clock;
+``DNEWS0``/``DNEWS1`` the DNEWS clock; ``nop`` an empty word.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ppaloc.errors import RegisterMisuseError
+from ppaloc.sim.registers import Register
+
+__all__ = ["CLOCK_CLASSES", "OPS", "Instruction", "OpSpec", "make"]
+
+#: Clock classes an ICW can belong to (keys of kernel counts and of the timing model).
+CLOCK_CLASSES: tuple[str, ...] = ("analog", "digital", "dnews", "nop")
+
+
+@dataclass(frozen=True, slots=True)
+class OpSpec:
+    """The description of one primitive.
+
+    Attributes
+    ----------
+    name : str
+        SCAMP-5 name of the instruction.
+    clock : str
+        Clock class, one of :data:`CLOCK_CLASSES`.
+    dst_kind, src_kind : str or None
+        ``"analog"`` or ``"digital"``: the kind of register the destinations / sources
+        must be (None: the instruction takes none).
+    n_dst, n_src : tuple of int
+        Inclusive (min, max) numbers of destinations and sources.
+    meaning : str
+        What the instruction does in every flagged element.
+    """
+
+    name: str
+    clock: str
+    dst_kind: str | None
+    src_kind: str | None
+    n_dst: tuple[int, int]
+    n_src: tuple[int, int]
+    meaning: str
+
+
+def _spec(name, clock, dst_kind, src_kind, n_dst, n_src, meaning) -> tuple[str, OpSpec]:
+    return name, OpSpec(name, clock, dst_kind, src_kind, n_dst, n_src, meaning)
+
+
+#: Every primitive, by name. ``a``: analogue, ``d``: digital register.
+OPS: dict[str, OpSpec] = dict(
+    [
+        _spec("nop", "nop", None, None, (0, 0), (0, 0), "nothing"),
+        _spec("rpix", "analog", None, None, (0, 0), (0, 0), "PIX := reset level"),
+        _spec("bus", "analog", "analog", "analog", (1, 1), (0, 4), "a := -(sum of sources)"),
+        _spec("bus2", "analog", "analog", "analog", (2, 2), (0, 2), "a, b := -(sum)/2"),
+        _spec("bus3", "analog", "analog", "analog", (3, 3), (1, 1), "a, b, c := -src/3"),
+        _spec("where", "analog", None, "analog", (0, 0), (1, 3), "FLAG := (sum > 0)"),
+        _spec("all", "analog", None, None, (0, 0), (0, 0), "FLAG := 1"),
+        _spec("SET", "digital", "digital", None, (1, 4), (0, 0), "d... := 1"),
+        _spec("CLR", "digital", "digital", None, (1, 4), (0, 0), "d... := 0"),
+        _spec("MOV", "digital", "digital", "digital", (1, 1), (1, 1), "d := s"),
+        _spec("OR", "digital", "digital", "digital", (1, 1), (2, 4), "d := OR of sources"),
+        _spec("NOR", "digital", "digital", "digital", (1, 1), (2, 4), "d := NOT(OR of sources)"),
+        _spec("NOT", "digital", "digital", "digital", (1, 1), (1, 1), "d := NOT s"),
+        _spec("WHERE", "digital", None, "digital", (0, 0), (1, 3), "FLAG := OR of sources"),
+        _spec("LATCH", "digital", None, "digital", (0, 0), (1, 2), "bus latch := OR of sources"),
+        _spec("LATCHN", "digital", None, "digital", (0, 0), (1, 2), "bus latch := NOR"),
+        _spec("UNLATCH", "digital", "digital", None, (1, 1), (0, 0), "d := bus latch"),
+        _spec("DNEWS0", "dnews", "digital", "digital", (1, 1), (1, 1), "d := OR of s_dir, edge 0"),
+        _spec("DNEWS1", "dnews", "digital", "digital", (1, 1), (1, 1), "d := OR of s_dir, edge 1"),
+    ]
+)
+
+
+@dataclass(frozen=True, slots=True)
+class Instruction:
+    """One ICW: an operation with its destination and source registers.
+
+    Attributes
+    ----------
+    op : str
+        A key of :data:`OPS`.
+    dsts, srcs : tuple of Register
+        Destination and source registers, in the order written.
+    origin : str or None
+        The macro call this ICW was expanded from (e.g. ``"sub(A, B, C)"``), if any.
+    """
+
+    op: str
+    dsts: tuple[Register, ...] = ()
+    srcs: tuple[Register, ...] = ()
+    origin: str | None = None
+
+    @property
+    def spec(self) -> OpSpec:
+        """This instruction's row of :data:`OPS`."""
+        return OPS[self.op]
+
+    @property
+    def clock(self) -> str:
+        """Clock class of this ICW."""
+        return OPS[self.op].clock
+
+    def __str__(self) -> str:
+        args = ", ".join(r.name for r in (*self.dsts, *self.srcs))
+        return f"{self.op}({args})"
+
+
+def _where(origin: str | None) -> str:
+    return f"in {origin}: " if origin else ""
+
+
+def make(
+    op: str,
+    dsts: tuple[Register, ...] = (),
+    srcs: tuple[Register, ...] = (),
+    origin: str | None = None,
+) -> Instruction:
+    """Build and validate one instruction.
+
+    Raises
+    ------
+    RegisterMisuseError
+        If a register is of the wrong kind, is not writable, the number of operands is
+        out of range, or one register is listed twice; the message names the instruction
+        (and the macro call it came from).
+    """
+    spec = OPS[op]
+    ins = Instruction(op, tuple(dsts), tuple(srcs), origin)
+    at = _where(origin)
+    for regs, kind, (lo, hi), what in (
+        (ins.dsts, spec.dst_kind, spec.n_dst, "destination"),
+        (ins.srcs, spec.src_kind, spec.n_src, "source"),
+    ):
+        if not lo <= len(regs) <= hi:
+            want = f"{lo}" if lo == hi else f"{lo} to {hi}"
+            raise RegisterMisuseError(
+                f"{at}{op} takes {want} {what} register(s), got {len(regs)}: {ins}"
+            )
+        for r in regs:
+            if not isinstance(r, Register):
+                raise RegisterMisuseError(
+                    f"{at}{op}: {r!r} is not a register handle; use A..F, NEWS, XN/XE/XS/XW, "
+                    "PIX, IN, R0..R12, FLAG or SELECT from ppaloc.sim"
+                )
+            if r.kind != kind:
+                raise RegisterMisuseError(
+                    f"{at}{ins}: {r.name} is {'an analogue' if r.kind == 'analog' else 'a digital'}"
+                    f" register but {op} needs {kind} {what}s"
+                )
+            if what == "destination" and not r.writable:
+                why = (
+                    "read-only"
+                    if r.role in ("pixel", "input", "select")
+                    else "set by where/WHERE/all"
+                )
+                raise RegisterMisuseError(
+                    f"{at}{ins}: {r.name} cannot be written by an instruction (it is {why})"
+                )
+    seen: set[str] = set()
+    for r in (*ins.dsts, *ins.srcs):
+        if r.name in seen:
+            raise RegisterMisuseError(
+                f"{at}{ins} lists {r.name} twice; a register may appear only once per "
+                "instruction (use a scratch register)"
+            )
+        seen.add(r.name)
+    news_dsts = [r.name for r in ins.dsts if r.role in ("news", "neighbour")]
+    if len(news_dsts) > 1:
+        raise RegisterMisuseError(
+            f"{at}{ins} writes the NEWS plane twice ({', '.join(news_dsts)}); "
+            "write at most one of NEWS, XN, XE, XS, XW per instruction"
+        )
+    return ins

@@ -1,0 +1,250 @@
+"""Analogue and digital non-idealities of the simulated SCAMP-5 array.
+
+The model (see docs/sim.md for each parameter's source) perturbs every analogue register
+write of a bus instruction::
+
+    value = (1 + g) * ideal + offset[register, element] + n
+
+- ``g``: transfer error proportional to the signal, one draw per ICW from
+  N(transfer_gain, transfer_gain_sd) (a bus copies a current; the copy has a gain error);
+- ``offset``: fixed-pattern offset of the element's register cell, drawn once per seed
+  from N(0, fixed_offset_sd);
+- ``n``: temporal noise, N(0, temporal_sd) per element and write; bus2/bus3 add
+  N(0, division_sd) on top (the current split between two or three cells is uneven).
+
+and, with elapsed modelled time (``sim.timing.now_us``), analogue values droop towards 0 by
+``decay_per_ms`` (absolute, in register units per millisecond) and, if enabled, digital
+registers not written or refreshed for ``digital_retention_ms`` lose their ones at
+``digital_flip_per_ms``.
+
+Speed: drawing a fresh Gaussian plane per write costs far more than the write itself. The
+model keeps a seeded *bank* of Gaussian samples four times larger than the array and takes,
+per write, the contiguous window that starts at a random offset (a view, no copy). Every
+window is a plane of i.i.d. N(0, sd) samples; two writes share samples only at a shifted
+position (element i of one write meets element i + k of another), so one element's noise
+across writes is independent unless two offsets coincide (probability 1/(3N) per pair, N =
+rows * cols). The test suite checks mean, variance and lag-1 correlation per element.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from ppaloc.errors import SimulatorError
+
+__all__ = ["PRESETS", "NoiseModel", "NoiseParams", "resolve_noise"]
+
+
+@dataclass(frozen=True)
+class NoiseParams:
+    """Magnitudes of every non-ideality, in register units (the range is [-128, 127]).
+
+    Parameters
+    ----------
+    transfer_gain : float
+        Mean relative error of one bus transfer (dimensionless, e.g. -0.001 = 0.1 % loss).
+    transfer_gain_sd : float
+        Standard deviation of the per-ICW relative transfer error.
+    temporal_sd : float
+        Standard deviation of the temporal noise added to every analogue write.
+    fixed_offset_sd : float
+        Standard deviation of the per-element, per-register fixed-pattern offset.
+    division_sd : float
+        Extra temporal standard deviation on writes of ``bus2``/``bus3``.
+    decay_per_ms : float
+        Droop of stored analogue values towards 0, in units per millisecond of modelled
+        time.
+    pixel_offset_sd : float
+        Fixed-pattern offset of the photodiode reading ``PIX`` (before reset cancellation).
+    digital_retention_ms : float or None
+        Time a 1 in a digital register survives without a write or ``REFRESH``; None
+        disables digital decay.
+    digital_flip_per_ms : float
+        After the retention time, the probability per millisecond that a 1 decays to 0.
+    """
+
+    transfer_gain: float = 0.0
+    transfer_gain_sd: float = 0.0
+    temporal_sd: float = 0.0
+    fixed_offset_sd: float = 0.0
+    division_sd: float = 0.0
+    decay_per_ms: float = 0.0
+    pixel_offset_sd: float = 0.0
+    digital_retention_ms: float | None = None
+    digital_flip_per_ms: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is None:
+                continue
+            if not math.isfinite(v) or (f.name != "transfer_gain" and v < 0):
+                raise SimulatorError(
+                    f"NoiseParams.{f.name}={v!r} is invalid: use a finite value "
+                    "(non-negative except transfer_gain)"
+                )
+
+
+#: Named presets. "typical" follows published SCAMP-5 figures (docs/sim.md); "low" and
+#: "high" scale it by 1/4 and 2.5.
+PRESETS: dict[str, NoiseParams] = {
+    "typical": NoiseParams(
+        transfer_gain=-0.002,
+        transfer_gain_sd=0.002,
+        temporal_sd=0.25,
+        fixed_offset_sd=0.25,
+        division_sd=0.25,
+        decay_per_ms=0.05,
+        pixel_offset_sd=1.0,
+        digital_retention_ms=1500.0,
+        digital_flip_per_ms=0.001,
+    ),
+}
+PRESETS["low"] = NoiseParams(
+    **{
+        k: (v / 4 if isinstance(v, float) and k != "digital_retention_ms" else v)
+        for k, v in asdict(PRESETS["typical"]).items()
+    }
+)
+PRESETS["high"] = NoiseParams(
+    **{
+        k: (v * 2.5 if isinstance(v, float) and k != "digital_retention_ms" else v)
+        for k, v in asdict(PRESETS["typical"]).items()
+    }
+)
+
+
+def resolve_noise(noise: str | NoiseParams) -> NoiseParams | None:
+    """The parameters named by ``noise`` (None for ``"ideal"``).
+
+    Raises
+    ------
+    SimulatorError
+        If ``noise`` is neither ``"ideal"``, a preset name nor a :class:`NoiseParams`.
+    """
+    if isinstance(noise, NoiseParams):
+        return noise
+    if noise == "ideal":
+        return None
+    if isinstance(noise, str) and noise in PRESETS:
+        return PRESETS[noise]
+    raise SimulatorError(
+        f"noise={noise!r} is unknown: use 'ideal', one of {sorted(PRESETS)} "
+        "or a ppaloc.sim.NoiseParams"
+    )
+
+
+_BANK_FACTOR = 4  # bank length / plane size
+_DRAWS = 4096  # per-ICW draws (offsets, gains) made at once
+
+
+class NoiseModel:
+    """Seeded noise source of one simulator.
+
+    Parameters
+    ----------
+    noise : str or NoiseParams
+        ``"ideal"``, a key of :data:`PRESETS`, or custom parameters.
+    shape : tuple of int
+        (rows, cols) of the array.
+    n_analog : int
+        Number of analogue register planes (fixed-pattern offsets are per plane).
+    seed : int
+        Seed; the same seed gives the same noise, bit for bit.
+
+    Attributes
+    ----------
+    ideal : bool
+        True when no noise is modelled (saturation only).
+    params : NoiseParams or None
+        The parameters (None when ideal).
+    """
+
+    def __init__(
+        self, noise: str | NoiseParams, shape: tuple[int, int], n_analog: int, seed: int = 0
+    ) -> None:
+        self.params = resolve_noise(noise)
+        self.ideal = self.params is None
+        self.shape = shape
+        self.rng = np.random.default_rng([seed, 0x5CA45])
+        size = shape[0] * shape[1]
+        self._size = size
+        p = self.params or NoiseParams()
+        self.offsets = (self.rng.standard_normal((n_analog, *shape)) * p.fixed_offset_sd).astype(
+            np.float32
+        )
+        self.pixel_offset = (self.rng.standard_normal(shape) * p.pixel_offset_sd).astype(np.float32)
+        self._bank = (
+            self.rng.standard_normal(size * _BANK_FACTOR) * p.temporal_sd
+            if not self.ideal
+            else np.zeros(0)
+        ).astype(np.float32)
+        div_sd = math.hypot(p.temporal_sd, p.division_sd)
+        self._bank_div = (
+            self._bank * np.float32(div_sd / p.temporal_sd)
+            if p.temporal_sd > 0
+            else (self.rng.standard_normal(size * _BANK_FACTOR) * div_sd).astype(np.float32)
+        )
+        self._k = _DRAWS
+        self._starts = np.zeros(0, dtype=np.int64)
+        self._gains = np.zeros(0)
+
+    def _refill(self) -> None:
+        p = self.params or NoiseParams()
+        span = self._size * (_BANK_FACTOR - 1)
+        self._starts = self.rng.integers(0, span + 1, _DRAWS).tolist()
+        self._gains = (
+            -(1.0 + p.transfer_gain + p.transfer_gain_sd * self.rng.standard_normal(_DRAWS))
+        ).tolist()
+        self._k = 0
+
+    def window(self, divided: bool = False) -> np.ndarray:
+        """A (rows, cols) view of fresh temporal noise (with division noise if ``divided``)."""
+        if self._k >= _DRAWS:
+            self._refill()
+        s = self._starts[self._k]
+        self._k += 1
+        bank = self._bank_div if divided else self._bank
+        return bank[s : s + self._size].reshape(self.shape)
+
+    def negated_gain(self) -> float:
+        """``-(1 + g)`` for one transfer (the bus negates; g is the transfer error)."""
+        if self._k >= _DRAWS:
+            self._refill()
+        return self._gains[self._k]
+
+    def perturb(self, values: np.ndarray, plane: int, divided: bool) -> None:
+        """Add the fixed-pattern offset of ``plane`` and temporal noise to ``values`` in place."""
+        np.add(values, self.offsets[plane], out=values)
+        np.add(values, self.window(divided), out=values)
+
+    def droop(self, planes: np.ndarray, elapsed_us: float) -> None:
+        """Let analogue ``planes`` (n, rows, cols) droop towards 0 for ``elapsed_us``."""
+        if self.ideal or elapsed_us <= 0 or self.params.decay_per_ms == 0:
+            return
+        step = np.float32(self.params.decay_per_ms * elapsed_us / 1000.0)
+        # v -> sign(v) * max(|v| - step, 0)
+        mag = np.abs(planes)
+        np.subtract(mag, step, out=mag)
+        np.maximum(mag, np.float32(0), out=mag)
+        np.copysign(mag, planes, out=planes)
+
+    def digital_decay(self, plane: np.ndarray, age_us: float, elapsed_us: float) -> None:
+        """Let ones in a digital ``plane`` decay after its retention time has passed.
+
+        ``age_us`` is the time since the register was last written or refreshed, of
+        which ``elapsed_us`` passed since the previous check.
+        """
+        p = self.params
+        if self.ideal or p.digital_retention_ms is None or p.digital_flip_per_ms == 0:
+            return
+        over_ms = min(age_us, elapsed_us) / 1000.0 if age_us > p.digital_retention_ms * 1e3 else 0
+        over_ms = min(over_ms, age_us / 1000.0 - p.digital_retention_ms)
+        if over_ms <= 0:
+            return
+        prob = 1.0 - (1.0 - p.digital_flip_per_ms) ** over_ms
+        lose = self.rng.random(plane.shape) < prob
+        plane &= ~lose

@@ -1,0 +1,177 @@
+"""Golden tests of the analogue primitives, FLAG semantics and neighbour transfers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import RegisterMisuseError, SimulatorError
+from ppaloc.sim import (
+    FLAG,
+    NEWS,
+    PIX,
+    XE,
+    XN,
+    XS,
+    XW,
+    A,
+    B,
+    C,
+    D,
+    E,
+    F,
+    Scamp5,
+    east,
+    north,
+    south,
+    west,
+)
+
+X = np.arange(20, dtype=np.float32).reshape(4, 5) - 10  # values -10..9, [row, col]
+
+
+@pytest.fixture
+def sim() -> Scamp5:
+    s = Scamp5(rows=4, cols=5)
+    s.write(A, X)
+    s.write(B, 2 * X)
+    s.write(C, np.full((4, 5), 3.0))
+    return s
+
+
+def test_bus_negates_the_sum_of_up_to_four_sources(sim: Scamp5) -> None:
+    sim.write(D, np.ones((4, 5)))
+    sim.bus(E)
+    assert np.array_equal(sim.read(E), np.zeros((4, 5)))
+    sim.bus(E, A)
+    assert np.array_equal(sim.read(E), -X)
+    sim.bus(E, A, B)
+    assert np.array_equal(sim.read(E), -3 * X)
+    sim.bus(E, A, B, C)
+    assert np.array_equal(sim.read(E), -3 * X - 3)
+    sim.bus(E, A, B, C, D)
+    assert np.array_equal(sim.read(E), -3 * X - 4)
+
+
+def test_bus2_and_bus3_split_the_current(sim: Scamp5) -> None:
+    sim.bus2(D, E, A)
+    assert np.array_equal(sim.read(D), -X / 2)
+    assert np.array_equal(sim.read(E), -X / 2)
+    sim.bus2(D, E, A, B)
+    assert np.array_equal(sim.read(D), -3 * X / 2)
+    sim.bus2(D, E)
+    assert np.array_equal(sim.read(E), np.zeros((4, 5)))
+    sim.bus3(D, E, F, C)
+    for r in (D, E, F):
+        assert np.array_equal(sim.read(r), np.full((4, 5), -1.0))
+
+
+def test_saturation_at_both_ends(sim: Scamp5) -> None:
+    sim.write(A, np.full((4, 5), -128.0))
+    sim.bus(D, A)
+    assert np.array_equal(sim.read(D), np.full((4, 5), 127.0))
+    sim.write(B, np.full((4, 5), 100.0))
+    sim.bus(D, B, C)  # 103 -> -103
+    assert np.array_equal(sim.read(D), np.full((4, 5), -103.0))
+    sim.write(C, np.full((4, 5), 100.0))
+    sim.bus(D, B, C)
+    assert np.array_equal(sim.read(D), np.full((4, 5), -128.0))
+    sim.write(A, 1000 * np.ones((4, 5)))
+    assert sim.read(A).max() == 127
+
+
+def test_where_sets_flag_and_flag_masks_analogue_writes(sim: Scamp5) -> None:
+    sim.where(A)
+    assert np.array_equal(sim.read(FLAG), X > 0)
+    sim.bus(D, C)
+    assert np.array_equal(sim.read(D), np.where(X > 0, -3.0, 0.0))
+    sim.where(A, C)  # FLAG := A + 3 > 0
+    assert np.array_equal(sim.read(FLAG), X + 3 > 0)
+    sim.all()
+    assert sim.read(FLAG).all()
+
+
+@pytest.mark.parametrize(
+    ("direction", "expected"),
+    [
+        # y takes x of the neighbour in `direction`; beyond the edge reads 0
+        (east, np.pad(X[:, 1:], ((0, 0), (0, 1)))),
+        (west, np.pad(X[:, :-1], ((0, 0), (1, 0)))),
+        (north, np.pad(X[:-1, :], ((1, 0), (0, 0)))),
+        (south, np.pad(X[1:, :], ((0, 1), (0, 0)))),
+    ],
+)
+def test_movx_all_four_directions(sim: Scamp5, direction, expected) -> None:
+    sim.movx(D, A, direction)
+    assert np.array_equal(sim.read(D), expected)
+    assert np.array_equal(sim.read(NEWS), -expected)
+
+
+def test_movx_west_moves_the_picture_east() -> None:
+    sim = Scamp5(rows=1, cols=4)
+    sim.write(A, [[5, 0, 0, 0]])
+    sim.movx(B, A, west)
+    assert np.array_equal(sim.read(B), [[0, 5, 0, 0]])
+
+
+@pytest.mark.parametrize(
+    ("alias", "expected"),
+    [
+        (XE, np.pad(X[:, 1:], ((0, 0), (0, 1)))),
+        (XW, np.pad(X[:, :-1], ((0, 0), (1, 0)))),
+        (XN, np.pad(X[:-1, :], ((1, 0), (0, 0)))),
+        (XS, np.pad(X[1:, :], ((0, 1), (0, 0)))),
+    ],
+)
+def test_neighbour_aliases_read_the_neighbours_news(sim: Scamp5, alias, expected) -> None:
+    sim.write(NEWS, X)
+    sim.bus(D, alias)
+    assert np.array_equal(sim.read(D), -expected)
+
+
+def test_flag_of_both_elements_gates_a_neighbour_transfer(sim: Scamp5) -> None:
+    flag = np.ones((4, 5), dtype=bool)
+    flag[1, 2] = False
+    sim.write(NEWS, np.full((4, 5), 7.0))
+    sim.write(D, np.full((4, 5), 50.0))
+    sim.write(FLAG, flag)
+    sim.bus(D, XE)  # D := -NEWS of the east neighbour
+    got = sim.read(D)
+    assert got[1, 2] == 50  # unflagged: kept
+    assert got[1, 1] == 0  # its east neighbour (1, 2) is unflagged: link carries 0
+    assert got[0, 4] == 0  # beyond the edge
+    assert got[0, 0] == -7
+    # push form: bus(XW, C) leaves in NEWS the -C of the east neighbour
+    sim.write(NEWS, np.full((4, 5), 99.0))
+    sim.bus(XW, C)
+    news = sim.read(NEWS)
+    assert news[1, 2] == 99  # unflagged receiver keeps its NEWS
+    assert news[1, 1] == 0  # sender (1, 2) unflagged
+    assert news[2, 1] == -3
+    assert news[2, 4] == 0  # no sender beyond the east edge
+
+
+def test_get_image_capture_contract() -> None:
+    sim = Scamp5(rows=2, cols=3)
+    img = np.array([[0, 1, 2], [128, 254, 255]], dtype=np.uint8)
+    sim.set_image(img)
+    sim.get_image(A, B)
+    assert np.array_equal(sim.read(A), img / 2 - 64)
+    assert np.array_equal(sim.read(B), -(img / 4 - 32))
+    assert np.array_equal(sim.read(PIX), np.zeros((2, 3)))  # reset
+    sim.set_image(img)
+    sim.get_image(C)
+    assert np.array_equal(sim.read(C), img / 4 - 32)
+
+
+def test_misuse_errors_name_the_instruction(sim: Scamp5) -> None:
+    with pytest.raises(RegisterMisuseError, match=r"bus\(A, A\) lists A twice"):
+        sim.bus(A, A)
+    with pytest.raises(RegisterMisuseError, match=r"in sub\(A, B, A\): bus\(A, NEWS, A\)"):
+        sim.sub(A, B, A)
+    with pytest.raises(RegisterMisuseError, match="PIX cannot be written"):
+        sim.bus(PIX, A)
+    with pytest.raises(RegisterMisuseError, match="bus takes 0 to 4 source"):
+        sim.bus(A, B, C, D, E, F)
+    with pytest.raises(SimulatorError, match=r"set_image needs a uint8 array of shape \(4, 5\)"):
+        sim.set_image(np.zeros((4, 5)))
