@@ -175,3 +175,130 @@ def test_misuse_errors_name_the_instruction(sim: Scamp5) -> None:
         sim.bus(A, B, C, D, E, F)
     with pytest.raises(SimulatorError, match=r"set_image needs a uint8 array of shape \(4, 5\)"):
         sim.set_image(np.zeros((4, 5)))
+
+
+# ------------------------------------------------------------------ digital primitives
+from ppaloc.sim import R0, R1, R2, R3, R4, R5, R6, R7, R8, R9, R10, R12, SELECT  # noqa: E402
+
+P = np.array([[1, 0, 1, 0, 1]] * 4, dtype=bool)
+Q = np.array([[1, 1, 0, 0, 1]] * 4, dtype=bool)
+S = np.array([[1, 0, 0, 0, 0]] * 4, dtype=bool)
+
+
+@pytest.fixture
+def dsim() -> Scamp5:
+    s = Scamp5(rows=4, cols=5)
+    s.write(R5, P)
+    s.write(R6, Q)
+    s.write(R7, S)
+    return s
+
+
+def test_set_clr_mov_not(dsim: Scamp5) -> None:
+    dsim.SET(R8, R9, R10, R1)
+    assert all(dsim.read(r).all() for r in (R8, R9, R10, R1))
+    dsim.CLR(R8, R9)
+    assert not dsim.read(R8).any() and not dsim.read(R9).any() and dsim.read(R10).all()
+    dsim.MOV(R8, R5)
+    assert np.array_equal(dsim.read(R8), P)
+    dsim.NOT(R9, R5)
+    assert np.array_equal(dsim.read(R9), ~P)
+
+
+def test_or_nor_with_two_to_four_sources(dsim: Scamp5) -> None:
+    dsim.OR(R8, R5, R6)
+    assert np.array_equal(dsim.read(R8), P | Q)
+    dsim.OR(R8, R5, R6, R7)
+    assert np.array_equal(dsim.read(R8), P | Q | S)
+    dsim.NOR(R8, R5, R6)
+    assert np.array_equal(dsim.read(R8), ~(P | Q))
+    dsim.SET(R9)
+    dsim.NOR(R8, R5, R6, R7, R9)
+    assert not dsim.read(R8).any()
+
+
+def test_where_all_and_flag_ignored_by_digital_ops(dsim: Scamp5) -> None:
+    dsim.WHERE(R5)
+    assert np.array_equal(dsim.read(FLAG), P)
+    dsim.MOV(R8, R6)  # digital: FLAG does not mask
+    assert np.array_equal(dsim.read(R8), Q)
+    dsim.WHERE(R5, R6, R7)
+    assert np.array_equal(dsim.read(FLAG), P | Q | S)
+    dsim.ALL()
+    assert dsim.read(FLAG).all()
+    dsim.write(SELECT, S)
+    dsim.MOV(R8, SELECT)  # SELECT and FLAG are readable sources
+    assert np.array_equal(dsim.read(R8), S)
+
+
+def test_r12_is_written_only_where_r0_is_set(dsim: Scamp5) -> None:
+    dsim.write(R0, Q)
+    dsim.write(R12, S)
+    dsim.MOV(R12, R5)
+    assert np.array_equal(dsim.read(R12), np.where(Q, P, S))
+    dsim.write(R12, S)
+    dsim.SET(R12)
+    assert np.array_equal(dsim.read(R12), Q | S)
+    dsim.CLR(R12)
+    assert np.array_equal(dsim.read(R12), S & ~Q)
+    dsim.write(R12, S)
+    dsim.NOR(R12, R5, R6)
+    assert np.array_equal(dsim.read(R12), np.where(Q, ~(P | Q), S))
+    dsim.write(R12, S)
+    dsim.DNEWS0(R12, R5)  # no selector set: 0 where written
+    assert np.array_equal(dsim.read(R12), S & ~Q)
+
+
+@pytest.mark.parametrize(
+    ("selector", "shift"),
+    [(R1, (1, 0)), (R2, (0, -1)), (R3, (-1, 0)), (R4, (0, 1))],
+    ids=["R1-south", "R2-west", "R3-north", "R4-east"],
+)
+@pytest.mark.parametrize("edge", [0, 1])
+def test_dnews_each_selector(dsim: Scamp5, selector, shift, edge) -> None:
+    dsim.CLR(R1, R2, R3, R4)
+    dsim.SET(selector)
+    (dsim.DNEWS1 if edge else dsim.DNEWS0)(R8, R5)
+    dr, dc = shift
+    padded = np.pad(P, 1, constant_values=bool(edge))
+    expected = padded[1 + dr : 5 + dr, 1 + dc : 6 + dc]
+    assert np.array_equal(dsim.read(R8), expected)
+
+
+def test_dnews_selectors_are_per_element(dsim: Scamp5) -> None:
+    # only column 0 reads east, only column 4 reads west
+    dsim.CLR(R1, R2, R3)
+    east_sel = np.zeros((4, 5), dtype=bool)
+    east_sel[:, 0] = True
+    west_sel = np.zeros((4, 5), dtype=bool)
+    west_sel[:, 4] = True
+    dsim.write(R4, east_sel)
+    dsim.write(R2, west_sel)
+    dsim.DNEWS0(R8, R6)  # Q = [1, 1, 0, 0, 1]
+    assert np.array_equal(dsim.read(R8)[0], [True, False, False, False, False])
+
+
+def test_digital_misuse(dsim: Scamp5) -> None:
+    with pytest.raises(RegisterMisuseError, match=r"OR\(R5, R5, R6\) lists R5 twice"):
+        dsim.OR(R5, R5, R6)
+    with pytest.raises(RegisterMisuseError, match="FLAG cannot be written"):
+        dsim.MOV(FLAG, R5)
+    with pytest.raises(RegisterMisuseError, match="SELECT cannot be written"):
+        dsim.SET(SELECT)
+    with pytest.raises(RegisterMisuseError, match=r"MOV\(R5, A\): A is an analogue register"):
+        dsim.MOV(R5, A)
+    with pytest.raises(RegisterMisuseError, match="SET takes 1 to 4 destination"):
+        dsim.SET(R1, R2, R3, R4, R5)
+
+
+def test_inspection_helpers_validate(dsim: Scamp5) -> None:
+    with pytest.raises(SimulatorError, match=r"shape \(2, 2\) into R5: use shape \(4, 5\)"):
+        dsim.write(R5, np.zeros((2, 2)))
+    with pytest.raises(SimulatorError, match="non-binary values into digital R5"):
+        dsim.write(R5, np.full((4, 5), 2))
+    with pytest.raises(SimulatorError, match="XE is not an analogue register plane"):
+        dsim.read(XE)
+    with pytest.raises(SimulatorError, match="rows=0 is invalid"):
+        Scamp5(rows=0)
+    with pytest.raises(SimulatorError, match="NaN or infinity into A"):
+        dsim.write(A, np.full((4, 5), np.nan))

@@ -372,6 +372,7 @@ class ProgramAPI:
         """``d := d0 XOR d1``; 7 ICWs (AND, a NOR, a 2-ICW NOR), clobbers R0 and R12."""
         call = _call("XOR", (d, d0, d1))
         _forbid(call, (d, d0, d1), (R0, R12), "XOR uses R0 and R12 as scratch")
+        _distinct(call, (d, d0, d1))  # d is written before the sources are read again
         steps = [
             *_and_steps(d, d0, d1),
             ("NOR", (R0,), (d0, d1)),

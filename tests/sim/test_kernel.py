@@ -1,0 +1,114 @@
+"""Kernel recording, the 1024-ICW limit, replay and clock-class counts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import KernelError
+from ppaloc.sim import MAX_ICWS, NEWS, R5, R6, R7, A, B, C, D, Scamp5, east, north
+
+
+def program(k) -> None:
+    k.get_image(A, B)
+    k.movx(C, A, east)
+    k.sub(D, A, C)
+    k.where(D)
+    k.mov(C, A)
+    k.all()
+    k.SET(R5)
+    k.NOT(R6, R5)
+    k.DNEWS(R7, R5, north)
+
+
+def fresh(noise: str = "ideal", seed: int = 3) -> Scamp5:
+    sim = Scamp5(rows=6, cols=7, noise=noise, seed=seed)
+    img = np.random.default_rng(0).integers(0, 256, (6, 7), dtype=np.uint8)
+    sim.set_image(img)
+    return sim
+
+
+def planes(sim: Scamp5) -> list[np.ndarray]:
+    return [sim._a.copy(), sim._d.copy()]
+
+
+def test_kernel_runs_once_at_exit_and_counts_clock_classes() -> None:
+    sim = fresh()
+    with sim.kernel() as k:
+        program(k)
+        assert not sim.read(A).any()  # recorded, not yet run
+    assert sim.read(A).any()
+    assert len(k) == 6 + 2 + 2 + 1 + 2 + 1 + 1 + 1 + 3
+    assert k.counts == {"analog": 13, "digital": 4, "dnews": 1, "nop": 1}
+    assert "movx(C, A, east)" in k.listing()
+
+
+@pytest.mark.parametrize("noise", ["ideal", "typical"])
+def test_replay_equals_re_recording(noise: str) -> None:
+    a, b = fresh(noise), fresh(noise)
+    with a.kernel() as k:
+        program(k)
+    for _ in range(3):
+        a.set_image(np.full((6, 7), 77, dtype=np.uint8))
+        k.run()
+    with b.kernel() as k2:
+        program(k2)
+    for _ in range(3):
+        b.set_image(np.full((6, 7), 77, dtype=np.uint8))
+        with b.kernel() as k3:
+            program(k3)
+    for pa, pb in zip(planes(a), planes(b), strict=True):
+        assert np.array_equal(pa, pb)
+    a.run(k)  # sim.run is k.run
+    assert not np.array_equal(planes(a)[0], planes(b)[0]) or noise == "ideal"
+
+
+def test_every_run_is_charged_to_the_timing_model() -> None:
+    sim = fresh()
+    charged = []
+    sim.timing.charge_kernel = lambda counts: charged.append(dict(counts))
+    with sim.kernel() as k:
+        program(k)
+    k.run()
+    sim.mov(A, B)  # a direct call is a kernel of its own
+    assert charged == [k.counts, k.counts, {"analog": 2, "digital": 0, "dnews": 0, "nop": 0}]
+
+
+def test_capacity_error_says_how_many_and_the_limit() -> None:
+    sim = fresh()
+    with pytest.raises(KernelError, match=r"would hold 1025 ICWs, more than the 1024") as info:
+        with sim.kernel() as k:
+            for _ in range(MAX_ICWS // 2):
+                k.mov(A, B)
+            k.nop()
+    assert "split the work into several kernels" in str(info.value)
+    assert not sim.read(A).any()  # the refused kernel never ran
+    with sim.kernel() as k:
+        for _ in range(MAX_ICWS):
+            k.nop()
+    assert len(k) == MAX_ICWS
+
+
+def test_kernel_misuse() -> None:
+    sim, other = fresh(), fresh()
+    with sim.kernel() as k:
+        k.nop()
+    with pytest.raises(KernelError, match=r"only inside its `with sim\.kernel"):
+        k.mov(A, B)
+    with pytest.raises(KernelError, match="already recorded"):
+        with k:
+            pass
+    with pytest.raises(KernelError, match="recorded on another Scamp5"):
+        other.run(k)
+    k2 = sim.kernel()
+    with pytest.raises(KernelError, match=r"runs after its `with` block"):
+        k2.run()
+
+
+def test_exception_inside_the_block_does_not_run() -> None:
+    sim = fresh()
+    with pytest.raises(ZeroDivisionError), sim.kernel() as k:
+        k.mov(C, A)
+        k.get_image(A, B)
+        1 / 0  # noqa: B018
+    assert not sim.read(A).any() and not sim.read(NEWS).any()
