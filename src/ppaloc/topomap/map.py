@@ -2,12 +2,25 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["TopoMap"]
+from ppaloc.topomap.layout import KIND_BLOCK_SHAPES, SnakeLayout, layout_for
+
+__all__ = ["KIND_SPECS", "TopoMap"]
+
+KIND_SPECS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
+    "lowres": (np.dtype(np.uint8), (8, 8)),
+    "lbp": (np.dtype(np.uint32), ()),
+}
+"""Descriptor dtype and per-node shape of the place representations of ``ppaloc.place``.
+
+Other kinds (a baseline's own descriptors) are accepted with any numeric dtype.
+"""
 
 
 @dataclass(eq=False)
@@ -22,11 +35,21 @@ class TopoMap:
     descriptors : ndarray, shape (N, ...)
         One descriptor per node, in map order.
     frame_index : ndarray of int, shape (N,)
-        Index of the reference frame each node was made from.
+        Index of the reference frame each node was made from (default ``0 .. N-1``).
     positions : ndarray of float, shape (N, D), optional
         Route position of each node in metres, where the dataset has one.
     params : dict
         Parameters used to build the map (JSON-serialisable), kept for provenance.
+    provenance : dict
+        Where the map came from (JSON-serialisable): filled by :func:`build_topomap`
+        (``dataset``) and by :meth:`save` (``ppaloc_version``, ``created``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> m = TopoMap("lbp", np.array([1, 2, 3], np.uint32))
+    >>> len(m), m.frame_index.tolist(), m.layout.capacity, m.n_tiles
+    (3, [0, 1, 2], 2048, 1)
     """
 
     kind: str
@@ -34,16 +57,82 @@ class TopoMap:
     frame_index: np.ndarray | None = None
     positions: np.ndarray | None = None
     params: dict[str, Any] = field(default_factory=dict)
+    provenance: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.descriptors = np.asarray(self.descriptors)
+        if self.descriptors.ndim == 0:
+            raise ValueError("descriptors must have one entry per node, shape (N, ...)")
+        spec = KIND_SPECS.get(self.kind)
+        if spec is not None:
+            dtype, shape = spec
+            if self.descriptors.dtype != dtype or self.descriptors.shape[1:] != shape:
+                raise ValueError(
+                    f"a {self.kind!r} map holds {dtype} descriptors of shape (N, "
+                    f"{', '.join(map(str, shape))}), got {self.descriptors.dtype} "
+                    f"{self.descriptors.shape}; build them with ppaloc.place"
+                )
         if self.frame_index is None:
             self.frame_index = np.arange(len(self.descriptors))
         self.frame_index = np.asarray(self.frame_index, dtype=np.int64)
-        if len(self.frame_index) != len(self.descriptors):
+        if self.frame_index.shape != (len(self.descriptors),):
             raise ValueError(
                 f"frame_index has {len(self.frame_index)} entries for {len(self.descriptors)} nodes"
             )
+        if self.positions is not None:
+            self.positions = np.asarray(self.positions, dtype=np.float64)
+            if self.positions.ndim == 1:
+                self.positions = self.positions[:, None]
+            if self.positions.ndim != 2 or len(self.positions) != len(self.descriptors):
+                raise ValueError(
+                    f"positions must have shape (N, D) with N = {len(self.descriptors)} nodes, "
+                    f"got {self.positions.shape}"
+                )
 
     def __len__(self) -> int:
         return len(self.descriptors)
+
+    @property
+    def layout(self) -> SnakeLayout | None:
+        """The snake layout of this kind on a 256x256 array (None for kinds without one)."""
+        return layout_for(self.kind) if self.kind in KIND_BLOCK_SHAPES else None
+
+    @property
+    def n_tiles(self) -> int | None:
+        """Planes (registers or sensors) the map needs on the PE array, where it has a layout."""
+        layout = self.layout
+        return None if layout is None else layout.n_tiles(len(self))
+
+    def save(self, path: str | Path, *, dataset: str | None = None) -> Path:
+        """Write the map to one versioned ``.npz`` file, atomically (see :func:`save_map`)."""
+        from ppaloc.topomap.io import save_map
+
+        return save_map(self, path, dataset=dataset)
+
+    @classmethod
+    def load(cls, path: str | Path) -> TopoMap:
+        """Read a map written by :meth:`save` (see :func:`load_map`)."""
+        from ppaloc.topomap.io import load_map
+
+        return load_map(path)
+
+    def equals(self, other: TopoMap) -> bool:
+        """True when both maps hold the same kind, arrays and parameters (as saved)."""
+
+        def same(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+            if a is None or b is None:
+                return a is b
+            return a.dtype == b.dtype and a.shape == b.shape and bool(np.array_equal(a, b))
+
+        return (
+            self.kind == other.kind
+            and same(self.descriptors, other.descriptors)
+            and same(self.frame_index, other.frame_index)
+            and same(self.positions, other.positions)
+            and _normalised(self.params) == _normalised(other.params)
+        )
+
+
+def _normalised(params: dict[str, Any]) -> str:
+    """Parameters as saved (JSON: tuples become lists), for comparison."""
+    return json.dumps(params, sort_keys=True, default=str)

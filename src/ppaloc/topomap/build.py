@@ -1,0 +1,136 @@
+"""Mapping: turn a reference traversal into a TopoMap."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from typing import Any
+
+import numpy as np
+
+from ppaloc.datasets.frontend import to_sensor
+from ppaloc.place import hamming, lbp_descriptor, lowres_image, sad
+from ppaloc.topomap.map import KIND_SPECS, TopoMap
+
+__all__ = ["KEYFRAME_UNITS", "build_topomap", "describe"]
+
+KEYFRAME_UNITS = {
+    "lowres": "mean absolute difference per 8x8 cell, grey levels (SAD / 64)",
+    "lbp": "Hamming distance, bits",
+}
+"""What ``keyframe_threshold`` measures for each kind."""
+
+_DESCRIBE: dict[str, Callable[[np.ndarray], np.ndarray]] = {
+    "lowres": lowres_image,
+    "lbp": lbp_descriptor,
+}
+
+
+def describe(frame: np.ndarray, kind: str) -> np.ndarray:
+    """Return the node descriptor of one frame: uint8 (8, 8) or a uint32 scalar array.
+
+    Any frame is first shown to the sensor (:func:`ppaloc.datasets.frontend.to_sensor`,
+    the identity for a (256, 256) uint8 frame).
+    """
+    if kind not in _DESCRIBE:
+        raise ValueError(f"kind={kind!r} has no place representation; use 'lowres' or 'lbp'")
+    return _DESCRIBE[kind](to_sensor(frame))
+
+
+def _change(kind: str, descriptor: np.ndarray, last: np.ndarray) -> float:
+    if kind == "lowres":
+        return float(sad(descriptor, last[None])[0]) / descriptor.size
+    return float(hamming(descriptor, last.reshape(1))[0])
+
+
+def build_topomap(
+    frames: Iterable[np.ndarray],
+    kind: str,
+    *,
+    keyframe_threshold: float | None = None,
+    positions: np.ndarray | None = None,
+    dataset: str | None = None,
+    progress: Callable[[int, int | None], None] | None = None,
+) -> TopoMap:
+    """Build a map from a reference traversal, one node per frame or per keyframe.
+
+    Parameters
+    ----------
+    frames : iterable of ndarray
+        The reference traversal in route order; (256, 256) uint8 sensor frames, or any
+        frame :func:`~ppaloc.datasets.frontend.to_sensor` accepts. Read once, in order,
+        so a lazy sequence is never held in memory whole.
+    kind : {"lowres", "lbp"}
+        The place representation (:mod:`ppaloc.place`).
+    keyframe_threshold : float, optional
+        None (default, the paper): every frame becomes a node. Otherwise the first frame
+        becomes a node, and each later frame becomes a node only when its change from the
+        *last node* (not the last frame, so slow drift accumulates) is strictly above the
+        threshold: for ``"lowres"`` the mean absolute difference per cell in grey levels
+        (SAD / 64), for ``"lbp"`` the Hamming distance in bits. 0 drops only exact repeats
+        (e.g. a vehicle standing still in a static scene).
+    positions : ndarray, shape (n_frames, D) or (n_frames,), optional
+        Per-frame route positions; the nodes keep those of their frames.
+    dataset : str, optional
+        Name of the source traversal, kept in ``provenance["dataset"]``.
+    progress : callable, optional
+        Called after each frame as ``progress(frames_done, total)``; ``total`` is
+        ``len(frames)`` where it exists, else None.
+
+    Returns
+    -------
+    TopoMap
+        ``frame_index`` holds each node's source frame; ``params`` holds ``kind``,
+        ``keyframe_threshold``, ``keyframe_units`` and ``n_frames``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> frames = [np.full((256, 256), v, np.uint8) for v in (10, 10, 12, 40)]
+    >>> build_topomap(frames, "lowres").frame_index.tolist()
+    [0, 1, 2, 3]
+    >>> build_topomap(frames, "lowres", keyframe_threshold=5).frame_index.tolist()
+    [0, 3]
+    """
+    if kind not in KIND_SPECS:
+        raise ValueError(f"kind={kind!r} has no place representation; use 'lowres' or 'lbp'")
+    if keyframe_threshold is not None and not keyframe_threshold >= 0:
+        raise ValueError(f"keyframe_threshold={keyframe_threshold!r} must be >= 0 or None")
+    total = len(frames) if hasattr(frames, "__len__") else None  # type: ignore[arg-type]
+    descriptors: list[np.ndarray] = []
+    kept: list[int] = []
+    n_frames = 0
+    for i, frame in enumerate(frames):
+        d = describe(frame, kind)
+        if (
+            keyframe_threshold is None
+            or not descriptors
+            or _change(kind, d, descriptors[-1]) > keyframe_threshold
+        ):
+            descriptors.append(d)
+            kept.append(i)
+        n_frames = i + 1
+        if progress is not None:
+            progress(n_frames, total)
+    dtype, shape = KIND_SPECS[kind]
+    stacked = np.stack(descriptors) if descriptors else np.empty((0, *shape), dtype)
+    node_positions = None
+    if positions is not None:
+        pos = np.asarray(positions, dtype=np.float64)
+        if len(pos) != n_frames:
+            raise ValueError(f"positions has {len(pos)} rows for {n_frames} frames")
+        node_positions = pos[kept]
+    params: dict[str, Any] = {
+        "kind": kind,
+        "keyframe_threshold": keyframe_threshold,
+        "keyframe_units": None if keyframe_threshold is None else KEYFRAME_UNITS[kind],
+        "n_frames": n_frames,
+    }
+    provenance = {} if dataset is None else {"dataset": dataset}
+    return TopoMap(
+        kind,
+        stacked.astype(dtype, copy=False),
+        frame_index=np.asarray(kept, dtype=np.int64),
+        positions=node_positions,
+        params=params,
+        provenance=provenance,
+    )
