@@ -30,6 +30,7 @@ from ppaloc.sim.controller import ControllerMixin
 from ppaloc.sim.isa import CLOCK_CLASSES, Instruction
 from ppaloc.sim.macros import ProgramAPI
 from ppaloc.sim.noise import NoiseModel, NoiseParams
+from ppaloc.sim.noise import fast_clip as _clip
 from ppaloc.sim.registers import (
     ANALOG_PLANES,
     DIGITAL_PLANES,
@@ -42,11 +43,6 @@ from ppaloc.sim.registers import (
     Register,
 )
 from ppaloc.sim.timing import TimingModel
-
-try:  # the ufunc behind np.clip, without the wrapper's per-call overhead
-    from numpy._core.umath import clip as _clip
-except ImportError:  # numpy < 2
-    from numpy.core.umath import clip as _clip
 
 __all__ = ["Scamp5"]
 
@@ -188,12 +184,15 @@ class Scamp5(ControllerMixin, ProgramAPI):
         t = self._t[2]
         np.copyto(t, self._as_plane(reg, values, float), casting="unsafe")
         if not self.noise.ideal:
+            self._elapse()  # older values droop first; the new one starts fresh
             self.noise.perturb(t, reg.index, divided=False)
         _clip(t, _LO, _HI, out=plane)
 
     def _write_digital(self, reg: Register, values: object) -> None:
         """Set digital ``reg`` everywhere (no R0 rule: this is the host's pattern load)."""
         plane = self._dplane(reg)
+        if not self.noise.ideal:
+            self._elapse()
         np.copyto(plane, self._as_plane(reg, values, bool), casting="unsafe")
         self._dtouch_us[reg.index] = self.timing.now_us
 
@@ -218,6 +217,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
             arr = self._as_plane(reg, values, float)
             if not np.isfinite(arr).all():
                 raise SimulatorError(f"cannot write NaN or infinity into {reg.name}")
+            if not self.noise.ideal:
+                self._elapse()
             np.copyto(plane, np.clip(arr, -128, 127), casting="unsafe")
 
     def set_image(self, image: np.ndarray) -> None:
@@ -233,6 +234,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
                 f"{img.dtype} {img.shape}: convert frames with ppaloc.datasets.to_sensor"
             )
         self._image = img.copy()
+        if not self.noise.ideal:
+            self._elapse()
         pix = self._a[PIX.index]
         np.multiply(img, np.float32(0.25), out=pix, casting="unsafe")
         np.subtract(pix, np.float32(32.0), out=pix)

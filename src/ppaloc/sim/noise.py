@@ -35,7 +35,12 @@ import numpy as np
 
 from ppaloc.errors import SimulatorError
 
-__all__ = ["PRESETS", "NoiseModel", "NoiseParams", "resolve_noise"]
+try:  # the ufunc behind np.clip, without the wrapper's per-call overhead
+    from numpy._core.umath import clip as fast_clip
+except ImportError:  # numpy < 2
+    from numpy.core.umath import clip as fast_clip
+
+__all__ = ["PRESETS", "NoiseModel", "NoiseParams", "fast_clip", "resolve_noise"]
 
 
 @dataclass(frozen=True)
@@ -188,6 +193,7 @@ class NoiseModel:
             if p.temporal_sd > 0
             else (self.rng.standard_normal(size * _BANK_FACTOR) * div_sd).astype(np.float32)
         )
+        self._droop_tmp: np.ndarray | None = None
         self._k = _DRAWS
         self._starts = np.zeros(0, dtype=np.int64)
         self._gains = np.zeros(0)
@@ -226,11 +232,11 @@ class NoiseModel:
         if self.ideal or elapsed_us <= 0 or self.params.decay_per_ms == 0:
             return
         step = np.float32(self.params.decay_per_ms * elapsed_us / 1000.0)
-        # v -> sign(v) * max(|v| - step, 0)
-        mag = np.abs(planes)
-        np.subtract(mag, step, out=mag)
-        np.maximum(mag, np.float32(0), out=mag)
-        np.copysign(mag, planes, out=planes)
+        # v -> v - clip(v, -step, step): towards 0 by `step`, never past it
+        if self._droop_tmp is None or self._droop_tmp.shape != planes.shape:
+            self._droop_tmp = np.empty_like(planes)
+        fast_clip(planes, -step, step, out=self._droop_tmp)
+        np.subtract(planes, self._droop_tmp, out=planes)
 
     def digital_decay(self, plane: np.ndarray, age_us: float, elapsed_us: float) -> None:
         """Let ones in a digital ``plane`` decay after its retention time has passed.
