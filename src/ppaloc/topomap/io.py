@@ -159,14 +159,19 @@ def _open(path: Path):
         raise _fail(path, "no such file")
     if not path.is_file():
         raise _fail(path, "not a file")
-    try:
-        npz = np.load(path, allow_pickle=False)
-    except _READ_ERRORS as exc:
-        raise _fail(path, f"not a ppaloc map (not a readable .npz archive: {exc})") from None
-    if not isinstance(npz, np.lib.npyio.NpzFile):
-        raise _fail(path, "not a ppaloc map (a single .npy array, not an .npz archive)")
-    with npz:
-        yield npz
+    # Open the file ourselves so that it is closed whatever np.load makes of it.
+    with open(path, "rb") as f:
+        try:
+            npz = np.load(f, allow_pickle=False)
+        except _READ_ERRORS as exc:
+            f.seek(0)
+            if f.read(4) == b"PK\x03\x04":
+                raise _fail(path, f"corrupt or truncated .npz archive ({exc})") from None
+            raise _fail(path, f"not a ppaloc map (not an .npz archive: {exc})") from None
+        if not isinstance(npz, np.lib.npyio.NpzFile):
+            raise _fail(path, "not a ppaloc map (a single .npy array, not an .npz archive)")
+        with npz:
+            yield npz
 
 
 def _header(path: Path, npz: np.lib.npyio.NpzFile) -> dict[str, Any]:

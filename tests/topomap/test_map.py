@@ -1,0 +1,87 @@
+"""TopoMap validation and mapping from a traversal."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.place import lbp_descriptor, lowres_image
+from ppaloc.topomap import TopoMap, build_topomap
+
+
+def test_constructor_stays_compatible_and_validates() -> None:
+    m = TopoMap("lowres", np.zeros((3, 8, 8), np.uint8), None, None, {})
+    assert len(m) == 3 and m.frame_index.tolist() == [0, 1, 2] and m.n_tiles == 1
+    assert TopoMap("seqslam", np.zeros((4, 64), np.float32)).layout is None
+    with pytest.raises(ValueError, match=r"a 'lbp' map holds uint32 descriptors of shape \(N, \)"):
+        TopoMap("lbp", np.zeros(3, np.int64))
+    with pytest.raises(ValueError, match="frame_index has 2 entries for 3 nodes"):
+        TopoMap("lbp", np.zeros(3, np.uint32), frame_index=[0, 1])
+    with pytest.raises(ValueError, match=r"positions must have shape \(N, D\) with N = 3"):
+        TopoMap("lbp", np.zeros(3, np.uint32), positions=np.zeros((2, 2)))
+    assert TopoMap("lbp", np.zeros(3, np.uint32), positions=np.arange(3)).positions.shape == (3, 1)
+
+
+@pytest.fixture(scope="module")
+def traversal() -> list[np.ndarray]:
+    rng = np.random.default_rng(31)
+    base = rng.integers(0, 200, (256, 256), dtype=np.uint8)
+    frames = [base, base.copy(), base + 1, base + 2, base + 40, base + 40]
+    return frames
+
+
+@pytest.mark.parametrize("kind", ["lowres", "lbp"])
+def test_a_node_per_frame(traversal: list[np.ndarray], kind: str) -> None:
+    calls: list[tuple[int, int | None]] = []
+    m = build_topomap(traversal, kind, dataset="toy", progress=lambda i, n: calls.append((i, n)))
+    assert m.kind == kind and len(m) == len(traversal)
+    expected = np.stack(traversal)
+    expected = lowres_image(expected) if kind == "lowres" else lbp_descriptor(expected)
+    np.testing.assert_array_equal(m.descriptors, expected)
+    assert m.frame_index.tolist() == list(range(6))
+    assert m.provenance == {"dataset": "toy"}
+    assert m.params["keyframe_threshold"] is None and m.params["n_frames"] == 6
+    assert calls == [(i, 6) for i in range(1, 7)]
+
+
+def test_lowres_keyframes_compare_with_the_last_node(traversal: list[np.ndarray]) -> None:
+    # mean change per cell vs the last node: 0, 1, 2 (> 1.5: node), 40 (node), 0
+    m = build_topomap(iter(traversal), "lowres", keyframe_threshold=1.5, positions=np.arange(6.0))
+    assert m.frame_index.tolist() == [0, 3, 4]
+    assert m.positions[:, 0].tolist() == [0.0, 3.0, 4.0]
+    assert m.params["keyframe_units"].startswith("mean absolute difference per 8x8 cell")
+    assert build_topomap(traversal, "lowres", keyframe_threshold=0).frame_index.tolist() == [
+        0,
+        2,
+        3,
+        4,
+    ]
+
+
+def test_lbp_keyframes_use_hamming_bits() -> None:
+    rng = np.random.default_rng(32)
+    frames = [rng.integers(0, 256, (256, 256), dtype=np.uint8) for _ in range(5)]
+    frames.insert(1, frames[0])
+    d = lbp_descriptor(np.stack(frames))
+    m = build_topomap(frames, "lbp", keyframe_threshold=0)
+    assert m.frame_index.tolist() == [0, 2, 3, 4, 5]
+    m = build_topomap(frames, "lbp", keyframe_threshold=32)
+    assert m.frame_index.tolist() == [0]
+    np.testing.assert_array_equal(m.descriptors, d[:1])
+
+
+def test_frames_of_any_size_are_shown_to_the_sensor_first() -> None:
+    small = np.full((32, 64), 77, np.uint8)
+    m = build_topomap([small], "lowres")
+    np.testing.assert_array_equal(m.descriptors[0], np.full((8, 8), 77))
+
+
+def test_build_rejects_bad_arguments() -> None:
+    frame = np.zeros((256, 256), np.uint8)
+    with pytest.raises(ValueError, match="kind='hog' has no place representation"):
+        build_topomap([frame], "hog")
+    with pytest.raises(ValueError, match="keyframe_threshold=-1 must be >= 0 or None"):
+        build_topomap([frame], "lbp", keyframe_threshold=-1)
+    with pytest.raises(ValueError, match="positions has 2 rows for 1 frames"):
+        build_topomap([frame], "lbp", positions=np.zeros(2))
+    assert len(build_topomap([], "lbp")) == 0
