@@ -232,3 +232,14 @@ class _null:
 
     def __exit__(self, *exc):
         return False
+
+
+def test_every_constant_is_documented():
+    from pathlib import Path
+
+    doc = (Path(__file__).parents[2] / "docs" / "sim-controller.md").read_text()
+    for f in dataclasses.fields(TimingConstants):
+        if f.name != "calls":
+            assert f"`{f.name}`" in doc, f.name
+    for name in K.calls:
+        assert name.removesuffix("_64").split("_")[0] in doc, name
