@@ -1,0 +1,146 @@
+"""Lazy frame sequences: a traversal that loads (or renders) each frame on access.
+
+A 30,000-frame traversal must not sit in memory, so a traversal is a ``Sequence`` whose
+``__getitem__`` reads one frame. Slicing returns another lazy sequence (no frame is read);
+a small per-sequence LRU cache keeps the last few frames, because localisers often look at
+frame ``i`` and ``i-1`` together.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import overload
+
+import numpy as np
+
+__all__ = ["FrameSequence", "ImageFrames", "RenderedFrames"]
+
+DEFAULT_CACHE = 16
+"""Frames each sequence keeps (least recently used dropped first)."""
+
+
+class FrameSequence(Sequence[np.ndarray]):
+    """A lazy, sliceable sequence of 2-D ``uint8`` frames.
+
+    Parameters
+    ----------
+    load : callable
+        ``load(i) -> ndarray`` for a source index ``i`` (the index before any slicing).
+    indices : sequence of int
+        Source indices in this sequence's order.
+    cache : int
+        How many frames to keep (0 disables the cache).
+
+    Notes
+    -----
+    Returned frames are read-only views of the cached array, so a caller cannot alter what
+    the next caller sees; copy before writing.
+    """
+
+    def __init__(
+        self,
+        load: Callable[[int], np.ndarray],
+        indices: Sequence[int],
+        cache: int = DEFAULT_CACHE,
+    ) -> None:
+        self._load = load
+        self._indices = np.asarray(indices, dtype=np.int64)
+        self._cache_size = int(cache)
+        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
+
+    def __len__(self) -> int:
+        return int(self._indices.size)
+
+    @property
+    def source_indices(self) -> np.ndarray:
+        """Index of each frame in the unsliced source, shape (len(self),)."""
+        return self._indices.copy()
+
+    @overload
+    def __getitem__(self, item: int) -> np.ndarray: ...
+
+    @overload
+    def __getitem__(self, item: slice) -> FrameSequence: ...
+
+    def __getitem__(self, item: int | slice) -> np.ndarray | FrameSequence:
+        if isinstance(item, slice):
+            return self.select(self._indices[item], positional=False)
+        i = int(item)
+        n = len(self)
+        if i < 0:
+            i += n
+        if not 0 <= i < n:
+            raise IndexError(f"frame index {item} out of range for {n} frames")
+        return self._get(int(self._indices[i]))
+
+    def select(self, idx: Sequence[int], positional: bool = True) -> FrameSequence:
+        """Return a lazy sub-sequence.
+
+        Parameters
+        ----------
+        idx : sequence of int
+            Positions in this sequence (``positional=True``) or source indices.
+        """
+        chosen = self._indices[np.asarray(idx, dtype=np.int64)] if positional else idx
+        return type(self)._from(self, chosen)
+
+    @classmethod
+    def _from(cls, other: FrameSequence, indices: Sequence[int]) -> FrameSequence:
+        new = cls.__new__(cls)
+        new.__dict__.update(other.__dict__)
+        new._indices = np.asarray(indices, dtype=np.int64)
+        new._cache = OrderedDict()
+        return new
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        for src in self._indices:
+            yield self._get(int(src))
+
+    def _get(self, src: int) -> np.ndarray:
+        hit = self._cache.get(src)
+        if hit is not None:
+            self._cache.move_to_end(src)
+            return hit
+        frame = np.asarray(self._load(src))
+        frame.setflags(write=False)
+        if self._cache_size > 0:
+            self._cache[src] = frame
+            while len(self._cache) > self._cache_size:
+                self._cache.popitem(last=False)
+        return frame
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({len(self)} frames)"
+
+
+class ImageFrames(FrameSequence):
+    """Frames read from image files (grey ``uint8``), one file per frame.
+
+    Parameters
+    ----------
+    paths : sequence of Path
+        One image per frame, in traversal order.
+    cache : int
+        Frames kept in the LRU cache.
+    """
+
+    def __init__(self, paths: Sequence[Path], cache: int = DEFAULT_CACHE) -> None:
+        from ppaloc.datasets.images import read_grey
+
+        self.paths = tuple(Path(p) for p in paths)
+        super().__init__(lambda i: read_grey(self.paths[i]), range(len(self.paths)), cache)
+
+    def path(self, i: int) -> Path:
+        """The file behind frame ``i`` of this (possibly sliced) sequence."""
+        return self.paths[int(self._indices[i])]
+
+
+class RenderedFrames(FrameSequence):
+    """Frames computed on access by ``render(i)`` (e.g. the procedural generator)."""
+
+    def __init__(
+        self, render: Callable[[int], np.ndarray], n: int, cache: int = DEFAULT_CACHE
+    ) -> None:
+        super().__init__(render, range(int(n)), cache)

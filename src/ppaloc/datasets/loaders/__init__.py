@@ -1,0 +1,1 @@
+"""One module per dataset layout; each declares ``SCHEMA`` and ``load(spec) -> RawRoute``."""

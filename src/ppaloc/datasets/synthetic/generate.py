@@ -1,0 +1,137 @@
+"""``make_synthetic``: two traversals of one generated route and their ground truth."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ppaloc.datasets.base import RouteDataset
+from ppaloc.datasets.frames import RenderedFrames
+from ppaloc.datasets.route import RawRoute, assemble
+from ppaloc.datasets.synthetic.conditions import CONDITIONS, condition
+from ppaloc.datasets.synthetic.motion import lateral_weave, variable_speed_positions
+from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
+from ppaloc.datasets.synthetic.world import make_world
+from ppaloc.errors import DataError
+
+__all__ = ["make_synthetic", "synthetic_route"]
+
+
+def synthetic_route(
+    places: int = 500,
+    ref: str = "summer",
+    query: str = "winter",
+    seed: int = 0,
+    sync: bool = False,
+    spacing: float = 4.0,
+    speed: float = 1.0,
+    stops: int | None = None,
+    extra: int = 0,
+    offset: float | None = None,
+    size: int = 256,
+) -> RawRoute:
+    """Generate the traversals; see :func:`make_synthetic` for the parameters."""
+    for name in (ref, query):
+        if name not in CONDITIONS:
+            raise DataError(f"unknown condition {name!r}: choose from {', '.join(CONDITIONS)}")
+    if places < 2:
+        raise DataError(f"places={places}: a route needs at least 2 places")
+    ref_c, query_c = condition(ref), condition(query)
+    world = make_world(places * spacing + extra * spacing, seed)
+    end = (places - 1 + extra) * spacing
+    ref_s = np.arange(places, dtype=np.float64) * spacing
+    if sync:
+        q_s = np.arange(places + extra, dtype=np.float64) * spacing
+    else:
+        n_stops = max(1, places // 150) if stops is None else stops
+        q_s = variable_speed_positions(end, spacing, speed, n_stops, seed)
+    q_off = query_c.offset if offset is None else offset
+    ref_x = LANE_CENTRE + ref_c.offset + lateral_weave(ref_s, seed * 2 + 0)
+    q_x = LANE_CENTRE + q_off + lateral_weave(q_s, seed * 2 + 1)
+    ref_r = Renderer(world, ref_c, size, seed=0)
+    q_r = Renderer(world, query_c, size, seed=1)
+    reference = RenderedFrames(lambda i: ref_r.render(ref_s[i], ref_x[i], (0, i)), places)
+    queries = RenderedFrames(lambda i: q_r.render(q_s[i], q_x[i], (1, i)), q_s.size)
+    return RawRoute(
+        name=f"synthetic {ref}->{query}",
+        reference=reference,
+        query=queries,
+        default_tolerance=1,
+        query_place=q_s / spacing,
+        reference_positions=np.stack([ref_s, ref_x], 1),
+        query_positions=np.stack([q_s, q_x], 1),
+        motion_known=True,
+        meta={
+            "kind": "synthetic",
+            "seed": seed,
+            "spacing_m": spacing,
+            "conditions": (ref, query),
+            "sync": sync,
+            "world": world,
+        },
+    )
+
+
+def make_synthetic(
+    places: int = 500,
+    ref: str = "summer",
+    query: str = "winter",
+    seed: int = 0,
+    *,
+    sync: bool = False,
+    spacing: float = 4.0,
+    speed: float = 1.0,
+    stops: int | None = None,
+    extra: int = 0,
+    offset: float | None = None,
+    size: int = 256,
+    tolerance: int = 1,
+    start: int | None = None,
+    stop: int | None = None,
+    step: int = 1,
+) -> RouteDataset:
+    """Two traversals of a procedurally generated route, with exact ground truth.
+
+    Parameters
+    ----------
+    places : int
+        Reference frames: one per place, ``spacing`` metres apart.
+    ref, query : str
+        Conditions of the two traversals (``summer``, ``autumn``, ``winter``, ``night``).
+    seed : int
+        Seeds the world, the query's motion, clouds and noise: same seed, same bytes.
+    sync : bool
+        One query frame per place (frame-synchronised) instead of variable speed.
+    spacing : float
+        Metres between places.
+    speed : float
+        Mean query speed in places per frame (variable-speed mode).
+    stops : int, optional
+        Query stops (default one per 150 places, at least one).
+    extra : int
+        Places the query drives past the end of the map (no true match there).
+    offset : float, optional
+        Query lateral offset (m) instead of the condition's.
+    size : int
+        Frame side (pixels).
+    tolerance : int
+        Accepted distance in places.
+    start, stop, step : int, optional
+        Select places ``start:stop:step`` (and the query frames nearest to them).
+
+    Returns
+    -------
+    RouteDataset
+        Grey ``uint8`` frames rendered on access; positions in metres ``(s, x)``;
+        ``query_moved[i]``: frame ``i``'s nearest place is ahead of frame ``i-1``'s.
+
+    Examples
+    --------
+    >>> ds = make_synthetic(places=30, sync=True, seed=2, size=64)
+    >>> ds.reference[0].shape, ds.ground_truth[0].tolist()
+    ((64, 64), [0, 1])
+    """
+    raw = synthetic_route(
+        places, ref, query, seed, sync, spacing, speed, stops, extra, offset, size
+    )
+    options = {"tolerance": tolerance, "start": start, "stop": stop, "step": step}
+    return assemble(raw, options)

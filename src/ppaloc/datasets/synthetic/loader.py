@@ -1,0 +1,47 @@
+"""``synthetic:?places=500&query=winter&seed=1``: the procedural route generator as a spec."""
+
+from __future__ import annotations
+
+from ppaloc.datasets.route import RawRoute
+from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
+from ppaloc.datasets.synthetic.conditions import CONDITIONS
+from ppaloc.datasets.synthetic.generate import synthetic_route
+
+__all__ = ["SCHEMA", "load"]
+
+_NAMES = tuple(CONDITIONS)
+SCHEMA = KindSchema(
+    n_paths=(0,),
+    keys={
+        "places": Key("int", 500, "reference frames (one per place)", 2),
+        "ref": Key("choice", "summer", "reference condition", choices=_NAMES),
+        "query": Key("choice", "winter", "query condition", choices=_NAMES),
+        "seed": Key("int", 0, "world, motion and noise seed", 0),
+        "sync": Key("bool", False, "one query frame per place"),
+        "spacing": Key("float", 4.0, "metres between places", 0.5),
+        "speed": Key("float", 1.0, "mean query speed, places per frame", 0.05),
+        "stops": Key("int", None, "query stops (default: one per 150 places)", 0),
+        "extra": Key("int", 0, "places the query drives past the end of the map", 0),
+        "offset": Key("float", None, "query lateral offset in metres"),
+        "size": Key("int", 256, "frame side in pixels", 16),
+    },
+    example="synthetic:?places=500&query=winter&seed=1",
+)
+
+
+def load(spec: DatasetSpec) -> RawRoute:
+    """Generate the route a ``synthetic`` spec describes (frames render on access)."""
+    o = spec.options
+    return synthetic_route(
+        places=o["places"],
+        ref=o["ref"],
+        query=o["query"],
+        seed=o["seed"],
+        sync=o["sync"],
+        spacing=o["spacing"],
+        speed=o["speed"],
+        stops=o["stops"],
+        extra=o["extra"],
+        offset=o["offset"],
+        size=o["size"],
+    )

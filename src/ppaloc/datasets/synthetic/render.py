@@ -1,0 +1,444 @@
+"""Perspective rendering of the world with numpy (no per-pixel Python loops).
+
+A pinhole camera ``CAMERA_HEIGHT`` metres above the road looks along the road (+s). A
+world point ``(s, x, y)`` seen from the camera at ``(s_cam, x_cam)`` lands at column
+``cx + f (x - x_cam) / z`` and row ``cy - f (y - h) / z`` with depth ``z = s - s_cam``.
+So everything flows outwards from the vanishing point ``(cx, cy)`` as the camera moves
+forward, which is the cue the paper's motion model uses.
+
+The frame is built in two passes:
+
+1. *Geometry* (same for every condition): per pixel a material id, a shading factor and a
+   depth, filled by z-buffer. The ground is solved per row (a row of the ground plane is one
+   depth); planes parallel to the road (facades, fences, hedges, forest edges) per column
+   (a column of such a plane is one depth); trees, bushes and poles are camera-facing
+   sprites sampled from templates.
+2. *Appearance* (per condition): palette lookup, light (sun side, or at night headlights,
+   street-lamp pools and lit windows), sky with clouds, fog by depth, falling snow,
+   brightness and contrast, vignetting and sensor noise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ppaloc.datasets.synthetic.conditions import EMISSIVE, Condition, M
+from ppaloc.datasets.synthetic.sprites import TH, TRANSPARENT, TW, make_templates, smooth_noise
+from ppaloc.datasets.synthetic.world import FOREST, ROAD_HALF, SUBURB, TOWN, World
+
+__all__ = ["CAMERA_HEIGHT", "LANE_CENTRE", "Renderer"]
+
+CAMERA_HEIGHT = 1.6
+"""Camera height over the road (m)."""
+
+LANE_CENTRE = ROAD_HALF / 2
+"""Lateral position of the right lane's centre (m)."""
+
+Z_NEAR, Z_FAR = 1.0, 170.0
+"""Objects are drawn between these depths (m); fog hides the far end."""
+
+_LUMA = np.array([0.299, 0.587, 0.114], np.float32)
+
+
+class Renderer:
+    """Renders frames of one world under one condition.
+
+    Parameters
+    ----------
+    world : World
+    cond : Condition
+    size : int
+        Frame side in pixels (square frames).
+    colour : bool
+        Render RGB (H, W, 3) instead of grey (H, W).
+    seed : int
+        Seeds the clouds and the sensor noise bank of this traversal.
+
+    Notes
+    -----
+    Set-up (templates, sky, noise bank) costs a few tens of milliseconds; each
+    :meth:`render` call is independent of the calls before it, so frames can be rendered in
+    any order and give the same bytes.
+    """
+
+    def __init__(
+        self, world: World, cond: Condition, size: int = 256, colour: bool = False, seed: int = 0
+    ) -> None:
+        self.world, self.cond, self.S = world, cond, int(size)
+        S = self.S
+        self.f = 0.6 * S
+        self.cx, self.cy = S / 2.0, 0.47 * S
+        self.h = CAMERA_HEIGHT
+        self.xs = np.arange(S, dtype=np.float32) + 0.5
+        self.ys = np.arange(S, dtype=np.float32) + 0.5
+        rgb = cond.rgb_lut()
+        self.lut = rgb if colour else (rgb @ _LUMA)[:, None]
+        self.C = self.lut.shape[1]
+        rng = np.random.default_rng([world.seed, 0xC0, seed])
+
+        # Ground: every row below the horizon is one depth.
+        self.g0 = int(np.searchsorted(self.ys, self.cy + 0.5))
+        self.z_row = (self.f * self.h / (self.ys[self.g0 :] - self.cy)).astype(np.float32)
+        self.xrel = ((self.xs - self.cx)[None, :] * self.z_row[:, None] / self.f).astype(np.float32)
+        ground_rng = np.random.default_rng([world.seed, 0x6D])
+        self.tex = (smooth_noise(ground_rng, (256, 256), 48) * 2 - 1).astype(np.float32)
+        self.tex_gain = np.clip(5.0 / self.z_row, 0.15, 1.0)[:, None].astype(np.float32)
+
+        # Background: sky above the horizon, distant hills on it.
+        self.hill = smooth_noise(np.random.default_rng([world.seed, 0x41]), (1, 4 * S), 10)[0]
+        self.sky = self._make_sky(rng)
+        self.tmat, self.tshade = make_templates(world.seed, cond)
+        yy, xx = np.mgrid[0:S, 0:S].astype(np.float32)
+        r2 = ((yy - S / 2) ** 2 + (xx - S / 2) ** 2) / (S / 2) ** 2
+        self.vignette = (1.0 - 0.12 * r2).astype(np.float32)
+        self.noise_bank = rng.standard_normal(S * S * 2, dtype=np.float32)
+        self.beam = np.exp(-(((self.xs - self.cx) / (0.35 * S)) ** 2)).astype(np.float32)
+        self._plane_reach = float(np.max(world.planes.s1 - world.planes.s0, initial=0.0))
+        self._box_reach = float(np.max(world.boxes.s1 - world.boxes.s0, initial=0.0))
+
+    # ------------------------------------------------------------------ set-up helpers
+    def _make_sky(self, rng: np.random.Generator) -> np.ndarray:
+        cond, S = self.cond, self.S
+        rows = int(np.ceil(self.cy)) + 1
+        t = np.clip(self.ys[:rows] / self.cy, 0, 1)[:, None, None] ** 0.8
+        top = np.asarray(cond.sky_top, np.float32)
+        hor = np.asarray(cond.sky_horizon, np.float32)
+        grad = top * (1 - t) + hor * t  # (rows, 1, 3)
+        n = smooth_noise(rng, (rows, 3 * S), 14)
+        n2 = smooth_noise(rng, (rows, 3 * S), 40)
+        cover = np.clip((n - (1 - cond.cloud_cover)) / 0.22, 0, 1)
+        cover *= np.clip(1.2 - t[:, :, 0], 0, 1)  # clouds thin out toward the horizon
+        cloud = np.asarray(cond.cloud_colour, np.float32) * (0.8 + 0.25 * n2)[..., None]
+        sky = grad * (1 - cover[..., None]) + cloud * cover[..., None]
+        if cond.night:
+            stars = rng.random((rows, 3 * S)) > 0.997
+            sky[stars] = 120.0
+        if self.C == 1:
+            return (sky @ _LUMA)[..., None].astype(np.float32)
+        return sky.astype(np.float32)
+
+    # ------------------------------------------------------------------ public API
+    def render(self, s_cam: float, x_cam: float, key: tuple[int, ...] = ()) -> np.ndarray:
+        """Return the frame seen from route position ``s_cam`` (m), lateral ``x_cam`` (m).
+
+        ``key`` seeds what changes from frame to frame (snowflakes, sensor noise). Output is
+        ``uint8``, shape (S, S) grey or (S, S, 3) colour.
+        """
+        mat, shade, depth, ground = self.geometry(s_cam, x_cam)
+        return self.appearance(mat, shade, depth, ground, s_cam, x_cam, key)
+
+    # ------------------------------------------------------------------ geometry
+    def geometry(self, s_cam: float, x_cam: float):
+        """Material ids, shading and depth (m; ``inf`` for sky), each of shape (S, S)."""
+        S = self.S
+        mat = np.full((S, S), M["sky"], np.uint8)
+        shade = np.ones((S, S), np.float32)
+        depth = np.full((S, S), np.inf, np.float32)
+        self._hills(mat, depth, s_cam)
+        ground = self._ground(mat, shade, depth, s_cam, x_cam)
+        self._boxes(mat, shade, depth, s_cam, x_cam)
+        self._planes(mat, shade, depth, s_cam, x_cam)
+        self._sprites(mat, shade, depth, s_cam, x_cam)
+        return mat, shade, depth, ground
+
+    def _hills(self, mat, depth, s_cam):
+        S = self.S
+        shift = int(s_cam * 0.04) % (3 * S)
+        prof = self.hill[shift : shift + S]
+        top = self.cy - S * (0.015 + 0.07 * prof)
+        m = self.ys[:, None] >= top[None, :]
+        m[self.g0 :] = False
+        mat[m] = M["hill"]
+        depth[m] = 2500.0
+
+    def _ground(self, mat, shade, depth, s_cam, x_cam):
+        g = slice(self.g0, self.S)
+        xw = self.xrel + np.float32(x_cam)
+        sw = (np.float32(s_cam) + self.z_row).astype(np.float64)
+        ax = np.abs(xw)
+        seg = self.world.segment_at(sw)
+        side_w = np.where(seg == TOWN, 4.5, np.where(seg == SUBURB, 2.2, 1.4))[:, None]
+        side_m = np.where((seg == TOWN) | (seg == SUBURB), M["sidewalk"], M["verge"])[:, None]
+        far_m = np.where(
+            seg == TOWN, M["sidewalk"], np.where(seg == FOREST, M["verge"], M["field"])
+        )
+        m = np.where(
+            ax < ROAD_HALF, M["road"], np.where(ax < ROAD_HALF + side_w, side_m, far_m[:, None])
+        )
+        dash = (ax < 0.09) & ((sw % 9.0) < 3.0)[:, None]
+        edge = np.abs(ax - (ROAD_HALF - 0.25)) < 0.08
+        m[dash | edge] = M["marking"]
+        ti = (np.floor(sw * 3.0).astype(np.int64) & 255)[:, None]
+        tj = np.floor(xw * 3.0).astype(np.int64) & 255
+        sh = 1.0 + 0.22 * self.tex[ti, tj] * self.tex_gain
+        kerb = (np.abs(ax - ROAD_HALF) < 0.12) & (side_m == M["sidewalk"])
+        sh = np.where(kerb, 0.75, sh)
+        mat[g] = m
+        shade[g] = sh
+        depth[g] = self.z_row[:, None]
+        return sw, xw
+
+    def _columns(self, dx: float, za: float, zb: float):
+        """Columns where a road-parallel plane at lateral ``dx`` spans depths [za, zb]."""
+        if abs(dx) < 0.2 or zb <= za:
+            return None
+        xa = self.cx + self.f * dx / za
+        xb = self.cx + self.f * dx / zb
+        lo, hi = min(xa, xb), max(xa, xb)
+        c0 = max(int(np.ceil(lo - 0.5)), 0)
+        c1 = min(int(np.floor(hi - 0.5)) + 1, self.S)
+        if c1 <= c0:
+            return None
+        z = self.f * dx / (self.xs[c0:c1] - self.cx)
+        ok = (z >= za) & (z <= zb)
+        if not ok.any():
+            return None
+        idx = np.flatnonzero(ok)
+        c0, c1 = c0 + int(idx[0]), c0 + int(idx[-1]) + 1
+        return c0, c1, z[idx[0] : idx[-1] + 1]
+
+    def _rows(self, z: np.ndarray, top: np.ndarray):
+        """Row window and per-pixel world height for a plane of depths ``z`` up to ``top``."""
+        y_top = self.cy - self.f * (top - self.h) / z
+        y_bot = self.cy + self.f * self.h / z
+        r0 = max(int(np.floor(float(y_top.min()))), 0)
+        r1 = min(int(np.ceil(float(y_bot.max()))), self.S)
+        if r1 <= r0:
+            return None
+        v = self.h + (self.cy - self.ys[r0:r1, None]) * z[None, :] / self.f
+        return r0, r1, v
+
+    @staticmethod
+    def _write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, z):
+        np.copyto(mat[r0:r1, c0:c1], m.astype(np.uint8, copy=False), where=ok)
+        np.copyto(shade[r0:r1, c0:c1], sh, where=ok)
+        np.copyto(depth[r0:r1, c0:c1], z, where=ok)
+
+    def _boxes(self, mat, shade, depth, s_cam, x_cam):
+        b = self.world.boxes
+        i0 = int(np.searchsorted(b.s0, s_cam - self._box_reach))
+        i1 = int(np.searchsorted(b.s0, s_cam + Z_FAR))
+        for i in range(i0, i1):
+            if b.s1[i] <= s_cam + Z_NEAR:
+                continue
+            self._facade(mat, shade, depth, s_cam, x_cam, i)
+            if b.s0[i] - s_cam > Z_NEAR:
+                self._end_wall(mat, shade, depth, s_cam, x_cam, i)
+
+    def _windows(self, i: int, u: np.ndarray, v: np.ndarray, wall_h: float) -> np.ndarray:
+        """Material of a facade point at (u along, v up) metres: wall, window, lit window, door."""
+        b = self.world.boxes
+        wx, wy = b.win_dx[i], b.win_dy[i]
+        col = np.floor(u / wx)
+        fu = u / wx - col
+        row = np.floor(v / wy)
+        fv = v / wy - row
+        win = (np.abs(fu - 0.5) < b.win_w[i] / 2) & (fv > 0.3) & (fv < 0.82)
+        win &= (v > 1.0) & (v < wall_h - 0.5)
+        lit = ((col * 7919 + row * 104729 + b.ident[i] * 31) % 7) < 3
+        wall = M["wall0"] + int(b.colour[i])
+        m = np.where(win, np.where(lit, M["window_lit"], M["window"]), wall)
+        door = (v < 2.3) & (np.abs(fu - 0.5) < 0.18) & ((col + b.ident[i]) % 5 == 2)
+        return np.where(door, M["door"], m)
+
+    def _facade(self, mat, shade, depth, s_cam, x_cam, i):
+        b = self.world.boxes
+        dx = b.x[i] - x_cam
+        cols = self._columns(dx, max(b.s0[i] - s_cam, Z_NEAR), min(b.s1[i] - s_cam, Z_FAR))
+        if cols is None:
+            return
+        c0, c1, z = cols
+        u = s_cam + z - b.s0[i]
+        H, roof = b.height[i], b.roof[i]
+        top = H + roof * 0.6 * np.clip(np.minimum(u, b.s1[i] - b.s0[i] - u) / max(roof, 0.1), 0, 1)
+        rows = self._rows(z, top)
+        if rows is None:
+            return
+        r0, r1, v = rows
+        ok = (v >= 0) & (v < top[None, :]) & (z[None, :] < depth[r0:r1, c0:c1])
+        if not ok.any():
+            return
+        m = np.where(v >= H, M["roof"], self._windows(i, u[None, :], v, H))
+        sh = np.float32(1.08 if dx < 0 else 0.9)
+        self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, z[None, :])
+
+    def _end_wall(self, mat, shade, depth, s_cam, x_cam, i):
+        b = self.world.boxes
+        z = float(b.s0[i] - s_cam)
+        if z > Z_FAR:
+            return
+        xa = b.x[i]
+        xb = xa + np.sign(xa) * b.depth[i]
+        ca = self.cx + self.f * (xa - x_cam) / z
+        cb = self.cx + self.f * (xb - x_cam) / z
+        c0 = max(int(np.ceil(min(ca, cb) - 0.5)), 0)
+        c1 = min(int(np.floor(max(ca, cb) - 0.5)) + 1, self.S)
+        if c1 <= c0:
+            return
+        lat = np.abs(x_cam + (self.xs[c0:c1] - self.cx) * z / self.f - xa)
+        H, roof, D = b.height[i], b.roof[i], b.depth[i]
+        top = H + roof * np.clip(1 - np.abs(2 * lat / D - 1), 0, 1)
+        zz = np.full(c1 - c0, z, np.float32)
+        rows = self._rows(zz, top)
+        if rows is None:
+            return
+        r0, r1, v = rows
+        ok = (v >= 0) & (v < top[None, :]) & (z < depth[r0:r1, c0:c1])
+        if not ok.any():
+            return
+        m = np.where(v >= H, M["wall0"] + int(b.colour[i]), self._windows(i, lat[None, :], v, H))
+        self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, np.float32(0.75), np.float32(z))
+
+    def _planes(self, mat, shade, depth, s_cam, x_cam):
+        p = self.world.planes
+        i0 = int(np.searchsorted(p.s0, s_cam - self._plane_reach))
+        i1 = int(np.searchsorted(p.s0, s_cam + Z_FAR))
+        for i in range(i0, i1):
+            if p.s1[i] <= s_cam + Z_NEAR:
+                continue
+            dx = p.x[i] - x_cam
+            cols = self._columns(dx, max(p.s0[i] - s_cam, Z_NEAR), min(p.s1[i] - s_cam, Z_FAR))
+            if cols is None:
+                continue
+            c0, c1, z = cols
+            u = (s_cam + z).astype(np.float64)
+            kind = int(p.kind[i])
+            tu = np.floor(u * 2.0).astype(np.int64) & 255
+            if kind == 0:  # fence: posts every 2.5 m and two rails
+                top = np.full_like(z, p.height[i])
+            elif kind == 1:  # hedge with a ragged top
+                top = p.height[i] * (0.85 + 0.3 * (self.tex[7, tu] * 0.5 + 0.5))
+            else:  # forest edge: a line of crowns
+                crowns = 0.5 + 0.5 * np.sin(u * 0.9 + 3 * self.tex[11, tu])
+                top = p.height[i] * (0.7 + 0.35 * crowns)
+            rows = self._rows(z, top)
+            if rows is None:
+                continue
+            r0, r1, v = rows
+            ok = (v >= 0) & (v < top[None, :]) & (z[None, :] < depth[r0:r1, c0:c1])
+            if kind == 0:
+                post = ((u % 2.5) < 0.14)[None, :]
+                rail = (np.abs(v - 0.45) < 0.06) | (np.abs(v - 1.05) < 0.07)
+                ok &= post | rail
+                m, sh = np.full(ok.shape, M["fence"]), np.float32(1.0)
+            else:
+                tv = np.floor(np.clip(v, 0, 60) * 3.0).astype(np.int64) & 255
+                sh = (0.7 + 0.45 * (self.tex[tv, tu[None, :]] * 0.5 + 0.5)).astype(np.float32)
+                if kind == 1:
+                    m = np.full(ok.shape, M["hedge"])
+                else:
+                    trunks = ((u * 1.3) % 1.0 < 0.18)[None, :] & (v < 3.5)
+                    m = np.where(trunks, M["trunk"], M["forest"])
+            if ok.any():
+                self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, z[None, :])
+
+    def _sprites(self, mat, shade, depth, s_cam, x_cam):
+        sp = self.world.sprites
+        i0 = int(np.searchsorted(sp.s, s_cam + Z_NEAR))
+        i1 = int(np.searchsorted(sp.s, s_cam + Z_FAR))
+        f, S = self.f, self.S
+        for i in range(i0, i1):
+            z = float(sp.s[i] - s_cam)
+            w_px = f * sp.width[i] / z
+            if w_px < 1.0:
+                continue
+            xc = self.cx + f * (sp.x[i] - x_cam) / z
+            yb = self.cy + f * self.h / z
+            yt = self.cy - f * (sp.height[i] - self.h) / z
+            xl = xc - w_px / 2
+            c0, c1 = max(int(xl), 0), min(int(np.ceil(xc + w_px / 2)), S)
+            r0, r1 = max(int(yt), 0), min(int(np.ceil(yb)), S)
+            if c0 >= c1 or r0 >= r1:
+                continue
+            ti = np.clip(((self.ys[r0:r1] - yt) / (yb - yt) * TH).astype(np.int64), 0, TH - 1)
+            tj = np.clip(((self.xs[c0:c1] - xl) / w_px * TW).astype(np.int64), 0, TW - 1)
+            if i % 2 and sp.template[i] < 7:  # mirror every other tree: more variety
+                tj = TW - 1 - tj
+            k = int(sp.template[i])
+            m = self.tmat[k][ti[:, None], tj[None, :]]
+            ok = (m != TRANSPARENT) & (z < depth[r0:r1, c0:c1])
+            if ok.any():
+                sh = self.tshade[k][ti[:, None], tj[None, :]]
+                self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, np.float32(z))
+
+    # ------------------------------------------------------------------ appearance
+    def appearance(self, mat, shade, depth, ground, s_cam, x_cam, key) -> np.ndarray:
+        """Turn geometry into a ``uint8`` frame under this renderer's condition."""
+        cond, S = self.cond, self.S
+        sky = mat == M["sky"]
+        light = shade
+        if cond.night:
+            light = self._night_light(mat, shade, depth, ground, s_cam)
+        out = self.lut[mat] * light[..., None]
+        shift = int(s_cam * 0.02) % (2 * S)
+        rows = self.sky.shape[0]
+        sky_img = self.sky[:, shift : shift + S]
+        out[:rows][sky[:rows]] = sky_img[sky[:rows]]
+        if np.isfinite(cond.fog_distance):
+            w = 1.0 - np.exp(-np.minimum(depth, 1e5) / np.float32(cond.fog_distance))
+            w[sky] = 0.0
+            fog = np.asarray(cond.fog_colour, np.float32)
+            fog = (fog @ _LUMA)[None] if self.C == 1 else fog
+            out += (fog - out) * w[..., None]
+        rng = np.random.default_rng([self.world.seed, 0xF4, *key])
+        if cond.night:
+            self._glow(out, s_cam, x_cam)
+        if cond.snowfall:
+            self._snow(out, rng)
+        out = np.clip(out * np.float32(cond.gain / 255.0) + np.float32(cond.bias), 0, 1)
+        if cond.gamma != 1.0:
+            out **= np.float32(cond.gamma)
+        out *= (255.0 * self.vignette)[..., None]
+        if cond.noise_sigma:
+            o = int(rng.integers(0, S * S))
+            n = self.noise_bank[o : o + S * S].reshape(S, S, 1)
+            out += n * np.float32(cond.noise_sigma) * (0.6 + 0.004 * out)
+        frame = np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        return frame[..., 0] if self.C == 1 else frame
+
+    def _night_light(self, mat, shade, depth, ground, s_cam):
+        f = self.f
+        d = np.minimum(depth, 1e4)
+        height = self.h + (self.cy - self.ys[:, None]) * d / f
+        head = 1.8 * np.exp(-d / 22.0) * self.beam[None, :] * np.exp(-np.maximum(height - 1.2, 0))
+        light = 0.09 + head
+        sw, xw = ground
+        lamps = self.world.lamps
+        j0, j1 = np.searchsorted(lamps[:, 0], [s_cam - 10, s_cam + 90])
+        pool = np.zeros_like(xw)
+        for s_l, x_l in lamps[j0:j1]:
+            pool += np.exp(-(((sw[:, None] - s_l) ** 2 + (xw - x_l) ** 2) / 40.0)).astype(
+                np.float32
+            )
+        light[self.g0 :] += 0.9 * pool
+        emissive = np.isin(mat, EMISSIVE)
+        light = np.where(emissive, 1.0, light * shade)
+        light[mat == M["sky"]] = 1.0
+        return light.astype(np.float32)
+
+    def _glow(self, out, s_cam, x_cam):
+        lamps = self.world.lamps
+        j0, j1 = np.searchsorted(lamps[:, 0], [s_cam + 2, s_cam + Z_FAR])
+        for s_l, x_l in lamps[j0:j1]:
+            z = s_l - s_cam
+            xc = self.cx + self.f * (x_l - x_cam) / z
+            yc = self.cy - self.f * (6.4 - self.h) / z
+            r = max(self.f * 1.3 / z, 1.5)
+            c0, c1 = max(int(xc - 3 * r), 0), min(int(xc + 3 * r) + 1, self.S)
+            r0, r1 = max(int(yc - 3 * r), 0), min(int(yc + 3 * r) + 1, self.S)
+            if c0 >= c1 or r0 >= r1:
+                continue
+            d2 = (self.ys[r0:r1, None] - yc) ** 2 + (self.xs[None, c0:c1] - xc) ** 2
+            out[r0:r1, c0:c1] += (170.0 * np.exp(-d2 / (r * r)))[..., None]
+
+    def _snow(self, out, rng):
+        S = self.S
+        n = int(self.cond.snowfall * (S / 256) ** 2)
+        ys = rng.integers(0, S, n)
+        xs = rng.integers(0, S, n)
+        val = rng.uniform(200, 250, n).astype(np.float32)[:, None]
+        out[ys, xs] = np.maximum(out[ys, xs], val)
+        big = n // 4
+        y2, x2 = np.minimum(ys[:big] + 1, S - 1), np.minimum(xs[:big] + 1, S - 1)
+        for yy, xx in ((y2, xs[:big]), (ys[:big], x2), (y2, x2)):
+            out[yy, xx] = np.maximum(out[yy, xx], val[:big])
