@@ -130,6 +130,10 @@ def test_energy_arithmetic():
     assert rep.chip_uj == pytest.approx(10 * 100 * 1.87e-12 * 1e6)
     assert rep.system_uj == pytest.approx(2.5 * 1.33)  # W x us = uJ
     assert rep.energy_uj == pytest.approx(rep.chip_uj + rep.system_uj)
+    assert (t.chip_uj, t.energy_uj) == (pytest.approx(rep.chip_uj), pytest.approx(rep.energy_uj))
+    before = t.energy_uj
+    t.charge_call("global_or")  # 1 us, no ICWs
+    assert t.energy_uj - before == pytest.approx(2.5 * 1.0)
     low = TimingModel(constants=dataclasses.replace(K, system_power_w=1.0))
     low.charge_kernel({"digital": 10})
     assert low.report().system_uj == pytest.approx(1.33)

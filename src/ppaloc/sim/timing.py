@@ -441,6 +441,20 @@ class TimingModel:
         return self._total_us
 
     @property
+    def chip_uj(self) -> float:
+        """Chip operation energy since the last :meth:`reset`, microjoules."""
+        return self._chip_uj
+
+    @property
+    def energy_uj(self) -> float:
+        """Total modelled energy (chip + system power x time) since the last reset, uJ.
+
+        Differences of ``now_us`` and ``energy_uj`` before and after a frame give that
+        frame's modelled latency and energy.
+        """
+        return self._chip_uj + self.constants.system_power_w * self._total_us
+
+    @property
     def current_stage(self) -> str:
         """Name of the stage costs are charged to now."""
         return "/".join(self._stack) or _UNSTAGED
