@@ -1,0 +1,418 @@
+"""The weighted-node filter (Algorithm 1 of the paper) on the host.
+
+Per frame, in this order (docs/ppa8.md; docs/localise.md has the reasoning):
+
+1. motion: forward or stay; on forward ``w_i := w_{i-1}`` along the map and ``w_0 := 0``;
+2. likelihood ``mu_i`` in register units, scaled to ``mu_s = mu * 2**-shift``;
+3. update ``w_i += alpha - mu_s_i``;
+4. detection: the highest weight, ties to the candidate nearest the previous estimate;
+5. every ``k``-th frame the adjustment ``w_i -= gamma * max(W)``.
+
+``arithmetic="float"`` runs this in float32 without saturation; ``arithmetic="ppa8"`` in
+the register arithmetic of docs/ppa8.md (saturation, integer DAC constants, an integer
+detection threshold), exactly, in float64 (every value is a dyadic rational with few bits).
+
+The weights live in one contiguous array in a rotated frame: node ``i`` is element
+``(i + offset) % N``. A forward move decrements ``offset`` and zeroes one element instead
+of moving N weights.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.base import Estimate
+from ppaloc.localise.likelihood import LbpDistance, LowresDistance
+from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel, OracleMotion
+from ppaloc.place import block_sums, lbp_descriptor, lowres_image
+from ppaloc.topomap import TopoMap, build_topomap
+
+__all__ = ["GAMMAS", "WeightedNodeLocaliser", "lowres_scale", "suggest_alpha"]
+
+GAMMAS = (0.0, 0.125, 0.25, 0.5, 1.0)
+"""Adjustment factors a PPA applies by halving (docs/ppa8.md)."""
+
+_REPRESENTATIONS = ("lowres", "lbp")
+_MOTIONS = ("image", "always_forward", "oracle")
+_ARITHMETICS = ("float", "ppa8")
+_W_MIN, _W_MAX = -127.0, 127.0  # the weight clip of the ``add`` macro (docs/ppa8.md)
+_T_MIN, _T_MAX = -128.0, 127.0  # any other register write
+
+
+def lowres_scale(shift: int) -> float:
+    """Factor from the exact low-res total ``T`` to ``mu_s`` (register units): 2**-(17+shift)."""
+    return 2.0 ** -(17 + shift)
+
+
+def _distance_scale(representation: str, shift: int, exact: bool) -> float:
+    """Factor from a raw integer distance to ``mu_s`` in register units.
+
+    lowres exact: ``T / 2**17``; lowres quantised SAD (grey levels): ``SAD / 128``; lbp:
+    ``2 * popcount``; all times ``2**-shift``.
+    """
+    if representation == "lbp":
+        return 2.0 ** (1 - shift)
+    return lowres_scale(shift) if exact else 2.0 ** -(7 + shift)
+
+
+def _consecutive_and_far_mu(topomap: TopoMap, shift: int) -> tuple[np.ndarray, np.ndarray]:
+    """``mu_s`` between consecutive nodes and between nodes half the map apart."""
+    d = topomap.descriptors
+    n = len(d)
+    far = (np.arange(n) + n // 2) % n
+    if topomap.kind == "lbp":
+        x = np.asarray(d, np.uint32)
+        near = np.bitwise_count(x[1:] ^ x[:-1]).astype(np.float64)
+        away = np.bitwise_count(x ^ x[far]).astype(np.float64)
+    else:
+        x = np.asarray(d, np.int64).reshape(n, -1)
+        near = np.abs(x[1:] - x[:-1]).sum(axis=1).astype(np.float64) * 1024
+        away = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * 1024
+    scale = _distance_scale(topomap.kind, shift, exact=True)
+    return near * scale, away * scale
+
+
+def suggest_alpha(topomap: TopoMap, shift: int = 2, quantile: float = 0.99) -> int:
+    """Choose ``alpha`` from the map alone: the ``quantile`` of unrelated-place likelihoods.
+
+    ``alpha`` is the scaled likelihood at which a node neither gains nor loses weight.
+    Only *differences* between nodes decide the estimate, so ``alpha`` matters in two
+    places: a true match seen under new conditions (season, light) scores worse than
+    anything in the map itself, and if ``alpha`` sits below it the true node's weight
+    sinks below the 0 that enters node 0 on every forward move (the estimate then sticks
+    to node 0); too high and every weight climbs to the register bound (ppa8) faster than
+    the adjustment takes it off. The map gives an upper reference without any query:
+    nodes half the map apart are unrelated places, and a true match under other
+    conditions is rarely worse than the ``quantile`` of their ``mu_s``. The result is
+    rounded up to an integer (the PPA loads it through the DAC).
+
+    Parameters
+    ----------
+    topomap : TopoMap
+        A map of kind ``"lowres"`` or ``"lbp"`` with at least 3 nodes.
+    shift : int
+        The filter's likelihood shift ``s`` (``mu_s = mu * 2**-s``).
+    quantile : float
+        Which quantile of the unrelated-pair likelihoods (default 0.99).
+
+    Returns
+    -------
+    int
+        ``alpha`` in [0, 127].
+
+    Examples
+    --------
+    >>> from ppaloc.topomap import TopoMap
+    >>> m = TopoMap("lbp", np.array([0, 0xF, 0xFF, 0xFFF], np.uint32))
+    >>> suggest_alpha(m, shift=0)  # far pairs differ in 8 bits: mu = 16
+    16
+    """
+    if topomap.kind not in _REPRESENTATIONS:
+        raise PpalocError(f"cannot suggest alpha for a map of kind {topomap.kind!r}")
+    if len(topomap) < 3:
+        raise PpalocError(
+            f"a map of {len(topomap)} nodes is too small to choose alpha from; pass alpha= "
+            "explicitly"
+        )
+    if not 0.0 <= quantile <= 1.0:
+        raise PpalocError(f"quantile={quantile!r} must be in [0, 1]")
+    _, away = _consecutive_and_far_mu(topomap, shift)
+    value = float(np.quantile(away, quantile))
+    return int(min(max(math.ceil(value), 0), 127))
+
+
+def _check_int(name: str, value: Any, low: int, high: int | None = None) -> int:
+    if not isinstance(value, int | np.integer) or isinstance(value, bool):
+        raise PpalocError(f"{name}={value!r} must be an integer")
+    if value < low or (high is not None and value > high):
+        hint = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise PpalocError(f"{name}={value!r} must be {hint}")
+    return int(value)
+
+
+class WeightedNodeLocaliser:
+    """The paper's weighted-node filter over a 1-D topological map (Algorithm 1).
+
+    Parameters
+    ----------
+    representation : {"lowres", "lbp"}
+        Node kind: 8x8 low-res images compared by mean absolute difference, or 32-bit LBP
+        descriptors compared by Hamming distance.
+    alpha : int or float, optional
+        Likelihood at which a node neither gains nor loses weight. None (default) takes
+        :func:`suggest_alpha` of the map when it is built or loaded. Must be an integer for
+        ``arithmetic="ppa8"``.
+    gamma : float
+        Adjustment factor, one of 0, 1/8, 1/4, 1/2, 1 (default 1/2): every ``k`` frames
+        ``gamma * max(W)`` is taken off every weight, so the best weight stays away from the
+        saturation bound and ties at 127 are rare.
+    k : int
+        Frames between adjustments (default 4).
+    shift : int
+        Likelihood scale ``mu_s = mu * 2**-shift`` (default 2): with ``mu`` up to 64-127
+        register units, ``2**-2`` keeps one frame's update within about +-16 so that a
+        weight needs several consistent frames to saturate (the filter's memory).
+    motion : {"image", "always_forward", "oracle"}
+        Motion model (default ``"image"``, see :mod:`ppaloc.localise.motion`).
+    arithmetic : {"float", "ppa8"}
+        ``"float"``: float32 weights, no saturation, the live low-res image quantised like
+        a node. ``"ppa8"``: the register arithmetic of docs/ppa8.md, exactly.
+    confidence_radius : int
+        ``R`` of the confidence score (default 10 nodes): the best weight minus the best
+        weight outside nodes ``node - R .. node + R``.
+    ranking_k : int
+        How many nodes ``Estimate.ranking`` lists, best first (default 10; 0 = none).
+    record_weights : bool
+        Put a copy of the weights (map order, after the frame) in every Estimate.
+    oracle_moves : sequence of bool, optional
+        Ground-truth moves for ``motion="oracle"`` (a dataset's ``query_moved``).
+    motion_margin, motion_shift, motion_min_support : int
+        Parameters of the image motion model (:class:`ImageMotion`).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> frames = rng.integers(0, 256, (6, 256, 256), dtype=np.uint8)
+    >>> loc = WeightedNodeLocaliser("lbp", motion="always_forward", alpha=8)
+    >>> _ = loc.build_map(frames)
+    >>> [loc.step(f).node for f in frames[2:5]]
+    [2, 3, 4]
+    """
+
+    def __init__(
+        self,
+        representation: str = "lowres",
+        *,
+        alpha: float | None = None,
+        gamma: float = 0.5,
+        k: int = 4,
+        shift: int = 2,
+        motion: str = "image",
+        arithmetic: str = "float",
+        confidence_radius: int = 10,
+        ranking_k: int = 10,
+        record_weights: bool = False,
+        oracle_moves: Sequence[bool] | np.ndarray | None = None,
+        motion_margin: int = 3,
+        motion_shift: int = 7,
+        motion_min_support: int = 1024,
+    ) -> None:
+        if representation not in _REPRESENTATIONS:
+            raise PpalocError(
+                f"representation={representation!r} is not one of {', '.join(_REPRESENTATIONS)}"
+            )
+        if arithmetic not in _ARITHMETICS:
+            raise PpalocError(
+                f"arithmetic={arithmetic!r} is not one of {', '.join(_ARITHMETICS)}"
+            )
+        if motion not in _MOTIONS:
+            raise PpalocError(f"motion={motion!r} is not one of {', '.join(_MOTIONS)}")
+        if gamma not in GAMMAS:
+            raise PpalocError(
+                f"gamma={gamma!r} must be one of {GAMMAS} (a PPA scales only by halving)"
+            )
+        self.k = _check_int("k", k, 1)
+        self.shift = _check_int("shift", shift, 0, 16)
+        self.confidence_radius = _check_int("confidence_radius", confidence_radius, 0)
+        self.ranking_k = _check_int("ranking_k", ranking_k, 0)
+        if alpha is not None:
+            if arithmetic == "ppa8":
+                alpha = _check_int("alpha", alpha, -1, 127)
+            elif not math.isfinite(float(alpha)):
+                raise PpalocError(f"alpha={alpha!r} must be a finite number")
+        if motion == "oracle":
+            if oracle_moves is None:
+                raise PpalocError(
+                    "motion='oracle' needs oracle_moves= (e.g. the dataset's query_moved)"
+                )
+            self._motion: MotionModel = OracleMotion(oracle_moves)
+        elif motion == "always_forward":
+            self._motion = AlwaysForward()
+        else:
+            self._motion = ImageMotion(motion_margin, motion_shift, motion_min_support)
+        self.representation = representation
+        self.arithmetic = arithmetic
+        self.motion = motion
+        self.gamma = float(gamma)
+        self.alpha_given = alpha
+        self.alpha: float | None = alpha
+        self.record_weights = bool(record_weights)
+        self.name = f"weighted-node-{representation}"
+        self._exact = arithmetic == "ppa8"
+        self._dtype = np.float64 if self._exact else np.float32
+        self.topomap: TopoMap | None = None
+        self._distance: LowresDistance | LbpDistance | None = None
+        self._w = np.zeros(0, self._dtype)
+
+    # -- map -------------------------------------------------------------------------------
+
+    def build_map(self, frames: Iterable[np.ndarray]) -> TopoMap:
+        """Build the map from a reference traversal (one node per sensor frame) and use it."""
+        frames = list(frames)
+        if not frames:
+            raise PpalocError("the reference traversal is empty: a map needs at least one frame")
+        topomap = build_topomap(frames, self.representation)
+        self.use_map(topomap)
+        return topomap
+
+    def use_map(self, topomap: TopoMap) -> None:
+        """Localise against ``topomap`` (e.g. one loaded from a file) from now on."""
+        if topomap.kind != self.representation:
+            raise PpalocError(
+                f"the map holds {topomap.kind!r} nodes but this localiser uses "
+                f"{self.representation!r}; build the map with representation="
+                f"{topomap.kind!r} or choose a matching map"
+            )
+        if len(topomap) == 0:
+            raise PpalocError("the map has no nodes")
+        if self.representation == "lbp":
+            self._distance = LbpDistance(np.asarray(topomap.descriptors, np.uint32))
+            self._raw = np.empty(len(topomap), np.uint8)
+        else:
+            self._distance = LowresDistance(np.asarray(topomap.descriptors, np.uint8))
+            self._raw = np.empty(len(topomap), self._dtype)
+        self.topomap = topomap
+        if self.alpha_given is None:
+            self.alpha = float(suggest_alpha(topomap, self.shift)) if len(topomap) >= 3 else 0.0
+        self._w = np.zeros(len(topomap), self._dtype)
+        self._term = np.empty(len(topomap), self._dtype)
+        self.reset()
+
+    # -- per query ---------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Forget the query: zero weights, no previous estimate or frame, frame count 0."""
+        self._w[:] = 0
+        self._offset = 0
+        self._prev: int | None = None
+        self._frames = 0
+        self._motion.reset()
+
+    def _require_map(self) -> None:
+        if self._distance is None:
+            raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
+
+    def step(self, frame: np.ndarray) -> Estimate:
+        """Localise one new sensor frame ((256, 256) uint8); see the module doc."""
+        self._require_map()
+        n = len(self._w)
+        self._frames += 1
+        moved = self._motion.step(frame)
+        if moved:
+            self._offset = (self._offset - 1) % n
+            self._w[self._offset] = 0  # what enters node 0: the array edge reads 0
+        term = self._likelihood_term(frame)
+        self._add_in_map_order(term)
+        node, top = self._detect()
+        score = self._confidence(node, top)
+        ranking = self._ranking(node) if self.ranking_k else None
+        if self._frames % self.k == 0 and self.gamma:
+            self._adjust(top)
+        weights = self.weights() if self.record_weights else None
+        self._prev = node
+        return Estimate(node=node, score=score, moved=moved, ranking=ranking, weights=weights)
+
+    def localise(self, frames: Iterable[np.ndarray]) -> list[Estimate]:
+        """``reset()``, then ``step`` every frame in order (a convenience; still past-only)."""
+        self.reset()
+        return [self.step(f) for f in frames]
+
+    def weights(self) -> np.ndarray:
+        """A copy of the current weights in map order (node 0 first)."""
+        return np.roll(self._w, -self._offset)
+
+    # -- the steps ---------------------------------------------------------------------------
+
+    def _likelihood_term(self, frame: np.ndarray) -> np.ndarray:
+        """``alpha - mu_s`` per node, in map order (clipped to a register in ppa8)."""
+        raw, term = self._raw, self._term
+        if self.representation == "lbp":
+            self._distance(lbp_descriptor(frame), raw)
+        elif self._exact:
+            self._distance.exact(block_sums(frame, 8), raw)
+        else:
+            self._distance.sad(lowres_image(frame), raw)
+        scale = _distance_scale(self.representation, self.shift, self._exact)
+        np.multiply(raw, self._dtype(-scale), out=term)
+        term += self._dtype(self.alpha)
+        if self._exact:
+            np.clip(term, _T_MIN, _T_MAX, out=term)
+        return term
+
+    def _add_in_map_order(self, term: np.ndarray) -> None:
+        w, off = self._w, self._offset
+        n = len(w)
+        w[off:] += term[: n - off]
+        w[:off] += term[n - off :]
+        if self._exact:
+            np.clip(w, _W_MIN, _W_MAX, out=w)
+
+    def _to_node(self, physical: np.ndarray | int) -> np.ndarray | int:
+        return (physical - self._offset) % len(self._w)
+
+    def _detect(self) -> tuple[int, float]:
+        """Return (node, threshold): the candidate nearest the previous estimate."""
+        w = self._w
+        top = float(w.max())
+        threshold = math.floor(top) if self._exact else top
+        candidates = self._to_node(np.flatnonzero(w >= threshold))
+        if len(candidates) == 1:
+            return int(candidates[0]), threshold
+        candidates = np.sort(candidates)
+        if self._prev is None:
+            return int(candidates[0]), threshold
+        # nearest to the previous estimate; argmin takes the first, i.e. the smaller index
+        return int(candidates[np.argmin(np.abs(candidates - self._prev))]), threshold
+
+    def _max_outside(self, node: int) -> float | None:
+        """The largest weight outside nodes ``node - R .. node + R`` (None if there is none)."""
+        n, r = len(self._w), self.confidence_radius
+        lo, hi = max(node - r, 0), min(node + r + 1, n)
+        best = None
+        for a, b in ((0, lo), (hi, n)):  # logical ranges [a, b)
+            for pa, pb in self._physical(a, b):
+                m = float(self._w[pa:pb].max())
+                best = m if best is None else max(best, m)
+        return best
+
+    def _physical(self, a: int, b: int) -> list[tuple[int, int]]:
+        """Physical slices covering logical nodes [a, b)."""
+        if b <= a:
+            return []
+        n, off = len(self._w), self._offset
+        pa, pb = (a + off) % n, (b + off) % n or n
+        if pa < pb:
+            return [(pa, pb)]
+        return [(pa, n), (0, pb)]
+
+    def _confidence(self, node: int, top: float) -> float:
+        """Best weight minus the best weight outside +-R nodes (0 when the map is smaller)."""
+        best = float(self._w[(node + self._offset) % len(self._w)])
+        outside = self._max_outside(node)
+        return 0.0 if outside is None else best - outside
+
+    def _ranking(self, node: int) -> np.ndarray:
+        """The ``ranking_k`` best nodes, best first, starting with the estimate."""
+        w = self._w
+        k = min(self.ranking_k, len(w))
+        if k < len(w):
+            top = np.argpartition(w, len(w) - k - 1)[len(w) - k - 1 :]
+        else:
+            top = np.arange(len(w))
+        top = top[np.argsort(-w[top], kind="stable")]
+        nodes = self._to_node(top)
+        nodes = nodes[nodes != node]
+        return np.concatenate(([node], nodes))[:k].astype(np.int64)
+
+    def _adjust(self, top: float) -> None:
+        w = self._w
+        if self._exact:
+            w -= math.floor(self.gamma * top)  # an integer through the DAC
+            np.clip(w, _W_MIN, _W_MAX, out=w)
+        else:
+            w -= self._dtype(self.gamma * top)
