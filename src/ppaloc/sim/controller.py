@@ -206,7 +206,7 @@ class ControllerMixin:
         if self.rows % n or self.cols % n:
             raise SimulatorError(
                 f"{call} needs rows and cols divisible by {n}, the array is "
-                f"{self.rows}x{self.cols}; use a {n * 32}x{n * 32} or 256x256 array"
+                f"{self.rows}x{self.cols}; use sizes divisible by {n} (e.g. 256x256)"
             )
         br, bc = self.rows // n, self.cols // n
         return plane.reshape(n, br, n, bc).mean(axis=(1, 3), dtype=np.float64)
