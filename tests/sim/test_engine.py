@@ -302,3 +302,14 @@ def test_inspection_helpers_validate(dsim: Scamp5) -> None:
         Scamp5(rows=0)
     with pytest.raises(SimulatorError, match="NaN or infinity into A"):
         dsim.write(A, np.full((4, 5), np.nan))
+
+
+def test_any_op_table_row_can_be_issued_by_name(sim: Scamp5) -> None:
+    from ppaloc.sim import OPS
+
+    assert {"bus", "bus2", "bus3", "where", "all", "rpix", "nop", "DNEWS0"} <= set(OPS)
+    assert all(spec.clock in ("analog", "digital", "dnews", "nop") for spec in OPS.values())
+    sim.icw("bus", (D,), (A, B))
+    assert np.array_equal(sim.read(D), -3 * X)
+    with pytest.raises(RegisterMisuseError, match="'blur' is not an instruction; use one of"):
+        sim.icw("blur", (D,), (A,))

@@ -311,13 +311,14 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
     # ---------------------------------------------------------------- compilation
     def _compile(self, ins: Instruction) -> Op:
-        """A closure performing ``ins`` on this simulator's planes."""
-        return getattr(self, f"_compile_{ins.op}")(ins)
+        """A closure performing ``ins`` on this simulator's planes (built by its op table row)."""
+        return ins.spec.build(self, ins)
 
-    def _compile_nop(self, ins: Instruction) -> Op:
+    # Building blocks the op table (isa.OPS) composes instructions from.
+    def _op_nop(self, ins: Instruction) -> Op:
         return _noop
 
-    def _compile_rpix(self, ins: Instruction) -> Op:
+    def _op_rpix(self, ins: Instruction) -> Op:
         pix = self._a[PIX.index]
         level = self.noise.pixel_offset
 
@@ -357,16 +358,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return total
 
-    def _compile_bus(self, ins: Instruction) -> Op:
-        return self._analog_transfer(ins, 1)
-
-    def _compile_bus2(self, ins: Instruction) -> Op:
-        return self._analog_transfer(ins, 2)
-
-    def _compile_bus3(self, ins: Instruction) -> Op:
-        return self._analog_transfer(ins, 3)
-
-    def _analog_transfer(self, ins: Instruction, parts: int) -> Op:
+    def _op_transfer(self, ins: Instruction, parts: int) -> Op:
         """``dst := -(sum of sources) / parts`` for every destination, FLAG-masked."""
         a = self._a
         total = self._sum_closure(ins.srcs)
@@ -446,7 +438,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return run
 
-    def _compile_where(self, ins: Instruction) -> Op:
+    def _op_where(self, ins: Instruction) -> Op:
         total = self._sum_closure(ins.srcs)
         t0 = self._t[0]
         flag = self._d[_FLAG_I]
@@ -462,7 +454,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return where
 
-    def _compile_all(self, ins: Instruction) -> Op:
+    def _op_flag_all(self, ins: Instruction) -> Op:
         flag = self._d[_FLAG_I]
 
         def all_() -> None:
@@ -491,13 +483,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
     def _dsrc(self, ins: Instruction) -> list[np.ndarray]:
         return [self._d[s.index] for s in ins.srcs]
 
-    def _compile_SET(self, ins: Instruction) -> Op:
-        return self._set_clear(ins, True)
-
-    def _compile_CLR(self, ins: Instruction) -> Op:
-        return self._set_clear(ins, False)
-
-    def _set_clear(self, ins: Instruction, value: bool) -> Op:
+    def _op_fill(self, ins: Instruction, value: bool) -> Op:
         planes = [self._d[d.index] for d in ins.dsts if d.index != R12.index]
         r12 = any(d.index == R12.index for d in ins.dsts)
         p12 = self._d[R12.index]
@@ -514,13 +500,11 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return set_clear
 
-    def _compile_MOV(self, ins: Instruction) -> Op:
+    def _op_copy(self, ins: Instruction, invert: bool) -> Op:
         (s,) = self._dsrc(ins)
+        if invert:
+            return self._digital_store(ins.dsts[0], lambda out: np.logical_not(s, out=out))
         return self._digital_store(ins.dsts[0], lambda out: np.copyto(out, s))
-
-    def _compile_NOT(self, ins: Instruction) -> Op:
-        (s,) = self._dsrc(ins)
-        return self._digital_store(ins.dsts[0], lambda out: np.logical_not(s, out=out))
 
     def _or_into(self, srcs: list[np.ndarray], invert: bool) -> Callable[[np.ndarray], None]:
         first, rest = srcs[0], srcs[1:]
@@ -537,13 +521,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return compute
 
-    def _compile_OR(self, ins: Instruction) -> Op:
-        return self._digital_store(ins.dsts[0], self._or_into(self._dsrc(ins), False))
+    def _op_or(self, ins: Instruction, invert: bool) -> Op:
+        return self._digital_store(ins.dsts[0], self._or_into(self._dsrc(ins), invert))
 
-    def _compile_NOR(self, ins: Instruction) -> Op:
-        return self._digital_store(ins.dsts[0], self._or_into(self._dsrc(ins), True))
-
-    def _compile_WHERE(self, ins: Instruction) -> Op:
+    def _op_flag_or(self, ins: Instruction) -> Op:
         compute = self._or_into(self._dsrc(ins), False)
         flag = self._d[_FLAG_I]
 
@@ -553,25 +534,16 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return where
 
-    def _compile_LATCH(self, ins: Instruction) -> Op:
-        compute = self._or_into(self._dsrc(ins), False)
-        return lambda: compute(self._latch)
+    def _op_latch(self, ins: Instruction, invert: bool) -> Op:
+        compute = self._or_into(self._dsrc(ins), invert)
+        latch = self._latch
+        return lambda: compute(latch)
 
-    def _compile_LATCHN(self, ins: Instruction) -> Op:
-        compute = self._or_into(self._dsrc(ins), True)
-        return lambda: compute(self._latch)
-
-    def _compile_UNLATCH(self, ins: Instruction) -> Op:
+    def _op_unlatch(self, ins: Instruction) -> Op:
         latch = self._latch
         return self._digital_store(ins.dsts[0], lambda out: np.copyto(out, latch))
 
-    def _compile_DNEWS0(self, ins: Instruction) -> Op:
-        return self._dnews(ins, False)
-
-    def _compile_DNEWS1(self, ins: Instruction) -> Op:
-        return self._dnews(ins, True)
-
-    def _dnews(self, ins: Instruction, edge: bool) -> Op:
+    def _op_dnews(self, ins: Instruction, edge: bool) -> Op:
         (src,) = self._dsrc(ins)
         tb = self._tb[1]
         rows, cols = self.rows, self.cols

@@ -5,8 +5,11 @@ processing elements in one clock. Here an ICW is an :class:`Instruction`: an ope
 name, its destination and source registers, and (for messages and listings) the macro call
 it came from. :data:`OPS` describes every primitive once: its clock class (which sets its
 cost), how many destinations and sources of which kind it takes, and a one-line meaning.
-The engine turns an instruction into a bound numpy operation by calling
-``engine._compile_<op>``; to add an instruction, add a row here and that one method.
+Each row also says how the engine builds the instruction from its building blocks
+(``Scamp5._op_*``: a FLAG-masked analogue transfer, an OR of digital planes, ...) into a
+bound numpy operation. To add an instruction, add its row here; give it a method in
+``macros.ProgramAPI`` if programs should call it by name (``k.icw(op, dsts, srcs)`` issues
+any row directly).
 
 Clock classes follow the ICW's clock field in the SCAMP-5 headers: analogue bus operations,
 ``where``, ``all``/``ALL`` and ``rpix`` use the analogue clock; ``SET``/``CLR``/``MOV``/
@@ -16,7 +19,9 @@ Clock classes follow the ICW's clock field in the SCAMP-5 headers: analogue bus 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from ppaloc.errors import RegisterMisuseError
 from ppaloc.sim.registers import Register
@@ -44,6 +49,9 @@ class OpSpec:
         Inclusive (min, max) numbers of destinations and sources.
     meaning : str
         What the instruction does in every flagged element.
+    build : callable
+        ``build(engine, instruction) -> op``: the engine building block that performs it
+        (``op()`` then runs it on the engine's planes).
     """
 
     name: str
@@ -53,36 +61,56 @@ class OpSpec:
     n_dst: tuple[int, int]
     n_src: tuple[int, int]
     meaning: str
+    build: Callable[[Any, Instruction], Callable[[], None]]
 
 
-def _spec(name, clock, dst_kind, src_kind, n_dst, n_src, meaning) -> tuple[str, OpSpec]:
-    return name, OpSpec(name, clock, dst_kind, src_kind, n_dst, n_src, meaning)
+def _spec(name, clock, dst_kind, src_kind, n_dst, n_src, meaning, build) -> tuple[str, OpSpec]:
+    return name, OpSpec(name, clock, dst_kind, src_kind, n_dst, n_src, meaning, build)
 
 
 #: Every primitive, by name. ``a``: analogue, ``d``: digital register.
 OPS: dict[str, OpSpec] = dict(
     [
-        _spec("nop", "nop", None, None, (0, 0), (0, 0), "nothing"),
-        _spec("rpix", "analog", None, None, (0, 0), (0, 0), "PIX := reset level"),
-        _spec("bus", "analog", "analog", "analog", (1, 1), (0, 4), "a := -(sum of sources)"),
-        _spec("bus2", "analog", "analog", "analog", (2, 2), (0, 2), "a, b := -(sum)/2"),
-        _spec("bus3", "analog", "analog", "analog", (3, 3), (1, 1), "a, b, c := -src/3"),
-        _spec("where", "analog", None, "analog", (0, 0), (1, 3), "FLAG := (sum > 0)"),
-        _spec("all", "analog", None, None, (0, 0), (0, 0), "FLAG := 1"),
-        _spec("SET", "digital", "digital", None, (1, 4), (0, 0), "d... := 1"),
-        _spec("CLR", "digital", "digital", None, (1, 4), (0, 0), "d... := 0"),
-        _spec("MOV", "digital", "digital", "digital", (1, 1), (1, 1), "d := s"),
-        _spec("OR", "digital", "digital", "digital", (1, 1), (2, 4), "d := OR of sources"),
-        _spec("NOR", "digital", "digital", "digital", (1, 1), (2, 4), "d := NOT(OR of sources)"),
-        _spec("NOT", "digital", "digital", "digital", (1, 1), (1, 1), "d := NOT s"),
-        _spec("WHERE", "digital", None, "digital", (0, 0), (1, 3), "FLAG := OR of sources"),
-        _spec("LATCH", "digital", None, "digital", (0, 0), (1, 2), "bus latch := OR of sources"),
-        _spec("LATCHN", "digital", None, "digital", (0, 0), (1, 2), "bus latch := NOR"),
-        _spec("UNLATCH", "digital", "digital", None, (1, 1), (0, 0), "d := bus latch"),
-        _spec("DNEWS0", "dnews", "digital", "digital", (1, 1), (1, 1), "d := OR of s_dir, edge 0"),
-        _spec("DNEWS1", "dnews", "digital", "digital", (1, 1), (1, 1), "d := OR of s_dir, edge 1"),
+        # name      clock     dst kind   src kind   n_dst   n_src   meaning, engine building block
+        _spec("nop", "nop", None, None, (0, 0), (0, 0), "nothing", lambda m, i: m._op_nop(i)),
+        _spec("rpix", "analog", None, None, (0, 0), (0, 0), "PIX := reset level",
+              lambda m, i: m._op_rpix(i)),
+        _spec("bus", "analog", "analog", "analog", (1, 1), (0, 4), "a := -(sum of sources)",
+              lambda m, i: m._op_transfer(i, 1)),
+        _spec("bus2", "analog", "analog", "analog", (2, 2), (0, 2), "a, b := -(sum)/2",
+              lambda m, i: m._op_transfer(i, 2)),
+        _spec("bus3", "analog", "analog", "analog", (3, 3), (1, 1), "a, b, c := -src/3",
+              lambda m, i: m._op_transfer(i, 3)),
+        _spec("where", "analog", None, "analog", (0, 0), (1, 3), "FLAG := (sum > 0)",
+              lambda m, i: m._op_where(i)),
+        _spec("all", "analog", None, None, (0, 0), (0, 0), "FLAG := 1",
+              lambda m, i: m._op_flag_all(i)),
+        _spec("SET", "digital", "digital", None, (1, 4), (0, 0), "d... := 1",
+              lambda m, i: m._op_fill(i, True)),
+        _spec("CLR", "digital", "digital", None, (1, 4), (0, 0), "d... := 0",
+              lambda m, i: m._op_fill(i, False)),
+        _spec("MOV", "digital", "digital", "digital", (1, 1), (1, 1), "d := s",
+              lambda m, i: m._op_copy(i, False)),
+        _spec("NOT", "digital", "digital", "digital", (1, 1), (1, 1), "d := NOT s",
+              lambda m, i: m._op_copy(i, True)),
+        _spec("OR", "digital", "digital", "digital", (1, 1), (2, 4), "d := OR of sources",
+              lambda m, i: m._op_or(i, False)),
+        _spec("NOR", "digital", "digital", "digital", (1, 1), (2, 4), "d := NOT(OR of sources)",
+              lambda m, i: m._op_or(i, True)),
+        _spec("WHERE", "digital", None, "digital", (0, 0), (1, 3), "FLAG := OR of sources",
+              lambda m, i: m._op_flag_or(i)),
+        _spec("LATCH", "digital", None, "digital", (0, 0), (1, 2), "bus latch := OR of sources",
+              lambda m, i: m._op_latch(i, False)),
+        _spec("LATCHN", "digital", None, "digital", (0, 0), (1, 2), "bus latch := NOR",
+              lambda m, i: m._op_latch(i, True)),
+        _spec("UNLATCH", "digital", "digital", None, (1, 1), (0, 0), "d := bus latch",
+              lambda m, i: m._op_unlatch(i)),
+        _spec("DNEWS0", "dnews", "digital", "digital", (1, 1), (1, 1), "d := OR of s_dir, edge 0",
+              lambda m, i: m._op_dnews(i, False)),
+        _spec("DNEWS1", "dnews", "digital", "digital", (1, 1), (1, 1), "d := OR of s_dir, edge 1",
+              lambda m, i: m._op_dnews(i, True)),
     ]
-)
+)  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)

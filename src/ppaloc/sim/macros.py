@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ppaloc.errors import RegisterMisuseError
-from ppaloc.sim.isa import Instruction, make
+from ppaloc.sim.isa import OPS, Instruction, make
 from ppaloc.sim.registers import (
     DNEWS_SELECTORS,
     NEWS,
@@ -100,6 +100,12 @@ class ProgramAPI:
 
     def _macro(self, name: str, args: Sequence[object], steps: Sequence[Step]) -> None:
         self._emit(expand(_call(name, args), steps))
+
+    def icw(self, op: str, dsts: Sequence[Register] = (), srcs: Sequence[Register] = ()) -> None:
+        """Issue any primitive of the op table by name, e.g. ``k.icw("bus", (A,), (B, C))``."""
+        if op not in OPS:
+            raise RegisterMisuseError(f"{op!r} is not an instruction; use one of {sorted(OPS)}")
+        self._prim(op, dsts, srcs)
 
     # ------------------------------------------------------------------ analogue primitives
     def nop(self) -> None:
