@@ -1,0 +1,536 @@
+"""Place-recognition metrics: the precision-recall curve and what is read off it.
+
+Every query frame gets one estimate: a predicted reference index and a confidence score
+(higher = surer). A threshold ``t`` *accepts* the queries with ``score >= t``; an accepted
+query is *correct* when its predicted index is in the query's ground-truth set (tolerance
+already applied). The curve has one point per distinct score value, from the highest
+(fewest accepted) to the lowest (all accepted): a fixed grid of thresholds would skip points
+and under-report recall at 100% precision.
+
+Precision is ``correct accepted / accepted``. Recall has three definitions in use in the
+place-recognition literature, so it is always labelled:
+
+``A`` (default)
+    correct accepted / queries that have a true match. The strict one: a query whose best
+    match is wrong still counts against recall, and queries with no true match do not.
+``B``
+    correct accepted / queries whose best match is correct. Measures only how well the
+    score separates right from wrong estimates; reaches 1 when everything is accepted.
+``C``
+    correct accepted / (correct accepted + rejected). The classic ``TP / (TP + FN)`` with
+    every rejected query counted as a false negative.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+
+__all__ = [
+    "RECALL_DEFINITIONS",
+    "Metrics",
+    "PRCurve",
+    "accuracy",
+    "auc",
+    "evaluate_estimates",
+    "is_correct",
+    "localisation_error_frames",
+    "localisation_error_m",
+    "max_f1",
+    "metrics_table",
+    "pr_curve",
+    "recall_at_100_precision",
+    "recall_at_k",
+]
+
+RECALL_DEFINITIONS: dict[str, str] = {
+    "A": "correct accepted / queries that have a true match",
+    "B": "correct accepted / queries whose best match is correct",
+    "C": "correct accepted / (correct accepted + rejected)",
+}
+"""Recall definition letter -> what it divides by (see the module docstring)."""
+
+
+def _as_ground_truth(ground_truth: Sequence[Any], n: int) -> list[np.ndarray]:
+    if len(ground_truth) != n:
+        raise ValueError(f"ground truth has {len(ground_truth)} rows for {n} estimates")
+    return [np.asarray(g, dtype=np.int64).ravel() for g in ground_truth]
+
+
+def is_correct(nodes: np.ndarray, ground_truth: Sequence[Any]) -> np.ndarray:
+    """Whether each predicted reference index is in its query's ground-truth set.
+
+    Parameters
+    ----------
+    nodes : array_like of int, shape (M,)
+        Predicted reference index per query.
+    ground_truth : sequence of array_like of int, length M
+        Accepted reference indices per query (empty: no true match).
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+
+    Examples
+    --------
+    >>> is_correct([3, 7], [[2, 3, 4], []]).tolist()
+    [True, False]
+    """
+    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    gt = _as_ground_truth(ground_truth, len(nodes))
+    return np.array([bool(np.isin(n, g)) for n, g in zip(nodes, gt, strict=True)], dtype=bool)
+
+
+@dataclass(frozen=True)
+class PRCurve:
+    """A precision-recall curve, one point per distinct score, highest threshold first.
+
+    Attributes
+    ----------
+    thresholds : ndarray of float, shape (P,)
+        Distinct score values, descending; point ``j`` accepts ``score >= thresholds[j]``.
+    precision, recall, f1 : ndarray of float, shape (P,)
+        At each threshold; recall under ``recall_definition``.
+    accepted, correct_accepted : ndarray of int, shape (P,)
+        Counts at each threshold.
+    recall_definition : str
+        ``"A"``, ``"B"`` or ``"C"`` (see :data:`RECALL_DEFINITIONS`).
+    """
+
+    thresholds: np.ndarray
+    precision: np.ndarray
+    recall: np.ndarray
+    f1: np.ndarray
+    accepted: np.ndarray
+    correct_accepted: np.ndarray
+    recall_definition: str = "A"
+
+
+def _check_recall(recall: str) -> str:
+    key = str(recall).upper()
+    if key not in RECALL_DEFINITIONS:
+        raise PpalocError(
+            f"recall definition {recall!r} is unknown; choose one of "
+            + ", ".join(f"{k} ({v})" for k, v in RECALL_DEFINITIONS.items())
+        )
+    return key
+
+
+def _f1(precision: np.ndarray, recall: np.ndarray) -> np.ndarray:
+    total = precision + recall
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, 2 * precision * recall / np.where(total > 0, total, 1), 0.0)
+
+
+def pr_curve(
+    scores: np.ndarray,
+    correct: np.ndarray,
+    has_match: np.ndarray,
+    *,
+    recall: str = "A",
+) -> PRCurve:
+    """The precision-recall curve swept over every distinct score value.
+
+    Parameters
+    ----------
+    scores : array_like of float, shape (M,)
+        Confidence per query (higher = surer); NaN is not allowed, +-inf is.
+    correct : array_like of bool, shape (M,)
+        Whether the query's predicted index is a true match (:func:`is_correct`).
+    has_match : array_like of bool, shape (M,)
+        Whether the query has any true match (non-empty ground truth).
+    recall : {"A", "B", "C"}
+        Recall definition (:data:`RECALL_DEFINITIONS`).
+
+    Returns
+    -------
+    PRCurve
+        Empty arrays when there are no queries. A ratio whose denominator is 0 is 0.
+
+    Examples
+    --------
+    >>> c = pr_curve([0.9, 0.8, 0.8, 0.1], [True, False, True, True], [True] * 4)
+    >>> c.thresholds.tolist(), c.precision.tolist(), c.recall.tolist()
+    ([0.9, 0.8, 0.1], [1.0, 0.6666666666666666, 0.75], [0.25, 0.5, 0.75])
+    """
+    definition = _check_recall(recall)
+    scores = np.asarray(scores, dtype=np.float64).ravel()
+    correct = np.asarray(correct, dtype=bool).ravel()
+    has_match = np.asarray(has_match, dtype=bool).ravel()
+    if not (len(scores) == len(correct) == len(has_match)):
+        raise ValueError(
+            f"scores, correct and has_match differ in length: "
+            f"{len(scores)}, {len(correct)}, {len(has_match)}"
+        )
+    if np.isnan(scores).any():
+        raise ValueError("scores contain NaN; a localiser must return a comparable confidence")
+    if np.any(correct & ~has_match):
+        raise ValueError("a query without a true match cannot be correct")
+    m = len(scores)
+    # Sort by score descending; the last index of each run of equal scores is one point.
+    order = np.argsort(-scores, kind="stable")
+    s = scores[order]
+    tp_cum = np.cumsum(correct[order])
+    if m:
+        last = np.flatnonzero(np.append(s[1:] != s[:-1], True))
+    else:
+        last = np.zeros(0, dtype=np.int64)
+    thresholds = s[last]
+    accepted = last + 1
+    tp = tp_cum[last] if m else np.zeros(0, dtype=np.int64)
+    precision = tp / np.maximum(accepted, 1)
+    if definition == "A":
+        denom = np.full(len(tp), int(has_match.sum()))
+    elif definition == "B":
+        denom = np.full(len(tp), int(correct.sum()))
+    else:
+        denom = tp + (m - accepted)
+    rec = np.where(denom > 0, tp / np.maximum(denom, 1), 0.0)
+    return PRCurve(
+        thresholds=thresholds,
+        precision=precision.astype(np.float64),
+        recall=rec.astype(np.float64),
+        f1=_f1(precision, rec),
+        accepted=accepted.astype(np.int64),
+        correct_accepted=tp.astype(np.int64),
+        recall_definition=definition,
+    )
+
+
+def max_f1(curve: PRCurve) -> tuple[float, float, float, float]:
+    """The best F1 on the curve and its precision, recall and threshold.
+
+    Ties go to the highest threshold (the first point). An empty curve gives zeros and a
+    NaN threshold.
+
+    Examples
+    --------
+    >>> c = pr_curve([0.9, 0.8, 0.8, 0.1], [True, False, True, True], [True] * 4)
+    >>> [round(v, 4) for v in max_f1(c)]
+    [0.75, 0.75, 0.75, 0.1]
+    """
+    if len(curve.f1) == 0:
+        return 0.0, 0.0, 0.0, float("nan")
+    j = int(np.argmax(curve.f1))
+    return (
+        float(curve.f1[j]),
+        float(curve.precision[j]),
+        float(curve.recall[j]),
+        float(curve.thresholds[j]),
+    )
+
+
+def auc(curve: PRCurve) -> float:
+    """Area under the precision-recall curve by the trapezoid rule.
+
+    The curve is taken from recall 0, where precision is held at the first point's value
+    (the most confident threshold), to the last point (everything accepted). Recall never
+    decreases along the curve, so the area is in [0, 1].
+
+    Examples
+    --------
+    >>> auc(pr_curve([0.9, 0.1], [True, True], [True, True]))
+    1.0
+    """
+    if len(curve.recall) == 0:
+        return 0.0
+    r = np.concatenate([[0.0], curve.recall])
+    p = np.concatenate([[curve.precision[0]], curve.precision])
+    return float(np.sum(np.diff(r) * (p[1:] + p[:-1]) / 2))
+
+
+def recall_at_100_precision(curve: PRCurve) -> float:
+    """The highest recall at a threshold where every accepted query is correct (0 if none).
+
+    Examples
+    --------
+    >>> recall_at_100_precision(pr_curve([0.9, 0.8, 0.1], [True, False, True], [True] * 3))
+    0.3333333333333333
+    """
+    perfect = curve.precision >= 1.0
+    return float(curve.recall[perfect].max()) if perfect.any() else 0.0
+
+
+def accuracy(correct: np.ndarray) -> float:
+    """Fraction of all queries whose best match is correct (every estimate accepted).
+
+    Examples
+    --------
+    >>> accuracy([True, False, True, True])
+    0.75
+    """
+    correct = np.asarray(correct, dtype=bool)
+    return float(correct.mean()) if correct.size else 0.0
+
+
+def recall_at_k(
+    rankings: Sequence[np.ndarray | None],
+    ground_truth: Sequence[Any],
+    nodes: np.ndarray | None = None,
+) -> np.ndarray:
+    """Recall@K for K = 1 .. the longest ranking: the fraction of queries with a true match
+    whose K best candidates include a correct one.
+
+    Parameters
+    ----------
+    rankings : sequence of (array_like of int, shape (K_i,)) or None, length M
+        Candidates per query, best first, as reference indices. ``None`` (a frame where
+        the method did not rank) counts as the single candidate ``nodes[i]``.
+    ground_truth : sequence of array_like of int, length M
+    nodes : array_like of int, shape (M,), optional
+        Predicted reference index per query, used where a ranking is ``None``.
+
+    Returns
+    -------
+    ndarray of float, shape (K,)
+        ``out[k - 1]`` is recall@k. Empty when no query has a ranking.
+
+    Examples
+    --------
+    >>> recall_at_k([[4, 2, 9], [1, 5, 6]], [[2], [6, 7]]).tolist()
+    [0.0, 0.5, 1.0]
+    """
+    gt = _as_ground_truth(ground_truth, len(rankings))
+    ranks = []
+    for i, r in enumerate(rankings):
+        if r is None:
+            r = [] if nodes is None else [int(np.asarray(nodes).ravel()[i])]
+        ranks.append(np.asarray(r, dtype=np.int64).ravel())
+    k_max = max((len(r) for r in ranks), default=0)
+    has_match = np.array([len(g) > 0 for g in gt], dtype=bool)
+    if k_max == 0 or not has_match.any():
+        return np.zeros(k_max, dtype=np.float64)
+    # First position (1-based) of a correct candidate; k_max + 1 when none.
+    first = np.full(len(ranks), k_max + 1, dtype=np.int64)
+    for i, (r, g) in enumerate(zip(ranks, gt, strict=True)):
+        hits = np.flatnonzero(np.isin(r, g))
+        if hits.size:
+            first[i] = hits[0] + 1
+    first = first[has_match]
+    ks = np.arange(1, k_max + 1)
+    return (first[None, :] <= ks[:, None]).mean(axis=1)
+
+
+def localisation_error_frames(nodes: np.ndarray, ground_truth: Sequence[Any]) -> np.ndarray:
+    """Per query, how many reference frames the prediction lies outside its true set.
+
+    0 for a correct estimate; the distance to the nearest accepted reference index
+    otherwise; NaN for a query with no true match.
+
+    Returns
+    -------
+    ndarray of float, shape (M,)
+
+    Examples
+    --------
+    >>> localisation_error_frames([5, 10, 3], [[4, 5, 6], [2, 3, 4], []]).tolist()
+    [0.0, 6.0, nan]
+    """
+    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    gt = _as_ground_truth(ground_truth, len(nodes))
+    out = np.full(len(nodes), np.nan)
+    for i, (n, g) in enumerate(zip(nodes, gt, strict=True)):
+        if g.size:
+            out[i] = float(np.abs(g - n).min())
+    return out
+
+
+def localisation_error_m(
+    nodes: np.ndarray,
+    reference_positions: np.ndarray,
+    query_positions: np.ndarray,
+) -> np.ndarray:
+    """Per query, the Euclidean distance in metres from the predicted reference position
+    to the query's own position.
+
+    Parameters
+    ----------
+    nodes : array_like of int, shape (M,)
+        Predicted reference index per query.
+    reference_positions : ndarray of float, shape (N, D)
+    query_positions : ndarray of float, shape (M, D)
+
+    Returns
+    -------
+    ndarray of float, shape (M,)
+
+    Examples
+    --------
+    >>> localisation_error_m([1, 0], [[0.0, 0.0], [3.0, 4.0]], [[0.0, 0.0], [0.0, 0.0]])
+    array([5., 0.])
+    """
+    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    ref = np.asarray(reference_positions, dtype=np.float64)
+    qry = np.asarray(query_positions, dtype=np.float64)
+    ref = ref[:, None] if ref.ndim == 1 else ref
+    qry = qry[:, None] if qry.ndim == 1 else qry
+    if len(qry) != len(nodes):
+        raise ValueError(f"{len(qry)} query positions for {len(nodes)} estimates")
+    return np.linalg.norm(ref[nodes] - qry, axis=1)
+
+
+def _nan_stat(fn: Any, a: np.ndarray | None) -> float | None:
+    if a is None:
+        return None
+    finite = a[np.isfinite(a)]
+    return float(fn(finite)) if finite.size else None
+
+
+@dataclass(frozen=True)
+class Metrics:
+    """Everything :func:`evaluate_estimates` measures for one method on one dataset.
+
+    Attributes
+    ----------
+    f1_max, precision_at_f1, recall_at_f1, threshold_at_f1 : float
+        The best F1 on the PR curve and where it is reached.
+    auc : float
+        Area under the PR curve (trapezoid, see :func:`auc`).
+    recall_at_100p : float
+        Highest recall at 100% precision.
+    accuracy : float
+        Fraction of all queries whose best match is correct.
+    recall_definition : str
+        ``"A"``, ``"B"`` or ``"C"``.
+    n_queries, n_with_match, n_correct : int
+    error_frames_median, error_frames_mean : float or None
+        Of :func:`localisation_error_frames` over queries with a true match.
+    error_m_median, error_m_mean : float or None
+        Of :func:`localisation_error_m`, where positions were given.
+    recall_at_k : ndarray of float, shape (K,)
+        ``recall_at_k[k - 1]`` is recall@k (empty when the method does not rank).
+    curve : PRCurve
+    correct : ndarray of bool, shape (M,)
+    error_frames : ndarray of float, shape (M,)
+    error_m : ndarray of float, shape (M,), or None
+    """
+
+    f1_max: float
+    precision_at_f1: float
+    recall_at_f1: float
+    threshold_at_f1: float
+    auc: float
+    recall_at_100p: float
+    accuracy: float
+    recall_definition: str
+    n_queries: int
+    n_with_match: int
+    n_correct: int
+    error_frames_median: float | None
+    error_frames_mean: float | None
+    error_m_median: float | None
+    error_m_mean: float | None
+    recall_at_k: np.ndarray = field(repr=False)
+    curve: PRCurve = field(repr=False)
+    correct: np.ndarray = field(repr=False)
+    error_frames: np.ndarray = field(repr=False)
+    error_m: np.ndarray | None = field(default=None, repr=False)
+
+    def summary(self) -> dict[str, Any]:
+        """The scalar metrics as a JSON-ready dict (recall@K as ``{"1": r1, "5": r5, ...}``)."""
+        out = {
+            k: v
+            for k, v in asdict(self).items()
+            if k not in {"recall_at_k", "curve", "correct", "error_frames", "error_m"}
+        }
+        if not np.isfinite(out["threshold_at_f1"]):
+            out["threshold_at_f1"] = None
+        out["recall_at_k"] = {
+            str(k): float(self.recall_at_k[k - 1])
+            for k in (1, 5, 10, 20)
+            if k <= len(self.recall_at_k)
+        }
+        return out
+
+
+def evaluate_estimates(
+    nodes: np.ndarray,
+    scores: np.ndarray,
+    ground_truth: Sequence[Any],
+    *,
+    recall: str = "A",
+    rankings: Sequence[np.ndarray | None] | None = None,
+    reference_positions: np.ndarray | None = None,
+    query_positions: np.ndarray | None = None,
+) -> Metrics:
+    """All metrics of one run in one call.
+
+    Parameters
+    ----------
+    nodes : array_like of int, shape (M,)
+        Predicted *reference index* per query (a map node converted through the map's
+        ``frame_index``; equal when the map has one node per reference frame).
+    scores : array_like of float, shape (M,)
+        Confidence per query, higher = surer.
+    ground_truth : sequence of array_like of int, length M
+        Accepted reference indices per query (``RouteDataset.ground_truth``).
+    recall : {"A", "B", "C"}
+        Recall definition, default ``"A"`` (see :data:`RECALL_DEFINITIONS`).
+    rankings : sequence of (array_like of int or None), length M, optional
+        Candidate reference indices per query, best first, for recall@K.
+    reference_positions, query_positions : ndarray of float, optional
+        Route positions in metres, shapes (N, D) and (M, D), for the error in metres.
+
+    Returns
+    -------
+    Metrics
+
+    Raises
+    ------
+    PpalocError
+        If ``recall`` is not one of A, B, C.
+
+    Examples
+    --------
+    >>> m = evaluate_estimates([0, 1, 5, 3], [0.9, 0.8, 0.1, 0.7], [[0], [1], [2], [3]])
+    >>> round(m.f1_max, 4), m.precision_at_f1, m.recall_at_f1, m.accuracy, m.recall_at_100p
+    (0.8571, 1.0, 0.75, 0.75, 0.75)
+    """
+    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    gt = _as_ground_truth(ground_truth, len(nodes))
+    correct = is_correct(nodes, gt)
+    has_match = np.array([g.size > 0 for g in gt], dtype=bool)
+    curve = pr_curve(scores, correct, has_match, recall=recall)
+    f1, p_f1, r_f1, t_f1 = max_f1(curve)
+    err_frames = localisation_error_frames(nodes, gt)
+    err_m = None
+    if reference_positions is not None and query_positions is not None:
+        err_m = localisation_error_m(nodes, reference_positions, query_positions)
+        err_m = np.where(has_match, err_m, np.nan)
+    rk = (
+        recall_at_k(rankings, gt, nodes)
+        if rankings is not None and any(r is not None for r in rankings)
+        else np.zeros(0)
+    )
+    return Metrics(
+        f1_max=f1,
+        precision_at_f1=p_f1,
+        recall_at_f1=r_f1,
+        threshold_at_f1=t_f1,
+        auc=auc(curve),
+        recall_at_100p=recall_at_100_precision(curve),
+        accuracy=accuracy(correct),
+        recall_definition=curve.recall_definition,
+        n_queries=len(nodes),
+        n_with_match=int(has_match.sum()),
+        n_correct=int(correct.sum()),
+        error_frames_median=_nan_stat(np.median, err_frames),
+        error_frames_mean=_nan_stat(np.mean, err_frames),
+        error_m_median=_nan_stat(np.median, err_m),
+        error_m_mean=_nan_stat(np.mean, err_m),
+        recall_at_k=rk,
+        curve=curve,
+        correct=correct,
+        error_frames=err_frames,
+        error_m=err_m,
+    )
+
+
+def metrics_table(metrics: Mapping[str, Metrics]) -> list[dict[str, Any]]:
+    """One summary row per method name, in the given order (for tables and CSV)."""
+    return [{"method": name, **m.summary()} for name, m in metrics.items()]

@@ -1,0 +1,179 @@
+"""Metrics: hand-computed goldens and invariants of the PR curve."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ppaloc.errors import PpalocError
+from ppaloc.evaluate.metrics import (
+    auc,
+    evaluate_estimates,
+    is_correct,
+    localisation_error_frames,
+    localisation_error_m,
+    max_f1,
+    pr_curve,
+    recall_at_100_precision,
+    recall_at_k,
+)
+
+# Six queries; query 5 has no true match. Predictions: correct, correct, wrong, correct,
+# wrong, wrong (no match). Scores with a tie between queries 1 and 2.
+NODES = [10, 11, 40, 13, 90, 50]
+SCORES = [0.9, 0.7, 0.7, 0.5, 0.3, 0.2]
+GT = [[9, 10, 11], [10, 11, 12], [11, 12, 13], [12, 13, 14], [13, 14, 15], []]
+
+
+def test_is_correct_golden():
+    assert is_correct(NODES, GT).tolist() == [True, True, False, True, False, False]
+
+
+def test_curve_golden_recall_a():
+    c = pr_curve(SCORES, is_correct(NODES, GT), [len(g) > 0 for g in GT], recall="A")
+    # thresholds 0.9 | 0.7 (two queries at once) | 0.5 | 0.3 | 0.2
+    assert c.thresholds.tolist() == [0.9, 0.7, 0.5, 0.3, 0.2]
+    assert c.accepted.tolist() == [1, 3, 4, 5, 6]
+    assert c.correct_accepted.tolist() == [1, 2, 3, 3, 3]
+    np.testing.assert_allclose(c.precision, [1, 2 / 3, 3 / 4, 3 / 5, 3 / 6])
+    np.testing.assert_allclose(c.recall, [1 / 5, 2 / 5, 3 / 5, 3 / 5, 3 / 5])
+    f1 = [2 * p * r / (p + r) for p, r in zip(c.precision, c.recall, strict=True)]
+    np.testing.assert_allclose(c.f1, f1)
+
+
+def test_curve_golden_recall_b_and_c():
+    correct = is_correct(NODES, GT)
+    has = [len(g) > 0 for g in GT]
+    b = pr_curve(SCORES, correct, has, recall="B")
+    np.testing.assert_allclose(b.recall, [1 / 3, 2 / 3, 1, 1, 1])
+    c = pr_curve(SCORES, correct, has, recall="c")  # case-insensitive
+    # rejected = 5, 3, 2, 1, 0
+    np.testing.assert_allclose(c.recall, [1 / 6, 2 / 5, 3 / 5, 3 / 4, 3 / 3])
+    assert c.recall_definition == "C"
+
+
+def test_summary_values_golden():
+    m = evaluate_estimates(NODES, SCORES, GT)
+    # F1 per point: 1/3, 0.5333, 0.6667, 0.6, 0.5454 -> best at threshold 0.5
+    assert m.f1_max == pytest.approx(2 * 0.75 * 0.6 / 1.35)
+    assert (m.precision_at_f1, m.recall_at_f1, m.threshold_at_f1) == (0.75, 0.6, 0.5)
+    assert m.recall_at_100p == pytest.approx(0.2)
+    assert m.accuracy == pytest.approx(3 / 6)
+    assert (m.n_queries, m.n_with_match, m.n_correct) == (6, 5, 3)
+    # trapezoid from (0, 1): (0.2*1) + 0.2*(1+2/3)/2 + 0.2*(2/3+3/4)/2 + 0 + 0
+    assert m.auc == pytest.approx(0.2 + 0.2 * (5 / 3) / 2 + 0.2 * (17 / 12) / 2)
+    assert m.recall_definition == "A"
+    # errors: 0, 0, |40-13| = 27, 0, |90-15| = 75, nan
+    np.testing.assert_array_equal(m.error_frames, [0, 0, 27, 0, 75, np.nan])
+    assert m.error_frames_median == 0.0
+    assert m.error_frames_mean == pytest.approx(102 / 5)
+    assert m.error_m is None and m.error_m_median is None
+    assert len(m.recall_at_k) == 0
+
+
+def test_perfect_and_hopeless_runs():
+    perfect = evaluate_estimates([0, 1, 2], [0.1, 0.5, 0.2], [[0], [1], [2]])
+    assert (perfect.f1_max, perfect.auc, perfect.recall_at_100p, perfect.accuracy) == (1, 1, 1, 1)
+    hopeless = evaluate_estimates([5, 5, 5], [0.1, 0.5, 0.2], [[0], [1], [2]])
+    assert (hopeless.f1_max, hopeless.auc, hopeless.recall_at_100p) == (0, 0, 0)
+
+
+def test_summary_is_json_ready():
+    import json
+
+    m = evaluate_estimates(NODES, SCORES, GT, rankings=[[n, n + 1] for n in NODES])
+    text = json.dumps(m.summary())
+    back = json.loads(text)
+    assert back["f1_max"] == m.f1_max
+    assert back["recall_at_k"] == {"1": 0.6}
+
+
+def test_unknown_recall_definition_names_the_choices():
+    with pytest.raises(PpalocError, match=r"recall definition 'D' is unknown; choose one of A"):
+        evaluate_estimates(NODES, SCORES, GT, recall="D")
+
+
+def test_nan_scores_are_a_bug():
+    with pytest.raises(ValueError, match="NaN"):
+        evaluate_estimates([0], [float("nan")], [[0]])
+
+
+def test_empty_run():
+    m = evaluate_estimates([], [], [])
+    assert (m.f1_max, m.auc, m.accuracy, m.n_queries) == (0, 0, 0, 0)
+
+
+def test_recall_at_k_golden():
+    ranks = [[4, 2, 9], [1, 5, 6], None, [0, 0, 0]]
+    gt = [[2], [6, 7], [3], []]
+    # query 2 falls back to its node (3: correct at k=1); query 3 has no true match
+    np.testing.assert_allclose(recall_at_k(ranks, gt, nodes=[4, 1, 3, 0]), [1 / 3, 2 / 3, 1])
+
+
+def test_localisation_error_m_golden():
+    ref = np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]])
+    qry = np.array([[1.0, 0.0], [10.0, 3.0]])
+    np.testing.assert_allclose(localisation_error_m([0, 2], ref, qry), [1.0, np.hypot(10, 3)])
+    m = evaluate_estimates([0, 2], [1, 1], [[0], [1]], reference_positions=ref, query_positions=qry)
+    assert m.error_m_median == pytest.approx((1 + np.hypot(10, 3)) / 2)
+
+
+def test_localisation_error_frames_no_match_is_nan():
+    assert np.isnan(localisation_error_frames([3], [[]])[0])
+
+
+def test_max_f1_ties_go_to_the_highest_threshold():
+    # two points with F1 = 2/3: (p=1, r=0.5) at 0.9 and (p=0.5, r=1) at 0.5
+    c = pr_curve([0.9, 0.5, 0.5, 0.5], [True, True, False, False], [True, True, False, False])
+    np.testing.assert_allclose(c.f1, [2 / 3, 2 / 3])
+    assert max_f1(c) == (pytest.approx(2 / 3), 1.0, 0.5, 0.9)
+
+
+# -- properties ------------------------------------------------------------------------------
+
+runs = st.integers(1, 40).flatmap(
+    lambda m: st.tuples(
+        st.lists(st.integers(0, 4), min_size=m, max_size=m),  # predicted node
+        st.lists(st.integers(0, 6), min_size=m, max_size=m),  # score (ties likely)
+        st.lists(st.integers(-1, 4), min_size=m, max_size=m),  # true node, -1 = none
+    )
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(runs, st.sampled_from(["A", "B", "C"]))
+def test_values_in_unit_interval_and_recall_monotone(run, definition):
+    nodes, scores, truth = run
+    gt = [[t] if t >= 0 else [] for t in truth]
+    m = evaluate_estimates(nodes, scores, gt, recall=definition)
+    for v in (m.f1_max, m.precision_at_f1, m.recall_at_f1, m.auc, m.recall_at_100p, m.accuracy):
+        assert 0.0 <= v <= 1.0
+    c = m.curve
+    for a in (c.precision, c.recall, c.f1):
+        assert np.all((a >= 0) & (a <= 1))
+    # thresholds descend, so recall must never decrease along the curve
+    assert np.all(np.diff(c.thresholds) < 0)
+    assert np.all(np.diff(c.recall) >= -1e-12)
+    assert np.all(np.diff(c.accepted) > 0)
+    assert c.accepted[-1] == len(nodes)
+    # the last point accepts everything: its precision is the accuracy over accepted queries
+    assert c.precision[-1] == pytest.approx(m.accuracy)
+    # a reference sweep: accept score >= t for every distinct t, count by brute force
+    correct = is_correct(nodes, gt)
+    for t, tp in zip(c.thresholds, c.correct_accepted, strict=True):
+        assert tp == int(np.sum(correct & (np.asarray(scores) >= t)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(runs)
+def test_recall_at_100p_is_on_a_perfect_point(run):
+    nodes, scores, truth = run
+    gt = [[t] if t >= 0 else [] for t in truth]
+    c = evaluate_estimates(nodes, scores, gt).curve
+    r = recall_at_100_precision(c)
+    assert r == 0.0 or any(
+        p == 1.0 and rr == r for p, rr in zip(c.precision, c.recall, strict=True)
+    )
+    assert 0.0 <= auc(c) <= 1.0
