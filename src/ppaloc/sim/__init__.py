@@ -3,7 +3,7 @@
 Public names: :class:`Scamp5`, the register handles ``A``-``F``, ``NEWS``, ``PIX``, ``IN``,
 ``R0``-``R12``, ``FLAG``, ``SELECT``, the neighbour aliases ``XN``, ``XE``, ``XS``, ``XW``,
 the directions ``north``, ``east``, ``south``, ``west``, noise parameters and presets,
-kernels, the instruction record and op table.
+kernels, the instruction record and op table, the timing model, and register rendering.
 """
 
 from ppaloc.sim.engine import Scamp5
@@ -46,7 +46,8 @@ from ppaloc.sim.registers import (
     south,
     west,
 )
-from ppaloc.sim.timing import TimingModel
+from ppaloc.sim.render import plane_to_image, render_montage, render_register, save_png
+from ppaloc.sim.timing import TimingConstants, TimingModel, TimingReport
 
 __all__ = [
     "CLOCK_CLASSES",
@@ -89,9 +90,15 @@ __all__ = [
     "OpSpec",
     "Register",
     "Scamp5",
+    "TimingConstants",
     "TimingModel",
+    "TimingReport",
     "east",
     "north",
+    "plane_to_image",
+    "render_montage",
+    "render_register",
+    "save_png",
     "south",
     "west",
 ]
