@@ -508,3 +508,14 @@ def test_property_shift_and_back_restores_the_interior(h, v):
     outside = np.ones((8, 8), bool)
     outside[rows, cols] = False
     assert (got[outside] == 0).all()
+
+
+def test_scamp5_get_image_runs_the_capture_kernel():
+    sim = sim_(2, 2)
+    sim.set_image(np.array([[0, 100], [200, 255]], np.uint8))
+    sim.scamp5_get_image(A, B)
+    assert sim.read(A).tolist() == [[-64.0, -14.0], [36.0, 63.5]]
+    rep = sim.timing.report()
+    assert (rep.total_kernels, rep.total_icws, rep.total_calls) == (1, 6, 0)
+    with pytest.raises(SimulatorError, match="gain=2 is not modelled; use gain=1"):
+        sim.scamp5_get_image(A, B, 2)

@@ -272,6 +272,27 @@ class ControllerMixin:
             self._write_masked(NEWS, np.full(shape, -float(v)), noisy=False)
         self._write_masked(areg, target, noisy=False)
 
+    def scamp5_get_image(self, yf: Register, yh: Register, gain: int = 1) -> None:
+        """``scamp5_get_image``: capture the exposure into ``yf`` (full range) and ``yh``.
+
+        Runs the ``get_image(yf, yh)`` macro as a kernel of its own (6 ICWs): in ideal
+        mode ``yf = p/2 - 64`` for a pixel ``p`` of the image given to ``set_image``, and
+        ``yh`` holds the negated half-range image; PIX is reset. Only ``gain=1`` is
+        modelled (the library's higher gains repeat the exposure accumulation, whose
+        analogue details are not public).
+
+        Raises
+        ------
+        SimulatorError
+            If ``gain`` is not 1.
+        """
+        call = "scamp5_get_image"
+        self._areg(call, yf)
+        self._areg(call, yh)
+        if _as_int(call, "gain", gain, 1, 5) != 1:
+            raise SimulatorError(f"{call}: gain={gain} is not modelled; use gain=1")
+        self.get_image(yf, yh)  # type: ignore[attr-defined]
+
     def load_in(self, areg_or_value: Register | int, value: int | None = None) -> None:
         """``scamp5_load_in``: load a constant through the DAC without error correction.
 
