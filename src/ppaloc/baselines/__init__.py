@@ -1,1 +1,19 @@
-"""ppaloc.baselines (see docs/architecture.md)."""
+"""Baselines the paper compares against, each a ``Localiser`` fed the same sensor frames.
+
+- :class:`~ppaloc.baselines.seqslam.SeqSLAM`: SeqSLAM (Milford & Wyeth 2012), past-only and
+  incremental by default, OpenSeqSLAM's centred window offline;
+- :class:`~ppaloc.baselines.ablem.ABLEM`: ABLE-M (Arroyo et al.), sequences of global
+  LDB-style binary codes matched by Hamming distance;
+- :class:`~ppaloc.baselines.particle.ParticleFilter`: a seeded 1-D particle filter over
+  map nodes (after Liu & Zhang);
+- :class:`~ppaloc.baselines.single.SingleFrame`: the best single-frame match.
+
+See docs/baselines.md for every parameter and each deviation from the original.
+"""
+
+from ppaloc.baselines.ablem import ABLEM
+from ppaloc.baselines.particle import ParticleFilter
+from ppaloc.baselines.seqslam import SeqSLAM
+from ppaloc.baselines.single import SingleFrame
+
+__all__ = ["ABLEM", "ParticleFilter", "SeqSLAM", "SingleFrame"]

@@ -1,0 +1,101 @@
+"""Small helpers the baselines share: map checks, rankings and uniqueness confidences."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+from ppaloc.topomap import TopoMap
+
+__all__ = ["check_map", "require_map", "stack_frames", "top_k", "uniqueness_ratio"]
+
+
+def stack_frames(frames: Sequence[np.ndarray], what: str) -> list[np.ndarray]:
+    """Materialise a (possibly lazy) sequence of frames, refusing an empty one."""
+    out = list(frames)
+    if not out:
+        raise PpalocError(f"{what}: the reference traversal is empty; give at least one frame")
+    return out
+
+
+def check_map(topomap: TopoMap, kind: str, shape: tuple[int, ...], method: str) -> TopoMap:
+    """Check that ``topomap`` was built by ``method`` with the same parameters.
+
+    Parameters
+    ----------
+    topomap : TopoMap
+    kind : str
+        The map kind the method writes (``TopoMap.kind``).
+    shape : tuple of int
+        The per-node descriptor shape the method's parameters give.
+    method : str
+        The method's name, for the message.
+
+    Raises
+    ------
+    PpalocError
+        If the kind or the descriptor shape differ, or the map is empty.
+    """
+    if topomap.kind != kind:
+        raise PpalocError(
+            f"{method} cannot use a map of kind {topomap.kind!r}; it needs kind {kind!r} "
+            f"(build it with {method}.build_map)"
+        )
+    if len(topomap) == 0:
+        raise PpalocError(f"{method}: the map has no nodes; build it from at least one frame")
+    got = tuple(topomap.descriptors.shape[1:])
+    if got != tuple(shape):
+        raise PpalocError(
+            f"{method}: the map's node descriptors have shape {got} but these parameters "
+            f"give {tuple(shape)}; use the parameters the map was built with ({topomap.params})"
+        )
+    return topomap
+
+
+def require_map(topomap: TopoMap | None, method: str) -> TopoMap:
+    """Return the map, or raise if none was built or given yet."""
+    if topomap is None:
+        raise PpalocError(f"{method}: no map yet; call build_map(frames) or use_map(map) first")
+    return topomap
+
+
+def top_k(evidence: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the ``k`` largest entries of ``evidence``, largest first (ties: lower index).
+
+    Returns
+    -------
+    ndarray of int64, shape (min(k, N),)
+    """
+    n = len(evidence)
+    k = min(int(k), n)
+    if k <= 0:
+        return np.empty(0, dtype=np.int64)
+    if k < n:
+        part = np.argpartition(-evidence, k - 1)[:k]
+    else:
+        part = np.arange(n)
+    order = np.lexsort((part, -evidence[part]))
+    return part[order].astype(np.int64)
+
+
+def uniqueness_ratio(costs: np.ndarray, best: int, radius: int) -> float:
+    """Return ``1 - costs[best] / min(costs outside best +- radius)`` in [0, 1].
+
+    This is OpenSeqSLAM's match quality (the ratio of the best cost to the best cost outside
+    a window around it; lower is a more unique match), turned into a confidence that grows
+    with uniqueness. With no finite competitor the match is as unique as it gets (1.0); with
+    a best cost that is not finite, or a competitor at zero cost, it is 0.0.
+    """
+    best_cost = float(costs[best])
+    lo, hi = max(0, best - radius), min(len(costs), best + radius + 1)
+    outside = np.concatenate((costs[:lo], costs[hi:]))
+    second = float(outside.min()) if outside.size else np.inf
+    if not np.isfinite(best_cost):
+        return 0.0
+    if not np.isfinite(second):
+        return 1.0
+    if second <= 0.0:
+        return 0.0
+    return float(np.clip(1.0 - best_cost / second, 0.0, 1.0))

@@ -1,0 +1,197 @@
+"""ABLE-M (Arroyo et al.): global binary codes of image sequences, matched by Hamming distance.
+
+Each frame is described by one global LDB-style binary code of the whole downsampled image
+(:mod:`ppaloc.baselines.ldb`). The code of a *place* is the concatenation of the codes of
+the last ``L`` frames; a query sequence is compared with the map sequence ending at every
+node, ``e - L + 1 .. e``, by Hamming distance. As the Hamming distance of concatenations is
+the sum of the per-frame distances, the online form keeps the per-frame distance vectors of
+the last ``L`` frames and updates the sequence distance of every node in O(N) per frame:
+
+``S_t[e] = S_{t-1}[e - 1] + h_t[e] - h_{t-L}[e - L]``
+
+where ``h_t[e]`` is the Hamming distance between query frame ``t`` and node ``e``. Frames
+before the start of the query or nodes before the start of the map count as half the bits
+(the expected distance of unrelated codes), so every node can be matched from the first
+frame on and the sums stay comparable.
+
+References
+----------
+R. Arroyo, P. F. Alcantarilla, L. M. Bergasa, E. Romera, "Towards life-long visual
+localization using an efficient matching of binary sequences from images", ICRA 2015;
+OpenABLE (R. Arroyo, 2016). X. Yang and K.-T. Cheng, "LDB: An ultra-fast feature for
+scalable augmented reality on mobile devices", ISMAR 2012.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Literal
+
+import numpy as np
+
+from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k, uniqueness_ratio
+from ppaloc.baselines._image import downsample
+from ppaloc.baselines.ldb import comparison_count, hamming_distances, ldb_comparisons, selected_bits
+from ppaloc.errors import PpalocError
+from ppaloc.localise.base import Estimate
+from ppaloc.topomap import TopoMap
+
+__all__ = ["ABLEM", "sequence_distances"]
+
+KIND = "able-m"
+
+
+def sequence_distances(history: np.ndarray, fill: float) -> np.ndarray:
+    """Reference (direct) sequence distance of the newest query frame to every node.
+
+    Parameters
+    ----------
+    history : ndarray, shape (T, N)
+        Per-frame Hamming distances ``h_0 .. h_{T-1}`` of query frames to the N nodes,
+        oldest first; the last ``L = T`` frames form the sequence.
+    fill : float
+        Distance counted for a frame pair before the start of the map.
+
+    Returns
+    -------
+    ndarray of float64, shape (N,)
+        ``sum_k history[T-1-k, e-k]`` over ``k = 0 .. T-1``, with ``fill`` where ``e - k < 0``.
+    """
+    t, n = history.shape
+    out = np.zeros(n)
+    for k in range(t):
+        row = history[t - 1 - k]
+        out[k:] += row[: n - k] if k < n else 0.0
+        out[: min(k, n)] += fill
+    return out
+
+
+class ABLEM:
+    """ABLE-M over a 1-D map: sequences of global binary codes, online and past-only.
+
+    Parameters
+    ----------
+    length : int
+        Frames per sequence ``L`` (see docs/baselines.md for the choice of default).
+    side : int
+        Side of the square image the descriptor is computed on (OpenABLE ``Patch_size``: 64);
+        must divide 256.
+    levels : tuple of int
+        LDB grid levels (LDB: 2, 3, 4, 5).
+    n_bits : int or None
+        Comparisons kept per frame (LDB: 256 = 32 bytes); None keeps all of them.
+    bit_seed : int
+        Seed of the fixed subset of comparisons.
+    confidence : {"similarity", "ratio"}
+        ``"similarity"``: ``1 - d_min / (L x bits)``, the normalised similarity OpenABLE
+        thresholds; ``"ratio"``: the uniqueness of the best node against the best outside
+        ``+- rwindow // 2`` (as SeqSLAM).
+    rwindow : int
+        Window of the ``"ratio"`` confidence.
+    top_k : int
+        Length of ``Estimate.ranking``.
+    record_weights : bool
+        Put minus the sequence distance of every node in ``Estimate.weights``.
+    """
+
+    name = "able-m"
+
+    def __init__(
+        self,
+        *,
+        length: int = 10,
+        side: int = 64,
+        levels: tuple[int, ...] = (2, 3, 4, 5),
+        n_bits: int | None = 256,
+        bit_seed: int = 0,
+        confidence: Literal["similarity", "ratio"] = "similarity",
+        rwindow: int = 10,
+        top_k: int = 10,
+        record_weights: bool = False,
+    ) -> None:
+        if int(length) < 1:
+            raise PpalocError(f"ABLE-M length={length!r} must be at least 1 frame")
+        if confidence not in ("similarity", "ratio"):
+            raise PpalocError(
+                f"ABLE-M confidence={confidence!r} is unknown; choose 'similarity' or 'ratio'"
+            )
+        if top_k < 1 or rwindow < 0:
+            raise PpalocError(f"ABLE-M needs top_k >= 1 and rwindow >= 0, got {top_k}, {rwindow}")
+        self.length = int(length)
+        self.side = int(side)
+        self.levels = tuple(int(g) for g in levels)
+        self._bits = selected_bits(comparison_count(self.levels), n_bits, bit_seed)
+        self.n_bits = len(self._bits)
+        self.bit_seed = int(bit_seed)
+        self.confidence = confidence
+        self.rwindow = int(rwindow)
+        self.top_k = int(top_k)
+        self.record_weights = bool(record_weights)
+        self.n_bytes = (self.n_bits + 7) // 8
+        self.fill = self.n_bits / 2.0
+        self.map: TopoMap | None = None
+        self.reset()
+
+    def params(self) -> dict:
+        """The parameters that shape the map (JSON-serialisable)."""
+        return {
+            "side": self.side,
+            "levels": list(self.levels),
+            "n_bits": self.n_bits,
+            "bit_seed": self.bit_seed,
+            "length": self.length,
+        }
+
+    def describe(self, frame: np.ndarray) -> np.ndarray:
+        """The packed binary code of one sensor frame, shape (ceil(n_bits / 8),) uint8."""
+        image = downsample(frame, (self.side, self.side))
+        bits = ldb_comparisons(image, self.levels)[self._bits]
+        return np.packbits(bits)
+
+    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
+        """Build and keep a map of one packed code per reference frame."""
+        frames = stack_frames(frames, self.name)
+        codes = np.stack([self.describe(f) for f in frames])
+        return self.use_map(TopoMap(KIND, codes, params=self.params()))
+
+    def use_map(self, topomap: TopoMap) -> TopoMap:
+        """Adopt an existing map (built with the same descriptor parameters)."""
+        self.map = check_map(topomap, KIND, (self.n_bytes,), self.name)
+        self.reset()
+        return self.map
+
+    def reset(self) -> None:
+        """Forget the query history; keep the map."""
+        n = 0 if self.map is None else len(self.map)
+        self._history = np.zeros((self.length, n))
+        self._seq = np.full(n, self.length * self.fill)
+        self._count = 0
+
+    def step(self, frame: np.ndarray) -> Estimate:
+        """Localise one new query frame from the sequence of the last ``length`` frames."""
+        topomap = require_map(self.map, self.name)
+        h = hamming_distances(self.describe(frame), topomap.descriptors).astype(np.float64)
+        n, big_l = len(h), self.length
+        slot = self._count % big_l
+        # The term leaving the sequence: frame t - L against node e - L.
+        leaving = np.full(n, self.fill)
+        if self._count >= big_l and n > big_l:
+            leaving[big_l:] = self._history[slot, : n - big_l]
+        shifted = np.empty(n)
+        shifted[0] = big_l * self.fill
+        shifted[1:] = self._seq[:-1]
+        self._seq = shifted + h - leaving
+        self._history[slot] = h
+        self._count += 1
+        seq = self._seq
+        best = int(np.argmin(seq))
+        if self.confidence == "similarity":
+            score = 1.0 - float(seq[best]) / (big_l * self.n_bits)
+        else:
+            score = uniqueness_ratio(seq, best, self.rwindow // 2)
+        return Estimate(
+            node=best,
+            score=score,
+            ranking=top_k(-seq, self.top_k),
+            weights=-seq.copy() if self.record_weights else None,
+        )

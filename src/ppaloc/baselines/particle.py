@@ -1,0 +1,207 @@
+"""A 1-D particle filter over map nodes, in the manner of Liu & Zhang's visual paths.
+
+Particles live on map nodes. Per query frame:
+
+1. *motion*: each particle independently stays (``p_stay``), moves one node forward
+   (``p_forward``), jumps 2 .. ``max_jump`` nodes forward (``p_jump``, uniform over the
+   jump) or is re-drawn uniformly over the map (the rest, ``1 - p_stay - p_forward -
+   p_jump``: recovery from kidnapping and from a wrong lock). Particles stop at the last
+   node. The first frame of a query has no motion step (particles start uniform).
+2. *weighting*: every node is compared with the query on SeqSLAM's patch-normalised 64x32
+   image (mean absolute difference per pixel ``d``); a particle on node ``i`` gets weight
+   ``exp(-(d_i - d_min) / sigma)`` with ``sigma = sigma_rel x (median(d) - d_min)``, so the
+   likelihood is invariant to the overall scale of the distances.
+3. *estimate*: the weighted particle histogram over nodes, smoothed over +-1 node; the
+   estimate is its densest node and the confidence the fraction of the weight within +-1
+   node of it.
+4. *systematic resampling* (one uniform draw, ``n_particles`` evenly spaced pointers).
+
+Every random draw comes from ``numpy.random.default_rng(seed)``, re-created by
+:meth:`ParticleFilter.reset`, so a run is identical under the same seed.
+
+References
+----------
+Y. Liu and H. Zhang, "Visual loop closure detection with a compact image descriptor",
+IROS 2012, and "Towards improving the efficiency of sequence-based SLAM", ICMA 2013
+(1-D particle filter over the path of reference images).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k
+from ppaloc.baselines._image import mean_abs_diff, preprocess
+from ppaloc.errors import PpalocError
+from ppaloc.localise.base import Estimate
+from ppaloc.topomap import TopoMap
+
+__all__ = ["ParticleFilter", "systematic_resample"]
+
+KIND = "particle-filter"
+
+
+def systematic_resample(weights: np.ndarray, u: float) -> np.ndarray:
+    """Indices drawn by systematic resampling.
+
+    Parameters
+    ----------
+    weights : ndarray, shape (P,)
+        Non-negative weights with a positive sum.
+    u : float
+        The one uniform draw in [0, 1).
+
+    Returns
+    -------
+    ndarray of int64, shape (P,)
+        Index ``j`` appears about ``P x weights[j] / sum(weights)`` times (floor or ceil).
+
+    Examples
+    --------
+    >>> systematic_resample(np.array([0.5, 0.25, 0.25, 0.0]), 0.5).tolist()
+    [0, 0, 1, 2]
+    """
+    p = len(weights)
+    cum = np.cumsum(weights, dtype=np.float64)
+    cum /= cum[-1]
+    pointers = (u + np.arange(p)) / p
+    return np.minimum(np.searchsorted(cum, pointers, side="right"), p - 1).astype(np.int64)
+
+
+class ParticleFilter:
+    """1-D particle filter over map nodes (after Liu & Zhang), seeded.
+
+    Parameters
+    ----------
+    n_particles : int
+        Number of particles.
+    p_stay, p_forward, p_jump : float
+        Motion model probabilities; the remainder is uniform re-initialisation.
+    max_jump : int
+        Largest forward jump in nodes (jumps are uniform over 2 .. max_jump).
+    sigma_rel : float
+        Likelihood temperature as a fraction of the median distance above the minimum.
+    size : (rows, cols)
+        Downsampled image size (as SeqSLAM: 32 x 64).
+    patch : int
+        Patch normalisation tile side (as SeqSLAM: 8).
+    seed : int
+        Seed of every random draw.
+    top_k : int
+        Length of ``Estimate.ranking``.
+    record_weights : bool
+        Put the smoothed particle histogram (fractions summing to about 3) in
+        ``Estimate.weights``.
+    """
+
+    name = "particle-filter"
+
+    def __init__(
+        self,
+        *,
+        n_particles: int = 1000,
+        p_stay: float = 0.15,
+        p_forward: float = 0.6,
+        p_jump: float = 0.2,
+        max_jump: int = 3,
+        sigma_rel: float = 0.1,
+        size: tuple[int, int] = (32, 64),
+        patch: int = 8,
+        seed: int = 0,
+        top_k: int = 10,
+        record_weights: bool = False,
+    ) -> None:
+        probs = (p_stay, p_forward, p_jump)
+        if min(probs) < 0 or sum(probs) > 1 + 1e-12:
+            raise PpalocError(
+                f"ParticleFilter motion probabilities p_stay={p_stay}, p_forward={p_forward}, "
+                f"p_jump={p_jump} must be >= 0 and sum to at most 1 (the rest re-initialises)"
+            )
+        if int(n_particles) < 1 or int(max_jump) < 2 or sigma_rel <= 0 or top_k < 1:
+            raise PpalocError(
+                f"ParticleFilter needs n_particles >= 1, max_jump >= 2, sigma_rel > 0 and "
+                f"top_k >= 1, got {n_particles}, {max_jump}, {sigma_rel}, {top_k}"
+            )
+        self.n_particles = int(n_particles)
+        self.p_stay, self.p_forward, self.p_jump = (float(p) for p in probs)
+        self.max_jump = int(max_jump)
+        self.sigma_rel = float(sigma_rel)
+        self.size = (int(size[0]), int(size[1]))
+        self.patch = int(patch)
+        self.seed = int(seed)
+        self.top_k = int(top_k)
+        self.record_weights = bool(record_weights)
+        self.map: TopoMap | None = None
+        self.reset()
+
+    def params(self) -> dict:
+        """The parameters that shape the map (JSON-serialisable)."""
+        return {"size": list(self.size), "patch": self.patch}
+
+    def describe(self, frame: np.ndarray) -> np.ndarray:
+        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
+        return preprocess(frame, self.size, self.patch)
+
+    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
+        """Build and keep a map with one patch-normalised image per reference frame."""
+        frames = stack_frames(frames, self.name)
+        desc = np.stack([self.describe(f) for f in frames])
+        return self.use_map(TopoMap(KIND, desc, params=self.params()))
+
+    def use_map(self, topomap: TopoMap) -> TopoMap:
+        """Adopt an existing map (built with the same image parameters)."""
+        self.map = check_map(topomap, KIND, self.size, self.name)
+        self.reset()
+        return self.map
+
+    def reset(self) -> None:
+        """Re-seed the generator and spread the particles uniformly; keep the map."""
+        self._rng = np.random.default_rng(self.seed)
+        n = 0 if self.map is None else len(self.map)
+        self.particles = self._rng.integers(0, n, self.n_particles) if n else np.zeros(0, np.int64)
+        self._started = False
+
+    def _move(self, n: int) -> None:
+        rng = self._rng
+        u = rng.random(self.n_particles)
+        jumps = rng.integers(2, self.max_jump + 1, self.n_particles)
+        fresh = rng.integers(0, n, self.n_particles)
+        a = self.p_stay
+        b = a + self.p_forward
+        c = b + self.p_jump
+        step = np.where(u < a, 0, np.where(u < b, 1, jumps))
+        moved = np.minimum(self.particles + step, n - 1)
+        self.particles = np.where(u < c, moved, fresh)
+
+    def step(self, frame: np.ndarray) -> Estimate:
+        """Move, weight, estimate and resample for one new query frame."""
+        topomap = require_map(self.map, self.name)
+        n = len(topomap)
+        if self._started:
+            self._move(n)
+        self._started = True
+        d = mean_abs_diff(self.describe(frame), topomap.descriptors)
+        d_min = float(d.min())
+        spread = float(np.median(d)) - d_min
+        sigma = self.sigma_rel * spread if spread > 0 else 1.0
+        w = np.exp(-(d[self.particles] - d_min) / sigma)
+        total = float(w.sum())
+        if not np.isfinite(total) or total <= 0.0:
+            w = np.full(self.n_particles, 1.0)
+            total = float(self.n_particles)
+        w /= total
+        hist = np.bincount(self.particles, weights=w, minlength=n)
+        smooth = hist.copy()
+        smooth[1:] += hist[:-1]
+        smooth[:-1] += hist[1:]
+        best = int(np.argmax(smooth))
+        estimate = Estimate(
+            node=best,
+            score=float(min(smooth[best], 1.0)),
+            ranking=top_k(smooth, self.top_k),
+            weights=smooth if self.record_weights else None,
+        )
+        self.particles = self.particles[systematic_resample(w, float(self._rng.random()))]
+        return estimate

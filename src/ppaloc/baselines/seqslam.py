@@ -1,0 +1,359 @@
+"""SeqSLAM (Milford & Wyeth, ICRA 2012) as an online, incremental ``Localiser``.
+
+The pipeline and its defaults follow OpenSeqSLAM (Sünderhauf et al., 2013):
+
+1. each frame is reduced to a 64x32 grey image and patch normalised (8x8 tiles);
+2. a *difference column*: the mean absolute difference per pixel between the query image
+   and every map node (one column of OpenSeqSLAM's difference matrix D, map along rows);
+3. *local contrast enhancement* of that column along the map axis: each entry minus the
+   mean, over the standard deviation, of the entries within +-Rwindow/2 nodes;
+4. a search over straight-line trajectories through the last ``ds + 1`` enhanced columns,
+   one per velocity in ``[vmin, vmax]`` (step ``vstep``); the cost of a node is the
+   smallest trajectory sum ending (past-only) or centred (offline) on it;
+5. the estimate is the cheapest node; the confidence compares its cost with the cheapest
+   cost outside +-Rwindow/2 nodes around it (OpenSeqSLAM's uniqueness ratio).
+
+Two modes:
+
+``mode="past"`` (default)
+    The trajectory *ends* at the current frame: columns ``t - ds .. t`` (fewer at the start
+    of a query). This is the fair comparison for an online localiser: nothing of the future
+    is read. :meth:`SeqSLAM.step` keeps a ring buffer of the last ``ds + 1`` enhanced
+    columns, so a step costs O(N x (pixels + ds x velocities)).
+``mode="centred"``
+    OpenSeqSLAM's original window, columns ``t - ds/2 .. t + ds/2``: it needs ``ds/2``
+    future frames, so it is run offline over a whole query traversal with
+    :meth:`SeqSLAM.localise_sequence` (``step`` refuses it). Near both ends of the query
+    the window is cut to the frames that exist.
+
+References
+----------
+M. Milford and G. Wyeth, "SeqSLAM: Visual route-based navigation for sunny summer days and
+stormy winter nights", ICRA 2012. N. Sünderhauf, P. Neubert, P. Protzel, "Are we there yet?
+Challenging SeqSLAM on a 3000 km journey across all four seasons", ICRA 2013 workshop
+(OpenSeqSLAM).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Literal
+
+import numpy as np
+
+from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k, uniqueness_ratio
+from ppaloc.baselines._image import mean_abs_diff, preprocess
+from ppaloc.errors import PpalocError
+from ppaloc.localise.base import Estimate
+from ppaloc.topomap import TopoMap
+
+__all__ = ["SeqSLAM", "contrast_enhance", "trajectory_costs", "trajectory_offsets"]
+
+KIND = "seqslam"
+
+
+def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
+    """Local contrast enhancement of difference values along the map axis.
+
+    Parameters
+    ----------
+    column : ndarray, shape (N,) or (N, Q)
+        Difference values, map nodes along axis 0 (one column per query frame).
+    window : int
+        OpenSeqSLAM's ``contrastEnhancement.R``: entry ``i`` is normalised by the mean and
+        standard deviation (Bessel-corrected) of entries ``i - window//2 .. i + window//2``
+        (cut at the ends of the map).
+
+    Returns
+    -------
+    ndarray of float64, same shape
+        ``(d_i - mean) / std``, then shifted so each column's minimum is 0. Where the local
+        deviation is 0 (or the window holds one entry) the enhanced value is 0 before the
+        shift.
+
+    Notes
+    -----
+    OpenSeqSLAM subtracts the minimum of the *whole* enhanced matrix, which needs every
+    query frame; the per-column minimum used here is known when the column arrives. The
+    shift does not move the best trajectory (all complete trajectories have the same number
+    of cells) but it does change the uniqueness ratio.
+    """
+    d = np.asarray(column, dtype=np.float64)
+    squeeze = d.ndim == 1
+    if squeeze:
+        d = d[:, None]
+    n = d.shape[0]
+    half = int(window) // 2
+    zero = np.zeros((1, d.shape[1]))
+    c1 = np.concatenate((zero, np.cumsum(d, axis=0)))
+    c2 = np.concatenate((zero, np.cumsum(d * d, axis=0)))
+    idx = np.arange(n)
+    lo = np.maximum(idx - half, 0)
+    hi = np.minimum(idx + half + 1, n)
+    count = (hi - lo)[:, None].astype(np.float64)
+    s1 = c1[hi] - c1[lo]
+    s2 = c2[hi] - c2[lo]
+    mean = s1 / count
+    var = np.maximum(s2 - s1 * mean, 0.0) / np.maximum(count - 1.0, 1.0)
+    std = np.sqrt(var)
+    ok = (std > 1e-12 * np.maximum(np.abs(mean), 1.0)) & (count > 1)
+    out = np.where(ok, (d - mean) / np.where(ok, std, 1.0), 0.0)
+    out -= out.min(axis=0, keepdims=True)
+    return out[:, 0] if squeeze else out
+
+
+def trajectory_offsets(rel: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+    """Map-node offsets of every straight-line trajectory.
+
+    Parameters
+    ----------
+    rel : ndarray of int, shape (K,)
+        Query-frame offsets of the trajectory's columns relative to the anchor frame
+        (``-ds .. 0`` past-only, ``-ds/2 .. ds/2`` centred).
+    velocities : ndarray of float, shape (V,)
+        Map nodes advanced per query frame.
+
+    Returns
+    -------
+    ndarray of int64, shape (V', K)
+        ``floor(rel * v)`` per velocity (computed on values rounded to 1e-9, so that e.g.
+        ``-10 * 0.7`` is exactly -7), duplicate trajectories removed (OpenSeqSLAM likewise
+        keeps only velocities that give distinct trajectories).
+    """
+    prod = np.round(np.outer(np.asarray(velocities, float), np.asarray(rel, float)), 9)
+    offsets = np.floor(prod).astype(np.int64)
+    return np.unique(offsets, axis=0)
+
+
+def trajectory_costs(columns: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Cheapest straight-line trajectory cost anchored at every map node.
+
+    Parameters
+    ----------
+    columns : ndarray, shape (K, N)
+        Contrast-enhanced difference columns, one per query frame of the trajectory, in the
+        order of ``offsets``' columns.
+    offsets : ndarray of int, shape (V, K)
+        From :func:`trajectory_offsets`.
+
+    Returns
+    -------
+    ndarray of float64, shape (N,)
+        ``cost[e] = min_v sum_k columns[k, e + offsets[v, k]]``; a trajectory that leaves
+        the map (node index outside ``0 .. N-1``) costs ``inf``, as in OpenSeqSLAM.
+    """
+    k_cols, n = columns.shape
+    pad = int(np.abs(offsets).max()) if offsets.size else 0
+    padded = np.full((k_cols, n + 2 * pad), np.inf)
+    padded[:, pad : pad + n] = columns
+    best = np.full(n, np.inf)
+    acc = np.empty(n)
+    for row in offsets:
+        acc[:] = 0.0
+        for k, o in enumerate(row):
+            start = pad + int(o)
+            acc += padded[k, start : start + n]
+        np.minimum(best, acc, out=best)
+    return best
+
+
+class SeqSLAM:
+    """SeqSLAM over a 1-D map, past-only and incremental by default.
+
+    Parameters
+    ----------
+    mode : {"past", "centred"}
+        ``"past"``: online, the trajectory ends at the current frame (default).
+        ``"centred"``: OpenSeqSLAM's window centred on the frame, offline only
+        (:meth:`localise_sequence`).
+    size : (rows, cols)
+        Downsampled image size (OpenSeqSLAM: 32 rows x 64 columns).
+    patch : int
+        Patch normalisation tile side (OpenSeqSLAM: 8).
+    quantise : bool
+        Store patch-normalised images as OpenSeqSLAM does (``127 + round(z)``); default
+        False keeps the float z-scores (see docs/baselines.md).
+    ds : int
+        Trajectory length in frames; the trajectory spans ``ds + 1`` frames (OpenSeqSLAM:
+        10, rounded up to even for the centred mode).
+    vmin, vmax, vstep : float
+        Velocities searched, in map nodes per query frame (OpenSeqSLAM: 0.8, 1.2, 0.1).
+    rwindow : int
+        Window of the uniqueness confidence: the competitor is the cheapest node outside
+        ``best +- rwindow // 2`` (OpenSeqSLAM: 10).
+    enhance_window : int
+        Contrast enhancement window ``R`` (OpenSeqSLAM: 10).
+    top_k : int
+        Length of ``Estimate.ranking``.
+    record_weights : bool
+        Put per-node evidence (minus the trajectory cost, higher = better) in
+        ``Estimate.weights``.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> frames = [rng.integers(0, 256, (256, 256), dtype=np.uint8) for _ in range(30)]
+    >>> s = SeqSLAM()
+    >>> _ = s.build_map(frames)
+    >>> [s.step(f).node for f in frames[5:12]]
+    [5, 6, 7, 8, 9, 10, 11]
+    """
+
+    name = "seqslam"
+
+    def __init__(
+        self,
+        *,
+        mode: Literal["past", "centred"] = "past",
+        size: tuple[int, int] = (32, 64),
+        patch: int = 8,
+        quantise: bool = False,
+        ds: int = 10,
+        vmin: float = 0.8,
+        vmax: float = 1.2,
+        vstep: float = 0.1,
+        rwindow: int = 10,
+        enhance_window: int = 10,
+        top_k: int = 10,
+        record_weights: bool = False,
+    ) -> None:
+        if mode not in ("past", "centred"):
+            raise PpalocError(f"SeqSLAM mode={mode!r} is unknown; choose 'past' or 'centred'")
+        if int(ds) < 0:
+            raise PpalocError(f"SeqSLAM ds={ds!r} must be a non-negative number of frames")
+        if not (0 < vmin <= vmax) or vstep <= 0:
+            raise PpalocError(
+                f"SeqSLAM velocities need 0 < vmin <= vmax and vstep > 0, got vmin={vmin}, "
+                f"vmax={vmax}, vstep={vstep}"
+            )
+        if rwindow < 0 or enhance_window < 0 or top_k < 1:
+            raise PpalocError(
+                f"SeqSLAM rwindow={rwindow} and enhance_window={enhance_window} must be >= 0 "
+                f"and top_k={top_k} >= 1"
+            )
+        self.mode = mode
+        self.size = (int(size[0]), int(size[1]))
+        self.patch = int(patch)
+        self.quantise = bool(quantise)
+        self.ds = int(ds) + (int(ds) % 2 if mode == "centred" else 0)
+        n_v = round((vmax - vmin) / vstep) + 1
+        self.velocities = vmin + vstep * np.arange(n_v)
+        self.velocities = self.velocities[self.velocities <= vmax + 1e-9]
+        self.rwindow = int(rwindow)
+        self.enhance_window = int(enhance_window)
+        self.top_k = int(top_k)
+        self.record_weights = bool(record_weights)
+        self.map: TopoMap | None = None
+        self._buffer: np.ndarray | None = None
+        self._count = 0
+        self._offsets = {
+            k: trajectory_offsets(np.arange(-k + 1, 1), self.velocities)
+            for k in range(1, self.ds + 2)
+        }
+
+    # ------------------------------------------------------------------ map
+    def params(self) -> dict:
+        """The parameters that shape the map and the matching (JSON-serialisable)."""
+        return {
+            "size": list(self.size),
+            "patch": self.patch,
+            "quantise": self.quantise,
+            "ds": self.ds,
+            "velocities": [round(float(v), 9) for v in self.velocities],
+            "rwindow": self.rwindow,
+            "enhance_window": self.enhance_window,
+        }
+
+    def describe(self, frame: np.ndarray) -> np.ndarray:
+        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
+        return preprocess(frame, self.size, self.patch, quantise=self.quantise)
+
+    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
+        """Build and keep a map with one patch-normalised image per reference frame."""
+        frames = stack_frames(frames, self.name)
+        desc = np.stack([self.describe(f) for f in frames])
+        return self.use_map(TopoMap(KIND, desc, params=self.params()))
+
+    def use_map(self, topomap: TopoMap) -> TopoMap:
+        """Adopt an existing map (built by :meth:`build_map` with the same parameters)."""
+        self.map = check_map(topomap, KIND, self.size, self.name)
+        self.reset()
+        return self.map
+
+    def reset(self) -> None:
+        """Forget the query history; keep the map."""
+        n = 0 if self.map is None else len(self.map)
+        self._buffer = np.zeros((self.ds + 1, n))
+        self._count = 0
+
+    # ------------------------------------------------------------- matching
+    def enhanced_column(self, frame: np.ndarray) -> np.ndarray:
+        """The contrast-enhanced difference column of one query frame, shape (N,)."""
+        topomap = require_map(self.map, self.name)
+        d = mean_abs_diff(self.describe(frame), topomap.descriptors)
+        return contrast_enhance(d, self.enhance_window)
+
+    def _estimate(self, costs: np.ndarray) -> Estimate:
+        best = int(np.argmin(costs))
+        score = uniqueness_ratio(costs, best, self.rwindow // 2)
+        evidence = -costs
+        return Estimate(
+            node=best,
+            score=score,
+            ranking=top_k(evidence, self.top_k),
+            weights=evidence.copy() if self.record_weights else None,
+        )
+
+    def step(self, frame: np.ndarray) -> Estimate:
+        """Localise one new query frame (past-only mode).
+
+        Raises
+        ------
+        PpalocError
+            In ``mode="centred"``, which needs future frames (use
+            :meth:`localise_sequence`), or before a map exists.
+        """
+        if self.mode != "past":
+            raise PpalocError(
+                "SeqSLAM mode='centred' needs ds/2 future frames and cannot run online; "
+                "call localise_sequence(frames) for the offline run, or use mode='past'"
+            )
+        column = self.enhanced_column(frame)
+        assert self._buffer is not None
+        slot = self._count % (self.ds + 1)
+        self._buffer[slot] = column
+        self._count += 1
+        k = min(self._count, self.ds + 1)
+        # Oldest to newest: slots (count - k) .. (count - 1) modulo the ring length.
+        order = (np.arange(self._count - k, self._count)) % (self.ds + 1)
+        costs = trajectory_costs(self._buffer[order], self._offsets[k])
+        return self._estimate(costs)
+
+    def localise_sequence(self, frames: Sequence[np.ndarray]) -> list[Estimate]:
+        """Localise a whole query traversal at once (batch), in either mode.
+
+        The difference matrix is computed for all frames, enhanced column by column, then
+        each frame's trajectory window is searched: frames ``t - ds .. t`` in the past-only
+        mode (the same estimates as :meth:`step` frame by frame), ``t - ds/2 .. t + ds/2``
+        in the centred mode. The map and the online state are left untouched.
+        """
+        topomap = require_map(self.map, self.name)
+        frames = list(frames)
+        if not frames:
+            return []
+        diff = np.stack(
+            [mean_abs_diff(self.describe(f), topomap.descriptors) for f in frames], axis=1
+        )
+        enhanced = contrast_enhance(diff, self.enhance_window).T  # (Q, N)
+        q = len(frames)
+        if self.mode == "past":
+            before, after = self.ds, 0
+        else:
+            before = after = self.ds // 2
+        out = []
+        for t in range(q):
+            lo, hi = max(0, t - before), min(q - 1, t + after)
+            rel = np.arange(lo - t, hi - t + 1)
+            offsets = trajectory_offsets(rel, self.velocities)
+            out.append(self._estimate(trajectory_costs(enhanced[lo : hi + 1], offsets)))
+        return out

@@ -1,0 +1,98 @@
+"""Single-frame best match: no sequence, no motion, the floor every sequence method must clear.
+
+Each query frame is reduced exactly as SeqSLAM reduces it (64x32, 8x8 patch normalisation)
+and compared with every node by the mean absolute difference per pixel; the estimate is the
+closest node. The confidence is the uniqueness of the best distance against the best
+distance outside ``+- radius`` nodes: ``1 - d_best / d_second``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k, uniqueness_ratio
+from ppaloc.baselines._image import mean_abs_diff, preprocess
+from ppaloc.errors import PpalocError
+from ppaloc.localise.base import Estimate
+from ppaloc.topomap import TopoMap
+
+__all__ = ["SingleFrame"]
+
+KIND = "single-frame"
+
+
+class SingleFrame:
+    """Best single-frame match on SeqSLAM's patch-normalised images.
+
+    Parameters
+    ----------
+    size : (rows, cols)
+        Downsampled image size (as SeqSLAM: 32 x 64).
+    patch : int
+        Patch normalisation tile side (as SeqSLAM: 8).
+    radius : int
+        The competitor of the confidence is the closest node outside ``best +- radius``
+        (5, SeqSLAM's ``Rwindow / 2``).
+    top_k : int
+        Length of ``Estimate.ranking``.
+    record_weights : bool
+        Put minus the distance of every node in ``Estimate.weights``.
+    """
+
+    name = "single-frame"
+
+    def __init__(
+        self,
+        *,
+        size: tuple[int, int] = (32, 64),
+        patch: int = 8,
+        radius: int = 5,
+        top_k: int = 10,
+        record_weights: bool = False,
+    ) -> None:
+        if radius < 0 or top_k < 1:
+            raise PpalocError(
+                f"SingleFrame needs radius >= 0 and top_k >= 1, got radius={radius}, top_k={top_k}"
+            )
+        self.size = (int(size[0]), int(size[1]))
+        self.patch = int(patch)
+        self.radius = int(radius)
+        self.top_k = int(top_k)
+        self.record_weights = bool(record_weights)
+        self.map: TopoMap | None = None
+
+    def params(self) -> dict:
+        """The parameters that shape the map (JSON-serialisable)."""
+        return {"size": list(self.size), "patch": self.patch, "radius": self.radius}
+
+    def describe(self, frame: np.ndarray) -> np.ndarray:
+        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
+        return preprocess(frame, self.size, self.patch)
+
+    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
+        """Build and keep a map with one patch-normalised image per reference frame."""
+        frames = stack_frames(frames, self.name)
+        desc = np.stack([self.describe(f) for f in frames])
+        return self.use_map(TopoMap(KIND, desc, params=self.params()))
+
+    def use_map(self, topomap: TopoMap) -> TopoMap:
+        """Adopt an existing map (built with the same image parameters)."""
+        self.map = check_map(topomap, KIND, self.size, self.name)
+        return self.map
+
+    def reset(self) -> None:
+        """Nothing to forget: every frame is matched on its own."""
+
+    def step(self, frame: np.ndarray) -> Estimate:
+        """Match one query frame against every node."""
+        topomap = require_map(self.map, self.name)
+        d = mean_abs_diff(self.describe(frame), topomap.descriptors)
+        best = int(np.argmin(d))
+        return Estimate(
+            node=best,
+            score=uniqueness_ratio(d, best, self.radius),
+            ranking=top_k(-d, self.top_k),
+            weights=-d if self.record_weights else None,
+        )
