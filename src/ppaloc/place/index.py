@@ -95,6 +95,8 @@ class LowresIndex:
             Equal to :func:`ppaloc.place.sad` (which returns int64).
         """
         q = _as_images(self._query(query), "query", 0)
+        # A full block-shaped query is faster to stream than a broadcast column.
+        q = np.ascontiguousarray(np.broadcast_to(q, (self.cells, self._block)))
         out = self._out(out, np.uint16)
         hi = np.empty((self.cells, self._block), np.uint8)
         lo = np.empty_like(hi)
@@ -144,8 +146,8 @@ class LowresIndex:
         With ``m = a + r / P`` (``a = floor(m)``), for an integer node value ``n``:
         ``P |m - n| = P |a - n| + r`` if ``n <= a`` and ``P |a - n| - r`` otherwise, so
         ``D = P * SAD(a, n) + sum(r) - 2 * sum(r * [n > a])``: one uint8 SAD plus one
-        mask-weighted sum (a float32 matrix-vector product, exact because every partial
-        sum is an integer below 2**24). Cells where the cap can bind are corrected one
+        mask-weighted sum in uint16 (``sum(r) <= 64 * 1023 < 2**16``), both in one pass
+        over each cache-resident block. Cells where the cap can bind are corrected one
         row at a time (for ``cap=254`` only cells with ``m > 254`` or ``m < 1``).
         """
         s = np.asarray(sums)
@@ -155,22 +157,34 @@ class LowresIndex:
         p = 1024
         if s.min() < 0 or s.max() > 255 * p:
             raise ValueError(f"block sums must lie in [0, {255 * p}] (32x32 blocks of uint8)")
-        a = (s // p).astype(np.uint8)
-        r = (s % p).astype(np.float32)
-        r_total = int(s.sum() - p * a.astype(np.int64).sum())
-        sad = self.sad(a.reshape(self.image_shape))
-        out = sad.astype(np.int64) * p + r_total
-        mask = np.empty((self.cells, self._block), np.float32)
-        weighted = np.empty(self._block, np.float32)
-        tail = np.empty(self._block, np.float32)
-        ac = a.reshape(self.cells, 1)
+        a = (s // p).astype(np.uint8).reshape(self.cells, 1)
+        r = (s % p).astype(np.uint16).reshape(self.cells, 1)
+        r_total = int(r.sum())
+        a = np.ascontiguousarray(np.broadcast_to(a, (self.cells, self._block)))
+        out = np.empty(self._n, np.int64)
+        hi = np.empty((self.cells, self._block), np.uint8)
+        lo = np.empty_like(hi)
+        masked = np.empty((self.cells, self._block), np.uint16)
+        sad = np.empty(self._block, np.uint16)
+        weighted = np.empty(self._block, np.uint16)  # sum(r) <= 64 * 1023 < 2**16
+        total = np.empty(self._block, np.int64)
         for i, nb in enumerate(self._blocks):
-            np.greater(nb, ac, out=mask)
-            np.matmul(r, mask, out=weighted)
+            # One pass over the block while it is in cache: SAD to floor(m), then the
+            # mask-weighted sum of the remainders.
+            np.maximum(nb, a, out=hi)
+            np.minimum(nb, a, out=lo)
+            np.subtract(hi, lo, out=hi)
+            np.add.reduce(hi, axis=0, dtype=np.uint16, out=sad)
+            np.greater(nb, a, out=masked)
+            np.multiply(masked, r, out=masked)
+            np.add.reduce(masked, axis=0, out=weighted)
+            np.multiply(sad, p, out=total, dtype=np.int64)
+            total += r_total
+            total -= weighted
+            total -= weighted
             start = i * self._block
             stop = min(start + self._block, self._n)
-            tail[: stop - start] = weighted[: stop - start]
-            out[start:stop] -= 2 * tail[: stop - start].astype(np.int64)
+            out[start:stop] = total[: stop - start]
         if cap is not None:
             self._apply_cap(out, s, int(cap), p)
         return out
