@@ -22,6 +22,7 @@ Semantics (docs/sim.md has the reasoning):
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,6 +44,9 @@ from ppaloc.sim.registers import (
     Register,
 )
 from ppaloc.sim.timing import TimingModel
+
+if TYPE_CHECKING:
+    from ppaloc.sim.kernel import Kernel
 
 __all__ = ["Scamp5"]
 
@@ -243,7 +247,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
             np.add(pix, self.noise.pixel_offset, out=pix)
 
     # --------------------------------------------------------------------- kernels
-    def kernel(self):
+    def kernel(self) -> Kernel:
         """A recorder: ``with sim.kernel() as k: k.mov(A, B)`` records, then runs once.
 
         Returns
@@ -419,8 +423,6 @@ class Scamp5(ControllerMixin, ProgramAPI):
                 val = t0 if single else t1
                 if not single:
                     np.copyto(t1, t0)
-                if not ideal:
-                    noise.perturb(val, index, divided)
                 if shift is not None:
                     o, i, edges = shift
                     if mask is not None:  # an unflagged sender drives nothing
@@ -430,6 +432,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
                     for e in edges:
                         t2[e] = 0
                     val = t2
+                if not ideal:  # noise of the written (receiving) cell
+                    noise.perturb(val, index, divided)
                 _clip(val, _LO, _HI, out=val)
                 if mask is None:
                     np.copyto(plane, val)
