@@ -89,6 +89,14 @@ class Reference:
             a["NEWS"] = np.where(flag, c(-a[x]), a["NEWS"])
             a[y] = np.where(flag, c(-a["NEWS"]), a[y])
             d["FLAG"] = np.ones((ROWS, COLS), dtype=bool)
+        elif op == "where_movx":
+            f, y, x, direction = args
+            flag = a[f] > 0
+            # the sender (neighbour in `direction`) drives only if flagged; edge reads 0
+            pushed = shift(np.where(flag, a[x], 0.0), direction)
+            a["NEWS"] = np.where(flag, c(-pushed), a["NEWS"])
+            a[y] = np.where(flag, c(-a["NEWS"]), a[y])
+            d["FLAG"] = np.ones((ROWS, COLS), dtype=bool)
         elif op == "AND":
             r, x, y = args
             d["R12"] = ~d[x]
@@ -139,6 +147,10 @@ def issue(k, step: tuple) -> None:
         k.where(reg(args[0]))
         k.mov(reg(args[1]), reg(args[2]))
         k.all()
+    elif op == "where_movx":
+        k.where(reg(args[0]))
+        k.movx(reg(args[1]), reg(args[2]), direction(args[3]))
+        k.all()
     elif op in ("AND", "OR", "XOR", "MUX", "NOT"):
         getattr(k, op)(*map(reg, args))
     elif op == "DNEWS":
@@ -177,6 +189,7 @@ steps = st.one_of(
     st.tuples(st.just("movx"), areg, areg, direction_st),
     _pair_then("subx", AREGS, areg, tail=(direction_st,)),
     st.tuples(st.just("where_mov"), areg, areg, areg),
+    st.tuples(st.just("where_movx"), areg, areg, areg, direction_st),
     st.tuples(st.just("AND"), dreg, dreg, dreg),
     distinct(3, DREGS).map(lambda r: ("OR", *r)),
     distinct(3, DREGS).map(lambda r: ("XOR", *r)),
