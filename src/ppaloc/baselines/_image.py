@@ -96,7 +96,7 @@ def patch_normalise(image: np.ndarray, patch: int = 8, *, quantise: bool = False
     -------
     ndarray of float32, shape (H, W)
         ``(x - mean) / std`` per tile, ``std`` with Bessel's correction (as MATLAB's
-        ``std``). A constant tile (``std == 0``) becomes all zeros (OpenSeqSLAM divides by
+        ``std``). A constant tile (``std`` zero up to rounding) becomes all zeros (OpenSeqSLAM divides by
         zero there).
 
     Examples
@@ -116,8 +116,9 @@ def patch_normalise(image: np.ndarray, patch: int = 8, *, quantise: bool = False
     tiles = a.reshape(h // patch, patch, w // patch, patch)
     mean = tiles.mean(axis=(1, 3), keepdims=True)
     std = tiles.std(axis=(1, 3), ddof=1, keepdims=True)
-    safe = np.where(std > 0, std, 1.0)
-    z = np.where(std > 0, (tiles - mean) / safe, 0.0).reshape(h, w)
+    # A tile is constant when its deviation is rounding noise relative to its level.
+    flat = std <= 1e-9 * np.maximum(np.abs(mean), 1.0)
+    z = np.where(flat, 0.0, (tiles - mean) / np.where(flat, 1.0, std)).reshape(h, w)
     if quantise:
         z = 127.0 + np.sign(z) * np.floor(np.abs(z) + 0.5)
     return z.astype(np.float32)

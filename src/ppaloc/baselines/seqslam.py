@@ -62,7 +62,8 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
     window : int
         OpenSeqSLAM's ``contrastEnhancement.R``: entry ``i`` is normalised by the mean and
         standard deviation (Bessel-corrected) of entries ``i - window//2 .. i + window//2``
-        (cut at the ends of the map).
+        (cut at the ends of the map). ``window=0`` switches the enhancement off (only the
+        per-column shift to a zero minimum is applied).
 
     Returns
     -------
@@ -83,6 +84,8 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
     if squeeze:
         d = d[:, None]
     n = d.shape[0]
+    if int(window) == 0:
+        return (d - d.min(axis=0, keepdims=True))[:, 0] if squeeze else d - d.min(axis=0)
     half = int(window) // 2
     zero = np.zeros((1, d.shape[1]))
     c1 = np.concatenate((zero, np.cumsum(d, axis=0)))
@@ -182,7 +185,7 @@ class SeqSLAM:
         Window of the uniqueness confidence: the competitor is the cheapest node outside
         ``best +- rwindow // 2`` (OpenSeqSLAM: 10).
     enhance_window : int
-        Contrast enhancement window ``R`` (OpenSeqSLAM: 10).
+        Contrast enhancement window ``R`` (OpenSeqSLAM: 10); 0 switches it off.
     top_k : int
         Length of ``Estimate.ranking``.
     record_weights : bool

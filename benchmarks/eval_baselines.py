@@ -1,0 +1,109 @@
+"""Max F1 of every baseline (and the weighted-node filter) on the shared real datasets.
+
+Not collected by pytest. Run from the project root::
+
+    .venv/bin/python benchmarks/eval_baselines.py            # every dataset, every method
+    .venv/bin/python benchmarks/eval_baselines.py --only gp  # Gardens Point pairs only
+
+Frames go through the sensor front-end (``to_sensor``) once per traversal and are shared by
+every method. Scores are the methods' own confidences; max F1 uses recall definition A
+(correct accepted / queries with a true match) over every distinct score, tolerance +-2.
+SeqSLAM is also run in OpenSeqSLAM's centred (offline) mode for reference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ppaloc.datasets import load_dataset, to_sensor
+from ppaloc.evaluate.metrics import evaluate_estimates
+from ppaloc.methods import make_localiser
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+DATASETS = {
+    "nordland summer->winter": f"nordland:{DATA}/nordland-64x32?ref=summer&query=winter&tolerance=2",
+    "gp day_left->day_right": f"gardens-point:{DATA}/gardens-point?ref=day_left&query=day_right&tolerance=2",
+    "gp day_right->night_right": f"gardens-point:{DATA}/gardens-point?ref=day_right&query=night_right&tolerance=2",
+    "gp day_left->night_right": f"gardens-point:{DATA}/gardens-point?ref=day_left&query=night_right&tolerance=2",
+}
+METHODS = [
+    "single-frame",
+    "seqslam",
+    "seqslam-centred",
+    "seqslam-noenhance",
+    "able-m",
+    "particle-filter",
+    "weighted-node-lowres",
+    "weighted-node-lbp",
+]
+
+
+def run(method: str, ref: list[np.ndarray], query: list[np.ndarray]):
+    if method == "seqslam-centred":
+        loc = make_localiser("seqslam", mode="centred")
+        loc.build_map(ref)
+        return loc.localise_sequence(query)
+    if method == "seqslam-noenhance":
+        loc = make_localiser("seqslam", enhance_window=0)
+    else:
+        loc = make_localiser(method)
+    loc.build_map(ref)
+    loc.reset()
+    return [loc.step(f) for f in query]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--only", choices=["gp", "nordland"], default=None)
+    parser.add_argument("--methods", nargs="*", default=METHODS)
+    parser.add_argument("--out", type=Path, default=None, help="write the table as JSON")
+    args = parser.parse_args()
+    rows = []
+    for name, spec in DATASETS.items():
+        if args.only == "gp" and not name.startswith("gp"):
+            continue
+        if args.only == "nordland" and not name.startswith("nordland"):
+            continue
+        ds = load_dataset(spec)
+        ref = [to_sensor(f) for f in ds.reference]
+        query = [to_sensor(f) for f in ds.query]
+        for method in args.methods:
+            try:
+                t0 = time.perf_counter()
+                est = run(method, ref, query)
+                dt = (time.perf_counter() - t0) / len(query) * 1e3
+            except Exception as exc:  # a method not available in this tree
+                print(f"{name:28s} {method:22s} unavailable: {exc}")
+                continue
+            m = evaluate_estimates(
+                [e.node for e in est],
+                [e.score for e in est],
+                ds.ground_truth,
+                rankings=[e.ranking for e in est],
+            )
+            row = {
+                "dataset": name,
+                "method": method,
+                "f1_max": round(m.f1_max, 4),
+                "accuracy": round(m.accuracy, 4),
+                "recall_at_100p": round(m.recall_at_100p, 4),
+                "ms_per_frame": round(dt, 2),
+                "n_queries": m.n_queries,
+            }
+            rows.append(row)
+            print(
+                f"{name:28s} {method:22s} maxF1 {m.f1_max:.4f}  acc {m.accuracy:.4f}  "
+                f"R@100P {m.recall_at_100p:.4f}  {dt:7.2f} ms/frame",
+                flush=True,
+            )
+    if args.out:
+        args.out.write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,152 @@
+"""SeqSLAM: contrast enhancement, trajectory search, past-only incrementality, lock-on."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.baselines.seqslam import (
+    SeqSLAM,
+    contrast_enhance,
+    trajectory_costs,
+    trajectory_offsets,
+)
+from ppaloc.errors import PpalocError
+from ppaloc.topomap import TopoMap
+
+
+def naive_enhance(d: np.ndarray, window: int) -> np.ndarray:
+    n, half = len(d), window // 2
+    out = np.empty(n)
+    for i in range(n):
+        v = d[max(0, i - half) : min(n, i + half + 1)]
+        out[i] = (d[i] - v.mean()) / v.std(ddof=1)
+    return out - out.min()
+
+
+def test_contrast_enhance_matches_the_definition() -> None:
+    d = np.random.default_rng(0).random((40, 3))
+    got = contrast_enhance(d, 10)
+    for j in range(3):
+        np.testing.assert_allclose(got[:, j], naive_enhance(d[:, j], 10), atol=1e-9)
+    np.testing.assert_allclose(contrast_enhance(d[:, 0], 10), got[:, 0])
+
+
+def test_contrast_enhance_golden_and_switched_off() -> None:
+    # window 2 -> neighbours +-1; d = [0, 3, 0]: node 0 window [0, 3] -> z = -1/sqrt(2) ...
+    d = np.array([0.0, 3.0, 0.0])
+    z0 = (0 - 1.5) / np.sqrt(4.5)
+    z1 = (3 - 1.0) / np.sqrt(3.0)
+    expected = np.array([z0, z1, z0]) - z0
+    np.testing.assert_allclose(contrast_enhance(d, 2), expected)
+    np.testing.assert_allclose(contrast_enhance(d + 2.0, 0), d)
+
+
+def test_trajectory_offsets_are_exact_floors_without_duplicates() -> None:
+    off = trajectory_offsets(np.arange(-10, 1), np.array([0.8, 0.9, 1.0, 1.1, 1.2]))
+    assert off.shape == (5, 11)
+    assert sorted(off[:, 0].tolist()) == [-12, -11, -10, -9, -8]
+    assert np.all(off[:, -1] == 0)
+    # -3 * 0.7 = -2.1 -> -3 ; -10 * 0.7 is exactly -7 (not -8 from rounding error).
+    np.testing.assert_array_equal(
+        trajectory_offsets(np.array([-10, -3]), np.array([0.7])), [[-7, -3]]
+    )
+    # With one column every velocity gives the same trajectory.
+    assert trajectory_offsets(np.array([0]), np.array([0.8, 1.0])).shape == (1, 1)
+
+
+def test_trajectory_costs_match_a_naive_search() -> None:
+    rng = np.random.default_rng(1)
+    cols = rng.random((4, 12))
+    rel = np.arange(-3, 1)
+    offsets = trajectory_offsets(rel, np.array([0.5, 1.0, 1.5]))
+    expected = np.full(12, np.inf)
+    for e in range(12):
+        for row in offsets:
+            nodes = e + row
+            if nodes.min() < 0 or nodes.max() > 11:
+                continue
+            expected[e] = min(expected[e], sum(cols[k, nodes[k]] for k in range(4)))
+    np.testing.assert_allclose(trajectory_costs(cols, offsets), expected)
+
+
+def test_locks_on_the_toy_route(toy_route) -> None:
+    ref, query = toy_route
+    s = SeqSLAM()
+    s.build_map(ref)
+    nodes = np.array([s.step(f).node for f in query])
+    truth = np.arange(10, 50)
+    assert np.mean(np.abs(nodes[3:] - truth[3:]) <= 1) >= 0.95
+
+
+def test_past_only_step_equals_batch_and_ignores_the_future(toy_route) -> None:
+    ref, query = toy_route
+    s = SeqSLAM(record_weights=True)
+    s.build_map(ref)
+    online = [s.step(f) for f in query]
+    batch = s.localise_sequence(query)
+    assert [e.node for e in online] == [e.node for e in batch]
+    np.testing.assert_allclose([e.score for e in online], [e.score for e in batch], atol=1e-9)
+    np.testing.assert_allclose(online[-1].weights, batch[-1].weights, atol=1e-9)
+    # Replacing the future by other frames changes nothing up to the cut.
+    cut = 25
+    other = np.concatenate([query[:cut], query[::-1][: len(query) - cut]])
+    altered = s.localise_sequence(other)
+    assert [e.node for e in altered[:cut]] == [e.node for e in batch[:cut]]
+    np.testing.assert_allclose([e.score for e in altered[:cut]], [e.score for e in batch[:cut]])
+
+
+def test_reset_forgets_the_query(toy_route) -> None:
+    ref, query = toy_route
+    s = SeqSLAM()
+    s.build_map(ref)
+    first = [s.step(f).node for f in query[:15]]
+    s.reset()
+    assert [s.step(f).node for f in query[:15]] == first
+
+
+def test_centred_mode_runs_offline_and_refuses_step(toy_route) -> None:
+    ref, query = toy_route
+    s = SeqSLAM(mode="centred")
+    s.build_map(ref)
+    assert s.ds == 10
+    nodes = np.array([e.node for e in s.localise_sequence(query)])
+    assert np.mean(np.abs(nodes - np.arange(10, 50)) <= 1) >= 0.95
+    with pytest.raises(PpalocError, match=r"mode='centred' needs ds/2 future frames"):
+        s.step(query[0])
+    assert SeqSLAM(mode="centred", ds=9).ds == 10
+
+
+def test_confidence_is_higher_on_the_route_than_off_it(toy_route) -> None:
+    ref, query = toy_route
+    s = SeqSLAM()
+    s.build_map(ref[10:50])
+    on = [s.step(f).score for f in query][10:]
+    s.reset()
+    off_route = np.random.default_rng(9).integers(0, 256, (30, 256, 256), dtype=np.uint8)
+    off = [s.step(f).score for f in off_route][10:]
+    assert min(on) > max(off)
+    assert all(0.0 <= x <= 1.0 for x in on + off)
+
+
+def test_ranking_starts_with_the_estimate(toy_route) -> None:
+    ref, query = toy_route
+    s = SeqSLAM(top_k=5)
+    s.build_map(ref)
+    e = [s.step(f) for f in query[:12]][-1]
+    assert e.ranking[0] == e.node and len(e.ranking) == 5
+
+
+def test_user_errors_name_the_fix(toy_route) -> None:
+    ref, _ = toy_route
+    with pytest.raises(PpalocError, match="mode='forward' is unknown; choose 'past' or 'centred'"):
+        SeqSLAM(mode="forward")
+    with pytest.raises(PpalocError, match="no map yet; call build_map"):
+        SeqSLAM().step(ref[0])
+    with pytest.raises(PpalocError, match="cannot use a map of kind 'lowres'; it needs kind"):
+        SeqSLAM().use_map(TopoMap("lowres", np.zeros((3, 8, 8), np.uint8)))
+    m = SeqSLAM().build_map(ref[:5])
+    with pytest.raises(PpalocError, match=r"shape \(32, 64\) but these parameters give \(16, 32\)"):
+        SeqSLAM(size=(16, 32)).use_map(m)
+    with pytest.raises(PpalocError, match="reference traversal is empty"):
+        SeqSLAM().build_map([])
