@@ -111,6 +111,8 @@ def test_hamming_chunked_path_matches_the_direct_path() -> None:
 def test_hamming_rejects_non_uint32_nodes() -> None:
     with pytest.raises(ValueError, match="must be uint32, got int64"):
         hamming(1, np.array([1, 2]))
+    with pytest.raises(ValueError, match="query=-1 is not a 32-bit descriptor"):
+        hamming(-1, np.array([1, 2], np.uint32))
 
 
 codes = st.integers(0, 2**32 - 1)

@@ -85,3 +85,22 @@ def test_build_rejects_bad_arguments() -> None:
     with pytest.raises(ValueError, match="positions has 2 rows for 1 frames"):
         build_topomap([frame], "lbp", positions=np.zeros(2))
     assert len(build_topomap([], "lbp")) == 0
+
+
+def test_planes_put_each_node_in_its_snake_block() -> None:
+    lowres = np.arange(1025 * 64, dtype=np.int64).reshape(1025, 8, 8) % 251
+    m = TopoMap("lowres", lowres.astype(np.uint8))
+    planes = m.planes()
+    assert planes.shape == (2, 256, 256) and planes.dtype == np.uint8
+    np.testing.assert_array_equal(planes[0, 0:8, 248:256], lowres[0])
+    np.testing.assert_array_equal(planes[0, 0:8, 240:248], lowres[1])
+    np.testing.assert_array_equal(planes[0, 8:16, 0:8], lowres[32])
+    np.testing.assert_array_equal(planes[1, 0:8, 248:256], lowres[1024])
+    # LBP: row k of the 4x8 block is cell k's code, MSB in column 0
+    lbp = TopoMap("lbp", np.array([0xBA00FFF7, 1], np.uint32)).planes()
+    np.testing.assert_array_equal(lbp[0, 0, 248:256], [1, 0, 1, 1, 1, 0, 1, 0])
+    np.testing.assert_array_equal(lbp[0, 1, 248:256], 0)
+    np.testing.assert_array_equal(lbp[0, 3, 248:256], [1, 1, 1, 1, 0, 1, 1, 1])
+    np.testing.assert_array_equal(lbp[0, 0:4, 240:248].ravel(), np.eye(32, dtype=np.uint8)[31])
+    with pytest.raises(ValueError, match="a 'seqslam' map has no PE layout"):
+        TopoMap("seqslam", np.zeros((2, 4))).planes()

@@ -164,6 +164,8 @@ def hamming(
     n = np.asarray(nodes)
     if n.dtype != np.uint32:
         raise ValueError(f"node descriptors must be uint32, got {n.dtype}")
+    if not 0 <= int(query) < 2**LBP_BITS:
+        raise ValueError(f"query={int(query)} is not a 32-bit descriptor (0 .. 2**32 - 1)")
     q = np.uint32(query)
     if out is None:
         out = np.empty(n.shape, dtype=np.uint8)

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc.place import unpack_bits
 from ppaloc.topomap.layout import KIND_BLOCK_SHAPES, SnakeLayout, layout_for
 
 __all__ = ["KIND_SPECS", "TopoMap"]
@@ -102,6 +103,33 @@ class TopoMap:
         """Planes (registers or sensors) the map needs on the PE array, where it has a layout."""
         layout = self.layout
         return None if layout is None else layout.n_tiles(len(self))
+
+    def node_blocks(self) -> np.ndarray:
+        """Return each node's values on the PEs of its block, shape (N, block_rows, block_cols).
+
+        ``"lowres"``: the uint8 (8, 8) image itself. ``"lbp"``: the 32 bits as uint8 0/1 in a
+        4x8 block, row k = cell k's code, MSB in column 0 (see ``KIND_BLOCK_SHAPES``).
+        """
+        if self.kind == "lowres":
+            return self.descriptors
+        if self.kind == "lbp":
+            return unpack_bits(self.descriptors).reshape(len(self), *KIND_BLOCK_SHAPES["lbp"])
+        raise ValueError(f"a {self.kind!r} map has no PE layout; only 'lowres' and 'lbp' do")
+
+    def planes(self, *, fill: int = 0) -> np.ndarray:
+        """Return the map as PE planes, shape (n_tiles, 256, 256), in the snake layout.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> p = TopoMap("lbp", np.array([0x80000001], np.uint32)).planes()
+        >>> p.shape, int(p[0, 0, 248]), int(p[0, 3, 255]), int(p.sum())
+        ((1, 256, 256), 1, 1, 2)
+        """
+        layout = self.layout
+        if layout is None:
+            raise ValueError(f"a {self.kind!r} map has no PE layout; only 'lowres' and 'lbp' do")
+        return layout.to_planes(self.node_blocks(), fill=fill)
 
     def save(self, path: str | Path, *, dataset: str | None = None) -> Path:
         """Write the map to one versioned ``.npz`` file, atomically (see :func:`save_map`)."""
