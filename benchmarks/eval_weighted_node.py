@@ -18,10 +18,11 @@ from ppaloc.datasets.registry import load_dataset
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
 DATA = "../shared/data"
+GP = f"gardens-point:{DATA}/gardens-point"
 DATASETS = {
     "nordland summer->winter": f"nordland:{DATA}/nordland-64x32?ref=summer&query=winter",
-    "gardens day_left->day_right": f"gardens-point:{DATA}/gardens-point?ref=day_left&query=day_right",
-    "gardens day_right->night_right": f"gardens-point:{DATA}/gardens-point?ref=day_right&query=night_right",
+    "gardens day_left->day_right": f"{GP}?ref=day_left&query=day_right",
+    "gardens day_right->night_right": f"{GP}?ref=day_right&query=night_right",
 }
 
 

@@ -105,7 +105,9 @@ def crossing_counts(
     return changed, support
 
 
-def forward_decision(changed: int, support: int, *, shift: int = 7, min_support: int = 1024) -> bool:
+def forward_decision(
+    changed: int, support: int, *, shift: int = 7, min_support: int = 1024
+) -> bool:
     """Decide forward (True) or stay from the two counts, in controller integers.
 
     Forward iff ``support < min_support`` (too little texture to tell: assume the

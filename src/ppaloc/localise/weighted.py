@@ -8,8 +8,10 @@ Per frame, in this order (docs/ppa8.md; docs/localise.md has the reasoning):
 4. detection: the highest weight, ties to the candidate nearest the previous estimate;
 5. every ``k``-th frame the adjustment ``w_i -= gamma * max(W)``.
 
-``arithmetic="float"`` runs this in float32 without saturation; ``arithmetic="ppa8"`` in
-the register arithmetic of docs/ppa8.md (saturation, integer DAC constants, an integer
+``arithmetic="float"`` runs this in float32 with the weights kept in the register's range
+[-127, 127] (the bound is what gives the filter a finite memory: without it one long run
+of good matches outweighs any later evidence); ``arithmetic="ppa8"`` in the register
+arithmetic of docs/ppa8.md (saturation of every write, integer DAC constants, an integer
 detection threshold), exactly, in float64 (every value is a dyadic rational with few bits).
 
 The weights live in one contiguous array in a rotated frame: node ``i`` is element
@@ -32,7 +34,13 @@ from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel, Orac
 from ppaloc.place import block_sums, lbp_descriptor, lowres_image
 from ppaloc.topomap import TopoMap, build_topomap
 
-__all__ = ["GAMMAS", "WeightedNodeLocaliser", "lowres_scale", "suggest_alpha"]
+__all__ = [
+    "GAMMAS",
+    "WeightedNodeLocaliser",
+    "choose_candidate",
+    "lowres_scale",
+    "suggest_alpha",
+]
 
 GAMMAS = (0.0, 0.125, 0.25, 0.5, 1.0)
 """Adjustment factors a PPA applies by halving (docs/ppa8.md)."""
@@ -126,6 +134,27 @@ def suggest_alpha(topomap: TopoMap, shift: int = 2, quantile: float = 0.99) -> i
     return int(min(max(math.ceil(value), 0), 127))
 
 
+def choose_candidate(candidates: np.ndarray, previous: int | None) -> int:
+    """The detection tie-break: the candidate nearest ``previous``, then the smaller index.
+
+    Parameters
+    ----------
+    candidates : ndarray of int, shape (C,)
+        Sorted node indices whose weight reached the detection threshold (C >= 1).
+    previous : int or None
+        The previous estimate; None on the first frame (the smallest candidate wins).
+
+    Examples
+    --------
+    >>> choose_candidate(np.array([2, 7, 12]), 10), choose_candidate(np.array([4, 8]), 6)
+    (12, 4)
+    """
+    if previous is None:
+        return int(candidates[0])
+    # argmin returns the first minimum, i.e. the smaller index on equal distance
+    return int(candidates[np.argmin(np.abs(candidates - previous))])
+
+
 def _check_int(name: str, value: Any, low: int, high: int | None = None) -> int:
     if not isinstance(value, int | np.integer) or isinstance(value, bool):
         raise PpalocError(f"{name}={value!r} must be an integer")
@@ -160,8 +189,10 @@ class WeightedNodeLocaliser:
     motion : {"image", "always_forward", "oracle"}
         Motion model (default ``"image"``, see :mod:`ppaloc.localise.motion`).
     arithmetic : {"float", "ppa8"}
-        ``"float"``: float32 weights, no saturation, the live low-res image quantised like
-        a node. ``"ppa8"``: the register arithmetic of docs/ppa8.md, exactly.
+        ``"float"``: float32 weights clipped to [-127, 127], ties only between equal
+        weights, ``gamma * max(W)`` unrounded, the live low-res image quantised like a node
+        (uint8 SAD, the fast path). ``"ppa8"``: the register arithmetic of docs/ppa8.md,
+        exactly (the live frame's exact block means, integer threshold and DAC constants).
     confidence_radius : int
         ``R`` of the confidence score (default 10 nodes): the best weight minus the best
         weight outside nodes ``node - R .. node + R``.
@@ -207,9 +238,7 @@ class WeightedNodeLocaliser:
                 f"representation={representation!r} is not one of {', '.join(_REPRESENTATIONS)}"
             )
         if arithmetic not in _ARITHMETICS:
-            raise PpalocError(
-                f"arithmetic={arithmetic!r} is not one of {', '.join(_ARITHMETICS)}"
-            )
+            raise PpalocError(f"arithmetic={arithmetic!r} is not one of {', '.join(_ARITHMETICS)}")
         if motion not in _MOTIONS:
             raise PpalocError(f"motion={motion!r} is not one of {', '.join(_MOTIONS)}")
         if gamma not in GAMMAS:
@@ -349,8 +378,7 @@ class WeightedNodeLocaliser:
         n = len(w)
         w[off:] += term[: n - off]
         w[:off] += term[n - off :]
-        if self._exact:
-            np.clip(w, _W_MIN, _W_MAX, out=w)
+        np.clip(w, _W_MIN, _W_MAX, out=w)
 
     def _to_node(self, physical: np.ndarray | int) -> np.ndarray | int:
         return (physical - self._offset) % len(self._w)
@@ -363,11 +391,7 @@ class WeightedNodeLocaliser:
         candidates = self._to_node(np.flatnonzero(w >= threshold))
         if len(candidates) == 1:
             return int(candidates[0]), threshold
-        candidates = np.sort(candidates)
-        if self._prev is None:
-            return int(candidates[0]), threshold
-        # nearest to the previous estimate; argmin takes the first, i.e. the smaller index
-        return int(candidates[np.argmin(np.abs(candidates - self._prev))]), threshold
+        return choose_candidate(np.sort(candidates), self._prev), threshold
 
     def _max_outside(self, node: int) -> float | None:
         """The largest weight outside nodes ``node - R .. node + R`` (None if there is none)."""
@@ -416,3 +440,4 @@ class WeightedNodeLocaliser:
             np.clip(w, _W_MIN, _W_MAX, out=w)
         else:
             w -= self._dtype(self.gamma * top)
+            np.clip(w, _W_MIN, _W_MAX, out=w)

@@ -1,0 +1,95 @@
+import numpy as np
+import pytest
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.motion import (
+    AlwaysForward,
+    ImageMotion,
+    OracleMotion,
+    crossing_counts,
+    forward_decision,
+    motion_planes,
+)
+
+
+def square(half: int) -> np.ndarray:
+    """A dark frame with a bright centred square and a ring of texture in every block."""
+    f = np.full((256, 256), 40, np.uint8)
+    f[128 - half : 128 + half, 128 - half : 128 + half] = 220
+    return f
+
+
+def test_planes_golden_margin():
+    f = np.zeros((256, 256), np.uint8)
+    f[0, 0] = 10  # block mean 10/1024: x = 10240 - 10 at (0,0), -10 elsewhere in block
+    u, d = motion_planes(f, margin=2)  # limit 4096
+    assert u[0, 0] and u.sum() == 1 and d.sum() == 0
+    u, d = motion_planes(f, margin=3)  # limit 6144: 10230 still above
+    assert u.sum() == 1
+    f[0, 0] = 5  # x = 5115 < 6144
+    assert motion_planes(f, margin=3)[0].sum() == 0
+
+
+def test_expanding_pattern_is_forward_still_is_stay():
+    m = ImageMotion()
+    assert m.step(square(40)) is False  # first frame: no predecessor
+    assert m.step(square(56)) is True  # edges moved outwards
+    assert m.step(square(56)) is False  # nothing moved
+    changed, support = m.last_counts
+    assert changed == 0 and support > 0
+
+
+def test_noise_is_stay():
+    rng = np.random.default_rng(0)
+    base = square(50).astype(int)
+    m = ImageMotion()
+    decisions = []
+    for _ in range(5):
+        noisy = np.clip(base + rng.normal(0, 2, base.shape).round(), 0, 255).astype(np.uint8)
+        decisions.append(m.step(noisy))
+    assert decisions == [False] * 5
+
+
+def test_featureless_is_forward():
+    m = ImageMotion()
+    m.step(np.zeros((256, 256), np.uint8))
+    assert m.step(np.zeros((256, 256), np.uint8)) is True
+    assert m.last_counts == (0, 0)
+
+
+def test_decision_golden():
+    assert forward_decision(0, 50000) is False
+    assert forward_decision(391, 50000) is True  # 391 * 128 = 50048
+    assert forward_decision(390, 50000) is False
+    assert forward_decision(0, 1023) is True
+    assert forward_decision(0, 1024) is False
+
+
+def test_crossing_counts():
+    u0 = np.array([1, 0, 1, 0], bool)
+    d0 = np.array([0, 1, 0, 0], bool)
+    u1 = np.array([0, 1, 1, 0], bool)
+    d1 = np.array([1, 0, 0, 0], bool)
+    assert crossing_counts((u0, d0), (u1, d1)) == (2, 3)
+
+
+def test_reset_forgets_previous_frame():
+    m = ImageMotion()
+    m.step(square(40))
+    m.reset()
+    assert m.step(square(60)) is False
+
+
+def test_always_forward_and_oracle():
+    a = AlwaysForward()
+    f = square(10)
+    assert [a.step(f), a.step(f), a.step(f)] == [False, True, True]
+    o = OracleMotion([True, False])
+    assert [o.step(f), o.step(f)] == [True, False]
+    with pytest.raises(PpalocError, match="has 2 ground-truth moves but was asked for frame 2"):
+        o.step(f)
+
+
+def test_bad_parameter_message():
+    with pytest.raises(PpalocError, match=r"motion margin=-1 must be a non-negative integer"):
+        ImageMotion(margin=-1)
