@@ -389,36 +389,71 @@ class Scamp5(ControllerMixin, ProgramAPI):
             ideal and single and dsts[0][2] is None and not (dsts[0][1] == _NEWS_I and has_nbr_src)
         )
 
-        def scale(out: np.ndarray) -> None:
-            if ideal:
-                if parts == 1:
-                    np.negative(out, out=out)
-                else:
-                    np.divide(out, np.float32(-parts), out=out)
+        local = [s for s in ins.srcs if s.role != "neighbour"]
+        lone = a[local[0].index] if len(local) == 1 and not has_nbr_src else None
+        m_half = np.float32(-0.5)
+        d_parts = np.float32(-parts)
+
+        def value(out: np.ndarray) -> None:
+            """out := -(sum of sources) / parts (times the transfer gain when noisy)."""
+            src = out
+            if lone is not None:
+                src = lone  # one local source: no copy, scale straight from it
             else:
-                np.multiply(out, np.float32(noise.negated_gain() / parts), out=out)
+                total(out)
+            if not ideal:
+                np.multiply(src, np.float32(noise.negated_gain() / parts), out=out)
+            elif parts == 1:
+                np.negative(src, out=out)
+            elif parts == 2:
+                np.multiply(src, m_half, out=out)  # exact: a power of two
+            else:
+                np.divide(src, d_parts, out=out)
 
         if direct_ok:
             dst0 = dsts[0][0]
 
-            def run_ideal() -> None:
+            def run_direct() -> None:
                 mask = mask_of()
-                if mask is None:
-                    total(dst0)
-                    scale(dst0)
+                if mask is None:  # straight into the destination
+                    value(dst0)
                     _clip(dst0, _LO, _HI, out=dst0)
                 else:
-                    total(t0)
-                    scale(t0)
+                    value(t0)
                     _clip(t0, _LO, _HI, out=t0)
                     blend(dst0, t0, mask)
 
-            return run_ideal
+            return run_direct
 
-        def run() -> None:
+        t0u, t1u = t0.view(np.uint32), t1.view(np.uint32)
+
+        def run_ideal() -> None:
             mask = mask_of()
-            total(t0)
-            scale(t0)
+            value(t0)
+            _clip(t0, _LO, _HI, out=t0)  # one value for every destination
+            for plane, _, shift in dsts:
+                if shift is None:
+                    if mask is None:
+                        np.copyto(plane, t0)
+                    else:
+                        np.copyto(t1, t0)
+                        blend(plane, t1, mask)
+                    continue
+                o, i, edges = shift
+                if mask is None:
+                    np.copyto(plane[o], t0[i])
+                    for e in edges:
+                        plane[e] = 0
+                else:
+                    np.bitwise_and(t0u, mask, out=t1u)  # an unflagged sender drives nothing
+                    np.copyto(t2[o], t1[i])
+                    for e in edges:
+                        t2[e] = 0
+                    blend(plane, t2, mask)
+
+        def run_noisy() -> None:
+            mask = mask_of()
+            value(t0)
             for plane, index, shift in dsts:
                 val = t0 if single else t1
                 if not single:
@@ -432,15 +467,14 @@ class Scamp5(ControllerMixin, ProgramAPI):
                     for e in edges:
                         t2[e] = 0
                     val = t2
-                if not ideal:  # noise of the written (receiving) cell
-                    noise.perturb(val, index, divided)
+                noise.perturb(val, index, divided)  # noise of the written (receiving) cell
                 _clip(val, _LO, _HI, out=val)
                 if mask is None:
                     np.copyto(plane, val)
                 else:
                     blend(plane, val, mask)
 
-        return run
+        return run_ideal if ideal else run_noisy
 
     def _op_where(self, ins: Instruction) -> Op:
         total = self._sum_closure(ins.srcs)

@@ -252,5 +252,10 @@ class NoiseModel:
         if over_ms <= 0:
             return
         prob = 1.0 - (1.0 - p.digital_flip_per_ms) ** over_ms
-        lose = self.rng.random(plane.shape) < prob
-        plane &= ~lose
+        if prob > 0.01:
+            plane &= self.rng.random(plane.shape) >= prob
+        else:  # few flips (the usual case, one kernel's worth of time): draw only those
+            flat = plane.reshape(-1)
+            hits = self.rng.binomial(flat.size, prob)
+            if hits:
+                flat[self.rng.integers(0, flat.size, hits)] = False
