@@ -142,6 +142,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._mask = np.zeros(shape, dtype=np.uint32)
         self._flag_masked: bool | None = False  # None: unknown, recompute
         self._image: np.ndarray | None = None
+        self._ops_cache: dict[tuple, Op] = {}
         self._last_us = 0.0
         self._dtouch_us = np.zeros(_N_DIGITAL)
         if not self.noise.ideal:
@@ -315,8 +316,18 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
     # ---------------------------------------------------------------- compilation
     def _compile(self, ins: Instruction) -> Op:
-        """A closure performing ``ins`` on this simulator's planes (built by its op table row)."""
-        return ins.spec.build(self, ins)
+        """A closure performing ``ins`` on this simulator's planes (built by its op table row).
+
+        Closures depend only on the instruction and this simulator's fixed planes, so they
+        are cached: repeated direct calls and re-recorded kernels skip the build.
+        """
+        key = (ins.op, ins.dsts, ins.srcs)
+        op = self._ops_cache.get(key)
+        if op is None:
+            if len(self._ops_cache) >= 4096:
+                self._ops_cache.clear()
+            op = self._ops_cache[key] = ins.spec.build(self, ins)
+        return op
 
     # Building blocks the op table (isa.OPS) composes instructions from.
     def _op_nop(self, ins: Instruction) -> Op:
