@@ -112,3 +112,13 @@ def test_exception_inside_the_block_does_not_run() -> None:
         k.get_image(A, B)
         1 / 0  # noqa: B018
     assert not sim.read(A).any() and not sim.read(NEWS).any()
+
+
+def test_repr_and_iteration() -> None:
+    sim = fresh()
+    with sim.kernel() as k:
+        k.mov(A, B)
+        assert "recording" in repr(k)
+    assert repr(k) == "Kernel(2 ICWs, recorded, {'analog': 2, 'digital': 0, 'dnews': 0, 'nop': 0})"
+    assert [str(i) for i in k] == ["bus(NEWS, B)", "bus(A, NEWS)"]
+    assert all(i.origin == "mov(A, B)" for i in k.instructions)

@@ -88,6 +88,10 @@ class Kernel(ProgramAPI):
 
         return count_clocks(self._recorded)
 
+    def __repr__(self) -> str:
+        state = "recorded" if self._sealed else "recording"
+        return f"Kernel({len(self._recorded)} ICWs, {state}, {self.counts})"
+
     def __len__(self) -> int:
         return len(self._recorded)
 
