@@ -259,7 +259,7 @@ def _vprbench_rows(arr: object, path: Path, n_query: int, n_ref: int) -> list[np
             f"images (first: {missing[0]}); it does not match the query folder"
         )
     rows = [s for s in sets if s is not None]
-    overhang = max((int(s.size) - 1) // 2 for s in rows) if rows else 0
+    overhang = max((np.unique(s).size - 1) // 2 for s in rows) if rows else 0
     return validate_sets(rows, n_ref, f"ground truth {path}", overhang)
 
 

@@ -1,15 +1,18 @@
 """``video:REF.mp4,QUERY.mp4``: one video file per traversal.
 
-Frames are decoded on access with imageio's ffmpeg plugin (the ``imageio-ffmpeg`` package
-ships the ffmpeg binary); reading in order is cheap, jumping backwards restarts decoding.
-Use ``step`` to keep every step-th frame. Ground truth: ``align=index`` (default) takes
-frame ``i`` of both videos as the same place and needs equal frame counts;
-``align=proportional`` assumes both traversals moved at constant speed, so query frame ``i``
-of ``M`` is at reference frame ``i (N - 1) / (M - 1)``.
+Frames are decoded on access with PyAV (FFmpeg's libraries, shipped inside the ``av``
+wheel). Reading forward is cheap (frames in between are decoded and dropped); going
+backwards restarts decoding from the start. Use ``step`` to keep every step-th frame.
+Colour frames become grey by the same ITU-R 601 rule as images.
+
+Ground truth: ``align=index`` (default) takes frame ``i`` of both videos as the same place
+and needs equal frame counts; ``align=proportional`` assumes both traversals moved at
+constant speed, so query frame ``i`` of ``M`` is at reference frame ``i (N - 1) / (M - 1)``.
 """
 
 from __future__ import annotations
 
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -36,48 +39,87 @@ SCHEMA = KindSchema(
 )
 
 
+class _Decoder:
+    """A sequential decoder over one file that can restart; shared by all slices."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.container = None
+        self.frames = None
+        self.next_index = 0
+
+    def open(self) -> None:
+        import av
+
+        self.close()
+        try:
+            self.container = av.open(str(self.path))
+            if not self.container.streams.video:
+                raise DataError(f"{self.path} holds no video stream")
+            self.frames = self.container.decode(video=0)
+        except DataError:
+            self.close()
+            raise
+        except Exception as exc:  # PyAV raises many types on a bad file
+            self.close()
+            raise DataError(f"cannot read video {self.path}: {exc}") from None
+        self.next_index = 0
+
+    def count(self) -> int:
+        self.open()
+        n = int(self.container.streams.video[0].frames or 0)
+        if n <= 0:  # the container does not say: count by decoding
+            n = sum(1 for _ in self.frames)
+            self.open()
+        return n
+
+    def get(self, i: int) -> np.ndarray:
+        if self.frames is None or i < self.next_index:
+            self.open()
+        try:
+            while True:
+                frame = next(self.frames)
+                self.next_index += 1
+                if self.next_index - 1 == i:
+                    return to_grey(frame.to_ndarray(format="rgb24"))
+        except StopIteration:
+            raise DataError(f"video {self.path} ends before frame {i}") from None
+        except Exception as exc:
+            raise DataError(f"cannot decode frame {i} of video {self.path}: {exc}") from None
+
+    def close(self) -> None:
+        if self.container is not None:
+            self.container.close()
+        self.container, self.frames = None, None
+
+
 class VideoFrames(FrameSequence):
     """Grey frames of a video file, decoded on access.
 
     Parameters
     ----------
     path : Path
-        Any container and codec ffmpeg reads.
+        Any container and codec FFmpeg reads.
+    cache : int
+        Frames kept in the LRU cache.
     """
 
     def __init__(self, path: Path, cache: int = 16) -> None:
         self.path = Path(path)
-        self._reader = None
-        n = self._open().count_frames()
+        if not self.path.is_file():
+            raise DataError(f"video {self.path} does not exist: check the path in the spec")
+        self._decoder = _Decoder(self.path)
+        # Close the decoder when this sequence (and every slice sharing it) is gone.
+        weakref.finalize(self._decoder, _Decoder.close, self._decoder)
+        n = self._decoder.count()
         if n == 0:
+            self._decoder.close()
             raise DataError(f"video {self.path} has no frames")
-        super().__init__(self._frame, range(n), cache)
-
-    def _open(self):
-        if self._reader is None:
-            import imageio.v2 as iio
-
-            if not self.path.is_file():
-                raise DataError(f"video {self.path} does not exist: check the path in the spec")
-            try:
-                self._reader = iio.get_reader(self.path, format="FFMPEG")
-            except Exception as exc:  # imageio/ffmpeg raise many types on a bad file
-                raise DataError(f"cannot read video {self.path}: {exc}") from None
-        return self._reader
-
-    def _frame(self, i: int) -> np.ndarray:
-        try:
-            return to_grey(self._open().get_data(i))
-        except IndexError:
-            raise DataError(f"video {self.path} ends before frame {i}") from None
-        except Exception as exc:
-            raise DataError(f"cannot decode frame {i} of video {self.path}: {exc}") from None
+        super().__init__(self._decoder.get, range(n), cache)
 
     def close(self) -> None:
-        """Close the decoder (it reopens on the next access)."""
-        if self._reader is not None:
-            self._reader.close()
-            self._reader = None
+        """Release the decoder (it reopens on the next access)."""
+        self._decoder.close()
 
 
 def load(spec: DatasetSpec) -> RawRoute:
@@ -87,6 +129,8 @@ def load(spec: DatasetSpec) -> RawRoute:
     n, m = len(ref), len(query)
     if spec.options["align"] == "index":
         if n != m:
+            ref.close()
+            query.close()
             raise DataError(
                 f"reference video {ref_path} has {n} frames but query video {query_path} has "
                 f"{m}; align=index needs equal counts: add align=proportional (constant speed)"

@@ -92,7 +92,7 @@ class Renderer:
         r2 = ((yy - S / 2) ** 2 + (xx - S / 2) ** 2) / (S / 2) ** 2
         self.vignette = (1.0 - 0.12 * r2).astype(np.float32)
         self.noise_bank = rng.standard_normal(S * S * 2, dtype=np.float32)
-        self.beam = np.exp(-(((self.xs - self.cx) / (0.35 * S)) ** 2)).astype(np.float32)
+        self.beam = np.exp(-(((self.xs - self.cx) / (0.28 * S)) ** 2)).astype(np.float32)
         self._plane_reach = float(np.max(world.planes.s1 - world.planes.s0, initial=0.0))
         self._box_reach = float(np.max(world.boxes.s1 - world.boxes.s0, initial=0.0))
 
@@ -400,8 +400,8 @@ class Renderer:
         f = self.f
         d = np.minimum(depth, 1e4)
         height = self.h + (self.cy - self.ys[:, None]) * d / f
-        head = 1.8 * np.exp(-d / 22.0) * self.beam[None, :] * np.exp(-np.maximum(height - 1.2, 0))
-        light = 0.09 + head
+        head = 1.3 * np.exp(-d / 13.0) * self.beam[None, :] * np.exp(-np.maximum(height - 1.0, 0))
+        light = 0.07 + head
         sw, xw = ground
         lamps = self.world.lamps
         j0, j1 = np.searchsorted(lamps[:, 0], [s_cam - 10, s_cam + 90])
@@ -410,7 +410,7 @@ class Renderer:
             pool += np.exp(-(((sw[:, None] - s_l) ** 2 + (xw - x_l) ** 2) / 40.0)).astype(
                 np.float32
             )
-        light[self.g0 :] += 0.9 * pool
+        light[self.g0 :] += 0.7 * pool
         emissive = np.isin(mat, EMISSIVE)
         light = np.where(emissive, 1.0, light * shade)
         light[mat == M["sky"]] = 1.0
