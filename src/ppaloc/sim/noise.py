@@ -93,8 +93,9 @@ class NoiseParams:
                 )
 
 
-#: Named presets. "typical" follows published SCAMP-5 figures (docs/sim.md); "low" and
-#: "high" scale it by 1/4 and 2.5.
+#: Named presets. "typical" takes the retention time from the SCAMP-5 headers and
+#: estimates the other magnitudes (docs/sim.md says which is which); "low" and "high"
+#: scale every magnitude by 1/4 and 2.5.
 PRESETS: dict[str, NoiseParams] = {
     "typical": NoiseParams(
         transfer_gain=-0.002,
