@@ -1,4 +1,4 @@
-"""The spec parser: grammar, typing, messages, and a fuzz test that it only raises DatasetSpecError."""
+"""The spec parser: grammar, typing, messages; fuzzed to raise only DatasetSpecError."""
 
 from __future__ import annotations
 

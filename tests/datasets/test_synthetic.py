@@ -51,7 +51,7 @@ def test_variable_speed_query_stops_and_moved_flags():
     stopped = np.flatnonzero(np.diff(s) == 0)
     assert stopped.size >= 3 * 6  # three stops of at least 6 frames
     nearest = np.floor(s / 4.0 + 0.5).astype(int)
-    assert ds.query_moved.tolist() == [False] + (np.diff(nearest) > 0).tolist()
+    assert ds.query_moved.tolist() == [False, *(np.diff(nearest) > 0).tolist()]
     assert all(g.tolist() == [n] for g, n in zip(ds.ground_truth, nearest, strict=True))
 
 
@@ -96,7 +96,7 @@ def test_forward_motion_flows_outwards():
     s0 = float(world.sprites.s[np.searchsorted(world.sprites.s, 120.0)])
     cols = []
     for d in (40.0, 30.0, 20.0):
-        mat, _, depth, _ = r.geometry(s0 - d, LANE_CENTRE)
+        _mat, _, depth, _ = r.geometry(s0 - d, LANE_CENTRE)
         hit = np.isclose(depth, d, atol=1e-3)
         assert hit.any()
         cols.append(np.abs(np.flatnonzero(hit.any(axis=0)) + 0.5 - r.cx).mean())
