@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 from ppaloc.place import LowresIndex, block_sums, sad
 
@@ -58,3 +61,21 @@ def test_index_rejects_mismatched_queries(nodes: np.ndarray) -> None:
         index.sad(nodes[0], out=np.empty(10, np.int64))
     with pytest.raises(ValueError, match=r"block sums must lie in \[0, 261120\]"):
         index.sad_to_sums(np.full((8, 8), 300_000))
+
+
+@given(
+    arrays(np.uint8, st.tuples(st.integers(1, 40), st.just(8), st.just(8))),
+    arrays(np.int64, (8, 8), elements=st.integers(0, 255 * 1024)),
+    st.integers(1, 16),
+    st.one_of(st.none(), st.integers(0, 255)),
+)
+def test_index_matches_the_obvious_formula(
+    nodes: np.ndarray, sums: np.ndarray, block: int, cap: int | None
+) -> None:
+    index = LowresIndex(nodes, block=block)
+    d = np.abs(sums - 1024 * nodes.astype(np.int64))
+    if cap is not None:
+        d = np.minimum(d, 1024 * cap)
+    np.testing.assert_array_equal(index.sad_to_sums(sums, cap=cap), d.sum(axis=(1, 2)))
+    q = (sums // 1024).astype(np.uint8)
+    np.testing.assert_array_equal(index.sad(q), sad(q, nodes))

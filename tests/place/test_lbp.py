@@ -132,3 +132,22 @@ def test_hamming_is_zero_on_self_and_bits_round_trip(nodes: np.ndarray) -> None:
     for i, q in enumerate(nodes):
         assert hamming(q, nodes)[i] == 0
     np.testing.assert_array_equal(pack_bits(unpack_bits(nodes)), nodes)
+
+
+grids = arrays(np.int64, (6, 6), elements=st.integers(0, 255 * 1024))
+
+
+@given(grids, st.integers(1, 5), st.integers(-1000, 1000))
+def test_lbp_is_invariant_to_increasing_transforms(
+    grid: np.ndarray, gain: int, offset: int
+) -> None:
+    code = lbp_from_grid(grid)
+    assert lbp_from_grid(gain * grid + offset) == code
+    assert lbp_from_grid(np.sqrt(grid.astype(np.float64))) == code
+    # A grid and its negation disagree exactly where a neighbour differs from its centre.
+    ties = sum(
+        int(grid[r0 + dr, c0 + dc] == grid[r0 + 1, c0 + 1])
+        for r0, c0 in ((0, 0), (0, 3), (3, 0), (3, 3))
+        for dr, dc in ((0, 0), (0, 1), (0, 2), (1, 2), (2, 2), (2, 1), (2, 0), (1, 0))
+    )
+    assert hamming(code, lbp_from_grid(-grid).reshape(1))[0] == 32 - ties

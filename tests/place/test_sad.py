@@ -51,3 +51,8 @@ def test_sad_is_symmetric_and_zero_on_self(a: np.ndarray, b: np.ndarray) -> None
     assert sad(a, b[None])[0] == sad(b, a[None])[0]
     assert sad(a, a[None])[0] == 0
     assert sad(a, b[None])[0] == np.abs(a.astype(int) - b.astype(int)).sum()
+
+
+@given(images, images, images)
+def test_sad_triangle_inequality(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> None:
+    assert sad(a, c[None])[0] <= sad(a, b[None])[0] + sad(b, c[None])[0]
