@@ -259,3 +259,13 @@ def test_step_without_map_and_wrong_map(route):
         loc.use_map(lowres_map(route))
     with pytest.raises(PpalocError, match="the reference traversal is empty"):
         loc.build_map([])
+
+
+@pytest.mark.parametrize("n", [5, 300, 5000, 70001])
+def test_top_k_finds_the_largest(n):
+    from ppaloc.localise.weighted import _top_k
+
+    rng = np.random.default_rng(n)
+    w = rng.normal(size=n).astype(np.float32)
+    got = np.sort(w[_top_k(w, 4)])
+    np.testing.assert_array_equal(got, np.sort(w)[-4:])

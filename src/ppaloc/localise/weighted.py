@@ -29,16 +29,14 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
-from ppaloc.localise.likelihood import LbpDistance, LowresDistance
+from ppaloc.localise.likelihood import NodeDistances, distance_scale
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel, OracleMotion
-from ppaloc.place import block_sums, lbp_descriptor, lowres_image
 from ppaloc.topomap import TopoMap, build_topomap
 
 __all__ = [
     "GAMMAS",
     "WeightedNodeLocaliser",
     "choose_candidate",
-    "lowres_scale",
     "suggest_alpha",
 ]
 
@@ -50,22 +48,6 @@ _MOTIONS = ("image", "always_forward", "oracle")
 _ARITHMETICS = ("float", "ppa8")
 _W_MIN, _W_MAX = -127.0, 127.0  # the weight clip of the ``add`` macro (docs/ppa8.md)
 _T_MIN, _T_MAX = -128.0, 127.0  # any other register write
-
-
-def lowres_scale(shift: int) -> float:
-    """Factor from the exact low-res total ``T`` to ``mu_s`` (register units): 2**-(17+shift)."""
-    return 2.0 ** -(17 + shift)
-
-
-def _distance_scale(representation: str, shift: int, exact: bool) -> float:
-    """Factor from a raw integer distance to ``mu_s`` in register units.
-
-    lowres exact: ``T / 2**17``; lowres quantised SAD (grey levels): ``SAD / 128``; lbp:
-    ``2 * popcount``; all times ``2**-shift``.
-    """
-    if representation == "lbp":
-        return 2.0 ** (1 - shift)
-    return lowres_scale(shift) if exact else 2.0 ** -(7 + shift)
 
 
 def _consecutive_and_far_mu(topomap: TopoMap, shift: int) -> tuple[np.ndarray, np.ndarray]:
@@ -81,7 +63,7 @@ def _consecutive_and_far_mu(topomap: TopoMap, shift: int) -> tuple[np.ndarray, n
         x = np.asarray(d, np.int64).reshape(n, -1)
         near = np.abs(x[1:] - x[:-1]).sum(axis=1).astype(np.float64) * 1024
         away = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * 1024
-    scale = _distance_scale(topomap.kind, shift, exact=True)
+    scale = distance_scale(topomap.kind, shift, exact=True)
     return near * scale, away * scale
 
 
@@ -132,6 +114,48 @@ def suggest_alpha(topomap: TopoMap, shift: int = 2, quantile: float = 0.99) -> i
     _, away = _consecutive_and_far_mu(topomap, shift)
     value = float(np.quantile(away, quantile))
     return int(min(max(math.ceil(value), 0), 127))
+
+
+_RANK_ROWS = 256  # the two-level top-k search splits the weights into 256 rows
+
+
+def _clip(a: np.ndarray, low: float, high: float) -> float:
+    """Clip ``a`` in place to [low, high] and return its maximum.
+
+    Checking the extremes first (two fast reductions) and clipping only a side that is
+    out of range is several times cheaper than ``np.clip`` on every frame.
+    """
+    top = float(a.max())
+    if top > high:
+        np.minimum(a, high, out=a)
+        top = high
+    if float(a.min()) < low:
+        np.maximum(a, low, out=a)
+    return top
+
+
+def _top_k(w: np.ndarray, k: int) -> np.ndarray:
+    """Physical indices of ``k`` largest weights (unordered), in about one pass over ``w``.
+
+    The weights are viewed as 256 rows; the element-wise maximum of the rows gives one
+    maximum per column. The ``k`` largest column maxima are ``k`` distinct weights, so
+    the ``k``-th largest weight is at least the ``k``-th largest column maximum: only
+    columns whose maximum reaches it can hold a top-``k`` weight. A full
+    ``argpartition`` of 10**6 weights costs several times more.
+    """
+    n = len(w)
+    if k >= n:
+        return np.arange(n)
+    cols = n // _RANK_ROWS
+    if cols <= 4 * k:
+        return np.argpartition(w, n - k)[n - k :]
+    head = w[: cols * _RANK_ROWS].reshape(_RANK_ROWS, cols)
+    maxima = head.max(axis=0)
+    bound = np.partition(maxima, cols - k)[cols - k]
+    chosen = np.flatnonzero(maxima >= bound)
+    idx = (np.arange(_RANK_ROWS)[:, None] * cols + chosen).reshape(-1)
+    idx = np.concatenate((idx, np.arange(cols * _RANK_ROWS, n)))
+    return idx[np.argpartition(w[idx], len(idx) - k)[len(idx) - k :]]
 
 
 def choose_candidate(candidates: np.ndarray, previous: int | None) -> int:
@@ -275,7 +299,7 @@ class WeightedNodeLocaliser:
         self._exact = arithmetic == "ppa8"
         self._dtype = np.float64 if self._exact else np.float32
         self.topomap: TopoMap | None = None
-        self._distance: LowresDistance | LbpDistance | None = None
+        self._distances: NodeDistances | None = None
         self._w = np.zeros(0, self._dtype)
 
     # -- map -------------------------------------------------------------------------------
@@ -299,12 +323,7 @@ class WeightedNodeLocaliser:
             )
         if len(topomap) == 0:
             raise PpalocError("the map has no nodes")
-        if self.representation == "lbp":
-            self._distance = LbpDistance(np.asarray(topomap.descriptors, np.uint32))
-            self._raw = np.empty(len(topomap), np.uint8)
-        else:
-            self._distance = LowresDistance(np.asarray(topomap.descriptors, np.uint8))
-            self._raw = np.empty(len(topomap), self._dtype)
+        self._distances = NodeDistances(self.representation, topomap.descriptors, exact=self._exact)
         self.topomap = topomap
         if self.alpha_given is None:
             self.alpha = float(suggest_alpha(topomap, self.shift)) if len(topomap) >= 3 else 0.0
@@ -323,7 +342,7 @@ class WeightedNodeLocaliser:
         self._motion.reset()
 
     def _require_map(self) -> None:
-        if self._distance is None:
+        if self._distances is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
 
     def step(self, frame: np.ndarray) -> Estimate:
@@ -336,8 +355,8 @@ class WeightedNodeLocaliser:
             self._offset = (self._offset - 1) % n
             self._w[self._offset] = 0  # what enters node 0: the array edge reads 0
         term = self._likelihood_term(frame)
-        self._add_in_map_order(term)
-        node, top = self._detect()
+        top = self._add_in_map_order(term)
+        node, top = self._detect(top)
         score = self._confidence(node, top)
         ranking = self._ranking(node) if self.ranking_k else None
         if self._frames % self.k == 0 and self.gamma:
@@ -359,35 +378,31 @@ class WeightedNodeLocaliser:
 
     def _likelihood_term(self, frame: np.ndarray) -> np.ndarray:
         """``alpha - mu_s`` per node, in map order (clipped to a register in ppa8)."""
-        raw, term = self._raw, self._term
-        if self.representation == "lbp":
-            self._distance(lbp_descriptor(frame), raw)
-        elif self._exact:
-            self._distance.exact(block_sums(frame, 8), raw)
-        else:
-            self._distance.sad(lowres_image(frame), raw)
-        scale = _distance_scale(self.representation, self.shift, self._exact)
+        raw, term = self._distances(frame), self._term
+        scale = distance_scale(self.representation, self.shift, self._exact)
         np.multiply(raw, self._dtype(-scale), out=term)
         term += self._dtype(self.alpha)
         if self._exact:
-            np.clip(term, _T_MIN, _T_MAX, out=term)
+            _clip(term, _T_MIN, _T_MAX)
         return term
 
-    def _add_in_map_order(self, term: np.ndarray) -> None:
+    def _add_in_map_order(self, term: np.ndarray) -> float:
+        """``w += term`` in map order, then the weight clip; returns ``max(W)``."""
         w, off = self._w, self._offset
         n = len(w)
         w[off:] += term[: n - off]
         w[:off] += term[n - off :]
-        np.clip(w, _W_MIN, _W_MAX, out=w)
+        return _clip(w, _W_MIN, _W_MAX)
 
     def _to_node(self, physical: np.ndarray | int) -> np.ndarray | int:
         return (physical - self._offset) % len(self._w)
 
-    def _detect(self) -> tuple[int, float]:
+    def _detect(self, top: float) -> tuple[int, float]:
         """Return (node, threshold): the candidate nearest the previous estimate."""
         w = self._w
-        top = float(w.max())
         threshold = math.floor(top) if self._exact else top
+        if threshold == top and np.count_nonzero(w == top) == 1:  # no tie: skip the search
+            return int(self._to_node(int(w.argmax()))), threshold
         candidates = self._to_node(np.flatnonzero(w >= threshold))
         if len(candidates) == 1:
             return int(candidates[0]), threshold
@@ -423,21 +438,17 @@ class WeightedNodeLocaliser:
     def _ranking(self, node: int) -> np.ndarray:
         """The ``ranking_k`` best nodes, best first, starting with the estimate."""
         w = self._w
-        k = min(self.ranking_k, len(w))
-        if k < len(w):
-            top = np.argpartition(w, len(w) - k - 1)[len(w) - k - 1 :]
-        else:
-            top = np.arange(len(w))
-        top = top[np.argsort(-w[top], kind="stable")]
+        k = min(self.ranking_k + 1, len(w))
+        top = _top_k(w, k)
         nodes = self._to_node(top)
+        nodes = nodes[np.lexsort((nodes, -w[top]))]  # by weight, then node index
         nodes = nodes[nodes != node]
-        return np.concatenate(([node], nodes))[:k].astype(np.int64)
+        return np.concatenate(([node], nodes))[: self.ranking_k].astype(np.int64)
 
     def _adjust(self, top: float) -> None:
         w = self._w
         if self._exact:
             w -= math.floor(self.gamma * top)  # an integer through the DAC
-            np.clip(w, _W_MIN, _W_MAX, out=w)
         else:
             w -= self._dtype(self.gamma * top)
-            np.clip(w, _W_MIN, _W_MAX, out=w)
+        _clip(w, _W_MIN, _W_MAX)

@@ -1,0 +1,120 @@
+"""The weighted-node filter: per-frame latency against map size.
+
+``make bench`` runs these with pytest-benchmark; ``python benchmarks/bench_localise.py``
+prints the same figures as a table of medians (milliseconds, one core), side by side.
+
+Targets on one core, per query frame at N = 10**6 nodes (float arithmetic, the host's
+fast path): <= 5 ms with 32-bit LBP descriptors, <= 20 ms with 8x8 low-res images. One
+step is the whole of Algorithm 1: descriptor of the live frame, weight shift (an offset
+change), likelihood against every node, update, detection, confidence, a top-10 ranking
+and, every k frames, the adjustment. The motion model is ``always_forward`` so that the
+figure is the filter's; the image motion model adds a constant (``test_image_motion``).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from functools import cache
+
+import numpy as np
+import pytest
+
+from ppaloc.localise.motion import ImageMotion
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.topomap import TopoMap
+
+SIZES = (10**3, 10**4, 10**5, 10**6)
+FRAMES = 8
+
+
+@cache
+def frames() -> np.ndarray:
+    return np.random.default_rng(0).integers(0, 256, (FRAMES, 256, 256), dtype=np.uint8)
+
+
+@cache
+def topomap(representation: str, n: int) -> TopoMap:
+    rng = np.random.default_rng(n)
+    if representation == "lbp":
+        return TopoMap("lbp", rng.integers(0, 2**32, n, dtype=np.uint32))
+    return TopoMap("lowres", rng.integers(0, 256, (n, 8, 8), dtype=np.uint8))
+
+
+def localiser(representation: str, n: int, arithmetic: str) -> WeightedNodeLocaliser:
+    loc = WeightedNodeLocaliser(
+        representation, motion="always_forward", arithmetic=arithmetic, alpha=8
+    )
+    loc.use_map(topomap(representation, n))
+    for f in frames():  # warm up: first touch of every array
+        loc.step(f)
+    return loc
+
+
+def stepper(loc: WeightedNodeLocaliser):
+    state = {"i": 0}
+
+    def step() -> None:
+        loc.step(frames()[state["i"] % FRAMES])
+        state["i"] += 1
+
+    return step
+
+
+@pytest.mark.parametrize("n", SIZES)
+@pytest.mark.parametrize("representation", ["lbp", "lowres"])
+def test_step_float(benchmark, representation, n):
+    benchmark(stepper(localiser(representation, n, "float")))
+
+
+@pytest.mark.parametrize("n", SIZES[:3])
+@pytest.mark.parametrize("representation", ["lbp", "lowres"])
+def test_step_ppa8(benchmark, representation, n):
+    benchmark(stepper(localiser(representation, n, "ppa8")))
+
+
+def test_image_motion(benchmark):
+    model = ImageMotion()
+    state = {"i": 0}
+
+    def step() -> None:
+        model.step(frames()[state["i"] % FRAMES])
+        state["i"] += 1
+
+    benchmark(step)
+
+
+def median_ms(step, repeats: int = 15) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        step()
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times)
+
+
+def main() -> None:
+    print(f"{'N':>9} {'lbp float':>10} {'lbp ppa8':>10} {'lowres float':>13} {'lowres ppa8':>12}")
+    for n in SIZES:
+        row = [
+            median_ms(stepper(localiser(rep, n, arithmetic)))
+            for rep in ("lbp", "lowres")
+            for arithmetic in ("float", "ppa8")
+        ]
+        print(f"{n:>9} {row[0]:>10.3f} {row[1]:>10.3f} {row[2]:>13.3f} {row[3]:>12.3f}")
+    print(f"image motion model: {median_ms(stepper_motion()):.3f} ms per frame")
+
+
+def stepper_motion():
+    model = ImageMotion()
+    state = {"i": 0}
+
+    def step() -> None:
+        model.step(frames()[state["i"] % FRAMES])
+        state["i"] += 1
+
+    return step
+
+
+if __name__ == "__main__":
+    main()
