@@ -1,5 +1,5 @@
 """The ``ppaloc`` command."""
 
-from ppaloc.cli.main import main
+from ppaloc.cli.main import cli, main
 
-__all__ = ["main"]
+__all__ = ["cli", "main"]

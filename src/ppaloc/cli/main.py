@@ -1,13 +1,513 @@
-"""Entry point of the ``ppaloc`` command (placeholder until the CLI lands)."""
+"""The ``ppaloc`` command: click parsers and the launch wrapper.
+
+Layers: the library (``ppaloc.evaluate`` and below) does the work; ``ppaloc.cli.commands``
+has one thin ``run_*`` per command; this module only parses flags and TOML files (it
+imports nothing heavy at start-up) and maps errors to exit codes in :func:`main`:
+
+- 0: success;
+- 1: a user mistake (:class:`ppaloc.errors.PpalocError`), printed as one line;
+- 2: a command-line usage error, printed as one line;
+- 3: a bug: one line naming a log file that holds the traceback;
+- 130: interrupted.
+"""
 
 from __future__ import annotations
 
+import logging
 import sys
+import tempfile
+import traceback
+from pathlib import Path
+from typing import Any
 
-__all__ = ["main"]
+import click
+
+from ppaloc.errors import PpalocError
+
+__all__ = ["cli", "main"]
+
+log = logging.getLogger("ppaloc")
+
+_SECTIONS = ("evaluate", "bench", "map", "localise", "demo")
+
+
+# -- configuration ------------------------------------------------------------------------
+
+
+def _parse_value(text: str) -> Any:
+    """A flag value as TOML would read it (``8`` -> 8, ``0.5``, ``true``, ``[1, 2]``), else text."""
+    import tomllib
+
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def _parse_params(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """``--param METHOD.KEY=VALUE`` flags -> ``{method: {key: value}}``."""
+    out: dict[str, dict[str, Any]] = {}
+    for item in items:
+        key, eq, value = item.partition("=")
+        method, dot, name = key.rpartition(".")
+        if not eq or not dot or not method or not name:
+            raise PpalocError(
+                f"--param {item!r} must look like METHOD.KEY=VALUE, "
+                "e.g. --param weighted-node-lowres.alpha=8"
+            )
+        out.setdefault(method.strip(), {})[name.strip()] = _parse_value(value.strip())
+    return out
+
+
+def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
+    """``--param KEY=VALUE`` flags (one method) -> ``{key: value}``."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param alpha=8")
+        out[key.strip()] = _parse_value(value.strip())
+    return out
+
+
+def _file_values(path: Path | None, section: str) -> dict[str, Any]:
+    """Top-level keys of a TOML file plus its ``[section]`` table (other sections ignored)."""
+    if path is None:
+        return {}
+    from ppaloc.evaluate.config import read_toml
+
+    data = read_toml(path)
+    values = {k: v for k, v in data.items() if k not in _SECTIONS}
+    values.update(data.get(section, {}))
+    return values
+
+
+def _merge(file_values: dict[str, Any], flags: dict[str, Any]) -> dict[str, Any]:
+    """Flags that were given (not None, not empty) override the file; params merge per method."""
+    merged = dict(file_values)
+    for key, value in flags.items():
+        if value is None or value == () or value == {}:
+            continue
+        if key == "params":
+            params = {m: dict(p) for m, p in merged.get("params", {}).items()}
+            for m, p in value.items():
+                params.setdefault(m, {}).update(p)
+            merged["params"] = params
+        else:
+            merged[key] = value
+    return merged
+
+
+def _pop(values: dict[str, Any], key: str, default: Any) -> Any:
+    value = values.pop(key, None)
+    return default if value is None else value
+
+
+def _setup_logging(verbose: int) -> None:
+    level = logging.WARNING - 10 * min(verbose, 2)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+
+
+# -- parsers --------------------------------------------------------------------------------
+
+_CONFIG = click.option(
+    "--config",
+    "config_file",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="TOML file with any of this command's keys; flags override it.",
+)
+_QUIET = click.option(
+    "--quiet", "-q", is_flag=True, default=None, help="No table, no progress bar."
+)
+
+
+class _MethodsHelp(click.Command):
+    """A command whose help ends with the methods available in this install."""
+
+    def format_epilog(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        super().format_epilog(ctx, formatter)
+        from ppaloc.methods import METHODS, available_methods
+
+        names = available_methods()
+        with formatter.section("Available methods"):
+            formatter.write_dl([(n, METHODS[n].summary) for n in names] or [("(none)", "")])
+
+
+@click.group(
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+    epilog="""\b
+Examples:
+  ppaloc demo
+  ppaloc evaluate --dataset 'synthetic:?places=300&seed=1' --method weighted-node-lbp --out run1
+  ppaloc map 'nordland:../shared/data/nordland-64x32?ref=summer' --out summer.npz
+  ppaloc localise summer.npz frames/ --out estimates.csv
+  ppaloc bench --sizes 256,1024,4096
+  ppaloc show run1
+
+Run `ppaloc COMMAND --help` for each command's options.""",
+)
+@click.version_option(package_name="ppaloc", prog_name="ppaloc")
+@click.option("--verbose", "-v", count=True, help="Log more (-v info, -vv debug).")
+def cli(verbose: int) -> None:
+    """Weighted node mapping and localisation on a simulated SCAMP-5 pixel processor array."""
+    _setup_logging(verbose)
+
+
+@cli.command(
+    epilog="""\b
+Examples:
+  ppaloc demo                      # writes ./ppaloc-report/report.html
+  ppaloc demo --out /tmp/demo --places 100"""
+)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("ppaloc-report"),
+    show_default=True,
+    help="Folder for results and report.",
+)
+@click.option(
+    "--places", type=click.IntRange(10), default=200, show_default=True, help="Route length."
+)
+@_QUIET
+def demo(out: Path, places: int, quiet: bool | None) -> None:
+    """Run every available method on the built-in synthetic route and write the report.
+
+    Builds the procedural route synthetic:?places=PLACES&query=winter&seed=0 (summer map,
+    winter query), evaluates every available method, times them against map size, prints
+    the comparison table and writes OUT/report.html.
+    """
+    from ppaloc.cli.commands import run_demo
+
+    run_demo(out, quiet=bool(quiet), places=places)
+
+
+@cli.command(
+    cls=_MethodsHelp,
+    epilog="""\b
+Examples:
+  ppaloc evaluate --dataset 'synthetic:?places=300&seed=1' --out run1
+  ppaloc evaluate --dataset 'nordland:../shared/data/nordland-64x32?ref=summer&query=winter' \\
+      --method weighted-node-lowres --method seqslam --tolerance 2 --out nordland
+  ppaloc evaluate --config run.toml --recall C
+\b
+run.toml:
+  dataset = "synthetic:?places=300&seed=1"
+  methods = ["weighted-node-lowres", "seqslam"]
+  tolerance = 2
+  out = "run1"
+  [params.weighted-node-lowres]
+  gamma = 0.25""",
+)
+@click.option("--dataset", "-d", help="Dataset spec KIND:PATH?key=value (see docs/datasets.md).")
+@click.option(
+    "--method",
+    "-m",
+    "methods",
+    multiple=True,
+    help="Method name, repeatable (default: every available method).",
+)
+@click.option("--tolerance", type=int, help="Accepted distance to the true frame, in frames.")
+@click.option(
+    "--recall",
+    type=click.Choice(["A", "B", "C"], case_sensitive=False),
+    help="Recall definition (default A: correct accepted / queries with a true match).",
+)
+@click.option("--seed", type=int, help="Seed for methods that draw random numbers.")
+@click.option(
+    "--param",
+    "params",
+    multiple=True,
+    metavar="METHOD.KEY=VALUE",
+    help="A method parameter, repeatable, e.g. weighted-node-lowres.alpha=8.",
+)
+@click.option(
+    "--weights/--no-weights",
+    "record_weights",
+    default=None,
+    help="Record per-node weights for the heatmap (default on).",
+)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder for results.json, results.csv, arrays/ and the report [default: results].",
+)
+@click.option("--no-report", is_flag=True, default=None, help="Write result files only.")
+@_CONFIG
+@_QUIET
+def evaluate(
+    dataset: str | None,
+    methods: tuple[str, ...],
+    tolerance: int | None,
+    recall: str | None,
+    seed: int | None,
+    params: tuple[str, ...],
+    record_weights: bool | None,
+    out: Path | None,
+    no_report: bool | None,
+    config_file: Path | None,
+    quiet: bool | None,
+) -> None:
+    """Evaluate methods on a dataset: metrics, latency, result files and the report."""
+    from ppaloc.cli.commands import run_evaluate
+    from ppaloc.evaluate.config import EvaluateConfig, config_from_mapping
+
+    values = _merge(
+        _file_values(config_file, "evaluate"),
+        {
+            "dataset": dataset,
+            "methods": methods,
+            "tolerance": tolerance,
+            "recall": recall,
+            "seed": seed,
+            "params": _parse_params(params),
+            "record_weights": record_weights,
+            "out": out,
+            "no_report": no_report,
+            "quiet": quiet,
+        },
+    )
+    out_dir = Path(_pop(values, "out", "results"))
+    report = not _pop(values, "no_report", False)
+    quiet_ = bool(_pop(values, "quiet", False))
+    if "dataset" not in values:
+        raise PpalocError(
+            "no dataset: give --dataset SPEC (e.g. 'synthetic:?places=300') or dataset = in "
+            "the --config file"
+        )
+    if isinstance(values.get("methods"), str):
+        values["methods"] = [values["methods"]]
+    config = config_from_mapping(
+        EvaluateConfig, values, source=str(config_file) if config_file else ""
+    )
+    run_evaluate(config, out_dir, quiet=quiet_, report=report)
+
+
+@cli.command(
+    cls=_MethodsHelp,
+    epilog="""\b
+Examples:
+  ppaloc bench
+  ppaloc bench --method weighted-node-lbp --method seqslam --sizes 256,1024,4096 --out bench""",
+)
+@click.option("--method", "-m", "methods", multiple=True, help="Method name, repeatable.")
+@click.option("--sizes", help="Comma-separated map sizes in nodes [default: 64,256,1024].")
+@click.option("--queries", type=int, help="Timed frames per size [default: 20].")
+@click.option("--seed", type=int, help="Seed of the random maps and frames.")
+@click.option("--param", "params", multiple=True, metavar="METHOD.KEY=VALUE")
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder for bench.json and bench.csv.",
+)
+@_CONFIG
+@_QUIET
+def bench(
+    methods: tuple[str, ...],
+    sizes: str | None,
+    queries: int | None,
+    seed: int | None,
+    params: tuple[str, ...],
+    out: Path | None,
+    config_file: Path | None,
+    quiet: bool | None,
+) -> None:
+    """Host time per frame against map size, every method on the same random maps."""
+    from ppaloc.cli.commands import run_bench
+    from ppaloc.evaluate.config import BenchConfig, config_from_mapping
+
+    size_list = None
+    if sizes is not None:
+        try:
+            size_list = [int(s) for s in sizes.split(",") if s.strip()]
+        except ValueError:
+            raise PpalocError(
+                f"--sizes {sizes!r} must be comma-separated integers, e.g. 64,256,1024"
+            ) from None
+    values = _merge(
+        _file_values(config_file, "bench"),
+        {
+            "methods": methods,
+            "sizes": size_list,
+            "queries": queries,
+            "seed": seed,
+            "params": _parse_params(params),
+            "out": out,
+            "quiet": quiet,
+        },
+    )
+    out_dir = values.pop("out", None)
+    quiet_ = bool(_pop(values, "quiet", False))
+    config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
+    run_bench(config, None if out_dir is None else Path(out_dir), quiet=quiet_)
+
+
+@cli.command(
+    "map",
+    cls=_MethodsHelp,
+    epilog="""\b
+Examples:
+  ppaloc map 'synthetic:?places=300' --out route.npz
+  ppaloc map 'nordland:../shared/data/nordland-64x32?ref=summer' --method weighted-node-lbp \\
+      --out summer-lbp.npz""",
+)
+@click.argument("dataset")
+@click.option(
+    "--out", type=click.Path(dir_okay=False, path_type=Path), help="Map file to write (.npz)."
+)
+@click.option("--method", "-m", help="Method whose map to build [default: weighted-node-lowres].")
+@click.option("--param", "params", multiple=True, metavar="KEY=VALUE", help="Method parameter.")
+@_CONFIG
+@_QUIET
+def map_(
+    dataset: str,
+    out: Path | None,
+    method: str | None,
+    params: tuple[str, ...],
+    config_file: Path | None,
+    quiet: bool | None,
+) -> None:
+    """Build a map from the reference traversal of DATASET and save it."""
+    from ppaloc.cli.commands import run_map
+
+    values = _merge(
+        _file_values(config_file, "map"),
+        {"out": out, "method": method, "params": _parse_method_params(params), "quiet": quiet},
+    )
+    _reject_unknown(values, {"out", "method", "params", "quiet"}, config_file)
+    if values.get("out") is None:
+        raise PpalocError("no output file: give --out MAP.npz")
+    run_map(
+        dataset,
+        str(values.get("method") or "weighted-node-lowres"),
+        Path(values["out"]),
+        dict(values.get("params", {})),
+        quiet=bool(values.get("quiet")),
+    )
+
+
+@cli.command(
+    cls=_MethodsHelp,
+    epilog="""\b
+Examples:
+  ppaloc localise route.npz frames/ --out estimates.csv
+  ppaloc localise route.npz q0001.png q0002.png          # CSV lines on stdout
+\b
+CSV columns: frame,path,node,reference_frame,score,moved,latency_ms""",
+)
+@click.argument("map_path", metavar="MAP", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("frames", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="CSV file to write [default: stdout].",
+)
+@click.option("--method", "-m", help="Method to localise with [default: the map's].")
+@click.option("--param", "params", multiple=True, metavar="KEY=VALUE", help="Method parameter.")
+@_CONFIG
+def localise(
+    map_path: Path,
+    frames: tuple[Path, ...],
+    out: Path | None,
+    method: str | None,
+    params: tuple[str, ...],
+    config_file: Path | None,
+) -> None:
+    """Localise FRAMES (image files or folders, in order) against a saved MAP."""
+    from ppaloc.cli.commands import run_localise
+
+    values = _merge(
+        _file_values(config_file, "localise"),
+        {"out": out, "method": method, "params": _parse_method_params(params)},
+    )
+    _reject_unknown(values, {"out", "method", "params"}, config_file)
+    run_localise(
+        map_path,
+        list(frames),
+        None if values.get("out") is None else Path(values["out"]),
+        method=values.get("method"),
+        params=dict(values.get("params", {})),
+    )
+
+
+@cli.command(
+    epilog="""\b
+Examples:
+  ppaloc show run1                  # table + run1/report.html rebuilt from the files
+  ppaloc show route.npz --out route.png
+  ppaloc show planes.npz            # every 2-D array as a register plane"""
+)
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option(
+    "--out", type=click.Path(dir_okay=False, path_type=Path), help="PNG to write (maps, planes)."
+)
+@_QUIET
+def show(path: Path, out: Path | None, quiet: bool | None) -> None:
+    """Render a results folder (table and report), a saved map or register planes."""
+    from ppaloc.cli.commands import run_show
+
+    run_show(path, out, quiet=bool(quiet))
+
+
+def _reject_unknown(values: dict[str, Any], allowed: set[str], source: Path | None) -> None:
+    unknown = sorted(set(values) - allowed)
+    if unknown:
+        where = f" in {source}" if source else ""
+        raise PpalocError(
+            f"unknown configuration key {unknown[0]!r}{where}; valid keys: "
+            + ", ".join(sorted(allowed))
+        )
+
+
+# -- launch ---------------------------------------------------------------------------------
+
+
+def _crash_log(exc: BaseException) -> Path:
+    fd, name = tempfile.mkstemp(prefix="ppaloc-crash-", suffix=".log")
+    with open(fd, "w") as f:
+        f.write(" ".join(sys.argv) + "\n\n")
+        f.write("".join(traceback.format_exception(exc)))
+    return Path(name)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the ``ppaloc`` command."""
-    print("ppaloc: no commands yet", file=sys.stderr)
-    return 1
+    """Run the ``ppaloc`` command; return the exit code (see the module docstring)."""
+    try:
+        cli.main(args=argv, prog_name="ppaloc", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        return exc.exit_code
+    except click.exceptions.Abort:
+        print("ppaloc: interrupted", file=sys.stderr)
+        return 130
+    except click.UsageError as exc:
+        cmd = exc.ctx.command_path if exc.ctx is not None else "ppaloc"
+        print(
+            f"{cmd}: error: {_one_line(exc.format_message())} (see `{cmd} --help`)",
+            file=sys.stderr,
+        )
+        return 2
+    except click.ClickException as exc:
+        print(f"ppaloc: error: {_one_line(exc.format_message())}", file=sys.stderr)
+        return exc.exit_code or 1
+    except PpalocError as exc:
+        print(f"ppaloc: error: {_one_line(str(exc))}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("ppaloc: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+    except Exception as exc:  # a bug: keep the traceback for the report, show one line
+        path = _crash_log(exc)
+        log.debug("internal error", exc_info=exc)
+        print(
+            f"ppaloc: internal error ({type(exc).__name__}: {_one_line(str(exc))}); "
+            f"this is a bug, the traceback is in {path}",
+            file=sys.stderr,
+        )
+        return 3
+    return 0

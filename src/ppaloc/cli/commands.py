@@ -1,0 +1,381 @@
+"""What each ``ppaloc`` command does, as thin functions over the library.
+
+Each ``run_*`` takes already-parsed, typed arguments (a config dataclass, paths), calls
+the library (``ppaloc.evaluate``, ``ppaloc.methods``, ``ppaloc.topomap``) and prints a short
+summary. The click parsers in :mod:`ppaloc.cli.main` only read flags and config files.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ppaloc.errors import DataError, MapFormatError, PpalocError
+
+__all__ = [
+    "run_bench",
+    "run_demo",
+    "run_evaluate",
+    "run_localise",
+    "run_map",
+    "run_show",
+]
+
+
+def _console():
+    from rich.console import Console
+
+    return Console(highlight=False, soft_wrap=False, width=None if sys.stdout.isatty() else 160)
+
+
+def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
+    """Print the comparison table of a ``results.json`` summary on stdout."""
+    from rich.table import Table
+
+    from ppaloc.evaluate.report import comparison_table
+
+    header, rows = comparison_table(summary)
+    table = Table(title=title or None, title_justify="left")
+    for i, h in enumerate(header):
+        table.add_column(h, justify="left" if i < 2 else "right", overflow="fold")
+    for r in rows:
+        table.add_row(*r)
+    _console().print(table)
+
+
+# -- evaluate ------------------------------------------------------------------------------
+
+
+def run_evaluate(
+    config: Any,
+    out: Path,
+    *,
+    quiet: bool = False,
+    bench: Any = None,
+    report: bool = True,
+) -> Path:
+    """Run ``config`` (an EvaluateConfig), write results (and report) into ``out``.
+
+    Returns
+    -------
+    Path
+        ``out/results.json``.
+    """
+    from ppaloc.evaluate.bench import run_bench as bench_run
+    from ppaloc.evaluate.bench import save_bench
+    from ppaloc.evaluate.report import write_report
+    from ppaloc.evaluate.results import save_results
+    from ppaloc.evaluate.run import run_evaluation
+
+    _check_out_dir(out)
+    result = run_evaluation(config, progress=not quiet)
+    path = save_results(result, out)
+    if bench is not None:
+        save_bench(bench_run(bench), out / "bench.json")
+    if report:
+        write_report(out)
+    import json
+
+    summary = json.loads(path.read_text())
+    if not quiet:
+        print_results_table(summary, title=f"{result.dataset_name} ({result.dataset})")
+        print(f"results: {path}")
+        if report:
+            print(f"report:  {out / 'report.html'}")
+    return path
+
+
+def _check_out_dir(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise DataError(f"--out {out} is a file; give a folder for the results")
+
+
+def run_demo(out: Path, *, quiet: bool = False, places: int = 200) -> Path:
+    """The built-in synthetic route, every available method, table, report with bench."""
+    from ppaloc.evaluate.config import BenchConfig, EvaluateConfig
+
+    dataset = f"synthetic:?places={places}&query=winter&seed=0"
+    t0 = time.perf_counter()
+    path = run_evaluate(
+        EvaluateConfig(dataset=dataset),
+        out,
+        quiet=quiet,
+        bench=BenchConfig(sizes=(64, 256, 1024), queries=10, warmup=2),
+    )
+    if not quiet:
+        print(f"demo done in {time.perf_counter() - t0:.0f} s; open {out / 'report.html'}")
+    return path
+
+
+# -- bench ---------------------------------------------------------------------------------
+
+
+def run_bench(config: Any, out: Path | None, *, quiet: bool = False) -> dict[str, Any]:
+    """Time every method against map size; print a table; write ``out/bench.json``."""
+    from rich.table import Table
+
+    from ppaloc.evaluate.bench import run_bench as bench_run
+    from ppaloc.evaluate.bench import save_bench
+
+    def progress(name: str, size: int) -> None:
+        if not quiet and sys.stderr.isatty():
+            print(f"  {name}: {size} nodes", file=sys.stderr)
+
+    bench = bench_run(config, progress=progress)
+    if out is not None:
+        _check_out_dir(out)
+        path = save_bench(bench, out / "bench.json")
+    if not quiet:
+        table = Table(title="Host time per frame (ms) against map size", title_justify="left")
+        sizes = list(config.sizes)
+        table.add_column("Method")
+        for s in sizes:
+            table.add_column(f"{s} nodes", justify="right")
+        for name in dict.fromkeys(r["method"] for r in bench["rows"]):
+            cells = {r["n_nodes"]: r for r in bench["rows"] if r["method"] == name}
+            table.add_row(name, *(f"{cells[s]['latency_ms_median']:.3g}" for s in sizes))
+        _console().print(table)
+        if out is not None:
+            print(f"bench: {path}")
+    return bench
+
+
+# -- map and localise ------------------------------------------------------------------------
+
+_KIND_METHOD = {"lowres": "weighted-node-lowres", "lbp": "weighted-node-lbp"}
+
+
+def run_map(
+    dataset: str, method: str, out: Path, params: dict[str, Any], *, quiet: bool = False
+) -> Path:
+    """Build the map of ``method`` from the reference traversal of ``dataset``; save it."""
+    from ppaloc.datasets.registry import load_dataset
+    from ppaloc.evaluate.run import resolve_methods, sensor_frames
+    from ppaloc.methods import make_localiser
+
+    (method,) = resolve_methods([method])
+    if out.is_dir():
+        raise DataError(f"--out {out} is a folder; give a file name such as map.npz")
+    ds = load_dataset(dataset)
+    loc = make_localiser(method, **params)
+    topomap = loc.build_map(sensor_frames(ds.reference))
+    if topomap.positions is None and ds.reference_positions is not None:
+        idx = np.asarray(topomap.frame_index)
+        topomap.positions = np.asarray(ds.reference_positions)[idx]
+    topomap.provenance["method"] = method
+    topomap.provenance["method_params"] = params
+    path = topomap.save(out, dataset=dataset)
+    if not quiet:
+        print(f"map: {path} ({len(topomap)} {topomap.kind} nodes from {ds.name}, {method})")
+    return path
+
+
+def _frame_paths(inputs: Sequence[Path]) -> list[Path]:
+    from ppaloc.datasets.images import list_images
+
+    paths: list[Path] = []
+    for p in inputs:
+        if p.is_dir():
+            paths += list_images(p, "frame folder")
+        elif p.is_file():
+            paths.append(p)
+        else:
+            raise DataError(f"frame {p} does not exist; give image files or a folder of images")
+    if not paths:
+        raise DataError("no frames given; give image files or a folder of images")
+    return paths
+
+
+def _method_for_map(topomap: Any, method: str | None) -> str:
+    if method:
+        return method
+    named = topomap.provenance.get("method")
+    if named:
+        return str(named)
+    guess = _KIND_METHOD.get(topomap.kind, topomap.kind)
+    return guess
+
+
+def run_localise(
+    map_path: Path,
+    frames: Sequence[Path],
+    out: Path | None,
+    *,
+    method: str | None = None,
+    params: dict[str, Any] | None = None,
+) -> int:
+    """Localise image frames against a saved map, one CSV line per frame as it is processed.
+
+    With ``out`` the lines go to a temporary file that replaces ``out`` at the end
+    (never a half-written CSV under the final name); without, to stdout.
+
+    Returns
+    -------
+    int
+        Frames localised.
+    """
+    from ppaloc.datasets import to_sensor
+    from ppaloc.datasets.images import read_grey
+    from ppaloc.evaluate.run import resolve_methods
+    from ppaloc.methods import make_localiser
+    from ppaloc.topomap import load_map
+
+    topomap = load_map(map_path)
+    name = _method_for_map(topomap, method)
+    (name,) = resolve_methods([name])
+    user = dict(topomap.provenance.get("method_params") or {}) if not method else {}
+    user.update(params or {})
+    loc = make_localiser(name, **user)
+    use = getattr(loc, "use_map", None)
+    if use is None:
+        raise PpalocError(f"method {name!r} cannot load a saved map (it has no use_map)")
+    use(topomap)
+    loc.reset()
+    paths = _frame_paths(frames)
+    frame_index = np.asarray(topomap.frame_index)
+    header = "frame,path,node,reference_frame,score,moved,latency_ms\n"
+    if out is not None:
+        if out.is_dir():
+            raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
+        stream = os.fdopen(fd, "w")
+    else:
+        tmp, stream = None, sys.stdout
+    try:
+        stream.write(header)
+        for i, p in enumerate(paths):
+            frame = to_sensor(read_grey(p))
+            t = time.perf_counter_ns()
+            est = loc.step(frame)
+            ms = (time.perf_counter_ns() - t) / 1e6
+            moved = "" if est.moved is None else int(est.moved)
+            stream.write(
+                f"{i},{_csv_text(str(p))},{est.node},{int(frame_index[est.node])},"
+                f"{est.score:.6g},{moved},{ms:.4f}\n"
+            )
+            stream.flush()
+        if tmp is not None:
+            stream.close()
+            os.replace(tmp, out)
+    except BaseException:
+        if tmp is not None:
+            stream.close()
+            Path(tmp).unlink(missing_ok=True)
+        raise
+    return len(paths)
+
+
+def _csv_text(s: str) -> str:
+    return '"' + s.replace('"', '""') + '"' if any(c in s for c in ',"\n') else s
+
+
+# -- show ------------------------------------------------------------------------------------
+
+
+def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | None:
+    """Show a results folder (table + report), a saved map or saved register planes.
+
+    Returns
+    -------
+    Path or None
+        The file written (report or PNG).
+    """
+    if path.is_dir():
+        return _show_results(path, quiet=quiet)
+    if not path.is_file():
+        raise DataError(
+            f"{path} does not exist; give a results folder, a map (.npz) or register planes (.npz)"
+        )
+    from ppaloc.topomap import read_header
+
+    try:
+        read_header(path)
+    except MapFormatError:
+        return _show_planes(path, out, quiet=quiet)
+    return _show_map(path, out, quiet=quiet)
+
+
+def _show_results(folder: Path, *, quiet: bool) -> Path:
+    import json
+
+    from ppaloc.evaluate.report import write_report
+
+    if not (folder / "results.json").is_file():
+        raise DataError(
+            f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"
+        )
+    report = write_report(folder)
+    if not quiet:
+        summary = json.loads((folder / "results.json").read_text())
+        print_results_table(summary, title=f"{summary.get('dataset', '')}")
+        print(f"report: {report}")
+    return report
+
+
+def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
+    from ppaloc.topomap import load_map
+
+    topomap = load_map(path)
+    out = out or path.with_suffix(".png")
+    layout = topomap.layout
+    if layout is not None:
+        from ppaloc.sim.render import render_montage
+
+        d = np.asarray(topomap.descriptors)
+        if topomap.kind == "lbp":
+            bits = np.unpackbits(d.astype(">u4").view(np.uint8).reshape(len(d), 4), axis=1)
+            blocks = bits.reshape(len(d), *layout.block_shape).astype(np.float64)
+        else:
+            blocks = d.astype(np.float64).reshape(len(d), *layout.block_shape) / 255.0
+        planes = layout.to_planes(blocks)
+        labels = {f"{topomap.kind} tile {i}": p for i, p in enumerate(planes)}
+        render_montage(labels, out, scale=2)
+    else:
+        from ppaloc.evaluate.figures import png_bytes
+        from ppaloc.evaluate.results import atomic_write
+
+        atomic_write(out, png_bytes(_descriptor_figure(topomap)))
+    if not quiet:
+        print(f"{path}: {len(topomap)} {topomap.kind} nodes -> {out}")
+    return out
+
+
+def _descriptor_figure(topomap: Any) -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    d = np.asarray(topomap.descriptors).reshape(len(topomap), -1).astype(np.float64)
+    fig = Figure(figsize=(8, 4), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    im = ax.imshow(d.T, aspect="auto", interpolation="nearest", cmap="gray")
+    ax.set_xlabel("map node")
+    ax.set_ylabel("descriptor element")
+    ax.set_title(f"{topomap.kind} map, {len(topomap)} nodes")
+    fig.colorbar(im, ax=ax, label="value")
+    return fig
+
+
+def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
+    from ppaloc.sim.render import render_montage
+
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            planes = {k: z[k] for k in z.files if z[k].ndim == 2}
+    except (OSError, ValueError) as exc:
+        raise DataError(f"{path} is neither a map nor an .npz of register planes ({exc})") from None
+    if not planes:
+        raise DataError(f"{path} holds no 2-D arrays to draw as register planes")
+    out = out or path.with_suffix(".png")
+    render_montage(planes, out, scale=1)
+    if not quiet:
+        print(f"{path}: {len(planes)} planes -> {out}")
+    return out

@@ -1,0 +1,112 @@
+"""Host latency per frame against map size, every method on the same random maps.
+
+Maps are built from random sensor frames (a seeded pool of 32 frames cycled to the map
+size, so a 4096-node map costs no more memory than 32 frames); query frames are drawn
+from the same generator. Only ``step`` is timed. The figures say how a method scales with
+the map, not how well it localises.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from collections.abc import Callable
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ppaloc import __version__
+from ppaloc.datasets import SENSOR_SHAPE
+from ppaloc.evaluate.config import BenchConfig
+from ppaloc.evaluate.run import _build_params, resolve_methods
+from ppaloc.methods import make_localiser
+
+__all__ = ["load_bench", "run_bench", "save_bench"]
+
+_POOL = 32
+
+
+def _frames(rng: np.random.Generator, n: int) -> list[np.ndarray]:
+    # Smooth random images (block noise upsampled) so that descriptors vary like scenes do.
+    small = rng.integers(0, 256, (n, 32, 32), dtype=np.uint8)
+    return [
+        np.kron(s, np.ones((8, 8), np.uint8))[: SENSOR_SHAPE[0], : SENSOR_SHAPE[1]] for s in small
+    ]
+
+
+def run_bench(
+    config: BenchConfig, *, progress: Callable[[str, int], None] | None = None
+) -> dict[str, Any]:
+    """Time ``step`` of every method of ``config`` at every map size.
+
+    Returns
+    -------
+    dict
+        ``{"config", "ppaloc_version", "created", "rows": [{"method", "n_nodes",
+        "latency_ms_median", "latency_ms_p95", "build_s", "queries"}, ...]}``.
+
+    Raises
+    ------
+    PpalocError
+        For an unknown method or bad parameters.
+    """
+    names = resolve_methods(config.methods)
+    rng = np.random.default_rng(config.seed)
+    pool = _frames(rng, _POOL)
+    queries = _frames(rng, config.warmup + config.queries)
+    rows = []
+    for name in names:
+        params = _build_params(
+            name, config.params.get(name, {}), seed=config.seed, record_weights=False
+        )
+        for size in config.sizes:
+            loc = make_localiser(name, **params)
+            t0 = time.perf_counter()
+            loc.build_map([pool[i % _POOL] for i in range(size)])
+            build_s = time.perf_counter() - t0
+            loc.reset()
+            times = []
+            for i, frame in enumerate(queries):
+                t = time.perf_counter_ns()
+                loc.step(frame)
+                if i >= config.warmup:
+                    times.append((time.perf_counter_ns() - t) / 1e6)
+            rows.append(
+                {
+                    "method": name,
+                    "n_nodes": size,
+                    "latency_ms_median": float(np.median(times)),
+                    "latency_ms_p95": float(np.percentile(times, 95)),
+                    "build_s": build_s,
+                    "queries": len(times),
+                }
+            )
+            if progress:
+                progress(name, size)
+    return {
+        "config": config.to_dict(),
+        "ppaloc_version": __version__,
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        "python": sys.version.split()[0],
+        "rows": rows,
+    }
+
+
+def save_bench(bench: dict[str, Any], path: str | Path) -> Path:
+    """Write a :func:`run_bench` result as JSON (atomically) and a CSV beside it."""
+    from ppaloc.evaluate.results import atomic_write
+
+    path = Path(path)
+    cols = ["method", "n_nodes", "latency_ms_median", "latency_ms_p95", "build_s", "queries"]
+    lines = [",".join(cols)] + [",".join(str(r[c]) for c in cols) for r in bench["rows"]]
+    atomic_write(path.with_suffix(".csv"), "\n".join(lines) + "\n")
+    return atomic_write(path, json.dumps(bench, indent=2) + "\n")
+
+
+def load_bench(path: str | Path) -> dict[str, Any] | None:
+    """Read a bench JSON file; None when it does not exist."""
+    path = Path(path)
+    return json.loads(path.read_text()) if path.is_file() else None

@@ -1,0 +1,213 @@
+"""Run configurations: frozen dataclasses read from a TOML file and overridden by flags.
+
+The same keys come from a TOML file (``--config FILE.toml``) and from command-line flags;
+a flag given on the command line wins. Unknown keys are an error that lists the valid ones,
+so a typo never silently falls back to a default. The resolved configuration is written
+into every result file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TypeVar
+
+from ppaloc.errors import PpalocError
+
+__all__ = [
+    "DEMO_DATASET",
+    "BenchConfig",
+    "EvaluateConfig",
+    "config_from_mapping",
+    "read_toml",
+    "with_tolerance",
+]
+
+DEMO_DATASET = "synthetic:?places=200&query=winter&seed=0"
+"""The built-in route ``ppaloc demo`` runs on (procedural, no files needed)."""
+
+C = TypeVar("C")
+
+
+@dataclass(frozen=True)
+class EvaluateConfig:
+    """What ``ppaloc evaluate`` runs.
+
+    Parameters
+    ----------
+    dataset : str
+        Dataset spec (``KIND:PATH?key=value``, see docs/datasets.md).
+    methods : tuple of str
+        Method names (``ppaloc.methods``); empty means every available method.
+    tolerance : int, optional
+        Accepted distance to the true reference frame, in frames; overrides the spec's
+        ``tolerance`` key (None: the spec's, else the dataset kind's default).
+    recall : {"A", "B", "C"}
+        Recall definition (``ppaloc.evaluate.metrics.RECALL_DEFINITIONS``).
+    seed : int
+        Passed to every method that takes a ``seed``.
+    record_weights : bool
+        Ask localisers that accept ``record_weights=True`` for their per-node weights after
+        every frame (the report's heatmap); skipped when queries x nodes exceeds
+        ``max_weight_values``.
+    max_weight_values : int
+        Largest weights array (queries x nodes) kept per method.
+    params : dict
+        Per-method keyword arguments, ``{method name: {key: value}}`` (TOML tables
+        ``[params.weighted-node-lowres]``).
+    """
+
+    dataset: str = DEMO_DATASET
+    methods: tuple[str, ...] = ()
+    tolerance: int | None = None
+    recall: str = "A"
+    seed: int = 0
+    record_weights: bool = True
+    max_weight_values: int = 4_000_000
+    params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "methods", tuple(self.methods))
+        if self.tolerance is not None and (
+            isinstance(self.tolerance, bool) or int(self.tolerance) < 0
+        ):
+            raise PpalocError(f"tolerance={self.tolerance!r} must be an integer >= 0 (frames)")
+        if str(self.recall).upper() not in ("A", "B", "C"):
+            raise PpalocError(f"recall={self.recall!r} must be one of A, B, C")
+        object.__setattr__(self, "recall", str(self.recall).upper())
+        if not isinstance(self.params, Mapping) or not all(
+            isinstance(v, Mapping) for v in self.params.values()
+        ):
+            raise PpalocError(
+                "params must be a table of tables, e.g. [params.weighted-node-lowres] alpha = 8"
+            )
+
+    def resolved_dataset(self) -> str:
+        """The dataset spec with ``tolerance`` applied."""
+        return (
+            self.dataset if self.tolerance is None else with_tolerance(self.dataset, self.tolerance)
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (for result files)."""
+        d = dataclasses.asdict(self)
+        d["methods"] = list(self.methods)
+        d["params"] = {k: dict(v) for k, v in self.params.items()}
+        return d
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """What ``ppaloc bench`` measures: host time per ``step`` against map size.
+
+    Parameters
+    ----------
+    methods : tuple of str
+        Method names; empty means every available method.
+    sizes : tuple of int
+        Map sizes (nodes) to time.
+    queries : int
+        Frames stepped per size (the first ``warmup`` are not timed).
+    warmup : int
+        Untimed frames per size.
+    seed : int
+        Seed of the random reference and query frames.
+    params : dict
+        Per-method keyword arguments, as in :class:`EvaluateConfig`.
+    """
+
+    methods: tuple[str, ...] = ()
+    sizes: tuple[int, ...] = (64, 256, 1024)
+    queries: int = 20
+    warmup: int = 3
+    seed: int = 0
+    params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "methods", tuple(self.methods))
+        object.__setattr__(self, "sizes", tuple(int(s) for s in self.sizes))
+        if not self.sizes or min(self.sizes) < 2:
+            raise PpalocError(f"sizes={list(self.sizes)} must be map sizes of at least 2 nodes")
+        if self.queries < 1 or self.warmup < 0:
+            raise PpalocError(
+                f"queries={self.queries} must be >= 1 and warmup={self.warmup} >= 0 frames"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (for result files)."""
+        d = dataclasses.asdict(self)
+        d["methods"], d["sizes"] = list(self.methods), list(self.sizes)
+        d["params"] = {k: dict(v) for k, v in self.params.items()}
+        return d
+
+
+def config_from_mapping(cls: type[C], values: Mapping[str, Any], *, source: str = "") -> C:
+    """Build the config ``cls`` from ``values``, rejecting unknown keys.
+
+    Parameters
+    ----------
+    cls : type
+        :class:`EvaluateConfig` or :class:`BenchConfig`.
+    values : mapping
+        Keys of ``cls``; ``None`` values are ignored (a flag not given).
+    source : str
+        Where the values came from, for the message (e.g. the TOML file name).
+
+    Raises
+    ------
+    PpalocError
+        Naming the unknown key and the valid ones.
+
+    Examples
+    --------
+    >>> config_from_mapping(BenchConfig, {"sizes": [8, 16]}).sizes
+    (8, 16)
+    """
+    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    where = f" in {source}" if source else ""
+    unknown = sorted(set(values) - set(names))
+    if unknown:
+        raise PpalocError(
+            f"unknown configuration key {unknown[0]!r}{where}; valid keys: {', '.join(names)}"
+        )
+    try:
+        return cls(**{k: v for k, v in values.items() if v is not None})
+    except (TypeError, ValueError) as exc:
+        raise PpalocError(f"bad configuration{where}: {exc}") from exc
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML configuration file (keys as in the config dataclasses).
+
+    Raises
+    ------
+    PpalocError
+        If the file is missing or not valid TOML (with the parser's line and column).
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            return tomllib.load(f)
+    except FileNotFoundError:
+        raise PpalocError(f"config file {path} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise PpalocError(f"config file {path} is not valid TOML: {exc}") from None
+
+
+def with_tolerance(spec: str, tolerance: int) -> str:
+    """Return ``spec`` with its ``tolerance`` key set to ``tolerance`` (replaced if present).
+
+    Examples
+    --------
+    >>> with_tolerance("synthetic:?places=20&tolerance=1", 3)
+    'synthetic:?places=20&tolerance=3'
+    >>> with_tolerance("folder:a,b", 0)
+    'folder:a,b?tolerance=0'
+    """
+    head, _, query = spec.partition("?")
+    pairs = [p for p in query.split("&") if p and p.split("=", 1)[0].strip() != "tolerance"]
+    pairs.append(f"tolerance={int(tolerance)}")
+    return f"{head}?{'&'.join(pairs)}"

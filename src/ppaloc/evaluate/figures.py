@@ -1,0 +1,194 @@
+"""The report's figures, drawn with matplotlib's Agg canvas from a :class:`RunResult`.
+
+Each function returns a ``matplotlib.figure.Figure`` (no pyplot, no global state); the
+report turns them into PNG bytes with :func:`png_bytes`.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ppaloc.evaluate.run import RunResult
+
+__all__ = [
+    "latency_per_frame",
+    "latency_vs_map_size",
+    "png_bytes",
+    "position_along_route",
+    "pr_curves",
+    "weights_heatmaps",
+]
+
+_STYLE = {
+    "font.size": 10,
+    "axes.titlesize": 11,
+    "axes.labelsize": 10,
+    "legend.fontsize": 9,
+}
+
+
+def _figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _colours(names: Sequence[str]) -> dict[str, Any]:
+    import matplotlib as mpl
+
+    cmap = mpl.colormaps["tab10"]
+    return {name: cmap(i % 10) for i, name in enumerate(names)}
+
+
+def png_bytes(fig: Figure) -> bytes:
+    """The figure as PNG bytes."""
+    import matplotlib as mpl
+
+    buf = io.BytesIO()
+    with mpl.rc_context(_STYLE):
+        fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def pr_curves(result: RunResult) -> Figure:
+    """Precision against recall of every method in one plot, max-F1 points marked."""
+    fig = _figure(7.0, 4.6)
+    ax = fig.add_subplot()
+    colours = _colours(list(result.runs))
+    definition = "A"
+    for name, run in result.runs.items():
+        c = run.metrics.curve
+        definition = c.recall_definition
+        if not len(c.recall):
+            continue
+        r = np.concatenate([[0.0], c.recall])
+        p = np.concatenate([[c.precision[0]], c.precision])
+        ax.plot(r, p, color=colours[name], lw=1.8, label=f"{name} (F1 {run.metrics.f1_max:.2f})")
+        ax.plot(
+            run.metrics.recall_at_f1,
+            run.metrics.precision_at_f1,
+            "o",
+            color=colours[name],
+            ms=6,
+            mec="black",
+        )
+    ax.set_xlim(0, 1.01)
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel(f"recall (definition {definition})")
+    ax.set_ylabel("precision")
+    ax.set_title(f"Precision-recall, {result.dataset_name} (dots: max F1)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower left", frameon=True)
+    return fig
+
+
+def _true_reference(ground_truth: Sequence[np.ndarray]) -> np.ndarray:
+    """The middle accepted reference index per query (NaN where there is no true match)."""
+    return np.array(
+        [float(np.median(g)) if len(g) else np.nan for g in ground_truth], dtype=np.float64
+    )
+
+
+def position_along_route(result: RunResult) -> Figure:
+    """True and predicted reference frame per query, one panel per method (paper Fig. 10)."""
+    names = list(result.runs)
+    cols = 2 if len(names) > 1 else 1
+    rows = -(-len(names) // cols)
+    fig = _figure(11.0 if cols == 2 else 7.0, 2.7 * rows + 0.4)
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
+    truth = _true_reference(result.ground_truth)
+    q = np.arange(len(truth))
+    for ax, name in zip(axes.ravel(), names, strict=False):
+        run = result.runs[name]
+        ok = run.metrics.correct
+        ax.plot(q, truth, color="0.55", lw=2.5, label="true", zorder=1)
+        ax.scatter(q[ok], run.ref_index[ok], s=5, color="tab:green", label="correct", zorder=2)
+        ax.scatter(q[~ok], run.ref_index[~ok], s=5, color="tab:red", label="wrong", zorder=3)
+        ax.set_title(f"{name}: accuracy {run.metrics.accuracy:.2f}")
+        ax.grid(alpha=0.3)
+    for ax in axes.ravel()[len(names) :]:
+        ax.set_visible(False)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("reference frame (node)")
+    for ax in axes[-1, :]:
+        ax.set_xlabel("query frame")
+    axes[0, 0].legend(loc="upper left", markerscale=3)
+    fig.suptitle(f"Position estimate along the route, {result.dataset_name}")
+    return fig
+
+
+def weights_heatmaps(result: RunResult) -> Figure | None:
+    """Per-node weights over time of every method that recorded them (None if none did)."""
+    runs = [r for r in result.runs.values() if r.weights is not None]
+    if not runs:
+        return None
+    fig = _figure(11.0, 3.2 * len(runs) + 0.4)
+    axes = fig.subplots(len(runs), 1, squeeze=False)[:, 0]
+    truth = _true_reference(result.ground_truth)
+    for ax, run in zip(axes, runs, strict=True):
+        w = np.asarray(run.weights, dtype=np.float64)
+        finite = w[np.isfinite(w)]
+        lo, hi = np.percentile(finite, [1, 99.5]) if finite.size else (0.0, 1.0)
+        im = ax.imshow(
+            w.T,
+            aspect="auto",
+            origin="lower",
+            interpolation="nearest",
+            cmap="magma",
+            vmin=lo,
+            vmax=hi if hi > lo else lo + 1,
+            extent=(-0.5, w.shape[0] - 0.5, -0.5, w.shape[1] - 0.5),
+        )
+        ax.plot(np.arange(len(truth)), truth, color="cyan", lw=0.8, ls="--", label="true")
+        ax.set_title(f"{run.method}: node weights after each frame")
+        ax.set_ylabel("map node")
+        ax.legend(loc="upper left")
+        fig.colorbar(im, ax=ax, label="weight", pad=0.01)
+    axes[-1].set_xlabel("query frame")
+    return fig
+
+
+def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:
+    """Median host time per frame against map size (log-log), p95 as a band."""
+    rows = bench.get("rows", []) if bench else []
+    if not rows:
+        return None
+    names = list(dict.fromkeys(r["method"] for r in rows))
+    colours = _colours(names)
+    fig = _figure(7.0, 4.4)
+    ax = fig.add_subplot()
+    for name in names:
+        rs = sorted((r for r in rows if r["method"] == name), key=lambda r: r["n_nodes"])
+        n = [r["n_nodes"] for r in rs]
+        med = [r["latency_ms_median"] for r in rs]
+        p95 = [r["latency_ms_p95"] for r in rs]
+        ax.plot(n, med, "o-", color=colours[name], label=name)
+        ax.fill_between(n, med, p95, color=colours[name], alpha=0.15, lw=0)
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
+    ax.set_xlabel("map size (nodes)")
+    ax.set_ylabel("host time per frame (ms, median; band to p95)")
+    ax.set_title("Latency against map size (random maps)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="upper left")
+    return fig
+
+
+def latency_per_frame(result: RunResult) -> Figure:
+    """Distribution of host time per frame of every method in this run (box plot)."""
+    names = list(result.runs)
+    fig = _figure(7.0, 0.45 * len(names) + 1.4)
+    ax = fig.add_subplot()
+    data = [np.asarray(result.runs[n].latency_ms) for n in names]
+    ax.boxplot(data, vert=False, tick_labels=names, showfliers=False)
+    ax.set_xscale("log")
+    ax.set_xlabel("host time per frame (ms)")
+    ax.set_title(f"Host time per frame, {result.dataset_name} (whiskers 1.5 IQR)")
+    ax.grid(alpha=0.3, axis="x", which="both")
+    return fig

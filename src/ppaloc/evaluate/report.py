@@ -1,0 +1,341 @@
+"""The report: a self-contained HTML page and a Markdown twin, built from result files only.
+
+:func:`write_report` reads a results folder (:mod:`ppaloc.evaluate.results`), draws the
+figures (:mod:`ppaloc.evaluate.figures`) and writes ``report.html`` (figures embedded as
+base64 PNG, no external resources) and ``report.md`` (figures as PNG files under
+``figures/``).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import importlib
+import json
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ppaloc.evaluate import figures
+from ppaloc.evaluate.bench import load_bench
+from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
+from ppaloc.evaluate.results import atomic_write, load_results
+from ppaloc.evaluate.run import RunResult
+
+__all__ = ["REPRESENTATIONS", "comparison_table", "write_report"]
+
+log = logging.getLogger(__name__)
+
+REPRESENTATIONS = {
+    "lowres": "8x8 image, SAD",
+    "lbp": "32-bit LBP, Hamming",
+}
+"""Map kind -> how the report names the place representation."""
+
+
+@dataclass(frozen=True)
+class _Figure:
+    key: str
+    title: str
+    caption: str
+    png: bytes
+
+
+def _fmt(v: Any, digits: int = 3) -> str:
+    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+        return "-"
+    if isinstance(v, float):
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+def _ms(v: float | None) -> str:
+    if v is None:
+        return "-"
+    return f"{v:.3g}" if v < 100 else f"{v:.0f}"
+
+
+def comparison_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    """The Table I-shaped comparison: one row per method, F1 and frame time.
+
+    Parameters
+    ----------
+    summary : dict
+        The content of ``results.json``.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+    """
+    header = [
+        "Method",
+        "Representation",
+        "F1 max",
+        "P @F1",
+        "R @F1",
+        "AUC",
+        "R @100%P",
+        "Accuracy",
+        "Host ms/frame (median)",
+        "Host ms (p95)",
+        "Modelled on-sensor ms/frame",
+        "Energy mJ/frame",
+    ]
+    rows = []
+    for name, m in summary["methods"].items():
+        kind = m.get("map_kind", "")
+        rows.append(
+            [
+                name,
+                REPRESENTATIONS.get(kind, kind or "-"),
+                _fmt(m["f1_max"]),
+                _fmt(m["precision_at_f1"]),
+                _fmt(m["recall_at_f1"]),
+                _fmt(m["auc"]),
+                _fmt(m["recall_at_100p"]),
+                _fmt(m["accuracy"]),
+                _ms(m["latency_ms_median"]),
+                _ms(m["latency_ms_p95"]),
+                _ms(m["modelled_latency_ms"]),
+                _fmt(m["energy_mj"], 4),
+            ]
+        )
+    return header, rows
+
+
+def _extra_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    header = [
+        "Method",
+        "Recall@1",
+        "Recall@5",
+        "Recall@10",
+        "Median error (frames)",
+        "Median error (m)",
+        "Motion accuracy",
+        "Nodes",
+        "Map build (s)",
+    ]
+    rows = []
+    for name, m in summary["methods"].items():
+        rk = m.get("recall_at_k", {})
+        rows.append(
+            [
+                name,
+                _fmt(rk.get("1")),
+                _fmt(rk.get("5")),
+                _fmt(rk.get("10")),
+                _fmt(m.get("error_frames_median"), 1),
+                _fmt(m.get("error_m_median"), 1),
+                _fmt(m.get("motion_accuracy")),
+                _fmt(m.get("n_nodes")),
+                _fmt(m.get("build_s"), 2),
+            ]
+        )
+    return header, rows
+
+
+def _onsensor_figures(result: RunResult) -> list[_Figure]:
+    """Register pictures from ``ppaloc.onsensor.figures`` where that module exists.
+
+    The module may offer ``report_figures(result)`` returning ``[(title, figure), ...]``
+    where a figure is a matplotlib Figure or PNG bytes; anything else is skipped.
+    """
+    try:
+        mod = importlib.import_module("ppaloc.onsensor.figures")
+    except ImportError:
+        return []
+    fn: Callable[..., Any] | None = getattr(mod, "report_figures", None)
+    if fn is None:
+        return []
+    out = []
+    for i, item in enumerate(fn(result) or []):
+        title, fig = item[0], item[1]
+        caption = item[2] if len(item) > 2 else ""
+        png = fig if isinstance(fig, bytes) else figures.png_bytes(fig)
+        out.append(_Figure(f"registers-{i}", str(title), str(caption), png))
+    return out
+
+
+def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
+    d = (result.runs and next(iter(result.runs.values())).metrics.recall_definition) or "A"
+    out = [
+        _Figure(
+            "pr-curves",
+            "Precision-recall curves",
+            "Every distinct confidence value is a threshold. Recall definition "
+            f"{d}: {RECALL_DEFINITIONS[d]}. Dots mark each method's maximum F1.",
+            figures.png_bytes(figures.pr_curves(result)),
+        ),
+        _Figure(
+            "position",
+            "Position estimate along the route",
+            "Grey: the true reference frame (middle of the accepted set) of each query; "
+            "dots: the predicted reference frame, green when within the tolerance of "
+            f"{result.tolerance} frames, red otherwise.",
+            figures.png_bytes(figures.position_along_route(result)),
+        ),
+    ]
+    heat = figures.weights_heatmaps(result)
+    if heat is not None:
+        out.append(
+            _Figure(
+                "weights",
+                "Weights over time",
+                "Per-node weight (or score) after each query frame, for methods that "
+                "record it; colour clipped to the 1st-99.5th percentile. Dashed: the true "
+                "reference frame.",
+                figures.png_bytes(heat),
+            )
+        )
+    out += _onsensor_figures(result)
+    out.append(
+        _Figure(
+            "latency",
+            "Host time per frame in this run",
+            "Wall-clock time of each call to step, all methods measured in one run on "
+            "this machine.",
+            figures.png_bytes(figures.latency_per_frame(result)),
+        )
+    )
+    lat = figures.latency_vs_map_size(bench) if bench else None
+    if lat is not None:
+        n = bench["rows"][0].get("queries", "")
+        out.append(
+            _Figure(
+                "latency-vs-size",
+                "Latency against map size",
+                f"Median host time per step over {n} query frames on random maps of each "
+                "size; the band reaches the 95th percentile.",
+                figures.png_bytes(lat),
+            )
+        )
+    return out
+
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0 auto;
+max-width:1200px;padding:24px 32px;color:#1d2330;line-height:1.45}
+h1{font-size:1.7em;margin-bottom:.2em}h2{margin-top:1.6em;border-bottom:1px solid #dde;
+padding-bottom:.2em}
+.meta{color:#556;font-size:.95em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.92em}
+th,td{border:1px solid #ccd;padding:4px 9px;text-align:right}
+th{background:#eef1f7}td:first-child,td:nth-child(2){text-align:left}
+tr:nth-child(even) td{background:#f8f9fc}
+td.best{font-weight:700;color:#0a5c2b}
+figure{margin:1em 0 1.6em}figure img{max-width:100%;border:1px solid #e3e5ea}
+figcaption{color:#445;font-size:.92em;margin-top:.3em}
+pre{background:#f4f5f8;padding:10px;overflow-x:auto;font-size:.85em}
+dt{font-weight:600}dd{margin:0 0 .4em 1.2em}
+"""
+
+
+def _html_table(header: list[str], rows: list[list[str]], best_cols: tuple[int, ...]) -> str:
+    best = {}
+    for c in best_cols:
+        vals = [float(r[c]) for r in rows if r[c] not in ("-", "")]
+        best[c] = max(vals) if vals else None
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = []
+    for r in rows:
+        cells = []
+        for i, v in enumerate(r):
+            cls = (
+                ' class="best"'
+                if i in best and best[i] is not None and v != "-" and float(v) == best[i]
+                else ""
+            )
+            cells.append(f"<td{cls}>{html.escape(v)}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def _md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _definitions() -> list[tuple[str, str]]:
+    return [
+        ("Precision", "correct accepted / accepted, at a confidence threshold"),
+        *[(f"Recall {k}", v) for k, v in RECALL_DEFINITIONS.items()],
+        ("F1 max", "the highest 2PR/(P+R) over every distinct threshold"),
+        ("AUC", "area under the PR curve, trapezoid rule, from recall 0"),
+        ("R @100%P", "the highest recall at a threshold where every accepted query is correct"),
+        ("Accuracy", "queries whose best match is correct / all queries (all accepted)"),
+        ("Host ms/frame", "wall-clock time of step on this machine (median, 95th percentile)"),
+        (
+            "Modelled on-sensor",
+            "time and energy per frame from the simulator's timing model (on-sensor methods)",
+        ),
+    ]
+
+
+def write_report(folder: str | Path, *, bench_path: str | Path | None = None) -> Path:
+    """Write ``report.html`` and ``report.md`` into a results folder, from its files only.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A folder written by :func:`ppaloc.evaluate.results.save_results`.
+    bench_path : str or Path, optional
+        A ``ppaloc bench`` JSON file (default ``folder/bench.json`` where present).
+
+    Returns
+    -------
+    Path
+        ``folder/report.html``.
+    """
+    folder = Path(folder)
+    result, summary = load_results(folder)
+    bench = load_bench(bench_path if bench_path is not None else folder / "bench.json")
+    figs = _figures(result, bench)
+    header, rows = comparison_table(summary)
+    xheader, xrows = _extra_table(summary)
+    title = f"ppaloc report: {result.dataset_name}"
+    n_q = len(result.ground_truth)
+    n_match = sum(1 for g in result.ground_truth if len(g))
+    meta = (
+        f"Dataset `{result.dataset}`: {result.n_reference} reference frames, {n_q} query "
+        f"frames ({n_match} with a true match), tolerance {result.tolerance} frames. "
+        f"ppaloc {result.ppaloc_version}, {result.created}."
+    )
+    meta_html = html.escape(meta).replace("`", "<code>", 1).replace("`", "</code>", 1)
+    parts = [
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1><p class='meta'>{meta_html}</p>",
+        "<h2>Comparison</h2>",
+        _html_table(header, rows, best_cols=(2, 5, 6, 7)),
+        _html_table(xheader, xrows, best_cols=(1, 2, 3)),
+    ]
+    for f in figs:
+        b64 = base64.b64encode(f.png).decode("ascii")
+        parts.append(
+            f"<h2 id='{f.key}'>{html.escape(f.title)}</h2><figure>"
+            f"<img src='data:image/png;base64,{b64}' alt='{html.escape(f.title)}'>"
+            f"<figcaption>{html.escape(f.caption)}</figcaption></figure>"
+        )
+    parts.append("<h2>Definitions</h2><dl>")
+    parts += [f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in _definitions()]
+    parts.append("</dl><h2>Configuration</h2>")
+    parts.append(f"<pre>{html.escape(json.dumps(result.config, indent=2))}</pre>")
+    parts.append("</body></html>\n")
+    out = atomic_write(folder / "report.html", "\n".join(parts))
+
+    md = [f"# {title}", "", meta, ""]
+    md += ["## Comparison", "", _md_table(header, rows), "", _md_table(xheader, xrows), ""]
+    for f in figs:
+        rel = f"figures/{f.key}.png"
+        atomic_write(folder / rel, f.png)
+        md += [f"## {f.title}", "", f"![{f.title}]({rel})", "", f.caption, ""]
+    md += ["## Definitions", ""] + [f"- **{k}**: {v}" for k, v in _definitions()]
+    md += ["", "## Configuration", "", "```json", json.dumps(result.config, indent=2), "```", ""]
+    atomic_write(folder / "report.md", "\n".join(md))
+    return out

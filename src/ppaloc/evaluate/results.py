@@ -1,0 +1,219 @@
+"""Result files: write a run to a folder and read it back (reports are built from these).
+
+Layout of a results folder::
+
+    results.json          summary: dataset, tolerance, per-method metrics, config, version
+    results.csv           one row per method, the same scalars as results.json
+    arrays/_dataset.npz   ground truth (CSR: gt_indptr, gt_indices), positions, query_moved
+    arrays/<method>.npz   per-query arrays of one method (see MethodRun)
+    bench.json            latency against map size, where measured (ppaloc bench / demo)
+
+Every file is written atomically (a temporary file in the same folder, then
+``os.replace``), so an interrupted run never leaves a half-written result.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import re
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ppaloc.errors import DataError
+from ppaloc.evaluate.metrics import evaluate_estimates
+from ppaloc.evaluate.run import MethodRun, RunResult
+
+__all__ = [
+    "CSV_COLUMNS",
+    "array_file",
+    "atomic_write",
+    "load_results",
+    "save_results",
+]
+
+CSV_COLUMNS = [
+    "method",
+    "f1_max",
+    "precision_at_f1",
+    "recall_at_f1",
+    "auc",
+    "recall_at_100p",
+    "accuracy",
+    "recall_definition",
+    "latency_ms_median",
+    "latency_ms_p95",
+    "modelled_latency_ms",
+    "energy_mj",
+    "error_frames_median",
+    "error_m_median",
+    "recall_at_1",
+    "recall_at_5",
+    "recall_at_10",
+    "motion_accuracy",
+    "n_nodes",
+    "n_queries",
+    "build_s",
+]
+"""Columns of ``results.csv``, in order."""
+
+_ARRAYS = ("node", "ref_index", "score", "moved", "ranking", "latency_ms")
+_OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj")
+
+
+def atomic_write(path: str | Path, data: bytes | str) -> Path:
+    """Write ``data`` to ``path`` through a temporary file and ``os.replace``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(raw)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    return buf.getvalue()
+
+
+def array_file(method: str) -> str:
+    """Relative path of a method's per-query arrays inside a results folder."""
+    return f"arrays/{re.sub(r'[^A-Za-z0-9_.-]', '_', method)}.npz"
+
+
+def _csv_row(name: str, summary: dict[str, Any], n_queries: int) -> list[Any]:
+    rk = summary.get("recall_at_k", {})
+    row = {**summary, "method": name, "n_queries": n_queries}
+    for k in ("1", "5", "10"):
+        row[f"recall_at_{k}"] = rk.get(k)
+    return ["" if row.get(c) is None else row.get(c) for c in CSV_COLUMNS]
+
+
+def save_results(result: RunResult, out: str | Path) -> Path:
+    """Write ``result`` into folder ``out`` (created if needed); return ``out/results.json``."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise DataError(f"--out {out} is a file; give a folder for the results")
+    summary = result.summary()
+    for name, run in result.runs.items():
+        rel = array_file(name)
+        summary["methods"][name]["arrays"] = rel
+        arrays = {k: getattr(run, k) for k in _ARRAYS}
+        arrays.update({k: getattr(run, k) for k in _OPTIONAL if getattr(run, k) is not None})
+        arrays["curve_thresholds"] = run.metrics.curve.thresholds
+        arrays["curve_precision"] = run.metrics.curve.precision
+        arrays["curve_recall"] = run.metrics.curve.recall
+        atomic_write(out / rel, _npz_bytes(arrays))
+    gt = result.ground_truth
+    ds_arrays = {
+        "gt_indptr": np.cumsum([0] + [len(g) for g in gt]).astype(np.int64),
+        "gt_indices": (np.concatenate(gt) if gt else np.zeros(0)).astype(np.int64),
+    }
+    for key in ("reference_positions", "query_positions", "query_moved"):
+        value = getattr(result, key)
+        if value is not None:
+            ds_arrays[key] = np.asarray(value)
+    atomic_write(out / "arrays" / "_dataset.npz", _npz_bytes(ds_arrays))
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    for name, s in summary["methods"].items():
+        writer.writerow(_csv_row(name, s, summary["n_queries"]))
+    atomic_write(out / "results.csv", text.getvalue())
+    return atomic_write(out / "results.json", json.dumps(summary, indent=2) + "\n")
+
+
+def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
+    """Read a results folder written by :func:`save_results`.
+
+    Metrics are recomputed from the per-query arrays (so a report never depends on
+    anything but the files).
+
+    Returns
+    -------
+    RunResult
+        With every method's arrays and metrics.
+    dict
+        The raw ``results.json``.
+
+    Raises
+    ------
+    DataError
+        If the folder or one of its files is missing or unreadable.
+    """
+    folder = Path(folder)
+    path = folder / "results.json"
+    if not path.is_file():
+        raise DataError(
+            f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"
+        )
+    try:
+        summary = json.loads(path.read_text())
+        with np.load(folder / "arrays" / "_dataset.npz") as z:
+            ds = {k: z[k] for k in z.files}
+    except (OSError, ValueError) as exc:
+        raise DataError(f"cannot read the results in {folder}: {exc}") from exc
+    indptr, indices = ds["gt_indptr"], ds["gt_indices"]
+    gt = [indices[indptr[i] : indptr[i + 1]] for i in range(len(indptr) - 1)]
+    runs: dict[str, MethodRun] = {}
+    for name, s in summary["methods"].items():
+        try:
+            with np.load(folder / s.get("arrays", array_file(name))) as z:
+                a = {k: z[k] for k in z.files}
+        except (OSError, ValueError) as exc:
+            raise DataError(f"cannot read the arrays of {name} in {folder}: {exc}") from exc
+        ranking = a["ranking"]
+        metrics = evaluate_estimates(
+            a["ref_index"],
+            a["score"],
+            gt,
+            recall=s.get("recall_definition", "A"),
+            rankings=[r[r >= 0] for r in ranking] if ranking.shape[1] else None,
+            reference_positions=ds.get("reference_positions"),
+            query_positions=ds.get("query_positions"),
+        )
+        runs[name] = MethodRun(
+            method=name,
+            params=s.get("params", {}),
+            map_kind=s.get("map_kind", ""),
+            n_nodes=int(s.get("n_nodes", 0)),
+            build_s=float(s.get("build_s", 0.0)),
+            node=a["node"],
+            ref_index=a["ref_index"],
+            score=a["score"],
+            moved=a["moved"],
+            ranking=ranking,
+            latency_ms=a["latency_ms"],
+            metrics=metrics,
+            weights=a.get("weights"),
+            modelled_latency_ms=a.get("modelled_latency_ms"),
+            energy_mj=a.get("energy_mj"),
+            motion_accuracy=s.get("motion_accuracy"),
+        )
+    result = RunResult(
+        dataset=summary["dataset"],
+        dataset_name=summary.get("dataset_name", summary["dataset"]),
+        tolerance=int(summary["tolerance"]),
+        ground_truth=gt,
+        n_reference=int(summary.get("n_reference", 0)),
+        runs=runs,
+        config=summary.get("config", {}),
+        reference_positions=ds.get("reference_positions"),
+        query_positions=ds.get("query_positions"),
+        query_moved=ds.get("query_moved"),
+        ppaloc_version=summary.get("ppaloc_version", ""),
+        created=summary.get("created", ""),
+    )
+    return result, summary

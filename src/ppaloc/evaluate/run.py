@@ -1,0 +1,519 @@
+"""Run localisation methods over a dataset: build each map, step every query frame once.
+
+For each method the map is built from the dataset's reference frames (through
+:func:`ppaloc.datasets.to_sensor`, the same front-end for every method), then every query
+frame is handed to ``step`` once, in order. Only ``step`` is timed (host wall clock, with
+``time.perf_counter_ns``), in the same process and run for every method, so the latencies
+compare side by side. Modelled on-sensor latency and energy come from the estimates of
+methods that model them.
+"""
+
+from __future__ import annotations
+
+import inspect
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import Any
+
+import numpy as np
+
+from ppaloc import __version__
+from ppaloc.datasets import RouteDataset, to_sensor
+from ppaloc.errors import PpalocError
+from ppaloc.evaluate.config import EvaluateConfig
+from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
+from ppaloc.localise.base import Estimate, Localiser
+from ppaloc.methods import METHODS, available_methods, make_localiser
+
+__all__ = [
+    "MethodRun",
+    "RunResult",
+    "accepted_parameters",
+    "resolve_methods",
+    "run_evaluation",
+    "run_method",
+    "sensor_frames",
+]
+
+ProgressHook = Callable[[str, int], None]
+"""Called as ``hook(method, frames_done)`` while a method runs."""
+
+
+@dataclass(eq=False)
+class MethodRun:
+    """Per-query arrays and metrics of one method on one dataset.
+
+    Attributes
+    ----------
+    method : str
+        Registered method name.
+    params : dict
+        Keyword arguments the localiser was built with (on top of the method's defaults).
+    map_kind : str
+        ``TopoMap.kind`` of the map it built.
+    n_nodes : int
+        Map size.
+    build_s : float
+        Host time to build the map, in seconds.
+    node : ndarray of int, shape (M,)
+        Predicted map node per query.
+    ref_index : ndarray of int, shape (M,)
+        Predicted reference frame per query (``node`` through the map's ``frame_index``).
+    score : ndarray of float, shape (M,)
+        Confidence per query.
+    moved : ndarray of int8, shape (M,)
+        Motion decision: 1 forward, 0 stay, -1 where the method has no motion model.
+    ranking : ndarray of int, shape (M, K)
+        Best K reference indices per query, best first; -1 pads; K = 0 when not ranked.
+    latency_ms : ndarray of float, shape (M,)
+        Host wall-clock time of each ``step``, in milliseconds.
+    weights : ndarray of float32, shape (M, N), optional
+        Per-node weights after each frame, in map order, where recorded.
+    modelled_latency_ms, energy_mj : ndarray of float, shape (M,), optional
+        Modelled on-sensor time and energy per frame, where the method models them.
+    metrics : Metrics
+    """
+
+    method: str
+    params: dict[str, Any]
+    map_kind: str
+    n_nodes: int
+    build_s: float
+    node: np.ndarray
+    ref_index: np.ndarray
+    score: np.ndarray
+    moved: np.ndarray
+    ranking: np.ndarray
+    latency_ms: np.ndarray
+    metrics: Metrics
+    weights: np.ndarray | None = None
+    modelled_latency_ms: np.ndarray | None = None
+    energy_mj: np.ndarray | None = None
+    motion_accuracy: float | None = None
+
+    def summary(self) -> dict[str, Any]:
+        """The method's entry of ``results.json`` (scalars only)."""
+        lat = self.latency_ms
+        out: dict[str, Any] = {
+            "f1_max": self.metrics.f1_max,
+            "precision_at_f1": self.metrics.precision_at_f1,
+            "recall_at_f1": self.metrics.recall_at_f1,
+            "auc": self.metrics.auc,
+            "recall_at_100p": self.metrics.recall_at_100p,
+            "accuracy": self.metrics.accuracy,
+            "latency_ms_median": float(np.median(lat)) if lat.size else None,
+            "latency_ms_p95": float(np.percentile(lat, 95)) if lat.size else None,
+            "modelled_latency_ms": _median_or_none(self.modelled_latency_ms),
+            "energy_mj": _mean_or_none(self.energy_mj),
+            "recall_definition": self.metrics.recall_definition,
+        }
+        extra = self.metrics.summary()
+        for key in ("f1_max", "precision_at_f1", "recall_at_f1", "auc", "recall_at_100p"):
+            extra.pop(key)
+        extra.pop("accuracy")
+        extra.pop("recall_definition")
+        out.update(extra)
+        out.update(
+            {
+                "modelled_latency_ms_mean": _mean_or_none(self.modelled_latency_ms),
+                "motion_accuracy": self.motion_accuracy,
+                "map_kind": self.map_kind,
+                "n_nodes": self.n_nodes,
+                "build_s": self.build_s,
+                "params": self.params,
+            }
+        )
+        return out
+
+
+def _median_or_none(a: np.ndarray | None) -> float | None:
+    return None if a is None or not a.size else float(np.median(a))
+
+
+def _mean_or_none(a: np.ndarray | None) -> float | None:
+    return None if a is None or not a.size else float(np.mean(a))
+
+
+@dataclass(eq=False)
+class RunResult:
+    """Everything one evaluation produced: what was run, on what, and each method's run.
+
+    Attributes
+    ----------
+    dataset : str
+        The dataset spec as run (tolerance applied).
+    dataset_name : str
+        ``RouteDataset.name``.
+    tolerance : int
+        Ground-truth tolerance in reference frames.
+    ground_truth : list of ndarray of int
+        Accepted reference indices per query.
+    n_reference : int
+        Reference frames (the map is built from them).
+    runs : dict of str to MethodRun
+        In the order run.
+    config : dict
+        The resolved configuration.
+    reference_positions, query_positions : ndarray, optional
+        Route positions in metres, where the dataset has them.
+    query_moved : ndarray of bool, optional
+        Ground-truth motion, where known.
+    ppaloc_version, created : str
+        Provenance.
+    """
+
+    dataset: str
+    dataset_name: str
+    tolerance: int
+    ground_truth: list[np.ndarray]
+    n_reference: int
+    runs: dict[str, MethodRun]
+    config: dict[str, Any] = field(default_factory=dict)
+    reference_positions: np.ndarray | None = None
+    query_positions: np.ndarray | None = None
+    query_moved: np.ndarray | None = None
+    ppaloc_version: str = __version__
+    created: str = ""
+
+    def summary(self) -> dict[str, Any]:
+        """The content of ``results.json``."""
+        return {
+            "dataset": self.dataset,
+            "dataset_name": self.dataset_name,
+            "tolerance": self.tolerance,
+            "n_reference": self.n_reference,
+            "n_queries": len(self.ground_truth),
+            "methods": {name: run.summary() for name, run in self.runs.items()},
+            "config": self.config,
+            "ppaloc_version": self.ppaloc_version,
+            "created": self.created,
+        }
+
+
+def resolve_methods(names: Sequence[str]) -> list[str]:
+    """Check method names against the registry; an empty list means every available one.
+
+    Raises
+    ------
+    PpalocError
+        For an unknown or unavailable name, listing the available ones.
+    """
+    available = available_methods()
+    if not names:
+        if not available:
+            raise PpalocError("no localisation method is available in this install")
+        return available
+    out: list[str] = []
+    for name in names:
+        if name not in available:
+            why = "is not available in this install" if name in METHODS else "is unknown"
+            raise PpalocError(
+                f"method {name!r} {why}; choose from: {', '.join(available)} "
+                "(see `ppaloc evaluate --help`)"
+            )
+        if name not in out:
+            out.append(name)
+    return out
+
+
+def accepted_parameters(name: str) -> set[str] | None:
+    """Keyword parameters the class behind method ``name`` accepts (None: any, ``**kw``)."""
+    module, _, cls = METHODS[name].target.partition(":")
+    import importlib
+
+    sig = inspect.signature(getattr(importlib.import_module(module), cls))
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in sig.parameters.values()):
+        return None
+    return set(sig.parameters)
+
+
+def _build_params(
+    name: str, user: Mapping[str, Any], *, seed: int, record_weights: bool
+) -> dict[str, Any]:
+    accepted = accepted_parameters(name)
+    params = dict(user)
+    if accepted is None or "seed" in accepted:
+        params.setdefault("seed", seed)
+    if record_weights and (accepted is None or "record_weights" in accepted):
+        params.setdefault("record_weights", True)
+    return params
+
+
+def sensor_frames(frames: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Every frame of a (lazy) traversal through the sensor front-end, in order."""
+    return [to_sensor(frames[i]) for i in range(len(frames))]
+
+
+def _stack_rankings(rankings: list[np.ndarray | None], frame_index: np.ndarray) -> np.ndarray:
+    k = max((len(r) for r in rankings if r is not None), default=0)
+    out = np.full((len(rankings), k), -1, dtype=np.int64)
+    for i, r in enumerate(rankings):
+        if r is not None and len(r):
+            r = np.asarray(r, dtype=np.int64)
+            out[i, : len(r)] = frame_index[r]
+    return out
+
+
+def run_method(
+    name: str,
+    reference: Sequence[np.ndarray],
+    query: Sequence[np.ndarray],
+    ground_truth: Sequence[np.ndarray],
+    *,
+    params: Mapping[str, Any] | None = None,
+    recall: str = "A",
+    max_weight_values: int = 4_000_000,
+    reference_positions: np.ndarray | None = None,
+    query_positions: np.ndarray | None = None,
+    query_moved: np.ndarray | None = None,
+    progress: ProgressHook | None = None,
+    localiser: Localiser | None = None,
+) -> MethodRun:
+    """Build the map of one method from sensor frames and step every query frame once.
+
+    Parameters
+    ----------
+    name : str
+        Registered method name (or a label when ``localiser`` is given).
+    reference, query : sequence of ndarray, shape (256, 256), uint8
+        Sensor frames (:func:`sensor_frames`).
+    ground_truth : sequence of ndarray of int
+        Accepted reference indices per query.
+    params : mapping, optional
+        Keyword arguments for :func:`ppaloc.methods.make_localiser`.
+    recall : {"A", "B", "C"}
+    max_weight_values : int
+        Recorded weights are kept only when queries x nodes is at most this.
+    reference_positions, query_positions, query_moved : optional
+        From the dataset, for the error in metres and the motion accuracy.
+    progress : callable, optional
+        ``progress(name, frames_done)`` after the map and after every frame.
+    localiser : Localiser, optional
+        Use this object instead of ``make_localiser(name, **params)`` (tests, scripts).
+
+    Returns
+    -------
+    MethodRun
+    """
+    params = dict(params or {})
+    loc = localiser if localiser is not None else make_localiser(name, **params)
+    t0 = time.perf_counter()
+    topomap = loc.build_map(reference)
+    build_s = time.perf_counter() - t0
+    loc.reset()
+    frame_index = np.asarray(topomap.frame_index, dtype=np.int64)
+    n_nodes = len(topomap)
+    m = len(query)
+    keep_weights = m * n_nodes <= max_weight_values
+    estimates: list[Estimate] = []
+    latency = np.empty(m, dtype=np.float64)
+    weights = None
+    if progress:
+        progress(name, 0)
+    clock = time.perf_counter_ns
+    for i in range(m):
+        frame = query[i]
+        t = clock()
+        est = loc.step(frame)
+        latency[i] = (clock() - t) / 1e6
+        if est.weights is not None and keep_weights:
+            if weights is None:
+                weights = np.full((m, n_nodes), np.nan, dtype=np.float32)
+            weights[i] = np.asarray(est.weights, dtype=np.float32)
+        estimates.append(est)
+        if progress:
+            progress(name, i + 1)
+    node = np.array([e.node for e in estimates], dtype=np.int64)
+    if m and (node.min() < 0 or node.max() >= n_nodes):
+        raise RuntimeError(f"{name} returned a node outside its map of {n_nodes} nodes")
+    ref_index = frame_index[node]
+    score = np.array([e.score for e in estimates], dtype=np.float64)
+    moved = np.array([-1 if e.moved is None else int(e.moved) for e in estimates], np.int8)
+    ranking = _stack_rankings([e.ranking for e in estimates], frame_index)
+    rank_list = [r[r >= 0] for r in ranking] if ranking.shape[1] else None
+    modelled = _optional_array([e.modelled_latency_ms for e in estimates])
+    energy = _optional_array([e.energy_mj for e in estimates])
+    metrics = evaluate_estimates(
+        ref_index,
+        score,
+        ground_truth,
+        recall=recall,
+        rankings=rank_list,
+        reference_positions=reference_positions,
+        query_positions=query_positions,
+    )
+    motion_acc = None
+    if query_moved is not None and m and (moved >= 0).all():
+        motion_acc = float(np.mean((moved == 1) == np.asarray(query_moved, dtype=bool)))
+    return MethodRun(
+        method=name,
+        params={k: _jsonable(v) for k, v in params.items()},
+        map_kind=topomap.kind,
+        n_nodes=n_nodes,
+        build_s=build_s,
+        node=node,
+        ref_index=ref_index,
+        score=score,
+        moved=moved,
+        ranking=ranking,
+        latency_ms=latency,
+        metrics=metrics,
+        weights=weights,
+        modelled_latency_ms=modelled,
+        energy_mj=energy,
+        motion_accuracy=motion_acc,
+    )
+
+
+def _optional_array(values: list[float | None]) -> np.ndarray | None:
+    if not values or all(v is None for v in values):
+        return None
+    return np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, tuple | list):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    return v
+
+
+class _Progress:
+    """A rich progress bar on stderr, one task per method; silent when not a terminal."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled and sys.stderr.isatty()
+        self._bar = None
+        self._tasks: dict[str, Any] = {}
+
+    def __enter__(self) -> _Progress:
+        if self.enabled:
+            from rich.console import Console
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeRemainingColumn,
+            )
+
+            self._bar = Progress(
+                TextColumn("{task.description:<22}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TimeRemainingColumn(),
+                console=Console(stderr=True),
+                transient=False,
+            )
+            self._bar.__enter__()
+        return self
+
+    def add(self, name: str, total: int) -> None:
+        if self._bar is not None:
+            self._tasks[name] = self._bar.add_task(name, total=total)
+
+    def __call__(self, name: str, done: int) -> None:
+        if self._bar is not None and name in self._tasks:
+            self._bar.update(self._tasks[name], completed=done)
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(None, None, None)
+
+
+def run_evaluation(
+    config: EvaluateConfig,
+    *,
+    dataset: RouteDataset | None = None,
+    localisers: Mapping[str, Localiser] | None = None,
+    progress: bool = True,
+) -> RunResult:
+    """Run every method of ``config`` on its dataset and measure them.
+
+    Parameters
+    ----------
+    config : EvaluateConfig
+    dataset : RouteDataset, optional
+        Use this dataset instead of loading ``config.dataset`` (tests, scripts); its
+        ground truth is taken as is.
+    localisers : mapping of str to Localiser, optional
+        Ready localisers by label, run instead of the registry's methods (tests, scripts).
+    progress : bool
+        Show a progress bar on a terminal (never when stderr is not a TTY).
+
+    Returns
+    -------
+    RunResult
+
+    Raises
+    ------
+    PpalocError
+        For an unknown method, a bad dataset spec or bad method parameters.
+    """
+    spec = config.resolved_dataset()
+    if localisers is None:
+        names = resolve_methods(config.methods)
+        unknown = sorted(set(config.params) - set(METHODS))
+        if unknown:
+            raise PpalocError(
+                f"params given for unknown method {unknown[0]!r}; methods: {', '.join(METHODS)}"
+            )
+    else:
+        names = list(localisers)
+    if dataset is None:
+        from ppaloc.datasets.registry import load_dataset
+
+        dataset = load_dataset(spec)
+    reference = sensor_frames(dataset.reference)
+    query = sensor_frames(dataset.query)
+    gt = [np.asarray(g, dtype=np.int64) for g in dataset.ground_truth]
+    positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
+    runs: dict[str, MethodRun] = {}
+    with _Progress(progress) as bar:
+        for name in names:
+            bar.add(name, len(query))
+        for name in names:
+            user = dict(config.params.get(name, {}))
+            if localisers is None:
+                params = _build_params(
+                    name, user, seed=config.seed, record_weights=config.record_weights
+                )
+                loc = None
+            else:
+                params, loc = user, localisers[name]
+            runs[name] = run_method(
+                name,
+                reference,
+                query,
+                gt,
+                params=params,
+                recall=config.recall,
+                max_weight_values=config.max_weight_values,
+                reference_positions=dataset.reference_positions if positions_ok else None,
+                query_positions=dataset.query_positions if positions_ok else None,
+                query_moved=dataset.query_moved,
+                progress=bar,
+                localiser=loc,
+            )
+    resolved = config.to_dict()
+    resolved["dataset"] = spec
+    resolved["methods"] = list(names)
+    return RunResult(
+        dataset=spec,
+        dataset_name=dataset.name,
+        tolerance=int(dataset.tolerance),
+        ground_truth=gt,
+        n_reference=len(reference),
+        runs=runs,
+        config=resolved,
+        reference_positions=dataset.reference_positions,
+        query_positions=dataset.query_positions,
+        query_moved=dataset.query_moved,
+        created=datetime.now(UTC).isoformat(timespec="seconds"),
+    )
