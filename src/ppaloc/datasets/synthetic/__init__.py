@@ -6,5 +6,6 @@
 
 from ppaloc.datasets.synthetic.conditions import CONDITIONS, Condition
 from ppaloc.datasets.synthetic.generate import make_synthetic
+from ppaloc.datasets.synthetic.montage import conditions_montage
 
-__all__ = ["CONDITIONS", "Condition", "make_synthetic"]
+__all__ = ["CONDITIONS", "Condition", "conditions_montage", "make_synthetic"]

@@ -16,7 +16,7 @@ __all__ = ["CONDITIONS", "MATERIALS", "Condition", "condition"]
 
 MATERIALS = (
     "sky", "road", "marking", "sidewalk", "verge", "field",
-    "wall0", "wall1", "wall2", "wall3", "window", "window_lit", "roof", "door",
+    "wall0", "wall1", "wall2", "wall3", "wall4", "wall5", "window", "window_lit", "roof", "door",
     "trunk", "leaves0", "leaves1", "conifer", "bush", "pole", "lamp", "fence",
     "hedge", "hill", "snowcap", "forest",
 )  # fmt: skip
@@ -38,6 +38,8 @@ _SUMMER = {
     "wall1": (170, 90, 70),
     "wall2": (215, 210, 195),
     "wall3": (130, 140, 150),
+    "wall4": (225, 195, 110),
+    "wall5": (95, 85, 80),
     "window": (50, 65, 85),
     "window_lit": (50, 65, 85),
     "roof": (120, 60, 50),

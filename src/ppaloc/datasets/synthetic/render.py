@@ -72,8 +72,10 @@ class Renderer:
         self.xs = np.arange(S, dtype=np.float32) + 0.5
         self.ys = np.arange(S, dtype=np.float32) + 0.5
         rgb = cond.rgb_lut()
-        self.lut = rgb if colour else (rgb @ _LUMA)[:, None]
-        self.C = self.lut.shape[1]
+        self.lut = rgb if colour else (rgb @ _LUMA).astype(np.float32)
+        self.C = 3 if colour else 1
+        fog = np.asarray(cond.fog_colour, np.float32)
+        self.fog = fog if colour else np.float32(fog @ _LUMA)
         rng = np.random.default_rng([world.seed, 0xC0, seed])
 
         # Ground: every row below the horizon is one depth.
@@ -81,8 +83,8 @@ class Renderer:
         self.z_row = (self.f * self.h / (self.ys[self.g0 :] - self.cy)).astype(np.float32)
         self.xrel = ((self.xs - self.cx)[None, :] * self.z_row[:, None] / self.f).astype(np.float32)
         ground_rng = np.random.default_rng([world.seed, 0x6D])
-        self.tex = (smooth_noise(ground_rng, (256, 256), 48) * 2 - 1).astype(np.float32)
-        self.tex_gain = np.clip(5.0 / self.z_row, 0.15, 1.0)[:, None].astype(np.float32)
+        self.tex = (smooth_noise(ground_rng, (512, 512), 90) * 2 - 1).astype(np.float32)
+        self.tex_gain = np.clip(6.0 / self.z_row, 0.1, 1.0)[:, None].astype(np.float32)
 
         # Background: sky above the horizon, distant hills on it.
         self.hill = smooth_noise(np.random.default_rng([world.seed, 0x41]), (1, 4 * S), 10)[0]
@@ -92,6 +94,7 @@ class Renderer:
         r2 = ((yy - S / 2) ** 2 + (xx - S / 2) ** 2) / (S / 2) ** 2
         self.vignette = (1.0 - 0.12 * r2).astype(np.float32)
         self.noise_bank = rng.standard_normal(S * S * 2, dtype=np.float32)
+        self.noise_bank *= np.float32(cond.noise_sigma)
         self.beam = np.exp(-(((self.xs - self.cx) / (0.28 * S)) ** 2)).astype(np.float32)
         self._plane_reach = float(np.max(world.planes.s1 - world.planes.s0, initial=0.0))
         self._box_reach = float(np.max(world.boxes.s1 - world.boxes.s0, initial=0.0))
@@ -114,7 +117,7 @@ class Renderer:
             stars = rng.random((rows, 3 * S)) > 0.997
             sky[stars] = 120.0
         if self.C == 1:
-            return (sky @ _LUMA)[..., None].astype(np.float32)
+            return (sky @ _LUMA).astype(np.float32)
         return sky.astype(np.float32)
 
     # ------------------------------------------------------------------ public API
@@ -168,9 +171,12 @@ class Renderer:
         dash = (ax < 0.09) & ((sw % 9.0) < 3.0)[:, None]
         edge = np.abs(ax - (ROAD_HALF - 0.25)) < 0.08
         m[dash | edge] = M["marking"]
-        ti = (np.floor(sw * 3.0).astype(np.int64) & 255)[:, None]
-        tj = np.floor(xw * 3.0).astype(np.int64) & 255
-        sh = 1.0 + 0.22 * self.tex[ti, tj] * self.tex_gain
+        ti = (np.floor(sw * 12.0).astype(np.int64) & 511)[:, None]
+        tj = np.floor(xw * 12.0).astype(np.int64) & 511
+        sh = 1.0 + 0.25 * self.tex[ti, tj] * self.tex_gain
+        # Darker wheel tracks in each lane.
+        tracks = np.abs(np.abs(ax - LANE_CENTRE) - 0.85) < 0.3
+        sh = np.where(tracks & (ax < ROAD_HALF), sh * np.float32(0.94), sh)
         kerb = (np.abs(ax - ROAD_HALF) < 0.12) & (side_m == M["sidewalk"])
         sh = np.where(kerb, 0.75, sh)
         mat[g] = m
@@ -226,20 +232,31 @@ class Renderer:
                 self._end_wall(mat, shade, depth, s_cam, x_cam, i)
 
     def _windows(self, i: int, u: np.ndarray, v: np.ndarray, wall_h: float) -> np.ndarray:
-        """Material of a facade point at (u along, v up) metres: wall, window, lit window, door."""
+        """Material of facade points at ``u`` (along, shape (1, C)) and ``v`` (up, (R, C)) m.
+
+        Wall, window (a lit window at night, by a per-building hash of column and floor),
+        a shop window band on some town ground floors, and a door every few columns.
+        """
         b = self.world.boxes
         wx, wy = b.win_dx[i], b.win_dy[i]
+        ident = int(b.ident[i])
         col = np.floor(u / wx)
         fu = u / wx - col
-        row = np.floor(v / wy)
-        fv = v / wy - row
-        win = (np.abs(fu - 0.5) < b.win_w[i] / 2) & (fv > 0.3) & (fv < 0.82)
-        win &= (v > 1.0) & (v < wall_h - 0.5)
-        lit = ((col * 7919 + row * 104729 + b.ident[i] * 31) % 7) < 3
-        wall = M["wall0"] + int(b.colour[i])
-        m = np.where(win, np.where(lit, M["window_lit"], M["window"]), wall)
-        door = (v < 2.3) & (np.abs(fu - 0.5) < 0.18) & ((col + b.ident[i]) % 5 == 2)
-        return np.where(door, M["door"], m)
+        in_col = np.abs(fu - 0.5) < b.win_w[i] / 2
+        door_col = (np.abs(fu - 0.5) < 0.18) & ((col + ident) % 5 == 2)
+        vv = v / wy
+        row = np.floor(vv)
+        fv = vv - row
+        m = np.full(v.shape, M["wall0"] + int(b.colour[i]), np.uint8)
+        win = in_col & (fv > 0.3) & (fv < 0.82) & (v > 1.0) & (v < wall_h - 0.5)
+        lit = ((col.astype(np.int64) * 7919 + row.astype(np.int64) * 104729 + ident) % 7) < 3
+        m[win] = M["window"]
+        m[win & lit] = M["window_lit"]
+        if wall_h > 6.5 and ident % 3 == 0:  # a shop: a wide window band on the ground floor
+            m[(v > 0.5) & (v < 2.6) & (np.abs(fu - 0.5) < 0.42)] = M["window_lit"]
+            m[(v >= 2.6) & (v < 3.2)] = M["door"]
+        m[door_col & (v < 2.3)] = M["door"]
+        return m
 
     def _facade(self, mat, shade, depth, s_cam, x_cam, i):
         b = self.world.boxes
@@ -303,7 +320,7 @@ class Renderer:
             c0, c1, z = cols
             u = (s_cam + z).astype(np.float64)
             kind = int(p.kind[i])
-            tu = np.floor(u * 2.0).astype(np.int64) & 255
+            tu = np.floor(u * 2.0).astype(np.int64) & 511
             if kind == 0:  # fence: posts every 2.5 m and two rails
                 top = np.full_like(z, p.height[i])
             elif kind == 1:  # hedge with a ragged top
@@ -322,7 +339,7 @@ class Renderer:
                 ok &= post | rail
                 m, sh = np.full(ok.shape, M["fence"]), np.float32(1.0)
             else:
-                tv = np.floor(np.clip(v, 0, 60) * 3.0).astype(np.int64) & 255
+                tv = np.floor(np.clip(v, 0, 60) * 3.0).astype(np.int64) & 511
                 sh = (0.7 + 0.45 * (self.tex[tv, tu[None, :]] * 0.5 + 0.5)).astype(np.float32)
                 if kind == 1:
                     m = np.full(ok.shape, M["hedge"])
@@ -340,7 +357,7 @@ class Renderer:
         for i in range(i0, i1):
             z = float(sp.s[i] - s_cam)
             w_px = f * sp.width[i] / z
-            if w_px < 1.0:
+            if w_px < 1.5:
                 continue
             xc = self.cx + f * (sp.x[i] - x_cam) / z
             yb = self.cy + f * self.h / z
@@ -350,51 +367,60 @@ class Renderer:
             r0, r1 = max(int(yt), 0), min(int(np.ceil(yb)), S)
             if c0 >= c1 or r0 >= r1:
                 continue
-            ti = np.clip(((self.ys[r0:r1] - yt) / (yb - yt) * TH).astype(np.int64), 0, TH - 1)
-            tj = np.clip(((self.xs[c0:c1] - xl) / w_px * TW).astype(np.int64), 0, TW - 1)
+            ti = ((self.ys[r0:r1] - yt) * np.float32(TH / (yb - yt))).astype(np.int64)
+            tj = ((self.xs[c0:c1] - xl) * np.float32(TW / w_px)).astype(np.int64)
+            ti = np.minimum(np.maximum(ti, 0), TH - 1)[:, None]
+            tj = np.minimum(np.maximum(tj, 0), TW - 1)[None, :]
             if i % 2 and sp.template[i] < 7:  # mirror every other tree: more variety
                 tj = TW - 1 - tj
             k = int(sp.template[i])
-            m = self.tmat[k][ti[:, None], tj[None, :]]
+            m = self.tmat[k][ti, tj]
             ok = (m != TRANSPARENT) & (z < depth[r0:r1, c0:c1])
             if ok.any():
-                sh = self.tshade[k][ti[:, None], tj[None, :]]
+                sh = self.tshade[k][ti, tj]
                 self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, np.float32(z))
 
     # ------------------------------------------------------------------ appearance
     def appearance(self, mat, shade, depth, ground, s_cam, x_cam, key) -> np.ndarray:
         """Turn geometry into a ``uint8`` frame under this renderer's condition."""
         cond, S = self.cond, self.S
+        grey = self.C == 1
+
+        def ex(a):  # broadcast a per-pixel factor over the colour channels
+            return a if grey else a[..., None]
+
         sky = mat == M["sky"]
-        light = shade
-        if cond.night:
-            light = self._night_light(mat, shade, depth, ground, s_cam)
-        out = self.lut[mat] * light[..., None]
+        light = self._night_light(mat, shade, depth, ground, s_cam) if cond.night else shade
+        out = self.lut[mat]
+        out *= ex(light)
         shift = int(s_cam * 0.02) % (2 * S)
         rows = self.sky.shape[0]
-        sky_img = self.sky[:, shift : shift + S]
-        out[:rows][sky[:rows]] = sky_img[sky[:rows]]
+        np.copyto(out[:rows], self.sky[:, shift : shift + S], where=ex(sky[:rows]))
         if np.isfinite(cond.fog_distance):
-            w = 1.0 - np.exp(-np.minimum(depth, 1e5) / np.float32(cond.fog_distance))
-            w[sky] = 0.0
-            fog = np.asarray(cond.fog_colour, np.float32)
-            fog = (fog @ _LUMA)[None] if self.C == 1 else fog
-            out += (fog - out) * w[..., None]
+            keep = np.exp(depth * np.float32(-1.0 / cond.fog_distance))
+            keep[sky] = 1.0
+            out -= self.fog
+            out *= ex(keep)
+            out += self.fog
         rng = np.random.default_rng([self.world.seed, 0xF4, *key])
         if cond.night:
             self._glow(out, s_cam, x_cam)
         if cond.snowfall:
             self._snow(out, rng)
-        out = np.clip(out * np.float32(cond.gain / 255.0) + np.float32(cond.bias), 0, 1)
         if cond.gamma != 1.0:
+            out = np.clip(out * np.float32(cond.gain / 255.0) + np.float32(cond.bias), 0, 1)
             out **= np.float32(cond.gamma)
-        out *= (255.0 * self.vignette)[..., None]
+            out *= ex(self.vignette * np.float32(255.0))
+            out += 0.5
+        else:
+            out *= ex(self.vignette * np.float32(cond.gain))
+            out += ex(self.vignette * np.float32(255.0 * cond.bias) + np.float32(0.5))
         if cond.noise_sigma:
             o = int(rng.integers(0, S * S))
-            n = self.noise_bank[o : o + S * S].reshape(S, S, 1)
-            out += n * np.float32(cond.noise_sigma) * (0.6 + 0.004 * out)
-        frame = np.clip(out + 0.5, 0, 255).astype(np.uint8)
-        return frame[..., 0] if self.C == 1 else frame
+            n = self.noise_bank[o : o + S * S].reshape(S, S)
+            out += ex(n)
+        np.clip(out, 0, 255, out=out)
+        return out.astype(np.uint8)
 
     def _night_light(self, mat, shade, depth, ground, s_cam):
         f = self.f
@@ -429,14 +455,17 @@ class Renderer:
             if c0 >= c1 or r0 >= r1:
                 continue
             d2 = (self.ys[r0:r1, None] - yc) ** 2 + (self.xs[None, c0:c1] - xc) ** 2
-            out[r0:r1, c0:c1] += (170.0 * np.exp(-d2 / (r * r)))[..., None]
+            blob = 170.0 * np.exp(-d2 / (r * r))
+            out[r0:r1, c0:c1] += blob if self.C == 1 else blob[..., None]
 
     def _snow(self, out, rng):
         S = self.S
         n = int(self.cond.snowfall * (S / 256) ** 2)
         ys = rng.integers(0, S, n)
         xs = rng.integers(0, S, n)
-        val = rng.uniform(200, 250, n).astype(np.float32)[:, None]
+        val = rng.uniform(200, 250, n).astype(np.float32)
+        if self.C == 3:
+            val = val[:, None]
         out[ys, xs] = np.maximum(out[ys, xs], val)
         big = n // 4
         y2, x2 = np.minimum(ys[:big] + 1, S - 1), np.minimum(xs[:big] + 1, S - 1)

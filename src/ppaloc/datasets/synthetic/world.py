@@ -43,7 +43,7 @@ class Boxes:
     depth, height, roof : ndarray of float
         Box depth away from the road, wall height and roof height (m).
     colour : ndarray of int
-        Wall material variant 0..3.
+        Wall material variant 0..5.
     win_dx, win_dy : ndarray of float
         Window grid spacing along the facade and between floors (m).
     win_w : ndarray of float
@@ -221,7 +221,7 @@ def make_world(length: float, seed: int) -> World:
                     continue
             x0 = side * (row[0])
             box_rows.append(
-                (s, s + length_b, x0, row[1], row[2], row[3], int(rng.integers(0, 4)), *win, ident)
+                (s, s + length_b, x0, row[1], row[2], row[3], int(rng.integers(0, 6)), *win, ident)
             )
             ident += 1
             if t == SUBURB and rng.random() < 0.6:

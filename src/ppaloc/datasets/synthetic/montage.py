@@ -1,0 +1,109 @@
+"""A labelled montage of the generator's conditions (the README figure)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from ppaloc.datasets.synthetic.conditions import CONDITIONS
+from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
+from ppaloc.datasets.synthetic.world import SEGMENT_TYPES, make_world
+
+__all__ = ["conditions_montage", "montage_array"]
+
+
+def _views(world, spacing: float) -> list[tuple[str, float]]:
+    """One camera position well inside the first segment of each kind of surroundings."""
+    out = []
+    for code, name in enumerate(SEGMENT_TYPES):
+        starts = world.seg_start[(world.seg_type == code) & (world.seg_start >= 0)]
+        ends = [world.seg_start[world.seg_start > a].min(initial=world.length) for a in starts]
+        for a, b in zip(starts, ends, strict=True):
+            if b - a > 80 and a + 40 < world.length:
+                out.append((name, round((a + 40) / spacing) * spacing))
+                break
+    return out
+
+
+def montage_array(
+    seed: int = 1,
+    conditions: Sequence[str] | None = None,
+    size: int = 256,
+    spacing: float = 4.0,
+) -> tuple[np.ndarray, list[str], list[str]]:
+    """Colour frames: one row per condition, one column per kind of surroundings.
+
+    The last column is the grey image of the first column, as the sensor receives it.
+
+    Returns
+    -------
+    image : ndarray of uint8, shape (rows * size, cols * size, 3)
+    row_names, col_names : list of str
+    """
+    names = list(conditions or CONDITIONS)
+    world = make_world(3000.0, seed)
+    views = _views(world, spacing)
+    rows = []
+    for name in names:
+        cond = CONDITIONS[name]
+        colour = Renderer(world, cond, size, colour=True, seed=1)
+        grey = Renderer(world, cond, size, seed=1)
+        x = LANE_CENTRE + cond.offset
+        tiles = [colour.render(s, x, (0, k)) for k, (_, s) in enumerate(views)]
+        g = grey.render(views[0][1], x, (0, 0))
+        tiles.append(np.repeat(g[..., None], 3, axis=2))
+        rows.append(np.concatenate(tiles, axis=1))
+    cols = [v[0] for v in views] + [f"{views[0][0]}, grey sensor input"]
+    return np.concatenate(rows, axis=0), names, cols
+
+
+def conditions_montage(path: str | os.PathLike, seed: int = 1, size: int = 256) -> Path:
+    """Write a labelled PNG montage of every condition (rows) and surroundings (columns).
+
+    Parameters
+    ----------
+    path : path-like
+        Output PNG, written atomically (temporary file, then rename).
+    seed : int
+        World seed.
+    size : int
+        Side of each tile in pixels.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    grid, row_names, col_names = montage_array(seed, size=size)
+    margin_left, margin_top = 90, 26
+    h, w, _ = grid.shape
+    canvas = Image.new("RGB", (w + margin_left, h + margin_top), (255, 255, 255))
+    canvas.paste(Image.fromarray(grid), (margin_left, margin_top))
+    draw = ImageDraw.Draw(canvas)
+    try:
+        font = ImageFont.load_default(size=16)
+    except TypeError:  # Pillow without FreeType: the fixed bitmap font
+        font = ImageFont.load_default()
+    for k, name in enumerate(col_names):
+        draw.text((margin_left + k * size + 6, 4), name, fill=(0, 0, 0), font=font)
+    for k, name in enumerate(row_names):
+        draw.text((8, margin_top + k * size + size // 2 - 8), name, fill=(0, 0, 0), font=font)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        # 256 colours keep the figure small enough for a README without visible loss.
+        quantized = canvas.quantize(256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+        quantized.save(tmp, format="PNG", optimize=True)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
