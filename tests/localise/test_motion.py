@@ -59,8 +59,9 @@ def test_featureless_is_forward():
 
 def test_decision_golden():
     assert forward_decision(0, 50000) is False
-    assert forward_decision(391, 50000) is True  # 391 * 128 = 50048
-    assert forward_decision(390, 50000) is False
+    assert forward_decision(782, 50000) is True  # 782 * 64 = 50048
+    assert forward_decision(781, 50000) is False
+    assert forward_decision(391, 50000, shift=7) is True
     assert forward_decision(0, 1023) is True
     assert forward_decision(0, 1024) is False
 

@@ -254,7 +254,7 @@ class WeightedNodeLocaliser:
         record_weights: bool = False,
         oracle_moves: Sequence[bool] | np.ndarray | None = None,
         motion_margin: int = 3,
-        motion_shift: int = 7,
+        motion_shift: int = 6,
         motion_min_support: int = 1024,
     ) -> None:
         if representation not in _REPRESENTATIONS:
