@@ -1,0 +1,102 @@
+"""Datasets: the procedural generator's frame rate, frame loading and the sensor front-end.
+
+``make bench`` runs these with pytest-benchmark; ``python benchmarks/bench_datasets.py``
+prints medians (milliseconds per frame, one core) and the generator's frames per second.
+
+Target: the generator renders at least 200 grey 256x256 frames per second per condition
+(median), so a 500-place route with its query is ready in a few seconds and tests can use
+it freely.
+"""
+
+from __future__ import annotations
+
+import itertools
+import statistics
+import time
+from collections.abc import Callable
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ppaloc.datasets import load_dataset, to_sensor
+from ppaloc.datasets.synthetic.conditions import CONDITIONS
+from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
+from ppaloc.datasets.synthetic.world import make_world
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+TARGET_FPS = 200.0
+
+
+@cache
+def world():
+    return make_world(40_000.0, seed=1)
+
+
+def render_case(name: str) -> Callable[[], np.ndarray]:
+    """One call renders the next frame (4 m further) of a drive under condition ``name``."""
+    renderer = Renderer(world(), CONDITIONS[name], 256, seed=1)
+    counter = itertools.count()
+
+    def step() -> np.ndarray:
+        i = next(counter) % 9000
+        return renderer.render(4.0 * i, LANE_CENTRE, (1, i))
+
+    return step
+
+
+def dataset_case() -> Callable[[], np.ndarray]:
+    """One call reads the next query frame of a spec-loaded synthetic route (lazy path)."""
+    ds = load_dataset("synthetic:?places=2000&query=winter&seed=1")
+    counter = itertools.count()
+    return lambda: ds.query[next(counter) % len(ds.query)]
+
+
+def cases() -> dict[str, Callable[[], object]]:
+    """Every timed operation, by name; each call is one frame."""
+    out: dict[str, Callable[[], object]] = {
+        f"synthetic render {name}": render_case(name) for name in CONDITIONS
+    }
+    out["synthetic via load_dataset (winter query)"] = dataset_case()
+    colour = np.random.default_rng(0).integers(0, 256, (540, 960, 3), dtype=np.uint8)
+    out["to_sensor 960x540 colour"] = lambda: to_sensor(colour)
+    small = np.random.default_rng(1).integers(0, 256, (32, 64), dtype=np.uint8)
+    out["to_sensor 64x32 grey"] = lambda: to_sensor(small)
+    if (SHARED / "nordland-64x32").is_dir():
+        ds = load_dataset(f"nordland:{SHARED / 'nordland-64x32'}")
+        counter = itertools.count()
+        out["nordland read + to_sensor"] = lambda: to_sensor(
+            ds.query[next(counter) % len(ds.query)]
+        )
+    return out
+
+
+CASES = cases()
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_datasets(benchmark, name: str) -> None:
+    benchmark.group = "datasets"
+    benchmark(CASES[name])
+
+
+def median_ms(fn: Callable[[], object], repeats: int = 300) -> float:
+    for _ in range(20):
+        fn()  # warm up
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times)
+
+
+if __name__ == "__main__":
+    for name, fn in CASES.items():
+        ms = median_ms(fn)
+        note = ""
+        if name.startswith("synthetic"):
+            fps = 1e3 / ms
+            note = f"{fps:7.0f} frames/s ({'meets' if fps >= TARGET_FPS else 'BELOW'} 200)"
+        print(f"{name:<44} {ms:8.3f} ms  {note}")
