@@ -25,11 +25,13 @@ from ppaloc.evaluate.metrics import evaluate_estimates
 from ppaloc.methods import make_localiser
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+NORDLAND = f"nordland:{DATA}/nordland-64x32?tolerance=2"
+GP = f"gardens-point:{DATA}/gardens-point?tolerance=2"
 DATASETS = {
-    "nordland summer->winter": f"nordland:{DATA}/nordland-64x32?ref=summer&query=winter&tolerance=2",
-    "gp day_left->day_right": f"gardens-point:{DATA}/gardens-point?ref=day_left&query=day_right&tolerance=2",
-    "gp day_right->night_right": f"gardens-point:{DATA}/gardens-point?ref=day_right&query=night_right&tolerance=2",
-    "gp day_left->night_right": f"gardens-point:{DATA}/gardens-point?ref=day_left&query=night_right&tolerance=2",
+    "nordland summer->winter": f"{NORDLAND}&ref=summer&query=winter",
+    "gp day_left->day_right": f"{GP}&ref=day_left&query=day_right",
+    "gp day_right->night_right": f"{GP}&ref=day_right&query=night_right",
+    "gp day_left->night_right": f"{GP}&ref=day_left&query=night_right",
 }
 METHODS = [
     "single-frame",

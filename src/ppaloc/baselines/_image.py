@@ -96,8 +96,8 @@ def patch_normalise(image: np.ndarray, patch: int = 8, *, quantise: bool = False
     -------
     ndarray of float32, shape (H, W)
         ``(x - mean) / std`` per tile, ``std`` with Bessel's correction (as MATLAB's
-        ``std``). A constant tile (``std`` zero up to rounding) becomes all zeros (OpenSeqSLAM divides by
-        zero there).
+        ``std``). A constant tile (``std`` zero up to rounding) becomes all zeros
+        (OpenSeqSLAM divides by zero there).
 
     Examples
     --------

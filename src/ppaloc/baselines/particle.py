@@ -5,8 +5,9 @@ Particles live on map nodes. Per query frame:
 1. *motion*: each particle independently stays (``p_stay``), moves one node forward
    (``p_forward``), jumps 2 .. ``max_jump`` nodes forward (``p_jump``, uniform over the
    jump) or is re-drawn uniformly over the map (the rest, ``1 - p_stay - p_forward -
-   p_jump``: recovery from kidnapping and from a wrong lock). Particles stop at the last
-   node. The first frame of a query has no motion step (particles start uniform).
+   p_jump``: recovery from kidnapping and from a wrong lock). A particle that runs past
+   the last node is re-drawn uniformly too (clamping it there would pile particles up at
+   the end of the map). The first frame of a query has no motion step (particles start uniform).
 2. *weighting*: every node is compared with the query on SeqSLAM's patch-normalised 64x32
    image (mean absolute difference per pixel ``d``); a particle on node ``i`` gets weight
    ``exp(-(d_i - d_min) / sigma)`` with ``sigma = sigma_rel x (median(d) - d_min)``, so the
@@ -29,11 +30,13 @@ IROS 2012, and "Towards improving the efficiency of sequence-based SLAM", ICMA 2
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 
 from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k
 from ppaloc.baselines._image import mean_abs_diff, preprocess
+from ppaloc.baselines.seqslam import contrast_enhance
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.topomap import TopoMap
@@ -83,6 +86,12 @@ class ParticleFilter:
         Largest forward jump in nodes (jumps are uniform over 2 .. max_jump).
     sigma_rel : float
         Likelihood temperature as a fraction of the median distance above the minimum.
+    observation : {"enhanced", "raw"}
+        What the likelihood is computed from: the difference column after SeqSLAM's local
+        contrast enhancement (default; Liu & Zhang's filter replaces SeqSLAM's exhaustive
+        trajectory search and keeps its difference matrix) or the raw distances.
+    enhance_window : int
+        Contrast enhancement window (as SeqSLAM: 10).
     size : (rows, cols)
         Downsampled image size (as SeqSLAM: 32 x 64).
     patch : int
@@ -104,9 +113,11 @@ class ParticleFilter:
         n_particles: int = 1000,
         p_stay: float = 0.15,
         p_forward: float = 0.6,
-        p_jump: float = 0.2,
+        p_jump: float = 0.24,
         max_jump: int = 3,
-        sigma_rel: float = 0.1,
+        sigma_rel: float = 0.5,
+        observation: Literal["enhanced", "raw"] = "enhanced",
+        enhance_window: int = 10,
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
         seed: int = 0,
@@ -119,6 +130,10 @@ class ParticleFilter:
                 f"ParticleFilter motion probabilities p_stay={p_stay}, p_forward={p_forward}, "
                 f"p_jump={p_jump} must be >= 0 and sum to at most 1 (the rest re-initialises)"
             )
+        if observation not in ("enhanced", "raw"):
+            raise PpalocError(
+                f"ParticleFilter observation={observation!r} is unknown; choose 'enhanced' or 'raw'"
+            )
         if int(n_particles) < 1 or int(max_jump) < 2 or sigma_rel <= 0 or top_k < 1:
             raise PpalocError(
                 f"ParticleFilter needs n_particles >= 1, max_jump >= 2, sigma_rel > 0 and "
@@ -128,6 +143,8 @@ class ParticleFilter:
         self.p_stay, self.p_forward, self.p_jump = (float(p) for p in probs)
         self.max_jump = int(max_jump)
         self.sigma_rel = float(sigma_rel)
+        self.observation = observation
+        self.enhance_window = int(enhance_window)
         self.size = (int(size[0]), int(size[1]))
         self.patch = int(patch)
         self.seed = int(seed)
@@ -172,8 +189,9 @@ class ParticleFilter:
         b = a + self.p_forward
         c = b + self.p_jump
         step = np.where(u < a, 0, np.where(u < b, 1, jumps))
-        moved = np.minimum(self.particles + step, n - 1)
-        self.particles = np.where(u < c, moved, fresh)
+        moved = self.particles + step
+        # Re-initialised particles, and those that ran past the last node, are re-drawn.
+        self.particles = np.where((u < c) & (moved < n), moved, fresh)
 
     def step(self, frame: np.ndarray) -> Estimate:
         """Move, weight, estimate and resample for one new query frame."""
@@ -183,6 +201,8 @@ class ParticleFilter:
             self._move(n)
         self._started = True
         d = mean_abs_diff(self.describe(frame), topomap.descriptors)
+        if self.observation == "enhanced":
+            d = contrast_enhance(d, self.enhance_window)
         d_min = float(d.min())
         spread = float(np.median(d)) - d_min
         sigma = self.sigma_rel * spread if spread > 0 else 1.0
