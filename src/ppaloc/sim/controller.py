@@ -537,8 +537,12 @@ class ControllerMixin:
         codes = self._adc(self._block_means(call, self._aplane(areg), n))
         self.timing.charge_call(call)
         if out is not None:
-            if out.shape != (n, n):
-                raise SimulatorError(f"{call}: out has shape {out.shape}; it must be ({n}, {n})")
+            if not isinstance(out, np.ndarray) or out.shape != (n, n):
+                got = f"shape {out.shape}" if isinstance(out, np.ndarray) else type(out).__name__
+                raise SimulatorError(
+                    f"{call}: out must be a numpy array of shape ({n}, {n}), got {got}; "
+                    f"pass np.zeros(({n}, {n}), dtype=np.uint8) or leave it out"
+                )
             out[...] = codes
         return int(codes.sum(dtype=np.int64))
 

@@ -128,6 +128,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         for name, v in (("rows", rows), ("cols", cols)):
             if not isinstance(v, int | np.integer) or isinstance(v, bool) or v < 1:
                 raise SimulatorError(f"{name}={v!r} is invalid: use a positive integer")
+        if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
+            raise SimulatorError(f"seed={seed!r} is invalid: use an integer >= 0")
         self.rows, self.cols = int(rows), int(cols)
         shape = (self.rows, self.cols)
         self.rng = np.random.default_rng(seed)
@@ -170,7 +172,16 @@ class Scamp5(ControllerMixin, ProgramAPI):
         return self._d[reg.index]
 
     def _as_plane(self, reg: Register, values: object, dtype: type) -> np.ndarray:
-        arr = np.asarray(values)
+        try:
+            arr = np.asarray(values)
+        except ValueError:  # ragged nested sequences
+            arr = None
+        if arr is None or arr.dtype.kind not in "biuf":
+            shown = repr(values) if len(repr(values)) <= 60 else f"a {type(values).__name__}"
+            raise SimulatorError(
+                f"cannot write {shown} into {reg.name}: use numbers, a scalar or an array "
+                f"of shape ({self.rows}, {self.cols})"
+            )
         if arr.ndim != 0 and arr.shape != (self.rows, self.cols):
             raise SimulatorError(
                 f"cannot write an array of shape {arr.shape} into {reg.name}: "

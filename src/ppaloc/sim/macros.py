@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ppaloc.errors import RegisterMisuseError
+from ppaloc.errors import RegisterMisuseError, SimulatorError
 from ppaloc.sim.isa import OPS, Instruction, make
 from ppaloc.sim.registers import (
     DNEWS_SELECTORS,
@@ -105,6 +105,11 @@ class ProgramAPI:
         """Issue any primitive of the op table by name, e.g. ``k.icw("bus", (A,), (B, C))``."""
         if op not in OPS:
             raise RegisterMisuseError(f"{op!r} is not an instruction; use one of {sorted(OPS)}")
+        for name, regs in (("dsts", dsts), ("srcs", srcs)):
+            if isinstance(regs, Register) or not isinstance(regs, Sequence):
+                raise RegisterMisuseError(
+                    f"icw({op!r}): {name}={regs!r} must be a tuple of registers, e.g. (A,)"
+                )
         self._prim(op, dsts, srcs)
 
     # ------------------------------------------------------------------ analogue primitives
@@ -321,6 +326,7 @@ class ProgramAPI:
     def newsblur(self, y: Register, x: Register, iterations: int = 1) -> None:
         """Sum of the four neighbours (negated per pass), ``iterations`` times; NEWS scratch."""
         call = _call("newsblur", (y, x, iterations))
+        _check_iterations(call, iterations)
         steps: list[Step] = [("bus", (NEWS,), (x,)), ("bus", (y,), (XE, XW, XN, XS))]
         for _ in range(1, iterations):
             steps += [("bus", (NEWS,), (y,)), ("bus", (y,), (XE, XW, XN, XS))]
@@ -428,7 +434,12 @@ class ProgramAPI:
         Sets the selectors R1 (south), R2 (west), R3 (north), R4 (east); beyond the array
         edge ``d0`` reads ``boundary``.
         """
-        call = _call("DNEWS", (d, d0, dir, int(bool(boundary))))
+        if boundary not in (0, 1) or not isinstance(boundary, int):
+            raise RegisterMisuseError(
+                f"{_call('DNEWS', (d, d0, dir))}: boundary={boundary!r} is the value read "
+                "beyond the array edge; use 0 or 1"
+            )
+        call = _call("DNEWS", (d, d0, dir, int(boundary)))
         if not isinstance(dir, Direction) or int(dir) == 0 or int(dir) & ~15:
             raise RegisterMisuseError(
                 f"{call}: dir must be north, east, south, west or a | of them from ppaloc.sim"
@@ -445,6 +456,11 @@ class ProgramAPI:
                 ],
             )
         )
+
+
+def _check_iterations(call: str, iterations: object) -> None:
+    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+        raise SimulatorError(f"{call}: iterations={iterations!r} is invalid; use an integer >= 1")
 
 
 def _and_steps(d: Register, d0: Register, d1: Register) -> list[Step]:

@@ -86,6 +86,11 @@ class NoiseParams:
             v = getattr(self, f.name)
             if v is None:
                 continue
+            if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
+                raise SimulatorError(
+                    f"NoiseParams.{f.name}={v!r} is invalid: use a number (register units, "
+                    "ms or probabilities as documented)"
+                )
             if not math.isfinite(v) or (f.name != "transfer_gain" and v < 0):
                 raise SimulatorError(
                     f"NoiseParams.{f.name}={v!r} is invalid: use a finite value "

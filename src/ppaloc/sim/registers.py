@@ -20,6 +20,8 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
+from ppaloc.errors import RegisterMisuseError
+
 __all__ = [
     "ANALOG_PLANES",
     "DIGITAL_PLANES",
@@ -53,6 +55,7 @@ __all__ = [
     "E",
     "F",
     "Register",
+    "UnknownRegisterError",
     "east",
     "north",
     "register_by_name",
@@ -189,12 +192,23 @@ DNEWS_SELECTORS: dict[Direction, Register] = {
 _BY_NAME = {r.name: r for r in (*ANALOG_PLANES, XN, XE, XS, XW, *DIGITAL_PLANES)}
 
 
+class UnknownRegisterError(RegisterMisuseError, KeyError):
+    """No register has the name asked for (also a ``KeyError``, as a failed lookup)."""
+
+    __str__ = Exception.__str__  # the message, not KeyError's quoted repr
+
+
 def register_by_name(name: str) -> Register:
     """The handle called ``name`` (e.g. ``"A"``, ``"R5"``, ``"XE"``).
 
     Raises
     ------
-    KeyError
-        If no register has that name.
+    UnknownRegisterError
+        If no register has that name (a ``RegisterMisuseError`` and a ``KeyError``).
     """
-    return _BY_NAME[name]
+    try:
+        return _BY_NAME[name]
+    except (KeyError, TypeError):
+        raise UnknownRegisterError(
+            f"no register is called {name!r}; use one of {', '.join(_BY_NAME)}"
+        ) from None

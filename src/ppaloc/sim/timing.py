@@ -31,10 +31,13 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import numbers
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Any
+
+from ppaloc.errors import SimulatorError
 
 __all__ = [
     "ANALOGNET_STAGES",
@@ -43,6 +46,7 @@ __all__ = [
     "CallCost",
     "StageCost",
     "TimingConstants",
+    "TimingError",
     "TimingModel",
     "TimingReport",
     "analognet_calibration",
@@ -56,6 +60,16 @@ CLOCK_CLASSES: tuple[str, ...] = ("analog", "digital", "dnews", "nop")
 DEFAULT_CLOCK_HZ = 10e6
 
 _UNSTAGED = "(unstaged)"
+
+
+class TimingError(SimulatorError, ValueError):
+    """A bad argument to the timing model (also a ``ValueError``, as it always was)."""
+
+
+class UnknownStageError(SimulatorError, KeyError):
+    """A report has no stage of that name (also a ``KeyError``, as a failed lookup)."""
+
+    __str__ = Exception.__str__  # the message, not KeyError's quoted repr
 
 
 @dataclass(frozen=True)
@@ -304,11 +318,18 @@ class TimingReport:
         return sum(s.n_calls for s in self.stages)
 
     def stage(self, name: str) -> StageCost:
-        """The row of stage ``name`` (``KeyError`` if nothing was charged under it)."""
+        """The row of stage ``name``.
+
+        Raises
+        ------
+        UnknownStageError
+            If nothing was charged under ``name`` (a ``SimulatorError`` and a ``KeyError``).
+        """
         for s in self.stages:
             if s.name == name:
                 return s
-        raise KeyError(name)
+        known = ", ".join(repr(s.name) for s in self.stages) or "none"
+        raise UnknownStageError(f"no stage {name!r} in this report; stages: {known}")
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready form: stages, totals, energy and the clock used."""
@@ -421,8 +442,10 @@ class TimingModel:
         *,
         pe_count: int = 256 * 256,
     ) -> None:
-        if not clock_hz > 0:
-            raise ValueError(f"clock_hz must be positive, got {clock_hz!r}")
+        if not isinstance(clock_hz, numbers.Real) or not 0 < clock_hz < float("inf"):
+            raise TimingError(
+                f"clock_hz={clock_hz!r} is invalid: use a positive frequency in Hz (e.g. 10e6)"
+            )
         self.clock_hz = float(clock_hz)
         self.constants = constants if constants is not None else TimingConstants()
         self.pe_count = int(pe_count)
@@ -475,9 +498,9 @@ class TimingModel:
         n = 0.0
         for cls, k in counts.items():
             if cls not in CLOCK_CLASSES:
-                raise ValueError(f"unknown clock class {cls!r}; expected one of {CLOCK_CLASSES}")
+                raise TimingError(f"unknown clock class {cls!r}; expected one of {CLOCK_CLASSES}")
             if k < 0:
-                raise ValueError(f"negative ICW count {k!r} for clock class {cls!r}")
+                raise TimingError(f"negative ICW count {k!r} for clock class {cls!r}")
             us += k * self.icw_us(cls)
             n += k
         return us, n
@@ -511,7 +534,7 @@ class TimingModel:
             cost = self.constants.calls[name]
         except KeyError:
             known = ", ".join(sorted(self.constants.calls))
-            raise ValueError(
+            raise TimingError(
                 f"no modelled cost for controller call {name!r}; known: {known}"
             ) from None
         icw_us, _ = self._icw_time(cost.per_unit_icws)
@@ -529,7 +552,7 @@ class TimingModel:
             steps for ``shift_areg``, ...); ignored by calls with no per-unit cost.
         """
         if units < 0:
-            raise ValueError(f"negative units {units!r} for call {name!r}")
+            raise TimingError(f"negative units {units!r} for call {name!r}")
         us = self.call_us(name, units)
         cost = self.constants.calls[name]
         n_icws = units * sum(cost.per_unit_icws.values())
@@ -544,7 +567,10 @@ class TimingModel:
         Stages nest (``outer/inner``) and may be re-entered; their costs accumulate.
         """
         if not name or "/" in name:
-            raise ValueError(f"a stage name must be non-empty and without '/', got {name!r}")
+            raise TimingError(
+                f"stage name {name!r} is invalid: use a non-empty name without '/' "
+                "(nest stages with `with` blocks instead)"
+            )
         self._stack.append(name)
         try:
             yield

@@ -1,0 +1,94 @@
+"""User mistakes raise PpalocError subclasses whose message names the bad value and the fix.
+
+Where an older exception type was part of the behaviour (``KeyError`` from a lookup by name,
+``ValueError`` from the timing model), the error is *also* an instance of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import PpalocError, RegisterMisuseError, SimulatorError
+from ppaloc.sim import R5, R6, A, B, NoiseParams, Scamp5, TimingModel, east
+from ppaloc.sim.registers import register_by_name
+
+
+@pytest.fixture
+def sim() -> Scamp5:
+    return Scamp5(rows=4, cols=4)
+
+
+@pytest.mark.parametrize("seed", [-1, "a", 1.5, True])
+def test_bad_seed(seed) -> None:
+    with pytest.raises(SimulatorError, match=rf"seed={seed!r} is invalid: use an integer >= 0"):
+        Scamp5(4, 4, seed=seed)
+
+
+def test_numpy_integer_seed_is_fine() -> None:
+    assert Scamp5(2, 2, seed=np.int64(3)).rows == 2
+
+
+@pytest.mark.parametrize("hz", [0, -1.0, float("nan")])
+def test_bad_clock(hz) -> None:
+    with pytest.raises(SimulatorError, match=r"clock_hz=.* is invalid: use a positive frequency"):
+        Scamp5(4, 4, clock_hz=hz)
+    with pytest.raises(ValueError):  # still a ValueError for older callers
+        TimingModel(clock_hz=hz)
+
+
+def test_write_rejects_non_numeric_and_ragged_values(sim: Scamp5) -> None:
+    with pytest.raises(SimulatorError, match=r"cannot write 'abc' into A: use numbers"):
+        sim.write(A, "abc")
+    with pytest.raises(SimulatorError, match=r"cannot write .* into A: use numbers"):
+        sim.write(A, [[1, 2], [3]])
+    with pytest.raises(SimulatorError, match=r"cannot write .* into R5: use numbers"):
+        sim.write(R5, [[1, 2], [3]])
+
+
+def test_stage_name_and_report_lookup(sim: Scamp5) -> None:
+    with pytest.raises(SimulatorError, match=r"stage name ''.*non-empty"), sim.stage(""):
+        pass
+    with sim.stage("capture"):
+        sim.nop()
+    report = sim.timing.report()
+    with pytest.raises(SimulatorError, match=r"no stage 'captur' in this report; stages: "):
+        report.stage("captur")
+    with pytest.raises(KeyError):  # still a KeyError for older callers
+        report.stage("captur")
+    with pytest.raises(PpalocError) as info:
+        report.stage("x")
+    assert str(info.value) == "no stage 'x' in this report; stages: 'capture'"
+
+
+def test_unknown_register_name() -> None:
+    with pytest.raises(RegisterMisuseError, match=r"no register is called 'G'; use one of A"):
+        register_by_name("G")
+    with pytest.raises(KeyError):
+        register_by_name("G")
+
+
+def test_global_sum_out_must_be_an_array(sim: Scamp5) -> None:
+    with pytest.raises(SimulatorError, match=r"out must be a numpy array of shape \(4, 4\)"):
+        sim.global_sum_16(A, out=[0] * 16)
+
+
+@pytest.mark.parametrize("n", [0, -2, "2", 1.0])
+def test_newsblur_iterations(sim: Scamp5, n) -> None:
+    with pytest.raises(SimulatorError, match=rf"newsblur\(A, B, {n!r}\): iterations={n!r}"):
+        sim.newsblur(A, B, n)
+
+
+def test_noise_params_must_be_numbers() -> None:
+    with pytest.raises(SimulatorError, match=r"NoiseParams.temporal_sd='a' is invalid: use a"):
+        NoiseParams(temporal_sd="a")
+
+
+def test_icw_operands_must_be_sequences(sim: Scamp5) -> None:
+    with pytest.raises(RegisterMisuseError, match=r"icw\('bus'\): dsts=A .* e\.g\. \(A,\)"):
+        sim.icw("bus", A, (B,))
+
+
+def test_dnews_boundary_is_0_or_1(sim: Scamp5) -> None:
+    with pytest.raises(RegisterMisuseError, match=r"boundary=2 .* use 0 or 1"):
+        sim.DNEWS(R5, R6, east, 2)
