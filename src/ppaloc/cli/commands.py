@@ -97,7 +97,13 @@ def _check_out_dir(out: Path) -> None:
         raise DataError(f"--out {out} is a file; give a folder for the results")
 
 
-def run_demo(out: Path, *, quiet: bool = False, places: int = 200) -> Path:
+def run_demo(
+    out: Path,
+    *,
+    quiet: bool = False,
+    places: int = 200,
+    bench_sizes: Sequence[int] = (64, 256, 1024),
+) -> Path:
     """The built-in synthetic route, every available method, table, report with bench."""
     from ppaloc.evaluate.config import BenchConfig, EvaluateConfig
 
@@ -107,7 +113,7 @@ def run_demo(out: Path, *, quiet: bool = False, places: int = 200) -> Path:
         EvaluateConfig(dataset=dataset),
         out,
         quiet=quiet,
-        bench=BenchConfig(sizes=(64, 256, 1024), queries=10, warmup=2),
+        bench=BenchConfig(sizes=tuple(bench_sizes), queries=10, warmup=2),
     )
     if not quiet:
         print(f"demo done in {time.perf_counter() - t0:.0f} s; open {out / 'report.html'}")

@@ -169,8 +169,14 @@ Examples:
 @click.option(
     "--places", type=click.IntRange(10), default=200, show_default=True, help="Route length."
 )
+@click.option(
+    "--bench-sizes",
+    default="64,256,1024",
+    show_default=True,
+    help="Map sizes of the latency-against-map-size figure.",
+)
 @_QUIET
-def demo(out: Path, places: int, quiet: bool | None) -> None:
+def demo(out: Path, places: int, bench_sizes: str, quiet: bool | None) -> None:
     """Run every available method on the built-in synthetic route and write the report.
 
     Builds the procedural route synthetic:?places=PLACES&query=winter&seed=0 (summer map,
@@ -179,7 +185,7 @@ def demo(out: Path, places: int, quiet: bool | None) -> None:
     """
     from ppaloc.cli.commands import run_demo
 
-    run_demo(out, quiet=bool(quiet), places=places)
+    run_demo(out, quiet=bool(quiet), places=places, bench_sizes=_sizes(bench_sizes))
 
 
 @cli.command(
@@ -316,14 +322,7 @@ def bench(
     from ppaloc.cli.commands import run_bench
     from ppaloc.evaluate.config import BenchConfig, config_from_mapping
 
-    size_list = None
-    if sizes is not None:
-        try:
-            size_list = [int(s) for s in sizes.split(",") if s.strip()]
-        except ValueError:
-            raise PpalocError(
-                f"--sizes {sizes!r} must be comma-separated integers, e.g. 64,256,1024"
-            ) from None
+    size_list = None if sizes is None else _sizes(sizes)
     values = _merge(
         _file_values(config_file, "bench"),
         {
@@ -447,6 +446,15 @@ def show(path: Path, out: Path | None, quiet: bool | None) -> None:
     from ppaloc.cli.commands import run_show
 
     run_show(path, out, quiet=bool(quiet))
+
+
+def _sizes(text: str) -> list[int]:
+    try:
+        return [int(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise PpalocError(
+            f"sizes {text!r} must be comma-separated integers, e.g. 64,256,1024"
+        ) from None
 
 
 def _reject_unknown(values: dict[str, Any], allowed: set[str], source: Path | None) -> None:

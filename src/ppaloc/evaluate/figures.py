@@ -186,7 +186,13 @@ def latency_per_frame(result: RunResult) -> Figure:
     fig = _figure(7.0, 0.45 * len(names) + 1.4)
     ax = fig.add_subplot()
     data = [np.asarray(result.runs[n].latency_ms) for n in names]
-    ax.boxplot(data, vert=False, tick_labels=names, showfliers=False)
+    import matplotlib as mpl
+
+    version = tuple(int(x) for x in mpl.__version__.split(".")[:2] if x.isdigit())
+    # the keyword names changed in matplotlib 3.9 (tick_labels) and 3.10 (orientation)
+    kw: dict[str, Any] = {"tick_labels" if version >= (3, 9) else "labels": names}
+    kw.update({"orientation": "horizontal"} if version >= (3, 10) else {"vert": False})
+    ax.boxplot(data, showfliers=False, **kw)
     ax.set_xscale("log")
     ax.set_xlabel("host time per frame (ms)")
     ax.set_title(f"Host time per frame, {result.dataset_name} (whiskers 1.5 IQR)")

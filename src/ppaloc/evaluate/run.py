@@ -470,6 +470,8 @@ def run_evaluation(
         from ppaloc.datasets.registry import load_dataset
 
         dataset = load_dataset(spec)
+    else:
+        spec = str(dataset.meta.get("spec", dataset.name))
     reference = sensor_frames(dataset.reference)
     query = sensor_frames(dataset.query)
     gt = [np.asarray(g, dtype=np.int64) for g in dataset.ground_truth]

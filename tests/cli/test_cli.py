@@ -1,0 +1,303 @@
+"""Smoke tests of every ``ppaloc`` command on tiny inputs, and of its error handling."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+from ppaloc.cli import cli, main
+from ppaloc.localise.base import Estimate
+
+RESULT_KEYS = {
+    "f1_max",
+    "precision_at_f1",
+    "recall_at_f1",
+    "auc",
+    "recall_at_100p",
+    "accuracy",
+    "latency_ms_median",
+    "latency_ms_p95",
+    "modelled_latency_ms",
+    "energy_mj",
+    "recall_definition",
+}
+
+
+def run(capsys, *args: str) -> tuple[int, str, str]:
+    """Run the command through the launch wrapper; return (exit code, stdout, stderr)."""
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+# -- help ------------------------------------------------------------------------------------
+
+
+def test_help_shows_examples_and_commands():
+    result = CliRunner().invoke(cli, ["--help"])
+    assert result.exit_code == 0
+    for word in ("demo", "evaluate", "map", "localise", "bench", "show", "Examples:"):
+        assert word in result.output
+
+
+def test_evaluate_help_lists_available_methods(mean_match):
+    result = CliRunner().invoke(cli, ["evaluate", "--help"])
+    assert result.exit_code == 0
+    assert "Available methods" in result.output
+    assert "mean-match" in result.output and "stand-in" in result.output
+    assert "--tolerance" in result.output and "Examples:" in result.output
+
+
+# -- evaluate ----------------------------------------------------------------------------------
+
+
+def test_evaluate_writes_results_and_report(mean_match, tiny_spec, tmp_path, capsys):
+    out = tmp_path / "run"
+    code, stdout, err = run(
+        capsys, "evaluate", "--dataset", tiny_spec, "--method", mean_match, "--out", out
+    )
+    assert code == 0, err
+    summary = json.loads((out / "results.json").read_text())
+    assert summary["dataset"] == tiny_spec and summary["tolerance"] == 1
+    assert list(summary["methods"]) == [mean_match]
+    assert RESULT_KEYS <= set(summary["methods"][mean_match])
+    assert summary["methods"][mean_match]["recall_definition"] == "A"
+    for name in ("results.csv", "report.html", "report.md"):
+        assert (out / name).is_file()
+    assert "F1 max" in stdout and "report:" in stdout
+
+
+def test_config_file_with_flags_overriding(mean_match, tiny_spec, tmp_path, capsys):
+    toml = tmp_path / "run.toml"
+    toml.write_text(
+        f'dataset = "{tiny_spec}"\n'
+        f'methods = ["{mean_match}"]\n'
+        "tolerance = 3\n"
+        'recall = "B"\n'
+        f'out = "{(tmp_path / "from-file").as_posix()}"\n'
+        f"[params.{mean_match}]\n"
+        "offset = 1\n"
+        "[bench]\n"
+        "sizes = [4]\n"  # another command's section is ignored
+    )
+    out = tmp_path / "from-flag"
+    code, _, err = run(
+        capsys, "evaluate", "--config", toml, "--tolerance", "0", "--out", out, "--no-report", "-q"
+    )
+    assert code == 0, err
+    summary = json.loads((out / "results.json").read_text())
+    assert summary["tolerance"] == 0  # the flag wins
+    assert summary["methods"][mean_match]["recall_definition"] == "B"  # from the file
+    assert summary["methods"][mean_match]["params"]["offset"] == 1
+    assert summary["config"]["dataset"].endswith("tolerance=0")
+    assert not (tmp_path / "from-file").exists() and not (out / "report.html").exists()
+
+
+def test_param_flags_reach_the_method(mean_match, tiny_spec, tmp_path, capsys):
+    out = tmp_path / "run"
+    code, _, err = run(
+        capsys,
+        *("evaluate", "-d", tiny_spec, "-m", mean_match, "--out", out, "-q", "--no-report"),
+        *("--param", f"{mean_match}.offset=2"),
+    )
+    assert code == 0, err
+    z = np.load(out / "arrays" / f"{mean_match}.npz")
+    assert z["node"][0] != 0 or z["node"][1] != 1  # shifted by 2 from the exact match
+
+
+# -- errors: one line, non-zero, no traceback ---------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "message"),
+    [
+        (
+            ["evaluate", "--dataset", "synthetic", "--method", "nope"],
+            1,
+            "ppaloc: error: method 'nope' is unknown; choose from: ",
+        ),
+        (
+            ["evaluate", "--dataset", "nosuchkind:x"],
+            1,
+            "ppaloc: error: ",
+        ),
+        (["evaluate", "--method", "mean-match"], 1, "ppaloc: error: no dataset: give --dataset"),
+        (["evaluate", "--frobnicate"], 2, "ppaloc evaluate: error: No such option"),
+        (["nosuch"], 2, "ppaloc: error: No such command 'nosuch'"),
+        (["bench", "--sizes", "4,x"], 1, "ppaloc: error: sizes '4,x' must be comma-separated"),
+        (
+            ["evaluate", "-d", "synthetic", "--param", "alpha=8"],
+            1,
+            "ppaloc: error: --param 'alpha=8' must look like METHOD.KEY=VALUE",
+        ),
+        (["show", "/nonexistent/run"], 1, "ppaloc: error: /nonexistent/run does not exist"),
+    ],
+)
+def test_user_errors_are_one_line(mean_match, capsys, args, code, message):
+    got, _, err = run(capsys, *args)
+    assert got == code
+    assert err.startswith(message), err
+    assert err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_unknown_config_key_is_named(mean_match, tmp_path, capsys):
+    toml = tmp_path / "bad.toml"
+    toml.write_text('dataset = "synthetic"\ntolerence = 2\n')
+    code, _, err = run(capsys, "evaluate", "--config", toml)
+    assert code == 1
+    assert err.startswith(f"ppaloc: error: unknown configuration key 'tolerence' in {toml}")
+
+
+def test_a_bug_is_one_line_with_a_traceback_log(standin, monkeypatch, tiny_spec, tmp_path, capsys):
+    class Broken(standin.MeanMatch):
+        def step(self, frame: np.ndarray) -> Estimate:
+            raise ZeroDivisionError("boom")
+
+    monkeypatch.setattr(standin, "MeanMatch", Broken)
+    name = standin.register(monkeypatch, "broken")
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    code, _, err = run(capsys, "evaluate", "-d", tiny_spec, "-m", name, "--out", tmp_path / "r")
+    assert code == 3
+    assert err.startswith("ppaloc: internal error (ZeroDivisionError: boom); this is a bug")
+    assert err.count("\n") == 1
+    log = Path(err.strip().rsplit(" ", 1)[-1])
+    assert log.parent == tmp_path and "Traceback" in log.read_text()
+
+
+# -- map, localise, bench, show, demo -------------------------------------------------------------
+
+
+def _frames(folder: Path, n: int) -> list[Path]:
+    folder.mkdir()
+    paths = []
+    for i in range(n):
+        p = folder / f"q{i:02d}.png"
+        Image.fromarray(np.full((24, 32), 20 * i + 10, np.uint8)).save(p)
+        paths.append(p)
+    return paths
+
+
+def test_map_then_localise_streams_csv(mean_match, tmp_path, capsys):
+    frames = _frames(tmp_path / "ref", 6)
+    spec = f"folder:{tmp_path / 'ref'},{tmp_path / 'ref'}"
+    code, out, err = run(capsys, "map", spec, "--method", mean_match, "--out", tmp_path / "m.npz")
+    assert code == 0, err
+    assert "6 mean nodes" in out
+    csv_path = tmp_path / "est.csv"
+    code, _, err = run(capsys, "localise", tmp_path / "m.npz", *frames[::-1], "--out", csv_path)
+    assert code == 0, err
+    lines = csv_path.read_text().splitlines()
+    assert lines[0] == "frame,path,node,reference_frame,score,moved,latency_ms"
+    assert [int(line.split(",")[2]) for line in lines[1:]] == [5, 4, 3, 2, 1, 0]
+    # the folder form and stdout
+    code, out, err = run(capsys, "localise", tmp_path / "m.npz", tmp_path / "ref")
+    assert code == 0, err
+    assert len(out.splitlines()) == 7
+
+
+def test_map_and_localise_with_a_real_method(tiny_spec, tmp_path, capsys):
+    from ppaloc.methods import available_methods
+
+    if "weighted-node-lbp" not in available_methods():
+        pytest.skip("weighted-node-lbp is not available")
+    code, _, err = run(
+        capsys, "map", tiny_spec, "-m", "weighted-node-lbp", "--out", tmp_path / "m.npz", "-q"
+    )
+    assert code == 0, err
+    frames = _frames(tmp_path / "q", 3)
+    code, out, err = run(capsys, "localise", tmp_path / "m.npz", *frames)
+    assert code == 0, err
+    assert len(out.splitlines()) == 4
+    code, _, err = run(capsys, "show", tmp_path / "m.npz", "--out", tmp_path / "m.png")
+    assert code == 0, err
+    with Image.open(tmp_path / "m.png") as im:
+        assert im.size[0] >= 256
+
+
+def test_bench_writes_json(mean_match, tmp_path, capsys):
+    code, out, err = run(
+        capsys, "bench", "-m", mean_match, "--sizes", "4,8", "--queries", "2", "--out", tmp_path
+    )
+    assert code == 0, err
+    rows = json.loads((tmp_path / "bench.json").read_text())["rows"]
+    assert [r["n_nodes"] for r in rows] == [4, 8]
+    assert "8 nodes" in out
+
+
+def test_show_results_map_and_planes(mean_match, tiny_spec, tmp_path, capsys):
+    run_dir = tmp_path / "run"
+    assert (
+        run(capsys, "evaluate", "-d", tiny_spec, "-m", mean_match, "--out", run_dir, "-q")[0] == 0
+    )
+    (run_dir / "report.html").unlink()
+    code, out, err = run(capsys, "show", run_dir)
+    assert code == 0, err
+    assert (run_dir / "report.html").is_file() and "F1 max" in out
+    # a map of a kind without a PE layout: drawn as a descriptor matrix
+    spec = "synthetic:?places=6&size=32&sync=1"
+    assert run(capsys, "map", spec, "-m", mean_match, "--out", tmp_path / "m.npz", "-q")[0] == 0
+    code, _, err = run(capsys, "show", tmp_path / "m.npz")
+    assert code == 0, err
+    assert (tmp_path / "m.png").is_file()
+    # register planes
+    planes = tmp_path / "planes.npz"
+    np.savez(planes, A=np.zeros((256, 256)), FLAG=np.ones((256, 256), bool))
+    code, _, err = run(capsys, "show", planes, "--out", tmp_path / "p.png", "-q")
+    assert code == 0, err
+    with Image.open(tmp_path / "p.png") as im:
+        assert im.size[0] > 512
+
+
+def test_demo_end_to_end(mean_match, monkeypatch, tmp_path, capsys):
+    import ppaloc.evaluate.run as run_module
+
+    monkeypatch.setattr(run_module, "available_methods", lambda: [mean_match])
+    out = tmp_path / "demo"
+    code, stdout, err = run(capsys, "demo", "--out", out, "--places", "12", "--bench-sizes", "4,8")
+    assert code == 0, err
+    summary = json.loads((out / "results.json").read_text())
+    assert summary["dataset"].startswith("synthetic:?places=12&query=winter")
+    assert (out / "bench.json").is_file() and (out / "report.html").is_file()
+    assert "demo done" in stdout
+
+
+# -- the installed console script -----------------------------------------------------------------
+
+
+def _script() -> str:
+    exe = Path(sys.executable).with_name("ppaloc")
+    if not exe.is_file():
+        pytest.skip("the ppaloc console script is not installed next to this python")
+    return str(exe)
+
+
+def test_console_script_errors_without_traceback(tmp_path):
+    env = {**os.environ, "COLUMNS": "100"}
+    done = subprocess.run(
+        [_script(), "evaluate", "--dataset", "synthetic", "--method", "no-such-method"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=env,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 1
+    assert done.stderr.startswith("ppaloc: error: method 'no-such-method' is unknown")
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    assert not list(tmp_path.iterdir())  # nothing written into the working directory
+    ok = subprocess.run(
+        [_script(), "--version"], capture_output=True, text=True, timeout=60, check=False
+    )
+    assert ok.returncode == 0 and "ppaloc" in ok.stdout

@@ -1,0 +1,175 @@
+"""Runs, result files and bench on the stand-in method and the tiny dataset."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import PpalocError
+from ppaloc.evaluate.bench import load_bench, run_bench, save_bench
+from ppaloc.evaluate.config import (
+    BenchConfig,
+    EvaluateConfig,
+    config_from_mapping,
+    read_toml,
+    with_tolerance,
+)
+from ppaloc.evaluate.results import CSV_COLUMNS, load_results, save_results
+from ppaloc.evaluate.run import resolve_methods, run_evaluation, run_method, sensor_frames
+
+REQUIRED = {
+    "f1_max",
+    "precision_at_f1",
+    "recall_at_f1",
+    "auc",
+    "recall_at_100p",
+    "accuracy",
+    "latency_ms_median",
+    "latency_ms_p95",
+    "modelled_latency_ms",
+    "energy_mj",
+    "recall_definition",
+}
+
+
+def test_run_method_arrays_and_metrics(standin, tiny):
+    loc = standin.MeanMatch(record_weights=True)
+    ref, qry = sensor_frames(tiny.reference), sensor_frames(tiny.query)
+    run = run_method(
+        "mean-match",
+        ref,
+        qry,
+        tiny.ground_truth,
+        localiser=loc,
+        reference_positions=tiny.reference_positions,
+        query_positions=tiny.query_positions,
+    )
+    assert loc.steps == len(qry)  # every query frame stepped exactly once
+    np.testing.assert_array_equal(run.node, np.arange(10))
+    np.testing.assert_array_equal(run.ref_index, np.arange(10))
+    assert run.moved.tolist() == [-1] * 10
+    assert run.ranking.shape == (10, 3) and run.ranking[:, 0].tolist() == list(range(10))
+    assert run.weights.shape == (10, 10) and run.weights.dtype == np.float32
+    assert run.latency_ms.shape == (10,) and (run.latency_ms > 0).all()
+    assert run.modelled_latency_ms is None and run.energy_mj is None
+    m = run.metrics
+    # nine queries with a true match, all correct; the last has none (wrong by definition)
+    assert (m.n_with_match, m.n_correct, m.accuracy) == (9, 9, 0.9)
+    assert m.recall_at_100p == 1.0 and m.f1_max == 1.0
+    assert m.error_m_median == pytest.approx(1.0)  # query positions are 1 m off
+    assert m.recall_at_k.tolist() == [1.0, 1.0, 1.0]
+
+
+def test_run_method_maps_nodes_through_frame_index(standin, tiny):
+    class Keyframed(standin.MeanMatch):
+        def build_map(self, frames):
+            topomap = super().build_map(frames[::2])
+            topomap.frame_index = np.arange(0, len(frames), 2)
+            return topomap
+
+    ref, qry = sensor_frames(tiny.reference), sensor_frames(tiny.query)
+    run = run_method("k", ref, qry, tiny.ground_truth, localiser=Keyframed())
+    assert run.n_nodes == 5
+    np.testing.assert_array_equal(run.ref_index, 2 * run.node)
+    assert run.ranking.max() <= 8 and (run.ranking % 2 == 0).all()
+
+
+def test_weights_dropped_above_the_limit(standin, tiny):
+    ref, qry = sensor_frames(tiny.reference), sensor_frames(tiny.query)
+    loc = standin.MeanMatch(record_weights=True)
+    run = run_method("m", ref, qry, tiny.ground_truth, localiser=loc, max_weight_values=99)
+    assert run.weights is None
+
+
+def test_modelled_latency_and_energy_summarised(standin, tiny):
+    ref, qry = sensor_frames(tiny.reference), sensor_frames(tiny.query)
+    loc = standin.MeanMatch(modelled=True)
+    s = run_method("m", ref, qry, tiny.ground_truth, localiser=loc).summary()
+    assert s["modelled_latency_ms"] == 0.25 and s["energy_mj"] == pytest.approx(0.002)
+
+
+def test_evaluation_through_the_registry_passes_seed_and_weights(mean_match, tiny):
+    cfg = EvaluateConfig(methods=(mean_match,), seed=7, params={mean_match: {"offset": 1}})
+    result = run_evaluation(cfg, dataset=tiny, progress=False)
+    run = result.runs[mean_match]
+    assert run.params == {"offset": 1, "seed": 7, "record_weights": True}
+    np.testing.assert_array_equal(run.node, (np.arange(10) + 1) % 10)
+    assert run.weights is not None
+    assert result.dataset == "tiny" and result.tolerance == 1
+
+
+def test_results_files_round_trip(mean_match, tiny, tmp_path):
+    result = run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny, progress=False)
+    path = save_results(result, tmp_path / "out")
+    summary = json.loads(path.read_text())
+    assert {"dataset", "tolerance", "methods"} <= set(summary)
+    assert REQUIRED <= set(summary["methods"][mean_match])
+    assert summary["methods"][mean_match]["modelled_latency_ms"] is None
+    assert summary["ppaloc_version"] and summary["config"]["methods"] == [mean_match]
+    with open(tmp_path / "out" / "results.csv") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == CSV_COLUMNS and rows[1][0] == mean_match
+    assert float(rows[1][1]) == pytest.approx(1.0)
+    back, _ = load_results(tmp_path / "out")
+    a, b = result.runs[mean_match], back.runs[mean_match]
+    for key in ("node", "ref_index", "score", "moved", "ranking", "latency_ms", "weights"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+    assert b.metrics.f1_max == a.metrics.f1_max and b.metrics.auc == a.metrics.auc
+    assert [g.tolist() for g in back.ground_truth] == [g.tolist() for g in result.ground_truth]
+    assert not list((tmp_path / "out").rglob("*.tmp"))  # atomic writes leave nothing behind
+
+
+def test_same_seed_same_result_bytes(mean_match, tiny, tmp_path):
+    for name in ("a", "b"):
+        r = run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny, progress=False)
+        save_results(r, tmp_path / name)
+    for name in ("a", "b"):
+        z = np.load(tmp_path / name / "arrays" / f"{mean_match}.npz")
+        assert z["node"].tolist() == list(range(10))
+
+
+def test_resolve_methods_messages(mean_match):
+    assert mean_match in resolve_methods([])
+    assert resolve_methods([mean_match, mean_match]) == [mean_match]
+    with pytest.raises(PpalocError, match=r"method 'nope' is unknown; choose from: .*mean-match"):
+        resolve_methods(["nope"])
+
+
+def test_config_rejects_unknown_keys_and_bad_values(tmp_path):
+    with pytest.raises(PpalocError, match=r"unknown configuration key 'tolerence' in x.toml"):
+        config_from_mapping(EvaluateConfig, {"tolerence": 2}, source="x.toml")
+    with pytest.raises(PpalocError, match=r"recall='D' must be one of A, B, C"):
+        EvaluateConfig(recall="D")
+    with pytest.raises(PpalocError, match=r"tolerance=-1 must be an integer >= 0"):
+        EvaluateConfig(tolerance=-1)
+    with pytest.raises(PpalocError, match=r"sizes=\[1\] must be map sizes of at least 2"):
+        BenchConfig(sizes=(1,))
+    bad = tmp_path / "bad.toml"
+    bad.write_text("dataset = \n")
+    with pytest.raises(PpalocError, match=r"bad.toml is not valid TOML"):
+        read_toml(bad)
+    with pytest.raises(PpalocError, match=r"config file .*missing.toml does not exist"):
+        read_toml(tmp_path / "missing.toml")
+
+
+def test_with_tolerance():
+    assert with_tolerance("synthetic", 2) == "synthetic?tolerance=2"
+    assert with_tolerance("a:b?x=1&tolerance=0&y=2", 3) == "a:b?x=1&y=2&tolerance=3"
+    assert EvaluateConfig(dataset="a:b", tolerance=2).resolved_dataset() == "a:b?tolerance=2"
+
+
+def test_bench_rows_and_files(mean_match, tmp_path):
+    cfg = BenchConfig(methods=(mean_match,), sizes=(4, 8), queries=3, warmup=1)
+    bench = run_bench(cfg)
+    assert [(r["method"], r["n_nodes"], r["queries"]) for r in bench["rows"]] == [
+        (mean_match, 4, 3),
+        (mean_match, 8, 3),
+    ]
+    assert all(r["latency_ms_p95"] >= r["latency_ms_median"] > 0 for r in bench["rows"])
+    save_bench(bench, tmp_path / "bench.json")
+    assert load_bench(tmp_path / "bench.json")["rows"] == bench["rows"]
+    assert (tmp_path / "bench.csv").read_text().startswith("method,n_nodes,")
+    assert load_bench(tmp_path / "none.json") is None
