@@ -269,3 +269,25 @@ def test_top_k_finds_the_largest(n):
     w = rng.normal(size=n).astype(np.float32)
     got = np.sort(w[_top_k(w, 4)])
     np.testing.assert_array_equal(got, np.sort(w)[-4:])
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(1, 9),
+    lo=st.integers(0, 2),
+    extra=st.integers(0, 2),
+)
+def test_forward_advance_window(seed, n, lo, extra):
+    hi = max(lo + extra, 1)
+    rng = np.random.default_rng(seed)
+    loc = WeightedNodeLocaliser("lbp", advance=(lo, hi), motion="always_forward")
+    loc.use_map(TopoMap("lbp", np.zeros(n, np.uint32)))
+    for _ in range(int(rng.integers(0, 3))):  # rotate the buffer a little first
+        loc._forward()
+    old = rng.integers(-100, 100, n).astype(np.float32)
+    loc._w[:] = np.roll(old, loc._offset)
+    loc._forward()
+    padded = np.concatenate((np.zeros(hi), old))  # the edge reads 0
+    want = [max(padded[hi + i - d] for d in range(lo, hi + 1)) for i in range(n)]
+    np.testing.assert_array_equal(loc.weights(), want)

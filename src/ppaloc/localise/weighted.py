@@ -226,6 +226,13 @@ class WeightedNodeLocaliser:
         Put a copy of the weights (map order, after the frame) in every Estimate.
     oracle_moves : sequence of bool, optional
         Ground-truth moves for ``motion="oracle"`` (a dataset's ``query_moved``).
+    advance : (int, int)
+        Nodes a forward move may advance, ``(lo, hi)``: on forward
+        ``w_i := max(w_{i-lo}, ..., w_{i-hi})`` (indices below 0 read 0). Default
+        ``(1, 1)``: the paper's one-node shift, right for frame-synchronised routes.
+        ``(0, 2)`` lets each weight stay or advance one or two nodes, for routes where
+        the speed varies (one frame covers 0.35-1.65 places on the synthetic route): see
+        docs/localise.md for the measured effect.
     motion_margin, motion_shift, motion_min_support : int
         Parameters of the image motion model (:class:`ImageMotion`).
 
@@ -253,6 +260,7 @@ class WeightedNodeLocaliser:
         ranking_k: int = 10,
         record_weights: bool = False,
         oracle_moves: Sequence[bool] | np.ndarray | None = None,
+        advance: tuple[int, int] = (1, 1),
         motion_margin: int = 3,
         motion_shift: int = 6,
         motion_min_support: int = 1024,
@@ -273,6 +281,10 @@ class WeightedNodeLocaliser:
         self.shift = _check_int("shift", shift, 0, 16)
         self.confidence_radius = _check_int("confidence_radius", confidence_radius, 0)
         self.ranking_k = _check_int("ranking_k", ranking_k, 0)
+        lo, hi = advance
+        if not (0 <= _check_int("advance[0]", lo, 0) <= _check_int("advance[1]", hi, 1)):
+            raise PpalocError(f"advance={advance!r} must be (lo, hi) with 0 <= lo <= hi, hi >= 1")
+        self.advance = (int(lo), int(hi))
         if alpha is not None:
             if arithmetic == "ppa8":
                 alpha = _check_int("alpha", alpha, -1, 127)
@@ -348,12 +360,10 @@ class WeightedNodeLocaliser:
     def step(self, frame: np.ndarray) -> Estimate:
         """Localise one new sensor frame ((256, 256) uint8); see the module doc."""
         self._require_map()
-        n = len(self._w)
         self._frames += 1
         moved = self._motion.step(frame)
         if moved:
-            self._offset = (self._offset - 1) % n
-            self._w[self._offset] = 0  # what enters node 0: the array edge reads 0
+            self._forward()
         term = self._likelihood_term(frame)
         top = self._add_in_map_order(term)
         node, top = self._detect(top)
@@ -375,6 +385,20 @@ class WeightedNodeLocaliser:
         return np.roll(self._w, -self._offset)
 
     # -- the steps ---------------------------------------------------------------------------
+
+    def _forward(self) -> None:
+        """``w_i := max(w_{i-d} for d in advance)``; indices below 0 read the edge's 0."""
+        w, n = self._w, len(self._w)
+        lo, hi = self.advance
+        for _ in range(min(lo, n)):  # shift by one: an offset change and one zero
+            self._offset = (self._offset - 1) % n
+            w[self._offset] = 0
+        for _ in range(hi - lo):  # w_i := max(w_i, w_{i-1}) for all i at once
+            first, last = self._offset, float(w[-1])
+            head = float(w[first])
+            np.maximum(w[1:], w[:-1], out=w[1:])  # numpy buffers the overlap
+            w[0] = max(float(w[0]), last)
+            w[first] = max(head, 0.0)  # node 0's predecessor is the edge
 
     def _likelihood_term(self, frame: np.ndarray) -> np.ndarray:
         """``alpha - mu_s`` per node, in map order (clipped to a register in ppa8)."""
