@@ -173,8 +173,8 @@ CONDITIONS: dict[str, Condition] = {
     "night": Condition(
         "night",
         palette={"window_lit": (255, 215, 140), "lamp": (255, 240, 200)},
-        sky_top=(5, 8, 20),
-        sky_horizon=(30, 32, 48),
+        sky_top=(12, 14, 30),
+        sky_horizon=(75, 66, 72),  # the glow of a town's lights on the haze
         cloud_cover=0.2,
         cloud_colour=(40, 40, 55),
         fog_distance=700.0,

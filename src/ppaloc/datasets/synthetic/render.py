@@ -34,6 +34,12 @@ CAMERA_HEIGHT = 1.6
 LANE_CENTRE = ROAD_HALF / 2
 """Lateral position of the right lane's centre (m)."""
 
+LAMP_HEIGHT = 6.4
+"""Height of a street lamp's head (m)."""
+
+NIGHT_AMBIENT = 0.16
+"""Light at night away from lamps and headlights, as a fraction of daylight."""
+
 Z_NEAR, Z_FAR = 1.0, 170.0
 """Objects are drawn between these depths (m); fog hides the far end."""
 
@@ -95,7 +101,10 @@ class Renderer:
         self.vignette = (1.0 - 0.12 * r2).astype(np.float32)
         self.noise_bank = rng.standard_normal(S * S * 2, dtype=np.float32)
         self.noise_bank *= np.float32(cond.noise_sigma)
-        self.beam = np.exp(-(((self.xs - self.cx) / (0.28 * S)) ** 2)).astype(np.float32)
+        self.beam_night = (1.3 * np.exp(-(((self.xs - self.cx) / (0.28 * S)) ** 2))).astype(
+            np.float32
+        )
+        self.row_up = ((self.cy - self.ys)[:, None] / self.f).astype(np.float32)
         self._plane_reach = float(np.max(world.planes.s1 - world.planes.s0, initial=0.0))
         self._box_reach = float(np.max(world.boxes.s1 - world.boxes.s0, initial=0.0))
 
@@ -390,7 +399,7 @@ class Renderer:
             return a if grey else a[..., None]
 
         sky = mat == M["sky"]
-        light = self._night_light(mat, shade, depth, ground, s_cam) if cond.night else shade
+        light = self._night_light(mat, shade, depth, x_cam, s_cam) if cond.night else shade
         out = self.lut[mat]
         out *= ex(light)
         shift = int(s_cam * 0.02) % (2 * S)
@@ -422,25 +431,55 @@ class Renderer:
         np.clip(out, 0, 255, out=out)
         return out.astype(np.uint8)
 
-    def _night_light(self, mat, shade, depth, ground, s_cam):
+    def _night_light(self, mat, shade, depth, x_cam, s_cam):
+        """Light at night: a little ambient, the car's headlights, street lamps.
+
+        Each lamp lights every surface within a few metres of it (ground, facades, trees),
+        found from the pixel's depth, so lit street corners look the same on every pass.
+        """
         f = self.f
-        d = np.minimum(depth, 1e4)
-        height = self.h + (self.cy - self.ys[:, None]) * d / f
-        head = 1.3 * np.exp(-d / 13.0) * self.beam[None, :] * np.exp(-np.maximum(height - 1.0, 0))
-        light = 0.07 + head
-        sw, xw = ground
+        d = np.minimum(depth, np.float32(1e4))
+        height = self.row_up * d
+        height += np.float32(self.h)
+        # Headlights: fade with distance and above the bonnet, a beam across the columns.
+        head = np.maximum(height - np.float32(1.0), np.float32(0.0))
+        head += d * np.float32(1 / 13.0)
+        np.exp(-head, out=head)
+        head *= self.beam_night[None, :]
+        light = head
+        light += np.float32(NIGHT_AMBIENT)
         lamps = self.world.lamps
-        j0, j1 = np.searchsorted(lamps[:, 0], [s_cam - 10, s_cam + 90])
-        pool = np.zeros_like(xw)
+        j0, j1 = np.searchsorted(lamps[:, 0], [s_cam + 1.0, s_cam + 90.0])
+        reach = 9.0  # metres a lamp visibly lights
         for s_l, x_l in lamps[j0:j1]:
-            pool += np.exp(-(((sw[:, None] - s_l) ** 2 + (xw - x_l) ** 2) / 40.0)).astype(
-                np.float32
+            z = s_l - s_cam
+            zn = max(z - reach, 0.5)
+            c0 = max(
+                int(
+                    self.cx + f * (x_l - reach - x_cam) / (zn if x_l - reach < x_cam else z + reach)
+                ),
+                0,
             )
-        light[self.g0 :] += 0.7 * pool
-        emissive = np.isin(mat, EMISSIVE)
-        light = np.where(emissive, 1.0, light * shade)
-        light[mat == M["sky"]] = 1.0
-        return light.astype(np.float32)
+            c1 = min(
+                int(
+                    self.cx + f * (x_l + reach - x_cam) / (zn if x_l + reach > x_cam else z + reach)
+                )
+                + 2,
+                self.S,
+            )
+            r0 = max(int(self.cy - f * (LAMP_HEIGHT + reach - self.h) / zn), 0)
+            r1 = min(int(self.cy + f * self.h / max(z - reach, 0.5)) + 2, self.S)
+            if c0 >= c1 or r0 >= r1:
+                continue
+            dd = d[r0:r1, c0:c1]
+            ds = dd - z
+            dx = x_cam + (self.xs[c0:c1] - self.cx) * dd / f - x_l
+            dy = height[r0:r1, c0:c1] - LAMP_HEIGHT
+            light[r0:r1, c0:c1] += 1.1 * np.exp(-(ds * ds + dx * dx + 0.5 * dy * dy) / 30.0)
+        light *= shade
+        for m in (*EMISSIVE, M["sky"]):
+            light[mat == m] = 1.0
+        return light
 
     def _glow(self, out, s_cam, x_cam):
         lamps = self.world.lamps
@@ -448,7 +487,7 @@ class Renderer:
         for s_l, x_l in lamps[j0:j1]:
             z = s_l - s_cam
             xc = self.cx + self.f * (x_l - x_cam) / z
-            yc = self.cy - self.f * (6.4 - self.h) / z
+            yc = self.cy - self.f * (LAMP_HEIGHT - self.h) / z
             r = max(self.f * 1.3 / z, 1.5)
             c0, c1 = max(int(xc - 3 * r), 0), min(int(xc + 3 * r) + 1, self.S)
             r0, r1 = max(int(yc - 3 * r), 0), min(int(yc + 3 * r) + 1, self.S)
