@@ -257,3 +257,88 @@ def test_dnews_macro_several_directions(sim: Scamp5) -> None:
 def test_macro_misuse_names_the_call(sim: Scamp5, call, message) -> None:
     with pytest.raises(RegisterMisuseError, match=message):
         call(sim)
+
+
+# ------------------------------------------------- further macros of the official headers
+@pytest.mark.parametrize("d", [north, east, south, west])
+def test_deprecated_sub_with_direction(sim: Scamp5, d) -> None:
+    # sub(y, x0, dir, x1) = bus(NEWS, x0); bus(y, X<dir>, x1): y := x0 of the dir neighbour - x1
+    with sim.kernel() as k:
+        k.sub(C, A, d, B)
+    alias = {north: "XN", east: "XE", south: "XS", west: "XW"}[d]
+    assert [str(i) for i in k] == ["bus(NEWS, A)", f"bus(C, {alias}, B)"]
+    assert np.array_equal(sim.read(C), _shift(X, d) - Y)
+    assert np.array_equal(sim.read(NEWS), -X)
+
+
+def test_deprecated_sub_golden() -> None:
+    sim = Scamp5(rows=1, cols=3)
+    sim.write(A, [[1, 2, 3]])
+    sim.write(B, [[10, 10, 10]])
+    sim.sub(C, A, east, B)
+    assert sim.read(C).tolist() == [[-8.0, -7.0, -10.0]]  # [2-10, 3-10, 0-10]
+
+
+def test_getpix_with_a_stored_reset_level() -> None:
+    sim = Scamp5(rows=1, cols=3)
+    sim.set_image(np.array([[0, 128, 255]], dtype=np.uint8))  # PIX = p/4 - 32
+    sim.write(D, [[1.0, 2.0, 3.0]])  # stands for a reset level kept by respix(D)
+    with sim.kernel() as k:
+        k.getpix(A, D)
+    assert len(k) == 2
+    assert sim.read(A).tolist() == [[-33.0, -2.0, 28.75]]  # PIX - D
+    with sim.kernel() as k:
+        k.getpix(B, C, D)
+    assert len(k) == 3
+    assert sim.read(C).tolist() == [[32.0, 0.0, -31.75]]  # -PIX
+    assert sim.read(B).tolist() == [[-65.0, -2.0, 60.5]]  # 2 PIX - D
+
+
+def test_newsblurh_and_newsblurv() -> None:
+    sim = Scamp5(rows=3, cols=3)
+    x = np.arange(9, dtype=np.float32).reshape(3, 3)
+    sim.write(A, x)
+    with sim.kernel() as k:
+        k.newsblurh(B, A)
+        k.newsblurv(C, A, 2)
+    assert len(k) == 2 + 4
+    # B := west + east neighbours (0 beyond the edge)
+    assert sim.read(B).tolist() == [[1, 2, 1], [4, 8, 4], [7, 14, 7]]
+    # one pass: north + south = [[3,4,5],[6,8,10],[3,4,5]]; the second sums that again
+    assert sim.read(C).tolist() == [[6, 8, 10], [6, 8, 10], [6, 8, 10]]
+
+
+def test_andx_nandx_xorx(sim: Scamp5) -> None:
+    sim.write(R8, Q)
+    assert icws(sim, lambda k: k.ANDX(R7, R8, R5)) == 3
+    assert np.array_equal(sim.read(R7), Q & P)  # Ra := Rb AND Rx
+    assert np.array_equal(sim.read(R8), ~P)  # Rb := NOT Rx
+    assert np.array_equal(sim.read(R0), ~Q)
+    sim.write(R8, Q)
+    assert icws(sim, lambda k: k.NANDX(R7, R8, R5)) == 3
+    assert np.array_equal(sim.read(R7), ~(Q & P))
+    sim.write(R8, Q)
+    assert icws(sim, lambda k: k.XORX(R7, R8, R5)) == 6
+    assert np.array_equal(sim.read(R7), Q ^ P)
+    assert np.array_equal(sim.read(R8), Q & ~P)  # Rx := *
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda s: s.IMP(R12, R5, R6), r"IMP\(R12, R5, R6\): R12 cannot be the destination"),
+        (lambda s: s.NIMP(R12, R5, R6), r"NIMP\(R12, R5, R6\): R12 cannot be the destination"),
+        (lambda s: s.CLR_IF(R12, R5), r"CLR_IF\(R12, R5\): R12 cannot be the destination"),
+        (lambda s: s.ANDX(R12, R5, R6), r"ANDX\(R12, R5, R6\): R12 cannot be the destination"),
+        (lambda s: s.XORX(R5, R12, R6), r"XORX\(R5, R12, R6\): R12 cannot be the destination"),
+        (lambda s: s.XORX(R5, R6, R0), r"XORX\(R5, R6, R0\): R0 cannot be an argument"),
+        (lambda s: s.ANDX(R5, R5, R6), r"ANDX\(R5, R5, R6\): R5 appears twice"),
+        (lambda s: s.sub(A, B, east, A), r"in sub\(A, B, east, A\): bus\(A, XE, A\) lists A"),
+        (lambda s: s.sub(A, B, east), r"sub\(A, B, east\): give the register to subtract"),
+        (lambda s: s.sub(A, B, C, D), r"sub\(A, B, C, D\): the third argument must be a dir"),
+        (lambda s: s.getpix(A, A), r"in getpix\(A, A\): bus\(A, NEWS, A\) lists A twice"),
+    ],
+)
+def test_further_macro_misuse(sim: Scamp5, call, message) -> None:
+    with pytest.raises(RegisterMisuseError, match=message):
+        call(sim)

@@ -214,9 +214,32 @@ class ProgramAPI:
         srcs = (x0, x1) if x2 is None else (x0, x1, x2)
         self._macro("add", (y, *srcs), [("bus", (NEWS,), srcs), ("bus", (y,), (NEWS,))])
 
-    def sub(self, y: Register, x0: Register, x1: Register) -> None:
-        """``y := x0 - x1``; 2 ICWs, NEWS := -x0; ``y`` must differ from ``x1``."""
-        self._macro("sub", (y, x0, x1), [("bus", (NEWS,), (x0,)), ("bus", (y,), (NEWS, x1))])
+    def sub(
+        self, y: Register, x0: Register, x1: Register | Direction, x2: Register | None = None
+    ) -> None:
+        """``y := x0 - x1``; 2 ICWs, NEWS := -x0; ``y`` must differ from ``x1``.
+
+        The header's deprecated four-argument form ``sub(y, x0, dir, x1)`` gives
+        ``y := x0`` of the neighbour in ``dir`` minus the local ``x1``, as
+        ``bus(NEWS, x0); bus(y, X<dir>, x1)`` (unlike :meth:`subx`, it reads the
+        neighbour's NEWS instead of pushing into it).
+        """
+        if x2 is None and not isinstance(x1, Direction):
+            self._macro("sub", (y, x0, x1), [("bus", (NEWS,), (x0,)), ("bus", (y,), (NEWS, x1))])
+            return
+        call = _call("sub", (y, x0, x1) if x2 is None else (y, x0, x1, x2))
+        if x2 is None:
+            raise RegisterMisuseError(
+                f"{call}: give the register to subtract, sub(y, x0, dir, x1), or use "
+                "movx(y, x0, dir) to only move"
+            )
+        if not isinstance(x1, Direction):
+            raise RegisterMisuseError(
+                f"{call}: the third argument must be a direction in the four-argument form "
+                "sub(y, x0, dir, x1); for y := x0 - x1 write sub(y, x0, x1)"
+            )
+        d = _dir(x1, call)
+        self._emit(expand(call, [("bus", (NEWS,), (x0,)), ("bus", (y,), (_READ_FROM[d], x2))]))
 
     def neg(self, y: Register, x0: Register) -> None:
         """``y := -x0``; 2 ICWs, NEWS := 0."""
@@ -325,12 +348,44 @@ class ProgramAPI:
 
     def newsblur(self, y: Register, x: Register, iterations: int = 1) -> None:
         """Sum of the four neighbours (negated per pass), ``iterations`` times; NEWS scratch."""
-        call = _call("newsblur", (y, x, iterations))
+        self._newsblur("newsblur", y, x, iterations, (XE, XW, XN, XS))
+
+    def newsblurh(self, y: Register, x: Register, iterations: int = 1) -> None:
+        """Sum of the east and west neighbours, ``iterations`` times; NEWS scratch."""
+        self._newsblur("newsblurh", y, x, iterations, (XE, XW))
+
+    def newsblurv(self, y: Register, x: Register, iterations: int = 1) -> None:
+        """Sum of the north and south neighbours, ``iterations`` times; NEWS scratch."""
+        self._newsblur("newsblurv", y, x, iterations, (XN, XS))
+
+    def _newsblur(
+        self, name: str, y: Register, x: Register, iterations: int, nbrs: tuple[Register, ...]
+    ) -> None:
+        call = _call(name, (y, x, iterations))
         _check_iterations(call, iterations)
-        steps: list[Step] = [("bus", (NEWS,), (x,)), ("bus", (y,), (XE, XW, XN, XS))]
+        steps: list[Step] = [("bus", (NEWS,), (x,)), ("bus", (y,), nbrs)]
         for _ in range(1, iterations):
-            steps += [("bus", (NEWS,), (y,)), ("bus", (y,), (XE, XW, XN, XS))]
+            steps += [("bus", (NEWS,), (y,)), ("bus", (y,), nbrs)]
         self._emit(expand(call, steps))
+
+    def getpix(self, y: Register, h_or_res: Register, pix_res: Register | None = None) -> None:
+        """Read PIX against a stored reset level (no reset of PIX).
+
+        ``getpix(y, pix_res)``: ``y := PIX - pix_res`` (half range; 2 ICWs).
+        ``getpix(y, h, pix_res)``: ``h := -PIX``, ``y := 2 PIX - pix_res`` (full range;
+        3 ICWs). ``pix_res`` is a reset level kept earlier, e.g. by ``respix(pix_res)``.
+        """
+        if pix_res is None:
+            steps: list[Step] = [("bus", (NEWS,), (PIX,)), ("bus", (y,), (NEWS, h_or_res))]
+            self._macro("getpix", (y, h_or_res), steps)
+        else:
+            h = h_or_res
+            steps = [
+                ("bus", (h,), (PIX,)),
+                ("bus", (NEWS,), (PIX,)),
+                ("bus", (y,), (h, NEWS, pix_res)),
+            ]
+            self._macro("getpix", (y, h, pix_res), steps)
 
     def get_image(self, y: Register, h: Register | None = None) -> None:
         """Capture: ``y`` := full-range image (``h`` := its negated half) and reset PIX.
@@ -397,19 +452,54 @@ class ProgramAPI:
         """``d := d0 OR NOT d1``; 2 ICWs, clobbers R0."""
         call = _call("IMP", (d, d0, d1))
         _forbid(call, (d, d0, d1), (R0,), "IMP uses R0 as scratch")
+        _no_r12_dst(call, (d,))
         self._emit(expand(call, [("NOT", (R0,), (d1,)), ("OR", (d,), (d0, R0))]))
 
     def NIMP(self, d: Register, d0: Register, d1: Register) -> None:
         """``d := NOT d0 AND d1``; 2 ICWs, clobbers R0."""
         call = _call("NIMP", (d, d0, d1))
         _forbid(call, (d, d0, d1), (R0,), "NIMP uses R0 as scratch")
+        _no_r12_dst(call, (d,))
         self._emit(expand(call, [("NOT", (R0,), (d1,)), ("NOR", (d,), (d0, R0))]))
 
     def CLR_IF(self, d: Register, d0: Register) -> None:
         """``d := 0 where d0 = 1``; 2 ICWs, clobbers R0."""
         call = _call("CLR_IF", (d, d0))
         _forbid(call, (d, d0), (R0,), "CLR_IF uses R0 as scratch")
+        _no_r12_dst(call, (d,))
         self._emit(expand(call, [("NOT", (R0,), (d,)), ("NOR", (d,), (R0, d0))]))
+
+    def ANDX(self, d: Register, d0: Register, x: Register) -> None:
+        """``d := d0 AND x``, ``d0 := NOT x``; 3 ICWs, clobbers R0 (:= NOT d0)."""
+        self._andx("ANDX", d, d0, x, "NOR")
+
+    def NANDX(self, d: Register, d0: Register, x: Register) -> None:
+        """``d := NOT(d0 AND x)``, ``d0 := NOT x``; 3 ICWs, clobbers R0."""
+        self._andx("NANDX", d, d0, x, "OR")
+
+    def _andx(self, name: str, d: Register, d0: Register, x: Register, last: str) -> None:
+        call = _call(name, (d, d0, x))
+        _forbid(call, (d, d0, x), (R0,), f"{name} uses R0 as scratch")
+        _no_r12_dst(call, (d, d0))
+        _distinct(call, (d, d0))
+        steps: list[Step] = [("NOT", (R0,), (d0,)), ("NOT", (d0,), (x,)), (last, (d,), (R0, d0))]
+        self._emit(expand(call, steps))
+
+    def XORX(self, d: Register, d0: Register, d1: Register) -> None:
+        """``d := d0 XOR d1``, ``d0 := d0 AND NOT d1``; 6 ICWs, clobbers R0."""
+        call = _call("XORX", (d, d0, d1))
+        _forbid(call, (d, d0, d1), (R0,), "XORX uses R0 as scratch")
+        _no_r12_dst(call, (d, d0))
+        _distinct(call, (d, d0, d1))
+        steps: list[Step] = [
+            ("NOT", (R0,), (d1,)),
+            ("NOR", (d,), (d0, R0)),
+            ("NOT", (R0,), (d0,)),
+            ("NOR", (d0,), (d1, R0)),
+            ("LATCH", (), (d, d0)),
+            ("UNLATCH", (d,), ()),
+        ]
+        self._emit(expand(call, steps))
 
     def MUX(self, d: Register, sel: Register, d1: Register, d0: Register) -> None:
         """``d := d1 where sel = 1, else d0``; 5 ICWs, clobbers R0 (:= sel) and R12."""
@@ -456,6 +546,16 @@ class ProgramAPI:
                 ],
             )
         )
+
+
+def _no_r12_dst(call: str, dsts: Sequence[Register]) -> None:
+    """R12 is written only where R0 = 1, and these macros use R0 as their own scratch."""
+    for r in dsts:
+        if isinstance(r, Register) and r == R12:
+            raise RegisterMisuseError(
+                f"{call}: R12 cannot be the destination: it is written only where R0 = 1 and "
+                "this macro uses R0 as scratch; write to another register and MOV it"
+            )
 
 
 def _check_iterations(call: str, iterations: object) -> None:
