@@ -1,7 +1,9 @@
 """Datasets: the procedural generator's frame rate, frame loading and the sensor front-end.
 
 ``make bench`` runs these with pytest-benchmark; ``python benchmarks/bench_datasets.py``
-prints medians (milliseconds per frame, one core) and the generator's frames per second.
+prints medians (milliseconds per frame, one core) and the generator's frames per second;
+``python benchmarks/bench_datasets.py --difficulty`` prints how far each condition moves
+single-frame matching from the summer reference.
 
 Target: the generator renders at least 200 grey 256x256 frames per second per condition
 (median), so a 500-place route with its query is ready in a few seconds and tests can use
@@ -92,7 +94,39 @@ def median_ms(fn: Callable[[], object], repeats: int = 300) -> float:
     return 1e3 * statistics.median(times)
 
 
+def difficulty(places: int = 300, seed: int = 1) -> dict[str, float]:
+    """Share of queries whose best single-frame match is within +-1 place, per condition.
+
+    Frame-synchronised summer reference; 16x16 box thumbnails, each normalised to zero mean
+    and unit deviation, compared by mean absolute difference. A rough gauge of how much
+    each condition changes appearance, not a method under test.
+    """
+    from PIL import Image
+
+    def thumbs(frames) -> np.ndarray:
+        t = np.stack(
+            [np.asarray(Image.fromarray(f).resize((16, 16), Image.Resampling.BOX)) for f in frames]
+        ).astype(np.float32)
+        t -= t.mean(axis=(1, 2), keepdims=True)
+        t /= t.std(axis=(1, 2), keepdims=True) + 1e-6
+        return t.reshape(len(t), -1)
+
+    out = {}
+    for name in CONDITIONS:
+        ds = load_dataset(f"synthetic:?places={places}&sync=1&seed={seed}&query={name}")
+        ref, qry = thumbs(ds.reference), thumbs(ds.query)
+        best = np.abs(qry[:, None, :] - ref[None, :, :]).mean(-1).argmin(1)
+        out[name] = float(np.mean(np.abs(best - np.arange(len(qry))) <= 1))
+    return out
+
+
 if __name__ == "__main__":
+    import sys
+
+    if "--difficulty" in sys.argv:
+        for name, share in difficulty().items():
+            print(f"summer -> {name:<7} single-frame top-1 within +-1 place: {share:6.1%}")
+        raise SystemExit(0)
     for name, fn in CASES.items():
         ms = median_ms(fn)
         note = ""
