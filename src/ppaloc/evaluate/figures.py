@@ -46,6 +46,15 @@ def _colours(names: Sequence[str]) -> dict[str, Any]:
     return {name: cmap(i % 10) for i, name in enumerate(names)}
 
 
+def _plain_log_ticks(axis: Any) -> None:
+    """Label a log axis 0.2, 1, 10 rather than 2x10^-1, 10^0, 10^1."""
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_locator(LogLocator(base=10, subs=(2.0, 5.0)))
+    axis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+
+
 def png_bytes(fig: Figure) -> bytes:
     """The figure as PNG bytes."""
     import matplotlib as mpl
@@ -58,7 +67,7 @@ def png_bytes(fig: Figure) -> bytes:
 
 def pr_curves(result: RunResult) -> Figure:
     """Precision against recall of every method in one plot, max-F1 points marked."""
-    fig = _figure(7.0, 4.6)
+    fig = _figure(10.0, 5.2)
     ax = fig.add_subplot()
     colours = _colours(list(result.runs))
     definition = "A"
@@ -84,7 +93,7 @@ def pr_curves(result: RunResult) -> Figure:
     ax.set_ylabel("precision")
     ax.set_title(f"Precision-recall, {result.dataset_name} (dots: max F1)")
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower left", frameon=True)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return fig
 
 
@@ -128,7 +137,7 @@ def weights_heatmaps(result: RunResult) -> Figure | None:
     runs = [r for r in result.runs.values() if r.weights is not None]
     if not runs:
         return None
-    fig = _figure(11.0, 3.2 * len(runs) + 0.4)
+    fig = _figure(11.0, 2.6 * len(runs) + 0.4)
     axes = fig.subplots(len(runs), 1, squeeze=False)[:, 0]
     truth = _true_reference(result.ground_truth)
     for ax, run in zip(axes, runs, strict=True):
@@ -159,9 +168,11 @@ def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:
     rows = bench.get("rows", []) if bench else []
     if not rows:
         return None
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
     names = list(dict.fromkeys(r["method"] for r in rows))
     colours = _colours(names)
-    fig = _figure(7.0, 4.4)
+    fig = _figure(10.0, 4.8)
     ax = fig.add_subplot()
     for name in names:
         rs = sorted((r for r in rows if r["method"] == name), key=lambda r: r["n_nodes"])
@@ -172,18 +183,22 @@ def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:
         ax.fill_between(n, med, p95, color=colours[name], alpha=0.15, lw=0)
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
+    ax.set_xticks(sorted({r["n_nodes"] for r in rows}))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    _plain_log_ticks(ax.yaxis)
     ax.set_xlabel("map size (nodes)")
     ax.set_ylabel("host time per frame (ms, median; band to p95)")
     ax.set_title("Latency against map size (random maps)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(loc="upper left")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return fig
 
 
 def latency_per_frame(result: RunResult) -> Figure:
     """Distribution of host time per frame of every method in this run (box plot)."""
     names = list(result.runs)
-    fig = _figure(7.0, 0.45 * len(names) + 1.4)
+    fig = _figure(10.0, 0.45 * len(names) + 1.4)
     ax = fig.add_subplot()
     data = [np.asarray(result.runs[n].latency_ms) for n in names]
     import matplotlib as mpl
@@ -194,6 +209,7 @@ def latency_per_frame(result: RunResult) -> Figure:
     kw.update({"orientation": "horizontal"} if version >= (3, 10) else {"vert": False})
     ax.boxplot(data, showfliers=False, **kw)
     ax.set_xscale("log")
+    _plain_log_ticks(ax.xaxis)
     ax.set_xlabel("host time per frame (ms)")
     ax.set_title(f"Host time per frame, {result.dataset_name} (whiskers 1.5 IQR)")
     ax.grid(alpha=0.3, axis="x", which="both")

@@ -26,13 +26,17 @@ from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
 from ppaloc.evaluate.results import atomic_write, load_results
 from ppaloc.evaluate.run import RunResult
 
-__all__ = ["REPRESENTATIONS", "comparison_table", "write_report"]
+__all__ = ["REPRESENTATIONS", "comparison_table", "paper_table", "write_report"]
 
 log = logging.getLogger(__name__)
 
 REPRESENTATIONS = {
     "lowres": "8x8 image, SAD",
     "lbp": "32-bit LBP, Hamming",
+    "seqslam": "patch-normalised image, SAD",
+    "single-frame": "patch-normalised image, SAD",
+    "particle-filter": "patch-normalised image",
+    "able-m": "LDB binary code, Hamming",
 }
 """Map kind -> how the report names the place representation."""
 
@@ -108,6 +112,59 @@ def comparison_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]
     return header, rows
 
 
+_SUFFIXES = {"-lowres": "lowres", "-lbp": "lbp"}
+_COLUMNS = (("lowres", "8x8 image"), ("lbp", "32-bit LBP"), ("own", "method's own"))
+
+
+def _family(name: str, kind: str) -> tuple[str, str]:
+    """(method family, representation column) of a method: ``weighted-node-lbp`` ->
+    (``weighted-node``, ``lbp``); a baseline is its own family in the ``own`` column."""
+    for suffix, rep in _SUFFIXES.items():
+        if name.endswith(suffix):
+            return name[: -len(suffix)], rep
+    return name, kind if kind in ("lowres", "lbp") else "own"
+
+
+def paper_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    """The comparison in the layout of the paper's Table I: one row per method family,
+    per representation the max F1 and the frame time (host median / modelled on-sensor).
+
+    Parameters
+    ----------
+    summary : dict
+        The content of ``results.json``.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+        Empty cells (``""``) where a family has no method with that representation.
+    """
+    cells: dict[str, dict[str, dict[str, Any]]] = {}
+    for name, m in summary["methods"].items():
+        family, rep = _family(name, m.get("map_kind", ""))
+        cells.setdefault(family, {})[rep] = m
+    used = [(rep, label) for rep, label in _COLUMNS if any(rep in c for c in cells.values())]
+    header = ["Method"]
+    for _, label in used:
+        header += [f"F1 ({label})", f"ms/frame host | on-sensor ({label})"]
+    rows = []
+    for family, reps in cells.items():
+        row = [family]
+        for rep, _ in used:
+            m = reps.get(rep)
+            if m is None:
+                row += ["", ""]
+                continue
+            modelled = m.get("modelled_latency_ms")
+            row += [
+                _fmt(m["f1_max"]),
+                f"{_ms(m['latency_ms_median'])} | {_ms(modelled)}",
+            ]
+        rows.append(row)
+    return header, rows
+
+
 def _extra_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     header = [
         "Method",
@@ -175,8 +232,8 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
             "position",
             "Position estimate along the route",
             "Grey: the true reference frame (middle of the accepted set) of each query; "
-            "dots: the predicted reference frame, green when within the tolerance of "
-            f"{result.tolerance} frames, red otherwise.",
+            "dots: the predicted reference frame, green when within the tolerance "
+            f"(±{result.tolerance}), red otherwise.",
             figures.png_bytes(figures.position_along_route(result)),
         ),
     ]
@@ -247,7 +304,7 @@ def _html_table(header: list[str], rows: list[list[str]], best_cols: tuple[int, 
         for i, v in enumerate(r):
             cls = (
                 ' class="best"'
-                if i in best and best[i] is not None and v != "-" and float(v) == best[i]
+                if i in best and best[i] is not None and v not in ("-", "") and float(v) == best[i]
                 else ""
             )
             cells.append(f"<td{cls}>{html.escape(v)}</td>")
@@ -297,13 +354,15 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
     bench = load_bench(bench_path if bench_path is not None else folder / "bench.json")
     figs = _figures(result, bench)
     header, rows = comparison_table(summary)
+    pheader, prows = paper_table(summary)
     xheader, xrows = _extra_table(summary)
     title = f"ppaloc report: {result.dataset_name}"
     n_q = len(result.ground_truth)
     n_match = sum(1 for g in result.ground_truth if len(g))
     meta = (
         f"Dataset `{result.dataset}`: {result.n_reference} reference frames, {n_q} query "
-        f"frames ({n_match} with a true match), tolerance {result.tolerance} frames. "
+        f"frames ({n_match} with a true match), tolerance ±{result.tolerance} "
+        f"frame{'' if result.tolerance == 1 else 's'}. "
         f"ppaloc {result.ppaloc_version}, {result.created}."
     )
     meta_html = html.escape(meta).replace("`", "<code>", 1).replace("`", "</code>", 1)
@@ -311,7 +370,12 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
         f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
         f"<h1>{html.escape(title)}</h1><p class='meta'>{meta_html}</p>",
-        "<h2>Comparison</h2>",
+        "<h2>Comparison (layout of the paper's Table I)</h2>",
+        "<p>Max F1 per method and place representation; frame time as host wall clock "
+        "(median over the query frames) | modelled on-sensor time (simulated methods "
+        "only). Best F1 per column in bold green.</p>",
+        _html_table(pheader, prows, best_cols=tuple(range(1, len(pheader), 2))),
+        "<h2>All metrics</h2>",
         _html_table(header, rows, best_cols=(2, 5, 6, 7)),
         _html_table(xheader, xrows, best_cols=(1, 2, 3)),
     ]
@@ -330,7 +394,8 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
     out = atomic_write(folder / "report.html", "\n".join(parts))
 
     md = [f"# {title}", "", meta, ""]
-    md += ["## Comparison", "", _md_table(header, rows), "", _md_table(xheader, xrows), ""]
+    md += ["## Comparison (layout of the paper's Table I)", "", _md_table(pheader, prows), ""]
+    md += ["## All metrics", "", _md_table(header, rows), "", _md_table(xheader, xrows), ""]
     for f in figs:
         rel = f"figures/{f.key}.png"
         atomic_write(folder / rel, f.png)
