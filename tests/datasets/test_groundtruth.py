@@ -147,3 +147,39 @@ def test_truth_mat(tmp_path):
     (tmp_path / "junk.mat").write_bytes(b"not a mat file at all")
     with pytest.raises(DataError, match="cannot read ground-truth matrix"):
         read_truth_mat(tmp_path / "junk.mat")
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.floats(-8, 40, allow_nan=False),
+    st.integers(1, 30),
+    st.integers(0, 5),
+)
+def test_from_positions_properties(p, n_ref, tol):
+    (got,) = from_positions(np.array([p]), n_ref, tol)
+    assert np.all((got >= 0) & (got < n_ref))
+    assert np.all(np.abs(got - p) <= tol + 0.5 + 1e-9)
+    if got.size:
+        assert np.array_equal(got, np.arange(got[0], got[-1] + 1))  # contiguous
+    nearest = int(np.floor(p + 0.5))
+    if 0 <= nearest < n_ref:
+        assert nearest in got
+    assert got.size <= 2 * tol + 2
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(2, 12), st.randoms(use_true_random=False))
+def test_fuzz_truth_mat_roundtrip(tmp_path_factory, n, rnd):
+    t = np.array([[rnd.random() < 0.2 for _ in range(n)] for _ in range(n)], np.uint8)
+    path = tmp_path_factory.mktemp("mat") / "gt.mat"
+    savemat(path, {"truth": t})
+    assert np.array_equal(read_truth_mat(path), t != 0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.binary(max_size=300))
+def test_fuzz_truth_mat_random_bytes_only_data_error(tmp_path_factory, payload):
+    path = tmp_path_factory.mktemp("mat") / "gt.mat"
+    path.write_bytes(payload)
+    with pytest.raises(DataError):
+        read_truth_mat(path)
