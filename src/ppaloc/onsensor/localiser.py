@@ -1,0 +1,202 @@
+"""``OnSensorLocaliser``: the weighted-node filter run as PPA programs on the simulator.
+
+It implements :class:`ppaloc.localise.base.Localiser`, so evaluation treats it like any
+other method. The map lives in the simulated sensor's registers (written by
+:func:`ppaloc.onsensor.mapping.upload_map`), and every frame runs the pipeline of
+:class:`ppaloc.onsensor.pipeline.SensorPipeline`. In ideal mode the estimates equal those
+of ``WeightedNodeLocaliser(arithmetic="ppa8")`` with the same parameters (docs/ppa8.md,
+docs/onsensor.md); with a noise preset they show what the analogue array does to them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.base import Estimate
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.onsensor.mapping import upload_map
+from ppaloc.onsensor.pipeline import PipelineParams, SensorPipeline
+from ppaloc.topomap import TopoMap, build_topomap
+
+__all__ = ["NOISE_PRESETS", "OnSensorLocaliser"]
+
+NOISE_PRESETS = ("ideal", "low", "typical", "high")
+
+
+class OnSensorLocaliser:
+    """The paper's system on a simulated SCAMP-5: map in registers, filter as PPA programs.
+
+    Parameters
+    ----------
+    representation : {"lowres", "lbp"}
+        8x8 images in an analogue register (8x8 PEs per node, 1024 per tile) or 32-bit
+        LBP descriptors in a digital register (4x8 PEs per node, 2048 per tile).
+    noise : {"ideal", "low", "typical", "high"}
+        The simulator's noise preset.
+    seed : int
+        Seed of the simulator's noise.
+    alpha, gamma, k, shift, motion, confidence_radius, record_weights, oracle_moves,
+    motion_margin, motion_shift, motion_min_support
+        As for :class:`ppaloc.localise.weighted.WeightedNodeLocaliser` (``arithmetic`` is
+        always ``"ppa8"``, the register arithmetic).
+    ranking_k : int
+        Accepted for compatibility; the sensor reports no ranking (``ranking=None``).
+    size : int
+        Array side, 256 as on SCAMP-5 (smaller arrays are for tests of the stages).
+
+    Notes
+    -----
+    ``score`` is the integer detection threshold ``T = floor(max W)`` minus the same
+    threshold outside nodes ``node - R .. node + R``, both found by ``global_or`` searches
+    (the host reports the unrounded difference). ``weights`` (with ``record_weights``)
+    are read from the weight register as an untimed inspection.
+    """
+
+    def __init__(
+        self,
+        representation: str = "lowres",
+        noise: str = "ideal",
+        seed: int = 0,
+        *,
+        alpha: int | None = None,
+        gamma: float = 0.5,
+        k: int = 4,
+        shift: int = 2,
+        motion: str = "image",
+        arithmetic: str = "ppa8",
+        confidence_radius: int = 10,
+        ranking_k: int = 10,
+        record_weights: bool = False,
+        oracle_moves: Sequence[bool] | np.ndarray | None = None,
+        motion_margin: int = 3,
+        motion_shift: int = 7,
+        motion_min_support: int = 1024,
+        size: int = 256,
+    ) -> None:
+        if noise not in NOISE_PRESETS:
+            raise PpalocError(f"noise={noise!r} is not one of {', '.join(NOISE_PRESETS)}")
+        if arithmetic != "ppa8":
+            raise PpalocError(
+                f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "
+                "use arithmetic='ppa8' (or the host WeightedNodeLocaliser for 'float')"
+            )
+        # The host filter validates every shared parameter and chooses alpha from the map.
+        self._host = WeightedNodeLocaliser(
+            representation,
+            alpha=alpha,
+            gamma=gamma,
+            k=k,
+            shift=shift,
+            motion=motion,
+            arithmetic="ppa8",
+            confidence_radius=confidence_radius,
+            ranking_k=ranking_k,
+            oracle_moves=oracle_moves,
+            motion_margin=motion_margin,
+            motion_shift=motion_shift,
+            motion_min_support=motion_min_support,
+        )
+        if shift > 8:
+            raise PpalocError(f"shift={shift} is too large for the sensor; use 0..8")
+        self.representation = representation
+        self.noise = noise
+        self.seed = int(seed)
+        self.size = int(size)
+        self.record_weights = bool(record_weights)
+        self.motion = motion
+        self._moves = None if oracle_moves is None else np.asarray(oracle_moves, bool)
+        self.name = f"onsensor-{representation}"
+        self.topomap: TopoMap | None = None
+        self.pipeline: SensorPipeline | None = None
+        self._n = 0
+
+    @property
+    def alpha(self) -> float | None:
+        """The likelihood offset in use (chosen from the map when not given)."""
+        return self._host.alpha
+
+    # -- map ---------------------------------------------------------------------------
+    def build_map(self, frames: Iterable[np.ndarray]) -> TopoMap:
+        """Build the map from a reference traversal (one node per frame) and write it."""
+        frames = list(frames)
+        if not frames:
+            raise PpalocError("the reference traversal is empty: a map needs at least one frame")
+        topomap = build_topomap(frames, self.representation)
+        self.use_map(topomap)
+        return topomap
+
+    def use_map(self, topomap: TopoMap) -> None:
+        """Write ``topomap`` into a fresh simulated sensor and localise against it."""
+        self._host.use_map(topomap)
+        h = self._host
+        params = PipelineParams(
+            alpha=int(h.alpha),
+            gamma=h.gamma,
+            k=h.k,
+            shift=h.shift,
+            motion="always_forward" if h.motion == "always_forward" else "image",
+            margin=h._motion.margin if h.motion == "image" else 3,
+            motion_shift=h._motion.shift if h.motion == "image" else 7,
+            min_support=h._motion.min_support if h.motion == "image" else 1024,
+            confidence_radius=h.confidence_radius,
+        )
+        self.pipeline = SensorPipeline(
+            self.representation,
+            len(topomap),
+            params,
+            noise=self.noise,
+            seed=self.seed,
+            size=self.size,
+        )
+        upload_map(self.pipeline, topomap)
+        self.topomap = topomap
+        self.reset()
+
+    # -- per query ---------------------------------------------------------------------
+    def reset(self) -> None:
+        """Zero the weight register and forget the previous frame (the map stays)."""
+        if self.pipeline is not None:
+            self.pipeline.reset()
+        self._n = 0
+
+    def step(self, frame: np.ndarray) -> Estimate:
+        """Localise one sensor frame ((size, size) uint8) on the simulated sensor."""
+        pipe = self.pipeline
+        if pipe is None:
+            raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
+        frame = np.asarray(frame)
+        if frame.dtype != np.uint8 or frame.shape != (self.size, self.size):
+            raise PpalocError(
+                f"a sensor frame must be uint8 of shape ({self.size}, {self.size}), got "
+                f"{frame.dtype} {frame.shape}: convert frames with ppaloc.datasets.to_sensor"
+            )
+        moved = None
+        if self.motion == "oracle":
+            if self._n >= len(self._moves):
+                raise PpalocError(
+                    f"the oracle motion model has {len(self._moves)} ground-truth moves but "
+                    f"was asked for frame {self._n}; pass oracle_moves covering every frame"
+                )
+            moved = bool(self._moves[self._n])
+        self._n += 1
+        timing = pipe.sim.timing
+        t0, e0 = timing.now_us, timing.energy_uj
+        node, score, moved, _ = pipe.step(frame, moved)
+        weights = pipe.weights() if self.record_weights else None
+        return Estimate(
+            node=int(node),
+            score=float(score),
+            moved=moved,
+            ranking=None,
+            weights=weights,
+            modelled_latency_ms=(timing.now_us - t0) / 1000.0,
+            energy_mj=(timing.energy_uj - e0) / 1000.0,
+        )
+
+    def localise(self, frames: Iterable[np.ndarray]) -> list[Estimate]:
+        """``reset()``, then ``step`` every frame in order."""
+        self.reset()
+        return [self.step(f) for f in frames]

@@ -1,0 +1,85 @@
+"""Writing a map into the sensor's registers, as the controller would on SCAMP-5.
+
+The controller can reach individual PEs only through address patterns (``load_rect``,
+``load_point``, ``load_pattern``) and the DAC (``scamp5_in``). A map is written plane by
+plane in the snake layout of :mod:`ppaloc.topomap.layout`:
+
+- low-res nodes (``n = q/2 - 64``) into an analogue register: for every distinct value
+  ``2n = q - 128`` the controller ORs one ``load_rect`` per horizontal run of PEs holding
+  it into a digital mask, loads the value through the DAC where the mask is set, and at
+  the end one halving turns ``2n`` into ``n`` exactly;
+- LBP descriptors into a digital register: one ``load_rect`` per run of set bits, ORed.
+
+Everything is charged to the stage ``"mapping"``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ppaloc.onsensor.pipeline import SensorPipeline
+from ppaloc.sim import D, NEWS, Register
+from ppaloc.topomap import TopoMap
+
+__all__ = ["lbp_bits", "row_runs", "upload_map"]
+
+
+def lbp_bits(descriptors: np.ndarray) -> np.ndarray:
+    """Per-node 4x8 bit blocks: bit ``31 - b`` of each code at block PE ``(b // 8, b % 8)``."""
+    d = np.asarray(descriptors, dtype=np.uint32).reshape(-1)
+    shifts = np.arange(31, -1, -1, dtype=np.uint32)
+    return ((d[:, None] >> shifts) & 1).astype(bool).reshape(-1, 4, 8)
+
+
+def row_runs(plane: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """Maximal horizontal runs of equal values: ``(value, row, col0, col1)`` (inclusive)."""
+    runs = []
+    rows, cols = plane.shape
+    for r in range(rows):
+        row = plane[r]
+        starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+        ends = np.r_[starts[1:], cols] - 1
+        for c0, c1 in zip(starts, ends, strict=True):
+            runs.append((int(row[c0]), r, int(c0), int(c1)))
+    return runs
+
+
+def _mask_from_runs(pipe: SensorPipeline, target: Register, runs) -> None:
+    sim, dr = pipe.sim, pipe.dr
+    pipe._run(f"clr_{target.name}", lambda k: k.CLR(target))
+    for _, r, c0, c1 in runs:
+        sim.load_rect(dr.tmp_a, r, c0, r, c1)
+        pipe._run(f"or_{target.name}_tmp_a", lambda k: k.OR(target, dr.tmp_a))
+
+
+def upload_map(pipe: SensorPipeline, topomap: TopoMap) -> None:
+    """Write ``topomap``'s nodes into ``pipe``'s database registers (timed, stage "mapping")."""
+    layout = pipe.layout
+    with pipe.sim.stage("mapping"):
+        if pipe.representation == "lowres":
+            planes = layout.to_planes(np.asarray(topomap.descriptors, np.uint8), fill=128)
+            for t, plane in enumerate(planes):
+                db = pipe.db[t]
+                pipe._run(f"res_{db.name}", lambda k, db=db: k.res(db))
+                values = plane.astype(np.int64) - 128
+                runs = [run for run in row_runs(values) if run[0] != 0]
+                runs.sort(key=lambda run: run[0])
+                by_value: dict[int, list] = {}
+                for run in runs:
+                    by_value.setdefault(run[0], []).append(run)
+                for value, group in by_value.items():
+                    _mask_from_runs(pipe, pipe.dr.tmp_b, group)
+                    pipe._run("where_tmp_b", lambda k: k.WHERE(pipe.dr.tmp_b))
+                    pipe.sim.scamp5_in(db, value)
+                    pipe._run("all", lambda k: k.all())
+
+                def halve(k, db=db):
+                    k.bus2(D, NEWS, db)  # D = -(2n)/2
+                    k.bus(db, D)
+
+                pipe._run(f"halve_{db.name}", halve)
+        else:
+            planes = layout.to_planes(lbp_bits(topomap.descriptors), fill=False)
+            for t, plane in enumerate(planes):
+                runs = [run for run in row_runs(plane.astype(np.int64)) if run[0]]
+                _mask_from_runs(pipe, pipe.db[t], runs)
