@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ppaloc.onsensor.pipeline import SensorPipeline
-from ppaloc.sim import D, NEWS, Register
+from ppaloc.sim import NEWS, D, Register
 from ppaloc.topomap import TopoMap
 
 __all__ = ["lbp_bits", "row_runs", "upload_map"]

@@ -25,7 +25,6 @@ R9-R11       candidates and temps                       candidates, database til
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -251,7 +250,7 @@ class SensorPipeline:
         sim, dr = self.sim, self.dr
         self._run("clr_valid", lambda k: k.CLR(dr.valid))
         cap = self.layout.capacity
-        rows, cols = self.layout.grid_shape
+        cols = self.layout.grid_shape[1]
         for t in range(self.tiles):
             local = min(self.n_nodes - t * cap, cap)
             full, rem = divmod(local, cols)
@@ -555,7 +554,7 @@ class SensorPipeline:
 
     def load_descriptor(self, code: int) -> None:
         """Replicate a 32-bit code into every 4x8 block of the descriptor register."""
-        sim, dr = self.sim, self.dr
+        sim = self.sim
         with sim.stage("lbp"):
             self._run("desc_clr", lambda k: k.CLR(R3))
             for b in range(32):
