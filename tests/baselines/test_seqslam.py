@@ -21,7 +21,8 @@ def naive_enhance(d: np.ndarray, window: int) -> np.ndarray:
     for i in range(n):
         v = d[max(0, i - half) : min(n, i + half + 1)]
         out[i] = (d[i] - v.mean()) / v.std(ddof=1)
-    return out - out.min()
+    m = 2 * half + 1
+    return out + (m - 1) / np.sqrt(m)
 
 
 def test_contrast_enhance_matches_the_definition() -> None:
@@ -33,13 +34,23 @@ def test_contrast_enhance_matches_the_definition() -> None:
 
 
 def test_contrast_enhance_golden_and_switched_off() -> None:
-    # window 2 -> neighbours +-1; d = [0, 3, 0]: node 0 window [0, 3] -> z = -1/sqrt(2) ...
+    # window 2 -> neighbours +-1, full window m = 3, shift (m - 1) / sqrt(m) = 2 / sqrt(3).
+    # d = [0, 3, 0]: node 0 sees [0, 3] -> z = -1.5 / sqrt(4.5); node 1 sees all three.
     d = np.array([0.0, 3.0, 0.0])
     z0 = (0 - 1.5) / np.sqrt(4.5)
     z1 = (3 - 1.0) / np.sqrt(3.0)
-    expected = np.array([z0, z1, z0]) - z0
+    expected = np.array([z0, z1, z0]) + 2 / np.sqrt(3)
     np.testing.assert_allclose(contrast_enhance(d, 2), expected)
-    np.testing.assert_allclose(contrast_enhance(d + 2.0, 0), d)
+    np.testing.assert_allclose(contrast_enhance(d + 2.0, 0), d + 2.0)
+
+
+def test_contrast_enhance_is_never_negative() -> None:
+    # The worst case for node 5: one low value among ten equal ones in its full window.
+    d = np.ones(11)
+    d[5] = 0.0
+    out = contrast_enhance(d, 10)
+    assert out[5] == pytest.approx(0.0, abs=1e-12)
+    assert np.all(out >= -1e-12)
 
 
 def test_trajectory_offsets_are_exact_floors_without_duplicates() -> None:

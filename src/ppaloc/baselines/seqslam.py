@@ -62,22 +62,23 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
     window : int
         OpenSeqSLAM's ``contrastEnhancement.R``: entry ``i`` is normalised by the mean and
         standard deviation (Bessel-corrected) of entries ``i - window//2 .. i + window//2``
-        (cut at the ends of the map). ``window=0`` switches the enhancement off (only the
-        per-column shift to a zero minimum is applied).
+        (cut at the ends of the map). ``window=0`` switches the enhancement off.
 
     Returns
     -------
     ndarray of float64, same shape
-        ``(d_i - mean) / std``, then shifted so each column's minimum is 0. Where the local
-        deviation is 0 (or the window holds one entry) the enhanced value is 0 before the
-        shift.
+        ``(d_i - mean) / std + (m - 1) / sqrt(m)`` with ``m = 2 * (window // 2) + 1`` the
+        full window length. A z-score within a window of ``m`` values is never below
+        ``-(m - 1) / sqrt(m)``, so the shift makes every value non-negative with a constant
+        that is known before any frame arrives. Where the local deviation is 0 (or the
+        window holds one entry) the z-score is 0. ``window=0`` returns ``d`` unchanged.
 
     Notes
     -----
     OpenSeqSLAM subtracts the minimum of the *whole* enhanced matrix, which needs every
-    query frame; the per-column minimum used here is known when the column arrives. The
-    shift does not move the best trajectory (all complete trajectories have the same number
-    of cells) but it does change the uniqueness ratio.
+    query frame. A constant shift leaves the ranking of trajectories of equal length
+    unchanged, keeps the uniqueness ratio comparable from frame to frame, and (unlike a
+    per-column minimum) does not give a one-frame trajectory a cost of exactly 0.
     """
     d = np.asarray(column, dtype=np.float64)
     squeeze = d.ndim == 1
@@ -85,7 +86,7 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
         d = d[:, None]
     n = d.shape[0]
     if int(window) == 0:
-        return (d - d.min(axis=0, keepdims=True))[:, 0] if squeeze else d - d.min(axis=0)
+        return d[:, 0].copy() if squeeze else d.copy()
     half = int(window) // 2
     zero = np.zeros((1, d.shape[1]))
     c1 = np.concatenate((zero, np.cumsum(d, axis=0)))
@@ -101,7 +102,8 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
     std = np.sqrt(var)
     ok = (std > 1e-12 * np.maximum(np.abs(mean), 1.0)) & (count > 1)
     out = np.where(ok, (d - mean) / np.where(ok, std, 1.0), 0.0)
-    out -= out.min(axis=0, keepdims=True)
+    m = 2 * half + 1
+    out += (m - 1) / np.sqrt(m)
     return out[:, 0] if squeeze else out
 
 
