@@ -33,6 +33,12 @@ class FrameSequence(Sequence[np.ndarray]):
     cache : int
         How many frames to keep (0 disables the cache).
 
+    Examples
+    --------
+    >>> seq = FrameSequence(lambda i: np.full((2, 2), i, np.uint8), range(10))
+    >>> len(seq[2:8:2]), int(seq[2:8:2][1][0, 0]), [int(f[0, 0]) for f in seq[[9, 0]]]
+    (3, 4, [9, 0])
+
     Notes
     -----
     Returned frames are read-only views of the cached array, so a caller cannot alter what
@@ -62,11 +68,17 @@ class FrameSequence(Sequence[np.ndarray]):
     def __getitem__(self, item: int) -> np.ndarray: ...
 
     @overload
-    def __getitem__(self, item: slice) -> FrameSequence: ...
+    def __getitem__(self, item: slice | Sequence[int]) -> FrameSequence: ...
 
-    def __getitem__(self, item: int | slice) -> np.ndarray | FrameSequence:
+    def __getitem__(self, item: int | slice | Sequence[int]) -> np.ndarray | FrameSequence:
         if isinstance(item, slice):
             return self.select(self._indices[item], positional=False)
+        if isinstance(item, (list, tuple, np.ndarray)):
+            idx = np.asarray(item, dtype=np.int64).ravel()
+            n = len(self)
+            if idx.size and (idx.min() < -n or idx.max() >= n):
+                raise IndexError(f"frame indices out of range for {n} frames")
+            return self.select(idx % n if n else idx)
         i = int(item)
         n = len(self)
         if i < 0:

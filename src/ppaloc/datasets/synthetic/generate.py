@@ -66,7 +66,6 @@ def synthetic_route(
             "spacing_m": spacing,
             "conditions": (ref, query),
             "sync": sync,
-            "world": world,
         },
     )
 
