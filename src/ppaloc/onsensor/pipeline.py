@@ -418,22 +418,21 @@ class SensorPipeline:
             pull_shift(sim, E, west, bw)
             self._root_pattern(dr.cand, None, row_mod=2)
             self._run("w_write_e", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
-            sim.shift(D, bw, -bh)  # D held -w[c + bw]; now -w[r - bh, c]
+            # row starts take the row end above: odd rows from the west copy (col 0)...
             tcx = 1 if self.tiles > 1 else 0
-            even_r, odd_r, rx = 0, bh, _mask_bits(2 * bh)
-            sim.load_pattern(dr.cand, even_r, n - bw, rx, tcx)
-            sim.load_pattern(dr.tmp_a, odd_r, 0, rx, tcx)
-
-            def south_write(k):
-                k.OR(dr.tmp_b, dr.cand, dr.tmp_a)
-                k.WHERE(dr.tmp_b)
-                k.bus(_W, D)
-                k.all()
-
-            self._run("w_south", south_write)
+            rx = _mask_bits(2 * bh)
+            sim.shift(E, -bw, -bh)  # E held -w[c - bw]; now -w[r - bh, c]
+            sim.load_pattern(dr.cand, bh, 0, rx, tcx)
+            self._run("w_write_e", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
             if self.tiles > 1:
-                # the last node of tile 0 (block row end, bottom right) feeds node 0 of tile 1
-                sim.shift(E, 1 - bw, n - bh)
+                # the last node of tile 0 (bottom right) feeds node 0 of tile 1 (top right)
+                self._run("w_carry", lambda k: k.mov(E, D))  # -w[c + bw]
+                sim.shift(E, bw + 1, n - bh)
+            # ... even rows from the east copy (last column)
+            sim.shift(D, bw, -bh)  # D held -w[c + bw]; now -w[r - bh, c]
+            sim.load_pattern(dr.cand, 0, n - bw, rx, tcx)
+            self._run("w_write_d", lambda k: (k.WHERE(dr.cand), k.bus(_W, D), k.all()))
+            if self.tiles > 1:
                 sim.load_point(dr.cand, 0, n - bw + 1)
                 self._run("w_write_e", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
 
