@@ -84,7 +84,9 @@ class Condition:
     foliage : float
         Fraction of a deciduous crown that has leaves (winter 0.0: bare branches).
     night : bool
-        Ambient light low, headlights and street lamps on, windows lit.
+        Lights on: headlights, street lamps, lit windows; daylight reduced to ``ambient``.
+    ambient : float
+        With ``night``, the light left away from lamps and headlights (fraction of day).
     offset : float
         The camera's lateral offset from the reference lane position (m).
     """
@@ -105,6 +107,7 @@ class Condition:
     foliage: float = 1.0
     snow: bool = False
     night: bool = False
+    ambient: float = 0.16
     offset: float = 0.0
 
     def rgb_lut(self) -> np.ndarray:
@@ -182,6 +185,21 @@ CONDITIONS: dict[str, Condition] = {
         noise_sigma=6.0,
         night=True,
         offset=0.6,
+    ),
+    "dusk": Condition(
+        "dusk",
+        palette={"window_lit": (255, 210, 140), "lamp": (255, 235, 190)},
+        sky_top=(60, 70, 120),
+        sky_horizon=(235, 150, 90),
+        cloud_cover=0.3,
+        cloud_colour=(200, 120, 110),
+        gain=0.95,
+        fog_distance=300.0,
+        fog_colour=(150, 110, 100),
+        noise_sigma=4.0,
+        night=True,
+        ambient=0.5,
+        offset=-0.3,
     ),
 }
 """The named conditions; ``summer`` is the usual reference."""

@@ -95,7 +95,8 @@ def make_synthetic(
     places : int
         Reference frames: one per place, ``spacing`` metres apart.
     ref, query : str
-        Conditions of the two traversals (``summer``, ``autumn``, ``winter``, ``night``).
+        Conditions of the two traversals (``summer``, ``autumn``, ``winter``, ``night``,
+        ``dusk``).
     seed : int
         Seeds the world, the query's motion, clouds and noise: same seed, same bytes.
     sync : bool

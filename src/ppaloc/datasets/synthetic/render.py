@@ -37,9 +37,6 @@ LANE_CENTRE = ROAD_HALF / 2
 LAMP_HEIGHT = 6.4
 """Height of a street lamp's head (m)."""
 
-NIGHT_AMBIENT = 0.16
-"""Light at night away from lamps and headlights, as a fraction of daylight."""
-
 Z_NEAR, Z_FAR = 1.0, 170.0
 """Objects are drawn between these depths (m); fog hides the far end."""
 
@@ -447,7 +444,7 @@ class Renderer:
         np.exp(-head, out=head)
         head *= self.beam_night[None, :]
         light = head
-        light += np.float32(NIGHT_AMBIENT)
+        light += np.float32(self.cond.ambient)
         lamps = self.world.lamps
         j0, j1 = np.searchsorted(lamps[:, 0], [s_cam + 1.0, s_cam + 90.0])
         reach = 9.0  # metres a lamp visibly lights
