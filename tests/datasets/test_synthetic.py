@@ -96,7 +96,7 @@ def test_forward_motion_flows_outwards():
     s0 = float(world.sprites.s[np.searchsorted(world.sprites.s, 120.0)])
     cols = []
     for d in (40.0, 30.0, 20.0):
-        _mat, _, depth, _ = r.geometry(s0 - d, LANE_CENTRE)
+        _mat, _, depth = r.geometry(s0 - d, LANE_CENTRE)
         hit = np.isclose(depth, d, atol=1e-3)
         assert hit.any()
         cols.append(np.abs(np.flatnonzero(hit.any(axis=0)) + 0.5 - r.cx).mean())
@@ -125,3 +125,14 @@ def test_bad_generator_arguments():
         make_synthetic(places=10, query="spring")
     with pytest.raises(DataError, match="places=1"):
         make_synthetic(places=1)
+
+
+def test_ground_depth_follows_the_pinhole_model():
+    # Camera 1.6 m high, f = 0.6 * 100 = 60 px, horizon at row 47: the bottom row's centre
+    # (y = 99.5) sees the road at 60 * 1.6 / (99.5 - 47) = 1.8286 m.
+    r = Renderer(make_world(100.0, seed=1), CONDITIONS["summer"], 100)
+    mat, _, depth = r.geometry(10.0, LANE_CENTRE)
+    assert depth[99, 50] == pytest.approx(60 * 1.6 / 52.5, rel=1e-6)
+    assert depth[60, 50] == pytest.approx(60 * 1.6 / 13.5, rel=1e-6)
+    assert mat[99, 50] == M["road"] and mat[0, 50] == M["sky"]
+    assert np.isinf(depth[0, 50])

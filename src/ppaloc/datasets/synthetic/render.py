@@ -119,7 +119,7 @@ class Renderer:
         cover *= np.clip(1.2 - t[:, :, 0], 0, 1)  # clouds thin out toward the horizon
         cloud = np.asarray(cond.cloud_colour, np.float32) * (0.8 + 0.25 * n2)[..., None]
         sky = grad * (1 - cover[..., None]) + cloud * cover[..., None]
-        if cond.night:
+        if cond.night and cond.ambient < 0.3:
             stars = rng.random((rows, 3 * S)) > 0.997
             sky[stars] = 120.0
         if self.C == 1:
@@ -133,22 +133,22 @@ class Renderer:
         ``key`` seeds what changes from frame to frame (snowflakes, sensor noise). Output is
         ``uint8``, shape (S, S) grey or (S, S, 3) colour.
         """
-        mat, shade, depth, ground = self.geometry(s_cam, x_cam)
-        return self.appearance(mat, shade, depth, ground, s_cam, x_cam, key)
+        mat, shade, depth = self.geometry(s_cam, x_cam)
+        return self.appearance(mat, shade, depth, s_cam, x_cam, key)
 
     # ------------------------------------------------------------------ geometry
-    def geometry(self, s_cam: float, x_cam: float):
-        """Material ids, shading and depth (m; ``inf`` for sky), each of shape (S, S)."""
+    def geometry(self, s_cam: float, x_cam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Material ids (``uint8``), shading and depth (m; ``inf`` for sky), each (S, S)."""
         S = self.S
         mat = np.full((S, S), M["sky"], np.uint8)
         shade = np.ones((S, S), np.float32)
         depth = np.full((S, S), np.inf, np.float32)
         self._hills(mat, depth, s_cam)
-        ground = self._ground(mat, shade, depth, s_cam, x_cam)
+        self._ground(mat, shade, depth, s_cam, x_cam)
         self._boxes(mat, shade, depth, s_cam, x_cam)
         self._planes(mat, shade, depth, s_cam, x_cam)
         self._sprites(mat, shade, depth, s_cam, x_cam)
-        return mat, shade, depth, ground
+        return mat, shade, depth
 
     def _hills(self, mat, depth, s_cam):
         S = self.S
@@ -188,7 +188,6 @@ class Renderer:
         mat[g] = m
         shade[g] = sh
         depth[g] = self.z_row[:, None]
-        return sw, xw
 
     def _columns(self, dx: float, za: float, zb: float):
         """Columns where a road-parallel plane at lateral ``dx`` spans depths [za, zb]."""
@@ -387,7 +386,7 @@ class Renderer:
                 self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, np.float32(z))
 
     # ------------------------------------------------------------------ appearance
-    def appearance(self, mat, shade, depth, ground, s_cam, x_cam, key) -> np.ndarray:
+    def appearance(self, mat, shade, depth, s_cam, x_cam, key) -> np.ndarray:
         """Turn geometry into a ``uint8`` frame under this renderer's condition."""
         cond, S = self.cond, self.S
         grey = self.C == 1
