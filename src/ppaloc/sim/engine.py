@@ -490,10 +490,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
                         t2[e] = 0
                     val = t2
                 noise.perturb(val, index, divided)  # noise of the written (receiving) cell
-                _clip(val, _LO, _HI, out=val)
                 if mask is None:
-                    np.copyto(plane, val)
+                    _clip(val, _LO, _HI, out=plane)  # straight into the destination
                 else:
+                    _clip(val, _LO, _HI, out=val)
                     blend(plane, val, mask)
 
         return run_ideal if ideal else run_noisy
