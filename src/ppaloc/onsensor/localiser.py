@@ -10,7 +10,8 @@ docs/onsensor.md); with a noise preset they show what the analogue array does to
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 
@@ -38,14 +39,18 @@ class OnSensorLocaliser:
         The simulator's noise preset.
     seed : int
         Seed of the simulator's noise.
-    alpha, gamma, k, shift, motion, confidence_radius, record_weights, oracle_moves,
-    motion_margin, motion_shift, motion_min_support
-        As for :class:`ppaloc.localise.weighted.WeightedNodeLocaliser` (``arithmetic`` is
-        always ``"ppa8"``, the register arithmetic).
-    ranking_k : int
-        Accepted for compatibility; the sensor reports no ranking (``ranking=None``).
+    arithmetic : {"ppa8"}
+        Always the register arithmetic (anything else is an error).
+    record_weights : bool
+        Put the weights (read from the register, untimed) in every Estimate.
     size : int
         Array side, 256 as on SCAMP-5 (smaller arrays are for tests of the stages).
+    **filter_params
+        The filter's parameters, with the defaults and checks of
+        :class:`ppaloc.localise.weighted.WeightedNodeLocaliser`: ``alpha``, ``gamma``,
+        ``k``, ``shift``, ``motion``, ``confidence_radius``, ``oracle_moves``,
+        ``motion_margin``, ``motion_shift``, ``motion_min_support``; ``ranking_k`` is
+        accepted but the sensor reports no ranking; ``advance`` must be (1, 1).
 
     Notes
     -----
@@ -61,20 +66,10 @@ class OnSensorLocaliser:
         noise: str = "ideal",
         seed: int = 0,
         *,
-        alpha: int | None = None,
-        gamma: float = 0.5,
-        k: int = 4,
-        shift: int = 2,
-        motion: str = "image",
         arithmetic: str = "ppa8",
-        confidence_radius: int = 10,
-        ranking_k: int = 10,
         record_weights: bool = False,
-        oracle_moves: Sequence[bool] | np.ndarray | None = None,
-        motion_margin: int = 3,
-        motion_shift: int = 7,
-        motion_min_support: int = 1024,
         size: int = 256,
+        **filter_params: Any,
     ) -> None:
         if noise not in NOISE_PRESETS:
             raise PpalocError(f"noise={noise!r} is not one of {', '.join(NOISE_PRESETS)}")
@@ -83,31 +78,27 @@ class OnSensorLocaliser:
                 f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "
                 "use arithmetic='ppa8' (or the host WeightedNodeLocaliser for 'float')"
             )
-        # The host filter validates every shared parameter and chooses alpha from the map.
-        self._host = WeightedNodeLocaliser(
-            representation,
-            alpha=alpha,
-            gamma=gamma,
-            k=k,
-            shift=shift,
-            motion=motion,
-            arithmetic="ppa8",
-            confidence_radius=confidence_radius,
-            ranking_k=ranking_k,
-            oracle_moves=oracle_moves,
-            motion_margin=motion_margin,
-            motion_shift=motion_shift,
-            motion_min_support=motion_min_support,
-        )
-        if shift > 8:
-            raise PpalocError(f"shift={shift} is too large for the sensor; use 0..8")
+        if tuple(filter_params.get("advance", (1, 1))) != (1, 1):
+            raise PpalocError(
+                f"advance={filter_params['advance']!r}: the sensor shifts weights by exactly "
+                "one node per forward move (the paper's motion model); use advance=(1, 1)"
+            )
+        # The host filter validates every shared parameter (with the same defaults) and
+        # chooses alpha from the map; the sensor reads its settings from it.
+        try:
+            self._host = WeightedNodeLocaliser(representation, arithmetic="ppa8", **filter_params)
+        except TypeError as exc:
+            raise PpalocError(f"OnSensorLocaliser: {exc}") from exc
+        if self._host.shift > 8:
+            raise PpalocError(f"shift={self._host.shift} is too large for the sensor; use 0..8")
         self.representation = representation
         self.noise = noise
         self.seed = int(seed)
         self.size = int(size)
         self.record_weights = bool(record_weights)
-        self.motion = motion
-        self._moves = None if oracle_moves is None else np.asarray(oracle_moves, bool)
+        self.motion = self._host.motion
+        moves = filter_params.get("oracle_moves")
+        self._moves = None if moves is None else np.asarray(moves, bool)
         self.name = f"onsensor-{representation}"
         self.topomap: TopoMap | None = None
         self.pipeline: SensorPipeline | None = None

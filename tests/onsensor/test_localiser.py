@@ -1,0 +1,96 @@
+"""OnSensorLocaliser: agreement with the host ppa8 filter, protocol, errors, determinism."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.base import Localiser
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.methods import make_localiser
+from ppaloc.onsensor import OnSensorLocaliser
+
+
+def _route(n: int, seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """A generated route: blocky random places; the query is noisy, with two stops."""
+    rng = np.random.default_rng(seed)
+    base = rng.integers(0, 256, (n, 16, 16)).astype(np.uint8)
+    ref = [np.kron(b, np.ones((16, 16), np.uint8)) for b in base]
+    order = list(range(n))
+    if n > 12:
+        order[4:4] = [3, 3]  # the vehicle stops at place 3
+        order[12:12] = [10]
+    query = []
+    for i in order:
+        noise = rng.integers(-12, 13, ref[i].shape)
+        query.append(np.clip(ref[i].astype(int) + noise, 0, 255).astype(np.uint8))
+    return ref, query
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_estimates_and_weights_equal_the_host_ppa8_filter(rep):
+    ref, query = _route(16, seed=1)
+    kw = {"motion": "image", "alpha": 10, "shift": 2, "k": 3, "record_weights": True}
+    host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
+    topomap = host.build_map(ref)
+    sensor = OnSensorLocaliser(rep, **kw)
+    sensor.use_map(topomap)
+    a = host.localise(query)
+    b = sensor.localise(query)
+    assert [e.node for e in a] == [e.node for e in b]
+    assert [e.moved for e in a] == [e.moved for e in b]
+    assert not all(e.moved for e in b[1:])  # the stops were seen
+    for x, y in zip(a, b, strict=True):
+        # float32 registers vs the host's float64: equal up to the last bit of a weight
+        np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)
+        assert y.modelled_latency_ms > 0 and y.energy_mj > 0
+    assert b[0].ranking is None
+
+
+def test_protocol_registry_and_rebuild():
+    loc = make_localiser("onsensor-lbp", motion="always_forward", alpha=6)
+    assert isinstance(loc, Localiser) and loc.name == "onsensor-lbp"
+    ref, query = _route(6, seed=2)
+    topomap = loc.build_map(ref)
+    assert topomap.kind == "lbp" and len(topomap) == 6
+    first = [loc.step(f).node for f in query[:4]]
+    loc.reset()
+    assert [loc.step(f).node for f in query[:4]] == first
+
+
+def test_noise_is_seeded():
+    ref, query = _route(6, seed=3)
+    runs = []
+    for _ in range(2):
+        loc = OnSensorLocaliser("lowres", noise="typical", seed=7, motion="always_forward")
+        loc.build_map(ref)
+        runs.append([(e.node, e.score) for e in loc.localise(query[:4])])
+    assert runs[0] == runs[1]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"noise": "loud"}, "noise='loud' is not one of"),
+        ({"arithmetic": "float"}, "use arithmetic='ppa8'"),
+        ({"gamma": 0.3}, "gamma=0.3 must be one of"),
+        ({"alpha": 2.5}, "alpha=2.5 must be an integer"),
+        ({"advance": (0, 2)}, "advance=\\(0, 2\\)"),
+        ({"colour": 1}, "unexpected keyword argument 'colour'"),
+    ],
+)
+def test_bad_parameters_name_the_value(kwargs, message):
+    with pytest.raises(PpalocError, match=message):
+        OnSensorLocaliser("lowres", **kwargs)
+
+
+def test_step_needs_a_map_and_a_sensor_frame():
+    loc = OnSensorLocaliser("lbp")
+    with pytest.raises(PpalocError, match="no map"):
+        loc.step(np.zeros((256, 256), np.uint8))
+    loc.build_map(_route(3, seed=4)[0])
+    with pytest.raises(PpalocError, match="to_sensor"):
+        loc.step(np.zeros((100, 100), np.uint8))
+    with pytest.raises(PpalocError, match="empty"):
+        loc.build_map([])

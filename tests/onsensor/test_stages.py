@@ -1,0 +1,188 @@
+"""Stages of the on-sensor pipeline on a small (64x64) array, against numpy references."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.onsensor.mapping import lbp_bits, row_runs, upload_map
+from ppaloc.onsensor.pipeline import (
+    PipelineParams,
+    SensorPipeline,
+    bit_positions,
+    class_rows,
+)
+from ppaloc.onsensor.program import KernelCache, halve_level, pull, scale_negated
+from ppaloc.place import lbp_from_grid
+from ppaloc.sim import NEWS, A, B, C, D, E, F, Scamp5, east, north, south, west
+from ppaloc.topomap import TopoMap
+
+SIZE = 64
+PARAMS = PipelineParams(alpha=4, gamma=0.5, k=4, shift=2, motion="always_forward")
+
+
+def _pipe(rep: str = "lowres", n: int = 40) -> SensorPipeline:
+    return SensorPipeline(rep, n, PARAMS, size=SIZE)
+
+
+def _frame(seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8)
+
+
+def _means(frame: np.ndarray) -> np.ndarray:
+    v = frame.astype(np.float64) / 2 - 64
+    b = SIZE // 8
+    return v.reshape(8, b, 8, b).mean(axis=(1, 3))
+
+
+@pytest.mark.parametrize(("direction", "d"), [(east, 1), (west, 2), (south, 3), (north, 5)])
+def test_pull_moves_by_d_in_every_direction(direction, d):
+    sim = Scamp5(8, 8)
+    x = np.arange(64, dtype=np.float32).reshape(8, 8) - 32
+    sim.write(A, x)
+    with sim.kernel() as k:
+        pull(k, B, A, direction, d)
+    dr, dc = direction.offset
+    want = np.zeros_like(x)
+    for r in range(8):
+        for c in range(8):
+            rr, cc = r + d * dr, c + d * dc
+            if 0 <= rr < 8 and 0 <= cc < 8:
+                want[r, c] = x[rr, cc]
+    np.testing.assert_array_equal(sim.read(B), want)
+
+
+def test_halve_level_keeps_the_extreme_pair_unsaturated():
+    sim = Scamp5(1, 4)
+    sim.write(A, np.array([[64.0, 64.0, -63.5, -63.5]]))  # holds -q: q = -64 and 63.5
+    with sim.kernel() as k:
+        halve_level(k, A, B, east, 1)
+    assert sim.read(A)[0, 0] == 64.0  # -(-64 + -64) / 2 exactly, no clip at 128
+    assert sim.read(A)[0, 2] == -63.5
+
+
+@pytest.mark.parametrize(("sign", "exponent"), [(1, 1), (-1, 1), (1, 0), (-1, -1), (1, -3)])
+def test_scale_negated(sign, exponent):
+    sim = Scamp5(1, 2)
+    base = np.array([[5.25, 12.0]], np.float32)
+    sim.write(A, sign * base)
+    with sim.kernel() as k:
+        out = scale_negated(k, A, sign, exponent, B)
+    np.testing.assert_array_equal(sim.read(out), -base * 2.0**exponent)
+
+
+def test_kernel_cache_records_once_and_replays():
+    sim = Scamp5(2, 2)
+    cache = KernelCache(sim)
+    built = []
+
+    def build(k):
+        built.append(1)
+        k.add(A, A, B)
+
+    sim.write(B, np.ones((2, 2)))
+    for _ in range(3):
+        cache.run("acc", build)
+    assert built == [1] and cache.icws("acc") == 2 and "acc" in cache
+    np.testing.assert_array_equal(sim.read(A), np.full((2, 2), 3.0))
+
+
+def test_block_means_are_exact_everywhere_in_the_block():
+    pipe = _pipe()
+    frame = _frame(1)
+    pipe.capture(frame)
+    pipe.block_means()
+    got = -pipe.sim.read(F).astype(np.float64)
+    np.testing.assert_array_equal(got, np.kron(_means(frame), np.ones((8, 8))))
+
+
+def test_class_rows_hold_one_row_per_residue_and_block():
+    rows = class_rows(256, 32)
+    assert len(rows) == 32 and set(rows % 8) == set(range(8))
+    np.testing.assert_array_equal(rows // 32, rows % 8)
+
+
+def test_replicate_tiles_the_grid_into_every_node_block():
+    pipe = _pipe()
+    frame = _frame(2)
+    pipe.capture(frame)
+    pipe.block_means()
+    pipe.replicate()
+    got = -pipe.sim.read(F).astype(np.float64)
+    np.testing.assert_array_equal(got, np.tile(_means(frame), (SIZE // 8, SIZE // 8)))
+
+
+def test_upload_writes_the_snake_layout_exactly():
+    rng = np.random.default_rng(3)
+    q = rng.integers(0, 256, (70, 8, 8), dtype=np.uint8)  # 2 tiles of 64 nodes at 64x64
+    pipe = _pipe("lowres", len(q))
+    upload_map(pipe, TopoMap("lowres", q))
+    planes = pipe.layout.to_planes(q, fill=128).astype(np.float64) / 2 - 64
+    np.testing.assert_array_equal(pipe.sim.read(A), planes[0])
+    np.testing.assert_array_equal(pipe.sim.read(B), planes[1])
+
+
+def test_upload_lbp_bits_and_row_runs():
+    codes = np.array([0x80000001, 0xFFFFFFFF], np.uint32)
+    bits = lbp_bits(codes)
+    assert bits[0, 0, 0] and bits[0, 3, 7] and bits[0].sum() == 2 and bits[1].all()
+    assert row_runs(np.array([[1, 1, 0], [2, 2, 2]])) == [(1, 0, 0, 1), (0, 0, 2, 2), (2, 1, 0, 2)]
+    pipe = _pipe("lbp", 2)
+    upload_map(pipe, TopoMap("lbp", codes))
+    plane = pipe.layout.to_planes(bits, fill=False)[0]
+    np.testing.assert_array_equal(pipe.sim.read(pipe.db[0]), plane)
+
+
+@pytest.mark.parametrize("n", [40, 100])
+def test_snake_shift_moves_every_weight_one_node_and_zeroes_node_0(n):
+    pipe = _pipe("lowres", n)
+    t, br, bc = pipe.layout.node_to_block(np.arange(n))
+    w = np.zeros((SIZE, SIZE), np.float32)
+    values = np.arange(n, dtype=np.float32) % 100 + 1
+    w[br * 8, bc * 8 + t] = values
+    pipe.sim.write(C, w)
+    pipe.shift_weights()
+    np.testing.assert_array_equal(pipe.weights(), np.r_[0, values[:-1]])
+
+
+def test_descriptor_equals_the_host_lbp_of_the_central_grid():
+    pipe = _pipe("lbp", 4)
+    for seed in range(3):
+        frame = _frame(10 + seed)
+        pipe.capture(frame)
+        pipe.block_means()
+        code = pipe.descriptor()
+        assert code == int(lbp_from_grid(_means(frame)[1:7, 1:7]))
+
+
+def test_bit_positions_are_distinct_and_inside_their_centre_blocks():
+    pos = bit_positions(32)
+    assert len({(r, c) for *_, r, c in pos}) == 32
+    for cell, _, r, c in pos:
+        gi, gj = ((2, 2), (2, 5), (5, 2), (5, 5))[cell]
+        assert r // 32 == gi and c // 32 == gj
+
+
+def test_motion_counts_are_exact():
+    pipe = SensorPipeline("lowres", 10, PipelineParams(4, 0.5, 4, 2, "image", margin=3), size=SIZE)
+    rng = np.random.default_rng(5)
+    plane = rng.random((SIZE, SIZE)) < 0.3
+    pipe.sim.write(pipe.dr.tmp_b, plane)
+    assert pipe._count(pipe.dr.tmp_b, "t") == int(plane.sum())
+    pipe.sim.write(pipe.dr.tmp_b, np.ones((SIZE, SIZE), bool))
+    assert pipe._count(pipe.dr.tmp_b, "t") == SIZE * SIZE  # full 8x16 blocks: -128, no clip
+
+
+def test_too_many_tiles_is_a_clear_error():
+    from ppaloc.errors import PpalocError
+
+    with pytest.raises(PpalocError, match="needs 3 tiles"):
+        _pipe("lowres", 3 * 64)
+
+
+def test_unused_registers_are_untouched_by_a_frame():
+    pipe = _pipe("lbp", 4)
+    pipe.sim.write(A, np.full((SIZE, SIZE), 7.0))
+    pipe.step(_frame(7))
+    assert (pipe.sim.read(A) == 7.0).all() and NEWS.name == "NEWS" and D != E
