@@ -198,8 +198,8 @@ class WeightedNodeLocaliser:
         descriptors compared by Hamming distance.
     alpha : int or float, optional
         Likelihood at which a node neither gains nor loses weight. None (default) takes
-        :func:`suggest_alpha` of the map when it is built or loaded. Must be an integer for
-        ``arithmetic="ppa8"``.
+        :func:`suggest_alpha` of the map when it is built or loaded (0 for a map of fewer
+        than 3 nodes). Must be an integer in [-128, 127] for ``arithmetic="ppa8"``.
     gamma : float
         Adjustment factor, one of 0, 1/8, 1/4, 1/2, 1 (default 1/2): every ``k`` frames
         ``gamma * max(W)`` is taken off every weight, so the best weight stays away from the
@@ -287,7 +287,7 @@ class WeightedNodeLocaliser:
         self.advance = (int(lo), int(hi))
         if alpha is not None:
             if arithmetic == "ppa8":
-                alpha = _check_int("alpha", alpha, -1, 127)
+                alpha = _check_int("alpha", alpha, -128, 127)  # a DAC constant
             elif not math.isfinite(float(alpha)):
                 raise PpalocError(f"alpha={alpha!r} must be a finite number")
         if motion == "oracle":
