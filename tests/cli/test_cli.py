@@ -72,7 +72,7 @@ def test_evaluate_writes_results_and_report(mean_match, tiny_spec, tmp_path, cap
     assert summary["methods"][mean_match]["recall_definition"] == "A"
     for name in ("results.csv", "report.html", "report.md"):
         assert (out / name).is_file()
-    assert "F1 max" in stdout and "report:" in stdout
+    assert "R@100P" in stdout and "report:" in stdout
 
 
 def test_config_file_with_flags_overriding(mean_match, tiny_spec, tmp_path, capsys):
@@ -243,7 +243,7 @@ def test_show_results_map_and_planes(mean_match, tiny_spec, tmp_path, capsys):
     (run_dir / "report.html").unlink()
     code, out, err = run(capsys, "show", run_dir)
     assert code == 0, err
-    assert (run_dir / "report.html").is_file() and "F1 max" in out
+    assert (run_dir / "report.html").is_file() and "R@100P" in out
     # a map of a kind without a PE layout: drawn as a descriptor matrix
     spec = "synthetic:?places=6&size=32&sync=1"
     assert run(capsys, "map", spec, "-m", mean_match, "--out", tmp_path / "m.npz", "-q")[0] == 0

@@ -41,13 +41,19 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
 
     from ppaloc.evaluate.report import comparison_table
 
-    header, rows = comparison_table(summary)
+    header, rows = comparison_table(summary, short=True)
     table = Table(title=title or None, title_justify="left")
     for i, h in enumerate(header):
-        table.add_column(h, justify="left" if i < 2 else "right", overflow="fold")
+        table.add_column(h, justify="left" if i < 2 else "right", no_wrap=i == 0)
     for r in rows:
         table.add_row(*r)
     _console().print(table)
+    recall = {m.get("recall_definition", "A") for m in summary["methods"].values()}
+    print(
+        f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); host ms = median "
+        "wall-clock time of step on this machine;\nsensor ms, mJ = modelled on-sensor time "
+        "and energy per frame."
+    )
 
 
 # -- evaluate ------------------------------------------------------------------------------
@@ -102,7 +108,7 @@ def run_demo(
     *,
     quiet: bool = False,
     places: int = 200,
-    bench_sizes: Sequence[int] = (64, 256, 1024),
+    bench_sizes: Sequence[int] = (64, 256, 1024, 4096),
 ) -> Path:
     """The built-in synthetic route, every available method, table, report with bench."""
     from ppaloc.evaluate.config import BenchConfig, EvaluateConfig
@@ -113,7 +119,7 @@ def run_demo(
         EvaluateConfig(dataset=dataset),
         out,
         quiet=quiet,
-        bench=BenchConfig(sizes=tuple(bench_sizes), queries=10, warmup=2),
+        bench=BenchConfig(sizes=tuple(bench_sizes), queries=20, warmup=2),
     )
     if not quiet:
         print(f"demo done in {time.perf_counter() - t0:.0f} s; open {out / 'report.html'}")
@@ -146,11 +152,17 @@ def run_bench(config: Any, out: Path | None, *, quiet: bool = False) -> dict[str
             table.add_column(f"{s} nodes", justify="right")
         for name in dict.fromkeys(r["method"] for r in bench["rows"]):
             cells = {r["n_nodes"]: r for r in bench["rows"] if r["method"] == name}
-            table.add_row(name, *(f"{cells[s]['latency_ms_median']:.3g}" for s in sizes))
+            table.add_row(name, *(_bench_cell(cells.get(s)) for s in sizes))
         _console().print(table)
         if out is not None:
             print(f"bench: {path}")
     return bench
+
+
+def _bench_cell(row: dict[str, Any] | None) -> str:
+    if row is None or "skipped" in row:
+        return "-"
+    return f"{row['latency_ms_median']:.3g}"
 
 
 # -- map and localise ------------------------------------------------------------------------

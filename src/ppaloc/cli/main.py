@@ -171,7 +171,7 @@ Examples:
 )
 @click.option(
     "--bench-sizes",
-    default="64,256,1024",
+    default="64,256,1024,4096",
     show_default=True,
     help="Map sizes of the latency-against-map-size figure.",
 )

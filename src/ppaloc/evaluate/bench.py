@@ -9,6 +9,7 @@ the map, not how well it localises.
 from __future__ import annotations
 
 import json
+import logging
 import sys
 import time
 from collections.abc import Callable
@@ -20,6 +21,7 @@ import numpy as np
 
 from ppaloc import __version__
 from ppaloc.datasets import SENSOR_SHAPE
+from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import BenchConfig
 from ppaloc.evaluate.run import _build_params, resolve_methods
 from ppaloc.methods import make_localiser
@@ -27,6 +29,8 @@ from ppaloc.methods import make_localiser
 __all__ = ["load_bench", "run_bench", "save_bench"]
 
 _POOL = 32
+
+log = logging.getLogger(__name__)
 
 
 def _frames(rng: np.random.Generator, n: int) -> list[np.ndarray]:
@@ -46,7 +50,9 @@ def run_bench(
     -------
     dict
         ``{"config", "ppaloc_version", "created", "rows": [{"method", "n_nodes",
-        "latency_ms_median", "latency_ms_p95", "build_s", "queries"}, ...]}``.
+        "latency_ms_median", "latency_ms_p95", "build_s", "queries"}, ...]}``; a size a
+        method refuses (a ``PpalocError`` from ``build_map``, e.g. more nodes than a
+        simulated sensor holds) gives a row ``{"method", "n_nodes", "skipped": reason}``.
 
     Raises
     ------
@@ -65,7 +71,12 @@ def run_bench(
         for size in config.sizes:
             loc = make_localiser(name, **params)
             t0 = time.perf_counter()
-            loc.build_map([pool[i % _POOL] for i in range(size)])
+            try:
+                loc.build_map([pool[i % _POOL] for i in range(size)])
+            except PpalocError as exc:  # a size the method cannot hold (e.g. sensor capacity)
+                rows.append({"method": name, "n_nodes": size, "skipped": str(exc)})
+                log.info("bench: %s skips %d nodes: %s", name, size, exc)
+                continue
             build_s = time.perf_counter() - t0
             loc.reset()
             times = []
@@ -101,7 +112,9 @@ def save_bench(bench: dict[str, Any], path: str | Path) -> Path:
 
     path = Path(path)
     cols = ["method", "n_nodes", "latency_ms_median", "latency_ms_p95", "build_s", "queries"]
-    lines = [",".join(cols)] + [",".join(str(r[c]) for c in cols) for r in bench["rows"]]
+    lines = [",".join(cols)] + [
+        ",".join(str(r.get(c, "")) for c in cols) for r in bench["rows"] if "skipped" not in r
+    ]
     atomic_write(path.with_suffix(".csv"), "\n".join(lines) + "\n")
     return atomic_write(path, json.dumps(bench, indent=2) + "\n")
 

@@ -165,7 +165,7 @@ def weights_heatmaps(result: RunResult) -> Figure | None:
 
 def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:
     """Median host time per frame against map size (log-log), p95 as a band."""
-    rows = bench.get("rows", []) if bench else []
+    rows = [r for r in bench.get("rows", []) if "skipped" not in r] if bench else []
     if not rows:
         return None
     from matplotlib.ticker import FuncFormatter, NullFormatter

@@ -63,13 +63,34 @@ def _ms(v: float | None) -> str:
     return f"{v:.3g}" if v < 100 else f"{v:.0f}"
 
 
-def comparison_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
-    """The Table I-shaped comparison: one row per method, F1 and frame time.
+_SHORT_HEADER = [
+    "Method",
+    "Repr.",
+    "F1",
+    "P@F1",
+    "R@F1",
+    "AUC",
+    "R@100P",
+    "Acc.",
+    "host ms",
+    "p95 ms",
+    "sensor ms",
+    "mJ",
+]
+_SHORT_REPR = {"lowres": "8x8 img", "lbp": "LBP"}
+
+
+def comparison_table(
+    summary: dict[str, Any], *, short: bool = False
+) -> tuple[list[str], list[list[str]]]:
+    """Every scalar metric and the frame times: one row per method.
 
     Parameters
     ----------
     summary : dict
         The content of ``results.json``.
+    short : bool
+        Short headers and representation names (for a terminal).
 
     Returns
     -------
@@ -93,10 +114,11 @@ def comparison_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]
     rows = []
     for name, m in summary["methods"].items():
         kind = m.get("map_kind", "")
+        rep = _SHORT_REPR.get(kind, "own") if short else REPRESENTATIONS.get(kind, kind or "-")
         rows.append(
             [
                 name,
-                REPRESENTATIONS.get(kind, kind or "-"),
+                rep,
                 _fmt(m["f1_max"]),
                 _fmt(m["precision_at_f1"]),
                 _fmt(m["recall_at_f1"]),
@@ -109,7 +131,7 @@ def comparison_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]
                 _fmt(m["energy_mj"], 4),
             ]
         )
-    return header, rows
+    return (_SHORT_HEADER if short else header), rows
 
 
 _SUFFIXES = {"-lowres": "lowres", "-lbp": "lbp"}
@@ -261,13 +283,20 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
     )
     lat = figures.latency_vs_map_size(bench) if bench else None
     if lat is not None:
-        n = bench["rows"][0].get("queries", "")
+        timed = [r for r in bench["rows"] if "skipped" not in r]
+        n = timed[0].get("queries", "") if timed else ""
+        skipped = [
+            f"{r['method']} at {r['n_nodes']} nodes" for r in bench["rows"] if "skipped" in r
+        ]
+        note = (
+            f" Not timed (the method refuses that size): {', '.join(skipped)}." if skipped else ""
+        )
         out.append(
             _Figure(
                 "latency-vs-size",
                 "Latency against map size",
                 f"Median host time per step over {n} query frames on random maps of each "
-                "size; the band reaches the 95th percentile.",
+                f"size; the band reaches the 95th percentile.{note}",
                 figures.png_bytes(lat),
             )
         )

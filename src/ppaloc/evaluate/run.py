@@ -486,7 +486,8 @@ def run_evaluation(
                 params = _build_params(
                     name, user, seed=config.seed, record_weights=config.record_weights
                 )
-                loc = None
+                loc = make_localiser(name, **params)
+                params = {**METHODS[name].defaults, **params}  # record the variant too
             else:
                 params, loc = user, localisers[name]
             runs[name] = run_method(
