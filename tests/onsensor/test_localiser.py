@@ -94,3 +94,33 @@ def test_step_needs_a_map_and_a_sensor_frame():
         loc.step(np.zeros((100, 100), np.uint8))
     with pytest.raises(PpalocError, match="empty"):
         loc.build_map([])
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_figures_are_written(tmp_path, rep):
+    from PIL import Image
+
+    from ppaloc.onsensor.figures import (
+        database_figure,
+        difference_figure,
+        weights_figure,
+        weights_history_image,
+    )
+
+    ref, query = _route(5, seed=5)
+    loc = OnSensorLocaliser(rep, motion="always_forward", alpha=8, record_weights=True)
+    loc.build_map(ref)
+    paths = [
+        database_figure(loc, tmp_path / "db.png", scale=1),
+        weights_figure(loc, query[:3], tmp_path / "w.png", snapshots=2, scale=1),
+        difference_figure(loc, query[0], tmp_path / "diff.png", scale=1),
+        weights_history_image(loc.localise(query[:3]), tmp_path / "hist.png"),
+    ]
+    sizes = []
+    for p in paths:
+        with Image.open(p) as im:
+            sizes.append(im.size)
+    assert sizes[0][0] >= 256 and sizes[1][0] >= 2 * 256 and sizes[2][0] >= 4 * 256
+    assert sizes[3] == (5, 3)
+    with pytest.raises(PpalocError, match="record_weights"):
+        weights_history_image([], tmp_path / "none.png")
