@@ -24,6 +24,9 @@ from ppaloc.sim import (
     XE,
     A,
     B,
+    C,
+    D,
+    E,
     Scamp5,
 )
 from ppaloc.sim.controller import MAX_EVENTS, from_scamp_buffer, to_scamp_buffer
@@ -90,6 +93,25 @@ def test_load_in_two_forms():
         sim.load_in(200)
     with pytest.raises(SimulatorError, match="give a value"):
         sim.load_in(A)
+
+
+def test_dac_loads_use_the_header_temp_register():
+    # scamp5_in(areg, value, temp=NEWS) and scamp5_load_in(areg, value, temp=NEWS): the value
+    # passes through `temp`, which is left holding -value
+    sim = sim_(2, 2)
+    sim.load_in(A, 9)
+    assert sim.read(A).tolist() == [[9, 9], [9, 9]]
+    assert sim.read(NEWS).tolist() == [[-9, -9], [-9, -9]]
+    sim.scamp5_in(B, -4, C)
+    assert sim.read(B).tolist() == [[-4, -4], [-4, -4]]
+    assert sim.read(C).tolist() == [[4, 4], [4, 4]]
+    assert sim.read(NEWS).tolist() == [[-9, -9], [-9, -9]]  # untouched when temp is C
+    sim.load_in(D, 3, E)
+    assert (sim.read(D) == 3).all() and (sim.read(E) == -3).all()
+    with pytest.raises(RegisterMisuseError, match=r"scamp5_in: temp=B is the target; use"):
+        sim.scamp5_in(B, 1, B)
+    with pytest.raises(RegisterMisuseError, match=r"load_in: R5 is not one of A-F or NEWS"):
+        sim.load_in(A, 1, R5)
 
 
 def test_scamp5_spellings_exist():

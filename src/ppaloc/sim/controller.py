@@ -238,13 +238,25 @@ class ControllerMixin:
         else:
             current[flag] = np.clip(values, -128, 127)[flag]
 
-    def scamp5_in(self, areg: Register, value: int) -> None:
+    def _temp(self, call: str, areg: Register, temp: Any) -> Register | None:
+        """The header's ``temp`` register (default NEWS), or None when it is ``areg``."""
+        self._areg(call, temp)
+        if temp is areg:
+            if areg is NEWS:  # the value goes to NEWS itself
+                return None
+            raise RegisterMisuseError(
+                f"{call}: temp={temp.name} is the target; use another register as temp "
+                "(default NEWS)"
+            )
+        return temp
+
+    def scamp5_in(self, areg: Register, value: int, temp: Register = NEWS) -> None:
         """Load a constant into ``areg`` through the DAC, with error correction.
 
         The DAC drives ``IN`` with ``value`` and the value is copied into ``areg`` where
-        FLAG is set (``NEWS``, the library's temporary, is left holding ``-value``).
-        ``scamp5_in`` corrects the DAC's offset, so with noise only the temporal noise of
-        one write remains (compare :meth:`load_in`).
+        FLAG is set, through ``temp`` (the library's temporary, ``NEWS`` by default), which
+        is left holding ``-value``. ``scamp5_in`` corrects the DAC's offset, so with noise
+        only the temporal noise of one write remains (compare :meth:`load_in`).
 
         Parameters
         ----------
@@ -252,14 +264,20 @@ class ControllerMixin:
             Destination, one of A-F or NEWS.
         value : int
             Integer in [-128, 127].
+        temp : Register
+            Scratch analogue register, as in SCAMP-5 (default NEWS); must differ from
+            ``areg`` unless both are NEWS.
 
         Raises
         ------
         SimulatorError
             If ``value`` is not an integer in [-128, 127].
+        RegisterMisuseError
+            If ``areg`` or ``temp`` is not one of A-F or NEWS, or ``temp`` is ``areg``.
         """
         call = "scamp5_in"
         self._areg(call, areg)
+        t = self._temp(call, areg, temp)
         v = self._dac_value(call, value)
         self.timing.charge_call(call)
         shape = (self.rows, self.cols)
@@ -268,8 +286,8 @@ class ControllerMixin:
         sd = self._readout_sd()
         if sd > 0:
             target = target + self.rng.normal(0.0, sd, shape)
-        if areg is not NEWS:
-            self._write_masked(NEWS, np.full(shape, -float(v)), noisy=False)
+        if t is not None:
+            self._write_masked(t, np.full(shape, -float(v)), noisy=False)
         self._write_masked(areg, target, noisy=False)
 
     def scamp5_get_image(self, yf: Register, yh: Register, gain: int = 1) -> None:
@@ -293,18 +311,23 @@ class ControllerMixin:
             raise SimulatorError(f"{call}: gain={gain} is not modelled; use gain=1")
         self.get_image(yf, yh)  # type: ignore[attr-defined]
 
-    def load_in(self, areg_or_value: Register | int, value: int | None = None) -> None:
+    def load_in(
+        self, areg_or_value: Register | int, value: int | None = None, temp: Register = NEWS
+    ) -> None:
         """``scamp5_load_in``: load a constant through the DAC without error correction.
 
         Two forms, as in SCAMP-5: ``load_in(value)`` only drives ``IN`` (for kernels that
-        read ``IN``); ``load_in(areg, value)`` also copies it into ``areg`` where FLAG is
-        set, as a plain analogue write (with the write noise and fixed-pattern offset of
-        the engine's noise model).
+        read ``IN``); ``load_in(areg, value, temp=NEWS)`` also copies it into ``areg``
+        where FLAG is set, through ``temp`` (left holding ``-value``), as plain analogue
+        writes (with the write noise and fixed-pattern offsets of the engine's noise
+        model).
 
         Raises
         ------
         SimulatorError
             If the value is not an integer in [-128, 127].
+        RegisterMisuseError
+            If ``areg`` or ``temp`` is not one of A-F or NEWS, or ``temp`` is ``areg``.
         """
         call = "load_in"
         if value is None:
@@ -317,10 +340,14 @@ class ControllerMixin:
             self._aplane(IN)[...] = v
             return
         areg = self._areg(call, areg_or_value)
+        t = self._temp(call, areg, temp)
         v = self._dac_value(call, value)
         self.timing.charge_call(call)
         self._aplane(IN)[...] = v
-        self._write_masked(areg, np.full((self.rows, self.cols), float(v)), noisy=True)
+        shape = (self.rows, self.cols)
+        if t is not None:
+            self._write_masked(t, np.full(shape, -float(v)), noisy=True)
+        self._write_masked(areg, np.full(shape, float(v)), noisy=True)
 
     # ----------------------------------------------------------------------------------
     # Address patterns
