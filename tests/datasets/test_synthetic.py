@@ -136,3 +136,17 @@ def test_ground_depth_follows_the_pinhole_model():
     assert depth[60, 50] == pytest.approx(60 * 1.6 / 13.5, rel=1e-6)
     assert mat[99, 50] == M["road"] and mat[0, 50] == M["sky"]
     assert np.isinf(depth[0, 50])
+
+
+def test_figures_are_written(tmp_path):
+    from PIL import Image
+
+    from ppaloc.datasets.synthetic import conditions_montage, sequence_strip
+
+    path = conditions_montage(tmp_path / "fig" / "m.png", size=48)
+    with Image.open(path) as im:  # 5 tiles and a label margin across, one row per condition
+        assert im.size == (5 * 48 + 90, len(CONDITIONS) * 48 + 26)
+    path = sequence_strip(tmp_path / "s.png", "synthetic:?places=120&seed=2&size=40", frames=4)
+    with Image.open(path) as im:
+        assert im.size == (4 * 40, 40 + 24)
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["fig", "m.png", "s.png"]  # no temp

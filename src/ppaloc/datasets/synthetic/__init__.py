@@ -6,6 +6,6 @@
 
 from ppaloc.datasets.synthetic.conditions import CONDITIONS, Condition
 from ppaloc.datasets.synthetic.generate import make_synthetic
-from ppaloc.datasets.synthetic.montage import conditions_montage
+from ppaloc.datasets.synthetic.montage import conditions_montage, sequence_strip
 
-__all__ = ["CONDITIONS", "Condition", "conditions_montage", "make_synthetic"]
+__all__ = ["CONDITIONS", "Condition", "conditions_montage", "make_synthetic", "sequence_strip"]

@@ -14,7 +14,7 @@ from ppaloc.datasets.synthetic.conditions import CONDITIONS
 from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import SEGMENT_TYPES, make_world
 
-__all__ = ["conditions_montage", "montage_array"]
+__all__ = ["conditions_montage", "montage_array", "sequence_strip"]
 
 
 def _views(world, spacing: float) -> list[tuple[str, float]]:
@@ -85,14 +85,23 @@ def conditions_montage(path: str | os.PathLike, seed: int = 1, size: int = 256) 
     canvas = Image.new("RGB", (w + margin_left, h + margin_top), (255, 255, 255))
     canvas.paste(Image.fromarray(grid), (margin_left, margin_top))
     draw = ImageDraw.Draw(canvas)
-    try:
-        font = ImageFont.load_default(size=16)
-    except TypeError:  # Pillow without FreeType: the fixed bitmap font
-        font = ImageFont.load_default()
+    font = _font(16)
     for k, name in enumerate(col_names):
         draw.text((margin_left + k * size + 6, 4), name, fill=(0, 0, 0), font=font)
     for k, name in enumerate(row_names):
         draw.text((8, margin_top + k * size + size // 2 - 8), name, fill=(0, 0, 0), font=font)
+    return _save_png(canvas, path)
+
+
+def _font(size: int = 16) -> ImageFont.ImageFont:
+    try:
+        return ImageFont.load_default(size=size)
+    except TypeError:  # Pillow without FreeType: the fixed bitmap font
+        return ImageFont.load_default()
+
+
+def _save_png(canvas: Image.Image, path: str | os.PathLike) -> Path:
+    """Write ``canvas`` as a 256-colour PNG atomically (temporary file, then rename)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(suffix=".png", dir=path.parent)
@@ -107,3 +116,45 @@ def conditions_montage(path: str | os.PathLike, seed: int = 1, size: int = 256) 
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def sequence_strip(
+    path: str | os.PathLike,
+    spec: str = "synthetic:?places=200&query=winter&seed=1",
+    frames: int = 6,
+) -> Path:
+    """Write a PNG of query frames of a generated route: moving, then standing at a stop.
+
+    The first half are consecutive frames at cruising speed some way before the first
+    stop (content flows outwards from the vanishing point); the second half are
+    consecutive frames during the stop (they differ only by noise and snow). Each frame is
+    captioned with its index, route position and ``query_moved`` flag.
+
+    Parameters
+    ----------
+    path : path-like
+        Output PNG (written atomically).
+    spec : str
+        A ``synthetic`` dataset spec.
+    frames : int
+        Frames in the strip.
+    """
+    from ppaloc.datasets.registry import load_dataset
+
+    ds = load_dataset(spec)
+    s = ds.query_positions[:, 0]
+    still = np.flatnonzero(np.diff(s) == 0)
+    stop = int(still[0]) + 1 if still.size else len(s) // 2
+    half = frames // 2
+    moving = max(stop - 25, 0)
+    idx = list(range(moving, moving + half)) + list(range(stop, stop + frames - half))
+    size = ds.query[0].shape[1]
+    top = 24
+    canvas = Image.new("RGB", (size * len(idx), size + top), (255, 255, 255))
+    draw = ImageDraw.Draw(canvas)
+    font = _font(14)
+    for k, i in enumerate(idx):
+        canvas.paste(Image.fromarray(ds.query[i]).convert("RGB"), (k * size, top))
+        moved = "moved" if ds.query_moved[i] else "still"
+        draw.text((k * size + 6, 4), f"#{i}  {s[i]:.1f} m  {moved}", fill=(0, 0, 0), font=font)
+    return _save_png(canvas, path)
