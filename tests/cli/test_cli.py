@@ -113,6 +113,20 @@ def test_param_flags_reach_the_method(mean_match, tiny_spec, tmp_path, capsys):
     assert z["node"][0] != 0 or z["node"][1] != 1  # shifted by 2 from the exact match
 
 
+def test_several_datasets_make_a_matrix(mean_match, tmp_path, capsys):
+    a, b = "synthetic:?places=8&size=32&sync=1", "synthetic:?places=6&size=32&sync=1&seed=1"
+    out = tmp_path / "m"
+    code, _, err = run(
+        capsys, "evaluate", "-d", a, "-d", b, "-m", mean_match, "--out", out, "-q", "--no-report"
+    )
+    assert code == 0, err
+    rows = (out / "matrix.csv").read_text().splitlines()
+    assert rows[0].startswith("dataset,folder,method,f1_max")
+    assert [r.split(",")[0] for r in rows[1:]] == [a, b]
+    assert (out / "01-synthetic-places-8-size-32-sync-1" / "results.json").is_file()
+    assert len(list(out.glob("02-*/results.json"))) == 1
+
+
 # -- errors: one line, non-zero, no traceback ---------------------------------------------------
 
 

@@ -177,3 +177,35 @@ def test_recall_at_100p_is_on_a_perfect_point(run):
         p == 1.0 and rr == r for p, rr in zip(c.precision, c.recall, strict=True)
     )
     assert 0.0 <= auc(c) <= 1.0
+
+
+sets = st.lists(
+    st.tuples(
+        st.integers(0, 9),  # predicted node
+        st.lists(st.integers(0, 9), max_size=4, unique=True),  # ground-truth set
+        st.lists(st.integers(0, 9), max_size=5),  # ranking
+    ),
+    max_size=25,
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(sets)
+def test_vectorised_lookups_match_a_slow_reference(rows):
+    nodes = [n for n, _, _ in rows]
+    gt = [sorted(g) for _, g, _ in rows]
+    ranks = [r for _, _, r in rows]
+    assert is_correct(nodes, gt).tolist() == [n in g for n, g in zip(nodes, gt, strict=True)]
+    err = localisation_error_frames(nodes, gt)
+    for e, n, g in zip(err, nodes, gt, strict=True):
+        assert (np.isnan(e) and not g) or e == min(abs(x - n) for x in g)
+    k_max = max((len(r) for r in ranks), default=0)
+    got = recall_at_k(ranks, gt)
+    matched = [(r, g) for r, g in zip(ranks, gt, strict=True) if g]
+    if k_max == 0 or not matched:
+        assert got.tolist() == [0.0] * k_max
+    else:
+        want = [
+            np.mean([any(x in g for x in r[:k]) for r, g in matched]) for k in range(1, k_max + 1)
+        ]
+        np.testing.assert_allclose(got, want)

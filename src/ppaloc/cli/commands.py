@@ -25,6 +25,7 @@ __all__ = [
     "run_evaluate",
     "run_localise",
     "run_map",
+    "run_matrix",
     "run_show",
 ]
 
@@ -96,6 +97,42 @@ def run_evaluate(
         if report:
             print(f"report:  {out / 'report.html'}")
     return path
+
+
+def run_matrix(
+    configs: Sequence[Any], out: Path, *, quiet: bool = False, report: bool = True
+) -> Path:
+    """Methods x datasets: one results folder per dataset under ``out`` and ``matrix.csv``.
+
+    Returns
+    -------
+    Path
+        ``out/matrix.csv``: one row per (dataset, method) with the columns of
+        ``results.csv`` after ``dataset`` and ``folder``.
+    """
+    import csv
+    import io
+    import json
+    import re
+
+    from ppaloc.evaluate.results import CSV_COLUMNS, atomic_write
+
+    _check_out_dir(out)
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(["dataset", "folder", *CSV_COLUMNS])
+    for i, config in enumerate(configs):
+        slug = re.sub(r"[^A-Za-z0-9]+", "-", config.dataset).strip("-")[:60]
+        folder = out / f"{i + 1:02d}-{slug}"
+        path = run_evaluate(config, folder, quiet=quiet, report=report)
+        spec = json.loads(path.read_text())["dataset"]
+        with open(path.with_suffix(".csv")) as f:
+            for row in list(csv.reader(f))[1:]:
+                writer.writerow([spec, folder.name, *row])
+    matrix = atomic_write(out / "matrix.csv", text.getvalue())
+    if not quiet:
+        print(f"matrix: {matrix}")
+    return matrix
 
 
 def _check_out_dir(out: Path) -> None:

@@ -196,6 +196,7 @@ Examples:
   ppaloc evaluate --dataset 'nordland:../shared/data/nordland-64x32?ref=summer&query=winter' \\
       --method weighted-node-lowres --method seqslam --tolerance 2 --out nordland
   ppaloc evaluate --config run.toml --recall C
+  ppaloc evaluate -d 'synthetic:?query=winter' -d 'synthetic:?query=night' --out seasons
 \b
 run.toml:
   dataset = "synthetic:?places=300&seed=1"
@@ -205,7 +206,14 @@ run.toml:
   [params.weighted-node-lowres]
   gamma = 0.25""",
 )
-@click.option("--dataset", "-d", help="Dataset spec KIND:PATH?key=value (see docs/datasets.md).")
+@click.option(
+    "--dataset",
+    "-d",
+    "datasets",
+    multiple=True,
+    help="Dataset spec KIND:PATH?key=value (see docs/datasets.md); repeatable: one "
+    "results folder per dataset under --out and a matrix.csv over all.",
+)
 @click.option(
     "--method",
     "-m",
@@ -242,7 +250,7 @@ run.toml:
 @_CONFIG
 @_QUIET
 def evaluate(
-    dataset: str | None,
+    datasets: tuple[str, ...],
     methods: tuple[str, ...],
     tolerance: int | None,
     recall: str | None,
@@ -255,13 +263,13 @@ def evaluate(
     quiet: bool | None,
 ) -> None:
     """Evaluate methods on a dataset: metrics, latency, result files and the report."""
-    from ppaloc.cli.commands import run_evaluate
+    from ppaloc.cli.commands import run_evaluate, run_matrix
     from ppaloc.evaluate.config import EvaluateConfig, config_from_mapping
 
     values = _merge(
         _file_values(config_file, "evaluate"),
         {
-            "dataset": dataset,
+            "dataset": list(datasets) if len(datasets) > 1 else (datasets or [None])[0],
             "methods": methods,
             "tolerance": tolerance,
             "recall": recall,
@@ -283,10 +291,17 @@ def evaluate(
         )
     if isinstance(values.get("methods"), str):
         values["methods"] = [values["methods"]]
-    config = config_from_mapping(
-        EvaluateConfig, values, source=str(config_file) if config_file else ""
-    )
-    run_evaluate(config, out_dir, quiet=quiet_, report=report)
+    specs = values["dataset"]
+    source = str(config_file) if config_file else ""
+    if isinstance(specs, list | tuple):
+        configs = [
+            config_from_mapping(EvaluateConfig, {**values, "dataset": d}, source=source)
+            for d in specs
+        ]
+        run_matrix(configs, out_dir, quiet=quiet_, report=report)
+    else:
+        config = config_from_mapping(EvaluateConfig, values, source=source)
+        run_evaluate(config, out_dir, quiet=quiet_, report=report)
 
 
 @cli.command(

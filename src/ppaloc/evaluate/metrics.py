@@ -62,6 +62,15 @@ def _as_ground_truth(ground_truth: Sequence[Any], n: int) -> list[np.ndarray]:
     return [np.asarray(g, dtype=np.int64).ravel() for g in ground_truth]
 
 
+def _csr(gt: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ground truth as (row of each entry, entries, row starts) for vectorised lookups."""
+    lengths = np.array([len(g) for g in gt], dtype=np.int64)
+    indices = np.concatenate(gt) if gt else np.zeros(0, np.int64)
+    rows = np.repeat(np.arange(len(gt)), lengths)
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]) if gt else np.zeros(0, np.int64)
+    return rows, indices.astype(np.int64), starts.astype(np.int64)
+
+
 def is_correct(nodes: np.ndarray, ground_truth: Sequence[Any]) -> np.ndarray:
     """Whether each predicted reference index is in its query's ground-truth set.
 
@@ -83,7 +92,9 @@ def is_correct(nodes: np.ndarray, ground_truth: Sequence[Any]) -> np.ndarray:
     """
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
     gt = _as_ground_truth(ground_truth, len(nodes))
-    return np.array([bool(np.isin(n, g)) for n, g in zip(nodes, gt, strict=True)], dtype=bool)
+    rows, indices, _ = _csr(gt)
+    hit = indices == nodes[rows]
+    return np.bincount(rows[hit], minlength=len(nodes)) > 0
 
 
 @dataclass(frozen=True)
@@ -305,12 +316,16 @@ def recall_at_k(
     has_match = np.array([len(g) > 0 for g in gt], dtype=bool)
     if k_max == 0 or not has_match.any():
         return np.zeros(k_max, dtype=np.float64)
+    # Candidates as an (M, K) matrix padded with -1, looked up as (row, value) keys.
+    padded = np.full((len(ranks), k_max), -1, dtype=np.int64)
+    for i, r in enumerate(ranks):
+        padded[i, : len(r)] = r
+    rows, indices, _ = _csr(gt)
+    span = int(max(padded.max(), indices.max(initial=0))) + 2
+    keys = np.arange(len(ranks))[:, None] * span + (padded + 1)
+    hits = np.isin(keys, rows * span + (indices + 1)) & (padded >= 0)
     # First position (1-based) of a correct candidate; k_max + 1 when none.
-    first = np.full(len(ranks), k_max + 1, dtype=np.int64)
-    for i, (r, g) in enumerate(zip(ranks, gt, strict=True)):
-        hits = np.flatnonzero(np.isin(r, g))
-        if hits.size:
-            first[i] = hits[0] + 1
+    first = np.where(hits.any(axis=1), hits.argmax(axis=1) + 1, k_max + 1)
     first = first[has_match]
     ks = np.arange(1, k_max + 1)
     return (first[None, :] <= ks[:, None]).mean(axis=1)
@@ -334,9 +349,11 @@ def localisation_error_frames(nodes: np.ndarray, ground_truth: Sequence[Any]) ->
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
     gt = _as_ground_truth(ground_truth, len(nodes))
     out = np.full(len(nodes), np.nan)
-    for i, (n, g) in enumerate(zip(nodes, gt, strict=True)):
-        if g.size:
-            out[i] = float(np.abs(g - n).min())
+    rows, indices, starts = _csr(gt)
+    nonempty = np.array([g.size > 0 for g in gt], dtype=bool)
+    if nonempty.any():
+        distance = np.abs(indices - nodes[rows]).astype(np.float64)
+        out[nonempty] = np.minimum.reduceat(distance, starts[nonempty])
     return out
 
 
