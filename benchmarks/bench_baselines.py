@@ -9,16 +9,15 @@ Two ways to run it::
     make bench                                        # pytest-benchmark, every method x N
     .venv/bin/python benchmarks/bench_baselines.py    # one table: medians and ratios
 
-The script form times all methods in the same process, interleaved per map size, and
-reports each median as a ratio to the host weighted-node filter (``weighted-node-lowres``)
-at the same N.
+The script form times all methods in the same process, taking turns per map size (see
+:func:`side_by_side`), and reports each median as a ratio to the host
+weighted-node filter (``weighted-node-lowres``) at the same N.
 """
 
 from __future__ import annotations
 
 import statistics
 import time
-from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -30,6 +29,7 @@ from ppaloc.topomap import TopoMap
 SIZES = (100, 1000, 3600, 10_000)
 """Map sizes: 10^2, 10^3, Nordland-like 3.6 x 10^3 and 10^4 nodes."""
 WARMUP = 12
+BLOCK = 4
 SEED = 0
 
 
@@ -85,38 +85,40 @@ def test_step_latency(benchmark, label: str, n: int) -> None:
     benchmark.pedantic(loc.step, args=(frame,), rounds=rounds, iterations=1, warmup_rounds=1)
 
 
-def _median_ms(fn: Callable[[], object], rounds: int) -> float:
-    times = []
+def side_by_side(n: int, rounds: int) -> dict[str, float]:
+    """Median ms per ``step`` of every available method on maps of ``n`` nodes.
+
+    The methods take turns (round-robin), so a change in machine load during the run
+    affects all of them alike. In each turn a method takes one untimed step, to bring its
+    own data back into the caches the others evicted, then ``BLOCK`` timed steps: each
+    method is measured warm, as when it runs alone.
+    """
+    ready = {label: prepared(label, n) for label in METHODS}
+    ready = {label: r for label, r in ready.items() if r is not None}
+    times: dict[str, list[float]] = {label: [] for label in ready}
     for _ in range(rounds):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times) * 1e3
+        for label, (loc, frame) in ready.items():
+            loc.step(frame)
+            for _ in range(BLOCK):
+                t0 = time.perf_counter()
+                loc.step(frame)
+                times[label].append(time.perf_counter() - t0)
+    return {label: statistics.median(t) * 1e3 for label, t in times.items()}
 
 
 def main() -> None:
-    header = f"{'method':22s}" + "".join(f"{n:>18d}" for n in SIZES)
     print("median ms per query frame (ratio to weighted-node-lowres at the same N)")
-    print(header)
-    table: dict[str, dict[int, float]] = {label: {} for label in METHODS}
-    for n in SIZES:
-        rounds = 30 if n <= 3600 else 12
-        for label in METHODS:
-            ready = prepared(label, n)
-            if ready is None:
-                continue
-            loc, frame = ready
-            table[label][n] = _median_ms(lambda loc=loc, frame=frame: loc.step(frame), rounds)
-    base = table.get("weighted-node-lowres", {})
-    for label, row in table.items():
-        if not row:
-            print(f"{label:22s} unavailable")
-            continue
+    print(f"{'method':22s}" + "".join(f"{n:>18d}" for n in SIZES))
+    table = {n: side_by_side(n, 10 if n <= 3600 else 4) for n in SIZES}
+    for label in METHODS:
         cells = []
         for n in SIZES:
-            ms = row.get(n)
-            ratio = f"x{ms / base[n]:.1f}" if n in base and ms is not None else ""
-            cells.append(f"{ms:9.3f} {ratio:>7s}" if ms is not None else f"{'-':>17s}")
+            ms, base = table[n].get(label), table[n].get("weighted-node-lowres")
+            if ms is None:
+                cells.append(f"{'-':>17s}")
+                continue
+            ratio = f"x{ms / base:.1f}" if base else ""
+            cells.append(f"{ms:9.3f} {ratio:>7s}")
         print(f"{label:22s}" + "".join(f"{c:>18s}" for c in cells))
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ppaloc.datasets import load_dataset, to_sensor
+from ppaloc.errors import PpalocError
 from ppaloc.evaluate.metrics import evaluate_estimates
 from ppaloc.methods import make_localiser
 
@@ -33,36 +34,41 @@ DATASETS = {
     "gp day_right->night_right": f"{GP}&ref=day_right&query=night_right",
     "gp day_left->night_right": f"{GP}&ref=day_left&query=night_right",
 }
-METHODS = [
-    "single-frame",
-    "seqslam",
-    "seqslam-centred",
-    "seqslam-noenhance",
-    "able-m",
-    "particle-filter",
-    "weighted-node-lowres",
-    "weighted-node-lbp",
-]
+METHODS: dict[str, tuple[str, dict]] = {
+    # label: (registry name, parameters)
+    "single-frame": ("single-frame", {}),
+    "seqslam": ("seqslam", {}),
+    "seqslam-centred": ("seqslam", {"mode": "centred"}),
+    "seqslam-noenhance": ("seqslam", {"enhance_window": 0}),
+    "able-m": ("able-m", {}),
+    "able-m-L20": ("able-m", {"length": 20}),
+    "able-m-L40": ("able-m", {"length": 40}),
+    "particle-filter": ("particle-filter", {}),
+    "particle-filter-raw": ("particle-filter", {"observation": "raw"}),
+    "weighted-node-lowres": ("weighted-node-lowres", {}),
+    "weighted-node-lbp": ("weighted-node-lbp", {}),
+}
 
 
-def run(method: str, ref: list[np.ndarray], query: list[np.ndarray]):
-    if method == "seqslam-centred":
-        loc = make_localiser("seqslam", mode="centred")
-        loc.build_map(ref)
-        return loc.localise_sequence(query)
-    if method == "seqslam-noenhance":
-        loc = make_localiser("seqslam", enhance_window=0)
-    else:
-        loc = make_localiser(method)
+def run(label: str, ref: list[np.ndarray], query: list[np.ndarray]) -> tuple[list, float]:
+    """Estimates of one method for every query frame (centred SeqSLAM runs offline), and
+    the localisation time per query frame in ms (map building excluded)."""
+    name, params = METHODS[label]
+    loc = make_localiser(name, **params)
     loc.build_map(ref)
     loc.reset()
-    return [loc.step(f) for f in query]
+    t0 = time.perf_counter()
+    if params.get("mode") == "centred":
+        est = loc.localise_sequence(query)
+    else:
+        est = [loc.step(f) for f in query]
+    return est, (time.perf_counter() - t0) / len(query) * 1e3
 
 
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--only", choices=["gp", "nordland"], default=None)
-    parser.add_argument("--methods", nargs="*", default=METHODS)
+    parser.add_argument("--methods", nargs="*", default=list(METHODS), choices=list(METHODS))
     parser.add_argument("--out", type=Path, default=None, help="write the table as JSON")
     args = parser.parse_args()
     rows = []
@@ -76,10 +82,8 @@ def main() -> None:
         query = [to_sensor(f) for f in ds.query]
         for method in args.methods:
             try:
-                t0 = time.perf_counter()
-                est = run(method, ref, query)
-                dt = (time.perf_counter() - t0) / len(query) * 1e3
-            except Exception as exc:  # a method not available in this tree
+                est, dt = run(method, ref, query)
+            except PpalocError as exc:  # a method not available in this tree
                 print(f"{name:28s} {method:22s} unavailable: {exc}")
                 continue
             m = evaluate_estimates(
