@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ppaloc.errors import SimulatorError
-from ppaloc.sim import PRESETS, R5, R6, A, B, C, D, NoiseParams, Scamp5
+from ppaloc.sim import FLAG, PRESETS, R5, R6, A, B, C, D, NoiseParams, Scamp5
 
 SHAPE = (64, 64)  # 4096 elements per plane
 
@@ -155,3 +155,18 @@ def test_saturation_holds_with_noise() -> None:
     sim.write(A, np.full(SHAPE, -128.0))
     sim.bus(B, A)
     assert sim.read(B).max() <= 127 and sim.read(B).min() >= -128
+
+
+def test_where_compares_a_noisy_sum() -> None:
+    # FLAG := (0.1 + n > 0), n ~ N(0, 0.5): P = Phi(0.2) = 0.5793 per element
+    sim = noisy(temporal_sd=0.5)
+    sim.write(A, np.full(SHAPE, 0.1))
+    flags = []
+    for _ in range(4):
+        sim.where(A)
+        flags.append(sim.read(FLAG))
+    assert np.mean(flags) == pytest.approx(0.5793, abs=0.02)  # 16384 draws: sd 0.004
+    ideal = Scamp5(*SHAPE)
+    ideal.write(A, np.full(SHAPE, 0.1))
+    ideal.where(A)
+    assert ideal.read(FLAG).all()
