@@ -8,10 +8,12 @@ Particles live on map nodes. Per query frame:
    p_jump``: recovery from kidnapping and from a wrong lock). A particle that runs past
    the last node is re-drawn uniformly too (clamping it there would pile particles up at
    the end of the map). The first frame of a query has no motion step (particles start uniform).
-2. *weighting*: every node is compared with the query on SeqSLAM's patch-normalised 64x32
-   image (mean absolute difference per pixel ``d``); a particle on node ``i`` gets weight
-   ``exp(-(d_i - d_min) / sigma)`` with ``sigma = sigma_rel x (median(d) - d_min)``, so the
-   likelihood is invariant to the overall scale of the distances.
+2. *weighting*: the query is compared with every node on SeqSLAM's patch-normalised 64x32
+   image (mean absolute difference per pixel), and by default the column of distances is
+   contrast-enhanced as in SeqSLAM (the filter replaces SeqSLAM's exhaustive trajectory
+   search, not its difference matrix), giving ``d``; a particle on node ``i`` gets weight
+   ``exp(-(d_i - d_min) / sigma)`` with ``sigma = sigma_rel x (median(d) - d_min)``, so
+   the likelihood does not depend on the overall scale of ``d``.
 3. *estimate*: the weighted particle histogram over nodes, smoothed over +-1 node; the
    estimate is its densest node and the confidence the fraction of the weight within +-1
    node of it.
