@@ -20,6 +20,8 @@ The frame is built in two passes:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ppaloc.datasets.synthetic.conditions import EMISSIVE, Condition, M
@@ -102,6 +104,11 @@ class Renderer:
             np.float32
         )
         self.row_up = ((self.cy - self.ys)[:, None] / self.f).astype(np.float32)
+        sp = world.sprites
+        self._sprite_lists = (
+            sp.s.tolist(), sp.x.tolist(), sp.width.tolist(), sp.height.tolist(),
+            sp.template.tolist(),
+        )  # fmt: skip
         self._plane_reach = float(np.max(world.planes.s1 - world.planes.s0, initial=0.0))
         self._box_reach = float(np.max(world.boxes.s1 - world.boxes.s0, initial=0.0))
 
@@ -358,32 +365,37 @@ class Renderer:
         sp = self.world.sprites
         i0 = int(np.searchsorted(sp.s, s_cam + Z_NEAR))
         i1 = int(np.searchsorted(sp.s, s_cam + Z_FAR))
-        f, S = self.f, self.S
+        f, S, cx, cy, h = self.f, self.S, self.cx, self.cy, self.h
+        s_all, x_all, w_all, h_all, k_all = self._sprite_lists
         for i in range(i0, i1):
-            z = float(sp.s[i] - s_cam)
-            w_px = f * sp.width[i] / z
+            z = s_all[i] - s_cam
+            w_px = f * w_all[i] / z
             if w_px < 1.5:
                 continue
-            xc = self.cx + f * (sp.x[i] - x_cam) / z
-            yb = self.cy + f * self.h / z
-            yt = self.cy - f * (sp.height[i] - self.h) / z
+            xc = cx + f * (x_all[i] - x_cam) / z
+            yb = cy + f * h / z
+            yt = cy - f * (h_all[i] - h) / z
             xl = xc - w_px / 2
-            c0, c1 = max(int(xl), 0), min(int(np.ceil(xc + w_px / 2)), S)
-            r0, r1 = max(int(yt), 0), min(int(np.ceil(yb)), S)
+            c0, c1 = max(int(xl), 0), min(math.ceil(xc + w_px / 2), S)
+            r0, r1 = max(int(yt), 0), min(math.ceil(yb), S)
             if c0 >= c1 or r0 >= r1:
                 continue
-            ti = ((self.ys[r0:r1] - yt) * np.float32(TH / (yb - yt))).astype(np.int64)
-            tj = ((self.xs[c0:c1] - xl) * np.float32(TW / w_px)).astype(np.int64)
-            ti = np.minimum(np.maximum(ti, 0), TH - 1)[:, None]
-            tj = np.minimum(np.maximum(tj, 0), TW - 1)[None, :]
-            if i % 2 and sp.template[i] < 7:  # mirror every other tree: more variety
+            # Pixel centres from the box's top-left corner, scaled to template texels.
+            ti = ((self.ys[r0:r1] - np.float32(yt)) * np.float32(TH / (yb - yt))).astype(np.intp)
+            tj = ((self.xs[c0:c1] - np.float32(xl)) * np.float32(TW / w_px)).astype(np.intp)
+            np.maximum(ti, 0, out=ti)
+            np.minimum(ti, TH - 1, out=ti)
+            np.maximum(tj, 0, out=tj)
+            np.minimum(tj, TW - 1, out=tj)
+            k = k_all[i]
+            if i % 2 and k < 7:  # mirror every other tree: more variety
                 tj = TW - 1 - tj
-            k = int(sp.template[i])
-            m = self.tmat[k][ti, tj]
-            ok = (m != TRANSPARENT) & (z < depth[r0:r1, c0:c1])
+            m = self.tmat[k][ti[:, None], tj[None, :]]
+            zf = np.float32(z)
+            ok = (m != TRANSPARENT) & (zf < depth[r0:r1, c0:c1])
             if ok.any():
-                sh = self.tshade[k][ti, tj]
-                self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, np.float32(z))
+                sh = self.tshade[k][ti[:, None], tj[None, :]]
+                self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, zf)
 
     # ------------------------------------------------------------------ appearance
     def appearance(self, mat, shade, depth, s_cam, x_cam, key) -> np.ndarray:
