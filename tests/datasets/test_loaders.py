@@ -47,6 +47,8 @@ def test_folder_bad_inputs(write_frames, tmp_path):
         load_dataset(f"folder:{tmp_path / 'ref'},{tmp_path / 'empty'}")
     with pytest.raises(DataError, match=r"has 3 images but query .* has 2; .* start=/stop="):
         load_dataset(f"folder:{tmp_path / 'ref'},{tmp_path / 'qry'}")
+    with pytest.raises(DataError, match=r"start=5 stop=None keeps none of the 3 reference"):
+        load_dataset(f"folder:{tmp_path / 'ref'},{tmp_path / 'ref'}?start=5")
 
 
 def test_corrupt_image_named_when_read(write_frames, tmp_path):

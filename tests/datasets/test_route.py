@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ppaloc.datasets.frames import RenderedFrames
 from ppaloc.datasets.route import RawRoute, assemble, moved_from_places
+from ppaloc.errors import DataError
 
 
 def _raw(n_ref: int, places=None, accepted=None) -> RawRoute:
@@ -34,11 +36,13 @@ def _raw(n_ref: int, places=None, accepted=None) -> RawRoute:
 def test_synchronised_selection_keeps_pairs(n, start, stop, step, tol):
     if start is not None and stop is not None and stop <= start:
         stop = start + 1
-    ds = assemble(
-        _raw(n, places=np.arange(n)),
-        {"start": start, "stop": stop, "step": step, "tolerance": tol},
-    )
+    options = {"start": start, "stop": stop, "step": step, "tolerance": tol}
     kept = np.arange(n)[slice(start, stop, step)]
+    if kept.size == 0:
+        with pytest.raises(DataError, match="keeps none of the"):
+            assemble(_raw(n, places=np.arange(n)), options)
+        return
+    ds = assemble(_raw(n, places=np.arange(n)), options)
     assert [int(f[0, 0]) for f in ds.reference] == kept.tolist()
     assert [int(f[0, 0]) for f in ds.query] == kept.tolist()
     for j, g in enumerate(ds.ground_truth):

@@ -24,6 +24,7 @@ import numpy as np
 from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.frames import FrameSequence
 from ppaloc.datasets.groundtruth import dilate, from_positions
+from ppaloc.errors import DataError
 
 __all__ = ["RawRoute", "assemble"]
 
@@ -79,6 +80,11 @@ def assemble(raw: RawRoute, options: Mapping[str, Any]) -> RouteDataset:
     start, stop, step = options.get("start"), options.get("stop"), int(options.get("step") or 1)
     n_ref = len(raw.reference)
     ref_idx = np.arange(n_ref)[slice(start, stop, step)]
+    if ref_idx.size == 0:
+        raise DataError(
+            f"start={start} stop={stop} keeps none of the {n_ref} reference frames; "
+            f"choose start below {n_ref}"
+        )
     meta = dict(raw.meta)
     if raw.query_place is not None:
         place = np.asarray(raw.query_place, np.float64)
@@ -105,6 +111,11 @@ def assemble(raw: RawRoute, options: Mapping[str, Any]) -> RouteDataset:
         truth = dilate(kept, ref_idx.size, tol)
         moved = None
         new_place = None
+    if q_idx.size == 0:
+        raise DataError(
+            f"start={start} stop={stop} keeps none of the {len(raw.query)} query frames; "
+            "widen the selection"
+        )
     if start is not None or stop is not None or step != 1:
         meta["selection"] = {"start": start, "stop": stop, "step": step}
     if new_place is not None:

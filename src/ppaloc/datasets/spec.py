@@ -114,7 +114,7 @@ class Key:
 COMMON_KEYS: dict[str, Key] = {
     "tolerance": Key("int", None, "accepted distance to the true reference, in frames", 0),
     "start": Key("int", None, "first frame (or place) kept", 0),
-    "stop": Key("int", None, "frame (or place) where the selection stops (exclusive)", 0),
+    "stop": Key("int", None, "frame (or place) where the selection stops (exclusive)", 1),
     "step": Key("int", 1, "keep every step-th frame", 1),
 }
 """Keys every kind accepts. ``tolerance`` has a per-kind default (see the loaders)."""

@@ -169,7 +169,7 @@ def _segments(rng: np.random.Generator, begin: float, end: float) -> tuple[np.nd
 
 
 def make_world(length: float, seed: int) -> World:
-    """Generate a world covering ``[-60, length + 200]`` metres of road.
+    """Generate a world covering ``[-60, length + 220]`` metres of road.
 
     Parameters
     ----------
