@@ -122,3 +122,17 @@ def test_repr_and_iteration() -> None:
     assert repr(k) == "Kernel(2 ICWs, recorded, {'analog': 2, 'digital': 0, 'dnews': 0, 'nop': 0})"
     assert [str(i) for i in k] == ["bus(NEWS, B)", "bus(A, NEWS)"]
     assert all(i.origin == "mov(A, B)" for i in k.instructions)
+
+
+def test_a_kernel_whose_recording_failed_cannot_be_reused() -> None:
+    sim = fresh()
+    k = sim.kernel()
+    with pytest.raises(ZeroDivisionError), k:
+        k.mov(C, A)
+        1 / 0  # noqa: B018
+    with pytest.raises(KernelError, match=r"recording of this kernel failed; record a new one"):
+        with k:
+            k.nop()
+    with pytest.raises(KernelError, match=r"recording of this kernel failed"):
+        k.run()
+    assert len(k) == 2  # what was recorded before the failure, for inspection

@@ -49,9 +49,11 @@ class Kernel(ProgramAPI):
         self._ops: list | None = None
         self._counts: dict[str, int] | None = None
         self._dwritten = None
+        self._failed = False
 
     # ---------------------------------------------------------------- recording
     def __enter__(self) -> Kernel:
+        self._check_not_failed()
         if self._sealed:
             raise KernelError("this kernel is already recorded; replay it with k.run()")
         self._open = True
@@ -62,6 +64,14 @@ class Kernel(ProgramAPI):
         if exc_type is None:
             self._sealed = True
             self.run()
+        else:
+            self._failed = True
+
+    def _check_not_failed(self) -> None:
+        if self._failed:
+            raise KernelError(
+                "the recording of this kernel failed; record a new one with sim.kernel()"
+            )
 
     def _emit(self, instructions: tuple[Instruction, ...]) -> None:
         if self._sealed or not self._open:
@@ -108,6 +118,7 @@ class Kernel(ProgramAPI):
 
     def run(self) -> None:
         """Run the kernel on its simulator (compiled once, on the first run)."""
+        self._check_not_failed()
         if not self._sealed:
             raise KernelError("a kernel runs after its `with` block has ended")
         if self._ops is None:
