@@ -163,7 +163,9 @@ def test_with_tolerance():
 
 def test_bench_rows_and_files(mean_match, tmp_path):
     cfg = BenchConfig(methods=(mean_match,), sizes=(4, 8), queries=3, warmup=1)
-    bench = run_bench(cfg)
+    calls = []
+    bench = run_bench(cfg, progress=lambda name, done: calls.append((name, done)))
+    assert calls == [(mean_match, 1), (mean_match, 2)]
     assert [(r["method"], r["n_nodes"], r["queries"]) for r in bench["rows"]] == [
         (mean_match, 4, 3),
         (mean_match, 8, 3),
@@ -173,3 +175,27 @@ def test_bench_rows_and_files(mean_match, tmp_path):
     assert load_bench(tmp_path / "bench.json")["rows"] == bench["rows"]
     assert (tmp_path / "bench.csv").read_text().startswith("method,n_nodes,")
     assert load_bench(tmp_path / "none.json") is None
+
+
+def test_bench_records_sizes_a_method_refuses(standin, monkeypatch):
+    class Small(standin.MeanMatch):
+        def build_map(self, frames):
+            if len(frames) > 4:
+                raise PpalocError(f"{len(frames)} nodes do not fit; split the route")
+            return super().build_map(frames)
+
+    monkeypatch.setattr(standin, "MeanMatch", Small)
+    name = standin.register(monkeypatch, "small")
+    rows = run_bench(BenchConfig(methods=(name,), sizes=(4, 8), queries=2))["rows"]
+    assert "latency_ms_median" in rows[0]
+    assert rows[1] == {
+        "method": name,
+        "n_nodes": 8,
+        "skipped": "8 nodes do not fit; split the route",
+    }
+
+
+def test_progress_bar_is_silent_off_a_terminal(mean_match, tiny, capfd):
+    run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny, progress=True)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""

@@ -38,16 +38,28 @@ def _console():
 
 def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     """Print the comparison table of a ``results.json`` summary on stdout."""
+    from rich import box
     from rich.table import Table
 
     from ppaloc.evaluate.report import comparison_table
 
     header, rows = comparison_table(summary, short=True)
-    table = Table(title=title or None, title_justify="left")
-    for i, h in enumerate(header):
-        table.add_column(h, justify="left" if i < 2 else "right", no_wrap=i == 0)
+    keep = [i for i, h in enumerate(header) if h not in ("Repr.", "p95 ms")]  # fit 80 columns
+    table = Table(
+        title=title or None,
+        title_justify="left",
+        box=box.SIMPLE_HEAD,
+        pad_edge=False,
+        padding=(0, 1, 0, 0),
+    )
+    for i in keep:
+        width = max([len(header[i])] + [len(r[i]) for r in rows])
+        if i == 0:  # the method name folds on a narrow terminal, numbers never do
+            table.add_column(header[i], overflow="fold")
+        else:
+            table.add_column(header[i], justify="right", min_width=width)
     for r in rows:
-        table.add_row(*r)
+        table.add_row(*(r[i] for i in keep))
     _console().print(table)
     recall = {m.get("recall_definition", "A") for m in summary["methods"].values()}
     print(
@@ -75,7 +87,6 @@ def run_evaluate(
     Path
         ``out/results.json``.
     """
-    from ppaloc.evaluate.bench import run_bench as bench_run
     from ppaloc.evaluate.bench import save_bench
     from ppaloc.evaluate.report import write_report
     from ppaloc.evaluate.results import save_results
@@ -85,7 +96,7 @@ def run_evaluate(
     result = run_evaluation(config, progress=not quiet)
     path = save_results(result, out)
     if bench is not None:
-        save_bench(bench_run(bench), out / "bench.json")
+        save_bench(_bench_with_bar(bench, quiet=quiet), out / "bench.json")
     if report:
         write_report(out)
     import json
@@ -170,14 +181,9 @@ def run_bench(config: Any, out: Path | None, *, quiet: bool = False) -> dict[str
     """Time every method against map size; print a table; write ``out/bench.json``."""
     from rich.table import Table
 
-    from ppaloc.evaluate.bench import run_bench as bench_run
     from ppaloc.evaluate.bench import save_bench
 
-    def progress(name: str, size: int) -> None:
-        if not quiet and sys.stderr.isatty():
-            print(f"  {name}: {size} nodes", file=sys.stderr)
-
-    bench = bench_run(config, progress=progress)
+    bench = _bench_with_bar(config, quiet=quiet)
     if out is not None:
         _check_out_dir(out)
         path = save_bench(bench, out / "bench.json")
@@ -194,6 +200,17 @@ def run_bench(config: Any, out: Path | None, *, quiet: bool = False) -> dict[str
         if out is not None:
             print(f"bench: {path}")
     return bench
+
+
+def _bench_with_bar(config: Any, *, quiet: bool) -> dict[str, Any]:
+    """Run the bench with a progress bar per method (on a terminal, unless quiet)."""
+    from ppaloc.evaluate.bench import run_bench as bench_run
+    from ppaloc.evaluate.run import ProgressBar, resolve_methods
+
+    with ProgressBar(not quiet) as bar:
+        for name in resolve_methods(config.methods):
+            bar.add(name, len(config.sizes), label=f"{name} vs map size")
+        return bench_run(config, progress=bar)
 
 
 def _bench_cell(row: dict[str, Any] | None) -> str:

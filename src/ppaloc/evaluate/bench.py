@@ -46,6 +46,8 @@ def run_bench(
 ) -> dict[str, Any]:
     """Time ``step`` of every method of ``config`` at every map size.
 
+    ``progress(method, sizes_done)`` is called after each size.
+
     Returns
     -------
     dict
@@ -76,6 +78,8 @@ def run_bench(
             except PpalocError as exc:  # a size the method cannot hold (e.g. sensor capacity)
                 rows.append({"method": name, "n_nodes": size, "skipped": str(exc)})
                 log.info("bench: %s skips %d nodes: %s", name, size, exc)
+                if progress:
+                    progress(name, config.sizes.index(size) + 1)
                 continue
             build_s = time.perf_counter() - t0
             loc.reset()
@@ -96,7 +100,7 @@ def run_bench(
                 }
             )
             if progress:
-                progress(name, size)
+                progress(name, config.sizes.index(size) + 1)
     return {
         "config": config.to_dict(),
         "ppaloc_version": __version__,

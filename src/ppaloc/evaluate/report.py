@@ -128,7 +128,7 @@ def comparison_table(
                 _ms(m["latency_ms_median"]),
                 _ms(m["latency_ms_p95"]),
                 _ms(m["modelled_latency_ms"]),
-                _fmt(m["energy_mj"], 4),
+                _fmt(m["energy_mj"], 3),
             ]
         )
     return (_SHORT_HEADER if short else header), rows

@@ -30,6 +30,7 @@ from ppaloc.methods import METHODS, available_methods, make_localiser
 
 __all__ = [
     "MethodRun",
+    "ProgressBar",
     "RunResult",
     "accepted_parameters",
     "resolve_methods",
@@ -384,15 +385,19 @@ def _jsonable(v: Any) -> Any:
     return v
 
 
-class _Progress:
-    """A rich progress bar on stderr, one task per method; silent when not a terminal."""
+class ProgressBar:
+    """A rich progress bar on stderr, one task per method; silent when not a terminal.
+
+    Use as a context manager; ``add(name, total)`` declares a task and calling the bar as
+    ``bar(name, done)`` advances it (the :data:`ProgressHook` signature).
+    """
 
     def __init__(self, enabled: bool) -> None:
         self.enabled = enabled and sys.stderr.isatty()
         self._bar = None
         self._tasks: dict[str, Any] = {}
 
-    def __enter__(self) -> _Progress:
+    def __enter__(self) -> ProgressBar:
         if self.enabled:
             from rich.console import Console
             from rich.progress import (
@@ -404,7 +409,7 @@ class _Progress:
             )
 
             self._bar = Progress(
-                TextColumn("{task.description:<22}"),
+                TextColumn("{task.description:<36}"),
                 BarColumn(),
                 MofNCompleteColumn(),
                 TimeRemainingColumn(),
@@ -414,9 +419,9 @@ class _Progress:
             self._bar.__enter__()
         return self
 
-    def add(self, name: str, total: int) -> None:
+    def add(self, name: str, total: int, *, label: str | None = None) -> None:
         if self._bar is not None:
-            self._tasks[name] = self._bar.add_task(name, total=total)
+            self._tasks[name] = self._bar.add_task(label or name, total=total)
 
     def __call__(self, name: str, done: int) -> None:
         if self._bar is not None and name in self._tasks:
@@ -477,7 +482,7 @@ def run_evaluation(
     gt = [np.asarray(g, dtype=np.int64) for g in dataset.ground_truth]
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
-    with _Progress(progress) as bar:
+    with ProgressBar(progress) as bar:
         for name in names:
             bar.add(name, len(query))
         for name in names:
