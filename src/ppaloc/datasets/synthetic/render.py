@@ -26,7 +26,7 @@ import numpy as np
 
 from ppaloc.datasets.synthetic.conditions import EMISSIVE, Condition, M
 from ppaloc.datasets.synthetic.sprites import TH, TRANSPARENT, TW, make_templates, smooth_noise
-from ppaloc.datasets.synthetic.world import FOREST, ROAD_HALF, SUBURB, TOWN, World
+from ppaloc.datasets.synthetic.world import FOREST, ROAD_HALF, SEGMENT_TYPES, SUBURB, TOWN, World
 
 __all__ = ["CAMERA_HEIGHT", "LANE_CENTRE", "Renderer"]
 
@@ -38,6 +38,9 @@ LANE_CENTRE = ROAD_HALF / 2
 
 LAMP_HEIGHT = 6.4
 """Height of a street lamp's head (m)."""
+
+GROUND_BINS, GROUND_HALF = 48, 80
+"""Lateral resolution (bins per metre) and half-width (m) of the ground profiles."""
 
 Z_NEAR, Z_FAR = 1.0, 170.0
 """Objects are drawn between these depths (m); fog hides the far end."""
@@ -89,7 +92,8 @@ class Renderer:
         self.xrel = ((self.xs - self.cx)[None, :] * self.z_row[:, None] / self.f).astype(np.float32)
         ground_rng = np.random.default_rng([world.seed, 0x6D])
         self.tex = (smooth_noise(ground_rng, (512, 512), 90) * 2 - 1).astype(np.float32)
-        self.tex_gain = np.clip(6.0 / self.z_row, 0.1, 1.0)[:, None].astype(np.float32)
+        self.tex_gain = (0.25 * np.clip(6.0 / self.z_row, 0.1, 1.0))[:, None].astype(np.float32)
+        self.ground_mat, self.ground_shade, self.ground_centre = self._ground_luts()
 
         # Background: sky above the horizon, distant hills on it.
         self.hill = smooth_noise(np.random.default_rng([world.seed, 0x41]), (1, 4 * S), 10)[0]
@@ -167,31 +171,57 @@ class Renderer:
         mat[m] = M["hill"]
         depth[m] = 2500.0
 
+    def _ground_luts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Across-the-road profiles, one per kind of surroundings, in ``GROUND_BINS`` per metre.
+
+        ``mat[t, b]`` and ``shade[t, b]`` are the material and shading at lateral bin ``b``
+        (``x = b / GROUND_BINS - GROUND_HALF``) next to surroundings of kind ``t``; ``centre[b]``
+        marks the centre line (dashed per row). Lanes, edge lines, wheel tracks, kerbs,
+        pavements and verges are all functions of ``x`` alone, so the ground costs one lookup
+        per pixel instead of a chain of comparisons.
+        """
+        x = (np.arange(2 * GROUND_HALF * GROUND_BINS) + 0.5) / GROUND_BINS - GROUND_HALF
+        ax = np.abs(x)
+        mats, shades = [], []
+        for t in range(len(SEGMENT_TYPES)):
+            built = t in (TOWN, SUBURB)
+            side_w = {TOWN: 4.5, SUBURB: 2.2}.get(t, 1.4)
+            side_m = M["sidewalk"] if built else M["verge"]
+            far_m = {TOWN: M["sidewalk"], FOREST: M["verge"]}.get(t, M["field"])
+            m = np.where(
+                ax < ROAD_HALF, M["road"], np.where(ax < ROAD_HALF + side_w, side_m, far_m)
+            )
+            m[np.abs(ax - (ROAD_HALF - 0.25)) < 0.08] = M["marking"]
+            sh = np.ones_like(x)
+            tracks = (np.abs(np.abs(ax - LANE_CENTRE) - 0.85) < 0.3) & (ax < ROAD_HALF)
+            sh[tracks] = 0.94  # darker wheel tracks in each lane
+            if built:
+                sh[np.abs(ax - ROAD_HALF) < 0.12] = 0.75  # kerb
+            mats.append(m.astype(np.uint8))
+            shades.append(sh.astype(np.float32))
+        return np.stack(mats), np.stack(shades), ax < 0.09
+
     def _ground(self, mat, shade, depth, s_cam, x_cam):
         g = slice(self.g0, self.S)
-        xw = self.xrel + np.float32(x_cam)
-        sw = (np.float32(s_cam) + self.z_row).astype(np.float64)
-        ax = np.abs(xw)
-        seg = self.world.segment_at(sw)
-        side_w = np.where(seg == TOWN, 4.5, np.where(seg == SUBURB, 2.2, 1.4))[:, None]
-        side_m = np.where((seg == TOWN) | (seg == SUBURB), M["sidewalk"], M["verge"])[:, None]
-        far_m = np.where(
-            seg == TOWN, M["sidewalk"], np.where(seg == FOREST, M["verge"], M["field"])
-        )
-        m = np.where(
-            ax < ROAD_HALF, M["road"], np.where(ax < ROAD_HALF + side_w, side_m, far_m[:, None])
-        )
-        dash = (ax < 0.09) & ((sw % 9.0) < 3.0)[:, None]
-        edge = np.abs(ax - (ROAD_HALF - 0.25)) < 0.08
-        m[dash | edge] = M["marking"]
-        ti = (np.floor(sw * 12.0).astype(np.int64) & 511)[:, None]
-        tj = np.floor(xw * 12.0).astype(np.int64) & 511
-        sh = 1.0 + 0.25 * self.tex[ti, tj] * self.tex_gain
-        # Darker wheel tracks in each lane.
-        tracks = np.abs(np.abs(ax - LANE_CENTRE) - 0.85) < 0.3
-        sh = np.where(tracks & (ax < ROAD_HALF), sh * np.float32(0.94), sh)
-        kerb = (np.abs(ax - ROAD_HALF) < 0.12) & (side_m == M["sidewalk"])
-        sh = np.where(kerb, 0.75, sh)
+        sw = self.z_row.astype(np.float64) + s_cam
+        width = self.ground_mat.shape[1]
+        b = self.xrel + np.float32(x_cam + GROUND_HALF)
+        b *= np.float32(GROUND_BINS)
+        xb = b.astype(np.intp)
+        np.clip(xb, 0, width - 1, out=xb)
+        row = (self.world.segment_at(sw) * width)[:, None]  # which profile, per row
+        flat = xb + row
+        m = np.take(self.ground_mat, flat)
+        dash_rows = ((sw % 9.0) < 3.0)[:, None]
+        m[np.take(self.ground_centre, xb) & dash_rows] = M["marking"]
+        # World-fixed texture (12 texels per metre), fading with distance to avoid shimmer.
+        ti = ((np.floor(sw * 12.0).astype(np.intp) & 511) * 512)[:, None]
+        tj = (xb >> 2) & 511
+        tj += ti
+        sh = np.take(self.tex, tj)
+        sh *= self.tex_gain
+        sh += np.float32(1.0)
+        sh *= np.take(self.ground_shade, flat)
         mat[g] = m
         shade[g] = sh
         depth[g] = self.z_row[:, None]
