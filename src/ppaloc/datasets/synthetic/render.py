@@ -94,6 +94,8 @@ class Renderer:
         self.tex = (smooth_noise(ground_rng, (512, 512), 90) * 2 - 1).astype(np.float32)
         self.tex_gain = (0.25 * np.clip(6.0 / self.z_row, 0.1, 1.0))[:, None].astype(np.float32)
         self.ground_mat, self.ground_shade, self.ground_centre = self._ground_luts()
+        self.self_lit = np.zeros(256, bool)  # materials that keep their colour at night
+        self.self_lit[[*EMISSIVE, M["sky"]]] = True
 
         # Background: sky above the horizon, distant hills on it.
         self.hill = smooth_noise(np.random.default_rng([world.seed, 0x41]), (1, 4 * S), 10)[0]
@@ -515,8 +517,7 @@ class Renderer:
             dy = height[r0:r1, c0:c1] - LAMP_HEIGHT
             light[r0:r1, c0:c1] += 1.1 * np.exp(-(ds * ds + dx * dx + 0.5 * dy * dy) / 30.0)
         light *= shade
-        for m in (*EMISSIVE, M["sky"]):
-            light[mat == m] = 1.0
+        np.copyto(light, np.float32(1.0), where=np.take(self.self_lit, mat))
         return light
 
     def _glow(self, out, s_cam, x_cam):
