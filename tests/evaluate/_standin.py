@@ -55,6 +55,13 @@ class MeanMatch:
     def reset(self) -> None:
         self.steps = 0
 
+    def register_planes(self) -> dict[str, np.ndarray]:
+        """Two planes standing in for a simulated sensor's registers (modelled mode only)."""
+        if not self.modelled:
+            return {}
+        ramp = np.tile(np.linspace(-128, 127, 64, dtype=np.float32), (64, 1))
+        return {"A: ramp": ramp, "R5: bits": ramp > 0}
+
     def step(self, frame: np.ndarray) -> Estimate:
         assert frame.shape == (256, 256) and frame.dtype == np.uint8
         assert self.topomap is not None

@@ -87,8 +87,11 @@ def test_weights_dropped_above_the_limit(standin, tiny):
 def test_modelled_latency_and_energy_summarised(standin, tiny):
     ref, qry = sensor_frames(tiny.reference), sensor_frames(tiny.query)
     loc = standin.MeanMatch(modelled=True)
-    s = run_method("m", ref, qry, tiny.ground_truth, localiser=loc).summary()
+    run = run_method("m", ref, qry, tiny.ground_truth, localiser=loc)
+    s = run.summary()
     assert s["modelled_latency_ms"] == 0.25 and s["energy_mj"] == pytest.approx(0.002)
+    assert list(run.registers) == ["A: ramp", "R5: bits"]
+    assert run.registers["R5: bits"].dtype == bool
 
 
 def test_evaluation_through_the_registry_passes_seed_and_weights(mean_match, tiny):
@@ -113,6 +116,7 @@ def test_results_files_round_trip(mean_match, tiny, tmp_path):
         rows = list(csv.reader(f))
     assert rows[0] == CSV_COLUMNS and rows[1][0] == mean_match
     assert float(rows[1][1]) == pytest.approx(1.0)
+    assert "registers" not in summary["methods"][mean_match]  # a host method has none
     back, _ = load_results(tmp_path / "out")
     a, b = result.runs[mean_match], back.runs[mean_match]
     for key in ("node", "ref_index", "score", "moved", "ranking", "latency_ms", "weights"):
@@ -199,3 +203,31 @@ def test_progress_bar_is_silent_off_a_terminal(mean_match, tiny, capfd):
     run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny, progress=True)
     out, err = capfd.readouterr()
     assert out == "" and err == ""
+
+
+def test_register_planes_round_trip(standin, monkeypatch, tiny, tmp_path):
+    name = standin.register(monkeypatch, "sensor", modelled=True)
+    result = run_evaluation(EvaluateConfig(methods=(name,)), dataset=tiny, progress=False)
+    summary = json.loads(save_results(result, tmp_path).read_text())
+    assert summary["methods"][name]["registers"] == f"arrays/{name}.registers.npz"
+    back, _ = load_results(tmp_path)
+    planes = back.runs[name].registers
+    assert list(planes) == ["A: ramp", "R5: bits"]
+    np.testing.assert_array_equal(planes["A: ramp"], result.runs[name].registers["A: ramp"])
+    assert planes["R5: bits"].dtype == bool
+
+
+def test_register_planes_of_a_real_onsensor_localiser():
+    from ppaloc.evaluate.run import register_planes
+    from ppaloc.methods import available_methods, make_localiser
+
+    if "onsensor-lbp" not in available_methods():
+        pytest.skip("onsensor-lbp is not available")
+    loc = make_localiser("onsensor-lbp")
+    frames = [np.full((256, 256), 16 * i, np.uint8) for i in range(4)]
+    loc.build_map(frames)
+    loc.reset()
+    loc.step(frames[1])
+    planes = register_planes(loc)
+    assert "C: weights" in planes and "R10: map tile 0" in planes
+    assert all(p.shape == (256, 256) for p in planes.values())

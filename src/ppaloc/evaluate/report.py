@@ -240,6 +240,34 @@ def _onsensor_figures(result: RunResult) -> list[_Figure]:
     return out
 
 
+def _register_figures(result: RunResult) -> list[_Figure]:
+    """A montage of the saved register planes of every on-sensor method."""
+    out = []
+    for name, run in result.runs.items():
+        if not run.registers:
+            continue
+        import tempfile
+
+        from ppaloc.sim.render import render_montage
+
+        with tempfile.TemporaryDirectory() as tmp:
+            path = render_montage(run.registers, Path(tmp) / "registers.png", columns=3)
+            png = path.read_bytes()
+        out.append(
+            _Figure(
+                f"registers-{name}",
+                f"Registers of {name} after the last frame",
+                "Register planes of the simulated SCAMP-5 (256x256 PEs each) after the last "
+                "query frame, read without timing or readout noise: the map tiles in the "
+                "snake layout, the weights (one value per node block), the working planes, "
+                "the motion bit-planes and the detection candidates. Analogue registers on a "
+                "fixed grey scale (-128 black, 127 white); digital registers black/white.",
+                png,
+            )
+        )
+    return out
+
+
 def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
     d = (result.runs and next(iter(result.runs.values())).metrics.recall_definition) or "A"
     out = [
@@ -271,6 +299,7 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
                 figures.png_bytes(heat),
             )
         )
+    out += _register_figures(result)
     out += _onsensor_figures(result)
     out.append(
         _Figure(

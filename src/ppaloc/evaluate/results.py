@@ -6,6 +6,8 @@ Layout of a results folder::
     results.csv           one row per method, the same scalars as results.json
     arrays/_dataset.npz   ground truth (CSR: gt_indptr, gt_indices), positions, query_moved
     arrays/<method>.npz   per-query arrays of one method (see MethodRun)
+    arrays/<method>.registers.npz  register planes after the last frame (on-sensor only):
+                          ``labels`` (P,) str and ``plane0`` .. ``plane{P-1}`` (2-D)
     bench.json            latency against map size, where measured (ppaloc bench / demo)
 
 Every file is written atomically (a temporary file in the same folder, then
@@ -116,6 +118,13 @@ def save_results(result: RunResult, out: str | Path) -> Path:
         arrays["curve_precision"] = run.metrics.curve.precision
         arrays["curve_recall"] = run.metrics.curve.recall
         atomic_write(out / rel, _npz_bytes(arrays))
+        if run.registers:
+            names = list(run.registers)
+            planes = {f"plane{i}": np.asarray(run.registers[n]) for i, n in enumerate(names)}
+            planes["labels"] = np.array(names)
+            reg_rel = rel.replace(".npz", ".registers.npz")
+            summary["methods"][name]["registers"] = reg_rel
+            atomic_write(out / reg_rel, _npz_bytes(planes))
     gt = result.ground_truth
     ds_arrays = {
         "gt_indptr": np.cumsum([0] + [len(g) for g in gt]).astype(np.int64),
@@ -174,6 +183,14 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
                 a = {k: z[k] for k in z.files}
         except (OSError, ValueError) as exc:
             raise DataError(f"cannot read the arrays of {name} in {folder}: {exc}") from exc
+        registers = None
+        if s.get("registers"):
+            try:
+                with np.load(folder / s["registers"]) as z:
+                    labels = [str(x) for x in z["labels"]]
+                    registers = {lab: z[f"plane{i}"] for i, lab in enumerate(labels)}
+            except (OSError, ValueError, KeyError) as exc:
+                raise DataError(f"cannot read the registers of {name} in {folder}: {exc}") from exc
         ranking = a["ranking"]
         metrics = evaluate_estimates(
             a["ref_index"],
@@ -201,6 +218,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             modelled_latency_ms=a.get("modelled_latency_ms"),
             energy_mj=a.get("energy_mj"),
             motion_accuracy=s.get("motion_accuracy"),
+            registers=registers,
         )
     result = RunResult(
         dataset=summary["dataset"],

@@ -33,6 +33,7 @@ __all__ = [
     "ProgressBar",
     "RunResult",
     "accepted_parameters",
+    "register_planes",
     "resolve_methods",
     "run_evaluation",
     "run_method",
@@ -76,6 +77,10 @@ class MethodRun:
     modelled_latency_ms, energy_mj : ndarray of float, shape (M,), optional
         Modelled on-sensor time and energy per frame, where the method models them.
     metrics : Metrics
+    motion_accuracy : float, optional
+        Agreement of ``moved`` with the dataset's ``query_moved``, where both exist.
+    registers : dict of str to ndarray, optional
+        Register planes after the last frame (:func:`register_planes`), on-sensor only.
     """
 
     method: str
@@ -94,6 +99,7 @@ class MethodRun:
     modelled_latency_ms: np.ndarray | None = None
     energy_mj: np.ndarray | None = None
     motion_accuracy: float | None = None
+    registers: dict[str, np.ndarray] | None = None
 
     def summary(self) -> dict[str, Any]:
         """The method's entry of ``results.json`` (scalars only)."""
@@ -366,7 +372,53 @@ def run_method(
         modelled_latency_ms=modelled,
         energy_mj=energy,
         motion_accuracy=motion_acc,
+        registers=register_planes(loc),
     )
+
+
+_REGISTER_ROLES: dict[str, dict[str, str]] = {
+    "lowres": {
+        "A": "map tile 0",
+        "B": "map tile 1",
+        "C": "weights",
+        "D": "working",
+        "E": "working",
+        "F": "working",
+        "R5": "motion U",
+        "R6": "motion D",
+        "R9": "candidates",
+    },
+    "lbp": {
+        "C": "weights",
+        "D": "working",
+        "R3": "frame descriptor",
+        "R10": "map tile 0",
+        "R11": "map tile 1",
+        "R5": "motion U",
+        "R6": "motion D",
+        "R9": "candidates",
+    },
+}
+"""Registers of the on-sensor pipeline worth a picture, with their roles (docs/onsensor.md)."""
+
+
+def register_planes(localiser: Any) -> dict[str, np.ndarray] | None:
+    """Register planes of a simulated sensor after its last frame, for the report.
+
+    A localiser may offer ``register_planes() -> {label: 2-D array}``; otherwise one with a
+    ``pipeline.sim`` simulator (``OnSensorLocaliser``) is inspected (``Scamp5.read``:
+    untimed, no readout noise). None for host methods.
+    """
+    fn = getattr(localiser, "register_planes", None)
+    if callable(fn):
+        return {str(k): np.asarray(v) for k, v in fn().items()}
+    sim = getattr(getattr(localiser, "pipeline", None), "sim", None)
+    if sim is None or not callable(getattr(sim, "read", None)):
+        return None
+    import ppaloc.sim as registers
+
+    roles = _REGISTER_ROLES.get(str(getattr(localiser, "representation", "")), {})
+    return {f"{name}: {role}": sim.read(getattr(registers, name)) for name, role in roles.items()}
 
 
 def _optional_array(values: list[float | None]) -> np.ndarray | None:
