@@ -69,3 +69,23 @@ def test_register_by_name() -> None:
     assert register_by_name("XE") is XE
     with pytest.raises(KeyError):
         register_by_name("G")
+
+
+def test_header_names_of_digital_registers() -> None:
+    # scamp5_icw.hpp: RS R1, RW R2, RN R3, RE R4, S0-S6 R5-R11, RP R12, RF R0
+    pairs = {"RS": "R1", "RW": "R2", "RN": "R3", "RE": "R4", "RP": "R12", "RF": "R0"}
+    pairs |= {f"S{i}": f"R{i + 5}" for i in range(7)}
+    for alias, name in pairs.items():
+        assert getattr(sim_pkg, alias) is register_by_name(name), alias
+        assert alias in sim_pkg.__all__
+
+
+def test_tutorial_style_port_with_header_names() -> None:
+    # DNEWS0 with RN set reads the north neighbour: a row of ones moves one row south
+    sim = sim_pkg.Scamp5(rows=4, cols=2)
+    sim.write(sim_pkg.S0, [[0, 0], [1, 1], [0, 0], [0, 0]])
+    with sim.kernel() as k:
+        k.CLR(sim_pkg.RS, sim_pkg.RW, sim_pkg.RE)
+        k.SET(sim_pkg.RN)
+        k.DNEWS0(sim_pkg.S5, sim_pkg.S0)
+    assert sim.read(sim_pkg.S5).astype(int).tolist() == [[0, 0], [0, 0], [1, 1], [0, 0]]

@@ -42,6 +42,19 @@ __all__ = [
     "R10",
     "R11",
     "R12",
+    "RE",
+    "RF",
+    "RN",
+    "RP",
+    "RS",
+    "RW",
+    "S0",
+    "S1",
+    "S2",
+    "S3",
+    "S4",
+    "S5",
+    "S6",
     "SELECT",
     "XE",
     "XN",
@@ -180,6 +193,13 @@ DIGITAL_PLANES: tuple[Register, ...] = (
     FLAG,
     SELECT,
 )
+
+# The SCAMP-5 headers' other names for the digital registers (``scamp5_icw.hpp``,
+# namespace SCAMP5_PE), used throughout published code: the DNEWS selectors by the
+# direction they read from, S0-S6 for the general registers, RF and RP for the scratch pair.
+RS, RW, RN, RE = R1, R2, R3, R4
+S0, S1, S2, S3, S4, S5, S6 = R5, R6, R7, R8, R9, R10, R11
+RF, RP = R0, R12
 
 #: Selector registers of DNEWS, by direction (R1 south, R2 west, R3 north, R4 east).
 DNEWS_SELECTORS: dict[Direction, Register] = {
