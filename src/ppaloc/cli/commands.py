@@ -317,7 +317,10 @@ def run_localise(
         if out.is_dir():
             raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
         out.parent.mkdir(parents=True, exist_ok=True)
+        from ppaloc.evaluate.results import default_file_mode
+
         fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
+        os.fchmod(fd, default_file_mode())
         stream = os.fdopen(fd, "w")
     else:
         tmp, stream = None, sys.stdout
