@@ -20,6 +20,7 @@ from ppaloc.localise.base import Estimate
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import PipelineParams, SensorPipeline
+from ppaloc.sim import NoiseParams
 from ppaloc.topomap import TopoMap, build_topomap
 
 __all__ = ["NOISE_PRESETS", "OnSensorLocaliser"]
@@ -35,8 +36,9 @@ class OnSensorLocaliser:
     representation : {"lowres", "lbp"}
         8x8 images in an analogue register (8x8 PEs per node, 1024 per tile) or 32-bit
         LBP descriptors in a digital register (4x8 PEs per node, 2048 per tile).
-    noise : {"ideal", "low", "typical", "high"}
-        The simulator's noise preset.
+    noise : {"ideal", "low", "typical", "high"} or NoiseParams
+        The simulator's noise preset, or custom parameters (e.g. a preset without the
+        analogue droop, to separate its effect).
     seed : int
         Seed of the simulator's noise.
     arithmetic : {"ppa8"}
@@ -63,7 +65,7 @@ class OnSensorLocaliser:
     def __init__(
         self,
         representation: str = "lowres",
-        noise: str = "ideal",
+        noise: str | NoiseParams = "ideal",
         seed: int = 0,
         *,
         arithmetic: str = "ppa8",
@@ -71,8 +73,11 @@ class OnSensorLocaliser:
         size: int = 256,
         **filter_params: Any,
     ) -> None:
-        if noise not in NOISE_PRESETS:
-            raise PpalocError(f"noise={noise!r} is not one of {', '.join(NOISE_PRESETS)}")
+        if not isinstance(noise, NoiseParams) and noise not in NOISE_PRESETS:
+            raise PpalocError(
+                f"noise={noise!r} is not one of {', '.join(NOISE_PRESETS)} or a "
+                "ppaloc.sim.NoiseParams"
+            )
         if arithmetic != "ppa8":
             raise PpalocError(
                 f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "

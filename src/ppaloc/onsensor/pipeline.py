@@ -64,6 +64,7 @@ from ppaloc.sim import (
     D,
     E,
     F,
+    NoiseParams,
     Register,
     Scamp5,
     east,
@@ -163,8 +164,8 @@ class SensorPipeline:
     n_nodes : int
         Nodes of the map (tiles follow from the layout's capacity).
     params : PipelineParams
-    noise : str
-        Noise preset of the simulator.
+    noise : str or NoiseParams
+        Noise preset (or parameters) of the simulator.
     seed : int
         Seed of the simulator's noise.
     size : int
@@ -177,7 +178,7 @@ class SensorPipeline:
         n_nodes: int,
         params: PipelineParams,
         *,
-        noise: str = "ideal",
+        noise: str | NoiseParams = "ideal",
         seed: int = 0,
         size: int = 256,
     ) -> None:
