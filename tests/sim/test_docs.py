@@ -1,4 +1,5 @@
-"""The Python examples of docs/sim.md run as written and compute what they claim."""
+"""The Python examples of docs/sim.md and docs/sim-controller.md run as written and
+compute what they claim."""
 
 from __future__ import annotations
 
@@ -8,14 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ppaloc.sim import A
+from ppaloc.sim import R5, A
 from ppaloc.sim.demo import synthetic_scene
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "sim.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+DOC = DOCS / "sim.md"
 
 
-def python_blocks() -> list[str]:
-    return re.findall(r"```python\n(.*?)```", DOC.read_text(encoding="utf-8"), re.S)
+def python_blocks(doc: Path = DOC) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", doc.read_text(encoding="utf-8"), re.S)
 
 
 def run(block: str, capsys: pytest.CaptureFixture[str]) -> tuple[dict, list[str]]:
@@ -57,3 +59,12 @@ def test_porting_example_matches_numpy(capsys) -> None:
     expected = r5 | north | east
     assert 0.01 < expected.mean() < 0.5  # edges of the shapes: neither all nor nothing
     assert np.array_equal(ns["edges"], expected)
+
+
+def test_controller_host_example(capsys) -> None:
+    (block,) = python_blocks(DOCS / "sim-controller.md")
+    ns, printed = run(block, capsys)
+    assert len(printed) == 4
+    for got, claim in printed:
+        assert got == claim
+    assert ns["sim"].read(R5).sum() == 2
