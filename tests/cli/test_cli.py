@@ -237,6 +237,8 @@ def test_map_and_localise_with_a_real_method(tiny_spec, tmp_path, capsys):
     assert code == 0, err
     with Image.open(tmp_path / "m.png") as im:
         assert im.size[0] >= 256
+        grey = np.asarray(im.convert("L"))
+    assert {0, 255} <= set(np.unique(grey).tolist())  # descriptor bits drawn black and white
 
 
 def test_bench_writes_json(mean_match, tmp_path, capsys):

@@ -405,12 +405,11 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
         from ppaloc.sim.render import render_montage
 
         d = np.asarray(topomap.descriptors)
-        if topomap.kind == "lbp":
+        if topomap.kind == "lbp":  # bit 31 - b of a code at block PE (b // 8, b % 8): digital
             bits = np.unpackbits(d.astype(">u4").view(np.uint8).reshape(len(d), 4), axis=1)
-            blocks = bits.reshape(len(d), *layout.block_shape).astype(np.float64)
-        else:
-            blocks = d.astype(np.float64).reshape(len(d), *layout.block_shape) / 255.0
-        planes = layout.to_planes(blocks)
+            planes = layout.to_planes(bits.reshape(len(d), *layout.block_shape).astype(bool))
+        else:  # grey levels as analogue register units (0..255 -> -128..127)
+            planes = layout.to_planes(d.astype(np.uint8), fill=128).astype(np.float32) - 128
         labels = {f"{topomap.kind} tile {i}": p for i, p in enumerate(planes)}
         render_montage(labels, out, scale=2)
     else:
