@@ -412,6 +412,10 @@ class Renderer:
             r0, r1 = max(int(yt), 0), min(math.ceil(yb), S)
             if c0 >= c1 or r0 >= r1:
                 continue
+            region = depth[r0:r1, c0:c1]
+            zf = np.float32(z)
+            if zf >= region.max():  # hidden behind nearer things already drawn
+                continue
             # Pixel centres from the box's top-left corner, scaled to template texels.
             ti = ((self.ys[r0:r1] - np.float32(yt)) * np.float32(TH / (yb - yt))).astype(np.intp)
             tj = ((self.xs[c0:c1] - np.float32(xl)) * np.float32(TW / w_px)).astype(np.intp)
@@ -423,8 +427,7 @@ class Renderer:
             if i % 2 and k < 7:  # mirror every other tree: more variety
                 tj = TW - 1 - tj
             m = self.tmat[k][ti[:, None], tj[None, :]]
-            zf = np.float32(z)
-            ok = (m != TRANSPARENT) & (zf < depth[r0:r1, c0:c1])
+            ok = (m != TRANSPARENT) & (zf < region)
             if ok.any():
                 sh = self.tshade[k][ti[:, None], tj[None, :]]
                 self._write(mat, shade, depth, r0, r1, c0, c1, ok, m, sh, zf)
