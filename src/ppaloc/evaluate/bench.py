@@ -23,7 +23,7 @@ from ppaloc import __version__
 from ppaloc.datasets import SENSOR_SHAPE
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import BenchConfig
-from ppaloc.evaluate.run import _build_params, resolve_methods
+from ppaloc.evaluate.run import localiser_params, resolve_methods
 from ppaloc.methods import make_localiser
 
 __all__ = ["load_bench", "run_bench", "save_bench"]
@@ -67,7 +67,7 @@ def run_bench(
     queries = _frames(rng, config.warmup + config.queries)
     rows = []
     for name in names:
-        params = _build_params(
+        params = localiser_params(
             name, config.params.get(name, {}), seed=config.seed, record_weights=False
         )
         for size in config.sizes:

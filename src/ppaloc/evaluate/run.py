@@ -10,6 +10,7 @@ methods that model them.
 
 from __future__ import annotations
 
+import importlib
 import inspect
 import sys
 import time
@@ -33,6 +34,7 @@ __all__ = [
     "ProgressBar",
     "RunResult",
     "accepted_parameters",
+    "localiser_params",
     "register_planes",
     "resolve_methods",
     "run_evaluation",
@@ -229,17 +231,17 @@ def resolve_methods(names: Sequence[str]) -> list[str]:
 def accepted_parameters(name: str) -> set[str] | None:
     """Keyword parameters the class behind method ``name`` accepts (None: any, ``**kw``)."""
     module, _, cls = METHODS[name].target.partition(":")
-    import importlib
-
     sig = inspect.signature(getattr(importlib.import_module(module), cls))
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in sig.parameters.values()):
         return None
     return set(sig.parameters)
 
 
-def _build_params(
+def localiser_params(
     name: str, user: Mapping[str, Any], *, seed: int, record_weights: bool
 ) -> dict[str, Any]:
+    """The user's parameters for method ``name`` plus ``seed`` and ``record_weights=True``
+    where its class accepts them (the user's own values win)."""
     accepted = accepted_parameters(name)
     params = dict(user)
     if accepted is None or "seed" in accepted:
@@ -540,7 +542,7 @@ def run_evaluation(
         for name in names:
             user = dict(config.params.get(name, {}))
             if localisers is None:
-                params = _build_params(
+                params = localiser_params(
                     name, user, seed=config.seed, record_weights=config.record_weights
                 )
                 loc = make_localiser(name, **params)
