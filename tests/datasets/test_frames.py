@@ -47,3 +47,17 @@ def test_frames_are_read_only_and_index_checked():
 def test_rendered_frames_select_positions():
     seq = RenderedFrames(lambda i: np.array([[i]], np.uint8), 6)
     assert [int(f[0, 0]) for f in seq.select([5, 0, 2])] == [5, 0, 2]
+
+
+def test_image_frames_pickle(tmp_path):
+    import pickle
+
+    from PIL import Image
+
+    from ppaloc.datasets.frames import ImageFrames
+
+    for k in range(3):
+        Image.fromarray(np.full((2, 2), 10 * k, np.uint8)).save(tmp_path / f"{k}.png")
+    seq = ImageFrames(sorted(tmp_path.glob("*.png")))[1:]
+    again = pickle.loads(pickle.dumps(seq))
+    assert [int(f[0, 0]) for f in again] == [10, 20]

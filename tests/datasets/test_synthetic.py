@@ -150,3 +150,12 @@ def test_figures_are_written(tmp_path):
     with Image.open(path) as im:
         assert im.size == (4 * 40, 40 + 24)
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["fig", "m.png", "s.png"]  # no temp
+
+
+def test_datasets_pickle_and_render_the_same_frames():
+    import pickle
+
+    ds = load_dataset("synthetic:?places=20&seed=3&size=32")
+    again = pickle.loads(pickle.dumps(ds))
+    assert again.query[5].tobytes() == ds.query[5].tobytes()
+    assert [g.tolist() for g in again.ground_truth] == [g.tolist() for g in ds.ground_truth]

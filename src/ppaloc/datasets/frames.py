@@ -139,10 +139,13 @@ class ImageFrames(FrameSequence):
     """
 
     def __init__(self, paths: Sequence[Path], cache: int = DEFAULT_CACHE) -> None:
+        self.paths = tuple(Path(p) for p in paths)
+        super().__init__(self._read, range(len(self.paths)), cache)
+
+    def _read(self, i: int) -> np.ndarray:
         from ppaloc.datasets.images import read_grey
 
-        self.paths = tuple(Path(p) for p in paths)
-        super().__init__(lambda i: read_grey(self.paths[i]), range(len(self.paths)), cache)
+        return read_grey(self.paths[i])
 
     def path(self, i: int) -> Path:
         """The file behind frame ``i`` of this (possibly sliced) sequence."""

@@ -16,6 +16,16 @@ from ppaloc.errors import DataError
 __all__ = ["make_synthetic", "synthetic_route"]
 
 
+class _Drive:
+    """Renders frame ``i`` of one traversal: camera at ``(s[i], x[i])`` (picklable)."""
+
+    def __init__(self, renderer: Renderer, s: np.ndarray, x: np.ndarray, traversal: int) -> None:
+        self.renderer, self.s, self.x, self.traversal = renderer, s, x, traversal
+
+    def __call__(self, i: int) -> np.ndarray:
+        return self.renderer.render(float(self.s[i]), float(self.x[i]), (self.traversal, i))
+
+
 def synthetic_route(
     places: int = 500,
     ref: str = "summer",
@@ -49,8 +59,8 @@ def synthetic_route(
     q_x = LANE_CENTRE + q_off + lateral_weave(q_s, seed * 2 + 1)
     ref_r = Renderer(world, ref_c, size, seed=0)
     q_r = Renderer(world, query_c, size, seed=1)
-    reference = RenderedFrames(lambda i: ref_r.render(ref_s[i], ref_x[i], (0, i)), places)
-    queries = RenderedFrames(lambda i: q_r.render(q_s[i], q_x[i], (1, i)), q_s.size)
+    reference = RenderedFrames(_Drive(ref_r, ref_s, ref_x, 0), places)
+    queries = RenderedFrames(_Drive(q_r, q_s, q_x, 1), q_s.size)
     return RawRoute(
         name=f"synthetic {ref}->{query}",
         reference=reference,
