@@ -170,3 +170,19 @@ def test_where_compares_a_noisy_sum() -> None:
     ideal.write(A, np.full(SHAPE, 0.1))
     ideal.where(A)
     assert ideal.read(FLAG).all()
+
+
+def test_small_arrays_get_fresh_temporal_noise_too() -> None:
+    # a 4 x 4 array: 300 writes must not cycle through a handful of noise planes
+    sim = Scamp5(4, 4, noise=NoiseParams(temporal_sd=1.0), seed=4)
+    planes = set()
+    for _ in range(300):
+        sim.bus(B, A)
+        planes.add(sim.read(B).tobytes())
+    assert len(planes) >= 295
+    # and one element's mean over many writes shrinks like sd / sqrt(n)
+    values = []
+    for _ in range(2000):
+        sim.bus(B, A)
+        values.append(sim.read(B)[1, 2])
+    assert abs(np.mean(values)) < 4 / np.sqrt(2000)  # 4 sigma

@@ -18,11 +18,12 @@ registers not written or refreshed for ``digital_retention_ms`` lose their ones 
 ``digital_flip_per_ms``.
 
 Speed: drawing a fresh Gaussian plane per write costs far more than the write itself. The
-model keeps a seeded *bank* of Gaussian samples four times larger than the array and takes,
-per write, the contiguous window that starts at a random offset (a view, no copy). Every
-window is a plane of i.i.d. N(0, sd) samples; two writes share samples only at a shifted
-position (element i of one write meets element i + k of another), so one element's noise
-across writes is independent unless two offsets coincide (probability 1/(3N) per pair, N =
+model keeps a seeded *bank* of Gaussian samples four times larger than the array (and at
+least 65,536 samples longer, for small arrays) and takes, per write, the contiguous window
+that starts at a random offset (a view, no copy). Every window is a plane of i.i.d.
+N(0, sd) samples; two writes share samples only at a shifted position (element i of one
+write meets element i + k of another), so one element's noise across writes is
+independent unless two offsets coincide (probability 1/max(3N, 65536) per pair, N =
 rows * cols). The test suite checks mean, variance and lag-1 correlation per element.
 """
 
@@ -148,7 +149,8 @@ def resolve_noise(noise: str | NoiseParams) -> NoiseParams | None:
     )
 
 
-_BANK_FACTOR = 4  # bank length / plane size
+_BANK_FACTOR = 4  # bank length / plane size ...
+_MIN_STARTS = 1 << 16  # ... but at least this many window starts, for small arrays
 _DRAWS = 4096  # per-ICW draws (offsets, gains) made at once
 
 
@@ -183,21 +185,20 @@ class NoiseModel:
         self.rng = np.random.default_rng([seed, 0x5CA45])
         size = shape[0] * shape[1]
         self._size = size
+        bank_len = max(size * _BANK_FACTOR, size + _MIN_STARTS)
         p = self.params or NoiseParams()
         self.offsets = (self.rng.standard_normal((n_analog, *shape)) * p.fixed_offset_sd).astype(
             np.float32
         )
         self.pixel_offset = (self.rng.standard_normal(shape) * p.pixel_offset_sd).astype(np.float32)
         self._bank = (
-            self.rng.standard_normal(size * _BANK_FACTOR) * p.temporal_sd
-            if not self.ideal
-            else np.zeros(0)
+            self.rng.standard_normal(bank_len) * p.temporal_sd if not self.ideal else np.zeros(0)
         ).astype(np.float32)
         div_sd = math.hypot(p.temporal_sd, p.division_sd)
         self._bank_div = (
             self._bank * np.float32(div_sd / p.temporal_sd)
             if p.temporal_sd > 0
-            else (self.rng.standard_normal(size * _BANK_FACTOR) * div_sd).astype(np.float32)
+            else (self.rng.standard_normal(bank_len) * div_sd).astype(np.float32)
         )
         self._droop_tmp: np.ndarray | None = None
         self._k = _DRAWS
@@ -206,7 +207,7 @@ class NoiseModel:
 
     def _refill(self) -> None:
         p = self.params or NoiseParams()
-        span = self._size * (_BANK_FACTOR - 1)
+        span = len(self._bank) - self._size
         self._starts = self.rng.integers(0, span + 1, _DRAWS).tolist()
         self._gains = (
             -(1.0 + p.transfer_gain + p.transfer_gain_sd * self.rng.standard_normal(_DRAWS))
