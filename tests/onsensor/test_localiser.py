@@ -124,3 +124,20 @@ def test_figures_are_written(tmp_path, rep):
     assert sizes[3] == (5, 3)
     with pytest.raises(PpalocError, match="record_weights"):
         weights_history_image([], tmp_path / "none.png")
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_mapping_on_the_sensor_gives_the_host_nodes(rep):
+    from ppaloc.topomap import build_topomap
+
+    ref, _ = _route(4, seed=6)
+    ref.append(np.zeros((256, 256), np.uint8))  # block sums of 0: the saturating case
+    ref.append(np.full((256, 256), 255, np.uint8))
+    ramp = np.tile(np.arange(256, dtype=np.uint8), (256, 1))
+    ref.append(ramp)
+    sensor = OnSensorLocaliser(rep, motion="always_forward", alpha=4)
+    got = sensor.build_map(ref)
+    want = build_topomap(ref, rep)
+    np.testing.assert_array_equal(got.descriptors, want.descriptors)
+    assert got.params["n_frames"] == len(ref)
+    assert sensor.pipeline.sim.timing.report().stage("mapping").calls["scamp5_in"] > 0

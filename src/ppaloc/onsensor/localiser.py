@@ -10,6 +10,7 @@ docs/onsensor.md); with a noise preset they show what the analogue array does to
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable
 from typing import Any
 
@@ -21,7 +22,7 @@ from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import PipelineParams, SensorPipeline
 from ppaloc.sim import NoiseParams
-from ppaloc.topomap import TopoMap, build_topomap
+from ppaloc.topomap import TopoMap
 
 __all__ = ["NOISE_PRESETS", "OnSensorLocaliser"]
 
@@ -116,40 +117,84 @@ class OnSensorLocaliser:
 
     # -- map ---------------------------------------------------------------------------
     def build_map(self, frames: Iterable[np.ndarray]) -> TopoMap:
-        """Build the map from a reference traversal (one node per frame) and write it."""
+        """Map a reference traversal on the sensor (one node per frame) and write the map.
+
+        Every frame is captured and described by the sensor itself
+        (:meth:`SensorPipeline.sense_node`: the block means read through the ADC, or the
+        descriptor compared on the array), so with noise the map carries the same
+        fixed-pattern errors as the queries; in ideal mode the nodes equal
+        :func:`ppaloc.topomap.build_topomap`'s. The nodes are then written into the
+        database registers (:func:`ppaloc.onsensor.mapping.upload_map`).
+        """
         frames = list(frames)
         if not frames:
             raise PpalocError("the reference traversal is empty: a map needs at least one frame")
-        topomap = build_topomap(frames, self.representation)
-        self.use_map(topomap)
+        for frame in frames:
+            self._check_frame(frame)
+        pipe = self._new_pipeline(len(frames))
+        nodes = [pipe.sense_node(np.asarray(f)) for f in frames]
+        dtype = np.uint32 if self.representation == "lbp" else np.uint8
+        topomap = TopoMap(
+            self.representation,
+            np.asarray(nodes, dtype=dtype),
+            params={
+                "kind": self.representation,
+                "keyframe_threshold": None,
+                "keyframe_units": None,
+                "n_frames": len(frames),
+                "mapped_on": f"simulated SCAMP-5, noise={self._noise_name()}",
+            },
+        )
+        self._install(topomap, pipe)
         return topomap
 
     def use_map(self, topomap: TopoMap) -> None:
-        """Write ``topomap`` into a fresh simulated sensor and localise against it."""
-        self._host.use_map(topomap)
+        """Write ``topomap`` (e.g. loaded from a file) into a fresh simulated sensor."""
+        if topomap.kind != self.representation:
+            self._host.use_map(topomap)  # raises the host's clear error
+        self._install(topomap, self._new_pipeline(len(topomap)))
+
+    def _noise_name(self) -> str:
+        return self.noise if isinstance(self.noise, str) else "custom"
+
+    def _new_pipeline(self, n_nodes: int) -> SensorPipeline:
         h = self._host
+        image = h.motion == "image"
         params = PipelineParams(
-            alpha=int(h.alpha),
+            alpha=0,  # set in _install, once the map is known
             gamma=h.gamma,
             k=h.k,
             shift=h.shift,
-            motion="always_forward" if h.motion == "always_forward" else "image",
-            margin=h._motion.margin if h.motion == "image" else 3,
-            motion_shift=h._motion.shift if h.motion == "image" else 7,
-            min_support=h._motion.min_support if h.motion == "image" else 1024,
+            motion="image" if image else "always_forward",
+            margin=h._motion.margin if image else 3,
+            motion_shift=h._motion.shift if image else 6,
+            min_support=h._motion.min_support if image else 1024,
             confidence_radius=h.confidence_radius,
         )
-        self.pipeline = SensorPipeline(
+        return SensorPipeline(
             self.representation,
-            len(topomap),
+            n_nodes,
             params,
             noise=self.noise,
             seed=self.seed,
             size=self.size,
         )
-        upload_map(self.pipeline, topomap)
+
+    def _install(self, topomap: TopoMap, pipe: SensorPipeline) -> None:
+        self._host.use_map(topomap)  # checks the map and chooses alpha from it
+        pipe.params = dataclasses.replace(pipe.params, alpha=int(self._host.alpha))
+        upload_map(pipe, topomap)
+        self.pipeline = pipe
         self.topomap = topomap
         self.reset()
+
+    def _check_frame(self, frame: np.ndarray) -> None:
+        frame = np.asarray(frame)
+        if frame.dtype != np.uint8 or frame.shape != (self.size, self.size):
+            raise PpalocError(
+                f"a sensor frame must be uint8 of shape ({self.size}, {self.size}), got "
+                f"{frame.dtype} {frame.shape}: convert frames with ppaloc.datasets.to_sensor"
+            )
 
     # -- per query ---------------------------------------------------------------------
     def reset(self) -> None:
@@ -164,11 +209,7 @@ class OnSensorLocaliser:
         if pipe is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
         frame = np.asarray(frame)
-        if frame.dtype != np.uint8 or frame.shape != (self.size, self.size):
-            raise PpalocError(
-                f"a sensor frame must be uint8 of shape ({self.size}, {self.size}), got "
-                f"{frame.dtype} {frame.shape}: convert frames with ppaloc.datasets.to_sensor"
-            )
+        self._check_frame(frame)
         moved = None
         if self.motion == "oracle":
             if self._n >= len(self._moves):

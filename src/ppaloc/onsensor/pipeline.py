@@ -732,6 +732,32 @@ class SensorPipeline:
             self.sim.scamp5_in(D, -g)
             self._run("adjust", lambda k: k.add(_W, _W, D))
 
+    # --------------------------------------------------------------- mapping
+    def sense_node(self, frame: np.ndarray) -> np.ndarray | int:
+        """Describe one reference frame on the sensor, as the mapping run does.
+
+        Low-res: the exact block means ``m`` (stage ``reduce``) give ``2m - 0.5`` in one
+        bus (the only saturation, at -128, maps to the right code 0), and
+        ``scan_areg_mean_8x8`` reads ``floor(2m + 128) = floor(S / 1024) = q`` per block:
+        the node's uint8 image, exact in ideal mode. LBP: the live descriptor of
+        :meth:`descriptor`. Charged to the stage ``"mapping"``.
+        """
+        sim = self.sim
+        with sim.stage("mapping"):
+            self.capture(frame)
+            self.block_means()
+            if self.representation == "lbp":
+                return self.descriptor()
+            sim.scamp5_in(E, -1)
+
+            def build(k):
+                k.bus2(D, NEWS, E)  # D = 0.5
+                k.mov(E, F)  # E = -m
+                k.bus(NEWS, F, E, D)  # NEWS = 2m - 0.5
+
+            self._run("sense_lowres", build)
+            return sim.scan_areg_mean_8x8(NEWS)
+
     # --------------------------------------------------------------- frame
     def step(self, frame: np.ndarray, moved: bool | None = None) -> tuple[int, float, bool, int]:
         """Run one frame; return ``(node, score, moved, T)``.
