@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 from scipy.io import savemat
@@ -202,6 +204,8 @@ def test_video_step_and_alignment(tmp_path):
     assert len(stepped.reference) == 4
     assert [abs(int(f.mean()) - 60 * k) <= 3 for k, f in enumerate(stepped.query)] == [True] * 4
     assert int(stepped.query[1].mean()) > int(stepped.query[0].mean())  # backwards: restart
+    copied = pickle.loads(pickle.dumps(stepped))
+    assert copied.query[2].tobytes() == stepped.query[2].tobytes()
     with pytest.raises(DataError, match=r"align=index needs equal counts: add align=proportional"):
         load_dataset(f"video:{tmp_path / 'ref.mp4'},{tmp_path / 'qry.mp4'}")
     with pytest.raises(DataError, match=r"video .*none\.mp4 does not exist"):

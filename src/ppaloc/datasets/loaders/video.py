@@ -12,7 +12,7 @@ constant speed, so query frame ``i`` of ``M`` is at reference frame ``i (N - 1) 
 
 from __future__ import annotations
 
-import weakref
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +47,10 @@ class _Decoder:
         self.container = None
         self.frames = None
         self.next_index = 0
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):  # at interpreter exit av may be gone already
+            self.close()
 
     def open(self) -> None:
         import av
@@ -92,6 +96,10 @@ class _Decoder:
             self.container.close()
         self.container, self.frames = None, None
 
+    def __getstate__(self) -> dict:
+        # An open file does not travel: a copy reopens the video on its first access.
+        return {"path": self.path, "container": None, "frames": None, "next_index": 0}
+
 
 class VideoFrames(FrameSequence):
     """Grey frames of a video file, decoded on access.
@@ -109,8 +117,6 @@ class VideoFrames(FrameSequence):
         if not self.path.is_file():
             raise DataError(f"video {self.path} does not exist: check the path in the spec")
         self._decoder = _Decoder(self.path)
-        # Close the decoder when this sequence (and every slice sharing it) is gone.
-        weakref.finalize(self._decoder, _Decoder.close, self._decoder)
         n = self._decoder.count()
         if n == 0:
             self._decoder.close()
