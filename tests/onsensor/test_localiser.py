@@ -140,4 +140,4 @@ def test_mapping_on_the_sensor_gives_the_host_nodes(rep):
     want = build_topomap(ref, rep)
     np.testing.assert_array_equal(got.descriptors, want.descriptors)
     assert got.params["n_frames"] == len(ref)
-    assert sensor.pipeline.sim.timing.report().stage("mapping").calls["scamp5_in"] > 0
+    assert sensor.pipeline.sim.timing.report().stage("mapping").n_calls > len(ref)
