@@ -153,6 +153,21 @@ def test_several_datasets_make_a_matrix(mean_match, tmp_path, capsys):
             "ppaloc: error: --param 'alpha=8' must look like METHOD.KEY=VALUE",
         ),
         (["show", "/nonexistent/run"], 1, "ppaloc: error: /nonexistent/run does not exist"),
+        (
+            ["evaluate", "-d", "synthetic", "-m", "mean-match", "--param", "mean-match.nope=1"],
+            1,
+            "ppaloc: error: method 'mean-match': ",
+        ),
+        (
+            ["evaluate", "-d", "synthetic", "--param", "no-such.alpha=1"],
+            1,
+            "ppaloc: error: params given for unknown method 'no-such'",
+        ),
+        (
+            ["evaluate", "-d", "synthetic", "-m", "mean-match", "--recall", "D"],
+            2,
+            "ppaloc evaluate: error: Invalid value for '--recall'",
+        ),
     ],
 )
 def test_user_errors_are_one_line(mean_match, capsys, args, code, message):

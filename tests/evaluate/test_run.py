@@ -234,3 +234,27 @@ def test_register_planes_of_a_real_onsensor_localiser():
     planes = register_planes(loc)
     assert "C: weights" in planes and "R10: map tile 0" in planes
     assert all(p.shape == (256, 256) for p in planes.values())
+
+
+def test_oracle_motion_reads_the_dataset(tiny):
+    from ppaloc.methods import available_methods
+
+    if "weighted-node-lbp" not in available_methods():
+        pytest.skip("weighted-node-lbp is not available")
+    params = {"weighted-node-lbp": {"motion": "oracle"}}
+    cfg = EvaluateConfig(
+        dataset="synthetic:?places=12&size=32&seed=2", methods=("weighted-node-lbp",), params=params
+    )
+    run = run_evaluation(cfg, progress=False).runs["weighted-node-lbp"]
+    assert run.motion_accuracy == 1.0
+    assert run.params["oracle_moves"] == "dataset query_moved"
+    with pytest.raises(PpalocError, match=r"motion='oracle' needs the true query motion"):
+        run_evaluation(EvaluateConfig(methods=("weighted-node-lbp",), params=params), dataset=tiny)
+
+
+def test_bad_parameters_fail_before_any_data_is_loaded(mean_match):
+    cfg = EvaluateConfig(
+        dataset="nosuchkind:x", methods=(mean_match,), params={mean_match: {"x": 1}}
+    )
+    with pytest.raises(PpalocError, match=r"method 'mean-match': .*'x'"):
+        run_evaluation(cfg, progress=False)

@@ -516,39 +516,52 @@ def run_evaluation(
         For an unknown method, a bad dataset spec or bad method parameters.
     """
     spec = config.resolved_dataset()
+    # Construct every localiser before loading data, so a bad parameter fails fast.
+    plan: dict[str, tuple[dict[str, Any], Localiser | None]] = {}
     if localisers is None:
-        names = resolve_methods(config.methods)
         unknown = sorted(set(config.params) - set(METHODS))
         if unknown:
             raise PpalocError(
                 f"params given for unknown method {unknown[0]!r}; methods: {', '.join(METHODS)}"
             )
+        for name in resolve_methods(config.methods):
+            params = localiser_params(
+                name,
+                config.params.get(name, {}),
+                seed=config.seed,
+                record_weights=config.record_weights,
+            )
+            oracle = params.get("motion") == "oracle" and "oracle_moves" not in params
+            plan[name] = (params, None if oracle else make_localiser(name, **params))
     else:
-        names = list(localisers)
+        plan = {name: (dict(config.params.get(name, {})), loc) for name, loc in localisers.items()}
     if dataset is None:
         from ppaloc.datasets.registry import load_dataset
 
         dataset = load_dataset(spec)
     else:
         spec = str(dataset.meta.get("spec", dataset.name))
+    for name, (params, loc) in plan.items():
+        if loc is None:  # the oracle motion model reads the dataset's true motion
+            if dataset.query_moved is None:
+                raise PpalocError(
+                    f"{name}: motion='oracle' needs the true query motion, which {spec} does "
+                    "not have; use motion='image' or a dataset with query_moved (synthetic)"
+                )
+            loc = make_localiser(name, **params, oracle_moves=dataset.query_moved)
+            plan[name] = ({**params, "oracle_moves": "dataset query_moved"}, loc)
     reference = sensor_frames(dataset.reference)
     query = sensor_frames(dataset.query)
     gt = [np.asarray(g, dtype=np.int64) for g in dataset.ground_truth]
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
+    names = list(plan)
     with ProgressBar(progress) as bar:
         for name in names:
             bar.add(name, len(query))
-        for name in names:
-            user = dict(config.params.get(name, {}))
+        for name, (params, loc) in plan.items():
             if localisers is None:
-                params = localiser_params(
-                    name, user, seed=config.seed, record_weights=config.record_weights
-                )
-                loc = make_localiser(name, **params)
                 params = {**METHODS[name].defaults, **params}  # record the variant too
-            else:
-                params, loc = user, localisers[name]
             runs[name] = run_method(
                 name,
                 reference,
