@@ -92,3 +92,8 @@ def test_icw_operands_must_be_sequences(sim: Scamp5) -> None:
 def test_dnews_boundary_is_0_or_1(sim: Scamp5) -> None:
     with pytest.raises(RegisterMisuseError, match=r"boundary=2 .* use 0 or 1"):
         sim.DNEWS(R5, R6, east, 2)
+
+
+def test_unknown_clock_class_in_icw_us() -> None:
+    with pytest.raises(SimulatorError, match=r"unknown clock class 'fast'; expected one of"):
+        TimingModel().icw_us("fast")

@@ -207,12 +207,17 @@ class TimingConstants:
 
     def cycles(self, clock_class: str) -> float:
         """Cycles one ICW of ``clock_class`` takes."""
-        return {
+        table = {
             "analog": self.analog_cycles,
             "digital": self.digital_cycles,
             "dnews": self.dnews_cycles,
             "nop": self.nop_cycles,
-        }[clock_class]
+        }
+        if clock_class not in table:
+            raise TimingError(
+                f"unknown clock class {clock_class!r}; expected one of {CLOCK_CLASSES}"
+            )
+        return table[clock_class]
 
     def table(self) -> list[tuple[str, float, str, str]]:
         """Rows ``(name, value, unit, source)`` of every scalar constant and call cost."""
