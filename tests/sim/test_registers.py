@@ -89,3 +89,11 @@ def test_tutorial_style_port_with_header_names() -> None:
         k.SET(sim_pkg.RN)
         k.DNEWS0(sim_pkg.S5, sim_pkg.S0)
     assert sim.read(sim_pkg.S5).astype(int).tolist() == [[0, 0], [0, 0], [1, 1], [0, 0]]
+
+
+def test_alldir_reads_all_four_neighbours() -> None:
+    assert int(sim_pkg.alldir) == 15  # news_t alldir in scamp5_icw.hpp
+    sim = sim_pkg.Scamp5(rows=3, cols=3)
+    sim.load_point(sim_pkg.R5, 1, 1)
+    sim.DNEWS(sim_pkg.R6, sim_pkg.R5, sim_pkg.alldir)
+    assert sim.read(sim_pkg.R6).astype(int).tolist() == [[0, 1, 0], [1, 0, 1], [0, 1, 0]]

@@ -1,10 +1,11 @@
 """ppaloc.sim: a SCAMP-5 pixel processor array simulator (docs/sim.md).
 
-Public names: :class:`Scamp5`, the register handles ``A``-``F``, ``NEWS``, ``PIX``, ``IN``,
-``R0``-``R12`` (also by their header names ``RF``, ``RS``, ``RW``, ``RN``, ``RE``,
-``S0``-``S6``, ``RP``), ``FLAG``, ``SELECT``, the neighbour aliases ``XN``, ``XE``, ``XS``, ``XW``,
-the directions ``north``, ``east``, ``south``, ``west``, noise parameters and presets,
-kernels, the instruction record and op table, the timing model, and register rendering.
+Public names: :class:`Scamp5`, the register handles ``A``-``F``, ``NEWS``, ``PIX``,
+``IN``, ``R0``-``R12`` (also by their header names ``RF``, ``RS``, ``RW``, ``RN``,
+``RE``, ``S0``-``S6``, ``RP``), ``FLAG``, ``SELECT``, the neighbour aliases ``XN``,
+``XE``, ``XS``, ``XW``, the directions ``north``, ``east``, ``south``, ``west`` (and
+``alldir``), noise parameters and presets, kernels, the instruction record and op table,
+the timing model, and register rendering.
 """
 
 from ppaloc.sim.engine import Scamp5
@@ -55,6 +56,7 @@ from ppaloc.sim.registers import (
     E,
     F,
     Register,
+    alldir,
     east,
     north,
     south,
@@ -120,6 +122,7 @@ __all__ = [
     "TimingConstants",
     "TimingModel",
     "TimingReport",
+    "alldir",
     "east",
     "north",
     "plane_to_image",

@@ -69,6 +69,7 @@ __all__ = [
     "F",
     "Register",
     "UnknownRegisterError",
+    "alldir",
     "east",
     "north",
     "register_by_name",
@@ -105,6 +106,8 @@ north = Direction.north
 east = Direction.east
 south = Direction.south
 west = Direction.west
+#: All four directions (``alldir`` of the SCAMP-5 headers), e.g. ``DNEWS(R5, R6, alldir)``.
+alldir = north | east | south | west
 
 
 @dataclass(frozen=True, slots=True)
