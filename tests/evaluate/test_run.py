@@ -258,3 +258,19 @@ def test_bad_parameters_fail_before_any_data_is_loaded(mean_match):
     )
     with pytest.raises(PpalocError, match=r"method 'mean-match': .*'x'"):
         run_evaluation(cfg, progress=False)
+
+
+def test_bench_skips_sizes_over_the_build_budget(standin, monkeypatch):
+    import time
+
+    class Slow(standin.MeanMatch):
+        def build_map(self, frames):
+            time.sleep(0.01 * len(frames))  # 10 ms per node
+            return super().build_map(frames)
+
+    monkeypatch.setattr(standin, "MeanMatch", Slow)
+    name = standin.register(monkeypatch, "slow")
+    cfg = BenchConfig(methods=(name,), sizes=(2, 4, 64), queries=1, warmup=0, max_build_s=0.3)
+    rows = run_bench(cfg)["rows"]
+    assert [("skipped" in r) for r in rows] == [False, False, True]
+    assert rows[2]["skipped"].startswith("building 64 nodes would take about")

@@ -167,7 +167,7 @@ def run_demo(
         EvaluateConfig(dataset=dataset),
         out,
         quiet=quiet,
-        bench=BenchConfig(sizes=tuple(bench_sizes), queries=20, warmup=2),
+        bench=BenchConfig(sizes=tuple(bench_sizes), queries=20, warmup=2, max_build_s=4.0),
     )
     if not quiet:
         print(f"demo done in {time.perf_counter() - t0:.0f} s; open {out / 'report.html'}")

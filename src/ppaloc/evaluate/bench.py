@@ -70,7 +70,19 @@ def run_bench(
         params = localiser_params(
             name, config.params.get(name, {}), seed=config.seed, record_weights=False
         )
+        last: tuple[int, float] | None = None  # (size, build seconds) of the last build
         for size in config.sizes:
+            if config.max_build_s is not None and last is not None:
+                estimate = last[1] * size / last[0]
+                if estimate > config.max_build_s:
+                    reason = (
+                        f"building {size} nodes would take about {estimate:.0f} s, over the "
+                        f"budget of {config.max_build_s:g} s"
+                    )
+                    rows.append({"method": name, "n_nodes": size, "skipped": reason})
+                    if progress:
+                        progress(name, config.sizes.index(size) + 1)
+                    continue
             loc = make_localiser(name, **params)
             t0 = time.perf_counter()
             try:
@@ -82,6 +94,7 @@ def run_bench(
                     progress(name, config.sizes.index(size) + 1)
                 continue
             build_s = time.perf_counter() - t0
+            last = (size, build_s)
             loc.reset()
             times = []
             for i, frame in enumerate(queries):

@@ -117,6 +117,9 @@ class BenchConfig:
         Seed of the random reference and query frames.
     params : dict
         Per-method keyword arguments, as in :class:`EvaluateConfig`.
+    max_build_s : float, optional
+        Time budget of one map build in seconds: a size whose build, extrapolated linearly
+        from the previous size, would exceed it is skipped (None: no budget).
     """
 
     methods: tuple[str, ...] = ()
@@ -125,6 +128,7 @@ class BenchConfig:
     warmup: int = 3
     seed: int = 0
     params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    max_build_s: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "methods", tuple(self.methods))

@@ -318,7 +318,9 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
             f"{r['method']} at {r['n_nodes']} nodes" for r in bench["rows"] if "skipped" in r
         ]
         note = (
-            f" Not timed (the method refuses that size): {', '.join(skipped)}." if skipped else ""
+            f" Not timed (over the build budget, or refused by the method): {', '.join(skipped)}."
+            if skipped
+            else ""
         )
         out.append(
             _Figure(
