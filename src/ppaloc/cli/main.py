@@ -315,6 +315,11 @@ Examples:
 @click.option("--sizes", help="Comma-separated map sizes in nodes [default: 64,256,1024].")
 @click.option("--queries", type=int, help="Timed frames per size [default: 20].")
 @click.option("--seed", type=int, help="Seed of the random maps and frames.")
+@click.option(
+    "--max-build-s",
+    type=float,
+    help="Skip a size whose map build would take longer than this (seconds).",
+)
 @click.option("--param", "params", multiple=True, metavar="METHOD.KEY=VALUE")
 @click.option(
     "--out",
@@ -328,6 +333,7 @@ def bench(
     sizes: str | None,
     queries: int | None,
     seed: int | None,
+    max_build_s: float | None,
     params: tuple[str, ...],
     out: Path | None,
     config_file: Path | None,
@@ -345,6 +351,7 @@ def bench(
             "sizes": size_list,
             "queries": queries,
             "seed": seed,
+            "max_build_s": max_build_s,
             "params": _parse_params(params),
             "out": out,
             "quiet": quiet,
