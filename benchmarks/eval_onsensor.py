@@ -125,14 +125,10 @@ def noise(n_query: int | None = None) -> None:
         truth = list(ds.ground_truth)[: len(query)]
         has_match = np.array([len(t) > 0 for t in truth])
         for rep in ("lowres", "lbp"):
-            topomap = None
             for preset in ("ideal", "typical", "typical-no-droop"):
                 setting = NO_DROOP if preset == "typical-no-droop" else preset
                 loc = OnSensorLocaliser(rep, noise=setting, seed=0, motion="always_forward")
-                if topomap is None:
-                    topomap = loc.build_map(ref)
-                else:
-                    loc.use_map(topomap)
+                loc.build_map(ref)  # mapped by the same (noisy) sensor
                 t = time.perf_counter()
                 est = loc.localise(query)
                 nodes = np.array([e.node for e in est])

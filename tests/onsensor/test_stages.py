@@ -9,7 +9,6 @@ from ppaloc.onsensor.mapping import lbp_bits, row_runs, upload_map
 from ppaloc.onsensor.pipeline import (
     PipelineParams,
     SensorPipeline,
-    bit_positions,
     class_rows,
 )
 from ppaloc.onsensor.program import KernelCache, halve_level, pull, scale_negated
@@ -154,14 +153,6 @@ def test_descriptor_equals_the_host_lbp_of_the_central_grid():
         pipe.block_means()
         code = pipe.descriptor()
         assert code == int(lbp_from_grid(_means(frame)[1:7, 1:7]))
-
-
-def test_bit_positions_are_distinct_and_inside_their_centre_blocks():
-    pos = bit_positions(32)
-    assert len({(r, c) for *_, r, c in pos}) == 32
-    for cell, _, r, c in pos:
-        gi, gj = ((2, 2), (2, 5), (5, 2), (5, 5))[cell]
-        assert r // 32 == gi and c // 32 == gj
 
 
 def test_motion_counts_are_exact():

@@ -13,7 +13,7 @@ scratch of the logic macros, ``NEWS`` the scratch of the analogue ones):
 ===========  =========================================  ==================================
 register     lowres                                     lbp
 ===========  =========================================  ==================================
-A, B         database tile 0, tile 1 (``n = q/2 - 64``)  free
+A, B         database tile 0, tile 1 (``n = q/2 - 64``)  free, block-root means (B)
 C            weights (tile t at block PE (0, t))        weights
 D, E, F      working planes                             working planes
 R1, R2       replication class masks (rows, cols)       32x32 block roots, valid node roots
@@ -54,10 +54,6 @@ from ppaloc.sim import (
     R9,
     R10,
     R11,
-    XE,
-    XN,
-    XS,
-    XW,
     A,
     B,
     C,
@@ -74,7 +70,7 @@ from ppaloc.sim import (
 )
 from ppaloc.topomap import SnakeLayout, layout_for
 
-__all__ = ["DRegs", "PipelineParams", "SensorPipeline", "bit_positions", "class_rows"]
+__all__ = ["DRegs", "PipelineParams", "SensorPipeline", "class_rows"]
 
 #: Grid cells per side of the live frame's reduction (docs/ppa8.md: 8x8 block means).
 GRID = 8
@@ -84,8 +80,6 @@ LBP_NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (
 LBP_CENTRES = ((2, 2), (2, 5), (5, 2), (5, 5))
 #: Event slots of the first candidate readout; more candidates fall back to a window search.
 EVENT_SLOTS = 32
-_READ = {north: XN, south: XS, west: XW, east: XE}
-_DIRS = {(-1, 0): north, (1, 0): south, (0, -1): west, (0, 1): east}
 
 
 @dataclass(frozen=True)
@@ -132,22 +126,6 @@ def class_rows(n: int, block: int) -> np.ndarray:
     """Indices ``r < n`` with ``r % 8 == r // block``: where class ``r % 8`` starts its copy."""
     r = np.arange(n)
     return r[(r % GRID) == (r // block)]
-
-
-def bit_positions(block: int) -> list[tuple[int, int, int, int]]:
-    """``(cell, neighbour, row, col)`` of the PE that computes each LBP bit, MSB first.
-
-    The bit of neighbour (dr, dc) of a cell is compared in the cell's centre block at the
-    PE facing that neighbour, one PE step from it.
-    """
-    out = []
-    mid = block // 2
-    for cell, (gi, gj) in enumerate(LBP_CENTRES):
-        for j, (dr, dc) in enumerate(LBP_NEIGHBOURS):
-            r = gi * block + (0 if dr < 0 else block - 1 if dr > 0 else mid)
-            c = gj * block + (0 if dc < 0 else block - 1 if dc > 0 else mid)
-            out.append((cell, j, r, c))
-    return out
 
 
 def _mask_bits(n: int) -> int:
@@ -316,6 +294,8 @@ class SensorPipeline:
             for direction in (east, south):
                 for step in levels:
                     halve_level(k, D, F, direction, step)
+            if self.representation == "lbp":
+                k.mov(B, D)  # keep the block roots for the descriptor
 
         def spread(k):
             k.res(F)
@@ -328,7 +308,8 @@ class SensorPipeline:
 
         with self.sim.stage("reduce"):
             self._run("reduce", reduce)
-            self._run("spread", spread)
+            if self.representation == "lowres" or self.params.motion == "image":
+                self._run("spread", spread)
 
     def motion(self) -> bool:
         """Forward or stay (docs/ppa8.md item 1); updates the previous planes."""
@@ -528,27 +509,31 @@ class SensorPipeline:
 
     # --------------------------------------------------------------- lbp
     def descriptor(self) -> int:
-        """The live frame's 32-bit LBP code: compared on the array, read bit by bit."""
+        """The live frame's 32-bit LBP code: compared on the array, read bit by bit.
+
+        The block means are compared where the halving tree left them (``B = -m`` at each
+        32x32 block's top-left PE), the most accurate place on a noisy array: for each of
+        the 8 neighbour directions a copy is shifted by one block (two for diagonals) and
+        ``where(m_centre - m_neighbour)`` decides the bit (neighbour >= centre) at the four
+        cell-centre roots, read by point ``global_or``s.
+        """
         sim, dr = self.sim, self.dr
         code = 0
         with sim.stage("lbp"):
-            self._run("lbp_pos", lambda k: k.bus(D, F))  # D = +m
-            positions = bit_positions(self.block)
             for j, (drow, dcol) in enumerate(LBP_NEIGHBOURS):
+                self._run("lbp_copy", lambda k: k.mov(E, B))
+                # E[x] := -m of the neighbour block: the picture moves by minus the offset
+                sim.shift(E, -dcol * self.block, drow * self.block)
 
-                def build(k, drow=drow, dcol=dcol):
-                    if drow and dcol:
-                        k.bus(_push(_DIRS[(0, dcol)]), D)  # NEWS = -m of the column neighbour
-                        k.where(D, _READ[_DIRS[(drow, 0)]])
-                    else:
-                        k.bus(NEWS, D)
-                        k.where(D, _READ[_DIRS[(drow, dcol)]])
+                def build(k):
+                    k.bus(NEWS, B)  # NEWS = m_centre
+                    k.where(NEWS, E)  # centre > neighbour
                     k.NOT(dr.cand, FLAG)  # neighbour >= centre
                     k.all()
 
-                self._run(f"lbp_dir_{j}", build)
-                for cell, jj, r, c in positions:
-                    if jj == j and sim.global_or(dr.cand, r, c, 0, 0):
+                self._run("lbp_compare", build)
+                for cell, (gi, gj) in enumerate(LBP_CENTRES):
+                    if sim.global_or(dr.cand, gi * self.block, gj * self.block, 0, 0):
                         code |= 1 << (31 - (cell * 8 + j))
         return code
 
@@ -793,8 +778,3 @@ class SensorPipeline:
         nodes = np.arange(self.n_nodes)
         tile, br, bc = self.layout.node_to_block(nodes)
         return plane[br * self.bh, bc * self.bw + tile].astype(np.float64)
-
-
-def _push(direction) -> Register:
-    """Destination alias that leaves in every NEWS the value of the neighbour in ``direction``."""
-    return {east: XW, west: XE, north: XS, south: XN}[direction]
