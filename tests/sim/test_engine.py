@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -313,3 +315,24 @@ def test_any_op_table_row_can_be_issued_by_name(sim: Scamp5) -> None:
     assert np.array_equal(sim.read(D), -3 * X)
     with pytest.raises(RegisterMisuseError, match="'blur' is not an instruction; use one of"):
         sim.icw("blur", (D,), (A,))
+
+
+@pytest.mark.parametrize(
+    ("dsts", "srcs", "shown"),
+    [
+        ((NEWS,), (XE,), "bus(NEWS, XE)"),
+        ((XW,), (NEWS,), "bus(XW, NEWS)"),
+        ((XW,), (A, XN), "bus(XW, A, XN)"),
+    ],
+)
+def test_an_icw_cannot_read_and_write_the_news_plane(sim: Scamp5, dsts, srcs, shown) -> None:
+    # NEWS and XN/XE/XS/XW select the same NEWS cells (scamp5_icw.hpp: one W bit, SEL4)
+    with pytest.raises(RegisterMisuseError, match=rf"{re.escape(shown)} reads and writes NEWS"):
+        sim.icw("bus", dsts, srcs)
+
+
+def test_official_news_patterns_stay_legal(sim: Scamp5) -> None:
+    sim.bus(XW, A)  # push (movx)
+    sim.bus(D, XE, XW, XN, XS)  # several neighbour reads (newsblur)
+    sim.bus(NEWS, A, B)  # local write
+    sim.where(NEWS, XE)

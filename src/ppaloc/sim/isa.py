@@ -212,4 +212,11 @@ def make(
             f"{at}{ins} writes the NEWS plane twice ({', '.join(news_dsts)}); "
             "write at most one of NEWS, XN, XE, XS, XW per instruction"
         )
+    news_srcs = [r.name for r in ins.srcs if r.role in ("news", "neighbour")]
+    if news_dsts and news_srcs:
+        raise RegisterMisuseError(
+            f"{at}{ins} reads and writes NEWS ({news_dsts[0]} and {', '.join(news_srcs)}): "
+            "NEWS, XN, XE, XS and XW are one register, which an ICW cannot read and write; "
+            "copy the value to another register first"
+        )
     return ins
