@@ -52,7 +52,9 @@ def run_bench(
     -------
     dict
         ``{"config", "ppaloc_version", "created", "rows": [{"method", "n_nodes",
-        "latency_ms_median", "latency_ms_p95", "build_s", "queries"}, ...]}``; a size a
+        "latency_ms_median", "latency_ms_p95", "build_s", "queries"[,
+        "modelled_latency_ms_median"]}, ...]}`` (the modelled on-sensor time where the
+        method models it); a size a
         method refuses (a ``PpalocError`` from ``build_map``, e.g. more nodes than a
         simulated sensor holds) gives a row ``{"method", "n_nodes", "skipped": reason}``.
 
@@ -96,22 +98,25 @@ def run_bench(
             build_s = time.perf_counter() - t0
             last = (size, build_s)
             loc.reset()
-            times = []
+            times, modelled = [], []
             for i, frame in enumerate(queries):
                 t = time.perf_counter_ns()
-                loc.step(frame)
+                est = loc.step(frame)
                 if i >= config.warmup:
                     times.append((time.perf_counter_ns() - t) / 1e6)
-            rows.append(
-                {
-                    "method": name,
-                    "n_nodes": size,
-                    "latency_ms_median": float(np.median(times)),
-                    "latency_ms_p95": float(np.percentile(times, 95)),
-                    "build_s": build_s,
-                    "queries": len(times),
-                }
-            )
+                    if est.modelled_latency_ms is not None:
+                        modelled.append(est.modelled_latency_ms)
+            row = {
+                "method": name,
+                "n_nodes": size,
+                "latency_ms_median": float(np.median(times)),
+                "latency_ms_p95": float(np.percentile(times, 95)),
+                "build_s": build_s,
+                "queries": len(times),
+            }
+            if modelled:
+                row["modelled_latency_ms_median"] = float(np.median(modelled))
+            rows.append(row)
             if progress:
                 progress(name, config.sizes.index(size) + 1)
     return {

@@ -180,7 +180,15 @@ def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:
         med = [r["latency_ms_median"] for r in rs]
         p95 = [r["latency_ms_p95"] for r in rs]
         ax.plot(n, med, "o-", color=colours[name], label=name)
-        ax.fill_between(n, med, p95, color=colours[name], alpha=0.15, lw=0)
+        ax.fill_between(n, med, p95, color=colours[name], alpha=0.1, lw=0)
+        modelled = [
+            (r["n_nodes"], r["modelled_latency_ms_median"])
+            for r in rs
+            if r.get("modelled_latency_ms_median") is not None
+        ]
+        if modelled:
+            mx, my = zip(*modelled, strict=True)
+            ax.plot(mx, my, "s--", color=colours[name], label=f"{name} (modelled on-sensor)")
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
     ax.set_xticks(sorted({r["n_nodes"] for r in rows}))
@@ -188,8 +196,8 @@ def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:
     ax.xaxis.set_minor_formatter(NullFormatter())
     _plain_log_ticks(ax.yaxis)
     ax.set_xlabel("map size (nodes)")
-    ax.set_ylabel("host time per frame (ms, median; band to p95)")
-    ax.set_title("Latency against map size (random maps)")
+    ax.set_ylabel("time per frame (ms, median; band to host p95)")
+    ax.set_title("Latency against map size (random maps; solid host, dashed modelled)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return fig

@@ -327,7 +327,8 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
                 "latency-vs-size",
                 "Latency against map size",
                 f"Median host time per step over {n} query frames on random maps of each "
-                f"size; the band reaches the 95th percentile.{note}",
+                "size (solid; the band reaches the 95th percentile) and, for simulated "
+                f"methods, the modelled on-sensor time per frame (dashed).{note}",
                 figures.png_bytes(lat),
             )
         )
