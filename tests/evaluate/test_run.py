@@ -163,7 +163,7 @@ def test_config_rejects_unknown_keys_and_bad_values(tmp_path):
 
 
 def test_with_tolerance():
-    assert with_tolerance("synthetic", 2) == "synthetic?tolerance=2"
+    assert with_tolerance("synthetic", 2) == "synthetic:?tolerance=2"
     assert with_tolerance("a:b?x=1&tolerance=0&y=2", 3) == "a:b?x=1&y=2&tolerance=3"
     assert EvaluateConfig(dataset="a:b", tolerance=2).resolved_dataset() == "a:b?tolerance=2"
 

@@ -210,8 +210,12 @@ def with_tolerance(spec: str, tolerance: int) -> str:
     'synthetic:?places=20&tolerance=3'
     >>> with_tolerance("folder:a,b", 0)
     'folder:a,b?tolerance=0'
+    >>> with_tolerance("synthetic", 2)
+    'synthetic:?tolerance=2'
     """
     head, _, query = spec.partition("?")
+    if ":" not in head:  # a kind written alone: the query needs the colon
+        head += ":"
     pairs = [p for p in query.split("&") if p and p.split("=", 1)[0].strip() != "tolerance"]
     pairs.append(f"tolerance={int(tolerance)}")
     return f"{head}?{'&'.join(pairs)}"
