@@ -1,0 +1,16 @@
+"""The Examples in the evaluate docstrings run and give what they show."""
+
+from __future__ import annotations
+
+import doctest
+
+import pytest
+
+import ppaloc.evaluate.config
+import ppaloc.evaluate.metrics
+
+
+@pytest.mark.parametrize("module", [ppaloc.evaluate.metrics, ppaloc.evaluate.config])
+def test_docstring_examples(module):
+    result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0
