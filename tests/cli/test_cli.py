@@ -125,6 +125,9 @@ def test_several_datasets_make_a_matrix(mean_match, tmp_path, capsys):
     assert [r.split(",")[0] for r in rows[1:]] == [a, b]
     assert (out / "01-synthetic-places-8-size-32-sync-1" / "results.json").is_file()
     assert len(list(out.glob("02-*/results.json"))) == 1
+    code, stdout, err = run(capsys, "show", out)
+    assert code == 0, err
+    assert len(list(out.glob("*/report.html"))) == 2 and "matrix:" in stdout
 
 
 # -- errors: one line, non-zero, no traceback ---------------------------------------------------

@@ -383,6 +383,12 @@ def _show_results(folder: Path, *, quiet: bool) -> Path:
 
     from ppaloc.evaluate.report import write_report
 
+    if not (folder / "results.json").is_file() and (folder / "matrix.csv").is_file():
+        for sub in sorted(p.parent for p in folder.glob("*/results.json")):
+            _show_results(sub, quiet=quiet)
+        if not quiet:
+            print(f"matrix: {folder / 'matrix.csv'}")
+        return folder / "matrix.csv"
     if not (folder / "results.json").is_file():
         raise DataError(
             f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"

@@ -350,6 +350,7 @@ figure{margin:1em 0 1.6em}figure img{max-width:100%;border:1px solid #e3e5ea}
 figcaption{color:#445;font-size:.92em;margin-top:.3em}
 pre{background:#f4f5f8;padding:10px;overflow-x:auto;font-size:.85em}
 dt{font-weight:600}dd{margin:0 0 .4em 1.2em}
+nav{font-size:.92em;margin:.4em 0 1em}nav a{color:#2050a0;text-decoration:none}
 """
 
 
@@ -429,9 +430,20 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
     meta_html = html.escape(meta).replace("`", "<code>", 1).replace("`", "</code>", 1)
     parts = [
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>",
         f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
         f"<h1>{html.escape(title)}</h1><p class='meta'>{meta_html}</p>",
-        "<h2>Comparison (layout of the paper's Table I)</h2>",
+        "<nav>"
+        + " · ".join(
+            [
+                "<a href='#comparison'>Comparison</a>",
+                *(f"<a href='#{f.key}'>{html.escape(f.title)}</a>" for f in figs),
+                "<a href='#definitions'>Definitions</a>",
+                "<a href='#configuration'>Configuration</a>",
+            ]
+        )
+        + "</nav>",
+        "<h2 id='comparison'>Comparison (layout of the paper's Table I)</h2>",
         "<p>Max F1 per method and place representation; frame time as host wall clock "
         "(median over the query frames) | modelled on-sensor time (simulated methods "
         "only). Best F1 per column in bold green.</p>",
@@ -447,9 +459,9 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
             f"<img src='data:image/png;base64,{b64}' alt='{html.escape(f.title)}'>"
             f"<figcaption>{html.escape(f.caption)}</figcaption></figure>"
         )
-    parts.append("<h2>Definitions</h2><dl>")
+    parts.append("<h2 id='definitions'>Definitions</h2><dl>")
     parts += [f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in _definitions()]
-    parts.append("</dl><h2>Configuration</h2>")
+    parts.append("</dl><h2 id='configuration'>Configuration</h2>")
     parts.append(f"<pre>{html.escape(json.dumps(result.config, indent=2))}</pre>")
     parts.append("</body></html>\n")
     out = atomic_write(folder / "report.html", "\n".join(parts))
