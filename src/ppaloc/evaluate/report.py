@@ -269,7 +269,8 @@ def _register_figures(result: RunResult) -> list[_Figure]:
 
 
 def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
-    d = (result.runs and next(iter(result.runs.values())).metrics.recall_definition) or "A"
+    definitions = {run.metrics.recall_definition for run in result.runs.values()}
+    d = definitions.pop() if len(definitions) == 1 else "A"
     out = [
         _Figure(
             "pr-curves",

@@ -119,12 +119,7 @@ class MethodRun:
             "energy_mj": _mean_or_none(self.energy_mj),
             "recall_definition": self.metrics.recall_definition,
         }
-        extra = self.metrics.summary()
-        for key in ("f1_max", "precision_at_f1", "recall_at_f1", "auc", "recall_at_100p"):
-            extra.pop(key)
-        extra.pop("accuracy")
-        extra.pop("recall_definition")
-        out.update(extra)
+        out.update({k: v for k, v in self.metrics.summary().items() if k not in out})
         out.update(
             {
                 "modelled_latency_ms_mean": _mean_or_none(self.modelled_latency_ms),
