@@ -97,3 +97,27 @@ def test_dnews_boundary_is_0_or_1(sim: Scamp5) -> None:
 def test_unknown_clock_class_in_icw_us() -> None:
     with pytest.raises(SimulatorError, match=r"unknown clock class 'fast'; expected one of"):
         TimingModel().icw_us("fast")
+
+
+def test_timing_arguments(sim: Scamp5) -> None:
+    import dataclasses
+
+    from ppaloc.sim import TimingConstants
+
+    with pytest.raises(SimulatorError, match=r"stage name 3 is invalid"), sim.stage(3):
+        pass
+    with pytest.raises(SimulatorError, match=r"TimingConstants.analog_cycles=-1 is invalid"):
+        dataclasses.replace(TimingConstants(), analog_cycles=-1)
+    with pytest.raises(SimulatorError, match=r"constants=5 is invalid: use a ppaloc.sim"):
+        TimingModel(constants=5)
+
+
+def test_render_errors(sim: Scamp5, tmp_path) -> None:
+    from ppaloc.sim import render_montage, render_register
+
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(SimulatorError, match=r"cannot write '.*file/a.png': .*writable folder"):
+        render_register(sim, A, blocker / "a.png")
+    with pytest.raises(SimulatorError, match=r"'A' is not a register handle"):
+        render_montage(sim, tmp_path / "m.png", ["A"])

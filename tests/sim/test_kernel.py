@@ -100,6 +100,8 @@ def test_kernel_misuse() -> None:
             pass
     with pytest.raises(KernelError, match="recorded on another Scamp5"):
         other.run(k)
+    with pytest.raises(KernelError, match=r"sim\.run needs a Kernel recorded with .*, got list"):
+        sim.run([k])
     k2 = sim.kernel()
     with pytest.raises(KernelError, match=r"runs after its `with` block"):
         k2.run()

@@ -273,7 +273,14 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
     def run(self, kernel) -> None:
         """Run a recorded kernel of this simulator (same as ``kernel.run()``)."""
-        if getattr(kernel, "sim", None) is not self:
+        from ppaloc.sim.kernel import Kernel
+
+        if not isinstance(kernel, Kernel):
+            raise KernelError(
+                f"sim.run needs a Kernel recorded with `with sim.kernel() as k:`, "
+                f"got {type(kernel).__name__}"
+            )
+        if kernel.sim is not self:
             raise KernelError("this kernel was recorded on another Scamp5; record it on this one")
         kernel.run()
 

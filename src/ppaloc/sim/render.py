@@ -63,8 +63,13 @@ def plane_to_image(plane: np.ndarray) -> np.ndarray:
 
 def _write_atomically(image: Image.Image, path: Path) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as e:
+        raise SimulatorError(
+            f"cannot write {str(path)!r}: {e.strerror or e}; choose a writable folder"
+        ) from e
     try:
         with os.fdopen(fd, "wb") as f:
             image.save(f, format="PNG")
@@ -149,6 +154,12 @@ def render_montage(
     else:
         if not registers:
             raise SimulatorError("render_montage: name the registers to draw, e.g. [PIX, A, R5]")
+        for reg in registers:
+            if not isinstance(reg, Register):
+                raise SimulatorError(
+                    f"render_montage: {reg!r} is not a register handle; pass handles from "
+                    "ppaloc.sim, e.g. [PIX, A, R5]"
+                )
         items = [(reg.name, planes.read(reg)) for reg in registers]
     if not items:
         raise SimulatorError("render_montage: nothing to draw; give at least one plane")

@@ -205,6 +205,17 @@ class TimingConstants:
     )
     calls: Mapping[str, CallCost] = field(default_factory=_default_calls)
 
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "calls":
+                continue
+            if not isinstance(v, numbers.Real) or not 0 <= v < float("inf"):
+                raise TimingError(
+                    f"TimingConstants.{f.name}={v!r} is invalid: use a finite number >= 0 "
+                    f"({f.metadata['unit']})"
+                )
+
     def cycles(self, clock_class: str) -> float:
         """Cycles one ICW of ``clock_class`` takes."""
         table = {
@@ -451,6 +462,11 @@ class TimingModel:
             raise TimingError(
                 f"clock_hz={clock_hz!r} is invalid: use a positive frequency in Hz (e.g. 10e6)"
             )
+        if constants is not None and not isinstance(constants, TimingConstants):
+            raise TimingError(
+                f"constants={constants!r} is invalid: use a ppaloc.sim.TimingConstants "
+                "(e.g. dataclasses.replace(TimingConstants(), kernel_launch_us=0.5))"
+            )
         self.clock_hz = float(clock_hz)
         self.constants = constants if constants is not None else TimingConstants()
         self.pe_count = int(pe_count)
@@ -571,7 +587,7 @@ class TimingModel:
 
         Stages nest (``outer/inner``) and may be re-entered; their costs accumulate.
         """
-        if not name or "/" in name:
+        if not isinstance(name, str) or not name or "/" in name:
             raise TimingError(
                 f"stage name {name!r} is invalid: use a non-empty name without '/' "
                 "(nest stages with `with` blocks instead)"
