@@ -332,7 +332,18 @@ def test_an_icw_cannot_read_and_write_the_news_plane(sim: Scamp5, dsts, srcs, sh
 
 
 def test_official_news_patterns_stay_legal(sim: Scamp5) -> None:
-    sim.bus(XW, A)  # push (movx)
+    sim.bus(XW, A)  # push (movx): NEWS := -A of the east neighbour
+    east_a = np.pad(X[:, 1:], ((0, 0), (0, 1)))
+    assert np.array_equal(sim.read(NEWS), -east_a)
     sim.bus(D, XE, XW, XN, XS)  # several neighbour reads (newsblur)
+    news = -east_a
+    total = sum(
+        np.pad(news, 1)[1 + dr : 5 + dr, 1 + dc : 6 + dc]
+        for dr, dc in ((0, 1), (0, -1), (-1, 0), (1, 0))
+    )
+    assert np.array_equal(sim.read(D), np.clip(-total, -128, 127))
     sim.bus(NEWS, A, B)  # local write
-    sim.where(NEWS, XE)
+    assert np.array_equal(sim.read(NEWS), -3 * X)
+    sim.where(NEWS, XE)  # FLAG := NEWS + NEWS_east > 0
+    east_news = np.pad(-3 * X[:, 1:], ((0, 0), (0, 1)))
+    assert np.array_equal(sim.read(FLAG), -3 * X + east_news > 0)
