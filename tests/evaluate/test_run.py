@@ -274,3 +274,18 @@ def test_bench_skips_sizes_over_the_build_budget(standin, monkeypatch):
     rows = run_bench(cfg)["rows"]
     assert [("skipped" in r) for r in rows] == [False, False, True]
     assert rows[2]["skipped"].startswith("building 64 nodes would take about")
+
+
+def test_infinite_scores_and_partly_modelled_frames_stay_strict_json(standin, tiny, tmp_path):
+    class Odd(standin.MeanMatch):
+        def step(self, frame):
+            est = super().step(frame)
+            lat = 0.5 if self.steps % 2 else None  # only every other frame modelled
+            score = float("inf") if self.steps == 1 else est.score
+            return type(est)(node=est.node, score=score, modelled_latency_ms=lat)
+
+    result = run_evaluation(
+        EvaluateConfig(), dataset=tiny, localisers={"odd": Odd()}, progress=False
+    )
+    summary = json.loads(save_results(result, tmp_path).read_text())  # strict parse
+    assert summary["methods"]["odd"]["modelled_latency_ms"] == 0.5

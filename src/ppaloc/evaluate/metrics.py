@@ -455,8 +455,9 @@ class Metrics:
             for k, v in asdict(self).items()
             if k not in {"recall_at_k", "curve", "correct", "error_frames", "error_m"}
         }
-        if not np.isfinite(out["threshold_at_f1"]):
-            out["threshold_at_f1"] = None
+        for key, value in out.items():  # strict JSON: no NaN or infinity
+            if isinstance(value, float) and not np.isfinite(value):
+                out[key] = None
         out["recall_at_k"] = {
             str(k): float(self.recall_at_k[k - 1])
             for k in (1, 5, 10, 20)

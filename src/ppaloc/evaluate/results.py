@@ -150,7 +150,8 @@ def save_results(result: RunResult, out: str | Path) -> Path:
     for name, s in summary["methods"].items():
         writer.writerow(_csv_row(name, s, summary["n_queries"]))
     atomic_write(out / "results.csv", text.getvalue())
-    return atomic_write(out / "results.json", json.dumps(summary, indent=2) + "\n")
+    # allow_nan=False: results.json must stay strict JSON (NaN and Infinity are not)
+    return atomic_write(out / "results.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
 
 
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:

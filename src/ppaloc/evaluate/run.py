@@ -134,11 +134,14 @@ class MethodRun:
 
 
 def _median_or_none(a: np.ndarray | None) -> float | None:
-    return None if a is None or not a.size else float(np.median(a))
+    """Median of the finite values (frames a method did not model are NaN); None if none."""
+    finite = None if a is None else a[np.isfinite(a)]
+    return None if finite is None or not finite.size else float(np.median(finite))
 
 
 def _mean_or_none(a: np.ndarray | None) -> float | None:
-    return None if a is None or not a.size else float(np.mean(a))
+    finite = None if a is None else a[np.isfinite(a)]
+    return None if finite is None or not finite.size else float(np.mean(finite))
 
 
 @dataclass(eq=False)
