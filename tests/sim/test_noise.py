@@ -186,3 +186,23 @@ def test_small_arrays_get_fresh_temporal_noise_too() -> None:
         sim.bus(B, A)
         values.append(sim.read(B)[1, 2])
     assert abs(np.mean(values)) < 4 / np.sqrt(2000)  # 4 sigma
+
+
+@pytest.mark.parametrize("preset", ["low", "typical", "high"])
+def test_each_preset_produces_its_table_magnitudes(preset: str) -> None:
+    p = PRESETS[preset]
+    sim = Scamp5(*SHAPE, noise=preset, seed=7)  # A = 0: the gain error has nothing to scale
+    writes = []
+    for _ in range(6):
+        sim.bus(B, A)
+        writes.append(sim.read(B).astype(np.float64))
+    w = np.stack(writes)
+    temporal = (w[1:] - w[:-1]).std() / np.sqrt(2)  # the fixed offset cancels
+    assert temporal == pytest.approx(p.temporal_sd, rel=0.05)
+    fixed = w.mean(axis=0)  # offset + temporal / sqrt(6)
+    expected = np.sqrt(p.fixed_offset_sd**2 + p.temporal_sd**2 / 6)
+    assert fixed.std() == pytest.approx(expected, rel=0.05)
+    sim.write(A, np.full(SHAPE, 100.0))
+    sim.bus2(B, C, A)  # -50 + offset + N(0, hypot(temporal, division))
+    div = (sim.read(B) + 50 - sim.noise.offsets[B.index]).std()
+    assert div == pytest.approx(np.hypot(p.temporal_sd, p.division_sd), rel=0.1)
