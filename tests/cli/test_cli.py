@@ -335,3 +335,18 @@ def test_console_script_errors_without_traceback(tmp_path):
         [_script(), "--version"], capture_output=True, text=True, timeout=60, check=False
     )
     assert ok.returncode == 0 and "ppaloc" in ok.stdout
+
+
+@pytest.mark.slow
+def test_demo_runs_every_available_method(tmp_path, capsys):
+    from ppaloc.methods import available_methods
+
+    out = tmp_path / "demo"
+    code, _, err = run(capsys, "demo", "--out", out, "--places", "12", "--bench-sizes", "8", "-q")
+    assert code == 0, err
+    summary = json.loads((out / "results.json").read_text())
+    assert list(summary["methods"]) == available_methods()
+    for name, m in summary["methods"].items():
+        assert 0.0 <= m["f1_max"] <= 1.0 and m["latency_ms_median"] > 0, name
+        assert (m["modelled_latency_ms"] is not None) == name.startswith("onsensor"), name
+    assert (out / "report.html").is_file() and (out / "report.md").is_file()
