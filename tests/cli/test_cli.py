@@ -350,3 +350,19 @@ def test_demo_runs_every_available_method(tmp_path, capsys):
         assert 0.0 <= m["f1_max"] <= 1.0 and m["latency_ms_median"] > 0, name
         assert (m["modelled_latency_ms"] is not None) == name.startswith("onsensor"), name
     assert (out / "report.html").is_file() and (out / "report.md").is_file()
+
+
+@pytest.mark.data
+def test_evaluate_on_a_nordland_slice(nordland_dir, tmp_path, capsys):
+    from ppaloc.methods import available_methods
+
+    method = "single-frame" if "single-frame" in available_methods() else None
+    if method is None:
+        pytest.skip("single-frame is not available")
+    spec = f"nordland:{nordland_dir}?ref=summer&query=winter&stop=40"
+    out = tmp_path / "n"
+    code, _, err = run(capsys, "evaluate", "-d", spec, "-m", method, "--out", out, "-q")
+    assert code == 0, err
+    summary = json.loads((out / "results.json").read_text())
+    assert summary["n_queries"] == 40 and summary["n_reference"] == 40
+    assert 0.0 <= summary["methods"][method]["f1_max"] <= 1.0
