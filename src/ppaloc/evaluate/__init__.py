@@ -1,8 +1,41 @@
 """Evaluation: metrics, runs of methods over datasets, result files and the report.
 
 See ``docs/evaluate-cli.md`` for the metric definitions and the result file formats.
+``write_report`` and ``run_bench`` are imported on first use (the report needs
+matplotlib, which importing the metrics should not).
 """
 
-from ppaloc.evaluate.metrics import RECALL_DEFINITIONS, Metrics, PRCurve, evaluate_estimates
+from typing import Any
 
-__all__ = ["RECALL_DEFINITIONS", "Metrics", "PRCurve", "evaluate_estimates"]
+from ppaloc.evaluate.config import BenchConfig, EvaluateConfig
+from ppaloc.evaluate.metrics import RECALL_DEFINITIONS, Metrics, PRCurve, evaluate_estimates
+from ppaloc.evaluate.results import load_results, save_results
+from ppaloc.evaluate.run import MethodRun, RunResult, run_evaluation
+
+__all__ = [
+    "RECALL_DEFINITIONS",
+    "BenchConfig",
+    "EvaluateConfig",
+    "MethodRun",
+    "Metrics",
+    "PRCurve",
+    "RunResult",
+    "evaluate_estimates",
+    "load_results",
+    "run_bench",
+    "run_evaluation",
+    "save_results",
+    "write_report",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "write_report":
+        from ppaloc.evaluate.report import write_report
+
+        return write_report
+    if name == "run_bench":
+        from ppaloc.evaluate.bench import run_bench
+
+        return run_bench
+    raise AttributeError(f"module 'ppaloc.evaluate' has no attribute {name!r}")
