@@ -121,3 +121,16 @@ def test_render_errors(sim: Scamp5, tmp_path) -> None:
         render_register(sim, A, blocker / "a.png")
     with pytest.raises(SimulatorError, match=r"'A' is not a register handle"):
         render_montage(sim, tmp_path / "m.png", ["A"])
+
+
+def test_numpy_integers_are_accepted_where_ints_are(sim: Scamp5) -> None:
+    sim.write(R6, np.eye(4, dtype=bool))
+    sim.DNEWS(R5, R6, east, np.int64(1))
+    assert sim.read(R5)[:, 3].all()  # the east edge reads the boundary 1
+    sim.DNEWS(R5, R6, east, np.bool_(False))
+    assert not sim.read(R5)[:, 3].any()
+    sim.write(A, np.ones((4, 4)))
+    sim.newsblur(B, A, np.int64(1))
+    assert sim.read(B)[1, 1] == 4
+    with pytest.raises(RegisterMisuseError, match=r"boundary=1.0 .* use 0 or 1"):
+        sim.DNEWS(R5, R6, east, 1.0)

@@ -18,6 +18,7 @@ A macro whose arguments break a register rule raises
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Sequence
 
 from ppaloc.errors import RegisterMisuseError, SimulatorError
@@ -524,7 +525,7 @@ class ProgramAPI:
         Sets the selectors R1 (south), R2 (west), R3 (north), R4 (east); beyond the array
         edge ``d0`` reads ``boundary``.
         """
-        if boundary not in (0, 1) or not isinstance(boundary, int):
+        if isinstance(boundary, float | str) or boundary not in (0, 1):
             raise RegisterMisuseError(
                 f"{_call('DNEWS', (d, d0, dir))}: boundary={boundary!r} is the value read "
                 "beyond the array edge; use 0 or 1"
@@ -559,7 +560,11 @@ def _no_r12_dst(call: str, dsts: Sequence[Register]) -> None:
 
 
 def _check_iterations(call: str, iterations: object) -> None:
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+    if (
+        isinstance(iterations, bool)
+        or not isinstance(iterations, numbers.Integral)
+        or iterations < 1
+    ):
         raise SimulatorError(f"{call}: iterations={iterations!r} is invalid; use an integer >= 1")
 
 
