@@ -439,6 +439,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
             else:
                 np.divide(src, d_parts, out=out)
 
+        # Ideal values that cannot leave [-128, 127] need no clip: no source gives 0, and
+        # bus3 divides one source in [-128, 127] by 3.
+        clip = _clip if (not ideal or (ins.srcs and parts != 3)) else _no_clip
+
         if direct_ok:
             dst0 = dsts[0][0]
 
@@ -446,10 +450,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
                 mask = mask_of()
                 if mask is None:  # straight into the destination
                     value(dst0)
-                    _clip(dst0, _LO, _HI, out=dst0)
+                    clip(dst0, _LO, _HI, out=dst0)
                 else:
                     value(t0)
-                    _clip(t0, _LO, _HI, out=t0)
+                    clip(t0, _LO, _HI, out=t0)
                     blend(dst0, t0, mask)
 
             return run_direct
@@ -459,7 +463,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         def run_ideal() -> None:
             mask = mask_of()
             value(t0)
-            _clip(t0, _LO, _HI, out=t0)  # one value for every destination
+            clip(t0, _LO, _HI, out=t0)  # one value for every destination
             for plane, _, shift in dsts:
                 if shift is None:
                     if mask is None:
@@ -634,6 +638,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
 def _noop() -> None:
     return None
+
+
+def _no_clip(values: np.ndarray, lo: np.float32, hi: np.float32, out: np.ndarray) -> None:
+    """Stands in for the clip where the value is in range by construction."""
 
 
 def count_clocks(instructions: Iterable[Instruction]) -> dict[str, int]:
