@@ -542,3 +542,16 @@ def test_scamp5_get_image_runs_the_capture_kernel():
     assert (rep.total_kernels, rep.total_icws, rep.total_calls) == (1, 6, 0)
     with pytest.raises(SimulatorError, match="gain=2 is not modelled; use gain=1"):
         sim.scamp5_get_image(A, B, 2)
+
+
+def test_unflagged_elements_keep_drooping_through_a_masked_host_write():
+    from ppaloc.sim import NoiseParams
+
+    sim = Scamp5(2, 2, noise=NoiseParams(decay_per_ms=1.0))
+    sim.write(A, np.full((2, 2), 50.0))
+    sim.write(FLAG, np.array([[1, 0], [0, 0]], dtype=bool))
+    sim.timing.charge_call("scan_events", 5000)  # about 4.4 ms of modelled time
+    sim.shift(A, 0, 0)  # a masked analogue host write
+    droop = sim.timing.now_us / 1000  # 1 unit per ms
+    assert droop > 4
+    assert np.allclose(sim.read(A), 50 - droop, atol=1e-3)  # flagged or not

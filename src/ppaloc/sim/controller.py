@@ -231,6 +231,7 @@ class ControllerMixin:
         flag = self._flag()
         current = self._aplane(reg)
         if noisy:
+            self._catch_up()  # kept elements droop up to now too
             keep = None if flag.all() else current[~flag].copy()
             self._write_analog(reg, values)
             if keep is not None:
@@ -496,6 +497,7 @@ class ControllerMixin:
         h = _as_int(call, "h", h, -(self.cols - 1), self.cols - 1)
         v = _as_int(call, "v", v, -(self.rows - 1), self.rows - 1)
         b = _as_int(call, "boundary", boundary, 0, 1)
+        self._catch_up()  # shift the values as they are now
         if reg.kind == "analog":
             self._areg(call, reg)
             old = self._aplane(reg)
