@@ -177,3 +177,32 @@ def test_unused_registers_are_untouched_by_a_frame():
     pipe.sim.write(A, np.full((SIZE, SIZE), 7.0))
     pipe.step(_frame(7))
     assert (pipe.sim.read(A) == 7.0).all() and NEWS.name == "NEWS" and D != E
+
+
+@pytest.mark.parametrize(("prev", "want"), [(None, 10), (50, 50), (95, 90), (3, 10)])
+def test_detection_tie_break_with_more_ties_than_event_slots(prev, want):
+    n = 120  # lbp at 64x64: 128 nodes per tile
+    pipe = _pipe("lbp", n)
+    t, br, bc = pipe.layout.node_to_block(np.arange(n))
+    w = np.full((SIZE, SIZE), -50.0, np.float32)
+    values = np.full(n, -20.0, np.float32)
+    values[10:91] = 30.5  # 81 candidates tie at floor(max) = 30
+    w[br * 4, bc * 8 + t] = values
+    w[4 * 15, 8 * 7] = 90.0  # an unused block (beyond node 119) never counts
+    pipe.sim.write(C, w)
+    pipe.prev = prev
+    assert pipe.detect() == (want, 30)
+
+
+def test_confidence_is_the_threshold_gap_outside_the_window():
+    n = 100
+    pipe = _pipe("lbp", n)
+    t, br, bc = pipe.layout.node_to_block(np.arange(n))
+    values = np.full(n, -20.0, np.float32)
+    values[60], values[65], values[90] = 40.5, 35.0, 10.2  # 65 is inside +-10 of 60
+    w = np.zeros((SIZE, SIZE), np.float32)
+    w[br * 4, bc * 8 + t] = values
+    pipe.sim.write(C, w)
+    node, top = pipe.detect()
+    assert (node, top) == (60, 40)
+    assert pipe.confidence(node, top) == 40 - 10
