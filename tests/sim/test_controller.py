@@ -555,3 +555,13 @@ def test_unflagged_elements_keep_drooping_through_a_masked_host_write():
     droop = sim.timing.now_us / 1000  # 1 unit per ms
     assert droop > 4
     assert np.allclose(sim.read(A), 50 - droop, atol=1e-3)  # flagged or not
+
+
+def test_a_dac_load_starts_fresh_after_a_long_host_call():
+    from ppaloc.sim import NoiseParams
+
+    sim = Scamp5(2, 2, noise=NoiseParams(decay_per_ms=1.0))
+    sim.timing.charge_call("scan_events", 5000)  # about 4.4 ms
+    sim.scamp5_in(B, 20)
+    sim.nop()  # a kernel: pending droop is applied from the write on
+    assert np.allclose(sim.read(B), 20, atol=0.01)

@@ -228,10 +228,10 @@ class ControllerMixin:
 
     def _write_masked(self, reg: Register, values: np.ndarray, *, noisy: bool) -> None:
         """Write an analogue plane where FLAG is set (analogue writes obey FLAG)."""
+        self._catch_up()  # older values droop up to now; the new ones start fresh
         flag = self._flag()
         current = self._aplane(reg)
         if noisy:
-            self._catch_up()  # kept elements droop up to now too
             keep = None if flag.all() else current[~flag].copy()
             self._write_analog(reg, values)
             if keep is not None:
