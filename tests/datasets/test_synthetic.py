@@ -56,10 +56,36 @@ def test_variable_speed_query_stops_and_moved_flags():
 
 
 def test_motion_profile_speeds():
+    # default: cruising within +-20% of the mapping speed, averaging it
     for seed in range(3):
         s = variable_speed_positions(end=8000.0, spacing=4.0, speed=1.0, stops=0, seed=seed)
         v = np.diff(s) / 4.0
-        assert 0.3 < v[10:-5].min() and v.max() < 1.7 and 0.85 < v.mean() < 1.15
+        assert 0.8 - 1e-9 <= v[10:-5].min() and v.max() <= 1.2 + 1e-9
+        assert 0.97 < v[10:-5].mean() < 1.03
+    # the wide profile reaches well below and above
+    s = variable_speed_positions(8000.0, 4.0, 1.0, 0, seed=0, speed_var=0.65)
+    v = np.diff(s)[10:-5] / 4.0
+    assert 0.3 < v.min() < 0.6 and 1.4 < v.max() < 1.7 and 0.95 < v.mean() < 1.05
+
+
+def test_speed_var_spec_key_and_bad_value():
+    narrow = load_dataset("synthetic:?places=200&size=16&seed=2")
+    wide = load_dataset("synthetic:?places=200&size=16&seed=2&speed_var=0.65")
+    v_n = np.diff(narrow.query_positions[:, 0]) / 4.0
+    v_w = np.diff(wide.query_positions[:, 0]) / 4.0
+    assert v_n.max() <= 1.2 + 1e-9 < v_w.max()
+    with pytest.raises(DataError, match=r"speed_var=1.5.*must be in \[0, 0.9\]"):
+        make_synthetic(places=20, size=16, speed_var=1.5)
+
+
+def test_stops_brake_wait_and_resume():
+    s = variable_speed_positions(end=800.0, spacing=4.0, speed=1.0, stops=2, seed=5)
+    v = np.diff(s) / 4.0
+    waiting = np.flatnonzero(v == 0)
+    runs = np.split(waiting, np.flatnonzero(np.diff(waiting) > 1) + 1)
+    assert len(runs) == 2 and all(6 <= len(r) <= 24 for r in runs)
+    for r in runs:  # slowing into the stop, then speeding up again
+        assert v[r[0] - 1] < 0.5 and v[r[-1] + 1] < 0.2
 
 
 def test_extra_places_have_no_true_match():

@@ -34,6 +34,9 @@ from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel, Orac
 from ppaloc.topomap import TopoMap, build_topomap
 
 __all__ = [
+    "ALPHA_CAP",
+    "ALPHA_FACTOR",
+    "DEFAULT_SHIFT",
     "GAMMAS",
     "WeightedNodeLocaliser",
     "choose_candidate",
@@ -67,8 +70,25 @@ def _consecutive_and_far_mu(topomap: TopoMap, shift: int) -> tuple[np.ndarray, n
     return near * scale, away * scale
 
 
-def suggest_alpha(topomap: TopoMap, shift: int = 2, quantile: float = 0.99) -> int:
-    """Choose ``alpha`` from the map alone: the ``quantile`` of unrelated-place likelihoods.
+ALPHA_FACTOR = 3.0
+"""How far above the map's unrelated-place likelihoods :func:`suggest_alpha` puts alpha."""
+
+ALPHA_CAP = 63
+"""The largest suggested alpha: with ``gamma = 1/2`` every frame the best weight settles
+near ``2 * (alpha - mu_true)``, which must stay below the 127 bound (no ties there)."""
+
+DEFAULT_SHIFT = {"lowres": 2, "lbp": 1}
+"""Default likelihood shift per representation: one frame's term spans 0-32 units in both
+(low-res ``mu`` is in [0, 127], LBP ``mu`` in [0, 64])."""
+
+
+def suggest_alpha(
+    topomap: TopoMap,
+    shift: int = 2,
+    quantile: float = 0.99,
+    factor: float = ALPHA_FACTOR,
+) -> int:
+    """Choose ``alpha`` from the map alone: a multiple of the unrelated-place likelihoods.
 
     ``alpha`` is the scaled likelihood at which a node neither gains nor loses weight.
     Only *differences* between nodes decide the estimate, so ``alpha`` matters in two
@@ -77,9 +97,14 @@ def suggest_alpha(topomap: TopoMap, shift: int = 2, quantile: float = 0.99) -> i
     sinks below the 0 that enters node 0 on every forward move (the estimate then sticks
     to node 0); too high and every weight climbs to the register bound (ppa8) faster than
     the adjustment takes it off. The map gives an upper reference without any query:
-    nodes half the map apart are unrelated places, and a true match under other
-    conditions is rarely worse than the ``quantile`` of their ``mu_s``. The result is
-    rounded up to an integer (the PPA loads it through the DAC).
+    nodes half the map apart are unrelated places. A true match under other conditions
+    can be worse than any of them (snow or dusk against a summer map shifts every block
+    mean: on the synthetic route the winter query's true match scores about twice the
+    map's 0.99 quantile), so alpha is ``factor`` (3) times the ``quantile`` of their
+    ``mu_s``, rounded up to an integer (the PPA loads it through the DAC) and capped at
+    :data:`ALPHA_CAP`. A generous alpha costs little: with the adjustment every frame
+    (``k = 1``, ``gamma = 1/2``) only differences between weights matter until the best
+    weight would reach the 127 bound, which the cap prevents.
 
     Parameters
     ----------
@@ -89,18 +114,22 @@ def suggest_alpha(topomap: TopoMap, shift: int = 2, quantile: float = 0.99) -> i
         The filter's likelihood shift ``s`` (``mu_s = mu * 2**-s``).
     quantile : float
         Which quantile of the unrelated-pair likelihoods (default 0.99).
+    factor : float
+        Multiple of that quantile (default :data:`ALPHA_FACTOR`).
 
     Returns
     -------
     int
-        ``alpha`` in [0, 127].
+        ``alpha`` in [0, :data:`ALPHA_CAP`].
 
     Examples
     --------
     >>> from ppaloc.topomap import TopoMap
     >>> m = TopoMap("lbp", np.array([0, 0xF, 0xFF, 0xFFF], np.uint32))
-    >>> suggest_alpha(m, shift=0)  # far pairs differ in 8 bits: mu = 16
+    >>> suggest_alpha(m, shift=0, factor=1)  # far pairs differ in 8 bits: mu = 16
     16
+    >>> suggest_alpha(m, shift=0)  # 3 * 16, capped
+    48
     """
     if topomap.kind not in _REPRESENTATIONS:
         raise PpalocError(f"cannot suggest alpha for a map of kind {topomap.kind!r}")
@@ -111,9 +140,11 @@ def suggest_alpha(topomap: TopoMap, shift: int = 2, quantile: float = 0.99) -> i
         )
     if not 0.0 <= quantile <= 1.0:
         raise PpalocError(f"quantile={quantile!r} must be in [0, 1]")
+    if not (math.isfinite(factor) and factor > 0):
+        raise PpalocError(f"factor={factor!r} must be a positive number")
     _, away = _consecutive_and_far_mu(topomap, shift)
-    value = float(np.quantile(away, quantile))
-    return int(min(max(math.ceil(value), 0), 127))
+    value = factor * float(np.quantile(away, quantile))
+    return int(min(max(math.ceil(value), 0), ALPHA_CAP))
 
 
 _RANK_ROWS = 256  # the two-level top-k search splits the weights into 256 rows
@@ -205,11 +236,13 @@ class WeightedNodeLocaliser:
         ``gamma * max(W)`` is taken off every weight, so the best weight stays away from the
         saturation bound and ties at 127 are rare.
     k : int
-        Frames between adjustments (default 4).
-    shift : int
-        Likelihood scale ``mu_s = mu * 2**-shift`` (default 2): with ``mu`` up to 64-127
-        register units, ``2**-2`` keeps one frame's update within about +-16 so that a
-        weight needs several consistent frames to saturate (the filter's memory).
+        Frames between adjustments (default 1: every frame, so the best weight settles at
+        ``(alpha - mu_true) / gamma`` whatever alpha is, and alpha's choice is forgiving).
+    shift : int, optional
+        Likelihood scale ``mu_s = mu * 2**-shift``. Default (None): 2 for low-res (``mu``
+        in [0, 127]) and 1 for LBP (``mu`` in [0, 64]), so one frame's term spans 0-32
+        units in both and a weight needs several consistent frames to cross the 254-unit
+        range (the filter's memory).
     motion : {"image", "always_forward", "oracle"}
         Motion model (default ``"image"``, see :mod:`ppaloc.localise.motion`).
     arithmetic : {"float", "ppa8"}
@@ -252,8 +285,8 @@ class WeightedNodeLocaliser:
         *,
         alpha: float | None = None,
         gamma: float = 0.5,
-        k: int = 4,
-        shift: int = 2,
+        k: int = 1,
+        shift: int | None = None,
         motion: str = "image",
         arithmetic: str = "float",
         confidence_radius: int = 10,
@@ -278,6 +311,8 @@ class WeightedNodeLocaliser:
                 f"gamma={gamma!r} must be one of {GAMMAS} (a PPA scales only by halving)"
             )
         self.k = _check_int("k", k, 1)
+        if shift is None and representation in DEFAULT_SHIFT:
+            shift = DEFAULT_SHIFT[representation]
         self.shift = _check_int("shift", shift, 0, 16)
         self.confidence_radius = _check_int("confidence_radius", confidence_radius, 0)
         self.ranking_k = _check_int("ranking_k", ranking_k, 0)

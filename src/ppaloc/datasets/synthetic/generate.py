@@ -8,7 +8,7 @@ from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.frames import RenderedFrames
 from ppaloc.datasets.route import RawRoute, assemble
 from ppaloc.datasets.synthetic.conditions import CONDITIONS, condition
-from ppaloc.datasets.synthetic.motion import lateral_weave, variable_speed_positions
+from ppaloc.datasets.synthetic.motion import SPEED_VAR, lateral_weave, variable_speed_positions
 from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import make_world
 from ppaloc.errors import DataError
@@ -38,6 +38,7 @@ def synthetic_route(
     extra: int = 0,
     offset: float | None = None,
     size: int = 256,
+    speed_var: float = SPEED_VAR,
 ) -> RawRoute:
     """Generate the traversals; see :func:`make_synthetic` for the parameters."""
     for name in (ref, query):
@@ -45,6 +46,11 @@ def synthetic_route(
             raise DataError(f"unknown condition {name!r}: choose from {', '.join(CONDITIONS)}")
     if places < 2:
         raise DataError(f"places={places}: a route needs at least 2 places")
+    if not 0.0 <= speed_var <= 0.9:
+        raise DataError(
+            f"speed_var={speed_var}: the relative speed variation must be in [0, 0.9] "
+            "(0.2 is the default, 0.65 the wide profile)"
+        )
     ref_c, query_c = condition(ref), condition(query)
     world = make_world(places * spacing + extra * spacing, seed)
     end = (places - 1 + extra) * spacing
@@ -53,7 +59,7 @@ def synthetic_route(
         q_s = np.arange(places + extra, dtype=np.float64) * spacing
     else:
         n_stops = max(1, places // 150) if stops is None else stops
-        q_s = variable_speed_positions(end, spacing, speed, n_stops, seed)
+        q_s = variable_speed_positions(end, spacing, speed, n_stops, seed, speed_var)
     q_off = query_c.offset if offset is None else offset
     ref_x = LANE_CENTRE + ref_c.offset + lateral_weave(ref_s, seed * 2 + 0)
     q_x = LANE_CENTRE + q_off + lateral_weave(q_s, seed * 2 + 1)
@@ -93,6 +99,7 @@ def make_synthetic(
     extra: int = 0,
     offset: float | None = None,
     size: int = 256,
+    speed_var: float = SPEED_VAR,
     tolerance: int = 1,
     start: int | None = None,
     stop: int | None = None,
@@ -115,6 +122,10 @@ def make_synthetic(
         Metres between places.
     speed : float
         Mean query speed in places per frame (variable-speed mode).
+    speed_var : float
+        Peak relative deviation of the query's cruising speed from ``speed`` (default 0.2:
+        within +-20%, as a driver re-driving a route; 0.65 gives the wide 0.35x-1.65x
+        profile).
     stops : int, optional
         Query stops (default one per 150 places, at least one).
     extra : int
@@ -141,7 +152,7 @@ def make_synthetic(
     ((64, 64), [0, 1])
     """
     raw = synthetic_route(
-        places, ref, query, seed, sync, spacing, speed, stops, extra, offset, size
+        places, ref, query, seed, sync, spacing, speed, stops, extra, offset, size, speed_var
     )
     options = {"tolerance": tolerance, "start": start, "stop": stop, "step": step}
     return assemble(raw, options)

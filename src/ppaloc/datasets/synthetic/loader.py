@@ -20,6 +20,9 @@ SCHEMA = KindSchema(
         "sync": Key("bool", False, "one query frame per place"),
         "spacing": Key("float", 4.0, "metres between places", 0.5),
         "speed": Key("float", 1.0, "mean query speed, places per frame", 0.05),
+        "speed_var": Key(
+            "float", 0.2, "peak relative query speed variation (0.65: the wide profile)", 0.0
+        ),
         "stops": Key("int", None, "query stops (default: one per 150 places)", 0),
         "extra": Key("int", 0, "places the query drives past the end of the map", 0),
         "offset": Key("float", None, "query lateral offset in metres"),
@@ -44,4 +47,5 @@ def load(spec: DatasetSpec) -> RawRoute:
         extra=o["extra"],
         offset=o["offset"],
         size=o["size"],
+        speed_var=o["speed_var"],
     )

@@ -4,17 +4,49 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["lateral_weave", "variable_speed_positions"]
+__all__ = ["SPEED_VAR", "WIDE_SPEED_VAR", "lateral_weave", "variable_speed_positions"]
+
+SPEED_VAR = 0.2
+"""Default peak relative deviation of the cruising speed from its mean (+-20%)."""
+
+WIDE_SPEED_VAR = 0.65
+"""The wide profile (about 0.35x to 1.65x): a hard test for one-node-per-frame filters."""
+
+_AMPS = np.array([0.35, 0.2, 0.1]) / 0.65  # three slow sinusoids, peak sum 1
+
+
+def _speed_factor(frames: int, speed_var: float, rng: np.random.Generator) -> np.ndarray:
+    """``1 + speed_var * u(t)`` for t = 1..frames, ``u`` a zero-mean sum of slow sinusoids.
+
+    The sum is centred over the frames so that the mean factor is exactly 1 there: the
+    query's cruising speed averages the requested ``speed`` however short the route.
+    """
+    periods = rng.uniform(25.0, 160.0, 3)
+    phases = rng.uniform(0.0, 2 * np.pi, 3)
+    t = np.arange(1, frames + 1, dtype=np.float64)[:, None]
+    u = np.sum(_AMPS * np.sin(2 * np.pi * t / periods + phases), axis=1)
+    u -= u.mean()
+    peak = float(np.abs(u).max()) or 1.0
+    return 1.0 + speed_var * u / max(peak, 1.0)
 
 
 def variable_speed_positions(
-    end: float, spacing: float, speed: float, stops: int, seed: int
+    end: float,
+    spacing: float,
+    speed: float,
+    stops: int,
+    seed: int,
+    speed_var: float = SPEED_VAR,
 ) -> np.ndarray:
     """Route positions (m) of successive frames of a vehicle that speeds up, slows and stops.
 
-    The speed is ``speed`` places per frame modulated by three slow sinusoids (between
-    about 0.35x and 1.65x), ramps down before each of ``stops`` stops, waits 6-24 frames,
-    then ramps up again. Positions start at 0 and end exactly at ``end``.
+    The cruising speed is ``speed`` places per frame times a slow random factor
+    ``1 + speed_var * u(t)`` (``u`` a sum of three sinusoids with periods of 25-160 frames,
+    centred to mean 0 and within [-1, 1]), so it stays within ``+-speed_var`` of ``speed``
+    and averages ``speed``. Before each of ``stops`` stops the vehicle brakes (the speed
+    falls in proportion to the remaining distance), waits 6-24 frames, then accelerates
+    again (at most 12% of the cruising speed per frame). Positions start at 0 and end
+    exactly at ``end``.
 
     Parameters
     ----------
@@ -23,10 +55,13 @@ def variable_speed_positions(
     spacing : float
         Metres between places.
     speed : float
-        Mean speed in places per frame (> 0).
+        Mean cruising speed in places per frame (> 0).
     stops : int
         Number of stops, at random positions in the middle 80% of the route.
     seed : int
+    speed_var : float
+        Peak relative speed deviation, in [0, 0.9] (default :data:`SPEED_VAR`, +-20%;
+        :data:`WIDE_SPEED_VAR` gives about 0.35x-1.65x).
 
     Returns
     -------
@@ -34,23 +69,21 @@ def variable_speed_positions(
         Non-decreasing positions; consecutive equal values are frames taken while stopped.
     """
     rng = np.random.default_rng([seed, 0x3071])
-    periods = rng.uniform(25.0, 160.0, 3)
-    phases = rng.uniform(0.0, 2 * np.pi, 3)
-    amps = np.array([0.35, 0.2, 0.1])
+    cruise = speed * spacing
+    factor = _speed_factor(max(int(np.ceil(end / cruise)), 1), speed_var, rng)
     stop_at = np.sort(rng.uniform(0.1, 0.9, stops)) * end
     dwell = rng.integers(6, 25, stops)
-    cruise = speed * spacing
     accel = 0.12 * cruise
     s, v_prev, t, k, wait = 0.0, 0.0, 0, 0, 0
     out = [0.0]
     while s < end:
-        t += 1
         if wait > 0:
             wait -= 1
             v_prev = 0.0
             out.append(s)
             continue
-        v = cruise * (1.0 + float(np.sum(amps * np.sin(2 * np.pi * t / periods + phases))))
+        v = cruise * float(factor[min(t, len(factor) - 1)])
+        t += 1  # the speed profile runs on while driving, not while waiting
         v = min(v, v_prev + accel)
         if k < stops:
             v = min(v, 0.3 * (stop_at[k] - s) + 0.08 * cruise)
