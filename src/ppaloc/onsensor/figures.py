@@ -119,6 +119,7 @@ def difference_figure(
             }
         else:
             db = pipe.db[0]
+            pipe.load_descriptor(pipe.last_code)  # R3 served as a temp since
             pipe._run("inspect_xor", lambda k: k.XOR(R9, R3, db))
             planes = {
                 "live frame (PIX as captured)": live,

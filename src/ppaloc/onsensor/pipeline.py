@@ -255,6 +255,7 @@ class SensorPipeline:
         with self.sim.stage("reset"):
             self._run("reset_w", lambda k: k.res(_W))
         self.frames = 0
+        self.last_code = 0  # the controller's copy of the last live descriptor
         self.prev: int | None = None
         self.have_prev_planes = False
         self.last_counts: tuple[int, int] | None = None
@@ -761,7 +762,7 @@ class SensorPipeline:
             self.replicate()
             self.compare_lowres()
         else:
-            code = self.descriptor()
+            code = self.last_code = self.descriptor()
             self.load_descriptor(code)
             self.compare_lbp()
         node, top = self.detect()
