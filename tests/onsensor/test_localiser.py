@@ -141,3 +141,16 @@ def test_mapping_on_the_sensor_gives_the_host_nodes(rep):
     np.testing.assert_array_equal(got.descriptors, want.descriptors)
     assert got.params["n_frames"] == len(ref)
     assert sensor.pipeline.sim.timing.report().stage("mapping").n_calls > len(ref)
+
+
+@pytest.mark.parametrize(("shift", "gamma"), [(0, 1.0), (3, 0.0)])
+def test_oracle_motion_and_other_scales_agree_with_the_host(shift, gamma):
+    ref, query = _route(14, seed=8)
+    moves = [False, True, True, True, False, False] + [True] * (len(query) - 6)
+    kw = {"motion": "oracle", "oracle_moves": moves, "alpha": 6, "shift": shift, "gamma": gamma}
+    host = WeightedNodeLocaliser("lowres", arithmetic="ppa8", **kw)
+    sensor = OnSensorLocaliser("lowres", **kw)
+    sensor.use_map(host.build_map(ref))
+    a, b = host.localise(query), sensor.localise(query)
+    assert [e.node for e in a] == [e.node for e in b]
+    assert [e.moved for e in b] == moves
