@@ -296,7 +296,7 @@ class SensorPipeline:
                 for step in levels:
                     halve_level(k, D, F, direction, step)
             if self.representation == "lbp":
-                k.mov(B, D)  # keep the block roots for the descriptor
+                k.bus(B, D)  # B = +m at the block roots, for the descriptor
 
         def spread(k):
             k.res(F)
@@ -512,7 +512,7 @@ class SensorPipeline:
     def descriptor(self) -> int:
         """The live frame's 32-bit LBP code: compared on the array, read bit by bit.
 
-        The block means are compared where the halving tree left them (``B = -m`` at each
+        The block means are compared where the halving tree left them (``B = +m`` at each
         32x32 block's top-left PE), the most accurate place on a noisy array: for each of
         the 8 neighbour directions a copy is shifted by one block (two for diagonals) and
         ``where(m_centre - m_neighbour)`` decides the bit (neighbour >= centre) at the four
@@ -522,13 +522,12 @@ class SensorPipeline:
         code = 0
         with sim.stage("lbp"):
             for j, (drow, dcol) in enumerate(LBP_NEIGHBOURS):
-                self._run("lbp_copy", lambda k: k.mov(E, B))
+                self._run("lbp_copy", lambda k: k.bus(E, B))  # E = -m
                 # E[x] := -m of the neighbour block: the picture moves by minus the offset
                 sim.shift(E, -dcol * self.block, drow * self.block)
 
                 def build(k):
-                    k.bus(NEWS, B)  # NEWS = m_centre
-                    k.where(NEWS, E)  # centre > neighbour
+                    k.where(B, E)  # centre > neighbour
                     k.NOT(dr.cand, FLAG)  # neighbour >= centre
                     k.all()
 
