@@ -107,15 +107,6 @@ def test_past_only_step_equals_batch_and_ignores_the_future(toy_route) -> None:
     np.testing.assert_allclose([e.score for e in altered[:cut]], [e.score for e in batch[:cut]])
 
 
-def test_reset_forgets_the_query(toy_route) -> None:
-    ref, query = toy_route
-    s = SeqSLAM()
-    s.build_map(ref)
-    first = [s.step(f).node for f in query[:15]]
-    s.reset()
-    assert [s.step(f).node for f in query[:15]] == first
-
-
 def test_centred_mode_runs_offline_and_refuses_step(toy_route) -> None:
     ref, query = toy_route
     s = SeqSLAM(mode="centred")

@@ -1,4 +1,10 @@
-"""Small helpers the baselines share: map checks, rankings and uniqueness confidences."""
+"""What the baselines share: map building and checks, rankings and uniqueness confidences.
+
+:class:`MapLocaliser` holds the map handling every baseline repeats (``build_map``,
+``use_map``); :class:`ImageLocaliser` adds SeqSLAM's patch-normalised image as the node
+descriptor and the difference column, for SeqSLAM, the particle filter and single-frame
+matching.
+"""
 
 from __future__ import annotations
 
@@ -6,10 +12,19 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ppaloc.baselines._image import mean_abs_diff, preprocess
 from ppaloc.errors import PpalocError
 from ppaloc.topomap import TopoMap
 
-__all__ = ["check_map", "require_map", "stack_frames", "top_k", "uniqueness_ratio"]
+__all__ = [
+    "ImageLocaliser",
+    "MapLocaliser",
+    "check_map",
+    "require_map",
+    "stack_frames",
+    "top_k",
+    "uniqueness_ratio",
+]
 
 
 def stack_frames(frames: Sequence[np.ndarray], what: str) -> list[np.ndarray]:
@@ -99,3 +114,93 @@ def uniqueness_ratio(costs: np.ndarray, best: int, radius: int) -> float:
     if second <= 0.0:
         return 0.0
     return float(np.clip(1.0 - best_cost / second, 0.0, 1.0))
+
+
+class MapLocaliser:
+    """Map handling shared by the baselines: one descriptor per reference frame.
+
+    A subclass sets ``name`` and ``kind`` (the ``TopoMap.kind`` it writes) and provides
+    ``describe(frame)``, ``descriptor_shape`` (the per-node shape its parameters give),
+    ``params()`` (stored with the map) and ``reset()``.
+    """
+
+    name: str
+    kind: str
+    map: TopoMap | None
+
+    @property
+    def descriptor_shape(self) -> tuple[int, ...]:
+        """Shape of one node descriptor under the current parameters."""
+        raise NotImplementedError
+
+    def params(self) -> dict:
+        """The parameters that shape the map (JSON-serialisable)."""
+        raise NotImplementedError
+
+    def describe(self, frame: np.ndarray) -> np.ndarray:
+        """The node descriptor of one sensor frame, shape ``descriptor_shape``."""
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Forget the query history; keep the map."""
+        raise NotImplementedError
+
+    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
+        """Build and keep a map with one descriptor (:meth:`describe`) per reference frame.
+
+        Raises
+        ------
+        PpalocError
+            If ``frames`` is empty or a frame is not a (256, 256) ``uint8`` sensor frame.
+        """
+        frames = stack_frames(frames, self.name)
+        desc = np.stack([self.describe(f) for f in frames])
+        return self.use_map(TopoMap(self.kind, desc, params=self.params()))
+
+    def use_map(self, topomap: TopoMap) -> TopoMap:
+        """Adopt an existing map (built by :meth:`build_map` with the same parameters).
+
+        Raises
+        ------
+        PpalocError
+            If the map is of another kind, empty, or its descriptors have another shape.
+        """
+        self.map = check_map(topomap, self.kind, self.descriptor_shape, self.name)
+        self.reset()
+        return self.map
+
+
+class ImageLocaliser(MapLocaliser):
+    """A :class:`MapLocaliser` whose node descriptor is SeqSLAM's patch-normalised image.
+
+    A subclass sets ``size`` (rows, cols), ``patch`` and, if it stores OpenSeqSLAM's
+    quantised form, ``quantise``.
+    """
+
+    size: tuple[int, int]
+    patch: int
+    quantise: bool = False
+
+    @property
+    def descriptor_shape(self) -> tuple[int, ...]:
+        """``size``: one downsampled image per node."""
+        return self.size
+
+    def describe(self, frame: np.ndarray) -> np.ndarray:
+        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
+        return preprocess(frame, self.size, self.patch, quantise=self.quantise)
+
+    def difference_column(self, frame: np.ndarray) -> np.ndarray:
+        """Mean absolute difference per pixel between one query frame and every node.
+
+        Returns
+        -------
+        ndarray of float64, shape (N,)
+
+        Raises
+        ------
+        PpalocError
+            Before a map exists.
+        """
+        topomap = require_map(self.map, self.name)
+        return mean_abs_diff(self.describe(frame), topomap.descriptors)

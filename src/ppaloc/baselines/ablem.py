@@ -24,12 +24,11 @@ scalable augmented reality on mobile devices", ISMAR 2012.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
 
-from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k, uniqueness_ratio
+from ppaloc.baselines._common import MapLocaliser, require_map, top_k, uniqueness_ratio
 from ppaloc.baselines._image import downsample
 from ppaloc.baselines.ldb import comparison_count, hamming_distances, ldb_comparisons, selected_bits
 from ppaloc.errors import PpalocError
@@ -66,7 +65,7 @@ def sequence_distances(history: np.ndarray, fill: float) -> np.ndarray:
     return out
 
 
-class ABLEM:
+class ABLEM(MapLocaliser):
     """ABLE-M over a 1-D map: sequences of global binary codes, online and past-only.
 
     Parameters
@@ -95,6 +94,7 @@ class ABLEM:
     """
 
     name = "able-m"
+    kind = KIND
 
     def __init__(
         self,
@@ -148,17 +148,10 @@ class ABLEM:
         bits = ldb_comparisons(image, self.levels)[self._bits]
         return np.packbits(bits)
 
-    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
-        """Build and keep a map of one packed code per reference frame."""
-        frames = stack_frames(frames, self.name)
-        codes = np.stack([self.describe(f) for f in frames])
-        return self.use_map(TopoMap(KIND, codes, params=self.params()))
-
-    def use_map(self, topomap: TopoMap) -> TopoMap:
-        """Adopt an existing map (built with the same descriptor parameters)."""
-        self.map = check_map(topomap, KIND, (self.n_bytes,), self.name)
-        self.reset()
-        return self.map
+    @property
+    def descriptor_shape(self) -> tuple[int, ...]:
+        """``(n_bytes,)``: one packed code per node."""
+        return (self.n_bytes,)
 
     def reset(self) -> None:
         """Forget the query history; keep the map."""

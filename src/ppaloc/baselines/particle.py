@@ -31,13 +31,11 @@ IROS 2012, and "Towards improving the efficiency of sequence-based SLAM", ICMA 2
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
 
-from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k
-from ppaloc.baselines._image import mean_abs_diff, preprocess
+from ppaloc.baselines._common import ImageLocaliser, top_k
 from ppaloc.baselines.seqslam import contrast_enhance
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
@@ -75,7 +73,7 @@ def systematic_resample(weights: np.ndarray, u: float) -> np.ndarray:
     return np.minimum(np.searchsorted(cum, pointers, side="right"), p - 1).astype(np.int64)
 
 
-class ParticleFilter:
+class ParticleFilter(ImageLocaliser):
     """1-D particle filter over map nodes (after Liu & Zhang), seeded.
 
     Parameters
@@ -108,6 +106,7 @@ class ParticleFilter:
     """
 
     name = "particle-filter"
+    kind = KIND
 
     def __init__(
         self,
@@ -159,22 +158,6 @@ class ParticleFilter:
         """The parameters that shape the map (JSON-serialisable)."""
         return {"size": list(self.size), "patch": self.patch}
 
-    def describe(self, frame: np.ndarray) -> np.ndarray:
-        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
-        return preprocess(frame, self.size, self.patch)
-
-    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
-        """Build and keep a map with one patch-normalised image per reference frame."""
-        frames = stack_frames(frames, self.name)
-        desc = np.stack([self.describe(f) for f in frames])
-        return self.use_map(TopoMap(KIND, desc, params=self.params()))
-
-    def use_map(self, topomap: TopoMap) -> TopoMap:
-        """Adopt an existing map (built with the same image parameters)."""
-        self.map = check_map(topomap, KIND, self.size, self.name)
-        self.reset()
-        return self.map
-
     def reset(self) -> None:
         """Re-seed the generator and spread the particles uniformly; keep the map."""
         self._rng = np.random.default_rng(self.seed)
@@ -197,12 +180,11 @@ class ParticleFilter:
 
     def step(self, frame: np.ndarray) -> Estimate:
         """Move, weight, estimate and resample for one new query frame."""
-        topomap = require_map(self.map, self.name)
-        n = len(topomap)
+        d = self.difference_column(frame)
+        n = len(d)
         if self._started:
             self._move(n)
         self._started = True
-        d = mean_abs_diff(self.describe(frame), topomap.descriptors)
         if self.observation == "enhanced":
             d = contrast_enhance(d, self.enhance_window)
         d_min = float(d.min())

@@ -41,8 +41,7 @@ from typing import Literal
 
 import numpy as np
 
-from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k, uniqueness_ratio
-from ppaloc.baselines._image import mean_abs_diff, preprocess
+from ppaloc.baselines._common import ImageLocaliser, require_map, top_k, uniqueness_ratio
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.topomap import TopoMap
@@ -162,7 +161,7 @@ def trajectory_costs(columns: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     return best
 
 
-class SeqSLAM:
+class SeqSLAM(ImageLocaliser):
     """SeqSLAM over a 1-D map, past-only and incremental by default.
 
     Parameters
@@ -205,6 +204,7 @@ class SeqSLAM:
     """
 
     name = "seqslam"
+    kind = KIND
 
     def __init__(
         self,
@@ -269,22 +269,6 @@ class SeqSLAM:
             "enhance_window": self.enhance_window,
         }
 
-    def describe(self, frame: np.ndarray) -> np.ndarray:
-        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
-        return preprocess(frame, self.size, self.patch, quantise=self.quantise)
-
-    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
-        """Build and keep a map with one patch-normalised image per reference frame."""
-        frames = stack_frames(frames, self.name)
-        desc = np.stack([self.describe(f) for f in frames])
-        return self.use_map(TopoMap(KIND, desc, params=self.params()))
-
-    def use_map(self, topomap: TopoMap) -> TopoMap:
-        """Adopt an existing map (built by :meth:`build_map` with the same parameters)."""
-        self.map = check_map(topomap, KIND, self.size, self.name)
-        self.reset()
-        return self.map
-
     def reset(self) -> None:
         """Forget the query history; keep the map."""
         n = 0 if self.map is None else len(self.map)
@@ -294,9 +278,7 @@ class SeqSLAM:
     # ------------------------------------------------------------- matching
     def enhanced_column(self, frame: np.ndarray) -> np.ndarray:
         """The contrast-enhanced difference column of one query frame, shape (N,)."""
-        topomap = require_map(self.map, self.name)
-        d = mean_abs_diff(self.describe(frame), topomap.descriptors)
-        return contrast_enhance(d, self.enhance_window)
+        return contrast_enhance(self.difference_column(frame), self.enhance_window)
 
     def _estimate(self, costs: np.ndarray) -> Estimate:
         best = int(np.argmin(costs))
@@ -342,13 +324,11 @@ class SeqSLAM:
         mode (the same estimates as :meth:`step` frame by frame), ``t - ds/2 .. t + ds/2``
         in the centred mode. The map and the online state are left untouched.
         """
-        topomap = require_map(self.map, self.name)
+        require_map(self.map, self.name)
         frames = list(frames)
         if not frames:
             return []
-        diff = np.stack(
-            [mean_abs_diff(self.describe(f), topomap.descriptors) for f in frames], axis=1
-        )
+        diff = np.stack([self.difference_column(f) for f in frames], axis=1)
         enhanced = contrast_enhance(diff, self.enhance_window).T  # (Q, N)
         q = len(frames)
         if self.mode == "past":

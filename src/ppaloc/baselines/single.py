@@ -8,12 +8,9 @@ distance outside ``+- radius`` nodes: ``1 - d_best / d_second``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
-from ppaloc.baselines._common import check_map, require_map, stack_frames, top_k, uniqueness_ratio
-from ppaloc.baselines._image import mean_abs_diff, preprocess
+from ppaloc.baselines._common import ImageLocaliser, top_k, uniqueness_ratio
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.topomap import TopoMap
@@ -23,7 +20,7 @@ __all__ = ["SingleFrame"]
 KIND = "single-frame"
 
 
-class SingleFrame:
+class SingleFrame(ImageLocaliser):
     """Best single-frame match on SeqSLAM's patch-normalised images.
 
     Parameters
@@ -42,6 +39,7 @@ class SingleFrame:
     """
 
     name = "single-frame"
+    kind = KIND
 
     def __init__(
         self,
@@ -67,28 +65,12 @@ class SingleFrame:
         """The parameters that shape the map (JSON-serialisable)."""
         return {"size": list(self.size), "patch": self.patch, "radius": self.radius}
 
-    def describe(self, frame: np.ndarray) -> np.ndarray:
-        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
-        return preprocess(frame, self.size, self.patch)
-
-    def build_map(self, frames: Sequence[np.ndarray]) -> TopoMap:
-        """Build and keep a map with one patch-normalised image per reference frame."""
-        frames = stack_frames(frames, self.name)
-        desc = np.stack([self.describe(f) for f in frames])
-        return self.use_map(TopoMap(KIND, desc, params=self.params()))
-
-    def use_map(self, topomap: TopoMap) -> TopoMap:
-        """Adopt an existing map (built with the same image parameters)."""
-        self.map = check_map(topomap, KIND, self.size, self.name)
-        return self.map
-
     def reset(self) -> None:
         """Nothing to forget: every frame is matched on its own."""
 
     def step(self, frame: np.ndarray) -> Estimate:
         """Match one query frame against every node."""
-        topomap = require_map(self.map, self.name)
-        d = mean_abs_diff(self.describe(frame), topomap.descriptors)
+        d = self.difference_column(frame)
         best = int(np.argmin(d))
         return Estimate(
             node=best,
