@@ -264,8 +264,9 @@ class WeightedNodeLocaliser:
         ``w_i := max(w_{i-lo}, ..., w_{i-hi})`` (indices below 0 read 0). Default
         ``(1, 1)``: the paper's one-node shift, right for frame-synchronised routes.
         ``(0, 2)`` lets each weight stay or advance one or two nodes, for routes where
-        the speed varies (one frame covers 0.35-1.65 places on the synthetic route): see
-        docs/localise.md for the measured effect.
+        the speed varies (one frame covers 0.8-1.2 places on the default synthetic route,
+        0.35-1.65 with ``speed_var=0.65``); host only (not in the ppa8 contract), and it
+        hurts frame-synchronised routes: see docs/localise.md for the measured effect.
     motion_margin, motion_shift, motion_min_support : int
         Parameters of the image motion model (:class:`ImageMotion`).
 
@@ -505,9 +506,16 @@ class WeightedNodeLocaliser:
         return np.concatenate(([node], nodes))[: self.ranking_k].astype(np.int64)
 
     def _adjust(self, top: float) -> None:
+        """``w = clip(w - g)``, ``g = gamma * max(W)`` (floored to an integer in ppa8).
+
+        Only the lower bound can be crossed: for ``max(W) >= 0`` every weight falls, and
+        for ``max(W) < 0`` the largest becomes ``max(W) - g < 1``. So one subtraction and
+        one ``maximum`` pass (with ``k = 1`` many weights sit at the bound every frame).
+        """
         w = self._w
-        if self._exact:
-            w -= math.floor(self.gamma * top)  # an integer through the DAC
-        else:
-            w -= self._dtype(self.gamma * top)
-        _clip(w, _W_MIN, _W_MAX)
+        g = math.floor(self.gamma * top) if self._exact else self._dtype(self.gamma * top)
+        if not g:
+            return
+        w -= g
+        if g > 0:
+            np.maximum(w, _W_MIN, out=w)

@@ -43,10 +43,11 @@ def variable_speed_positions(
     The cruising speed is ``speed`` places per frame times a slow random factor
     ``1 + speed_var * u(t)`` (``u`` a sum of three sinusoids with periods of 25-160 frames,
     centred to mean 0 and within [-1, 1]), so it stays within ``+-speed_var`` of ``speed``
-    and averages ``speed``. Before each of ``stops`` stops the vehicle brakes (the speed
-    falls in proportion to the remaining distance), waits 6-24 frames, then accelerates
-    again (at most 12% of the cruising speed per frame). Positions start at 0 and end
-    exactly at ``end``.
+    and averages ``speed``. The first frame is taken at cruising speed (the recording
+    starts as the vehicle passes place 0). Before each of ``stops`` stops the vehicle
+    brakes (the speed falls in proportion to the remaining distance), waits 6-24 frames,
+    then accelerates again (at most 12% of the cruising speed per frame). Positions start
+    at 0 and end exactly at ``end``.
 
     Parameters
     ----------
@@ -74,7 +75,9 @@ def variable_speed_positions(
     stop_at = np.sort(rng.uniform(0.1, 0.9, stops)) * end
     dwell = rng.integers(6, 25, stops)
     accel = 0.12 * cruise
-    s, v_prev, t, k, wait = 0.0, 0.0, 0, 0, 0
+    # the recording starts as the vehicle passes place 0 at cruising speed, as the mapping
+    # run did; only the stops start from standstill
+    s, v_prev, t, k, wait = 0.0, cruise * float(factor[0]), 0, 0, 0
     out = [0.0]
     while s < end:
         if wait > 0:
