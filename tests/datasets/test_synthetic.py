@@ -185,3 +185,17 @@ def test_datasets_pickle_and_render_the_same_frames():
     again = pickle.loads(pickle.dumps(ds))
     assert again.query[5].tobytes() == ds.query[5].tobytes()
     assert [g.tolist() for g in again.ground_truth] == [g.tolist() for g in ds.ground_truth]
+
+
+def test_sync_with_stops_moves_one_place_per_frame_or_stays():
+    ds = make_synthetic(places=40, seed=3, sync=True, stops=2, size=32, tolerance=0)
+    steps = np.diff(ds.query_positions[:, 0]) / 4.0
+    assert set(np.round(steps, 9).tolist()) == {0.0, 1.0}
+    assert 40 + 12 <= len(ds.query) <= 40 + 48
+    assert ds.query_moved[1:].tolist() == (steps > 0).tolist()
+    assert [g.tolist() for g in ds.ground_truth[:1]] == [[0]]
+
+
+def test_sync_without_stops_is_one_frame_per_place():
+    ds = make_synthetic(places=25, seed=3, sync=True, size=32)
+    assert len(ds.query) == 25

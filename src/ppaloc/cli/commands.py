@@ -159,9 +159,9 @@ def run_demo(
     bench_sizes: Sequence[int] = (64, 256, 1024, 4096),
 ) -> Path:
     """The built-in synthetic route, every available method, table, report with bench."""
-    from ppaloc.evaluate.config import BenchConfig, EvaluateConfig
+    from ppaloc.evaluate.config import BenchConfig, EvaluateConfig, demo_dataset
 
-    dataset = f"synthetic:?places={places}&query=winter&seed=0"
+    dataset = demo_dataset(places)
     t0 = time.perf_counter()
     path = run_evaluate(
         EvaluateConfig(dataset=dataset),

@@ -179,9 +179,10 @@ Examples:
 def demo(out: Path, places: int, bench_sizes: str, quiet: bool | None) -> None:
     """Run every available method on the built-in synthetic route and write the report.
 
-    Builds the procedural route synthetic:?places=PLACES&query=winter&seed=0 (summer map,
-    winter query), evaluates every available method, times them against map size, prints
-    the comparison table and writes OUT/report.html.
+    Builds the procedural route synthetic:?places=PLACES&query=winter&seed=0&sync=1&stops=2
+    (summer map; winter query at the mapping speed with two stops), evaluates every
+    available method, times them against map size, prints the comparison table and
+    writes OUT/report.html.
     """
     from ppaloc.cli.commands import run_demo
 

@@ -22,12 +22,25 @@ __all__ = [
     "BenchConfig",
     "EvaluateConfig",
     "config_from_mapping",
+    "demo_dataset",
     "read_toml",
     "with_tolerance",
 ]
 
-DEMO_DATASET = "synthetic:?places=200&query=winter&seed=0"
-"""The built-in route ``ppaloc demo`` runs on (procedural, no files needed)."""
+
+
+def demo_dataset(places: int = 200) -> str:
+    """The spec of the built-in route ``ppaloc demo`` runs on (procedural, no files needed).
+
+    A summer map and a winter query re-driven at the mapping speed (one frame per place)
+    with two stops: the paper's setting, where the motion model has to tell forward from
+    stay. Variable speed (drop ``sync=1``) is a harder test, described in docs/localise.md.
+    """
+    return f"synthetic:?places={places}&query=winter&seed=0&sync=1&stops=2"
+
+
+DEMO_DATASET = demo_dataset()
+"""The default dataset of ``ppaloc demo`` and of an ``evaluate`` config without one."""
 
 C = TypeVar("C")
 

@@ -8,7 +8,12 @@ from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.frames import RenderedFrames
 from ppaloc.datasets.route import RawRoute, assemble
 from ppaloc.datasets.synthetic.conditions import CONDITIONS, condition
-from ppaloc.datasets.synthetic.motion import SPEED_VAR, lateral_weave, variable_speed_positions
+from ppaloc.datasets.synthetic.motion import (
+    SPEED_VAR,
+    lateral_weave,
+    place_positions_with_stops,
+    variable_speed_positions,
+)
 from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import make_world
 from ppaloc.errors import DataError
@@ -56,7 +61,7 @@ def synthetic_route(
     end = (places - 1 + extra) * spacing
     ref_s = np.arange(places, dtype=np.float64) * spacing
     if sync:
-        q_s = np.arange(places + extra, dtype=np.float64) * spacing
+        q_s = place_positions_with_stops(places + extra, spacing, stops or 0, seed)
     else:
         n_stops = max(1, places // 150) if stops is None else stops
         q_s = variable_speed_positions(end, spacing, speed, n_stops, seed, speed_var)
@@ -117,7 +122,8 @@ def make_synthetic(
     seed : int
         Seeds the world, the query's motion, clouds and noise: same seed, same bytes.
     sync : bool
-        One query frame per place (frame-synchronised) instead of variable speed.
+        One query frame per place while moving (the paper's setting: the route re-driven
+        at the mapping speed) instead of variable speed; ``stops`` still adds halts.
     spacing : float
         Metres between places.
     speed : float
@@ -127,7 +133,8 @@ def make_synthetic(
         within +-20%, as a driver re-driving a route; 0.65 gives the wide 0.35x-1.65x
         profile).
     stops : int, optional
-        Query stops (default one per 150 places, at least one).
+        Query stops (default: one per 150 places, at least one, at variable speed; none
+        with ``sync``).
     extra : int
         Places the query drives past the end of the map (no true match there).
     offset : float, optional

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SPEED_VAR", "WIDE_SPEED_VAR", "lateral_weave", "variable_speed_positions"]
+__all__ = [
+    "SPEED_VAR",
+    "WIDE_SPEED_VAR",
+    "lateral_weave",
+    "place_positions_with_stops",
+    "variable_speed_positions",
+]
 
 SPEED_VAR = 0.2
 """Default peak relative deviation of the cruising speed from its mean (+-20%)."""
@@ -99,6 +105,29 @@ def variable_speed_positions(
         v_prev = v
         out.append(s)
     return np.asarray(out, np.float64)
+
+
+def place_positions_with_stops(places: int, spacing: float, stops: int, seed: int) -> np.ndarray:
+    """Positions (m) of a vehicle that advances exactly one place per frame but stops.
+
+    The paper's setting: the route is re-driven at the mapping speed, so every moving frame
+    is one place on, and the vehicle halts ``stops`` times (at random places in the middle
+    80% of the route, 6-24 frames each, like :func:`variable_speed_positions`). Only the
+    motion model's forward-or-stay decision matters here, not the speed.
+
+    Returns
+    -------
+    ndarray of float64, shape (places + total dwell,)
+        Non-decreasing positions ``k * spacing``; repeated values are frames while stopped.
+    """
+    rng = np.random.default_rng([seed, 0x5709])
+    place = np.arange(places, dtype=np.float64)
+    repeats = np.ones(places, np.int64)
+    if stops > 0 and places > 2:
+        lo, hi = max(1, int(0.1 * places)), max(2, int(0.9 * places))
+        at = rng.choice(np.arange(lo, hi), size=min(stops, hi - lo), replace=False)
+        repeats[at] += rng.integers(6, 25, at.size)
+    return np.repeat(place, repeats) * spacing
 
 
 def lateral_weave(s: np.ndarray, seed: int, amplitude: float = 0.12) -> np.ndarray:
