@@ -713,6 +713,8 @@ class SensorPipeline:
     def adjust(self, top: int) -> None:
         """``w := clip(w - floor(gamma T))`` (an integer through the DAC)."""
         g = int(np.floor(self.params.gamma * top))
+        if not g:
+            return  # nothing to take off (the host skips it too)
         with self.sim.stage("adjust"):
             self.sim.scamp5_in(D, -g)
             self._run("adjust", lambda k: k.add(_W, _W, D))
