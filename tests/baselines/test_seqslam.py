@@ -33,6 +33,23 @@ def test_contrast_enhance_matches_the_definition() -> None:
     np.testing.assert_allclose(contrast_enhance(d[:, 0], 10), got[:, 0])
 
 
+def test_enhancement_runs_over_reference_rows_for_each_query_column(toy_route) -> None:
+    # OpenSeqSLAM: D(i, j) = distance of reference i to query j; row i of the enhanced
+    # matrix is D(i, :) minus the mean, over the std, of rows i - R/2 .. i + R/2, per
+    # column. So a query's enhanced column depends on that query and the reference
+    # neighbourhood only, never on the other query frames.
+    ref, query = toy_route
+    s = SeqSLAM()
+    s.build_map(ref[:30])
+    d = np.stack([s.difference_column(f) for f in query[:6]], axis=1)  # (30 refs, 6 queries)
+    for j in range(6):
+        np.testing.assert_allclose(
+            s.enhanced_column(query[j]), naive_enhance(d[:, j], 10), atol=1e-9
+        )
+    # Enhancing along the query axis instead would give something else.
+    assert not np.allclose(contrast_enhance(d.T, 10).T, contrast_enhance(d, 10))
+
+
 def test_contrast_enhance_golden_and_switched_off() -> None:
     # window 2 -> neighbours +-1, full window m = 3, shift (m - 1) / sqrt(m) = 2 / sqrt(3).
     # d = [0, 3, 0]: node 0 sees [0, 3] -> z = -1.5 / sqrt(4.5); node 1 sees all three.

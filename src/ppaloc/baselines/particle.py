@@ -81,11 +81,14 @@ class ParticleFilter(ImageLocaliser):
     n_particles : int
         Number of particles.
     p_stay, p_forward, p_jump : float
-        Motion model probabilities; the remainder is uniform re-initialisation.
+        Motion model probabilities; the remainder (5% by default) is uniform
+        re-initialisation.
     max_jump : int
         Largest forward jump in nodes (jumps are uniform over 2 .. max_jump).
     sigma_rel : float
         Likelihood temperature as a fraction of the median distance above the minimum.
+        The default and the 5% re-initialisation were chosen on synthetic routes that no
+        evaluation uses (``benchmarks/eval_baselines.py --tune-particle``).
     observation : {"enhanced", "raw"}
         What the likelihood is computed from: the difference column after SeqSLAM's local
         contrast enhancement (default; Liu & Zhang's filter replaces SeqSLAM's exhaustive
@@ -114,7 +117,7 @@ class ParticleFilter(ImageLocaliser):
         n_particles: int = 1000,
         p_stay: float = 0.15,
         p_forward: float = 0.6,
-        p_jump: float = 0.24,
+        p_jump: float = 0.2,
         max_jump: int = 3,
         sigma_rel: float = 0.5,
         observation: Literal["enhanced", "raw"] = "enhanced",
