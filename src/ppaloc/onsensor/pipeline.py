@@ -385,39 +385,41 @@ class SensorPipeline:
         return int((128 - codes.astype(np.int64)).sum())
 
     def shift_weights(self) -> None:
-        """Forward: ``w_i := w_{i-1}`` along the snake, ``w_0 := 0`` (tiles continue)."""
+        """Forward: ``w_i := w_{i-1}`` along the snake, ``w_0 := 0`` (tiles continue).
+
+        Inside a block row the weights move in place by a FLAG-masked ``scamp5_shift``
+        (even rows west, odd rows east, the row starts excluded), so most weights take one
+        analogue write per move. The row starts take the row end above from a copy made
+        before (``D``), and with two tiles node 0 of tile 1 takes the last node of tile 0
+        from a second copy (``E``).
+        """
         sim, dr = self.sim, self.dr
         bh, bw, n = self.bh, self.bw, self.size
+        tcx = 1 if self.tiles > 1 else 0
+        rx = _mask_bits(2 * bh)
         with sim.stage("shift"):
+            copies = (D, E) if self.tiles > 1 else (D,)
+            self._run(f"w_copy_{len(copies)}", lambda k: [k.bus(c, _W) for c in copies])
+            sim.load_pattern(dr.tmp_a, 0, n - bw, rx, tcx)  # even row starts (east end)
+            sim.load_pattern(dr.cand, bh, 0, rx, tcx)  # odd row starts (west end)
+            self._run("w_starts", lambda k: k.OR(dr.tmp_b, dr.cand, dr.tmp_a))
+            for row_mod, pull_from in ((1, east), (2, west)):
+                self._root_pattern(dr.cand, None, row_mod=row_mod)
 
-            def copy(k):
-                k.bus(D, _W)
-                k.bus(E, _W)
+                def inner(k):
+                    k.CLR_IF(dr.cand, dr.tmp_b)
+                    k.WHERE(dr.cand)
 
-            self._run("w_copy", copy)
-            pull_shift(sim, D, east, bw)
-            self._root_pattern(dr.cand, None, row_mod=1)
-            self._run("w_write_d", lambda k: (k.WHERE(dr.cand), k.bus(_W, D), k.all()))
-            pull_shift(sim, E, west, bw)
-            self._root_pattern(dr.cand, None, row_mod=2)
-            self._run("w_write_e", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
-            # row starts take the row end above: odd rows from the west copy (col 0)...
-            tcx = 1 if self.tiles > 1 else 0
-            rx = _mask_bits(2 * bh)
-            sim.shift(E, -bw, -bh)  # E held -w[c - bw]; now -w[r - bh, c]
-            sim.load_pattern(dr.cand, bh, 0, rx, tcx)
-            self._run("w_write_e", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
+                self._run("w_inner", inner)
+                pull_shift(sim, _W, pull_from, bw)
+                self._run("all", lambda k: k.all())
+            pull_shift(sim, D, north, bh)  # D[r, c] = -w[r - bh, c]
+            self._run("w_starts_write", lambda k: (k.WHERE(dr.tmp_b), k.bus(_W, D), k.all()))
             if self.tiles > 1:
                 # the last node of tile 0 (bottom right) feeds node 0 of tile 1 (top right)
-                self._run("w_carry", lambda k: k.mov(E, D))  # -w[c + bw]
-                sim.shift(E, bw + 1, n - bh)
-            # ... even rows from the east copy (last column)
-            sim.shift(D, bw, -bh)  # D held -w[c + bw]; now -w[r - bh, c]
-            sim.load_pattern(dr.cand, 0, n - bw, rx, tcx)
-            self._run("w_write_d", lambda k: (k.WHERE(dr.cand), k.bus(_W, D), k.all()))
-            if self.tiles > 1:
+                sim.shift(E, 1, n - bh)
                 sim.load_point(dr.cand, 0, n - bw + 1)
-                self._run("w_write_e", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
+                self._run("w_carry", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
 
     # --------------------------------------------------------------- lowres
     def replicate(self) -> None:
@@ -548,11 +550,16 @@ class SensorPipeline:
                     self._run("desc_or", lambda k: k.OR(R3, R4))
 
     def compare_lbp(self) -> None:
-        """Per tile: ``w += alpha - 2 h 2**-s`` with ``h`` the in-block count of XOR bits."""
+        """Per tile: ``w += alpha - 2 h 2**-s``, ``h`` the count of XOR bits in the block.
+
+        Each differing bit loads 2 (the DAC constant), so the adding tree leaves
+        ``mu = 2h`` itself (<= 64): the largest signal that cannot saturate, which keeps
+        the write offsets of the tree small beside it.
+        """
         sim, dr, p = self.sim, self.dr, self.params
         with sim.stage("compare"):
             for t in range(self.tiles):
-                sim.scamp5_in(E, 1)
+                sim.scamp5_in(E, 2)  # 2 per differing bit: the sum is mu = 2h, <= 64
                 self._root_pattern(dr.pattern, t)
                 sim.load_in(p.alpha)
 
@@ -566,8 +573,8 @@ class SensorPipeline:
                         add_level(k, D, E, east, step)
                     for step in (1, 2):
                         add_level(k, D, E, south, step)
-                    # D = h; mu_s = 2 h 2**-s
-                    self._update(k, D, E, 1, 1 - p.shift, t)
+                    # D = 2h = mu; mu_s = mu 2**-s
+                    self._update(k, D, E, 1, -p.shift, t)
 
                 self._run(f"hamming_{t}", build)
 
