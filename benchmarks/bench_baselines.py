@@ -22,6 +22,7 @@ import time
 import numpy as np
 import pytest
 
+from ppaloc.baselines import ABLEM
 from ppaloc.localise.base import Localiser
 from ppaloc.methods import make_localiser
 from ppaloc.topomap import TopoMap
@@ -37,7 +38,7 @@ def _random_map(kind: str, n: int, rng: np.random.Generator) -> TopoMap:
     if kind in ("seqslam", "single-frame", "particle-filter"):
         desc = rng.standard_normal((n, 32, 64), dtype=np.float32)
     elif kind == "able-m":
-        desc = rng.integers(0, 256, (n, 32), dtype=np.uint8)
+        desc = rng.integers(0, 256, (n, ABLEM().n_bytes), dtype=np.uint8)
     elif kind == "lowres":
         desc = rng.integers(0, 256, (n, 8, 8), dtype=np.uint8)
     elif kind == "lbp":

@@ -49,6 +49,7 @@ METHODS: dict[str, tuple[str, dict]] = {
     "able-m": ("able-m", {}),
     "able-m-L20": ("able-m", {"length": 20}),
     "able-m-L40": ("able-m", {"length": 40}),
+    "able-m-256bits": ("able-m", {"n_bits": 256}),
     "particle-filter": ("particle-filter", {}),
     "particle-filter-raw": ("particle-filter", {"observation": "raw"}),
     # The earlier defaults (1% re-initialisation), chosen on the real pairs: for comparison.

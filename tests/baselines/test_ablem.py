@@ -46,6 +46,15 @@ def test_map_holds_packed_codes(toy_route) -> None:
     assert m.descriptors.dtype == np.uint8
 
 
+def test_default_code_is_openables_1384_bits(toy_route) -> None:
+    # OpenABLE's LDB (built with its TRAINING switch on) keeps 1384 of the 1386 comparisons,
+    # a 173-byte code per image, not the 256-bit code of LDB's learned table.
+    ref, _ = toy_route
+    a = ABLEM()
+    assert a.n_bits == 1384 and a.n_bytes == 173
+    assert a.build_map(ref[:3]).descriptors.shape == (3, 173)
+
+
 def test_ratio_confidence(toy_route) -> None:
     ref, query = toy_route
     a = ABLEM(confidence="ratio")
@@ -60,6 +69,6 @@ def test_user_errors_name_the_fix(toy_route) -> None:
         ABLEM(length=0)
     with pytest.raises(PpalocError, match="confidence='best' is unknown"):
         ABLEM(confidence="best")
-    m = ABLEM().build_map(ref[:3])
+    m = ABLEM(n_bits=256).build_map(ref[:3])
     with pytest.raises(PpalocError, match=r"shape \(32,\) but these parameters give \(174,\)"):
         ABLEM(n_bits=None).use_map(m)

@@ -18,9 +18,11 @@ The exact variant implemented here:
 - per level, for every pair of cells ``i < j`` in row-major order and every feature in the
   order ``(I, dx, dy)``: one bit, ``f(i) > f(j)`` (strict; equal values give 0);
 - levels concatenated in order: 3 x (6 + 36 + 120 + 300) = 1386 comparisons;
-- ``n_bits`` of them are kept (default 256, LDB's usual 32 bytes): a fixed subset drawn
-  with ``numpy.random.default_rng(bit_seed)`` and kept in comparison order. LDB chooses
-  its bits by learning; a fixed random subset is the unlearned equivalent.
+- ``n_bits`` of them are kept: a fixed subset drawn with
+  ``numpy.random.default_rng(bit_seed)`` and kept in comparison order. ABLE-M's default is
+  OpenABLE's: its copy of the LDB code is built with the training switch on, which keeps
+  a random 1384 of the 1386 comparisons (173 bytes) instead of the 256 bits (32 bytes)
+  of LDB's learned table.
 - bits are packed most-significant first into bytes (:func:`numpy.packbits`).
 """
 
