@@ -78,6 +78,15 @@ def test_selected_bits_are_fixed_sorted_and_seeded() -> None:
         selected_bits(1386, 2000, 0)
 
 
+def test_selected_bits_cannot_be_changed_through_the_cache() -> None:
+    # The subset is cached per (total, n_bits, seed); a caller writing into the returned
+    # array must not change what every later ABLEM gets.
+    a = selected_bits(1386, 300, 7)
+    with pytest.raises(ValueError, match="read-only"):
+        a[0] = 5
+    assert not np.shares_memory(selected_bits(1386, None, 0), selected_bits(1386, None, 0))
+
+
 def test_hamming_counts_bits_not_byte_values() -> None:
     q = np.array([0b1000_0000, 0b0000_0011], np.uint8)
     codes = np.array([[0, 0], [0b1000_0000, 0b0000_0011], [0xFF, 0xFF]], np.uint8)

@@ -127,7 +127,9 @@ def ldb_comparisons(image: np.ndarray, levels: tuple[int, ...] = (2, 3, 4, 5)) -
 @lru_cache(maxsize=16)
 def _selection(total: int, n_bits: int, seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
-    return np.sort(rng.choice(total, size=n_bits, replace=False))
+    out = np.sort(rng.choice(total, size=n_bits, replace=False))
+    out.flags.writeable = False  # shared by every caller through the cache
+    return out
 
 
 def selected_bits(total: int, n_bits: int | None, seed: int) -> np.ndarray:
@@ -136,6 +138,7 @@ def selected_bits(total: int, n_bits: int | None, seed: int) -> np.ndarray:
     Returns
     -------
     ndarray of int64, shape (n_bits,), increasing
+        Read-only when it is a cached subset.
     """
     if n_bits is None or n_bits == total:
         return np.arange(total)
