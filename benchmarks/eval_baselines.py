@@ -5,6 +5,7 @@ Not collected by pytest. Run from the project root::
     .venv/bin/python benchmarks/eval_baselines.py            # every dataset, every method
     .venv/bin/python benchmarks/eval_baselines.py --only gp  # Gardens Point pairs only
     .venv/bin/python benchmarks/eval_baselines.py --tune-particle  # choose the PF defaults
+    .venv/bin/python benchmarks/eval_baselines.py --dip  # SeqSLAM's enhancement, diagnosed
 
 Frames go through the sensor front-end (``to_sensor``) once per traversal and are shared by
 every method. Scores are the methods' own confidences; max F1 uses recall definition A
@@ -25,8 +26,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
-from ppaloc.datasets import load_dataset, to_sensor
+from ppaloc.baselines import SeqSLAM
+from ppaloc.baselines._common import uniqueness_ratio
+from ppaloc.baselines._image import mean_abs_diff, patch_normalise
+from ppaloc.baselines.seqslam import contrast_enhance, trajectory_costs, trajectory_offsets
+from ppaloc.datasets import load_dataset, to_grey, to_sensor
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.metrics import evaluate_estimates
 from ppaloc.methods import make_localiser
@@ -124,6 +130,58 @@ def tune_particle() -> None:
     print(f"best: sigma_rel {best[0]}, re-initialisation {best[1]}, mean max F1 {scores[best]:.4f}")
 
 
+def _lanczos_image(frame: np.ndarray) -> np.ndarray:
+    grey = Image.fromarray(to_grey(frame)).resize((64, 32), Image.Resampling.LANCZOS)
+    return patch_normalise(np.asarray(grey, dtype=np.float64))
+
+
+def _max_f1(nodes: list[int], scores: list[float], ground_truth) -> float:
+    return evaluate_estimates(nodes, scores, ground_truth).f1_max
+
+
+def dip() -> None:
+    """Why SeqSLAM's contrast enhancement helps on Nordland and hurts on GP day_left ->
+    day_right: the shape of the raw difference column around the true node, where the
+    per-frame minimum lands before and after enhancement, and SeqSLAM's max F1 with
+    OpenSeqSLAM's whole-matrix minimum subtracted instead of the constant shift."""
+    for name in ("nordland summer->winter", "gp day_left->day_right"):
+        ds = load_dataset(DATASETS[name])
+        s = SeqSLAM()
+        s.build_map([to_sensor(f) for f in ds.reference])
+        d = np.stack([s.difference_column(to_sensor(f)) for f in ds.query], axis=1)  # (N, Q)
+        n, q = d.shape
+        truth = np.arange(q)  # both sets are index-aligned: query i is reference i
+        inner = range(10, min(n, q) - 10)
+        profile = np.mean([d[j - 3 : j + 4, j] / np.median(d[:, j]) for j in inner], axis=0)
+        enhanced = contrast_enhance(d, s.enhance_window)
+        near = [np.mean(np.abs(m.argmin(axis=0) - truth) <= 2) for m in (d, enhanced)]
+        print(
+            f"{name}: raw difference / column median at offsets -3..+3: "
+            + " ".join(f"{v:.3f}" for v in profile)
+        )
+        print(f"{name}: per-frame argmin within +-2, raw {near[0]:.3f}, enhanced {near[1]:.3f}")
+        # The same from OpenSeqSLAM's own front end: a 64x32 Lanczos resize of the originals.
+        ref = np.stack([_lanczos_image(f) for f in ds.reference])
+        d2 = np.stack([mean_abs_diff(_lanczos_image(f), ref) for f in ds.query], axis=1)
+        near2 = [np.mean(np.abs(m.argmin(axis=0) - truth) <= 2) for m in (d2, contrast_enhance(d2))]
+        print(
+            f"{name}: the same from 64x32 Lanczos resizes of the original frames, raw "
+            f"{near2[0]:.3f}, enhanced {near2[1]:.3f}"
+        )
+        z = enhanced - enhanced.min()  # OpenSeqSLAM: DD - min(min(DD))
+        for mode, before, after in (("past", s.ds, 0), ("centred", s.ds // 2, s.ds // 2)):
+            nodes, scores = [], []
+            for t in range(q):
+                lo, hi = max(0, t - before), min(q - 1, t + after)
+                offsets = trajectory_offsets(np.arange(lo - t, hi - t + 1), s.velocities)
+                cost = trajectory_costs(z.T[lo : hi + 1], offsets)
+                best = int(np.argmin(cost))
+                nodes.append(best)
+                scores.append(uniqueness_ratio(cost, best, s.rwindow // 2))
+            f1 = _max_f1(nodes, scores, ds.ground_truth)
+            print(f"{name}: SeqSLAM {mode}, whole-matrix minimum subtracted: max F1 {f1:.3f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--only", choices=["gp", "nordland"], default=None)
@@ -133,7 +191,11 @@ def main() -> None:
     parser.add_argument(
         "--tune-particle", action="store_true", help="choose the particle filter's defaults"
     )
+    parser.add_argument("--dip", action="store_true", help="diagnose SeqSLAM's enhancement")
     args = parser.parse_args()
+    if args.dip:
+        dip()
+        return
     if args.tune_particle:
         tune_particle()
         return
