@@ -54,7 +54,7 @@ METHODS: dict[str, MethodSpec] = {
         "ppaloc.baselines.seqslam:SeqSLAM", {}, "SeqSLAM (Milford & Wyeth 2012), past-only"
     ),
     "able-m": MethodSpec(
-        "ppaloc.baselines.ablem:ABLEM", {}, "ABLE-M (Arroyo et al. 2014), binary sequences"
+        "ppaloc.baselines.ablem:ABLEM", {}, "ABLE-M (Arroyo et al., ICRA 2015), binary sequences"
     ),
     "particle-filter": MethodSpec(
         "ppaloc.baselines.particle:ParticleFilter",
