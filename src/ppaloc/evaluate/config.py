@@ -28,7 +28,6 @@ __all__ = [
 ]
 
 
-
 def demo_dataset(places: int = 200) -> str:
     """The spec of the built-in route ``ppaloc demo`` runs on (procedural, no files needed).
 
