@@ -22,7 +22,7 @@ demo: $(VENV)/.installed
 	$(BIN)/ppaloc demo
 
 test: $(VENV)/.installed-dev
-	$(BIN)/python -m pytest -n 2 -q
+	$(BIN)/python -m pytest -n 2 -q --doctest-modules src tests
 
 bench: $(VENV)/.installed-dev
 	$(BIN)/python -m pytest benchmarks -q -p no:xdist --benchmark-columns=min,median,max,rounds

@@ -124,7 +124,7 @@ def test_results_files_round_trip(mean_match, tiny, tmp_path):
     assert b.metrics.f1_max == a.metrics.f1_max and b.metrics.auc == a.metrics.auc
     assert [g.tolist() for g in back.ground_truth] == [g.tolist() for g in result.ground_truth]
     assert not list((tmp_path / "out").rglob("*.tmp"))  # atomic writes leave nothing behind
-    from ppaloc.evaluate.results import default_file_mode
+    from ppaloc.fileio import default_file_mode
 
     assert (tmp_path / "out" / "results.json").stat().st_mode & 0o777 == default_file_mode()
 

@@ -7,17 +7,17 @@ summary. The click parsers in :mod:`ppaloc.cli.main` only read flags and config 
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ppaloc.errors import DataError, MapFormatError, PpalocError
+from ppaloc.fileio import atomic_write
 
 __all__ = [
     "run_bench",
@@ -126,7 +126,8 @@ def run_matrix(
     import json
     import re
 
-    from ppaloc.evaluate.results import CSV_COLUMNS, atomic_write
+    from ppaloc.evaluate.results import CSV_COLUMNS
+    from ppaloc.fileio import write_bytes
 
     _check_out_dir(out)
     text = io.StringIO()
@@ -140,7 +141,7 @@ def run_matrix(
         with open(path.with_suffix(".csv")) as f:
             for row in list(csv.reader(f))[1:]:
                 writer.writerow([spec, folder.name, *row])
-    matrix = atomic_write(out / "matrix.csv", text.getvalue())
+    matrix = write_bytes(out / "matrix.csv", text.getvalue())
     if not quiet:
         print(f"matrix: {matrix}")
     return matrix
@@ -317,14 +318,7 @@ def run_localise(
         if out.is_dir():
             raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
         out.parent.mkdir(parents=True, exist_ok=True)
-        from ppaloc.evaluate.results import default_file_mode
-
-        fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
-        os.fchmod(fd, default_file_mode())
-        stream = os.fdopen(fd, "w")
-    else:
-        tmp, stream = None, sys.stdout
-    try:
+    with atomic_write(out, "w") if out is not None else nullcontext(sys.stdout) as stream:
         stream.write(header)
         for i, p in enumerate(paths):
             frame = to_sensor(read_grey(p))
@@ -337,14 +331,6 @@ def run_localise(
                 f"{est.score:.6g},{moved},{ms:.4f}\n"
             )
             stream.flush()
-        if tmp is not None:
-            stream.close()
-            os.replace(tmp, out)
-    except BaseException:
-        if tmp is not None:
-            stream.close()
-            Path(tmp).unlink(missing_ok=True)
-        raise
     return len(paths)
 
 
@@ -420,9 +406,9 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
         render_montage(labels, out, scale=2)
     else:
         from ppaloc.evaluate.figures import png_bytes
-        from ppaloc.evaluate.results import atomic_write
+        from ppaloc.fileio import write_bytes
 
-        atomic_write(out, png_bytes(_descriptor_figure(topomap)))
+        write_bytes(out, png_bytes(_descriptor_figure(topomap)))
     if not quiet:
         print(f"{path}: {len(topomap)} {topomap.kind} nodes -> {out}")
     return out

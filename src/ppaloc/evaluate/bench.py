@@ -130,15 +130,15 @@ def run_bench(
 
 def save_bench(bench: dict[str, Any], path: str | Path) -> Path:
     """Write a :func:`run_bench` result as JSON (atomically) and a CSV beside it."""
-    from ppaloc.evaluate.results import atomic_write
+    from ppaloc.fileio import write_bytes
 
     path = Path(path)
     cols = ["method", "n_nodes", "latency_ms_median", "latency_ms_p95", "build_s", "queries"]
     lines = [",".join(cols)] + [
         ",".join(str(r.get(c, "")) for c in cols) for r in bench["rows"] if "skipped" not in r
     ]
-    atomic_write(path.with_suffix(".csv"), "\n".join(lines) + "\n")
-    return atomic_write(path, json.dumps(bench, indent=2) + "\n")
+    write_bytes(path.with_suffix(".csv"), "\n".join(lines) + "\n")
+    return write_bytes(path, json.dumps(bench, indent=2) + "\n")
 
 
 def load_bench(path: str | Path) -> dict[str, Any] | None:

@@ -23,8 +23,9 @@ import numpy as np
 from ppaloc.evaluate import figures
 from ppaloc.evaluate.bench import load_bench
 from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
-from ppaloc.evaluate.results import atomic_write, load_results
+from ppaloc.evaluate.results import load_results
 from ppaloc.evaluate.run import RunResult
+from ppaloc.fileio import write_bytes
 
 __all__ = ["REPRESENTATIONS", "comparison_table", "paper_table", "write_report"]
 
@@ -465,16 +466,16 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
     parts.append("</dl><h2 id='configuration'>Configuration</h2>")
     parts.append(f"<pre>{html.escape(json.dumps(result.config, indent=2))}</pre>")
     parts.append("</body></html>\n")
-    out = atomic_write(folder / "report.html", "\n".join(parts))
+    out = write_bytes(folder / "report.html", "\n".join(parts))
 
     md = [f"# {title}", "", meta, ""]
     md += ["## Comparison (layout of the paper's Table I)", "", _md_table(pheader, prows), ""]
     md += ["## All metrics", "", _md_table(header, rows), "", _md_table(xheader, xrows), ""]
     for f in figs:
         rel = f"figures/{f.key}.png"
-        atomic_write(folder / rel, f.png)
+        write_bytes(folder / rel, f.png)
         md += [f"## {f.title}", "", f"![{f.title}]({rel})", "", f.caption, ""]
     md += ["## Definitions", ""] + [f"- **{k}**: {v}" for k, v in _definitions()]
     md += ["", "## Configuration", "", "```json", json.dumps(result.config, indent=2), "```", ""]
-    atomic_write(folder / "report.md", "\n".join(md))
+    write_bytes(folder / "report.md", "\n".join(md))
     return out

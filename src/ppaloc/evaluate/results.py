@@ -19,9 +19,7 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 import re
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -30,12 +28,11 @@ import numpy as np
 from ppaloc.errors import DataError
 from ppaloc.evaluate.metrics import evaluate_estimates
 from ppaloc.evaluate.run import MethodRun, RunResult
+from ppaloc.fileio import write_bytes
 
 __all__ = [
     "CSV_COLUMNS",
     "array_file",
-    "atomic_write",
-    "default_file_mode",
     "load_results",
     "save_results",
 ]
@@ -67,30 +64,6 @@ CSV_COLUMNS = [
 
 _ARRAYS = ("node", "ref_index", "score", "moved", "ranking", "latency_ms")
 _OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj")
-
-
-def atomic_write(path: str | Path, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` through a temporary file and ``os.replace``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    raw = data.encode("utf-8") if isinstance(data, str) else data
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, default_file_mode())  # mkstemp makes 0600; outputs are ordinary files
-        with os.fdopen(fd, "wb") as f:
-            f.write(raw)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def default_file_mode() -> int:
-    """The mode ``open()`` gives a new file under the current umask (0644 under 022)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
 
 
 def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
@@ -126,14 +99,14 @@ def save_results(result: RunResult, out: str | Path) -> Path:
         arrays["curve_thresholds"] = run.metrics.curve.thresholds
         arrays["curve_precision"] = run.metrics.curve.precision
         arrays["curve_recall"] = run.metrics.curve.recall
-        atomic_write(out / rel, _npz_bytes(arrays))
+        write_bytes(out / rel, _npz_bytes(arrays))
         if run.registers:
             names = list(run.registers)
             planes = {f"plane{i}": np.asarray(run.registers[n]) for i, n in enumerate(names)}
             planes["labels"] = np.array(names)
             reg_rel = rel.replace(".npz", ".registers.npz")
             summary["methods"][name]["registers"] = reg_rel
-            atomic_write(out / reg_rel, _npz_bytes(planes))
+            write_bytes(out / reg_rel, _npz_bytes(planes))
     gt = result.ground_truth
     ds_arrays = {
         "gt_indptr": np.cumsum([0] + [len(g) for g in gt]).astype(np.int64),
@@ -143,15 +116,15 @@ def save_results(result: RunResult, out: str | Path) -> Path:
         value = getattr(result, key)
         if value is not None:
             ds_arrays[key] = np.asarray(value)
-    atomic_write(out / "arrays" / "_dataset.npz", _npz_bytes(ds_arrays))
+    write_bytes(out / "arrays" / "_dataset.npz", _npz_bytes(ds_arrays))
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
     for name, s in summary["methods"].items():
         writer.writerow(_csv_row(name, s, summary["n_queries"]))
-    atomic_write(out / "results.csv", text.getvalue())
+    write_bytes(out / "results.csv", text.getvalue())
     # allow_nan=False: results.json must stay strict JSON (NaN and Infinity are not)
-    return atomic_write(out / "results.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    return write_bytes(out / "results.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
 
 
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:

@@ -16,9 +16,7 @@ Examples
 
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -27,6 +25,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from ppaloc.errors import SimulatorError
+from ppaloc.fileio import atomic_write
 from ppaloc.sim.registers import Register
 
 if TYPE_CHECKING:
@@ -65,19 +64,12 @@ def _write_atomically(image: Image.Image, path: Path) -> Path:
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        with atomic_write(path) as f:
+            image.save(f, format="PNG")
     except OSError as e:
         raise SimulatorError(
             f"cannot write {str(path)!r}: {e.strerror or e}; choose a writable folder"
         ) from e
-    try:
-        with os.fdopen(fd, "wb") as f:
-            image.save(f, format="PNG")
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
     return path
 
 

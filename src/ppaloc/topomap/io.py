@@ -16,8 +16,6 @@ import contextlib
 import datetime as dt
 import hashlib
 import json
-import os
-import tempfile
 import zipfile
 import zlib
 from pathlib import Path
@@ -27,6 +25,7 @@ import numpy as np
 
 import ppaloc
 from ppaloc.errors import DataError, MapFormatError
+from ppaloc.fileio import atomic_write
 from ppaloc.topomap.map import TopoMap
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "load_map", "read_header", "save_map"]
@@ -128,17 +127,8 @@ def save_map(topomap: TopoMap, path: str | Path, *, dataset: str | None = None) 
         raise ValueError(f"map params and provenance must be JSON-serialisable: {exc}") from None
     header["sha256"] = _checksum(header, arrays)
     blob = np.frombuffer(json.dumps(header, indent=1).encode(), dtype=np.uint8)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, header=blob, **arrays)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_write(path) as f:
+        np.savez(f, header=blob, **arrays)
     return path
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -13,6 +12,7 @@ from PIL import Image, ImageDraw, ImageFont
 from ppaloc.datasets.synthetic.conditions import CONDITIONS
 from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import SEGMENT_TYPES, make_world
+from ppaloc.fileio import atomic_write
 
 __all__ = ["conditions_montage", "montage_array", "sequence_strip"]
 
@@ -104,17 +104,10 @@ def _save_png(canvas: Image.Image, path: str | os.PathLike) -> Path:
     """Write ``canvas`` as a 256-colour PNG atomically (temporary file, then rename)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        # 256 colours keep the figure small enough for a README without visible loss.
-        quantized = canvas.quantize(256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
-        quantized.save(tmp, format="PNG", optimize=True)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    # 256 colours keep the figure small enough for a README without visible loss.
+    quantized = canvas.quantize(256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+    with atomic_write(path) as f:
+        quantized.save(f, format="PNG", optimize=True)
     return path
 
 
