@@ -376,49 +376,17 @@ def run_method(
     )
 
 
-_REGISTER_ROLES: dict[str, dict[str, str]] = {
-    "lowres": {
-        "A": "map tile 0",
-        "B": "map tile 1",
-        "C": "weights",
-        "D": "working",
-        "E": "working",
-        "F": "working",
-        "R5": "motion U",
-        "R6": "motion D",
-        "R9": "candidates",
-    },
-    "lbp": {
-        "C": "weights",
-        "D": "working",
-        "R3": "frame descriptor",
-        "R10": "map tile 0",
-        "R11": "map tile 1",
-        "R5": "motion U",
-        "R6": "motion D",
-        "R9": "candidates",
-    },
-}
-"""Registers of the on-sensor pipeline worth a picture, with their roles (docs/onsensor.md)."""
-
-
 def register_planes(localiser: Any) -> dict[str, np.ndarray] | None:
     """Register planes of a simulated sensor after its last frame, for the report.
 
-    A localiser may offer ``register_planes() -> {label: 2-D array}``; otherwise one with a
-    ``pipeline.sim`` simulator (``OnSensorLocaliser``) is inspected (``Scamp5.read``:
-    untimed, no readout noise). None for host methods.
+    A localiser that simulates a sensor offers ``register_planes() -> {label: 2-D array}``
+    (untimed reads); None for every other method.
     """
     fn = getattr(localiser, "register_planes", None)
-    if callable(fn):
-        return {str(k): np.asarray(v) for k, v in fn().items()}
-    sim = getattr(getattr(localiser, "pipeline", None), "sim", None)
-    if sim is None or not callable(getattr(sim, "read", None)):
+    if not callable(fn):
         return None
-    import ppaloc.sim as registers
-
-    roles = _REGISTER_ROLES.get(str(getattr(localiser, "representation", "")), {})
-    return {f"{name}: {role}": sim.read(getattr(registers, name)) for name, role in roles.items()}
+    planes = {str(k): np.asarray(v) for k, v in fn().items()}
+    return planes or None
 
 
 def _optional_array(values: list[float | None]) -> np.ndarray | None:

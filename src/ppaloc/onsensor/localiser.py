@@ -233,6 +233,14 @@ class OnSensorLocaliser:
             energy_mj=(timing.energy_uj - e0) / 1000.0,
         )
 
+    def register_planes(self) -> dict[str, np.ndarray]:
+        """The sensor's registers worth a picture after the last frame, by label.
+
+        Untimed inspection (``Scamp5.read``, no readout noise); empty before a map exists.
+        The report draws them (:func:`ppaloc.evaluate.run.register_planes`).
+        """
+        return {} if self.pipeline is None else self.pipeline.register_planes()
+
     def localise(self, frames: Iterable[np.ndarray]) -> list[Estimate]:
         """``reset()``, then ``step`` every frame in order."""
         self.reset()

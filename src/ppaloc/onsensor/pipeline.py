@@ -781,6 +781,26 @@ class SensorPipeline:
         return node, score, bool(moved), top
 
     # --------------------------------------------------------------- inspection
+    def register_planes(self) -> dict[str, np.ndarray]:
+        """The registers worth a picture, labelled ``"NAME: role"`` (untimed reads).
+
+        The map tiles, the weights, the replicated live grid (low-res), the motion
+        bit-planes of the last frame and the last detection's candidates; the working
+        planes are left out, since after a frame they hold whatever the last stage left.
+        """
+        sim, dr = self.sim, self.dr
+        planes = {
+            f"{reg.name}: map tile {t}": sim.read(reg)
+            for t, reg in enumerate(self.db[: self.tiles])
+        }
+        planes[f"{_W.name}: weights"] = sim.read(_W)
+        if self.representation == "lowres":
+            planes["F: live 8x8 grid, replicated (negated)"] = sim.read(F)
+        planes[f"{dr.u.name}: motion, above block mean"] = sim.read(dr.u)
+        planes[f"{dr.d.name}: motion, below block mean"] = sim.read(dr.d)
+        planes[f"{dr.cand.name}: detection candidates"] = sim.read(dr.cand)
+        return planes
+
     def weights(self) -> np.ndarray:
         """The weights in map order, read from the register (inspection, untimed)."""
         plane = self.sim.read(_W)
