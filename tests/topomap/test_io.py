@@ -122,7 +122,7 @@ def test_foreign_files(tmp_path: Path) -> None:
         load_map(other)
     text = tmp_path / "notes.npz"
     text.write_text("hello")
-    with pytest.raises(MapFormatError, match="not a ppaloc map"):
+    with pytest.raises(MapFormatError, match=r"not a ppaloc map \(not an \.npz archive\)$"):
         load_map(text)
     single = tmp_path / "single.npy"
     np.save(single, np.zeros(3))

@@ -157,7 +157,7 @@ def _open(path: Path):
             f.seek(0)
             if f.read(4) == b"PK\x03\x04":
                 raise _fail(path, f"corrupt or truncated .npz archive ({exc})") from None
-            raise _fail(path, f"not a ppaloc map (not an .npz archive: {exc})") from None
+            raise _fail(path, "not a ppaloc map (not an .npz archive)") from None
         if not isinstance(npz, np.lib.npyio.NpzFile):
             raise _fail(path, "not a ppaloc map (a single .npy array, not an .npz archive)")
         with npz:
