@@ -58,6 +58,7 @@ from ppaloc.sim import (
     B,
     C,
     D,
+    Direction,
     E,
     F,
     NoiseParams,
@@ -449,29 +450,28 @@ class SensorPipeline:
                     k.mov(F, E)
 
                 self._run(f"rep_init_{axis}", init)
-                for i, step in enumerate(steps):
-                    pull_shift(sim, F, far, step)
-                    last = i == len(steps) - 1
-
-                    def acc(k, last=last):
-                        k.add(E, E, F)
-                        if not last:
-                            k.mov(F, E)
-
-                    self._run(f"rep_acc_{axis}_{int(last)}", acc)
+                self._double(E, far, steps, f"rep_acc_{axis}")
                 pull_shift(sim, D, near, k0 * GRID)
                 self._run(f"rep_copy_{axis}", lambda k: k.mov(F, D))
-                for i, step in enumerate(steps):
-                    pull_shift(sim, F, near, step)
-                    last = i == len(steps) - 1
-
-                    def acc2(k, last=last):
-                        k.add(D, D, F)
-                        if not last:
-                            k.mov(F, D)
-
-                    self._run(f"rep_acc2_{axis}_{int(last)}", acc2)
+                self._double(D, near, steps, f"rep_acc2_{axis}")
                 self._run(f"rep_join_{axis}", lambda k: k.add(F, D, E))
+
+    def _double(self, acc: Register, direction: Direction, steps: list[int], name: str) -> None:
+        """``acc += F`` shifted from ``direction`` by each step in turn (``F`` = ``acc``).
+
+        ``F`` starts as a copy of ``acc``; after each shift-and-add it takes the sum, so
+        every step doubles the pattern (the last step leaves ``F`` as it is).
+        """
+        for i, step in enumerate(steps):
+            pull_shift(self.sim, F, direction, step)
+            last = i == len(steps) - 1
+
+            def acc_step(k, last=last):
+                k.add(acc, acc, F)
+                if not last:
+                    k.mov(F, acc)
+
+            self._run(f"{name}_{int(last)}", acc_step)
 
     def compare_lowres(self) -> None:
         """Per tile: ``w += alpha - mu_s`` with ``mu`` the mean of ``min(|f - n|, 127)``."""
@@ -679,32 +679,27 @@ class SensorPipeline:
 
     def _nearest(self, top: int) -> int:
         """Window search: the candidate nearest the previous estimate (smaller index first)."""
-        dr = self.dr
         prev = 0 if self.prev is None else self.prev
-
-        def any_within(dist: int) -> bool:
-            self._allow(False)
-            self._at_least(top)
-            self._window(prev - dist, prev + dist)
-            self._run("cand_and", lambda k: k.AND(dr.cand, dr.cand, dr.tmp_b))
-            return bool(self.sim.global_or(dr.cand))
-
         lo, hi = 0, self.n_nodes
         while lo < hi:
             mid = (lo + hi) // 2
-            if any_within(mid):
+            if self._candidate_in(prev - mid, prev + mid, top):
                 hi = mid
             else:
                 lo = mid + 1
         for node in (prev - lo, prev + lo):
-            if 0 <= node < self.n_nodes:
-                self._allow(False)
-                self._at_least(top)
-                self._window(node, node)
-                self._run("cand_and", lambda k: k.AND(dr.cand, dr.cand, dr.tmp_b))
-                if self.sim.global_or(dr.cand):
-                    return node
+            if 0 <= node < self.n_nodes and self._candidate_in(node, node, top):
+                return node
         return prev  # only with noise: the comparator's noise hid the candidate
+
+    def _candidate_in(self, a: int, b: int, top: int) -> bool:
+        """Whether a node in ``a..b`` has ``w >= top`` (``cand`` keeps those nodes)."""
+        dr = self.dr
+        self._allow(False)
+        self._at_least(top)
+        self._window(a, b)
+        self._run("cand_and", lambda k: k.AND(dr.cand, dr.cand, dr.tmp_b))
+        return bool(self.sim.global_or(dr.cand))
 
     def confidence(self, node: int, top: int) -> float:
         """``T`` minus the integer maximum outside nodes ``node - R .. node + R``."""
