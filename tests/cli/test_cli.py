@@ -48,6 +48,13 @@ def test_help_shows_examples_and_commands():
         assert word in result.output
 
 
+def test_bare_command_prints_the_help_not_a_one_line_error(capsys):
+    code, _, err = run(capsys)
+    assert code == 2
+    assert err.startswith("Usage: ppaloc [OPTIONS] COMMAND")
+    assert "\nCommands:\n" in err and "error" not in err
+
+
 def test_evaluate_help_lists_available_methods(mean_match):
     result = CliRunner().invoke(cli, ["evaluate", "--help"])
     assert result.exit_code == 0
@@ -159,7 +166,7 @@ def test_several_datasets_make_a_matrix(mean_match, tmp_path, capsys):
         (
             ["evaluate", "-d", "synthetic", "-m", "mean-match", "--param", "mean-match.nope=1"],
             1,
-            "ppaloc: error: method 'mean-match': ",
+            "ppaloc: error: method 'mean-match': unknown parameter 'nope'; its parameters: ",
         ),
         (
             ["evaluate", "-d", "synthetic", "--param", "no-such.alpha=1"],

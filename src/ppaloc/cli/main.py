@@ -514,6 +514,9 @@ def main(argv: list[str] | None = None) -> int:
     except click.exceptions.Abort:
         print("ppaloc: interrupted", file=sys.stderr)
         return 130
+    except click.exceptions.NoArgsIsHelpError as exc:  # bare `ppaloc`: the help, unflattened
+        print(exc.ctx.get_help(), file=sys.stderr)
+        return 2
     except click.UsageError as exc:
         cmd = exc.ctx.command_path if exc.ctx is not None else "ppaloc"
         print(
