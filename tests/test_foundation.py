@@ -50,3 +50,11 @@ def test_route_dataset_checks_ground_truth_length():
 def test_unknown_method_names_choices():
     with pytest.raises(PpalocError, match="unknown method 'nope'"):
         make_localiser("nope")
+
+
+def test_unknown_method_parameter_names_the_accepted_ones():
+    with pytest.raises(
+        PpalocError,
+        match=r"method 'single-frame': unknown parameter 'nope'; its parameters: size, patch, ",
+    ):
+        make_localiser("single-frame", nope=1)

@@ -8,6 +8,7 @@ simply not available. Adding a method means adding one line here.
 from __future__ import annotations
 
 import importlib
+import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -101,7 +102,23 @@ def make_localiser(name: str, **params: Any) -> Localiser:
         cls = _load(spec)
     except (ImportError, AttributeError) as exc:
         raise PpalocError(f"method {name!r} is not available in this install ({exc})") from exc
+    _check_params(name, cls, spec, params)
     try:
         return cls(**{**spec.defaults, **params})
     except TypeError as exc:
         raise PpalocError(f"method {name!r}: {exc}") from exc
+
+
+def _check_params(name: str, cls: type, spec: MethodSpec, params: Mapping[str, Any]) -> None:
+    """Refuse a parameter the class does not take, naming the ones it does."""
+    signature = inspect.signature(cls)
+    kinds = {p.kind for p in signature.parameters.values()}
+    if inspect.Parameter.VAR_KEYWORD in kinds:
+        return
+    accepted = [p for p in signature.parameters if p not in spec.defaults]
+    for key in params:
+        if key not in signature.parameters:
+            raise PpalocError(
+                f"method {name!r}: unknown parameter {key!r}; its parameters: "
+                + ", ".join(accepted)
+            )
