@@ -14,8 +14,8 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
   (:meth:`ppaloc.place.LowresIndex.sad`), ``mu_i = SAD_i / 128``: the fast path, within
   half a register unit of the exact value.
 - ``"lbp"``: ``h_i = popcount(x XOR d_i)`` in [0, 32]. On the PPA each differing bit of a
-  node's 4x8-PE block loads the DAC constant 64 and a halving tree over the 32 PEs leaves
-  their mean, so ``mu_i = 2 * h_i`` in [0, 64] register units.
+  node's 4x8-PE block loads the DAC constant 2 and an adding tree over the 32 PEs leaves
+  their sum, so ``mu_i = 2 * h_i`` in [0, 64] register units.
 
 Every case then scales by ``2**-shift``.
 """

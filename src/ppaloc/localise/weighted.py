@@ -53,21 +53,18 @@ _W_MIN, _W_MAX = -127.0, 127.0  # the weight clip of the ``add`` macro (docs/ppa
 _T_MIN, _T_MAX = -128.0, 127.0  # any other register write
 
 
-def _consecutive_and_far_mu(topomap: TopoMap, shift: int) -> tuple[np.ndarray, np.ndarray]:
-    """``mu_s`` between consecutive nodes and between nodes half the map apart."""
+def _far_mu(topomap: TopoMap, shift: int) -> np.ndarray:
+    """``mu_s`` between each node and the node half the map away (unrelated places)."""
     d = topomap.descriptors
     n = len(d)
     far = (np.arange(n) + n // 2) % n
     if topomap.kind == "lbp":
         x = np.asarray(d, np.uint32)
-        near = np.bitwise_count(x[1:] ^ x[:-1]).astype(np.float64)
-        away = np.bitwise_count(x ^ x[far]).astype(np.float64)
+        raw = np.bitwise_count(x ^ x[far]).astype(np.float64)
     else:
         x = np.asarray(d, np.int64).reshape(n, -1)
-        near = np.abs(x[1:] - x[:-1]).sum(axis=1).astype(np.float64) * 1024
-        away = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * 1024
-    scale = distance_scale(topomap.kind, shift, exact=True)
-    return near * scale, away * scale
+        raw = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * 1024
+    return raw * distance_scale(topomap.kind, shift, exact=True)
 
 
 ALPHA_FACTOR = 3.0
@@ -142,7 +139,7 @@ def suggest_alpha(
         raise PpalocError(f"quantile={quantile!r} must be in [0, 1]")
     if not (math.isfinite(factor) and factor > 0):
         raise PpalocError(f"factor={factor!r} must be a positive number")
-    _, away = _consecutive_and_far_mu(topomap, shift)
+    away = _far_mu(topomap, shift)
     value = factor * float(np.quantile(away, quantile))
     return int(min(max(math.ceil(value), 0), ALPHA_CAP))
 
