@@ -18,6 +18,7 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
+from ppaloc.localise.motion import ImageMotion, OracleMotion
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import PipelineParams, SensorPipeline
@@ -103,12 +104,12 @@ class OnSensorLocaliser:
         self.size = int(size)
         self.record_weights = bool(record_weights)
         self.motion = self._host.motion
+        # the oracle's moves are the controller's input; the host has checked them
         moves = filter_params.get("oracle_moves")
-        self._moves = None if moves is None else np.asarray(moves, bool)
+        self._oracle = OracleMotion(moves) if self.motion == "oracle" else None
         self.name = f"onsensor-{representation}"
         self.topomap: TopoMap | None = None
         self.pipeline: SensorPipeline | None = None
-        self._n = 0
 
     @property
     def alpha(self) -> float | None:
@@ -159,17 +160,22 @@ class OnSensorLocaliser:
 
     def _new_pipeline(self, n_nodes: int) -> SensorPipeline:
         h = self._host
-        image = h.motion == "image"
+        # the oracle's decisions come from the controller: the array runs always_forward
+        motion: dict[str, Any] = {"motion": "always_forward"}
+        if isinstance(m := h._motion, ImageMotion):
+            motion = {
+                "motion": "image",
+                "margin": m.margin,
+                "motion_shift": m.shift,
+                "min_support": m.min_support,
+            }
         params = PipelineParams(
             alpha=0,  # set in _install, once the map is known
             gamma=h.gamma,
             k=h.k,
             shift=h.shift,
-            motion="image" if image else "always_forward",
-            margin=h._motion.margin if image else 3,
-            motion_shift=h._motion.shift if image else 6,
-            min_support=h._motion.min_support if image else 1024,
             confidence_radius=h.confidence_radius,
+            **motion,
         )
         return SensorPipeline(
             self.representation,
@@ -201,7 +207,8 @@ class OnSensorLocaliser:
         """Zero the weight register and forget the previous frame (the map stays)."""
         if self.pipeline is not None:
             self.pipeline.reset()
-        self._n = 0
+        if self._oracle is not None:
+            self._oracle.reset()
 
     def step(self, frame: np.ndarray) -> Estimate:
         """Localise one sensor frame ((size, size) uint8) on the simulated sensor."""
@@ -210,15 +217,7 @@ class OnSensorLocaliser:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
         frame = np.asarray(frame)
         self._check_frame(frame)
-        moved = None
-        if self.motion == "oracle":
-            if self._n >= len(self._moves):
-                raise PpalocError(
-                    f"the oracle motion model has {len(self._moves)} ground-truth moves but "
-                    f"was asked for frame {self._n}; pass oracle_moves covering every frame"
-                )
-            moved = bool(self._moves[self._n])
-        self._n += 1
+        moved = None if self._oracle is None else self._oracle.step(frame)
         timing = pipe.sim.timing
         t0, e0 = timing.now_us, timing.energy_uj
         node, score, moved, _ = pipe.step(frame, moved)

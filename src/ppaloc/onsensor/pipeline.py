@@ -118,7 +118,7 @@ class PipelineParams:
     shift: int
     motion: str
     margin: int = 3
-    motion_shift: int = 7
+    motion_shift: int = 6
     min_support: int = 1024
     confidence_radius: int = 10
 
