@@ -22,8 +22,8 @@ forward-facing camera that stops sees the same image, and one that moves sees ch
 content; reversing is outside the paper's model, so *changed vs. unchanged* is the whole
 decision. A radial-flow test needs sub-block edge localisation in two frames and is
 fragile where the scene is dominated by lateral motion (curves, camera shake); the
-crossing count is one XOR-like expression, two ``global_count`` calls and one integer
-comparison on the controller.
+crossing count is one XOR-like expression, two pixel counts and one integer comparison
+on the controller.
 
 The first frame after ``reset`` has no predecessor: every model but the oracle says stay
 (all weights are zero then, so the decision changes nothing but the report).
@@ -96,7 +96,8 @@ def crossing_counts(
 
     ``changed = count((U_prev & D) | (D_prev & U))``: pixels that crossed their block mean
     by more than the margin; ``support = count(U | D)``: clearly-textured pixels now. On
-    the PPA each is one ``global_count`` of a digital register.
+    the PPA each is an exact count: block sums on the array read through the ADC
+    (``global_count`` is only an estimate; docs/ppa8.md).
     """
     u0, d0 = previous
     u1, d1 = current
