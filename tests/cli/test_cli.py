@@ -187,6 +187,21 @@ def test_user_errors_are_one_line(mean_match, capsys, args, code, message):
     assert err.count("\n") == 1 and "Traceback" not in err
 
 
+def test_show_refuses_a_damaged_file_in_one_line(mean_match, tmp_path, capsys):
+    spec = "synthetic:?places=12&size=32&sync=1"
+    assert run(capsys, "map", spec, "-m", mean_match, "--out", tmp_path / "m.npz", "-q")[0] == 0
+    data = (tmp_path / "m.npz").read_bytes()
+    (tmp_path / "cut.npz").write_bytes(data[: len(data) // 2])
+    (tmp_path / "text.npz").write_text("not an archive")
+    for name in ("cut.npz", "text.npz"):
+        code, _, err = run(capsys, "show", tmp_path / name)
+        assert code == 1
+        assert err == (
+            f"ppaloc: error: {tmp_path / name} is not a readable .npz archive (not a zip file, "
+            "or truncated); give a results folder, a map (.npz) or register planes (.npz)\n"
+        )
+
+
 def test_unknown_config_key_is_named(mean_match, tmp_path, capsys):
     toml = tmp_path / "bad.toml"
     toml.write_text('dataset = "synthetic"\ntolerence = 2\n')

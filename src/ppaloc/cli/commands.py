@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import sys
 import time
+import zipfile
+import zlib
 from collections.abc import Sequence
 from contextlib import nullcontext
 from pathlib import Path
@@ -16,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ppaloc.errors import DataError, MapFormatError, PpalocError
+from ppaloc.errors import DataError, PpalocError
 from ppaloc.fileio import atomic_write
 
 __all__ = [
@@ -355,13 +357,17 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
         raise DataError(
             f"{path} does not exist; give a results folder, a map (.npz) or register planes (.npz)"
         )
-    from ppaloc.topomap import read_header
-
     try:
-        read_header(path)
-    except MapFormatError:
-        return _show_planes(path, out, quiet=quiet)
-    return _show_map(path, out, quiet=quiet)
+        with zipfile.ZipFile(path) as archive:
+            is_map = "header.npy" in archive.namelist()  # a map's JSON header entry
+    except (zipfile.BadZipFile, OSError):
+        raise DataError(
+            f"{path} is not a readable .npz archive (not a zip file, or truncated); give a "
+            "results folder, a map (.npz) or register planes (.npz)"
+        ) from None
+    if is_map:  # a damaged map is refused by load_map with its cause, not drawn as planes
+        return _show_map(path, out, quiet=quiet)
+    return _show_planes(path, out, quiet=quiet)
 
 
 def _show_results(folder: Path, *, quiet: bool) -> Path:
@@ -435,9 +441,10 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
 
     try:
         with np.load(path, allow_pickle=False) as z:
-            planes = {k: z[k] for k in z.files if z[k].ndim == 2}
-    except (OSError, ValueError) as exc:
-        raise DataError(f"{path} is neither a map nor an .npz of register planes ({exc})") from None
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise DataError(f"{path} is a corrupt or truncated .npz archive ({exc})") from None
+    planes = {k: a for k, a in arrays.items() if a.ndim == 2}
     if not planes:
         raise DataError(f"{path} holds no 2-D arrays to draw as register planes")
     out = out or path.with_suffix(".png")
