@@ -187,6 +187,14 @@ def test_user_errors_are_one_line(mean_match, capsys, args, code, message):
     assert err.count("\n") == 1 and "Traceback" not in err
 
 
+def test_unknown_config_key_is_named_before_a_missing_dataset(tmp_path, capsys):
+    toml = tmp_path / "typo.toml"
+    toml.write_text('datset = "synthetic"\n')
+    code, _, err = run(capsys, "evaluate", "--config", toml)
+    assert code == 1
+    assert err.startswith(f"ppaloc: error: unknown configuration key 'datset' in {toml}; ")
+
+
 def test_show_refuses_a_damaged_file_in_one_line(mean_match, tmp_path, capsys):
     spec = "synthetic:?places=12&size=32&sync=1"
     assert run(capsys, "map", spec, "-m", mean_match, "--out", tmp_path / "m.npz", "-q")[0] == 0

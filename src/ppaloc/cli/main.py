@@ -13,6 +13,7 @@ imports nothing heavy at start-up) and maps errors to exit codes in :func:`main`
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import sys
 import tempfile
@@ -285,6 +286,7 @@ def evaluate(
     out_dir = Path(_pop(values, "out", "results"))
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
+    _reject_unknown(values, [f.name for f in dataclasses.fields(EvaluateConfig)], config_file)
     if "dataset" not in values:
         raise PpalocError(
             "no dataset: give --dataset SPEC (e.g. 'synthetic:?places=300') or dataset = in "
@@ -396,7 +398,7 @@ def map_(
         _file_values(config_file, "map"),
         {"out": out, "method": method, "params": _parse_method_params(params), "quiet": quiet},
     )
-    _reject_unknown(values, {"out", "method", "params", "quiet"}, config_file)
+    _reject_unknown(values, ["method", "out", "params", "quiet"], config_file)
     if values.get("out") is None:
         raise PpalocError("no output file: give --out MAP.npz")
     run_map(
@@ -442,7 +444,7 @@ def localise(
         _file_values(config_file, "localise"),
         {"out": out, "method": method, "params": _parse_method_params(params)},
     )
-    _reject_unknown(values, {"out", "method", "params"}, config_file)
+    _reject_unknown(values, ["method", "out", "params"], config_file)
     run_localise(
         map_path,
         list(frames),
@@ -480,14 +482,10 @@ def _sizes(text: str) -> list[int]:
         ) from None
 
 
-def _reject_unknown(values: dict[str, Any], allowed: set[str], source: Path | None) -> None:
-    unknown = sorted(set(values) - allowed)
-    if unknown:
-        where = f" in {source}" if source else ""
-        raise PpalocError(
-            f"unknown configuration key {unknown[0]!r}{where}; valid keys: "
-            + ", ".join(sorted(allowed))
-        )
+def _reject_unknown(values: dict[str, Any], allowed: list[str], source: Path | None) -> None:
+    from ppaloc.evaluate.config import reject_unknown_keys
+
+    reject_unknown_keys(values, allowed, source=str(source or ""))
 
 
 # -- launch ---------------------------------------------------------------------------------

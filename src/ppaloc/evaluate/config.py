@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -24,6 +24,7 @@ __all__ = [
     "config_from_mapping",
     "demo_dataset",
     "read_toml",
+    "reject_unknown_keys",
     "with_tolerance",
 ]
 
@@ -183,16 +184,36 @@ def config_from_mapping(cls: type[C], values: Mapping[str, Any], *, source: str 
     (8, 16)
     """
     names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    reject_unknown_keys(values, names, source=source)
     where = f" in {source}" if source else ""
-    unknown = sorted(set(values) - set(names))
-    if unknown:
-        raise PpalocError(
-            f"unknown configuration key {unknown[0]!r}{where}; valid keys: {', '.join(names)}"
-        )
     try:
         return cls(**{k: v for k, v in values.items() if v is not None})
     except (TypeError, ValueError) as exc:
         raise PpalocError(f"bad configuration{where}: {exc}") from exc
+
+
+def reject_unknown_keys(
+    values: Mapping[str, Any], valid: Sequence[str], *, source: str = ""
+) -> None:
+    """Raise if ``values`` holds a key not in ``valid``, so a typo never falls back to a default.
+
+    Raises
+    ------
+    PpalocError
+        Naming the first unknown key (sorted), where it came from, and the valid keys.
+
+    Examples
+    --------
+    >>> reject_unknown_keys({"sed": 2}, ["seed", "out"], source="a.toml")
+    Traceback (most recent call last):
+    ppaloc.errors.PpalocError: unknown configuration key 'sed' in a.toml; valid keys: seed, out
+    """
+    unknown = sorted(set(values) - set(valid))
+    if unknown:
+        where = f" in {source}" if source else ""
+        raise PpalocError(
+            f"unknown configuration key {unknown[0]!r}{where}; valid keys: {', '.join(valid)}"
+        )
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
