@@ -31,9 +31,13 @@ def describe(frame: np.ndarray, kind: str) -> np.ndarray:
     Any frame is first shown to the sensor (:func:`ppaloc.datasets.frontend.to_sensor`,
     the identity for a (256, 256) uint8 frame).
     """
+    return _describer(kind)(to_sensor(frame))
+
+
+def _describer(kind: str) -> Callable[[np.ndarray], np.ndarray]:
     if kind not in _DESCRIBE:
         raise ValueError(f"kind={kind!r} has no place representation; use 'lowres' or 'lbp'")
-    return _DESCRIBE[kind](to_sensor(frame))
+    return _DESCRIBE[kind]
 
 
 def _change(kind: str, descriptor: np.ndarray, last: np.ndarray) -> float:
@@ -91,8 +95,7 @@ def build_topomap(
     >>> build_topomap(frames, "lowres", keyframe_threshold=5).frame_index.tolist()
     [0, 3]
     """
-    if kind not in KIND_SPECS:
-        raise ValueError(f"kind={kind!r} has no place representation; use 'lowres' or 'lbp'")
+    describe_sensor = _describer(kind)
     if keyframe_threshold is not None and not keyframe_threshold >= 0:
         raise ValueError(f"keyframe_threshold={keyframe_threshold!r} must be >= 0 or None")
     total = len(frames) if hasattr(frames, "__len__") else None  # type: ignore[arg-type]
@@ -100,7 +103,7 @@ def build_topomap(
     kept: list[int] = []
     n_frames = 0
     for i, frame in enumerate(frames):
-        d = describe(frame, kind)
+        d = describe_sensor(to_sensor(frame))
         if (
             keyframe_threshold is None
             or not descriptors
