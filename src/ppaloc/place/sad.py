@@ -40,7 +40,7 @@ def sad(query: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     Notes
     -----
     ``max(a, b) - min(a, b)`` in uint8 is exact and avoids widening the node array. For
-    many queries against one large map, :class:`ppaloc.place.SadIndex` is faster.
+    many queries against one large map, :class:`ppaloc.place.LowresIndex` is faster.
 
     Examples
     --------
