@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ppaloc.datasets.base import RouteDataset
@@ -36,6 +38,7 @@ def synthetic_route(
     ref: str = "summer",
     query: str = "winter",
     seed: int = 0,
+    *,
     sync: bool = False,
     spacing: float = 4.0,
     speed: float = 1.0,
@@ -45,7 +48,44 @@ def synthetic_route(
     size: int = 256,
     speed_var: float = SPEED_VAR,
 ) -> RawRoute:
-    """Generate the traversals; see :func:`make_synthetic` for the parameters."""
+    """The two traversals of a generated route and their true positions, before selection.
+
+    Parameters
+    ----------
+    places : int
+        Reference frames: one per place, ``spacing`` metres apart.
+    ref, query : str
+        Conditions of the two traversals (``summer``, ``autumn``, ``winter``, ``night``,
+        ``dusk``).
+    seed : int
+        Seeds the world, the query's motion, clouds and noise: same seed, same bytes.
+    sync : bool
+        One query frame per place while moving (the paper's setting: the route re-driven
+        at the mapping speed) instead of variable speed; ``stops`` still adds halts.
+    spacing : float
+        Metres between places.
+    speed : float
+        Mean query speed in places per frame (variable-speed mode).
+    speed_var : float
+        Peak relative deviation of the query's cruising speed from ``speed`` (default 0.2:
+        within +-20%, as a driver re-driving a route; 0.65 gives the wide 0.35x-1.65x
+        profile).
+    stops : int, optional
+        Query stops (default: one per 150 places, at least one, at variable speed; none
+        with ``sync``).
+    extra : int
+        Places the query drives past the end of the map (no true match there).
+    offset : float, optional
+        Query lateral offset (m) instead of the condition's.
+    size : int
+        Frame side (pixels).
+
+    Returns
+    -------
+    RawRoute
+        Grey ``uint8`` frames rendered on access; positions in metres ``(s, x)``; the
+        query's true place in reference-frame units.
+    """
     for name in (ref, query):
         if name not in CONDITIONS:
             raise DataError(f"unknown condition {name!r}: choose from {', '.join(CONDITIONS)}")
@@ -97,54 +137,25 @@ def make_synthetic(
     query: str = "winter",
     seed: int = 0,
     *,
-    sync: bool = False,
-    spacing: float = 4.0,
-    speed: float = 1.0,
-    stops: int | None = None,
-    extra: int = 0,
-    offset: float | None = None,
-    size: int = 256,
-    speed_var: float = SPEED_VAR,
     tolerance: int = 1,
     start: int | None = None,
     stop: int | None = None,
     step: int = 1,
+    **route: Any,
 ) -> RouteDataset:
     """Two traversals of a procedurally generated route, with exact ground truth.
 
     Parameters
     ----------
-    places : int
-        Reference frames: one per place, ``spacing`` metres apart.
-    ref, query : str
-        Conditions of the two traversals (``summer``, ``autumn``, ``winter``, ``night``,
-        ``dusk``).
-    seed : int
-        Seeds the world, the query's motion, clouds and noise: same seed, same bytes.
-    sync : bool
-        One query frame per place while moving (the paper's setting: the route re-driven
-        at the mapping speed) instead of variable speed; ``stops`` still adds halts.
-    spacing : float
-        Metres between places.
-    speed : float
-        Mean query speed in places per frame (variable-speed mode).
-    speed_var : float
-        Peak relative deviation of the query's cruising speed from ``speed`` (default 0.2:
-        within +-20%, as a driver re-driving a route; 0.65 gives the wide 0.35x-1.65x
-        profile).
-    stops : int, optional
-        Query stops (default: one per 150 places, at least one, at variable speed; none
-        with ``sync``).
-    extra : int
-        Places the query drives past the end of the map (no true match there).
-    offset : float, optional
-        Query lateral offset (m) instead of the condition's.
-    size : int
-        Frame side (pixels).
+    places, ref, query, seed
+        As in :func:`synthetic_route`.
     tolerance : int
         Accepted distance in places.
     start, stop, step : int, optional
         Select places ``start:stop:step`` (and the query frames nearest to them).
+    **route
+        The other keywords of :func:`synthetic_route` (``sync``, ``spacing``, ``speed``,
+        ``speed_var``, ``stops``, ``extra``, ``offset``, ``size``).
 
     Returns
     -------
@@ -158,8 +169,6 @@ def make_synthetic(
     >>> ds.reference[0].shape, ds.ground_truth[0].tolist()
     ((64, 64), [0, 1])
     """
-    raw = synthetic_route(
-        places, ref, query, seed, sync, spacing, speed, stops, extra, offset, size, speed_var
-    )
+    raw = synthetic_route(places, ref, query, seed, **route)
     options = {"tolerance": tolerance, "start": start, "stop": stop, "step": step}
     return assemble(raw, options)

@@ -6,6 +6,7 @@ from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.datasets.synthetic.conditions import CONDITIONS
 from ppaloc.datasets.synthetic.generate import synthetic_route
+from ppaloc.datasets.synthetic.motion import SPEED_VAR
 
 __all__ = ["SCHEMA", "load"]
 
@@ -21,7 +22,7 @@ SCHEMA = KindSchema(
         "spacing": Key("float", 4.0, "metres between places", 0.5),
         "speed": Key("float", 1.0, "mean query speed, places per frame", 0.05),
         "speed_var": Key(
-            "float", 0.2, "peak relative query speed variation (0.65: the wide profile)", 0.0
+            "float", SPEED_VAR, "peak relative query speed variation (0.65: the wide profile)", 0.0
         ),
         "stops": Key("int", None, "query stops (default: one per 150 places)", 0),
         "extra": Key("int", 0, "places the query drives past the end of the map", 0),
@@ -34,18 +35,4 @@ SCHEMA = KindSchema(
 
 def load(spec: DatasetSpec) -> RawRoute:
     """Generate the route a ``synthetic`` spec describes (frames render on access)."""
-    o = spec.options
-    return synthetic_route(
-        places=o["places"],
-        ref=o["ref"],
-        query=o["query"],
-        seed=o["seed"],
-        sync=o["sync"],
-        spacing=o["spacing"],
-        speed=o["speed"],
-        stops=o["stops"],
-        extra=o["extra"],
-        offset=o["offset"],
-        size=o["size"],
-        speed_var=o["speed_var"],
-    )
+    return synthetic_route(**{name: spec.options[name] for name in SCHEMA.keys})
