@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ppaloc.onsensor.mapping import lbp_bits, row_runs, upload_map
+from ppaloc.onsensor.mapping import row_runs, upload_map
 from ppaloc.onsensor.pipeline import (
     PipelineParams,
     SensorPipeline,
@@ -124,12 +124,12 @@ def test_upload_writes_the_snake_layout_exactly():
 
 def test_upload_lbp_bits_and_row_runs():
     codes = np.array([0x80000001, 0xFFFFFFFF], np.uint32)
-    bits = lbp_bits(codes)
+    bits = TopoMap("lbp", codes).node_blocks()
     assert bits[0, 0, 0] and bits[0, 3, 7] and bits[0].sum() == 2 and bits[1].all()
     assert row_runs(np.array([[1, 1, 0], [2, 2, 2]])) == [(1, 0, 0, 1), (0, 0, 2, 2), (2, 1, 0, 2)]
     pipe = _pipe("lbp", 2)
     upload_map(pipe, TopoMap("lbp", codes))
-    plane = pipe.layout.to_planes(bits, fill=False)[0]
+    plane = pipe.layout.to_planes(bits.astype(bool), fill=False)[0]
     np.testing.assert_array_equal(pipe.sim.read(pipe.db[0]), plane)
 
 

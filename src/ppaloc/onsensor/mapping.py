@@ -21,14 +21,7 @@ from ppaloc.onsensor.pipeline import SensorPipeline
 from ppaloc.sim import NEWS, D, Register
 from ppaloc.topomap import TopoMap
 
-__all__ = ["lbp_bits", "row_runs", "upload_map"]
-
-
-def lbp_bits(descriptors: np.ndarray) -> np.ndarray:
-    """Per-node 4x8 bit blocks: bit ``31 - b`` of each code at block PE ``(b // 8, b % 8)``."""
-    d = np.asarray(descriptors, dtype=np.uint32).reshape(-1)
-    shifts = np.arange(31, -1, -1, dtype=np.uint32)
-    return ((d[:, None] >> shifts) & 1).astype(bool).reshape(-1, 4, 8)
+__all__ = ["row_runs", "upload_map"]
 
 
 def row_runs(plane: np.ndarray) -> list[tuple[int, int, int, int]]:
@@ -54,10 +47,11 @@ def _mask_from_runs(pipe: SensorPipeline, target: Register, runs) -> None:
 
 def upload_map(pipe: SensorPipeline, topomap: TopoMap) -> None:
     """Write ``topomap``'s nodes into ``pipe``'s database registers (timed, stage "mapping")."""
-    layout = pipe.layout
+    # the map's own PE blocks (uint8 images, or 4x8 bits), laid out for this array's size
+    blocks = topomap.node_blocks()
     with pipe.sim.stage("mapping"):
         if pipe.representation == "lowres":
-            planes = layout.to_planes(np.asarray(topomap.descriptors, np.uint8), fill=128)
+            planes = pipe.layout.to_planes(blocks, fill=128)
             for t, plane in enumerate(planes):
                 db = pipe.db[t]
                 pipe._run(f"res_{db.name}", lambda k, db=db: k.res(db))
@@ -79,7 +73,7 @@ def upload_map(pipe: SensorPipeline, topomap: TopoMap) -> None:
 
                 pipe._run(f"halve_{db.name}", halve)
         else:
-            planes = layout.to_planes(lbp_bits(topomap.descriptors), fill=False)
+            planes = pipe.layout.to_planes(blocks, fill=0)
             for t, plane in enumerate(planes):
                 runs = [run for run in row_runs(plane.astype(np.int64)) if run[0]]
                 _mask_from_runs(pipe, pipe.db[t], runs)
