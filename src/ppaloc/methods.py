@@ -16,7 +16,7 @@ from typing import Any
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Localiser
 
-__all__ = ["METHODS", "MethodSpec", "available_methods", "make_localiser"]
+__all__ = ["METHODS", "MethodSpec", "accepted_parameters", "available_methods", "make_localiser"]
 
 
 @dataclass(frozen=True)
@@ -102,23 +102,30 @@ def make_localiser(name: str, **params: Any) -> Localiser:
         cls = _load(spec)
     except (ImportError, AttributeError) as exc:
         raise PpalocError(f"method {name!r} is not available in this install ({exc})") from exc
-    _check_params(name, cls, spec, params)
+    accepted = accepted_parameters(name)
+    unknown = [key for key in params if accepted is not None and key not in accepted]
+    if unknown:
+        offered = [p for p in accepted or () if p not in spec.defaults]
+        raise PpalocError(
+            f"method {name!r}: unknown parameter {unknown[0]!r}; its parameters: "
+            + ", ".join(offered)
+        )
     try:
         return cls(**{**spec.defaults, **params})
     except TypeError as exc:
         raise PpalocError(f"method {name!r}: {exc}") from exc
 
 
-def _check_params(name: str, cls: type, spec: MethodSpec, params: Mapping[str, Any]) -> None:
-    """Refuse a parameter the class does not take, naming the ones it does."""
-    signature = inspect.signature(cls)
-    kinds = {p.kind for p in signature.parameters.values()}
-    if inspect.Parameter.VAR_KEYWORD in kinds:
-        return
-    accepted = [p for p in signature.parameters if p not in spec.defaults]
-    for key in params:
-        if key not in signature.parameters:
-            raise PpalocError(
-                f"method {name!r}: unknown parameter {key!r}; its parameters: "
-                + ", ".join(accepted)
-            )
+def accepted_parameters(name: str) -> tuple[str, ...] | None:
+    """Keyword parameters the class behind method ``name`` accepts, in its signature's order
+    (None: any, the class takes ``**kwargs``).
+
+    Examples
+    --------
+    >>> accepted_parameters("single-frame")
+    ('size', 'patch', 'radius', 'top_k', 'record_weights')
+    """
+    signature = inspect.signature(_load(METHODS[name]))
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values()):
+        return None
+    return tuple(signature.parameters)

@@ -10,8 +10,6 @@ methods that model them.
 
 from __future__ import annotations
 
-import importlib
-import inspect
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -27,13 +25,12 @@ from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
 from ppaloc.localise.base import Estimate, Localiser
-from ppaloc.methods import METHODS, available_methods, make_localiser
+from ppaloc.methods import METHODS, accepted_parameters, available_methods, make_localiser
 
 __all__ = [
     "MethodRun",
     "ProgressBar",
     "RunResult",
-    "accepted_parameters",
     "localiser_params",
     "register_planes",
     "resolve_methods",
@@ -224,15 +221,6 @@ def resolve_methods(names: Sequence[str]) -> list[str]:
         if name not in out:
             out.append(name)
     return out
-
-
-def accepted_parameters(name: str) -> set[str] | None:
-    """Keyword parameters the class behind method ``name`` accepts (None: any, ``**kw``)."""
-    module, _, cls = METHODS[name].target.partition(":")
-    sig = inspect.signature(getattr(importlib.import_module(module), cls))
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in sig.parameters.values()):
-        return None
-    return set(sig.parameters)
 
 
 def localiser_params(
