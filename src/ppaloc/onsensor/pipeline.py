@@ -64,6 +64,7 @@ from ppaloc.sim import (
     NoiseParams,
     Register,
     Scamp5,
+    TimingModel,
     east,
     north,
     south,
@@ -186,7 +187,8 @@ class SensorPipeline:
 
     # ------------------------------------------------------------------ helpers
     @property
-    def timing(self):
+    def timing(self) -> TimingModel:
+        """The simulator's timing model: modelled time and energy, by stage."""
         return self.sim.timing
 
     def _run(self, name: str, build) -> None:

@@ -271,7 +271,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return Kernel(self)
 
-    def run(self, kernel) -> None:
+    def run(self, kernel: Kernel) -> None:
         """Run a recorded kernel of this simulator (same as ``kernel.run()``)."""
         from ppaloc.sim.kernel import Kernel
 

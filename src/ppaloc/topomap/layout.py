@@ -151,7 +151,9 @@ class SnakeLayout:
         """Return the PE rectangles of nodes ``0 .. n_nodes - 1``, shape (n_nodes, 5)."""
         return self.pe_rect(np.arange(n_nodes))
 
-    def pe_to_node(self, tile: np.ndarray | int, row: np.ndarray | int, col: np.ndarray | int):
+    def pe_to_node(
+        self, tile: np.ndarray | int, row: np.ndarray | int, col: np.ndarray | int
+    ) -> np.ndarray:
         """Return the node whose block holds PE ``(row, col)`` of ``tile``."""
         bh, bw = self.block_shape
         return self.block_to_node(tile, np.asarray(row) // bh, np.asarray(col) // bw)
