@@ -101,32 +101,25 @@ def difference_figure(
     pipe = _pipeline(localiser)
     sim = pipe.sim
     localiser.step(frame)
-    live = frame.astype(np.float32) / 2 - 64
+    db = pipe.db[0]
+    planes = {"live frame (PIX as captured)": frame.astype(np.float32) / 2 - 64}
     with sim.stage("inspection"):
         if pipe.representation == "lowres":
-            db = pipe.db[0]
 
             def build(k):
                 k.add(D, F, db)
                 k.abs(E, D)
 
             pipe._run("inspect_difference", build)
-            planes = {
-                "live frame (PIX as captured)": live,
-                "replicated 8x8 grid (-F)": -sim.read(F),
-                f"database ({db.name})": sim.read(db),
-                "difference |f - n| (E)": sim.read(E),
-            }
+            planes["replicated 8x8 grid (-F)"] = -sim.read(F)
+            planes[f"database ({db.name})"] = sim.read(db)
+            planes["difference |f - n| (E)"] = sim.read(E)
         else:
-            db = pipe.db[0]
             pipe.load_descriptor(pipe.last_code)  # R3 served as a temp since
             pipe._run("inspect_xor", lambda k: k.XOR(R9, R3, db))
-            planes = {
-                "live frame (PIX as captured)": live,
-                "replicated descriptor (R3)": sim.read(R3),
-                f"database ({db.name})": sim.read(db),
-                "difference XOR (R9)": sim.read(R9),
-            }
+            planes["replicated descriptor (R3)"] = sim.read(R3)
+            planes[f"database ({db.name})"] = sim.read(db)
+            planes["difference XOR (R9)"] = sim.read(R9)
     return render_montage(planes, path, scale=scale)
 
 
