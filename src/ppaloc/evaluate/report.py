@@ -10,10 +10,8 @@ from __future__ import annotations
 
 import base64
 import html
-import importlib
 import json
 import logging
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -219,28 +217,6 @@ def _extra_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     return header, rows
 
 
-def _onsensor_figures(result: RunResult) -> list[_Figure]:
-    """Register pictures from ``ppaloc.onsensor.figures`` where that module exists.
-
-    The module may offer ``report_figures(result)`` returning ``[(title, figure), ...]``
-    where a figure is a matplotlib Figure or PNG bytes; anything else is skipped.
-    """
-    try:
-        mod = importlib.import_module("ppaloc.onsensor.figures")
-    except ImportError:
-        return []
-    fn: Callable[..., Any] | None = getattr(mod, "report_figures", None)
-    if fn is None:
-        return []
-    out = []
-    for i, item in enumerate(fn(result) or []):
-        title, fig = item[0], item[1]
-        caption = item[2] if len(item) > 2 else ""
-        png = fig if isinstance(fig, bytes) else figures.png_bytes(fig)
-        out.append(_Figure(f"registers-{i}", str(title), str(caption), png))
-    return out
-
-
 def _register_figures(result: RunResult) -> list[_Figure]:
     """A montage of the saved register planes of every on-sensor method."""
     out = []
@@ -302,7 +278,6 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
             )
         )
     out += _register_figures(result)
-    out += _onsensor_figures(result)
     out.append(
         _Figure(
             "latency",
