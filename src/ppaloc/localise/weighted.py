@@ -400,7 +400,7 @@ class WeightedNodeLocaliser:
         term = self._likelihood_term(frame)
         top = self._add_in_map_order(term)
         node, top = self._detect(top)
-        score = self._confidence(node, top)
+        score = self._confidence(node)
         ranking = self._ranking(node) if self.ranking_k else None
         if self._frames % self.k == 0 and self.gamma:
             self._adjust(top)
@@ -412,6 +412,11 @@ class WeightedNodeLocaliser:
         """``reset()``, then ``step`` every frame in order (a convenience; still past-only)."""
         self.reset()
         return [self.step(f) for f in frames]
+
+    @property
+    def motion_model(self) -> MotionModel:
+        """The motion model in use (its parameters are the ``motion_*`` arguments)."""
+        return self._motion
 
     def weights(self) -> np.ndarray:
         """A copy of the current weights in map order (node 0 first)."""
@@ -486,7 +491,7 @@ class WeightedNodeLocaliser:
             return [(pa, pb)]
         return [(pa, n), (0, pb)]
 
-    def _confidence(self, node: int, top: float) -> float:
+    def _confidence(self, node: int) -> float:
         """Best weight minus the best weight outside +-R nodes (0 when the map is smaller)."""
         best = float(self._w[(node + self._offset) % len(self._w)])
         outside = self._max_outside(node)

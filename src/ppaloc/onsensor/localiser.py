@@ -162,7 +162,7 @@ class OnSensorLocaliser:
         h = self._host
         # the oracle's decisions come from the controller: the array runs always_forward
         motion: dict[str, Any] = {"motion": "always_forward"}
-        if isinstance(m := h._motion, ImageMotion):
+        if isinstance(m := h.motion_model, ImageMotion):
             motion = {
                 "motion": "image",
                 "margin": m.margin,
