@@ -35,6 +35,15 @@ REQUIRED = {
 }
 
 
+def test_sensor_frames_reports_progress_per_frame():
+    frames = [np.full((4, 6), v, dtype=np.uint8) for v in (0, 7, 255)]
+    calls = []
+    out = sensor_frames(frames, lambda task, done: calls.append((task, done)), task="ref")
+    assert calls == [("ref", 1), ("ref", 2), ("ref", 3)]
+    assert [f.shape for f in out] == [(256, 256)] * 3
+    assert [int(f[0, 0]) for f in out] == [0, 7, 255]
+
+
 def test_run_method_arrays_and_metrics(standin, tiny):
     loc = standin.MeanMatch(record_weights=True)
     ref, qry = sensor_frames(tiny.reference), sensor_frames(tiny.query)

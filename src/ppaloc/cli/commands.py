@@ -232,7 +232,7 @@ def run_map(
 ) -> Path:
     """Build the map of ``method`` from the reference traversal of ``dataset``; save it."""
     from ppaloc.datasets.registry import load_dataset
-    from ppaloc.evaluate.run import resolve_methods, sensor_frames
+    from ppaloc.evaluate.run import ProgressBar, resolve_methods, sensor_frames
     from ppaloc.methods import make_localiser
 
     (method,) = resolve_methods([method])
@@ -240,7 +240,10 @@ def run_map(
         raise DataError(f"--out {out} is a folder; give a file name such as map.npz")
     ds = load_dataset(dataset)
     loc = make_localiser(method, **params)
-    topomap = loc.build_map(sensor_frames(ds.reference))
+    with ProgressBar(not quiet) as bar:
+        bar.add("reference", len(ds.reference), label="reference frames")
+        reference = sensor_frames(ds.reference, bar, task="reference")
+    topomap = loc.build_map(reference)
     if topomap.positions is None and ds.reference_positions is not None:
         idx = np.asarray(topomap.frame_index)
         topomap.positions = np.asarray(ds.reference_positions)[idx]

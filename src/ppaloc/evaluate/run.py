@@ -237,9 +237,20 @@ def localiser_params(
     return params
 
 
-def sensor_frames(frames: Sequence[np.ndarray]) -> list[np.ndarray]:
-    """Every frame of a (lazy) traversal through the sensor front-end, in order."""
-    return [to_sensor(frames[i]) for i in range(len(frames))]
+def sensor_frames(
+    frames: Sequence[np.ndarray], progress: ProgressHook | None = None, *, task: str = ""
+) -> list[np.ndarray]:
+    """Every frame of a (lazy) traversal through the sensor front-end, in order.
+
+    Reading or rendering the frames is most of a run's waiting on a generated or large
+    route, so ``progress(task, frames_done)`` is called after every frame when given.
+    """
+    out = []
+    for i in range(len(frames)):
+        out.append(to_sensor(frames[i]))
+        if progress:
+            progress(task, i + 1)
+    return out
 
 
 def _stack_rankings(rankings: list[np.ndarray | None], frame_index: np.ndarray) -> np.ndarray:
@@ -504,15 +515,17 @@ def run_evaluation(
                 )
             loc = make_localiser(name, **params, oracle_moves=dataset.query_moved)
             plan[name] = ({**params, "oracle_moves": "dataset query_moved"}, loc)
-    reference = sensor_frames(dataset.reference)
-    query = sensor_frames(dataset.query)
     gt = [np.asarray(g, dtype=np.int64) for g in dataset.ground_truth]
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
     names = list(plan)
     with ProgressBar(progress) as bar:
+        for task, frames in ((" reference", dataset.reference), (" query", dataset.query)):
+            bar.add(task, len(frames), label=f"{task.strip()} frames")
         for name in names:
-            bar.add(name, len(query))
+            bar.add(name, len(dataset.query))
+        reference = sensor_frames(dataset.reference, bar, task=" reference")
+        query = sensor_frames(dataset.query, bar, task=" query")
         for name, (params, loc) in plan.items():
             if localisers is None:
                 params = {**METHODS[name].defaults, **params}  # record the variant too
