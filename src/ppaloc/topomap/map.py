@@ -126,10 +126,8 @@ class TopoMap:
         >>> p.shape, int(p[0, 0, 248]), int(p[0, 3, 255]), int(p.sum())
         ((1, 256, 256), 1, 1, 2)
         """
-        layout = self.layout
-        if layout is None:
-            raise ValueError(f"a {self.kind!r} map has no PE layout; only 'lowres' and 'lbp' do")
-        return layout.to_planes(self.node_blocks(), fill=fill)
+        blocks = self.node_blocks()  # raises for a kind without a PE layout
+        return layout_for(self.kind).to_planes(blocks, fill=fill)
 
     def save(self, path: str | Path, *, dataset: str | None = None) -> Path:
         """Write the map to one versioned ``.npz`` file, atomically (see :func:`save_map`)."""
