@@ -162,7 +162,11 @@ def test_user_errors_name_the_fix(toy_route) -> None:
         SeqSLAM(mode="forward")
     with pytest.raises(PpalocError, match="no map yet; call build_map"):
         SeqSLAM().step(ref[0])
-    with pytest.raises(PpalocError, match="cannot use a map of kind 'lowres'; it needs kind"):
+    with pytest.raises(
+        PpalocError,
+        match=r"cannot use a map of kind 'lowres'; it needs kind 'seqslam' "
+        r"\(build one with `ppaloc map SPEC --method seqslam`",
+    ):
         SeqSLAM().use_map(TopoMap("lowres", np.zeros((3, 8, 8), np.uint8)))
     m = SeqSLAM().build_map(ref[:5])
     with pytest.raises(PpalocError, match=r"shape \(32, 64\) but these parameters give \(16, 32\)"):

@@ -45,7 +45,9 @@ def test_folder_bad_inputs(write_frames, tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(DataError, match=r"query folder .*missing does not exist"):
         load_dataset(f"folder:{tmp_path / 'ref'},{tmp_path / 'missing'}")
-    with pytest.raises(DataError, match=r"holds no images"):
+    with pytest.raises(
+        DataError, match=r"holds no images .*: give the folder that holds the frames"
+    ):
         load_dataset(f"folder:{tmp_path / 'ref'},{tmp_path / 'empty'}")
     with pytest.raises(DataError, match=r"has 3 images but query .* has 2; .* start=/stop="):
         load_dataset(f"folder:{tmp_path / 'ref'},{tmp_path / 'qry'}")

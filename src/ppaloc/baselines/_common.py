@@ -56,7 +56,7 @@ def check_map(topomap: TopoMap, kind: str, shape: tuple[int, ...], method: str) 
     if topomap.kind != kind:
         raise PpalocError(
             f"{method} cannot use a map of kind {topomap.kind!r}; it needs kind {kind!r} "
-            f"(build it with {method}.build_map)"
+            f"(build one with `ppaloc map SPEC --method {method}` or the localiser's build_map)"
         )
     if len(topomap) == 0:
         raise PpalocError(f"{method}: the map has no nodes; build it from at least one frame")

@@ -54,7 +54,7 @@ def list_images(folder: Path, what: str = "image folder") -> list[Path]:
     if not files:
         raise DataError(
             f"{what} {folder} holds no images ({', '.join(sorted(IMAGE_SUFFIXES))}): "
-            "point the spec at the folder with the frames"
+            "give the folder that holds the frames"
         )
     return sorted(files, key=lambda p: natural_key(p.name))
 
