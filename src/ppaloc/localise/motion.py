@@ -81,8 +81,9 @@ def motion_planes(frame: np.ndarray, margin: int = 3) -> tuple[np.ndarray, np.nd
     >>> int(U.sum()), int(D.sum())
     (4096, 4096)
     """
-    sums = block_sums(frame, SENSOR_SIZE // _BLOCK).astype(np.int64)
-    x = np.asarray(frame, dtype=np.int64).reshape(8, _BLOCK, 8, _BLOCK) * 1024
+    # |x| <= 255 * 1024 fits int32, which is several times faster here than int64
+    sums = block_sums(frame, SENSOR_SIZE // _BLOCK).astype(np.int32)
+    x = np.asarray(frame, dtype=np.int32).reshape(8, _BLOCK, 8, _BLOCK) << 10
     x -= sums[:, None, :, None]
     x = x.reshape(SENSOR_SIZE, SENSOR_SIZE)
     limit = 2048 * int(margin)
