@@ -30,6 +30,21 @@ def test_planes_golden_margin():
     assert motion_planes(f, margin=3)[0].sum() == 0
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_planes_match_the_register_definition(seed):
+    # docs/ppa8.md in register units, exact in float64: U = [v - m - margin > 0], D = [m - v
+    # - margin > 0], v = p/2 - 64, m = the 32x32 block mean of v
+    rng = np.random.default_rng(seed)
+    f = rng.integers(0, 256, (256, 256), dtype=np.uint8)
+    f[:64] //= 16  # low-contrast blocks: offsets near the margin
+    margin = int(rng.integers(0, 40))
+    v = f / 2 - 64
+    m = v.reshape(8, 32, 8, 32).mean(axis=(1, 3)).repeat(32, 0).repeat(32, 1)
+    u, d = motion_planes(f, margin)
+    np.testing.assert_array_equal(u, v - m - margin > 0)
+    np.testing.assert_array_equal(d, m - v - margin > 0)
+
+
 def test_expanding_pattern_is_forward_still_is_stay():
     m = ImageMotion()
     assert m.step(square(40)) is False  # first frame: no predecessor
