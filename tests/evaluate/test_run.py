@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from ppaloc.errors import PpalocError
+from ppaloc.errors import DataError, PpalocError
 from ppaloc.evaluate.bench import load_bench, run_bench, save_bench
 from ppaloc.evaluate.config import (
     BenchConfig,
@@ -136,6 +136,19 @@ def test_results_files_round_trip(mean_match, tiny, tmp_path):
     from ppaloc.fileio import default_file_mode
 
     assert (tmp_path / "out" / "results.json").stat().st_mode & 0o777 == default_file_mode()
+
+
+def test_damaged_results_are_named_not_crashed_on(mean_match, tiny, tmp_path):
+    result = run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny, progress=False)
+    out = tmp_path / "out"
+    path = save_results(result, out)
+    arrays = out / "arrays" / f"{mean_match}.npz"
+    arrays.write_bytes(arrays.read_bytes()[:300])
+    with pytest.raises(DataError, match=rf"cannot read {arrays} \(.*\); run `ppaloc evaluate"):
+        load_results(out)
+    path.write_text('{"methods": {}}')
+    with pytest.raises(DataError, match=r"results.json has no 'dataset' entry; give a folder"):
+        load_results(out)
 
 
 def test_same_seed_same_result_bytes(mean_match, tiny, tmp_path):

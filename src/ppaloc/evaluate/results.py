@@ -20,6 +20,9 @@ import csv
 import io
 import json
 import re
+import zipfile
+import zlib
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -127,6 +130,26 @@ def save_results(result: RunResult, out: str | Path) -> Path:
     return write_bytes(out / "results.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
 
 
+def _read_npz(path: Path, required: Sequence[str], folder: Path) -> dict[str, np.ndarray]:
+    """Every array of a result ``.npz`` (no unpickling); a damaged or incomplete file is a
+    :class:`DataError` naming it."""
+    try:
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:  # f: closed on error
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise DataError(
+            f"cannot read {path} ({exc}); run `ppaloc evaluate --out {folder}` again"
+        ) from None
+    _require(arrays, required, path)
+    return arrays
+
+
+def _require(arrays: Mapping[str, np.ndarray], names: Sequence[str], path: Path) -> None:
+    missing = [n for n in names if n not in arrays]
+    if missing:
+        raise DataError(f"{path} has no array {missing[0]!r}; it was not written by ppaloc")
+
+
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     """Read a results folder written by :func:`save_results`.
 
@@ -153,27 +176,25 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         )
     try:
         summary = json.loads(path.read_text())
-        with np.load(folder / "arrays" / "_dataset.npz") as z:
-            ds = {k: z[k] for k in z.files}
     except (OSError, ValueError) as exc:
         raise DataError(f"cannot read the results in {folder}: {exc}") from exc
+    missing = [k for k in ("dataset", "tolerance", "methods") if k not in summary]
+    if missing:
+        raise DataError(
+            f"{path} has no {missing[0]!r} entry; give a folder written by `ppaloc evaluate --out`"
+        )
+    ds = _read_npz(folder / "arrays" / "_dataset.npz", ("gt_indptr", "gt_indices"), folder)
     indptr, indices = ds["gt_indptr"], ds["gt_indices"]
     gt = [indices[indptr[i] : indptr[i + 1]] for i in range(len(indptr) - 1)]
     runs: dict[str, MethodRun] = {}
     for name, s in summary["methods"].items():
-        try:
-            with np.load(folder / s.get("arrays", array_file(name))) as z:
-                a = {k: z[k] for k in z.files}
-        except (OSError, ValueError) as exc:
-            raise DataError(f"cannot read the arrays of {name} in {folder}: {exc}") from exc
+        a = _read_npz(folder / s.get("arrays", array_file(name)), _ARRAYS, folder)
         registers = None
         if s.get("registers"):
-            try:
-                with np.load(folder / s["registers"]) as z:
-                    labels = [str(x) for x in z["labels"]]
-                    registers = {lab: z[f"plane{i}"] for i, lab in enumerate(labels)}
-            except (OSError, ValueError, KeyError) as exc:
-                raise DataError(f"cannot read the registers of {name} in {folder}: {exc}") from exc
+            planes = _read_npz(folder / s["registers"], ("labels",), folder)
+            labels = [str(x) for x in planes["labels"]]
+            _require(planes, [f"plane{i}" for i in range(len(labels))], folder / s["registers"])
+            registers = {lab: planes[f"plane{i}"] for i, lab in enumerate(labels)}
         ranking = a["ranking"]
         metrics = evaluate_estimates(
             a["ref_index"],
