@@ -443,7 +443,7 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     from ppaloc.sim.render import render_montage
 
     try:
-        with np.load(path, allow_pickle=False) as z:
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:  # f: closed on error
             arrays = {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise DataError(f"{path} is a corrupt or truncated .npz archive ({exc})") from None
