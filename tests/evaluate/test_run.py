@@ -204,6 +204,12 @@ def test_bench_rows_and_files(mean_match, tmp_path):
     assert load_bench(tmp_path / "bench.json")["rows"] == bench["rows"]
     assert (tmp_path / "bench.csv").read_text().startswith("method,n_nodes,")
     assert load_bench(tmp_path / "none.json") is None
+    (tmp_path / "cut.json").write_text('{"rows": [')
+    with pytest.raises(DataError, match=r"cut.json \(.*\); delete it or run `ppaloc bench` again"):
+        load_bench(tmp_path / "cut.json")
+    (tmp_path / "other.json").write_text("[1, 2]")
+    with pytest.raises(DataError, match=r"other.json has no 'rows' list; it was not written by"):
+        load_bench(tmp_path / "other.json")
 
 
 def test_bench_records_sizes_a_method_refuses(standin, monkeypatch):

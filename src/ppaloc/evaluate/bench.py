@@ -21,7 +21,7 @@ import numpy as np
 
 from ppaloc import __version__
 from ppaloc.datasets import SENSOR_SHAPE
-from ppaloc.errors import PpalocError
+from ppaloc.errors import DataError, PpalocError
 from ppaloc.evaluate.config import BenchConfig
 from ppaloc.evaluate.run import localiser_params, resolve_methods
 from ppaloc.methods import make_localiser
@@ -142,6 +142,22 @@ def save_bench(bench: dict[str, Any], path: str | Path) -> Path:
 
 
 def load_bench(path: str | Path) -> dict[str, Any] | None:
-    """Read a bench JSON file; None when it does not exist."""
+    """Read a bench JSON file; None when it does not exist.
+
+    Raises
+    ------
+    DataError
+        If the file is not a bench written by :func:`save_bench`.
+    """
     path = Path(path)
-    return json.loads(path.read_text()) if path.is_file() else None
+    if not path.is_file():
+        return None
+    try:
+        bench = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise DataError(
+            f"cannot read {path} ({exc}); delete it or run `ppaloc bench` again"
+        ) from None
+    if not isinstance(bench, dict) or not isinstance(bench.get("rows"), list):
+        raise DataError(f"{path} has no 'rows' list; it was not written by `ppaloc bench`")
+    return bench
