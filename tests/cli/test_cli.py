@@ -195,6 +195,17 @@ def test_unknown_config_key_is_named_before_a_missing_dataset(tmp_path, capsys):
     assert err.startswith(f"ppaloc: error: unknown configuration key 'datset' in {toml}; ")
 
 
+def test_method_params_in_a_config_file_must_be_a_table(tmp_path, capsys):
+    toml = tmp_path / "loc.toml"
+    toml.write_text("[localise]\nparams = [1]\n")
+    code, _, err = run(capsys, "localise", tmp_path / "m.npz", tmp_path, "--config", toml)
+    assert code == 1
+    assert err == (
+        f"ppaloc: error: params in {toml} must be a table of the method's keys, e.g. "
+        "[localise.params] followed by alpha = 8\n"
+    )
+
+
 def test_show_refuses_a_damaged_file_in_one_line(mean_match, tmp_path, capsys):
     spec = "synthetic:?places=12&size=32&sync=1"
     assert run(capsys, "map", spec, "-m", mean_match, "--out", tmp_path / "m.npz", "-q")[0] == 0

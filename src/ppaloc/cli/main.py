@@ -266,7 +266,7 @@ def evaluate(
 ) -> None:
     """Evaluate methods on a dataset: metrics, latency, result files and the report."""
     from ppaloc.cli.commands import run_evaluate, run_matrix
-    from ppaloc.evaluate.config import EvaluateConfig, config_from_mapping
+    from ppaloc.evaluate.config import EvaluateConfig, config_from_mapping, reject_unknown_keys
 
     values = _merge(
         _file_values(config_file, "evaluate"),
@@ -286,7 +286,8 @@ def evaluate(
     out_dir = Path(_pop(values, "out", "results"))
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
-    _reject_unknown(values, [f.name for f in dataclasses.fields(EvaluateConfig)], config_file)
+    fields = [f.name for f in dataclasses.fields(EvaluateConfig)]
+    reject_unknown_keys(values, fields, source=str(config_file or ""))
     if "dataset" not in values:
         raise PpalocError(
             "no dataset: give --dataset SPEC (e.g. 'synthetic:?places=300') or dataset = in "
@@ -398,7 +399,7 @@ def map_(
         _file_values(config_file, "map"),
         {"out": out, "method": method, "params": _parse_method_params(params), "quiet": quiet},
     )
-    _reject_unknown(values, ["method", "out", "params", "quiet"], config_file)
+    _reject_unknown(values, ["method", "out", "params", "quiet"], config_file, "map")
     if values.get("out") is None:
         raise PpalocError("no output file: give --out MAP.npz")
     run_map(
@@ -444,7 +445,7 @@ def localise(
         _file_values(config_file, "localise"),
         {"out": out, "method": method, "params": _parse_method_params(params)},
     )
-    _reject_unknown(values, ["method", "out", "params"], config_file)
+    _reject_unknown(values, ["method", "out", "params"], config_file, "localise")
     run_localise(
         map_path,
         list(frames),
@@ -482,10 +483,19 @@ def _sizes(text: str) -> list[int]:
         ) from None
 
 
-def _reject_unknown(values: dict[str, Any], allowed: list[str], source: Path | None) -> None:
+def _reject_unknown(
+    values: dict[str, Any], allowed: list[str], source: Path | None, section: str
+) -> None:
+    """Refuse a key of a ``map``/``localise`` section that the command does not take, and
+    ``params`` that is not one method's table."""
     from ppaloc.evaluate.config import reject_unknown_keys
 
     reject_unknown_keys(values, allowed, source=str(source or ""))
+    if not isinstance(values.get("params", {}), dict):
+        raise PpalocError(
+            f"params in {source} must be a table of the method's keys, e.g. "
+            f"[{section}.params] followed by alpha = 8"
+        )
 
 
 # -- launch ---------------------------------------------------------------------------------
