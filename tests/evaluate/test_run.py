@@ -176,6 +176,17 @@ def test_config_rejects_unknown_keys_and_bad_values(tmp_path):
         EvaluateConfig(tolerance=-1)
     with pytest.raises(PpalocError, match=r"sizes=\[1\] must be map sizes of at least 2"):
         BenchConfig(sizes=(1,))
+    for cls, key, value, words in [
+        (EvaluateConfig, "methods", 3, "a list of strings"),
+        (EvaluateConfig, "tolerance", "x", "an integer"),
+        (EvaluateConfig, "seed", True, "an integer"),
+        (EvaluateConfig, "dataset", 5, "a string"),
+        (BenchConfig, "sizes", "a", "a list of integers"),
+        (BenchConfig, "max_build_s", "1", "a number"),
+    ]:
+        with pytest.raises(PpalocError, match=rf"^{key}={value!r} in x.toml must be {words}$"):
+            config_from_mapping(cls, {key: value}, source="x.toml")
+    assert config_from_mapping(BenchConfig, {"max_build_s": 2, "sizes": [4]}).max_build_s == 2
     bad = tmp_path / "bad.toml"
     bad.write_text("dataset = \n")
     with pytest.raises(PpalocError, match=r"bad.toml is not valid TOML"):

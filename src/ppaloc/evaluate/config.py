@@ -183,13 +183,42 @@ def config_from_mapping(cls: type[C], values: Mapping[str, Any], *, source: str 
     >>> config_from_mapping(BenchConfig, {"sizes": [8, 16]}).sizes
     (8, 16)
     """
-    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
-    reject_unknown_keys(values, names, source=source)
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    reject_unknown_keys(values, list(fields), source=source)
     where = f" in {source}" if source else ""
+    for key, value in values.items():
+        expected = str(fields[key].type).split(" | ")[0]
+        if value is not None and not _has_type(value, expected):
+            raise PpalocError(
+                f"{key}={value!r}{where} must be {_TYPE_WORDS.get(expected, expected)}"
+            )
     try:
         return cls(**{k: v for k, v in values.items() if v is not None})
     except (TypeError, ValueError) as exc:
         raise PpalocError(f"bad configuration{where}: {exc}") from exc
+
+
+_TYPE_WORDS = {
+    "int": "an integer",
+    "float": "a number",
+    "bool": "true or false",
+    "str": "a string",
+    "tuple[str, ...]": "a list of strings",
+    "tuple[int, ...]": "a list of integers",
+}
+
+
+def _has_type(value: Any, expected: str) -> bool:
+    """Whether a TOML or flag value fits a config field's annotation (others: not checked)."""
+    scalar = {"int": int, "float": (int, float), "bool": bool, "str": str}
+    if expected in scalar:
+        return isinstance(value, scalar[expected]) and (
+            expected == "bool" or not isinstance(value, bool)
+        )
+    if expected.startswith("tuple["):
+        item = expected[len("tuple[") : -len(", ...]")]
+        return isinstance(value, list | tuple) and all(_has_type(v, item) for v in value)
+    return True
 
 
 def reject_unknown_keys(
