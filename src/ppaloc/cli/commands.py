@@ -301,7 +301,7 @@ def run_localise(
     """
     from ppaloc.datasets import to_sensor
     from ppaloc.datasets.images import read_grey
-    from ppaloc.evaluate.run import resolve_methods
+    from ppaloc.evaluate.run import ProgressBar, resolve_methods
     from ppaloc.methods import make_localiser
     from ppaloc.topomap import load_map
 
@@ -323,7 +323,12 @@ def run_localise(
         if out.is_dir():
             raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
         out.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_write(out, "w") if out is not None else nullcontext(sys.stdout) as stream:
+    # The bar only when the CSV goes to a file: on stdout it would interleave with the lines.
+    with (
+        atomic_write(out, "w") if out is not None else nullcontext(sys.stdout) as stream,
+        ProgressBar(out is not None) as bar,
+    ):
+        bar.add("frames", len(paths), label="frames")
         stream.write(header)
         for i, p in enumerate(paths):
             frame = to_sensor(read_grey(p))
@@ -336,6 +341,7 @@ def run_localise(
                 f"{est.score:.6g},{moved},{ms:.4f}\n"
             )
             stream.flush()
+            bar("frames", i + 1)
     return len(paths)
 
 
