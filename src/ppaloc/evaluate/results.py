@@ -29,8 +29,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import DataError
-from ppaloc.evaluate.metrics import evaluate_estimates
-from ppaloc.evaluate.run import MethodRun, RunResult
+from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
 from ppaloc.fileio import write_bytes
 
 __all__ = [
@@ -196,12 +195,12 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             _require(planes, [f"plane{i}" for i in range(len(labels))], folder / s["registers"])
             registers = {lab: planes[f"plane{i}"] for i, lab in enumerate(labels)}
         ranking = a["ranking"]
-        metrics = evaluate_estimates(
+        metrics = method_metrics(
             a["ref_index"],
             a["score"],
             gt,
+            ranking,
             recall=s.get("recall_definition", "A"),
-            rankings=[r[r >= 0] for r in ranking] if ranking.shape[1] else None,
             reference_positions=ds.get("reference_positions"),
             query_positions=ds.get("query_positions"),
         )

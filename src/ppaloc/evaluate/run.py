@@ -32,6 +32,7 @@ __all__ = [
     "ProgressBar",
     "RunResult",
     "localiser_params",
+    "method_metrics",
     "register_planes",
     "resolve_methods",
     "run_evaluation",
@@ -253,6 +254,32 @@ def sensor_frames(
     return out
 
 
+def method_metrics(
+    ref_index: np.ndarray,
+    score: np.ndarray,
+    ground_truth: Sequence[np.ndarray],
+    ranking: np.ndarray,
+    *,
+    recall: str,
+    reference_positions: np.ndarray | None = None,
+    query_positions: np.ndarray | None = None,
+) -> Metrics:
+    """The metrics of one method's per-query arrays: the same function after a run and when
+    a results folder is read back, so a report rebuilt from files shows the run's figures.
+
+    ``ranking`` is (M, K) reference indices padded with -1 (K may be 0: no rankings).
+    """
+    return evaluate_estimates(
+        ref_index,
+        score,
+        ground_truth,
+        recall=recall,
+        rankings=[r[r >= 0] for r in ranking] if ranking.shape[1] else None,
+        reference_positions=reference_positions,
+        query_positions=query_positions,
+    )
+
+
 def _stack_rankings(rankings: list[np.ndarray | None], frame_index: np.ndarray) -> np.ndarray:
     k = max((len(r) for r in rankings if r is not None), default=0)
     out = np.full((len(rankings), k), -1, dtype=np.int64)
@@ -339,15 +366,14 @@ def run_method(
     score = np.array([e.score for e in estimates], dtype=np.float64)
     moved = np.array([-1 if e.moved is None else int(e.moved) for e in estimates], np.int8)
     ranking = _stack_rankings([e.ranking for e in estimates], frame_index)
-    rank_list = [r[r >= 0] for r in ranking] if ranking.shape[1] else None
     modelled = _optional_array([e.modelled_latency_ms for e in estimates])
     energy = _optional_array([e.energy_mj for e in estimates])
-    metrics = evaluate_estimates(
+    metrics = method_metrics(
         ref_index,
         score,
         ground_truth,
+        ranking,
         recall=recall,
-        rankings=rank_list,
         reference_positions=reference_positions,
         query_positions=query_positions,
     )
