@@ -101,10 +101,10 @@ def run_evaluate(
         save_bench(_bench_with_bar(bench, quiet=quiet), out / "bench.json")
     if report:
         write_report(out)
-    import json
-
-    summary = json.loads(path.read_text())
     if not quiet:
+        import json
+
+        summary = json.loads(path.read_text())
         print_results_table(summary, title=f"{result.dataset_name} ({result.dataset})")
         print(f"results: {path}")
         if report:
