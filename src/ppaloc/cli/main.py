@@ -324,7 +324,13 @@ Examples:
     type=float,
     help="Skip a size whose map build would take longer than this (seconds).",
 )
-@click.option("--param", "params", multiple=True, metavar="METHOD.KEY=VALUE")
+@click.option(
+    "--param",
+    "params",
+    multiple=True,
+    metavar="METHOD.KEY=VALUE",
+    help="A method parameter, repeatable, e.g. seqslam.ds=20.",
+)
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
