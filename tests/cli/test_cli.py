@@ -193,6 +193,7 @@ def test_unknown_config_key_is_named_before_a_missing_dataset(tmp_path, capsys):
     code, _, err = run(capsys, "evaluate", "--config", toml)
     assert code == 1
     assert err.startswith(f"ppaloc: error: unknown configuration key 'datset' in {toml}; ")
+    assert err.rstrip().endswith("params, out, no_report, quiet")  # every key the file may set
 
 
 def test_method_params_in_a_config_file_must_be_a_table(tmp_path, capsys):

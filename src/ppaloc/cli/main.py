@@ -283,11 +283,13 @@ def evaluate(
             "quiet": quiet,
         },
     )
+    fields = [f.name for f in dataclasses.fields(EvaluateConfig)]
+    reject_unknown_keys(
+        values, [*fields, "out", "no_report", "quiet"], source=str(config_file or "")
+    )
     out_dir = Path(_pop(values, "out", "results"))
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
-    fields = [f.name for f in dataclasses.fields(EvaluateConfig)]
-    reject_unknown_keys(values, fields, source=str(config_file or ""))
     if "dataset" not in values:
         raise PpalocError(
             "no dataset: give --dataset SPEC (e.g. 'synthetic:?places=300') or dataset = in "
@@ -351,7 +353,7 @@ def bench(
 ) -> None:
     """Host time per frame against map size, every method on the same random maps."""
     from ppaloc.cli.commands import run_bench
-    from ppaloc.evaluate.config import BenchConfig, config_from_mapping
+    from ppaloc.evaluate.config import BenchConfig, config_from_mapping, reject_unknown_keys
 
     size_list = None if sizes is None else _sizes(sizes)
     values = _merge(
@@ -367,6 +369,8 @@ def bench(
             "quiet": quiet,
         },
     )
+    fields = [f.name for f in dataclasses.fields(BenchConfig)]
+    reject_unknown_keys(values, [*fields, "out", "quiet"], source=str(config_file or ""))
     out_dir = values.pop("out", None)
     quiet_ = bool(_pop(values, "quiet", False))
     config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
