@@ -5,9 +5,9 @@
 
 from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.frames import FrameSequence, ImageFrames, RenderedFrames
-from ppaloc.datasets.frontend import SENSOR_SHAPE, to_grey, to_sensor
 from ppaloc.datasets.registry import KINDS, load_dataset, parse_dataset_spec
 from ppaloc.datasets.synthetic import CONDITIONS, make_synthetic
+from ppaloc.frontend import SENSOR_SHAPE, to_grey, to_sensor
 
 __all__ = [
     "CONDITIONS",

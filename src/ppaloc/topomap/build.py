@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ppaloc.datasets.frontend import to_sensor
+from ppaloc.frontend import to_sensor
 from ppaloc.place import hamming, lbp_descriptor, lowres_image, sad
 from ppaloc.topomap.map import KIND_SPECS, TopoMap
 
@@ -28,7 +28,7 @@ _DESCRIBE: dict[str, Callable[[np.ndarray], np.ndarray]] = {
 def describe(frame: np.ndarray, kind: str) -> np.ndarray:
     """Return the node descriptor of one frame: uint8 (8, 8) or a uint32 scalar array.
 
-    Any frame is first shown to the sensor (:func:`ppaloc.datasets.frontend.to_sensor`,
+    Any frame is first shown to the sensor (:func:`ppaloc.frontend.to_sensor`,
     the identity for a (256, 256) uint8 frame).
     """
     return _describer(kind)(to_sensor(frame))
@@ -61,7 +61,7 @@ def build_topomap(
     ----------
     frames : iterable of ndarray
         The reference traversal in route order; (256, 256) uint8 sensor frames, or any
-        frame :func:`~ppaloc.datasets.frontend.to_sensor` accepts. Read once, in order,
+        frame :func:`~ppaloc.frontend.to_sensor` accepts. Read once, in order,
         so a lazy sequence is never held in memory whole.
     kind : {"lowres", "lbp"}
         The place representation (:mod:`ppaloc.place`).

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from ppaloc.datasets.frames import FrameSequence
-from ppaloc.datasets.frontend import to_grey
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.errors import DataError
+from ppaloc.frontend import to_grey
 
 __all__ = ["SCHEMA", "VideoFrames", "load"]
 

@@ -1,4 +1,8 @@
-"""The sensor front-end: any frame becomes the 256x256 grey image the PPA sees."""
+"""The sensor front-end: any frame becomes the 256x256 grey image the PPA sees.
+
+It sits at the bottom of the layers (with `errors` and `fileio`): datasets feed it, and
+the map builder and every localiser rely on its output. `ppaloc.datasets` re-exports it.
+"""
 
 from __future__ import annotations
 
