@@ -18,17 +18,20 @@ def shared_data() -> Path:
     return SHARED_DATA
 
 
+def _dataset_dir(shared_data: Path, name: str) -> Path:
+    path = shared_data / name
+    if not path.is_dir():
+        pytest.skip(f"../shared/data/{name} is not present")
+    return path
+
+
 @pytest.fixture(scope="session")
 def nordland_dir(shared_data: Path) -> Path:
-    path = shared_data / "nordland-64x32"
-    if not path.is_dir():
-        pytest.skip("../shared/data/nordland-64x32 is not present")
-    return path
+    """``../shared/data/nordland-64x32``; skips where absent."""
+    return _dataset_dir(shared_data, "nordland-64x32")
 
 
 @pytest.fixture(scope="session")
 def gardens_point_dir(shared_data: Path) -> Path:
-    path = shared_data / "gardens-point"
-    if not path.is_dir():
-        pytest.skip("../shared/data/gardens-point is not present")
-    return path
+    """``../shared/data/gardens-point``; skips where absent."""
+    return _dataset_dir(shared_data, "gardens-point")
