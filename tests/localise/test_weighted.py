@@ -92,6 +92,27 @@ def test_ppa8_negative_saturation_is_minus_127():
     assert got == [[-127, 0], [-127, 0], [-127, 0]]
 
 
+def test_ppa8_adjustment_after_every_weight_hit_the_floor():
+    # alpha 0 against a map 127 register units away: every weight is pushed below -127
+    # and clipped there, so max(W) is -127 (not the unclipped sum), T = -127 and
+    # g = floor(-127 / 8) = -16 lifts every weight to -111 on the adjustment frame.
+    nodes = np.full((3, 8, 8), 255, np.uint8)
+    loc = WeightedNodeLocaliser(
+        "lowres",
+        arithmetic="ppa8",
+        alpha=0,
+        shift=0,
+        gamma=0.125,
+        k=2,
+        motion="oracle",
+        oracle_moves=[False] * 2,
+        record_weights=True,
+    )
+    loc.use_map(TopoMap("lowres", nodes))
+    got = [loc.step(np.zeros((256, 256), np.uint8)).weights.tolist() for _ in range(2)]
+    assert got == [[-127, -127, -127], [-111, -111, -111]]
+
+
 @settings(max_examples=25, deadline=None)
 @given(
     seed=st.integers(0, 2**31),

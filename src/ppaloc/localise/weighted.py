@@ -159,6 +159,7 @@ def _clip(a: np.ndarray, low: float, high: float) -> float:
         top = high
     if float(a.min()) < low:
         np.maximum(a, low, out=a)
+        top = max(top, low)  # every weight may have been below the bound
     return top
 
 
