@@ -106,6 +106,22 @@ class FrameSequence(Sequence[np.ndarray]):
         new._cache = OrderedDict()
         return new
 
+    def transformed(self, fn: Callable[[np.ndarray], np.ndarray]) -> FrameSequence:
+        """Return a lazy sequence of ``fn(frame)`` for every frame (applied when read).
+
+        The result is sliceable like this one and has its own cache; ``fn`` should be a
+        picklable callable (not a lambda) if the sequence is to be pickled.
+
+        Examples
+        --------
+        >>> seq = FrameSequence(lambda i: np.full((1, 1), i, np.uint8), range(5))
+        >>> [int(f[0, 0]) for f in seq.transformed(np.negative)[1:3]]
+        [255, 254]
+        """
+        new = type(self)._from(self, self._indices)
+        new._load = _Transformed(self._load, fn)
+        return new
+
     def __iter__(self) -> Iterator[np.ndarray]:
         for src in self._indices:
             yield self._get(int(src))
@@ -125,6 +141,18 @@ class FrameSequence(Sequence[np.ndarray]):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({len(self)} frames)"
+
+
+class _Transformed:
+    """``fn(load(i))`` (picklable when ``load`` and ``fn`` are)."""
+
+    def __init__(
+        self, load: Callable[[int], np.ndarray], fn: Callable[[np.ndarray], np.ndarray]
+    ) -> None:
+        self.load, self.fn = load, fn
+
+    def __call__(self, i: int) -> np.ndarray:
+        return self.fn(self.load(i))
 
 
 class ImageFrames(FrameSequence):

@@ -64,7 +64,7 @@ def load_dataset(spec: str) -> RouteDataset:
         ``KIND:PATH[?key=value&...]``, e.g. ``"nordland:data/nordland-64x32?ref=summer&
         query=winter"``, ``"folder:ref_dir,query_dir"`` or
         ``"synthetic:?places=500&query=winter&seed=1"``. Every kind accepts ``tolerance``,
-        ``start``, ``stop`` and ``step`` (see ``docs/datasets.md``).
+        ``start``, ``stop``, ``step`` and ``patch_norm`` (see ``docs/datasets.md``).
 
     Returns
     -------

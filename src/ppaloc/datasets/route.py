@@ -11,6 +11,8 @@ tolerance); :func:`assemble` then applies the common spec keys ``start``, ``stop
 - Explicit ground truth (VPR-Bench, City Centre): the same slice is applied to each
   traversal by index; accepted references are remapped to the kept ones, then dilated by
   the tolerance.
+- ``patch_norm=P``: every frame of both traversals is patch-normalised in PxP tiles when
+  it is read (:func:`ppaloc.datasets.normalise.patch_normalise_frame`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.frames import FrameSequence
 from ppaloc.datasets.groundtruth import dilate, from_positions
+from ppaloc.datasets.normalise import PatchNormalise
 from ppaloc.errors import DataError
 
 __all__ = ["RawRoute", "assemble"]
@@ -74,7 +77,8 @@ def moved_from_places(places: np.ndarray) -> np.ndarray:
 
 
 def assemble(raw: RawRoute, options: Mapping[str, Any]) -> RouteDataset:
-    """Apply ``start``/``stop``/``step``/``tolerance`` and build the :class:`RouteDataset`."""
+    """Apply ``start``/``stop``/``step``/``tolerance``/``patch_norm`` and build the
+    :class:`RouteDataset`."""
     tol = options.get("tolerance")
     tol = raw.default_tolerance if tol is None else int(tol)
     start, stop, step = options.get("start"), options.get("stop"), int(options.get("step") or 1)
@@ -120,10 +124,16 @@ def assemble(raw: RawRoute, options: Mapping[str, Any]) -> RouteDataset:
         meta["selection"] = {"start": start, "stop": stop, "step": step}
     if new_place is not None:
         meta["query_place"] = new_place
+    reference, query = raw.reference.select(ref_idx), raw.query.select(q_idx)
+    patch = options.get("patch_norm")
+    if patch is not None:
+        transform = PatchNormalise(int(patch))
+        reference, query = reference.transformed(transform), query.transformed(transform)
+        meta["patch_norm"] = int(patch)
     return RouteDataset(
         name=raw.name,
-        reference=raw.reference.select(ref_idx),
-        query=raw.query.select(q_idx),
+        reference=reference,
+        query=query,
         ground_truth=truth,
         tolerance=tol,
         reference_positions=_take(raw.reference_positions, ref_idx),

@@ -116,6 +116,9 @@ COMMON_KEYS: dict[str, Key] = {
     "start": Key("int", None, "first frame (or place) kept", 0),
     "stop": Key("int", None, "frame (or place) where the selection stops (exclusive)", 1),
     "step": Key("int", 1, "keep every step-th frame", 1),
+    "patch_norm": Key(
+        "int", None, "patch-normalise every frame in PxP tiles at native resolution", 2
+    ),
 }
 """Keys every kind accepts. ``tolerance`` has a per-kind default (see the loaders)."""
 

@@ -141,6 +141,7 @@ def make_synthetic(
     start: int | None = None,
     stop: int | None = None,
     step: int = 1,
+    patch_norm: int | None = None,
     **route: Any,
 ) -> RouteDataset:
     """Two traversals of a procedurally generated route, with exact ground truth.
@@ -153,6 +154,8 @@ def make_synthetic(
         Accepted distance in places.
     start, stop, step : int, optional
         Select places ``start:stop:step`` (and the query frames nearest to them).
+    patch_norm : int, optional
+        Patch-normalise every frame in tiles of this side (the ``patch_norm`` spec key).
     **route
         The other keywords of :func:`synthetic_route` (``sync``, ``spacing``, ``speed``,
         ``speed_var``, ``stops``, ``extra``, ``offset``, ``size``).
@@ -170,5 +173,11 @@ def make_synthetic(
     ((64, 64), [0, 1])
     """
     raw = synthetic_route(places, ref, query, seed, **route)
-    options = {"tolerance": tolerance, "start": start, "stop": stop, "step": step}
+    options = {
+        "tolerance": tolerance,
+        "start": start,
+        "stop": stop,
+        "step": step,
+        "patch_norm": patch_norm,
+    }
     return assemble(raw, options)
