@@ -7,9 +7,12 @@ import pytest
 
 from ppaloc.onsensor.mapping import row_runs, upload_map
 from ppaloc.onsensor.pipeline import (
+    LbpPipeline,
+    LowresPipeline,
     PipelineParams,
     SensorPipeline,
     class_rows,
+    make_pipeline,
 )
 from ppaloc.onsensor.program import KernelCache, halve_level, pull, scale_negated
 from ppaloc.place import lbp_from_grid
@@ -21,7 +24,7 @@ PARAMS = PipelineParams(alpha=4, gamma=0.5, k=4, shift=2, motion="always_forward
 
 
 def _pipe(rep: str = "lowres", n: int = 40) -> SensorPipeline:
-    return SensorPipeline(rep, n, PARAMS, size=SIZE)
+    return make_pipeline(rep, n, PARAMS, size=SIZE)
 
 
 def _frame(seed: int) -> np.ndarray:
@@ -156,13 +159,31 @@ def test_descriptor_equals_the_host_lbp_of_the_central_grid():
 
 
 def test_motion_counts_are_exact():
-    pipe = SensorPipeline("lowres", 10, PipelineParams(4, 0.5, 4, 2, "image", margin=3), size=SIZE)
+    pipe = make_pipeline("lowres", 10, PipelineParams(4, 0.5, 4, 2, "image", margin=3), size=SIZE)
     rng = np.random.default_rng(5)
     plane = rng.random((SIZE, SIZE)) < 0.3
     pipe.sim.write(pipe.dr.tmp_b, plane)
     assert pipe._count(pipe.dr.tmp_b, "t") == int(plane.sum())
     pipe.sim.write(pipe.dr.tmp_b, np.ones((SIZE, SIZE), bool))
     assert pipe._count(pipe.dr.tmp_b, "t") == SIZE * SIZE  # full 8x16 blocks: -128, no clip
+
+
+def test_make_pipeline_picks_the_class_of_the_representation():
+    from ppaloc.errors import PpalocError
+
+    assert type(_pipe("lowres")) is LowresPipeline and type(_pipe("lbp", 4)) is LbpPipeline
+    assert isinstance(_pipe("lbp", 4), SensorPipeline)
+    with pytest.raises(PpalocError, match="no on-sensor pipeline"):
+        make_pipeline("hog", 4, PARAMS, size=SIZE)
+
+
+def test_shared_registers_are_named():
+    from ppaloc.onsensor import lbp, lowres
+
+    assert LowresPipeline.dr.aliases() == {"R3": ("pattern", "root32")}
+    assert LbpPipeline.dr.aliases() == {"R1": ("pattern", "root32")}
+    assert lowres.ROOTS == LowresPipeline.dr.pattern == LowresPipeline.dr.root32
+    assert lbp.DESCRIPTOR == LbpPipeline.dr.tmp_b and lbp.DESCRIPTOR_TMP == LbpPipeline.dr.tmp_a
 
 
 def test_too_many_tiles_is_a_clear_error():

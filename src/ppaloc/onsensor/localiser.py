@@ -3,7 +3,7 @@
 It implements :class:`ppaloc.localise.base.Localiser`, so evaluation treats it like any
 other method. The map lives in the simulated sensor's registers (written by
 :func:`ppaloc.onsensor.mapping.upload_map`), and every frame runs the pipeline of
-:class:`ppaloc.onsensor.pipeline.SensorPipeline`. In ideal mode the estimates equal those
+:func:`ppaloc.onsensor.pipeline.make_pipeline`. In ideal mode the estimates equal those
 of ``WeightedNodeLocaliser(arithmetic="ppa8")`` with the same parameters (docs/ppa8.md,
 docs/onsensor.md); with a noise preset they show what the analogue array does to them.
 """
@@ -21,7 +21,7 @@ from ppaloc.localise.base import Estimate
 from ppaloc.localise.motion import ImageMotion, OracleMotion
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor.mapping import upload_map
-from ppaloc.onsensor.pipeline import PipelineParams, SensorPipeline
+from ppaloc.onsensor.pipeline import PipelineParams, SensorPipeline, make_pipeline
 from ppaloc.sim import NoiseParams
 from ppaloc.topomap import TopoMap
 
@@ -177,7 +177,7 @@ class OnSensorLocaliser:
             confidence_radius=h.confidence_radius,
             **motion,
         )
-        return SensorPipeline(
+        return make_pipeline(
             self.representation,
             n_nodes,
             params,

@@ -1,0 +1,175 @@
+"""Low-res place images on the sensor: map tiles in analogue registers, SAD comparison.
+
+Every node is an 8x8 image ``n = q/2 - 64`` in an 8x8 PE block of an analogue database
+register (``A``, ``B``: 1024 nodes per tile on a 256 array). Each frame the live 8x8 grid
+of block means is replicated over every node block and compared by the clipped absolute
+difference, summed by a halving tree per block (docs/onsensor.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ppaloc.onsensor.core import GRID, DRegs, SensorPipeline
+from ppaloc.onsensor.program import halve_level, pull_shift
+from ppaloc.sim import (
+    NEWS,
+    R1,
+    R2,
+    R3,
+    R4,
+    R9,
+    R10,
+    R11,
+    A,
+    B,
+    D,
+    Direction,
+    E,
+    F,
+    Register,
+    east,
+    north,
+    south,
+    west,
+)
+
+__all__ = ["LOWRES_DREGS", "ROOTS", "LowresPipeline"]
+
+#: R3 holds two roles in turn: ``root32`` (the 32x32 block roots, loaded at every capture
+#: and read by the spread of the block means) and ``pattern`` (node roots of one tile in
+#: the comparison, the window of the detection), which each stage reloads before use. So
+#: the spread must run before the comparison has overwritten R3 with node roots.
+ROOTS = R3
+#: Digital register roles of the low-res pipeline (``pattern`` and ``root32`` are both
+#: :data:`ROOTS`).
+LOWRES_DREGS = DRegs(valid=R4, cand=R9, tmp_a=R10, tmp_b=R11, pattern=ROOTS, root32=ROOTS)
+
+
+class LowresPipeline(SensorPipeline):
+    """The pipeline for low-res 8x8 place images (see :class:`SensorPipeline`).
+
+    Registers: database tiles in ``A``, ``B``; replication class masks (rows, columns) in
+    ``R1``, ``R2``; block roots and node-root patterns share ``R3`` (:data:`ROOTS`); valid
+    node roots in ``R4``; candidates and temps in ``R9``-``R11``.
+    """
+
+    representation = "lowres"
+    dr = LOWRES_DREGS
+    db = (A, B)
+    #: Replication class masks: rows, columns whose residue mod 8 is their block's index.
+    class_masks: tuple[Register, Register] = (R1, R2)
+    static_masks = (R1, R2, R4)  # class masks, valid roots
+    spread_means = True
+
+    def _setup_masks(self) -> None:
+        """Class masks ``R1`` (rows), ``R2`` (columns): see :func:`class_rows`."""
+        sim, dr = self.sim, self.dr
+        free = (self.block - 1) & ~(GRID - 1) & 0xFF
+        for reg, axis in zip(self.class_masks, (0, 1), strict=True):
+            self._run("clr_" + reg.name, lambda k, reg=reg: k.CLR(reg))
+            for i in range(GRID):
+                base = i * self.block + i
+                if axis == 0:
+                    sim.load_pattern(dr.tmp_a, base, 0, free, 0xFF)
+                else:
+                    sim.load_pattern(dr.tmp_a, 0, base, 0xFF, free)
+                self._run(f"or_{reg.name}", lambda k, reg=reg: k.OR(reg, dr.tmp_a))
+
+    def _describe(self) -> np.ndarray:
+        """The node's uint8 image from the exact block means ``m`` (stage ``reduce``).
+
+        ``2m - 0.5`` in one bus (the only saturation, at -128, maps to the right code 0),
+        and ``scan_areg_mean_8x8`` reads ``floor(2m + 128) = floor(S / 1024) = q`` per
+        block: exact in ideal mode.
+        """
+        sim = self.sim
+        sim.scamp5_in(E, -1)
+
+        def build(k):
+            k.bus2(D, NEWS, E)  # D = 0.5
+            k.mov(E, F)  # E = -m
+            k.bus(NEWS, F, E, D)  # NEWS = 2m - 0.5
+
+        self._run("sense_lowres", build)
+        return sim.scan_areg_mean_8x8(NEWS)
+
+    def compare(self) -> None:
+        """Replicate the live grid over every node block, then :meth:`compare_lowres`."""
+        self.replicate()
+        self.compare_lowres()
+
+    def _live_planes(self) -> dict[str, np.ndarray]:
+        return {"F: live 8x8 grid, replicated (negated)": self.sim.read(F)}
+
+    def replicate(self) -> None:
+        """``F := -f`` replicated: PE (r, c) holds minus the mean of grid block (r%8, c%8).
+
+        Per axis: copy the block means at the PEs whose residue mod 8 is their block's
+        index (zero elsewhere), then double that pattern over the zero background by
+        controller shifts of 4, 8, 16 blocks of 8 PEs towards the far edge, and the same
+        towards the near edge from a copy moved one step; the two halves are disjoint.
+        """
+        sim = self.sim
+        k0 = self.block // GRID  # copies per class inside its block, in steps of 8 PEs
+        steps = []
+        d = k0
+        while d < self.size // GRID:
+            steps.append(d * GRID)
+            d *= 2
+        with sim.stage("replicate"):
+            masks = self.class_masks
+            for axis, mask, far, near in ((0, masks[0], north, south), (1, masks[1], west, east)):
+                # pulling from `far` (north/west) moves the pattern towards south/east
+                def init(k, mask=mask):
+                    k.res(D)
+                    k.WHERE(mask)
+                    k.mov(D, F)
+                    k.all()
+                    k.mov(E, D)
+                    k.mov(F, E)
+
+                self._run(f"rep_init_{axis}", init)
+                self._double(E, far, steps, f"rep_acc_{axis}")
+                pull_shift(sim, D, near, k0 * GRID)
+                self._run(f"rep_copy_{axis}", lambda k: k.mov(F, D))
+                self._double(D, near, steps, f"rep_acc2_{axis}")
+                self._run(f"rep_join_{axis}", lambda k: k.add(F, D, E))
+
+    def _double(self, acc: Register, direction: Direction, steps: list[int], name: str) -> None:
+        """``acc += F`` shifted from ``direction`` by each step in turn (``F`` = ``acc``).
+
+        ``F`` starts as a copy of ``acc``; after each shift-and-add it takes the sum, so
+        every step doubles the pattern (the last step leaves ``F`` as it is).
+        """
+        for i, step in enumerate(steps):
+            pull_shift(self.sim, F, direction, step)
+            last = i == len(steps) - 1
+
+            def acc_step(k, last=last):
+                k.add(acc, acc, F)
+                if not last:
+                    k.mov(F, acc)
+
+            self._run(f"{name}_{int(last)}", acc_step)
+
+    def compare_lowres(self) -> None:
+        """Per tile: ``w += alpha - mu_s`` with ``mu`` the mean of ``min(|f - n|, 127)``."""
+        sim, dr, p = self.sim, self.dr, self.params
+        with sim.stage("compare"):
+            for t in range(self.tiles):
+                db = self.db[t]
+                self._root_pattern(dr.pattern, t)
+                sim.load_in(p.alpha)
+
+                def build(k, db=db, t=t):
+                    k.add(D, F, db)  # n - f
+                    k.abs(E, D)  # min(|f - n|, 127)
+                    k.bus2(D, NEWS, E)  # D = -|f - n| / 2
+                    for direction in (east, south):
+                        for step in (1, 2, 4):
+                            halve_level(k, D, E, direction, step)
+                    # D = -(mu / 2); mu_s = (mu / 2) * 2**(1 - s)
+                    self._update(k, D, E, -1, 1 - p.shift, t)
+
+                self._run(f"compare_{t}", build)
