@@ -1,0 +1,528 @@
+"""Max F1 of the weighted-node filter against the baselines on every route we can build.
+
+Not collected by pytest. Run from anywhere (paths resolve from this file)::
+
+    .venv/bin/python benchmarks/eval_robust.py                       # every route and method
+    .venv/bin/python benchmarks/eval_robust.py --routes "seed=1" --methods single-frame
+    .venv/bin/python benchmarks/eval_robust.py --param particle-filter.sigma_rel=0.2
+    .venv/bin/python benchmarks/eval_robust.py --sweep weighted-node-lbp.alpha=2,4,8,16
+    .venv/bin/python benchmarks/eval_robust.py --json robust.json
+
+Routes (:func:`routes`): Nordland summer -> winter (tolerance +-2) and its sparse
+patch-normalised variant (every 10th frame, ``patch_norm=8``, tolerance +-1), three Gardens
+Point pairs (tolerance +-2), all from ``../shared/data`` next to the project (skipped with
+a note when absent), and 60 generated routes: seeds 1-5 x ``speed_var`` 0.2 / 0.65 x with
+or without stops x a winter, autumn or dusk query against a summer map (``--places``
+places, default 200; tolerance +-1, the generator's default). "With stops" is the
+generator's default count (one per 150 places, at least one); "without" is ``stops=0``.
+
+Every method is run as ``ppaloc evaluate`` runs it (``ppaloc.evaluate.run``: the sensor
+front-end once per route, then ``run_method`` per method, ``seed=0`` where a method takes
+one, recall definition A) and its max F1 is reported. Routes run in a process pool
+(``--jobs``, default 2). Baseline results (every method whose name does not start with
+``weighted-node`` or ``onsensor``) are cached in ``.cache/eval_robust/``, keyed by the
+spec, the method, its parameters and a hash of the sources that decide them
+(``ppaloc/baselines``, ``ppaloc/datasets``, ``ppaloc/frontend.py``, ``ppaloc/topomap`` and
+``ppaloc/evaluate/metrics.py``); ``--no-cache`` ignores it.
+
+Output: a Markdown table (route x method, max F1, and ``best WN - best baseline``: the
+better of weighted-node-lbp / weighted-node-lowres minus the best baseline) and a summary
+line; with ``--sweep METHOD.key=v1,v2,...`` a table route x value with the mean and the
+minimum over routes instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import hashlib
+import json
+import multiprocessing
+import os
+import sys
+import time
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data"
+CACHE_DIR = ROOT / ".cache" / "eval_robust"
+SOURCES = (
+    "src/ppaloc/baselines",
+    "src/ppaloc/datasets",
+    "src/ppaloc/frontend.py",
+    "src/ppaloc/topomap",
+    "src/ppaloc/evaluate/metrics.py",
+)
+"""What a cached baseline figure depends on besides its spec, method and parameters."""
+
+DEFAULT_METHODS = (
+    "weighted-node-lbp",
+    "weighted-node-lowres",
+    "weighted-node-paper-lbp",
+    "weighted-node-paper-lowres",
+    "particle-filter",
+    "seqslam",
+    "able-m",
+    "single-frame",
+)
+WN_BEST = ("weighted-node-lbp", "weighted-node-lowres")
+"""The weighted-node methods the ``best WN - best baseline`` column takes the better of."""
+SEEDS = (1, 2, 3, 4, 5)
+SPEED_VARS = (0.2, 0.65)
+QUERIES = ("winter", "autumn", "dusk")
+GP_PAIRS = (("day_left", "day_right"), ("day_right", "night_right"), ("day_left", "night_right"))
+SEED = 0
+"""``seed`` given to every method that takes one (``ppaloc evaluate``'s default)."""
+
+
+def routes(data_dir: Path | str | None = DATA, places: int = 200) -> list[tuple[str, str]]:
+    """Every route of the benchmark as ``(label, spec)``, real data first.
+
+    The real-data routes need ``data_dir/nordland-64x32`` and ``data_dir/gardens-point``;
+    those missing (or ``data_dir=None``) are left out with a note on stderr.
+    """
+    out: list[tuple[str, str]] = []
+    data = None if data_dir is None else Path(data_dir)
+    nordland = None if data is None else data / "nordland-64x32"
+    if nordland is not None and nordland.is_dir():
+        base = f"nordland:{nordland}?ref=summer&query=winter"
+        out.append(("nordland summer->winter", f"{base}&tolerance=2"))
+        out.append(
+            (
+                "nordland summer->winter step=10 patch_norm=8",
+                f"{base}&step=10&patch_norm=8&tolerance=1",
+            )
+        )
+    else:
+        print(f"note: {nordland} not found: the Nordland routes are skipped", file=sys.stderr)
+    gp = None if data is None else data / "gardens-point"
+    if gp is not None and gp.is_dir():
+        for ref, query in GP_PAIRS:
+            out.append(
+                (f"gp {ref}->{query}", f"gardens-point:{gp}?ref={ref}&query={query}&tolerance=2")
+            )
+    else:
+        print(f"note: {gp} not found: the Gardens Point routes are skipped", file=sys.stderr)
+    for seed in SEEDS:
+        for speed_var in SPEED_VARS:
+            for stops in (True, False):
+                for query in QUERIES:
+                    label = (
+                        f"synthetic seed={seed} speed_var={speed_var} "
+                        f"{'stops' if stops else 'no-stops'} {query}"
+                    )
+                    spec = (
+                        f"synthetic:?places={places}&query={query}&seed={seed}"
+                        f"&speed_var={speed_var}"
+                    )
+                    out.append((label, spec if stops else f"{spec}&stops=0"))
+    return out
+
+
+# -- parameters -----------------------------------------------------------------------------
+
+
+def parse_value(text: str) -> Any:
+    """A flag value as a Python literal where it is one (``8``, ``0.5``, ``'x'``, ``(1, 2)``,
+    ``True``; also ``true``/``false``), else the text itself."""
+    text = text.strip()
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text
+
+
+def parse_param(item: str) -> tuple[str, str, str]:
+    """``METHOD.key=value`` -> ``(method, key, value text)``."""
+    key, eq, value = item.partition("=")
+    method, dot, name = key.rpartition(".")
+    if not eq or not dot or not method.strip() or not name.strip():
+        raise SystemExit(
+            f"error: {item!r} must look like METHOD.key=value, e.g. weighted-node-lbp.alpha=8"
+        )
+    return method.strip(), name.strip(), value
+
+
+def is_cached_method(name: str) -> bool:
+    """Baselines are cached; the weighted-node and on-sensor methods (under work) are not."""
+    return not name.startswith(("weighted-node", "onsensor"))
+
+
+def source_hash(root: Path = ROOT) -> str:
+    """SHA-256 over the paths and bytes of every ``.py`` file under :data:`SOURCES`."""
+    h = hashlib.sha256()
+    for rel in SOURCES:
+        p = root / rel
+        files = sorted(p.rglob("*.py")) if p.is_dir() else [p] if p.is_file() else []
+        for f in files:
+            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def _cache_file(cache_dir: Path, spec: str, method: str, params: dict, source: str) -> Path:
+    key = json.dumps(
+        {"spec": spec, "method": method, "params": params, "source": source, "recall": "A"},
+        sort_keys=True,
+        default=repr,
+    )
+    return cache_dir / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+
+
+# -- one route --------------------------------------------------------------------------------
+
+
+def evaluate_route(
+    label: str,
+    spec: str,
+    jobs: Sequence[tuple[str, str, dict[str, Any]]],
+    cache_dir: str | None,
+    source: str,
+) -> dict[str, Any]:
+    """Run every ``(column, method, params)`` of ``jobs`` on one route.
+
+    The route is loaded from ``spec`` and its frames go through the sensor front-end once
+    (only if some job is not cached); each method then runs as ``ppaloc evaluate`` runs it.
+    Returns ``{"label", "spec", "seconds", "results": {column: figures}, "errors"}``.
+    """
+    from ppaloc.datasets import load_dataset
+    from ppaloc.errors import PpalocError
+    from ppaloc.evaluate.run import localiser_params, run_method, sensor_frames
+    from ppaloc.methods import METHODS, make_localiser
+
+    t0 = time.perf_counter()
+    results: dict[str, dict[str, Any]] = {}
+    errors: dict[str, str] = {}
+    todo = []
+    for column, name, user in jobs:
+        params = localiser_params(name, user, seed=SEED, record_weights=False)
+        path = None
+        if cache_dir is not None and is_cached_method(name):
+            path = _cache_file(Path(cache_dir), spec, name, params, source)
+            if path.is_file():
+                try:
+                    results[column] = {**json.loads(path.read_text())["result"], "cached": True}
+                    continue
+                except (OSError, ValueError, KeyError):
+                    pass  # a broken entry is recomputed
+        todo.append((column, name, params, path))
+    if todo:
+        ds = load_dataset(spec)
+        gt = [np.asarray(g, dtype=np.int64) for g in ds.ground_truth]
+        reference = sensor_frames(ds.reference)
+        query = sensor_frames(ds.query)
+        positions_ok = ds.reference_positions is not None and ds.query_positions is not None
+        for column, name, params, path in todo:
+            t = time.perf_counter()
+            try:
+                extra = {}
+                if params.get("motion") == "oracle" and "oracle_moves" not in params:
+                    if ds.query_moved is None:
+                        raise PpalocError(f"{name}: motion='oracle' needs query_moved")
+                    extra = {"oracle_moves": ds.query_moved}
+                loc = make_localiser(name, **params, **extra)
+                run = run_method(
+                    name,
+                    reference,
+                    query,
+                    gt,
+                    params={**METHODS[name].defaults, **params},
+                    recall="A",
+                    reference_positions=ds.reference_positions if positions_ok else None,
+                    query_positions=ds.query_positions if positions_ok else None,
+                    query_moved=ds.query_moved,
+                    localiser=loc,
+                )
+            except PpalocError as exc:
+                errors[column] = str(exc)
+                continue
+            m = run.metrics
+            result = {
+                "f1_max": float(m.f1_max),
+                "accuracy": float(m.accuracy),
+                "recall_at_100p": float(m.recall_at_100p),
+                "n_queries": int(m.n_queries),
+                "n_reference": len(reference),
+                "latency_ms_median": float(np.median(run.latency_ms)) if len(query) else None,
+                "seconds": time.perf_counter() - t,
+                "params": run.params,
+            }
+            if path is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                tmp = path.with_suffix(f".{os.getpid()}.tmp")
+                entry = {"spec": spec, "method": name, "source": source, "result": result}
+                tmp.write_text(json.dumps(entry, indent=1, default=repr))
+                tmp.replace(path)
+            results[column] = {**result, "cached": False}
+    return {
+        "label": label,
+        "spec": spec,
+        "seconds": time.perf_counter() - t0,
+        "results": results,
+        "errors": errors,
+    }
+
+
+def run_all(
+    selected: list[tuple[str, str]],
+    jobs: list[tuple[str, str, dict[str, Any]]],
+    *,
+    workers: int,
+    cache_dir: Path | None,
+) -> list[dict[str, Any]]:
+    """Every route through :func:`evaluate_route`, ``workers`` at a time; one line per
+    finished route on stderr. Returns the route records in the order of ``selected``."""
+    source = source_hash()
+    cache = None if cache_dir is None else str(cache_dir)
+    done: dict[str, dict[str, Any]] = {}
+    n = len(selected)
+    t0 = time.perf_counter()
+
+    def report(rec: dict[str, Any]) -> None:
+        done[rec["label"]] = rec
+        hits = sum(r.get("cached", False) for r in rec["results"].values())
+        cacheable = sum(is_cached_method(name) for _, name, _ in jobs) if cache else 0
+        line = f"[{len(done):3d}/{n}] {rec['label']:52s} {rec['seconds']:7.1f} s"
+        line += f"  (cached {hits}/{cacheable}; {time.perf_counter() - t0:.0f} s elapsed)"
+        for column, err in rec["errors"].items():
+            line += f"\n          {column}: {err}"
+        print(line, file=sys.stderr, flush=True)
+
+    if workers <= 1 or n <= 1:
+        for label, spec in selected:
+            report(evaluate_route(label, spec, jobs, cache, source))
+    else:
+        # Spawned workers inherit these before they import numpy: one BLAS thread each.
+        for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+            os.environ.setdefault(var, "1")
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx) as pool:
+            futures = {
+                pool.submit(evaluate_route, label, spec, jobs, cache, source): label
+                for label, spec in selected
+            }
+            for fut in as_completed(futures):
+                try:
+                    report(fut.result())
+                except Exception as exc:  # one broken route must not stop the rest
+                    label = futures[fut]
+                    spec = dict(selected)[label]
+                    msg = f"{type(exc).__name__}: {exc}"
+                    report(
+                        {
+                            "label": label,
+                            "spec": spec,
+                            "seconds": 0.0,
+                            "results": {},
+                            "errors": {"route": msg},
+                        }
+                    )
+    return [done[label] for label, _ in selected]
+
+
+# -- tables ---------------------------------------------------------------------------------
+
+
+def _f1(rec: dict[str, Any], column: str) -> float | None:
+    r = rec["results"].get(column)
+    return None if r is None else r["f1_max"]
+
+
+def _cell(v: float | None, signed: bool = False) -> str:
+    if v is None:
+        return "-"
+    return f"{v:+.3f}" if signed else f"{v:.3f}"
+
+
+def margins(rec: dict[str, Any], methods: Sequence[str], wn: Sequence[str]) -> float | None:
+    """Best of the ``wn`` methods minus the best baseline on one route (None: either missing)."""
+    best_wn = [v for c in wn if (v := _f1(rec, c)) is not None]
+    best_base = [v for c in methods if is_cached_method(c) and (v := _f1(rec, c)) is not None]
+    if not best_wn or not best_base:
+        return None
+    return max(best_wn) - max(best_base)
+
+
+def comparison_table(records: list[dict[str, Any]], methods: Sequence[str]) -> tuple[str, dict]:
+    """The Markdown table and the summary lines of the comparison mode."""
+    lines = [
+        "| route | " + " | ".join(methods) + " | best WN - best baseline |",
+        "|---|" + "---|" * (len(methods) + 1),
+    ]
+    wn_cols = [c for c in WN_BEST if c in methods]
+    for rec in records:
+        cells = [_cell(_f1(rec, c)) for c in methods]
+        lines.append(
+            f"| {rec['label']} | "
+            + " | ".join(cells)
+            + f" | {_cell(margins(rec, methods, wn_cols), True)} |"
+        )
+    summary: dict[str, Any] = {}
+    groups = [("best of " + "/".join(wn_cols), wn_cols)]
+    every_wn = [c for c in methods if c.startswith("weighted-node")]
+    if set(every_wn) - set(wn_cols):
+        groups.append(("best of every weighted-node-* column", every_wn))
+    text = []
+    for what, cols in groups:
+        m = [(margins(r, methods, cols), r["label"]) for r in records]
+        m = [(v, label) for v, label in m if v is not None]
+        if not m:
+            text.append(f"{what}: no route has both a weighted-node and a baseline figure")
+            continue
+        wins = sum(v >= 0 for v, _ in m)
+        low, where = min(m)
+        text.append(
+            f"{what}: >= every baseline on {wins} of {len(m)} routes; "
+            f"minimum margin {low:+.3f} ({where})"
+        )
+        summary[what] = {"routes": len(m), "wins": wins, "min_margin": low, "min_route": where}
+    return "\n".join(lines) + "\n\n" + "\n".join(text), summary
+
+
+def sweep_table(records: list[dict[str, Any]], columns: Sequence[str]) -> tuple[str, dict]:
+    """Route x value table with the mean and the minimum over routes."""
+    lines = ["| route | " + " | ".join(columns) + " |", "|---|" + "---|" * len(columns)]
+    for rec in records:
+        lines.append(
+            f"| {rec['label']} | " + " | ".join(_cell(_f1(rec, c)) for c in columns) + " |"
+        )
+    stats: dict[str, dict[str, float | None]] = {}
+    for c in columns:
+        vals = [v for r in records if (v := _f1(r, c)) is not None]
+        stats[c] = {
+            "mean": float(np.mean(vals)) if vals else None,
+            "min": float(np.min(vals)) if vals else None,
+        }
+    lines.append("| **mean** | " + " | ".join(_cell(stats[c]["mean"]) for c in columns) + " |")
+    lines.append("| **min** | " + " | ".join(_cell(stats[c]["min"]) for c in columns) + " |")
+    return "\n".join(lines), stats
+
+
+# -- command line ---------------------------------------------------------------------------
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        description="Max F1 of the weighted-node filter against the baselines on every route.",
+        epilog="Routes, caching and columns: see the module docstring.",
+    )
+    parser.add_argument("--places", type=int, default=200, help="places of the generated routes")
+    parser.add_argument(
+        "--methods", default=",".join(DEFAULT_METHODS), help="comma-separated method names"
+    )
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="METHOD.key=value",
+        help="a method parameter (repeatable; values parsed as Python literals)",
+    )
+    parser.add_argument(
+        "--routes", default=None, metavar="SUBSTR", help="only routes whose label contains this"
+    )
+    parser.add_argument("--jobs", type=int, default=2, help="routes run in parallel")
+    parser.add_argument(
+        "--no-cache", action="store_true", help="ignore (and do not write) the cache"
+    )
+    parser.add_argument(
+        "--json", type=Path, default=None, metavar="PATH", help="write every figure here"
+    )
+    parser.add_argument(
+        "--sweep",
+        default=None,
+        metavar="METHOD.key=v1,v2,...",
+        help="run only METHOD at each value of key and print route x value",
+    )
+    parser.add_argument("--data", type=Path, default=DATA, help="the shared data folder")
+    args = parser.parse_args(argv)
+
+    from ppaloc.errors import PpalocError
+    from ppaloc.methods import METHODS, available_methods, make_localiser
+
+    t0 = time.perf_counter()
+    params: dict[str, dict[str, Any]] = {}
+    for item in args.param:
+        method, key, value = parse_param(item)
+        params.setdefault(method, {})[key] = parse_value(value)
+    available = set(available_methods())
+    notes: list[str] = []
+
+    if args.sweep:
+        method, key, values_text = parse_param(args.sweep)
+        if method not in available:
+            raise SystemExit(
+                f"error: method {method!r} is not available; choose from {sorted(available)}"
+            )
+        values = [parse_value(v) for v in values_text.split(",") if v.strip()]
+        columns = [f"{key}={v!r}" if isinstance(v, str) else f"{key}={v}" for v in values]
+        jobs = [
+            (c, method, {**params.get(method, {}), key: v})
+            for c, v in zip(columns, values, strict=True)
+        ]
+    else:
+        requested = [m.strip() for m in args.methods.split(",") if m.strip()]
+        methods = []
+        for name in requested:
+            if name not in available:
+                why = "not available in this install" if name in METHODS else "not registered"
+                notes.append(f"note: method {name!r} is {why}; its column is skipped")
+            elif name not in methods:
+                methods.append(name)
+        for name in params:
+            if name not in methods:
+                notes.append(f"note: --param for {name!r}, which is not run, is ignored")
+        columns = methods
+        jobs = [(name, name, params.get(name, {})) for name in methods]
+    for note in notes:
+        print(note, file=sys.stderr)
+    for _, name, user in jobs:  # a bad parameter fails here, before any route is loaded
+        if user.get("motion") == "oracle":
+            continue  # needs the route's true motion: checked when the route runs
+        try:
+            make_localiser(name, **user)
+        except PpalocError as exc:
+            raise SystemExit(f"error: {exc}") from None
+    if not jobs:
+        raise SystemExit("error: no method to run")
+
+    selected = routes(args.data, args.places)
+    if args.routes:
+        selected = [(label, spec) for label, spec in selected if args.routes in label]
+    if not selected:
+        raise SystemExit(f"error: no route label contains {args.routes!r}")
+    records = run_all(
+        selected,
+        jobs,
+        workers=args.jobs,
+        cache_dir=None if args.no_cache else CACHE_DIR,
+    )
+    if args.sweep:
+        table, summary = sweep_table(records, columns)
+    else:
+        table, summary = comparison_table(records, columns)
+    wall = time.perf_counter() - t0
+    print(table)
+    print(f"\n{len(records)} routes, wall time {wall:.0f} s, {args.jobs} jobs", file=sys.stderr)
+    if args.json:
+        out = {
+            "mode": "sweep" if args.sweep else "compare",
+            "sweep": args.sweep,
+            "columns": list(columns),
+            "params": params,
+            "places": args.places,
+            "notes": notes,
+            "summary": summary,
+            "wall_s": wall,
+            "routes": records,
+        }
+        args.json.write_text(json.dumps(out, indent=1, default=repr))
+
+
+if __name__ == "__main__":
+    main()
