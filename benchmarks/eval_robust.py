@@ -364,7 +364,9 @@ def comparison_table(records: list[dict[str, Any]], methods: Sequence[str]) -> t
             + f" | {_cell(margins(rec, methods, wn_cols), True)} |"
         )
     summary: dict[str, Any] = {}
-    groups = [("best of " + "/".join(wn_cols), wn_cols)]
+    if not any(c.startswith("weighted-node") for c in methods):
+        return "\n".join(lines) + "\n\nno weighted-node column: nothing to compare", summary
+    groups = [("best of " + "/".join(wn_cols), wn_cols)] if wn_cols else []
     every_wn = [c for c in methods if c.startswith("weighted-node")]
     if set(every_wn) - set(wn_cols):
         groups.append(("best of every weighted-node-* column", every_wn))
