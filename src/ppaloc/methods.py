@@ -34,22 +34,42 @@ METHODS: dict[str, MethodSpec] = {
     "weighted-node-lowres": MethodSpec(
         "ppaloc.localise.weighted:WeightedNodeLocaliser",
         {"representation": "lowres"},
-        "the paper's filter on the host, 8x8 images + SAD",
+        "the robust weighted-node filter on the host, 8x8 images + SAD",
     ),
     "weighted-node-lbp": MethodSpec(
         "ppaloc.localise.weighted:WeightedNodeLocaliser",
         {"representation": "lbp"},
-        "the paper's filter on the host, 32-bit LBP descriptors + Hamming",
+        "the robust weighted-node filter on the host, 32-bit LBP descriptors + Hamming",
+    ),
+    "weighted-node-paper-lowres": MethodSpec(
+        "ppaloc.localise.weighted:WeightedNodeLocaliser",
+        {"representation": "lowres", "preset": "paper"},
+        "the paper's Algorithm 1 on the host, 8x8 images + SAD",
+    ),
+    "weighted-node-paper-lbp": MethodSpec(
+        "ppaloc.localise.weighted:WeightedNodeLocaliser",
+        {"representation": "lbp", "preset": "paper"},
+        "the paper's Algorithm 1 on the host, 32-bit LBP descriptors + Hamming",
     ),
     "onsensor-lowres": MethodSpec(
         "ppaloc.onsensor.localiser:OnSensorLocaliser",
         {"representation": "lowres"},
-        "the paper's filter as PPA programs on the simulator, 8x8 images",
+        "the robust weighted-node filter as PPA programs on the simulator, 8x8 images",
     ),
     "onsensor-lbp": MethodSpec(
         "ppaloc.onsensor.localiser:OnSensorLocaliser",
         {"representation": "lbp"},
-        "the paper's filter as PPA programs on the simulator, LBP descriptors",
+        "the robust weighted-node filter as PPA programs on the simulator, LBP descriptors",
+    ),
+    "onsensor-paper-lowres": MethodSpec(
+        "ppaloc.onsensor.localiser:OnSensorLocaliser",
+        {"representation": "lowres", "preset": "paper"},
+        "the paper's Algorithm 1 as PPA programs on the simulator, 8x8 images",
+    ),
+    "onsensor-paper-lbp": MethodSpec(
+        "ppaloc.onsensor.localiser:OnSensorLocaliser",
+        {"representation": "lbp", "preset": "paper"},
+        "the paper's Algorithm 1 as PPA programs on the simulator, LBP descriptors",
     ),
     "seqslam": MethodSpec(
         "ppaloc.baselines.seqslam:SeqSLAM", {}, "SeqSLAM (Milford & Wyeth 2012), past-only"

@@ -33,6 +33,7 @@ __all__ = [
     "RunResult",
     "localiser_params",
     "method_metrics",
+    "node_frames",
     "register_planes",
     "resolve_methods",
     "run_evaluation",
@@ -63,7 +64,8 @@ class MethodRun:
     node : ndarray of int, shape (M,)
         Predicted map node per query.
     ref_index : ndarray of int, shape (M,)
-        Predicted reference frame per query (``node`` through the map's ``frame_index``).
+        Predicted reference frame per query: ``node`` through the map's frame spans, with
+        the ground truth carried to nodes (:func:`node_frames`).
     score : ndarray of float, shape (M,)
         Confidence per query.
     moved : ndarray of int8, shape (M,)
@@ -280,13 +282,64 @@ def method_metrics(
     )
 
 
-def _stack_rankings(rankings: list[np.ndarray | None], frame_index: np.ndarray) -> np.ndarray:
+def node_frames(
+    nodes: np.ndarray,
+    spans: tuple[np.ndarray, np.ndarray],
+    ground_truth: Sequence[np.ndarray],
+) -> np.ndarray:
+    """The reference frame each predicted node stands for, with the truth carried to nodes.
+
+    Node ``j`` stands for frames ``first[j] <= f < end[j]`` (:meth:`TopoMap.frame_spans`;
+    one frame unless the map merged a stop into one node). A prediction is reported as
+    the frame of its span nearest to the query's accepted frames (an accepted one when
+    the span holds one), so a node that merged a stop is right for every query frame at
+    that stop, and the error in frames is measured from the span. With one node per
+    frame this is ``first[nodes]``.
+
+    Parameters
+    ----------
+    nodes : ndarray of int, shape (M,) or (M, K)
+        Predicted (or ranked) nodes per query; -1 pads a ranking and stays -1.
+    spans : (ndarray, ndarray)
+        ``(first, end)`` of every node.
+    ground_truth : sequence of ndarray of int
+        Accepted reference frames per query.
+
+    Examples
+    --------
+    >>> spans = (np.array([0, 1, 5]), np.array([1, 5, 8]))
+    >>> node_frames(np.array([1, 1, 2]), spans, [np.array([3, 4]), np.array([7]), np.array([])])
+    array([3, 4, 5])
+    """
+    first, end = spans
+    nodes = np.asarray(nodes, dtype=np.int64)
+    flat = nodes.reshape(len(nodes), -1)
+    out = np.where(flat >= 0, first[np.maximum(flat, 0)], -1)
+    if np.array_equal(end, first + 1):
+        return out.reshape(nodes.shape)
+    for i, g in enumerate(ground_truth):
+        g = np.asarray(g, dtype=np.int64)
+        if not len(g):
+            continue
+        for j, node in enumerate(flat[i]):
+            if node < 0 or end[node] - first[node] <= 1:
+                continue
+            a, b = first[node], end[node] - 1
+            inside = g[(g >= a) & (g <= b)]
+            centre = float(np.median(g))
+            if len(inside):
+                out[i, j] = inside[np.argmin(np.abs(inside - centre))]
+            else:
+                out[i, j] = int(min(max(round(centre), a), b))
+    return out.reshape(nodes.shape)
+
+
+def _stack_rankings(rankings: list[np.ndarray | None]) -> np.ndarray:
     k = max((len(r) for r in rankings if r is not None), default=0)
     out = np.full((len(rankings), k), -1, dtype=np.int64)
     for i, r in enumerate(rankings):
         if r is not None and len(r):
-            r = np.asarray(r, dtype=np.int64)
-            out[i, : len(r)] = frame_index[r]
+            out[i, : len(r)] = np.asarray(r, dtype=np.int64)
     return out
 
 
@@ -337,7 +390,7 @@ def run_method(
     topomap = loc.build_map(reference)
     build_s = time.perf_counter() - t0
     loc.reset()
-    frame_index = np.asarray(topomap.frame_index, dtype=np.int64)
+    spans = topomap.frame_spans()
     n_nodes = len(topomap)
     m = len(query)
     keep_weights = m * n_nodes <= max_weight_values
@@ -362,10 +415,10 @@ def run_method(
     node = np.array([e.node for e in estimates], dtype=np.int64)
     if m and (node.min() < 0 or node.max() >= n_nodes):
         raise RuntimeError(f"{name} returned a node outside its map of {n_nodes} nodes")
-    ref_index = frame_index[node]
+    ref_index = node_frames(node, spans, ground_truth)
     score = np.array([e.score for e in estimates], dtype=np.float64)
     moved = np.array([-1 if e.moved is None else int(e.moved) for e in estimates], np.int8)
-    ranking = _stack_rankings([e.ranking for e in estimates], frame_index)
+    ranking = node_frames(_stack_rankings([e.ranking for e in estimates]), spans, ground_truth)
     modelled = _optional_array([e.modelled_latency_ms for e in estimates])
     energy = _optional_array([e.energy_mj for e in estimates])
     metrics = method_metrics(

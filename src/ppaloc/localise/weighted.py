@@ -1,6 +1,17 @@
-"""The weighted-node filter (Algorithm 1 of the paper) on the host.
+"""The weighted-node filter on the host: the robust filter (default) and the paper's Algorithm 1.
 
-Per frame, in this order (docs/ppa8.md; docs/localise.md has the reasoning):
+``preset="robust"`` (docs/localise.md, "The robust filter"; docs/ppa8.md): per frame,
+
+1. transition: ``w_i := max over d of (w_{i-d} - c_d)``, ``d = 0 .. max_advance``, with
+   the costs ``c_d`` set by the motion test (:func:`ppaloc.localise.params.transition_costs`);
+   nodes before node 0 read the floor ("no hypothesis");
+2. likelihood scaled per frame: ``mu_s = mu * 2**-s_t`` with ``s_t`` chosen from the
+   frame's own best and mean distance (:func:`~ppaloc.localise.params.likelihood_shift`);
+3. update ``w_i += alpha_t - mu_s_i`` with ``alpha_t = best * 2**-s_t``;
+4. detection as below;
+5. normalisation ``w_i := max(w_i - max(W), -memory)``.
+
+``preset="paper"``, Algorithm 1, per frame in this order:
 
 1. motion: forward or stay; on forward ``w_i := w_{i-1}`` along the map and ``w_0 := 0``;
 2. likelihood ``mu_i`` in register units, scaled to ``mu_s = mu * 2**-shift``;
@@ -8,7 +19,7 @@ Per frame, in this order (docs/ppa8.md; docs/localise.md has the reasoning):
 4. detection: the highest weight, ties to the candidate nearest the previous estimate;
 5. every ``k``-th frame the adjustment ``w_i -= gamma * max(W)``.
 
-``arithmetic="float"`` runs this in float32 with the weights kept in the register's range
+``arithmetic="float"`` runs either in float32 with the weights kept in the register's range
 [-127, 127] (the bound is what gives the filter a finite memory: without it one long run
 of good matches outweighs any later evidence); ``arithmetic="ppa8"`` in the register
 arithmetic of docs/ppa8.md (saturation of every write, integer DAC constants, an integer
@@ -31,6 +42,13 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.localise.likelihood import NodeDistances, distance_scale
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel, OracleMotion
+from ppaloc.localise.params import (
+    GAMMAS,
+    FilterParams,
+    frame_statistics,
+    likelihood_shift,
+    transition_costs,
+)
 from ppaloc.topomap import TopoMap, build_topomap
 
 __all__ = [
@@ -43,11 +61,7 @@ __all__ = [
     "suggest_alpha",
 ]
 
-GAMMAS = (0.0, 0.125, 0.25, 0.5, 1.0)
-"""Adjustment factors a PPA applies by halving (docs/ppa8.md)."""
-
 _REPRESENTATIONS = ("lowres", "lbp")
-_MOTIONS = ("image", "always_forward", "oracle")
 _ARITHMETICS = ("float", "ppa8")
 _W_MIN, _W_MAX = -127.0, 127.0  # the weight clip of the ``add`` macro (docs/ppa8.md)
 _T_MIN, _T_MAX = -128.0, 127.0  # any other register write
@@ -217,37 +231,86 @@ def _check_int(name: str, value: Any, low: int, high: int | None = None) -> int:
     return int(value)
 
 
+def make_motion_model(params: FilterParams, oracle_moves: Any = None) -> MotionModel:
+    """The motion model ``params.motion`` names, with its parameters."""
+    if params.motion == "oracle":
+        if oracle_moves is None:
+            raise PpalocError("motion='oracle' needs oracle_moves= (e.g. the dataset's query_moved)")
+        return OracleMotion(oracle_moves)
+    if params.motion == "always_forward":
+        return AlwaysForward()
+    return ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
+
+
+def keyframe_test(params: FilterParams):
+    """``keep(frame) -> bool`` for :func:`ppaloc.topomap.build_topomap`, or None.
+
+    With ``params.keyframes`` a reference frame starts a new node when the image motion
+    test says forward from the previous reference frame (the same test, with the same
+    parameters, as the query's); a stop in the reference becomes one node.
+    """
+    if not params.keyframes:
+        return None
+    motion = ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
+    return motion.step
+
+
+def _read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
+    """The per-node integers the controller reads to scale the likelihood (docs/ppa8.md).
+
+    LBP: ``mu = 2h``, exact. Low-res ``ppa8``: the ADC code of ``-mu/2`` (the halving
+    tree's result, ``code = floor(128.5 - mu/2)``) read back as ``2 (128 - code)``.
+    Low-res ``float``: ``mu`` itself.
+    """
+    if kind == "lbp":
+        return raw.astype(np.int64) * 2
+    if exact:  # raw = T, mu = T / 2**17, mu / 2 = T / 2**18
+        code = (257 * 2**17 - raw.astype(np.int64)) >> 18
+        return 2 * (128 - code)
+    return raw.astype(np.float64) / 128.0
+
+
 class WeightedNodeLocaliser:
-    """The paper's weighted-node filter over a 1-D topological map (Algorithm 1).
+    """The weighted-node filter over a 1-D topological map: robust (default) or the paper's.
 
     Parameters
     ----------
     representation : {"lowres", "lbp"}
         Node kind: 8x8 low-res images compared by mean absolute difference, or 32-bit LBP
         descriptors compared by Hamming distance.
+    preset : {"robust", "paper"}
+        ``"robust"`` (default): the max-product filter of docs/localise.md ("The robust
+        filter"), which absorbs motion-test errors, stops and speed changes. ``"paper"``:
+        Algorithm 1 of the paper, exactly (forward-or-stay shift, ``alpha``, ``gamma``).
+    gain, memory, stay_cost, move_cost, skip_cost, max_advance : int, optional
+        The robust filter's parameters (:class:`ppaloc.localise.params.FilterParams`):
+        per-frame likelihood span (4), floor below the best weight (127), transition
+        costs (4, 4, 4) and the most nodes one frame may advance (2).
+    keyframes : bool, optional
+        One node per distinct place (a reference frame starts a node when the motion
+        test says forward). Default: on for the robust preset with the image motion
+        model, off otherwise.
     alpha : int or float, optional
-        Likelihood at which a node neither gains nor loses weight. None (default) takes
-        :func:`suggest_alpha` of the map when it is built or loaded (0 for a map of fewer
-        than 3 nodes). Must be an integer in [-128, 127] for ``arithmetic="ppa8"``.
-    gamma : float
-        Adjustment factor, one of 0, 1/8, 1/4, 1/2, 1 (default 1/2): every ``k`` frames
-        ``gamma * max(W)`` is taken off every weight, so the best weight stays away from the
-        saturation bound and ties at 127 are rare.
-    k : int
-        Frames between adjustments (default 1: every frame, so the best weight settles at
-        ``(alpha - mu_true) / gamma`` whatever alpha is, and alpha's choice is forgiving).
+        Paper: likelihood at which a node neither gains nor loses weight. None (default)
+        takes :func:`suggest_alpha` of the map when it is built or loaded (0 for a map of
+        fewer than 3 nodes). Must be an integer in [-128, 127] for ``arithmetic="ppa8"``.
+    gamma : float, optional
+        Paper: adjustment factor, one of 0, 1/8, 1/4, 1/2, 1 (default 1/2).
+    k : int, optional
+        Paper: frames between adjustments (default 1).
     shift : int, optional
-        Likelihood scale ``mu_s = mu * 2**-shift``. Default (None): 2 for low-res (``mu``
-        in [0, 127]) and 1 for LBP (``mu`` in [0, 64]), so one frame's term spans 0-32
-        units in both and a weight needs several consistent frames to cross the 254-unit
-        range (the filter's memory).
+        Paper: likelihood scale ``mu_s = mu * 2**-shift``. Default: 2 for low-res, 1 for
+        LBP, so one frame's term spans 0-32 units in both.
+    advance : (int, int), optional
+        Paper: nodes a forward move may advance, ``(lo, hi)`` (default ``(1, 1)``, the
+        paper's one-node shift); host only. See docs/localise.md.
     motion : {"image", "always_forward", "oracle"}
         Motion model (default ``"image"``, see :mod:`ppaloc.localise.motion`).
     arithmetic : {"float", "ppa8"}
         ``"float"``: float32 weights clipped to [-127, 127], ties only between equal
-        weights, ``gamma * max(W)`` unrounded, the live low-res image quantised like a node
-        (uint8 SAD, the fast path). ``"ppa8"``: the register arithmetic of docs/ppa8.md,
-        exactly (the live frame's exact block means, integer threshold and DAC constants).
+        weights, the live low-res image quantised like a node (uint8 SAD, the fast path).
+        ``"ppa8"``: the register arithmetic of docs/ppa8.md, exactly (the live frame's
+        exact block means, integer thresholds and DAC constants).
     confidence_radius : int
         ``R`` of the confidence score (default 10 nodes): the best weight minus the best
         weight outside nodes ``node - R .. node + R``.
@@ -257,14 +320,6 @@ class WeightedNodeLocaliser:
         Put a copy of the weights (map order, after the frame) in every Estimate.
     oracle_moves : sequence of bool, optional
         Ground-truth moves for ``motion="oracle"`` (a dataset's ``query_moved``).
-    advance : (int, int)
-        Nodes a forward move may advance, ``(lo, hi)``: on forward
-        ``w_i := max(w_{i-lo}, ..., w_{i-hi})`` (indices below 0 read 0). Default
-        ``(1, 1)``: the paper's one-node shift, right for frame-synchronised routes.
-        ``(0, 2)`` lets each weight stay or advance one or two nodes, for routes where
-        the speed varies (one frame covers 0.8-1.2 places on the default synthetic route,
-        0.35-1.65 with ``speed_var=0.65``); host only (not in the ppa8 contract), and it
-        hurts frame-synchronised routes: see docs/localise.md for the measured effect.
     motion_margin, motion_shift, motion_min_support : int
         Parameters of the image motion model (:class:`ImageMotion`).
 
@@ -272,7 +327,7 @@ class WeightedNodeLocaliser:
     --------
     >>> rng = np.random.default_rng(0)
     >>> frames = rng.integers(0, 256, (6, 256, 256), dtype=np.uint8)
-    >>> loc = WeightedNodeLocaliser("lbp", motion="always_forward", alpha=8)
+    >>> loc = WeightedNodeLocaliser("lbp", motion="always_forward")
     >>> _ = loc.build_map(frames)
     >>> [loc.step(f).node for f in frames[2:5]]
     [2, 3, 4]
@@ -282,17 +337,25 @@ class WeightedNodeLocaliser:
         self,
         representation: str = "lowres",
         *,
+        preset: str = "robust",
+        gain: int | None = None,
+        memory: int | None = None,
+        stay_cost: int | None = None,
+        move_cost: int | None = None,
+        skip_cost: int | None = None,
+        max_advance: int | None = None,
+        keyframes: bool | None = None,
         alpha: float | None = None,
-        gamma: float = 0.5,
-        k: int = 1,
+        gamma: float | None = None,
+        k: int | None = None,
         shift: int | None = None,
+        advance: tuple[int, int] | None = None,
         motion: str = "image",
         arithmetic: str = "float",
         confidence_radius: int = 10,
         ranking_k: int = 10,
         record_weights: bool = False,
         oracle_moves: Sequence[bool] | np.ndarray | None = None,
-        advance: tuple[int, int] = (1, 1),
         motion_margin: int = 3,
         motion_shift: int = 6,
         motion_min_support: int = 1024,
@@ -303,43 +366,47 @@ class WeightedNodeLocaliser:
             )
         if arithmetic not in _ARITHMETICS:
             raise PpalocError(f"arithmetic={arithmetic!r} is not one of {', '.join(_ARITHMETICS)}")
-        if motion not in _MOTIONS:
-            raise PpalocError(f"motion={motion!r} is not one of {', '.join(_MOTIONS)}")
-        if gamma not in GAMMAS:
-            raise PpalocError(
-                f"gamma={gamma!r} must be one of {GAMMAS} (a PPA scales only by halving)"
-            )
-        self.k = _check_int("k", k, 1)
-        if shift is None and representation in DEFAULT_SHIFT:
-            shift = DEFAULT_SHIFT[representation]
-        self.shift = _check_int("shift", shift, 0, 16)
-        self.confidence_radius = _check_int("confidence_radius", confidence_radius, 0)
+        given = {
+            "gain": gain,
+            "memory": memory,
+            "stay_cost": stay_cost,
+            "move_cost": move_cost,
+            "skip_cost": skip_cost,
+            "max_advance": max_advance,
+            "keyframes": keyframes,
+            "alpha": alpha,
+            "gamma": gamma,
+            "k": k,
+            "shift": shift,
+            "advance": advance,
+        }
+        self.params = FilterParams.create(
+            representation,
+            preset=preset,
+            arithmetic=arithmetic,
+            motion=motion,
+            confidence_radius=confidence_radius,
+            motion_margin=motion_margin,
+            motion_shift=motion_shift,
+            motion_min_support=motion_min_support,
+            **{key: v for key, v in given.items() if v is not None},
+        )
+        p = self.params
         self.ranking_k = _check_int("ranking_k", ranking_k, 0)
-        lo, hi = advance
-        if not (0 <= _check_int("advance[0]", lo, 0) <= _check_int("advance[1]", hi, 1)):
-            raise PpalocError(f"advance={advance!r} must be (lo, hi) with 0 <= lo <= hi, hi >= 1")
-        self.advance = (int(lo), int(hi))
-        if alpha is not None:
-            if arithmetic == "ppa8":
-                alpha = _check_int("alpha", alpha, -128, 127)  # a DAC constant
-            elif not math.isfinite(float(alpha)):
-                raise PpalocError(f"alpha={alpha!r} must be a finite number")
-        if motion == "oracle":
-            if oracle_moves is None:
-                raise PpalocError(
-                    "motion='oracle' needs oracle_moves= (e.g. the dataset's query_moved)"
-                )
-            self._motion: MotionModel = OracleMotion(oracle_moves)
-        elif motion == "always_forward":
-            self._motion = AlwaysForward()
-        else:
-            self._motion = ImageMotion(motion_margin, motion_shift, motion_min_support)
+        self._motion = make_motion_model(p, oracle_moves)
         self.representation = representation
         self.arithmetic = arithmetic
-        self.motion = motion
-        self.gamma = float(gamma)
-        self.alpha_given = alpha
-        self.alpha: float | None = alpha
+        self.preset = p.preset
+        self.motion = p.motion
+        self.confidence_radius = p.confidence_radius
+        self.robust = p.preset == "robust"
+        if self.robust:
+            self.gamma, self.k, self.shift, self.advance = 0.0, 1, 0, (1, 1)
+        else:
+            self.gamma, self.k, self.shift = float(p.gamma), int(p.k), int(p.shift)
+            self.advance = p.advance
+        self.alpha_given = p.alpha
+        self.alpha: float | None = p.alpha
         self.record_weights = bool(record_weights)
         self.name = f"weighted-node-{representation}"
         self._exact = arithmetic == "ppa8"
@@ -347,15 +414,20 @@ class WeightedNodeLocaliser:
         self.topomap: TopoMap | None = None
         self._distances: NodeDistances | None = None
         self._w = np.zeros(0, self._dtype)
+        self.last_shift: int | None = None
 
     # -- map -------------------------------------------------------------------------------
 
     def build_map(self, frames: Iterable[np.ndarray]) -> TopoMap:
-        """Build the map from a reference traversal (one node per sensor frame) and use it."""
+        """Build the map from a reference traversal and use it.
+
+        One node per frame, or with ``keyframes`` one per distinct place
+        (:func:`keyframe_test`); ``TopoMap.frame_index`` keeps each node's first frame.
+        """
         frames = list(frames)
         if not frames:
             raise PpalocError("the reference traversal is empty: a map needs at least one frame")
-        topomap = build_topomap(frames, self.representation)
+        topomap = build_topomap(frames, self.representation, keep=keyframe_test(self.params))
         self.use_map(topomap)
         return topomap
 
@@ -371,10 +443,14 @@ class WeightedNodeLocaliser:
             raise PpalocError("the map has no nodes")
         self._distances = NodeDistances(self.representation, topomap.descriptors, exact=self._exact)
         self.topomap = topomap
-        if self.alpha_given is None:
+        if self.robust:
+            self.alpha = None  # chosen per frame from the frame's own distances
+        elif self.alpha_given is None:
             self.alpha = float(suggest_alpha(topomap, self.shift)) if len(topomap) >= 3 else 0.0
         self._w = np.zeros(len(topomap), self._dtype)
         self._term = np.empty(len(topomap), self._dtype)
+        self._pred = np.empty(len(topomap), self._dtype)
+        self._moved_copy = np.empty(len(topomap), self._dtype)
         self.reset()
 
     # -- per query ---------------------------------------------------------------------------
@@ -396,14 +472,25 @@ class WeightedNodeLocaliser:
         self._require_map()
         self._frames += 1
         moved = self._motion.step(frame)
-        if moved:
-            self._forward()
-        term = self._likelihood_term(frame)
-        top = self._add_in_map_order(term)
+        if self.robust:
+            first = self._frames == 1
+            if not first:
+                self._transition(transition_costs(moved, self.params))
+            # a frame the motion test calls still repeats the last one: no new evidence
+            if first or moved:
+                top = self._add_in_map_order(self._robust_term(frame))
+            else:
+                top = float(self._w.max())
+        else:
+            if moved:
+                self._forward()
+            top = self._add_in_map_order(self._likelihood_term(frame))
         node, top = self._detect(top)
         score = self._confidence(node)
         ranking = self._ranking(node) if self.ranking_k else None
-        if self._frames % self.k == 0 and self.gamma:
+        if self.robust:
+            self._normalise(top)
+        elif self._frames % self.k == 0 and self.gamma:
             self._adjust(top)
         weights = self.weights() if self.record_weights else None
         self._prev = node
@@ -438,6 +525,60 @@ class WeightedNodeLocaliser:
             np.maximum(w[1:], w[:-1], out=w[1:])  # numpy buffers the overlap
             w[0] = max(float(w[0]), last)
             w[first] = max(head, 0.0)  # node 0's predecessor is the edge
+
+    def _transition(self, costs: tuple[int, ...]) -> None:
+        """Robust: ``w_i := clip(max_d (w_{i-d} - c_d))``; nodes before node 0 read the floor.
+
+        The weights of the robust filter are kept in map order (offset 0): the max over
+        shifted copies moves every weight anyway.
+        """
+        w, pred, tmp = self._w, self._pred, self._moved_copy
+        floor = -float(self.params.memory)
+        np.subtract(w, self._dtype(costs[0]), out=pred)
+        for d, cost in enumerate(costs[1:], start=1):
+            if d >= len(w):
+                break
+            np.subtract(w[:-d], self._dtype(cost), out=tmp[d:])
+            np.maximum(pred[d:], tmp[d:], out=pred[d:])
+            np.maximum(pred[:d], self._dtype(floor - cost), out=pred[:d])
+        w[:] = pred
+        _clip(w, _W_MIN, _W_MAX)  # every candidate is a register write (the add macro)
+
+    def _robust_term(self, frame: np.ndarray) -> np.ndarray:
+        """Robust: ``alpha_t - mu * 2**-s_t`` per node, scaled from the frame's distances.
+
+        ``best`` and ``mean`` of the frame's distances to all nodes (what the controller
+        reads back from the array, :func:`_read_values`) give ``s_t =
+        likelihood_shift(mean - best, gain)`` and ``alpha_t = best * 2**-s_t`` (floored
+        to an integer in ppa8), so the best node gains about 0 and the mean node loses
+        about ``gain``, whatever the season, light or contrast.
+        """
+        raw, term = self._distances(frame), self._term
+        values = _read_values(self.representation, raw, self._exact)
+        if self._exact:
+            best, mean = frame_statistics(values)
+        else:
+            best, mean = float(values.min()), float(values.mean())
+        s = likelihood_shift(mean - best, self.params.gain)
+        self.last_shift = s
+        alpha = (best >> s) if self._exact else best * 2.0**-s
+        np.multiply(raw, self._dtype(-distance_scale(self.representation, s, self._exact)), out=term)
+        term += self._dtype(alpha)
+        if self._exact:
+            _clip(term, _T_MIN, _T_MAX)
+        return term
+
+    def _normalise(self, top: float) -> None:
+        """Robust: ``w := max(clip(w - T), -memory)``, ``T`` the detection threshold.
+
+        The best weight returns to [0, 1) every frame (no saturation at the top, so no
+        ties there), and every hypothesis stays within ``memory`` of it, so a wrong lock
+        is overturned by about ``memory / gain`` frames of better evidence.
+        """
+        w = self._w
+        w -= self._dtype(top)
+        _clip(w, _W_MIN, _W_MAX)
+        np.maximum(w, self._dtype(-self.params.memory), out=w)
 
     def _likelihood_term(self, frame: np.ndarray) -> np.ndarray:
         """``alpha - mu_s`` per node, in map order (clipped to a register in ppa8)."""

@@ -51,6 +51,7 @@ def build_topomap(
     kind: str,
     *,
     keyframe_threshold: float | None = None,
+    keep: Callable[[np.ndarray], bool] | None = None,
     positions: np.ndarray | None = None,
     dataset: str | None = None,
     progress: Callable[[int, int | None], None] | None = None,
@@ -72,6 +73,11 @@ def build_topomap(
         threshold: for ``"lowres"`` the mean absolute difference per cell in grey levels
         (SAD / 64), for ``"lbp"`` the Hamming distance in bits. 0 drops only exact repeats
         (e.g. a vehicle standing still in a static scene).
+    keep : callable, optional
+        Another keyframe rule: ``keep(sensor_frame)`` is called on every frame in order
+        and a frame after the first becomes a node only when it returns True (the
+        weighted-node filter passes its motion test: a new node when the camera moved
+        on). Cannot be combined with ``keyframe_threshold``.
     positions : ndarray, shape (n_frames, D) or (n_frames,), optional
         Per-frame route positions; the nodes keep those of their frames.
     dataset : str, optional
@@ -84,7 +90,7 @@ def build_topomap(
     -------
     TopoMap
         ``frame_index`` holds each node's source frame; ``params`` holds ``kind``,
-        ``keyframe_threshold``, ``keyframe_units`` and ``n_frames``.
+        ``keyframe_threshold``, ``keyframe_units``, ``keyframes`` and ``n_frames``.
 
     Examples
     --------
@@ -98,16 +104,20 @@ def build_topomap(
     describe_sensor = _describer(kind)
     if keyframe_threshold is not None and not keyframe_threshold >= 0:
         raise ValueError(f"keyframe_threshold={keyframe_threshold!r} must be >= 0 or None")
+    if keyframe_threshold is not None and keep is not None:
+        raise ValueError("give keyframe_threshold or keep, not both")
     total = len(frames) if hasattr(frames, "__len__") else None  # type: ignore[arg-type]
     descriptors: list[np.ndarray] = []
     kept: list[int] = []
     n_frames = 0
     for i, frame in enumerate(frames):
-        d = describe_sensor(to_sensor(frame))
-        if (
-            keyframe_threshold is None
-            or not descriptors
-            or _change(kind, d, descriptors[-1]) > keyframe_threshold
+        sensor = to_sensor(frame)
+        d = describe_sensor(sensor)
+        moved_on = True if keep is None else bool(keep(sensor))
+        if not descriptors or (
+            moved_on
+            if keyframe_threshold is None
+            else _change(kind, d, descriptors[-1]) > keyframe_threshold
         ):
             descriptors.append(d)
             kept.append(i)
@@ -125,6 +135,7 @@ def build_topomap(
     params: dict[str, Any] = {
         "kind": kind,
         "keyframe_threshold": keyframe_threshold,
+        "keyframes": "motion test" if keep is not None else None,
         "keyframe_units": None if keyframe_threshold is None else KEYFRAME_UNITS[kind],
         "n_frames": n_frames,
     }

@@ -93,6 +93,34 @@ class TopoMap:
     def __len__(self) -> int:
         return len(self.descriptors)
 
+    def frame_spans(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(first, end)``: node ``j`` stands for reference frames ``first[j] <= f < end[j]``.
+
+        A keyframe map's node covers the frames up to the next node's frame (a stop in
+        the reference is one node); the last node runs to ``params["n_frames"]`` where
+        the map records it, else to its own frame + 1. Evaluation carries the ground
+        truth from frames to nodes with these spans.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> m = TopoMap("lbp", np.zeros(3, np.uint32), frame_index=[0, 1, 5], params={"n_frames": 8})
+        >>> [a.tolist() for a in m.frame_spans()]
+        [[0, 1, 5], [1, 5, 8]]
+        """
+        first = self.frame_index
+        if len(first) == 0:
+            return first.copy(), first.copy()
+        n_frames = self.params.get("n_frames") if isinstance(self.params, dict) else None
+        last_end = first[-1] + 1
+        if isinstance(n_frames, int) and not isinstance(n_frames, bool) and n_frames > first[-1]:
+            last_end = n_frames
+        end = np.empty_like(first)
+        end[:-1] = first[1:]
+        end[-1] = last_end
+        np.maximum(end, first + 1, out=end)  # a map whose frames are not increasing
+        return first.copy(), end
+
     @property
     def layout(self) -> SnakeLayout | None:
         """The snake layout of this kind on a 256x256 array (None for kinds without one)."""
