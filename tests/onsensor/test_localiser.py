@@ -31,7 +31,8 @@ def _route(n: int, seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])
 def test_estimates_and_weights_equal_the_host_ppa8_filter(rep):
     ref, query = _route(16, seed=1)
-    kw = {"motion": "image", "alpha": 10, "shift": 2, "k": 3, "record_weights": True}
+    kw = {"preset": "paper", "motion": "image", "alpha": 10, "shift": 2, "k": 3}
+    kw["record_weights"] = True
     host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
     topomap = host.build_map(ref)
     sensor = OnSensorLocaliser(rep, **kw)
@@ -48,9 +49,13 @@ def test_estimates_and_weights_equal_the_host_ppa8_filter(rep):
     assert b[0].ranking is None
 
 
-def test_protocol_registry_and_rebuild():
-    loc = make_localiser("onsensor-lbp", motion="always_forward", alpha=6)
+@pytest.mark.parametrize(
+    ("method", "preset"), [("onsensor-lbp", "robust"), ("onsensor-paper-lbp", "paper")]
+)
+def test_protocol_registry_and_rebuild(method, preset):
+    loc = make_localiser(method, motion="always_forward")
     assert isinstance(loc, Localiser) and loc.name == "onsensor-lbp"
+    assert loc.preset == preset == loc.params.preset
     ref, query = _route(6, seed=2)
     topomap = loc.build_map(ref)
     assert topomap.kind == "lbp" and len(topomap) == 6
@@ -74,9 +79,13 @@ def test_noise_is_seeded():
     [
         ({"noise": "loud"}, "noise='loud' is not one of"),
         ({"arithmetic": "float"}, "use arithmetic='ppa8'"),
-        ({"gamma": 0.3}, "gamma=0.3 must be one of"),
-        ({"alpha": 2.5}, "alpha=2.5 must be an integer"),
-        ({"advance": (0, 2)}, "advance=\\(0, 2\\)"),
+        ({"preset": "paper", "gamma": 0.3}, "gamma=0.3 must be one of"),
+        ({"preset": "paper", "alpha": 2.5}, "alpha=2.5 must be an integer"),
+        ({"preset": "paper", "advance": (0, 2)}, "advance=\\(0, 2\\): the sensor shifts"),
+        ({"alpha": 4}, "alpha=4 is a parameter of preset 'paper'"),
+        ({"gain": 0}, "gain=0 must be in \\[1, 32\\]"),
+        ({"max_advance": 4}, "max_advance=4 must be in \\[1, 3\\]"),
+        ({"preset": "fast"}, "preset='fast' is not one of"),
         ({"colour": 1}, "unexpected keyword argument 'colour'"),
     ],
 )
@@ -108,7 +117,7 @@ def test_figures_are_written(tmp_path, rep):
     )
 
     ref, query = _route(5, seed=5)
-    loc = OnSensorLocaliser(rep, motion="always_forward", alpha=8, record_weights=True)
+    loc = OnSensorLocaliser(rep, motion="always_forward", record_weights=True)
     loc.build_map(ref)
     paths = [
         database_figure(loc, tmp_path / "db.png", scale=1),
@@ -135,7 +144,7 @@ def test_mapping_on_the_sensor_gives_the_host_nodes(rep):
     ref.append(np.full((256, 256), 255, np.uint8))
     ramp = np.tile(np.arange(256, dtype=np.uint8), (256, 1))
     ref.append(ramp)
-    sensor = OnSensorLocaliser(rep, motion="always_forward", alpha=4)
+    sensor = OnSensorLocaliser(rep, motion="always_forward")
     got = sensor.build_map(ref)
     want = build_topomap(ref, rep)
     np.testing.assert_array_equal(got.descriptors, want.descriptors)
@@ -148,6 +157,7 @@ def test_oracle_motion_and_other_scales_agree_with_the_host(shift, gamma):
     ref, query = _route(14, seed=8)
     moves = [False, True, True, True, False, False] + [True] * (len(query) - 6)
     kw = {"motion": "oracle", "oracle_moves": moves, "alpha": 6, "shift": shift, "gamma": gamma}
+    kw["preset"] = "paper"
     host = WeightedNodeLocaliser("lowres", arithmetic="ppa8", **kw)
     sensor = OnSensorLocaliser("lowres", **kw)
     sensor.use_map(host.build_map(ref))
@@ -158,7 +168,7 @@ def test_oracle_motion_and_other_scales_agree_with_the_host(shift, gamma):
 
 @pytest.mark.parametrize(("rep", "tile"), [("lowres", "A: map tile 0"), ("lbp", "R10: map tile 0")])
 def test_register_planes_name_their_roles_and_hold_the_map(rep, tile):
-    loc = OnSensorLocaliser(rep, motion="always_forward", alpha=6)
+    loc = OnSensorLocaliser(rep, motion="always_forward")
     assert loc.register_planes() == {}
     ref, query = _route(6, seed=3)
     loc.build_map(ref)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ppaloc.localise.params import FilterParams
 from ppaloc.onsensor.mapping import row_runs, upload_map
 from ppaloc.onsensor.pipeline import (
     LbpPipeline,
     LowresPipeline,
-    PipelineParams,
     SensorPipeline,
     class_rows,
     make_pipeline,
@@ -20,7 +20,9 @@ from ppaloc.sim import NEWS, A, B, C, D, E, F, Scamp5, east, north, south, west
 from ppaloc.topomap import TopoMap
 
 SIZE = 64
-PARAMS = PipelineParams(alpha=4, gamma=0.5, k=4, shift=2, motion="always_forward")
+PARAMS = FilterParams.create(
+    "lowres", preset="paper", arithmetic="ppa8", alpha=4, k=4, shift=2, motion="always_forward"
+)
 
 
 def _pipe(rep: str = "lowres", n: int = 40) -> SensorPipeline:
@@ -159,7 +161,8 @@ def test_descriptor_equals_the_host_lbp_of_the_central_grid():
 
 
 def test_motion_counts_are_exact():
-    pipe = make_pipeline("lowres", 10, PipelineParams(4, 0.5, 4, 2, "image", margin=3), size=SIZE)
+    params = FilterParams.create("lowres", preset="paper", alpha=4, k=4, motion_margin=3)
+    pipe = make_pipeline("lowres", 10, params, size=SIZE)
     rng = np.random.default_rng(5)
     plane = rng.random((SIZE, SIZE)) < 0.3
     pipe.sim.write(pipe.dr.tmp_b, plane)

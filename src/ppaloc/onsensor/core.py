@@ -9,6 +9,17 @@ representation (the live frame's comparison with the map, the node description o
 mapping run) and the register roles are given by the subclasses
 :class:`ppaloc.onsensor.lowres.LowresPipeline` and :class:`ppaloc.onsensor.lbp.LbpPipeline`;
 the register table is in :mod:`ppaloc.onsensor.pipeline` and docs/onsensor.md.
+
+The pipeline reads the filter's one parameters object,
+:class:`ppaloc.localise.params.FilterParams`, and calls the host's decision functions
+(:func:`~ppaloc.localise.params.transition_costs`,
+:func:`~ppaloc.localise.params.likelihood_shift`,
+:func:`~ppaloc.localise.params.frame_statistics`,
+:func:`~ppaloc.localise.motion.forward_decision`,
+:func:`~ppaloc.localise.weighted.choose_candidate`), so both presets of docs/ppa8.md run
+on the sensor with the host's contract: ``"paper"`` (Algorithm 1: motion, shift,
+likelihood, detection, adjustment) and ``"robust"`` (motion, transition, likelihood with a
+per-frame scale on forward frames, detection, normalisation).
 """
 
 from __future__ import annotations
@@ -22,6 +33,12 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.motion import forward_decision
+from ppaloc.localise.params import (
+    FilterParams,
+    frame_statistics,
+    likelihood_shift,
+    transition_costs,
+)
 from ppaloc.localise.weighted import choose_candidate
 from ppaloc.onsensor.program import (
     KernelCache,
@@ -57,9 +74,9 @@ from ppaloc.topomap import SnakeLayout, layout_for
 __all__ = [
     "EVENT_SLOTS",
     "GRID",
+    "SHIFTED",
     "WEIGHTS",
     "DRegs",
-    "PipelineParams",
     "SensorPipeline",
     "class_rows",
     "mask_bits",
@@ -72,6 +89,12 @@ EVENT_SLOTS = 32
 #: The weight register (both representations; tile t at block PE (0, t)).
 WEIGHTS = C
 _W = WEIGHTS
+#: Robust transition: the shifted copy of the weights (``S``, moved one node along the
+#: snake per step; its row 1 of the top block row parks the edge and tile-carry values).
+SHIFTED = E
+#: Robust transition: the scratch copy of the snake shift, then the candidate
+#: ``clip(S - c_d)`` (also the floor constant of the normalisation).
+_X = D
 
 
 @dataclass(frozen=True)
@@ -101,21 +124,6 @@ class DRegs:
         return {reg: tuple(r) for reg, r in roles.items() if len(r) > 1}
 
 
-@dataclass(frozen=True)
-class PipelineParams:
-    """The filter parameters the pipeline needs (the host's, docs/ppa8.md)."""
-
-    alpha: int
-    gamma: float
-    k: int
-    shift: int
-    motion: str
-    margin: int = 3
-    motion_shift: int = 6
-    min_support: int = 1024
-    confidence_radius: int = 10
-
-
 def class_rows(n: int, block: int) -> np.ndarray:
     """Indices ``r < n`` with ``r % 8 == r // block``: where class ``r % 8`` starts its copy."""
     r = np.arange(n)
@@ -137,7 +145,12 @@ class SensorPipeline(ABC):
     ----------
     n_nodes : int
         Nodes of the map (tiles follow from the layout's capacity).
-    params : PipelineParams
+    params : FilterParams
+        The filter's parameters (``preset``, motion test, costs, ...), the host's object.
+    alpha : int, optional
+        Paper preset: the likelihood offset, a DAC constant (the localiser sets the map's
+        :func:`~ppaloc.localise.weighted.suggest_alpha` when ``params.alpha`` is None).
+        Default ``params.alpha``. Unused by the robust preset (``alpha_t`` per frame).
     noise : str or NoiseParams
         Noise preset (or parameters) of the simulator.
     seed : int
@@ -160,6 +173,9 @@ class SensorPipeline(ABC):
     spread_means : bool
         Whether the block means are always spread over their blocks (``F = -m``);
         otherwise only for the image motion model.
+    last_shift, last_alpha : int or None
+        Robust preset: the likelihood shift ``s`` and offset ``alpha_t`` of the last frame
+        that added a likelihood (None before one).
     """
 
     representation: ClassVar[str]
@@ -172,32 +188,65 @@ class SensorPipeline(ABC):
     def __init__(
         self,
         n_nodes: int,
-        params: PipelineParams,
+        params: FilterParams,
         *,
+        alpha: int | None = None,
         noise: str | NoiseParams = "ideal",
         seed: int = 0,
         size: int = 256,
     ) -> None:
         if size % 64 or size < 64:
             raise PpalocError(f"array size {size} must be a multiple of 64 (8x8 grid of blocks)")
+        if not isinstance(params, FilterParams):
+            raise PpalocError(
+                f"params must be a ppaloc.localise.params.FilterParams, got {type(params).__name__}"
+            )
         representation = self.representation
         self.params = params
+        self.robust = params.preset == "robust"
+        if alpha is None:
+            alpha = params.alpha
+        self.alpha: int | None = None if alpha is None else int(alpha)
         self.size = size
         self.block = size // GRID  # pixels per grid block side (32 on a 256 array)
         self.layout: SnakeLayout = layout_for(representation, (size, size))
         self.bh, self.bw = self.layout.block_shape
         self.n_nodes = int(n_nodes)
-        self.tiles = self.layout.n_tiles(self.n_nodes)
-        if self.tiles > 2:
-            raise PpalocError(
-                f"a {representation} map of {n_nodes} nodes needs {self.tiles} tiles; one "
-                f"simulated sensor holds at most 2 ({2 * self.layout.capacity} nodes): "
-                "split the route"
-            )
+        self.tiles = self._tiles_for(self.n_nodes)
         self.sim = Scamp5(size, size, noise=noise, seed=seed)
         self.kc = KernelCache(self.sim)
         self._setup_static_masks()
+        self._node_grid()
         self.reset()
+
+    def _tiles_for(self, n_nodes: int) -> int:
+        tiles = self.layout.n_tiles(n_nodes)
+        if tiles > 2:
+            raise PpalocError(
+                f"a {self.representation} map of {n_nodes} nodes needs {tiles} tiles; one "
+                f"simulated sensor holds at most 2 ({2 * self.layout.capacity} nodes): "
+                "split the route"
+            )
+        return tiles
+
+    def set_nodes(self, n_nodes: int) -> None:
+        """Hold a map of ``n_nodes`` nodes from now on (after a keyframe mapping run).
+
+        Recomputes the tiles and the valid roots (stage ``"setup"``) on the same sensor.
+        """
+        self.tiles = self._tiles_for(int(n_nodes))
+        self.n_nodes = int(n_nodes)
+        with self.sim.stage("setup"):
+            self._valid_roots()
+        self._node_grid()
+
+    def _node_grid(self) -> None:
+        """Per tile: the nodes it holds and their block (row, col) in a root readout."""
+        nodes = np.arange(self.n_nodes)
+        tile, br, bc = self.layout.node_to_block(nodes)
+        self._tile_nodes = [
+            (nodes[tile == t], br[tile == t], bc[tile == t]) for t in range(self.tiles)
+        ]
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -267,6 +316,8 @@ class SensorPipeline(ABC):
         self.prev: int | None = None
         self.have_prev_planes = False
         self.last_counts: tuple[int, int] | None = None
+        self.last_shift: int | None = None
+        self.last_alpha: int | None = None
 
     # ------------------------------------------------------------------ stages
     def capture(self, frame: np.ndarray) -> None:
@@ -285,11 +336,12 @@ class SensorPipeline(ABC):
             bits = mask_bits(self.block)
             sim.load_pattern(dr.root32, 0, 0, bits, bits)
 
-    def block_means(self) -> None:
+    def block_means(self, spread: bool | None = None) -> None:
         """``F := -m``: every PE holds minus the exact mean of its grid block of ``v``.
 
         A halving tree leaves each block's mean at its top-left PE (``D``); a doubling
-        tree over a zero background spreads it back over the block.
+        tree over a zero background spreads it back over the block. ``spread``: whether
+        to spread (default: when the representation or the image motion model needs it).
         """
         dr, root_means = self.dr, self.root_means
         levels = []
@@ -306,7 +358,7 @@ class SensorPipeline(ABC):
             if root_means is not None:
                 k.bus(root_means, D)  # +m at the block roots (e.g. for the descriptor)
 
-        def spread(k):
+        def spread_kernel(k):
             k.res(F)
             k.WHERE(dr.root32)
             k.mov(F, D)
@@ -317,20 +369,31 @@ class SensorPipeline(ABC):
 
         with self.sim.stage("reduce"):
             self._run("reduce", reduce)
-            if self.spread_means or self.params.motion == "image":
-                self._run("spread", spread)
+            if spread is None:
+                spread = self.spread_means or self.params.motion == "image"
+            if spread:
+                self._run("spread", spread_kernel)
 
     def motion(self) -> bool:
         """Forward or stay (docs/ppa8.md item 1); updates the previous planes."""
-        p, sim, dr = self.params, self.sim, self.dr
+        p = self.params
         first = self.frames == 1
         if p.motion == "always_forward":
             return not first
         if p.motion != "image":
-            raise AssertionError(p.motion)
+            raise AssertionError(f"motion={p.motion!r}: the controller decides (step(moved=...))")
+        return self.image_motion()
+
+    def image_motion(self) -> bool:
+        """The image motion test on the captured frame (after the spread block means).
+
+        The first call after :meth:`reset` only keeps the planes (stay). Used per query
+        frame by the image model and per reference frame by the keyframe mapping run.
+        """
+        p, sim, dr = self.params, self.sim, self.dr
         with sim.stage("motion"):
             self._run("motion_diff", lambda k: k.add(D, E, F))  # D = v - m
-            sim.scamp5_in(E, -p.margin)
+            sim.scamp5_in(E, -p.motion_margin)
 
             def planes(k):
                 k.where(D, E)
@@ -359,7 +422,9 @@ class SensorPipeline(ABC):
             changed = self._count(dr.tmp_b, "changed")
             support = self._count(dr.tmp_a, "support")
         self.last_counts = (changed, support)
-        return forward_decision(changed, support, shift=p.motion_shift, min_support=p.min_support)
+        return forward_decision(
+            changed, support, shift=p.motion_shift, min_support=p.motion_min_support
+        )
 
     def _keep_planes(self, k) -> None:
         dr = self.dr
@@ -429,10 +494,197 @@ class SensorPipeline(ABC):
                 sim.load_point(dr.cand, 0, n - bw + 1)
                 self._run("w_carry", lambda k: (k.WHERE(dr.cand), k.bus(_W, E), k.all()))
 
+    # --------------------------------------------------------------- robust transition
+    def _snake_masks(self) -> None:
+        """``tmp_b`` := the row starts, ``cand`` / ``tmp_a`` := the other roots of the even /
+        odd block rows (both tiles): the FLAG masks of a snake shift."""
+        sim, dr = self.sim, self.dr
+        bh, bw, n = self.bh, self.bw, self.size
+        tcx = 1 if self.tiles > 1 else 0
+        rx = mask_bits(2 * bh)
+        sim.load_pattern(dr.tmp_a, 0, n - bw, rx, tcx)  # even row starts (east end)
+        sim.load_pattern(dr.cand, bh, 0, rx, tcx)  # odd row starts (west end)
+        self._run("w_starts", lambda k: k.OR(dr.tmp_b, dr.cand, dr.tmp_a))
+        self._root_pattern(dr.cand, None, row_mod=1)
+        self._root_pattern(dr.tmp_a, None, row_mod=2)
+        self._run("sn_inner", lambda k: (k.CLR_IF(dr.cand, dr.tmp_b), k.CLR_IF(dr.tmp_a, dr.tmp_b)))
+
+    def _park(self, reg: Register, scratch: Register, edge: int, steps: int) -> None:
+        """Park what enters the snake's starts during ``steps`` shifts of ``reg``.
+
+        Row 1 of the top block row holds no root, so it is storage: at the tile-0 column
+        of the first ``steps`` blocks it gets the edge value (``edge``, the DAC), and with
+        two tiles, at the tile-1 column of block ``k - 1`` (counting from the top-right),
+        ``reg`` of tile 0's ``k``-th last node (one ``scamp5_shift`` of a copy: 1 + 247
+        steps on a 256 array). :meth:`_snake_step` then moves the right one into the two
+        node-0 roots.
+        """
+        sim, dr = self.sim, self.dr
+        n, bh = self.size, self.bh
+        assert (n // bh) % 2 == 0  # the last block row runs east: tile 0 ends bottom right
+        if self.tiles > 1:
+            self._run(f"park_copy_{reg.name}", lambda k: k.bus(scratch, reg))
+            # scratch[1, c] = -reg[n - bh, c - 1]: tile 0's last block row, one column east
+            sim.shift(scratch, 1, n - bh - 1)
+            sim.load_pattern(dr.pattern, 1, 0, 0, 0xFF)  # row 1
+            self._run(
+                f"park_carry_{reg.name}",
+                lambda k: (k.WHERE(dr.pattern), k.bus(reg, scratch), k.all()),
+            )
+        sim.load_pattern(dr.pattern, 1, 0, 0, mask_bits(self.bw))  # row 1, tile-0 columns
+        self._run("where_pattern", lambda k: k.WHERE(dr.pattern))
+        sim.scamp5_in(reg, edge)
+        self._run("all", lambda k: k.all())
+        # the node-0 roots of the tiles, which every step writes from the parked row
+        if self.tiles > 1:
+            sim.load_pattern(dr.pattern, 0, n - self.bw, 0, 1)
+        else:
+            sim.load_point(dr.pattern, 0, n - self.bw)
+
+    def _snake_step(self, reg: Register, scratch: Register, step: int) -> None:
+        """``reg_i := reg_{i-1}`` at every node root along the snake (tiles continue).
+
+        After :meth:`_snake_masks` and :meth:`_park`; ``step`` counts the shifts from 1.
+        As :meth:`shift_weights` (FLAG-masked ``scamp5_shift`` inside the block rows, the
+        row starts from a copy shifted one block row south), but with one scratch
+        register: node 0 of each tile takes the value parked for this step in row 1.
+        """
+        sim, dr = self.sim, self.dr
+        bh, bw = self.bh, self.bw
+        self._run(f"sn_copy_{reg.name}", lambda k: k.bus(scratch, reg))
+        for mask, pull_from in ((dr.cand, east), (dr.tmp_a, west)):
+            self._run(f"where_{mask.name}", lambda k, mask=mask: k.WHERE(mask))
+            pull_shift(sim, reg, pull_from, bw)
+        self._run("all", lambda k: k.all())
+        pull_shift(sim, scratch, north, bh)  # scratch[r, c] = -reg[r - bh, c]
+
+        def starts(k):
+            k.WHERE(dr.tmp_b)
+            k.bus(reg, scratch)
+            k.all()
+            pull(k, scratch, reg, south, 1)  # the parked row, one row up
+            if step > 1:
+                pull(k, scratch, scratch, west, (step - 1) * bw)  # from block step - 1
+            k.WHERE(dr.pattern)
+            k.mov(reg, scratch)
+            k.all()
+
+        self._run(f"sn_starts_{reg.name}_{step}", starts)
+
+    def _minus_cost(self, dst: Register, src: Register, cost: int) -> None:
+        """``dst := clip(src - cost, -127, 127)`` (the ``add`` macro; DAC steps of <= 128)."""
+        first = min(cost, 128)
+        self.sim.load_in(-first)
+        self._run(f"cost_{dst.name}_{src.name}", lambda k: k.add(dst, src, IN))
+        if cost > 128:  # only beyond the DAC: clip(clip(x - a) - b) = clip(x - a - b), a, b >= 0
+            self.sim.load_in(first - cost)
+            self._run(f"cost_{dst.name}_{dst.name}", lambda k: k.add(dst, dst, IN))
+
+    def transition(self, costs: tuple[int, ...]) -> None:
+        """Robust: ``w_i := clip(max over d of (w_{i-d} - c_d))``; before node 0: ``-memory``.
+
+        docs/ppa8.md (robust preset, item 2). ``S`` (:data:`SHIFTED`) starts as a copy of
+        the weights and moves one node along the snake per ``d`` (:meth:`_snake_step`,
+        the edge and the tile carry parked first, :meth:`_park`); each candidate
+        ``clip(S - c_d)`` is one ``add`` with ``-c_d`` from the DAC (a register write:
+        clipped to [-127, 127], as the host clips), and the maximum is taken in place by
+        ``where(X - W)`` + ``mov``. As on the host, advances of ``d >= N`` nodes are left
+        out (they would read only the edge).
+        """
+        sim, s, x = self.sim, SHIFTED, _X
+        steps = min(len(costs) - 1, self.n_nodes - 1)
+        with sim.stage("transition"):
+            if steps:
+                self._snake_masks()
+                self._run("tr_copy", lambda k: k.mov(s, _W))  # S := W
+                self._park(s, x, -int(self.params.memory), steps)
+            if costs[0]:
+                self._minus_cost(_W, _W, int(costs[0]))
+            for d in range(1, steps + 1):
+                self._snake_step(s, x, d)
+                cand = s
+                if costs[d]:
+                    self._minus_cost(x, s, int(costs[d]))
+                    cand = x
+
+                def take_max(k, cand=cand):
+                    k.bus(NEWS, _W)
+                    k.where(cand, NEWS)  # FLAG = candidate > w
+                    k.mov(_W, cand)
+                    k.all()
+
+                self._run(f"tr_max_{cand.name}", take_max)
+
+    # --------------------------------------------------------------- robust likelihood
+    def compare_robust(self) -> None:
+        """Robust: read every node's distance, scale it for this frame, add it.
+
+        docs/ppa8.md (robust preset, item 3). Stage ``"scale"``: per tile the distance
+        tree (:meth:`_tree`) leaves each node's value at its block's top-left PE and
+        ``scan_areg`` reads them (the ADC codes give the integers ``r_i`` exactly,
+        :meth:`_values`); the controller computes ``(b, m) = frame_statistics(r)``,
+        ``s = likelihood_shift(m - b, gain)`` and ``alpha_t = b >> s``. Stage
+        ``"compare"``: ``w += alpha_t - mu 2**-s`` per tile (kernels per shift value,
+        recorded once); the last tile's values are still in ``D``, the others are
+        recomputed (the working planes cannot hold two tiles' trees).
+        """
+        sim = self.sim
+        values = np.empty(self.n_nodes, np.int64)
+        with sim.stage("scale"):
+            for t in range(self.tiles):
+                self._tree_calls(t)
+                self._run(f"tree_{t}", lambda k, t=t: self._tree(k, t))
+                nodes, br, bc = self._tile_nodes[t]
+                last_row = int(br.max()) * self.bh
+                codes = sim.scan_areg(D, 0, 0, last_row, self.size - 1, self.bh, self.bw)
+                values[nodes] = self._values(codes[br, bc].astype(np.int64))
+            best, mean = frame_statistics(values)
+            s = likelihood_shift(mean - best, int(self.params.gain))
+            alpha = best >> s
+        self.last_shift, self.last_alpha = s, alpha
+        sign, exponent = self.value_scale
+        with sim.stage("compare"):
+            for t in reversed(range(self.tiles)):
+                last = t == self.tiles - 1
+                if not last:
+                    self._tree_calls(t)
+                self._root_pattern(self.dr.pattern, t)
+                sim.load_in(alpha)
+
+                def build(k, t=t, last=last):
+                    if not last:
+                        self._tree(k, t)
+                    self._update(k, D, E, sign, exponent - s, t)
+
+                self._run(f"{'update' if last else 'tree_update'}_{t}_s{s}", build)
+
+    # --------------------------------------------------------------- robust normalisation
+    def normalise(self, top: int) -> None:
+        """Robust: ``w := max(clip(w - T, -127, 127), -memory)`` (docs/ppa8.md item 5).
+
+        ``-memory`` into ``D`` and ``-T`` into ``IN`` through the DAC; one kernel: the
+        ``add`` (clip [-127, 127], as the host), then ``where(-memory - w)`` and a ``mov``
+        of the floor.
+        """
+        sim = self.sim
+        with sim.stage("normalise"):
+            sim.scamp5_in(D, -int(self.params.memory))
+            sim.load_in(-int(top))
+
+            def build(k):
+                k.add(_W, _W, IN)
+                k.bus(NEWS, _W)
+                k.where(D, NEWS)  # FLAG = w < -memory
+                k.mov(_W, D)
+                k.all()
+
+            self._run("normalise", build)
+
     def _update(self, k, x: Register, y: Register, sign: int, exponent: int, tile: int) -> None:
         """``w += alpha - base 2**exponent`` at tile ``tile``'s roots (``x = sign base``).
 
-        ``alpha`` is in ``IN`` (``load_in``); the roots are in ``pattern``. One ``add`` of
+        ``alpha`` is in ``IN`` (``load_in``: the paper's ``alpha`` or the robust
+        ``alpha_t``); the roots are in ``pattern``. One ``add`` of
         three sources: ``NEWS = -(w + alpha - mu_s)`` saturates, then ``w = -NEWS``, so
         ``w`` is clipped to [-127, 127] (docs/ppa8.md).
         """
@@ -600,13 +852,65 @@ class SensorPipeline(ABC):
             self.block_means()
             return self._describe()
 
+    def map_keyframes(self, frames: list[np.ndarray]) -> tuple[list[np.ndarray | int], list[int]]:
+        """The keyframe mapping run: ``(nodes, kept)`` over a reference traversal.
+
+        Every frame is captured, reduced and put through the sensor's own image motion
+        stage (:meth:`image_motion`, between consecutive reference frames); a frame
+        becomes a node when it says forward, the first frame always (docs/ppa8.md, "The
+        map"; the host's :func:`ppaloc.localise.weighted.keyframe_test`). Only kept
+        frames are described. All charged to the stage ``"mapping"``; the motion planes
+        are forgotten at the end.
+        """
+        nodes: list[np.ndarray | int] = []
+        kept: list[int] = []
+        self.have_prev_planes = False
+        for i, frame in enumerate(frames):
+            with self.sim.stage("mapping"):
+                self.capture(frame)
+                self.block_means(spread=True)
+                moved = self.image_motion()
+                if moved or not kept:
+                    nodes.append(self._describe())
+                    kept.append(i)
+        self.have_prev_planes = False
+        self.last_counts = None
+        return nodes, kept
+
     @abstractmethod
     def _describe(self) -> np.ndarray | int:
         """The node description of the captured frame (after :meth:`block_means`)."""
 
     @abstractmethod
+    def prepare_live(self) -> None:
+        """Put the captured frame where the comparison reads it (after the motion stage)."""
+
+    @abstractmethod
+    def compare_paper(self) -> None:
+        """Paper: ``w += alpha - mu * 2**-shift`` at every node (one kernel per tile)."""
+
+    @abstractmethod
+    def _tree(self, k, tile: int) -> None:
+        """Kernel body: every node's distance of tile ``tile`` at its block's top-left PE
+        of ``D``, as ``value_scale[0] * mu * 2**-value_scale[1]``."""
+
+    def _tree_calls(self, tile: int) -> None:  # noqa: B027 - an optional hook
+        """Controller calls the tree kernel of ``tile`` needs first (e.g. a DAC constant)."""
+
+    @abstractmethod
+    def _values(self, codes: np.ndarray) -> np.ndarray:
+        """The integers ``r_i`` of docs/ppa8.md from the ADC codes of the tree's roots."""
+
+    #: ``(sign, exponent)``: the tree leaves ``sign * mu * 2**-exponent`` in ``D``.
+    value_scale: ClassVar[tuple[int, int]]
+
     def compare(self) -> None:
         """Add every node's likelihood term for the captured frame to the weights."""
+        self.prepare_live()
+        if self.robust:
+            self.compare_robust()
+        else:
+            self.compare_paper()
 
     def _live_planes(self) -> dict[str, np.ndarray]:
         """Representation-specific planes of :meth:`register_planes` (after the weights)."""
@@ -624,12 +928,21 @@ class SensorPipeline(ABC):
         self.block_means()
         if moved is None:
             moved = self.motion()
-        if moved:
-            self.shift_weights()
-        self.compare()
+        if self.robust:
+            first = self.frames == 1
+            if not first:
+                self.transition(transition_costs(bool(moved), self.params))
+            if first or moved:  # a still frame repeats the last one: no new evidence
+                self.compare()
+        else:
+            if moved:
+                self.shift_weights()
+            self.compare()
         node, top = self.detect()
         score = self.confidence(node, top)
-        if self.frames % self.params.k == 0 and self.params.gamma:
+        if self.robust:
+            self.normalise(top)
+        elif self.frames % self.params.k == 0 and self.params.gamma:
             self.adjust(top)
         self.prev = node
         return node, score, bool(moved), top

@@ -9,6 +9,8 @@ every 4x8 block and compared by XOR, its bits counted per block by an adding tre
 
 from __future__ import annotations
 
+import numpy as np
+
 from ppaloc.onsensor.core import DRegs, SensorPipeline, mask_bits
 from ppaloc.onsensor.program import add_level
 from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, B, D, E, east, south
@@ -69,11 +71,37 @@ class LbpPipeline(SensorPipeline):
         """The live descriptor of :meth:`descriptor`."""
         return self.descriptor()
 
-    def compare(self) -> None:
-        """Compute and read the live descriptor, replicate it, then :meth:`compare_lbp`."""
+    #: The tree leaves ``mu = 2h`` at each node root.
+    value_scale = (1, 0)
+
+    def prepare_live(self) -> None:
+        """Compute and read the live descriptor and replicate it (:data:`DESCRIPTOR`)."""
         code = self.last_code = self.descriptor()
         self.load_descriptor(code)
+
+    def compare_paper(self) -> None:
+        """Paper: :meth:`compare_lbp`."""
         self.compare_lbp()
+
+    def _tree_calls(self, tile: int) -> None:
+        """``E := 2`` (the DAC constant loaded per differing bit)."""
+        self.sim.scamp5_in(E, 2)  # 2 per differing bit: the sum is mu = 2h, <= 64
+
+    def _tree(self, k, tile: int) -> None:
+        """``D = 2h = mu`` at each node root, ``h`` the differing bits (``E = 2`` first)."""
+        k.XOR(self.dr.cand, DESCRIPTOR, self.db[tile])
+        k.res(D)
+        k.WHERE(self.dr.cand)
+        k.mov(D, E)
+        k.all()
+        for step in (1, 2, 4):
+            add_level(k, D, E, east, step)
+        for step in (1, 2):
+            add_level(k, D, E, south, step)
+
+    def _values(self, codes: np.ndarray) -> np.ndarray:
+        """``r = code - 128 = mu = 2h`` (exact: ``mu`` is an integer)."""
+        return codes - 128
 
     def descriptor(self) -> int:
         """The live frame's 32-bit LBP code: compared on the array, read bit by bit.
@@ -124,20 +152,12 @@ class LbpPipeline(SensorPipeline):
         sim, dr, p = self.sim, self.dr, self.params
         with sim.stage("compare"):
             for t in range(self.tiles):
-                sim.scamp5_in(E, 2)  # 2 per differing bit: the sum is mu = 2h, <= 64
+                self._tree_calls(t)
                 self._root_pattern(dr.pattern, t)
-                sim.load_in(p.alpha)
+                sim.load_in(self.alpha)
 
                 def build(k, t=t):
-                    k.XOR(dr.cand, DESCRIPTOR, self.db[t])
-                    k.res(D)
-                    k.WHERE(dr.cand)
-                    k.mov(D, E)
-                    k.all()
-                    for step in (1, 2, 4):
-                        add_level(k, D, E, east, step)
-                    for step in (1, 2):
-                        add_level(k, D, E, south, step)
+                    self._tree(k, t)
                     # D = 2h = mu; mu_s = mu 2**-s
                     self._update(k, D, E, 1, -p.shift, t)
 

@@ -10,7 +10,6 @@ docs/onsensor.md); with a noise preset they show what the analogue array does to
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Iterable
 from typing import Any
 
@@ -18,12 +17,13 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
-from ppaloc.localise.motion import ImageMotion, OracleMotion
+from ppaloc.localise.motion import OracleMotion
+from ppaloc.localise.params import FilterParams
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor.mapping import upload_map
-from ppaloc.onsensor.pipeline import PipelineParams, SensorPipeline, make_pipeline
+from ppaloc.onsensor.pipeline import SensorPipeline, make_pipeline
 from ppaloc.sim import NoiseParams
-from ppaloc.topomap import TopoMap
+from ppaloc.topomap import TopoMap, layout_for
 
 __all__ = ["NOISE_PRESETS", "OnSensorLocaliser"]
 
@@ -31,7 +31,11 @@ NOISE_PRESETS = ("ideal", "low", "typical", "high")
 
 
 class OnSensorLocaliser:
-    """The paper's system on a simulated SCAMP-5: map in registers, filter as PPA programs.
+    """The weighted-node filter on a simulated SCAMP-5: map in registers, PPA programs.
+
+    Both presets of the host filter run on the sensor: ``preset="robust"`` (the default:
+    transition over stay/+1/+2 nodes with motion-evidence costs, per-frame likelihood
+    scale, normalisation and floor, keyframe maps) and ``preset="paper"`` (Algorithm 1).
 
     Parameters
     ----------
@@ -51,10 +55,13 @@ class OnSensorLocaliser:
         Array side, 256 as on SCAMP-5 (smaller arrays are for tests of the stages).
     **filter_params
         The filter's parameters, with the defaults and checks of
-        :class:`ppaloc.localise.weighted.WeightedNodeLocaliser`: ``alpha``, ``gamma``,
-        ``k``, ``shift``, ``motion``, ``confidence_radius``, ``oracle_moves``,
-        ``motion_margin``, ``motion_shift``, ``motion_min_support``; ``ranking_k`` is
-        accepted but the sensor reports no ranking; ``advance`` must be (1, 1).
+        :class:`ppaloc.localise.weighted.WeightedNodeLocaliser` (one
+        :class:`ppaloc.localise.params.FilterParams`, :attr:`params`): ``preset``,
+        ``motion``, ``motion_margin``, ``motion_shift``, ``motion_min_support``,
+        ``confidence_radius``, ``keyframes``, ``oracle_moves``; robust ``gain``,
+        ``memory``, ``stay_cost``, ``move_cost``, ``skip_cost``, ``max_advance``; paper
+        ``alpha``, ``gamma``, ``k``, ``shift``, ``advance`` (must be (1, 1)).
+        ``ranking_k`` is accepted but the sensor reports no ranking.
 
     Notes
     -----
@@ -85,25 +92,29 @@ class OnSensorLocaliser:
                 f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "
                 "use arithmetic='ppa8' (or the host WeightedNodeLocaliser for 'float')"
             )
-        if tuple(filter_params.get("advance", (1, 1))) != (1, 1):
-            raise PpalocError(
-                f"advance={filter_params['advance']!r}: the sensor shifts weights by exactly "
-                "one node per forward move (the paper's motion model); use advance=(1, 1)"
-            )
-        # The host filter validates every shared parameter (with the same defaults) and
-        # chooses alpha from the map; the sensor reads its settings from it.
+        # The host filter validates every parameter (with the same defaults) and chooses
+        # the paper's alpha from the map; the sensor reads the host's FilterParams.
         try:
             self._host = WeightedNodeLocaliser(representation, arithmetic="ppa8", **filter_params)
         except TypeError as exc:
             raise PpalocError(f"OnSensorLocaliser: {exc}") from exc
-        if self._host.shift > 8:
-            raise PpalocError(f"shift={self._host.shift} is too large for the sensor; use 0..8")
+        self.params: FilterParams = self._host.params
+        p = self.params
+        if p.preset == "paper":
+            if p.advance != (1, 1):
+                raise PpalocError(
+                    f"advance={p.advance!r}: the sensor shifts weights by exactly one node "
+                    "per forward move (the paper's motion model); use advance=(1, 1)"
+                )
+            if p.shift > 8:
+                raise PpalocError(f"shift={p.shift} is too large for the sensor; use 0..8")
+        self.preset = p.preset
         self.representation = representation
         self.noise = noise
         self.seed = int(seed)
         self.size = int(size)
         self.record_weights = bool(record_weights)
-        self.motion = self._host.motion
+        self.motion = p.motion
         # the oracle's moves are the controller's input; the host has checked them
         moves = filter_params.get("oracle_moves")
         self._oracle = OracleMotion(moves) if self.motion == "oracle" else None
@@ -113,34 +124,53 @@ class OnSensorLocaliser:
 
     @property
     def alpha(self) -> float | None:
-        """The likelihood offset in use (chosen from the map when not given)."""
+        """Paper: the likelihood offset in use (chosen from the map when not given).
+
+        None for the robust preset (``alpha_t`` is chosen per frame: the pipeline's
+        ``last_alpha``).
+        """
         return self._host.alpha
 
     # -- map ---------------------------------------------------------------------------
     def build_map(self, frames: Iterable[np.ndarray]) -> TopoMap:
-        """Map a reference traversal on the sensor (one node per frame) and write the map.
+        """Map a reference traversal on the sensor and write the map into its registers.
 
         Every frame is captured and described by the sensor itself
         (:meth:`SensorPipeline.sense_node`: the block means read through the ADC, or the
         descriptor compared on the array), so with noise the map carries the same
-        fixed-pattern errors as the queries; in ideal mode the nodes equal
-        :func:`ppaloc.topomap.build_topomap`'s. The nodes are then written into the
-        database registers (:func:`ppaloc.onsensor.mapping.upload_map`).
+        fixed-pattern errors as the queries. One node per frame, or with ``keyframes``
+        (the robust default with the image motion model) one per distinct place: the
+        sensor's own motion stage runs over consecutive reference frames and a frame
+        starts a node when it says forward (:meth:`SensorPipeline.map_keyframes`);
+        ``frame_index`` holds the kept frames and ``params["n_frames"]`` the frame
+        count. In ideal mode the kept frames and nodes equal the host's ``build_map``.
+        The nodes are then written into the database registers
+        (:func:`ppaloc.onsensor.mapping.upload_map`).
         """
         frames = list(frames)
         if not frames:
             raise PpalocError("the reference traversal is empty: a map needs at least one frame")
         for frame in frames:
             self._check_frame(frame)
-        pipe = self._new_pipeline(len(frames))
-        nodes = [pipe.sense_node(np.asarray(f)) for f in frames]
+        frames = [np.asarray(f) for f in frames]
+        if self.params.keyframes:
+            most = 2 * layout_for(self.representation, (self.size, self.size)).capacity
+            pipe = self._new_pipeline(min(len(frames), most))
+            nodes, kept = pipe.map_keyframes(frames)
+            pipe.set_nodes(len(kept))  # raises if the kept nodes need more than 2 tiles
+        else:
+            pipe = self._new_pipeline(len(frames))
+            nodes = [pipe.sense_node(f) for f in frames]
+            kept = list(range(len(frames)))
         dtype = np.uint32 if self.representation == "lbp" else np.uint8
         topomap = TopoMap(
             self.representation,
             np.asarray(nodes, dtype=dtype),
+            frame_index=np.asarray(kept, dtype=np.int64),
             params={
                 "kind": self.representation,
                 "keyframe_threshold": None,
+                "keyframes": "motion test" if self.params.keyframes else None,
                 "keyframe_units": None,
                 "n_frames": len(frames),
                 "mapped_on": f"simulated SCAMP-5, noise={self._noise_name()}",
@@ -159,36 +189,21 @@ class OnSensorLocaliser:
         return self.noise if isinstance(self.noise, str) else "custom"
 
     def _new_pipeline(self, n_nodes: int) -> SensorPipeline:
-        h = self._host
-        # the oracle's decisions come from the controller: the array runs always_forward
-        motion: dict[str, Any] = {"motion": "always_forward"}
-        if isinstance(m := h.motion_model, ImageMotion):
-            motion = {
-                "motion": "image",
-                "margin": m.margin,
-                "motion_shift": m.shift,
-                "min_support": m.min_support,
-            }
-        params = PipelineParams(
-            alpha=0,  # set in _install, once the map is known
-            gamma=h.gamma,
-            k=h.k,
-            shift=h.shift,
-            confidence_radius=h.confidence_radius,
-            **motion,
-        )
+        # the oracle's decisions come from the controller (step(moved=...)); the paper's
+        # alpha is set in _install, once the map is known
         return make_pipeline(
             self.representation,
             n_nodes,
-            params,
+            self.params,
             noise=self.noise,
             seed=self.seed,
             size=self.size,
         )
 
     def _install(self, topomap: TopoMap, pipe: SensorPipeline) -> None:
-        self._host.use_map(topomap)  # checks the map and chooses alpha from it
-        pipe.params = dataclasses.replace(pipe.params, alpha=int(self._host.alpha))
+        self._host.use_map(topomap)  # checks the map and chooses the paper's alpha from it
+        if self._host.alpha is not None:
+            pipe.alpha = int(self._host.alpha)
         upload_map(pipe, topomap)
         self.pipeline = pipe
         self.topomap = topomap

@@ -94,10 +94,29 @@ class LowresPipeline(SensorPipeline):
         self._run("sense_lowres", build)
         return sim.scan_areg_mean_8x8(NEWS)
 
-    def compare(self) -> None:
-        """Replicate the live grid over every node block, then :meth:`compare_lowres`."""
+    #: The tree leaves ``-mu / 2`` at each node root.
+    value_scale = (-1, 1)
+
+    def prepare_live(self) -> None:
+        """Replicate the live grid over every node block (:meth:`replicate`)."""
         self.replicate()
+
+    def compare_paper(self) -> None:
+        """Paper: :meth:`compare_lowres`."""
         self.compare_lowres()
+
+    def _tree(self, k, tile: int) -> None:
+        """``D = -(mu / 2)`` at each node root, ``mu`` the mean of ``min(|f - n|, 127)``."""
+        k.add(D, F, self.db[tile])  # n - f
+        k.abs(E, D)  # min(|f - n|, 127)
+        k.bus2(D, NEWS, E)  # D = -|f - n| / 2
+        for direction in (east, south):
+            for step in (1, 2, 4):
+                halve_level(k, D, E, direction, step)
+
+    def _values(self, codes: np.ndarray) -> np.ndarray:
+        """``r = 2 (128 - code)``: the ADC code of ``-mu/2`` read back (docs/ppa8.md)."""
+        return 2 * (128 - codes)
 
     def _live_planes(self) -> dict[str, np.ndarray]:
         return {"F: live 8x8 grid, replicated (negated)": self.sim.read(F)}
@@ -154,21 +173,15 @@ class LowresPipeline(SensorPipeline):
             self._run(f"{name}_{int(last)}", acc_step)
 
     def compare_lowres(self) -> None:
-        """Per tile: ``w += alpha - mu_s`` with ``mu`` the mean of ``min(|f - n|, 127)``."""
+        """Paper, per tile: ``w += alpha - mu_s`` with ``mu`` the mean of ``min(|f - n|, 127)``."""
         sim, dr, p = self.sim, self.dr, self.params
         with sim.stage("compare"):
             for t in range(self.tiles):
-                db = self.db[t]
                 self._root_pattern(dr.pattern, t)
-                sim.load_in(p.alpha)
+                sim.load_in(self.alpha)
 
-                def build(k, db=db, t=t):
-                    k.add(D, F, db)  # n - f
-                    k.abs(E, D)  # min(|f - n|, 127)
-                    k.bus2(D, NEWS, E)  # D = -|f - n| / 2
-                    for direction in (east, south):
-                        for step in (1, 2, 4):
-                            halve_level(k, D, E, direction, step)
+                def build(k, t=t):
+                    self._tree(k, t)
                     # D = -(mu / 2); mu_s = (mu / 2) * 2**(1 - s)
                     self._update(k, D, E, -1, 1 - p.shift, t)
 

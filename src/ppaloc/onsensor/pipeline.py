@@ -1,12 +1,15 @@
-"""The paper's per-frame pipeline as PPA programs: kernels on the array plus controller calls.
+"""The weighted-node filter's per-frame pipeline as PPA programs: kernels plus controller calls.
 
-A pipeline owns one simulated SCAMP-5 holding a map. :func:`make_pipeline` builds the
-one of a place representation by name. Modules:
+A pipeline owns one simulated SCAMP-5 holding a map and runs either preset of the filter
+(``FilterParams.preset``: ``"robust"`` or ``"paper"``, docs/ppa8.md).
+:func:`make_pipeline` builds the one of a place representation by name. Modules:
 
 =====================================  ==================================================
 :mod:`ppaloc.onsensor.core`            :class:`SensorPipeline`: capture, block means,
-                                       motion, weight shift, detection, confidence,
-                                       adjustment, reset, inspection
+                                       motion, weight shift (paper), transition, scale
+                                       readout and normalisation (robust), detection,
+                                       confidence, adjustment (paper), keyframe
+                                       mapping, reset, inspection
 :mod:`ppaloc.onsensor.lowres`          :class:`LowresPipeline`: replication, SAD
                                        comparison, ``sense_node`` of 8x8 images
 :mod:`ppaloc.onsensor.lbp`             :class:`LbpPipeline`: descriptor on the array,
@@ -22,7 +25,9 @@ register     lowres                                     lbp
 ===========  =========================================  ==================================
 A, B         database tile 0, tile 1 (``n = q/2 - 64``)  free, block-root means (B)
 C            weights (tile t at block PE (0, t))        weights
-D, E, F      working planes                             working planes
+D, E, F      working planes (robust transition: E the   same (F free after the motion
+             shifted weights, D scratch; F keeps the    stage)
+             block means for the replication)
 R1, R2       replication class masks (rows, cols)       32x32 block roots, valid node roots
 R3, R4       32x32 block roots, valid node roots        frame descriptor, pattern temp
 R5-R8        motion planes U, D, previous U, D          same
@@ -37,7 +42,8 @@ and lbp R3/R4 are the descriptor and its temp as well as ``tmp_b``/``tmp_a``.
 from __future__ import annotations
 
 from ppaloc.errors import PpalocError
-from ppaloc.onsensor.core import DRegs, PipelineParams, SensorPipeline, class_rows
+from ppaloc.localise.params import FilterParams
+from ppaloc.onsensor.core import DRegs, SensorPipeline, class_rows
 from ppaloc.onsensor.lbp import LbpPipeline
 from ppaloc.onsensor.lowres import LowresPipeline
 from ppaloc.sim import NoiseParams
@@ -47,7 +53,6 @@ __all__ = [
     "DRegs",
     "LbpPipeline",
     "LowresPipeline",
-    "PipelineParams",
     "SensorPipeline",
     "class_rows",
     "make_pipeline",
@@ -63,8 +68,9 @@ PIPELINES: dict[str, type[SensorPipeline]] = {
 def make_pipeline(
     representation: str,
     n_nodes: int,
-    params: PipelineParams,
+    params: FilterParams,
     *,
+    alpha: int | None = None,
     noise: str | NoiseParams = "ideal",
     seed: int = 0,
     size: int = 256,
@@ -76,7 +82,10 @@ def make_pipeline(
     representation : {"lowres", "lbp"}
     n_nodes : int
         Nodes of the map.
-    params : PipelineParams
+    params : FilterParams
+        The filter's parameters (the host's object, :class:`FilterParams`).
+    alpha : int, optional
+        Paper preset: the likelihood offset (default ``params.alpha``).
     noise : str or NoiseParams
         Noise preset (or parameters) of the simulator.
     seed : int
@@ -91,7 +100,7 @@ def make_pipeline(
 
     Examples
     --------
-    >>> p = PipelineParams(alpha=4, gamma=0.5, k=4, shift=2, motion="always_forward")
+    >>> p = FilterParams.create("lbp", motion="always_forward")
     >>> type(make_pipeline("lbp", 4, p, size=64)).__name__
     'LbpPipeline'
     """
@@ -102,4 +111,4 @@ def make_pipeline(
             f"no on-sensor pipeline for representation {representation!r}; known: "
             f"{', '.join(PIPELINES)}"
         ) from None
-    return cls(n_nodes, params, noise=noise, seed=seed, size=size)
+    return cls(n_nodes, params, alpha=alpha, noise=noise, seed=seed, size=size)

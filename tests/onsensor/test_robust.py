@@ -1,0 +1,198 @@
+"""The robust preset on the sensor: its stages against numpy, and agreement with the host.
+
+The stage tests run on a 64x64 array (two tiles hold 70+ nodes there); the agreement tests
+run the full 256x256 pipeline on short synthetic routes against
+``WeightedNodeLocaliser(arithmetic="ppa8")`` with the same parameters: node estimates,
+motion decisions, kept keyframes, weights (float32 registers: to 1e-4) and scores (the
+sensor's integer ``T - T_out``, docs/onsensor.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ppaloc.datasets import to_sensor
+from ppaloc.datasets.registry import load_dataset
+from ppaloc.localise.params import FilterParams, transition_costs
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.onsensor import OnSensorLocaliser
+from ppaloc.onsensor.pipeline import make_pipeline
+from ppaloc.sim import C, F
+
+SIZE = 64
+SYNTHETIC = "synthetic:?places=60&query=winter&seed=2"
+WITH_STOPS = "synthetic:?places=60&query=winter&seed=2&stops=2"
+
+
+def _pipe(rep: str, n: int, **values):
+    params = FilterParams.create(rep, arithmetic="ppa8", motion="always_forward", **values)
+    return make_pipeline(rep, n, params, size=SIZE)
+
+
+def _put_weights(pipe, values: np.ndarray, fill: float = 99.0) -> None:
+    """Weights at the node roots, ``fill`` at every other PE (which must not matter)."""
+    t, br, bc = pipe.layout.node_to_block(np.arange(pipe.n_nodes))
+    w = np.full((SIZE, SIZE), fill, np.float32)
+    w[br * pipe.bh, bc * pipe.bw + t] = values
+    pipe.sim.write(C, w)
+
+
+def _transition_reference(w: np.ndarray, costs, memory: int) -> np.ndarray:
+    """``clip(max_d (w_{i-d} - c_d))`` with ``-memory`` before node 0, advances < N."""
+    n = len(w)
+    best = w - costs[0]
+    for d in range(1, min(len(costs), n)):
+        shifted = np.r_[np.full(d, -float(memory)), w[:-d]]
+        best = np.maximum(best, np.clip(shifted - costs[d], -127, 127))
+    return np.clip(best, -127, 127)
+
+
+@pytest.mark.parametrize(
+    ("rep", "n"), [("lowres", 40), ("lowres", 100), ("lbp", 100), ("lbp", 200), ("lbp", 2)]
+)
+@pytest.mark.parametrize(
+    ("costs", "memory"), [((4, 0, 4), 127), ((0, 4, 8), 20), ((5, 3, 130, 200), 64), ((0, 0), 8)]
+)
+def test_transition_is_the_max_over_shifted_copies_along_the_snake(rep, n, costs, memory):
+    pipe = _pipe(rep, n, memory=memory)
+    assert pipe.tiles == (2 if n > pipe.layout.capacity else 1)
+    rng = np.random.default_rng(n + len(costs))
+    w = (rng.integers(-127 * 64, 127 * 64, n) / 64).astype(np.float32)
+    w[:3] = (127, -127, 126.5)[: min(n, 3)]
+    _put_weights(pipe, w)
+    pipe.transition(costs)
+    np.testing.assert_array_equal(pipe.weights(), _transition_reference(w, costs, memory))
+    assert "transition" in [s.name for s in pipe.timing.report().stages]
+
+
+def test_transition_costs_come_from_the_host_decision():
+    params = FilterParams.create("lbp", stay_cost=5, move_cost=3, skip_cost=2, max_advance=3)
+    pipe = make_pipeline("lbp", 90, params, size=SIZE)
+    w = np.linspace(-100, 0, 90).astype(np.float32)
+    for moved in (True, False):
+        _put_weights(pipe, w)
+        costs = transition_costs(moved, params)
+        pipe.transition(costs)
+        np.testing.assert_array_equal(pipe.weights(), _transition_reference(w, costs, 127))
+
+
+@pytest.mark.parametrize("memory", [8, 127])
+def test_normalise_subtracts_the_threshold_and_floors(memory):
+    pipe = _pipe("lowres", 100, memory=memory)
+    rng = np.random.default_rng(memory)
+    w = (rng.integers(-127 * 8, 127 * 8, 100) / 8).astype(np.float32)
+    for top in (int(np.floor(w.max())), -127, 127):
+        _put_weights(pipe, w)
+        pipe.normalise(top)
+        want = np.maximum(np.clip(w.astype(np.float64) - top, -127, 127), -memory)
+        np.testing.assert_array_equal(pipe.weights(), want)
+
+
+def test_robust_stages_leave_the_means_of_the_replication_alone():
+    pipe = _pipe("lowres", 100)
+    pipe.sim.write(F, np.full((SIZE, SIZE), 5.5, np.float32))
+    _put_weights(pipe, np.zeros(100, np.float32))
+    pipe.transition((4, 0, 4))
+    assert (pipe.sim.read(F) == 5.5).all()
+
+
+# ------------------------------------------------------------------ agreement, full size
+@pytest.fixture(scope="module")
+def routes():
+    out = {}
+    for spec in (SYNTHETIC, WITH_STOPS):
+        ds = load_dataset(spec)
+        out[spec] = ([to_sensor(f) for f in ds.reference], [to_sensor(f) for f in ds.query])
+    return out
+
+
+def _agree(rep: str, ref, query, **kw) -> tuple[WeightedNodeLocaliser, OnSensorLocaliser]:
+    """Both filters map ``ref`` themselves and localise ``query``; assert they agree."""
+    host = WeightedNodeLocaliser(rep, arithmetic="ppa8", record_weights=True, **kw)
+    sensor = OnSensorLocaliser(rep, record_weights=True, **kw)
+    want, got = host.build_map(ref), sensor.build_map(ref)
+    np.testing.assert_array_equal(got.frame_index, want.frame_index)
+    np.testing.assert_array_equal(got.descriptors, want.descriptors)
+    assert got.params["n_frames"] == want.params["n_frames"] == len(ref)
+    a, b = host.localise(query), sensor.localise(query)
+    assert [e.node for e in b] == [e.node for e in a]
+    assert [e.moved for e in b] == [e.moved for e in a]
+    robust = host.params.preset == "robust"
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)
+        if robust:
+            # score: the sensor's T - T_out = floor(best) - floor(outside) of the host;
+            # after the normalisation the host's weight at the estimate is best - T
+            assert y.score == math.ceil(x.score - x.weights[x.node])
+    return host, sensor
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+@pytest.mark.parametrize("preset", ["robust", "paper"])
+@pytest.mark.parametrize("motion", ["image", "always_forward"])
+@pytest.mark.parametrize("spec", [SYNTHETIC, WITH_STOPS])
+def test_the_sensor_equals_the_host_on_a_synthetic_route(routes, rep, preset, motion, spec):
+    ref, query = routes[spec]
+    if spec == SYNTHETIC:
+        query = query[:60]
+    _, sensor = _agree(rep, ref, query, preset=preset, motion=motion)
+    if preset == "robust":
+        stages = [s.name for s in sensor.pipeline.timing.report().stages]
+        assert {"transition", "scale", "normalise"} <= set(stages)
+        assert "adjust" not in stages and "shift" not in stages
+
+
+def _stop_route(seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Blocky random places; the reference stops twice (repeated frames), the query once."""
+    rng = np.random.default_rng(seed)
+    base = rng.integers(0, 256, (24, 16, 16)).astype(np.uint8)
+    places = [np.kron(b, np.ones((16, 16), np.uint8)) for b in base]
+    ref_order = list(range(24))
+    ref_order[5:5] = [4, 4, 4]
+    ref_order[15:15] = [11]
+    query_order = list(range(2, 24))
+    query_order[6:6] = [7, 7]
+    query = []
+    for i in query_order:
+        noise = rng.integers(-12, 13, places[i].shape)
+        query.append(np.clip(places[i].astype(int) + noise, 0, 255).astype(np.uint8))
+    return [places[i] for i in ref_order], query
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_keyframe_map_on_the_sensor_drops_the_reference_stops(rep):
+    ref, query = _stop_route(3)
+    _, sensor = _agree(rep, ref, query)  # robust default: image motion, keyframes
+    topomap = sensor.topomap
+    assert len(ref) == 28 and len(topomap) == 24  # the four repeated frames were dropped
+    assert topomap.params["keyframes"] == "motion test"
+    first, end = topomap.frame_spans()
+    assert end[-1] == len(ref) and first[4] == 4 and end[4] == first[5] == 8  # a stop: 1 node
+    assert sensor.pipeline.n_nodes == 24
+    assert sensor.pipeline.timing.report().stage("mapping").n_calls > len(ref)
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        {"gain": 1, "memory": 8},
+        {"gain": 32, "memory": 127, "max_advance": 1},
+        {"gain": 2, "stay_cost": 0, "move_cost": 0, "skip_cost": 0, "max_advance": 3},
+        {"gain": 8, "stay_cost": 64, "move_cost": 1, "skip_cost": 64, "max_advance": 3},
+        {"memory": 30, "stay_cost": 9, "move_cost": 17, "skip_cost": 2, "max_advance": 2},
+    ],
+)
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_the_sensor_equals_the_host_over_parameter_values(routes, rep, values):
+    ref, query = routes[WITH_STOPS]
+    _agree(rep, ref[:30], query[:45], motion="image", **values)
+
+
+def test_oracle_motion_runs_the_robust_transition_with_the_given_moves():
+    ref, query = _stop_route(4)
+    moves = [i % 3 != 1 for i in range(len(query))]
+    _, sensor = _agree("lowres", ref, query, motion="oracle", oracle_moves=moves)
+    assert sensor.pipeline.last_shift is not None and sensor.alpha is None
