@@ -41,9 +41,12 @@ def topomap(representation: str, n: int) -> TopoMap:
     return TopoMap("lowres", rng.integers(0, 256, (n, 8, 8), dtype=np.uint8))
 
 
-def localiser(representation: str, n: int, arithmetic: str) -> WeightedNodeLocaliser:
+def localiser(
+    representation: str, n: int, arithmetic: str, preset: str = "robust"
+) -> WeightedNodeLocaliser:
+    extra = {"alpha": 8} if preset == "paper" else {}
     loc = WeightedNodeLocaliser(
-        representation, motion="always_forward", arithmetic=arithmetic, alpha=8
+        representation, preset=preset, motion="always_forward", arithmetic=arithmetic, **extra
     )
     loc.use_map(topomap(representation, n))
     for f in frames():  # warm up: first touch of every array
@@ -63,14 +66,16 @@ def stepper(loc: WeightedNodeLocaliser):
 
 @pytest.mark.parametrize("n", SIZES)
 @pytest.mark.parametrize("representation", ["lbp", "lowres"])
-def test_step_float(benchmark, representation, n):
-    benchmark(stepper(localiser(representation, n, "float")))
+@pytest.mark.parametrize("preset", ["robust", "paper"])
+def test_step_float(benchmark, preset, representation, n):
+    benchmark(stepper(localiser(representation, n, "float", preset)))
 
 
 @pytest.mark.parametrize("n", SIZES[:3])
 @pytest.mark.parametrize("representation", ["lbp", "lowres"])
-def test_step_ppa8(benchmark, representation, n):
-    benchmark(stepper(localiser(representation, n, "ppa8")))
+@pytest.mark.parametrize("preset", ["robust", "paper"])
+def test_step_ppa8(benchmark, preset, representation, n):
+    benchmark(stepper(localiser(representation, n, "ppa8", preset)))
 
 
 def test_image_motion(benchmark):
@@ -94,14 +99,17 @@ def median_ms(step, repeats: int = 15) -> float:
 
 
 def main() -> None:
-    print(f"{'N':>9} {'lbp float':>10} {'lbp ppa8':>10} {'lowres float':>13} {'lowres ppa8':>12}")
+    head = f"{'preset':>7} {'N':>9} {'lbp float':>10} {'lbp ppa8':>10} {'lowres float':>13}"
+    print(head + f" {'lowres ppa8':>12}")
     for n in SIZES:
-        row = [
-            median_ms(stepper(localiser(rep, n, arithmetic)))
-            for rep in ("lbp", "lowres")
-            for arithmetic in ("float", "ppa8")
-        ]
-        print(f"{n:>9} {row[0]:>10.3f} {row[1]:>10.3f} {row[2]:>13.3f} {row[3]:>12.3f}")
+        for preset in ("robust", "paper"):
+            row = [
+                median_ms(stepper(localiser(rep, n, arithmetic, preset)))
+                for rep in ("lbp", "lowres")
+                for arithmetic in ("float", "ppa8")
+            ]
+            line = f"{preset:>7} {n:>9} {row[0]:>10.3f} {row[1]:>10.3f} {row[2]:>13.3f}"
+            print(line + f" {row[3]:>12.3f}")
     print(f"image motion model: {median_ms(stepper_motion()):.3f} ms per frame")
 
 

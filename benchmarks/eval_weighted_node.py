@@ -1,6 +1,8 @@
 """Accuracy of the weighted-node filter on the shared real datasets and the synthetic route.
 
-Run from the project root: ``python benchmarks/eval_weighted_node.py [--arithmetic ppa8]``.
+Run from the project root:
+``python benchmarks/eval_weighted_node.py [--preset paper] [--arithmetic ppa8]`` (the robust
+preset by default; ``benchmarks/eval_robust.py`` compares it with the baselines on every route).
 Prints max F1 (recall definition A: recall over queries that have a true match; tolerance
 +-2 frames) for Nordland summer -> winter and Gardens Point, for both representations and
 the ``always_forward`` and ``image`` motion models, all with default parameters; then, on
@@ -21,6 +23,7 @@ import numpy as np
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.evaluate.metrics import is_correct, max_f1, pr_curve
+from ppaloc.evaluate.run import node_frames
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
 DATA = "../shared/data"
@@ -40,10 +43,10 @@ SYNTHETIC = (
 def evaluate(loc: WeightedNodeLocaliser, ref: list, query: list, truth: list) -> dict:
     """Build the map, localise the query in order, and score it."""
     t0 = time.perf_counter()
-    loc.build_map(ref)
+    topomap = loc.build_map(ref)
     est = loc.localise(query)
-    nodes = np.array([e.node for e in est])
-    correct = is_correct(nodes, truth)
+    frames = node_frames(np.array([e.node for e in est]), topomap.frame_spans(), truth)
+    correct = is_correct(frames, truth)
     has_match = np.array([len(t) > 0 for t in truth])
     curve = pr_curve([e.score for e in est], correct, has_match, recall="A")
     return {
@@ -64,17 +67,21 @@ def load(spec: str) -> tuple[list, list, list, object]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--arithmetic", default="float", choices=("float", "ppa8"))
+    parser.add_argument("--preset", default="robust", choices=("robust", "paper"))
     parser.add_argument("--synthetic-only", action="store_true")
     args = parser.parse_args()
     for name, spec in {} if args.synthetic_only else DATASETS.items():
         ref, query, truth, _ = load(spec)
         for rep in ("lowres", "lbp"):
             for motion in ("always_forward", "image"):
-                loc = WeightedNodeLocaliser(rep, motion=motion, arithmetic=args.arithmetic)
+                loc = WeightedNodeLocaliser(
+                    rep, preset=args.preset, motion=motion, arithmetic=args.arithmetic
+                )
                 r = evaluate(loc, ref, query, truth)
+                alpha = "per frame" if loc.alpha is None else f"{loc.alpha:g}"
                 print(
                     f"{name:31s} {rep:6s} {motion:14s} maxF1={r['f1']:.4f} "
-                    f"acc={r['accuracy']:.4f} alpha={loc.alpha:g} "
+                    f"acc={r['accuracy']:.4f} alpha={alpha} "
                     f"stay={1 - r['moved'].mean():.3f} ({r['seconds']:.1f} s)",
                     flush=True,
                 )
@@ -85,7 +92,11 @@ def main() -> None:
         for rep in ("lowres", "lbp"):
             for motion in ("always_forward", "image", "oracle"):
                 loc = WeightedNodeLocaliser(
-                    rep, motion=motion, arithmetic=args.arithmetic, oracle_moves=moved
+                    rep,
+                    preset=args.preset,
+                    motion=motion,
+                    arithmetic=args.arithmetic,
+                    oracle_moves=moved,
                 )
                 r = evaluate(loc, ref, query, truth)
                 line = f"{spec[10:]:45s} {rep:6s} {motion:14s} "

@@ -58,6 +58,7 @@ def test_ppa8_saturates_like_the_register():
     nodes = np.stack(nodes).astype(np.uint8)
     loc = WeightedNodeLocaliser(
         "lowres",
+        preset="paper",
         arithmetic="ppa8",
         alpha=100,
         shift=0,
@@ -78,6 +79,7 @@ def test_ppa8_negative_saturation_is_minus_127():
     nodes = np.stack([np.full((8, 8), 255), np.zeros((8, 8))]).astype(np.uint8)
     loc = WeightedNodeLocaliser(
         "lowres",
+        preset="paper",
         arithmetic="ppa8",
         alpha=0,
         shift=0,
@@ -99,6 +101,7 @@ def test_ppa8_adjustment_after_every_weight_hit_the_floor():
     nodes = np.full((3, 8, 8), 255, np.uint8)
     loc = WeightedNodeLocaliser(
         "lowres",
+        preset="paper",
         arithmetic="ppa8",
         alpha=0,
         shift=0,
@@ -129,6 +132,7 @@ def test_ppa8_equals_the_contract_written_out(seed, n, alpha, shift, gamma, k):
     moves = rng.random(6) < 0.6
     loc = WeightedNodeLocaliser(
         "lowres",
+        preset="paper",
         arithmetic="ppa8",
         alpha=alpha,
         shift=shift,
@@ -153,7 +157,13 @@ def test_adjustment_keeps_float_weights_in_range(seed, alpha, gamma):
     rng = np.random.default_rng(seed)
     frames = rng.integers(0, 256, (12, 256, 256), dtype=np.uint8)
     loc = WeightedNodeLocaliser(
-        "lbp", alpha=alpha, gamma=gamma, k=2, motion="always_forward", record_weights=True
+        "lbp",
+        preset="paper",
+        alpha=alpha,
+        gamma=gamma,
+        k=2,
+        motion="always_forward",
+        record_weights=True,
     )
     loc.build_map(frames[:6])
     for est in loc.localise(frames[6:]):
@@ -163,7 +173,9 @@ def test_adjustment_keeps_float_weights_in_range(seed, alpha, gamma):
 def test_adjustment_lowers_the_best_weight():
     rng = np.random.default_rng(3)
     frames = rng.integers(0, 256, (8, 256, 256), dtype=np.uint8)
-    common = dict(alpha=20, motion="always_forward", record_weights=True, arithmetic="ppa8")
+    common = dict(
+        preset="paper", alpha=20, motion="always_forward", record_weights=True, arithmetic="ppa8"
+    )
     free = WeightedNodeLocaliser("lbp", gamma=0.0, **common)
     held = WeightedNodeLocaliser("lbp", gamma=1.0, k=1, **common)
     free.build_map(frames)
@@ -189,6 +201,7 @@ def test_tie_follows_the_previous_estimate(route):
     frames[3] = frames[9]
     loc = WeightedNodeLocaliser(
         "lowres",
+        preset="paper",
         arithmetic="ppa8",
         alpha=50,
         shift=0,
@@ -234,7 +247,7 @@ def test_stepping_equals_batch_and_is_past_only(route):
 def test_confidence_and_ranking_golden():
     grey = np.full((8, 8), 200)
     nodes = np.stack([grey, grey - 20, np.zeros((8, 8)), grey - 40]).astype(np.uint8)
-    common = dict(arithmetic="ppa8", alpha=100, shift=0, motion="always_forward")
+    common = dict(preset="paper", arithmetic="ppa8", alpha=100, shift=0, motion="always_forward")
     loc = WeightedNodeLocaliser("lowres", confidence_radius=0, ranking_k=3, **common)
     loc.use_map(TopoMap("lowres", nodes))
     est = loc.step(blocky(grey))  # weights [100, 90, 0, 80]
@@ -249,7 +262,7 @@ def test_confidence_and_ranking_golden():
 
 
 def test_suggest_alpha_is_an_integer_and_used(route):
-    loc = WeightedNodeLocaliser("lowres", arithmetic="ppa8")
+    loc = WeightedNodeLocaliser("lowres", preset="paper", arithmetic="ppa8")
     m = loc.build_map(route)
     assert isinstance(suggest_alpha(m), int)
     assert loc.alpha == suggest_alpha(m, shift=loc.shift)
@@ -259,11 +272,25 @@ def test_suggest_alpha_is_an_integer_and_used(route):
     ("kwargs", "message"),
     [
         ({"representation": "rgb"}, r"representation='rgb' is not one of lowres, lbp"),
-        ({"arithmetic": "ppa8", "alpha": 2.5}, r"alpha=2.5 must be an integer"),
-        ({"gamma": 0.3}, r"gamma=0.3 must be one of .* \(a PPA scales only by halving\)"),
+        ({"preset": "paper", "arithmetic": "ppa8", "alpha": 2.5}, r"alpha=2.5 must be an integer"),
+        (
+            {"preset": "paper", "gamma": 0.3},
+            r"gamma=0.3 must be one of .* \(a PPA scales only by halving\)",
+        ),
         ({"motion": "oracle"}, r"motion='oracle' needs oracle_moves="),
         ({"motion": "walk"}, r"motion='walk' is not one of image, always_forward, oracle"),
-        ({"k": 0}, r"k=0 must be >= 1"),
+        ({"preset": "paper", "k": 0}, r"k=0 must be >= 1"),
+        ({"k": 2}, r"k=2 is a parameter of preset 'paper', not of preset 'robust'"),
+        ({"preset": "paper", "gain": 4}, r"gain=4 is a parameter of preset 'robust'"),
+        ({"preset": "fast"}, r"preset='fast' is not one of robust, paper"),
+        ({"gain": 0}, r"gain=0 must be in \[1, 32\]"),
+        ({"gain": 2.5}, r"gain=2.5 must be an integer"),
+        ({"memory": 200}, r"memory=200 must be in \[8, 127\]"),
+        ({"stay_cost": -1}, r"stay_cost=-1 must be in \[0, 64\]"),
+        ({"move_cost": 65}, r"move_cost=65 must be in \[0, 64\]"),
+        ({"skip_cost": "x"}, r"skip_cost='x' must be an integer"),
+        ({"max_advance": 4}, r"max_advance=4 must be in \[1, 3\]"),
+        ({"keyframes": "yes"}, r"keyframes='yes' must be True or False"),
     ],
 )
 def test_user_errors(kwargs, message):
@@ -302,7 +329,7 @@ def test_top_k_finds_the_largest(n):
 def test_forward_advance_window(seed, n, lo, extra):
     hi = max(lo + extra, 1)
     rng = np.random.default_rng(seed)
-    loc = WeightedNodeLocaliser("lbp", advance=(lo, hi), motion="always_forward")
+    loc = WeightedNodeLocaliser("lbp", preset="paper", advance=(lo, hi), motion="always_forward")
     loc.use_map(TopoMap("lbp", np.zeros(n, np.uint32)))
     for _ in range(int(rng.integers(0, 3))):  # rotate the buffer a little first
         loc._forward()

@@ -178,9 +178,10 @@ class FilterParams:
         other = "robust" if preset == "paper" else "paper"
         for key in foreign:
             if values.get(key) is not None:
+                methods = "weighted-node-paper-*" if other == "paper" else "weighted-node-*"
                 raise PpalocError(
                     f"{key}={values[key]!r} is a parameter of preset {other!r}, not of "
-                    f"preset {preset!r}; pass preset={other!r} to use it"
+                    f"preset {preset!r}; pass preset={other!r} (the methods {methods}) to use it"
                 )
         motion = values.get("motion", "image")
         if motion not in _MOTIONS:
@@ -191,9 +192,7 @@ class FilterParams:
         out["motion_min_support"] = _int(
             "motion_min_support", values.get("motion_min_support", 1024), 0, 256 * 256
         )
-        out["confidence_radius"] = _int(
-            "confidence_radius", values.get("confidence_radius", 10), 0
-        )
+        out["confidence_radius"] = _int("confidence_radius", values.get("confidence_radius", 10), 0)
         keyframes = values.get("keyframes")
         if keyframes is None:
             keyframes = preset == "robust" and motion == "image"

@@ -235,7 +235,9 @@ def make_motion_model(params: FilterParams, oracle_moves: Any = None) -> MotionM
     """The motion model ``params.motion`` names, with its parameters."""
     if params.motion == "oracle":
         if oracle_moves is None:
-            raise PpalocError("motion='oracle' needs oracle_moves= (e.g. the dataset's query_moved)")
+            raise PpalocError(
+                "motion='oracle' needs oracle_moves= (e.g. the dataset's query_moved)"
+            )
         return OracleMotion(oracle_moves)
     if params.motion == "always_forward":
         return AlwaysForward()
@@ -562,7 +564,9 @@ class WeightedNodeLocaliser:
         s = likelihood_shift(mean - best, self.params.gain)
         self.last_shift = s
         alpha = (best >> s) if self._exact else best * 2.0**-s
-        np.multiply(raw, self._dtype(-distance_scale(self.representation, s, self._exact)), out=term)
+        np.multiply(
+            raw, self._dtype(-distance_scale(self.representation, s, self._exact)), out=term
+        )
         term += self._dtype(alpha)
         if self._exact:
             _clip(term, _T_MIN, _T_MAX)

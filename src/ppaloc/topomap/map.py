@@ -104,7 +104,8 @@ class TopoMap:
         Examples
         --------
         >>> import numpy as np
-        >>> m = TopoMap("lbp", np.zeros(3, np.uint32), frame_index=[0, 1, 5], params={"n_frames": 8})
+        >>> nodes = np.zeros(3, np.uint32)
+        >>> m = TopoMap("lbp", nodes, frame_index=[0, 1, 5], params={"n_frames": 8})
         >>> [a.tolist() for a in m.frame_spans()]
         [[0, 1, 5], [1, 5, 8]]
         """

@@ -1,0 +1,119 @@
+"""Sensitivity of the robust weighted-node filter: max F1 against each of its parameters.
+
+Not collected by pytest. Every parameter of the robust preset is varied alone, over a
+range of at least 4x around its default, with the others at their defaults, for both
+representations (``weighted-node-lbp`` and ``weighted-node-lowres``) on every route of
+``benchmarks/eval_robust.py``. Each route goes through the sensor front-end once; every
+cell runs as ``ppaloc evaluate`` runs it::
+
+    .venv/bin/python benchmarks/sensitivity_robust.py              # about 10 min, 2 jobs
+    .venv/bin/python benchmarks/sensitivity_robust.py --routes "seed=1" --json s.json
+    .venv/bin/python benchmarks/sensitivity_robust.py --from s.json   # re-print a table
+
+Output: one Markdown row per parameter value: the mean max F1 over the routes for each
+representation, the mean of the better of the two per route, the same on Nordland
+summer -> winter, and the minimum over routes of the better of the two. A broad plateau
+around the default (bold) is what a robust default looks like; a peak would be a tuned one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from eval_robust import CACHE_DIR, DATA, routes, run_all
+from ppaloc.localise.params import FilterParams
+
+METHODS = ("weighted-node-lbp", "weighted-node-lowres")
+GRID: dict[str, tuple[int, ...]] = {
+    "gain": (1, 2, 4, 8, 16),
+    "memory": (32, 48, 64, 96, 127),
+    "stay_cost": (1, 2, 4, 8, 16),
+    "move_cost": (1, 2, 4, 8, 16),
+    "skip_cost": (1, 2, 4, 8, 16),
+    "max_advance": (1, 2, 3),
+}
+"""Each parameter's values: at least a 4x range around the default."""
+
+NORDLAND = "nordland summer->winter"
+
+
+def jobs() -> list[tuple[str, str, dict]]:
+    """``(column, method, params)`` for every parameter value and representation."""
+    out = []
+    for key, values in GRID.items():
+        for v in values:
+            for m in METHODS:
+                out.append((f"{m}|{key}={v}", m, {key: v}))
+    return out
+
+
+def table(records: list[dict]) -> str:
+    """The compact sensitivity table from route records of :func:`run_all`."""
+    defaults = FilterParams.create("lbp")
+    lines = [
+        "| parameter | value | LBP mean | low-res mean | better of the two, mean "
+        "| Nordland S->W (better) | better of the two, min |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for key, values in GRID.items():
+        for v in values:
+            per = {m: [] for m in METHODS}
+            best, nord = [], None
+            for rec in records:
+                f = [rec["results"].get(f"{m}|{key}={v}", {}).get("f1_max") for m in METHODS]
+                if any(x is None for x in f):
+                    continue
+                for m, x in zip(METHODS, f, strict=True):
+                    per[m].append(x)
+                best.append(max(f))
+                if rec["label"] == NORDLAND:
+                    nord = max(f)
+            if not best:
+                continue
+            mark = "**" if v == getattr(defaults, key) else ""
+            cells = [
+                f"{np.mean(per[METHODS[0]]):.3f}",
+                f"{np.mean(per[METHODS[1]]):.3f}",
+                f"{np.mean(best):.3f}",
+                "-" if nord is None else f"{nord:.3f}",
+                f"{np.min(best):.3f}",
+            ]
+            lines.append(f"| `{key}` | {mark}{v}{mark} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--routes", default=None, metavar="SUBSTR")
+    parser.add_argument("--places", type=int, default=200)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--json", type=Path, default=None, help="write the route records here")
+    parser.add_argument("--from", dest="source", type=Path, default=None, help="re-print a --json")
+    args = parser.parse_args()
+    if args.source is not None:
+        print(table(json.loads(args.source.read_text())["routes"]))
+        return
+    t0 = time.perf_counter()
+    selected = routes(args.data, args.places)
+    if args.routes:
+        selected = [(label, spec) for label, spec in selected if args.routes in label]
+    if not selected:
+        raise SystemExit(f"error: no route label contains {args.routes!r}")
+    records = run_all(selected, jobs(), workers=args.jobs, cache_dir=CACHE_DIR)
+    print(table(records))
+    wall = time.perf_counter() - t0
+    print(f"\n{len(records)} routes, wall time {wall:.0f} s, {args.jobs} jobs", file=sys.stderr)
+    if args.json:
+        args.json.write_text(json.dumps({"routes": records, "wall_s": wall}, default=repr))
+
+
+if __name__ == "__main__":
+    main()

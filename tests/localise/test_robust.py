@@ -1,0 +1,159 @@
+"""The robust preset: its ppa8 contract written out literally, and what it is for."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ppaloc.evaluate.run import node_frames
+from ppaloc.localise.params import FilterParams, likelihood_shift, transition_costs
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.place import block_sums
+from ppaloc.topomap import TopoMap
+
+from .conftest import blocky
+
+
+def naive_robust(nodes, frames, moves, p: FilterParams):
+    """docs/ppa8.md, "Robust preset", written out literally for low-res maps."""
+    n = len(nodes)
+    q = np.asarray(nodes, float).reshape(n, 64)
+    w = np.zeros(n)
+    out, prev = [], None
+    for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
+        if t > 1:
+            c = transition_costs(moved, p)
+            cand = []
+            for d, cost in enumerate(c):
+                src = np.concatenate((np.full(d, -p.memory), w))[:n] if d else w
+                cand.append(src - cost)
+            w = np.clip(np.max(cand, axis=0), -127, 127)
+        if t == 1 or moved:
+            f = block_sums(frame).reshape(64) / 2048 - 64
+            mu = np.minimum(np.abs(f - (q / 2 - 64)), 127).mean(axis=1)
+            code = np.floor(128.5 - mu / 2)
+            r = 2 * (128 - code)
+            b, m = int(r.min()), int(r.sum()) // n
+            s = likelihood_shift(m - b, p.gain)
+            term = np.clip((b >> s) - mu * 2.0**-s, -128, 127)
+            w = np.clip(w + term, -127, 127)
+        top = math.floor(w.max())
+        cands = np.flatnonzero(w >= top)
+        node = cands[0] if prev is None else cands[np.argmin(np.abs(cands - prev))]
+        prev = node
+        w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
+        out.append((int(node), w.copy()))
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(2, 12),
+    gain=st.integers(1, 32),
+    memory=st.integers(8, 127),
+    costs=st.tuples(st.integers(0, 64), st.integers(0, 64), st.integers(0, 64)),
+    max_advance=st.integers(1, 3),
+)
+def test_ppa8_equals_the_robust_contract_written_out(seed, n, gain, memory, costs, max_advance):
+    rng = np.random.default_rng(seed)
+    nodes = rng.integers(0, 256, (n, 8, 8), dtype=np.uint8)
+    frames = rng.integers(0, 256, (6, 256, 256), dtype=np.uint8)
+    moves = rng.random(6) < 0.6
+    kw = dict(
+        gain=gain,
+        memory=memory,
+        stay_cost=costs[0],
+        move_cost=costs[1],
+        skip_cost=costs[2],
+        max_advance=max_advance,
+    )
+    loc = WeightedNodeLocaliser(
+        "lowres",
+        arithmetic="ppa8",
+        motion="oracle",
+        oracle_moves=moves,
+        record_weights=True,
+        **kw,
+    )
+    loc.use_map(TopoMap("lowres", nodes))
+    want = naive_robust(nodes, frames, moves, loc.params)
+    for est, (node, w) in zip(loc.localise(frames), want, strict=True):
+        assert est.node == node
+        np.testing.assert_array_equal(est.weights, w)
+        assert est.weights.max() < 1 and est.weights.min() >= -memory
+
+
+def test_transition_golden():
+    # one node per frame, weights [0, -10, -20, -127]; forward: stay costs 4, +2 costs 4
+    p = FilterParams.create("lbp", memory=100)
+    loc = WeightedNodeLocaliser("lbp", memory=100, arithmetic="ppa8")
+    loc.use_map(TopoMap("lbp", np.zeros(4, np.uint32)))
+    loc._w[:] = [0, -10, -20, -127]
+    loc._transition(transition_costs(True, p))
+    # node 0: max(0 - 4, edge -100 - 0, edge - 4); node 1: max(-14, 0, -104);
+    # node 2: max(-24, -10, 0 - 4); node 3: max(-131 -> clip, -20, -14)
+    np.testing.assert_array_equal(loc._w, [-4, 0, -4, -14])
+    loc._transition(transition_costs(False, p))  # stay: free; +1 costs 4, +2 costs 8
+    np.testing.assert_array_equal(loc._w, [-4, 0, -4, -8])
+
+
+def _stepped(route, pattern):
+    """Query frames at the route positions given by repeating ``pattern`` steps."""
+    idx, pos, i = [], 0, 0
+    while pos < len(route):
+        idx.append(pos)
+        pos += pattern[i % len(pattern)]
+        i += 1
+    return route[idx], np.asarray(idx)
+
+
+@pytest.mark.parametrize("pattern", [(1,), (2,), (1, 2), (0, 1, 1)])
+def test_follows_a_query_at_another_speed(route, pattern):
+    """A query at 0.67-2 places per frame: the robust filter follows it; the paper's
+    one-node shift cannot (it falls behind at speed 2)."""
+    frames, truth = _stepped(route, pattern)
+    loc = WeightedNodeLocaliser("lowres", motion="always_forward")
+    loc.build_map(route)
+    got = np.array([e.node for e in loc.localise(frames)])
+    assert np.abs(got - truth)[3:].max() <= 1
+    if pattern == (2,):
+        paper = WeightedNodeLocaliser("lowres", preset="paper", motion="always_forward")
+        paper.build_map(route)
+        lag = np.array([e.node for e in paper.localise(frames)]) - truth
+        assert np.abs(lag).max() > 2
+
+
+def test_keyframes_merge_a_stop_and_the_truth_follows():
+    """A reference that stands still for 4 frames maps to one node; a query frame at the
+    stop is right on that node, and evaluation carries the truth to it."""
+    rng = np.random.default_rng(2)
+    route = rng.integers(0, 256, (12, 256, 256), dtype=np.uint8)  # textured: the test sees
+    ref = np.concatenate((route[:5], np.repeat(route[5:6], 4, axis=0), route[6:]))
+    loc = WeightedNodeLocaliser("lowres", arithmetic="ppa8")
+    m = loc.build_map(ref)
+    assert len(m) == len(route)
+    first, end = m.frame_spans()
+    assert (first[5], end[5]) == (5, 9)
+    gt = [np.array([7])]  # a query frame at reference frame 7, inside node 5's span
+    assert node_frames(np.array([5]), (first, end), gt).tolist() == [7]
+    off = WeightedNodeLocaliser("lowres", keyframes=False)
+    assert len(off.build_map(ref)) == len(ref)
+
+
+def test_still_frames_add_no_evidence(route):
+    """A frame the motion test calls still changes the weights only by the transition."""
+    loc = WeightedNodeLocaliser("lowres", motion="oracle", oracle_moves=[False, True, False])
+    loc.use_map(TopoMap("lowres", np.stack([block_sums(f) >> 10 for f in route]).astype(np.uint8)))
+    loc.step(route[3])
+    loc.step(route[4])
+    before = loc.weights()
+    after = loc.step(blocky(np.zeros((8, 8)))).node  # an unrelated frame, called still
+    assert after == int(np.argmax(before))
+
+
+def test_scale_follows_the_frame_not_the_map():
+    """Distances four times larger (a darker, other-season query) get a shift two larger."""
+    assert likelihood_shift(64, 4) == likelihood_shift(16, 4) + 2
