@@ -144,14 +144,19 @@ def test_keyframes_merge_a_stop_and_the_truth_follows():
 
 
 def test_still_frames_add_no_evidence(route):
-    """A frame the motion test calls still changes the weights only by the transition."""
-    loc = WeightedNodeLocaliser("lowres", motion="oracle", oracle_moves=[False, True, False])
+    """A frame the motion test calls still changes the weights by the transition alone."""
+    loc = WeightedNodeLocaliser(
+        "lowres", motion="oracle", oracle_moves=[False, True, False], record_weights=True
+    )
     loc.use_map(TopoMap("lowres", np.stack([block_sums(f) >> 10 for f in route]).astype(np.uint8)))
     loc.step(route[3])
-    loc.step(route[4])
-    before = loc.weights()
-    after = loc.step(blocky(np.zeros((8, 8)))).node  # an unrelated frame, called still
-    assert after == int(np.argmax(before))
+    before = loc.step(route[4]).weights.astype(np.float64)
+    after = loc.step(blocky(np.zeros((8, 8)))).weights  # an unrelated frame, called still
+    c = transition_costs(False, loc.params)
+    padded = np.concatenate((np.full(2, -127.0), before))
+    pred = np.max([padded[2 - d : 2 - d + len(before)] - c[d] for d in range(3)], axis=0)
+    want = np.maximum(pred - pred.max(), -127)
+    np.testing.assert_allclose(after, want, atol=1e-5)
 
 
 def test_scale_follows_the_frame_not_the_map():
