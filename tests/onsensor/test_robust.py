@@ -16,11 +16,19 @@ import pytest
 
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
-from ppaloc.localise.params import FilterParams, transition_costs
+from ppaloc.localise.params import (
+    FilterParams,
+    frame_statistics,
+    likelihood_shift,
+    transition_costs,
+)
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor import OnSensorLocaliser
+from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import make_pipeline
+from ppaloc.place import lbp_from_grid
 from ppaloc.sim import C, F
+from ppaloc.topomap import TopoMap
 
 SIZE = 64
 SYNTHETIC = "synthetic:?places=60&query=winter&seed=2"
@@ -97,6 +105,45 @@ def test_robust_stages_leave_the_means_of_the_replication_alone():
     _put_weights(pipe, np.zeros(100, np.float32))
     pipe.transition((4, 0, 4))
     assert (pipe.sim.read(F) == 5.5).all()
+
+
+def _frame_means(frame: np.ndarray) -> np.ndarray:
+    v = frame.astype(np.float64) / 2 - 64
+    b = SIZE // 8
+    return v.reshape(8, b, 8, b).mean(axis=(1, 3))
+
+
+@pytest.mark.parametrize(("rep", "n"), [("lowres", 100), ("lbp", 200), ("lowres", 5)])
+@pytest.mark.parametrize("gain", [1, 4, 32])
+def test_scale_readout_and_update_follow_the_frame_statistics(rep, n, gain):
+    """``w += alpha_t - mu 2**-s`` with ``s``, ``alpha_t`` from the readout of every node."""
+    rng = np.random.default_rng(n + gain)
+    pipe = _pipe(rep, n, gain=gain)
+    if rep == "lowres":
+        nodes = rng.integers(0, 256, (n, 8, 8), dtype=np.uint8)
+    else:
+        nodes = rng.integers(0, 2**32, n, dtype=np.uint32)
+    upload_map(pipe, TopoMap(rep, nodes))
+    frame = np.kron(rng.integers(0, 256, (16, 16)), np.ones((4, 4))).astype(np.uint8)
+    _put_weights(pipe, np.zeros(n, np.float32))
+    pipe.capture(frame)
+    pipe.block_means()
+    pipe.compare()
+    f = _frame_means(frame)
+    if rep == "lowres":
+        diff = np.abs(f[None] - (nodes.astype(np.float64) / 2 - 64))
+        mu = np.minimum(diff, 127).mean(axis=(1, 2))
+        r = 2 * (128 - np.floor(128.5 - mu / 2)).astype(np.int64)
+    else:
+        code = int(lbp_from_grid(f[1:7, 1:7]))
+        mu = 2.0 * np.bitwise_count(nodes ^ np.uint32(code))
+        r = mu.astype(np.int64)
+    best, mean = frame_statistics(r)
+    s = likelihood_shift(mean - best, gain)
+    assert (pipe.last_shift, pipe.last_alpha) == (s, best >> s)
+    want = np.clip((best >> s) - mu * 2.0**-s, -127, 127)
+    np.testing.assert_array_equal(pipe.weights(), want)
+    assert pipe.tiles == (2 if n > pipe.layout.capacity else 1)
 
 
 # ------------------------------------------------------------------ agreement, full size
@@ -196,3 +243,15 @@ def test_oracle_motion_runs_the_robust_transition_with_the_given_moves():
     moves = [i % 3 != 1 for i in range(len(query))]
     _, sensor = _agree("lowres", ref, query, motion="oracle", oracle_moves=moves)
     assert sensor.pipeline.last_shift is not None and sensor.alpha is None
+
+
+@pytest.mark.data
+@pytest.mark.slow
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_the_sensor_equals_the_host_on_a_nordland_slice(nordland_dir, rep):
+    """Real data: keyframes of Nordland summer and the winter query, robust defaults."""
+    ds = load_dataset(f"nordland:{nordland_dir}?ref=summer&query=winter&stop=160")
+    ref = [to_sensor(f) for f in ds.reference]
+    query = [to_sensor(f) for f in ds.query]
+    _, sensor = _agree(rep, ref, query)
+    assert len(sensor.topomap) < len(ref)  # Nordland's stops became single nodes
