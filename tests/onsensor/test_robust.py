@@ -27,7 +27,7 @@ from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.place import lbp_from_grid
-from ppaloc.sim import C, F
+from ppaloc.sim import A, B, C, F
 from ppaloc.topomap import TopoMap
 
 SIZE = 64
@@ -146,6 +146,16 @@ def test_scale_readout_and_update_follow_the_frame_statistics(rep, n, gain):
     assert pipe.tiles == (2 if n > pipe.layout.capacity else 1)
 
 
+@pytest.mark.parametrize(("rep", "free"), [("lbp", A), ("lowres", B)])
+def test_robust_frames_leave_the_free_register_alone(rep, free):
+    pipe = _pipe(rep, 40)  # lowres: one tile, so B holds no map
+    pipe.sim.write(free, np.full((SIZE, SIZE), 7.0, np.float32))
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        pipe.step(rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
+    assert (pipe.sim.read(free) == 7.0).all()
+
+
 # ------------------------------------------------------------------ agreement, full size
 @pytest.fixture(scope="module")
 def routes():
@@ -230,6 +240,7 @@ def test_keyframe_map_on_the_sensor_drops_the_reference_stops(rep):
         {"gain": 2, "stay_cost": 0, "move_cost": 0, "skip_cost": 0, "max_advance": 3},
         {"gain": 8, "stay_cost": 64, "move_cost": 1, "skip_cost": 64, "max_advance": 3},
         {"memory": 30, "stay_cost": 9, "move_cost": 17, "skip_cost": 2, "max_advance": 2},
+        {"preset": "paper", "keyframes": True, "k": 2},
     ],
 )
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])

@@ -921,7 +921,10 @@ class SensorPipeline(ABC):
         """Run one frame; return ``(node, score, moved, T)``.
 
         ``moved`` forces the motion decision (the oracle model); otherwise the configured
-        model decides.
+        model decides. Paper: motion, shift on forward, likelihood, detection,
+        confidence, adjustment every k-th frame. Robust: motion, transition (frames
+        >= 2), likelihood on the first and forward frames, detection, confidence,
+        normalisation (docs/ppa8.md).
         """
         self.frames += 1
         self.capture(frame)

@@ -63,6 +63,14 @@ class OnSensorLocaliser:
         ``alpha``, ``gamma``, ``k``, ``shift``, ``advance`` (must be (1, 1)).
         ``ranking_k`` is accepted but the sensor reports no ranking.
 
+    Attributes
+    ----------
+    params : FilterParams
+        The resolved parameters, the host's object: the pipeline reads the same one.
+    preset : {"robust", "paper"}
+    pipeline : SensorPipeline or None
+        The simulated sensor holding the map (None before a map).
+
     Notes
     -----
     ``score`` is the integer detection threshold ``T = floor(max W)`` minus the same
