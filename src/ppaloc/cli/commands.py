@@ -29,6 +29,7 @@ __all__ = [
     "run_map",
     "run_matrix",
     "run_show",
+    "run_sweep",
 ]
 
 
@@ -220,6 +221,87 @@ def _bench_cell(row: dict[str, Any] | None) -> str:
     if row is None or "skipped" in row:
         return "-"
     return f"{row['latency_ms_median']:.3g}"
+
+
+# -- sweep ---------------------------------------------------------------------------------
+
+
+def run_sweep(
+    config: Any,
+    out: Path,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    connect_timeout: float = 10.0,
+    quiet: bool = False,
+    report: bool = True,
+    source: str = "",
+) -> Any:
+    """Run a sweep (a SweepConfig) into ``out``; print the best cells; write the report.
+
+    Raises
+    ------
+    PpalocError
+        Before any cell runs for a bad configuration or an unreachable scheduler; after
+        the summary and report are written when cells failed (the first one's error).
+    """
+    from ppaloc.evaluate.sweep import run_sweep as sweep_run
+    from ppaloc.evaluate.sweep_report import best_cells, dataset_labels, write_sweep_report
+
+    outcome = sweep_run(
+        config,
+        out,
+        scheduler=scheduler,
+        workers=workers,
+        connect_timeout=connect_timeout,
+        progress=not quiet,
+        source=source,
+    )
+    if report:
+        write_sweep_report(out)
+    summary = outcome.summary
+    if not quiet:
+        from rich import box
+        from rich.table import Table
+
+        labels = dataset_labels(summary["axes"]["dataset"])
+        swept = [a for a in summary["axes"] if a not in ("method", "dataset")]
+        table = Table(
+            title="Best cell per method and dataset",
+            title_justify="left",
+            box=box.SIMPLE_HEAD,
+            pad_edge=False,
+        )
+        for name in ("Method", "Dataset", "F1", "AUC", "Swept values", "Cells ok"):
+            table.add_column(name, justify="left" if name in ("Method", "Dataset") else "right")
+        for g in best_cells(summary):
+            r = g["row"] or {}
+            values = ", ".join(f"{a}={r[a]}" for a in swept if r.get(a) is not None)
+            table.add_row(
+                g["method"],
+                labels.get(g["dataset"], g["dataset"]),
+                "-" if r.get("f1_max") is None else f"{r['f1_max']:.3f}",
+                "-" if r.get("auc") is None else f"{r['auc']:.3f}",
+                values or "-",
+                f"{g['ok']}/{g['cells']}",
+            )
+        _console().print(table)
+        c = summary["counts"]
+        print(
+            f"{c['cells']} cells: {outcome.n_skipped} already done, {outcome.n_run} run now, "
+            f"{c['ok']} finished, {c['failed']} failed"
+        )
+        print(f"summary: {out / 'summary.csv'}")
+        if report:
+            print(f"report:  {out / 'report.html'}")
+    if outcome.failures:
+        cell, error = outcome.failures[0]
+        raise PpalocError(
+            f"{len(outcome.failures)} of {outcome.n_cells} cells failed, the first "
+            f"({cell.label()}): {error}; the errors are in {out / 'summary.csv'}, run the "
+            "same command again to retry them"
+        )
+    return outcome
 
 
 # -- map and localise ------------------------------------------------------------------------

@@ -29,7 +29,7 @@ __all__ = ["cli", "main"]
 
 log = logging.getLogger("ppaloc")
 
-_SECTIONS = ("evaluate", "bench", "map", "localise", "demo")
+_SECTIONS = ("evaluate", "bench", "map", "localise", "demo", "sweep")
 
 
 # -- configuration ------------------------------------------------------------------------
@@ -143,6 +143,7 @@ Examples:
   ppaloc map 'nordland:../shared/data/nordland-64x32?ref=summer' --out summer.npz
   ppaloc localise summer.npz frames/ --out estimates.csv
   ppaloc bench --sizes 256,1024,4096
+  ppaloc sweep --config sweep.toml --out sweep1
   ppaloc show run1
 
 Run `ppaloc COMMAND --help` for each command's options.""",
@@ -375,6 +376,122 @@ def bench(
     quiet_ = bool(_pop(values, "quiet", False))
     config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
     run_bench(config, None if out_dir is None else Path(out_dir), quiet=quiet_)
+
+
+@cli.command(
+    cls=_MethodsHelp,
+    epilog="""\b
+Examples:
+  ppaloc sweep --config sweep.toml --out sweep1
+  ppaloc sweep --config sweep.toml --out sweep1 --scheduler tcp://10.0.0.5:8786
+  ppaloc sweep -m seqslam -m weighted-node-paper-lbp -d 'synthetic:?places=100&seed=1' \\
+      --param 'weighted-node-paper-lbp.gamma=[0.25, 0.5]' --out gamma
+\b
+sweep.toml:
+  [sweep]
+  methods = ["weighted-node-paper-lbp", "seqslam"]
+  datasets = ["synthetic:?places=100&seed=1", "synthetic:?places=100&seed=2"]
+  tolerance = 2
+  [sweep.params.weighted-node-paper-lbp]
+  gamma = [0.25, 0.5]        # a list is swept; a single value is fixed
+\b
+Writes OUT/cells/<method>-<id>/ (one results folder per cell, the moment it finishes),
+OUT/summary.csv, OUT/summary.json and OUT/report.html. Run it again to skip the finished
+cells and retry the failed ones.""",
+)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder of the sweep: cells/, summary.csv, summary.json, report.html.",
+)
+@click.option(
+    "--scheduler",
+    metavar="tcp://HOST:PORT",
+    help="A running Dask scheduler to run the cells on [default: a local cluster].",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(1),
+    help="Worker processes of the local cluster [default: one per core].",
+)
+@click.option("--method", "-m", "methods", multiple=True, help="Method name, repeatable (an axis).")
+@click.option(
+    "--dataset", "-d", "datasets", multiple=True, help="Dataset spec, repeatable (an axis)."
+)
+@click.option(
+    "--param",
+    "params",
+    multiple=True,
+    metavar="METHOD.KEY=VALUE",
+    help="A method parameter, repeatable; a list sweeps it, e.g. 'seqslam.ds=[10, 20]'.",
+)
+@click.option("--tolerance", type=int, help="Accepted distance to the true frame, in frames.")
+@click.option("--seed", type=int, help="Seed for methods that draw random numbers.")
+@click.option("--no-report", is_flag=True, default=None, help="Write the summary files only.")
+@_CONFIG
+@_QUIET
+def sweep(
+    out: Path | None,
+    scheduler: str | None,
+    workers: int | None,
+    methods: tuple[str, ...],
+    datasets: tuple[str, ...],
+    params: tuple[str, ...],
+    tolerance: int | None,
+    seed: int | None,
+    no_report: bool | None,
+    config_file: Path | None,
+    quiet: bool | None,
+) -> None:
+    """Run a grid of methods x datasets x method parameters on a Dask cluster."""
+    from ppaloc.cli.commands import run_sweep
+    from ppaloc.evaluate.config import reject_unknown_keys
+    from ppaloc.evaluate.sweep import SweepConfig, sweep_config_from_mapping
+
+    values = _merge(
+        _file_values(config_file, "sweep"),
+        {
+            "methods": methods,
+            "datasets": datasets,
+            "params": _parse_params(params),
+            "tolerance": tolerance,
+            "seed": seed,
+            "out": out,
+            "scheduler": scheduler,
+            "workers": workers,
+            "no_report": no_report,
+            "quiet": quiet,
+        },
+    )
+    source = str(config_file or "")
+    extra = ["out", "scheduler", "workers", "connect_timeout", "no_report", "quiet"]
+    fields = [f.name for f in dataclasses.fields(SweepConfig)]
+    reject_unknown_keys(values, [*fields, *extra], source=source)
+    out_dir = values.pop("out", None)
+    if out_dir is None:
+        raise PpalocError(
+            "no output folder: give --out DIR (or out = in the --config file); a second run "
+            "with the same folder skips the finished cells"
+        )
+    options = {k: values.pop(k, None) for k in extra if k != "out"}
+    for key in ("scheduler", "workers", "connect_timeout"):
+        value = options[key]
+        wanted = {"scheduler": str, "workers": int, "connect_timeout": (int, float)}[key]
+        if value is not None and (not isinstance(value, wanted) or isinstance(value, bool)):
+            raise PpalocError(f"{key}={value!r} in {source or 'the flags'} has the wrong type")
+    if options["workers"] is not None and options["workers"] < 1:
+        raise PpalocError(f"workers={options['workers']!r} must be at least 1")
+    config = sweep_config_from_mapping(values, source=source)
+    run_sweep(
+        config,
+        Path(out_dir),
+        scheduler=options["scheduler"],
+        workers=options["workers"],
+        connect_timeout=float(options["connect_timeout"] or 10.0),
+        quiet=bool(options["quiet"]),
+        report=not options["no_report"],
+        source=source,
+    )
 
 
 @cli.command(

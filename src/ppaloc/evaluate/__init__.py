@@ -2,7 +2,9 @@
 
 See ``docs/evaluate-cli.md`` for the metric definitions and the result file formats.
 ``write_report`` and ``run_bench`` are imported on first use (the report needs
-matplotlib, which importing the metrics should not).
+matplotlib, which importing the metrics should not); so are the sweep's ``SweepConfig``,
+``run_sweep`` and ``write_sweep_report`` (docs/sweep.md; a sweep runs on Dask, imported
+only when one runs).
 """
 
 from typing import Any
@@ -20,13 +22,22 @@ __all__ = [
     "Metrics",
     "PRCurve",
     "RunResult",
+    "SweepConfig",
     "evaluate_estimates",
     "load_results",
     "run_bench",
     "run_evaluation",
+    "run_sweep",
     "save_results",
     "write_report",
+    "write_sweep_report",
 ]
+
+_SWEEP = {
+    "SweepConfig": "ppaloc.evaluate.sweep",
+    "run_sweep": "ppaloc.evaluate.sweep",
+    "write_sweep_report": "ppaloc.evaluate.sweep_report",
+}
 
 
 def __getattr__(name: str) -> Any:
@@ -38,4 +49,8 @@ def __getattr__(name: str) -> Any:
         from ppaloc.evaluate.bench import run_bench
 
         return run_bench
+    if name in _SWEEP:
+        import importlib
+
+        return getattr(importlib.import_module(_SWEEP[name]), name)
     raise AttributeError(f"module 'ppaloc.evaluate' has no attribute {name!r}")

@@ -1,0 +1,338 @@
+"""The sweep's grid, its checks before any cell runs, cell ids and the summary (no cluster)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import sys
+import time
+
+import pytest
+from click.testing import CliRunner
+
+from ppaloc.cli import cli, main
+from ppaloc.errors import PpalocError
+from ppaloc.evaluate.sweep import (
+    METRIC_COLUMNS,
+    Cell,
+    SweepConfig,
+    axes,
+    cell_status,
+    collect_summary,
+    expand,
+    run_sweep,
+    sweep_config_from_mapping,
+    validate,
+)
+from ppaloc.fileio import write_bytes
+
+TINY = ("synthetic:?places=20&seed=1&size=64", "synthetic:?places=20&seed=2&size=64")
+
+
+def run(capsys, *args: object) -> tuple[int, str, str]:
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+# -- the grid --------------------------------------------------------------------------------
+
+
+def test_the_issue_grid_has_six_cells_in_dataset_method_parameter_order(issue_config):
+    cells = expand(issue_config)
+    assert [(c.dataset, c.method, dict(c.axes)) for c in cells] == [
+        (TINY[0], "weighted-node-paper-lbp", {"gamma": 0.25}),
+        (TINY[0], "weighted-node-paper-lbp", {"gamma": 0.5}),
+        (TINY[0], "seqslam", {}),
+        (TINY[1], "weighted-node-paper-lbp", {"gamma": 0.25}),
+        (TINY[1], "weighted-node-paper-lbp", {"gamma": 0.5}),
+        (TINY[1], "seqslam", {}),
+    ]
+    assert {c.spec for c in cells} == {f"{d}&tolerance=2" for d in TINY}
+    assert len({c.id for c in cells}) == 6
+    assert axes(issue_config) == {
+        "method": ["weighted-node-paper-lbp", "seqslam"],
+        "dataset": list(TINY),
+        "gamma": [0.25, 0.5],
+    }
+
+
+def test_product_and_one_at_a_time():
+    params = {"weighted-node-lbp": {"gain": [1, 2, 4], "memory": [32, 64], "stay_cost": 8}}
+    product = expand(SweepConfig(methods=("weighted-node-lbp",), datasets=TINY, params=params))
+    assert len(product) == 2 * 3 * 2
+    assert all(c.params["stay_cost"] == 8 for c in product)  # a single value is fixed
+    assert {tuple(c.axes) for c in product} == {("gain", "memory")}
+    each = expand(
+        SweepConfig(
+            methods=("weighted-node-lbp",),
+            datasets=TINY[:1],
+            params=params,
+            combine="one-at-a-time",
+        )
+    )
+    assert [dict(c.params) for c in each] == [
+        {"stay_cost": 8, "gain": 1},
+        {"stay_cost": 8, "gain": 2},
+        {"stay_cost": 8, "gain": 4},
+        {"stay_cost": 8, "memory": 32},
+        {"stay_cost": 8, "memory": 64},
+    ]
+
+
+def test_seed_and_tolerance_lists_are_axes_and_columns():
+    config = SweepConfig(methods=("seqslam",), datasets=TINY[:1], seed=[0, 1], tolerance=[1, 3])
+    cells = expand(config)
+    assert [(c.seed, c.tolerance, dict(c.axes)) for c in cells] == [
+        (0, 1, {"seed": 0, "tolerance": 1}),
+        (0, 3, {"seed": 0, "tolerance": 3}),
+        (1, 1, {"seed": 1, "tolerance": 1}),
+        (1, 3, {"seed": 1, "tolerance": 3}),
+    ]
+    assert list(axes(config)) == ["method", "dataset", "seed", "tolerance"]
+
+
+def test_a_method_parameter_named_like_a_metric_gets_a_prefixed_column():
+    config = SweepConfig(methods=("seqslam",), datasets=TINY[:1], params={"seqslam": {"auc": [1]}})
+    assert list(expand(config)[0].axes) == ["param:auc"]
+
+
+def test_cell_id_is_the_sha256_of_its_canonical_identity():
+    cell = Cell("seqslam", "synthetic:?places=20&seed=1", {"ds": 10}, {"ds": 10}, tolerance=2)
+    text = (
+        '{"dataset":"synthetic:?places=20&seed=1","max_weight_values":4000000,'
+        '"method":"seqslam","params":{"ds":10},"recall":"A","record_weights":false,'
+        '"seed":0,"tolerance":2}'
+    )
+    assert cell.id == hashlib.sha256(text.encode()).hexdigest()[:16] == "0073b7a81cbaf89b"
+    assert cell.folder == "cells/seqslam-0073b7a81cbaf89b"
+    reordered = Cell("seqslam", cell.dataset, {"ds": 10}, {}, tolerance=2)
+    assert reordered.id == cell.id  # the summary's axes are not part of the identity
+    assert Cell("seqslam", cell.dataset, {"ds": 12}, {}, tolerance=2).id != cell.id
+    assert Cell("seqslam", cell.dataset, {"ds": 10}, {}, tolerance=2, seed=1).id != cell.id
+
+
+# -- bad input: one line naming the key, before any cell runs ---------------------------------
+
+
+def _config(**values):
+    base = {"methods": ["seqslam"], "datasets": [TINY[0]]}
+    return sweep_config_from_mapping({**base, **values}, source="sweep.toml")
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"methods": []}, "sweep.toml: methods is empty: the grid has no cell; give e.g. methods"),
+        ({"datasets": []}, "sweep.toml: datasets is empty: the grid has no cell"),
+        (
+            {"params": {"seqslam": {"ds": []}}},
+            "sweep.toml: [sweep.params.seqslam] ds = [] is empty: give at least one value",
+        ),
+        (
+            {"params": {"able-m": {"bits": [1, 2]}}},
+            "sweep.toml: [sweep.params.able-m]: 'able-m' is not in methods (seqslam); add it",
+        ),
+        ({"seed": []}, "sweep.toml: seed=[] must be an integer or a non-empty list of them"),
+        ({"tolerance": [-1]}, "sweep.toml: tolerance=[-1] must be an integer >= 0 or a"),
+        ({"combine": "zip"}, "sweep.toml: combine='zip' must be one of product, one-at-a-time"),
+        ({"methods": "seqslam, able-m"}, None),  # one string is one method (then unknown)
+    ],
+)
+def test_bad_values_name_their_key(values, message):
+    if message is None:
+        with pytest.raises(PpalocError, match="methods: method 'seqslam, able-m' is unknown"):
+            validate(_config(**values), expand(_config(**values)))
+        return
+    with pytest.raises(PpalocError) as info:
+        _config(**values)
+    assert str(info.value).startswith(message)
+    assert "\n" not in str(info.value)
+
+
+def test_unknown_axis_name_lists_the_valid_keys():
+    with pytest.raises(PpalocError) as info:
+        _config(gamma=[0.25, 0.5])
+    assert str(info.value) == (
+        "unknown configuration key 'gamma' in sweep.toml; valid keys: methods, datasets, "
+        "params, tolerance, seed, recall, record_weights, max_weight_values, combine"
+    )
+
+
+def test_a_parameter_the_method_does_not_take_is_refused_before_any_cell_runs():
+    config = _config(params={"seqslam": {"gamma": [0.25, 0.5]}})
+    with pytest.raises(PpalocError) as info:
+        validate(config, expand(config), source="sweep.toml")
+    assert str(info.value).startswith(
+        "sweep.toml: [sweep.params.seqslam] (cell gamma=0.25): method 'seqslam': unknown "
+        "parameter 'gamma'; its parameters: mode, size,"
+    )
+
+
+def test_the_issue_form_with_gamma_on_the_robust_filter_points_to_the_paper_methods():
+    config = sweep_config_from_mapping(
+        {
+            "methods": ["weighted-node-lbp", "seqslam"],
+            "datasets": list(TINY),
+            "tolerance": 2,
+            "params": {"weighted-node-lbp": {"gamma": [0.25, 0.5]}},
+        }
+    )
+    assert len(expand(config)) == 6  # the issue's form is read as it is
+    with pytest.raises(PpalocError, match=r"gamma=0.25 is a parameter of preset 'paper'"):
+        validate(config, expand(config))
+
+
+def test_a_bad_value_of_a_parameter_names_the_cell():
+    config = _config(
+        methods=["weighted-node-paper-lbp"],
+        params={"weighted-node-paper-lbp": {"gamma": [0.25, 0.3]}},
+    )
+    with pytest.raises(PpalocError, match=r"\(cell gamma=0.3\): gamma=0.3"):
+        validate(config, expand(config))
+
+
+def test_unknown_method_and_dataset_key():
+    with pytest.raises(PpalocError, match=r"^methods: method 'seqslm' is unknown"):
+        config = _config(methods=["seqslm"])
+        validate(config, expand(config))
+    config = _config(datasets=["synthetic:?plces=20"])
+    with pytest.raises(PpalocError, match=r"datasets: dataset spec .* unknown key 'plces'"):
+        validate(config, expand(config))
+
+
+def test_an_unreachable_scheduler_fails_at_once_and_writes_nothing(tmp_path, issue_config):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    out = tmp_path / "sweep"
+    t0 = time.perf_counter()
+    with pytest.raises(PpalocError) as info:
+        run_sweep(issue_config, out, scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=2)
+    assert time.perf_counter() - t0 < 5
+    assert str(info.value).startswith(f"cannot reach the Dask scheduler at tcp://127.0.0.1:{port}")
+    assert not out.exists()
+    with pytest.raises(PpalocError, match="must look like tcp://HOST:PORT"):
+        run_sweep(issue_config, out, scheduler="localhost")
+
+
+def test_bad_parameters_fail_before_the_scheduler_is_reached(tmp_path):
+    config = _config(params={"seqslam": {"gamma": [0.5]}})
+    with pytest.raises(PpalocError, match="unknown parameter 'gamma'"):
+        run_sweep(config, tmp_path / "out", scheduler="tcp://127.0.0.1:1")
+
+
+# -- the command -----------------------------------------------------------------------------
+
+
+def test_help_lists_sweep_and_shows_its_example():
+    assert "sweep" in CliRunner().invoke(cli, ["--help"]).output
+    result = CliRunner().invoke(cli, ["sweep", "--help"])
+    assert result.exit_code == 0
+    assert "[sweep.params.weighted-node-paper-lbp]" in result.output
+    assert "--scheduler" in result.output
+
+
+@pytest.mark.parametrize(
+    ("toml", "args", "message"),
+    [
+        (
+            '[sweep]\nmethods = ["seqslam"]\ndatasets = ["synthetic:?places=20"]\nmetods = 1\n',
+            [],
+            "ppaloc: error: unknown configuration key 'metods' in {path}; valid keys: methods,",
+        ),
+        (
+            '[sweep]\nmethods = ["seqslam"]\ndatasets = ["synthetic:?places=20"]\n',
+            ["--no-out"],
+            "ppaloc: error: no output folder: give --out DIR",
+        ),
+        (
+            '[sweep]\nmethods = ["seqslam"]\ndatasets = ["synthetic:?places=20"]\n'
+            "[sweep.params.seqslam]\ngamma = [0.25]\n",
+            [],
+            "ppaloc: error: {path}: [sweep.params.seqslam] (cell gamma=0.25): method 'seqslam': "
+            "unknown parameter 'gamma'",
+        ),
+        (
+            '[sweep]\nmethods = ["seqslam"]\ndatasets = []\n',
+            [],
+            "ppaloc: error: {path}: datasets is empty",
+        ),
+        (
+            '[sweep]\nmethods = ["seqslam"]\ndatasets = ["synthetic:?places=20"]\nworkers = "2"\n',
+            [],
+            "ppaloc: error: workers='2' in {path} has the wrong type",
+        ),
+    ],
+)
+def test_command_errors_are_one_line_with_exit_1(capsys, tmp_path, toml, args, message):
+    path = tmp_path / "sweep.toml"
+    path.write_text(toml)
+    out = [] if args == ["--no-out"] else ["--out", tmp_path / "out"]
+    code, _, err = run(capsys, "sweep", "--config", path, *out)
+    assert code == 1
+    assert err.startswith(message.format(path=path))
+    assert err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_flags_build_a_sweep_without_a_file(capsys, tmp_path):
+    code, _, err = run(
+        capsys,
+        "sweep",
+        "-m",
+        "seqslam",
+        "-d",
+        TINY[0],
+        "--param",
+        "seqslam.gamma=[1, 2]",
+        "--out",
+        tmp_path / "out",
+    )
+    assert code == 1
+    assert "[sweep.params.seqslam] (cell gamma=1): method 'seqslam': unknown parameter" in err
+
+
+def test_the_command_line_does_not_import_dask():
+    code = (
+        "import sys; from ppaloc.cli import main; from click.testing import CliRunner; "
+        "from ppaloc.cli import cli; CliRunner().invoke(cli, ['sweep', '--help']); "
+        "import ppaloc.evaluate, ppaloc.evaluate.sweep; "
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed')))"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "[]"
+
+
+# -- cell folders and the summary -------------------------------------------------------------
+
+
+def _finish(out, cell, f1):
+    results = {
+        "dataset": cell.spec,
+        "n_queries": 40,
+        "methods": {cell.method: {"f1_max": f1, "auc": f1 / 2, "recall_at_k": {"1": 0.5}}},
+    }
+    write_bytes(out / cell.folder / "results.json", json.dumps(results))
+
+
+def test_the_summary_is_rebuilt_from_the_cell_folders(tmp_path, issue_config):
+    config = issue_config
+    cells = expand(config)
+    _finish(tmp_path, cells[0], 0.75)
+    write_bytes(tmp_path / cells[1].folder / "error.json", json.dumps({"error": "it broke"}))
+    write_bytes(tmp_path / cells[2].folder / "results.json", '{"methods": {"seqsl')  # cut short
+    _finish(tmp_path, cells[3], 0.5)
+    summary = collect_summary(config, tmp_path)
+    assert summary["columns"] == ["method", "dataset", "gamma", *METRIC_COLUMNS, "status", "cell"]
+    rows = summary["cells"]
+    assert [r["status"] for r in rows] == ["ok", "it broke", "not run", "ok", "not run", "not run"]
+    assert [r["f1_max"] for r in rows[:4]] == [0.75, None, None, 0.5]
+    assert rows[0]["recall_at_1"] == 0.5 and rows[0]["n_queries"] == 40
+    assert [r["gamma"] for r in rows] == [0.25, 0.5, None, 0.25, 0.5, None]
+    assert summary["counts"] == {"cells": 6, "ok": 2, "failed": 1, "not_run": 3}
+    assert cell_status(tmp_path, cells[2]) == ("not run", None)  # unparsable: not finished

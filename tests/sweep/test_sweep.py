@@ -1,0 +1,259 @@
+"""Sweeps on a LocalCluster of 2 workers: end to end, failed cells, a killed worker, resume
+after an interruption (Ctrl-C included), and the same metrics on 1 and 2 workers."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from ppaloc.cli import main
+from ppaloc.evaluate.results import load_results
+from ppaloc.evaluate.sweep import METRIC_COLUMNS, SweepConfig, expand, run_sweep
+from ppaloc.evaluate.sweep_report import write_sweep_report
+
+TINY = ("synthetic:?places=20&seed=1&size=64", "synthetic:?places=20&seed=2&size=64")
+TIMING = {"latency_ms_median", "latency_ms_p95", "build_s"}
+"""Columns measured on the host: the only ones that may differ between two runs."""
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def results_files(out: Path) -> dict[str, float]:
+    """Every cell's results.json and its modification time."""
+    return {str(p.relative_to(out)): p.stat().st_mtime_ns for p in out.glob("cells/*/results.json")}
+
+
+def test_the_issue_grid_end_to_end_through_the_command(capsys, tmp_path, cluster2, issue_toml):
+    out = tmp_path / "sweep"
+    address = cluster2.scheduler.address
+    code = main(["sweep", "--config", str(issue_toml), "--out", str(out), "--scheduler", address])
+    stdout, err = capsys.readouterr()
+    assert code == 0, err
+    assert "Best cell per method and dataset" in stdout
+    assert "6 cells: 0 already done, 6 run now, 6 finished, 0 failed" in stdout
+    rows = read_csv(out / "summary.csv")
+    assert list(rows[0]) == ["method", "dataset", "gamma", *METRIC_COLUMNS, "status", "cell"]
+    assert [(r["method"], r["dataset"], r["gamma"], r["status"]) for r in rows] == [
+        ("weighted-node-paper-lbp", TINY[0], "0.25", "ok"),
+        ("weighted-node-paper-lbp", TINY[0], "0.5", "ok"),
+        ("seqslam", TINY[0], "", "ok"),
+        ("weighted-node-paper-lbp", TINY[1], "0.25", "ok"),
+        ("weighted-node-paper-lbp", TINY[1], "0.5", "ok"),
+        ("seqslam", TINY[1], "", "ok"),
+    ]
+    for row in rows:  # each cell is a results folder of `ppaloc evaluate`, read back whole
+        result, summary = load_results(out / row["cell"])
+        entry = summary["methods"][row["method"]]
+        assert float(row["f1_max"]) == entry["f1_max"] == result.runs[row["method"]].metrics.f1_max
+        assert float(row["auc"]) == entry["auc"]
+        assert summary["tolerance"] == 2
+        assert entry["params"].get("gamma") == (float(row["gamma"]) if row["gamma"] else None)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["counts"] == {"cells": 6, "ok": 6, "failed": 0, "not_run": 0}
+    assert [r["f1_max"] for r in summary["cells"]] == [float(r["f1_max"]) for r in rows]
+    page = (out / "report.html").read_text()
+    assert page.count("<img src='data:image/png;base64,") == 2  # method x dataset, gamma x dataset
+    assert "Best cell per method and dataset" in page
+    assert "weighted-node-paper-lbp: max F1 over gamma x dataset" in page
+
+    before = results_files(out)
+    code = main(["sweep", "--config", str(issue_toml), "--out", str(out), "--scheduler", address])
+    stdout, _ = capsys.readouterr()
+    assert code == 0
+    assert "6 cells: 6 already done, 0 run now, 6 finished, 0 failed" in stdout
+    assert results_files(out) == before  # nothing redone
+
+
+def test_a_failed_cell_is_recorded_and_the_others_go_on(capsys, tmp_path, cluster2):
+    out = tmp_path / "sweep"
+    missing = tmp_path / "no-such-folder"
+    toml = tmp_path / "sweep.toml"
+    toml.write_text(
+        "[sweep]\n"
+        'methods = ["seqslam", "single-frame"]\n'
+        f'datasets = ["{TINY[0]}", "folder:{missing}/ref,{missing}/query"]\n'
+    )
+    args = ["sweep", "--config", str(toml), "--out", str(out)]
+    code = main([*args, "--scheduler", cluster2.scheduler.address, "-q"])
+    _, err = capsys.readouterr()
+    assert code == 1
+    assert err.startswith("ppaloc: error: 2 of 4 cells failed, the first (seqslam on folder:")
+    assert err.count("\n") == 1
+    rows = read_csv(out / "summary.csv")
+    assert [r["status"] for r in rows[:2]] == ["ok", "ok"]
+    for row in rows[2:]:
+        assert str(missing) in row["status"] and "\n" not in row["status"]
+        assert row["f1_max"] == ""
+        error = json.loads((out / row["cell"] / "error.json").read_text())
+        assert error["error"] == row["status"]
+        assert not (out / row["cell"] / "results.json").exists()
+    assert "Failed cells" in (out / "report.html").read_text()
+
+    before = results_files(out)  # a second run retries the failed cells only
+    code = main([*args, "--scheduler", cluster2.scheduler.address, "-q"])
+    capsys.readouterr()
+    assert code == 1
+    assert results_files(out) == before
+
+
+def test_resume_after_an_interruption_runs_only_the_missing_cells(tmp_path, cluster2, issue_config):
+    out = tmp_path / "sweep"
+    finished = []
+
+    def interrupt_after_two(cell, status):
+        finished.append(cell.id)
+        if len(finished) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(issue_config, out, client=cluster2, on_cell=interrupt_after_two)
+    rows = json.loads((out / "summary.json").read_text())["cells"]
+    done = {r["cell"] for r in rows if r["status"] == "ok"}
+    assert done == {f"cells/{c.method}-{c.id}" for c in expand(issue_config) if c.id in finished}
+    assert sum(r["status"] == "not run" for r in rows) == 4
+    before = results_files(out)
+    assert len(before) == 2
+
+    again = []
+    outcome = run_sweep(issue_config, out, client=cluster2, on_cell=lambda c, s: again.append(c.id))
+    assert (outcome.n_skipped, outcome.n_run, outcome.n_failed) == (2, 4, 0)
+    assert sorted(again + finished) == sorted(c.id for c in expand(issue_config))
+    after = results_files(out)
+    assert {k: after[k] for k in before} == before  # the finished cells were not touched
+    assert outcome.summary["counts"]["ok"] == 6
+
+
+def test_one_and_two_workers_give_the_same_metrics(tmp_path, cluster2, make_cluster):
+    config = SweepConfig(
+        methods=("particle-filter", "weighted-node-paper-lbp"),
+        datasets=TINY,
+        params={"particle-filter": {"n_particles": [50, 100]}, "weighted-node-paper-lbp": {}},
+        seed=[0, 3],
+    )
+    two = run_sweep(config, tmp_path / "two", client=cluster2).summary
+    with make_cluster(1, processes=False) as one_worker:
+        one = run_sweep(config, tmp_path / "one", client=one_worker).summary
+
+    def metrics(summary):
+        return [{k: v for k, v in r.items() if k not in TIMING} for r in summary["cells"]]
+
+    assert all(r["status"] == "ok" for r in one["cells"])
+    assert metrics(one) == metrics(two)
+    seeds = {r["seed"]: r["f1_max"] for r in one["cells"] if r["method"] == "particle-filter"}
+    assert len(seeds) == 2  # the seed reaches the particle filter
+
+
+def test_a_worker_killed_mid_sweep_loses_no_cell(tmp_path, make_cluster):
+    config = SweepConfig(
+        methods=("weighted-node-paper-lbp", "seqslam"),
+        datasets=("synthetic:?places=40&seed=3&size=64",),
+        params={"weighted-node-paper-lbp": {"gamma": [0.125, 0.25, 0.5, 1.0]}, "seqslam": {}},
+    )
+    out = tmp_path / "sweep"
+    killed = []
+    with make_cluster(2, processes=True) as client:
+
+        def kill_a_busy_worker(cell, status):
+            if killed:
+                return
+            busy = [addr for addr, keys in client.processing().items() if keys]
+            if not busy:
+                return
+            pid = client.run(os.getpid, workers=busy[:1])[busy[0]]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+        outcome = run_sweep(config, out, client=client, on_cell=kill_a_busy_worker)
+        assert killed, "no worker was busy after the first cell"
+        deadline = time.monotonic() + 10
+        while killed[0] in client.run(os.getpid).values() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert killed[0] not in client.run(os.getpid).values()
+    assert (outcome.n_run, outcome.n_failed) == (5, 0)
+    rows = outcome.summary["cells"]
+    assert [r["status"] for r in rows] == ["ok"] * 5
+    for row in rows:  # every cell intact: its results.json parses and its arrays load
+        result, _ = load_results(out / row["cell"])
+        assert result.runs[row["method"]].metrics.f1_max == row["f1_max"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(tmp_path, cluster2):
+    import psutil
+
+    out = tmp_path / "sweep"
+    config = SweepConfig(  # 12 cells on 60-place routes: a few seconds, interrupted early
+        methods=("weighted-node-paper-lbp", "seqslam"),
+        datasets=tuple(d.replace("places=20", "places=60") for d in TINY),
+        tolerance=2,
+        params={"weighted-node-paper-lbp": {"gamma": [0.0, 0.125, 0.25, 0.5, 1]}},
+    )
+    toml = tmp_path / "long.toml"
+    toml.write_text(
+        "[sweep]\n"
+        'methods = ["weighted-node-paper-lbp", "seqslam"]\n'
+        f"datasets = {json.dumps(list(config.datasets))}\n"
+        "tolerance = 2\n"
+        "[sweep.params.weighted-node-paper-lbp]\n"
+        "gamma = [0.0, 0.125, 0.25, 0.5, 1]\n"
+    )
+    command = [sys.executable, "-c", "import sys; from ppaloc.cli import main; sys.exit(main())"]
+    args = ["sweep", "--config", str(toml), "--out", str(out), "--workers", "2"]
+    proc = subprocess.Popen(
+        [*command, *args],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not list(out.glob("cells/*/results.json")) and time.monotonic() < deadline:
+            assert proc.poll() is None, proc.communicate()
+            time.sleep(0.05)
+        children = psutil.Process(proc.pid).children(recursive=True)
+        os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does: the whole foreground group
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "ppaloc: interrupted"
+    assert "Traceback" not in err
+    _, alive = psutil.wait_procs(children, timeout=10)
+    assert not alive, f"processes left behind: {alive}"
+    rows = read_csv(out / "summary.csv")
+    ok = [r for r in rows if r["status"] == "ok"]
+    assert ok and len(ok) < 12 and all(r["status"] in ("ok", "not run") for r in rows)
+    before = results_files(out)
+    assert len(before) == len(ok)
+
+    outcome = run_sweep(config, out, client=cluster2)
+    assert (outcome.n_skipped, outcome.n_run, outcome.n_failed) == (len(ok), 12 - len(ok), 0)
+    after = results_files(out)
+    assert {k: after[k] for k in before} == before
+
+
+def test_the_report_is_rebuilt_from_the_summary_alone(tmp_path, cluster2, issue_config):
+    out = tmp_path / "sweep"
+    run_sweep(issue_config, out, client=cluster2)
+    for cell in (out / "cells").iterdir():  # the report needs summary.json only
+        for f in cell.rglob("*"):
+            if f.is_file():
+                f.unlink()
+    page = write_sweep_report(out).read_text()
+    assert page.count("<img src='data:image/png;base64,") == 2
+    assert (out / "report.md").read_text().count("](figures/heatmap-") == 2
