@@ -89,11 +89,11 @@ EVENT_SLOTS = 32
 #: The weight register (both representations; tile t at block PE (0, t)).
 WEIGHTS = C
 _W = WEIGHTS
-#: Robust transition: the shifted copy of the weights (``S``, moved one node along the
-#: snake per step; its row 1 of the top block row parks the edge and tile-carry values).
+#: Robust transition: minus the weights, shifted (``S = -w_{i-d}``, moved one node along
+#: the snake per step; its row 1 of the top block row parks the edge and tile-carry values).
 SHIFTED = E
-#: Robust transition: the scratch copy of the snake shift, then the candidate
-#: ``clip(S - c_d)`` (also the floor constant of the normalisation).
+#: Robust transition: the scratch copy of the snake shift (and the candidate of a cost
+#: beyond the DAC); also the floor constant of the normalisation.
 _X = D
 
 
@@ -571,49 +571,69 @@ class SensorPipeline(ABC):
 
         self._run(f"sn_starts_{reg.name}_{step}", starts)
 
-    def _minus_cost(self, dst: Register, src: Register, cost: int) -> None:
-        """``dst := clip(src - cost, -127, 127)`` (the ``add`` macro; DAC steps of <= 128)."""
-        first = min(cost, 128)
-        self.sim.load_in(-first)
-        self._run(f"cost_{dst.name}_{src.name}", lambda k: k.add(dst, src, IN))
-        if cost > 128:  # only beyond the DAC: clip(clip(x - a) - b) = clip(x - a - b), a, b >= 0
-            self.sim.load_in(first - cost)
-            self._run(f"cost_{dst.name}_{dst.name}", lambda k: k.add(dst, dst, IN))
+    def _take_candidate(self, neg: Register, scratch: Register, cost: int) -> None:
+        """``w := max(w, clip(x - cost))`` in place, from ``neg = -x``, ``cost >= 0``.
+
+        One kernel with ``cost`` in ``IN`` (the DAC, up to 127): ``NEWS = -(neg + w +
+        cost)`` and ``where(NEWS)`` flag the nodes where ``x - cost > w``, and
+        ``bus(w, neg, IN)`` writes ``x - cost`` there: one write per taken candidate
+        (``w >= -127``, so a taken one is never clipped, and the others are not
+        written). Beyond the DAC (``cost > 127``) ``scratch := clip(x - 127)`` first (a
+        value clipped at -128 is below every weight, so it never wins).
+        """
+        sim = self.sim
+        if cost > 127:
+            sim.load_in(127)
+            self._run(f"tr_far_{scratch.name}", lambda k: k.bus(scratch, neg, IN))
+            sim.load_in(cost - 127)
+
+            def far(k):
+                k.bus(NEWS, _W, IN)
+                k.where(scratch, NEWS)  # FLAG = x - cost > w
+                k.sub(_W, scratch, IN)
+                k.all()
+
+            self._run(f"tr_max_far_{scratch.name}", far)
+            return
+        if cost:
+            sim.load_in(cost)
+        sources = (neg, IN) if cost else (neg,)
+
+        def take(k):
+            k.bus(NEWS, _W, *sources)
+            k.where(NEWS)  # FLAG = x - cost > w
+            k.bus(_W, *sources)
+            k.all()
+
+        self._run(f"tr_max_{neg.name}_{int(bool(cost))}", take)
 
     def transition(self, costs: tuple[int, ...]) -> None:
         """Robust: ``w_i := clip(max over d of (w_{i-d} - c_d))``; before node 0: ``-memory``.
 
-        docs/ppa8.md (robust preset, item 2). ``S`` (:data:`SHIFTED`) starts as a copy of
-        the weights and moves one node along the snake per ``d`` (:meth:`_snake_step`,
-        the edge and the tile carry parked first, :meth:`_park`); each candidate
-        ``clip(S - c_d)`` is one ``add`` with ``-c_d`` from the DAC (a register write:
-        clipped to [-127, 127], as the host clips), and the maximum is taken in place by
-        ``where(X - W)`` + ``mov``. As on the host, advances of ``d >= N`` nodes are left
-        out (they would read only the edge).
+        docs/ppa8.md (robust preset, item 2). ``S`` (:data:`SHIFTED`) starts as ``-w``
+        (one ``bus``) and moves one node along the snake per ``d`` (:meth:`_snake_step`,
+        with ``+memory`` and the tile carry parked first, :meth:`_park`). The stay
+        candidate is ``w := clip(w - c_0)`` in place (``add`` with ``-c_0`` from the DAC,
+        clipped to [-127, 127] as the host clips; nothing on a stay decision, where
+        ``c_0 = 0``); every other candidate is taken in place by
+        :meth:`_take_candidate`, which writes a weight only where its candidate wins, so
+        a hypothesis moving one node takes three analogue writes (copy, shift, take). As
+        on the host, advances of ``d >= N`` nodes are left out (they would read only the
+        edge).
         """
         sim, s, x = self.sim, SHIFTED, _X
         steps = min(len(costs) - 1, self.n_nodes - 1)
         with sim.stage("transition"):
             if steps:
                 self._snake_masks()
-                self._run("tr_copy", lambda k: k.mov(s, _W))  # S := W
-                self._park(s, x, -int(self.params.memory), steps)
+                self._run("tr_copy", lambda k: k.bus(s, _W))  # S := -W
+                self._park(s, x, int(self.params.memory), steps)
             if costs[0]:
-                self._minus_cost(_W, _W, int(costs[0]))
+                sim.load_in(-int(costs[0]))
+                self._run("tr_stay", lambda k: k.add(_W, _W, IN))
             for d in range(1, steps + 1):
                 self._snake_step(s, x, d)
-                cand = s
-                if costs[d]:
-                    self._minus_cost(x, s, int(costs[d]))
-                    cand = x
-
-                def take_max(k, cand=cand):
-                    k.bus(NEWS, _W)
-                    k.where(cand, NEWS)  # FLAG = candidate > w
-                    k.mov(_W, cand)
-                    k.all()
-
-                self._run(f"tr_max_{cand.name}", take_max)
+                self._take_candidate(s, x, int(costs[d]))
 
     # --------------------------------------------------------------- robust likelihood
     def compare_robust(self) -> None:
@@ -663,22 +683,24 @@ class SensorPipeline(ABC):
         """Robust: ``w := max(clip(w - T, -127, 127), -memory)`` (docs/ppa8.md item 5).
 
         ``-memory`` into ``D`` and ``-T`` into ``IN`` through the DAC; one kernel: the
-        ``add`` (clip [-127, 127], as the host), then ``where(-memory - w)`` and a ``mov``
-        of the floor.
+        ``add`` (clip [-127, 127], as the host; left out for ``T = 0``, where it changes
+        nothing), then ``where(-memory - w)`` and a ``mov`` of the floor.
         """
         sim = self.sim
         with sim.stage("normalise"):
             sim.scamp5_in(D, -int(self.params.memory))
-            sim.load_in(-int(top))
+            if top:  # T = 0 (often: the best weight stays in [0, 1)) writes no weight
+                sim.load_in(-int(top))
 
-            def build(k):
-                k.add(_W, _W, IN)
+            def build(k, top=top):
+                if top:
+                    k.add(_W, _W, IN)
                 k.bus(NEWS, _W)
                 k.where(D, NEWS)  # FLAG = w < -memory
                 k.mov(_W, D)
                 k.all()
 
-            self._run("normalise", build)
+            self._run(f"normalise_{int(bool(top))}", build)
 
     def _update(self, k, x: Register, y: Register, sign: int, exponent: int, tile: int) -> None:
         """``w += alpha - base 2**exponent`` at tile ``tile``'s roots (``x = sign base``).
