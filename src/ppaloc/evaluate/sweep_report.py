@@ -79,30 +79,43 @@ def _fmt(v: Any) -> str:
     return "-" if v is None else f"{v:.3f}"
 
 
-def dataset_labels(specs: Sequence[str], *, width: int = 32) -> dict[str, str]:
-    """Short labels of dataset specs: the ``key=value`` pairs that tell them apart.
+def dataset_labels(specs: Sequence[str], *, width: int = 44) -> dict[str, str]:
+    """Short labels of dataset specs: what tells each apart from the others.
+
+    The kind (when the specs are of several kinds), the folder's name (when specs of one
+    kind read different folders) and the ``key=value`` pairs that differ between the
+    specs of the same kind. Labels longer than ``width`` are cut; if two labels come out
+    the same, the specs are numbered ``D1``, ``D2``, ... instead.
 
     Examples
     --------
     >>> dataset_labels(["synthetic:?places=100&seed=1", "synthetic:?places=100&seed=2"])
     {'synthetic:?places=100&seed=1': 'seed=1', 'synthetic:?places=100&seed=2': 'seed=2'}
+    >>> list(dataset_labels(["nordland:data/nl?query=winter", "synthetic:?seed=3",
+    ...                      "synthetic:?seed=4"]).values())
+    ['nordland', 'synthetic seed=3', 'synthetic seed=4']
     >>> dataset_labels(["synthetic:?seed=1"])
     {'synthetic:?seed=1': 'synthetic:?seed=1'}
     """
-    parts = []
-    for spec in specs:
-        head, _, query = spec.partition("?")
-        parts.append((head, [p for p in query.split("&") if p]))
     if len(specs) < 2:
         return {s: _shorten(s, width) for s in specs}
-    common = set.intersection(*(set(p) for _, p in parts))
-    heads_differ = len({h for h, _ in parts}) > 1
+    parsed = []
+    for spec in specs:
+        head, _, query = spec.partition("?")
+        kind, _, path = head.partition(":")
+        parsed.append((kind, path, [p for p in query.split("&") if p]))
+    kinds = {k for k, _, _ in parsed}
     labels = {}
-    for spec, (head, pairs) in zip(specs, parts, strict=True):
+    for spec, (kind, path, pairs) in zip(specs, parsed, strict=True):
+        same = [(pa, pp) for k, pa, pp in parsed if k == kind]
+        common = set.intersection(*(set(pp) for _, pp in same))
+        words = [kind] if len(kinds) > 1 else []
+        if len({pa for pa, _ in same}) > 1:
+            words.append(Path(path.split(",")[0]).name or path)
         rest = "&".join(p for p in pairs if p not in common)
-        label = f"{head}?{rest}" if heads_differ and rest else head if heads_differ else rest
-        labels[spec] = _shorten(label or spec, width)
-    if len(set(labels.values())) < len(labels):  # shortened into the same text: number them
+        words += [rest] if rest else []
+        labels[spec] = _shorten(" ".join(words) or spec, width)
+    if len(set(labels.values())) < len(labels):  # the same text twice: number them
         labels = {s: f"D{i + 1}" for i, s in enumerate(specs)}
     return labels
 
@@ -143,8 +156,13 @@ def best_cells(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 def sensitivity(summary: Mapping[str, Any]) -> list[tuple[str, list[str], list[list[str]]]]:
     """Max F1 against each swept method parameter: one table per parameter, one row per
-    value, per method that sweeps it the mean and the minimum of max F1 over its finished
-    cells with that value (over datasets, seeds and its other parameters).
+    value.
+
+    A *route* is a dataset with a seed and a tolerance. Per method that sweeps the
+    parameter: the mean and the minimum over the routes of its max F1 at that value (per
+    route, the mean over its cells with that value, i.e. over its other parameters). With
+    two or more such methods, also the best of them per route, its mean and minimum (the
+    columns of ``benchmarks/sensitivity_robust.py``).
 
     Returns
     -------
@@ -163,23 +181,39 @@ def sensitivity(summary: Mapping[str, Any]) -> list[tuple[str, list[str], list[l
         header = [axis]
         for m in methods:
             header += [f"{m} mean", f"{m} min"]
+        several = len(methods) > 1
+        if several:
+            best = "better of the two" if len(methods) == 2 else "best of the methods"
+            header += [f"{best}, mean", f"{best}, min"]
         rows = []
         for value in summary["axes"][axis]:
-            row = [_text(value)]
-            for m in methods:
-                f1 = [
-                    r["f1_max"]
-                    for r in summary["cells"]
-                    if r["method"] == m
+            per: dict[str, dict[str, list[float]]] = {m: {} for m in methods}
+            for r in summary["cells"]:
+                if (
+                    r["method"] in per
                     and r["status"] == "ok"
                     and r.get("f1_max") is not None
                     and r.get(axis) is not None
                     and _key(r[axis]) == _key(value)
-                ]
-                row += [_fmt(float(np.mean(f1))) if f1 else "-", _fmt(min(f1)) if f1 else "-"]
+                ):
+                    route = _key([r["dataset"], r.get("seed"), r.get("tolerance")])
+                    per[r["method"]].setdefault(route, []).append(float(r["f1_max"]))
+            means = {m: {k: float(np.mean(v)) for k, v in per[m].items()} for m in methods}
+            row = [_text(value)]
+            for m in methods:
+                row += _mean_min(list(means[m].values()))
+            if several:
+                routes = set.intersection(*(set(means[m]) for m in methods))
+                row += _mean_min([max(means[m][k] for m in methods) for k in routes])
             rows.append(row)
         out.append((axis, header, rows))
     return out
+
+
+def _mean_min(values: list[float]) -> list[str]:
+    if not values:
+        return ["-", "-"]
+    return [_fmt(float(np.mean(values))), _fmt(min(values))]
 
 
 def _axis_values(summary: Mapping[str, Any], axis: str, rows: Sequence[Mapping]) -> list[Any]:
@@ -263,7 +297,9 @@ def _heatmap(
     ny, nx = grid.shape
     longest = max(map(len, ylabels), default=0)
     width = min(14.0, max(4.5, 2.2 + 0.95 * nx + 0.07 * longest, 1.4 + 0.085 * len(title)))
-    height = min(12.0, max(2.6, 1.6 + 0.42 * ny))
+    rotate = nx > 4
+    below = 0.05 * max(map(len, xlabels), default=0) if rotate else 0.0  # slanted tick labels
+    height = min(14.0, max(2.6, 1.6 + 0.42 * ny + below))
     fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
@@ -277,7 +313,7 @@ def _heatmap(
             colour = "black" if math.isnan(v) or v > 0.6 else "white"
             ax.text(j, i, text, ha="center", va="center", fontsize=8, color=colour)
     ax.set_xticks(
-        range(nx), xlabels, rotation=30 if nx > 4 else 0, ha="right" if nx > 4 else "center"
+        range(nx), xlabels, rotation=30 if rotate else 0, ha="right" if rotate else "center"
     )
     ax.set_yticks(range(ny), ylabels)
     ax.set_xlabel(xlabel)

@@ -1,0 +1,172 @@
+"""The sweep report from a hand-written summary: best cells, sensitivity, heat-map axes,
+grids, labels and the page (no cluster)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import DataError
+from ppaloc.evaluate.sweep_report import (
+    best_cells,
+    dataset_labels,
+    f1_grid,
+    heatmap_axes,
+    load_summary,
+    sensitivity,
+    write_sweep_report,
+)
+from ppaloc.fileio import write_bytes
+
+A, B = "synthetic:?seed=1", "synthetic:?seed=2"
+
+
+def row(method, dataset, f1, status="ok", **axes):
+    return {
+        "method": method,
+        "dataset": dataset,
+        "f1_max": f1,
+        "auc": None if f1 is None else f1 / 2,
+        "recall_at_100p": 0.0,
+        "status": status,
+        "cell": f"cells/{method}-{dataset[-1]}-{len(axes)}",
+        **axes,
+    }
+
+
+def summary(combine="product"):
+    """lbp sweeps gain (1, 2) x memory (32, 64), lowres gain only, seqslam nothing; two
+    datasets; one lowres cell failed."""
+    cells = []
+    for d in (A, B):
+        for g in (1, 2):
+            for mem in (32, 64):
+                f1 = 0.1 * g + (0.2 if d == B else 0.0) + (0.05 if mem == 64 else 0.0)
+                cells.append(row("lbp", d, f1, gain=g, memory=mem))
+        cells.append(row("lowres", d, 0.3, gain=1))
+        failed = d == B
+        cells.append(row("lowres", d, None if failed else 0.5, "boom" if failed else "ok", gain=2))
+        cells.append(row("seqslam", d, 0.6 if d == A else 0.4))
+    return {
+        "format": "ppaloc-sweep-summary",
+        "config": {"combine": combine},
+        "axes": {
+            "method": ["lbp", "lowres", "seqslam"],
+            "dataset": [A, B],
+            "gain": [1, 2],
+            "memory": [32, 64],
+        },
+        "cells": cells,
+        "counts": {"cells": len(cells), "ok": len(cells) - 1, "failed": 1, "not_run": 0},
+    }
+
+
+def test_best_cells_per_method_and_dataset():
+    best = best_cells(summary())
+    assert [
+        (b["method"], b["dataset"], b["row"] and b["row"]["f1_max"], b["ok"], b["cells"])
+        for b in best
+    ] == [
+        ("lbp", A, pytest.approx(0.25), 4, 4),
+        ("lbp", B, pytest.approx(0.45), 4, 4),
+        ("lowres", A, 0.5, 2, 2),
+        ("lowres", B, 0.3, 1, 2),
+        ("seqslam", A, 0.6, 1, 1),
+        ("seqslam", B, 0.4, 1, 1),
+    ]
+    assert best[1]["row"]["gain"] == 2 and best[1]["row"]["memory"] == 64
+
+
+def test_sensitivity_means_over_routes_and_the_better_method():
+    tables = dict((axis, (header, rows)) for axis, header, rows in sensitivity(summary()))
+    header, rows = tables["gain"]
+    assert header == [
+        "gain",
+        "lbp mean",
+        "lbp min",
+        "lowres mean",
+        "lowres min",
+        "better of the two, mean",
+        "better of the two, min",
+    ]
+    # gain 1: lbp per route = mean over memory: A 0.125, B 0.325; lowres 0.3 on both
+    # gain 2: lbp A 0.225, B 0.425; lowres A 0.5, B failed (the better: A only)
+    assert rows == [
+        ["1", "0.225", "0.125", "0.300", "0.300", "0.312", "0.300"],
+        ["2", "0.325", "0.225", "0.500", "0.500", "0.500", "0.500"],
+    ]
+    header, rows = tables["memory"]
+    assert header == ["memory", "lbp mean", "lbp min"]
+    # memory 32: lbp per route = mean over gain: A 0.15, B 0.35; memory 64: A 0.2, B 0.4
+    assert rows == [["32", "0.250", "0.150"], ["64", "0.300", "0.200"]]
+
+
+def test_heatmap_axes_pair_parameters_only_when_varied_together():
+    assert heatmap_axes(summary()) == [
+        (None, "method", "dataset"),
+        ("lbp", "gain", "memory"),
+        ("lbp", "gain", "dataset"),
+        ("lbp", "memory", "dataset"),
+        ("lowres", "gain", "dataset"),
+    ]
+    assert ("lbp", "gain", "memory") not in heatmap_axes(summary("one-at-a-time"))
+
+
+def test_f1_grid_means_over_other_axes_and_takes_the_best_for_methods():
+    rows, cols, grid = f1_grid(summary(), "lbp", "gain", "memory")
+    assert (rows, cols) == ([1, 2], [32, 64])
+    np.testing.assert_allclose(grid, [[0.2, 0.25], [0.3, 0.35]])
+    rows, cols, grid = f1_grid(summary(), None, "method", "dataset")
+    np.testing.assert_allclose(grid, [[0.25, 0.45], [0.5, 0.3], [0.6, 0.4]])
+    _, _, grid = f1_grid(summary(), "lowres", "gain", "dataset")
+    assert grid[0].tolist() == [0.3, 0.3] and grid[1, 0] == 0.5 and math.isnan(grid[1, 1])
+
+
+def test_dataset_labels_keep_what_differs_and_number_what_would_clash():
+    specs = [
+        "nordland:a/nordland-64x32?ref=summer",
+        "nordland:b/other?ref=summer",
+        "synthetic:?places=9&seed=1",
+        "synthetic:?places=9&seed=2",
+    ]
+    assert list(dataset_labels(specs).values()) == [
+        "nordland nordland-64x32",
+        "nordland other",
+        "synthetic seed=1",
+        "synthetic seed=2",
+    ]
+    clash = [f"synthetic:?speed_var=0.65{i}&seed={i}" for i in (1, 2)]  # cut: "speed_var…"
+    assert list(dataset_labels(clash, width=10).values()) == ["D1", "D2"]
+
+
+def test_the_page_has_every_section(tmp_path):
+    write_bytes(tmp_path / "summary.json", json.dumps(summary()))
+    page = write_sweep_report(tmp_path).read_text()
+    for section in (
+        "Best cell per method and dataset",
+        "Max F1 against gain",
+        "Max F1 against memory",
+        "Failed cells",
+        "All cells",
+        "Datasets",
+        "Configuration",
+    ):
+        assert section in page
+    assert page.count("<img src='data:image/png;base64,") == 5
+    assert "boom" in page
+    md = (tmp_path / "report.md").read_text()
+    assert md.count("](figures/heatmap-") == 5
+    assert sorted(p.name for p in (tmp_path / "figures").iterdir()) == [
+        f"heatmap-{i}.png" for i in range(1, 6)
+    ]
+
+
+def test_a_folder_without_a_summary_is_refused(tmp_path):
+    with pytest.raises(DataError, match=r"holds no summary\.json; give a folder written by"):
+        load_summary(tmp_path)
+    write_bytes(tmp_path / "summary.json", '{"format": "other"}')
+    with pytest.raises(DataError, match="is not a ppaloc sweep summary"):
+        load_summary(tmp_path)
