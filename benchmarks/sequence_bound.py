@@ -57,7 +57,7 @@ def bound(mu: np.ndarray, place: np.ndarray, tolerance: float, window: int) -> f
     for t in range(m):
         total = np.zeros(n)
         for k in range(min(window, t + 1)):
-            lag = int(round(place[t] - place[t - k]))
+            lag = round(place[t] - place[t - k])
             shifted = np.full(n, big)
             if 0 <= lag < n:
                 shifted[lag:] = mu[t - k, : n - lag]

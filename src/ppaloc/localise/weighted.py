@@ -537,12 +537,13 @@ class WeightedNodeLocaliser:
         w, pred, tmp = self._w, self._pred, self._moved_copy
         floor = -float(self.params.memory)
         np.subtract(w, self._dtype(costs[0]), out=pred)
+        n = len(w)
         for d, cost in enumerate(costs[1:], start=1):
-            if d >= len(w):
-                break
-            np.subtract(w[:-d], self._dtype(cost), out=tmp[d:])
-            np.maximum(pred[d:], tmp[d:], out=pred[d:])
-            np.maximum(pred[:d], self._dtype(floor - cost), out=pred[:d])
+            if d < n:
+                np.subtract(w[:-d], self._dtype(cost), out=tmp[d:])
+                np.maximum(pred[d:], tmp[d:], out=pred[d:])
+            # nodes i < d take the array edge's "no hypothesis"
+            np.maximum(pred[: min(d, n)], self._dtype(floor - cost), out=pred[: min(d, n)])
         w[:] = pred
         _clip(w, _W_MIN, _W_MAX)  # every candidate is a register write (the add macro)
 
