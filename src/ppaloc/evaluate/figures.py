@@ -39,11 +39,27 @@ def _figure(width: float, height: float) -> Figure:
     return fig
 
 
+def _family(name: str) -> str:
+    """A method's name without its preset: a preset shares its default's colour."""
+    return name.replace("-paper-", "-")
+
+
 def _colours(names: Sequence[str]) -> dict[str, Any]:
+    """One colour per method family (tab10, then tab20's lighter shades past ten)."""
     import matplotlib as mpl
 
-    cmap = mpl.colormaps["tab10"]
-    return {name: cmap(i % 10) for i, name in enumerate(names)}
+    families = list(dict.fromkeys(_family(n) for n in names))
+    tab10, tab20 = mpl.colormaps["tab10"], mpl.colormaps["tab20"]
+
+    def colour(i: int) -> Any:
+        return tab10(i) if i < 10 else tab20((2 * (i - 10) + 1) % 20)
+
+    return {n: colour(families.index(_family(n))) for n in names}
+
+
+def _linestyle(name: str) -> str:
+    """Dashed for a non-default preset (the paper's Algorithm 1), solid otherwise."""
+    return "--" if name != _family(name) else "-"
 
 
 def _plain_log_ticks(axis: Any) -> None:
@@ -78,7 +94,14 @@ def pr_curves(result: RunResult) -> Figure:
             continue
         r = np.concatenate([[0.0], c.recall])
         p = np.concatenate([[c.precision[0]], c.precision])
-        ax.plot(r, p, color=colours[name], lw=1.8, label=f"{name} (F1 {run.metrics.f1_max:.2f})")
+        ax.plot(
+            r,
+            p,
+            color=colours[name],
+            ls=_linestyle(name),
+            lw=1.8,
+            label=f"{name} (F1 {run.metrics.f1_max:.2f})",
+        )
         ax.plot(
             run.metrics.recall_at_f1,
             run.metrics.precision_at_f1,
