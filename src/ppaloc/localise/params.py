@@ -36,11 +36,13 @@ import numpy as np
 from ppaloc.errors import PpalocError
 
 __all__ = [
+    "DEFAULT_SHIFT",
     "FILTER_KEYS",
     "GAMMAS",
     "MAX_SHIFT",
     "PRESETS",
     "FilterParams",
+    "check_int",
     "frame_statistics",
     "likelihood_shift",
     "transition_costs",
@@ -62,7 +64,13 @@ _PAPER_ONLY = ("alpha", "gamma", "k", "shift", "advance")
 _ROBUST_ONLY = ("gain", "memory", "stay_cost", "move_cost", "skip_cost", "max_advance")
 
 
-def _int(name: str, value: Any, low: int, high: int | None = None) -> int:
+DEFAULT_SHIFT = {"lowres": 2, "lbp": 1}
+"""Paper preset: the default likelihood shift per representation. One frame's term spans
+0-32 units in both (low-res ``mu`` is in [0, 127], LBP ``mu`` in [0, 64])."""
+
+
+def check_int(name: str, value: Any, low: int, high: int | None = None) -> int:
+    """``value`` as an int, or a one-line error naming ``name`` and the range."""
     if not isinstance(value, int | np.integer) or isinstance(value, bool):
         raise PpalocError(f"{name}={value!r} must be an integer")
     if value < low or (high is not None and value > high):
@@ -187,12 +195,14 @@ class FilterParams:
         if motion not in _MOTIONS:
             raise PpalocError(f"motion={motion!r} is not one of {', '.join(_MOTIONS)}")
         out: dict[str, Any] = {"preset": preset, "motion": motion}
-        out["motion_margin"] = _int("motion_margin", values.get("motion_margin", 3), 0, 127)
-        out["motion_shift"] = _int("motion_shift", values.get("motion_shift", 6), 0, 16)
-        out["motion_min_support"] = _int(
+        out["motion_margin"] = check_int("motion_margin", values.get("motion_margin", 3), 0, 127)
+        out["motion_shift"] = check_int("motion_shift", values.get("motion_shift", 6), 0, 16)
+        out["motion_min_support"] = check_int(
             "motion_min_support", values.get("motion_min_support", 1024), 0, 256 * 256
         )
-        out["confidence_radius"] = _int("confidence_radius", values.get("confidence_radius", 10), 0)
+        out["confidence_radius"] = check_int(
+            "confidence_radius", values.get("confidence_radius", 10), 0
+        )
         keyframes = values.get("keyframes")
         if keyframes is None:
             keyframes = preset == "robust" and motion == "image"
@@ -200,11 +210,11 @@ class FilterParams:
             raise PpalocError(f"keyframes={keyframes!r} must be True or False")
         out["keyframes"] = bool(keyframes)
         if preset == "robust":
-            out["gain"] = _int("gain", values.get("gain", 4), 1, 32)
-            out["memory"] = _int("memory", values.get("memory", 127), 8, 127)
+            out["gain"] = check_int("gain", values.get("gain", 4), 1, 32)
+            out["memory"] = check_int("memory", values.get("memory", 127), 8, 127)
             for key in ("stay_cost", "move_cost", "skip_cost"):
-                out[key] = _int(key, values.get(key, 4), 0, 64)
-            out["max_advance"] = _int("max_advance", values.get("max_advance", 2), 1, 3)
+                out[key] = check_int(key, values.get(key, 4), 0, 64)
+            out["max_advance"] = check_int("max_advance", values.get("max_advance", 2), 1, 3)
         else:
             out.update(dict.fromkeys(_ROBUST_ONLY))
             out.update(_paper_values(representation, arithmetic, values))
@@ -231,23 +241,23 @@ def _paper_values(representation: str, arithmetic: str, values: Mapping[str, Any
     if gamma not in GAMMAS:
         raise PpalocError(f"gamma={gamma!r} must be one of {GAMMAS} (a PPA scales only by halving)")
     out["gamma"] = float(gamma)
-    out["k"] = _int("k", 1 if values.get("k") is None else values["k"], 1)
+    out["k"] = check_int("k", 1 if values.get("k") is None else values["k"], 1)
     shift = values.get("shift")
     if shift is None:
-        shift = 1 if representation == "lbp" else 2
-    out["shift"] = _int("shift", shift, 0, 16)
+        shift = DEFAULT_SHIFT.get(representation, 2)
+    out["shift"] = check_int("shift", shift, 0, 16)
     advance = values.get("advance") or (1, 1)
     try:
         lo, hi = advance
     except (TypeError, ValueError):
         raise PpalocError(f"advance={advance!r} must be a pair (lo, hi)") from None
-    if not (0 <= _int("advance[0]", lo, 0) <= _int("advance[1]", hi, 1)):
+    if not (0 <= check_int("advance[0]", lo, 0) <= check_int("advance[1]", hi, 1)):
         raise PpalocError(f"advance={advance!r} must be (lo, hi) with 0 <= lo <= hi, hi >= 1")
     out["advance"] = (int(lo), int(hi))
     alpha = values.get("alpha")
     if alpha is not None:
         if arithmetic == "ppa8":
-            alpha = _int("alpha", alpha, -128, 127)  # a DAC constant
+            alpha = check_int("alpha", alpha, -128, 127)  # a DAC constant
         elif isinstance(alpha, bool) or not isinstance(alpha, int | float | np.number):
             raise PpalocError(f"alpha={alpha!r} must be a number")
         elif not math.isfinite(float(alpha)):

@@ -43,8 +43,10 @@ from ppaloc.localise.base import Estimate
 from ppaloc.localise.likelihood import NodeDistances, distance_scale
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel, OracleMotion
 from ppaloc.localise.params import (
+    DEFAULT_SHIFT,
     GAMMAS,
     FilterParams,
+    check_int,
     frame_statistics,
     likelihood_shift,
     transition_costs,
@@ -87,10 +89,6 @@ ALPHA_FACTOR = 3.0
 ALPHA_CAP = 63
 """The largest suggested alpha: with ``gamma = 1/2`` every frame the best weight settles
 near ``2 * (alpha - mu_true)``, which must stay below the 127 bound (no ties there)."""
-
-DEFAULT_SHIFT = {"lowres": 2, "lbp": 1}
-"""Default likelihood shift per representation: one frame's term spans 0-32 units in both
-(low-res ``mu`` is in [0, 127], LBP ``mu`` in [0, 64])."""
 
 
 def suggest_alpha(
@@ -220,15 +218,6 @@ def choose_candidate(candidates: np.ndarray, previous: int | None) -> int:
         return int(candidates[0])
     # argmin returns the first minimum, i.e. the smaller index on equal distance
     return int(candidates[np.argmin(np.abs(candidates - previous))])
-
-
-def _check_int(name: str, value: Any, low: int, high: int | None = None) -> int:
-    if not isinstance(value, int | np.integer) or isinstance(value, bool):
-        raise PpalocError(f"{name}={value!r} must be an integer")
-    if value < low or (high is not None and value > high):
-        hint = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise PpalocError(f"{name}={value!r} must be {hint}")
-    return int(value)
 
 
 def make_motion_model(params: FilterParams, oracle_moves: Any = None) -> MotionModel:
@@ -394,7 +383,7 @@ class WeightedNodeLocaliser:
             **{key: v for key, v in given.items() if v is not None},
         )
         p = self.params
-        self.ranking_k = _check_int("ranking_k", ranking_k, 0)
+        self.ranking_k = check_int("ranking_k", ranking_k, 0)
         self._motion = make_motion_model(p, oracle_moves)
         self.representation = representation
         self.arithmetic = arithmetic
@@ -452,7 +441,7 @@ class WeightedNodeLocaliser:
         self._w = np.zeros(len(topomap), self._dtype)
         self._term = np.empty(len(topomap), self._dtype)
         self._pred = np.empty(len(topomap), self._dtype)
-        self._moved_copy = np.empty(len(topomap), self._dtype)
+        self._shifted = np.empty(len(topomap), self._dtype)
         self.reset()
 
     # -- per query ---------------------------------------------------------------------------
@@ -534,7 +523,7 @@ class WeightedNodeLocaliser:
         The weights of the robust filter are kept in map order (offset 0): the max over
         shifted copies moves every weight anyway.
         """
-        w, pred, tmp = self._w, self._pred, self._moved_copy
+        w, pred, tmp = self._w, self._pred, self._shifted
         floor = -float(self.params.memory)
         np.subtract(w, self._dtype(costs[0]), out=pred)
         n = len(w)
