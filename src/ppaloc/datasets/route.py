@@ -124,6 +124,9 @@ def assemble(raw: RawRoute, options: Mapping[str, Any]) -> RouteDataset:
         meta["selection"] = {"start": start, "stop": stop, "step": step}
     if new_place is not None:
         meta["query_place"] = new_place
+    for key, idx in (("query_turning", q_idx), ("reference_turning", ref_idx)):
+        if key in meta:  # per-frame flags follow the selection
+            meta[key] = np.asarray(meta[key], bool)[idx]
     reference, query = raw.reference.select(ref_idx), raw.query.select(q_idx)
     patch = options.get("patch_norm")
     if patch is not None:

@@ -425,6 +425,10 @@ class Metrics:
     correct : ndarray of bool, shape (M,)
     error_frames : ndarray of float, shape (M,)
     error_m : ndarray of float, shape (M,), or None
+    f1_max_straight, f1_max_turning : float or None
+        Max F1 over the queries taken on straight stretches and over those taken in turns
+        (the PR curve of each subset alone), where the dataset says which frames turn
+        (``meta["query_turning"]``); ``None`` when unknown or when the subset is empty.
     """
 
     f1_max: float
@@ -447,6 +451,8 @@ class Metrics:
     correct: np.ndarray = field(repr=False)
     error_frames: np.ndarray = field(repr=False)
     error_m: np.ndarray | None = field(default=None, repr=False)
+    f1_max_straight: float | None = None
+    f1_max_turning: float | None = None
 
     def summary(self) -> dict[str, Any]:
         """The scalar metrics as a JSON-ready dict (recall@K as ``{"1": r1, "5": r5, ...}``)."""
@@ -475,6 +481,7 @@ def evaluate_estimates(
     rankings: Sequence[np.ndarray | None] | None = None,
     reference_positions: np.ndarray | None = None,
     query_positions: np.ndarray | None = None,
+    turning: np.ndarray | None = None,
 ) -> Metrics:
     """All metrics of one run in one call.
 
@@ -493,6 +500,8 @@ def evaluate_estimates(
         Candidate reference indices per query, best first, for recall@K.
     reference_positions, query_positions : ndarray of float, optional
         Route positions in metres, shapes (N, D) and (M, D), for the error in metres.
+    turning : array_like of bool, shape (M,), optional
+        Which queries were taken in a turn: gives ``f1_max_straight`` and ``f1_max_turning``.
 
     Returns
     -------
@@ -525,7 +534,20 @@ def evaluate_estimates(
         if rankings is not None and any(r is not None for r in rankings)
         else np.zeros(0)
     )
+    split: dict[str, float | None] = {"f1_max_straight": None, "f1_max_turning": None}
+    if turning is not None:
+        turning = np.asarray(turning, dtype=bool).ravel()
+        if turning.shape != nodes.shape:
+            raise PpalocError(
+                f"turning has {turning.size} flags for {nodes.size} queries; give one per query"
+            )
+        sc = np.asarray(scores, dtype=np.float64).ravel()
+        for key, mask in (("f1_max_straight", ~turning), ("f1_max_turning", turning)):
+            if mask.any():
+                sub = pr_curve(sc[mask], correct[mask], has_match[mask], recall=recall)
+                split[key] = max_f1(sub)[0]
     return Metrics(
+        **split,
         f1_max=f1,
         precision_at_f1=p_f1,
         recall_at_f1=r_f1,

@@ -265,6 +265,7 @@ def method_metrics(
     recall: str,
     reference_positions: np.ndarray | None = None,
     query_positions: np.ndarray | None = None,
+    turning: np.ndarray | None = None,
 ) -> Metrics:
     """The metrics of one method's per-query arrays: the same function after a run and when
     a results folder is read back, so a report rebuilt from files shows the run's figures.
@@ -279,6 +280,7 @@ def method_metrics(
         rankings=[r[r >= 0] for r in ranking] if ranking.shape[1] else None,
         reference_positions=reference_positions,
         query_positions=query_positions,
+        turning=turning,
     )
 
 
@@ -357,6 +359,7 @@ def run_method(
     query_moved: np.ndarray | None = None,
     progress: ProgressHook | None = None,
     localiser: Localiser | None = None,
+    query_turning: np.ndarray | None = None,
 ) -> MethodRun:
     """Build the map of one method from sensor frames and step every query frame once.
 
@@ -375,6 +378,9 @@ def run_method(
         Recorded weights are kept only when queries x nodes is at most this.
     reference_positions, query_positions, query_moved : optional
         From the dataset, for the error in metres and the motion accuracy.
+    query_turning : ndarray of bool, optional
+        Which queries were taken in a turn (the dataset's ``meta["query_turning"]``), for
+        ``f1_max_straight`` and ``f1_max_turning``.
     progress : callable, optional
         ``progress(name, frames_done)`` after the map and after every frame.
     localiser : Localiser, optional
@@ -429,6 +435,7 @@ def run_method(
         recall=recall,
         reference_positions=reference_positions,
         query_positions=query_positions,
+        turning=query_turning,
     )
     motion_acc = None
     if query_moved is not None and m and (moved >= 0).all():
@@ -621,6 +628,7 @@ def run_evaluation(
                 query_moved=dataset.query_moved,
                 progress=bar,
                 localiser=loc,
+                query_turning=dataset.meta.get("query_turning"),
             )
     resolved = config.to_dict()
     resolved["dataset"] = spec

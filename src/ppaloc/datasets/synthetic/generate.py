@@ -10,17 +10,29 @@ from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.frames import RenderedFrames
 from ppaloc.datasets.route import RawRoute, assemble
 from ppaloc.datasets.synthetic.conditions import CONDITIONS, condition
+from ppaloc.datasets.synthetic.curved import CurvedRenderer
+from ppaloc.datasets.synthetic.lab import (
+    LAB_CONDITIONS,
+    LAB_SPACING,
+    LabRenderer,
+    change_world,
+    make_lab,
+)
 from ppaloc.datasets.synthetic.motion import (
     SPEED_VAR,
     lateral_weave,
     place_positions_with_stops,
     variable_speed_positions,
 )
+from ppaloc.datasets.synthetic.path import drift, make_path
 from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import make_world
 from ppaloc.errors import DataError
 
-__all__ = ["make_synthetic", "synthetic_route"]
+__all__ = ["WORLDS", "make_synthetic", "synthetic_route"]
+
+WORLDS = ("road", "lab")
+"""The generated worlds: the road (default) and the indoor laboratory."""
 
 
 class _Drive:
@@ -33,14 +45,41 @@ class _Drive:
         return self.renderer.render(float(self.s[i]), float(self.x[i]), (self.traversal, i))
 
 
+class _TurningDrive(_Drive):
+    """A :class:`_Drive` on a bent route: the camera also turns by ``yaw[i]`` (rad)."""
+
+    def __init__(self, renderer, s: np.ndarray, x: np.ndarray, yaw: np.ndarray, traversal: int):
+        super().__init__(renderer, s, x, traversal)
+        self.yaw = yaw
+
+    def __call__(self, i: int) -> np.ndarray:
+        key = (self.traversal, i)
+        return self.renderer.render(float(self.s[i]), float(self.x[i]), key, float(self.yaw[i]))
+
+
+def _yaw(s: np.ndarray, x: np.ndarray, path, look: float) -> np.ndarray:
+    """Camera heading relative to the route: along the drift, and a little into each turn."""
+    if s.size < 2:
+        return np.zeros_like(s)
+    ds = np.gradient(s)
+    slope = np.divide(np.gradient(x), ds, out=np.zeros_like(s), where=ds > 1e-9)
+    # while stopped the heading stays as it was
+    for i in np.flatnonzero(ds <= 1e-9):
+        slope[i] = slope[i - 1] if i else 0.0
+    lead = 0.3 * (path.heading_at(s + look) - path.heading_at(s))
+    return np.arctan(slope) + lead
+
+
 def synthetic_route(
     places: int = 500,
-    ref: str = "summer",
-    query: str = "winter",
+    ref: str | None = None,
+    query: str | None = None,
     seed: int = 0,
     *,
+    world: str = "road",
+    turns: int | None = None,
     sync: bool = False,
-    spacing: float = 4.0,
+    spacing: float | None = None,
     speed: float = 1.0,
     stops: int | None = None,
     extra: int = 0,
@@ -54,16 +93,22 @@ def synthetic_route(
     ----------
     places : int
         Reference frames: one per place, ``spacing`` metres apart.
-    ref, query : str
-        Conditions of the two traversals (``summer``, ``autumn``, ``winter``, ``night``,
-        ``dusk``).
+    ref, query : str, optional
+        Conditions of the two traversals: on the road ``summer`` (default reference),
+        ``autumn``, ``winter`` (default query), ``night``, ``dusk``; in the lab ``lab``
+        (default reference), ``changed`` (default query), ``moved``, ``people``, ``dim``.
     seed : int
         Seeds the world, the query's motion, clouds and noise: same seed, same bytes.
+    world : {"road", "lab"}
+        The procedural road (default) or the indoor laboratory.
+    turns : int, optional
+        How many turns the route makes, in ``[0, places // 4]``; default 0 on the road (the
+        straight route) and ``max(1, places // 25)`` in the lab.
     sync : bool
         One query frame per place while moving (the paper's setting: the route re-driven
         at the mapping speed) instead of variable speed; ``stops`` still adds halts.
-    spacing : float
-        Metres between places.
+    spacing : float, optional
+        Metres between places (default 4.0 on the road, 0.5 in the lab).
     speed : float
         Mean query speed in places per frame (variable-speed mode).
     speed_var : float
@@ -86,16 +131,35 @@ def synthetic_route(
         Grey ``uint8`` frames rendered on access; positions in metres ``(s, x)``; the
         query's true place in reference-frame units.
     """
+    if world not in WORLDS:
+        raise DataError(f"unknown world {world!r}: choose from {', '.join(WORLDS)}")
+    names = CONDITIONS if world == "road" else LAB_CONDITIONS
+    ref = ref or ("summer" if world == "road" else "lab")
+    query = query or ("winter" if world == "road" else "changed")
     for name in (ref, query):
-        if name not in CONDITIONS:
-            raise DataError(f"unknown condition {name!r}: choose from {', '.join(CONDITIONS)}")
+        if name not in names:
+            where = "" if world == "road" else " in the lab"
+            raise DataError(f"unknown condition {name!r}{where}: choose from {', '.join(names)}")
     if places < 2:
         raise DataError(f"places={places}: a route needs at least 2 places")
+    if turns is None:
+        turns = 0 if world == "road" else max(1, places // 25)
+    if not 0 <= turns <= places // 4:
+        raise DataError(
+            f"turns={turns}: a route of {places} places takes 0 to places//4 = {places // 4} turns"
+        )
+    if spacing is None:
+        spacing = 4.0 if world == "road" else LAB_SPACING
     if not 0.0 <= speed_var <= 0.9:
         raise DataError(
             f"speed_var={speed_var}: the relative speed variation must be in [0, 0.9] "
             "(0.2 is the default, 0.65 the wide profile)"
         )
+    if world == "lab" or turns > 0:
+        return _bent_route(
+            world, places, ref, query, seed, turns, sync, spacing, speed, stops, extra, offset,
+            size, speed_var,
+        )  # fmt: skip
     ref_c, query_c = condition(ref), condition(query)
     world = make_world(places * spacing + extra * spacing, seed)
     end = (places - 1 + extra) * spacing
@@ -127,14 +191,79 @@ def synthetic_route(
             "spacing_m": spacing,
             "conditions": (ref, query),
             "sync": sync,
+            "world": "road",
+            "turns": 0,
+            "query_turning": np.zeros(q_s.size, bool),
+            "reference_turning": np.zeros(places, bool),
+        },
+    )
+
+
+def _query_positions(places, spacing, sync, stops, extra, speed, seed, speed_var):
+    end = (places - 1 + extra) * spacing
+    if sync:
+        return place_positions_with_stops(places + extra, spacing, stops or 0, seed)
+    n_stops = max(1, places // 150) if stops is None else stops
+    return variable_speed_positions(end, spacing, speed, n_stops, seed, speed_var)
+
+
+def _bent_route(
+    world, places, ref, query, seed, turns, sync, spacing, speed, stops, extra, offset, size,
+    speed_var,
+) -> RawRoute:  # fmt: skip
+    """A road route with turns and hills, or the lab: rendered by a :class:`CurvedRenderer`."""
+    length = (places + extra) * spacing
+    ref_s = np.arange(places, dtype=np.float64) * spacing
+    q_s = _query_positions(places, spacing, sync, stops, extra, speed, seed, speed_var)
+    end = (places - 1 + extra) * spacing
+    if world == "road":
+        ref_c, query_c = condition(ref), condition(query)
+        w = make_world(length, seed)
+        path = make_path(-60.0, length + 220.0, end, turns, seed)
+        q_off = query_c.offset if offset is None else offset
+        ref_x = LANE_CENTRE + ref_c.offset + drift(ref_s, path, seed * 2, 0.25, 0.5)
+        q_x = LANE_CENTRE + q_off + drift(q_s, path, seed * 2 + 1, 0.25, 0.5)
+        look, ref_w, q_w = 6.0, w, w
+        kw = {"path": path}
+        ref_r = CurvedRenderer(ref_w, ref_c, size, seed=0, **kw)
+        q_r = CurvedRenderer(q_w, query_c, size, seed=1, **kw)
+    else:
+        ref_lc, q_lc = LAB_CONDITIONS[ref], LAB_CONDITIONS[query]
+        w, path = make_lab(length, end, turns, seed)
+        q_off = q_lc.condition.offset if offset is None else offset
+        ref_x = ref_lc.condition.offset + drift(ref_s, path, seed * 2, 0.05, 0.15, 12.0)
+        q_x = q_off + drift(q_s, path, seed * 2 + 1, 0.05, 0.15, 12.0)
+        look = 0.8
+        ref_r = LabRenderer(change_world(w, ref_lc, seed * 2), ref_lc, size, seed=0, path=path)
+        q_r = LabRenderer(change_world(w, q_lc, seed * 2 + 1), q_lc, size, seed=1, path=path)
+    ref_yaw, q_yaw = _yaw(ref_s, ref_x, path, look), _yaw(q_s, q_x, path, look)
+    return RawRoute(
+        name=f"synthetic {world} {ref}->{query}" if world == "lab" else f"synthetic {ref}->{query}",
+        reference=RenderedFrames(_TurningDrive(ref_r, ref_s, ref_x, ref_yaw, 0), places),
+        query=RenderedFrames(_TurningDrive(q_r, q_s, q_x, q_yaw, 1), q_s.size),
+        default_tolerance=1,
+        query_place=q_s / spacing,
+        reference_positions=np.stack([ref_s, ref_x], 1),
+        query_positions=np.stack([q_s, q_x], 1),
+        motion_known=True,
+        meta={
+            "kind": "synthetic",
+            "seed": seed,
+            "spacing_m": spacing,
+            "conditions": (ref, query),
+            "sync": sync,
+            "world": world,
+            "turns": int(turns),
+            "query_turning": path.turning_at(q_s),
+            "reference_turning": path.turning_at(ref_s),
         },
     )
 
 
 def make_synthetic(
     places: int = 500,
-    ref: str = "summer",
-    query: str = "winter",
+    ref: str | None = None,
+    query: str | None = None,
     seed: int = 0,
     *,
     tolerance: int = 1,

@@ -5,21 +5,24 @@ from __future__ import annotations
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.datasets.synthetic.conditions import CONDITIONS
-from ppaloc.datasets.synthetic.generate import synthetic_route
+from ppaloc.datasets.synthetic.generate import WORLDS, synthetic_route
+from ppaloc.datasets.synthetic.lab import LAB_CONDITIONS
 from ppaloc.datasets.synthetic.motion import SPEED_VAR
 
 __all__ = ["SCHEMA", "load"]
 
-_NAMES = tuple(CONDITIONS)
+_NAMES = (*CONDITIONS, *LAB_CONDITIONS)
 SCHEMA = KindSchema(
     n_paths=(0,),
     keys={
         "places": Key("int", 500, "reference frames (one per place)", 2),
-        "ref": Key("choice", "summer", "reference condition", choices=_NAMES),
-        "query": Key("choice", "winter", "query condition", choices=_NAMES),
+        "world": Key("choice", "road", "road or lab", choices=WORLDS),
+        "turns": Key("int", None, "turns of the route, 0..places//4 (road default 0)", 0),
+        "ref": Key("choice", "summer", "reference condition (lab: lab)", choices=_NAMES),
+        "query": Key("choice", "winter", "query condition (lab: changed)", choices=_NAMES),
         "seed": Key("int", 0, "world, motion and noise seed", 0),
         "sync": Key("bool", False, "one query frame per place"),
-        "spacing": Key("float", 4.0, "metres between places", 0.5),
+        "spacing": Key("float", 4.0, "metres between places (lab: 0.5)", 0.5),
         "speed": Key("float", 1.0, "mean query speed, places per frame", 0.05),
         "speed_var": Key(
             "float", SPEED_VAR, "peak relative query speed variation (0.65: the wide profile)", 0.0
@@ -35,4 +38,9 @@ SCHEMA = KindSchema(
 
 def load(spec: DatasetSpec) -> RawRoute:
     """Generate the route a ``synthetic`` spec describes (frames render on access)."""
-    return synthetic_route(**{name: spec.options[name] for name in SCHEMA.keys})
+    options = {name: spec.options[name] for name in SCHEMA.keys}
+    if options["world"] != "road":  # the road's defaults do not apply indoors
+        for name in ("ref", "query", "spacing"):
+            if name not in spec.given:
+                options[name] = None
+    return synthetic_route(**options)
