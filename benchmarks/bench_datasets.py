@@ -48,9 +48,20 @@ def render_case(name: str) -> Callable[[], np.ndarray]:
     return step
 
 
-def dataset_case() -> Callable[[], np.ndarray]:
+WORLD_SPECS = {
+    "road with turns (winter query)": "synthetic:?places=2000&turns=60&query=winter&seed=1",
+    "lab map (lab)": "synthetic:?world=lab&places=2000&query=lab&seed=1",
+    "lab query=changed": "synthetic:?world=lab&places=2000&query=changed&seed=1",
+    "lab query=dim": "synthetic:?world=lab&places=2000&query=dim&seed=1",
+}
+"""The bent road and the lab worlds, timed through ``load_dataset`` (fresh frames each call)."""
+
+
+def dataset_case(
+    spec: str = "synthetic:?places=2000&query=winter&seed=1",
+) -> Callable[[], np.ndarray]:
     """One call reads the next query frame of a spec-loaded synthetic route (lazy path)."""
-    ds = load_dataset("synthetic:?places=2000&query=winter&seed=1")
+    ds = load_dataset(spec)
     counter = itertools.count()
     return lambda: ds.query[next(counter) % len(ds.query)]
 
@@ -61,6 +72,8 @@ def cases() -> dict[str, Callable[[], object]]:
         f"synthetic render {name}": render_case(name) for name in CONDITIONS
     }
     out["synthetic via load_dataset (winter query)"] = dataset_case()
+    for label, spec in WORLD_SPECS.items():
+        out[f"synthetic {label}"] = dataset_case(spec)
     colour = np.random.default_rng(0).integers(0, 256, (540, 960, 3), dtype=np.uint8)
     out["to_sensor 960x540 colour"] = lambda: to_sensor(colour)
     small = np.random.default_rng(1).integers(0, 256, (32, 64), dtype=np.uint8)
