@@ -22,6 +22,7 @@ __all__ = [
     "png_bytes",
     "position_along_route",
     "pr_curves",
+    "turning_spans",
     "weights_heatmaps",
 ]
 
@@ -127,8 +128,31 @@ def _true_reference(ground_truth: Sequence[np.ndarray]) -> np.ndarray:
     )
 
 
+def _f2(v: float | None) -> str:
+    return "-" if v is None else f"{v:.2f}"
+
+
+def turning_spans(turning: np.ndarray | None) -> list[tuple[int, int]]:
+    """Runs of consecutive turning frames as ``(first, last)`` index pairs.
+
+    >>> turning_spans(np.array([0, 1, 1, 0, 0, 1], bool))
+    [(1, 2), (5, 5)]
+    >>> turning_spans(None)
+    []
+    """
+    if turning is None:
+        return []
+    t = np.concatenate([[False], np.asarray(turning, dtype=bool).ravel(), [False]])
+    edges = np.flatnonzero(t[1:] != t[:-1])
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
 def position_along_route(result: RunResult) -> Figure:
-    """True and predicted reference frame per query, one panel per method (paper Fig. 10)."""
+    """True and predicted reference frame per query, one panel per method (paper Fig. 10).
+
+    Query frames taken in a turn (``result.query_turning``, where known) are shaded grey,
+    and each panel's title adds the max F1 on straight and on turning queries.
+    """
     names = list(result.runs)
     cols = 2 if len(names) > 1 else 1
     rows = -(-len(names) // cols)
@@ -136,13 +160,22 @@ def position_along_route(result: RunResult) -> Figure:
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
     truth = _true_reference(result.ground_truth)
     q = np.arange(len(truth))
+    spans = turning_spans(result.query_turning)
     for ax, name in zip(axes.ravel(), names, strict=False):
         run = result.runs[name]
         ok = run.metrics.correct
+        for i, (a, b) in enumerate(spans):
+            ax.axvspan(
+                a - 0.5, b + 0.5, color="0.88", lw=0, zorder=0, label="turning" if i == 0 else None
+            )
         ax.plot(q, truth, color="0.55", lw=2.5, label="true", zorder=1)
         ax.scatter(q[ok], run.ref_index[ok], s=5, color="tab:green", label="correct", zorder=2)
         ax.scatter(q[~ok], run.ref_index[~ok], s=5, color="tab:red", label="wrong", zorder=3)
-        ax.set_title(f"{name}: accuracy {run.metrics.accuracy:.2f}")
+        title = f"{name}: accuracy {run.metrics.accuracy:.2f}"
+        m = run.metrics
+        if m.f1_max_turning is not None:  # some queries turn
+            title += f", F1 straight {_f2(m.f1_max_straight)} | turning {_f2(m.f1_max_turning)}"
+        ax.set_title(title)
         ax.grid(alpha=0.3)
     for ax in axes.ravel()[len(names) :]:
         ax.set_visible(False)

@@ -130,7 +130,21 @@ def comparison_table(
                 _fmt(m["energy_mj"], 3),
             ]
         )
-    return (_SHORT_HEADER if short else header), rows
+    if has_turning_split(summary):  # after F1 max: the same metric on each subset
+        header.insert(3, "F1 straight")
+        header.insert(4, "F1 turning")
+        short_header = [*_SHORT_HEADER[:3], "F1 str.", "F1 turn", *_SHORT_HEADER[3:]]
+        for row, m in zip(rows, summary["methods"].values(), strict=True):
+            row[3:3] = [_fmt(m.get("f1_max_straight")), _fmt(m.get("f1_max_turning"))]
+    else:
+        short_header = _SHORT_HEADER
+    return (short_header if short else header), rows
+
+
+def has_turning_split(summary: dict[str, Any]) -> bool:
+    """Whether a ``results.json`` summary has max F1 on turning queries: the dataset says
+    which frames turn and some do (on the straight default road F1 straight is F1 max)."""
+    return any(m.get("f1_max_turning") is not None for m in summary["methods"].values())
 
 
 _SUFFIXES = {"-lowres": "lowres", "-lbp": "lbp"}
@@ -261,7 +275,12 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
             "Position estimate along the route",
             "Grey: the true reference frame (middle of the accepted set) of each query; "
             "dots: the predicted reference frame, green when within the tolerance "
-            f"(±{result.tolerance}), red otherwise.",
+            f"(±{result.tolerance}), red otherwise."
+            + (
+                " Shaded bands: query frames taken in a turn."
+                if result.query_turning is not None and result.query_turning.any()
+                else ""
+            ),
             figures.png_bytes(figures.position_along_route(result)),
         ),
     ]
@@ -351,6 +370,12 @@ def _html_table(header: list[str], rows: list[list[str]], best_cols: tuple[int, 
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
 
+def _best_columns(header: list[str]) -> tuple[int, ...]:
+    """The comparison table's columns where higher is better (marked best per column)."""
+    better = {"F1 max", "F1 straight", "F1 turning", "AUC", "R @100%P", "Accuracy"}
+    return tuple(i for i, h in enumerate(header) if h in better)
+
+
 def _md_table(header: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
@@ -362,6 +387,11 @@ def _definitions() -> list[tuple[str, str]]:
         ("Precision", "correct accepted / accepted, at a confidence threshold"),
         *[(f"Recall {k}", v) for k, v in RECALL_DEFINITIONS.items()],
         ("F1 max", "the highest 2PR/(P+R) over every distinct threshold"),
+        (
+            "F1 straight, F1 turning",
+            "F1 max over the queries taken on straight stretches and over those taken in turns "
+            "(each subset's own PR curve), where the dataset says which frames turn",
+        ),
         ("AUC", "area under the PR curve, trapezoid rule, from recall 0"),
         ("R @100%P", "the highest recall at a threshold where every accepted query is correct"),
         ("Accuracy", "queries whose best match is correct / all queries (all accepted)"),
@@ -426,7 +456,7 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
         "only). Best F1 per column in bold green.</p>",
         _html_table(pheader, prows, best_cols=tuple(range(1, len(pheader), 2))),
         "<h2>All metrics</h2>",
-        _html_table(header, rows, best_cols=(2, 5, 6, 7)),
+        _html_table(header, rows, best_cols=_best_columns(header)),
         _html_table(xheader, xrows, best_cols=(1, 2, 3)),
     ]
     for f in figs:

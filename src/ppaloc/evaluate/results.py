@@ -4,7 +4,8 @@ Layout of a results folder::
 
     results.json          summary: dataset, tolerance, per-method metrics, config, version
     results.csv           one row per method, the same scalars as results.json
-    arrays/_dataset.npz   ground truth (CSR: gt_indptr, gt_indices), positions, query_moved
+    arrays/_dataset.npz   ground truth (CSR: gt_indptr, gt_indices), positions, query_moved,
+                          query_turning and reference_turning (where the dataset has them)
     arrays/<method>.npz   per-query arrays of one method (see MethodRun)
     arrays/<method>.registers.npz  register planes after the last frame (on-sensor only):
                           ``labels`` (P,) str and ``plane0`` .. ``plane{P-1}`` (2-D)
@@ -61,11 +62,20 @@ CSV_COLUMNS = [
     "n_nodes",
     "n_queries",
     "build_s",
+    "f1_max_straight",
+    "f1_max_turning",
 ]
 """Columns of ``results.csv``, in order."""
 
 _ARRAYS = ("node", "ref_index", "score", "moved", "ranking", "latency_ms")
 _OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj")
+_DATASET_OPTIONAL = (
+    "reference_positions",
+    "query_positions",
+    "query_moved",
+    "query_turning",
+    "reference_turning",
+)
 
 
 def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
@@ -114,7 +124,7 @@ def save_results(result: RunResult, out: str | Path) -> Path:
         "gt_indptr": np.cumsum([0] + [len(g) for g in gt]).astype(np.int64),
         "gt_indices": (np.concatenate(gt) if gt else np.zeros(0)).astype(np.int64),
     }
-    for key in ("reference_positions", "query_positions", "query_moved"):
+    for key in _DATASET_OPTIONAL:
         value = getattr(result, key)
         if value is not None:
             ds_arrays[key] = np.asarray(value)
@@ -147,6 +157,10 @@ def _require(arrays: Mapping[str, np.ndarray], names: Sequence[str], path: Path)
     missing = [n for n in names if n not in arrays]
     if missing:
         raise DataError(f"{path} has no array {missing[0]!r}; it was not written by ppaloc")
+
+
+def _bools(value: np.ndarray | None) -> np.ndarray | None:
+    return None if value is None else np.asarray(value, dtype=bool)
 
 
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
@@ -203,6 +217,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             recall=s.get("recall_definition", "A"),
             reference_positions=ds.get("reference_positions"),
             query_positions=ds.get("query_positions"),
+            turning=_bools(ds.get("query_turning")),
         )
         runs[name] = MethodRun(
             method=name,
@@ -234,6 +249,8 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         reference_positions=ds.get("reference_positions"),
         query_positions=ds.get("query_positions"),
         query_moved=ds.get("query_moved"),
+        query_turning=_bools(ds.get("query_turning")),
+        reference_turning=_bools(ds.get("reference_turning")),
         ppaloc_version=summary.get("ppaloc_version", ""),
         created=summary.get("created", ""),
     )

@@ -168,6 +168,9 @@ class RunResult:
         Route positions in metres, where the dataset has them.
     query_moved : ndarray of bool, optional
         Ground-truth motion, where known.
+    query_turning, reference_turning : ndarray of bool, optional
+        Which query and reference frames were taken in a turn (the dataset's
+        ``meta["query_turning"]`` and ``meta["reference_turning"]``), where known.
     ppaloc_version, created : str
         Provenance.
     """
@@ -182,6 +185,8 @@ class RunResult:
     reference_positions: np.ndarray | None = None
     query_positions: np.ndarray | None = None
     query_moved: np.ndarray | None = None
+    query_turning: np.ndarray | None = None
+    reference_turning: np.ndarray | None = None
     ppaloc_version: str = __version__
     created: str = ""
 
@@ -198,6 +203,11 @@ class RunResult:
             "ppaloc_version": self.ppaloc_version,
             "created": self.created,
         }
+
+
+def _flags(value: Any) -> np.ndarray | None:
+    """Per-frame flags as a bool array (None stays None)."""
+    return None if value is None else np.asarray(value, dtype=bool)
 
 
 def resolve_methods(names: Sequence[str]) -> list[str]:
@@ -644,5 +654,7 @@ def run_evaluation(
         reference_positions=dataset.reference_positions,
         query_positions=dataset.query_positions,
         query_moved=dataset.query_moved,
+        query_turning=_flags(dataset.meta.get("query_turning")),
+        reference_turning=_flags(dataset.meta.get("reference_turning")),
         created=datetime.now(UTC).isoformat(timespec="seconds"),
     )
