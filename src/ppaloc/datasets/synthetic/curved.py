@@ -31,6 +31,20 @@ __all__ = ["CurvedRenderer"]
 DU = 0.5
 """Depth step (m) of the per-frame bend profile."""
 
+_STEPS = np.arange(40, dtype=np.float64)
+
+
+def _geomspace40(za: float, zb: float) -> np.ndarray:
+    """``np.geomspace(za, zb, 40)`` for positive scalars, bit for bit, without its checks
+    and promotions (a tenth of the time: it runs for every wall of every frame)."""
+    ls, le = np.log10(za), np.log10(zb)
+    y = _STEPS * ((le - ls) / 39)
+    y += ls
+    y[-1] = le
+    z = np.power(10.0, y)
+    z[0], z[-1] = za, zb
+    return z
+
 
 class CurvedRenderer(Renderer):
     """A :class:`Renderer` for a route with turns (yaw) and hills (pitch).
@@ -146,7 +160,7 @@ class CurvedRenderer(Renderer):
         """Columns and depths of a road-parallel plane at ``dx`` over depths [za, zb], bent."""
         if zb <= za:
             return None
-        z = np.geomspace(za, zb, 40)
+        z = _geomspace40(za, zb)
         c = self.cx + self.f * (dx + self.lateral(z)) / z
         d = np.diff(c)
         flips = np.flatnonzero(np.sign(d) != np.sign(d[0]))

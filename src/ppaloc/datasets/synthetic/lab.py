@@ -417,18 +417,21 @@ class LabRenderer(CurvedRenderer):
         depth[:n] = z[:, None]
 
     def _windows(self, i, u, v, wall_h):
+        # Terms of ``u`` alone stay one row (1, C) and broadcast against ``v`` (R, C).
         b = self.world.boxes
         colour, ident = int(b.colour[i]), int(b.ident[i])
-        u = np.broadcast_to(u, v.shape)
-        m = np.full(v.shape, self._wall_mat[colour], np.uint8)
+        shape = v.shape
+        u = np.broadcast_to(u, (1, shape[1]))
+        m = np.full(shape, self._wall_mat[colour], np.uint8)
         if colour >= _FURNITURE:
             kind = colour - _FURNITURE
             if kind == 0:  # desk: a top, a dark space under it, a drawer block on one end
-                m[v < wall_h - 0.06] = M["ldark"]
-                m[(v < wall_h - 0.06) & (u < 0.45)] = M["desk"]
+                under = v < wall_h - 0.06
+                m[under] = M["ldark"]
+                m[under & (u < 0.45)] = M["desk"]
                 m[(np.abs(v - 0.45) < 0.01) & (u < 0.45)] = M["floor_line"]
             elif kind == 1:  # cabinet: doors and handles
-                m[np.abs((u % 0.5) - 0.25) > 0.23] = M["floor_line"]
+                m[np.broadcast_to(np.abs((u % 0.5) - 0.25) > 0.23, shape)] = M["floor_line"]
                 m[(np.abs((u % 0.5) - 0.4) < 0.02) & (np.abs(v - 1.0) < 0.12)] = M["metal"]
             elif kind == 2:  # shelf: boards with rows of books
                 book = ((np.floor(u * 25.0) * 7919 + ident) % 4).astype(np.int64)
@@ -438,15 +441,17 @@ class LabRenderer(CurvedRenderer):
                 m[v < 0.4] = M["cloth2"]
             return m
         m[v < 0.1] = M["skirting"]
-        col = np.floor(u / b.win_dx[i])
-        fu = u / b.win_dx[i] - col
+        wx = b.win_dx[i]
+        col = np.floor(u / wx)
+        fu = u / wx - col
         which = (col + ident) % 3
-        door = (which == 0) & (np.abs(fu - 0.5) * b.win_dx[i] < 0.45) & (v < 2.05)
+        off = np.abs(fu - 0.5) * wx
+        door = ((which == 0) & (off < 0.45)) & (v < 2.05)
         m[door] = M["ldoor"]
-        m[door & (np.abs(fu - 0.5) * b.win_dx[i] > 0.4)] = M["skirting"]
-        poster = (which == 1) & (np.abs(fu - 0.5) * b.win_dx[i] < 0.3) & (np.abs(v - 1.45) < 0.4)
+        m[door & (off > 0.4)] = M["skirting"]
+        poster = ((which == 1) & (off < 0.3)) & (np.abs(v - 1.45) < 0.4)
         kind = (col.astype(np.int64) * 7 + ident) % 4
-        m[poster] = (M["poster0"] + kind[poster]).astype(np.uint8)
+        m[poster] = (M["poster0"] + np.broadcast_to(kind, shape)[poster]).astype(np.uint8)
         stripe = poster & (np.abs(v - 1.3) < 0.06)
         m[stripe] = M["lwall0"]
         return m
