@@ -14,7 +14,7 @@ from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import SEGMENT_TYPES, make_world
 from ppaloc.fileio import atomic_write
 
-__all__ = ["conditions_montage", "montage_array", "sequence_strip"]
+__all__ = ["conditions_montage", "montage_array", "sequence_strip", "worlds_montage"]
 
 
 def _views(world, spacing: float) -> list[tuple[str, float]]:
@@ -150,4 +150,64 @@ def sequence_strip(
         canvas.paste(Image.fromarray(ds.query[i]).convert("RGB"), (k * size, top))
         moved = "moved" if ds.query_moved[i] else "still"
         draw.text((k * size + 6, 4), f"#{i}  {s[i]:.1f} m  {moved}", fill=(0, 0, 0), font=font)
+    return _save_png(canvas, path)
+
+
+WORLD_ROWS = (
+    ("lab", "world=lab&places=160", ("lab", "changed", "moved", "people", "dim")),
+    ("road, turns", "turns=8&places=400", ("summer", "winter", "night")),
+)
+"""The montage of :func:`worlds_montage`: label, spec keys and query conditions per world."""
+
+
+def _pick_frames(turning: np.ndarray, n: int = 4) -> list[int]:
+    """Half straight frames, half the middle frames of turns, spread over the route."""
+    straight = np.flatnonzero(~turning)
+    turn = np.flatnonzero(turning)
+    spans = np.split(turn, np.flatnonzero(np.diff(turn) > 1) + 1) if turn.size else []
+    half = n // 2 if spans else 0
+    picks = [int(straight[int(len(straight) * q)]) for q in np.linspace(0.2, 0.8, n - half)]
+    step = max(len(spans) // max(half, 1), 1)
+    picks += [int(spans[k][len(spans[k]) // 2]) for k in range(0, step * half, step)][:half]
+    return sorted(picks)
+
+
+def worlds_montage(path: str | os.PathLike, seed: int = 1, frames: int = 4) -> Path:
+    """Write a labelled PNG of the lab and the road with turns under each query condition.
+
+    One row per world and condition (the same frame-synchronised places in every row of a
+    world), ``frames`` columns: half on straight stretches, half in the middle of turns,
+    each captioned with its frame index and ``straight`` or ``turning``. Grey 256x256
+    frames, as ``load_dataset`` serves them.
+
+    Parameters
+    ----------
+    path : path-like
+        Output PNG (written atomically).
+    seed : int
+        World seed.
+    frames : int
+        Columns.
+    """
+    from ppaloc.datasets.registry import load_dataset
+
+    size, left, cap = 256, 150, 20
+    blocks = []
+    for label, keys, conditions in WORLD_ROWS:
+        for k, name in enumerate(conditions):
+            ds = load_dataset(f"synthetic:?{keys}&sync=1&seed={seed}&query={name}")
+            turning = np.asarray(ds.meta["query_turning"], bool)
+            if k == 0:
+                idx = _pick_frames(turning, frames)
+            blocks.append((f"{label}: {name}", [ds.query[i] for i in idx], idx, turning))
+    canvas = Image.new("RGB", (left + frames * size, len(blocks) * (size + cap)), "white")
+    draw = ImageDraw.Draw(canvas)
+    font = _font(15)
+    for r, (name, tiles, idx, turning) in enumerate(blocks):
+        y = r * (size + cap)
+        draw.text((8, y + cap + size // 2 - 8), name, fill=(0, 0, 0), font=font)
+        for c, (tile, i) in enumerate(zip(tiles, idx, strict=True)):
+            canvas.paste(Image.fromarray(tile).convert("RGB"), (left + c * size, y + cap))
+            where = "turning" if turning[i] else "straight"
+            draw.text((left + c * size + 6, y + 2), f"#{i} {where}", fill=(0, 0, 0), font=font)
     return _save_png(canvas, path)
