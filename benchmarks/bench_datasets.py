@@ -3,7 +3,8 @@
 ``make bench`` runs these with pytest-benchmark; ``python benchmarks/bench_datasets.py``
 prints medians (milliseconds per frame, one core) and the generator's frames per second;
 ``python benchmarks/bench_datasets.py --difficulty`` prints how far each condition moves
-single-frame matching from the summer reference.
+single-frame matching from the summer reference (straight and with turns) and from the
+unchanged lab.
 
 Target: the generator renders at least 200 grey 256x256 frames per second per condition
 (median), so a 500-place route with its query is ready in a few seconds and tests can use
@@ -113,14 +114,25 @@ def median_ms(fn: Callable[[], object], repeats: int = 300) -> tuple[float, floa
     return 1e3 * statistics.median(times), 1e3 * cpu
 
 
+DIFFICULTY_WORLDS = {
+    "summer": "",
+    "summer, road with 8 turns": "&turns=8",
+    "lab": "&world=lab",
+}
+"""Map traversal label -> the world's spec keys, for :func:`difficulty`."""
+
+
 def difficulty(places: int = 300, seed: int = 1) -> dict[str, float]:
     """Share of queries whose best single-frame match is within +-1 place, per condition.
 
-    Frame-synchronised summer reference; 16x16 box thumbnails, each normalised to zero mean
-    and unit deviation, compared by mean absolute difference. A rough gauge of how much
-    each condition changes appearance, not a method under test.
+    Frame-synchronised reference (summer on the straight road and the road with 8 turns,
+    ``lab`` in the lab); 16x16 box thumbnails, each normalised to zero mean and unit
+    deviation, compared by mean absolute difference. A rough gauge of how much each
+    condition changes appearance, not a method under test. Keys ``"ref -> query"``.
     """
     from PIL import Image
+
+    from ppaloc.datasets.synthetic.lab import LAB_CONDITIONS
 
     def thumbs(frames) -> np.ndarray:
         t = np.stack(
@@ -131,11 +143,13 @@ def difficulty(places: int = 300, seed: int = 1) -> dict[str, float]:
         return t.reshape(len(t), -1)
 
     out = {}
-    for name in CONDITIONS:
-        ds = load_dataset(f"synthetic:?places={places}&sync=1&seed={seed}&query={name}")
-        ref, qry = thumbs(ds.reference), thumbs(ds.query)
-        best = np.abs(qry[:, None, :] - ref[None, :, :]).mean(-1).argmin(1)
-        out[name] = float(np.mean(np.abs(best - np.arange(len(qry))) <= 1))
+    for label, keys in DIFFICULTY_WORLDS.items():
+        for name in LAB_CONDITIONS if "world=lab" in keys else CONDITIONS:
+            spec = f"synthetic:?places={places}&sync=1&seed={seed}&query={name}{keys}"
+            ds = load_dataset(spec)
+            ref, qry = thumbs(ds.reference), thumbs(ds.query)
+            best = np.abs(qry[:, None, :] - ref[None, :, :]).mean(-1).argmin(1)
+            out[f"{label} -> {name}"] = float(np.mean(np.abs(best - np.arange(len(qry))) <= 1))
     return out
 
 
@@ -144,7 +158,7 @@ if __name__ == "__main__":
 
     if "--difficulty" in sys.argv:
         for name, share in difficulty().items():
-            print(f"summer -> {name:<7} single-frame top-1 within +-1 place: {share:6.1%}")
+            print(f"{name:<38} single-frame top-1 within +-1 place: {share:6.1%}")
         raise SystemExit(0)
     print(f"{'case':<44} {'median':>9} {'cpu':>9}")
     for name, fn in CASES.items():
