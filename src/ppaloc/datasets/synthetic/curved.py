@@ -17,7 +17,6 @@ import numpy as np
 from ppaloc.datasets.synthetic.conditions import M
 from ppaloc.datasets.synthetic.path import RoutePath
 from ppaloc.datasets.synthetic.render import (
-    GROUND_BINS,
     GROUND_HALF,
     LAMP_HEIGHT,
     Z_FAR,
@@ -127,34 +126,11 @@ class CurvedRenderer(Renderer):
         mat[m] = M["hill"]
         depth[m] = 2500.0
 
-    def _ground_extra(self, m: np.ndarray, sw: np.ndarray, x: np.ndarray) -> None:
-        """Hook: extra ground markings per row ``sw`` (m along) and bin ``x`` (indoors)."""
-
     def _ground(self, mat, shade, depth, s_cam, x_cam):
-        g = slice(self.g0, self.S)
         sw = self.z_row.astype(np.float64) + s_cam
-        width = self.ground_mat.shape[1]
         off = (x_cam + GROUND_HALF) - self.lateral(self.z_row)
         b = self.xrel + off.astype(np.float32)[:, None]
-        b *= np.float32(GROUND_BINS)
-        xb = b.astype(np.intp)
-        np.clip(xb, 0, width - 1, out=xb)
-        row = (self.world.segment_at(sw) * width)[:, None]
-        flat = xb + row
-        m = np.take(self.ground_mat, flat)
-        dash_rows = ((sw % 9.0) < 3.0)[:, None]
-        m[np.take(self.ground_centre, xb) & dash_rows] = M["marking"]
-        self._ground_extra(m, sw, xb)
-        ti = ((np.floor(sw * 12.0).astype(np.intp) & 511) * 512)[:, None]
-        tj = (xb >> 2) & 511
-        tj += ti
-        sh = np.take(self.tex, tj)
-        sh *= self.tex_gain
-        sh += np.float32(1.0)
-        sh *= np.take(self.ground_shade, flat)
-        mat[g] = m
-        shade[g] = sh
-        depth[g] = self.z_row[:, None]
+        self._paint_ground(mat, shade, depth, sw, b)
 
     def _columns(self, dx: float, za: float, zb: float):
         """Columns and depths of a road-parallel plane at ``dx`` over depths [za, zb], bent."""

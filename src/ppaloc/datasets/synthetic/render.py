@@ -204,10 +204,21 @@ class Renderer:
         return np.stack(mats), np.stack(shades), ax < 0.09
 
     def _ground(self, mat, shade, depth, s_cam, x_cam):
-        g = slice(self.g0, self.S)
         sw = self.z_row.astype(np.float64) + s_cam
-        width = self.ground_mat.shape[1]
         b = self.xrel + np.float32(x_cam + GROUND_HALF)
+        self._paint_ground(mat, shade, depth, sw, b)
+
+    def _ground_extra(self, m: np.ndarray, sw: np.ndarray, x: np.ndarray) -> None:
+        """Hook: extra ground markings per row ``sw`` (m along) and bin ``x`` (none here)."""
+
+    def _paint_ground(self, mat, shade, depth, sw, b) -> None:
+        """Fill the ground rows from ``b``, metres across from the ground's left edge.
+
+        ``sw`` is each ground row's distance along the route (m); ``b`` (float32, rows x
+        columns) is scaled in place to profile bins.
+        """
+        g = slice(self.g0, self.S)
+        width = self.ground_mat.shape[1]
         b *= np.float32(GROUND_BINS)
         xb = b.astype(np.intp)
         np.clip(xb, 0, width - 1, out=xb)
@@ -216,6 +227,7 @@ class Renderer:
         m = np.take(self.ground_mat, flat)
         dash_rows = ((sw % 9.0) < 3.0)[:, None]
         m[np.take(self.ground_centre, xb) & dash_rows] = M["marking"]
+        self._ground_extra(m, sw, xb)
         # World-fixed texture (12 texels per metre), fading with distance to avoid shimmer.
         ti = ((np.floor(sw * 12.0).astype(np.intp) & 511) * 512)[:, None]
         tj = (xb >> 2) & 511
