@@ -41,7 +41,9 @@ REPRESENTATIONS = {
 
 
 @dataclass(frozen=True)
-class _Figure:
+class ReportFigure:
+    """One figure of an HTML report: its anchor key, title, caption and PNG bytes."""
+
     key: str
     title: str
     caption: str
@@ -231,7 +233,7 @@ def _extra_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     return header, rows
 
 
-def _register_figures(result: RunResult) -> list[_Figure]:
+def _register_figures(result: RunResult) -> list[ReportFigure]:
     """A montage of the saved register planes of every on-sensor method."""
     out = []
     for name, run in result.runs.items():
@@ -245,7 +247,7 @@ def _register_figures(result: RunResult) -> list[_Figure]:
             path = render_montage(run.registers, Path(tmp) / "registers.png", columns=3)
             png = path.read_bytes()
         out.append(
-            _Figure(
+            ReportFigure(
                 f"registers-{name}",
                 f"Registers of {name} after the last frame",
                 "Register planes of the simulated SCAMP-5 (256x256 PEs each) after the last "
@@ -259,18 +261,18 @@ def _register_figures(result: RunResult) -> list[_Figure]:
     return out
 
 
-def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
+def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigure]:
     definitions = {run.metrics.recall_definition for run in result.runs.values()}
     d = definitions.pop() if len(definitions) == 1 else "A"
     out = [
-        _Figure(
+        ReportFigure(
             "pr-curves",
             "Precision-recall curves",
             "Every distinct confidence value is a threshold. Recall definition "
             f"{d}: {RECALL_DEFINITIONS[d]}. Dots mark each method's maximum F1.",
             figures.png_bytes(figures.pr_curves(result)),
         ),
-        _Figure(
+        ReportFigure(
             "position",
             "Position estimate along the route",
             "Grey: the true reference frame (middle of the accepted set) of each query; "
@@ -287,7 +289,7 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
     heat = figures.weights_heatmaps(result)
     if heat is not None:
         out.append(
-            _Figure(
+            ReportFigure(
                 "weights",
                 "Weights over time",
                 "Per-node weight (or score) after each query frame, for methods that "
@@ -298,7 +300,7 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
         )
     out += _register_figures(result)
     out.append(
-        _Figure(
+        ReportFigure(
             "latency",
             "Host time per frame in this run",
             "Wall-clock time of each call to step, all methods measured in one run on "
@@ -319,7 +321,7 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[_Figure]:
             else ""
         )
         out.append(
-            _Figure(
+            ReportFigure(
                 "latency-vs-size",
                 "Latency against map size",
                 f"Median host time per step over {n} query frames on random maps of each "

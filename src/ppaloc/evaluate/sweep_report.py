@@ -21,13 +21,13 @@ import html
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ppaloc.errors import DataError
+from ppaloc.evaluate.report import ReportFigure
 from ppaloc.fileio import write_bytes
 
 __all__ = [
@@ -323,15 +323,7 @@ def _heatmap(
     return fig
 
 
-@dataclass(frozen=True)
-class _Figure:
-    key: str
-    title: str
-    caption: str
-    png: bytes
-
-
-def _figures(summary: Mapping[str, Any], labels: Mapping[str, str]) -> list[_Figure]:
+def _figures(summary: Mapping[str, Any], labels: Mapping[str, str]) -> list[ReportFigure]:
     from ppaloc.evaluate.figures import png_bytes
 
     def names(axis: str, values: list[Any]) -> list[str]:
@@ -358,7 +350,7 @@ def _figures(summary: Mapping[str, Any], labels: Mapping[str, str]) -> list[_Fig
             rest = f", mean over {', '.join(others)}" if others else ""
             caption = f"Max F1 of {method} by {a} and {b}{rest}. '-': no cell finished."
         fig = _heatmap(grid, names(a, yv), names(b, xv), a, b, title)
-        out.append(_Figure(f"heatmap-{n + 1}", title, caption, png_bytes(fig)))
+        out.append(ReportFigure(f"heatmap-{n + 1}", title, caption, png_bytes(fig)))
     return out
 
 
