@@ -27,7 +27,7 @@ from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.place import lbp_from_grid
-from ppaloc.sim import A, B, C, F
+from ppaloc.sim import A, B, C, D, F
 from ppaloc.topomap import TopoMap
 
 SIZE = 64
@@ -144,6 +144,54 @@ def test_scale_readout_and_update_follow_the_frame_statistics(rep, n, gain):
     want = np.clip((best >> s) - mu * 2.0**-s, -127, 127)
     np.testing.assert_array_equal(pipe.weights(), want)
     assert pipe.tiles == (2 if n > pipe.layout.capacity else 1)
+
+
+@pytest.mark.parametrize("size", [64, 256])
+def test_robust_replication_copies_instead_of_summing_the_write_noise(size):
+    """Typical noise: the robust spread and replication write each PE a few times (copies),
+    the paper's doubling sums the zero background's write noise (tens of units)."""
+    frame = np.random.default_rng(5).integers(0, 256, (size, size), dtype=np.uint8)
+    f = (frame.astype(np.float64) / 2 - 64).reshape(8, size // 8, 8, size // 8).mean((1, 3))
+    want = np.tile(f, (size // 8, size // 8))
+    err = {}
+    for preset in ("robust", "paper"):
+        kw = {"alpha": 8} if preset == "paper" else {}
+        params = FilterParams.create(
+            "lowres", preset=preset, arithmetic="ppa8", motion="always_forward", **kw
+        )
+        pipe = make_pipeline("lowres", 40, params, size=size, noise="typical", seed=1)
+        pipe.capture(frame)
+        pipe.block_means()
+        pipe.replicate()
+        err[preset] = float(np.std(-pipe.sim.read(F) - want))
+    assert err["robust"] < 2.5 < 3 * err["robust"] < err["paper"]
+
+
+def test_robust_hamming_tree_halves_instead_of_summing_the_write_noise():
+    """Typical noise: the robust LBP tree (64 per differing bit, halving) reads ``mu`` to
+    about one unit; the paper's adding tree (2 per bit) sums 32 PEs' write noise."""
+    rng = np.random.default_rng(6)
+    nodes = rng.integers(0, 2**32, 200, dtype=np.uint32)
+    frame = np.kron(rng.integers(0, 256, (16, 16)), np.ones((4, 4))).astype(np.uint8)
+    err = {}
+    for preset in ("robust", "paper"):
+        kw = {"alpha": 8} if preset == "paper" else {}
+        params = FilterParams.create(
+            "lbp", preset=preset, arithmetic="ppa8", motion="always_forward", **kw
+        )
+        pipe = make_pipeline("lbp", 200, params, size=SIZE, noise="typical", seed=2)
+        upload_map(pipe, TopoMap("lbp", nodes))
+        pipe.capture(frame)
+        pipe.block_means()
+        code = pipe.descriptor()
+        pipe.load_descriptor(code)
+        pipe._tree_calls(0)
+        pipe._run("tree_0", lambda k, pipe=pipe: pipe._tree(k, 0))
+        _, br, bc = pipe._tile_nodes[0]
+        got = pipe.sim.read(D)[br * pipe.bh, bc * pipe.bw]
+        want = 2.0 * np.bitwise_count(nodes[: len(br)] ^ np.uint32(code))
+        err[preset] = float(np.std(got - want))
+    assert err["robust"] < 1.5 < 3 * err["robust"] < err["paper"]
 
 
 @pytest.mark.parametrize(("rep", "free"), [("lbp", A), ("lowres", B)])

@@ -25,8 +25,12 @@ PARAMS = FilterParams.create(
 )
 
 
-def _pipe(rep: str = "lowres", n: int = 40) -> SensorPipeline:
-    return make_pipeline(rep, n, PARAMS, size=SIZE)
+ROBUST = FilterParams.create("lowres", arithmetic="ppa8", motion="always_forward")
+
+
+def _pipe(rep: str = "lowres", n: int = 40, preset: str = "paper") -> SensorPipeline:
+    params = PARAMS if preset == "paper" else ROBUST
+    return make_pipeline(rep, n, params, size=SIZE)
 
 
 def _frame(seed: int) -> np.ndarray:
@@ -92,8 +96,9 @@ def test_kernel_cache_records_once_and_replays():
     np.testing.assert_array_equal(sim.read(A), np.full((2, 2), 3.0))
 
 
-def test_block_means_are_exact_everywhere_in_the_block():
-    pipe = _pipe()
+@pytest.mark.parametrize("preset", ["paper", "robust"])
+def test_block_means_are_exact_everywhere_in_the_block(preset):
+    pipe = _pipe(preset=preset)
     frame = _frame(1)
     pipe.capture(frame)
     pipe.block_means()
@@ -107,8 +112,9 @@ def test_class_rows_hold_one_row_per_residue_and_block():
     np.testing.assert_array_equal(rows // 32, rows % 8)
 
 
-def test_replicate_tiles_the_grid_into_every_node_block():
-    pipe = _pipe()
+@pytest.mark.parametrize("preset", ["paper", "robust"])
+def test_replicate_tiles_the_grid_into_every_node_block(preset):
+    pipe = _pipe(preset=preset)
     frame = _frame(2)
     pipe.capture(frame)
     pipe.block_means()

@@ -34,7 +34,7 @@ from ppaloc.sim import (
     west,
 )
 
-__all__ = ["LOWRES_DREGS", "ROOTS", "LowresPipeline"]
+__all__ = ["LOWRES_DREGS", "ROOTS", "LowresPipeline", "after_patterns"]
 
 #: R3 holds two roles in turn: ``root32`` (the 32x32 block roots, loaded at every capture
 #: and read by the spread of the block means) and ``pattern`` (node roots of one tile in
@@ -44,6 +44,39 @@ ROOTS = R3
 #: Digital register roles of the low-res pipeline (``pattern`` and ``root32`` are both
 #: :data:`ROOTS`).
 LOWRES_DREGS = DRegs(valid=R4, cand=R9, tmp_a=R10, tmp_b=R11, pattern=ROOTS, root32=ROOTS)
+
+
+def after_patterns(block: int) -> list[tuple[int, int]]:
+    """``load_pattern`` (address, don't-care bits) pairs whose union is ``a // block > a % 8``.
+
+    For 8-bit addresses ``a`` (rows or columns) of an array of ``8 * block`` PEs: the
+    block index ``B = a // block`` exceeds the residue ``b = a % 8`` where, at the highest
+    of their three bits that differ, ``B`` has the 1. Seven patterns: per bit ``k`` the
+    bit pair ``(B_k, b_k) = (1, 0)`` under each value of the higher pairs (equal).
+
+    Examples
+    --------
+    >>> a = np.arange(256)
+    >>> hit = np.zeros(256, bool)
+    >>> for addr, dont_care in after_patterns(32):
+    ...     hit |= (a & ~dont_care) == (addr & ~dont_care)
+    >>> bool((hit == (a // 32 > a % 8)).all()), len(after_patterns(32))
+    (True, 7)
+    """
+    low = block.bit_length() - 1  # the block index's lowest bit
+    out = []
+    for k in (2, 1, 0):
+        higher = range(k + 1, 3)
+        for values in range(1 << len(higher)):
+            addr = 1 << (low + k)
+            care = addr | (1 << k)
+            for i, j in enumerate(higher):
+                pair = (1 << (low + j)) | (1 << j)
+                care |= pair
+                if values >> i & 1:
+                    addr |= pair
+            out.append((addr, 0xFF & ~care))
+    return out
 
 
 class LowresPipeline(SensorPipeline):
@@ -123,6 +156,53 @@ class LowresPipeline(SensorPipeline):
 
     def replicate(self) -> None:
         """``F := -f`` replicated: PE (r, c) holds minus the mean of grid block (r%8, c%8).
+
+        The robust preset copies (:meth:`replicate_copies`); the paper preset adds
+        (:meth:`replicate_sums`).
+        """
+        if self.robust:
+            self.replicate_copies()
+        else:
+            self.replicate_sums()
+
+    def replicate_copies(self) -> None:
+        """Robust: the replication by FLAG-masked chains of copies (no sums).
+
+        ``F`` holds the spread block means (:meth:`SensorPipeline._spread_copies`), so
+        the rows of residue ``b`` in block row ``b`` (the class mask ``R1``) already hold
+        class ``b``. Rows: the other rows take theirs along a chain of ``scamp5_shift``s
+        of one block (``block`` PEs), each written only where it carries the right class:
+        7 shifts from the north written at the rows of block ``B > b``
+        (:func:`after_patterns`, 7 periodic ``load_pattern``s ORed), then 7 from the south
+        at ``B < b`` (the NOR of that mask and ``R1``). Then the same for the columns
+        (``R2``). Every PE is written ``|B - b|`` times per axis (at most 7), where the
+        doubling of the paper preset sums the write noise of the zero background; exact
+        in ideal mode. ``4 * 7 * block`` PE steps (896 on a 256 array, the paper's 960).
+        """
+        sim, dr = self.sim, self.dr
+        after, before, temp = dr.cand, dr.tmp_a, dr.tmp_b
+        with sim.stage("replicate"):
+            for axis, own, (north_of, south_of) in (
+                (0, self.class_masks[0], (north, south)),
+                (1, self.class_masks[1], (west, east)),
+            ):
+                for i, (addr, dont_care) in enumerate(after_patterns(self.block)):
+                    target = after if i == 0 else temp
+                    if axis:
+                        sim.load_pattern(target, 0, addr, 0xFF, dont_care)
+                    else:
+                        sim.load_pattern(target, addr, 0, dont_care, 0xFF)
+                    if i:
+                        self._run(f"or_{after.name}", lambda k: k.OR(after, temp))
+                self._run(f"rep_before_{axis}", lambda k, own=own: k.NOR(before, after, own))
+                for mask, pull_from in ((after, north_of), (before, south_of)):
+                    self._run(f"where_{mask.name}", lambda k, mask=mask: k.WHERE(mask))
+                    for _ in range(GRID - 1):
+                        pull_shift(sim, F, pull_from, self.block)
+                self._run("all", lambda k: k.all())
+
+    def replicate_sums(self) -> None:
+        """Paper: the replication by shift-and-add doubling over a zero background.
 
         Per axis: copy the block means at the PEs whose residue mod 8 is their block's
         index (zero elsewhere), then double that pattern over the zero background by
