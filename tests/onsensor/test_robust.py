@@ -48,14 +48,27 @@ def _put_weights(pipe, values: np.ndarray, fill: float = 99.0) -> None:
     pipe.sim.write(C, w)
 
 
+def _normalised(w: np.ndarray, top: int, memory: int) -> np.ndarray:
+    """docs/ppa8.md robust item 5: ``max(clip(w - T), -memory)``."""
+    return np.maximum(np.clip(w.astype(np.float64) - top, -127, 127), -memory)
+
+
 def _transition_reference(w: np.ndarray, costs, memory: int) -> np.ndarray:
-    """``clip(max_d (w_{i-d} - c_d))`` with ``-memory`` before node 0, advances < N."""
+    """docs/ppa8.md robust item 2: ``clip(max_d (w_{i-d} - c_d))``, where a node before
+    node 0 reads ``-memory``, for every ``d`` (also ``d >= N``)."""
     n = len(w)
     best = w - costs[0]
-    for d in range(1, min(len(costs), n)):
-        shifted = np.r_[np.full(d, -float(memory)), w[:-d]]
+    for d in range(1, len(costs)):
+        shifted = np.r_[np.full(min(d, n), -float(memory)), w[: max(n - d, 0)]]
         best = np.maximum(best, np.clip(shifted - costs[d], -127, 127))
     return np.clip(best, -127, 127)
+
+
+def _random_weights(n: int, seed: int, low: float = -127) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    w = (rng.integers(int(low) * 64, 127 * 64, n) / 64).astype(np.float32)
+    w[:3] = (127, -127, 126.5)[: min(n, 3)]
+    return w
 
 
 @pytest.mark.parametrize(
@@ -64,16 +77,45 @@ def _transition_reference(w: np.ndarray, costs, memory: int) -> np.ndarray:
 @pytest.mark.parametrize(
     ("costs", "memory"), [((4, 0, 4), 127), ((0, 4, 8), 20), ((5, 3, 130, 200), 64), ((0, 0), 8)]
 )
-def test_transition_is_the_max_over_shifted_copies_along_the_snake(rep, n, costs, memory):
+@pytest.mark.parametrize("below", [0, 100])
+def test_transition_normalises_then_takes_the_max_over_shifted_copies(rep, n, costs, memory, below):
+    """The pending normalisation (``T`` from :meth:`normalise`) and the transition along
+    the snake, against the host's two steps; ``below`` moves every weight down (T < 0)."""
     pipe = _pipe(rep, n, memory=memory)
     assert pipe.tiles == (2 if n > pipe.layout.capacity else 1)
-    rng = np.random.default_rng(n + len(costs))
-    w = (rng.integers(-127 * 64, 127 * 64, n) / 64).astype(np.float32)
-    w[:3] = (127, -127, 126.5)[: min(n, 3)]
+    w = _random_weights(n, n + len(costs)) - np.float32(below)
+    w = np.maximum(w, -127)
+    top = int(np.floor(w.max()))
     _put_weights(pipe, w)
+    pipe.normalise(top)
     pipe.transition(costs)
-    np.testing.assert_array_equal(pipe.weights(), _transition_reference(w, costs, memory))
-    assert "transition" in [s.name for s in pipe.timing.report().stages]
+    want = _transition_reference(_normalised(w, top, memory), costs, memory)
+    np.testing.assert_array_equal(pipe.weights(), want)
+    assert {"transition", "normalise"} <= {s.name for s in pipe.timing.report().stages}
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("max_advance", [2, 3])
+def test_a_map_no_longer_than_max_advance_reads_the_edge_for_every_advance(rep, n, max_advance):
+    """Tiny maps: every node ``i < d`` takes the edge's ``-memory - c_d`` for every ``d``,
+    also ``d >= N`` (the host's fix of 0e27f8c), with costs where that candidate wins."""
+    params = FilterParams.create(
+        rep, arithmetic="ppa8", motion="always_forward", memory=30, max_advance=max_advance
+    )
+    pipe = make_pipeline(rep, n, params, size=SIZE)
+    costs = (64, 64, 5, 0)[: max_advance + 1]
+    w = np.array([-29.5, -30.0, -30.0][:n], np.float32)
+    _put_weights(pipe, w)
+    pipe.normalise(0)
+    pipe.transition(costs)
+    want = _transition_reference(w, costs, 30)
+    np.testing.assert_array_equal(pipe.weights(), want)
+    # the last node's best candidate is the edge's, through an advance d >= N (which the
+    # sensor and the host used to leave out)
+    if n <= max_advance:
+        inner = max(float(w[n - 1 - d]) - costs[d] for d in range(n))
+        assert want[-1] == -30 - min(costs[n:]) > inner
 
 
 def test_transition_costs_come_from_the_host_decision():
@@ -82,21 +124,29 @@ def test_transition_costs_come_from_the_host_decision():
     w = np.linspace(-100, 0, 90).astype(np.float32)
     for moved in (True, False):
         _put_weights(pipe, w)
+        pipe.normalise(0)
         costs = transition_costs(moved, params)
         pipe.transition(costs)
         np.testing.assert_array_equal(pipe.weights(), _transition_reference(w, costs, 127))
 
 
 @pytest.mark.parametrize("memory", [8, 127])
-def test_normalise_subtracts_the_threshold_and_floors(memory):
+def test_normalise_is_applied_by_the_next_transition(memory):
+    """``normalise`` writes nothing: ``weights()`` reports the pending normalisation, the
+    register keeps the weights until the next transition subtracts ``T`` and floors."""
     pipe = _pipe("lowres", 100, memory=memory)
-    rng = np.random.default_rng(memory)
-    w = (rng.integers(-127 * 8, 127 * 8, 100) / 8).astype(np.float32)
-    for top in (int(np.floor(w.max())), -127, 127):
-        _put_weights(pipe, w)
-        pipe.normalise(top)
-        want = np.maximum(np.clip(w.astype(np.float64) - top, -127, 127), -memory)
-        np.testing.assert_array_equal(pipe.weights(), want)
+    w = np.maximum(_random_weights(100, memory, low=-90) - np.float32(40), -127)
+    top = int(np.floor(w.max()))
+    _put_weights(pipe, w)
+    before = pipe.timing.now_us
+    pipe.normalise(top)
+    assert pipe.timing.now_us == before
+    np.testing.assert_array_equal(pipe.weights(), _normalised(w, top, memory))
+    t, br, bc = pipe.layout.node_to_block(np.arange(100))
+    np.testing.assert_array_equal(pipe.sim.read(C)[br * pipe.bh, bc * pipe.bw + t], w)
+    pipe.transition((0,))  # stay on every node for free: the normalisation alone
+    np.testing.assert_array_equal(pipe.weights(), _normalised(w, top, memory))
+    assert pipe.pending_top is None
 
 
 def test_robust_stages_leave_the_means_of_the_replication_alone():
@@ -295,6 +345,13 @@ def test_keyframe_map_on_the_sensor_drops_the_reference_stops(rep):
 def test_the_sensor_equals_the_host_over_parameter_values(routes, rep, values):
     ref, query = routes[WITH_STOPS]
     _agree(rep, ref[:30], query[:45], motion="image", **values)
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_the_sensor_equals_the_host_on_a_map_no_longer_than_max_advance(rep, n):
+    ref, query = _stop_route(5)
+    _agree(rep, ref[:n], query[:16], motion="always_forward", max_advance=3, memory=20)
 
 
 def test_oracle_motion_runs_the_robust_transition_with_the_given_moves():

@@ -318,6 +318,9 @@ class SensorPipeline(ABC):
         self.last_counts: tuple[int, int] | None = None
         self.last_shift: int | None = None
         self.last_alpha: int | None = None
+        #: Robust: the threshold ``T`` whose normalisation the next transition applies
+        #: (None: none pending; the transition then normalises with ``T = 0``).
+        self.pending_top: int | None = None
 
     # ------------------------------------------------------------------ stages
     def capture(self, frame: np.ndarray) -> None:
@@ -639,33 +642,65 @@ class SensorPipeline(ABC):
 
         self._run(f"tr_max_{neg.name}_{int(bool(cost))}", take)
 
-    def transition(self, costs: tuple[int, ...]) -> None:
-        """Robust: ``w_i := clip(max over d of (w_{i-d} - c_d))``; before node 0: ``-memory``.
+    def _subtract(self, reg: Register, value: int, name: str) -> None:
+        """``reg := clip(reg - value)`` by ``add`` with ``-value`` in ``IN`` (the DAC takes
+        [-128, 127], so a larger ``value`` goes in steps of 127); nothing for 0."""
+        while value:
+            part = max(min(value, 127), -128)
+            self.sim.load_in(-part)
+            self._run(name, lambda k: k.add(reg, reg, IN))
+            value -= part
 
-        docs/ppa8.md (robust preset, item 2). ``S`` (:data:`SHIFTED`) starts as ``-w``
-        (one ``bus``) and moves one node along the snake per ``d`` (:meth:`_snake_step`,
-        with ``+memory`` and the tile carry parked first, :meth:`_park`). The stay
-        candidate is ``w := clip(w - c_0)`` in place (``add`` with ``-c_0`` from the DAC,
-        clipped to [-127, 127] as the host clips; nothing on a stay decision, where
-        ``c_0 = 0``); every other candidate is taken in place by
-        :meth:`_take_candidate`, which writes a weight only where its candidate wins, so
-        a hypothesis moving one node takes three analogue writes (copy, shift, take). As
-        on the host, advances of ``d >= N`` nodes are left out (they would read only the
-        edge).
+    def transition(self, costs: tuple[int, ...]) -> None:
+        """Robust: the last frame's normalisation, then ``w_i := clip(max_d (w_{i-d} - c_d))``.
+
+        docs/ppa8.md (robust preset, items 5 and 2). The normalisation of the last frame
+        (``n := max(clip(w - T), -memory)``, :meth:`normalise` keeps ``T``) writes no
+        weight of its own: ``S`` (:data:`SHIFTED`) starts as ``-(w - T)`` (one ``bus``
+        with ``-T`` in ``IN``) and moves one node along the snake per ``d``
+        (:meth:`_snake_step`, with ``+memory`` and the tile carry parked first,
+        :meth:`_park`); the stay candidate is ``w := clip(w - (T + c_0))`` in place (one
+        ``add``; nothing when ``T + c_0 = 0``); every other candidate is taken in place by
+        :meth:`_take_candidate`, which writes a weight only where its candidate wins (a
+        hypothesis moving one node takes three analogue writes: copy, shift, take).
+        Stage ``"normalise"``: the floor last, ``w := max(w, max(-memory - min c, -127))``
+        (:meth:`_floor`). Exact: a candidate from a node below the floor, the array edge
+        (``-memory - c_d``, for every ``d``, also ``d >= N``) and any clip at -127 are at
+        most the floor, and no candidate reaches the top clip (``w - T < 1``).
         """
         sim, s, x = self.sim, SHIFTED, _X
+        top = self.pending_top or 0
         steps = min(len(costs) - 1, self.n_nodes - 1)
         with sim.stage("transition"):
             if steps:
                 self._snake_masks()
-                self._run("tr_copy", lambda k: k.bus(s, _W))  # S := -W
+                if top:
+                    sim.load_in(-int(top))
+                    self._run("tr_copy_t", lambda k: k.bus(s, _W, IN))  # S := -(W - T)
+                else:
+                    self._run("tr_copy", lambda k: k.bus(s, _W))  # S := -W
                 self._park(s, x, int(self.params.memory), steps)
-            if costs[0]:
-                sim.load_in(-int(costs[0]))
-                self._run("tr_stay", lambda k: k.add(_W, _W, IN))
+            self._subtract(_W, int(top) + int(costs[0]), "tr_stay")
             for d in range(1, steps + 1):
                 self._snake_step(s, x, d)
                 self._take_candidate(s, x, int(costs[d]))
+        self.pending_top = None
+        with sim.stage("normalise"):
+            self._floor(max(-int(self.params.memory) - min(costs), -127))
+
+    def _floor(self, floor: int) -> None:
+        """``w := max(w, floor)``: one kernel with ``-floor`` in ``IN``,
+        ``NEWS = -(w - floor)`` flags ``w < floor`` and ``bus(W, IN)`` writes the floor
+        there (one write of a DAC constant)."""
+        self.sim.load_in(-floor)
+
+        def build(k):
+            k.bus(NEWS, _W, IN)
+            k.where(NEWS)  # FLAG = w < floor
+            k.bus(_W, IN)
+            k.all()
+
+        self._run("floor", build)
 
     # --------------------------------------------------------------- robust likelihood
     def compare_robust(self) -> None:
@@ -714,25 +749,13 @@ class SensorPipeline(ABC):
     def normalise(self, top: int) -> None:
         """Robust: ``w := max(clip(w - T, -127, 127), -memory)`` (docs/ppa8.md item 5).
 
-        ``-memory`` into ``D`` and ``-T`` into ``IN`` through the DAC; one kernel: the
-        ``add`` (clip [-127, 127], as the host; left out for ``T = 0``, where it changes
-        nothing), then ``where(-memory - w)`` and a ``mov`` of the floor.
+        Only remembered here (``pending_top``): the next frame's :meth:`transition`
+        subtracts ``T`` with the copy and the stay candidate it writes anyway, and
+        applies the floor after its candidates, so the normalisation costs no weight
+        write of its own (the old kernel wrote every weight twice when ``T != 0``).
+        :meth:`weights` applies a pending normalisation to what it reads.
         """
-        sim = self.sim
-        with sim.stage("normalise"):
-            sim.scamp5_in(D, -int(self.params.memory))
-            if top:  # T = 0 (often: the best weight stays in [0, 1)) writes no weight
-                sim.load_in(-int(top))
-
-            def build(k, top=top):
-                if top:
-                    k.add(_W, _W, IN)
-                k.bus(NEWS, _W)
-                k.where(D, NEWS)  # FLAG = w < -memory
-                k.mov(_W, D)
-                k.all()
-
-            self._run(f"normalise_{int(bool(top))}", build)
+        self.pending_top = int(top)
 
     def _update(self, k, x: Register, y: Register, sign: int, exponent: int, tile: int) -> None:
         """``w += alpha - base 2**exponent`` at tile ``tile``'s roots (``x = sign base``).
@@ -1017,7 +1040,7 @@ class SensorPipeline(ABC):
             f"{reg.name}: map tile {t}": sim.read(reg)
             for t, reg in enumerate(self.db[: self.tiles])
         }
-        planes[f"{_W.name}: weights"] = sim.read(_W)
+        planes[f"{_W.name}: weights"] = sim.read(_W)  # robust: before the pending normalisation
         planes.update(self._live_planes())
         planes[f"{dr.u.name}: motion, above block mean"] = sim.read(dr.u)
         planes[f"{dr.d.name}: motion, below block mean"] = sim.read(dr.d)
@@ -1025,8 +1048,15 @@ class SensorPipeline(ABC):
         return planes
 
     def weights(self) -> np.ndarray:
-        """The weights in map order, read from the register (inspection, untimed)."""
+        """The weights in map order, read from the register (inspection, untimed).
+
+        Robust: with the last frame's normalisation applied (the register holds them
+        before it, :meth:`normalise`), as the host reports them.
+        """
         plane = self.sim.read(_W)
         nodes = np.arange(self.n_nodes)
         tile, br, bc = self.layout.node_to_block(nodes)
-        return plane[br * self.bh, bc * self.bw + tile].astype(np.float64)
+        w = plane[br * self.bh, bc * self.bw + tile].astype(np.float64)
+        if self.robust and self.pending_top is not None:
+            w = np.maximum(np.clip(w - self.pending_top, -127, 127), -self.params.memory)
+        return w
