@@ -56,6 +56,7 @@ from ppaloc.sim import (
     R6,
     R7,
     R8,
+    XE,
     C,
     D,
     E,
@@ -729,7 +730,6 @@ class SensorPipeline(ABC):
             s = likelihood_shift(mean - best, int(self.params.gain))
             alpha = best >> s
         self.last_shift, self.last_alpha = s, alpha
-        sign, exponent = self.value_scale
         with sim.stage("compare"):
             for t in reversed(range(self.tiles)):
                 last = t == self.tiles - 1
@@ -741,9 +741,68 @@ class SensorPipeline(ABC):
                 def build(k, t=t, last=last):
                     if not last:
                         self._tree(k, t)
-                    self._update(k, D, E, sign, exponent - s, t)
+                    self._update_robust(k, s, t)
 
                 self._run(f"{'update' if last else 'tree_update'}_{t}_s{s}", build)
+
+    def _scaled_sources(self, k, s: int, need: int) -> tuple[Register, ...]:
+        """Registers whose sum is ``need * mu * 2**-s``, from the tree's value in ``D``.
+
+        Halvings (``bus2``, one write each) alternate between ``D`` and ``E`` and flip
+        the sign; when the last one has the wrong sign, the pair of the last two (``H +
+        (-H / 2) = H / 2``) has the right one, so no negation is written. Only ``s``
+        below the tree's scale costs extra writes (one doubling by a copy, one more
+        negation when the sign is wrong).
+        """
+        sign, exponent = self.value_scale  # D = sign * mu * 2**-exponent
+        halvings = s - exponent
+        if halvings < 0:  # s = 0 at low-res (-mu/2): two copies of +-mu/2
+            if sign != need:
+                k.bus(E, D)
+            else:
+                k.mov(E, D)
+            k.mov(D, E)  # D = E
+            return (D, E)
+        cur, other = D, E
+        for _ in range(halvings):
+            k.bus2(other, NEWS, cur)  # other = -cur / 2
+            cur, other = other, cur
+            sign = -sign
+        if sign == need:
+            return (cur,)
+        if halvings:
+            return (other, cur)  # the last two halvings: -cur / 2 ... + cur = need |mu_s|
+        k.bus(other, cur)
+        return (other,)
+
+    def _update_robust(self, k, s: int, tile: int) -> None:
+        """Robust: ``w += alpha_t - mu 2**-s`` at tile ``tile``'s roots, ``alpha_t`` in ``IN``.
+
+        The paper preset's :meth:`_update` negates the scaled term when the halvings'
+        parity is wrong (one write) and moves it for tile 1 by a ``movx`` (two), then
+        ``add`` (two): up to five writes on a weight's term. Here the term is a sum of
+        sources with the right sign (:meth:`_scaled_sources`); tile 0 takes ``NEWS :=
+        -(w + alpha - mu_s)``, ``w := -NEWS`` (the ``add``, clip [-127, 127]); tile 1
+        pushes ``+mu_s`` into the east neighbour's ``NEWS`` (one write, which negates and
+        moves it to the weight's PE), then ``E := -(w + alpha - mu_s)`` and ``w := -E``:
+        the same two writes and clip on the weight, three fewer in all.
+        """
+        if tile == 0:
+            sources = self._scaled_sources(k, s, -1)
+            k.WHERE(self.dr.pattern)
+            k.bus(NEWS, *sources, _W, IN)  # -(w + alpha - mu_s), clipped (the pair summed first)
+            k.bus(_W, NEWS)
+            k.all()
+            return
+        if tile > 1:
+            raise AssertionError("a sensor holds at most two tiles")
+        sources = self._scaled_sources(k, s, 1)
+        k.bus(XE, *sources)  # NEWS = -mu_s of the west neighbour: at tile 1's root
+        scratch = E if sources[0] is D else D
+        k.WHERE(self.dr.pattern)
+        k.bus(scratch, _W, NEWS, IN)  # -(w + alpha - mu_s), clipped
+        k.bus(_W, scratch)
+        k.all()
 
     # --------------------------------------------------------------- robust normalisation
     def normalise(self, top: int) -> None:
