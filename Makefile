@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test bench lint clean system-deps
 
 $(BIN)/activate:
 	$(PYTHON) -m venv $(VENV)
@@ -21,7 +21,12 @@ $(VENV)/.installed-dev: pyproject.toml $(BIN)/activate
 demo: $(VENV)/.installed
 	$(BIN)/ppaloc demo
 
-test: $(VENV)/.installed-dev
+# Debian packages some tests use (chromium, g++), installed only when missing; where they
+# cannot be installed the script says why and those tests skip.
+system-deps:
+	bash tools/system-deps.sh
+
+test: $(VENV)/.installed-dev system-deps
 	$(BIN)/python -m pytest -n 2 -q --doctest-modules src tests
 
 bench: $(VENV)/.installed-dev
