@@ -624,14 +624,19 @@ class Scamp5(ControllerMixin, ProgramAPI):
             o, i = _slices(dr, dc)
             parts.append((self._d[sel.index], o, i, _edge_slices(dr, dc, rows, cols)))
 
+        acc = np.zeros((rows, cols), dtype=bool)
+
         def compute(out: np.ndarray) -> None:
-            out.fill(False)
+            # Accumulate apart from ``out``: the destination may be a selector (R1-R4)
+            # that is still being read.
+            acc.fill(False)
             for sel, o, i, edges in parts:
                 np.copyto(tb[o], src[i])
                 for e in edges:
                     tb[e] = edge
                 np.logical_and(tb, sel, out=tb)
-                np.logical_or(out, tb, out=out)
+                np.logical_or(acc, tb, out=acc)
+            np.copyto(out, acc)
 
         return self._digital_store(ins.dsts[0], compute)
 
