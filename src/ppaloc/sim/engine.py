@@ -28,6 +28,7 @@ import numpy as np
 
 from ppaloc.errors import KernelError, SimulatorError
 from ppaloc.sim.controller import ControllerMixin
+from ppaloc.sim.engines import make_engine
 from ppaloc.sim.isa import CLOCK_CLASSES, Instruction
 from ppaloc.sim.macros import ProgramAPI
 from ppaloc.sim.noise import NoiseModel, NoiseParams
@@ -103,6 +104,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
         Seed of every random draw (noise, digital decay); same seed, same bytes.
     clock_hz : float
         ICW clock of the timing model.
+    engine : str or None
+        ``"reference"``, ``"numpy"`` or ``"compiled"`` (needs numba): what runs the ICWs
+        (:mod:`ppaloc.sim.engines`; every engine gives the same bytes). None: the
+        ``PPALOC_ENGINE`` environment variable, else the fastest installed.
 
     Examples
     --------
@@ -124,6 +129,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         noise: str | NoiseParams = "ideal",
         seed: int = 0,
         clock_hz: float = 10e6,
+        engine: str | None = None,
     ) -> None:
         for name, v in (("rows", rows), ("cols", cols)):
             if not isinstance(v, int | np.integer) or isinstance(v, bool) or v < 1:
@@ -149,11 +155,12 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._dtouch_us = np.zeros(_N_DIGITAL)
         if not self.noise.ideal:
             self._a[PIX.index] = self.noise.pixel_offset
+        self.engine = make_engine(engine, self)
 
     # ------------------------------------------------------------------ inspection
     def __repr__(self) -> str:
         mode = "ideal" if self.noise.ideal else "noisy"
-        return f"Scamp5(rows={self.rows}, cols={self.cols}, {mode})"
+        return f"Scamp5(rows={self.rows}, cols={self.cols}, {mode}, {self.engine.name})"
 
     def _aplane(self, reg: Register) -> np.ndarray:
         """The live float32 plane of analogue ``reg`` (a view; writes bypass FLAG)."""
@@ -286,14 +293,17 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
     def _emit(self, instructions: tuple[Instruction, ...]) -> None:
         """Instructions issued directly on the simulator run at once as a kernel of their own."""
-        ops = [self._compile(ins) for ins in instructions]
-        self._run_ops(ops, count_clocks(instructions), written_digital(instructions))
+        run = self._compile_kernel(instructions)
+        self._run_ops(run, count_clocks(instructions), written_digital(instructions))
 
-    def _run_ops(self, ops: list[Op], counts: dict[str, int], dwritten: np.ndarray) -> None:
+    def _compile_kernel(self, instructions: tuple[Instruction, ...]) -> Op:
+        """A runner performing ``instructions`` in order, built by this simulator's engine."""
+        return self.engine.compile(tuple(instructions))
+
+    def _run_ops(self, run: Op, counts: dict[str, int], dwritten: np.ndarray) -> None:
         if not self.noise.ideal:
             self._elapse()
-        for op in ops:
-            op()
+        run()
         self.timing.charge_kernel(counts)
         if dwritten.size:
             self._dtouch_us[dwritten] = self.timing.now_us
@@ -561,13 +571,13 @@ class Scamp5(ControllerMixin, ProgramAPI):
         r0 = self._d[R0.index]
 
         def set_clear() -> None:
-            for p in planes:
-                p.fill(value)
-            if r12:
+            if r12:  # first: R0 as it was before this ICW (SET/CLR may list R0 too)
                 if value:
                     np.logical_or(p12, r0, out=p12)
                 else:
                     np.greater(p12, r0, out=p12)  # p12 AND NOT r0
+            for p in planes:
+                p.fill(value)
 
         return set_clear
 

@@ -124,7 +124,7 @@ class Kernel(ProgramAPI):
         if self._ops is None:
             from ppaloc.sim.engine import count_clocks, written_digital
 
-            self._ops = [self.sim._compile(ins) for ins in self._recorded]
+            self._ops = self.sim._compile_kernel(self._recorded)
             self._counts = count_clocks(self._recorded)
             self._dwritten = written_digital(self._recorded)
         self.sim._run_ops(self._ops, self._counts, self._dwritten)
