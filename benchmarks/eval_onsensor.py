@@ -18,8 +18,14 @@ presets given, default both):
   on SCAMP-5.
 - ``noise``: max F1 (recall definition A, tolerance of the dataset) in ideal mode, under
   the ``"typical"`` noise preset and under that preset without analogue droop, on
-  Nordland summer -> winter and Gardens Point day_left -> day_right, both
-  representations, always-forward motion (both are frame-synchronised).
+  Nordland summer -> winter, Gardens Point day_left -> day_right and day_right ->
+  night_right, both representations, always-forward motion (all are frame-synchronised);
+  the noisy figures are means over ``--seeds`` noise seeds (default 4), with the fraction
+  of the ideal max F1 each preset keeps.
+- ``stages``: where the noise enters: the robust preset under the typical preset without
+  droop with single stages made exact (``--exact``), each as a simulation experiment that
+  lets the stage run and then puts the exact result of its noisy inputs in its output
+  registers (:func:`exact_stages`), mean max F1 over ``--seeds``; routes as ``noise``.
 - ``figures``: the database, weights and difference registers (PNG) into ``--figures``
   (the paper preset's files as before, the robust preset's with ``_robust``).
 """
@@ -47,6 +53,12 @@ from ppaloc.topomap import TopoMap
 DATA = "../shared/data"
 NORDLAND = f"nordland:{DATA}/nordland-64x32?ref=summer&query=winter"
 GARDENS = f"gardens-point:{DATA}/gardens-point?ref=day_left&query=day_right"
+GARDENS_NIGHT = f"gardens-point:{DATA}/gardens-point?ref=day_right&query=night_right"
+NOISE_ROUTES = {
+    "nordland": ("nordland summer->winter", NORDLAND),
+    "gardens": ("gardens day_l->day_r", GARDENS),
+    "gardens-night": ("gardens day_r->night_r", GARDENS_NIGHT),
+}
 SYNTHETIC = "synthetic:?places=300&query=winter&seed=1"
 PAPER_MS = {"lowres": 2.59, "lbp": 3.17}
 PAPER_NODES = {"lowres": 1024, "lbp": 2048}
@@ -163,31 +175,270 @@ def _time_frames(loc, rep: str, n: int, preset: str, motion: str, n_frames: int)
         print(f"  {'stay frame':12s} {stay * 1000:8.1f} us (robust: no likelihood on stay)")
 
 
-def noise(n_query: int | None = None, presets: tuple[str, ...] = FILTER_PRESETS) -> None:
-    for name, spec in (("nordland summer->winter", NORDLAND), ("gardens day_l->day_r", GARDENS)):
-        ref, query, ds = load(spec)
-        query = query[:n_query]
-        truth = list(ds.ground_truth)[: len(query)]
-        has_match = np.array([len(t) > 0 for t in truth])
+def _max_f1(loc: OnSensorLocaliser, query, truth) -> float:
+    has_match = np.array([len(t) > 0 for t in truth])
+    est = loc.localise(query)
+    correct = is_correct(np.array([e.node for e in est]), truth)
+    return max_f1(pr_curve([e.score for e in est], correct, has_match, recall="A"))[0]
+
+
+def _noisy_f1(args) -> float:
+    spec, rep, preset, level, seed, n_query, exact = args
+    ref, query, ds = load(spec)
+    query = query[:n_query]
+    truth = list(ds.ground_truth)[: len(query)]
+    setting = NO_DROOP if level == "typical-no-droop" else level
+    loc = OnSensorLocaliser(rep, noise=setting, seed=seed, preset=preset, motion="always_forward")
+    loc.build_map(ref)  # mapped by the same (noisy) sensor
+    if exact:
+        exact_stages(loc, set(exact))
+    return _max_f1(loc, query, truth)
+
+
+def _map(jobs: list, processes: int) -> list:
+    if processes <= 1:
+        return [_noisy_f1(j) for j in jobs]
+    from multiprocessing import get_context
+
+    with get_context("fork").Pool(processes) as pool:
+        return pool.map(_noisy_f1, jobs, chunksize=1)
+
+
+def noise(
+    n_query: int | None = None,
+    presets: tuple[str, ...] = FILTER_PRESETS,
+    seeds: int = 4,
+    processes: int = 2,
+    routes: tuple[str, ...] = tuple(NOISE_ROUTES),
+) -> None:
+    """Max F1 ideal / typical / typical without droop, the noisy ones over ``seeds``."""
+    levels = ("ideal", "typical", "typical-no-droop")
+    rows = []
+    for name, spec in (NOISE_ROUTES[r] for r in routes):
         for rep in ("lowres", "lbp"):
             for preset in presets:
-                for level in ("ideal", "typical", "typical-no-droop"):
-                    setting = NO_DROOP if level == "typical-no-droop" else level
-                    loc = OnSensorLocaliser(
-                        rep, noise=setting, seed=0, preset=preset, motion="always_forward"
-                    )
-                    loc.build_map(ref)  # mapped by the same (noisy) sensor
-                    t = time.perf_counter()
-                    est = loc.localise(query)
-                    nodes = np.array([e.node for e in est])
-                    correct = is_correct(nodes, truth)
-                    curve = pr_curve([e.score for e in est], correct, has_match, recall="A")
-                    print(
-                        f"noise {name:24s} {rep:6s} {preset:6s} {level:16s} "
-                        f"maxF1={max_f1(curve)[0]:.4f} acc={correct[has_match].mean():.4f} "
-                        f"({len(query) / (time.perf_counter() - t):.1f} frames/s)",
-                        flush=True,
-                    )
+                t = time.perf_counter()
+                jobs = [(spec, rep, preset, "ideal", 0, n_query, ())]
+                for level in levels[1:]:
+                    jobs += [(spec, rep, preset, level, seed, n_query, ()) for seed in range(seeds)]
+                f1 = _map(jobs, processes)
+                ideal, rest = f1[0], f1[1:]
+                typ, nodroop = rest[:seeds], rest[seeds:]
+                rows.append((name, rep, preset, ideal, np.mean(typ), np.mean(nodroop)))
+                print(
+                    f"noise {name:24s} {rep:6s} {preset:6s} ideal={ideal:.3f} "
+                    f"typical={np.mean(typ):.3f} [{' '.join(f'{v:.2f}' for v in typ)}] "
+                    f"no-droop={np.mean(nodroop):.3f} [{' '.join(f'{v:.2f}' for v in nodroop)}] "
+                    f"kept {np.mean(typ) / ideal:.2f} / {np.mean(nodroop) / ideal:.2f} "
+                    f"({time.perf_counter() - t:.0f} s)",
+                    flush=True,
+                )
+    print("\n| route | rep | preset | ideal | typical (kept) | typical without droop (kept) |")
+    print("|---|---|---|---:|---:|---:|")
+    for name, rep, preset, ideal, typ, nodroop in rows:
+        print(
+            f"| {name} | {rep} | {preset} | {ideal:.3f} | {typ:.3f} ({typ / ideal:.2f}) "
+            f"| {nodroop:.3f} ({nodroop / ideal:.2f}) |"
+        )
+
+
+# ------------------------------------------------------------------ stages made exact
+#: The stages :func:`exact_stages` can make exact, per representation.
+STAGES = {
+    "lowres": ("replicate", "tree", "scale", "update", "transition", "detect"),
+    "lbp": ("descriptor", "tree", "scale", "update", "transition", "detect"),
+}
+
+
+def _roots(pipe) -> tuple[np.ndarray, np.ndarray]:
+    t, br, bc = pipe.layout.node_to_block(np.arange(pipe.n_nodes))
+    return br * pipe.bh, bc * pipe.bw + t
+
+
+def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
+    """Make ``stages`` of the robust pipeline exact (a simulation experiment, untimed).
+
+    Each stage still runs (timing, noise draws), then its output registers get the exact
+    result of the inputs it had (read untimed): ``replicate`` (low-res: spread and
+    replication) ``F`` := the block means the halving tree left at the roots, tiled;
+    ``descriptor`` (LBP) the live code := the LBP code of those root means (``B``);
+    ``tree`` the readout trees' values := ``mu`` of the replicated frame or descriptor
+    and the database as they are (a tree recomputed inside an update kernel, two tiles
+    before this change, stays as it is); ``scale`` the readout := the integers ``r_i``
+    of exact values; ``update`` the weights := ``clip(w + clip(alpha_t - mu 2**-s))``
+    with the values the readout read; ``transition`` (with the normalisation: the one it
+    applies, or the separate one of the code before) the weights := the host's two
+    steps; ``detect`` the node and ``T`` from the weights.
+    """
+    from ppaloc.localise.weighted import choose_candidate
+    from ppaloc.place import lbp_from_grid
+    from ppaloc.sim import C, D, F
+
+    pipe = loc.pipeline
+    p, rep, sim = pipe.params, pipe.representation, pipe.sim
+    rows, cols = _roots(pipe)
+    state: dict = {}
+
+    def get_w() -> np.ndarray:
+        return sim.read(C)[rows, cols].astype(np.float64)
+
+    def set_w(w: np.ndarray) -> None:
+        plane = sim.read(C).copy()
+        plane[rows, cols] = w
+        sim.write(C, plane)
+
+    def exact_mu() -> np.ndarray:
+        """``mu`` per node from the registers' operands, exactly."""
+        if rep == "lowres":
+            frame = sim.read(F).astype(np.float64)
+            out = np.empty(pipe.n_nodes)
+            for t in range(pipe.tiles):
+                nodes, br, bc = pipe._tile_nodes[t]
+                db = sim.read(pipe.db[t]).astype(np.float64)
+                a = np.minimum(np.abs(np.clip(frame + db, -128, 127)), 127)
+                m = a.reshape(pipe.size // 8, 8, pipe.size // 8, 8).mean(axis=(1, 3))
+                out[nodes] = m[br, bc]
+            return out
+        db = np.asarray(loc.topomap.descriptors, np.uint32)
+        return 2.0 * np.bitwise_count(db ^ np.uint32(pipe.last_code))
+
+    run_kernel = pipe.kc.run
+
+    def kc_run(name, build):
+        if name in ("spread", "spread_seed"):  # the halving tree's means, at the roots
+            state["roots"] = sim.read(D)[:: pipe.block, :: pipe.block].astype(np.float64)
+        run_kernel(name, build)
+        if "tree" in stages and name in ("tree_0", "tree_1", "tree_tiles"):
+            state["mu"] = exact_mu()
+            sign, exponent = pipe.value_scale
+            regs = pipe._tree_tiles(None) if name == "tree_tiles" else None
+            for t in range(pipe.tiles):
+                if regs is None and name != f"tree_{t}":
+                    continue
+                reg = regs[t] if regs else D
+                nodes, br, bc = pipe._tile_nodes[t]
+                plane = sim.read(reg).copy()
+                plane[br * pipe.bh, bc * pipe.bw] = sign * state["mu"][nodes] * 2.0**-exponent
+                sim.write(reg, plane)
+
+    pipe.kc.run = kc_run
+
+    if rep == "lowres":
+        replicate = pipe.replicate
+
+        def exact_replicate() -> None:
+            replicate()
+            if "replicate" in stages:  # F = -m of grid block (r % 8, c % 8)
+                sim.write(F, np.tile(state["roots"], (pipe.size // 8, pipe.size // 8)))
+
+        pipe.replicate = exact_replicate
+    else:
+        descriptor = pipe.descriptor
+
+        def exact_descriptor() -> int:
+            code = descriptor()
+            if "descriptor" in stages:
+                m = sim.read(pipe.root_means)[:: pipe.block, :: pipe.block].astype(np.float64)
+                code = int(lbp_from_grid(m[1:7, 1:7]))
+            return code
+
+        pipe.descriptor = exact_descriptor
+
+    values = pipe._values
+
+    def exact_values(codes: np.ndarray) -> np.ndarray:
+        t = state["tile"]
+        state["tile"] = t + 1
+        nodes, br, bc = pipe._tile_nodes[t]
+        regs = pipe._tree_tiles(None) if hasattr(pipe, "_tree_tiles") else None
+        reg = regs[t] if (regs and pipe.tiles > 1) else D
+        sign, exponent = pipe.value_scale
+        tree = sim.read(reg)[br * pipe.bh, bc * pipe.bw].astype(np.float64)
+        state["tree_mu"][nodes] = sign * tree * 2.0**exponent
+        if "scale" not in stages:
+            return values(codes)
+        mu = exact_mu()[nodes]
+        if rep == "lowres":
+            return 2 * (128 - np.floor(128.5 - mu / 2)).astype(np.int64)
+        return mu.astype(np.int64)
+
+    pipe._values = exact_values
+    compare = pipe.compare_robust
+
+    def exact_compare() -> None:
+        w = get_w()
+        state["tile"], state["tree_mu"] = 0, np.empty(pipe.n_nodes)
+        compare()
+        if "update" in stages:
+            s, alpha = pipe.last_shift, pipe.last_alpha
+            t = np.clip(alpha - state["tree_mu"] * 2.0**-s, -128, 127)
+            set_w(np.clip(w + t, -127, 127))
+
+    pipe.compare_robust = exact_compare
+    transition, normalise = pipe.transition, pipe.normalise
+    fused = hasattr(pipe, "pending_top")
+
+    def exact_transition(costs) -> None:
+        w, top = get_w(), getattr(pipe, "pending_top", None)
+        transition(costs)
+        if "transition" in stages:
+            if fused and top is not None:
+                w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
+            n = len(w)
+            best = w - costs[0]
+            for d in range(1, len(costs)):
+                moved = np.r_[np.full(min(d, n), -float(p.memory)), w[: max(n - d, 0)]]
+                best = np.maximum(best, np.clip(moved - costs[d], -127, 127))
+            set_w(np.clip(best, -127, 127))
+
+    def exact_normalise(top: int) -> None:
+        w = get_w()
+        normalise(top)
+        if "transition" in stages and not fused:
+            set_w(np.maximum(np.clip(w - top, -127, 127), -p.memory))
+
+    pipe.transition, pipe.normalise = exact_transition, exact_normalise
+    detect = pipe.detect
+
+    def exact_detect() -> tuple[int, int]:
+        node, top = detect()
+        if "detect" in stages:
+            w = get_w()
+            top = int(np.floor(w.max()))
+            node = choose_candidate(np.flatnonzero(w >= top), pipe.prev)
+        return node, top
+
+    pipe.detect = exact_detect
+
+
+def stages_table(
+    n_query: int | None = None,
+    seeds: int = 4,
+    processes: int = 2,
+    exact: list[str] | None = None,
+    routes: tuple[str, ...] = tuple(NOISE_ROUTES),
+) -> None:
+    """Max F1 of the robust preset (typical, no droop) with single stages made exact."""
+    print("\n| route | rep | stage made exact | max F1 (mean over seeds) | seeds |")
+    print("|---|---|---|---:|---|")
+    for name, spec in (NOISE_ROUTES[r] for r in routes):
+        for rep in ("lowres", "lbp"):
+            stages = [s for s in STAGES[rep] if exact is None or s in exact]
+            configs = [(), *((s,) for s in stages), tuple(stages)]
+            jobs = [
+                (spec, rep, "robust", "typical-no-droop", seed, n_query, c)
+                for c in configs
+                for seed in range(seeds)
+            ]
+            f1 = _map(jobs, processes)
+            for i, c in enumerate(configs):
+                vals = f1[i * seeds : (i + 1) * seeds]
+                label = "none" if not c else ("all of them" if len(c) > 1 else c[0])
+                print(
+                    f"| {name} | {rep} | {label} | {np.mean(vals):.3f} | "
+                    f"{' '.join(f'{v:.2f}' for v in vals)} |",
+                    flush=True,
+                )
 
 
 def figures(out: Path, presets: tuple[str, ...] = FILTER_PRESETS) -> None:
@@ -220,7 +471,19 @@ def main() -> None:
         "--part",
         nargs="*",
         default=["agreement", "timing", "noise", "figures"],
-        choices=["agreement", "timing", "noise", "figures"],
+        choices=["agreement", "timing", "noise", "stages", "figures"],
+    )
+    parser.add_argument("--seeds", type=int, default=4, help="noise seeds (noise, stages)")
+    parser.add_argument("--processes", type=int, default=2, help="worker processes")
+    parser.add_argument(
+        "--exact", nargs="*", default=None, help="stages part: only these stages (default all)"
+    )
+    parser.add_argument(
+        "--noise-route",
+        nargs="*",
+        default=list(NOISE_ROUTES),
+        choices=list(NOISE_ROUTES),
+        help="routes of the noise and stages parts (default all)",
     )
     parser.add_argument("--figures", type=Path, default=Path("onsensor-figures"))
     parser.add_argument("--max-query", type=int, default=None, help="first N queries only")
@@ -248,7 +511,11 @@ def main() -> None:
         if "nordland" in args.route:
             agreement("nordland summer->winter", NORDLAND, ("image", "always_forward"), presets)
     if "noise" in args.part:
-        noise(args.max_query, presets)
+        noise(args.max_query, presets, args.seeds, args.processes, tuple(args.noise_route))
+    if "stages" in args.part:
+        stages_table(
+            args.max_query, args.seeds, args.processes, args.exact, tuple(args.noise_route)
+        )
     if "figures" in args.part:
         figures(args.figures, presets)
 

@@ -707,24 +707,32 @@ class SensorPipeline(ABC):
     def compare_robust(self) -> None:
         """Robust: read every node's distance, scale it for this frame, add it.
 
-        docs/ppa8.md (robust preset, item 3). Stage ``"scale"``: per tile the distance
-        tree (:meth:`_tree`) leaves each node's value at its block's top-left PE and
-        ``scan_areg`` reads them (the ADC codes give the integers ``r_i`` exactly,
-        :meth:`_values`); the controller computes ``(b, m) = frame_statistics(r)``,
-        ``s = likelihood_shift(m - b, gain)`` and ``alpha_t = b >> s``. Stage
-        ``"compare"``: ``w += alpha_t - mu 2**-s`` per tile (kernels per shift value,
-        recorded once); the last tile's values are still in ``D``, the others are
-        recomputed (the working planes cannot hold two tiles' trees).
+        docs/ppa8.md (robust preset, item 3). Stage ``"scale"``: the distance trees
+        leave each node's value at its block's top-left PE, per tile (:meth:`_tree`) or
+        for both tiles in one kernel where the representation has the registers for it
+        (:meth:`_tree_tiles`), and ``scan_areg`` reads them (the ADC codes give the
+        integers ``r_i`` exactly, :meth:`_values`); the controller computes ``(b, m) =
+        frame_statistics(r)``, ``s = likelihood_shift(m - b, gain)`` and ``alpha_t = b
+        >> s``. Stage ``"compare"``: ``w += alpha_t - mu 2**-s`` per tile
+        (:meth:`_update_robust`, kernels per shift value, recorded once) from the values
+        the readout read; without :meth:`_tree_tiles` the last tile's are still in
+        ``D`` and an earlier tile's tree is recomputed.
         """
         sim = self.sim
         values = np.empty(self.n_nodes, np.int64)
+        both = self.tiles > 1 and self._tree_tiles(None) is not None
         with sim.stage("scale"):
+            if both:
+                self._run("tree_tiles", self._tree_tiles)
+                regs = self._tree_tiles(None)
             for t in range(self.tiles):
-                self._tree_calls(t)
-                self._run(f"tree_{t}", lambda k, t=t: self._tree(k, t))
+                if not both:
+                    self._tree_calls(t)
+                    self._run(f"tree_{t}", lambda k, t=t: self._tree(k, t))
+                reg = regs[t] if both else D
                 nodes, br, bc = self._tile_nodes[t]
                 last_row = int(br.max()) * self.bh
-                codes = sim.scan_areg(D, 0, 0, last_row, self.size - 1, self.bh, self.bw)
+                codes = sim.scan_areg(reg, 0, 0, last_row, self.size - 1, self.bh, self.bw)
                 values[nodes] = self._values(codes[br, bc].astype(np.int64))
             best, mean = frame_statistics(values)
             s = likelihood_shift(mean - best, int(self.params.gain))
@@ -732,38 +740,52 @@ class SensorPipeline(ABC):
         self.last_shift, self.last_alpha = s, alpha
         with sim.stage("compare"):
             for t in reversed(range(self.tiles)):
-                last = t == self.tiles - 1
-                if not last:
+                recompute = not both and t != self.tiles - 1
+                if recompute:
                     self._tree_calls(t)
                 self._root_pattern(self.dr.pattern, t)
                 sim.load_in(alpha)
+                # the pair's value and scratch registers: tile 1 (E) keeps tile 0's D
+                value, scratch = (regs[t], F if t else E) if both else (D, E)
 
-                def build(k, t=t, last=last):
-                    if not last:
+                def build(k, t=t, recompute=recompute, value=value, scratch=scratch):
+                    if recompute:
                         self._tree(k, t)
-                    self._update_robust(k, s, t)
+                    self._update_robust(k, s, t, value, scratch)
 
-                self._run(f"{'update' if last else 'tree_update'}_{t}_s{s}", build)
+                name = "update" if not recompute else "tree_update"
+                self._run(f"{name}_{t}_s{s}{'_both' if both else ''}", build)
 
-    def _scaled_sources(self, k, s: int, need: int) -> tuple[Register, ...]:
-        """Registers whose sum is ``need * mu * 2**-s``, from the tree's value in ``D``.
+    def _tree_tiles(self, k) -> tuple[Register, ...] | None:
+        """Robust, two tiles: both tiles' distance trees in one kernel (``k``), or None.
 
-        Halvings (``bus2``, one write each) alternate between ``D`` and ``E`` and flip
-        the sign; when the last one has the wrong sign, the pair of the last two (``H +
-        (-H / 2) = H / 2``) has the right one, so no negation is written. Only ``s``
-        below the tree's scale costs extra writes (one doubling by a copy, one more
+        Returns the registers holding each tile's values (also for ``k=None``, without
+        issuing anything); None where the representation recomputes a tile's tree
+        instead (the default).
+        """
+        return None
+
+    def _scaled_sources(
+        self, k, s: int, need: int, value: Register = D, scratch: Register = E
+    ) -> tuple[Register, ...]:
+        """Registers whose sum is ``need * mu * 2**-s``, from the tree's value in ``value``.
+
+        Halvings (``bus2``, one write each) alternate between ``value`` and ``scratch``
+        and flip the sign; when the last one has the wrong sign, the pair of the last two
+        (``H + (-H / 2) = H / 2``) has the right one, so no negation is written. Only
+        ``s`` below the tree's scale costs extra writes (one doubling by a copy, one more
         negation when the sign is wrong).
         """
-        sign, exponent = self.value_scale  # D = sign * mu * 2**-exponent
+        sign, exponent = self.value_scale  # value = sign * mu * 2**-exponent
         halvings = s - exponent
         if halvings < 0:  # s = 0 at low-res (-mu/2): two copies of +-mu/2
             if sign != need:
-                k.bus(E, D)
+                k.bus(scratch, value)
             else:
-                k.mov(E, D)
-            k.mov(D, E)  # D = E
-            return (D, E)
-        cur, other = D, E
+                k.mov(scratch, value)
+            k.mov(value, scratch)  # value = scratch
+            return (value, scratch)
+        cur, other = value, scratch
         for _ in range(halvings):
             k.bus2(other, NEWS, cur)  # other = -cur / 2
             cur, other = other, cur
@@ -775,7 +797,9 @@ class SensorPipeline(ABC):
         k.bus(other, cur)
         return (other,)
 
-    def _update_robust(self, k, s: int, tile: int) -> None:
+    def _update_robust(
+        self, k, s: int, tile: int, value: Register = D, scratch: Register = E
+    ) -> None:
         """Robust: ``w += alpha_t - mu 2**-s`` at tile ``tile``'s roots, ``alpha_t`` in ``IN``.
 
         The paper preset's :meth:`_update` negates the scaled term when the halvings'
@@ -784,21 +808,21 @@ class SensorPipeline(ABC):
         sources with the right sign (:meth:`_scaled_sources`); tile 0 takes ``NEWS :=
         -(w + alpha - mu_s)``, ``w := -NEWS`` (the ``add``, clip [-127, 127]); tile 1
         pushes ``+mu_s`` into the east neighbour's ``NEWS`` (one write, which negates and
-        moves it to the weight's PE), then ``E := -(w + alpha - mu_s)`` and ``w := -E``:
-        the same two writes and clip on the weight, three fewer in all.
+        moves it to the weight's PE), then ``X := -(w + alpha - mu_s)`` and ``w := -X``:
+        the same two writes and clip on the weight, three fewer in all. ``value`` holds
+        the tree's values, ``scratch`` is free (and ``X``).
         """
         if tile == 0:
-            sources = self._scaled_sources(k, s, -1)
+            sources = self._scaled_sources(k, s, -1, value, scratch)
             k.WHERE(self.dr.pattern)
-            k.bus(NEWS, *sources, _W, IN)  # -(w + alpha - mu_s), clipped (the pair summed first)
+            k.bus(NEWS, *sources, _W, IN)  # -(w + alpha - mu_s), clipped; the pair first
             k.bus(_W, NEWS)
             k.all()
             return
         if tile > 1:
             raise AssertionError("a sensor holds at most two tiles")
-        sources = self._scaled_sources(k, s, 1)
+        sources = self._scaled_sources(k, s, 1, value, scratch)
         k.bus(XE, *sources)  # NEWS = -mu_s of the west neighbour: at tile 1's root
-        scratch = E if sources[0] is D else D
         k.WHERE(self.dr.pattern)
         k.bus(scratch, _W, NEWS, IN)  # -(w + alpha - mu_s), clipped
         k.bus(_W, scratch)

@@ -100,7 +100,7 @@ class LbpPipeline(SensorPipeline):
         saturate). Robust: a halving tree of 64 per differing bit over the 32 PEs (the
         positive sums ``-(q + q')`` lie in [-128, 0], and every halving is exact), which
         halves the write noise of the levels below at every level where the adding tree
-        sums it: under the typical preset about 0.6 units of ``mu`` instead of 6.6.
+        sums it: under the typical preset about 1 unit of ``mu`` instead of 6.6.
         """
         k.XOR(self.dr.cand, DESCRIPTOR, self.db[tile])
         k.res(D)

@@ -138,8 +138,16 @@ class LowresPipeline(SensorPipeline):
         """Paper: :meth:`compare_lowres`."""
         self.compare_lowres()
 
+    #: Robust, two tiles: the node trees' levels, the long pulls first (their write noise
+    #: is halved by the most levels after them).
+    ROBUST_LEVELS = ((east, 4), (south, 4), (east, 2), (south, 2), (east, 1), (south, 1))
+
     def _tree(self, k, tile: int) -> None:
-        """``D = -(mu / 2)`` at each node root, ``mu`` the mean of ``min(|f - n|, 127)``."""
+        """``D = -(mu / 2)`` at each node root, ``mu`` the mean of ``min(|f - n|, 127)``.
+
+        A halving tree over ``D`` and ``E``; the robust preset with two tiles computes
+        both tiles' trees at once (:meth:`_tree_tiles`).
+        """
         k.add(D, F, self.db[tile])  # n - f
         k.abs(E, D)  # min(|f - n|, 127)
         k.bus2(D, NEWS, E)  # D = -|f - n| / 2
@@ -147,11 +155,30 @@ class LowresPipeline(SensorPipeline):
             for step in (1, 2, 4):
                 halve_level(k, D, E, direction, step)
 
+    def _tree_tiles(self, k) -> tuple[Register, ...] | None:
+        """Robust, two tiles: both trees in one kernel, tile 0's ``-mu/2`` in ``D``, tile
+        1's in ``E`` (``F``, the replicated frame, is read by both first steps and then
+        serves as the scratch of both halving trees), so no tree is computed twice."""
+        if k is None:
+            return (D, E) if self.robust else None
+        k.add(D, F, self.db[0])  # n0 - f
+        k.add(E, F, self.db[1])  # n1 - f
+        k.abs(F, E)  # |n1 - f|
+        k.abs(E, D)  # |n0 - f|
+        k.bus2(D, NEWS, E)  # -|n0 - f| / 2
+        k.bus2(E, NEWS, F)  # -|n1 - f| / 2
+        for direction, step in self.ROBUST_LEVELS:
+            halve_level(k, D, F, direction, step)
+            halve_level(k, E, F, direction, step)
+        return (D, E)
+
     def _values(self, codes: np.ndarray) -> np.ndarray:
         """``r = 2 (128 - code)``: the ADC code of ``-mu/2`` read back (docs/ppa8.md)."""
         return 2 * (128 - codes)
 
     def _live_planes(self) -> dict[str, np.ndarray]:
+        if self.robust and self.tiles > 1:  # the two trees use F as a scratch
+            return {}
         return {"F: live 8x8 grid, replicated (negated)": self.sim.read(F)}
 
     def replicate(self) -> None:
