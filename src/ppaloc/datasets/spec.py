@@ -26,6 +26,9 @@ from ppaloc.errors import DatasetSpecError
 
 __all__ = [
     "COMMON_KEYS",
+    "INT_LIMIT",
+    "MAX_TEXT",
+    "MAX_TOLERANCE",
     "DatasetSpec",
     "Key",
     "parse_bool",
@@ -33,25 +36,58 @@ __all__ = [
 ]
 
 
-def _parse_int(text: str, minimum: int | None) -> int:
+INT_LIMIT = 2**63 - 1
+"""Largest magnitude of any integer key (one a 64-bit array index can hold)."""
+
+
+def _show(text: str, limit: int = 80) -> str:
+    """``repr(text)``, cut to about ``limit`` characters (a message never echoes a huge value)."""
+    shown = repr(text)
+    return shown if len(shown) <= limit else f"{shown[: limit - 20]}...' ({len(text)} chars)"
+
+
+def _range_words(noun: str, minimum: float | None, maximum: float | None) -> str:
+    fmt = (lambda v: str(int(v))) if noun == "an integer" else (lambda v: f"{v:g}")
+    if minimum is not None and maximum is not None:
+        return f"{noun} in [{fmt(minimum)}, {fmt(maximum)}]"
+    if minimum is not None:
+        return f"{noun} >= {fmt(minimum)}"
+    if maximum is not None:
+        return f"{noun} <= {fmt(maximum)}"
+    return noun
+
+
+def _parse_int(text: str, minimum: int | None, maximum: int | None) -> int:
+    words = _range_words("an integer", minimum, maximum)
+    text = text.strip()
+    if len(text) > 40 or not text.isascii():  # no key takes 40 digits or non-ASCII ones
+        raise ValueError(words)
     try:
-        value = int(text.strip(), 10)
+        value = int(text, 10)
     except ValueError:
-        raise ValueError("an integer") from None
-    if minimum is not None and value < minimum:
-        raise ValueError(f"an integer >= {minimum}")
+        raise ValueError(words) from None
+    if abs(value) > INT_LIMIT:
+        raise ValueError(
+            _range_words("an integer", minimum, INT_LIMIT if maximum is None else maximum)
+        )
+    if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
+        raise ValueError(words)
     return value
 
 
-def _parse_float(text: str, minimum: float | None) -> float:
+def _parse_float(text: str, minimum: float | None, maximum: float | None) -> float:
+    words = _range_words("a number", minimum, maximum)
+    text = text.strip()
+    if len(text) > 40 or not text.isascii():
+        raise ValueError(words)
     try:
-        value = float(text.strip())
+        value = float(text)
     except ValueError:
-        raise ValueError("a number") from None
+        raise ValueError(words) from None
     if not math.isfinite(value):
-        raise ValueError("a finite number")
-    if minimum is not None and value < minimum:
-        raise ValueError(f"a number >= {minimum:g}")
+        raise ValueError("a finite " + words.removeprefix("a "))
+    if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
+        raise ValueError(words)
     return value
 
 
@@ -83,6 +119,9 @@ class Key:
         One line for the documentation and error messages.
     minimum : int or float, optional
         Smallest accepted value for ``int`` and ``float`` keys.
+    maximum : int or float, optional
+        Largest accepted value (a documented bound where the value drives memory or
+        time; integers are always bounded by :data:`INT_LIMIT`).
     choices : tuple of str
         The accepted values of a ``choice`` key (compared lower-case).
     """
@@ -92,13 +131,15 @@ class Key:
     help: str
     minimum: float | None = None
     choices: tuple[str, ...] = ()
+    maximum: float | None = None
 
     def parse(self, text: str) -> Any:
         """Return the typed value of ``text``; raise ``ValueError`` naming what is expected."""
         if self.kind == "int":
-            return _parse_int(text, None if self.minimum is None else int(self.minimum))
+            low = None if self.minimum is None else int(self.minimum)
+            return _parse_int(text, low, None if self.maximum is None else int(self.maximum))
         if self.kind == "float":
-            return _parse_float(text, self.minimum)
+            return _parse_float(text, self.minimum, self.maximum)
         if self.kind == "bool":
             return parse_bool(text)
         if self.kind == "choice":
@@ -108,16 +149,37 @@ class Key:
             return low
         if not text:
             raise ValueError("a non-empty value")
+        if "\0" in text or len(text) > MAX_TEXT:
+            raise ValueError(f"text of at most {MAX_TEXT} characters without NUL")
         return text
 
 
+MAX_TEXT = 4096
+"""Longest text value (a file name) a key accepts."""
+
+MAX_SPEC = 16384
+"""Longest spec string accepted (paths included)."""
+
+MAX_TOLERANCE = 1000
+"""Largest ``tolerance``: each accepted set grows by 2 x tolerance frames."""
+
 COMMON_KEYS: dict[str, Key] = {
-    "tolerance": Key("int", None, "accepted distance to the true reference, in frames", 0),
+    "tolerance": Key(
+        "int",
+        None,
+        "accepted distance to the true reference, in frames",
+        0,
+        maximum=MAX_TOLERANCE,
+    ),
     "start": Key("int", None, "first frame (or place) kept", 0),
     "stop": Key("int", None, "frame (or place) where the selection stops (exclusive)", 1),
     "step": Key("int", 1, "keep every step-th frame", 1),
     "patch_norm": Key(
-        "int", None, "patch-normalise every frame in PxP tiles at native resolution", 2
+        "int",
+        None,
+        "patch-normalise every frame in PxP tiles at native resolution",
+        2,
+        maximum=4096,
     ),
 }
 """Keys every kind accepts. ``tolerance`` has a per-kind default (see the loaders)."""
@@ -187,17 +249,25 @@ def parse_spec(
             "empty dataset spec: write KIND:PATH[?key=value&...], e.g. "
             "synthetic:?places=500&query=winter"
         )
+    if len(text) > MAX_SPEC:
+        raise DatasetSpecError(
+            f"dataset spec of {len(text)} characters is too long: at most {MAX_SPEC}"
+        )
+    if "\0" in text:
+        raise DatasetSpecError(
+            f"dataset spec {_show(text)} holds a NUL character: remove it (no path can hold one)"
+        )
     kinds = ", ".join(sorted(schemas))
     kind_text, sep, rest = text.strip().partition(":")
     kind = kind_text.strip().lower()
     if kind not in schemas:
         if not sep:
             raise DatasetSpecError(
-                f"dataset spec {text!r} has no kind: write KIND:PATH[?key=value&...] "
+                f"dataset spec {_show(text)} has no kind: write KIND:PATH[?key=value&...] "
                 f"with KIND one of {kinds}"
             )
         raise DatasetSpecError(
-            f"unknown dataset kind {kind_text!r} in {text!r}: use one of {kinds}"
+            f"unknown dataset kind {_show(kind_text)} in {_show(text)}: use one of {kinds}"
         )
     schema = schemas[kind]
     path_text, _, query = rest.partition("?")
@@ -206,11 +276,13 @@ def parse_spec(
     if len(parts) not in schema.n_paths:
         want = " or ".join(str(n) for n in schema.n_paths)
         raise DatasetSpecError(
-            f"dataset spec {text!r}: kind {kind!r} takes {want} path(s), got {len(parts)}; "
+            f"dataset spec {_show(text)}: kind {kind!r} takes {want} path(s), got {len(parts)}; "
             f"e.g. {schema.example}"
         )
     if any(not p for p in parts):
-        raise DatasetSpecError(f"dataset spec {text!r} has an empty path; e.g. {schema.example}")
+        raise DatasetSpecError(
+            f"dataset spec {_show(text)} has an empty path; e.g. {schema.example}"
+        )
     if path_check is not None:
         for p in parts:
             path_check(p)
@@ -222,26 +294,27 @@ def parse_spec(
         name = name.strip().lower()
         if not eq or not name:
             raise DatasetSpecError(
-                f"dataset spec {text!r}: {item!r} is not key=value; separate pairs with '&'"
+                f"dataset spec {_show(text)}: {_show(item)} is not key=value; "
+                "separate pairs with '&'"
             )
         if name not in keys:
             raise DatasetSpecError(
-                f"dataset spec {text!r}: unknown key {name!r} for kind {kind!r}; "
+                f"dataset spec {_show(text)}: unknown key {_show(name)} for kind {kind!r}; "
                 f"valid keys: {', '.join(sorted(keys))}"
             )
         if name in given:
-            raise DatasetSpecError(f"dataset spec {text!r}: key {name!r} is given twice")
+            raise DatasetSpecError(f"dataset spec {_show(text)}: key {name!r} is given twice")
         try:
             options[name] = keys[name].parse(value)
         except ValueError as exc:
             raise DatasetSpecError(
-                f"dataset spec {text!r}: key {name!r} must be {exc}, got {value!r}"
+                f"dataset spec {_show(text)}: key {name!r} must be {exc}, got {_show(value)}"
             ) from None
         given.add(name)
     start, stop = options.get("start"), options.get("stop")
     if start is not None and stop is not None and stop <= start:
         raise DatasetSpecError(
-            f"dataset spec {text!r}: stop={stop} must be greater than start={start}"
+            f"dataset spec {_show(text)}: stop={stop} must be greater than start={start}"
         )
     paths = tuple(Path(p).expanduser() for p in parts)
     return DatasetSpec(kind, paths, options, frozenset(given), text)

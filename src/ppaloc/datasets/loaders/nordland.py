@@ -26,7 +26,9 @@ SCHEMA = KindSchema(
         "ref": Key("choice", "summer", "reference season", choices=(*SEASONS, "autumn")),
         "query": Key("choice", "winter", "query season", choices=(*SEASONS, "autumn")),
         "drop_dark": Key("bool", False, "drop tunnel frames from both traversals together"),
-        "dark": Key("float", 30.0, "mean grey (0-255) below which a frame is dark", 0.0),
+        "dark": Key(
+            "float", 30.0, "mean grey (0-255) below which a frame is dark", 0.0, maximum=255.0
+        ),
     },
     example="nordland:data/nordland-64x32?ref=summer&query=winter&drop_dark=1",
 )

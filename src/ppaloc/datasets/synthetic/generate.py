@@ -29,10 +29,84 @@ from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import make_world
 from ppaloc.errors import DataError
 
-__all__ = ["WORLDS", "make_synthetic", "synthetic_route"]
+__all__ = [
+    "MAX_OFFSET",
+    "MAX_PLACES",
+    "MAX_QUERY_FRAMES",
+    "MAX_ROUTE_M",
+    "MAX_SEED",
+    "MAX_SIZE",
+    "MAX_SPACING",
+    "MAX_SPEED",
+    "WORLDS",
+    "make_synthetic",
+    "synthetic_route",
+]
 
 WORLDS = ("road", "lab")
 """The generated worlds: the road (default) and the indoor laboratory."""
+
+# Bounds of the generator's inputs: each one drives memory or time (docs/datasets.md).
+MAX_PLACES = 1_000_000
+"""Most places of one route (the positions and ground truth grow with it)."""
+MAX_ROUTE_M = 4_000_000.0
+"""Longest route, ``(places + extra) * spacing`` metres (the world is built per metre:
+about 20 s for the longest)."""
+MAX_QUERY_FRAMES = 2_000_000
+"""Most query frames a route may need (``(places + extra) / speed`` plus the stops)."""
+MAX_SPACING = 100.0
+"""Widest spacing between places, metres."""
+MAX_SPEED = 10.0
+"""Fastest mean query speed, places per frame."""
+MAX_OFFSET = 20.0
+"""Largest lateral offset of the query, metres either side."""
+MAX_SIZE = 1024
+"""Largest frame side, pixels (a frame renders in time and memory of its area)."""
+MAX_SEED = 2**63 - 1
+"""Largest seed."""
+
+_MAX_DWELL = 24  # frames of one stop (motion.py draws 6-24)
+
+
+def _check_bounds(
+    places: int, spacing: float, speed: float, stops: int | None, extra: int, sync: bool,
+    size: int, offset: float | None, seed: int,
+) -> None:  # fmt: skip
+    """Refuse inputs whose route would be too long, too slow to make, or not drivable."""
+    for name, value, low, high in (
+        ("places", places, 2, MAX_PLACES),
+        ("extra", extra, 0, places),
+        ("stops", 0 if stops is None else stops, 0, places),
+        ("size", size, 16, MAX_SIZE),
+        ("seed", seed, 0, MAX_SEED),
+    ):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+            raise DataError(f"{name}={value!r} must be an integer in [{low}, {high}]")
+        if not low <= value <= high:
+            bound = f"{high} = places" if name in ("extra", "stops") else f"{high}"
+            raise DataError(f"{name}={value!r} must be an integer in [{low}, {bound}]")
+    for name, value, low, high in (
+        ("spacing", spacing, 0.05, MAX_SPACING),
+        ("speed", speed, 0.05, MAX_SPEED),
+        ("offset", 0.0 if offset is None else offset, -MAX_OFFSET, MAX_OFFSET),
+    ):
+        if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+            raise DataError(f"{name}={value!r} must be a number in [{low:g}, {high:g}]")
+        if not (np.isfinite(value) and low <= value <= high):
+            raise DataError(f"{name}={value!r} must be a number in [{low:g}, {high:g}]")
+    length = (places + extra) * spacing
+    if length > MAX_ROUTE_M:
+        raise DataError(
+            f"(places + extra) x spacing = {length:.3g} m is longer than the generator's "
+            f"{MAX_ROUTE_M:.0f} m: fewer places or a smaller spacing"
+        )
+    n_stops = stops if stops is not None else (0 if sync else max(1, places // 150))
+    frames = (places + extra) / (1.0 if sync else speed) + n_stops * _MAX_DWELL
+    if frames > MAX_QUERY_FRAMES:
+        raise DataError(
+            f"the query would need about {frames:.3g} frames, more than the generator's "
+            f"{MAX_QUERY_FRAMES}: fewer places or stops, or a higher speed"
+        )
 
 
 class _Drive:
@@ -140,16 +214,15 @@ def synthetic_route(
         if name not in names:
             where = "" if world == "road" else " in the lab"
             raise DataError(f"unknown condition {name!r}{where}: choose from {', '.join(names)}")
-    if places < 2:
-        raise DataError(f"places={places}: a route needs at least 2 places")
+    if spacing is None:
+        spacing = 4.0 if world == "road" else LAB_SPACING
+    _check_bounds(places, spacing, speed, stops, extra, sync, size, offset, seed)
     if turns is None:
         turns = 0 if world == "road" else max(1, places // 25)
     if not 0 <= turns <= places // 4:
         raise DataError(
             f"turns={turns}: a route of {places} places takes 0 to places//4 = {places // 4} turns"
         )
-    if spacing is None:
-        spacing = 4.0 if world == "road" else LAB_SPACING
     if not 0.0 <= speed_var <= 0.9:
         raise DataError(
             f"speed_var={speed_var}: the relative speed variation must be in [0, 0.9] "

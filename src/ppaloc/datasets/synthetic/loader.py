@@ -5,7 +5,16 @@ from __future__ import annotations
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.datasets.synthetic.conditions import CONDITIONS
-from ppaloc.datasets.synthetic.generate import WORLDS, synthetic_route
+from ppaloc.datasets.synthetic.generate import (
+    MAX_OFFSET,
+    MAX_PLACES,
+    MAX_SEED,
+    MAX_SIZE,
+    MAX_SPACING,
+    MAX_SPEED,
+    WORLDS,
+    synthetic_route,
+)
 from ppaloc.datasets.synthetic.lab import LAB_CONDITIONS
 from ppaloc.datasets.synthetic.motion import SPEED_VAR
 
@@ -15,25 +24,41 @@ _NAMES = (*CONDITIONS, *LAB_CONDITIONS)
 SCHEMA = KindSchema(
     n_paths=(0,),
     keys={
-        "places": Key("int", 500, "reference frames (one per place)", 2),
+        "places": Key("int", 500, "reference frames (one per place)", 2, maximum=MAX_PLACES),
         "world": Key("choice", "road", "road or lab", choices=WORLDS),
-        "turns": Key("int", None, "turns of the route, 0..places//4 (road default 0)", 0),
+        "turns": Key(
+            "int", None, "turns of the route, 0..places//4 (road default 0)", 0,
+            maximum=MAX_PLACES // 4,
+        ),
         "ref": Key("choice", "summer", "reference condition (lab: lab)", choices=_NAMES),
         "query": Key("choice", "winter", "query condition (lab: changed)", choices=_NAMES),
-        "seed": Key("int", 0, "world, motion and noise seed", 0),
+        "seed": Key("int", 0, "world, motion and noise seed", 0, maximum=MAX_SEED),
         "sync": Key("bool", False, "one query frame per place"),
-        "spacing": Key("float", 4.0, "metres between places (lab: 0.5)", 0.5),
-        "speed": Key("float", 1.0, "mean query speed, places per frame", 0.05),
-        "speed_var": Key(
-            "float", SPEED_VAR, "peak relative query speed variation (0.65: the wide profile)", 0.0
+        "spacing": Key(
+            "float", 4.0, "metres between places (lab: 0.5)", 0.5, maximum=MAX_SPACING
         ),
-        "stops": Key("int", None, "query stops (default: one per 150 places)", 0),
-        "extra": Key("int", 0, "places the query drives past the end of the map", 0),
-        "offset": Key("float", None, "query lateral offset in metres"),
-        "size": Key("int", 256, "frame side in pixels", 16),
+        "speed": Key(
+            "float", 1.0, "mean query speed, places per frame", 0.05, maximum=MAX_SPEED
+        ),
+        "speed_var": Key(
+            "float", SPEED_VAR, "peak relative query speed variation (0.65: the wide profile)",
+            0.0, maximum=0.9,
+        ),
+        "stops": Key(
+            "int", None, "query stops (default: one per 150 places), at most places", 0,
+            maximum=MAX_PLACES,
+        ),
+        "extra": Key(
+            "int", 0, "places the query drives past the end of the map, at most places", 0,
+            maximum=MAX_PLACES,
+        ),
+        "offset": Key(
+            "float", None, "query lateral offset in metres", -MAX_OFFSET, maximum=MAX_OFFSET
+        ),
+        "size": Key("int", 256, "frame side in pixels", 16, maximum=MAX_SIZE),
     },
     example="synthetic:?places=500&query=winter&seed=1",
-)
+)  # fmt: skip
 
 
 def load(spec: DatasetSpec) -> RawRoute:

@@ -1,0 +1,97 @@
+"""Hostile dataset specs: every bad key value is one ``DataError`` naming the key and range.
+
+Each case must be refused before any frame is rendered or read (fast, no hang).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from ppaloc.datasets import load_dataset
+from ppaloc.errors import DataError
+
+CASES = [
+    # synthetic: type, range and the documented maxima
+    ("synthetic:?places=10&offset=1e308", "key 'offset' must be a number in [-20, 20]"),
+    ("synthetic:?places=10&offset=-inf", "key 'offset' must be a finite number"),
+    ("synthetic:?places=10&offset=nan", "key 'offset' must be a finite number"),
+    ("synthetic:?size=99999999999999999999", "key 'size' must be an integer in [16, 1024]"),
+    ("synthetic:?size=100000", "key 'size' must be an integer in [16, 1024]"),
+    ("synthetic:?size=15", "key 'size' must be an integer in [16, 1024]"),
+    ("synthetic:?size=-5", "key 'size' must be an integer in [16, 1024]"),
+    ("synthetic:?size=64.5", "key 'size' must be an integer"),
+    ("synthetic:?size=", "key 'size' must be an integer"),
+    ("synthetic:?spacing=1e308", "key 'spacing' must be a number in [0.5, 100]"),
+    ("synthetic:?spacing=0", "key 'spacing' must be a number in [0.5, 100]"),
+    ("synthetic:?spacing=inf", "key 'spacing' must be a finite number"),
+    ("synthetic:?extra=1000000000", "key 'extra' must be an integer in [0, 1000000]"),
+    ("synthetic:?places=20&extra=21", "extra=21 must be an integer in [0, 20 = places]"),
+    ("synthetic:?extra=-1", "key 'extra' must be an integer in [0, 1000000]"),
+    ("synthetic:?places=1e30", "key 'places' must be an integer in [2, 1000000]"),
+    ("synthetic:?places=1000001", "key 'places' must be an integer in [2, 1000000]"),
+    ("synthetic:?places=0", "key 'places' must be an integer in [2, 1000000]"),
+    ("synthetic:?places=-3", "key 'places' must be an integer in [2, 1000000]"),
+    ("synthetic:?places=" + "9" * 5000, "key 'places' must be an integer"),
+    ("synthetic:?places=１２", "key 'places' must be an integer"),
+    ("synthetic:?places=20&stops=100000", "stops=100000 must be an integer in [0, 20 = places]"),
+    ("synthetic:?stops=-1", "key 'stops' must be an integer"),
+    ("synthetic:?speed=1e300", "key 'speed' must be a number in [0.05, 10]"),
+    ("synthetic:?speed=0", "key 'speed' must be a number in [0.05, 10]"),
+    ("synthetic:?speed=-1", "key 'speed' must be a number in [0.05, 10]"),
+    ("synthetic:?speed_var=2", "key 'speed_var' must be a number in [0, 0.9]"),
+    ("synthetic:?seed=-1", "key 'seed' must be an integer"),
+    ("synthetic:?seed=100000000000000000000000", "key 'seed' must be an integer in [0, "),
+    ("synthetic:?turns=-1", "key 'turns' must be an integer"),
+    ("synthetic:?places=20&turns=6", "turns=6: a route of 20 places takes 0 to"),
+    ("synthetic:?world=moon", "key 'world' must be one of road, lab"),
+    ("synthetic:?sync=yesplease", "key 'sync' must be 1 or 0"),
+    ("synthetic:?query=", "key 'query' must be one of"),
+    (
+        "synthetic:?places=1000000&spacing=100",
+        "is longer than the generator's 4000000 m",
+    ),
+    ("synthetic:?places=1000000&speed=0.05", "the query would need about"),
+    # the keys every kind takes
+    ("synthetic:?tolerance=1000000000000", "key 'tolerance' must be an integer in [0, 1000]"),
+    ("synthetic:?tolerance=-1", "key 'tolerance' must be an integer in [0, 1000]"),
+    ("synthetic:?start=100000000000000000000000", "key 'start' must be an integer in [0, "),
+    ("synthetic:?step=100000000000000000000000", "key 'step' must be an integer in [1, "),
+    ("synthetic:?step=0", "key 'step' must be an integer >= 1"),
+    ("synthetic:?patch_norm=100000", "key 'patch_norm' must be an integer in [2, 4096]"),
+    ("synthetic:?patch_norm=1", "key 'patch_norm' must be an integer in [2, 4096]"),
+    ("synthetic:?places=20&start=30", "keeps none of the 20 reference frames"),
+    ("synthetic:?start=5&stop=2", "stop=2 must be greater than start=5"),
+    # the spec string itself
+    ("", "empty dataset spec"),
+    ("   ", "empty dataset spec"),
+    ("synthetic:?places=10&places=20", "key 'places' is given twice"),
+    ("synthetic:?placez=10", "unknown key 'placez'"),
+    ("synthetic:?places", "'places' is not key=value"),
+    ("synthetic:?=3", "'=3' is not key=value"),
+    ("moon:somewhere", "unknown dataset kind 'moon'"),
+    ("folder:a\0b,c", "holds a NUL character"),
+    ("folder:" + "a" * 20000 + ",b", "is too long"),
+    ("folder:onlyone", "takes 2 path(s), got 1"),
+    ("folder:a,", "has an empty path"),
+    ("nordland:d?dark=300", "key 'dark' must be a number in [0, 255]"),
+    ("vprbench:d?gt=" + "x" * 5000, "key 'gt' must be text of at most 4096 characters"),
+    ("citycentre:d?split=0", "key 'split' must be an integer"),
+    ("gardens-point:d?trust=maybe", "key 'trust' must be 1 or 0"),
+]
+
+
+@pytest.mark.parametrize(("spec", "fragment"), CASES, ids=[c[0][:60] for c in CASES])
+def test_hostile_spec_is_one_line_error(spec: str, fragment: str) -> None:
+    with pytest.raises(DataError) as info:
+        load_dataset(spec)
+    message = str(info.value)
+    assert fragment in message
+    assert "\n" not in message
+    assert len(message) < 600  # a huge value is not echoed back in full
+
+
+def test_largest_accepted_values_load_lazily() -> None:
+    # the bounds themselves are accepted, and a spec at them is quick (frames render lazily)
+    ds = load_dataset("synthetic:?places=40&size=1024&stops=40&extra=40&spacing=100&speed=10")
+    assert len(ds.reference) == 40
+    assert load_dataset("synthetic:?places=20&seed=9223372036854775807&sync=1").query
