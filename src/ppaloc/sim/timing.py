@@ -33,7 +33,7 @@ from __future__ import annotations
 import contextlib
 import numbers
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -89,6 +89,16 @@ class CallCost:
         What ``units`` counts for this call (``"event slot"``, ``"pixel step"``, ...).
     source : str
         Public source of the figure, or ``"estimate"`` with the reasoning.
+    fixed_range, per_unit_range : tuple[float, float], optional
+        The (low, high) of ``fixed_us`` and ``per_unit_us`` for the interval bounds
+        (:meth:`TimingConstants.corner`); None: the value is exact, or follows another
+        constant (``simple``, or the AnalogNet fit for ``scan_events``).
+    simple : bool
+        A one-command call (a DAC load, an address pattern, a wired-OR): its fixed cost
+        is taken equal to the per-call overhead at the bounds, so both move together.
+    launch : bool
+        The fixed cost is one kernel launch (the library's shifts): it follows the
+        refitted ``kernel_launch_us`` at the bounds.
     """
 
     fixed_us: float
@@ -96,31 +106,41 @@ class CallCost:
     per_unit_icws: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     unit: str = ""
     source: str = "estimate"
+    fixed_range: tuple[float, float] | None = None
+    per_unit_range: tuple[float, float] | None = None
+    simple: bool = False
+    launch: bool = False
 
 
 _ESTIMATE_ADDR = "estimate: address decoders set one DREG plane, a few ICWs + DAC-free"
 _HEADER = "scamp5_api_analog.hpp (official SCAMP-5d headers)"
+_ROUGHLY = "; 'roughly': +-15%"
+_USB = "estimate: host link at 10-40 MB/s (USB 2.0 bulk; no published SCAMP-5d figure), 20 MB/s mid"
 
 
 def _default_calls() -> Mapping[str, CallCost]:
+    simple = {"simple": True}
     calls = {
         "scamp5_in": CallCost(
-            0.5, source="estimate: DAC settling + 2 transfer ICWs (AnalogNet calibration prior)"
+            0.5,
+            source="estimate: DAC settling + 2 transfer ICWs (AnalogNet calibration prior)",
+            **simple,
         ),
-        "load_in": CallCost(0.5, source="estimate: same DAC path as scamp5_in"),
-        "load_pattern": CallCost(0.5, source=_ESTIMATE_ADDR),
-        "load_point": CallCost(0.5, source=_ESTIMATE_ADDR),
+        "load_in": CallCost(0.5, source="estimate: same DAC path as scamp5_in", **simple),
+        "load_pattern": CallCost(0.5, source=_ESTIMATE_ADDR, **simple),
+        "load_point": CallCost(0.5, source=_ESTIMATE_ADDR, **simple),
         "load_rect": CallCost(
-            0.5, source=_ESTIMATE_ADDR + " (AnalogNet calibration prior for draw_rect)"
+            0.5, source=_ESTIMATE_ADDR + " (AnalogNet calibration prior for draw_rect)", **simple
         ),
-        "select_pattern": CallCost(0.5, source=_ESTIMATE_ADDR),
-        "select_point": CallCost(0.5, source=_ESTIMATE_ADDR),
-        "select_rect": CallCost(0.5, source=_ESTIMATE_ADDR),
+        "select_pattern": CallCost(0.5, source=_ESTIMATE_ADDR, **simple),
+        "select_point": CallCost(0.5, source=_ESTIMATE_ADDR, **simple),
+        "select_rect": CallCost(0.5, source=_ESTIMATE_ADDR, **simple),
         "shift_areg": CallCost(
             0.33,
             per_unit_icws=MappingProxyType({"analog": 2}),
             unit="pixel step",
             source="estimate: one kernel launch + one movx (2 analogue ICWs) per step",
+            launch=True,
         ),
         "shift_dreg": CallCost(
             0.33,
@@ -128,27 +148,54 @@ def _default_calls() -> Mapping[str, CallCost]:
             unit="pixel step",
             source="estimate: DNEWS macro (CLR, SET, DNEWS) + REFRESH every 2 steps "
             "(scamp5_api_digital.hpp default refresh=2)",
+            launch=True,
         ),
-        "global_sum_16": CallCost(13.5, source=_HEADER + ': "roughly 14 usec" in total'),
-        "global_sum_64": CallCost(27.5, source=_HEADER + ': "roughly 28 usec" in total'),
-        "global_or": CallCost(0.5, source="estimate: one wired-OR read of the array"),
+        "global_sum_16": CallCost(
+            13.5,
+            source=_HEADER + ': "roughly 14 usec" in total' + _ROUGHLY,
+            fixed_range=(11.4, 15.6),
+        ),
+        "global_sum_64": CallCost(
+            27.5,
+            source=_HEADER + ': "roughly 28 usec" in total' + _ROUGHLY,
+            fixed_range=(23.3, 31.7),
+        ),
+        "global_or": CallCost(0.5, source="estimate: one wired-OR read of the array", **simple),
         "global_count": CallCost(
-            14.0, source="estimate: DREG->AREG conversion ICWs + global_sum_16 (14 us)"
+            14.0,
+            source="estimate: DREG->AREG conversion ICWs + global_sum_16 (14 us)",
+            fixed_range=(11.9, 16.1),
         ),
         "global_count_64": CallCost(
-            28.0, source="estimate: DREG->AREG conversion ICWs + global_sum_64 (28 us)"
+            28.0,
+            source="estimate: DREG->AREG conversion ICWs + global_sum_64 (28 us)",
+            fixed_range=(23.8, 32.2),
         ),
         "scan_areg": CallCost(
-            0.0, per_unit_us=0.1, unit="value", source="estimate: one ADC conversion per value"
+            0.0,
+            per_unit_us=0.1,
+            unit="value",
+            source="estimate: one ADC conversion + one byte to the controller per value "
+            "(0.05-0.2 us: 5-20 M values/s)",
+            per_unit_range=(0.05, 0.2),
         ),
         "scan_areg_8x8": CallCost(
-            6.0, source='estimate: 64 ADC conversions, "slightly faster" than scan_areg'
+            6.0,
+            source='estimate: 64 ADC conversions, "slightly faster" than scan_areg '
+            "(64 x 0.05-0.2 us)",
+            fixed_range=(3.2, 12.8),
         ),
         "scan_areg_mean_8x8": CallCost(
-            27.5, source="estimate: same 8x8 block-summing readout as global_sum_64 (28 us)"
+            27.5,
+            source="estimate: same 8x8 block-summing readout as global_sum_64 (28 us)",
+            fixed_range=(23.3, 31.7),
         ),
         "scan_dreg": CallCost(
-            0.0, per_unit_us=1.6, unit="row", source="estimate: 32 bytes per row at ~20 MB/s"
+            0.0,
+            per_unit_us=1.6,
+            unit="row",
+            source="estimate: 32 bytes per row; " + _USB.removeprefix("estimate: "),
+            per_unit_range=(0.8, 3.2),
         ),
         "scan_events": CallCost(
             0.0,
@@ -157,12 +204,51 @@ def _default_calls() -> Mapping[str, CallCost]:
             source="calibrated: AnalogNet event readout, 273 us for 3 x max_num=100 "
             "(scamp5_output.hpp: time proportional to max_num)",
         ),
+        # -- the frame loop of a hardware experiment on a dataset (boundary "loop") -----
+        "vs_frame_loop_control": CallCost(
+            10.0,
+            source="estimate: the controller's per-frame USB message poll and frame "
+            "pacing; no published figure (2-50 us)",
+            fixed_range=(2.0, 50.0),
+        ),
+        "vs_gui_request_image": CallCost(
+            250.0,
+            per_unit_us=0.05,
+            unit="byte",
+            source="estimate: one request/answer round trip to the host over USB 2.0 "
+            "(125 us microframes: 1-8 of them, 2 mid) + the bit-planes' bytes; " + _USB[10:],
+            fixed_range=(125.0, 1000.0),
+            per_unit_range=(0.025, 0.1),
+        ),
+        "scamp5_draw_pixel": CallCost(
+            0.0,
+            source="estimate: one address write into the drawn DREG (the per-call overhead only)",
+        ),
+        "scamp5_draw_rect": CallCost(
+            0.0,
+            source="estimate: one address write into the drawn DREG (the per-call overhead only)",
+        ),
+        "usb_output": CallCost(
+            5.0,
+            per_unit_us=0.05,
+            unit="byte",
+            source="estimate: a buffered message to the host (1-20 us) + its bytes; " + _USB[10:],
+            fixed_range=(1.0, 20.0),
+            per_unit_range=(0.025, 0.1),
+        ),
     }
     return MappingProxyType(calls)
 
 
-def _const(default: float, unit: str, source: str) -> Any:
-    return field(default=default, metadata={"unit": unit, "source": source})
+def _const(
+    default: float, unit: str, source: str, bounds: tuple[float, float] | str | None = None
+) -> Any:
+    """A scalar constant: its unit, source and interval (None: exact; "fit": AnalogNet)."""
+    return field(default=default, metadata={"unit": unit, "source": source, "bounds": bounds})
+
+
+#: The interval levels of every modelled time.
+LEVELS: tuple[str, ...] = ("low", "mid", "high")
 
 
 @dataclass(frozen=True)
@@ -178,6 +264,7 @@ class TimingConstants:
         "cycles/ICW",
         "calibrated: AnalogNet 3 convolutions (180 analogue ICWs, 3 kernels) = 68 us "
         "together with input binarisation = 13 us",
+        "fit",
     )
     digital_cycles: float = _const(
         1.0, "cycles/ICW", "estimate: one 10 MHz cycle (SCAMP5_CLOCK_DIGITAL)"
@@ -186,12 +273,19 @@ class TimingConstants:
         1.0, "cycles/ICW", "estimate: one 10 MHz cycle (SCAMP5_CLOCK_DNEWS)"
     )
     nop_cycles: float = _const(
-        3.72, "cycles/ICW", "scamp5_icw.hpp: nop is an analogue-clock ICW (clk=0)"
+        3.72, "cycles/ICW", "scamp5_icw.hpp: nop is an analogue-clock ICW (clk=0)", "fit"
     )
     kernel_launch_us: float = _const(
-        0.33, "us/kernel", "calibrated: AnalogNet input binarisation (3 kernels) = 13 us"
+        0.33, "us/kernel", "calibrated: AnalogNet input binarisation (3 kernels) = 13 us", "fit"
     )
-    call_overhead_us: float = _const(0.5, "us/call", "estimate: one controller command to the chip")
+    call_overhead_us: float = _const(
+        0.5,
+        "us/call",
+        "estimate: one controller command to the chip (0.2-0.625 us: the low end a few "
+        "80-bit words at the 10 MHz ICW rate; the high end where AnalogNet's fit leaves "
+        "a kernel launch of ~0 us)",
+        (0.2, 0.625),
+    )
     energy_pj_per_pe_icw: float = _const(
         1.87,
         "pJ per PE per ICW",
@@ -250,6 +344,110 @@ class TimingConstants:
             rows.append((f"call {name}", cost.fixed_us, "us" + per, cost.source))
         return rows
 
+    def corner(self, level: str, overhead_us: float, clock_hz: float = DEFAULT_CLOCK_HZ) -> Any:
+        """One bound's point set: every independent cost at its ``level`` end.
+
+        The per-call overhead (and the one-command calls that move with it) is set to
+        ``overhead_us``, and the constants fitted on AnalogNet (analogue ICW cycles,
+        kernel launch, event slot) are refitted under those call costs
+        (:func:`analognet_fit`), so that each corner still reproduces AnalogNet's three
+        measured stages. ``level`` is ``"low"`` or ``"high"``.
+        """
+        if level not in ("low", "high"):
+            raise TimingError(f"level={level!r} is invalid: use 'low' or 'high'")
+        end = 0 if level == "low" else 1
+        scalars: dict[str, Any] = {"call_overhead_us": float(overhead_us)}
+        for f in fields(self):
+            b = f.metadata.get("bounds") if f.name != "calls" else None
+            if isinstance(b, tuple) and f.name != "call_overhead_us":
+                scalars[f.name] = b[end]
+        calls = {}
+        for name, cost in self.calls.items():
+            changes: dict[str, Any] = {}
+            if cost.simple:
+                changes["fixed_us"] = float(overhead_us)
+            elif cost.fixed_range is not None:
+                changes["fixed_us"] = cost.fixed_range[end]
+            if cost.per_unit_range is not None:
+                changes["per_unit_us"] = cost.per_unit_range[end]
+            calls[name] = replace(cost, **changes) if changes else cost
+        point = replace(self, calls=MappingProxyType(calls), **scalars)
+        a_cycles, launch_us, slot_us = analognet_fit(point, clock_hz)
+        calls["scan_events"] = replace(calls["scan_events"], per_unit_us=slot_us)
+        for name, cost in calls.items():
+            if cost.launch:
+                calls[name] = replace(cost, fixed_us=launch_us)
+        return replace(
+            point,
+            analog_cycles=a_cycles,
+            nop_cycles=a_cycles,
+            kernel_launch_us=launch_us,
+            calls=MappingProxyType(calls),
+        )
+
+    def corners(self, clock_hz: float = DEFAULT_CLOCK_HZ) -> dict[str, list[Any]]:
+        """The point sets a bound is the extreme of: ``{"low": [...], "high": [...]}``.
+
+        Modelled time is linear in every constant with non-negative counts, and the
+        refitted constants are linear in the overhead, so a program's low (high) bound
+        is its smallest (largest) time over the two ends of the overhead's interval
+        with the independent costs at their low (high) ends.
+        """
+        lo, hi = fields_bounds(self)["call_overhead_us"]
+        return {
+            level: [self.corner(level, o, clock_hz) for o in (lo, hi)] for level in ("low", "high")
+        }
+
+    def interval_table(
+        self, clock_hz: float = DEFAULT_CLOCK_HZ
+    ) -> list[tuple[str, float, float, float, str, str]]:
+        """Rows ``(name, low, mid, high, unit, source)``: the one table of every cost.
+
+        Fitted constants show the range they take over the corners (their low and high
+        are correlated with the call costs, not free); exact ones low = mid = high.
+        """
+        corners = [c for cs in self.corners(clock_hz).values() for c in cs]
+        rows = []
+        for f in fields(self):
+            if f.name == "calls":
+                continue
+            vals = [getattr(c, f.name) for c in corners]
+            rows.append(
+                (
+                    f.name,
+                    min(vals),
+                    getattr(self, f.name),
+                    max(vals),
+                    f.metadata["unit"],
+                    f.metadata["source"],
+                )
+            )
+        for name, cost in self.calls.items():
+            fixed = [c.calls[name].fixed_us for c in corners]
+            per = [c.calls[name].per_unit_us for c in corners]
+            unit = "us"
+            if cost.per_unit_icws:
+                icws = ", ".join(f"{n:g} {c}" for c, n in cost.per_unit_icws.items())
+                unit += f" + ({icws} ICWs) per {cost.unit}"
+            rows.append((f"call {name}", min(fixed), cost.fixed_us, max(fixed), unit, cost.source))
+            if cost.per_unit_us or cost.per_unit_range:
+                rows.append(
+                    (
+                        f"call {name} per {cost.unit}",
+                        min(per),
+                        cost.per_unit_us,
+                        max(per),
+                        "us",
+                        cost.source,
+                    )
+                )
+        return rows
+
+
+def fields_bounds(constants: TimingConstants) -> dict[str, Any]:
+    """The ``bounds`` metadata of every scalar field (None: exact, "fit": AnalogNet)."""
+    return {f.name: f.metadata.get("bounds") for f in fields(constants) if f.name != "calls"}
+
 
 @dataclass
 class StageCost:
@@ -269,6 +467,8 @@ class StageCost:
         Modelled time, microseconds.
     chip_uj : float
         Energy of the array's operations, microjoules.
+    units : dict[str, float]
+        Units charged per call name (event slots, pixel steps, values, ...).
     """
 
     name: str
@@ -277,6 +477,16 @@ class StageCost:
     calls: dict[str, int] = field(default_factory=dict)
     us: float = 0.0
     chip_uj: float = 0.0
+    units: dict[str, float] = field(default_factory=dict)
+
+    def counts(self) -> dict[str, float]:
+        """This stage as a count vector (see :func:`evaluate_us`)."""
+        out: dict[str, float] = {f"icw:{c}": float(n) for c, n in self.icws.items()}
+        if self.kernels:
+            out["kernels"] = float(self.kernels)
+        out.update({f"calls:{c}": float(n) for c, n in self.calls.items()})
+        out.update({f"units:{c}": float(n) for c, n in self.units.items() if n})
+        return out
 
     @property
     def n_icws(self) -> int:
@@ -469,6 +679,7 @@ class TimingModel:
             )
         self.clock_hz = float(clock_hz)
         self.constants = constants if constants is not None else TimingConstants()
+        self._corners: dict[str, list[TimingConstants]] | None = None
         self.pe_count = int(pe_count)
         self.reset()
 
@@ -579,6 +790,8 @@ class TimingModel:
         n_icws = units * sum(cost.per_unit_icws.values())
         row = self._stage_row()
         row.calls[name] = row.calls.get(name, 0) + 1
+        if units:
+            row.units[name] = row.units.get(name, 0.0) + float(units)
         self._add(row, us, n_icws)
 
     @contextlib.contextmanager
@@ -598,12 +811,28 @@ class TimingModel:
         finally:
             self._stack.pop()
 
+    def counts_by_stage(self) -> dict[str, dict[str, float]]:
+        """Everything charged since the last reset as count vectors, by stage.
+
+        Differences of two snapshots give a frame's counts (:func:`diff_counts`), which
+        :meth:`interval` turns into a low/mid/high time.
+        """
+        return {name: row.counts() for name, row in self._stages.items()}
+
+    def interval(self, counts: Mapping[str, float]) -> Interval:
+        """Low/mid/high modelled time of ``counts`` with this model's constants (us)."""
+        if self._corners is None:
+            self._corners = self.constants.corners(self.clock_hz)
+        return interval_us(counts, self.constants, self.clock_hz, corners=self._corners)
+
     def report(self) -> TimingReport:
         """Per-stage table and totals of everything charged since the last reset."""
         system_uj = self.constants.system_power_w * self._total_us
         return TimingReport(
             stages=tuple(
-                StageCost(s.name, dict(s.icws), s.kernels, dict(s.calls), s.us, s.chip_uj)
+                StageCost(
+                    s.name, dict(s.icws), s.kernels, dict(s.calls), s.us, s.chip_uj, dict(s.units)
+                )
                 for s in self._stages.values()
             ),
             total_us=self._total_us,
@@ -676,3 +905,166 @@ def analognet_calibration(
             t.charge_call(name, units)
         out[stage] = (t.now_us, prog["measured_us"])
     return out
+
+
+def analognet_fit(
+    constants: TimingConstants, clock_hz: float = DEFAULT_CLOCK_HZ
+) -> tuple[float, float, float]:
+    """Refit the three free constants on AnalogNet's stages under ``constants``' calls.
+
+    Every other constant (the call costs, the digital cycles) is held; the analogue ICW
+    cycles (``nop`` counted as analogue), the kernel launch and the ``scan_events`` cost
+    per slot are solved from the three measured stage times (three equations, three
+    unknowns).
+
+    Returns
+    -------
+    tuple of float
+        ``(analog_cycles, kernel_launch_us, scan_events per-slot us)``.
+
+    Raises
+    ------
+    TimingError
+        If the held constants leave no non-negative solution (the calls alone cost more
+        than a stage measured).
+    """
+    import numpy as np
+
+    held = replace(
+        constants,
+        analog_cycles=0.0,
+        nop_cycles=0.0,
+        kernel_launch_us=0.0,
+        calls=MappingProxyType(
+            {
+                **constants.calls,
+                "scan_events": replace(constants.calls["scan_events"], per_unit_us=0.0),
+            }
+        ),
+    )
+    rows, rhs = [], []
+    for prog in ANALOGNET_STAGES.values():
+        t = TimingModel(clock_hz, held)
+        n_analog = n_kernels = n_slots = 0.0
+        for counts in prog["kernels"]:
+            t.charge_kernel(counts)
+            n_analog += counts.get("analog", 0) + counts.get("nop", 0)
+            n_kernels += 1
+        for name, units in prog["calls"]:
+            t.charge_call(name, units)
+            n_slots += units if name == "scan_events" else 0
+        rows.append([n_analog / clock_hz * 1e6, n_kernels, n_slots])
+        rhs.append(prog["measured_us"] - t.now_us)
+    a_cycles, launch, slot = (float(x) for x in np.linalg.solve(np.array(rows), np.array(rhs)))
+    if min(a_cycles, launch, slot) < 0:
+        raise TimingError(
+            f"call_overhead_us={constants.call_overhead_us!r} leaves AnalogNet's stages no "
+            f"non-negative fit (analog {a_cycles:.3f} cycles, launch {launch:.3f} us, slot "
+            f"{slot:.3f} us): use cheaper calls"
+        )
+    return a_cycles, launch, slot
+
+
+# --------------------------------------------------------------------------------------
+# Count vectors and intervals: a program's time under any point set of constants.
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A modelled time as low/mid/high (same unit throughout)."""
+
+    low: float
+    mid: float
+    high: float
+
+    def scaled(self, k: float) -> Interval:
+        """The interval times ``k`` (e.g. 1e-3 for us -> ms)."""
+        return Interval(self.low * k, self.mid * k, self.high * k)
+
+    def __add__(self, other: Interval) -> Interval:
+        return Interval(self.low + other.low, self.mid + other.mid, self.high + other.high)
+
+    def as_dict(self) -> dict[str, float]:
+        """``{"low", "mid", "high"}``."""
+        return {"low": self.low, "mid": self.mid, "high": self.high}
+
+    def as_list(self) -> list[float]:
+        """``[low, mid, high]``."""
+        return [self.low, self.mid, self.high]
+
+    def contains(self, value: float) -> bool:
+        """Whether ``low <= value <= high``."""
+        return self.low <= value <= self.high
+
+
+def add_counts(*vectors: Mapping[str, float]) -> dict[str, float]:
+    """Sum of count vectors."""
+    out: dict[str, float] = {}
+    for v in vectors:
+        for k, n in v.items():
+            out[k] = out.get(k, 0.0) + n
+    return out
+
+
+def diff_counts(
+    after: Mapping[str, Mapping[str, float]], before: Mapping[str, Mapping[str, float]]
+) -> dict[str, dict[str, float]]:
+    """Per-stage counts charged between two :meth:`TimingModel.counts_by_stage` snapshots."""
+    out = {}
+    for stage, counts in after.items():
+        prev = before.get(stage, {})
+        d = {k: n - prev.get(k, 0.0) for k, n in counts.items()}
+        d = {k: n for k, n in d.items() if n}
+        if d:
+            out[stage] = d
+    return out
+
+
+def evaluate_us(
+    counts: Mapping[str, float], constants: TimingConstants, clock_hz: float = DEFAULT_CLOCK_HZ
+) -> float:
+    """Modelled time (us) of a count vector under one point set of constants.
+
+    Keys: ``"icw:<class>"`` (ICWs of a clock class), ``"kernels"`` (kernel runs),
+    ``"calls:<name>"`` (controller calls) and ``"units:<name>"`` (their units). With the
+    model's own constants this equals what :class:`TimingModel` charged.
+    """
+    us = 0.0
+    for key, n in counts.items():
+        kind, _, name = key.partition(":")
+        if kind == "icw":
+            us += n * constants.cycles(name) / clock_hz * 1e6
+        elif kind == "kernels":
+            us += n * constants.kernel_launch_us
+        elif kind in ("calls", "units"):
+            try:
+                cost = constants.calls[name]
+            except KeyError:
+                raise TimingError(f"no modelled cost for controller call {name!r}") from None
+            if kind == "calls":
+                us += n * (constants.call_overhead_us + cost.fixed_us)
+            else:
+                per = cost.per_unit_us + sum(
+                    k * constants.cycles(c) / clock_hz * 1e6 for c, k in cost.per_unit_icws.items()
+                )
+                us += n * per
+        else:
+            raise TimingError(f"unknown count key {key!r}")
+    return us
+
+
+def interval_us(
+    counts: Mapping[str, float],
+    constants: TimingConstants | None = None,
+    clock_hz: float = DEFAULT_CLOCK_HZ,
+    *,
+    corners: Mapping[str, list[TimingConstants]] | None = None,
+) -> Interval:
+    """Low/mid/high modelled time (us) of a count vector (:meth:`TimingConstants.corners`)."""
+    constants = constants if constants is not None else TimingConstants()
+    corners = corners if corners is not None else constants.corners(clock_hz)
+    return Interval(
+        min(evaluate_us(counts, c, clock_hz) for c in corners["low"]),
+        evaluate_us(counts, constants, clock_hz),
+        max(evaluate_us(counts, c, clock_hz) for c in corners["high"]),
+    )
