@@ -1,9 +1,14 @@
-"""Atomic writes: the target is replaced whole or not at all."""
+"""Atomic writes: a file or a folder is replaced whole or not at all, even when killed."""
 
 import os
+import signal
+import subprocess
+import sys
 
 import pytest
 
+from ppaloc import fileio
+from ppaloc.errors import PpalocError
 from ppaloc.fileio import atomic_write, default_file_mode, write_bytes
 
 
@@ -21,3 +26,117 @@ def test_write_bytes_creates_the_folder_with_the_ordinary_mode(tmp_path):
     path = write_bytes(tmp_path / "a" / "b.txt", "é")
     assert path.read_bytes() == "é".encode()
     assert path.stat().st_mode & 0o777 == default_file_mode()
+
+
+def test_a_killed_write_leaves_no_temporary(tmp_path):
+    # The child opens an atomic write and dies (SIGKILL) inside it.
+    target = tmp_path / "map.npz"
+    target.write_text("old")
+    code = (
+        "import os, signal, sys\n"
+        "from ppaloc.fileio import atomic_write\n"
+        "with atomic_write(sys.argv[1]) as f:\n"
+        "    f.write(b'half')\n"
+        "    f.flush()\n"
+        "    os.kill(os.getpid(), signal.SIGKILL)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code, str(target)], check=False)
+    assert done.returncode == -signal.SIGKILL
+    assert target.read_text() == "old"
+    assert os.listdir(tmp_path) == ["map.npz"]
+
+
+def test_a_named_temporary_of_a_dead_process_is_removed_by_the_next_write(tmp_path):
+    target = tmp_path / "a.csv"
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    stale = tmp_path / f".a.csv.{int(dead.stdout)}-0000.tmp"
+    stale.write_text("left by a killed run")
+    live = tmp_path / f".a.csv.{os.getpid()}-1111.tmp"
+    live.write_text("being written now")
+    write_bytes(target, "new")
+    assert sorted(os.listdir(tmp_path)) == sorted(["a.csv", live.name])
+
+
+def test_the_named_fallback_works_without_anonymous_files(tmp_path, monkeypatch):
+    monkeypatch.setattr(fileio, "_open_anonymous", lambda folder: None)
+    write_bytes(tmp_path / "x.txt", "named")
+    assert (tmp_path / "x.txt").read_text() == "named"
+    assert os.listdir(tmp_path) == ["x.txt"]
+
+
+@pytest.mark.parametrize("exchange", [True, False])
+def test_new_folder_replaces_the_whole_folder(tmp_path, monkeypatch, exchange):
+    if not exchange:
+        monkeypatch.setattr(fileio, "_exchange", lambda a, b: False)
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "old-method.npz").write_text("old")
+    (out / "bench.json").write_text("kept")
+    with fileio.new_folder(out, carry=["bench.json"]) as stage:
+        (stage / "results.json").write_text("new")
+        assert (out / "old-method.npz").exists()  # the old folder is whole until the end
+    assert sorted(os.listdir(out)) == ["bench.json", "results.json"]
+    assert os.listdir(tmp_path) == ["run"]
+
+
+def test_a_failed_transaction_keeps_the_old_folder(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "results.json").write_text("old")
+    with pytest.raises(RuntimeError), fileio.new_folder(out) as stage:
+        (stage / "results.json").write_text("half")
+        raise RuntimeError("interrupted")
+    assert (out / "results.json").read_text() == "old"
+    assert os.listdir(tmp_path) == ["run"]
+
+
+def test_update_folder_starts_from_the_current_files(tmp_path):
+    out = tmp_path / "run"
+    (out / "arrays").mkdir(parents=True)
+    (out / "arrays" / "a.npz").write_text("a")
+    (out / "results.json").write_text("r")
+    with fileio.update_folder(out) as stage:
+        assert (stage / "arrays" / "a.npz").read_text() == "a"
+        write_bytes(stage / "report.html", "<html>")
+        write_bytes(stage / "results.json", "changed in the stage only")
+        assert (out / "results.json").read_text() == "r"  # linked files are replaced, not edited
+    assert sorted(p.name for p in out.rglob("*")) == [
+        "a.npz",
+        "arrays",
+        "report.html",
+        "results.json",
+    ]
+
+
+def test_recover_folder_restores_the_old_folder_between_the_two_renames(tmp_path):
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    pid = int(dead.stdout)
+    old = tmp_path / f".run.ppaloc-old-{pid}-abcd"
+    old.mkdir()
+    (old / "results.json").write_text("old")
+    stage = tmp_path / f".run.ppaloc-new-{pid}-abcd"
+    stage.mkdir()
+    (stage / "results.json").write_text("new, maybe half")
+    fileio.recover_folder(tmp_path / "run")
+    assert os.listdir(tmp_path) == ["run"]
+    assert (tmp_path / "run" / "results.json").read_text() == "old"
+
+
+def test_source_date(monkeypatch):
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    assert fileio.source_date() is None
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    assert fileio.source_date().isoformat() == "2023-11-14T22:13:20+00:00"
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "yesterday")
+    with pytest.raises(PpalocError, match="SOURCE_DATE_EPOCH='yesterday' is not a time"):
+        fileio.source_date()

@@ -1,21 +1,54 @@
-"""Writing files so that a reader never sees half of one.
+"""Writing files and folders so that a reader never sees half of one.
 
-Every file ppaloc writes for a user (maps, results, reports, figures) goes through
-:func:`atomic_write`: the bytes go to a temporary file in the target folder, which then
-replaces the target in one ``os.replace``. An interrupted or failed write leaves the old
-file (or none) and no temporary behind.
+Files: every file ppaloc writes for a user (maps, results, reports, figures) goes through
+:func:`atomic_write`. The bytes go to an anonymous file in the target folder (Linux
+``O_TMPFILE``: it has no name, so a killed process leaves nothing behind), which is given a
+temporary name and moved over the target in one ``os.replace``. Where anonymous files are
+not available, a named ``.NAME.PID-XXXX.tmp`` is used instead; a later write of the same
+target removes those whose process is gone.
+
+Folders: a results folder is written by :func:`new_folder` (or changed by
+:func:`update_folder`) into a hidden staging folder beside it, ``.NAME.ppaloc-new-PID-XXXX``,
+which then takes the target's place in one step: an atomic exchange of the two names
+(Linux ``renameat2(RENAME_EXCHANGE)``), after which the old contents, now under the staging
+name, are deleted. A reader sees the whole old folder or the whole new one, never a mix.
+Where the exchange is not available the old folder is renamed aside
+(``.NAME.ppaloc-old-PID-XXXX``) and the new one renamed in; if a process dies between the
+two renames, the next transaction on the folder (and :func:`recover_folder`) moves the old
+one back. Staging folders of dead processes are removed by the next transaction.
+
+Reproducible bytes: files hold no clock time unless ``SOURCE_DATE_EPOCH`` is set
+(:func:`source_date`), so the same inputs give the same bytes.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import datetime as dt
+import errno
 import os
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
+import secrets
+import shutil
+import time
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["atomic_write", "default_file_mode", "write_bytes"]
+from ppaloc.errors import PpalocError
+
+__all__ = [
+    "atomic_write",
+    "default_file_mode",
+    "new_folder",
+    "recover_folder",
+    "source_date",
+    "update_folder",
+    "write_bytes",
+]
+
+_STALE_UNNAMED_S = 3600.0  # a temporary without a process id is stale after an hour
 
 
 def default_file_mode() -> int:
@@ -29,12 +62,111 @@ def default_file_mode() -> int:
     return 0o666 & ~mask
 
 
+def source_date() -> dt.datetime | None:
+    """The time to record in a file: ``SOURCE_DATE_EPOCH`` (UTC) if set, else None.
+
+    ppaloc writes no clock time into its files by default, so that the same inputs give
+    byte-identical outputs; a build that wants a date in them sets ``SOURCE_DATE_EPOCH``
+    (seconds since 1970, the reproducible-builds convention).
+
+    Raises
+    ------
+    PpalocError
+        If ``SOURCE_DATE_EPOCH`` is set but is not a non-negative integer.
+    """
+    raw = os.environ.get("SOURCE_DATE_EPOCH")
+    if raw is None or raw.strip() == "":
+        return None
+    try:
+        seconds = int(raw)
+        if seconds < 0:
+            raise ValueError
+        return dt.datetime.fromtimestamp(seconds, dt.UTC)
+    except (ValueError, OverflowError, OSError):
+        raise PpalocError(
+            f"SOURCE_DATE_EPOCH={raw!r} is not a time; give whole seconds since 1970, e.g. "
+            "SOURCE_DATE_EPOCH=1700000000, or unset it"
+        ) from None
+
+
+# -- files -----------------------------------------------------------------------------------
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return pid > 0
+    return True
+
+
+def _owner_pid(token: str) -> int | None:
+    """The process id at the start of ``PID-XXXX``, or None."""
+    head = token.split("-", 1)[0]
+    return int(head) if head.isdigit() else None
+
+
+def _sweep_stale_files(folder: Path, name: str) -> None:
+    """Remove the temporaries of ``folder/name`` that a dead process left behind."""
+    prefix, suffix = f".{name}.", ".tmp"
+    with contextlib.suppress(OSError), os.scandir(folder) as entries:
+        for entry in entries:
+            if not (entry.name.startswith(prefix) and entry.name.endswith(suffix)):
+                continue
+            token = entry.name[len(prefix) : -len(suffix)]
+            pid = _owner_pid(token)
+            with contextlib.suppress(OSError):
+                if not entry.is_file(follow_symlinks=False):
+                    continue
+                if pid is None:
+                    if time.time() - entry.stat().st_mtime < _STALE_UNNAMED_S:
+                        continue
+                elif _alive(pid):
+                    continue
+                os.unlink(entry.path)
+
+
+def _temp_name(path: Path) -> Path:
+    return path.parent / f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.tmp"
+
+
+def _open_anonymous(folder: Path) -> int | None:
+    """An unnamed file in ``folder`` (``O_TMPFILE``), or None where the system has none."""
+    flag = getattr(os, "O_TMPFILE", None)
+    if flag is None or not os.path.isdir("/proc/self/fd"):
+        return None
+    try:
+        return os.open(folder, flag | os.O_RDWR, default_file_mode())
+    except OSError:
+        return None
+
+
+def _name_anonymous(fd: int, path: Path) -> Path:
+    """Give the unnamed file ``fd`` a temporary name beside ``path``; return that name."""
+    tmp = _temp_name(path)
+    try:
+        os.link(f"/proc/self/fd/{fd}", tmp)
+    except OSError:  # e.g. /proc hidden: copy the bytes into a named temporary
+        with open(tmp, "xb") as out:
+            os.lseek(fd, 0, os.SEEK_SET)
+            while chunk := os.read(fd, 1 << 20):
+                out.write(chunk)
+            out.flush()
+            os.fsync(out.fileno())
+    return tmp
+
+
 @contextmanager
 def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) -> Iterator[IO]:
     """Open a temporary file beside ``path``; when the block ends cleanly it becomes ``path``.
 
     The folder must exist. On an exception the temporary file is removed and ``path`` is
-    left as it was.
+    left as it was; if the process is killed, an anonymous temporary disappears with it
+    (a named one is removed by the next write of ``path``).
 
     Examples
     --------
@@ -46,18 +178,25 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
     'hello'
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    _sweep_stale_files(path.parent, path.name)
+    fd = _open_anonymous(path.parent)
+    tmp: Path | None = None
+    if fd is None:
+        tmp = _temp_name(path)
+        fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, default_file_mode())
     try:
-        if hasattr(os, "fchmod"):
-            os.fchmod(fd, default_file_mode())
-        with os.fdopen(fd, mode, **open_kwargs) as f:
+        with os.fdopen(fd, mode, closefd=False, **open_kwargs) as f:
             yield f
             f.flush()
-            os.fsync(f.fileno())
+        os.fsync(fd)
+        if tmp is None:
+            tmp = _name_anonymous(fd, path)
         os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        tmp = None
+    finally:
+        os.close(fd)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
 
 
 def write_bytes(path: str | os.PathLike, data: bytes | str) -> Path:
@@ -67,3 +206,152 @@ def write_bytes(path: str | os.PathLike, data: bytes | str) -> Path:
     with atomic_write(path) as f:
         f.write(data.encode("utf-8") if isinstance(data, str) else data)
     return path
+
+
+# -- folders ---------------------------------------------------------------------------------
+
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+
+
+def _renameat2() -> Any:
+    try:
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return None
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    fn.restype = ctypes.c_int
+    return fn
+
+
+_RENAMEAT2 = _renameat2()
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap the names ``a`` and ``b`` in one step; False where the system cannot."""
+    if _RENAMEAT2 is None:
+        return False
+    rc = _RENAMEAT2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE)
+    if rc == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV):
+        return False  # this file system (or kernel) has no exchange: rename aside instead
+    raise OSError(err, f"cannot swap {b} into place: {os.strerror(err)}", str(b))
+
+
+def _stages(target: Path, role: str) -> list[tuple[Path, int | None]]:
+    prefix = f".{target.name}.ppaloc-{role}-"
+    found = []
+    with contextlib.suppress(OSError), os.scandir(target.parent) as entries:
+        for entry in entries:
+            if entry.name.startswith(prefix):
+                found.append((Path(entry.path), _owner_pid(entry.name[len(prefix) :])))
+    return found
+
+
+def _fsync_dir(folder: Path) -> None:
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def recover_folder(target: str | os.PathLike) -> None:
+    """Finish what a killed transaction on ``target`` left: restore the old folder if the
+    new one never arrived, and delete the staging folders of dead processes."""
+    target = Path(target)
+    if not target.parent.is_dir():
+        return
+    for old, pid in _stages(target, "old"):
+        if pid is not None and _alive(pid):
+            continue
+        if not os.path.lexists(target):
+            os.rename(old, target)
+        else:
+            shutil.rmtree(old, ignore_errors=True)
+    for stage, pid in _stages(target, "new"):
+        if pid is None or not _alive(pid):
+            shutil.rmtree(stage, ignore_errors=True)
+
+
+def _link_tree(source: Path, dest: Path, keep: Callable[[str], bool]) -> None:
+    """Recreate the top-level entries of ``source`` that ``keep`` accepts in ``dest``, files
+    as hard links (cheap, and safe: ppaloc replaces files, never rewrites them in place)."""
+    for entry in sorted(os.scandir(source), key=lambda e: e.name):
+        if not keep(entry.name):
+            continue
+        if entry.is_dir(follow_symlinks=False):
+            shutil.copytree(entry.path, dest / entry.name, symlinks=True, copy_function=_link)
+        else:
+            _link(entry.path, dest / entry.name)
+
+
+def _link(src: str, dst: str | Path) -> None:
+    if os.path.islink(src):
+        os.symlink(os.readlink(src), dst)
+        return
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
+
+
+@contextmanager
+def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[Path]:
+    if os.path.islink(target):  # replace the folder the link points to, not the link
+        target = Path(os.path.realpath(target))
+    if os.path.lexists(target) and not target.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "not a folder", str(target))
+    recover_folder(target)
+    token = f"{os.getpid()}-{secrets.token_hex(4)}"
+    stage = target.parent / f".{target.name}.ppaloc-new-{token}"
+    stage.mkdir()
+    try:
+        if keep is not None and target.is_dir():
+            _link_tree(target, stage, keep)
+        yield stage
+        _fsync_dir(stage)
+        if not target.exists():
+            os.rename(stage, target)
+        elif _exchange(stage, target):
+            pass  # the stage name now holds the old contents, deleted below
+        else:
+            aside = target.parent / f".{target.name}.ppaloc-old-{token}"
+            os.rename(target, aside)
+            os.rename(stage, target)
+            stage = aside
+        _fsync_dir(target.parent)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def new_folder(
+    target: str | os.PathLike, *, carry: Iterable[str] = ()
+) -> AbstractContextManager[Path]:
+    """A context manager: an empty staging folder that replaces ``target`` whole when the
+    block ends cleanly (``target`` is created if absent; its parent must exist).
+
+    ``carry`` names top-level entries of the current ``target`` to keep (linked into the
+    stage before the block). On an exception the stage is deleted and ``target`` stays as
+    it was.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "run"
+    >>> with new_folder(out) as stage:
+    ...     _ = (stage / "a.txt").write_text("new")
+    >>> sorted(p.name for p in out.parent.iterdir()), (out / "a.txt").read_text()
+    (['run'], 'new')
+    """
+    names = set(carry)
+    return _transaction(Path(target), (lambda n: n in names) if names else None)
+
+
+def update_folder(target: str | os.PathLike) -> AbstractContextManager[Path]:
+    """A context manager: a staging copy of ``target`` (its files hard-linked) to change,
+    which replaces ``target`` whole when the block ends cleanly."""
+    return _transaction(Path(target), lambda name: True)

@@ -96,9 +96,14 @@ def test_flipped_byte_on_disk(saved: Path) -> None:
     data = bytearray(saved.read_bytes())
     with zipfile.ZipFile(saved) as z:
         info = z.getinfo("descriptors.npy")
-    data[info.header_offset + 200] ^= 0xFF  # inside the stored descriptors member
+    data[info.header_offset + 400] ^= 0xFF  # inside the stored descriptors' data
     saved.write_bytes(bytes(data))
-    with pytest.raises(MapFormatError, match=r"corrupt or truncated file .*Bad CRC-32"):
+    with pytest.raises(MapFormatError, match=r"corrupt or truncated archive .*Bad CRC-32"):
+        load_map(saved)
+    data[info.header_offset + 400] ^= 0xFF
+    data[info.header_offset + 120] ^= 0xFF  # inside the descriptors' .npy header
+    saved.write_bytes(bytes(data))
+    with pytest.raises(MapFormatError, match=r"'descriptors.npy': Bad CRC-32"):
         load_map(saved)
 
 
@@ -130,7 +135,7 @@ def test_foreign_files(tmp_path: Path) -> None:
         load_map(single)
     pickled = tmp_path / "pickled.npz"
     np.savez(pickled, header=np.array([{"format": FORMAT_NAME}], dtype=object))
-    with pytest.raises(MapFormatError, match="corrupt or truncated header"):
+    with pytest.raises(MapFormatError, match=r"'header.npy' holds Python objects .*; refused"):
         load_map(pickled)
     wrong = tmp_path / "wrong.npz"
     np.savez(wrong, header=np.frombuffer(b'{"format": "evo.result"}', np.uint8))
