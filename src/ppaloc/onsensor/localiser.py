@@ -22,7 +22,9 @@ from ppaloc.localise.params import FilterParams
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import SensorPipeline, make_pipeline
+from ppaloc.onsensor.precursor import STRUCTURES, loop_counts, structure_counts
 from ppaloc.sim import NoiseParams
+from ppaloc.sim.timing import Interval, add_counts, diff_counts
 from ppaloc.topomap import TopoMap, layout_for
 
 __all__ = ["NOISE_PRESETS", "OnSensorLocaliser"]
@@ -88,8 +90,13 @@ class OnSensorLocaliser:
         arithmetic: str = "ppa8",
         record_weights: bool = False,
         size: int = 256,
+        timing_structure: str = "ppaloc",
         **filter_params: Any,
     ) -> None:
+        if timing_structure not in STRUCTURES:
+            raise PpalocError(
+                f"timing_structure={timing_structure!r} is not one of {', '.join(STRUCTURES)}"
+            )
         if not isinstance(noise, NoiseParams) and noise not in NOISE_PRESETS:
             raise PpalocError(
                 f"noise={noise!r} is not one of {', '.join(NOISE_PRESETS)} or a "
@@ -122,6 +129,8 @@ class OnSensorLocaliser:
         self.seed = int(seed)
         self.size = int(size)
         self.record_weights = bool(record_weights)
+        self.timing_structure = timing_structure
+        self.frame_times: list[tuple[Interval, Interval]] = []
         self.motion = p.motion
         # the oracle's moves are the controller's input; the host has checked them
         moves = filter_params.get("oracle_moves")
@@ -232,6 +241,7 @@ class OnSensorLocaliser:
             self.pipeline.reset()
         if self._oracle is not None:
             self._oracle.reset()
+        self.frame_times = []
 
     def step(self, frame: np.ndarray) -> Estimate:
         """Localise one sensor frame ((size, size) uint8) on the simulated sensor."""
@@ -243,7 +253,9 @@ class OnSensorLocaliser:
         moved = None if self._oracle is None else self._oracle.step(frame)
         timing = pipe.sim.timing
         t0, e0 = timing.now_us, timing.energy_uj
+        before = timing.counts_by_stage()
         node, score, moved, _ = pipe.step(frame, moved)
+        self._time_frame(frame, diff_counts(timing.counts_by_stage(), before), bool(moved))
         weights = pipe.weights() if self.record_weights else None
         return Estimate(
             node=int(node),
@@ -254,6 +266,38 @@ class OnSensorLocaliser:
             modelled_latency_ms=(timing.now_us - t0) / 1000.0,
             energy_mj=(timing.energy_uj - e0) / 1000.0,
         )
+
+    def _time_frame(self, frame: np.ndarray, stages: dict, moved: bool) -> None:
+        """Record the frame's ``chip`` and ``loop`` intervals (docs/onsensor.md, Timing)."""
+        pipe = self.pipeline
+        precursor = self.timing_structure == "precursor"
+        chip = structure_counts(
+            stages,
+            self.representation,
+            self.timing_structure,
+            forward=moved,
+            weights=pipe.weights() if precursor else None,
+        )
+        timing = pipe.sim.timing
+        loop = add_counts(chip, loop_counts(frame))
+        self.frame_times.append((timing.interval(chip), timing.interval(loop)))
+
+    def modelled_time_ms(self) -> dict[str, dict[str, float]] | None:
+        """Median modelled time per frame since :meth:`reset`, per boundary and level, ms.
+
+        ``{"chip": {"low", "mid", "high"}, "loop": {...}}`` (None before any frame):
+        ``chip`` is the frame's kernels and controller calls, ``loop`` adds the host's
+        frame injection, the frame-loop control and the estimate sent back. With the
+        default ``timing_structure``, ``chip.mid`` is the median ``modelled_latency_ms``.
+        """
+        if not self.frame_times:
+            return None
+        out = {}
+        for i, boundary in enumerate(("chip", "loop")):
+            values = np.array([t[i].as_list() for t in self.frame_times]) / 1000.0
+            med = np.median(values, axis=0)
+            out[boundary] = {"low": float(med[0]), "mid": float(med[1]), "high": float(med[2])}
+        return out
 
     def register_planes(self) -> dict[str, np.ndarray]:
         """The sensor's registers worth a picture after the last frame, by label.
