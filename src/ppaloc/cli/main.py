@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import sys
 import tempfile
 import traceback
@@ -41,7 +42,7 @@ def _parse_value(text: str) -> Any:
 
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):
         return text
 
 
@@ -79,23 +80,86 @@ def _file_values(path: Path | None, section: str) -> dict[str, Any]:
 
     data = read_toml(path)
     values = {k: v for k, v in data.items() if k not in _SECTIONS}
-    values.update(data.get(section, {}))
+    table = data.get(section, {})
+    if not isinstance(table, dict):
+        raise PpalocError(
+            f"{section} = {_short(table)} in {path} must be a table: write [{section}] "
+            "and its keys below it"
+        )
+    values.update(table)
     return values
 
 
-def _merge(file_values: dict[str, Any], flags: dict[str, Any]) -> dict[str, Any]:
-    """Flags that were given (not None, not empty) override the file; params merge per method."""
+def _short(value: Any, limit: int = 60) -> str:
+    """``repr(value)`` cut to ``limit`` characters, for messages."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+_CLI_TYPES: dict[str, tuple[type, ...]] = {
+    "out": (str, Path),
+    "quiet": (bool,),
+    "no_report": (bool,),
+    "method": (str,),
+    "scheduler": (str,),
+}
+"""Type of each key a command reads itself (not a config dataclass field)."""
+
+
+def _check_cli_values(values: dict[str, Any], source: Path | None) -> None:
+    """Refuse a command-level key of the wrong type (``out = 5``, ``quiet = "yes"``)."""
+    where = f" in {source}" if source else ""
+    for key, types in _CLI_TYPES.items():
+        value = values.get(key)
+        if value is None or isinstance(value, types):
+            continue
+        wanted = {"quiet": "true or false", "no_report": "true or false"}.get(key, "a string")
+        raise PpalocError(f"{key} = {_short(value)}{where} must be {wanted}")
+
+
+def _check_params(params: Any, source: Path | None, *, nested: bool) -> None:
+    """``params`` must be a table (of tables, one per method, when ``nested``)."""
+    where = f" in {source}" if source else ""
+    if params is None:
+        return
+    example = "[params.seqslam] ds = 20" if nested else "[map.params] alpha = 8"
+    if not isinstance(params, dict) or (
+        nested and not all(isinstance(p, dict) for p in params.values())
+    ):
+        raise PpalocError(f"params = {_short(params)}{where} must be a table, e.g. {example}")
+
+
+def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
+    """The checked output location (see :func:`ppaloc.cli.outputs.check_output`)."""
+    from ppaloc.cli.outputs import check_output
+
+    return check_output(value, flag, folder=folder)
+
+
+def _merge(
+    file_values: dict[str, Any],
+    flags: dict[str, Any],
+    *,
+    source: Path | None = None,
+    nested: bool = True,
+) -> dict[str, Any]:
+    """Flags that were given (not None, not empty) override the file; params merge per
+    method (``nested``: ``{method: {key: value}}``) or key by key (one method's table)."""
     merged = dict(file_values)
+    _check_params(merged.get("params"), source, nested=nested)
     for key, value in flags.items():
         if value is None or value == () or value == {}:
             continue
-        if key == "params":
+        if key == "params" and nested:
             params = {m: dict(p) for m, p in merged.get("params", {}).items()}
             for m, p in value.items():
                 params.setdefault(m, {}).update(p)
             merged["params"] = params
+        elif key == "params":
+            merged["params"] = {**merged.get("params", {}), **value}
         else:
             merged[key] = value
+    _check_cli_values(merged, source)
     return merged
 
 
@@ -111,10 +175,23 @@ def _setup_logging(verbose: int) -> None:
 
 # -- parsers --------------------------------------------------------------------------------
 
+
+class _SafePath(click.Path):
+    """``click.Path`` that refuses an empty path, a NUL or an over-long one (exit 1)."""
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        if isinstance(value, str):
+            from ppaloc.cli.outputs import check_path_text
+
+            flag = param.opts[0] if param is not None and param.opts else "path"
+            check_path_text(value, flag.upper() if not flag.startswith("-") else flag)
+        return super().convert(value, param, ctx)
+
+
 _CONFIG = click.option(
     "--config",
     "config_file",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_SafePath(dir_okay=False, path_type=Path),
     help="TOML file with any of this command's keys; flags override it.",
 )
 _QUIET = click.option(
@@ -163,13 +240,17 @@ Examples:
 )
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, path_type=Path),
     default=Path("ppaloc-report"),
     show_default=True,
     help="Folder for results and report.",
 )
 @click.option(
-    "--places", type=click.IntRange(10), default=200, show_default=True, help="Route length."
+    "--places",
+    type=click.IntRange(10, 100_000),
+    default=200,
+    show_default=True,
+    help="Route length.",
 )
 @click.option(
     "--bench-sizes",
@@ -187,8 +268,12 @@ def demo(out: Path, places: int, bench_sizes: str, quiet: bool | None) -> None:
     writes OUT/report.html.
     """
     from ppaloc.cli.commands import run_demo
+    from ppaloc.evaluate.config import BenchConfig
 
-    run_demo(out, quiet=bool(quiet), places=places, bench_sizes=_sizes(bench_sizes))
+    sizes = _sizes(bench_sizes)
+    BenchConfig(sizes=tuple(sizes))  # checked before any work
+    out = _output(out, folder=True)
+    run_demo(out, quiet=bool(quiet), places=places, bench_sizes=sizes)
 
 
 @cli.command(
@@ -246,7 +331,7 @@ run.toml:
 )
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, path_type=Path),
     help="Folder for results.json, results.csv, arrays/ and the report [default: results].",
 )
 @click.option("--no-report", is_flag=True, default=None, help="Write result files only.")
@@ -283,12 +368,13 @@ def evaluate(
             "no_report": no_report,
             "quiet": quiet,
         },
+        source=config_file,
     )
     fields = [f.name for f in dataclasses.fields(EvaluateConfig)]
     reject_unknown_keys(
         values, [*fields, "out", "no_report", "quiet"], source=str(config_file or "")
     )
-    out_dir = Path(_pop(values, "out", "results"))
+    out_dir = _output(_pop(values, "out", "results"), folder=True)
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
     if "dataset" not in values:
@@ -336,7 +422,7 @@ Examples:
 )
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, path_type=Path),
     help="Folder for bench.json and bench.csv.",
 )
 @_CONFIG
@@ -369,13 +455,15 @@ def bench(
             "out": out,
             "quiet": quiet,
         },
+        source=config_file,
     )
     fields = [f.name for f in dataclasses.fields(BenchConfig)]
     reject_unknown_keys(values, [*fields, "out", "quiet"], source=str(config_file or ""))
     out_dir = values.pop("out", None)
     quiet_ = bool(_pop(values, "quiet", False))
     config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
-    run_bench(config, None if out_dir is None else Path(out_dir), quiet=quiet_)
+    out_path = None if out_dir is None else _output(out_dir, folder=True)
+    run_bench(config, out_path, quiet=quiet_)
 
 
 @cli.command(
@@ -401,7 +489,7 @@ cells and retry the failed ones.""",
 )
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, path_type=Path),
     help="Folder of the sweep: cells/, summary.csv, summary.json, report.html.",
 )
 @click.option(
@@ -445,7 +533,7 @@ def sweep(
 ) -> None:
     """Run a grid of methods x datasets x method parameters on a Dask cluster."""
     from ppaloc.cli.commands import run_sweep
-    from ppaloc.evaluate.config import reject_unknown_keys
+    from ppaloc.evaluate.config import check_limits, reject_unknown_keys
     from ppaloc.evaluate.sweep import SweepConfig, sweep_config_from_mapping
 
     values = _merge(
@@ -462,6 +550,7 @@ def sweep(
             "no_report": no_report,
             "quiet": quiet,
         },
+        source=config_file,
     )
     source = str(config_file or "")
     extra = ["out", "scheduler", "workers", "connect_timeout", "no_report", "quiet"]
@@ -479,8 +568,13 @@ def sweep(
         wanted = {"scheduler": str, "workers": int, "connect_timeout": (int, float)}[key]
         if value is not None and (not isinstance(value, wanted) or isinstance(value, bool)):
             raise PpalocError(f"{key}={value!r} in {source or 'the flags'} has the wrong type")
-    if options["workers"] is not None and options["workers"] < 1:
-        raise PpalocError(f"workers={options['workers']!r} must be at least 1")
+    if options["workers"] is not None and not 1 <= options["workers"] <= 256:
+        raise PpalocError(f"workers={options['workers']!r} must be an integer in [1, 256]")
+    timeout = options["connect_timeout"]
+    if timeout is not None and not (math.isfinite(timeout) and 0 < timeout <= 3600):
+        raise PpalocError(f"connect_timeout={timeout!r} must be a number of seconds in (0, 3600]")
+    check_limits({k: values.get(k) for k in ("seed", "tolerance")}, source=source)
+    out_dir = _output(out_dir, folder=True)
     config = sweep_config_from_mapping(values, source=source)
     run_sweep(
         config,
@@ -505,7 +599,7 @@ Examples:
 )
 @click.argument("dataset")
 @click.option(
-    "--out", type=click.Path(dir_okay=False, path_type=Path), help="Map file to write (.npz)."
+    "--out", type=_SafePath(dir_okay=False, path_type=Path), help="Map file to write (.npz)."
 )
 @click.option("--method", "-m", help="Method whose map to build [default: weighted-node-lowres].")
 @click.option("--param", "params", multiple=True, metavar="KEY=VALUE", help="Method parameter.")
@@ -525,14 +619,17 @@ def map_(
     values = _merge(
         _file_values(config_file, "map"),
         {"out": out, "method": method, "params": _parse_method_params(params), "quiet": quiet},
+        source=config_file,
+        nested=False,
     )
     _reject_unknown(values, ["method", "out", "params", "quiet"], config_file, "map")
     if values.get("out") is None:
         raise PpalocError("no output file: give --out MAP.npz")
+    out_file = _output(values["out"], folder=False)
     run_map(
         dataset,
         str(values.get("method") or "weighted-node-lowres"),
-        Path(values["out"]),
+        out_file,
         dict(values.get("params", {})),
         quiet=bool(values.get("quiet")),
     )
@@ -547,11 +644,11 @@ Examples:
 \b
 CSV columns: frame,path,node,reference_frame,score,moved,latency_ms""",
 )
-@click.argument("map_path", metavar="MAP", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("frames", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("map_path", metavar="MAP", type=_SafePath(dir_okay=False, path_type=Path))
+@click.argument("frames", nargs=-1, required=True, type=_SafePath(path_type=Path))
 @click.option(
     "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_SafePath(dir_okay=False, path_type=Path),
     help="CSV file to write [default: stdout].",
 )
 @click.option("--method", "-m", help="Method to localise with [default: the map's].")
@@ -571,12 +668,14 @@ def localise(
     values = _merge(
         _file_values(config_file, "localise"),
         {"out": out, "method": method, "params": _parse_method_params(params)},
+        source=config_file,
+        nested=False,
     )
     _reject_unknown(values, ["method", "out", "params"], config_file, "localise")
     run_localise(
         map_path,
         list(frames),
-        None if values.get("out") is None else Path(values["out"]),
+        None if values.get("out") is None else _output(values["out"], folder=False),
         method=values.get("method"),
         params=dict(values.get("params", {})),
     )
@@ -589,25 +688,25 @@ Examples:
   ppaloc show route.npz --out route.png
   ppaloc show planes.npz            # every 2-D array as a register plane"""
 )
-@click.argument("path", type=click.Path(path_type=Path))
+@click.argument("path", type=_SafePath(path_type=Path))
 @click.option(
-    "--out", type=click.Path(dir_okay=False, path_type=Path), help="PNG to write (maps, planes)."
+    "--out", type=_SafePath(dir_okay=False, path_type=Path), help="PNG to write (maps, planes)."
 )
 @_QUIET
 def show(path: Path, out: Path | None, quiet: bool | None) -> None:
     """Render a results folder (table and report), a saved map or register planes."""
     from ppaloc.cli.commands import run_show
 
-    run_show(path, out, quiet=bool(quiet))
+    run_show(path, None if out is None else _output(out, folder=False), quiet=bool(quiet))
 
 
 def _sizes(text: str) -> list[int]:
-    try:
-        return [int(s) for s in text.split(",") if s.strip()]
-    except ValueError:
+    parts = [s.strip() for s in text.split(",") if s.strip()]
+    if len(text) > 1000 or not all(p.isascii() and p.isdigit() and len(p) < 20 for p in parts):
         raise PpalocError(
-            f"sizes {text!r} must be comma-separated integers, e.g. 64,256,1024"
-        ) from None
+            f"sizes {_short(text)} must be comma-separated whole numbers, e.g. 64,256,1024"
+        )
+    return [int(p) for p in parts]
 
 
 def _reject_unknown(

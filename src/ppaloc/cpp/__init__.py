@@ -1,0 +1,19 @@
+"""SCAMP-5d C++ in and out (docs/cpp.md).
+
+- :func:`run_program`: compile a SCAMP-5d device program against ppaloc's header shim and
+  run it with every call served by the simulator (``ppaloc cpp run``).
+- :func:`to_cpp`: write a recorded kernel, or a traced run of the on-sensor pipeline, as
+  SCAMP-5d C++ for the vendor's toolchain.
+"""
+
+from ppaloc.cpp.build import CompileError, UnmodelledCallError, compile_program, compiler
+from ppaloc.cpp.run import RunResult, run_program
+
+__all__ = [
+    "CompileError",
+    "RunResult",
+    "UnmodelledCallError",
+    "compile_program",
+    "compiler",
+    "run_program",
+]

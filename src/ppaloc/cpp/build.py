@@ -1,0 +1,190 @@
+"""Compiling a SCAMP-5d program against the shim, once per source (a cache by content hash).
+
+:func:`check_source` names every API call the simulator does not model, with its line,
+before anything is compiled; :func:`compile_program` runs the system C++ compiler (``g++``,
+or ``$CXX``) with AddressSanitizer, so an out-of-bounds write stops the program at once,
+and keeps the executable under a hash of everything that went into it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+from functools import cache
+from importlib import resources
+from pathlib import Path
+
+from ppaloc.cpp.shimgen import constants_header, kernel_macros, macros_header
+from ppaloc.errors import PpalocError
+
+__all__ = [
+    "CompileError",
+    "UnmodelledCallError",
+    "cache_dir",
+    "check_source",
+    "compile_program",
+    "compiler",
+    "known_names",
+]
+
+#: Compiler flags: C++17, debug lines for messages, AddressSanitizer for bad memory access.
+FLAGS = ("-std=c++17", "-O0", "-g", "-fsanitize=address", "-fno-omit-frame-pointer")
+
+# Kernel functions of the SCAMP-5d library the simulator has no model of (analogue
+# diffusion, asynchronous propagation, squaring, raw ICWs, analogue output).
+_VENDOR_KERNEL_ONLY = (
+    "blur", "blurh", "blurv", "blurset", "gauss", "gaussh", "gaussv", "sq", "aout",
+    "PROP0", "PROP1", "PROP_R1", "PROP_R2", "icw", "allow_highspeed", "move_to_heap",
+)  # fmt: skip
+
+
+class CompileError(PpalocError):
+    """The C++ compiler rejected the program (the message is the compiler's own)."""
+
+
+class UnmodelledCallError(PpalocError):
+    """The program calls a SCAMP-5d function the simulator does not model."""
+
+
+def compiler() -> str | None:
+    """The C++ compiler to use (``$CXX``, else ``g++``), or None when there is none."""
+    name = os.environ.get("CXX", "g++")
+    return shutil.which(name)
+
+
+def cache_dir() -> Path:
+    """Where compiled programs are kept (``$PPALOC_CPP_CACHE``, else the user cache)."""
+    env = os.environ.get("PPALOC_CPP_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "ppaloc" / "cpp"
+
+
+def _shim_text() -> str:
+    return resources.files("ppaloc.cpp").joinpath("include/scamp5.hpp").read_text()
+
+
+@cache
+def known_names() -> frozenset[str]:
+    """Every ``scamp5_*``/``vs_*`` name the shim defines and every kernel function."""
+    names = set(re.findall(r"\b((?:scamp5|vs)_\w+)", _shim_text()))
+    return frozenset(names | set(kernel_macros()))
+
+
+def _strip(text: str) -> str:
+    """Comments and string literals blanked out, newlines kept (so lines still count)."""
+
+    def blank(m: re.Match) -> str:
+        s = m.group(0)
+        if s.startswith(("/", "'")) or s.startswith('"'):
+            return re.sub(r"[^\n]", " ", s)
+        return s
+
+    pattern = r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\''
+    return re.sub(pattern, blank, text, flags=re.S)
+
+
+def check_source(text: str, name: str) -> None:
+    """Refuse a program that calls SCAMP-5d functions the simulator does not model.
+
+    Raises
+    ------
+    UnmodelledCallError
+        Naming the first such call and its line, e.g. ``prog.cpp:12: scamp5_flood is a
+        SCAMP-5d function the simulator does not model``.
+    """
+    code = _strip(text)
+    known = known_names()
+    found: list[tuple[int, str]] = []
+    for m in re.finditer(r"\b((?:scamp5|vs)_\w+)", code):
+        if m.group(1) not in known:
+            found.append((m.start(), m.group(1)))
+    unmodelled = [n for n in _VENDOR_KERNEL_ONLY if n not in known]
+    if unmodelled:
+        calls = r"\b(" + "|".join(map(re.escape, unmodelled)) + r")\s*\("
+        found += [(m.start(), m.group(1)) for m in re.finditer(calls, code)]
+    if found:
+        at, fn = min(found)
+        line = code.count("\n", 0, at) + 1
+        more = len({f for _, f in found}) - 1
+        also = f" (and {more} more)" if more > 0 else ""
+        raise UnmodelledCallError(
+            f"{name}:{line}: {fn} is a SCAMP-5d function the simulator does not model{also}; "
+            "docs/cpp.md lists what is modelled"
+        )
+
+
+def _generated(root: Path) -> Path:
+    """The generated headers, written once per content under ``root/gen-HASH``."""
+    consts, macros = constants_header(), macros_header()
+    digest = hashlib.sha256((consts + macros).encode()).hexdigest()[:16]
+    folder = root / f"gen-{digest}"
+    if not (folder / "ppaloc_gen_macros.hpp").exists():
+        tmp = root / f".gen-{digest}-{os.getpid()}"
+        tmp.mkdir(parents=True, exist_ok=True)
+        (tmp / "ppaloc_gen_consts.hpp").write_text(consts)
+        (tmp / "ppaloc_gen_macros.hpp").write_text(macros)
+        try:
+            os.rename(tmp, folder)
+        except OSError:  # another process got there first
+            shutil.rmtree(tmp, ignore_errors=True)
+    return folder
+
+
+def _compiler_message(output: str, limit: int = 12) -> str:
+    lines = [ln for ln in output.splitlines() if ln.strip()]
+    errors = [ln for ln in lines if "error" in ln]
+    shown = (errors or lines)[:limit]
+    return "\n".join(shown)
+
+
+def compile_program(source: str | os.PathLike[str]) -> Path:
+    """Compile ``source`` against the shim; the executable's path (cached by content).
+
+    Raises
+    ------
+    PpalocError
+        If the file is missing or there is no C++ compiler.
+    UnmodelledCallError
+        If it calls a SCAMP-5d function the simulator does not model (before compiling).
+    CompileError
+        With the compiler's own messages (file, line, column) when it does not compile.
+    """
+    path = Path(source)
+    try:
+        text = path.read_text(errors="replace")
+    except OSError as exc:
+        raise PpalocError(f"cannot read the program {path}: {exc.strerror}") from None
+    check_source(text, str(path))
+    cxx = compiler()
+    if cxx is None:
+        raise PpalocError("no C++ compiler found (g++); install Debian's g++ package or set $CXX")
+    root = cache_dir()
+    root.mkdir(parents=True, exist_ok=True)
+    include = resources.files("ppaloc.cpp").joinpath("include")
+    gen = _generated(root)
+    version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
+    key = hashlib.sha256(
+        "\0".join(
+            [text, _shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(),
+             (gen / "ppaloc_gen_consts.hpp").read_text(), " ".join(FLAGS), version,
+             str(path.resolve())]
+        ).encode()
+    ).hexdigest()[:24]  # fmt: skip
+    exe = root / f"prog-{key}"
+    if exe.exists():
+        return exe
+    tmp = root / f".prog-{key}-{os.getpid()}"
+    cmd = [cxx, *FLAGS, f"-I{include}", f"-I{gen}", str(path), "-o", str(tmp)]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        tmp.unlink(missing_ok=True)
+        raise CompileError(
+            f"{path} does not compile:\n{_compiler_message(done.stderr + done.stdout)}"
+        )
+    os.replace(tmp, exe)
+    return exe

@@ -1,0 +1,560 @@
+// ppaloc's SCAMP-5d shim: the documented names and types of the SCAMP-5d device API,
+// served by ppaloc's Python simulator over a pipe (`ppaloc cpp run PROGRAM.cpp`).
+//
+// Kernel functions (mov, add, where, DNEWS, ...) are generated from the simulator's own
+// list (ppaloc_gen_macros.hpp) and forwarded by name: the simulator expands, checks and
+// runs them. A static kernel (scamp5_kernel_begin/end) is recorded once and replayed by
+// id. Controller calls that return nothing stream; readouts wait for their answer.
+// Positions are the chip's hardware addresses (column 0 at the east edge), as on the
+// device. docs/cpp.md describes what is modelled.
+#pragma once
+
+#include <unistd.h>
+
+#include <cstdarg>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+// ------------------------------------------------------------------ register types
+struct aref_t { uint8_t code; };
+struct areg_t {
+    uint8_t code;
+    constexpr operator aref_t() const { return aref_t{code}; }
+};
+struct dref_t { uint8_t code; };
+struct dreg_t {
+    uint8_t code;
+    constexpr operator dref_t() const { return dref_t{code}; }
+};
+enum news_t { east = 1, west = 2, north = 4, south = 8, alldir = 15 };
+constexpr news_t operator|(news_t a, news_t b) { return news_t(int(a) | int(b)); }
+
+#define AREG areg_t const&
+#define ASRC aref_t const&
+#define DREG dreg_t const&
+#define DSRC dref_t const&
+
+typedef int vs_handle;
+
+#include "ppaloc_gen_consts.hpp"
+
+// ------------------------------------------------------------------ the client
+namespace ppa {
+
+struct Loc {
+    const char* file;
+    unsigned line;
+};
+#define PPA_HERE (ppa::Loc{__builtin_FILE(), __builtin_LINE()})
+
+// One argument of a kernel or controller call, tagged with its kind.
+struct Arg {
+    uint8_t tag;
+    int32_t value;
+    const char* text = nullptr;
+    constexpr Arg(const areg_t& r) : tag(TAG_AREG), value(r.code) {}
+    constexpr Arg(const aref_t& r) : tag(TAG_AREG), value(r.code) {}
+    constexpr Arg(const dreg_t& r) : tag(TAG_DREG), value(r.code) {}
+    constexpr Arg(const dref_t& r) : tag(TAG_DREG), value(r.code) {}
+    constexpr Arg(news_t d) : tag(TAG_DIR), value(int(d)) {}
+    constexpr Arg(int v) : tag(TAG_INT), value(v) {}
+    Arg(const char* s) : tag(TAG_STR), value(int32_t(s ? std::strlen(s) : 0)), text(s) {}
+};
+
+[[noreturn]] inline void fail(const Loc& loc, const std::string& msg) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "ppaloc-shim: %s:%u: %s\n", loc.file, loc.line, msg.c_str());
+    std::_Exit(SHIM_EXIT);
+}
+
+class Client {
+   public:
+    std::vector<uint8_t> buf;
+    int out_fd = -1, in_fd = -1;
+    bool connected = false;
+    int rows = 256, cols = 256;
+
+    void connect() {
+        if (connected) return;
+        const char* o = std::getenv("PPALOC_FD_OUT");
+        const char* i = std::getenv("PPALOC_FD_IN");
+        if (!o || !i) {
+            std::fprintf(stderr,
+                         "ppaloc-shim: this program is built on ppaloc's SCAMP-5d shim; "
+                         "run it with `ppaloc cpp run PROGRAM.cpp`\n");
+            std::_Exit(SHIM_EXIT);
+        }
+        out_fd = std::atoi(o);
+        in_fd = std::atoi(i);
+        connected = true;
+        buf.reserve(1 << 16);
+        std::atexit([] { Client::get().finish(); });
+        size_t at = begin(OP_HELLO);
+        u32(PROTOCOL_VERSION);
+        end(at);
+        std::vector<uint8_t> r = reply();
+        rows = r[0] | (r[1] << 8);
+        cols = r[2] | (r[3] << 8);
+    }
+
+    static Client& get() {
+        static Client c;
+        return c;
+    }
+
+    void u8(uint8_t v) { buf.push_back(v); }
+    void u16(uint16_t v) {
+        u8(v & 0xFF);
+        u8(v >> 8);
+    }
+    void u32(uint32_t v) {
+        for (int k = 0; k < 4; ++k) u8((v >> (8 * k)) & 0xFF);
+    }
+    void bytes(const void* p, size_t n) {
+        const uint8_t* b = static_cast<const uint8_t*>(p);
+        buf.insert(buf.end(), b, b + n);
+    }
+    void name(const char* s) {
+        size_t n = std::strlen(s);
+        u8(uint8_t(n));
+        bytes(s, n);
+    }
+    void arg(const Arg& a) {
+        u8(a.tag);
+        u32(uint32_t(a.value));
+        if (a.tag == TAG_STR && a.value) bytes(a.text, size_t(a.value));
+    }
+
+    // Start a message; returns where its length goes.
+    size_t begin(uint8_t op) {
+        connect();
+        u8(op);
+        size_t at = buf.size();
+        u32(0);
+        return at;
+    }
+    void end(size_t at) {
+        uint32_t n = uint32_t(buf.size() - at - 4);
+        for (int k = 0; k < 4; ++k) buf[at + k] = (n >> (8 * k)) & 0xFF;
+        if (buf.size() >= (1 << 16)) flush();
+    }
+
+    void write_all(const uint8_t* p, size_t n) {
+        while (n) {
+            ssize_t w = ::write(out_fd, p, n);
+            if (w <= 0) std::_Exit(SERVER_EXIT);  // the simulator has gone
+            p += w;
+            n -= size_t(w);
+        }
+    }
+    void read_all(uint8_t* p, size_t n) {
+        while (n) {
+            ssize_t r = ::read(in_fd, p, n);
+            if (r <= 0) std::_Exit(SERVER_EXIT);
+            p += r;
+            n -= size_t(r);
+        }
+    }
+    void flush() {
+        if (!buf.empty()) write_all(buf.data(), buf.size());
+        buf.clear();
+    }
+
+    // Send what is buffered and wait for the answer to the last message.
+    std::vector<uint8_t> reply() {
+        flush();
+        uint8_t head[8];
+        read_all(head, 8);
+        uint32_t status = head[0] | (head[1] << 8) | (head[2] << 16) | (uint32_t(head[3]) << 24);
+        uint32_t n = head[4] | (head[5] << 8) | (head[6] << 16) | (uint32_t(head[7]) << 24);
+        std::vector<uint8_t> out(n);
+        if (n) read_all(out.data(), n);
+        if (status) std::_Exit(SERVER_EXIT);
+        return out;
+    }
+
+    void finish() {
+        if (!connected) return;
+        size_t at = begin(OP_EXIT);
+        end(at);
+        flush();
+    }
+};
+
+// A controller call by name; with `want`, its answer.
+inline std::vector<uint8_t> call(const char* fn, bool want, std::initializer_list<Arg> args,
+                                 const Loc& loc) {
+    Client& c = Client::get();
+    size_t at = c.begin(OP_CALL);
+    c.u8(want ? 1 : 0);
+    c.name(fn);
+    c.u32(loc.line);
+    c.u8(uint8_t(args.size()));
+    for (const Arg& a : args) c.arg(a);
+    c.end(at);
+    if (!want) return {};
+    return c.reply();
+}
+
+inline int32_t as_int(const std::vector<uint8_t>& r) {
+    uint32_t v = 0;
+    for (size_t k = 0; k < 4 && k < r.size(); ++k) v |= uint32_t(r[k]) << (8 * k);
+    return int32_t(v);
+}
+
+}  // namespace ppa
+
+// ------------------------------------------------------------------ kernels
+class scamp5_kernel;
+namespace ppa {
+inline scamp5_kernel*& active() {
+    static scamp5_kernel* k = nullptr;
+    return k;
+}
+inline std::map<std::string, uint32_t>& known_bodies() {
+    static std::map<std::string, uint32_t> m;
+    return m;
+}
+void emit(const char* fn, const Loc& loc, const Arg* const* args, int n);
+}  // namespace ppa
+
+class scamp5_kernel {
+   public:
+    uint32_t id = 0;
+    std::vector<uint8_t> body;
+    uint16_t calls = 0;
+    unsigned line = 0;
+    const char* file = "";
+
+    scamp5_kernel() {}
+    explicit scamp5_kernel(std::function<void(void)> f, ppa::Loc loc = PPA_HERE) {
+        recording_start(loc.file, loc.line);
+        f();
+        recording_stop();
+    }
+    bool null() const { return id == 0; }
+
+    void recording_start(const char* f = "", unsigned l = 0) {
+        if (ppa::active()) ppa::fail(ppa::Loc{f, l}, "a kernel begins inside another kernel");
+        file = f;
+        line = l;
+        body.clear();
+        calls = 0;
+        ppa::active() = this;
+    }
+    void recording_stop() {
+        ppa::active() = nullptr;
+        std::string key(body.begin(), body.end());
+        auto& known = ppa::known_bodies();
+        auto it = known.find(key);
+        if (it != known.end()) {
+            id = it->second;
+            return;
+        }
+        id = uint32_t(known.size() + 1);
+        known[key] = id;
+        ppa::Client& c = ppa::Client::get();
+        size_t at = c.begin(ppa::OP_DEF);
+        c.u32(id);
+        c.u32(line);
+        c.u16(calls);
+        c.bytes(body.data(), body.size());
+        c.end(at);
+    }
+    void operator()() {
+        if (null()) ppa::fail(ppa::Loc{file, line}, "a kernel is launched before it is recorded");
+        ppa::Client& c = ppa::Client::get();
+        size_t at = c.begin(ppa::OP_RUN);
+        c.u32(id);
+        c.end(at);
+    }
+    friend void scamp5_launch_kernel(scamp5_kernel& k) { k(); }
+};
+
+inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, int n) {
+    scamp5_kernel* k = active();
+    if (!k) {
+        fail(loc, std::string(fn) +
+                      "() is a kernel function: call it between scamp5_kernel_begin() and "
+                      "scamp5_kernel_end()");
+    }
+    std::vector<uint8_t>& b = k->body;
+    size_t len = std::strlen(fn);
+    b.push_back(uint8_t(len));
+    b.insert(b.end(), fn, fn + len);
+    for (int s = 0; s < 4; ++s) b.push_back((loc.line >> (8 * s)) & 0xFF);
+    b.push_back(uint8_t(n));
+    for (int i = 0; i < n; ++i) {
+        b.push_back(args[i]->tag);
+        for (int s = 0; s < 4; ++s) b.push_back((uint32_t(args[i]->value) >> (8 * s)) & 0xFF);
+    }
+    k->calls++;
+}
+
+#include "ppaloc_gen_macros.hpp"
+
+#define scamp5_kernel_begin()                   \
+    {                                           \
+        using namespace scamp5_kernel_api;      \
+        static scamp5_kernel __ppa_sk;          \
+        if (__ppa_sk.null()) {                  \
+            __ppa_sk.recording_start(__FILE__, __LINE__)
+#define scamp5_kernel_end()      \
+    __ppa_sk.recording_stop();   \
+    }                            \
+    scamp5_launch_kernel(__ppa_sk); \
+    }
+#define scamp5_dynamic_kernel_begin()      \
+    {                                      \
+        using namespace scamp5_kernel_api; \
+        scamp5_kernel __ppa_sk;            \
+        __ppa_sk.recording_start(__FILE__, __LINE__)
+#define scamp5_dynamic_kernel_end() \
+    __ppa_sk.recording_stop();      \
+    scamp5_launch_kernel(__ppa_sk); \
+    }
+
+// ------------------------------------------------------------------ controller: analogue
+#define PPA_CALL(fn, want, ...) ppa::call(fn, want, {__VA_ARGS__}, loc)
+
+inline void scamp5_get_image(AREG yf, AREG yh, int gain = 1, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_get_image", false, yf, yh, gain);
+}
+inline void scamp5_in(AREG areg, int8_t value, AREG temp = SCAMP5_PE::NEWS,
+                      ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_in", false, areg, int(value), temp);
+}
+inline void scamp5_load_in(AREG areg, int8_t value, AREG temp = SCAMP5_PE::NEWS,
+                           ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_load_in", false, areg, int(value), temp);
+}
+inline void scamp5_load_in(int8_t value, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_load_in_value", false, int(value));
+}
+inline void scamp5_shift(AREG areg, int h, int v, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_shift", false, areg, h, v, 0);
+}
+inline uint8_t scamp5_read_areg(ASRC areg, uint8_t r, uint8_t c, ppa::Loc loc = PPA_HERE) {
+    return uint8_t(ppa::as_int(PPA_CALL("scamp5_read_areg", true, areg, int(r), int(c))));
+}
+inline uint32_t ppa_global_sum(const char* fn, AREG areg, uint8_t* out, int n, ppa::Loc loc) {
+    std::vector<uint8_t> r = PPA_CALL(fn, true, areg);
+    if (out) std::memcpy(out, r.data() + 4, size_t(n));
+    return uint32_t(ppa::as_int(r));
+}
+inline uint32_t scamp5_global_sum_16(AREG areg, uint8_t* result16v = NULL,
+                                     ppa::Loc loc = PPA_HERE) {
+    return ppa_global_sum("scamp5_global_sum_16", areg, result16v, 16, loc);
+}
+inline uint32_t scamp5_global_sum_64(AREG areg, uint8_t* result64v = NULL,
+                                     ppa::Loc loc = PPA_HERE) {
+    return ppa_global_sum("scamp5_global_sum_64", areg, result64v, 64, loc);
+}
+
+// ------------------------------------------------------------------ controller: digital
+inline void scamp5_shift(DREG dreg, int h, int v, const int boundary = 0, const int refresh = 2,
+                         ppa::Loc loc = PPA_HERE) {
+    (void)refresh;  // the simulator's digital shift does not decay between steps
+    PPA_CALL("scamp5_shift", false, dreg, h, v, boundary);
+}
+inline int scamp5_global_or(DSRC dreg, uint8_t r = 0, uint8_t c = 0, uint8_t rx = 255,
+                            uint8_t cx = 255, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(
+        PPA_CALL("scamp5_global_or", true, dreg, int(r), int(c), int(rx), int(cx)));
+}
+inline int scamp5_global_count(DSRC dreg, AREG temp, int options = 0, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("scamp5_global_count", true, dreg, temp, options));
+}
+inline void scamp5_load_point(DREG dr, uint8_t r, uint8_t c, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_load_point", false, dr, int(r), int(c));
+}
+inline void scamp5_load_rect(DREG dr, uint8_t r0, uint8_t c0, uint8_t r1, uint8_t c1,
+                             ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_load_rect", false, dr, int(r0), int(c0), int(r1), int(c1));
+}
+inline void scamp5_load_pattern(DREG dr, uint8_t r, uint8_t c, uint8_t rx, uint8_t cx,
+                                ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_load_pattern", false, dr, int(r), int(c), int(rx), int(cx));
+}
+inline void scamp5_select_point(uint8_t r, uint8_t c, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_select_point", false, int(r), int(c));
+}
+inline void scamp5_select_rect(uint8_t r0, uint8_t c0, uint8_t r1, uint8_t c1,
+                               ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_select_rect", false, int(r0), int(c0), int(r1), int(c1));
+}
+inline void scamp5_select_pattern(uint8_t r, uint8_t c, uint8_t rx, uint8_t cx,
+                                  ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_select_pattern", false, int(r), int(c), int(rx), int(cx));
+}
+
+// ------------------------------------------------------------------ readouts and outputs
+inline void ppa_fill(const std::vector<uint8_t>& r, uint8_t* out) {
+    if (out && !r.empty()) std::memcpy(out, r.data(), r.size());
+}
+inline void scamp5_scan_areg(ASRC areg, uint8_t* buffer, uint8_t r0, uint8_t c0, uint8_t r1,
+                             uint8_t c1, uint8_t rs, uint8_t cs, ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_areg", true, areg, int(r0), int(c0), int(r1), int(c1),
+                      int(rs), int(cs)),
+             buffer);
+}
+inline void scamp5_scan_areg_8x8(ASRC areg, uint8_t* result8x8, ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_areg_8x8", true, areg), result8x8);
+}
+inline void scamp5_scan_areg_mean_8x8(ASRC areg, uint8_t* result8x8, ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_areg_mean_8x8", true, areg), result8x8);
+}
+inline void scamp5_scan_dreg(DSRC dreg, uint8_t* mem, uint8_t r0 = 0, uint8_t r1 = 255,
+                             ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_dreg", true, dreg, int(r0), int(r1)), mem);
+}
+inline void scamp5_scan_events(DSRC dreg, uint8_t* cr2v, uint16_t max_num = 1, uint8_t h_dir = 0,
+                               uint8_t v_dir = 0, ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_events", true, dreg, int(max_num), int(h_dir), int(v_dir)),
+             cr2v);
+}
+inline void scamp5_output_image(ASRC areg, vs_handle display, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_output_image", false, areg, display);
+}
+inline void scamp5_output_image(DSRC dreg, vs_handle display, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_output_image", false, dreg, display);
+}
+inline void scamp5_output_bitstack_begin(vs_handle display, int n_bits, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_output_bitstack_begin", false, display, n_bits);
+}
+inline void scamp5_output_bitstack_bit(DSRC dreg, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_output_bitstack_bit", false, dreg);
+}
+inline void scamp5_output_bitstack_end(ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_output_bitstack_end", false, 0);
+}
+
+// ------------------------------------------------------------------ vs_*: loop, text, GUI
+namespace ppa {
+inline uint32_t& loop_counter() {
+    static uint32_t n = 0;
+    return n;
+}
+struct Gui {
+    std::map<vs_handle, int32_t> values;
+    std::map<vs_handle, volatile int*> writeback;
+    std::map<vs_handle, std::function<void(int32_t)>> callbacks;
+    vs_handle next = 1;
+};
+inline Gui& gui() {
+    static Gui g;
+    return g;
+}
+inline vs_handle gui_item(const char* kind, const char* text, int32_t lo, int32_t hi,
+                          int32_t init, volatile int* wb, const Loc& loc) {
+    Gui& g = gui();
+    vs_handle h = g.next++;
+    int32_t v = as_int(call(kind, true, {Arg(text), lo, hi, init}, loc));
+    g.values[h] = v;
+    if (wb) {
+        *wb = v;
+        g.writeback[h] = wb;
+    }
+    return h;
+}
+}  // namespace ppa
+
+inline void vs_init(ppa::Loc loc = PPA_HERE) {
+    (void)loc;
+    ppa::Client::get().connect();
+}
+inline int vs_frame_loop_control_impl(ppa::Loc loc) {
+    ppa::loop_counter()++;
+    return ppa::as_int(PPA_CALL("vs_frame_loop_control", true, 0));
+}
+inline void vs_frame_loop_control(ppa::Loc loc = PPA_HERE) {
+    if (!vs_frame_loop_control_impl(loc)) std::exit(0);
+}
+inline void vs_process_message() {}
+inline void vs_wait_frame_trigger() {}
+inline void vs_wait(uint32_t usec) { (void)usec; }
+inline void vs_loop_counter_inc() { ppa::loop_counter()++; }
+inline void vs_loop_counter_reset() { ppa::loop_counter() = 0; }
+inline uint32_t vs_loop_counter_get() { return ppa::loop_counter(); }
+#define VS_LC vs_loop_counter_get()
+
+__attribute__((format(printf, 1, 2))) inline void vs_post_text(const char* format, ...) {
+    char text[1024];
+    va_list ap;
+    va_start(ap, format);
+    std::vsnprintf(text, sizeof text, format, ap);
+    va_end(ap);
+    ppa::call("vs_post_text", false, {ppa::Arg(text)}, ppa::Loc{"", 0});
+}
+inline bool vs_gui_is_on() { return true; }
+inline void vs_gui_set_info(const char* str) { (void)str; }
+inline void vs_gui_push_items() {}
+inline void vs_gui_clear_items() {}
+inline vs_handle vs_gui_add_display(const char* text, uint8_t row, uint8_t col, int size = 1,
+                                    const char* style = NULL, ppa::Loc loc = PPA_HERE) {
+    (void)style;
+    vs_handle h = ppa::gui().next++;
+    PPA_CALL("vs_gui_add_display", false, ppa::Arg(text), h, int(row), int(col), size);
+    return h;
+}
+inline void vs_gui_set_display_style(vs_handle display, const char* style) {
+    (void)display;
+    (void)style;
+}
+inline vs_handle vs_gui_add_slider(const char* text, int32_t min, int32_t max, int32_t init,
+                                   volatile int* writeback = NULL, ppa::Loc loc = PPA_HERE) {
+    return ppa::gui_item("vs_gui_add_slider", text, min, max, init, writeback, loc);
+}
+inline vs_handle vs_gui_add_slider_latched(const char* text, int32_t min, int32_t max,
+                                           int32_t init, volatile int* writeback = NULL,
+                                           ppa::Loc loc = PPA_HERE) {
+    return ppa::gui_item("vs_gui_add_slider", text, min, max, init, writeback, loc);
+}
+inline vs_handle vs_gui_add_switch(const char* text, bool init, volatile int* writeback = NULL,
+                                   ppa::Loc loc = PPA_HERE) {
+    return ppa::gui_item("vs_gui_add_switch", text, 0, 1, init ? 1 : 0, writeback, loc);
+}
+inline vs_handle vs_gui_add_button(const char* text) {
+    (void)text;
+    return ppa::gui().next++;
+}
+inline int32_t vs_gui_read_slider(vs_handle h) { return ppa::gui().values[h]; }
+inline int32_t vs_gui_read_switch(vs_handle h) { return ppa::gui().values[h]; }
+inline void vs_gui_set_slider(vs_handle h, int32_t value) {
+    ppa::Gui& g = ppa::gui();
+    g.values[h] = value;
+    if (g.writeback.count(h)) *g.writeback[h] = value;
+}
+inline void vs_gui_move_slider(vs_handle h, int32_t value, bool feedback = true) {
+    vs_gui_set_slider(h, value);
+    ppa::Gui& g = ppa::gui();
+    if (feedback && g.callbacks.count(h)) g.callbacks[h](value);
+}
+inline void vs_on_gui_update(vs_handle item, std::function<void(int32_t)> f) {
+    ppa::Gui& g = ppa::gui();
+    g.callbacks[item] = f;
+    if (g.values.count(item)) f(g.values[item]);  // the value given to this run, once
+}
+
+// Modelled time: microseconds of the simulator's timing model, not the host's clock.
+class vs_stopwatch {
+    double start_us = 0;
+    static double now() {
+        std::vector<uint8_t> r =
+            ppa::call("vs_stopwatch_now", true, {0}, ppa::Loc{"", 0});
+        double v;
+        std::memcpy(&v, r.data(), sizeof v);
+        return v;
+    }
+
+   public:
+    vs_stopwatch() { reset(); }
+    void reset() { start_us = now(); }
+    uint32_t get_usec() const { return uint32_t(now() - start_us + 0.5); }
+};

@@ -1,0 +1,61 @@
+"""The wire protocol between a compiled SCAMP-5d program and the simulator serving it.
+
+One source of truth for both ends: :func:`ppaloc.cpp.shimgen.constants_header` writes
+these numbers into the C++ shim. Little-endian binary framing over two pipes.
+
+Program -> simulator, one message each::
+
+    u8 op, u32 payload length, payload
+
+- ``HELLO``: ``u32 version``; answered with ``u16 rows, u16 cols``.
+- ``DEF``: ``u32 id, u32 line, u16 n``, then ``n`` macro calls, each ``u8 name length,
+  name, u32 line, u8 n_args, args``. Sent once per distinct kernel body; never answered.
+- ``RUN``: ``u32 id``. The first run records the kernel on the simulator (and runs it),
+  later runs replay it. Never answered, so runs stream.
+- ``CALL``: ``u8 wants_reply, u8 name length, name, u32 line, u8 n_args, args``: a
+  controller, output, GUI or loop call, served by name. Only calls with ``wants_reply``
+  (readouts, sliders, the frame loop, the stopwatch) are answered.
+- ``EXIT``: empty; the program is ending.
+
+An argument is ``u8 tag, i32 value``; a string (tag ``STR``) is followed by its bytes
+(``value`` = length). Register arguments carry the register's code (its index in
+:data:`REGISTER_NAMES`).
+
+Simulator -> program, one reply per answered message::
+
+    u32 status (0 ok, else the program stops), u32 length, payload
+
+The program buffers messages (64 KiB) and writes them only when it needs an answer, when
+the buffer is full, or at exit: a replayed kernel costs 9 bytes and no round trip.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "OPS",
+    "REGISTER_NAMES",
+    "TAGS",
+    "VERSION",
+]
+
+#: Protocol version (HELLO checks it).
+VERSION = 1
+
+#: Message opcodes.
+OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5}
+
+#: Argument tags.
+TAGS: dict[str, int] = {"INT": 0, "AREG": 1, "DREG": 2, "DIR": 3, "STR": 4}
+
+#: Register codes, in order: the C++ constants carry these indices.
+REGISTER_NAMES: tuple[str, ...] = (
+    "A", "B", "C", "D", "E", "F", "NEWS", "PIX", "IN", "XN", "XE", "XS", "XW",
+    "R0", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "R10", "R11", "R12",
+    "FLAG", "SELECT",
+)  # fmt: skip
+
+#: The program's exit code when the shim stops it on a usage error it found itself
+#: (the message is its last line on stderr, prefixed ``ppaloc-shim:``).
+SHIM_EXIT = 65
+#: The program's exit code when the simulator answered with an error status.
+SERVER_EXIT = 66

@@ -1,0 +1,277 @@
+"""Running a compiled SCAMP-5d program with every call served by the simulator.
+
+:func:`run_program` compiles (cached), starts the program with two pipes to the simulator,
+serves it (:mod:`ppaloc.cpp.server`) until it ends, stops it after ``timeout`` seconds,
+turns a crash into a one-line error, and writes the run's folder whole or not at all
+(:func:`ppaloc.fileio.new_folder`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import select
+import signal
+import subprocess
+import tempfile
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ppaloc.cpp.build import compile_program
+from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
+from ppaloc.cpp.server import ProgramError, Session, serve
+from ppaloc.errors import PpalocError
+from ppaloc.fileio import new_folder
+from ppaloc.sim import NoiseParams, Scamp5
+from ppaloc.sim.render import plane_to_image, render_montage, save_png
+
+__all__ = ["RunResult", "run_program", "write_outputs"]
+
+#: Frames of the montage (the first ones; every frame has its own PNGs).
+MONTAGE_FRAMES = 8
+
+
+@dataclass
+class RunResult:
+    """What a run produced.
+
+    Attributes
+    ----------
+    session : Session
+        The served run: ``session.sim`` (the simulator, registers as the program left
+        them), displays, outputs per frame, texts, kernel statistics, frame times.
+    stdout : str
+        What the program printed.
+    wall_s : float
+        Wall time of the run (compilation excluded).
+    out : pathlib.Path or None
+        The output folder, when one was written.
+    """
+
+    session: Session
+    stdout: str
+    wall_s: float
+    out: Path | None = None
+
+    @property
+    def texts(self) -> list[str]:
+        """Posted text, in order."""
+        return [t for _, t in self.session.texts]
+
+    def summary(self) -> dict[str, Any]:
+        """What ran, JSON-ready (``summary.json``)."""
+        s = self.session
+        return {
+            "program": s.program,
+            "array": [s.sim.rows, s.sim.cols],
+            "frames": len(s.frame_us) if s.finished else s.frame + (1 if s.loops else 0),
+            "kernels": len(s.kernels),
+            "kernel_runs": sum(k.runs for k in s.kernels.values()),
+            "icws_run": sum(k.runs * len(k.kernel) for k in s.kernels.values() if k.kernel),
+            "calls": dict(sorted(s.calls.items())),
+            "displays": {str(h): name for h, name in s.displays.items()},
+            "gui_values": s.gui_values,
+            "texts": len(s.texts),
+            "modelled_us": s.sim.timing.now_us,
+            "wall_s": self.wall_s,
+        }
+
+    def timing(self) -> dict[str, Any]:
+        """Modelled time per kernel and per frame (``timing.json``)."""
+        s = self.session
+        return {
+            "kernels": [k.as_dict() for k in s.kernels.values()],
+            "frames": [{"frame": i, "modelled_us": us} for i, us in enumerate(s.frame_us)],
+            "total_us": s.sim.timing.now_us,
+            "stages": s.sim.timing.report().as_dict(),
+        }
+
+
+def _slug(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "display"
+
+
+def write_outputs(result: RunResult, folder: Path) -> None:
+    """Write a run's files into ``folder`` (see docs/cpp.md, "Outputs")."""
+    s = result.session
+    names = {h: _slug(n) for h, n in s.displays.items()}
+    for frame, outputs in enumerate(s.outputs):
+        for h, plane in outputs.items():
+            d = folder / "displays" / names[h]
+            d.mkdir(parents=True, exist_ok=True)
+            save_png(plane_to_image(plane), d / f"frame_{frame:04d}.png")
+    tiles = {
+        f"{s.displays[h]} #{frame}": plane
+        for frame, outputs in enumerate(s.outputs[:MONTAGE_FRAMES])
+        for h, plane in sorted(outputs.items())
+    }
+    if tiles:
+        columns = max(len(o) for o in s.outputs[:MONTAGE_FRAMES])
+        render_montage(tiles, folder / "montage.png", columns=columns)
+    (folder / "text.txt").write_text("".join(f"frame {f}: {t}\n" for f, t in s.texts))
+    (folder / "timing.json").write_text(json.dumps(result.timing(), indent=1))
+    (folder / "summary.json").write_text(json.dumps(result.summary(), indent=1))
+    (folder / "stdout.txt").write_text(result.stdout)
+
+
+def _crash_message(program: str, code: int, stderr: str, session: Session) -> str:
+    where = f"in frame {session.frame}" if session.loops else "before the frame loop"
+    lines = [ln.strip() for ln in stderr.splitlines() if ln.strip()]
+    if code == SHIM_EXIT:
+        shim = [ln for ln in lines if ln.startswith("ppaloc-shim:")]
+        text = shim[-1].removeprefix("ppaloc-shim:").strip() if shim else "stopped by the shim"
+        return text
+    asan = [ln for ln in lines if "ERROR: AddressSanitizer" in ln]
+    if asan:
+        kind = asan[0].split("AddressSanitizer:", 1)[1].split(" on ")[0].strip()
+        frame = next((ln for ln in lines if re.match(r"#\d+ .* in main ", ln)), "")
+        at = re.search(r"(\S+:\d+)(?::\d+)?\s*$", frame)
+        place = f" at {Path(at.group(1)).name}" if at else ""
+        return f"{program} crashed {where}: {kind} (a bad memory access){place}"
+    if code < 0:
+        try:
+            sig = signal.Signals(-code).name
+        except ValueError:
+            sig = f"signal {-code}"
+        return f"{program} crashed {where} ({sig})"
+    last = f": {lines[-1]}" if lines else ""
+    return f"{program} exited with status {code} {where}{last}"
+
+
+def run_program(
+    program: str | os.PathLike[str],
+    frames: Sequence[np.ndarray] | None = None,
+    *,
+    settings: Mapping[str, str] | None = None,
+    timeout: float = 60.0,
+    out: str | os.PathLike[str] | None = None,
+    noise: str | NoiseParams = "ideal",
+    seed: int = 0,
+) -> RunResult:
+    """Compile ``program`` (cached) and run it on the simulator, one frame per loop pass.
+
+    Parameters
+    ----------
+    program : path
+        A SCAMP-5d device program (C++).
+    frames : sequence of uint8 arrays, optional
+        The exposures, all of one square shape (the array size); default one
+        synthetic scene of 256 x 256 (``ppaloc.sim.demo.synthetic_scene``).
+    settings : mapping, optional
+        Slider and switch values by their GUI text.
+    timeout : float
+        Seconds the program may run before it is stopped.
+    out : path, optional
+        Folder to write (replaced whole, only when the run succeeds).
+    noise, seed : simulator noise preset and seed.
+
+    Raises
+    ------
+    PpalocError
+        Compile errors, unmodelled calls, a bad ``--set``, a misused call (with its line),
+        a timeout, a crash; no output folder is left behind.
+    """
+    name = Path(program).name
+    if frames is None:
+        from ppaloc.sim.demo import synthetic_scene
+
+        frames = [synthetic_scene(seed=0)]
+    frames = [np.asarray(f) for f in frames]
+    if not frames:
+        raise PpalocError("no frames to run on: give at least one image or --frames 1 or more")
+    shape = frames[0].shape
+    if any(f.shape != shape or f.dtype != np.uint8 for f in frames) or len(shape) != 2:
+        raise PpalocError(
+            "frames must be uint8 images of one shape: convert them with ppaloc.frontend.to_sensor"
+        )
+    if not (isinstance(timeout, int | float) and timeout > 0):
+        raise PpalocError(f"timeout={timeout!r} must be a positive number of seconds")
+    exe = compile_program(program)
+    sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
+    session = Session(sim, frames, dict(settings or {}), program=name)
+    result = _serve(exe, session, name, timeout)
+    if session.unused:
+        raise PpalocError(
+            f"--set {sorted(session.unused)[0]}=...: {name} has no slider or switch of that "
+            f"name (it has: {', '.join(session.gui_values) or 'none'})"
+        )
+    if out is not None:
+        with new_folder(out) as stage:
+            write_outputs(result, stage)
+        result.out = Path(out)
+    return result
+
+
+def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:
+    to_sim_r, to_sim_w = os.pipe()
+    to_prog_r, to_prog_w = os.pipe()
+    env = dict(os.environ)
+    env.update(
+        PPALOC_FD_OUT=str(to_sim_w),
+        PPALOC_FD_IN=str(to_prog_r),
+        ASAN_OPTIONS="detect_leaks=0:abort_on_error=0",
+    )
+    with tempfile.TemporaryFile() as out_f, tempfile.TemporaryFile() as err_f:
+        start = time.perf_counter()
+        proc = subprocess.Popen(
+            [str(exe)],
+            stdin=subprocess.DEVNULL,
+            stdout=out_f,
+            stderr=err_f,
+            pass_fds=(to_sim_w, to_prog_r),
+            env=env,
+        )
+        os.close(to_sim_w)
+        os.close(to_prog_r)
+        deadline = start + timeout
+        error: PpalocError | None = None
+
+        def read() -> bytes:
+            left = deadline - time.perf_counter()
+            ready = select.select([to_sim_r], [], [], max(left, 0))[0] if left > 0 else []
+            if not ready:
+                raise TimeoutError
+            return os.read(to_sim_r, 1 << 16)
+
+        def write(data: bytes) -> None:
+            try:
+                os.write(to_prog_w, data)
+            except BrokenPipeError:
+                pass
+
+        try:
+            serve(session, read, write)
+        except TimeoutError:
+            where = f"in frame {session.frame}" if session.loops else "before its frame loop"
+            error = PpalocError(
+                f"{name} did not finish within {timeout:g} s (stopped {where}): a loop that "
+                "never ends? raise --timeout if it needs longer"
+            )
+        except ProgramError as exc:
+            error = exc
+        finally:
+            if error is not None and proc.poll() is None:
+                proc.kill()
+            try:
+                code = proc.wait(timeout=max(deadline - time.perf_counter(), 0) + 5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                code = proc.wait()
+            os.close(to_sim_r)
+            os.close(to_prog_w)
+        wall = time.perf_counter() - start
+        out_f.seek(0)
+        err_f.seek(0)
+        stdout = out_f.read().decode("utf-8", "replace")
+        stderr = err_f.read().decode("utf-8", "replace")
+    if error is not None:
+        raise error
+    if code != 0 and code != SERVER_EXIT:
+        raise PpalocError(_crash_message(name, code, stderr, session))
+    return RunResult(session, stdout, wall)

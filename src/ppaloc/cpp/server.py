@@ -1,0 +1,451 @@
+"""The simulator's end of the pipe: serve a running SCAMP-5d program's calls on a ``Scamp5``.
+
+:class:`Session` decodes the messages of :mod:`ppaloc.cpp.protocol`: kernel bodies are
+recorded on the simulator on their first run and replayed by id afterwards; controller
+calls are dispatched by name to :data:`HANDLERS`, which call the simulator with hardware
+addresses (``scamp_addr=True``, as a device program writes them) and answer readouts in the
+device's buffer layouts. The session also keeps what the run produced: display images per
+frame, posted text, modelled time per kernel and per frame.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ppaloc.cpp.protocol import OPS, REGISTER_NAMES, TAGS, VERSION
+from ppaloc.errors import PpalocError
+from ppaloc.sim import Direction, Kernel, Register, Scamp5
+from ppaloc.sim.controller import to_scamp_buffer
+from ppaloc.sim.registers import register_by_name
+
+__all__ = ["HANDLERS", "KernelStats", "ProgramError", "Session"]
+
+_REGS: tuple[Register, ...] = tuple(register_by_name(n) for n in REGISTER_NAMES)
+_HELLO, _DEF, _RUN, _CALL, _EXIT = (OPS[k] for k in ("HELLO", "DEF", "RUN", "CALL", "EXIT"))
+_INT, _AREG, _DREG, _DIR, _STR = (TAGS[k] for k in ("INT", "AREG", "DREG", "DIR", "STR"))
+_HEAD = struct.Struct("<BI")
+_ARG = struct.Struct("<Bi")
+
+
+class ProgramError(PpalocError):
+    """A SCAMP-5d program asked the simulator for something it cannot do."""
+
+
+@dataclass
+class KernelStats:
+    """One distinct kernel body of a run: where it was written, what it holds, its cost."""
+
+    id: int
+    line: int
+    calls: list[str]
+    kernel: Kernel | None = None
+    runs: int = 0
+    modelled_us: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready summary."""
+        k = self.kernel
+        return {
+            "id": self.id,
+            "line": self.line,
+            "calls": self.calls,
+            "icws": 0 if k is None else len(k),
+            "counts": {} if k is None else k.counts,
+            "runs": self.runs,
+            "modelled_us_per_run": self.modelled_us / self.runs if self.runs else 0.0,
+            "modelled_us_total": self.modelled_us,
+        }
+
+
+def _show(arg: Any) -> str:
+    if isinstance(arg, Register):
+        return arg.name
+    if isinstance(arg, Direction):
+        return "|".join(m.name for m in Direction if m in arg) or "0"
+    return repr(arg)
+
+
+@dataclass
+class Session:
+    """Serve one run of a program on ``sim``, the frames given in turn.
+
+    Parameters
+    ----------
+    sim : Scamp5
+        The simulator every call runs on.
+    frames : sequence of ndarray
+        The exposures: frame ``k`` is what PIX sees during the ``k``-th pass of the frame
+        loop (frame 0 also before it).
+    settings : dict
+        Slider and switch values by their GUI text (``--set NAME=VALUE``).
+    program : str
+        The program's name for messages.
+    """
+
+    sim: Scamp5
+    frames: Sequence[np.ndarray]
+    settings: dict[str, str] = field(default_factory=dict)
+    program: str = "program"
+    kernels: dict[int, KernelStats] = field(default_factory=dict)
+    displays: dict[int, str] = field(default_factory=dict)
+    outputs: list[dict[int, np.ndarray]] = field(default_factory=list)
+    texts: list[tuple[int, str]] = field(default_factory=list)
+    frame_us: list[float] = field(default_factory=list)
+    calls: Counter = field(default_factory=Counter)
+    gui_values: dict[str, int] = field(default_factory=dict)
+    loops: int = 0
+    finished: bool = False
+    _bitstack: list | None = None
+    _frame_start_us: float = 0.0
+
+    def __post_init__(self) -> None:
+        if len(self.frames):
+            self.sim.set_image(self.frames[0])
+        self.unused = set(self.settings)
+
+    # -------------------------------------------------------------- frames
+    @property
+    def frame(self) -> int:
+        """The frame the program is in (0 before the loop starts)."""
+        return max(self.loops - 1, 0)
+
+    def _output(self, handle: int, plane: np.ndarray, line: int) -> None:
+        if handle not in self.displays:
+            raise ProgramError(
+                f"{self.program}:{line}: display handle {handle} was not created by "
+                "vs_gui_add_display"
+            )
+        while len(self.outputs) <= self.frame:
+            self.outputs.append({})
+        self.outputs[self.frame][handle] = plane
+
+    def loop(self) -> int:
+        """``vs_frame_loop_control``: 1 to run the next frame, 0 when the frames are done."""
+        now = self.sim.timing.now_us
+        if self.loops:
+            self.frame_us.append(now - self._frame_start_us)
+        self._frame_start_us = now
+        self.loops += 1
+        if self.loops > len(self.frames):
+            self.finished = True
+            return 0
+        self.sim.set_image(self.frames[self.loops - 1])
+        return 1
+
+    # -------------------------------------------------------------- messages
+    def handle(self, op: int, payload: memoryview) -> bytes | None:
+        """Serve one message; the answer's payload, or None when none is due."""
+        if op == _RUN:
+            self._run(struct.unpack_from("<I", payload)[0])
+            return None
+        if op == _CALL:
+            return self._call(payload)
+        if op == _DEF:
+            self._define(payload)
+            return None
+        if op == _HELLO:
+            version = struct.unpack_from("<I", payload)[0]
+            if version != VERSION:
+                raise ProgramError(
+                    f"{self.program} speaks shim protocol {version}, this ppaloc {VERSION}: "
+                    "rebuild it (delete the build cache)"
+                )
+            return struct.pack("<HH", self.sim.rows, self.sim.cols)
+        if op == _EXIT:
+            return None
+        raise ProgramError(f"{self.program}: unknown message {op} from the shim")
+
+    @staticmethod
+    def _args(payload: memoryview, at: int, n: int) -> tuple[list[Any], int]:
+        out: list[Any] = []
+        for _ in range(n):
+            tag, value = _ARG.unpack_from(payload, at)
+            at += _ARG.size
+            if tag == _INT:
+                out.append(value)
+            elif tag == _AREG or tag == _DREG:
+                out.append(_REGS[value])
+            elif tag == _DIR:
+                out.append(Direction(value))
+            elif tag == _STR:
+                out.append(bytes(payload[at : at + value]).decode("utf-8", "replace"))
+                at += value
+            else:
+                raise ProgramError(f"unknown argument tag {tag} from the shim")
+        return out, at
+
+    def _define(self, payload: memoryview) -> None:
+        kid, line, n = struct.unpack_from("<IIH", payload)
+        at = 10
+        body = []
+        for _ in range(n):
+            size = payload[at]
+            name = bytes(payload[at + 1 : at + 1 + size]).decode()
+            at += 1 + size
+            call_line, nargs = struct.unpack_from("<IB", payload, at)
+            args, at = self._args(payload, at + 5, nargs)
+            body.append((name, call_line, args))
+        stats = KernelStats(kid, line, [f"{b[0]}({', '.join(map(_show, b[2]))})" for b in body])
+        stats._body = body  # type: ignore[attr-defined]
+        self.kernels[kid] = stats
+
+    def _run(self, kid: int) -> None:
+        stats = self.kernels.get(kid)
+        if stats is None:
+            raise ProgramError(f"{self.program}: kernel {kid} was run before it was defined")
+        timing = self.sim.timing
+        t0 = timing.now_us
+        if stats.kernel is None:
+            kernel = self.sim.kernel()
+            try:
+                with kernel as k:
+                    for name, line, args in stats._body:  # type: ignore[attr-defined]
+                        try:
+                            getattr(k, name)(*args)
+                        except (PpalocError, TypeError) as exc:
+                            call = f"{name}({', '.join(map(_show, args))})"
+                            raise ProgramError(f"{self.program}:{line}: {call}: {exc}") from None
+            except ProgramError:
+                raise
+            except PpalocError as exc:  # the kernel as a whole (e.g. too many ICWs)
+                raise ProgramError(
+                    f"{self.program}:{stats.line}: the kernel begun here: {exc}"
+                ) from None
+            stats.kernel = kernel
+        else:
+            stats.kernel.run()
+        stats.runs += 1
+        stats.modelled_us += timing.now_us - t0
+
+    def _call(self, payload: memoryview) -> bytes | None:
+        want = payload[0]
+        size = payload[1]
+        name = bytes(payload[2 : 2 + size]).decode()
+        at = 2 + size
+        line, nargs = struct.unpack_from("<IB", payload, at)
+        args, _ = self._args(payload, at + 5, nargs)
+        handler = HANDLERS.get(name)
+        if handler is None:
+            raise ProgramError(f"{self.program}:{line}: {name} is not served by this simulator")
+        self.calls[name] += 1
+        try:
+            result = handler(self, args, line)
+        except ProgramError:
+            raise
+        except PpalocError as exc:
+            call = f"{name}({', '.join(map(_show, args))})"
+            raise ProgramError(f"{self.program}:{line}: {call}: {exc}") from None
+        if not want:
+            return None
+        return b"" if result is None else result
+
+    # -------------------------------------------------------------- GUI items
+    def gui_value(self, kind: str, text: str, lo: int, hi: int, init: int, line: int) -> int:
+        """The value of a slider or switch: ``--set TEXT=VALUE`` or its initial value."""
+        if text in self.settings:
+            self.unused.discard(text)
+            raw = self.settings[text]
+            if kind == "switch" and raw.lower() in ("on", "true", "yes", "off", "false", "no"):
+                value = int(raw.lower() in ("on", "true", "yes"))
+            else:
+                try:
+                    value = int(raw)
+                except ValueError:
+                    raise ProgramError(
+                        f"--set {text}={raw}: the {kind} takes an integer in [{lo}, {hi}]"
+                    ) from None
+            if not lo <= value <= hi:
+                raise ProgramError(
+                    f"--set {text}={value} is outside the {kind}'s range [{lo}, {hi}] "
+                    f"({self.program}:{line})"
+                )
+        else:
+            value = init
+        self.gui_values[text] = value
+        return value
+
+
+# ------------------------------------------------------------------ handlers
+Handler = Callable[[Session, list, int], "bytes | None"]
+
+
+def _i32(v: int) -> bytes:
+    return struct.pack("<i", int(v))
+
+
+def _global_sum(n: int) -> Handler:
+    def handler(s: Session, a: list, line: int) -> bytes:
+        grid = np.zeros((n, n), np.uint8)
+        total = getattr(s.sim, f"global_sum_{n * n}")(a[0], out=grid)
+        return _i32(total) + to_scamp_buffer(grid).tobytes()
+
+    return handler
+
+
+def _shift(s: Session, a: list, line: int) -> None:
+    reg, h, v, boundary = a
+    if reg.kind == "analog":
+        s.sim.shift(reg, h, v)
+    else:
+        s.sim.shift(reg, h, v, boundary)
+
+
+def _scan_dreg(s: Session, a: list, line: int) -> bytes:
+    dreg, r0, r1 = a
+    rows = s.sim.scan_dreg(dreg, r0, min(r1, s.sim.rows - 1))
+    hardware = rows[:, ::-1]  # hardware column 0 is the east edge
+    return np.packbits(hardware, axis=1, bitorder="little").tobytes()
+
+
+def _scan_events(s: Session, a: list, line: int) -> bytes:
+    dreg, max_num, h_dir, v_dir = a
+    events = s.sim.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=True)
+    buf = np.zeros((max_num, 2), np.uint8)  # (column, row) pairs; (0, 0) ends the list
+    if len(events):
+        buf[: len(events)] = events[:, ::-1]
+    return buf.tobytes()
+
+
+def _output_image(s: Session, a: list, line: int) -> None:
+    reg, handle = a
+    s._output(handle, s.sim.read(reg), line)
+
+
+def _bitstack_begin(s: Session, a: list, line: int) -> None:
+    s._bitstack = [a[0], a[1], []]
+
+
+def _bitstack_bit(s: Session, a: list, line: int) -> None:
+    if s._bitstack is None:
+        raise ProgramError(
+            f"{s.program}:{line}: a bit-stack bit before scamp5_output_bitstack_begin"
+        )
+    s._bitstack[2].append(s.sim.read(a[0]))
+
+
+def _bitstack_end(s: Session, a: list, line: int) -> None:
+    if s._bitstack is None:
+        raise ProgramError(f"{s.program}:{line}: scamp5_output_bitstack_end without a begin")
+    handle, n_bits, bits = s._bitstack
+    s._bitstack = None
+    if len(bits) != n_bits:
+        raise ProgramError(
+            f"{s.program}:{line}: the bit-stack was begun with {n_bits} bits but got {len(bits)}"
+        )
+    value = np.zeros((s.sim.rows, s.sim.cols), np.int64)
+    for plane in bits:  # most significant bit first
+        value = (value << 1) | plane.astype(np.int64)
+    top = (1 << n_bits) - 1 if n_bits else 1
+    grey = np.floor(value * (255.0 / top) + 0.5)
+    s._output(handle, (grey - 128.0).astype(np.float32), line)
+
+
+def _add_display(s: Session, a: list, line: int) -> None:
+    text, handle = a[0], a[1]
+    s.displays[handle] = text
+
+
+def _slider(kind: str) -> Handler:
+    def handler(s: Session, a: list, line: int) -> bytes:
+        text, lo, hi, init = a
+        return _i32(s.gui_value(kind, text, lo, hi, init, line))
+
+    return handler
+
+
+def _post_text(s: Session, a: list, line: int) -> None:
+    s.texts.append((s.frame, a[0]))
+
+
+def _stopwatch(s: Session, a: list, line: int) -> bytes:
+    return struct.pack("<d", s.sim.timing.now_us)
+
+
+def _sim(method: str, *, addr: bool = False, reply: str | None = None) -> Handler:
+    """A handler calling ``sim.method(*args)`` (with hardware addresses when ``addr``)."""
+
+    def handler(s: Session, a: list, line: int) -> bytes | None:
+        fn = getattr(s.sim, method)
+        result = fn(*a, scamp_addr=True) if addr else fn(*a)
+        if reply == "int":
+            return _i32(result)
+        if reply == "buffer":
+            return to_scamp_buffer(result).tobytes()
+        return None
+
+    return handler
+
+
+#: Every call the shim sends, by name: ``handler(session, args, line) -> answer or None``.
+HANDLERS: dict[str, Handler] = {
+    "scamp5_get_image": _sim("scamp5_get_image"),
+    "scamp5_in": _sim("scamp5_in"),
+    "scamp5_load_in": _sim("load_in"),
+    "scamp5_load_in_value": _sim("load_in"),
+    "scamp5_shift": _shift,
+    "scamp5_read_areg": _sim("read_areg", addr=True, reply="int"),
+    "scamp5_global_sum_16": _global_sum(4),
+    "scamp5_global_sum_64": _global_sum(8),
+    "scamp5_global_or": _sim("global_or", addr=True, reply="int"),
+    "scamp5_global_count": _sim("global_count", reply="int"),
+    "scamp5_load_point": _sim("load_point", addr=True),
+    "scamp5_load_rect": _sim("load_rect", addr=True),
+    "scamp5_load_pattern": _sim("load_pattern", addr=True),
+    "scamp5_select_point": _sim("select_point", addr=True),
+    "scamp5_select_rect": _sim("select_rect", addr=True),
+    "scamp5_select_pattern": _sim("select_pattern", addr=True),
+    "scamp5_scan_areg": _sim("scan_areg", addr=True, reply="buffer"),
+    "scamp5_scan_areg_8x8": _sim("scan_areg_8x8", reply="buffer"),
+    "scamp5_scan_areg_mean_8x8": _sim("scan_areg_mean_8x8", reply="buffer"),
+    "scamp5_scan_dreg": _scan_dreg,
+    "scamp5_scan_events": _scan_events,
+    "scamp5_output_image": _output_image,
+    "scamp5_output_bitstack_begin": _bitstack_begin,
+    "scamp5_output_bitstack_bit": _bitstack_bit,
+    "scamp5_output_bitstack_end": _bitstack_end,
+    "vs_gui_add_display": _add_display,
+    "vs_gui_add_slider": _slider("slider"),
+    "vs_gui_add_switch": _slider("switch"),
+    "vs_post_text": _post_text,
+    "vs_frame_loop_control": lambda s, a, line: _i32(s.loop()),
+    "vs_stopwatch_now": _stopwatch,
+}
+
+
+def serve(session: Session, read: Callable[[], bytes], write: Callable[[bytes], None]) -> None:
+    """Serve messages until the program's end of the pipe closes.
+
+    ``read()`` returns the next bytes (b"" at the end), ``write(data)`` sends an answer.
+    A :class:`ProgramError` stops the service; a pending answer then carries an error
+    status, so the program stops too.
+    """
+    buf = b""
+    head = _HEAD.size
+    while True:
+        chunk = read()
+        if not chunk:
+            return
+        buf = buf + chunk if buf else chunk
+        view = memoryview(buf)  # over immutable bytes: slices never pin a resize
+        n = len(buf)
+        start = 0
+        try:
+            while n - start >= head:
+                op, size = _HEAD.unpack_from(view, start)
+                end = start + head + size
+                if end > n:
+                    break
+                answer = session.handle(op, view[start + head : end])
+                start = end
+                if answer is not None:
+                    write(struct.pack("<II", 0, len(answer)) + answer)
+        except ProgramError:
+            write(struct.pack("<II", 1, 0))
+            raise
+        buf = buf[start:]
