@@ -700,6 +700,51 @@ def show(path: Path, out: Path | None, quiet: bool | None) -> None:
     run_show(path, None if out is None else _output(out, folder=False), quiet=bool(quiet))
 
 
+@cli.group()
+def cpp() -> None:
+    """SCAMP-5d C++ programs on the simulator (docs/cpp.md)."""
+
+
+@cpp.command(
+    "run",
+    epilog="""\b
+Examples:
+  ppaloc cpp run edges.cpp --image scene.png --set threshold=30 --out edges-run
+  ppaloc cpp run tracker.cpp --dataset synthetic:?places=20 --frames 5 --out run""",
+)
+@click.argument("program", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--image", type=click.Path(dir_okay=False, path_type=Path), help="Frame image.")
+@click.option("--dataset", help="Dataset spec whose query frames are the exposures.")
+@click.option("--frames", type=int, help="Frames to run [default: 1 image, 10 of a dataset].")
+@click.option("--set", "settings", multiple=True, metavar="NAME=VALUE", help="Slider/switch.")
+@click.option("--timeout", type=float, default=60.0, show_default=True, help="Seconds.")
+@click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path))
+@_QUIET
+def cpp_run(
+    program: Path,
+    image: Path | None,
+    dataset: str | None,
+    frames: int | None,
+    settings: tuple[str, ...],
+    timeout: float,
+    out: Path,
+    quiet: bool | None,
+) -> None:
+    """Compile PROGRAM against the SCAMP-5d shim and run it on the simulator."""
+    from ppaloc.cpp.command import run_cpp
+
+    run_cpp(
+        program,
+        out,
+        image=image,
+        dataset=dataset,
+        frames=frames,
+        settings=settings,
+        timeout=timeout,
+        quiet=bool(quiet),
+    )
+
+
 def _sizes(text: str) -> list[int]:
     parts = [s.strip() for s in text.split(",") if s.strip()]
     if len(text) > 1000 or not all(p.isascii() and p.isdigit() and len(p) < 20 for p in parts):
