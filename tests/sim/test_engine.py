@@ -313,8 +313,8 @@ def test_any_op_table_row_can_be_issued_by_name(sim: Scamp5) -> None:
     assert all(spec.clock in ("analog", "digital", "dnews", "nop") for spec in OPS.values())
     sim.icw("bus", (D,), (A, B))
     assert np.array_equal(sim.read(D), -3 * X)
-    with pytest.raises(RegisterMisuseError, match="'blur' is not an instruction; use one of"):
-        sim.icw("blur", (D,), (A,))
+    with pytest.raises(RegisterMisuseError, match="'blurx' is not an instruction; use one of"):
+        sim.icw("blurx", (D,), (A,))
 
 
 @pytest.mark.parametrize(

@@ -117,16 +117,16 @@ def _check_cli_values(values: dict[str, Any], source: Path | None) -> None:
         raise PpalocError(f"{key} = {_short(value)}{where} must be {wanted}")
 
 
-def _check_params(params: Any, source: Path | None, *, nested: bool) -> None:
-    """``params`` must be a table (of tables, one per method, when ``nested``)."""
+def _check_params(params: Any, source: Path | None) -> None:
+    """``params`` must be a table of tables, one per method."""
     where = f" in {source}" if source else ""
     if params is None:
         return
-    example = "[params.seqslam] ds = 20" if nested else "[map.params] alpha = 8"
-    if not isinstance(params, dict) or (
-        nested and not all(isinstance(p, dict) for p in params.values())
-    ):
-        raise PpalocError(f"params = {_short(params)}{where} must be a table, e.g. {example}")
+    if not isinstance(params, dict) or not all(isinstance(p, dict) for p in params.values()):
+        raise PpalocError(
+            f"params = {_short(params)}{where} must be a table of tables, one per method, "
+            "e.g. [params.seqslam] then ds = 20"
+        )
 
 
 def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
@@ -146,7 +146,8 @@ def _merge(
     """Flags that were given (not None, not empty) override the file; params merge per
     method (``nested``: ``{method: {key: value}}``) or key by key (one method's table)."""
     merged = dict(file_values)
-    _check_params(merged.get("params"), source, nested=nested)
+    if nested:  # one method's table is checked by the command, which names its section
+        _check_params(merged.get("params"), source)
     for key, value in flags.items():
         if value is None or value == () or value == {}:
             continue
@@ -156,7 +157,8 @@ def _merge(
                 params.setdefault(m, {}).update(p)
             merged["params"] = params
         elif key == "params":
-            merged["params"] = {**merged.get("params", {}), **value}
+            base = merged.get("params", {})
+            merged["params"] = {**base, **value} if isinstance(base, dict) else base
         else:
             merged[key] = value
     _check_cli_values(merged, source)

@@ -235,6 +235,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             weights=a.get("weights"),
             modelled_latency_ms=a.get("modelled_latency_ms"),
             energy_mj=a.get("energy_mj"),
+            modelled_time_ms=s.get("modelled_time_ms"),
             motion_accuracy=s.get("motion_accuracy"),
             registers=registers,
         )

@@ -78,6 +78,9 @@ class MethodRun:
         Per-node weights after each frame, in map order, where recorded.
     modelled_latency_ms, energy_mj : ndarray of float, shape (M,), optional
         Modelled on-sensor time and energy per frame, where the method models them.
+    modelled_time_ms : dict, optional
+        ``{"chip": {"low", "mid", "high"}, "loop": {...}}``: the median modelled time per
+        frame at the two timing boundaries (docs/onsensor.md), on-sensor methods only.
     metrics : Metrics
     motion_accuracy : float, optional
         Agreement of ``moved`` with the dataset's ``query_moved``, where both exist.
@@ -100,6 +103,7 @@ class MethodRun:
     weights: np.ndarray | None = None
     modelled_latency_ms: np.ndarray | None = None
     energy_mj: np.ndarray | None = None
+    modelled_time_ms: dict[str, dict[str, float]] | None = None
     motion_accuracy: float | None = None
     registers: dict[str, np.ndarray] | None = None
 
@@ -117,6 +121,7 @@ class MethodRun:
             "latency_ms_p95": float(np.percentile(lat, 95)) if lat.size else None,
             "modelled_latency_ms": _median_or_none(self.modelled_latency_ms),
             "energy_mj": _mean_or_none(self.energy_mj),
+            "modelled_time_ms": self.modelled_time_ms,
             "recall_definition": self.metrics.recall_definition,
         }
         out.update({k: v for k, v in self.metrics.summary().items() if k not in out})
@@ -466,9 +471,20 @@ def run_method(
         weights=weights,
         modelled_latency_ms=modelled,
         energy_mj=energy,
+        modelled_time_ms=modelled_time(loc),
         motion_accuracy=motion_acc,
         registers=register_planes(loc),
     )
+
+
+def modelled_time(localiser: Any) -> dict[str, dict[str, float]] | None:
+    """Median modelled time per frame at the chip and loop boundaries, if modelled.
+
+    A localiser that simulates a sensor offers ``modelled_time_ms()`` (over the frames since
+    its last ``reset``); None for every other method.
+    """
+    fn = getattr(localiser, "modelled_time_ms", None)
+    return fn() if callable(fn) else None
 
 
 def register_planes(localiser: Any) -> dict[str, np.ndarray] | None:

@@ -14,7 +14,10 @@ any row directly).
 Clock classes follow the ICW's clock field in the SCAMP-5 headers: analogue bus operations,
 ``where``, ``all``/``ALL`` and ``rpix`` use the analogue clock; ``SET``/``CLR``/``MOV``/
 ``OR``/``NOR``/``NOT``/``WHERE`` and the two halves of ``REFRESH`` the digital clock;
-``DNEWS0``/``DNEWS1`` the DNEWS clock; ``nop`` an empty word.
+``DNEWS0``/``DNEWS1`` the DNEWS clock; ``nop`` an empty word. The header's PROP clock
+(``PROP0``/``PROP1``, asynchronous propagation) has no constant of its own in the timing
+model and is counted in the ``dnews`` class; ``PROP_R`` and ``sq``/``blur*`` carry the
+analogue clock, ``blurset`` the digital one, as their ICWs do.
 """
 
 from __future__ import annotations
@@ -109,8 +112,33 @@ OPS: dict[str, OpSpec] = dict(
               lambda m, i: m._op_dnews(i, False)),
         _spec("DNEWS1", "dnews", "digital", "digital", (1, 1), (1, 1), "d := OR of s_dir, edge 1",
               lambda m, i: m._op_dnews(i, True)),
+        # The rows below are built by ppaloc.sim.semantics (one definition for every engine).
+        _spec("busn", "analog", "analog", "analog", (1, 7), (0, 7), "a... := -(sum) / n_dst",
+              lambda m, i: m._op_transfer(i, len(i.dsts))),
+        _spec("sq", "analog", "analog", "analog", (1, 1), (1, 2), "NEWS := -(sum), squarer path",
+              lambda m, i: m._op_transfer(i, 1)),
+        _spec("blurset", "digital", None, "digital", (0, 0), (2, 2), "reads R1, R2 (blur links)",
+              lambda m, i: m._op_nop(i)),
+        _spec("blur", "analog", "analog", "analog", (1, 1), (1, 1), "a := -diffuse(x), both axes",
+              lambda m, i: _semantics().build_blur(m, i, True, True)),
+        _spec("blurh", "analog", "analog", "analog", (1, 1), (1, 1), "a := -diffuse(x), E-W",
+              lambda m, i: _semantics().build_blur(m, i, True, False)),
+        _spec("blurv", "analog", "analog", "analog", (1, 1), (1, 1), "a := -diffuse(x), N-S",
+              lambda m, i: _semantics().build_blur(m, i, False, True)),
+        _spec("PROP_R", "analog", None, "digital", (0, 0), (1, 1), "bus latch := R12",
+              lambda m, i: m._op_latch(i, False)),
+        _spec("PROP0", "dnews", "digital", None, (1, 1), (0, 0), "R12 flooded through R0, edge 0",
+              lambda m, i: _semantics().build_prop(m, i, False)),
+        _spec("PROP1", "dnews", "digital", None, (1, 1), (0, 0), "R12 flooded through R0, edge 1",
+              lambda m, i: _semantics().build_prop(m, i, True)),
     ]
 )  # fmt: skip
+
+
+def _semantics():
+    from ppaloc.sim import semantics
+
+    return semantics
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,12 +2,22 @@
 
 ``with sim.kernel() as k:`` records every instruction and macro issued through ``k``; at the
 end of the block the kernel is compiled into a list of bound numpy operations and run once.
-``k.run()`` (or ``sim.run(k)``) replays it without recording or compiling again. Like the
-SCAMP-5 controller's instruction buffer, a kernel holds at most 1024 ICWs.
+``k.run()`` (or ``sim.run(k)``) replays it without recording or compiling again.
+
+The ICW stack: as in the SCAMP-5 library, recorded kernels keep their ICWs on one stack of
+1024 (``ICW_STACK_CAP``) per simulator, shared by every kernel alive at once (a ``static``
+kernel there lives for the whole program; here a kernel leaves the stack when it is garbage
+collected, as a dynamic kernel's destructor frees it, or at the end of its recording after
+``k.move_to_heap(True)``). An ICW recorded when the stack is full is dropped, as the
+library drops it; the kernel then warns once (:class:`IcwStackWarning`) and ``k.dropped``
+counts the ICWs lost.
 """
 
 from __future__ import annotations
 
+import itertools
+import warnings
+import weakref
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
@@ -18,10 +28,56 @@ from ppaloc.sim.macros import ProgramAPI
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["MAX_ICWS", "Kernel"]
+__all__ = ["MAX_ICWS", "IcwStack", "IcwStackWarning", "Kernel", "icw_stack"]
 
-#: Capacity of the SCAMP-5 ICW buffer (``ICW_STACK_CAP`` of the kernel API).
+#: Capacity of the SCAMP-5 ICW stack (``ICW_STACK_CAP`` of the kernel API).
 MAX_ICWS = 1024
+
+
+class IcwStackWarning(UserWarning):
+    """ICWs were dropped because the shared ICW stack was full (the library drops them)."""
+
+
+class IcwStack:
+    """The ICWs each live kernel of one simulator holds on the shared stack."""
+
+    def __init__(self) -> None:
+        self._held: dict[int, int] = {}
+        self._ids = itertools.count()
+
+    @property
+    def used(self) -> int:
+        """ICWs held by every live kernel (recorded or recording)."""
+        return sum(self._held.values())
+
+    def free(self) -> int:
+        """ICWs that can still be pushed (the cap less what every live kernel holds)."""
+        return max(0, MAX_ICWS - self.used)
+
+    def open(self) -> int:
+        """A new kernel on the stack (holding nothing yet); returns its key."""
+        key = next(self._ids)
+        self._held[key] = 0
+        return key
+
+    def hold(self, key: int, n: int) -> None:
+        """Kernel ``key`` now holds ``n`` ICWs."""
+        self._held[key] = n
+
+    def release(self, key: int) -> None:
+        """Kernel ``key`` leaves the stack (freed, failed, or moved to the heap)."""
+        self._held.pop(key, None)
+
+
+_STACKS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def icw_stack(sim: Scamp5) -> IcwStack:
+    """The shared ICW stack of ``sim`` (created on first use)."""
+    stack = _STACKS.get(sim)
+    if stack is None:
+        stack = _STACKS[sim] = IcwStack()
+    return stack
 
 
 class Kernel(ProgramAPI):
@@ -50,6 +106,10 @@ class Kernel(ProgramAPI):
         self._counts: dict[str, int] | None = None
         self._dwritten = None
         self._failed = False
+        self._heap = False
+        self._stack_key: int | None = None
+        #: ICWs dropped because the shared ICW stack was full.
+        self.dropped = 0
 
     # ---------------------------------------------------------------- recording
     def __enter__(self) -> Kernel:
@@ -57,15 +117,37 @@ class Kernel(ProgramAPI):
         if self._sealed:
             raise KernelError("this kernel is already recorded; replay it with k.run()")
         self._open = True
+        stack = icw_stack(self.sim)
+        self._stack_key = key = stack.open()
+        weakref.finalize(self, stack.release, key)
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
         self._open = False
+        stack = icw_stack(self.sim)
+        if exc_type is not None or self._heap:
+            stack.release(self._stack_key)
         if exc_type is None:
             self._sealed = True
+            if self.dropped:
+                warnings.warn(
+                    f"kernel dropped {self.dropped} of its {len(self) + self.dropped} ICWs: "
+                    f"the ICW stack holds {MAX_ICWS}, shared by every live kernel "
+                    f"({stack.used - (0 if self._heap else len(self))} held by others); "
+                    "split the work, free kernels no longer needed, or k.move_to_heap(True)",
+                    IcwStackWarning,
+                    stacklevel=2,
+                )
             self.run()
         else:
             self._failed = True
+
+    def move_to_heap(self, flag: bool = True) -> None:
+        """``move_to_heap(true)`` of the kernel API: at the end of its recording the kernel
+        leaves the shared ICW stack (it is kept elsewhere), freeing its room for others."""
+        if not self._open:
+            raise KernelError("move_to_heap is called inside the kernel's `with` block")
+        self._heap = bool(flag)
 
     def _check_not_failed(self) -> None:
         if self._failed:
@@ -79,13 +161,12 @@ class Kernel(ProgramAPI):
                 "instructions can be added to a kernel only inside its `with sim.kernel() "
                 "as k:` block; record a new kernel for new instructions"
             )
-        n = len(self._recorded) + len(instructions)
-        if n > MAX_ICWS:
-            raise KernelError(
-                f"kernel would hold {n} ICWs, more than the {MAX_ICWS} the SCAMP-5 "
-                "instruction buffer holds: split the work into several kernels"
-            )
-        self._recorded.extend(instructions)
+        stack = icw_stack(self.sim)
+        room = stack.free()
+        kept = instructions[:room]
+        self.dropped += len(instructions) - len(kept)
+        self._recorded.extend(kept)
+        stack.hold(self._stack_key, len(self._recorded))
 
     # ------------------------------------------------------------------ running
     @property

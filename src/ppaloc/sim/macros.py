@@ -28,6 +28,8 @@ from ppaloc.sim.registers import (
     NEWS,
     PIX,
     R0,
+    R1,
+    R2,
     R12,
     XE,
     XN,
@@ -102,8 +104,16 @@ class ProgramAPI:
     def _macro(self, name: str, args: Sequence[object], steps: Sequence[Step]) -> None:
         self._emit(expand(_call(name, args), steps))
 
-    def icw(self, op: str, dsts: Sequence[Register] = (), srcs: Sequence[Register] = ()) -> None:
-        """Issue any primitive of the op table by name, e.g. ``k.icw("bus", (A,), (B, C))``."""
+    def icw(self, op: str | int, dsts: Sequence[Register] | Sequence[int] = (), srcs=()) -> None:
+        """Issue one ICW: a row of the op table by name, ``k.icw("bus", (A,), (B, C))``, or
+        the header's raw word ``k.icw(clock, bits)`` (``icw(uint8_t clock, {bits...})``:
+        the clock field and the bit positions of ``SCAMP5_ICW_BITS``), decoded by
+        :func:`ppaloc.sim.bits.decode` into the instruction it encodes."""
+        if isinstance(op, int) and not isinstance(op, bool):
+            from ppaloc.sim.bits import decode
+
+            self._emit((decode(op, dsts),))
+            return
         if op not in OPS:
             raise RegisterMisuseError(f"{op!r} is not an instruction; use one of {sorted(OPS)}")
         for name, regs in (("dsts", dsts), ("srcs", srcs)):
@@ -122,9 +132,33 @@ class ProgramAPI:
         """Reset ``PIX`` to its reset level (the captured image is gone)."""
         self._prim("rpix")
 
-    def bus(self, a: Register, *srcs: Register) -> None:
-        """``a := -(sum of up to four sources)``; no source: ``a := 0``."""
-        self._prim("bus", (a,), srcs)
+    def bus(self, a: Register | Sequence[Register], *srcs: Register) -> None:
+        """``a := -(sum of up to four sources)``; no source: ``a := 0``.
+
+        The header's several-destination form ``bus({a, b, ...}, {x, y, ...})`` is
+        ``k.bus((a, b, ...), (x, y, ...))``: one ICW, every destination gets
+        ``-(sum) / n_destinations`` (the current splits), so ``bus((a, b), (x,))`` is the
+        same ICW as ``bus2(a, b, x)``.
+        """
+        if isinstance(a, Register):
+            self._prim("bus", (a,), srcs)
+            return
+        if len(srcs) > 1 or (srcs and isinstance(srcs[0], Register)):
+            raise RegisterMisuseError(
+                "bus(dsts, srcs): give the destinations and the sources as two tuples, "
+                "e.g. bus((A, B), (C,))"
+            )
+        dsts, sources = tuple(a), tuple(srcs[0]) if srcs else ()
+        n, m = len(dsts), len(sources)
+        if n == 1 and m <= 4:
+            op = "bus"
+        elif n == 2 and m <= 2:
+            op = "bus2"
+        elif n == 3 and m == 1:
+            op = "bus3"
+        else:
+            op = "busn"
+        self._prim(op, dsts, sources)
 
     def bus2(self, a: Register, b: Register, *srcs: Register) -> None:
         """``a, b := -(sum of up to two sources) / 2`` (the current is split in two)."""
@@ -133,6 +167,37 @@ class ProgramAPI:
     def bus3(self, a: Register, b: Register, c: Register, src: Register) -> None:
         """``a, b, c := -src / 3``."""
         self._prim("bus3", (a, b, c), (src,))
+
+    def sq(self, x0: Register, x1: Register | None = None) -> None:
+        """``sq(x0[, x1])``: one ICW writing ``NEWS`` from the sources through the PE's
+        ``selsq`` path; modelled as ``NEWS := -(x0 + x1)`` (docs/sim.md: the squarer's
+        transfer is not public)."""
+        self._prim("sq", (NEWS,), (x0,) if x1 is None else (x0, x1))
+
+    def blurset(self) -> None:
+        """The ICW needed once before blurs: reads R1 and R2, which enable the blur links."""
+        self._prim("blurset", (), (R1, R2))
+
+    def blur(self, a: Register, x0: Register) -> None:
+        """Analogue asynchronous blur: ``a := -diffuse(x0)`` over the links R1/R2 enable."""
+        self._blur("blur", a, x0)
+
+    def blurh(self, a: Register, x0: Register) -> None:
+        """As :meth:`blur`, east-west links only."""
+        self._blur("blurh", a, x0)
+
+    def blurv(self, a: Register, x0: Register) -> None:
+        """As :meth:`blur`, north-south links only."""
+        self._blur("blurv", a, x0)
+
+    def _blur(self, op: str, a: Register, x0: Register) -> None:
+        for r in (a, x0):
+            if isinstance(r, Register) and r.role == "neighbour":
+                raise RegisterMisuseError(
+                    f"{_call(op, (a, x0))}: {r.name} is a neighbour's NEWS; a blur reads and "
+                    "writes the element's own registers (use NEWS)"
+                )
+        self._prim(op, (a,), (x0,))
 
     def where(self, *srcs: Register) -> None:
         """``FLAG := (sum of one to three analogue sources) > 0``."""
@@ -195,6 +260,14 @@ class ProgramAPI:
     def REFRESH(self, d: Register) -> None:
         """Read ``d`` and write it back (2 ICWs), restarting its retention time."""
         self._macro("REFRESH", (d,), [("LATCH", (), (d,)), ("UNLATCH", (d,), ())])
+
+    def PROP0(self) -> None:
+        """Asynchronous propagation on R12 masked by R0 (edge 0); 2 ICWs (PROP_R, PROP_0)."""
+        self._macro("PROP0", (), [("PROP_R", (), (R12,)), ("PROP0", (R12,), ())])
+
+    def PROP1(self) -> None:
+        """As :meth:`PROP0`, the array edge counting as 1."""
+        self._macro("PROP1", (), [("PROP_R", (), (R12,)), ("PROP1", (R12,), ())])
 
     # ------------------------------------------------------------------- analogue macros
     def res(self, a: Register, b: Register | None = None) -> None:
@@ -367,6 +440,27 @@ class ProgramAPI:
         steps: list[Step] = [("bus", (NEWS,), (x,)), ("bus", (y,), nbrs)]
         for _ in range(1, iterations):
             steps += [("bus", (NEWS,), (y,)), ("bus", (y,), nbrs)]
+        self._emit(expand(call, steps))
+
+    def gauss(self, y: Register, x: Register, iterations: int = 3) -> None:
+        """Blur ``x`` into ``y`` (may be the same register); ``blurset`` + 2 blurs per
+        iteration, NEWS scratch; R1 and R2 must enable the links."""
+        self._gauss("gauss", "blur", y, x, iterations)
+
+    def gaussh(self, y: Register, x: Register, iterations: int = 3) -> None:
+        """As :meth:`gauss`, horizontal only."""
+        self._gauss("gaussh", "blurh", y, x, iterations)
+
+    def gaussv(self, y: Register, x: Register, iterations: int = 3) -> None:
+        """As :meth:`gauss`, vertical only."""
+        self._gauss("gaussv", "blurv", y, x, iterations)
+
+    def _gauss(self, name: str, op: str, y: Register, x: Register, iterations: int) -> None:
+        call = _call(name, (y, x, iterations))
+        _check_iterations(call, iterations)
+        steps: list[Step] = [("blurset", (), (R1, R2)), (op, (NEWS,), (x,)), (op, (y,), (NEWS,))]
+        for _ in range(1, iterations):
+            steps += [(op, (NEWS,), (y,)), (op, (y,), (NEWS,))]
         self._emit(expand(call, steps))
 
     def getpix(self, y: Register, h_or_res: Register, pix_res: Register | None = None) -> None:

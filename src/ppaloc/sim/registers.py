@@ -2,9 +2,9 @@
 
 Every processing element (PE) of a SCAMP-5 array holds seven analogue registers
 (``A``-``F`` and ``NEWS``), the photodiode ``PIX``, the DAC input ``IN``, thirteen 1-bit
-registers (``R0``-``R12``), the activity flag ``FLAG`` and the controller's ``SELECT``
-pattern. A program names registers through the handles defined here; the simulator keeps
-one plane (an array of shape ``(rows, cols)``) per register.
+registers (``R0``-``R12``), the activity flag ``FLAG``, the controller's ``SELECT`` pattern
+and its ``RECT`` rectangle. A program names registers through the handles defined here; the
+simulator keeps one plane (an array of shape ``(rows, cols)``) per register.
 
 ``XN``, ``XE``, ``XS`` and ``XW`` are not registers of their own: they name the ``NEWS``
 register of the north, east, south or west neighbour. As a source, ``XE`` reads the east
@@ -43,6 +43,7 @@ __all__ = [
     "R11",
     "R12",
     "RE",
+    "RECT",
     "RF",
     "RN",
     "RP",
@@ -178,6 +179,8 @@ R11 = Register("R11", "digital", 11)
 R12 = Register("R12", "digital", 12)
 FLAG = Register("FLAG", "digital", 13, "flag")
 SELECT = Register("SELECT", "digital", 14, "select")
+#: The rectangle ``scamp5_select_rect`` loads (read-only, like SELECT).
+RECT = Register("RECT", "digital", 15, "select")
 
 DIGITAL_PLANES: tuple[Register, ...] = (
     R0,
@@ -195,6 +198,7 @@ DIGITAL_PLANES: tuple[Register, ...] = (
     R12,
     FLAG,
     SELECT,
+    RECT,
 )
 
 # The SCAMP-5 headers' other names for the digital registers (``scamp5_icw.hpp``,
