@@ -64,6 +64,14 @@ def _ms(v: float | None) -> str:
     return f"{v:.3g}" if v < 100 else f"{v:.0f}"
 
 
+def _bounded_ms(m: dict[str, Any], boundary: str) -> str:
+    """``mid (low-high)`` of a method's ``modelled_time_ms[boundary]``; "-" without one."""
+    t = (m.get("modelled_time_ms") or {}).get(boundary)
+    if not t:
+        return _ms(m.get("modelled_latency_ms")) if boundary == "chip" else "-"
+    return f"{_ms(t['mid'])} ({_ms(t['low'])}-{_ms(t['high'])})"
+
+
 _SHORT_HEADER = [
     "Method",
     "Repr.",
@@ -75,7 +83,8 @@ _SHORT_HEADER = [
     "Acc.",
     "host ms",
     "p95 ms",
-    "sensor ms",
+    "chip ms",
+    "loop ms",
     "mJ",
 ]
 _SHORT_REPR = {"lowres": "8x8 img", "lbp": "LBP"}
@@ -109,7 +118,8 @@ def comparison_table(
         "Accuracy",
         "Host ms/frame (median)",
         "Host ms (p95)",
-        "Modelled on-sensor ms/frame",
+        "Modelled chip ms/frame (low-high)",
+        "Modelled loop ms/frame (low-high)",
         "Energy mJ/frame",
     ]
     rows = []
@@ -128,7 +138,8 @@ def comparison_table(
                 _fmt(m["accuracy"]),
                 _ms(m["latency_ms_median"]),
                 _ms(m["latency_ms_p95"]),
-                _ms(m["modelled_latency_ms"]),
+                _bounded_ms(m, "chip"),
+                _bounded_ms(m, "loop"),
                 _fmt(m["energy_mj"], 3),
             ]
         )
@@ -184,7 +195,7 @@ def paper_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     used = [(rep, label) for rep, label in _COLUMNS if any(rep in c for c in cells.values())]
     header = ["Method"]
     for _, label in used:
-        header += [f"F1 ({label})", f"ms/frame host | on-sensor ({label})"]
+        header += [f"F1 ({label})", f"ms/frame host | chip | loop ({label})"]
     rows = []
     for family, reps in cells.items():
         row = [family]
@@ -193,10 +204,10 @@ def paper_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
             if m is None:
                 row += ["", ""]
                 continue
-            modelled = m.get("modelled_latency_ms")
             row += [
                 _fmt(m["f1_max"]),
-                f"{_ms(m['latency_ms_median'])} | {_ms(modelled)}",
+                f"{_ms(m['latency_ms_median'])} | {_bounded_ms(m, 'chip')} | "
+                f"{_bounded_ms(m, 'loop')}",
             ]
         rows.append(row)
     return header, rows
