@@ -9,6 +9,7 @@ into every result file.
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -19,6 +20,8 @@ from ppaloc.errors import PpalocError
 
 __all__ = [
     "DEMO_DATASET",
+    "LIMITS",
+    "MAX_BENCH_SIZE",
     "BenchConfig",
     "EvaluateConfig",
     "config_from_mapping",
@@ -43,6 +46,59 @@ DEMO_DATASET = demo_dataset()
 """The default dataset of ``ppaloc demo`` and of an ``evaluate`` config without one."""
 
 C = TypeVar("C")
+
+MAX_BENCH_SIZE = 262_144
+"""Largest map ``ppaloc bench`` builds (2^18 nodes: minutes for the slowest methods)."""
+
+LIMITS: dict[str, tuple[float, float]] = {
+    "tolerance": (0, 1000),
+    "seed": (0, 2**63 - 1),
+    "max_weight_values": (0, 100_000_000),
+    "queries": (1, 100_000),
+    "warmup": (0, 10_000),
+    "sizes": (2, MAX_BENCH_SIZE),
+    "max_build_s": (0.0, 86_400.0),
+}
+"""Accepted range of every numeric configuration key, inclusive (one place for the
+``EvaluateConfig``/``BenchConfig`` checks and the documentation; a list key's range holds
+for each item)."""
+
+MAX_SIZES = 64
+"""Most map sizes one bench times."""
+
+MAX_CONFIG_BYTES = 1 << 20
+"""Largest configuration file read (1 MiB)."""
+
+
+def check_limits(values: Mapping[str, Any], *, source: str = "") -> None:
+    """Refuse a numeric configuration value outside :data:`LIMITS` (or not finite).
+
+    Raises
+    ------
+    PpalocError
+        Naming the key, the value and the accepted range.
+
+    Examples
+    --------
+    >>> check_limits({"seed": -1})
+    Traceback (most recent call last):
+    ppaloc.errors.PpalocError: seed=-1 must be an integer in [0, 9223372036854775807]
+    """
+    where = f" in {source}" if source else ""
+    for key, value in values.items():
+        if key not in LIMITS or value is None:
+            continue
+        low, high = LIMITS[key]
+        items = value if isinstance(value, list | tuple) else [value]
+        real = isinstance(low, float)
+        noun = "a number" if real else "an integer"
+        for item in items:
+            number = isinstance(item, int | float) and not isinstance(item, bool)
+            if not number or (not real and not float(item).is_integer()):
+                raise PpalocError(f"{key}={item!r}{where} must be {noun} in [{low:g}, {high:g}]")
+            if not (math.isfinite(item) and low <= item <= high):
+                bound = f"[{low:g}, {high:g}]" if real else f"[{int(low)}, {int(high)}]"
+                raise PpalocError(f"{key}={item!r}{where} must be {noun} in {bound}")
 
 
 @dataclass(frozen=True)
@@ -84,10 +140,7 @@ class EvaluateConfig:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "methods", tuple(self.methods))
-        if self.tolerance is not None and (
-            isinstance(self.tolerance, bool) or int(self.tolerance) < 0
-        ):
-            raise PpalocError(f"tolerance={self.tolerance!r} must be an integer >= 0 (frames)")
+        check_limits({k: getattr(self, k) for k in ("tolerance", "seed", "max_weight_values")})
         if str(self.recall).upper() not in ("A", "B", "C"):
             raise PpalocError(f"recall={self.recall!r} must be one of A, B, C")
         object.__setattr__(self, "recall", str(self.recall).upper())
@@ -145,12 +198,12 @@ class BenchConfig:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "methods", tuple(self.methods))
+        keys = ("sizes", "queries", "warmup", "seed", "max_build_s")
+        check_limits({k: getattr(self, k) for k in keys})
         object.__setattr__(self, "sizes", tuple(int(s) for s in self.sizes))
-        if not self.sizes or min(self.sizes) < 2:
-            raise PpalocError(f"sizes={list(self.sizes)} must be map sizes of at least 2 nodes")
-        if self.queries < 1 or self.warmup < 0:
+        if not self.sizes or len(self.sizes) > MAX_SIZES:
             raise PpalocError(
-                f"queries={self.queries} must be >= 1 and warmup={self.warmup} >= 0 frames"
+                f"sizes={list(self.sizes)} must list 1 to {MAX_SIZES} map sizes, e.g. 64,256,1024"
             )
 
     def to_dict(self) -> dict[str, Any]:
@@ -192,6 +245,7 @@ def config_from_mapping(cls: type[C], values: Mapping[str, Any], *, source: str 
             raise PpalocError(
                 f"{key}={value!r}{where} must be {_TYPE_WORDS.get(expected, expected)}"
             )
+    check_limits(values, source=source)
     try:
         return cls(**{k: v for k, v in values.items() if v is not None})
     except (TypeError, ValueError) as exc:
@@ -255,12 +309,31 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     """
     path = Path(path)
     try:
+        if path.is_dir():
+            raise PpalocError(f"config file {path} is a folder; give a TOML file")
         with path.open("rb") as f:
-            return tomllib.load(f)
+            raw = f.read(MAX_CONFIG_BYTES + 1)
     except FileNotFoundError:
         raise PpalocError(f"config file {path} does not exist") from None
+    except (OSError, ValueError) as exc:
+        raise PpalocError(f"cannot read config file {path}: {exc.__class__.__name__}") from None
+    if len(raw) > MAX_CONFIG_BYTES:
+        raise PpalocError(
+            f"config file {path} is larger than {MAX_CONFIG_BYTES} bytes; a configuration "
+            "is a few lines of TOML"
+        )
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise PpalocError(
+            f"config file {path} is not UTF-8 text (byte {exc.start}); save it as UTF-8"
+        ) from None
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise PpalocError(f"config file {path} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise PpalocError(f"config file {path} nests arrays or tables too deeply") from None
 
 
 def with_tolerance(spec: str, tolerance: int) -> str:

@@ -1,0 +1,92 @@
+"""Where a command may write: every output location is checked before the run starts.
+
+A run that fails only after minutes of work because ``--out`` cannot be written wastes the
+work; so each command checks its output first: the text is not empty and holds no NUL,
+no part of the way to it is a regular file, a folder target is not a file and a file
+target is not a folder, and the nearest existing folder accepts a new file (tried for
+real, so it holds for root and read-only mounts alike).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from ppaloc.errors import PpalocError
+
+__all__ = ["MAX_PATH", "check_output", "check_path_text"]
+
+MAX_PATH = 4096
+"""Longest path accepted (Linux's PATH_MAX)."""
+
+
+def check_path_text(text: str | os.PathLike[str], flag: str) -> Path:
+    """``text`` as a :class:`Path`, refusing an empty path, a NUL or an over-long one.
+
+    Raises
+    ------
+    PpalocError
+        Naming the flag and the fix.
+
+    Examples
+    --------
+    >>> check_path_text("", "--out")
+    Traceback (most recent call last):
+    ppaloc.errors.PpalocError: --out '' is empty: give a file or folder name
+    """
+    if not isinstance(text, str | os.PathLike):
+        raise PpalocError(f"{flag}={text!r} must be a path (a string), e.g. {flag} results")
+    raw = os.fspath(text)
+    if not isinstance(raw, str) or not raw.strip():
+        raise PpalocError(f"{flag} {raw!r} is empty: give a file or folder name")
+    if "\0" in raw:
+        raise PpalocError(f"{flag} {raw!r} holds a NUL character, which no path can hold")
+    if len(raw) > MAX_PATH:
+        raise PpalocError(f"{flag} is a path of {len(raw)} characters: at most {MAX_PATH}")
+    return Path(raw).expanduser()
+
+
+def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: bool) -> Path:
+    """Check that ``text`` can become the output folder (``folder=True``) or file.
+
+    Returns
+    -------
+    Path
+        The checked path.
+
+    Raises
+    ------
+    PpalocError
+        Before any work: the path is empty, is the wrong kind of entry, lies under a
+        regular file, or its nearest existing folder cannot be written.
+    """
+    path = check_path_text(text, flag)
+    what = "folder" if folder else "file"
+    if path.exists() or path.is_symlink():
+        if folder and not path.is_dir():
+            raise PpalocError(f"{flag} {path} is a file; give a folder for the results")
+        if not folder and path.is_dir():
+            raise PpalocError(f"{flag} {path} is a folder; give a file name")
+        if not os.access(path, os.W_OK):
+            raise PpalocError(f"{flag} {path} is not writable; give a {what} you can write")
+    parent = path if folder and path.is_dir() else path.parent
+    probe = parent
+    while not probe.exists():
+        if probe.is_symlink():
+            raise PpalocError(f"{flag} {path}: {probe} is a dangling symbolic link")
+        probe = probe.parent
+    if not probe.is_dir():
+        raise PpalocError(
+            f"{flag} {path} lies under {probe}, which is a file, not a folder; give another {what}"
+        )
+    try:
+        fd, name = tempfile.mkstemp(prefix=".ppaloc-probe-", dir=probe)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise PpalocError(
+            f"{flag} {path}: cannot write in {probe} ({reason}); give a {what} you can write"
+        ) from None
+    os.close(fd)
+    os.unlink(name)
+    return path
