@@ -179,15 +179,26 @@ def _setup_logging(verbose: int) -> None:
 
 
 class _SafePath(click.Path):
-    """``click.Path`` that refuses an empty path, a NUL or an over-long one (exit 1)."""
+    """``click.Path`` that refuses an empty path, a NUL, an over-long path, and a folder
+    where a file is expected (or the reverse) as user mistakes (exit 1, one line)."""
+
+    def __init__(self, *, file_okay: bool = True, dir_okay: bool = True, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.want_file, self.want_dir = file_okay, dir_okay
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        flag = param.opts[0] if param is not None and param.opts else "path"
+        flag = flag if flag.startswith("-") else flag.upper()
         if isinstance(value, str):
             from ppaloc.cli.outputs import check_path_text
 
-            flag = param.opts[0] if param is not None and param.opts else "path"
-            check_path_text(value, flag.upper() if not flag.startswith("-") else flag)
-        return super().convert(value, param, ctx)
+            check_path_text(value, flag)
+        path = Path(super().convert(value, param, ctx))
+        if not self.want_dir and path.is_dir():
+            raise PpalocError(f"{flag} {path} is a folder; give a file")
+        if not self.want_file and path.exists() and not path.is_dir():
+            raise PpalocError(f"{flag} {path} is a file; give a folder")
+        return path
 
 
 _CONFIG = click.option(
