@@ -151,6 +151,11 @@ def test_damaged_results_are_named_not_crashed_on(mean_match, tiny, tmp_path):
     path = save_results(result, out)
     arrays = out / "arrays" / f"{mean_match}.npz"
     arrays.write_bytes(arrays.read_bytes()[:300])
+    with pytest.raises(DataError, match=rf"{out} is not whole: arrays/{mean_match}.npz does not"):
+        load_results(out)
+    summary = json.loads(path.read_text())
+    del summary["files"]  # a folder of an older ppaloc, without checksums
+    path.write_text(json.dumps(summary))
     with pytest.raises(DataError, match=rf"cannot read {arrays} \(.*\); run `ppaloc evaluate"):
         load_results(out)
     path.write_text('{"methods": {}}')

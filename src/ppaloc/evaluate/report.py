@@ -12,6 +12,7 @@ import base64
 import html
 import json
 import logging
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,9 +24,15 @@ from ppaloc.evaluate.bench import load_bench
 from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
 from ppaloc.evaluate.results import load_results
 from ppaloc.evaluate.run import RunResult
-from ppaloc.fileio import write_bytes
+from ppaloc.fileio import update_folder, write_bytes
 
-__all__ = ["REPRESENTATIONS", "comparison_table", "paper_table", "write_report"]
+__all__ = [
+    "REPRESENTATIONS",
+    "comparison_table",
+    "paper_table",
+    "write_report",
+    "write_report_files",
+]
 
 log = logging.getLogger(__name__)
 
@@ -417,7 +424,9 @@ def _definitions() -> list[tuple[str, str]]:
 
 
 def write_report(folder: str | Path, *, bench_path: str | Path | None = None) -> Path:
-    """Write ``report.html`` and ``report.md`` into a results folder, from its files only.
+    """Write ``report.html``, ``report.md`` and ``figures/`` into a results folder, from its
+    files only, as one transaction (:func:`ppaloc.fileio.update_folder`): a kill leaves the
+    folder with its earlier report whole.
 
     Parameters
     ----------
@@ -432,7 +441,19 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
         ``folder/report.html``.
     """
     folder = Path(folder)
+    if not folder.is_dir():
+        load_results(folder)  # the one-line error for a missing folder; never create one
+    with update_folder(folder) as stage:
+        write_report_files(stage, bench_path=bench_path)
+    return folder / "report.html"
+
+
+def write_report_files(folder: str | Path, *, bench_path: str | Path | None = None) -> Path:
+    """Write the report's files into ``folder`` directly (a staging folder, or one no
+    reader shares); earlier figures are removed first. Returns ``folder/report.html``."""
+    folder = Path(folder)
     result, summary = load_results(folder)
+    shutil.rmtree(folder / "figures", ignore_errors=True)
     bench = load_bench(bench_path if bench_path is not None else folder / "bench.json")
     figs = _figures(result, bench)
     header, rows = comparison_table(summary)
@@ -445,7 +466,7 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
         f"Dataset `{result.dataset}`: {result.n_reference} reference frames, {n_q} query "
         f"frames ({n_match} with a true match), tolerance ±{result.tolerance} "
         f"frame{'' if result.tolerance == 1 else 's'}. "
-        f"ppaloc {result.ppaloc_version}, {result.created}."
+        f"ppaloc {result.ppaloc_version}{', ' + result.created if result.created else ''}."
     )
     meta_html = html.escape(meta).replace("`", "<code>", 1).replace("`", "</code>", 1)
     parts = [

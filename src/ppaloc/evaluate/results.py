@@ -11,19 +11,24 @@ Layout of a results folder::
                           ``labels`` (P,) str and ``plane0`` .. ``plane{P-1}`` (2-D)
     bench.json            latency against map size, where measured (ppaloc bench / demo)
 
-Every file is written atomically (a temporary file in the same folder, then
-``os.replace``), so an interrupted run never leaves a half-written result.
+:func:`save_results` writes the whole folder as one transaction
+(:func:`ppaloc.fileio.new_folder`): the files go into a staging folder beside ``out``
+that then takes its place in one step, so a reader (or a run killed at any moment) sees
+the whole earlier folder or the whole new one, and nothing of an earlier run is left in
+the new one. ``results.json``, written last, lists every other result file with its
+SHA-256 (``files``); :func:`load_results` checks them, and bounds every array and index.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import hashlib
 import io
 import json
+import os
 import re
-import zipfile
-import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,14 +36,21 @@ import numpy as np
 
 from ppaloc.errors import DataError
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
-from ppaloc.fileio import write_bytes
+from ppaloc.fileio import new_folder, recover_folder, source_date, write_bytes
+from ppaloc.npzfile import NpzError, npz_bytes, read_npz
 
 __all__ = [
     "CSV_COLUMNS",
+    "MAX_RESULT_BYTES",
     "array_file",
     "load_results",
+    "results_folder",
     "save_results",
+    "write_results",
 ]
+
+MAX_RESULT_BYTES = 16 << 30
+"""Most array bytes one result ``.npz`` may hold (16 GiB); larger claims are refused."""
 
 CSV_COLUMNS = [
     "method",
@@ -78,10 +90,69 @@ _DATASET_OPTIONAL = (
 )
 
 
+_OWN_NAMES = frozenset(
+    {
+        "results.json",
+        "results.csv",
+        "arrays",
+        "report.html",
+        "report.md",
+        "figures",
+        "bench.json",
+        "bench.csv",
+        "matrix.csv",
+    }
+)
+"""What ppaloc writes at the top of a results folder (matrix runs add ``NN-<spec>/``)."""
+_CARRIED = ("bench.json", "bench.csv")  # a separate `ppaloc bench --out` into the folder
+
+
 def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
-    buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
-    return buf.getvalue()
+    return npz_bytes(arrays, compress=True)
+
+
+def _ours(name: str) -> bool:
+    return name in _OWN_NAMES or re.fullmatch(r"\d{2,}-.*", name) is not None
+
+
+def check_replaceable(out: str | Path) -> None:
+    """Refuse an ``out`` that is a file or a folder holding files ppaloc did not write
+    (a results folder is replaced whole; a user's own files must not go with it)."""
+    out = Path(out)
+    recover_folder(out)
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise DataError(f"--out {out} is a file; give a folder for the results")
+    foreign = sorted(n for n in os.listdir(out) if not _ours(n))
+    if foreign:
+        raise DataError(
+            f"--out {out} holds {foreign[0]!r}, which ppaloc did not write, and a results "
+            "folder is replaced whole; give a new folder or an earlier results folder"
+        )
+
+
+@contextlib.contextmanager
+def results_folder(out: str | Path) -> Iterator[Path]:
+    """A fresh staging folder that replaces ``out`` whole when the block ends cleanly.
+
+    ``out`` must be absent, empty or an earlier results folder
+    (:func:`check_replaceable`); its ``bench.json`` and ``bench.csv`` are kept. An
+    exception (or a kill) inside the block leaves ``out`` as it was.
+    """
+    out = Path(out)
+    check_replaceable(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with new_folder(out, carry=_CARRIED) as stage:
+        yield stage
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+    return h.hexdigest()
 
 
 def array_file(method: str) -> str:
@@ -98,11 +169,29 @@ def _csv_row(name: str, summary: dict[str, Any], n_queries: int) -> list[Any]:
 
 
 def save_results(result: RunResult, out: str | Path) -> Path:
-    """Write ``result`` into folder ``out`` (created if needed); return ``out/results.json``."""
+    """Write ``result`` as the folder ``out``, replacing it whole (see :func:`results_folder`);
+    return ``out/results.json``."""
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise DataError(f"--out {out} is a file; give a folder for the results")
+    with results_folder(out) as stage:
+        write_results(result, stage)
+    return out / "results.json"
+
+
+def write_results(result: RunResult, out: str | Path) -> Path:
+    """Write ``result``'s files into the folder ``out`` (a staging folder: nothing here is
+    transactional on its own); return ``out/results.json``.
+
+    The same result gives the same bytes: no clock time is written (``created`` only
+    where ``SOURCE_DATE_EPOCH`` is set) and the ``.npz`` entries carry fixed timestamps.
+    """
+    out = Path(out)
+    written: list[str] = []
     summary = result.summary()
+    when = source_date()
+    if when is None:
+        summary.pop("created", None)
+    else:
+        summary["created"] = when.isoformat(timespec="seconds")
     for name, run in result.runs.items():
         rel = array_file(name)
         summary["methods"][name]["arrays"] = rel
@@ -112,6 +201,7 @@ def save_results(result: RunResult, out: str | Path) -> Path:
         arrays["curve_precision"] = run.metrics.curve.precision
         arrays["curve_recall"] = run.metrics.curve.recall
         write_bytes(out / rel, _npz_bytes(arrays))
+        written.append(rel)
         if run.registers:
             names = list(run.registers)
             planes = {f"plane{i}": np.asarray(run.registers[n]) for i, n in enumerate(names)}
@@ -119,6 +209,7 @@ def save_results(result: RunResult, out: str | Path) -> Path:
             reg_rel = rel.replace(".npz", ".registers.npz")
             summary["methods"][name]["registers"] = reg_rel
             write_bytes(out / reg_rel, _npz_bytes(planes))
+            written.append(reg_rel)
     gt = result.ground_truth
     ds_arrays = {
         "gt_indptr": np.cumsum([0] + [len(g) for g in gt]).astype(np.int64),
@@ -129,26 +220,34 @@ def save_results(result: RunResult, out: str | Path) -> Path:
         if value is not None:
             ds_arrays[key] = np.asarray(value)
     write_bytes(out / "arrays" / "_dataset.npz", _npz_bytes(ds_arrays))
+    written.append("arrays/_dataset.npz")
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
     for name, s in summary["methods"].items():
         writer.writerow(_csv_row(name, s, summary["n_queries"]))
     write_bytes(out / "results.csv", text.getvalue())
+    written.append("results.csv")
+    summary["files"] = {rel: _sha256(out / rel) for rel in sorted(written)}
     # allow_nan=False: results.json must stay strict JSON (NaN and Infinity are not)
     return write_bytes(out / "results.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
 
 
+def _again(folder: Path) -> str:
+    return f"run `ppaloc evaluate --out {folder}` again"
+
+
 def _read_npz(path: Path, required: Sequence[str], folder: Path) -> dict[str, np.ndarray]:
-    """Every array of a result ``.npz`` (no unpickling); a damaged or incomplete file is a
-    :class:`DataError` naming it."""
+    """Every array of a result ``.npz``, each bounded before it is read (no unpickling); a
+    missing, damaged or incomplete file is a :class:`DataError` naming it."""
+    if not path.is_file():
+        raise DataError(f"{folder} is not whole: {path} is missing; {_again(folder)}")
     try:
-        with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:  # f: closed on error
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
-        raise DataError(
-            f"cannot read {path} ({exc}); run `ppaloc evaluate --out {folder}` again"
-        ) from None
+        arrays = read_npz(path, max_bytes=MAX_RESULT_BYTES)
+    except NpzError as exc:
+        raise DataError(f"cannot read {path} ({exc}); {_again(folder)}") from None
+    except OSError as exc:
+        raise DataError(f"cannot read {path} ({exc.strerror or exc}); {_again(folder)}") from None
     _require(arrays, required, path)
     return arrays
 
@@ -163,11 +262,71 @@ def _bools(value: np.ndarray | None) -> np.ndarray | None:
     return None if value is None else np.asarray(value, dtype=bool)
 
 
+def _inner(folder: Path, rel: Any, field: str) -> Path:
+    """``folder / rel`` for a relative path stored in results.json, refused if it leaves
+    the folder."""
+    if not isinstance(rel, str) or not rel:
+        raise DataError(f"{folder / 'results.json'}: {field} is {rel!r:.60}, not a file name")
+    path = Path(rel)
+    if path.is_absolute() or ".." in path.parts:
+        raise DataError(
+            f"{folder / 'results.json'}: {field} {rel!r:.60} points outside the folder; "
+            f"{_again(folder)}"
+        )
+    return folder / path
+
+
+def _check_whole(folder: Path, files: Any) -> None:
+    """Every file results.json lists is there with the checksum it recorded."""
+    if not isinstance(files, dict):
+        raise DataError(f"{folder / 'results.json'}: 'files' is not a table; {_again(folder)}")
+    for rel, digest in files.items():
+        path = _inner(folder, rel, f"files entry {rel!r:.60}")
+        if not path.is_file():
+            raise DataError(f"{folder} is not whole: {rel} is missing; {_again(folder)}")
+        if _sha256(path) != digest:
+            raise DataError(
+                f"{folder} is not whole: {rel} does not match the checksum in results.json "
+                f"(files of two runs mixed, or damaged); {_again(folder)}"
+            )
+
+
+def _count(summary: Mapping[str, Any], key: str, path: Path, default: int | None = None) -> int:
+    value = summary.get(key, default)
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        raise DataError(f"{path}: {key!r} is {value!r:.40}, expected a count >= 0")
+    return value
+
+
+def _check_array(
+    a: np.ndarray, where: str, *, length: int, ndim: int = 1, bounds: tuple[int, int] | None = None
+) -> None:
+    """``a`` has ``ndim`` dimensions and ``length`` rows; integer values in ``bounds``."""
+    if a.ndim != ndim or len(a) != length:
+        raise DataError(f"{where} has shape {a.shape}, expected {length} rows in {ndim}-D")
+    if a.dtype.kind not in "biuf":
+        raise DataError(f"{where} holds {a.dtype}, not numbers")
+    if bounds is not None and a.size:
+        if a.dtype.kind not in "iu":
+            raise DataError(f"{where} holds {a.dtype}, expected integers")
+        lo, hi = bounds
+        bad = np.flatnonzero((a < lo) | (a >= hi))
+        if bad.size:
+            at = np.unravel_index(int(bad[0]), a.shape)
+            shown = ", ".join(map(str, at))
+            raise DataError(
+                f"{where}[{shown}] is {int(a[at])}, outside {lo}..{hi - 1} (an index into "
+                f"{hi} entries)"
+            )
+
+
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     """Read a results folder written by :func:`save_results`.
 
     Metrics are recomputed from the per-query arrays (so a report never depends on
-    anything but the files).
+    anything but the files). Every file ``results.json`` lists must match its checksum,
+    every array its expected shape, and every stored index must point into what it
+    indexes.
 
     Returns
     -------
@@ -179,9 +338,13 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     Raises
     ------
     DataError
-        If the folder or one of its files is missing or unreadable.
+        If the folder or one of its files is missing, unreadable, not whole (files of two
+        runs), or holds an array or index out of range; the message names the file and
+        the field.
     """
     folder = Path(folder)
+    if not folder.exists():
+        recover_folder(folder)  # a transaction killed between its two renames
     path = folder / "results.json"
     if not path.is_file():
         raise DataError(
@@ -189,24 +352,81 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         )
     try:
         summary = json.loads(path.read_text())
+    except RecursionError:
+        raise DataError(f"cannot read the results in {folder}: {path} is nested too deep") from None
     except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read the results in {folder}: {exc}") from exc
+        raise DataError(f"cannot read the results in {folder}: {exc}") from None
+    if not isinstance(summary, dict):
+        raise DataError(f"{path} is not a results table; give a folder written by ppaloc")
     missing = [k for k in ("dataset", "tolerance", "methods") if k not in summary]
     if missing:
         raise DataError(
             f"{path} has no {missing[0]!r} entry; give a folder written by `ppaloc evaluate --out`"
         )
-    ds = _read_npz(folder / "arrays" / "_dataset.npz", ("gt_indptr", "gt_indices"), folder)
+    if not isinstance(summary["methods"], dict) or not all(
+        isinstance(v, dict) for v in summary["methods"].values()
+    ):
+        raise DataError(f"{path}: 'methods' is not a table of methods; {_again(folder)}")
+    if "files" in summary:
+        _check_whole(folder, summary["files"])
+    tolerance = _count(summary, "tolerance", path)
+    n_ref = _count(summary, "n_reference", path, 0)
+    ds_path = folder / "arrays" / "_dataset.npz"
+    ds = _read_npz(ds_path, ("gt_indptr", "gt_indices"), folder)
     indptr, indices = ds["gt_indptr"], ds["gt_indices"]
-    gt = [indices[indptr[i] : indptr[i + 1]] for i in range(len(indptr) - 1)]
+    if indptr.ndim != 1 or len(indptr) < 1 or indptr.dtype.kind not in "iu":
+        raise DataError(f"{ds_path}: gt_indptr has shape {indptr.shape}, expected (M + 1,)")
+    n_queries = len(indptr) - 1
+    _check_array(indices, f"{ds_path}: gt_indices", length=len(indices))
+    if indptr[0] != 0 or np.any(np.diff(indptr) < 0) or indptr[-1] != len(indices):
+        raise DataError(
+            f"{ds_path}: gt_indptr is not a CSR index (0 first, non-decreasing, "
+            f"{len(indices)} last); {_again(folder)}"
+        )
+    if n_ref:
+        _check_array(indices, f"{ds_path}: gt_indices", length=len(indices), bounds=(0, n_ref))
+    if _count(summary, "n_queries", path, n_queries) != n_queries:
+        raise DataError(
+            f"{folder} is not whole: results.json has {summary['n_queries']} queries, "
+            f"{ds_path.name} {n_queries}; {_again(folder)}"
+        )
+    per_query = ("query_positions", "query_moved", "query_turning")
+    for key, value in ds.items():
+        if key in per_query:
+            _check_array(value, f"{ds_path}: {key}", length=n_queries, ndim=value.ndim or 1)
+        elif key in ("reference_positions", "reference_turning") and n_ref:
+            _check_array(value, f"{ds_path}: {key}", length=n_ref, ndim=value.ndim or 1)
+    gt = [indices[indptr[i] : indptr[i + 1]] for i in range(n_queries)]
     runs: dict[str, MethodRun] = {}
     for name, s in summary["methods"].items():
-        a = _read_npz(folder / s.get("arrays", array_file(name)), _ARRAYS, folder)
+        a_path = _inner(folder, s.get("arrays", array_file(name)), f"{name}.arrays")
+        a = _read_npz(a_path, _ARRAYS, folder)
+        n_nodes = _count(s, "n_nodes", path, 0)
+        where = f"{a_path}:"
+        for key in ("score", "moved", "latency_ms", *_OPTIONAL[1:]):
+            if key in a:
+                _check_array(a[key], f"{where} {key}", length=n_queries)
+        _check_array(a["node"], f"{where} node", length=n_queries, bounds=(0, n_nodes or 2**62))
+        if n_ref:
+            _check_array(a["ref_index"], f"{where} ref_index", length=n_queries, bounds=(0, n_ref))
+            _check_array(
+                a["ranking"], f"{where} ranking", length=n_queries, ndim=2, bounds=(-1, n_ref)
+            )
+        else:
+            _check_array(a["ref_index"], f"{where} ref_index", length=n_queries)
+            _check_array(a["ranking"], f"{where} ranking", length=n_queries, ndim=2)
+        if "weights" in a:
+            _check_array(a["weights"], f"{where} weights", length=n_queries, ndim=2)
+            if n_nodes and a["weights"].shape[1] != n_nodes:
+                raise DataError(
+                    f"{where} weights has {a['weights'].shape[1]} columns for {n_nodes} nodes"
+                )
         registers = None
         if s.get("registers"):
-            planes = _read_npz(folder / s["registers"], ("labels",), folder)
-            labels = [str(x) for x in planes["labels"]]
-            _require(planes, [f"plane{i}" for i in range(len(labels))], folder / s["registers"])
+            reg_path = _inner(folder, s["registers"], f"{name}.registers")
+            planes = _read_npz(reg_path, ("labels",), folder)
+            labels = [str(x) for x in np.ravel(planes["labels"])]
+            _require(planes, [f"plane{i}" for i in range(len(labels))], reg_path)
             registers = {lab: planes[f"plane{i}"] for i, lab in enumerate(labels)}
         ranking = a["ranking"]
         metrics = method_metrics(
@@ -223,7 +443,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             method=name,
             params=s.get("params", {}),
             map_kind=s.get("map_kind", ""),
-            n_nodes=int(s.get("n_nodes", 0)),
+            n_nodes=n_nodes,
             build_s=float(s.get("build_s", 0.0)),
             node=a["node"],
             ref_index=a["ref_index"],
@@ -242,9 +462,9 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     result = RunResult(
         dataset=summary["dataset"],
         dataset_name=summary.get("dataset_name", summary["dataset"]),
-        tolerance=int(summary["tolerance"]),
+        tolerance=tolerance,
         ground_truth=gt,
-        n_reference=int(summary.get("n_reference", 0)),
+        n_reference=n_ref,
         runs=runs,
         config=summary.get("config", {}),
         reference_positions=ds.get("reference_positions"),
