@@ -82,8 +82,10 @@ def run_evaluate(
     quiet: bool = False,
     bench: Any = None,
     report: bool = True,
+    shown_as: Path | None = None,
 ) -> Path:
-    """Run ``config`` (an EvaluateConfig), write results (and report) into ``out``.
+    """Run ``config`` (an EvaluateConfig), write results (and report) as the folder ``out``,
+    replacing it whole (``shown_as``: the folder name to print, if not ``out``).
 
     Returns
     -------
@@ -91,25 +93,29 @@ def run_evaluate(
         ``out/results.json``.
     """
     from ppaloc.evaluate.bench import save_bench
-    from ppaloc.evaluate.report import write_report
-    from ppaloc.evaluate.results import save_results
+    from ppaloc.evaluate.report import write_report_files
+    from ppaloc.evaluate.results import check_replaceable, results_folder, write_results
     from ppaloc.evaluate.run import run_evaluation
 
     _check_out_dir(out)
+    check_replaceable(out)
     result = run_evaluation(config, progress=not quiet)
-    path = save_results(result, out)
-    if bench is not None:
-        save_bench(_bench_with_bar(bench, quiet=quiet), out / "bench.json")
-    if report:
-        write_report(out)
+    # One transaction: `out` is replaced whole by the results, bench and report at the end.
+    with results_folder(out) as stage:
+        write_results(result, stage)
+        if bench is not None:
+            save_bench(_bench_with_bar(bench, quiet=quiet), stage / "bench.json")
+        if report:
+            write_report_files(stage)
+    path = out / "results.json"
     if not quiet:
         import json
 
         summary = json.loads(path.read_text())
         print_results_table(summary, title=f"{result.dataset_name} ({result.dataset})")
-        print(f"results: {path}")
+        print(f"results: {shown_as or out}/results.json")
         if report:
-            print(f"report:  {out / 'report.html'}")
+            print(f"report:  {shown_as or out}/report.html")
     return path
 
 
@@ -129,22 +135,27 @@ def run_matrix(
     import json
     import re
 
-    from ppaloc.evaluate.results import CSV_COLUMNS
+    from ppaloc.evaluate.results import CSV_COLUMNS, check_replaceable, results_folder
     from ppaloc.fileio import write_bytes
 
     _check_out_dir(out)
+    check_replaceable(out)
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(["dataset", "folder", *CSV_COLUMNS])
-    for i, config in enumerate(configs):
-        slug = re.sub(r"[^A-Za-z0-9]+", "-", config.dataset).strip("-")[:60]
-        folder = out / f"{i + 1:02d}-{slug}"
-        path = run_evaluate(config, folder, quiet=quiet, report=report)
-        spec = json.loads(path.read_text())["dataset"]
-        with open(path.with_suffix(".csv")) as f:
-            for row in list(csv.reader(f))[1:]:
-                writer.writerow([spec, folder.name, *row])
-    matrix = write_bytes(out / "matrix.csv", text.getvalue())
+    with results_folder(out) as stage:  # the whole matrix replaces `out` at the end
+        for i, config in enumerate(configs):
+            slug = re.sub(r"[^A-Za-z0-9]+", "-", config.dataset).strip("-")[:60]
+            name = f"{i + 1:02d}-{slug}"
+            path = run_evaluate(
+                config, stage / name, quiet=quiet, report=report, shown_as=out / name
+            )
+            spec = json.loads(path.read_text())["dataset"]
+            with open(path.with_suffix(".csv")) as f:
+                for row in list(csv.reader(f))[1:]:
+                    writer.writerow([spec, name, *row])
+        write_bytes(stage / "matrix.csv", text.getvalue())
+    matrix = out / "matrix.csv"
     if not quiet:
         print(f"matrix: {matrix}")
     return matrix
@@ -186,11 +197,18 @@ def run_bench(config: Any, out: Path | None, *, quiet: bool = False) -> dict[str
     from rich.table import Table
 
     from ppaloc.evaluate.bench import save_bench
+    from ppaloc.evaluate.results import check_replaceable
+    from ppaloc.fileio import update_folder
 
-    bench = _bench_with_bar(config, quiet=quiet)
     if out is not None:
         _check_out_dir(out)
-        path = save_bench(bench, out / "bench.json")
+        check_replaceable(out)
+    bench = _bench_with_bar(config, quiet=quiet)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with update_folder(out) as stage:  # bench.json and bench.csv replace theirs together
+            save_bench(bench, stage / "bench.json")
+        path = out / "bench.json"
     if not quiet:
         table = Table(title="Host time per frame (ms) against map size", title_justify="left")
         sizes = list(config.sizes)
@@ -390,9 +408,14 @@ def run_localise(
     topomap = load_map(map_path)
     name = _method_for_map(topomap, method)
     (name,) = resolve_methods([name])
-    user = dict(topomap.provenance.get("method_params") or {}) if not method else {}
-    user.update(params or {})
-    loc = make_localiser(name, **user)
+    stored = topomap.provenance.get("method_params") or {} if not method else {}
+    if not isinstance(stored, dict):
+        raise DataError(f"map {map_path}: provenance.method_params is not a table of parameters")
+    try:
+        make_localiser(name, **stored)  # the map's own parameters, checked as the user's are
+    except PpalocError as exc:
+        raise DataError(f"map {map_path}: provenance.method_params refused: {exc}") from None
+    loc = make_localiser(name, **{**stored, **(params or {})})
     use = getattr(loc, "use_map", None)
     if use is None:
         raise PpalocError(f"method {name!r} cannot load a saved map (it has no use_map)")
