@@ -9,14 +9,25 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import math
+import types
+import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Localiser
 
-__all__ = ["METHODS", "MethodSpec", "accepted_parameters", "available_methods", "make_localiser"]
+__all__ = [
+    "METHODS",
+    "PARAM_LIMITS",
+    "MethodSpec",
+    "accepted_parameters",
+    "available_methods",
+    "check_parameters",
+    "make_localiser",
+]
 
 
 @dataclass(frozen=True)
@@ -88,6 +99,162 @@ METHODS: dict[str, MethodSpec] = {
 }
 
 
+_SEED = (0, 2**63 - 1)
+_SIZE = (1, 1024)
+_TOP_K = (1, 10_000)
+_WINDOW = (0, 10_000)
+
+PARAM_LIMITS: dict[str, dict[str, tuple[float, float]]] = {
+    "ppaloc.baselines.seqslam:SeqSLAM": {
+        "size": _SIZE,
+        "patch": (1, 1024),
+        "ds": (0, 500),  # the trajectory set-up grows as ds^2: about 1 s at 500
+        "vmin": (0.001, 100.0),
+        "vmax": (0.001, 100.0),
+        "vstep": (0.001, 100.0),
+        "rwindow": (0, 1_000_000),
+        "enhance_window": _WINDOW,
+        "top_k": _TOP_K,
+    },
+    "ppaloc.baselines.ablem:ABLEM": {
+        "length": (1, 1000),
+        "side": (8, 1024),
+        "levels": (1, 64),
+        "n_bits": (1, 1_000_000),
+        "bit_seed": _SEED,
+        "rwindow": (0, 1_000_000),
+        "top_k": _TOP_K,
+    },
+    "ppaloc.baselines.particle:ParticleFilter": {
+        "n_particles": (1, 10_000_000),
+        "p_stay": (0.0, 1.0),
+        "p_forward": (0.0, 1.0),
+        "p_jump": (0.0, 1.0),
+        "max_jump": (2, 1_000_000),
+        "sigma_rel": (1e-9, 1e6),
+        "enhance_window": _WINDOW,
+        "size": _SIZE,
+        "patch": (1, 1024),
+        "seed": _SEED,
+        "top_k": _TOP_K,
+    },
+    "ppaloc.baselines.single:SingleFrame": {
+        "size": _SIZE,
+        "patch": (1, 1024),
+        "radius": (0, 1_000_000),
+        "top_k": _TOP_K,
+    },
+    "ppaloc.localise.weighted:WeightedNodeLocaliser": {
+        "confidence_radius": (0, 1_000_000),
+        "ranking_k": _TOP_K,
+        "motion_margin": (0, 255),
+        "motion_shift": (0, 16),
+        "motion_min_support": (0, 65_536),
+    },
+    "ppaloc.onsensor.localiser:OnSensorLocaliser": {"seed": _SEED, "size": (16, 256)},
+}
+"""Accepted range of each numeric parameter, per implementation (a list parameter's range
+holds for each item), where a value drives memory or time or leaves the method's meaning;
+the types come from the class's signature. The published defaults all lie inside."""
+
+
+def _type_words(hint: Any) -> str:
+    """What a type hint asks for, in words."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin is Literal:
+        return "one of " + ", ".join(repr(a) for a in args)
+    if origin in (typing.Union, types.UnionType):
+        return " or ".join(_type_words(a) for a in args if a is not type(None))
+    if origin is tuple:
+        return "a list of " + (f"{len(args)} " if ... not in args else "") + "integers"
+    return {bool: "true or false", int: "an integer", float: "a number", str: "text"}.get(
+        hint, getattr(hint, "__name__", str(hint))
+    )
+
+
+def _fits(value: Any, hint: Any) -> bool:
+    """Whether ``value`` (from TOML or ``--param``) fits the type hint ``hint``."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if hint is Any or hint is inspect.Parameter.empty:
+        return True
+    if origin is Literal:
+        return any(value == a and type(value) is type(a) for a in args)
+    if origin in (typing.Union, types.UnionType):
+        return (value is None and type(None) in args) or any(
+            _fits(value, a) for a in args if a is not type(None)
+        )
+    if hint is type(None):
+        return value is None
+    if hint is bool:
+        return isinstance(value, bool)
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if hint is float:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if hint is str:
+        return isinstance(value, str) and "\0" not in value and len(value) <= 4096
+    if origin is tuple:
+        if not isinstance(value, list | tuple):
+            return False
+        items = args[:1] * len(value) if len(args) == 2 and args[1] is ... else args
+        return len(items) == len(value) and all(
+            _fits(v, a) for v, a in zip(value, items, strict=True)
+        )
+    return True  # a type the command line cannot express (an array, an object): the class checks
+
+
+def check_parameters(name: str, params: Mapping[str, Any]) -> None:
+    """Check each parameter of method ``name`` against its type (the class's signature)
+    and its range (:data:`PARAM_LIMITS`), before the method is built.
+
+    Raises
+    ------
+    PpalocError
+        Naming the method, the parameter, the value and what is accepted.
+
+    Examples
+    --------
+    >>> check_parameters("seqslam", {"ds": 100000})
+    Traceback (most recent call last):
+    ppaloc.errors.PpalocError: method 'seqslam': ds=100000 must be in [0, 500]
+    """
+    if name not in METHODS:
+        raise PpalocError(
+            f"unknown method {name!r}; choose one of: {', '.join(available_methods())}"
+        )
+    spec = METHODS[name]
+    try:
+        cls = _load(spec)
+    except (ImportError, AttributeError) as exc:
+        raise PpalocError(f"method {name!r} is not available in this install ({exc})") from exc
+    accepted = accepted_parameters(name)
+    unknown = [key for key in params if accepted is not None and key not in accepted]
+    if unknown:
+        offered = [p for p in accepted or () if p not in spec.defaults]
+        raise PpalocError(
+            f"method {name!r}: unknown parameter {str(unknown[0])[:60]!r}; its parameters: "
+            + ", ".join(offered)
+        )
+    try:
+        hints = typing.get_type_hints(cls.__init__)
+    except Exception:  # an annotation that does not resolve: leave the types to the class
+        hints = {}
+    limits = PARAM_LIMITS.get(spec.target, {})
+    for key, value in params.items():
+        shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
+        hint = hints.get(key, Any)
+        if not _fits(value, hint):
+            raise PpalocError(f"method {name!r}: {key}={shown} must be {_type_words(hint)}")
+        if key not in limits or value is None:
+            continue
+        low, high = limits[key]
+        for item in value if isinstance(value, list | tuple) else [value]:
+            number = isinstance(item, int | float) and not isinstance(item, bool)
+            if not number or not math.isfinite(item) or not low <= item <= high:
+                bounds = ", ".join(str(b) if isinstance(b, int) else f"{b:g}" for b in (low, high))
+                raise PpalocError(f"method {name!r}: {key}={shown} must be in [{bounds}]")
+
+
 def _load(spec: MethodSpec) -> type:
     module, _, cls = spec.target.partition(":")
     return getattr(importlib.import_module(module), cls)
@@ -122,17 +289,10 @@ def make_localiser(name: str, **params: Any) -> Localiser:
         cls = _load(spec)
     except (ImportError, AttributeError) as exc:
         raise PpalocError(f"method {name!r} is not available in this install ({exc})") from exc
-    accepted = accepted_parameters(name)
-    unknown = [key for key in params if accepted is not None and key not in accepted]
-    if unknown:
-        offered = [p for p in accepted or () if p not in spec.defaults]
-        raise PpalocError(
-            f"method {name!r}: unknown parameter {unknown[0]!r}; its parameters: "
-            + ", ".join(offered)
-        )
+    check_parameters(name, params)
     try:
         return cls(**{**spec.defaults, **params})
-    except TypeError as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise PpalocError(f"method {name!r}: {exc}") from exc
 
 
