@@ -129,6 +129,21 @@ def _check_params(params: Any, source: Path | None) -> None:
         )
 
 
+def _check_method_params(params: Any, source: Path | None) -> None:
+    """Each ``params`` table names a known method and holds only its valid parameters
+    (type and range, :func:`ppaloc.methods.check_parameters`), before any work."""
+    from ppaloc.methods import METHODS, check_parameters
+
+    where = f" in {source}" if source else ""
+    for method, values in (params or {}).items():
+        if method not in METHODS:
+            raise PpalocError(
+                f"params given for unknown method {_short(method)}{where}; methods: "
+                + ", ".join(METHODS)
+            )
+        check_parameters(method, values)
+
+
 def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
     """The checked output location (see :func:`ppaloc.cli.outputs.check_output`)."""
     from ppaloc.cli.outputs import check_output
@@ -387,6 +402,7 @@ def evaluate(
     reject_unknown_keys(
         values, [*fields, "out", "no_report", "quiet"], source=str(config_file or "")
     )
+    _check_method_params(values.get("params"), config_file)
     out_dir = _output(_pop(values, "out", "results"), folder=True)
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
@@ -475,6 +491,7 @@ def bench(
     out_dir = values.pop("out", None)
     quiet_ = bool(_pop(values, "quiet", False))
     config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
+    _check_method_params(config.params, config_file)
     out_path = None if out_dir is None else _output(out_dir, folder=True)
     run_bench(config, out_path, quiet=quiet_)
 
