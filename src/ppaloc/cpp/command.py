@@ -85,6 +85,8 @@ def run_cpp(
             f"{s['icws_run']} ICWs run, modelled {s['modelled_us']:.1f} us, "
             f"wall {s['wall_s']:.2f} s -> {out}"
         )
+        for warning in result.session.warnings:
+            print(f"  warning: {warning}")
         for text in result.texts[:20]:
             print(f"  {text}")
     return result

@@ -78,6 +78,7 @@ class RunResult:
             "displays": {str(h): name for h, name in s.displays.items()},
             "gui_values": s.gui_values,
             "texts": len(s.texts),
+            "warnings": s.warnings,
             "modelled_us": s.sim.timing.now_us,
             "wall_s": self.wall_s,
         }

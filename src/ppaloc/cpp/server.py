@@ -11,6 +11,7 @@ frame, posted text, modelled time per kernel and per frame.
 from __future__ import annotations
 
 import struct
+import warnings
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -99,6 +100,7 @@ class Session:
     frame_us: list[float] = field(default_factory=list)
     calls: Counter = field(default_factory=Counter)
     gui_values: dict[str, int] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
     loops: int = 0
     finished: bool = False
     _bitstack: list | None = None
@@ -204,7 +206,8 @@ class Session:
         if stats.kernel is None:
             kernel = self.sim.kernel()
             try:
-                with kernel as k:
+                with warnings.catch_warnings(record=True) as caught, kernel as k:
+                    warnings.simplefilter("always")
                     for name, line, args in stats._body:  # type: ignore[attr-defined]
                         try:
                             getattr(k, name)(*args)
@@ -218,6 +221,8 @@ class Session:
                     f"{self.program}:{stats.line}: the kernel begun here: {exc}"
                 ) from None
             stats.kernel = kernel
+            for w in caught:
+                self.warnings.append(f"{self.program}:{stats.line}: {w.message}")
         else:
             stats.kernel.run()
         stats.runs += 1
@@ -300,7 +305,10 @@ def _scan_dreg(s: Session, a: list, line: int) -> bytes:
     dreg, r0, r1 = a
     rows = s.sim.scan_dreg(dreg, r0, min(r1, s.sim.rows - 1))
     hardware = rows[:, ::-1]  # hardware column 0 is the east edge
-    return np.packbits(hardware, axis=1, bitorder="little").tobytes()
+    packed = np.packbits(hardware, axis=1, bitorder="little")
+    out = np.zeros((len(rows), 32), np.uint8)  # 32 bytes per row, as on the 256-wide chip
+    out[:, : packed.shape[1]] = packed[:, :32]
+    return out.tobytes()
 
 
 def _scan_events(s: Session, a: list, line: int) -> bytes:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import inspect
 
 from ppaloc.cpp.protocol import OPS, REGISTER_NAMES, SERVER_EXIT, SHIM_EXIT, TAGS, VERSION
+from ppaloc.sim.kernel import Kernel
 from ppaloc.sim.macros import ProgramAPI
 
 __all__ = ["constants_header", "kernel_macros", "macros_header"]
@@ -37,6 +38,8 @@ def kernel_macros() -> dict[str, tuple[int, int]]:
         if any(p.kind is p.VAR_POSITIONAL for p in params):
             hi += _STAR_MAX
         out[name] = (lo, hi)
+    if hasattr(Kernel, "move_to_heap"):  # a kernel's own setting, called inside it
+        out["move_to_heap"] = (0, 1)
     return out
 
 

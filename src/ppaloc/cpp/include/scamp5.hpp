@@ -47,11 +47,15 @@ typedef int vs_handle;
 // ------------------------------------------------------------------ the client
 namespace ppa {
 
+// Where a call was written: as a default argument, here() takes the caller's file and line.
 struct Loc {
     const char* file;
     unsigned line;
+    static constexpr Loc here(const char* f = __builtin_FILE(), unsigned l = __builtin_LINE()) {
+        return Loc{f, l};
+    }
 };
-#define PPA_HERE (ppa::Loc{__builtin_FILE(), __builtin_LINE()})
+#define PPA_HERE ppa::Loc::here()
 
 // One argument of a kernel or controller call, tagged with its kind.
 struct Arg {

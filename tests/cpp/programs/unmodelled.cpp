@@ -1,0 +1,11 @@
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+
+int main() {
+    vs_init();
+    // scamp5_flood(R5, R6, 0); in a comment is fine
+    while (1) {
+        vs_frame_loop_control();
+        scamp5_flood(R5, R6, 0);
+    }
+}

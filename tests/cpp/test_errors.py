@@ -1,0 +1,96 @@
+"""Bad input: compile errors, unmodelled calls, misuse, hangs and crashes, each one line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.cli import main
+from ppaloc.cpp import CompileError, UnmodelledCallError, compile_program, run_program
+from ppaloc.cpp.build import check_source
+from ppaloc.errors import PpalocError
+
+from .conftest import PROGRAMS
+
+FAULTS = PROGRAMS / "faults.cpp"
+FRAMES = [np.full((64, 64), 100, np.uint8)]
+
+
+@pytest.fixture(scope="module")
+def faults(cxx):
+    return compile_program(FAULTS)
+
+
+def fault(n: int, tmp_path=None, **settings):
+    values = {"fault": str(n), **{k: str(v) for k, v in settings.items()}}
+    out = None if tmp_path is None else tmp_path / "out"
+    return run_program(FAULTS, FRAMES, settings=values, timeout=3, out=out)
+
+
+def test_compile_error_names_file_and_line(cxx):
+    with pytest.raises(CompileError) as err:
+        compile_program(PROGRAMS / "broken.cpp")
+    assert "broken.cpp:6:" in str(err.value)
+    assert "undefined_name" in str(err.value)
+
+
+def test_unmodelled_call_named_before_the_run():
+    with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: scamp5_flood is a"):
+        compile_program(PROGRAMS / "unmodelled.cpp")
+    with pytest.raises(UnmodelledCallError, match=r"p.cpp:2: aout is"):
+        check_source("scamp5_kernel_begin();\n  aout(A);\n", "p.cpp")
+    check_source('vs_post_text("scamp5_flood");\nmov(A, B);\n', "p.cpp")  # strings, known
+
+
+def test_hang_is_stopped(faults, tmp_path):
+    with pytest.raises(PpalocError, match=r"did not finish within 3 s \(stopped in frame 0\)"):
+        fault(1, tmp_path)
+    assert not (tmp_path / "out").exists()
+
+
+def test_out_of_bounds_write_is_one_line_and_leaves_no_folder(faults, tmp_path):
+    fault(2, index=3)  # in bounds: fine
+    with pytest.raises(PpalocError) as err:
+        fault(2, tmp_path, index=16)
+    message = str(err.value)
+    assert "crashed in frame 0" in message and "faults.cpp:" in message
+    assert "\n" not in message
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_null_pointer_crash(faults, tmp_path):
+    with pytest.raises(PpalocError, match="crashed in frame 0"):
+        fault(6, tmp_path)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_register_misuse_names_the_line(faults):
+    with pytest.raises(PpalocError, match=r"faults.cpp:25: sub\(A, B, A\): .*lists A twice"):
+        fault(3)
+
+
+def test_kernel_function_outside_a_kernel(faults):
+    with pytest.raises(PpalocError, match=r"faults.cpp:29: mov\(\) is a kernel function"):
+        fault(4)
+
+
+def test_bad_controller_value_names_the_line(faults):
+    with pytest.raises(PpalocError, match=r"faults.cpp:31: scamp5_load_point\(R5, 200, 3\)"):
+        fault(5)
+
+
+def test_settings_checked(faults):
+    with pytest.raises(PpalocError, match=r"--set fault=12 is outside the slider's range"):
+        fault(12)
+    with pytest.raises(PpalocError, match="has no slider or switch of that name"):
+        run_program(FAULTS, FRAMES, settings={"nope": "1"})
+
+
+def test_cli_exit_codes(faults, tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["cpp", "run", str(FAULTS), "--out", str(out), "--frames", "2", "-q"]) == 0
+    assert (out / "displays" / "image" / "frame_0001.png").exists()
+    code = main(["cpp", "run", str(FAULTS), "--out", str(tmp_path / "bad"), "--set", "fault=3"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "faults.cpp:25" in err
