@@ -49,6 +49,13 @@ def test_loop_adds_the_frame_control_and_the_estimate():
     c = loop_counts(np.zeros((256, 256), np.uint8))
     assert c["calls:vs_frame_loop_control"] == 1 and c["units:usb_output"] == 4
     assert interval_us(c).mid > 1600  # 32 KiB at 20 MB/s alone
+    frame = np.random.default_rng(0).integers(0, 256, (256, 256)).astype(np.uint8)
+    drawn, only = loop_counts(frame), loop_counts(frame, injection="bytes")
+    assert "calls:scamp5_draw_pixel" not in only
+    assert only["units:vs_gui_request_image"] == drawn["units:vs_gui_request_image"]
+    assert interval_us(drawn).low > interval_us(only).high  # ~30k drawn pixels
+    with pytest.raises(PpalocError, match="injection='fast'"):
+        loop_counts(frame, injection="fast")
 
 
 def test_precursor_detection_follows_the_thresholds_and_caps_the_events():

@@ -39,6 +39,7 @@ from ppaloc.sim.timing import add_counts
 
 __all__ = [
     "BIT_PLANES",
+    "INJECTIONS",
     "REPLACED_STAGES",
     "STRUCTURES",
     "injection_counts",
@@ -51,6 +52,10 @@ __all__ = [
 
 #: Program structures of the ``chip`` boundary.
 STRUCTURES = ("ppaloc", "precursor")
+
+#: How the ``loop`` boundary's frame reaches the registers: drawn as the precursor does
+#: it, or its bytes only (the least any path can cost).
+INJECTIONS = ("drawn", "bytes")
 
 #: Bit-planes the precursor requests per injected frame (its ``D2A_BITS``).
 BIT_PLANES = 4
@@ -264,7 +269,9 @@ def structure_counts(
     return add_counts(*kept, *ours.values())
 
 
-def injection_counts(frame: np.ndarray, bit_planes: int = BIT_PLANES) -> dict[str, float]:
+def injection_counts(
+    frame: np.ndarray, bit_planes: int = BIT_PLANES, injection: str = "drawn"
+) -> dict[str, float]:
     """The host's frame injected as the precursor does it (``load_image_input_register``).
 
     One ``vs_gui_request_image`` of ``bit_planes`` planes (256 x 32 bytes each, the top
@@ -273,7 +280,12 @@ def injection_counts(frame: np.ndarray, bit_planes: int = BIT_PLANES) -> dict[st
     per set bit of the other non-zero bytes, a refresh of the planes every 16 rows; then
     the analogue image rebuilt with one DAC load and one masked add per plane. The draw
     counts depend on the frame's content (a natural image: tens of thousands of pixels).
+
+    ``injection="bytes"`` keeps only the request and the planes' bytes (no drawing, no
+    rebuild): what injection costs at the least, whatever path writes the planes.
     """
+    if injection not in INJECTIONS:
+        raise PpalocError(f"injection={injection!r} is not one of {', '.join(INJECTIONS)}")
     img = np.asarray(frame)
     if img.dtype != np.uint8 or img.ndim != 2 or img.shape[1] % 8:
         raise PpalocError(
@@ -291,6 +303,8 @@ def injection_counts(frame: np.ndarray, bit_planes: int = BIT_PLANES) -> dict[st
         starts[:, 1:] &= ~full[:, :-1]
         rects += int(starts.sum())
         pixels += int(np.unpackbits(packed[mixed]).sum())
+    if injection == "bytes":
+        return _calls(("vs_gui_request_image", bit_planes * rows * cols // 8))
     refresh = kernel_counts("refresh4")
     draw = add_counts(
         _calls(("vs_gui_request_image", bit_planes * rows * cols // 8)),
@@ -305,7 +319,9 @@ def injection_counts(frame: np.ndarray, bit_planes: int = BIT_PLANES) -> dict[st
     )
 
 
-def loop_counts(frame: np.ndarray, output_bytes: int = 4) -> dict[str, float]:
+def loop_counts(
+    frame: np.ndarray, output_bytes: int = 4, injection: str = "drawn"
+) -> dict[str, float]:
     """What the ``loop`` boundary adds to ``chip`` for one frame.
 
     ``vs_frame_loop_control``, the frame's injection (:func:`injection_counts`) and one
@@ -314,5 +330,5 @@ def loop_counts(frame: np.ndarray, output_bytes: int = 4) -> dict[str, float]:
     """
     return add_counts(
         _calls(("vs_frame_loop_control", 0), ("usb_output", output_bytes)),
-        injection_counts(frame),
+        injection_counts(frame, injection=injection),
     )
