@@ -608,9 +608,15 @@ class Scamp5(ControllerMixin, ProgramAPI):
     def _op_flag_or(self, ins: Instruction) -> Op:
         compute = self._or_into(self._dsrc(ins), False)
         flag = self._d[_FLAG_I]
+        tb = self._tb[0]
+        reads_flag = any(s.index == _FLAG_I for s in ins.srcs)
 
         def where() -> None:
-            compute(flag)
+            if reads_flag:  # WHERE(x, FLAG): every source is read before FLAG is written
+                compute(tb)
+                np.copyto(flag, tb)
+            else:
+                compute(flag)
             self._flag_masked = None
 
         return where

@@ -229,6 +229,27 @@ class NoiseModel:
             self._refill()
         return self._gains[self._k]
 
+    def take(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """The next ``m`` draw indices at once: (window starts, negated gains), both (m,).
+
+        Draw ``j`` is the same whether taken here or by ``m`` calls of :meth:`window`
+        (whose ICW reads :meth:`negated_gain` at its first index), so an engine that
+        takes a whole kernel's draws up front leaves the same bytes as one that draws
+        ICW by ICW.
+        """
+        starts = np.empty(m, dtype=np.int64)
+        gains = np.empty(m, dtype=np.float64)
+        done = 0
+        while done < m:
+            if self._k >= _DRAWS:
+                self._refill()
+            n = min(m - done, _DRAWS - self._k)
+            starts[done : done + n] = self._starts[self._k : self._k + n]
+            gains[done : done + n] = self._gains[self._k : self._k + n]
+            self._k += n
+            done += n
+        return starts, gains
+
     def perturb(self, values: np.ndarray, plane: int, divided: bool) -> None:
         """Add the fixed-pattern offset of ``plane`` and temporal noise to ``values`` in place."""
         np.add(values, self.offsets[plane], out=values)

@@ -32,6 +32,7 @@ __all__ = ["ENGINES", "Engine", "available_engines", "default_engine", "make_eng
 ENGINES: dict[str, str] = {
     "reference": "ppaloc.sim.engines.reference:ReferenceEngine",
     "numpy": "ppaloc.sim.engines.numpy_engine:NumpyEngine",
+    "compiled": "ppaloc.sim.engines.compiled:CompiledEngine",
 }
 
 #: The environment variable that names the default engine (e.g. for running the suite).

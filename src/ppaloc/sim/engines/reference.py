@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ppaloc.errors import SimulatorError
 from ppaloc.sim.isa import Instruction
 from ppaloc.sim.registers import DNEWS_SELECTORS, FLAG, NEWS, PIX, R0, R12, Register
 
@@ -69,22 +68,30 @@ class ReferenceEngine:
             "UNLATCH": lambda ins: self._store(ins.dsts[0], sim._latch.copy()),
             "DNEWS0": lambda ins: self._dnews(ins, False),
             "DNEWS1": lambda ins: self._dnews(ins, True),
+            "busn": lambda ins: self._transfer(ins, len(ins.dsts)),
+            "sq": lambda ins: self._transfer(ins, 1),
+            "blurset": lambda ins: None,
+            "PROP_R": lambda ins: np.copyto(sim._latch, self._or(ins.srcs)),
         }
 
     def supports(self, op: str) -> bool:
-        """Whether this engine has a model of the primitive ``op``."""
+        """Whether this engine has its own model of ``op`` (else it runs the shared one)."""
         return op in self._ops
 
     def compile(self, instructions: tuple[Instruction, ...]) -> Callable[[], None]:
-        """A runner interpreting ``instructions`` in order (nothing is precomputed)."""
+        """A runner interpreting ``instructions`` in order (nothing is precomputed).
+
+        A primitive defined once for every engine (``ppaloc.sim.semantics``: diffusion,
+        propagation) runs through that definition, as the numpy engine builds it.
+        """
         steps = []
         for ins in instructions:
-            if ins.op not in self._ops:
-                raise SimulatorError(
-                    f"the reference engine has no model of {ins.op!r}: add it to "
-                    "ppaloc.sim.engines.reference or use engine='numpy'"
-                )
-            steps.append((self._ops[ins.op], ins))
+            own = self._ops.get(ins.op)
+            if own is None:
+                shared = self.sim._compile(ins)
+                steps.append((lambda ins, op=shared: op(), ins))
+            else:
+                steps.append((own, ins))
 
         def run() -> None:
             for step, ins in steps:
@@ -127,7 +134,12 @@ class ReferenceEngine:
         flag = self._flag
         total = self._sum(ins.srcs)
         if noise.ideal:
-            value = {1: -total, 2: total * _F32(-0.5), 3: total / _F32(-3)}[parts]
+            if parts == 1:
+                value = -total
+            elif parts == 2:
+                value = total * _F32(-0.5)  # exact, as a division by -2
+            else:
+                value = total / _F32(-parts)
             value = np.clip(value, _F32(-128), _F32(127))
         else:  # the ICW's transfer error scales the value (the bus negates)
             value = total * _F32(noise.negated_gain() / parts)

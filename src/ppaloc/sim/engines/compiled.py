@@ -1,0 +1,473 @@
+"""The compiled engine: a kernel encoded once into a table, run by numba-compiled loops.
+
+``compile`` turns every ICW into one row of integers (op code, destinations, sources, the
+neighbour direction of each, the kernel-relative index of its first noise draw) and the
+whole kernel then runs in one call of :func:`_run`, machine code compiled once per machine
+(numba's ``cache=True`` keeps it in ``__pycache__``). Per ICW, each analogue transfer is
+one pass over the plane in the common case (local sources, one destination): the sum, the
+bus's negation or division, the transfer gain, the receiving cell's offset and temporal
+noise, the saturation and the FLAG mask in the same loop, with no temporary plane. The
+noise draws of the kernel are taken from the seeded bank up front
+(:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order the other engines draw them, so
+every engine leaves the same bytes. Digital planes stay one byte per element (packing
+them into words would make every east/west move a bit shift, for planes that already fit
+in cache).
+
+An ICW this engine has no code for runs through the numpy engine's closure, between
+compiled segments, so a new row of ``isa.OPS`` works at once.
+
+numba is imported here only: ``ppaloc.sim`` imports without it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numba
+import numpy as np
+
+from ppaloc.sim.isa import Instruction
+from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
+
+if TYPE_CHECKING:
+    from ppaloc.sim.engine import Scamp5
+
+__all__ = ["CompiledEngine"]
+
+# op codes
+_NOP, _RPIX, _BUS, _WHERE, _ALL, _SET, _CLR, _MOV, _NOT, _OR, _NOR = range(11)
+_WHERED, _LATCH, _LATCHN, _UNLATCH, _DNEWS = range(11, 16)
+_CODES = {
+    "nop": _NOP,
+    "rpix": _RPIX,
+    "bus": _BUS,
+    "bus2": _BUS,
+    "bus3": _BUS,
+    "where": _WHERE,
+    "all": _ALL,
+    "SET": _SET,
+    "CLR": _CLR,
+    "MOV": _MOV,
+    "NOT": _NOT,
+    "OR": _OR,
+    "NOR": _NOR,
+    "WHERE": _WHERED,
+    "LATCH": _LATCH,
+    "LATCHN": _LATCHN,
+    "UNLATCH": _UNLATCH,
+    "DNEWS0": _DNEWS,
+    "DNEWS1": _DNEWS,
+    "busn": _BUS,
+    "sq": _BUS,
+    "blurset": _NOP,
+    "PROP_R": _LATCH,
+}
+_TRANSFERS = ("bus", "bus2", "bus3", "busn", "sq")
+# row layout
+_OP, _PARTS, _ND, _D0, _DD0, _NS, _S0, _SD0, _DRAW, _EDGE = 0, 1, 2, 3, 7, 11, 12, 16, 20, 21
+_WIDTH = 22
+# direction codes -> (d_row, d_col); 0 is a local register
+_DR = np.array([0, -1, 0, 1, 0], dtype=np.int64)
+_DC = np.array([0, 0, 1, 0, -1], dtype=np.int64)
+_DIR_CODE = {(-1, 0): 1, (0, 1): 2, (1, 0): 3, (0, -1): 4}
+# DNEWS selectors R1 south, R2 west, R3 north, R4 east, as direction codes
+_SEL_DIR = np.array([0, 3, 4, 1, 2], dtype=np.int64)
+_FLAG, _NEWS, _PIX, _R0, _R12 = FLAG.index, NEWS.index, PIX.index, R0.index, R12.index
+
+
+def _dir(reg) -> int:
+    return _DIR_CODE[reg.direction.offset] if reg.role == "neighbour" else 0
+
+
+def _draws(ins: Instruction) -> int:
+    """Noise draws of one ICW when noisy: one per analogue destination, one per where."""
+    if ins.op in _TRANSFERS:
+        return len(ins.dsts)
+    return 1 if ins.op == "where" else 0
+
+
+def encode(instructions: list[Instruction]) -> tuple[np.ndarray, int]:
+    """(table of rows, noise draws of the whole segment when noisy)."""
+    prog = np.zeros((len(instructions), _WIDTH), dtype=np.int64)
+    draw = 0
+    for n, ins in enumerate(instructions):
+        row = prog[n]
+        row[_OP] = _CODES[ins.op]
+        row[_PARTS] = len(ins.dsts) if ins.op in ("bus2", "bus3", "busn") else 1
+        row[_ND], row[_NS] = len(ins.dsts), len(ins.srcs)
+        for k, r in enumerate(ins.dsts):
+            row[_D0 + k], row[_DD0 + k] = r.index, _dir(r)
+        for k, r in enumerate(ins.srcs):
+            row[_S0 + k], row[_SD0 + k] = r.index, _dir(r)
+        row[_DRAW] = draw
+        row[_EDGE] = ins.op == "DNEWS1"
+        draw += _draws(ins)
+    return prog, draw
+
+
+class CompiledEngine:
+    """Runs a kernel as one call of numba-compiled code (``engine="compiled"``)."""
+
+    name = "compiled"
+
+    def __init__(self, sim: Scamp5) -> None:
+        self.sim = sim
+        shape = (sim.rows, sim.cols)
+        self._t = np.zeros(shape, dtype=np.float32)
+        self._t2 = np.zeros(shape, dtype=np.float32)
+        self._tb = np.zeros(shape, dtype=np.bool_)
+        self._none = np.zeros(0, dtype=np.float32)
+        self._no_starts = np.zeros(0, dtype=np.int64)
+        self._no_gains = np.zeros(0, dtype=np.float64)
+
+    def supports(self, op: str) -> bool:
+        """Whether ``op`` has compiled code (others run through the numpy engine)."""
+        return op in _CODES
+
+    @staticmethod
+    def _encodable(ins: Instruction) -> bool:
+        return ins.op in _CODES and len(ins.dsts) <= 4 and len(ins.srcs) <= 4
+
+    def compile(self, instructions: tuple[Instruction, ...]) -> Callable[[], None]:
+        """Compiled segments of the kernel, with numpy closures for any other op."""
+        parts: list[Callable[[], None]] = []
+        run_of: list[Instruction] = []
+        for ins in (*instructions, None):
+            if ins is not None and self._encodable(ins):
+                run_of.append(ins)
+                continue
+            if run_of:
+                parts.append(self._segment(run_of))
+                run_of = []
+            if ins is not None:
+                parts.append(self.sim._compile(ins))
+        if len(parts) == 1:
+            return parts[0]
+
+        def run() -> None:
+            for part in parts:
+                part()
+
+        return run
+
+    def _segment(self, instructions: list[Instruction]) -> Callable[[], None]:
+        sim = self.sim
+        prog, m = encode(instructions)
+        noise = sim.noise
+        a, d, latch = sim._a, sim._d, sim._latch
+        t, t2, tb = self._t, self._t2, self._tb
+        if noise.ideal:
+            bank = bank_div = self._none
+        else:
+            bank, bank_div = noise._bank, noise._bank_div
+        offsets, pixel = noise.offsets, noise.pixel_offset
+        none_s, none_g = self._no_starts, self._no_gains
+
+        def run() -> None:
+            if noise.ideal or m == 0:
+                starts, gains = none_s, none_g
+            else:
+                starts, gains = noise.take(m)
+            _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains)
+            sim._flag_masked = None  # the numpy engine's cached FLAG mask may be stale
+
+        return run
+
+
+_jit = numba.njit(cache=True, nogil=True, boundscheck=False)
+
+
+@_jit
+def _clip(v):
+    lo = np.float32(-128.0)
+    hi = np.float32(127.0)
+    if v < lo:
+        return lo
+    if v > hi:
+        return hi
+    return v
+
+
+@_jit
+def _all_true(plane):
+    for v in plane:
+        if not v:
+            return False
+    return True
+
+
+@_jit
+def _local_sum(out, af, row, nsrc):
+    """out := the row's local sources summed left to right (0 with none)."""
+    n = out.size
+    locs = np.empty(4, dtype=np.int64)
+    nl = 0
+    for k in range(nsrc):
+        if row[_SD0 + k] == 0:
+            locs[nl] = row[_S0 + k]
+            nl += 1
+    if nl == 0:
+        for p in range(n):
+            out[p] = np.float32(0.0)
+    elif nl == 1:
+        x0 = af[locs[0]]
+        for p in range(n):
+            out[p] = x0[p]
+    elif nl == 2:
+        x0, x1 = af[locs[0]], af[locs[1]]
+        for p in range(n):
+            out[p] = x0[p] + x1[p]
+    elif nl == 3:
+        x0, x1, x2 = af[locs[0]], af[locs[1]], af[locs[2]]
+        for p in range(n):
+            out[p] = x0[p] + x1[p] + x2[p]
+    else:
+        x0, x1, x2, x3 = af[locs[0]], af[locs[1]], af[locs[2]], af[locs[3]]
+        for p in range(n):
+            out[p] = x0[p] + x1[p] + x2[p] + x3[p]
+    return nl
+
+
+@_jit
+def _add_neighbours(t2d, news, flag, row, nsrc, flag_all):
+    """t += each neighbour source's NEWS (0 from an unflagged PE; beyond the edge no term)."""
+    rows, cols = t2d.shape
+    for k in range(nsrc):
+        code = row[_SD0 + k]
+        if code == 0:
+            continue
+        dr, dc = _DR[code], _DC[code]
+        r_lo, r_hi = max(0, -dr), min(rows, rows - dr)
+        c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
+        for r in range(r_lo, r_hi):
+            for c in range(c_lo, c_hi):
+                v = news[r + dr, c + dc]
+                if not flag_all and not flag[r + dr, c + dc]:
+                    v = np.float32(0.0)
+                t2d[r, c] = t2d[r, c] + v
+
+
+@_jit
+def _fused_local(dst, af, flag, row, nl, scale, ideal, parts, off, win, flag_all):
+    """One plain destination from local sources: sum, bus, noise, clip and mask in one pass."""
+    n = dst.size
+    locs = np.empty(4, dtype=np.int64)
+    for k in range(nl):
+        locs[k] = row[_S0 + k]
+    x0 = af[locs[0]]
+    x1 = af[locs[1]] if nl > 1 else x0
+    x2 = af[locs[2]] if nl > 2 else x0
+    x3 = af[locs[3]] if nl > 3 else x0
+    m_half = np.float32(-0.5)
+    m_parts = np.float32(-parts)
+    for p in range(n):
+        v = x0[p]
+        if nl > 1:
+            v = v + x1[p]
+        if nl > 2:
+            v = v + x2[p]
+        if nl > 3:
+            v = v + x3[p]
+        if ideal:
+            if parts == 1:
+                v = -v
+            elif parts == 2:
+                v = v * m_half
+            else:
+                v = v / m_parts
+        else:
+            v = (v * scale + off[p]) + win[p]
+        v = _clip(v)
+        if flag_all or flag[p]:
+            dst[p] = v
+
+
+@_jit
+def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, flag_all):
+    parts, nd, nsrc = row[_PARTS], row[_ND], row[_NS]
+    ideal = bank.size == 0
+    rows, cols = a.shape[1], a.shape[2]
+    n = rows * cols
+    flagf = df[_FLAG]
+    base = row[_DRAW]
+    scale = np.float32(0.0)
+    if not ideal:
+        scale = np.float32(gains[base] / parts)
+    has_nbr = False
+    for k in range(nsrc):
+        if row[_SD0 + k] != 0:
+            has_nbr = True
+    nl = 0
+    for k in range(nsrc):
+        if row[_SD0 + k] == 0:
+            nl += 1
+    if nd == 1 and row[_DD0] == 0 and not has_nbr and nl > 0:
+        d0 = row[_D0]
+        bank_w = bank if parts == 1 else bank_div
+        win = bank_w[starts[base] : starts[base] + n] if not ideal else bank
+        _fused_local(af[d0], af, flagf, row, nl, scale, ideal, parts, offsets[d0].ravel(), win,
+                     flag_all)  # fmt: skip
+        return
+    tf = t.ravel()
+    _local_sum(tf, af, row, nsrc)
+    if has_nbr:
+        _add_neighbours(t, a[_NEWS], df[_FLAG].reshape(rows, cols), row, nsrc, flag_all)
+    m_half = np.float32(-0.5)
+    m_parts = np.float32(-parts)
+    for p in range(n):  # the bus's value, one for every destination
+        v = tf[p]
+        if ideal:
+            if parts == 1:
+                v = -v
+            elif parts == 2:
+                v = v * m_half
+            else:
+                v = v / m_parts
+            v = _clip(v)
+        else:
+            v = v * scale
+        tf[p] = v
+    flag2 = flagf.reshape(rows, cols)
+    t2f = t2.ravel()
+    for k in range(nd):
+        di, code = row[_D0 + k], row[_DD0 + k]
+        src = tf
+        if code != 0:  # pushed: the receiver r gets the value of its sender r - offset
+            dr, dc = -_DR[code], -_DC[code]
+            for r in range(rows):
+                for c in range(cols):
+                    rr, cc = r + dr, c + dc
+                    v = np.float32(0.0)
+                    if 0 <= rr < rows and 0 <= cc < cols and (flag_all or flag2[rr, cc]):
+                        v = t[rr, cc]
+                    t2[r, c] = v
+            src = t2f
+        dst = af[di]
+        if ideal:
+            for p in range(n):
+                if flag_all or flagf[p]:
+                    dst[p] = src[p]
+        else:
+            bank_w = bank if parts == 1 else bank_div
+            s0 = starts[base + k]
+            off = offsets[di].ravel()
+            for p in range(n):
+                v = _clip((src[p] + off[p]) + bank_w[s0 + p])
+                if flag_all or flagf[p]:
+                    dst[p] = v
+
+
+@_jit
+def _where(row, a, af, df, t, bank, starts):
+    rows, cols = a.shape[1], a.shape[2]
+    nsrc = row[_NS]
+    tf = t.ravel()
+    _local_sum(tf, af, row, nsrc)
+    flagf = df[_FLAG]
+    _add_neighbours(t, a[_NEWS], flagf.reshape(rows, cols), row, nsrc, _all_true(flagf))
+    if bank.size:
+        s0 = starts[row[_DRAW]]
+        for p in range(tf.size):
+            tf[p] = tf[p] + bank[s0 + p]
+    for p in range(tf.size):
+        flagf[p] = tf[p] > np.float32(0.0)
+
+
+@_jit
+def _store(df, di, val):
+    """Digital dst := val (R12 only where R0 is 1)."""
+    out = df[di]
+    if di == _R12:
+        r0 = df[_R0]
+        for p in range(out.size):
+            if r0[p]:
+                out[p] = val[p]
+    else:
+        for p in range(out.size):
+            out[p] = val[p]
+
+
+@_jit
+def _or(tb, df, row, invert):
+    n = tb.size
+    ns = row[_NS]
+    x0 = df[row[_S0]]
+    x1 = df[row[_S0 + 1]] if ns > 1 else x0
+    x2 = df[row[_S0 + 2]] if ns > 2 else x0
+    x3 = df[row[_S0 + 3]] if ns > 3 else x0
+    for p in range(n):
+        v = x0[p] | x1[p] | x2[p] | x3[p]
+        tb[p] = not v if invert else v
+
+
+@_jit
+def _dnews(row, d, df, tb2, edge):
+    rows, cols = d.shape[1], d.shape[2]
+    src = d[row[_S0]]
+    for r in range(rows):
+        for c in range(cols):
+            v = False
+            for sel in range(1, 5):
+                if d[sel, r, c]:
+                    code = _SEL_DIR[sel]
+                    rr, cc = r + _DR[code], c + _DC[code]
+                    if 0 <= rr < rows and 0 <= cc < cols:
+                        v = v | src[rr, cc]
+                    else:
+                        v = v | edge
+            tb2[r, c] = v
+    _store(df, row[_D0], tb2.ravel())
+
+
+@_jit
+def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains):
+    rows, cols = a.shape[1], a.shape[2]
+    n = rows * cols
+    af = a.reshape(a.shape[0], n)
+    df = d.reshape(d.shape[0], n)
+    tbf = tb.ravel()
+    latchf = latch.ravel()
+    flag_all = _all_true(df[_FLAG])
+    for i in range(prog.shape[0]):
+        row = prog[i]
+        op = row[_OP]
+        if op == _BUS:
+            _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, flag_all)
+        elif op == _WHERE:
+            _where(row, a, af, df, t, bank, starts)
+            flag_all = _all_true(df[_FLAG])
+        elif op == _ALL:
+            df[_FLAG][:] = True
+            flag_all = True
+        elif op == _NOP:
+            pass
+        elif op == _RPIX:
+            af[_PIX][:] = pixel.ravel()
+        elif op == _SET or op == _CLR:
+            value = op == _SET
+            nd = row[_ND]
+            for k in range(nd):  # R12 first: its mask is R0 before this ICW
+                if row[_D0 + k] == _R12:
+                    tbf[:] = value
+                    _store(df, _R12, tbf)
+            for k in range(nd):
+                if row[_D0 + k] != _R12:
+                    df[row[_D0 + k]][:] = value
+        elif op == _MOV or op == _NOT:
+            x = df[row[_S0]]
+            for p in range(n):
+                tbf[p] = (not x[p]) if op == _NOT else x[p]
+            _store(df, row[_D0], tbf)
+        elif op == _OR or op == _NOR:
+            _or(tbf, df, row, op == _NOR)
+            _store(df, row[_D0], tbf)
+        elif op == _WHERED:
+            _or(df[_FLAG], df, row, False)
+            flag_all = _all_true(df[_FLAG])
+        elif op == _LATCH or op == _LATCHN:
+            _or(latchf, df, row, op == _LATCHN)
+        elif op == _UNLATCH:
+            _store(df, row[_D0], latchf)
+        elif op == _DNEWS:
+            _dnews(row, d, df, tb, row[_EDGE] != 0)
