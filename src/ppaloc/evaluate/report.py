@@ -71,11 +71,14 @@ def _ms(v: float | None) -> str:
     return f"{v:.3g}" if v < 100 else f"{v:.0f}"
 
 
-def _bounded_ms(m: dict[str, Any], boundary: str) -> str:
-    """``mid (low-high)`` of a method's ``modelled_time_ms[boundary]``; "-" without one."""
+def _bounded_ms(m: dict[str, Any], boundary: str, short: bool = False) -> str:
+    """``mid (low-high)`` of a method's ``modelled_time_ms[boundary]`` (``short``: the mid
+    only); "-" without one."""
     t = (m.get("modelled_time_ms") or {}).get(boundary)
     if not t:
         return _ms(m.get("modelled_latency_ms")) if boundary == "chip" else "-"
+    if short:
+        return _ms(t["mid"])
     return f"{_ms(t['mid'])} ({_ms(t['low'])}-{_ms(t['high'])})"
 
 
@@ -145,8 +148,8 @@ def comparison_table(
                 _fmt(m["accuracy"]),
                 _ms(m["latency_ms_median"]),
                 _ms(m["latency_ms_p95"]),
-                _bounded_ms(m, "chip"),
-                _bounded_ms(m, "loop"),
+                _bounded_ms(m, "chip", short),
+                _bounded_ms(m, "loop", short),
                 _fmt(m["energy_mj"], 3),
             ]
         )
