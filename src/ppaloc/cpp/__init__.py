@@ -7,13 +7,18 @@
 """
 
 from ppaloc.cpp.build import CompileError, UnmodelledCallError, compile_program, compiler
+from ppaloc.cpp.export import Trace, kernel_to_cpp, to_cpp, trace_pipeline
 from ppaloc.cpp.run import RunResult, run_program
 
 __all__ = [
     "CompileError",
     "RunResult",
+    "Trace",
     "UnmodelledCallError",
     "compile_program",
     "compiler",
+    "kernel_to_cpp",
     "run_program",
+    "to_cpp",
+    "trace_pipeline",
 ]

@@ -25,7 +25,7 @@ from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
 from ppaloc.sim.registers import register_by_name
 
-__all__ = ["HANDLERS", "KernelStats", "ProgramError", "Session"]
+__all__ = ["HANDLERS", "KernelStats", "ProgramError", "Session", "events_buffer", "pack_dreg_rows"]
 
 _REGS: tuple[Register, ...] = tuple(register_by_name(n) for n in REGISTER_NAMES)
 _HELLO, _DEF, _RUN, _CALL, _EXIT = (OPS[k] for k in ("HELLO", "DEF", "RUN", "CALL", "EXIT"))
@@ -301,23 +301,35 @@ def _shift(s: Session, a: list, line: int) -> None:
         s.sim.shift(reg, h, v, boundary)
 
 
-def _scan_dreg(s: Session, a: list, line: int) -> bytes:
-    dreg, r0, r1 = a
-    rows = s.sim.scan_dreg(dreg, r0, min(r1, s.sim.rows - 1))
-    hardware = rows[:, ::-1]  # hardware column 0 is the east edge
+def pack_dreg_rows(rows: np.ndarray) -> bytes:
+    """Digital rows (array orientation) as the device's scan buffer: 32 bytes per row,
+    byte ``j`` bit ``k`` = hardware column ``8 j + k`` (column 0 at the east edge)."""
+    hardware = np.asarray(rows, bool)[:, ::-1]
     packed = np.packbits(hardware, axis=1, bitorder="little")
-    out = np.zeros((len(rows), 32), np.uint8)  # 32 bytes per row, as on the 256-wide chip
+    out = np.zeros((len(hardware), 32), np.uint8)
     out[:, : packed.shape[1]] = packed[:, :32]
     return out.tobytes()
+
+
+def events_buffer(events: np.ndarray, max_num: int) -> bytes:
+    """``(row, hardware column)`` events as the device's buffer: ``(column, row)`` byte
+    pairs, ``max_num`` slots, the unused ones ``(0, 0)`` (the end marker)."""
+    buf = np.zeros((max_num, 2), np.uint8)
+    events = np.asarray(events).reshape(-1, 2)
+    if len(events):
+        buf[: len(events)] = events[:, ::-1]
+    return buf.tobytes()
+
+
+def _scan_dreg(s: Session, a: list, line: int) -> bytes:
+    dreg, r0, r1 = a
+    return pack_dreg_rows(s.sim.scan_dreg(dreg, r0, min(r1, s.sim.rows - 1)))
 
 
 def _scan_events(s: Session, a: list, line: int) -> bytes:
     dreg, max_num, h_dir, v_dir = a
     events = s.sim.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=True)
-    buf = np.zeros((max_num, 2), np.uint8)  # (column, row) pairs; (0, 0) ends the list
-    if len(events):
-        buf[: len(events)] = events[:, ::-1]
-    return buf.tobytes()
+    return events_buffer(events, max_num)
 
 
 def _output_image(s: Session, a: list, line: int) -> None:

@@ -1,0 +1,111 @@
+"""Export: a recorded kernel and the traced on-sensor pipeline as SCAMP-5d C++, round trip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.cpp import kernel_to_cpp, run_program, to_cpp, trace_pipeline
+from ppaloc.errors import PpalocError
+from ppaloc.onsensor import OnSensorLocaliser
+from ppaloc.sim import (
+    IN,
+    R5,
+    R6,
+    R7,
+    A,
+    B,
+    C,
+    D,
+    Scamp5,
+    alldir,
+    east,
+    north,
+)
+from ppaloc.sim.registers import ANALOG_PLANES, DIGITAL_PLANES
+
+SIZE = 64
+
+
+def planes(sim: Scamp5) -> dict[str, np.ndarray]:
+    return {r.name: sim.read(r) for r in (*ANALOG_PLANES, *DIGITAL_PLANES)}
+
+
+def test_kernel_to_cpp_regroups_the_macros():
+    sim = Scamp5(8, 8)
+    with sim.kernel() as k:
+        k.get_image(C, D)
+        k.movx(A, C, east)
+        k.sub(B, C, A)
+        k.abs(D, B)
+        k.where(D, IN)
+        k.MOV(R5, R6)
+        k.all()
+        k.DNEWS(R6, R5, north | east)
+        k.DNEWS(R7, R5, alldir, 1)
+        k.add(A, A, B)
+        k.add(A, A, B)  # the same call twice stays two calls
+        k.bus(C)
+    text = kernel_to_cpp(k, "edges")
+    body = [ln.strip() for ln in text.splitlines()[3:-2]]
+    assert body == [
+        "get_image(C, D);",
+        "movx(A, C, east);",
+        "sub(B, C, A);",
+        "abs(D, B);",
+        "where(D, IN);",
+        "MOV(R5, R6);",
+        "all();",
+        "DNEWS(R6, R5, east|north, 0);",
+        "DNEWS(R7, R5, east|west|north|south, 1);",
+        "add(A, A, B);",
+        "add(A, A, B);",
+        "bus(C);",
+    ]
+    assert text.startswith(f"// {len(k)} ICWs")
+
+
+def test_trace_refuses_inspection_writes():
+    with trace_pipeline():
+        sim = Scamp5(8, 8)
+    with pytest.raises(PpalocError, match="inspection tool"):
+        sim.write(A, 1.0)
+
+
+@pytest.fixture(scope="module")
+def route():
+    rng = np.random.default_rng(3)
+    places = [rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8) for _ in range(4)]
+    query = []
+    for i in (0, 0, 1, 2, 3):
+        noise = rng.integers(-6, 7, (SIZE, SIZE))
+        query.append(np.clip(places[i].astype(int) + noise, 0, 255).astype(np.uint8))
+    return places, query
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_pipeline_round_trip(cxx, route, tmp_path, rep):
+    places, query = route
+    mapper = OnSensorLocaliser(rep, size=SIZE, keyframes=False)
+    topomap = mapper.build_map(places)
+    with trace_pipeline() as tracer:
+        loc = OnSensorLocaliser(rep, size=SIZE, keyframes=False)
+        loc.use_map(topomap)
+        estimates = [loc.step(f) for f in query]
+    sim = loc.pipeline.sim
+    trace = tracer.trace_of(sim)
+    assert trace.frames == len(query)
+    source = to_cpp(
+        trace, estimates=[(e.node, e.score) for e in estimates], title=f"on-sensor {rep}"
+    )
+    path = tmp_path / f"pipeline_{rep}.cpp"
+    path.write_text(source)
+    result = run_program(path, query, timeout=120)
+    texts = result.texts
+    assert not [t for t in texts if t.startswith("diverged")]
+    want = [f"estimate {k}: node {e.node} score {e.score:g}" for k, e in enumerate(estimates)]
+    assert [t for t in texts if t.startswith("estimate")] == want
+    got, ref = planes(result.session.sim), planes(sim)
+    for name in ref:
+        np.testing.assert_array_equal(got[name], ref[name], err_msg=name)
+    assert result.session.sim.timing.now_us == pytest.approx(sim.timing.now_us)
