@@ -129,3 +129,15 @@ def test_mid_counts_evaluate_to_the_charged_time():
     for iv, e in zip(chip, est, strict=True):
         assert iv.mid / 1000 == pytest.approx(e.modelled_latency_ms, abs=1e-9)
     assert evaluate_us({"kernels": 2.0}, K) == pytest.approx(2 * K.kernel_launch_us)
+
+
+def test_a_run_summary_carries_both_boundaries():
+    from ppaloc.evaluate.run import run_method
+
+    frames = _route(5, seed=7)
+    loc = OnSensorLocaliser("lbp", preset="paper", motion="always_forward", alpha=8)
+    truth = [np.array([i]) for i in range(5)]
+    summary = run_method("onsensor-paper-lbp", frames, frames, truth, localiser=loc).summary()
+    t = summary["modelled_time_ms"]
+    assert set(t) == {"chip", "loop"} and set(t["chip"]) == {"low", "mid", "high"}
+    assert t["chip"]["mid"] == pytest.approx(summary["modelled_latency_ms"])
