@@ -1,0 +1,128 @@
+"""Results files: the same run gives the same bytes, and a folder whose files were altered,
+mixed or pushed out of range is refused in one line naming the file and the field."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import DataError
+from ppaloc.evaluate.config import EvaluateConfig
+from ppaloc.evaluate.results import load_results, save_results
+from ppaloc.evaluate.run import run_evaluation
+from ppaloc.npzfile import npz_bytes
+
+
+@pytest.fixture
+def result(mean_match, tiny):
+    return run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny, progress=False)
+
+
+@pytest.fixture
+def saved(result, tmp_path) -> Path:
+    save_results(result, tmp_path / "out")
+    return tmp_path / "out"
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {
+        p.relative_to(folder).as_posix(): p.read_bytes() for p in folder.rglob("*") if p.is_file()
+    }
+
+
+def test_the_same_result_gives_the_same_bytes(result, tmp_path, monkeypatch):
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    save_results(result, tmp_path / "a")
+    result.created = "another time"  # the clock at run time is not written
+    save_results(result, tmp_path / "b")
+    assert _files(tmp_path / "a") == _files(tmp_path / "b")
+    assert "created" not in json.loads((tmp_path / "a" / "results.json").read_text())
+
+
+def test_source_date_epoch_is_the_created_time(result, tmp_path, monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    save_results(result, tmp_path / "a")
+    summary = json.loads((tmp_path / "a" / "results.json").read_text())
+    assert summary["created"] == "2023-11-14T22:13:20+00:00"
+    assert load_results(tmp_path / "a")[0].created == summary["created"]
+
+
+def _rewrite(saved: Path, rel: str, **changes: np.ndarray) -> None:
+    """Change arrays of one file and re-record its checksum (only range checks can tell)."""
+    import hashlib
+
+    path = saved / rel
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays.update(changes)
+    path.write_bytes(npz_bytes(arrays))
+    summary = json.loads((saved / "results.json").read_text())
+    summary["files"][rel] = hashlib.sha256(path.read_bytes()).hexdigest()
+    (saved / "results.json").write_text(json.dumps(summary))
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda n: {"node": np.full(n, 10**9)}, r"node\[0\] is 1000000000, outside 0\.\.9"),
+        (lambda n: {"ref_index": np.full(n, -3)}, r"ref_index\[0\] is -3, outside 0\.\.9"),
+        (lambda n: {"ranking": np.full((n, 2), 99)}, r"ranking\[0, 0\] is 99, outside -1\.\.9"),
+        (lambda n: {"score": np.zeros(n + 1)}, r"score has shape \(11,\), expected 10 rows"),
+        (lambda n: {"node": np.zeros(n, np.float64)}, r"node holds float64, expected integers"),
+    ],
+)
+def test_out_of_range_arrays_are_named(saved, mean_match, change, message):
+    rel = f"arrays/{mean_match}.npz"
+    _rewrite(saved, rel, **change(10))
+    with pytest.raises(DataError, match=rf"^{saved / rel}: {message}"):
+        load_results(saved)
+
+
+def test_out_of_range_ground_truth_is_named(saved):
+    with np.load(saved / "arrays" / "_dataset.npz") as z:
+        n = len(z["gt_indices"])
+    _rewrite(saved, "arrays/_dataset.npz", gt_indices=np.full(n, 50))
+    with pytest.raises(DataError, match=r"_dataset.npz: gt_indices\[0\] is 50, outside 0\.\.9"):
+        load_results(saved)
+
+
+def test_a_folder_that_is_not_whole(saved, mean_match, result, tmp_path):
+    other = tmp_path / "other"
+    result.runs[mean_match].node = result.runs[mean_match].node[::-1].copy()
+    save_results(result, other)
+    rel = f"arrays/{mean_match}.npz"
+    (saved / rel).write_bytes((other / rel).read_bytes())  # a file of another run
+    with pytest.raises(DataError, match=rf"^{saved} is not whole: {rel} does not match the"):
+        load_results(saved)
+    (saved / rel).unlink()
+    with pytest.raises(DataError, match=rf"^{saved} is not whole: {rel} is missing; run"):
+        load_results(saved)
+
+
+def test_stored_paths_stay_inside_the_folder(saved, mean_match):
+    summary = json.loads((saved / "results.json").read_text())
+    del summary["files"]
+    summary["methods"][mean_match]["arrays"] = "../../etc/passwd"
+    (saved / "results.json").write_text(json.dumps(summary))
+    with pytest.raises(DataError, match=r"arrays '../../etc/passwd' points outside the folder"):
+        load_results(saved)
+
+
+def test_a_folder_of_another_tool_is_not_replaced(result, tmp_path):
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "thesis.tex").write_text("keep")
+    with pytest.raises(DataError, match=r"holds 'thesis.tex', which ppaloc did not write"):
+        save_results(result, tmp_path / "mine")
+    assert (tmp_path / "mine" / "thesis.tex").read_text() == "keep"
+
+
+def test_show_refuses_out_of_range_results_in_one_line(saved, mean_match, capsys):
+    from ppaloc.cli import main
+
+    _rewrite(saved, f"arrays/{mean_match}.npz", node=np.full(10, -1))
+    assert main(["show", str(saved), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "node[0] is -1, outside 0..9" in err

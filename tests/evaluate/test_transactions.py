@@ -1,0 +1,157 @@
+"""`ppaloc evaluate --out DIR` over an earlier run, killed (SIGKILL) at several moments:
+DIR is always the whole earlier run or the whole new one, `ppaloc show DIR` works, and
+nothing is left behind (no `.tmp` file, no staging folder once the next command ran)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from ppaloc.cli import main
+
+TINY = "synthetic:?places=12&size=32&sync=1&seed=2"
+OLD = {"weighted-node-lbp", "single-frame"}
+NEW = {"single-frame"}
+
+# The child runs the CLI with one step of the write made fatal: it SIGKILLs itself there.
+CHILD = r"""
+import os, signal, sys
+import ppaloc.fileio as fio
+
+mode, n = sys.argv[1], int(sys.argv[2])
+
+
+def die():
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+if mode == "replace":  # the n-th file moved into place (inside the staging folder)
+    real_replace, count = os.replace, [0]
+
+    def replace(a, b, **kw):
+        count[0] += 1
+        if count[0] == n:
+            die()
+        return real_replace(a, b, **kw)
+
+    os.replace = replace
+elif mode == "before-exchange":
+    fio._exchange = lambda a, b: die()
+elif mode == "after-exchange":  # the new folder is in, the old one not yet deleted
+    real_exchange = fio._exchange
+
+    def exchange(a, b):
+        real_exchange(a, b)
+        die()
+
+    fio._exchange = exchange
+elif mode == "aside":  # no exchange: killed between renaming the old folder aside and the new in
+    fio._exchange = lambda a, b: False
+    real_rename = os.rename
+
+    def rename(a, b):
+        real_rename(a, b)
+        if ".ppaloc-old-" in str(b):
+            die()
+
+    os.rename = rename
+from ppaloc.cli import main
+
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+def _evaluate(out: Path, methods: set[str], *extra: str) -> list[str]:
+    args = ["evaluate", "-d", TINY, "--out", str(out), "-q", *extra]
+    for m in sorted(methods):
+        args += ["-m", m]
+    return args
+
+
+@pytest.fixture(scope="module")
+def _old_template(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("template") / "run"
+    assert main(_evaluate(out, OLD, "--no-report")) == 0
+    return out
+
+
+@pytest.fixture
+def old_run(_old_template, tmp_path) -> Path:
+    """A copy of an earlier run of two methods (the new runs have one)."""
+    out = tmp_path / "run"
+    shutil.copytree(_old_template, out)
+    return out
+
+
+def _methods(out: Path) -> set[str]:
+    return set(json.loads((out / "results.json").read_text())["methods"])
+
+
+def _check_whole(out: Path, expected: tuple[set[str], ...], capsys) -> None:
+    # Right after the kill, a temporary can only be inside the hidden staging folder,
+    # which the next command on the folder removes.
+    left = [p for p in out.parent.rglob("*.tmp") if ".ppaloc-new-" not in str(p)]
+    assert not left, "a killed write left a temporary file"
+    assert main(["show", str(out), "-q"]) == 0, capsys.readouterr().err
+    assert not list(out.parent.rglob("*.tmp"))
+    methods = _methods(out)
+    assert methods in expected
+    arrays = {p.stem for p in (out / "arrays").glob("*.npz")} - {"_dataset"}
+    assert arrays == methods, "arrays of another run's methods were left in the folder"
+    assert sorted(os.listdir(out.parent)) == ["run"], "a staging folder was left behind"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("mode", "n", "report", "expected"),
+    [
+        ("replace", 2, False, (OLD,)),
+        ("replace", 7, True, (OLD,)),  # while the report's figures are written
+        ("before-exchange", 0, False, (OLD,)),
+        ("after-exchange", 0, False, (NEW,)),
+        ("aside", 0, False, (OLD,)),
+    ],
+)
+def test_evaluate_killed_over_an_earlier_run(old_run, mode, n, report, expected, capsys):
+    extra = () if report else ("--no-report",)
+    args = [sys.executable, "-c", CHILD, mode, str(n), *_evaluate(old_run, NEW, *extra)]
+    done = subprocess.run(args, capture_output=True, text=True, check=False, timeout=120)
+    assert done.returncode == -9, done.stderr[-2000:]
+    _check_whole(old_run, expected, capsys)
+
+
+@pytest.mark.slow
+def test_evaluate_killed_from_outside(old_run, capsys):
+    args = [sys.executable, "-m", "ppaloc", *_evaluate(old_run, NEW)]
+    for delay in (0.5, 1.5):
+        proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        proc.kill()  # SIGKILL
+        proc.wait(timeout=60)
+        _check_whole(old_run, (OLD, NEW), capsys)
+
+
+def test_a_rerun_leaves_nothing_of_the_earlier_run(old_run, capsys):
+    (old_run / "bench.json").write_text("{}")  # `ppaloc bench --out` into the folder: kept
+    assert main(_evaluate(old_run, NEW, "--no-report")) == 0
+    assert _methods(old_run) == NEW
+    assert sorted(p.name for p in old_run.rglob("*")) == sorted(
+        ["arrays", "_dataset.npz", "single-frame.npz", "bench.json", "results.csv", "results.json"]
+    )
+
+
+def test_a_folder_of_other_files_is_refused_before_the_run(tmp_path, capsys):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep me")
+    assert main(_evaluate(mine, NEW)) == 1
+    err = capsys.readouterr().err
+    assert "holds 'notes.txt', which ppaloc did not write" in err and len(err.splitlines()) == 1
+    assert os.listdir(mine) == ["notes.txt"]
