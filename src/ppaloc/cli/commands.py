@@ -465,6 +465,9 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     Path or None
         The file written (report or PNG).
     """
+    from ppaloc.fileio import recover_folder
+
+    recover_folder(path)  # a results folder whose replacement was killed half-way
     if path.is_dir():
         return _show_results(path, quiet=quiet)
     if not path.is_file():
