@@ -184,7 +184,7 @@ def test_config_rejects_unknown_keys_and_bad_values(tmp_path):
         config_from_mapping(EvaluateConfig, {"tolerence": 2}, source="x.toml")
     with pytest.raises(PpalocError, match=r"recall='D' must be one of A, B, C"):
         EvaluateConfig(recall="D")
-    with pytest.raises(PpalocError, match=r"tolerance=-1 must be an integer >= 0"):
+    with pytest.raises(PpalocError, match=r"tolerance=-1 must be an integer in \[0, 1000\]"):
         EvaluateConfig(tolerance=-1)
     with pytest.raises(PpalocError, match=r"sizes=\[1\] must be map sizes of at least 2"):
         BenchConfig(sizes=(1,))

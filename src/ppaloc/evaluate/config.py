@@ -185,7 +185,8 @@ class BenchConfig:
         Per-method keyword arguments, as in :class:`EvaluateConfig`.
     max_build_s : float, optional
         Time budget of one map build in seconds: a size whose build, extrapolated linearly
-        from the previous size, would exceed it is skipped (None: no budget).
+        from the previous size (for the first size above 256 nodes, from a 256-node trial
+        build), would exceed it is skipped (None: no budget).
     """
 
     methods: tuple[str, ...] = ()
