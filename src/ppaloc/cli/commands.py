@@ -67,8 +67,9 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     recall = {m.get("recall_definition", "A") for m in summary["methods"].values()}
     print(
         f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); host ms = median "
-        "wall-clock time of step on this machine;\nsensor ms, mJ = modelled on-sensor time "
-        "and energy per frame."
+        "wall-clock time of step on this machine;\nchip ms, loop ms = modelled time per "
+        "frame on the sensor and for the whole hardware loop (docs/onsensor.md, Timing);\n"
+        "mJ = modelled energy per frame."
     )
 
 
