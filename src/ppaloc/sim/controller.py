@@ -24,8 +24,9 @@ code with its literal constants: ``load_pattern(R6, 0, 0, 0b11111100, 0b11100011
 scamp_addr=True)`` sets the same elements the hardware would. Readout *order* (the order
 of ``scan_events`` results) always follows the hardware scan, documented per function.
 
-Readouts through the ADC return SCAMP-5's 8-bit codes ``clip(round(v) + 128, 0, 255)``
-(``v`` in register units, [-128, 127]); with noise, each conversion adds Gaussian noise of
+Readouts through the ADC return SCAMP-5's 8-bit codes ``clip(floor(v + 128.5), 0, 255)``,
+the nearest code with halves rounded up (``v`` in register units, [-128, 127]; the
+contract docs/ppa8.md's readouts rely on); with noise, each conversion adds Gaussian noise of
 the register's temporal standard deviation before rounding (one more analogue transfer,
 to the column ADC). Digital readouts are exact.
 """
@@ -39,24 +40,36 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ppaloc.errors import RegisterMisuseError, SimulatorError
+from ppaloc.sim.draw import DrawMixin
 from ppaloc.sim.registers import (
     DNEWS_SELECTORS,
     FLAG,
     IN,
     NEWS,
+    R0,
     R1,
     R2,
     R3,
     R4,
+    R12,
+    RECT,
     SELECT,
     Direction,
     Register,
+    register_by_name,
 )
 
 if TYPE_CHECKING:
     from ppaloc.sim.timing import TimingModel
 
-__all__ = ["MAX_EVENTS", "ControllerMixin", "from_scamp_buffer", "to_scamp_buffer"]
+__all__ = [
+    "MAX_EVENTS",
+    "PARAMETERS",
+    "ControllerMixin",
+    "dac_level",
+    "from_scamp_buffer",
+    "to_scamp_buffer",
+]
 
 #: Largest ``max_num`` of ``scan_events`` (``SCAMP5_MAX_AER_ITERATIONS`` in the headers).
 MAX_EVENTS = 4000
@@ -109,7 +122,25 @@ def _pattern_args(call: str, r: Any, c: Any, rx: Any, cx: Any) -> dict[str, int]
     return {n: _as_int(call, n, v, 0, 255) for n, v in zip(names, (r, c, rx, cx), strict=True)}
 
 
-class ControllerMixin:
+#: ``vs_scamp5_get_parameter`` numbers of the header (``vs_scamp5.hpp``).
+PARAMETERS = {
+    "SCAMP5_GLOBAL_SUM_16_AREG_MIN": 4,
+    "SCAMP5_GLOBAL_SUM_16_AREG_MAX": 5,
+    "SCAMP5_GLOBAL_SUM_16_FLOOR": 6,
+    "SCAMP5_GLOBAL_SUM_16_SPAN": 7,
+    "SCAMP5_GLOBAL_SUM_64_AREG_MIN": 8,
+    "SCAMP5_GLOBAL_SUM_64_AREG_MAX": 9,
+    "SCAMP5_GLOBAL_SUM_64_FLOOR": 10,
+    "SCAMP5_GLOBAL_SUM_64_SPAN": 11,
+}
+
+
+def dac_level(code: int) -> float:
+    """Register level of a 12-bit DAC code: ``-128 + 255 * code / 4095`` (an estimate)."""
+    return -128.0 + 255.0 * code / 4095.0
+
+
+class ControllerMixin(DrawMixin):
     """Controller (host) calls of SCAMP-5, mixed into :class:`ppaloc.sim.engine.Scamp5`.
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
@@ -433,11 +464,15 @@ class ControllerMixin:
         self._write_digital(dreg, plane)
 
     def select_pattern(self, r: int, c: int, rx: int, cx: int, *, scamp_addr: bool = False) -> None:
-        """Like :meth:`load_pattern`, into ``SELECT``."""
+        """Like :meth:`load_pattern`, into ``SELECT`` (also the address parts that
+        :meth:`select_col` and its siblings change one at a time)."""
         call = "select_pattern"
         args = _pattern_args(call, r, c, rx, cx)
         self.timing.charge_call(call)
         self._dplane(SELECT)[...] = self._address_mask(**args, scamp_addr=scamp_addr)
+        if scamp_addr:  # the parts are kept in array columns (exact for 2^k columns)
+            args["c"] = (self.cols - 1 - args["c"]) & 255
+        self._select_state().update(args)
 
     def select_point(self, r: int, c: int, *, scamp_addr: bool = False) -> None:
         """Like :meth:`load_point`, into ``SELECT``."""
@@ -450,10 +485,12 @@ class ControllerMixin:
         plane[r, self._col_index(c, scamp_addr)] = True
 
     def select_rect(self, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False) -> None:
-        """Like :meth:`load_rect`, into ``SELECT``."""
+        """Like :meth:`load_rect`, into ``RECT``; as the header says it also modifies
+        ``SELECT``, which here holds the same rectangle."""
         call = "select_rect"
         plane = self._rect(call, r0, c0, r1, c1, scamp_addr)
         self.timing.charge_call(call)
+        self._dplane(RECT)[...] = plane
         self._dplane(SELECT)[...] = plane
 
     # ----------------------------------------------------------------------------------
@@ -799,6 +836,305 @@ class ControllerMixin:
         cols = a if scamp_addr else self.cols - 1 - a
         return np.stack([r, cols], axis=1).astype(np.int64)
 
+    # ----------------------------------------------------------------------------------
+    # Raw DAC loads
+
+    def load_dac(
+        self, areg_or_dac: Register | int, dac: int | None = None, temp: Register = NEWS
+    ) -> None:
+        """``scamp5_load_dac``: load the analogue level of a raw 12-bit DAC code.
+
+        ``load_dac(code)`` drives ``IN``; ``load_dac(areg, code, temp=NEWS)`` also copies
+        the level into ``areg`` where FLAG is set (``temp`` := its negation), as
+        :meth:`load_in` does, without error correction. The level of code ``d`` in
+        [0, 4095] is ``-128 + 255 d / 4095`` (the DAC's span mapped linearly onto the
+        register range; the chip's calibrated map is not public).
+        """
+        call = "load_dac"
+        if dac is None:
+            if isinstance(areg_or_dac, Register):
+                raise SimulatorError(
+                    "load_dac: give a code, load_dac(code) or load_dac(areg, code)"
+                )
+            level = dac_level(_as_int(call, "dac", areg_or_dac, 0, 4095))
+            self.timing.charge_call("load_in")
+            self._aplane(IN)[...] = level
+            return
+        areg = self._areg(call, areg_or_dac)
+        t = self._temp(call, areg, temp)
+        level = dac_level(_as_int(call, "dac", dac, 0, 4095))
+        self.timing.charge_call("load_in")
+        self._aplane(IN)[...] = level
+        shape = (self.rows, self.cols)
+        if t is not None:
+            self._write_masked(t, np.full(shape, -level), noisy=True)
+        self._write_masked(areg, np.full(shape, level), noisy=True)
+
+    # ----------------------------------------------------------------------------------
+    # Analogue diffusion and asynchronous flooding (kernels of modelled ICWs)
+
+    def diffuse(
+        self,
+        target: Register,
+        iterations: int,
+        vertical: bool = True,
+        horizontal: bool = True,
+        t0: Register = NEWS,
+    ) -> None:
+        """``scamp5_diffuse``: diffuse ``target`` ``iterations`` times (a kernel).
+
+        Runs ``SET(R1, R2); blurset()`` and per iteration the blur pair
+        ``blur(t0, target); blur(target, t0)`` (``blurh``/``blurv`` when only one
+        direction is on), so each iteration is one :func:`ppaloc.sim.semantics.diffuse`
+        step twice and ``t0`` is scratch. R1 and R2 are left set (the links they enable).
+        """
+        call = "diffuse"
+        self._areg(call, target)
+        self._areg(call, t0)
+        if t0 is target:
+            raise RegisterMisuseError(f"{call}: t0={t0.name} is the target; use another register")
+        n = _as_int(call, "iterations", iterations, 1, 1 << 16)
+        if not (vertical or horizontal):
+            raise SimulatorError(f"{call}: vertical and horizontal are both off; enable one")
+        op = "blur" if vertical and horizontal else ("blurv" if vertical else "blurh")
+        steps = [("SET", (R1, R2), ()), ("blurset", (), (R1, R2))]
+        steps += [(op, (t0,), (target,)), (op, (target,), (t0,))] * n
+        self._macro(call, (target, n), steps)  # type: ignore[attr-defined]
+
+    def flood(
+        self,
+        dreg_target: Register,
+        dreg_mask: Register,
+        boundary: int,
+        iterations: int = 5,
+        use_local: bool = False,
+    ) -> None:
+        """``scamp5_flood``: flood ``dreg_target``'s 1s through the 1s of ``dreg_mask``.
+
+        Runs a kernel of the modelled asynchronous propagation: ``SET(R1, R2, R3, R4)``
+        (all four directions; skipped with ``use_local``, which keeps the caller's
+        selectors), ``SET(R0); MOV(R12, target); MOV(R0, mask)``, ``iterations`` times
+        ``PROP0``/``PROP1`` (``boundary`` 0/1) and ``MOV(target, R12)``. Clobbers R0 and
+        R12 (and R1-R4 unless ``use_local``). One PROP ICW reaches the fixed point here
+        (docs/sim.md), so ``iterations`` changes the time, not the result.
+        """
+        call = "flood"
+        t = self._dreg(call, dreg_target)
+        m = self._dreg(call, dreg_mask, source=True)
+        b = _as_int(call, "boundary", boundary, 0, 1)
+        n = _as_int(call, "iterations", iterations, 1, 1 << 16)
+        scratch = (R0, R12, R1, R2, R3, R4)
+        for name, reg in (("dreg_target", t), ("dreg_mask", m)):
+            if reg in scratch:
+                raise RegisterMisuseError(
+                    f"{call}: {name}={reg.name} is scratch of the flood (R0, R12, R1-R4); "
+                    "use another register"
+                )
+        prop = "PROP1" if b else "PROP0"
+        steps = [] if use_local else [("SET", (R1, R2, R3, R4), ())]
+        steps += [("SET", (R0,), ()), ("MOV", (R12,), (t,)), ("MOV", (R0,), (m,))]
+        steps += [("PROP_R", (), (R12,)), (prop, (R12,), ())] * n
+        steps += [("MOV", (t,), (R12,))]
+        self._macro(call, (t, m, b, n), steps)  # type: ignore[attr-defined]
+
+    def kernel_all(self) -> None:
+        """``scamp5_kernel_all``: run ``all()`` (FLAG := 1) as a kernel of its own."""
+        self._macro("kernel_all", (), [("all", (), ())])  # type: ignore[attr-defined]
+
+    def kernel_refresh_dreg(self) -> None:
+        """``scamp5_kernel_refresh_dreg``: ``REFRESH`` every DREG R0-R12 (26 ICWs, the
+        size of the library's ``const_icw_refresh`` table)."""
+        steps = []
+        for i in range(13):
+            r = register_by_name(f"R{i}")
+            steps += [("LATCH", (), (r,)), ("UNLATCH", (r,), ())]
+        self._macro("kernel_refresh_dreg", (), steps)  # type: ignore[attr-defined]
+
+    # ----------------------------------------------------------------------------------
+    # SELECT by address parts
+
+    def _select_state(self) -> dict[str, int]:
+        return self.__dict__.setdefault("_select_args", {"r": 0, "c": 0, "rx": 255, "cx": 255})
+
+    def _select_part(self, call: str, part: str, value: Any) -> None:
+        state = self._select_state()
+        state[part] = _as_int(call, part, value, 0, 255)
+        if part in ("r", "c"):  # selecting a row (column) selects that one row (column)
+            state[part + "x"] = 0
+        self.timing.charge_call("select_pattern")
+        self._dplane(SELECT)[...] = self._address_mask(**state, scamp_addr=False)
+
+    def select_col(self, c: int, *, scamp_addr: bool = False) -> None:
+        """``scamp5_select_col``: SELECT the column ``c`` (in the rows selected so far).
+
+        The four address parts (row, column and their ignore masks) start as "every
+        element"; ``select_col(c)`` sets the column to ``c`` exactly, ``select_row(r)``
+        the row, ``select_colx(cx)``/``select_rowx(rx)`` the bits to ignore, and SELECT is
+        the pattern they give, as :meth:`select_pattern` would.
+        """
+        c = self._col_index(_as_int("select_col", "c", c, 0, self.cols - 1), scamp_addr)
+        self._select_part("select_col", "c", c)
+
+    def select_row(self, r: int) -> None:
+        """``scamp5_select_row``: SELECT the row ``r`` (see :meth:`select_col`)."""
+        self._select_part("select_row", "r", _as_int("select_row", "r", r, 0, self.rows - 1))
+
+    def select_colx(self, cx: int) -> None:
+        """``scamp5_select_colx``: the column address bits to ignore (see :meth:`select_col`)."""
+        self._select_part("select_colx", "cx", cx)
+
+    def select_rowx(self, rx: int) -> None:
+        """``scamp5_select_rowx``: the row address bits to ignore (see :meth:`select_col`)."""
+        self._select_part("select_rowx", "rx", rx)
+
+    # ----------------------------------------------------------------------------------
+    # Further global sums
+
+    def _sum_code(self, values: np.ndarray) -> int:
+        """One ADC code of a sum, scaled so that 1/16 of the array at ``v`` reads ``v``."""
+        scale = self.rows * self.cols / 16
+        return int(self._adc(np.array(values.sum(dtype=np.float64) / scale)))
+
+    def global_sum_fast(self, areg: Register) -> int:
+        """``scamp5_global_sum_fast``: an approximate sum of the whole plane, one code.
+
+        ``clip(floor(sum / K + 128.5), 0, 255)`` with ``K = rows * cols / 16`` (4096 on
+        the chip), the scale ``global_sum_region`` documents (a 64 x 64 region spans the
+        codes): a plane of constant ``v`` reads ``16 v + 128``, so it saturates beyond
+        ``|v| = 8``. The scale is inferred from the headers; the circuit is not public.
+        """
+        call = "global_sum_fast"
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        self.timing.charge_call("global_sum_16")
+        return self._sum_code(self._aplane(areg))
+
+    def global_sum_sparse(
+        self,
+        areg: Register,
+        r: int = 2,
+        c: int = 2,
+        rx: int = 254,
+        cx: int = 254,
+        *,
+        scamp_addr: bool = False,
+    ) -> int:
+        """``scamp5_global_sum_sparse``: :meth:`global_sum_fast` over the elements the
+        pattern selects (default: even rows and columns, a quarter of the array, so a
+        constant plane reads ``4 v + 128`` and saturates less)."""
+        call = "global_sum_sparse"
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        mask = self._address_mask(**_pattern_args(call, r, c, rx, cx), scamp_addr=scamp_addr)
+        self.timing.charge_call("global_sum_16")
+        return self._sum_code(self._aplane(areg)[mask])
+
+    def global_sum_region(
+        self, areg: Register, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False
+    ) -> int:
+        """``scamp5_global_sum_region``: :meth:`global_sum_fast` over the rectangle with
+        corners (r0, c0), (r1, c1) (inclusive): a 64 x 64 region of ``v`` reads ``v + 128``
+        on a 256 x 256 array, spanning [0, 255] as the header says."""
+        call = "global_sum_region"
+        self._catch_up()
+        self._areg(call, areg, source=True)
+        rect = self._rect(call, r0, c0, r1, c1, scamp_addr)
+        self.timing.charge_call("global_sum_16")
+        return self._sum_code(self._aplane(areg)[rect])
+
+    # ----------------------------------------------------------------------------------
+    # Further digital readouts
+
+    def scan_events_cr(
+        self,
+        dreg: Register,
+        max_num: int = 1,
+        h_dir: int = 0,
+        v_dir: int = 0,
+        *,
+        scamp_addr: bool = False,
+    ) -> np.ndarray:
+        """``scamp5_scan_events_cr``: the same scan as :meth:`scan_events` (column
+        address first; the header's buffer holds (col, row) pairs)."""
+        return self.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=scamp_addr)
+
+    def scan_events_rc(
+        self,
+        dreg: Register,
+        max_num: int = 1,
+        h_dir: int = 0,
+        v_dir: int = 0,
+        *,
+        scamp_addr: bool = False,
+    ) -> np.ndarray:
+        """``scamp5_scan_events_rc``: as :meth:`scan_events`, scanning for the row first.
+
+        Rows 0 -> rows-1 outer (``v_dir=1``: the reverse), and within a row hardware
+        columns 0 -> cols-1, i.e. array columns east to west (``h_dir=1``: the reverse).
+        Returns ``(row, col)`` pairs like every readout here.
+        """
+        call = "scan_events_rc"
+        self._catch_up()
+        self._dreg(call, dreg, source=True)
+        n = _as_int(call, "max_num", max_num, 1, MAX_EVENTS)
+        h = _as_int(call, "h_dir", h_dir, 0, 1)
+        v = _as_int(call, "v_dir", v_dir, 0, 1)
+        addr = self._dplane(dreg)[:, ::-1]  # [row, hardware column]
+        if h:
+            addr = addr[:, ::-1]
+        if v:
+            addr = addr[::-1, :]
+        r, a = np.nonzero(addr)  # row-major: row outer, hardware column inner
+        r, a = r[:n], a[:n]
+        if h:
+            a = self.cols - 1 - a
+        if v:
+            r = self.rows - 1 - r
+        self.timing.charge_call("scan_events", n)
+        cols = a if scamp_addr else self.cols - 1 - a
+        return np.stack([r, cols], axis=1).astype(np.int64)
+
+    def scan_boundingbox(self, dreg: Register, *, scamp_addr: bool = False) -> np.ndarray | None:
+        """``scamp5_scan_boundingbox``: the axis-aligned bounding box of the 1s of ``dreg``.
+
+        Returns
+        -------
+        numpy.ndarray of int64, shape (2, 2), or None
+            The header's two corners, top-right then bottom-left: ``[[top row, east
+            column], [bottom row, west column]]`` in array coordinates (hardware column
+            addresses with ``scamp_addr=True``, where the east column has the lowest
+            address); None when ``dreg`` has no 1. Charged as two event slots of the
+            event readout (an estimate).
+        """
+        call = "scan_boundingbox"
+        self._catch_up()
+        self._dreg(call, dreg, source=True)
+        self.timing.charge_call("scan_events", 2)
+        plane = self._dplane(dreg)
+        rows = np.flatnonzero(plane.any(axis=1))
+        cols = np.flatnonzero(plane.any(axis=0))
+        if rows.size == 0:
+            return None
+        east, west = int(cols[-1]), int(cols[0])
+        if scamp_addr:
+            east, west = self.cols - 1 - east, self.cols - 1 - west
+        return np.array([[rows[0], east], [rows[-1], west]], dtype=np.int64)
+
+    # ----------------------------------------------------------------------------------
+    # Chip parameters
+
+    def vs_scamp5_get_parameter(self, which: int) -> int:
+        """``vs_scamp5_get_parameter``: the global-sum parameters of the modelled chip.
+
+        ``which`` is one of the header's ``SCAMP5_GLOBAL_SUM_*`` numbers (4-11, also
+        :data:`PARAMETERS` by name): the uniform AREG levels that give the minimum and
+        maximum output of the 4 x 4 / 8 x 8 global sums (-128 and 127 with the ideal ADC
+        here) and the output floor (0) and span (16 x 255 = 4080 / 64 x 255 = 16320).
+        """
+        w = _as_int("vs_scamp5_get_parameter", "which", which, 4, 11)
+        n_blocks = 16 if w < 8 else 64
+        return (-128, 127, 0, 255 * n_blocks)[(w - 4) % 4]
+
 
 # SCAMP-5 spellings of every controller call, so published host code ports line by line.
 for _name in (
@@ -820,6 +1156,21 @@ for _name in (
     "scan_areg_mean_8x8",
     "scan_dreg",
     "scan_events",
+    "load_dac",
+    "diffuse",
+    "flood",
+    "kernel_all",
+    "kernel_refresh_dreg",
+    "select_col",
+    "select_row",
+    "select_colx",
+    "select_rowx",
+    "global_sum_fast",
+    "global_sum_sparse",
+    "global_sum_region",
+    "scan_events_rc",
+    "scan_events_cr",
+    "scan_boundingbox",
 ):
     setattr(ControllerMixin, f"scamp5_{_name}", getattr(ControllerMixin, _name))
 ControllerMixin.in_ = ControllerMixin.scamp5_in  # type: ignore[attr-defined]
