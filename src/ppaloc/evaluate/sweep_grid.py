@@ -29,7 +29,7 @@ from ppaloc import __version__
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig, reject_unknown_keys, with_tolerance
 from ppaloc.evaluate.results import CSV_COLUMNS
-from ppaloc.fileio import write_bytes
+from ppaloc.fileio import new_folder, source_date, write_bytes
 
 __all__ = [
     "COMBINE",
@@ -499,28 +499,32 @@ def _safe_relative(rel: str) -> Path:
 
 
 def write_cell(out: Path, cell: Cell, files: Mapping[str, bytes]) -> None:
-    """Write a finished cell's files (``{relative path: bytes}``) into its folder under
-    ``out``, each atomically, ``results.json`` last (what marks the cell finished), and
-    drop the error of an earlier failed run."""
+    """Write a finished cell's files (``{relative path: bytes}``) as its folder under
+    ``out``, replacing the folder whole (:func:`ppaloc.fileio.new_folder`: an earlier
+    failed run's ``error.json`` goes with it), ``results.json`` last."""
     folder = out / cell.folder
-    for rel, data in files.items():
-        if rel != "results.json":
-            write_bytes(folder / _safe_relative(rel), data)
-    write_bytes(folder / "cell.json", json.dumps(cell.describe(), indent=2) + "\n")
-    write_bytes(folder / "results.json", files["results.json"])
-    (folder / "error.json").unlink(missing_ok=True)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    with new_folder(folder) as stage:
+        for rel, data in files.items():
+            if rel != "results.json":
+                write_bytes(stage / _safe_relative(rel), data)
+        write_bytes(stage / "cell.json", json.dumps(cell.describe(), indent=2) + "\n")
+        write_bytes(stage / "results.json", files["results.json"])
 
 
 def write_cell_error(out: Path, cell: Cell, line: str, trace: str) -> None:
-    """Record a failed cell: ``cell.json`` and ``error.json`` (one-line error, traceback)."""
+    """Record a failed cell as its folder, replaced whole: ``cell.json`` and ``error.json``
+    (one-line error, traceback)."""
     folder = out / cell.folder
-    write_bytes(folder / "cell.json", json.dumps(cell.describe(), indent=2) + "\n")
+    folder.parent.mkdir(parents=True, exist_ok=True)
     record = {
         "error": line,
         "traceback": trace,
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
     }
-    write_bytes(folder / "error.json", json.dumps(record, indent=2) + "\n")
+    with new_folder(folder) as stage:
+        write_bytes(stage / "cell.json", json.dumps(cell.describe(), indent=2) + "\n")
+        write_bytes(stage / "error.json", json.dumps(record, indent=2) + "\n")
 
 
 def one_line_error(exc: BaseException) -> str:
@@ -583,8 +587,15 @@ def collect_summary(config: SweepConfig, out: str | Path) -> dict[str, Any]:
             "not_run": counts["not_run"],
         },
         "ppaloc_version": __version__,
-        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        **_created(),
     }
+
+
+def _created() -> dict[str, str]:
+    """``{"created": ...}`` where ``SOURCE_DATE_EPOCH`` is set, else nothing: the same
+    cells give the same summary bytes."""
+    when = source_date()
+    return {} if when is None else {"created": when.isoformat(timespec="seconds")}
 
 
 def write_summary(config: SweepConfig, out: str | Path) -> dict[str, Any]:

@@ -28,7 +28,7 @@ import numpy as np
 
 from ppaloc.errors import DataError
 from ppaloc.evaluate.report import ReportFigure
-from ppaloc.fileio import write_bytes
+from ppaloc.fileio import new_folder, write_bytes
 
 __all__ = [
     "best_cells",
@@ -449,7 +449,8 @@ def write_sweep_report(out: str | Path) -> Path:
         f"{counts['ok']} finished, {counts['failed']} failed, {counts['not_run']} not run; "
         f"{len(summary['axes']['method'])} methods x {len(summary['axes']['dataset'])} "
         f"datasets; swept: {', '.join(swept) or 'nothing but methods and datasets'}. "
-        f"ppaloc {summary.get('ppaloc_version', '')}, {summary.get('created', '')}."
+        f"ppaloc {summary.get('ppaloc_version', '')}"
+        + (f", {summary['created']}." if summary.get("created") else ".")
     )
     config = json.dumps(summary["config"], indent=2)
     parts = [
@@ -517,10 +518,11 @@ def write_sweep_report(out: str | Path) -> Path:
     md += [_md_table(best_header, best_rows), ""]
     for axis, header, rows in tables:
         md += [f"## Max F1 against {axis}", "", _md_table(header, rows), ""]
-    for f in figs:
-        rel = f"figures/{f.key}.png"
-        write_bytes(out / rel, f.png)
-        md += [f"## {f.title}", "", f"![{f.title}]({rel})", "", f.caption, ""]
+    with new_folder(out / "figures") as stage:  # the figures replaced whole, old ones dropped
+        for f in figs:
+            rel = f"figures/{f.key}.png"
+            write_bytes(stage / f"{f.key}.png", f.png)
+            md += [f"## {f.title}", "", f"![{f.title}]({rel})", "", f.caption, ""]
     if failed:
         md += ["## Failed cells", "", _md_table(fail_header, fail_rows), ""]
     md += ["## All cells", "", _md_table(all_header, all_rows), ""]
