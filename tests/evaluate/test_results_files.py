@@ -126,3 +126,4 @@ def test_show_refuses_out_of_range_results_in_one_line(saved, mean_match, capsys
     assert main(["show", str(saved), "-q"]) == 1
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "node[0] is -1, outside 0..9" in err
+    assert f"{saved}/arrays/" in err and ".ppaloc-new-" not in err  # the user's folder named

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc.errors import PpalocError
 from ppaloc.evaluate import figures
 from ppaloc.evaluate.bench import load_bench
 from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
@@ -447,7 +448,10 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
     if not folder.is_dir():
         load_results(folder)  # the one-line error for a missing folder; never create one
     with update_folder(folder) as stage:
-        write_report_files(stage, bench_path=bench_path)
+        try:
+            write_report_files(stage, bench_path=bench_path)
+        except PpalocError as exc:  # name the user's folder, not the staging copy
+            raise type(exc)(str(exc).replace(str(stage), str(folder))) from None
     return folder / "report.html"
 
 
