@@ -8,7 +8,7 @@ matching.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -21,18 +21,21 @@ __all__ = [
     "MapLocaliser",
     "check_map",
     "require_map",
-    "stack_frames",
+    "stack_descriptors",
     "top_k",
     "uniqueness_ratio",
 ]
 
 
-def stack_frames(frames: Sequence[np.ndarray], what: str) -> list[np.ndarray]:
-    """Materialise a (possibly lazy) sequence of frames, refusing an empty one."""
-    out = list(frames)
+def stack_descriptors(
+    frames: Iterable[np.ndarray], describe: Callable[[np.ndarray], np.ndarray], what: str
+) -> np.ndarray:
+    """``describe(frame)`` of every frame, stacked, reading the frames once in order (a lazy
+    traversal is never held whole: only the descriptors are); an empty one is refused."""
+    out = [describe(f) for f in frames]
     if not out:
         raise PpalocError(f"{what}: the reference traversal is empty; give at least one frame")
-    return out
+    return np.stack(out)
 
 
 def check_map(topomap: TopoMap, kind: str, shape: tuple[int, ...], method: str) -> TopoMap:
@@ -153,8 +156,7 @@ class MapLocaliser:
         PpalocError
             If ``frames`` is empty or a frame is not a (256, 256) ``uint8`` sensor frame.
         """
-        frames = stack_frames(frames, self.name)
-        desc = np.stack([self.describe(f) for f in frames])
+        desc = stack_descriptors(frames, self.describe, self.name)
         return self.use_map(TopoMap(self.kind, desc, params=self.params()))
 
     def use_map(self, topomap: TopoMap) -> TopoMap:

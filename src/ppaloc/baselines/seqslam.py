@@ -325,12 +325,13 @@ class SeqSLAM(ImageLocaliser):
         in the centred mode. The map and the online state are left untouched.
         """
         require_map(self.map, self.name)
-        frames = list(frames)
-        if not frames:
+        columns = [self.difference_column(f) for f in frames]  # one pass, no frame kept
+        if not columns:
             return []
-        diff = np.stack([self.difference_column(f) for f in frames], axis=1)
+        diff = np.stack(columns, axis=1)
+        del columns
         enhanced = contrast_enhance(diff, self.enhance_window).T  # (Q, N)
-        q = len(frames)
+        q = len(enhanced)
         if self.mode == "past":
             before, after = self.ds, 0
         else:

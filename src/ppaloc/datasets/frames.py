@@ -15,7 +15,7 @@ from typing import overload
 
 import numpy as np
 
-__all__ = ["FrameSequence", "ImageFrames", "RenderedFrames"]
+__all__ = ["FrameSequence", "ImageFrames", "RenderedFrames", "as_frames"]
 
 DEFAULT_CACHE = 16
 """Frames each sequence keeps (least recently used dropped first)."""
@@ -106,11 +106,14 @@ class FrameSequence(Sequence[np.ndarray]):
         new._cache = OrderedDict()
         return new
 
-    def transformed(self, fn: Callable[[np.ndarray], np.ndarray]) -> FrameSequence:
+    def transformed(
+        self, fn: Callable[[np.ndarray], np.ndarray], cache: int | None = None
+    ) -> FrameSequence:
         """Return a lazy sequence of ``fn(frame)`` for every frame (applied when read).
 
-        The result is sliceable like this one and has its own cache; ``fn`` should be a
-        picklable callable (not a lambda) if the sequence is to be pickled.
+        The result is sliceable like this one and has its own cache of ``cache`` frames
+        (default: this one's size); ``fn`` should be a picklable callable (not a lambda)
+        if the sequence is to be pickled.
 
         Examples
         --------
@@ -120,6 +123,8 @@ class FrameSequence(Sequence[np.ndarray]):
         """
         new = type(self)._from(self, self._indices)
         new._load = _Transformed(self._load, fn)
+        if cache is not None:
+            new._cache_size = int(cache)
         return new
 
     def __iter__(self) -> Iterator[np.ndarray]:
@@ -131,7 +136,8 @@ class FrameSequence(Sequence[np.ndarray]):
         if hit is not None:
             self._cache.move_to_end(src)
             return hit
-        frame = np.asarray(self._load(src))
+        # a read-only view: the loader's own array (e.g. one a caller handed in) stays writable
+        frame = np.asarray(self._load(src)).view()
         frame.setflags(write=False)
         if self._cache_size > 0:
             self._cache[src] = frame
@@ -141,6 +147,21 @@ class FrameSequence(Sequence[np.ndarray]):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({len(self)} frames)"
+
+
+def as_frames(frames: Sequence[np.ndarray], cache: int = DEFAULT_CACHE) -> FrameSequence:
+    """``frames`` as a :class:`FrameSequence`: itself if it is one, else a lazy wrapper
+    that reads ``frames[i]`` on access (a plain list of arrays, a caller's own sequence).
+
+    Examples
+    --------
+    >>> seq = as_frames([np.zeros((1, 1), np.uint8), np.ones((1, 1), np.uint8)])
+    >>> [int(f[0, 0]) for f in seq.transformed(np.negative)]
+    [0, 255]
+    """
+    if isinstance(frames, FrameSequence):
+        return frames
+    return FrameSequence(frames.__getitem__, range(len(frames)), cache)
 
 
 class _Transformed:

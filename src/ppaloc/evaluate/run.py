@@ -6,13 +6,20 @@ frame is handed to ``step`` once, in order. Only ``step`` is timed (host wall cl
 ``time.perf_counter_ns``), in the same process and run for every method, so the latencies
 compare side by side. Modelled on-sensor latency and energy come from the estimates of
 methods that model them.
+
+Frames stream: each is read (or rendered), converted and consumed when a method needs it
+and then dropped (:func:`sensor_stream`), and a run keeps only per-query numbers, so peak
+memory does not grow with the route (the maps and the per-query arrays aside). Only when
+several methods run and both traversals fit in :data:`SHARED_FRAMES_BYTES` are the
+converted frames kept for the next method instead of being read again.
 """
 
 from __future__ import annotations
 
+import logging
 import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
@@ -21,6 +28,7 @@ import numpy as np
 
 from ppaloc import __version__
 from ppaloc.datasets import RouteDataset, to_sensor
+from ppaloc.datasets.frames import FrameSequence, as_frames
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
@@ -28,8 +36,10 @@ from ppaloc.localise.base import Estimate, Localiser
 from ppaloc.methods import METHODS, accepted_parameters, available_methods, make_localiser
 
 __all__ = [
+    "SHARED_FRAMES_BYTES",
     "MethodRun",
     "ProgressBar",
+    "ReportedFrames",
     "RunResult",
     "localiser_params",
     "method_metrics",
@@ -39,7 +49,17 @@ __all__ = [
     "run_evaluation",
     "run_method",
     "sensor_frames",
+    "sensor_stream",
 ]
+
+log = logging.getLogger(__name__)
+
+SHARED_FRAMES_BYTES = 256 * 2**20
+"""Largest size of both traversals as sensor frames (65,536 bytes each: 4,096 frames) that
+an evaluation of several methods keeps for the next method; a longer route is read again
+by each method, so memory stays flat whatever its length."""
+
+_SENSOR_FRAME_BYTES = 256 * 256
 
 ProgressHook = Callable[[str, int], None]
 """Called as ``hook(method, frames_done)`` while a method runs."""
@@ -255,13 +275,52 @@ def localiser_params(
     return params
 
 
+def sensor_stream(frames: Sequence[np.ndarray], *, keep: bool = False) -> FrameSequence:
+    """A traversal through the sensor front-end, lazily: frame ``i`` is read (or rendered)
+    and converted (:func:`ppaloc.datasets.to_sensor`) when it is accessed.
+
+    Only the last few converted frames are kept, so iterating over a route of any length
+    holds a handful of frames; ``keep=True`` keeps every frame once converted (for several
+    passes over a short route).
+
+    Examples
+    --------
+    >>> seq = sensor_stream([np.zeros((32, 64), np.uint8)] * 3)
+    >>> len(seq), seq[2].shape
+    (3, (256, 256))
+    """
+    seq = as_frames(frames)
+    return seq.transformed(to_sensor, cache=len(seq) if keep else None)
+
+
+class ReportedFrames(Sequence[np.ndarray]):
+    """A traversal whose iteration calls ``hook(frames_done)`` after each frame: the
+    progress of a ``build_map``, which reads its frames in one pass; indexing and slicing
+    pass through unreported."""
+
+    def __init__(self, frames: Sequence[np.ndarray], hook: Callable[[int], None]) -> None:
+        self._frames, self._hook = frames, hook
+
+    def __len__(self) -> int:
+        return len(self._frames)
+
+    def __getitem__(self, item: Any) -> Any:
+        return self._frames[item]
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        for done, frame in enumerate(self._frames, 1):
+            yield frame
+            self._hook(done)
+
+
 def sensor_frames(
     frames: Sequence[np.ndarray], progress: ProgressHook | None = None, *, task: str = ""
 ) -> list[np.ndarray]:
-    """Every frame of a (lazy) traversal through the sensor front-end, in order.
+    """Every frame of a (lazy) traversal through the sensor front-end, in order, in memory.
 
-    Reading or rendering the frames is most of a run's waiting on a generated or large
-    route, so ``progress(task, frames_done)`` is called after every frame when given.
+    For scripts that pass over one short route many times; 65,536 bytes a frame, so
+    evaluations and ``ppaloc map`` stream instead (:func:`sensor_stream`).
+    ``progress(task, frames_done)`` is called after every frame when given.
     """
     out = []
     for i in range(len(frames)):
@@ -383,7 +442,8 @@ def run_method(
     name : str
         Registered method name (or a label when ``localiser`` is given).
     reference, query : sequence of ndarray, shape (256, 256), uint8
-        Sensor frames (:func:`sensor_frames`).
+        Sensor frames, read once in order by ``build_map`` and by the query loop
+        (:func:`sensor_stream`: nothing is held beyond the current frames).
     ground_truth : sequence of ndarray of int
         Accepted reference indices per query.
     params : mapping, optional
@@ -397,7 +457,8 @@ def run_method(
         Which queries were taken in a turn (the dataset's ``meta["query_turning"]``), for
         ``f1_max_straight`` and ``f1_max_turning``.
     progress : callable, optional
-        ``progress(name, frames_done)`` after the map and after every frame.
+        ``progress(name, frames_done)`` as frames are consumed: the reference frames read
+        by ``build_map`` count first (1 .. R), then the query frames (R + 1 .. R + M).
     localiser : Localiser, optional
         Use this object instead of ``make_localiser(name, **params)`` (tests, scripts).
 
@@ -407,6 +468,11 @@ def run_method(
     """
     params = dict(params or {})
     loc = localiser if localiser is not None else make_localiser(name, **params)
+    n_ref = len(reference)
+    if progress:
+        progress(name, 0)
+        reference = ReportedFrames(reference, lambda done: progress(name, done))
+    log.info("%s: mapping %d reference frames", name, n_ref)
     t0 = time.perf_counter()
     topomap = loc.build_map(reference)
     build_s = time.perf_counter() - t0
@@ -414,34 +480,26 @@ def run_method(
     spans = topomap.frame_spans()
     n_nodes = len(topomap)
     m = len(query)
-    keep_weights = m * n_nodes <= max_weight_values
-    estimates: list[Estimate] = []
-    latency = np.empty(m, dtype=np.float64)
-    weights = None
+    log.info("%s: %d nodes; localising %d query frames", name, n_nodes, m)
+    record = _Record(m, n_nodes if m * n_nodes <= max_weight_values else None)
     if progress:
-        progress(name, 0)
+        progress(name, n_ref)
     clock = time.perf_counter_ns
     for i in range(m):
         frame = query[i]
         t = clock()
         est = loc.step(frame)
-        latency[i] = (clock() - t) / 1e6
-        if est.weights is not None and keep_weights:
-            if weights is None:
-                weights = np.full((m, n_nodes), np.nan, dtype=np.float32)
-            weights[i] = np.asarray(est.weights, dtype=np.float32)
-        estimates.append(est)
+        record.add(i, est, (clock() - t) / 1e6)
         if progress:
-            progress(name, i + 1)
-    node = np.array([e.node for e in estimates], dtype=np.int64)
+            progress(name, n_ref + i + 1)
+    node, score, moved, latency = record.node, record.score, record.moved, record.latency
     if m and (node.min() < 0 or node.max() >= n_nodes):
         raise RuntimeError(f"{name} returned a node outside its map of {n_nodes} nodes")
     ref_index = node_frames(node, spans, ground_truth)
-    score = np.array([e.score for e in estimates], dtype=np.float64)
-    moved = np.array([-1 if e.moved is None else int(e.moved) for e in estimates], np.int8)
-    ranking = node_frames(_stack_rankings([e.ranking for e in estimates]), spans, ground_truth)
-    modelled = _optional_array([e.modelled_latency_ms for e in estimates])
-    energy = _optional_array([e.energy_mj for e in estimates])
+    ranking = node_frames(_stack_rankings(record.rankings), spans, ground_truth)
+    modelled = _optional_array(record.modelled)
+    energy = _optional_array(record.energy)
+    weights = record.weights
     metrics = method_metrics(
         ref_index,
         score,
@@ -475,6 +533,38 @@ def run_method(
         motion_accuracy=motion_acc,
         registers=register_planes(loc),
     )
+
+
+class _Record:
+    """What a run keeps of each query's :class:`Estimate`: numbers in preallocated
+    arrays, the ranking, and the weights only into the (M, N) matrix when it is kept (an
+    estimate's own copy of N weights is dropped with it)."""
+
+    def __init__(self, m: int, weight_nodes: int | None) -> None:
+        self.node = np.empty(m, dtype=np.int64)
+        self.score = np.empty(m, dtype=np.float64)
+        self.moved = np.empty(m, dtype=np.int8)
+        self.latency = np.empty(m, dtype=np.float64)
+        self.rankings: list[np.ndarray | None] = []
+        self.modelled: list[float | None] = []
+        self.energy: list[float | None] = []
+        self.weights: np.ndarray | None = None
+        self._m, self._weight_nodes = m, weight_nodes
+
+    def add(self, i: int, est: Estimate, latency_ms: float) -> None:
+        self.node[i] = est.node
+        self.score[i] = est.score
+        self.moved[i] = -1 if est.moved is None else int(est.moved)
+        self.latency[i] = latency_ms
+        # a copy: a ranking may be a view of an (N,) array the localiser made
+        r = est.ranking
+        self.rankings.append(None if r is None else np.array(r, dtype=np.int64))
+        self.modelled.append(est.modelled_latency_ms)
+        self.energy.append(est.energy_mj)
+        if est.weights is not None and self._weight_nodes is not None:
+            if self.weights is None:
+                self.weights = np.full((self._m, self._weight_nodes), np.nan, dtype=np.float32)
+            self.weights[i] = np.asarray(est.weights, dtype=np.float32)
 
 
 def modelled_time(localiser: Any) -> dict[str, dict[str, float]] | None:
@@ -631,13 +721,15 @@ def run_evaluation(
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
     names = list(plan)
+    n_ref, n_query = len(dataset.reference), len(dataset.query)
+    # Several methods on a short route share its converted frames; otherwise each reads
+    # them again, one at a time.
+    keep = len(plan) > 1 and (n_ref + n_query) * _SENSOR_FRAME_BYTES <= SHARED_FRAMES_BYTES
+    reference = sensor_stream(dataset.reference, keep=keep)
+    query = sensor_stream(dataset.query, keep=keep)
     with ProgressBar(progress) as bar:
-        for task, frames in ((" reference", dataset.reference), (" query", dataset.query)):
-            bar.add(task, len(frames), label=f"{task.strip()} frames")
         for name in names:
-            bar.add(name, len(dataset.query))
-        reference = sensor_frames(dataset.reference, bar, task=" reference")
-        query = sensor_frames(dataset.query, bar, task=" query")
+            bar.add(name, n_ref + n_query, label=f"{name} (map, queries)")
         for name, (params, loc) in plan.items():
             if localisers is None:
                 params = {**METHODS[name].defaults, **params}  # record the variant too
@@ -664,7 +756,7 @@ def run_evaluation(
         dataset_name=dataset.name,
         tolerance=int(dataset.tolerance),
         ground_truth=gt,
-        n_reference=len(reference),
+        n_reference=n_ref,
         runs=runs,
         config=resolved,
         reference_positions=dataset.reference_positions,

@@ -414,11 +414,14 @@ class WeightedNodeLocaliser:
 
         One node per frame, or with ``keyframes`` one per distinct place
         (:func:`keyframe_test`); ``TopoMap.frame_index`` keeps each node's first frame.
+        The frames are read once, in order, and only their descriptors are kept.
         """
-        frames = list(frames)
-        if not frames:
-            raise PpalocError("the reference traversal is empty: a map needs at least one frame")
+        empty = "the reference traversal is empty: a map needs at least one frame"
+        if hasattr(frames, "__len__") and not len(frames):  # type: ignore[arg-type]
+            raise PpalocError(empty)
         topomap = build_topomap(frames, self.representation, keep=keyframe_test(self.params))
+        if not len(topomap):
+            raise PpalocError(empty)
         self.use_map(topomap)
         return topomap
 
