@@ -2,7 +2,7 @@
 
 Public names: :class:`Scamp5`, the register handles ``A``-``F``, ``NEWS``, ``PIX``,
 ``IN``, ``R0``-``R12`` (also by their header names ``RF``, ``RS``, ``RW``, ``RN``,
-``RE``, ``S0``-``S6``, ``RP``), ``FLAG``, ``SELECT``, the neighbour aliases ``XN``,
+``RE``, ``S0``-``S6``, ``RP``), ``FLAG``, ``SELECT``, ``RECT``, the neighbour aliases ``XN``,
 ``XE``, ``XS``, ``XW``, the directions ``north``, ``east``, ``south``, ``west`` (and
 ``alldir``), noise parameters and presets, kernels, the instruction record and op table,
 the timing model, and register rendering.
@@ -10,7 +10,7 @@ the timing model, and register rendering.
 
 from ppaloc.sim.engine import Scamp5
 from ppaloc.sim.isa import CLOCK_CLASSES, OPS, Instruction, OpSpec
-from ppaloc.sim.kernel import MAX_ICWS, Kernel
+from ppaloc.sim.kernel import MAX_ICWS, IcwStackWarning, Kernel
 from ppaloc.sim.noise import PRESETS, NoiseModel, NoiseParams
 from ppaloc.sim.registers import (
     FLAG,
@@ -31,6 +31,7 @@ from ppaloc.sim.registers import (
     R11,
     R12,
     RE,
+    RECT,
     RF,
     RN,
     RP,
@@ -88,6 +89,7 @@ __all__ = [
     "R11",
     "R12",
     "RE",
+    "RECT",
     "RF",
     "RN",
     "RP",
@@ -112,6 +114,7 @@ __all__ = [
     "Direction",
     "E",
     "F",
+    "IcwStackWarning",
     "Instruction",
     "Kernel",
     "NoiseModel",
