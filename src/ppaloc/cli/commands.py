@@ -333,7 +333,7 @@ def run_map(
 ) -> Path:
     """Build the map of ``method`` from the reference traversal of ``dataset``; save it."""
     from ppaloc.datasets.registry import load_dataset
-    from ppaloc.evaluate.run import ProgressBar, resolve_methods, sensor_frames
+    from ppaloc.evaluate.run import ProgressBar, ReportedFrames, resolve_methods, sensor_stream
     from ppaloc.methods import make_localiser
 
     (method,) = resolve_methods([method])
@@ -341,10 +341,10 @@ def run_map(
         raise DataError(f"--out {out} is a folder; give a file name such as map.npz")
     ds = load_dataset(dataset)
     loc = make_localiser(method, **params)
+    reference = sensor_stream(ds.reference)  # read, converted and described one at a time
     with ProgressBar(not quiet) as bar:
-        bar.add("reference", len(ds.reference), label="reference frames")
-        reference = sensor_frames(ds.reference, bar, task="reference")
-    topomap = loc.build_map(reference)
+        bar.add("reference", len(reference), label="reference frames")
+        topomap = loc.build_map(ReportedFrames(reference, lambda done: bar("reference", done)))
     if topomap.positions is None and ds.reference_positions is not None:
         idx = np.asarray(topomap.frame_index)
         topomap.positions = np.asarray(ds.reference_positions)[idx]
