@@ -139,6 +139,10 @@ def test_a_member_claiming_more_than_the_archive_holds(small, tmp_path):
             r"header.provenance.method_params.alpha is nan, not a finite number",
         ),
         (
+            lambda h, a: h["provenance"]["method_params"].__setitem__("alpha", -1e308),
+            r"header.provenance.method_params.alpha is -1e\+308, outside \+-2\^53",
+        ),
+        (
             lambda h, a: h["params"].__setitem__("gain", float("-inf")),
             r"header.params.gain is -inf",
         ),

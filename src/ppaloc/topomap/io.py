@@ -34,6 +34,7 @@ __all__ = [
     "FORMAT_VERSION",
     "MAX_HEADER_BYTES",
     "MAX_HEADER_DEPTH",
+    "MAX_HEADER_NUMBER",
     "MAX_MAP_BYTES",
     "load_map",
     "read_header",
@@ -48,6 +49,9 @@ MAX_HEADER_BYTES = 1 << 20
 """Most bytes of a map's JSON header (1 MiB)."""
 MAX_HEADER_DEPTH = 32
 """Deepest nesting of lists and objects accepted in a map's header."""
+MAX_HEADER_NUMBER = 2**53
+"""Largest magnitude of a number in a map's header (counts and parameters; the largest
+float64 that still holds every integer exactly)."""
 _ARRAYS = ("descriptors", "frame_index", "positions")
 
 
@@ -198,6 +202,8 @@ def _walk(value: Any, path: str = "header") -> str | None:
                 stack.append((item, key, depth + 1))
         elif isinstance(v, float) and not math.isfinite(v):
             return f"{where} is {v}, not a finite number"
+        elif isinstance(v, int | float) and not isinstance(v, bool) and abs(v) > MAX_HEADER_NUMBER:
+            return f"{where} is {v:.3g}, outside +-2^53, the range of a map header's numbers"
     return None
 
 
