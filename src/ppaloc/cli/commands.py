@@ -10,7 +10,6 @@ from __future__ import annotations
 import sys
 import time
 import zipfile
-import zlib
 from collections.abc import Sequence
 from contextlib import nullcontext
 from pathlib import Path
@@ -555,13 +554,16 @@ def _descriptor_figure(topomap: Any) -> Any:
 
 
 def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
+    from ppaloc.evaluate.results import MAX_RESULT_BYTES
+    from ppaloc.npzfile import NpzError, read_npz
     from ppaloc.sim.render import render_montage
 
-    try:
-        with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:  # f: closed on error
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
-        raise DataError(f"{path} is a corrupt or truncated .npz archive ({exc})") from None
+    try:  # every member's size bounded before it is read
+        arrays = read_npz(path, max_bytes=MAX_RESULT_BYTES)
+    except NpzError as exc:
+        raise DataError(f"{path}: {exc}") from None
+    except OSError as exc:
+        raise DataError(f"cannot read {path} ({exc.strerror or exc})") from None
     planes = {k: a for k, a in arrays.items() if a.ndim == 2}
     if not planes:
         raise DataError(f"{path} holds no 2-D arrays to draw as register planes")
