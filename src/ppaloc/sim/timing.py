@@ -1063,8 +1063,11 @@ def interval_us(
     """Low/mid/high modelled time (us) of a count vector (:meth:`TimingConstants.corners`)."""
     constants = constants if constants is not None else TimingConstants()
     corners = corners if corners is not None else constants.corners(clock_hz)
+    mid = evaluate_us(counts, constants, clock_hz)
+    # the mid constants are the fit's rounded values (3.72 cycles, 0.33 us), a hair off
+    # the refitted corners' line: a bound never lies on the wrong side of the mid
     return Interval(
-        min(evaluate_us(counts, c, clock_hz) for c in corners["low"]),
-        evaluate_us(counts, constants, clock_hz),
-        max(evaluate_us(counts, c, clock_hz) for c in corners["high"]),
+        min(mid, *(evaluate_us(counts, c, clock_hz) for c in corners["low"])),
+        mid,
+        max(mid, *(evaluate_us(counts, c, clock_hz) for c in corners["high"])),
     )
