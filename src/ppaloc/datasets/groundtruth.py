@@ -17,6 +17,7 @@ This module also reads the two ground-truth file formats, never running untruste
 from __future__ import annotations
 
 import io
+import math
 import pickle
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -26,6 +27,9 @@ import numpy as np
 from ppaloc.errors import DataError
 
 __all__ = [
+    "MAX_GROUND_TRUTH_BYTES",
+    "MAX_GROUND_TRUTH_ITEMS",
+    "MAX_TRUTH_SIDE",
     "dilate",
     "from_positions",
     "read_truth_mat",
@@ -135,6 +139,17 @@ _SAFE_GLOBALS = {
 }
 
 
+MAX_GROUND_TRUTH_BYTES = 256 << 20
+"""Largest ground-truth file read (256 MiB; VPR-Bench's are a few MB)."""
+
+MAX_GROUND_TRUTH_ITEMS = 50_000_000
+"""Most elements a ground-truth array may claim in its header."""
+
+
+class _NeedsTrust(Exception):
+    """A well-formed pickle that asks for a global the array-only unpickler refuses."""
+
+
 class _ArrayOnlyUnpickler(pickle.Unpickler):
     """Unpickler that can only rebuild numpy arrays, numpy scalars, lists and numbers.
 
@@ -146,25 +161,81 @@ class _ArrayOnlyUnpickler(pickle.Unpickler):
     def find_class(self, module: str, name: str):
         if (module, name) in _SAFE_GLOBALS:
             return super().find_class(module, name)
-        raise pickle.UnpicklingError(f"global {module}.{name} is not allowed")
+        raise _NeedsTrust()
 
 
-def _load_npy_safely(path: Path) -> np.ndarray:
-    raw = path.read_bytes()
-    with io.BytesIO(raw) as f:
+def _corrupt(path: Path, what: str) -> DataError:
+    return DataError(
+        f"cannot read VPR-Bench ground truth {path}: {what}; give the ground_truth_new.npy "
+        "that came with the dataset"
+    )
+
+
+def _read_header(path: Path, raw: bytes) -> tuple[tuple[int, ...], np.dtype, io.BytesIO]:
+    """The ``.npy`` header (shape, dtype) and a stream at the data; contents never quoted."""
+    f = io.BytesIO(raw)
+    if not raw.startswith(b"\x93NUMPY"):
+        raise _corrupt(path, "it is not a .npy file (it does not start with numpy's magic bytes)")
+    try:
         version = np.lib.format.read_magic(f)
         if version == (1, 0):
             shape, _fortran, dtype = np.lib.format.read_array_header_1_0(f)
         else:
             shape, _fortran, dtype = np.lib.format.read_array_header_2_0(f)
-        if not dtype.hasobject:
-            f.seek(0)
+    except Exception:  # numpy's messages quote the header bytes: keep them out of ours
+        raise _corrupt(path, "its .npy header is corrupt or truncated") from None
+    count = math.prod(shape)
+    if count > MAX_GROUND_TRUTH_ITEMS:
+        raise _corrupt(
+            path, f"its header claims {count} elements, more than {MAX_GROUND_TRUTH_ITEMS}"
+        )
+    return tuple(shape), dtype, f
+
+
+def _load_npy_safely(path: Path, trust: bool = False) -> np.ndarray:
+    """Read a ``.npy`` without running code: plain arrays without pickle, object arrays by
+    the array-only unpickler (by full unpickling with ``trust``). Raises ``_NeedsTrust``
+    for a pickle that needs more than the array-only unpickler rebuilds."""
+    raw = _read_bounded(path)
+    shape, dtype, f = _read_header(path, raw)
+    if not dtype.hasobject:
+        need = f.tell() + math.prod(shape) * dtype.itemsize
+        if len(raw) < need:
+            raise _corrupt(path, f"it is truncated ({len(raw)} of {need} bytes)")
+        f.seek(0)
+        try:
             return np.load(f, allow_pickle=False)
-        arr = _ArrayOnlyUnpickler(f).load()
-    arr = np.asarray(arr, dtype=object)
-    if arr.shape != tuple(shape):
-        raise ValueError(f"array shape {arr.shape} differs from the header's {shape}")
+        except Exception:
+            raise _corrupt(path, "its array data cannot be read") from None
+    try:
+        if trust:
+            f.seek(0)
+            arr = np.load(f, allow_pickle=True)
+        else:
+            arr = _ArrayOnlyUnpickler(f).load()
+    except _NeedsTrust:
+        raise
+    except Exception:  # a cut or damaged pickle: not a question of trust
+        raise _corrupt(path, "its pickled rows are corrupt or truncated") from None
+    try:
+        arr = np.asarray(arr, dtype=object)
+    except Exception:
+        raise _corrupt(path, "its pickled rows do not form an array") from None
+    if arr.shape != shape:
+        raise _corrupt(path, f"the rows form shape {arr.shape}, not the header's {shape}")
     return arr
+
+
+def _read_bounded(path: Path) -> bytes:
+    try:
+        size = path.stat().st_size
+        if size > MAX_GROUND_TRUTH_BYTES:
+            raise _corrupt(path, f"it is {size} bytes, more than {MAX_GROUND_TRUTH_BYTES}")
+        return path.read_bytes()
+    except OSError as exc:
+        raise DataError(
+            f"cannot read VPR-Bench ground truth {path}: {exc.strerror or type(exc).__name__}"
+        ) from None
 
 
 def _row_to_ints(value: object) -> np.ndarray:
@@ -188,7 +259,9 @@ def read_vprbench(path: Path, n_query: int, n_ref: int, trust: bool = False) -> 
     would need in order to run code) is refused. ``trust=True`` uses ``numpy.load(...,
     allow_pickle=True)`` instead, which runs whatever the file says: only for files you
     made or trust. A plain integer array of shape (M, 2) (one reference per query) is
-    read without pickle at all.
+    read without pickle at all. A file that is not a ``.npy``, is truncated or corrupt, or
+    claims more than :data:`MAX_GROUND_TRUTH_ITEMS` elements is refused as such (``trust``
+    cannot help it); messages never quote the file's bytes.
 
     Parameters
     ----------
@@ -210,23 +283,18 @@ def read_vprbench(path: Path, n_query: int, n_ref: int, trust: bool = False) -> 
         Naming the file and the fix.
     """
     path = Path(path)
+    if path.is_dir():
+        raise DataError(f"ground-truth file {path} is a folder; give the .npy file")
     if not path.is_file():
         raise DataError(f"ground-truth file {path} does not exist")
     try:
-        if trust:
-            arr = np.load(path, allow_pickle=True)
-        else:
-            arr = _load_npy_safely(path)
-    except (pickle.UnpicklingError, ValueError, EOFError, OSError, TypeError, KeyError) as exc:
-        hint = (
-            ""
-            if trust
-            else "; it holds more than numbers and lists, so it was not unpickled. If you "
-            "trust the file, add trust=1 to the spec (this runs code stored in the file)"
-        )
-        raise DataError(f"cannot read VPR-Bench ground truth {path}: {exc}{hint}") from None
-    except Exception as exc:  # a malformed pickle can raise almost anything
-        raise DataError(f"cannot read VPR-Bench ground truth {path}: {exc!r}") from None
+        arr = _load_npy_safely(path, trust)
+    except _NeedsTrust:
+        raise DataError(
+            f"VPR-Bench ground truth {path} is a pickle that holds more than numbers and "
+            "lists, so it was not unpickled; if you made or trust the file, add trust=1 to "
+            "the spec (this runs code stored in the file)"
+        ) from None
     return _vprbench_rows(arr, path, n_query, n_ref)
 
 
@@ -242,8 +310,11 @@ def _vprbench_rows(arr: object, path: Path, n_query: int, n_ref: int) -> list[np
         try:
             q = int(_row_to_ints(qi)[0])
             accepted = _row_to_ints(refs)
-        except (ValueError, TypeError, IndexError) as exc:
-            raise DataError(f"VPR-Bench ground truth {path}, row {r}: {exc}") from None
+        except (ValueError, TypeError, IndexError, OverflowError):
+            raise DataError(
+                f"VPR-Bench ground truth {path}, row {r}: the query index and the reference "
+                "indices must be integers"
+            ) from None
         if not 0 <= q < n_query:
             raise DataError(
                 f"VPR-Bench ground truth {path}, row {r}: query index {q} is outside the "
@@ -266,38 +337,75 @@ def _vprbench_rows(arr: object, path: Path, n_query: int, n_ref: int) -> list[np
 # --- FAB-MAP truth matrix -------------------------------------------------------------------
 
 
+MAX_TRUTH_SIDE = 20_000
+"""Largest side of a FAB-MAP truth matrix (3.2 GB as MATLAB doubles; City Centre's is
+2474)."""
+
+
 def read_truth_mat(path: Path, variable: str = "truth") -> np.ndarray:
     """Read the square boolean ``truth`` matrix of a FAB-MAP ground-truth ``.mat`` file.
 
     Entry ``(i, j)`` is true where images (or image pairs) ``i`` and ``j`` show the same
-    place. MATLAB v4-v7.2 files are read with :func:`scipy.io.loadmat` (no code runs).
+    place. MATLAB v4-v7.2 files are read with :func:`scipy.io.loadmat` (no code runs); the
+    variable's shape is read from the file's directory first (:func:`scipy.io.whosmat`),
+    so a matrix over :data:`MAX_TRUTH_SIDE` is refused before it is loaded. A sparse matrix
+    is read (and made dense); a struct, cell or text variable is refused.
 
     Raises
     ------
     DataError
-        If the file is missing, unreadable, lacks the variable or is not square.
+        If the file is missing, unreadable, lacks the variable, is too large, not numeric
+        or not square.
     """
-    from scipy.io import loadmat
+    from scipy.io import loadmat, whosmat
 
     path = Path(path)
     if not path.is_file():
         raise DataError(f"ground-truth file {path} does not exist")
     try:
-        content = loadmat(str(path))
+        listing = whosmat(str(path))
     except NotImplementedError:
         raise DataError(
             f"cannot read {path}: MATLAB v7.3 (HDF5) files are not supported; re-save it "
             "in MATLAB with save(..., '-v7')"
         ) from None
-    except Exception as exc:  # scipy raises many types on a corrupt file
-        raise DataError(f"cannot read ground-truth matrix {path}: {exc}") from None
-    if variable not in content:
-        names = [k for k in content if not k.startswith("__")]
+    except Exception:  # scipy raises many types on a corrupt file; never quote its bytes
         raise DataError(
-            f"{path} has no variable {variable!r} (it has: {', '.join(names) or 'none'}); "
-            "give the FAB-MAP ground-truth file"
+            f"cannot read ground-truth matrix {path}: not a MATLAB .mat file, or corrupt"
+        ) from None
+    found = {name: (tuple(shape), cls) for name, shape, cls in listing}
+    if variable not in found:
+        names = ", ".join(list(found)[:10]) or "none"
+        raise DataError(
+            f"{path} has no variable {variable!r} (it has: {names}); give the FAB-MAP "
+            "ground-truth file"
         )
-    m = np.asarray(content[variable])
-    if m.ndim != 2 or m.shape[0] != m.shape[1]:
-        raise DataError(f"{path}: {variable!r} has shape {m.shape}; expected a square matrix")
+    shape, cls = found[variable]
+    if cls in ("struct", "cell", "char", "object", "function_handle", "opaque"):
+        raise DataError(
+            f"{path}: {variable!r} is a MATLAB {cls}, not a matrix; save the truth matrix "
+            f"itself, e.g. in MATLAB truth = s.truth; save(..., 'truth', '-v7')"
+        )
+    if len(shape) != 2 or shape[0] != shape[1]:
+        raise DataError(f"{path}: {variable!r} has shape {shape}; expected a square matrix")
+    if shape[0] > MAX_TRUTH_SIDE:
+        raise DataError(
+            f"{path}: {variable!r} is {shape[0]}x{shape[1]}, larger than "
+            f"{MAX_TRUTH_SIDE}x{MAX_TRUTH_SIDE}"
+        )
+    try:
+        content = loadmat(str(path), variable_names=[variable])
+    except Exception:
+        raise DataError(f"cannot read ground-truth matrix {path}: corrupt or truncated") from None
+    m = content.get(variable)
+    if hasattr(m, "toarray"):  # a MATLAB sparse matrix: made dense as booleans only
+        m = (m != 0).toarray()
+    m = np.asarray(m)
+    if m.dtype.kind not in "biuf" or m.ndim != 2 or m.shape[0] != m.shape[1]:
+        raise DataError(
+            f"{path}: {variable!r} is not a square numeric matrix (dtype {m.dtype}, shape "
+            f"{m.shape}); save the truth matrix of 0s and 1s"
+        )
+    if m.dtype.kind == "f" and not np.isfinite(m).all():
+        raise DataError(f"{path}: {variable!r} holds NaN or infinite entries; use 0s and 1s")
     return m != 0

@@ -10,7 +10,23 @@ from PIL import Image, UnidentifiedImageError
 
 from ppaloc.errors import DataError
 
-__all__ = ["IMAGE_SUFFIXES", "list_images", "natural_key", "read_grey", "require_dir"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "MAX_IMAGES",
+    "MAX_IMAGE_PIXELS",
+    "dataset_file",
+    "list_images",
+    "natural_key",
+    "read_grey",
+    "require_dir",
+]
+
+MAX_IMAGE_PIXELS = 50_000_000
+"""Largest image accepted, width x height (a 10,000 x 5,000 panorama; a frame is smaller by
+far), checked from the header before any pixel is decoded."""
+
+MAX_IMAGES = 5_000_000
+"""Most images one folder may hold."""
 
 IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"})
 """File suffixes taken as images (compared lower-case)."""
@@ -50,13 +66,68 @@ def list_images(folder: Path, what: str = "image folder") -> list[Path]:
         If the folder is missing or holds no image (suffixes in :data:`IMAGE_SUFFIXES`).
     """
     folder = require_dir(folder, what)
-    files = [p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES]
+    files = []
+    try:
+        entries = folder.iterdir()
+        for p in entries:
+            if p.suffix.lower() not in IMAGE_SUFFIXES:
+                continue
+            if p.is_symlink() and not p.exists():
+                raise DataError(
+                    f"{what} {folder}: {p.name} is a symbolic link to {_link_target(p)}, which "
+                    "does not exist; restore the target or remove the link"
+                )
+            if p.is_file():
+                files.append(p)
+                if len(files) > MAX_IMAGES:
+                    raise DataError(f"{what} {folder} holds more than {MAX_IMAGES} images")
+    except PermissionError:
+        raise DataError(f"{what} {folder} cannot be listed (permission denied)") from None
     if not files:
         raise DataError(
             f"{what} {folder} holds no images ({', '.join(sorted(IMAGE_SUFFIXES))}): "
             "give the folder that holds the frames"
         )
     return sorted(files, key=lambda p: natural_key(p.name))
+
+
+def dataset_file(root: Path, name: str, key: str, suffix: str) -> Path:
+    """The file a spec key names: ``name`` relative to the dataset folder ``root`` must stay
+    inside it (after following links); an absolute path is the user's explicit choice of a
+    file elsewhere. Either way it must end in ``suffix`` and be a regular file.
+
+    Raises
+    ------
+    DataError
+        Naming the key, the path and the rule.
+    """
+    given = Path(name).expanduser()
+    if given.suffix.lower() != suffix:
+        raise DataError(f"{key}={name!r} must name a {suffix} file")
+    path = given if given.is_absolute() else root / given
+    if not given.is_absolute():
+        try:
+            inside = path.resolve().is_relative_to(root.resolve())
+        except (OSError, RuntimeError):
+            inside = False
+        if not inside:
+            raise DataError(
+                f"{key}={name!r} points outside the dataset folder {root}; a relative {key} "
+                f"stays inside it: give a file elsewhere by its absolute path ({key}=/full/"
+                f"path/file{suffix})"
+            )
+    if path.is_dir():
+        raise DataError(f"{key}={name!r}: {path} is a folder; give the {suffix} file")
+    if not path.is_file():
+        raise DataError(f"{key}={name!r}: ground-truth file {path} does not exist")
+    return path
+
+
+def _link_target(p: Path) -> str:
+    try:
+        return str(p.readlink())
+    except OSError:
+        return "a missing file"
 
 
 def read_grey(path: Path) -> np.ndarray:
@@ -73,6 +144,12 @@ def read_grey(path: Path) -> np.ndarray:
     path = Path(path)
     try:
         with Image.open(path) as im:
+            w, h = im.size
+            if w < 1 or h < 1 or w * h > MAX_IMAGE_PIXELS:
+                raise DataError(
+                    f"image {path} claims {w} x {h} pixels, outside 1 to {MAX_IMAGE_PIXELS} "
+                    "pixels; replace the file or remove it from the folder"
+                )
             im.load()
             if im.mode in ("I;16", "I;16B", "I;16L", "I"):
                 a = np.asarray(im, dtype=np.float64)
@@ -80,12 +157,33 @@ def read_grey(path: Path) -> np.ndarray:
                 return np.clip(np.rint(a * (255.0 / top)), 0, 255).astype(np.uint8)
             if im.mode == "F":
                 a = np.asarray(im, dtype=np.float64)
+                if not np.isfinite(a).all():
+                    raise DataError(
+                        f"image {path} holds {int((~np.isfinite(a)).sum())} NaN or infinite "
+                        "pixels; fill them (e.g. with 0) or remove the file from the folder"
+                    )
                 scale = 255.0 if a.size and a.max() <= 1.0 else 1.0
                 return np.clip(np.rint(a * scale), 0, 255).astype(np.uint8)
             return np.asarray(im.convert("L"), dtype=np.uint8)
     except FileNotFoundError:
         raise DataError(f"image {path} does not exist (was it moved after listing?)") from None
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
+    except IsADirectoryError:
+        raise DataError(f"image {path} is a folder, not an image file") from None
+    except Image.DecompressionBombError as exc:
         raise DataError(
-            f"cannot read image {path}: {exc}; replace the file or remove it from the folder"
+            f"image {path} claims more pixels than an image may have ({_reason(exc)}); "
+            "replace the file or remove it from the folder"
         ) from None
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError) as exc:
+        raise DataError(
+            f"cannot read image {path}: {_reason(exc)}; replace the file or remove it from the "
+            "folder"
+        ) from None
+    except MemoryError:
+        raise DataError(f"image {path} is too large to decode") from None
+
+
+def _reason(exc: BaseException) -> str:
+    """A one-line cause that never quotes file contents (Pillow quotes none; cut long ones)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 160 else text[:157] + "..."

@@ -20,7 +20,7 @@ import numpy as np
 
 from ppaloc.datasets.frames import ImageFrames
 from ppaloc.datasets.groundtruth import read_truth_mat
-from ppaloc.datasets.images import list_images, require_dir
+from ppaloc.datasets.images import dataset_file, list_images, require_dir
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.errors import DataError
@@ -35,7 +35,12 @@ SCHEMA = KindSchema(
     keys={
         "camera": Key("choice", "left", "which camera of each pair", choices=("left", "right")),
         "split": Key("int", None, "first pair of the query (default: first revisit)", 1),
-        "truth": Key("str", None, "ground-truth .mat file inside DIR (default: the only one)"),
+        "truth": Key(
+            "str",
+            None,
+            "ground-truth .mat file inside DIR (default: the only one; an absolute path: a "
+            "file elsewhere)",
+        ),
     },
     example="citycentre:data/CityCentre?camera=left",
 )
@@ -43,7 +48,7 @@ SCHEMA = KindSchema(
 
 def _find_truth(root: Path, name: str | None) -> Path:
     if name is not None:
-        return root / name
+        return dataset_file(root, name, "truth", ".mat")
     mats = sorted(root.glob("*.mat"))
     truthy = [p for p in mats if "truth" in p.name.lower()]
     found = truthy or mats

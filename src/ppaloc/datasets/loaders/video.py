@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ppaloc.datasets.frames import FrameSequence
+from ppaloc.datasets.images import MAX_IMAGE_PIXELS
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.errors import DataError
@@ -60,6 +61,13 @@ class _Decoder:
             self.container = av.open(str(self.path))
             if not self.container.streams.video:
                 raise DataError(f"{self.path} holds no video stream")
+            context = self.container.streams.video[0].codec_context
+            w, h = int(context.width or 0), int(context.height or 0)
+            if w * h > MAX_IMAGE_PIXELS:
+                raise DataError(
+                    f"video {self.path} claims {w} x {h} pixels a frame, more than "
+                    f"{MAX_IMAGE_PIXELS}; give a smaller video"
+                )
             self.frames = self.container.decode(video=0)
         except DataError:
             self.close()
@@ -114,6 +122,8 @@ class VideoFrames(FrameSequence):
 
     def __init__(self, path: Path, cache: int = 16) -> None:
         self.path = Path(path)
+        if self.path.is_dir():
+            raise DataError(f"video {self.path} is a folder; give a video file")
         if not self.path.is_file():
             raise DataError(f"video {self.path} does not exist: check the path in the spec")
         self._decoder = _Decoder(self.path)

@@ -5,13 +5,15 @@ pickled numpy object array. It is read by an unpickler that can only rebuild num
 lists and numbers (see :func:`ppaloc.datasets.groundtruth.read_vprbench`); ``trust=1``
 allows full unpickling, which runs whatever code the file carries: only for trusted files.
 The accepted sets already include VPR-Bench's tolerance, so the default here is 0.
+``gt=NAME`` is relative to DIR and must stay inside it; a file elsewhere is named by its
+absolute path (:func:`ppaloc.datasets.images.dataset_file`).
 """
 
 from __future__ import annotations
 
 from ppaloc.datasets.frames import ImageFrames
 from ppaloc.datasets.groundtruth import read_vprbench
-from ppaloc.datasets.images import list_images, require_dir
+from ppaloc.datasets.images import dataset_file, list_images, require_dir
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 
@@ -20,7 +22,11 @@ __all__ = ["SCHEMA", "load"]
 SCHEMA = KindSchema(
     n_paths=(1,),
     keys={
-        "gt": Key("str", "ground_truth_new.npy", "ground-truth file inside DIR"),
+        "gt": Key(
+            "str",
+            "ground_truth_new.npy",
+            "ground-truth .npy file inside DIR (or an absolute path: a file elsewhere)",
+        ),
         "trust": Key("bool", False, "allow full unpickling of the ground-truth file"),
     },
     example="vprbench:data/GardensPoint",
@@ -32,7 +38,8 @@ def load(spec: DatasetSpec) -> RawRoute:
     root = require_dir(spec.paths[0], "VPR-Bench folder")
     ref = ImageFrames(list_images(root / "ref", "VPR-Bench reference folder"))
     query = ImageFrames(list_images(root / "query", "VPR-Bench query folder"))
-    accepted = read_vprbench(root / spec.options["gt"], len(query), len(ref), spec.options["trust"])
+    gt = dataset_file(root, spec.options["gt"], "gt", ".npy")
+    accepted = read_vprbench(gt, len(query), len(ref), spec.options["trust"])
     return RawRoute(
         name=f"vprbench {root.name}",
         reference=ref,
