@@ -68,3 +68,32 @@ def test_controller_host_example(capsys) -> None:
     for got, claim in printed:
         assert got == claim
     assert ns["sim"].read(R5).sum() == 2
+
+
+def test_porting_kernel_spreads_a_lone_one_south_and_west() -> None:
+    from ppaloc.sim import R6, R7, Scamp5, east, north
+
+    sim = Scamp5(5, 5)
+    lone = np.zeros((5, 5), dtype=bool)
+    lone[2, 2] = True
+    sim.write(R5, lone)
+    with sim.kernel() as k:  # the last two lines of the porting example
+        k.DNEWS(R6, R5, north | east)
+        k.OR(R7, R5, R6)
+    assert sorted(map(tuple, np.argwhere(sim.read(R7)).tolist())) == [(2, 1), (2, 2), (3, 2)]
+    text = DOC.read_text(encoding="utf-8")
+    assert "dilated by one element south and west" in text
+    assert "north and east" not in text.split("ports line by line")[1].split("```")[1]
+
+
+def test_every_python_name_of_the_cpp_table_exists() -> None:
+    from ppaloc.sim import Scamp5
+
+    text = DOC.read_text(encoding="utf-8")
+    table = text.split("### C++ names and their Python spelling")[1].split("\n\n")[2]
+    names = re.findall(r"`(k|sim)\.(\w+)\(", table)
+    assert len(names) > 90
+    sim = Scamp5(2, 2)
+    kernel = sim.kernel()
+    for owner, name in names:
+        assert callable(getattr(kernel if owner == "k" else sim, name)), f"{owner}.{name}"
