@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from ppaloc.cpp import compile_program, run_program
+from ppaloc.sim import A, B, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
 
 from .conftest import PROGRAMS
@@ -134,6 +135,24 @@ def test_bitstack_and_dreg_scan(frames):
     value = (rows % 2 == 0) * 2 + ((N - 1 - cols) % 2 == 0)
     np.testing.assert_array_equal(got, np.floor(value * 85.0 + 0.5) - 128)
     assert "dreg 85 85" in result.texts  # bit k of byte j: hardware column 8j + k
+
+
+def test_drawing_flood_and_box(frames):
+    result = run(frames, 8)
+    out = result.session.outputs[0]
+    rows, cols = np.indices((N, N))
+    hw = N - 1 - cols
+    drawn = ((rows >= 2) & (rows <= 10) & (hw >= 3) & (hw <= 20)) | ((rows <= 5) & (rows == hw))
+    np.testing.assert_array_equal(out[DIGITAL], drawn)
+    # top-right then bottom-left corner, hardware columns: the east edge is column 0
+    assert "box 0 0 10 20" in result.texts
+    rect = (rows >= 30) & (rows <= 50) & (hw >= 30) & (hw <= 50)
+    np.testing.assert_array_equal(out[BITS], rect)  # the flood stays in its island
+    sim = Scamp5(N, N)
+    sim.set_image(frames[0])
+    with sim.kernel() as k:
+        k.get_image(A, B)
+    assert f"fast {sim.global_sum_fast(A)}" in result.texts
 
 
 def test_outputs_folder(frames, tmp_path):

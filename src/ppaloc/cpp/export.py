@@ -38,13 +38,28 @@ from ppaloc.sim.registers import register_by_name
 
 __all__ = ["Trace", "kernel_to_cpp", "to_cpp", "trace_pipeline"]
 
-# Controller methods the trace records (both spellings map to the first name).
-_CALLS = (
-    "scamp5_in", "load_in", "scamp5_get_image", "load_pattern", "load_point", "load_rect",
-    "select_pattern", "select_point", "select_rect", "shift", "global_sum_16",
-    "global_sum_64", "global_or", "global_count", "read_areg", "scan_areg", "scan_areg_8x8",
-    "scan_areg_mean_8x8", "scan_dreg", "scan_events",
-)  # fmt: skip
+# Public simulator methods that are not controller calls (inspection, recording, setup).
+_NOT_CALLS = frozenset(
+    {"stage", "kernel", "run", "read", "write", "set_image", "icw", "move_to_heap"}
+)
+
+
+def _controller_calls() -> dict[str, str]:
+    """Every controller call of the simulator: ``{attribute: canonical name}`` (the
+    ``scamp5_`` spelling and the short one map to the short one)."""
+    from ppaloc.sim.controller import ControllerMixin
+
+    names = {n for n in dir(ControllerMixin) if not n.startswith("_") and n not in _NOT_CALLS}
+    names = {n for n in names if callable(getattr(ControllerMixin, n))}
+    out = {}
+    for n in names:
+        short = n.removeprefix("scamp5_")
+        out[n] = short if short in names else n
+    if "in_" in out:
+        out["in_"] = "scamp5_in"
+    return out
+
+
 # Primitives whose ICW name is also the device API's function.
 _DEVICE_PRIMITIVES = frozenset(
     {"nop", "rpix", "bus", "bus2", "bus3", "where", "all", "SET", "CLR", "MOV", "OR", "NOR",
@@ -203,12 +218,11 @@ def _install(sim: Scamp5, trace: Trace) -> None:
 
         return traced
 
-    for name in _CALLS:
-        fn = wrap_call(name, getattr(sim, name))
-        setattr(sim, name, fn)
-        if hasattr(type(sim), f"scamp5_{name}"):
-            setattr(sim, f"scamp5_{name}", fn)
-    sim.in_ = sim.scamp5_in  # type: ignore[attr-defined]
+    wrapped: dict[str, Any] = {}
+    for attr, name in sorted(_controller_calls().items()):
+        if name not in wrapped:
+            wrapped[name] = wrap_call(name, getattr(type(sim), name).__get__(sim))
+        setattr(sim, attr, wrapped[name])
     set_image, emit, make_kernel = sim.set_image, sim._emit, sim.kernel
 
     def traced_set_image(image):
@@ -424,7 +438,26 @@ class _Program:
                 f"{a['v_dir']})"
             )
             return self.check_buffer(call, events_buffer(events, int(a["max_num"])))
-        raise PpalocError(f"cannot export the controller call {name}")  # pragma: no cover
+        if name in ("kernel_all", "kernel_refresh_dreg", "draw_end", "draw_negate"):
+            return f"scamp5_{name}();"
+        if name == "load_dac":
+            if a["dac"] is None:
+                return f"scamp5_load_dac({int(a['areg_or_dac'])});"
+            return f"scamp5_load_dac({_reg(a['areg_or_dac'])}, {a['dac']}, {_reg(a['temp'])});"
+        if name in ("select_row", "select_rowx", "select_colx"):
+            return f"scamp5_{name}({int(next(iter(a.values())))});"
+        if name == "select_col":
+            return f"scamp5_select_col({_hw_col(sim, a['c'], hw)});"
+        if name == "draw_begin":
+            return f"scamp5_draw_begin({_reg(a['dreg'])});"
+        if name in ("global_sum_fast", "vs_scamp5_get_parameter"):
+            arg = _reg(next(iter(a.values())))
+            prefix = "" if name.startswith("vs_") else "scamp5_"
+            return self.check_int(f"(int){prefix}{name}({arg})", result)
+        raise PpalocError(
+            f"the traced program calls {name}, which the export does not write yet; "
+            "docs/cpp.md lists the calls it writes"
+        )
 
     def sections(self) -> list[list[str]]:
         """Statements of the setup (index 0) and of each frame."""

@@ -332,6 +332,40 @@ def _scan_events(s: Session, a: list, line: int) -> bytes:
     return events_buffer(events, max_num)
 
 
+def _scan_events_rc(s: Session, a: list, line: int) -> bytes:
+    dreg, max_num, h_dir, v_dir = a
+    events = s.sim.scan_events_rc(dreg, max_num, h_dir, v_dir, scamp_addr=True)
+    buf = np.zeros((max_num, 2), np.uint8)  # (row, column) pairs: the row first
+    if len(events):
+        buf[: len(events)] = events
+    return buf.tobytes()
+
+
+def _bounding_box(s: Session, a: list, line: int) -> bytes:
+    box = s.sim.scan_boundingbox(a[0], scamp_addr=True)
+    return bytes(4) if box is None else np.asarray(box, np.uint8).ravel().tobytes()
+
+
+def _flags(method: str, n_plain: int) -> Handler:
+    """``sim.method`` whose arguments after the first ``n_plain`` are 0/1 flags."""
+
+    def handler(s: Session, a: list, line: int) -> None:
+        args = [*a[:n_plain], *(bool(v) if isinstance(v, int) else v for v in a[n_plain:])]
+        getattr(s.sim, method)(*args)
+
+    return handler
+
+
+def _flags_addr(method: str, n_plain: int) -> Handler:
+    """As :func:`_flags`, with hardware addresses."""
+
+    def handler(s: Session, a: list, line: int) -> None:
+        args = [*a[:n_plain], *(bool(v) for v in a[n_plain:])]
+        getattr(s.sim, method)(*args, scamp_addr=True)
+
+    return handler
+
+
 def _output_image(s: Session, a: list, line: int) -> None:
     reg, handle = a
     s._output(handle, s.sim.read(reg), line)
@@ -425,6 +459,30 @@ HANDLERS: dict[str, Handler] = {
     "scamp5_scan_areg_mean_8x8": _sim("scan_areg_mean_8x8", reply="buffer"),
     "scamp5_scan_dreg": _scan_dreg,
     "scamp5_scan_events": _scan_events,
+    "scamp5_load_dac": _sim("load_dac"),
+    "scamp5_load_dac_value": _sim("load_dac"),
+    "scamp5_diffuse": _flags("diffuse", 2),
+    "scamp5_flood": _flags("flood", 4),
+    "scamp5_kernel_all": lambda s, a, line: s.sim.kernel_all(),
+    "scamp5_kernel_refresh_dreg": lambda s, a, line: s.sim.kernel_refresh_dreg(),
+    "scamp5_select_col": _sim("select_col", addr=True),
+    "scamp5_select_row": _sim("select_row"),
+    "scamp5_select_colx": _sim("select_colx"),
+    "scamp5_select_rowx": _sim("select_rowx"),
+    "scamp5_global_sum_fast": _sim("global_sum_fast", reply="int"),
+    "scamp5_global_sum_sparse": _sim("global_sum_sparse", addr=True, reply="int"),
+    "scamp5_global_sum_region": _sim("global_sum_region", addr=True, reply="int"),
+    "vs_scamp5_get_parameter": _sim("vs_scamp5_get_parameter", reply="int"),
+    "scamp5_scan_events_rc": _scan_events_rc,
+    "scamp5_scan_boundingbox": _bounding_box,
+    "scamp5_draw_begin": _sim("draw_begin"),
+    "scamp5_draw_end": lambda s, a, line: s.sim.draw_end(),
+    "scamp5_draw_pixel": _sim("draw_pixel", addr=True),
+    "scamp5_draw_point": _sim("draw_point", addr=True, reply="int"),
+    "scamp5_draw_rect": _sim("draw_rect", addr=True),
+    "scamp5_draw_line": _flags_addr("draw_line", 4),
+    "scamp5_draw_circle": _flags_addr("draw_circle", 3),
+    "scamp5_draw_negate": lambda s, a, line: s.sim.draw_negate(),
     "scamp5_output_image": _output_image,
     "scamp5_output_bitstack_begin": _bitstack_begin,
     "scamp5_output_bitstack_bit": _bitstack_bit,

@@ -99,6 +99,24 @@ int main() {
             uint8_t rows[2 * 32];
             scamp5_scan_dreg(R6, rows, 0, 1);
             vs_post_text("dreg %d %d", rows[0], rows[32]);
+        } else if (mode == 8) {  // drawing, flood, bounding box, the fast sum
+            scamp5_draw_begin(R5);
+            scamp5_draw_rect(2, 3, 10, 20);
+            scamp5_draw_line(0, 0, 5, 5);
+            scamp5_draw_end();
+            scamp5_output_image(R5, out_d);
+            uint8_t box[4];
+            scamp5_scan_boundingbox(R5, box);
+            vs_post_text("box %d %d %d %d", box[0], box[1], box[2], box[3]);
+            scamp5_load_point(R6, 40, 40);
+            scamp5_load_rect(R7, 30, 30, 50, 50);
+            scamp5_load_point(R8, 5, 5);
+            scamp5_kernel_begin();
+                OR(R7, R8);  // a second island the flood must not reach
+            scamp5_kernel_end();
+            scamp5_flood(R6, R7, 0);
+            scamp5_output_image(R6, out_b);
+            vs_post_text("fast %d", scamp5_global_sum_fast(A));
         }
         vs_post_text("frame %u done", vs_loop_counter_get());
     }

@@ -398,6 +398,82 @@ inline void scamp5_select_pattern(uint8_t r, uint8_t c, uint8_t rx, uint8_t cx,
     PPA_CALL("scamp5_select_pattern", false, int(r), int(c), int(rx), int(cx));
 }
 
+// ------------------------------------------------------------------ controller: the rest
+inline void scamp5_load_dac(AREG areg, uint16_t dac_db, AREG temp = SCAMP5_PE::NEWS,
+                            ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_load_dac", false, areg, int(dac_db), temp);
+}
+inline void scamp5_load_dac(uint16_t dac_db, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_load_dac_value", false, int(dac_db));
+}
+inline void scamp5_diffuse(AREG target, int iterations, bool vertical = true,
+                           bool horizontal = true, AREG t0 = SCAMP5_PE::NEWS,
+                           ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_diffuse", false, target, iterations, int(vertical), int(horizontal), t0);
+}
+inline void scamp5_flood(DREG dreg_target, DSRC dreg_mask, int boundary, int iterations = 5,
+                         bool use_local = false, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_flood", false, dreg_target, dreg_mask, boundary, iterations,
+             int(use_local));
+}
+inline void scamp5_kernel_all(ppa::Loc loc = PPA_HERE) { PPA_CALL("scamp5_kernel_all", false, 0); }
+inline void scamp5_kernel_refresh_dreg(ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_kernel_refresh_dreg", false, 0);
+}
+inline void scamp5_select_col(uint8_t c, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_select_col", false, int(c));
+}
+inline void scamp5_select_row(uint8_t r, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_select_row", false, int(r));
+}
+inline void scamp5_select_colx(uint8_t cx, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_select_colx", false, int(cx));
+}
+inline void scamp5_select_rowx(uint8_t rx, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_select_rowx", false, int(rx));
+}
+inline uint8_t scamp5_global_sum_fast(AREG areg, ppa::Loc loc = PPA_HERE) {
+    return uint8_t(ppa::as_int(PPA_CALL("scamp5_global_sum_fast", true, areg)));
+}
+inline uint8_t scamp5_global_sum_sparse(AREG areg, uint8_t r = 2, uint8_t c = 2, uint8_t rx = 254,
+                                        uint8_t cx = 254, ppa::Loc loc = PPA_HERE) {
+    return uint8_t(ppa::as_int(
+        PPA_CALL("scamp5_global_sum_sparse", true, areg, int(r), int(c), int(rx), int(cx))));
+}
+inline uint8_t scamp5_global_sum_region(const areg_t& areg, uint8_t r0, uint8_t c0, uint8_t r1,
+                                        uint8_t c1, ppa::Loc loc = PPA_HERE) {
+    return uint8_t(ppa::as_int(PPA_CALL("scamp5_global_sum_region", true, areg, int(r0), int(c0),
+                                        int(r1), int(c1))));
+}
+inline int32_t vs_scamp5_get_parameter(int which, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("vs_scamp5_get_parameter", true, which));
+}
+inline void scamp5_draw_begin(DREG dr, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_draw_begin", false, dr);
+}
+inline void scamp5_draw_end(ppa::Loc loc = PPA_HERE) { PPA_CALL("scamp5_draw_end", false, 0); }
+inline void scamp5_draw_pixel(uint8_t r, uint8_t c, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_draw_pixel", false, int(r), int(c));
+}
+inline bool scamp5_draw_point(int r, int c, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("scamp5_draw_point", true, r, c)) != 0;
+}
+inline void scamp5_draw_rect(uint8_t r0, uint8_t c0, uint8_t r1, uint8_t c1,
+                             ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_draw_rect", false, int(r0), int(c0), int(r1), int(c1));
+}
+inline void scamp5_draw_line(int r0, int c0, int r1, int c1, bool repeat = false,
+                             ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_draw_line", false, r0, c0, r1, c1, int(repeat));
+}
+inline void scamp5_draw_circle(int r, int c, int radius, bool repeat = false,
+                               ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_draw_circle", false, r, c, radius, int(repeat));
+}
+inline void scamp5_draw_negate(ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_draw_negate", false, 0);
+}
+
 // ------------------------------------------------------------------ readouts and outputs
 inline void ppa_fill(const std::vector<uint8_t>& r, uint8_t* out) {
     if (out && !r.empty()) std::memcpy(out, r.data(), r.size());
@@ -422,6 +498,19 @@ inline void scamp5_scan_events(DSRC dreg, uint8_t* cr2v, uint16_t max_num = 1, u
                                uint8_t v_dir = 0, ppa::Loc loc = PPA_HERE) {
     ppa_fill(PPA_CALL("scamp5_scan_events", true, dreg, int(max_num), int(h_dir), int(v_dir)),
              cr2v);
+}
+inline void scamp5_scan_events_cr(DSRC dreg, uint8_t* cr2v, uint16_t max_num = 1,
+                                  uint8_t h_dir = 0, uint8_t v_dir = 0, ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_events", true, dreg, int(max_num), int(h_dir), int(v_dir)),
+             cr2v);
+}
+inline void scamp5_scan_events_rc(DSRC dreg, uint8_t* rc2v, uint16_t max_num = 1,
+                                  uint8_t h_dir = 0, uint8_t v_dir = 0, ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_events_rc", true, dreg, int(max_num), int(h_dir), int(v_dir)),
+             rc2v);
+}
+inline void scamp5_scan_boundingbox(DSRC dreg, uint8_t* vec4v, ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_scan_boundingbox", true, dreg), vec4v);
 }
 inline void scamp5_output_image(ASRC areg, vs_handle display, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("scamp5_output_image", false, areg, display);
