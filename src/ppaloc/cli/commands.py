@@ -381,6 +381,26 @@ def _method_for_map(topomap: Any, method: str | None) -> str:
     return guess
 
 
+def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
+    """Refuse a map of another kind than ``loc`` needs, naming the methods that read it and
+    how to build the right one."""
+    from ppaloc.methods import METHODS
+
+    needs = getattr(loc, "representation", None) or getattr(loc, "kind", None)
+    if needs is None or topomap.kind == needs:
+        return
+    readers = [m for m, s in METHODS.items() if s.defaults.get("representation") == topomap.kind]
+    built_by = topomap.provenance.get("method")
+    if built_by and built_by not in readers:
+        readers.insert(0, str(built_by))
+    use = f"localise it with --method {readers[0]}" if readers else "use a matching map"
+    raise PpalocError(
+        f"map {map_path} holds {topomap.kind!r} nodes but method {name!r} needs "
+        f"{needs!r} nodes: {use}, or build a map for {name} with "
+        f"`ppaloc map DATASET --method {name} --out MAP.npz`"
+    )
+
+
 def run_localise(
     map_path: Path,
     frames: Sequence[Path],
@@ -419,6 +439,7 @@ def run_localise(
     use = getattr(loc, "use_map", None)
     if use is None:
         raise PpalocError(f"method {name!r} cannot load a saved map (it has no use_map)")
+    _check_map_kind(topomap, loc, name, map_path)
     use(topomap)
     loc.reset()
     paths = _frame_paths(frames)
