@@ -430,8 +430,8 @@ class WeightedNodeLocaliser:
         if topomap.kind != self.representation:
             raise PpalocError(
                 f"the map holds {topomap.kind!r} nodes but this localiser uses "
-                f"{self.representation!r}; build the map with representation="
-                f"{topomap.kind!r} or choose a matching map"
+                f"{self.representation!r} nodes; localise it with representation="
+                f"{topomap.kind!r}, or build a map with representation={self.representation!r}"
             )
         if len(topomap) == 0:
             raise PpalocError("the map has no nodes")
