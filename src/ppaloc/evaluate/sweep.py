@@ -106,13 +106,13 @@ def _load_dataset(spec: str) -> Any:
 
 def _run_cell(config: dict[str, Any], dataset: Any) -> dict[str, bytes]:
     """Run on a worker: one cell's evaluation; its result files as ``{relative path: bytes}``
-    (written by :func:`ppaloc.evaluate.results.save_results`)."""
-    from ppaloc.evaluate.results import save_results
+    (written by :func:`ppaloc.evaluate.results.write_results`)."""
+    from ppaloc.evaluate.results import write_results
     from ppaloc.evaluate.run import run_evaluation
 
     result = run_evaluation(EvaluateConfig(**config), dataset=dataset, progress=False)
     with tempfile.TemporaryDirectory(prefix="ppaloc-cell-") as tmp:
-        save_results(result, tmp)
+        write_results(result, tmp)  # a private folder: no transaction needed
         root = Path(tmp)
         return {
             p.relative_to(root).as_posix(): p.read_bytes()
