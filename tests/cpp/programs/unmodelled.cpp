@@ -3,9 +3,9 @@ using namespace SCAMP5_PE;
 
 int main() {
     vs_init();
-    // scamp5_flood(R5, R6, 0); in a comment is fine
+    // scamp5_output_events(R5, 1); in a comment is fine
     while (1) {
         vs_frame_loop_control();
-        scamp5_flood(R5, R6, 0);
+        scamp5_output_events(R5, 1);
     }
 }
