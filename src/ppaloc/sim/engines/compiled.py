@@ -176,6 +176,8 @@ class CompiledEngine:
 
 
 _jit = numba.njit(cache=True, nogil=True, boundscheck=False)
+# Every loop below keeps its branches outside the innermost loop (or as selects inside),
+# so that LLVM vectorises it; values are float32 throughout, in the reference's order.
 
 
 @_jit
@@ -191,22 +193,28 @@ def _clip(v):
 
 @_jit
 def _all_true(plane):
-    for v in plane:
-        if not v:
-            return False
-    return True
+    acc = True
+    for p in range(plane.size):  # no early exit: a reduction LLVM vectorises
+        acc = acc & plane[p]
+    return acc
 
 
 @_jit
-def _local_sum(out, af, row, nsrc):
-    """out := the row's local sources summed left to right (0 with none)."""
-    n = out.size
-    locs = np.empty(4, dtype=np.int64)
+def _locals(row, nsrc):
+    """Plane indices of the row's local sources, and how many."""
+    locs = np.zeros(4, dtype=np.int64)
     nl = 0
     for k in range(nsrc):
         if row[_SD0 + k] == 0:
             locs[nl] = row[_S0 + k]
             nl += 1
+    return locs, nl
+
+
+@_jit
+def _local_sum(out, af, locs, nl):
+    """out := the local sources summed left to right (0 with none)."""
+    n = out.size
     if nl == 0:
         for p in range(n):
             out[p] = np.float32(0.0)
@@ -221,66 +229,171 @@ def _local_sum(out, af, row, nsrc):
     elif nl == 3:
         x0, x1, x2 = af[locs[0]], af[locs[1]], af[locs[2]]
         for p in range(n):
-            out[p] = x0[p] + x1[p] + x2[p]
+            out[p] = (x0[p] + x1[p]) + x2[p]
     else:
         x0, x1, x2, x3 = af[locs[0]], af[locs[1]], af[locs[2]], af[locs[3]]
         for p in range(n):
-            out[p] = x0[p] + x1[p] + x2[p] + x3[p]
-    return nl
+            out[p] = ((x0[p] + x1[p]) + x2[p]) + x3[p]
 
 
 @_jit
-def _add_neighbours(t2d, news, flag, row, nsrc, flag_all):
+def _add_neighbours(t, news, flag, row, nsrc, flag_all):
     """t += each neighbour source's NEWS (0 from an unflagged PE; beyond the edge no term)."""
-    rows, cols = t2d.shape
+    rows, cols = t.shape
+    zero = np.float32(0.0)
     for k in range(nsrc):
         code = row[_SD0 + k]
         if code == 0:
             continue
         dr, dc = _DR[code], _DC[code]
-        r_lo, r_hi = max(0, -dr), min(rows, rows - dr)
         c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
-        for r in range(r_lo, r_hi):
-            for c in range(c_lo, c_hi):
-                v = news[r + dr, c + dc]
-                if not flag_all and not flag[r + dr, c + dc]:
-                    v = np.float32(0.0)
-                t2d[r, c] = t2d[r, c] + v
+        w = c_hi - c_lo
+        for r in range(max(0, -dr), min(rows, rows - dr)):
+            # slices, so that every index is a plain non-negative loop counter
+            trow = t[r, c_lo:c_hi]
+            nrow = news[r + dr, c_lo + dc : c_hi + dc]
+            frow = flag[r + dr, c_lo + dc : c_hi + dc]
+            if flag_all:
+                for c in range(w):
+                    trow[c] = trow[c] + nrow[c]
+            else:
+                for c in range(w):
+                    trow[c] = trow[c] + (nrow[c] if frow[c] else zero)
 
 
 @_jit
-def _fused_local(dst, af, flag, row, nl, scale, ideal, parts, off, win, flag_all):
-    """One plain destination from local sources: sum, bus, noise, clip and mask in one pass."""
+def _bus_value(tf, parts, ideal, scale):
+    """tf := the bus's value: -(sum)/parts, saturated when ideal; times -(1 + g)/parts else."""
+    n = tf.size
+    if not ideal:
+        for p in range(n):
+            tf[p] = tf[p] * scale
+    elif parts == 1:
+        for p in range(n):
+            tf[p] = _clip(-tf[p])
+    elif parts == 2:
+        m_half = np.float32(-0.5)
+        for p in range(n):
+            tf[p] = _clip(tf[p] * m_half)
+    else:
+        m_parts = np.float32(-parts)
+        for p in range(n):
+            tf[p] = _clip(tf[p] / m_parts)
+
+
+@_jit
+def _write(dst, src, flag, flag_all, noisy, off, win):
+    """dst := src (+ the cell's offset + temporal noise, saturated, when noisy), FLAG-masked."""
     n = dst.size
-    locs = np.empty(4, dtype=np.int64)
-    for k in range(nl):
-        locs[k] = row[_S0 + k]
-    x0 = af[locs[0]]
-    x1 = af[locs[1]] if nl > 1 else x0
-    x2 = af[locs[2]] if nl > 2 else x0
-    x3 = af[locs[3]] if nl > 3 else x0
-    m_half = np.float32(-0.5)
-    m_parts = np.float32(-parts)
-    for p in range(n):
-        v = x0[p]
-        if nl > 1:
-            v = v + x1[p]
-        if nl > 2:
-            v = v + x2[p]
-        if nl > 3:
-            v = v + x3[p]
-        if ideal:
-            if parts == 1:
-                v = -v
-            elif parts == 2:
-                v = v * m_half
-            else:
-                v = v / m_parts
+    if noisy:
+        if flag_all:
+            for p in range(n):
+                dst[p] = _clip((src[p] + off[p]) + win[p])
         else:
-            v = (v * scale + off[p]) + win[p]
-        v = _clip(v)
-        if flag_all or flag[p]:
-            dst[p] = v
+            for p in range(n):
+                v = _clip((src[p] + off[p]) + win[p])
+                dst[p] = v if flag[p] else dst[p]
+    elif flag_all:
+        for p in range(n):
+            dst[p] = src[p]
+    else:
+        for p in range(n):
+            dst[p] = src[p] if flag[p] else dst[p]
+
+
+@_jit
+def _fused_copy(dst, x0, x1, nl, flag, flag_all):
+    """The commonest ICW in one pass: dst := clip(-(x0 [+ x1])), ideal, FLAG-masked."""
+    n = dst.size
+    if nl == 1:
+        if flag_all:
+            for p in range(n):
+                dst[p] = _clip(-x0[p])
+        else:
+            for p in range(n):
+                v = _clip(-x0[p])
+                dst[p] = v if flag[p] else dst[p]
+    elif flag_all:
+        for p in range(n):
+            dst[p] = _clip(-(x0[p] + x1[p]))
+    else:
+        for p in range(n):
+            v = _clip(-(x0[p] + x1[p]))
+            dst[p] = v if flag[p] else dst[p]
+
+
+@_jit
+def _fused_noisy(dst, x0, x1, nl, scale, off, win, flag, flag_all):
+    """One noisy ICW in one pass: dst := clip((sum * scale + offset) + noise), FLAG-masked."""
+    n = dst.size
+    if nl == 1:
+        for p in range(n):
+            v = _clip((x0[p] * scale + off[p]) + win[p])
+            dst[p] = v if (flag_all or flag[p]) else dst[p]
+    else:
+        for p in range(n):
+            v = _clip(((x0[p] + x1[p]) * scale + off[p]) + win[p])
+            dst[p] = v if (flag_all or flag[p]) else dst[p]
+
+
+@_jit
+def _push(t2, t, flag, code, flag_all):
+    """t2[r] := t of the sender r - offset if flagged, else 0; 0 beyond the edge."""
+    rows, cols = t.shape
+    dr, dc = -_DR[code], -_DC[code]
+    zero = np.float32(0.0)
+    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
+    w = c_hi - c_lo
+    for r in range(rows):
+        out = t2[r]
+        rr = r + dr
+        if rr < 0 or rr >= rows:
+            for c in range(cols):
+                out[c] = zero
+            continue
+        for c in range(0, c_lo):
+            out[c] = zero
+        for c in range(c_hi, cols):
+            out[c] = zero
+        o = out[c_lo:c_hi]
+        trow = t[rr, c_lo + dc : c_hi + dc]
+        frow = flag[rr, c_lo + dc : c_hi + dc]
+        if flag_all:
+            for c in range(w):
+                o[c] = trow[c]
+        else:
+            for c in range(w):
+                o[c] = trow[c] if frow[c] else zero
+
+
+@_jit
+def _value(v, parts, ideal, scale):
+    """The bus's value of a sum: -(v)/parts saturated when ideal, v * scale when noisy."""
+    if not ideal:
+        return v * scale
+    if parts == 1:
+        return _clip(-v)
+    if parts == 2:
+        return _clip(v * np.float32(-0.5))
+    return _clip(v / np.float32(-parts))
+
+
+@_jit
+def _write_bus(dst, tf, parts, ideal, scale, flag, flag_all, off, win):
+    """dst := the bus's value of the sum in tf (+ offset and noise, saturated), FLAG-masked."""
+    n = dst.size
+    if ideal:
+        if flag_all:
+            for p in range(n):
+                dst[p] = _value(tf[p], parts, True, scale)
+        else:
+            for p in range(n):
+                v = _value(tf[p], parts, True, scale)
+                dst[p] = v if flag[p] else dst[p]
+    else:
+        for p in range(n):
+            v = _clip((tf[p] * scale + off[p]) + win[p])
+            dst[p] = v if (flag_all or flag[p]) else dst[p]
 
 
 @_jit
@@ -290,72 +403,41 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     flagf = df[_FLAG]
+    flag2 = flagf.reshape(rows, cols)
     base = row[_DRAW]
     scale = np.float32(0.0)
     if not ideal:
         scale = np.float32(gains[base] / parts)
-    has_nbr = False
-    for k in range(nsrc):
-        if row[_SD0 + k] != 0:
-            has_nbr = True
-    nl = 0
-    for k in range(nsrc):
-        if row[_SD0 + k] == 0:
-            nl += 1
-    if nd == 1 and row[_DD0] == 0 and not has_nbr and nl > 0:
+    locs, nl = _locals(row, nsrc)
+    bank_w = bank if parts == 1 else bank_div
+    if nd == 1 and row[_DD0] == 0 and nl == nsrc and 0 < nl <= 2:
         d0 = row[_D0]
-        bank_w = bank if parts == 1 else bank_div
-        win = bank_w[starts[base] : starts[base] + n] if not ideal else bank
-        _fused_local(af[d0], af, flagf, row, nl, scale, ideal, parts, offsets[d0].ravel(), win,
-                     flag_all)  # fmt: skip
-        return
+        x0, x1 = af[locs[0]], af[locs[nl - 1]]
+        if ideal and parts == 1:
+            _fused_copy(af[d0], x0, x1, nl, flagf, flag_all)
+            return
+        if not ideal:
+            win = bank_w[starts[base] : starts[base] + n]
+            _fused_noisy(af[d0], x0, x1, nl, scale, offsets[d0].ravel(), win, flagf, flag_all)
+            return
     tf = t.ravel()
-    _local_sum(tf, af, row, nsrc)
-    if has_nbr:
-        _add_neighbours(t, a[_NEWS], df[_FLAG].reshape(rows, cols), row, nsrc, flag_all)
-    m_half = np.float32(-0.5)
-    m_parts = np.float32(-parts)
-    for p in range(n):  # the bus's value, one for every destination
-        v = tf[p]
-        if ideal:
-            if parts == 1:
-                v = -v
-            elif parts == 2:
-                v = v * m_half
-            else:
-                v = v / m_parts
-            v = _clip(v)
-        else:
-            v = v * scale
-        tf[p] = v
-    flag2 = flagf.reshape(rows, cols)
-    t2f = t2.ravel()
+    _local_sum(tf, af, locs, nl)
+    if nl < nsrc:
+        _add_neighbours(t, a[_NEWS], flag2, row, nsrc, flag_all)
+    if nd == 1 and row[_DD0] == 0:  # value, noise, saturation and mask in one pass
+        d0 = row[_D0]
+        win = bank_w[starts[base] : starts[base] + n] if not ideal else bank
+        _write_bus(af[d0], tf, parts, ideal, scale, flagf, flag_all, offsets[d0].ravel(), win)
+        return
+    _bus_value(tf, parts, ideal, scale)
     for k in range(nd):
         di, code = row[_D0 + k], row[_DD0 + k]
+        win = bank_w[starts[base + k] : starts[base + k] + n] if not ideal else bank
         src = tf
-        if code != 0:  # pushed: the receiver r gets the value of its sender r - offset
-            dr, dc = -_DR[code], -_DC[code]
-            for r in range(rows):
-                for c in range(cols):
-                    rr, cc = r + dr, c + dc
-                    v = np.float32(0.0)
-                    if 0 <= rr < rows and 0 <= cc < cols and (flag_all or flag2[rr, cc]):
-                        v = t[rr, cc]
-                    t2[r, c] = v
-            src = t2f
-        dst = af[di]
-        if ideal:
-            for p in range(n):
-                if flag_all or flagf[p]:
-                    dst[p] = src[p]
-        else:
-            bank_w = bank if parts == 1 else bank_div
-            s0 = starts[base + k]
-            off = offsets[di].ravel()
-            for p in range(n):
-                v = _clip((src[p] + off[p]) + bank_w[s0 + p])
-                if flag_all or flagf[p]:
-                    dst[p] = v
+        if code != 0:  # pushed: the receiver gets its sender's value
+            _push(t2, t, flag2, code, flag_all)
+            src = t2.ravel()
+        _write(af[di], src, flagf, flag_all, not ideal, offsets[di].ravel(), win)
 
 
 @_jit
@@ -363,15 +445,19 @@ def _where(row, a, af, df, t, bank, starts):
     rows, cols = a.shape[1], a.shape[2]
     nsrc = row[_NS]
     tf = t.ravel()
-    _local_sum(tf, af, row, nsrc)
+    locs, nl = _locals(row, nsrc)
+    _local_sum(tf, af, locs, nl)
     flagf = df[_FLAG]
-    _add_neighbours(t, a[_NEWS], flagf.reshape(rows, cols), row, nsrc, _all_true(flagf))
+    if nl < nsrc:
+        _add_neighbours(t, a[_NEWS], flagf.reshape(rows, cols), row, nsrc, _all_true(flagf))
+    zero = np.float32(0.0)
     if bank.size:
         s0 = starts[row[_DRAW]]
         for p in range(tf.size):
-            tf[p] = tf[p] + bank[s0 + p]
-    for p in range(tf.size):
-        flagf[p] = tf[p] > np.float32(0.0)
+            flagf[p] = (tf[p] + bank[s0 + p]) > zero
+    else:
+        for p in range(tf.size):
+            flagf[p] = tf[p] > zero
 
 
 @_jit
@@ -381,8 +467,7 @@ def _store(df, di, val):
     if di == _R12:
         r0 = df[_R0]
         for p in range(out.size):
-            if r0[p]:
-                out[p] = val[p]
+            out[p] = val[p] if r0[p] else out[p]
     else:
         for p in range(out.size):
             out[p] = val[p]
@@ -396,27 +481,42 @@ def _or(tb, df, row, invert):
     x1 = df[row[_S0 + 1]] if ns > 1 else x0
     x2 = df[row[_S0 + 2]] if ns > 2 else x0
     x3 = df[row[_S0 + 3]] if ns > 3 else x0
-    for p in range(n):
-        v = x0[p] | x1[p] | x2[p] | x3[p]
-        tb[p] = not v if invert else v
+    if invert:
+        for p in range(n):
+            tb[p] = not (x0[p] | x1[p] | x2[p] | x3[p])
+    else:
+        for p in range(n):
+            tb[p] = x0[p] | x1[p] | x2[p] | x3[p]
 
 
 @_jit
 def _dnews(row, d, df, tb2, edge):
+    """tb2 := OR of the source of each neighbour the element's own selector names."""
     rows, cols = d.shape[1], d.shape[2]
     src = d[row[_S0]]
     for r in range(rows):
         for c in range(cols):
-            v = False
-            for sel in range(1, 5):
-                if d[sel, r, c]:
-                    code = _SEL_DIR[sel]
-                    rr, cc = r + _DR[code], c + _DC[code]
-                    if 0 <= rr < rows and 0 <= cc < cols:
-                        v = v | src[rr, cc]
-                    else:
-                        v = v | edge
-            tb2[r, c] = v
+            tb2[r, c] = False
+    for sel in range(1, 5):
+        code = _SEL_DIR[sel]
+        dr, dc = _DR[code], _DC[code]
+        c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
+        w = c_hi - c_lo
+        for r in range(rows):
+            out, srow = tb2[r], d[sel, r]
+            rr = r + dr
+            if rr < 0 or rr >= rows:
+                for c in range(cols):
+                    out[c] = out[c] | (srow[c] & edge)
+                continue
+            for c in range(0, c_lo):
+                out[c] = out[c] | (srow[c] & edge)
+            for c in range(c_hi, cols):
+                out[c] = out[c] | (srow[c] & edge)
+            o, sw = out[c_lo:c_hi], srow[c_lo:c_hi]
+            x = src[rr, c_lo + dc : c_hi + dc]
+            for c in range(w):
+                o[c] = o[c] | (sw[c] & x[c])
     _store(df, row[_D0], tb2.ravel())
 
 
@@ -454,16 +554,14 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
             for k in range(nd):
                 if row[_D0 + k] != _R12:
                     df[row[_D0 + k]][:] = value
-        elif op == _MOV or op == _NOT:
-            x = df[row[_S0]]
-            for p in range(n):
-                tbf[p] = (not x[p]) if op == _NOT else x[p]
-            _store(df, row[_D0], tbf)
-        elif op == _OR or op == _NOR:
-            _or(tbf, df, row, op == _NOR)
+        elif op == _MOV:
+            _store(df, row[_D0], df[row[_S0]])
+        elif op == _NOT or op == _OR or op == _NOR:
+            _or(tbf, df, row, op != _OR)
             _store(df, row[_D0], tbf)
         elif op == _WHERED:
-            _or(df[_FLAG], df, row, False)
+            _or(tbf, df, row, False)
+            df[_FLAG][:] = tbf
             flag_all = _all_true(df[_FLAG])
         elif op == _LATCH or op == _LATCHN:
             _or(latchf, df, row, op == _LATCHN)
