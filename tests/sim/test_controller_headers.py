@@ -220,3 +220,10 @@ def test_draw_line_and_circle_clip_or_wrap() -> None:
         sim.draw_circle(0, 0, -1)
     with pytest.raises(RegisterMisuseError):
         sim.draw_begin(A)
+
+
+def test_select_point_sets_the_parts_too() -> None:
+    sim = Scamp5(4, 4)
+    sim.select_point(1, 2)
+    sim.select_rowx(0b10)  # rows 1 and 3 of column 2
+    assert np.argwhere(sim.read(SELECT)).tolist() == [[1, 2], [3, 2]]

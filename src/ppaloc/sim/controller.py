@@ -475,7 +475,7 @@ class ControllerMixin(DrawMixin):
         self._select_state().update(args)
 
     def select_point(self, r: int, c: int, *, scamp_addr: bool = False) -> None:
-        """Like :meth:`load_point`, into ``SELECT``."""
+        """Like :meth:`load_point`, into ``SELECT`` (and the parts :meth:`select_col` edits)."""
         call = "select_point"
         r = self._coord(call, "r", r, self.rows)
         c = self._coord(call, "c", c, self.cols)
@@ -483,6 +483,7 @@ class ControllerMixin(DrawMixin):
         plane = self._dplane(SELECT)
         plane[...] = False
         plane[r, self._col_index(c, scamp_addr)] = True
+        self._select_state().update(r=r, c=self._col_index(c, scamp_addr), rx=0, cx=0)
 
     def select_rect(self, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False) -> None:
         """Like :meth:`load_rect`, into ``RECT``; as the header says it also modifies
