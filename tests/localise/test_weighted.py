@@ -279,7 +279,7 @@ def test_suggest_alpha_is_an_integer_and_used(route):
         ),
         ({"motion": "oracle"}, r"motion='oracle' needs oracle_moves="),
         ({"motion": "walk"}, r"motion='walk' is not one of image, always_forward, oracle"),
-        ({"preset": "paper", "k": 0}, r"k=0 must be >= 1"),
+        ({"preset": "paper", "k": 0}, r"k=0 must be in \[1, 1000000\]"),
         ({"k": 2}, r"k=2 is a parameter of preset 'paper', not of preset 'robust'"),
         ({"preset": "paper", "gain": 4}, r"gain=4 is a parameter of preset 'robust'"),
         ({"preset": "fast"}, r"preset='fast' is not one of robust, paper"),

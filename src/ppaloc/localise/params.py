@@ -39,7 +39,10 @@ __all__ = [
     "DEFAULT_SHIFT",
     "FILTER_KEYS",
     "GAMMAS",
+    "MAX_ALPHA",
+    "MAX_PERIOD",
     "MAX_SHIFT",
+    "MAX_WINDOW",
     "PRESETS",
     "FilterParams",
     "check_int",
@@ -63,6 +66,16 @@ _MOTIONS = ("image", "always_forward", "oracle")
 _PAPER_ONLY = ("alpha", "gamma", "k", "shift", "advance")
 _ROBUST_ONLY = ("gain", "memory", "stay_cost", "move_cost", "skip_cost", "max_advance")
 
+
+MAX_ALPHA = 1e6
+"""Paper preset (float arithmetic): the largest magnitude of ``alpha`` (a frame's term is
+at most 255 units, so larger offsets only overflow the weights)."""
+
+MAX_PERIOD = 1_000_000
+"""Paper preset: the longest adjustment period ``k`` (frames)."""
+
+MAX_WINDOW = 1_000_000
+"""Largest ``advance`` bound and ``confidence_radius`` (nodes)."""
 
 DEFAULT_SHIFT = {"lowres": 2, "lbp": 1}
 """Paper preset: the default likelihood shift per representation. One frame's term spans
@@ -201,7 +214,7 @@ class FilterParams:
             "motion_min_support", values.get("motion_min_support", 1024), 0, 256 * 256
         )
         out["confidence_radius"] = check_int(
-            "confidence_radius", values.get("confidence_radius", 10), 0
+            "confidence_radius", values.get("confidence_radius", 10), 0, MAX_WINDOW
         )
         keyframes = values.get("keyframes")
         if keyframes is None:
@@ -241,7 +254,7 @@ def _paper_values(representation: str, arithmetic: str, values: Mapping[str, Any
     if gamma not in GAMMAS:
         raise PpalocError(f"gamma={gamma!r} must be one of {GAMMAS} (a PPA scales only by halving)")
     out["gamma"] = float(gamma)
-    out["k"] = check_int("k", 1 if values.get("k") is None else values["k"], 1)
+    out["k"] = check_int("k", 1 if values.get("k") is None else values["k"], 1, MAX_PERIOD)
     shift = values.get("shift")
     if shift is None:
         shift = DEFAULT_SHIFT.get(representation, 2)
@@ -251,7 +264,8 @@ def _paper_values(representation: str, arithmetic: str, values: Mapping[str, Any
         lo, hi = advance
     except (TypeError, ValueError):
         raise PpalocError(f"advance={advance!r} must be a pair (lo, hi)") from None
-    if not (0 <= check_int("advance[0]", lo, 0) <= check_int("advance[1]", hi, 1)):
+    lo_ok = check_int("advance[0]", lo, 0, MAX_WINDOW)
+    if not lo_ok <= check_int("advance[1]", hi, 1, MAX_WINDOW):
         raise PpalocError(f"advance={advance!r} must be (lo, hi) with 0 <= lo <= hi, hi >= 1")
     out["advance"] = (int(lo), int(hi))
     alpha = values.get("alpha")
@@ -260,8 +274,10 @@ def _paper_values(representation: str, arithmetic: str, values: Mapping[str, Any
             alpha = check_int("alpha", alpha, -128, 127)  # a DAC constant
         elif isinstance(alpha, bool) or not isinstance(alpha, int | float | np.number):
             raise PpalocError(f"alpha={alpha!r} must be a number")
-        elif not math.isfinite(float(alpha)):
-            raise PpalocError(f"alpha={alpha!r} must be a finite number")
+        elif not (math.isfinite(float(alpha)) and abs(float(alpha)) <= MAX_ALPHA):
+            raise PpalocError(
+                f"alpha={alpha!r} must be a number in [-{MAX_ALPHA:g}, {MAX_ALPHA:g}]"
+            )
     out["alpha"] = alpha
     return out
 
