@@ -237,7 +237,7 @@ def precursor_stage_counts(
             [("scamp5_in", 0)] * 3
             + [("load_pattern", 0)] * 3
             + [("load_rect", 0)]
-            + [("shift_areg", 8)] * 5
+            + [("shift_areg", 8)] * 4
             + [("shift_dreg", 8)] * 4
             + [("shift_dreg", 248)],
         )
