@@ -14,6 +14,22 @@ settings.register_profile("ci", derandomize=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")
 
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--engine",
+        default=None,
+        help="simulator engine every Scamp5 uses by default (reference, numpy, compiled); "
+        "the same as setting PPALOC_ENGINE",
+    )
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    engine = config.getoption("--engine")
+    if engine:  # read by ppaloc.sim.engines.default_engine, in xdist workers too
+        os.environ["PPALOC_ENGINE"] = engine
+
+
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = PROJECT_ROOT.parent / "shared" / "data"
 
