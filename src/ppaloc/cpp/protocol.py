@@ -51,7 +51,7 @@ TAGS: dict[str, int] = {"INT": 0, "AREG": 1, "DREG": 2, "DIR": 3, "STR": 4}
 REGISTER_NAMES: tuple[str, ...] = (
     "A", "B", "C", "D", "E", "F", "NEWS", "PIX", "IN", "XN", "XE", "XS", "XW",
     "R0", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "R10", "R11", "R12",
-    "FLAG", "SELECT",
+    "FLAG", "SELECT", "RECT",
 )  # fmt: skip
 
 #: The program's exit code when the shim stops it on a usage error it found itself

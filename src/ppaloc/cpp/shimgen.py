@@ -46,7 +46,7 @@ def kernel_macros() -> dict[str, tuple[int, int]]:
 def _register_type(name: str) -> str:
     if name in ("PIX", "IN"):
         return "aref_t"
-    if name in ("FLAG", "SELECT"):
+    if name in ("FLAG", "SELECT", "RECT"):
         return "dref_t"
     return "dreg_t" if name.startswith("R") else "areg_t"
 
