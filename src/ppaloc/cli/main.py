@@ -131,8 +131,9 @@ def _check_params(params: Any, source: Path | None) -> None:
 
 def _check_method_params(params: Any, source: Path | None) -> None:
     """Each ``params`` table names a known method and holds only its valid parameters
-    (type and range, :func:`ppaloc.methods.check_parameters`), before any work."""
-    from ppaloc.methods import METHODS, check_parameters
+    (type and range, then the method's own checks: it is built once, without a map),
+    before any work."""
+    from ppaloc.methods import METHODS, make_localiser
 
     where = f" in {source}" if source else ""
     for method, values in (params or {}).items():
@@ -141,7 +142,7 @@ def _check_method_params(params: Any, source: Path | None) -> None:
                 f"params given for unknown method {_short(method)}{where}; methods: "
                 + ", ".join(METHODS)
             )
-        check_parameters(method, values)
+        make_localiser(method, **values)
 
 
 def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
@@ -161,6 +162,7 @@ def _merge(
     """Flags that were given (not None, not empty) override the file; params merge per
     method (``nested``: ``{method: {key: value}}``) or key by key (one method's table)."""
     merged = dict(file_values)
+    _check_cli_values(merged, source)  # a bad file value is refused even when a flag wins
     if nested:  # one method's table is checked by the command, which names its section
         _check_params(merged.get("params"), source)
     for key, value in flags.items():
@@ -415,6 +417,10 @@ def evaluate(
         values["methods"] = [values["methods"]]
     specs = values["dataset"]
     source = str(config_file) if config_file else ""
+    if isinstance(specs, list | tuple) and not specs:
+        raise PpalocError(
+            f"dataset = [] in {source or 'the flags'} lists no dataset: give at least one spec"
+        )
     if isinstance(specs, list | tuple):
         configs = [
             config_from_mapping(EvaluateConfig, {**values, "dataset": d}, source=source)
@@ -740,15 +746,22 @@ def cpp() -> None:
     epilog="""\b
 Examples:
   ppaloc cpp run edges.cpp --image scene.png --set threshold=30 --out edges-run
-  ppaloc cpp run tracker.cpp --dataset synthetic:?places=20 --frames 5 --out run""",
+  ppaloc cpp run tracker.cpp --dataset 'synthetic:?places=20' --frames 5 --out run""",
 )
 @click.argument("program", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--image", type=click.Path(dir_okay=False, path_type=Path), help="Frame image.")
 @click.option("--dataset", help="Dataset spec whose query frames are the exposures.")
 @click.option("--frames", type=int, help="Frames to run [default: 1 image, 10 of a dataset].")
-@click.option("--set", "settings", multiple=True, metavar="NAME=VALUE", help="Slider/switch.")
+@click.option(
+    "--set", "settings", multiple=True, metavar="NAME=VALUE", help="A slider's or switch's value."
+)
 @click.option("--timeout", type=float, default=60.0, show_default=True, help="Seconds.")
-@click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path))
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder to write (replaced whole when the run succeeds).",
+)
 @_QUIET
 def cpp_run(
     program: Path,
