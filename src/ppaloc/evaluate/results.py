@@ -112,6 +112,10 @@ def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
 
 
 def _ours(name: str) -> bool:
+    """A name ppaloc writes in a results folder (a matrix run's ``NN-<spec>/``, or a
+    temporary an older, killed write left: ``.results.json.XXXX.tmp``)."""
+    if name.startswith(".") and name.endswith(".tmp"):
+        return any(name.startswith(f".{own}.") for own in _OWN_NAMES)
     return name in _OWN_NAMES or re.fullmatch(r"\d{2,}-.*", name) is not None
 
 
