@@ -19,7 +19,7 @@ A macro whose arguments break a register rule raises
 from __future__ import annotations
 
 import numbers
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 from ppaloc.errors import RegisterMisuseError, SimulatorError
 from ppaloc.sim.isa import OPS, Instruction, make
@@ -104,7 +104,12 @@ class ProgramAPI:
     def _macro(self, name: str, args: Sequence[object], steps: Sequence[Step]) -> None:
         self._emit(expand(_call(name, args), steps))
 
-    def icw(self, op: str | int, dsts: Sequence[Register] | Sequence[int] = (), srcs=()) -> None:
+    def icw(
+        self,
+        op: str | int,
+        dsts: Sequence[Register] | Iterable[int] = (),
+        srcs: Sequence[Register] = (),
+    ) -> None:
         """Issue one ICW: a row of the op table by name, ``k.icw("bus", (A,), (B, C))``, or
         the header's raw word ``k.icw(clock, bits)`` (``icw(uint8_t clock, {bits...})``:
         the clock field and the bit positions of ``SCAMP5_ICW_BITS``), decoded by
