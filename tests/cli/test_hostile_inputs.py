@@ -1,0 +1,203 @@
+"""Hostile command lines and configuration files: each is one line naming the bad value and
+what is accepted, exit 1, and is refused before any work (so every case is fast)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from ppaloc.cli import main
+
+TINY = "synthetic:?places=12&size=32&sync=1&seed=2"
+EV = ["evaluate", "-d", TINY, "-m", "single-frame", "--no-report", "-q"]
+MAP = ["map", TINY, "-m", "single-frame", "-q"]
+BASE_TOML = f'dataset = "{TINY}"\nmethods = ["single-frame"]\nno_report = true\n'
+
+# (command line, config file text or None, fragment of the one-line message)
+CASES: list[tuple[list[str], str | bytes | None, str]] = [
+    # flags
+    ([*EV, "-m", "particle-filter", "--seed", "-1", "--out", "r"], None, "seed=-1 must be"),
+    ([*EV, "--seed", "9" * 30, "--out", "r"], None, "seed=9999"),
+    ([*EV, "--tolerance", "-1", "--out", "r"], None, "tolerance=-1 must be an integer in"),
+    ([*EV, "--tolerance", "100000", "--out", "r"], None, "tolerance=100000 must be"),
+    ([*EV, "--out", ""], None, "--out '' is empty"),
+    ([*EV, "--out", " "], None, "--out ' ' is empty"),
+    ([*EV, "--out", "x" * 5000], None, "at most 4096"),
+    ([*EV, "--out", "/etc/passwd/x"], None, "lies under /etc/passwd, which is a file"),
+    ([*EV, "--out", "/etc/passwd"], None, "--out /etc/passwd is a file"),
+    ([*EV, "--out", "/proc/no-such/x"], None, "cannot write in /proc"),
+    ([*MAP, "--out", ""], None, "--out '' is empty"),
+    ([*MAP, "--out", "/tmp"], None, "--out /tmp is a folder"),
+    ([*MAP, "--out", "/etc/passwd/m.npz"], None, "which is a file, not a folder"),
+    ([*MAP, "--out", "m.npz", "--param", "top_k=x"], None, "top_k='x' must be an integer"),
+    ([*MAP, "--out", "m.npz", "--param", "top_k=0"], None, "top_k=0 must be in [1, 10000]"),
+    ([*MAP, "--out", "m.npz", "--param", "radius=nan"], None, "radius=nan must be an integer"),
+    ([*MAP, "--out", "m.npz", "--param", "radius=inf"], None, "radius=inf must be an integer"),
+    ([*MAP, "--out", "m.npz", "--param", "size=[0, 0]"], None, "size=[0, 0] must be in"),
+    ([*MAP, "--out", "m.npz", "--param", "size=[32]"], None, "must be a list of 2 integers"),
+    ([*MAP, "--out", "m.npz", "--param", "nosuch=1"], None, "unknown parameter 'nosuch'"),
+    ([*MAP, "--out", "m.npz", "--param", "=1"], None, "must look like KEY=VALUE"),
+    ([*MAP, "--out", "m.npz", "--param", "top_k"], None, "must look like KEY=VALUE"),
+    ([*MAP, "--out", "m.npz", "--param", "top_k=" + "[" * 3000], None, "must be an integer"),
+    ([*MAP, "--out", "m.npz", "--param", "record_weights=2"], None, "must be true or false"),
+    (
+        ["map", TINY, "-m", "weighted-node-lbp", "--param", "alpha=8", "--out", "m.npz"],
+        None,
+        "alpha=8 is a parameter of preset 'paper'",
+    ),
+    (
+        ["map", TINY, "-m", "weighted-node-paper-lbp", "--param", "alpha=x", "--out", "m.npz"],
+        None,
+        "alpha='x' must be a number",
+    ),
+    (
+        ["map", TINY, "-m", "weighted-node-paper-lbp", "--param", "alpha=-1e308", "--out", "m"],
+        None,
+        "alpha=-1e+308 must be a number in [-1e+06, 1e+06]",
+    ),
+    ([*EV, "--param", "weighted-node-lbp.alpha=x", "--out", "r"], None, "alpha='x' must be"),
+    ([*EV, "--param", "weighted-node-lbp.gain=99", "--out", "r"], None, "gain=99 must be in"),
+    ([*EV, "--param", "seqslam.ds=100000", "--out", "r"], None, "ds=100000 must be in [0, 500]"),
+    ([*EV, "--param", "seqslam.ds=-1", "--out", "r"], None, "ds=-1 must be in [0, 500]"),
+    ([*EV, "--param", "seqslam.ds=1.5", "--out", "r"], None, "ds=1.5 must be an integer"),
+    ([*EV, "--param", "seqslam.mode=x", "--out", "r"], None, "mode='x' must be one of"),
+    ([*EV, "--param", "particle-filter.seed=-1", "--out", "r"], None, "seed=-1 must be in"),
+    ([*EV, "--param", "particle-filter.n_particles=1e12", "--out", "r"], None, "must be an"),
+    ([*EV, "--param", "able-m.length=100000", "--out", "r"], None, "length=100000 must be"),
+    ([*EV, "--param", "no-such.alpha=1", "--out", "r"], None, "unknown method 'no-such'"),
+    ([*EV, "--param", ".alpha=1", "--out", "r"], None, "must look like METHOD.KEY=VALUE"),
+    (["bench", "-m", "single-frame", "--sizes", "100000000"], None, "must be an integer in"),
+    (["bench", "-m", "single-frame", "--sizes", "1"], None, "sizes=1 must be an integer in"),
+    (["bench", "-m", "single-frame", "--sizes", "-5"], None, "must be comma-separated"),
+    (["bench", "-m", "single-frame", "--sizes", "8,x"], None, "must be comma-separated"),
+    (["bench", "-m", "single-frame", "--sizes", ","], None, "must list 1 to 64 map sizes"),
+    (["bench", "-m", "single-frame", "--sizes", "8", "--max-build-s", "nan"], None, "nan"),
+    (["bench", "-m", "single-frame", "--sizes", "8", "--max-build-s", "-1"], None, "-1.0 must"),
+    (["bench", "-m", "single-frame", "--sizes", "8", "--max-build-s", "inf"], None, "inf must"),
+    (["bench", "-m", "single-frame", "--sizes", "8", "--queries", "0"], None, "queries=0"),
+    (["bench", "-m", "single-frame", "--sizes", "8", "--seed", "-1"], None, "seed=-1"),
+    (["bench", "-m", "single-frame", "--sizes", "8", "--out", ""], None, "--out '' is empty"),
+    (["demo", "--out", "/etc/passwd/d"], None, "which is a file, not a folder"),
+    (["demo", "--bench-sizes", "100000000", "--out", "d"], None, "sizes=100000000"),
+    (["show", "nothing-here", "--out", ""], None, "--out '' is empty"),
+    (["localise", "m.npz", "f.png", "--out", ""], None, "--out '' is empty"),
+    (["localise", "", "f.png"], None, "MAP_PATH '' is empty"),
+    (["evaluate", "--config", ""], None, "--config '' is empty"),
+    (["evaluate", "--config", "/tmp"], None, "--config /tmp is a folder"),
+    # configuration files
+    (
+        ["evaluate", "--config", "c.toml"],
+        BASE_TOML + "out = 5",
+        "out = 5 in c.toml must be a string",
+    ),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + 'out = ""', "--out '' is empty"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + 'out = "a\\u0000b"', "holds a NUL"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "out = []", "out = [] in c.toml must be"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + 'quiet = "yes"', "quiet = 'yes' in c.toml"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "quiet = 1", "must be true or false"),
+    (["evaluate", "--config", "c.toml", "-q"], BASE_TOML + 'quiet = "no"', "quiet = 'no'"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + 'tolerance = "2"', "must be an integer"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "tolerance = nan", "must be an integer"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "tolerance = 1e9", "must be an integer"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "seed = -1", "seed=-1 in c.toml must be"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "seed = true", "seed=True in c.toml"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + 'recall = "Z"', "recall='Z' must be"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + 'record_weights = "no"', "true or false"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "max_weight_values = -5", "must be an"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "params = 5", "params = 5 in c.toml"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "params = {a = 1}", "table of tables"),
+    (
+        ["evaluate", "--config", "c.toml"],
+        BASE_TOML + '[params.single-frame]\ntop_k = "x"',
+        "top_k='x' must be an integer",
+    ),
+    (
+        ["evaluate", "--config", "c.toml"],
+        BASE_TOML + '[params.weighted-node-paper-lbp]\nalpha = "x"',
+        "alpha='x' must be a number",
+    ),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "[params.nosuch]\na = 1", "'nosuch'"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "evaluate = 5", "must be a table"),
+    (["evaluate", "--config", "c.toml"], BASE_TOML + "sed = 1", "unknown configuration key 'sed'"),
+    (["evaluate", "--config", "c.toml"], "dataset = []", "lists no dataset"),
+    (["evaluate", "--config", "c.toml"], "dataset = [5]", "dataset=5 in c.toml must be"),
+    (
+        ["evaluate", "--config", "c.toml"],
+        f'dataset = "{TINY}"\nmethods = 5',
+        "must be a list of strings",
+    ),
+    (["evaluate", "--config", "c.toml"], 'dataset = "synthetic:?places=1e9"', "'places' must"),
+    (["evaluate", "--config", "c.toml"], b"out = '\xe9t\xe9'", "is not UTF-8 text"),
+    (["evaluate", "--config", "c.toml"], b"\xff\xfe\x00o", "is not UTF-8 text"),
+    (["evaluate", "--config", "c.toml"], "a = " + "[" * 5000 + "]" * 5000, "nests"),
+    (["evaluate", "--config", "c.toml"], "dataset = ", "is not valid TOML"),
+    (["evaluate", "--config", "missing.toml"], None, "does not exist"),
+    (["bench", "--config", "c.toml"], "sizes = [0]", "sizes=0 in c.toml must be an integer"),
+    (["bench", "--config", "c.toml"], 'sizes = "64"', "must be a list of integers"),
+    (["bench", "--config", "c.toml"], "sizes = [true]", "must be a list of integers"),
+    (["bench", "--config", "c.toml"], "max_build_s = nan", "max_build_s=nan"),
+    (["bench", "--config", "c.toml"], 'max_build_s = "x"', "must be a number"),
+    (["bench", "--config", "c.toml"], "queries = 1e9", "must be an integer"),
+    (["bench", "--config", "c.toml"], "warmup = -1", "warmup=-1 in c.toml"),
+    (["bench", "--config", "c.toml"], "sizes = [8]\nout = 4", "out = 4 in c.toml"),
+    (["map", TINY, "--config", "c.toml"], "[map]\nout = 5", "out = 5 in c.toml"),
+    (["map", TINY, "--config", "c.toml"], "[map]\nmethod = 5", "method = 5 in c.toml"),
+    (["map", TINY, "--config", "c.toml"], "[map]\nparams = 5", "params in c.toml must be"),
+    (["map", TINY, "--config", "c.toml"], "map = 3", "map = 3 in c.toml must be a table"),
+    (
+        ["map", TINY, "--out", "m.npz", "--config", "c.toml"],
+        '[map]\nmethod = "single-frame"\n[map.params]\ntop_k = "x"',
+        "top_k='x' must be an integer",
+    ),
+    (["sweep", "--config", "c.toml", "--out", "s"], "[sweep]\nworkers = 100000", "workers="),
+    (["sweep", "--config", "c.toml", "--out", "s"], "[sweep]\nseed = -1", "seed=-1"),
+    (["sweep", "--config", "c.toml", "--out", "/etc/passwd/s"], "[sweep]\nseed = 1", "a file"),
+]
+
+
+@pytest.mark.parametrize(
+    ("argv", "toml", "fragment"), CASES, ids=[f"{i:03d}" for i in range(len(CASES))]
+)
+def test_hostile_input_is_one_line_exit_1(tmp_path, monkeypatch, capsys, argv, toml, fragment):
+    monkeypatch.chdir(tmp_path)
+    if toml is not None:
+        Path("c.toml").write_bytes(toml if isinstance(toml, bytes) else toml.encode())
+    code = main(argv)
+    _, err = capsys.readouterr()
+    assert code == 1, err
+    assert err.startswith("ppaloc: error: ") and err.count("\n") == 1, err
+    assert fragment in err
+    assert not Path("r").exists() and not Path("m.npz").exists()  # refused before any work
+
+
+def test_nul_in_a_dataset_spec_is_one_line(capsys):
+    assert main(["map", "folder:a\0b,c", "--out", "m.npz"]) == 1
+    assert "holds a NUL character" in capsys.readouterr().err
+
+
+def test_localise_with_a_map_of_the_wrong_kind_names_the_right_fix(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["map", TINY, "-m", "weighted-node-lbp", "--out", "lbp.npz", "-q"]) == 0
+    from PIL import Image
+
+    Image.new("L", (32, 32)).save("f.png")
+    capsys.readouterr()
+    assert main(["localise", "lbp.npz", "f.png", "-m", "weighted-node-lowres"]) == 1
+    err = capsys.readouterr().err
+    assert "holds 'lbp' nodes but method 'weighted-node-lowres' needs 'lowres' nodes" in err
+    assert "--method weighted-node-lbp" in err
+    assert "representation='lbp'" not in err
+
+
+def test_param_on_map_and_localise_merges_key_by_key(tmp_path, monkeypatch, capsys):
+    # --param KEY=VALUE crashed in the parameter merge even with a valid value
+    monkeypatch.chdir(tmp_path)
+    Path("c.toml").write_text("[map.params]\ntop_k = 3\n[localise.params]\ntop_k = 4\n")
+    argv = ["map", TINY, "-m", "single-frame", "--param", "radius=2", "--out", "m.npz", "-q"]
+    assert main([*argv, "--config", "c.toml"]) == 0, capsys.readouterr().err
+    from PIL import Image
+
+    Image.new("L", (32, 32)).save("f.png")
+    assert main(["localise", "m.npz", "f.png", "--param", "top_k=2", "--out", "e.csv"]) == 0
+    assert Path("e.csv").read_text().count("\n") == 2
