@@ -816,7 +816,19 @@ class ControllerMixin(DrawMixin):
         >>> sim.scan_events(R5, 4).tolist()    # east column first
         [[3, 3], [2, 2], [1, 1], [0, 0]]
         """
-        call = "scan_events"
+        return self._scan_events("scan_events", dreg, max_num, h_dir, v_dir, scamp_addr, False)
+
+    def _scan_events(
+        self,
+        call: str,
+        dreg: Register,
+        max_num: int,
+        h_dir: int,
+        v_dir: int,
+        scamp_addr: bool,
+        rows_first: bool,
+    ) -> np.ndarray:
+        """The event scan: hardware columns outer (or rows outer with ``rows_first``)."""
         self._catch_up()
         self._dreg(call, dreg, source=True)
         n = _as_int(call, "max_num", max_num, 1, MAX_EVENTS)
@@ -827,13 +839,16 @@ class ControllerMixin(DrawMixin):
             addr = addr[:, ::-1]
         if v:
             addr = addr[::-1, :]
-        a, r = np.nonzero(addr.T)  # column-major: hardware column outer, row inner
+        if rows_first:
+            r, a = np.nonzero(addr)  # row outer, hardware column inner
+        else:
+            a, r = np.nonzero(addr.T)  # hardware column outer, row inner
         a, r = a[:n], r[:n]
         if h:
             a = self.cols - 1 - a
         if v:
             r = self.rows - 1 - r
-        self.timing.charge_call(call, n)
+        self.timing.charge_call("scan_events", n)
         cols = a if scamp_addr else self.cols - 1 - a
         return np.stack([r, cols], axis=1).astype(np.int64)
 
@@ -1074,26 +1089,7 @@ class ControllerMixin(DrawMixin):
         columns 0 -> cols-1, i.e. array columns east to west (``h_dir=1``: the reverse).
         Returns ``(row, col)`` pairs like every readout here.
         """
-        call = "scan_events_rc"
-        self._catch_up()
-        self._dreg(call, dreg, source=True)
-        n = _as_int(call, "max_num", max_num, 1, MAX_EVENTS)
-        h = _as_int(call, "h_dir", h_dir, 0, 1)
-        v = _as_int(call, "v_dir", v_dir, 0, 1)
-        addr = self._dplane(dreg)[:, ::-1]  # [row, hardware column]
-        if h:
-            addr = addr[:, ::-1]
-        if v:
-            addr = addr[::-1, :]
-        r, a = np.nonzero(addr)  # row-major: row outer, hardware column inner
-        r, a = r[:n], a[:n]
-        if h:
-            a = self.cols - 1 - a
-        if v:
-            r = self.rows - 1 - r
-        self.timing.charge_call("scan_events", n)
-        cols = a if scamp_addr else self.cols - 1 - a
-        return np.stack([r, cols], axis=1).astype(np.int64)
+        return self._scan_events("scan_events_rc", dreg, max_num, h_dir, v_dir, scamp_addr, True)
 
     def scan_boundingbox(self, dreg: Register, *, scamp_addr: bool = False) -> np.ndarray | None:
         """``scamp5_scan_boundingbox``: the axis-aligned bounding box of the 1s of ``dreg``.
