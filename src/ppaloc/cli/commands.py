@@ -338,8 +338,8 @@ def run_map(
     (method,) = resolve_methods([method])
     if out.is_dir():
         raise DataError(f"--out {out} is a folder; give a file name such as map.npz")
+    loc = make_localiser(method, **params)  # parameters checked before the dataset loads
     ds = load_dataset(dataset)
-    loc = make_localiser(method, **params)
     reference = sensor_stream(ds.reference)  # read, converted and described one at a time
     with ProgressBar(not quiet) as bar:
         bar.add("reference", len(reference), label="reference frames")
