@@ -140,3 +140,22 @@ def test_source_date(monkeypatch):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "yesterday")
     with pytest.raises(PpalocError, match="SOURCE_DATE_EPOCH='yesterday' is not a time"):
         fileio.source_date()
+
+
+def test_a_folder_that_cannot_be_written_is_a_user_error(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    (locked / "run").mkdir()
+    (locked / "run" / "results.json").write_text("old")
+    locked.chmod(0o555)
+    try:
+        if os.access(locked, os.W_OK):  # root writes anyway: check through a missing parent
+            target = tmp_path / "missing" / "run"
+        else:
+            target = locked / "run"
+        with pytest.raises(PpalocError, match=r"cannot write .*run: its folder .* is not a writ"):
+            with fileio.update_folder(target):
+                pass
+    finally:
+        locked.chmod(0o755)
+    assert (locked / "run" / "results.json").read_text() == "old"

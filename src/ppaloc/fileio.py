@@ -308,7 +308,15 @@ def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[P
     recover_folder(target)
     token = f"{os.getpid()}-{secrets.token_hex(4)}"
     stage = target.parent / f".{target.name}.ppaloc-new-{token}"
-    stage.mkdir()
+    try:
+        stage.mkdir()
+    except OSError as exc:
+        if exc.errno not in (errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOENT, errno.ENOTDIR):
+            raise
+        raise PpalocError(
+            f"cannot write {target}: its folder {target.parent} is not a writable folder "
+            f"({exc.strerror}); give a location you can write to"
+        ) from None
     try:
         if keep is not None and target.is_dir():
             _link_tree(target, stage, keep)
