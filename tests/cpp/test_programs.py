@@ -155,6 +155,16 @@ def test_drawing_flood_and_box(frames):
     assert f"fast {sim.global_sum_fast(A)}" in result.texts
 
 
+def test_several_destination_bus(frames):
+    result = run(frames, 9)
+    out = result.session.outputs[0]
+    a = full_range(frames[0])
+    np.testing.assert_array_equal(out[ANALOG], -a / 2)
+    np.testing.assert_array_equal(out[BITS], -a)
+    (kernel,) = [k for k in result.session.kernels.values() if k.calls[0].startswith("bus")]
+    assert kernel.calls[0] == "bus({C, D}, {A})" and len(kernel.kernel) == 3
+
+
 def test_outputs_folder(frames, tmp_path):
     out = tmp_path / "run"
     result = run_program(SOURCE, frames, settings={"mode": "1"}, out=out)

@@ -18,7 +18,8 @@ Program -> simulator, one message each::
 - ``EXIT``: empty; the program is ending.
 
 An argument is ``u8 tag, i32 value``; a string (tag ``STR``) is followed by its bytes
-(``value`` = length). Register arguments carry the register's code (its index in
+(``value`` = length), a list (tag ``LIST``, e.g. the destinations of ``bus({a, b}, {x})``)
+by its ``value`` arguments. Register arguments carry the register's code (its index in
 :data:`REGISTER_NAMES`).
 
 Simulator -> program, one reply per answered message::
@@ -45,7 +46,7 @@ VERSION = 1
 OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5}
 
 #: Argument tags.
-TAGS: dict[str, int] = {"INT": 0, "AREG": 1, "DREG": 2, "DIR": 3, "STR": 4}
+TAGS: dict[str, int] = {"INT": 0, "AREG": 1, "DREG": 2, "DIR": 3, "STR": 4, "LIST": 5}
 
 #: Register codes, in order: the C++ constants carry these indices.
 REGISTER_NAMES: tuple[str, ...] = (

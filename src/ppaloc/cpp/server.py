@@ -29,7 +29,9 @@ __all__ = ["HANDLERS", "KernelStats", "ProgramError", "Session", "events_buffer"
 
 _REGS: tuple[Register, ...] = tuple(register_by_name(n) for n in REGISTER_NAMES)
 _HELLO, _DEF, _RUN, _CALL, _EXIT = (OPS[k] for k in ("HELLO", "DEF", "RUN", "CALL", "EXIT"))
-_INT, _AREG, _DREG, _DIR, _STR = (TAGS[k] for k in ("INT", "AREG", "DREG", "DIR", "STR"))
+_INT, _AREG, _DREG, _DIR, _STR, _LIST = (
+    TAGS[k] for k in ("INT", "AREG", "DREG", "DIR", "STR", "LIST")
+)
 _HEAD = struct.Struct("<BI")
 _ARG = struct.Struct("<Bi")
 
@@ -65,6 +67,8 @@ class KernelStats:
 
 
 def _show(arg: Any) -> str:
+    if isinstance(arg, tuple):
+        return "{" + ", ".join(map(_show, arg)) + "}"
     if isinstance(arg, Register):
         return arg.name
     if isinstance(arg, Direction):
@@ -178,6 +182,9 @@ class Session:
             elif tag == _STR:
                 out.append(bytes(payload[at : at + value]).decode("utf-8", "replace"))
                 at += value
+            elif tag == _LIST:
+                items, at = Session._args(payload, at, value)
+                out.append(tuple(items))
             else:
                 raise ProgramError(f"unknown argument tag {tag} from the shim")
         return out, at

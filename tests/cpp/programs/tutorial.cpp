@@ -117,6 +117,13 @@ int main() {
             scamp5_flood(R6, R7, 0);
             scamp5_output_image(R6, out_b);
             vs_post_text("fast %d", scamp5_global_sum_fast(A));
+        } else if (mode == 9) {  // the several-destination bus: one ICW, the current split
+            scamp5_kernel_begin();
+                bus({C, D}, {A});
+                add(E, C, D);
+            scamp5_kernel_end();
+            scamp5_output_image(C, out_a);
+            scamp5_output_image(E, out_b);
         }
         vs_post_text("frame %u done", vs_loop_counter_get());
     }

@@ -303,6 +303,29 @@ inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, in
 
 #include "ppaloc_gen_macros.hpp"
 
+namespace scamp5_kernel_api {
+// The several-destination form: bus({a, b, ...}, {x, y, ...}), one ICW.
+inline void bus(std::initializer_list<ppa::Arg> dst, std::initializer_list<ppa::Arg> src,
+                ppa::Loc loc = PPA_HERE) {
+    scamp5_kernel* k = ppa::active();
+    if (!k) ppa::fail(loc, "bus() is a kernel function: call it inside a kernel");
+    std::vector<uint8_t>& b = k->body;
+    auto put = [&b](uint8_t tag, uint32_t v) {
+        b.push_back(tag);
+        for (int s = 0; s < 4; ++s) b.push_back((v >> (8 * s)) & 0xFF);
+    };
+    b.push_back(3);
+    b.insert(b.end(), {'b', 'u', 's'});
+    for (int s = 0; s < 4; ++s) b.push_back((loc.line >> (8 * s)) & 0xFF);
+    b.push_back(2);
+    for (auto* list : {&dst, &src}) {
+        put(ppa::TAG_LIST, uint32_t(list->size()));
+        for (const ppa::Arg& a : *list) put(a.tag, uint32_t(a.value));
+    }
+    k->calls++;
+}
+}  // namespace scamp5_kernel_api
+
 #define scamp5_kernel_begin()                   \
     {                                           \
         using namespace scamp5_kernel_api;      \
