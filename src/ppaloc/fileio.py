@@ -303,6 +303,7 @@ def _link(src: str, dst: str | Path) -> None:
 def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[Path]:
     if os.path.islink(target):  # replace the folder the link points to, not the link
         target = Path(os.path.realpath(target))
+    target = Path(os.path.abspath(target))  # "." and "x/.." have a name and a parent
     if os.path.lexists(target) and not target.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, "not a folder", str(target))
     recover_folder(target)

@@ -127,3 +127,12 @@ def test_show_refuses_out_of_range_results_in_one_line(saved, mean_match, capsys
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "node[0] is -1, outside 0..9" in err
     assert f"{saved}/arrays/" in err and ".ppaloc-new-" not in err  # the user's folder named
+
+
+def test_the_current_folder_is_not_replaced(result, tmp_path, monkeypatch):
+    (tmp_path / "results.json").write_text("{}")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(DataError, match=r"--out \. is the current folder or holds it"):
+        save_results(result, ".")
+    with pytest.raises(DataError, match=r"is the current folder or holds it"):
+        save_results(result, "..")

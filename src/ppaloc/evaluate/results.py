@@ -126,6 +126,12 @@ def check_replaceable(out: str | Path) -> None:
     recover_folder(out)
     if not out.exists():
         return
+    here = Path.cwd().resolve()
+    if out.resolve() == here or out.resolve() in here.parents:
+        raise DataError(
+            f"--out {out} is the current folder or holds it, and a results folder is replaced "
+            "whole; give a new folder name such as results"
+        )
     if not out.is_dir():
         raise DataError(f"--out {out} is a file; give a folder for the results")
     foreign = sorted(n for n in os.listdir(out) if not _ours(n))
