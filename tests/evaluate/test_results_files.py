@@ -4,6 +4,7 @@ mixed or pushed out of range is refused in one line naming the file and the fiel
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -136,3 +137,12 @@ def test_the_current_folder_is_not_replaced(result, tmp_path, monkeypatch):
         save_results(result, ".")
     with pytest.raises(DataError, match=r"is the current folder or holds it"):
         save_results(result, "..")
+
+
+def test_show_from_inside_the_folder_keeps_the_folder_in_place(saved, monkeypatch):
+    from ppaloc.cli import main
+
+    monkeypatch.chdir(saved)
+    inode = os.stat(".").st_ino
+    assert main(["show", ".", "-q"]) == 0
+    assert os.stat(".").st_ino == inode and (saved / "report.html").is_file()

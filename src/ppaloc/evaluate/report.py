@@ -447,6 +447,11 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
     folder = Path(folder)
     if not folder.is_dir():
         load_results(folder)  # the one-line error for a missing folder; never create one
+    here = Path.cwd().resolve()
+    if folder.resolve() == here or folder.resolve() in here.parents:
+        # Swapping the folder a shell stands in would leave the shell in a deleted one:
+        # write the report's files one by one (each still atomic).
+        return write_report_files(folder, bench_path=bench_path)
     with update_folder(folder) as stage:
         try:
             write_report_files(stage, bench_path=bench_path)
