@@ -122,3 +122,28 @@ def test_engine_by_name_and_errors(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv("PPALOC_ENGINE")
     assert Scamp5(2, 2).engine.name == available_engines()[-1]
     assert set(available_engines()) <= set(ENGINES)
+
+
+@pytest.mark.parametrize(
+    ("noise", "op", "dsts", "srcs", "path"),
+    [
+        ("ideal", "bus", (s.B,), (s.A, s.C), "run_direct"),
+        ("ideal", "bus", (s.NEWS,), (s.A,), "run_direct"),
+        ("ideal", "bus2", (s.B, s.C), (s.A,), "run_ideal"),
+        ("ideal", "bus", (s.XW,), (s.A,), "run_ideal"),
+        ("typical", "bus", (s.B,), (s.A, s.XE), "run_noisy"),
+        ("typical", "bus3", (s.B, s.C, s.XS), (s.A,), "run_noisy"),
+    ],
+)
+def test_each_numpy_transfer_path_is_the_reference(noise, op, dsts, srcs, path) -> None:
+    """The numpy engine's three transfer builders, each on an ICW of its precondition."""
+    sims = []
+    for engine in ("reference", "numpy"):
+        sim = Scamp5(ROWS, COLS, noise=noise, seed=3, engine=engine)
+        start_state(sim, 5)
+        with sim.kernel() as k:
+            k.icw(op, dsts, srcs)
+        k.run()
+        sims.append(sim)
+    assert sims[1]._compile(make(op, dsts, srcs)).__name__ == path
+    same_bytes(*sims)

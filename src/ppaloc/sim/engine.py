@@ -60,6 +60,7 @@ _N_DIGITAL = len(DIGITAL_PLANES)
 _DECAYING = tuple(r.index for r in ANALOG_PLANES if r.role in ("general", "news"))
 
 Op = Callable[[], None]
+_Dest = tuple[np.ndarray, int, tuple | None]  # (plane, plane index, push slices or None)
 
 
 def _slices(dr: int, dc: int) -> tuple[tuple[slice, slice], tuple[slice, slice]]:
@@ -402,39 +403,54 @@ class Scamp5(ControllerMixin, ProgramAPI):
         return total
 
     def _op_transfer(self, ins: Instruction, parts: int) -> Op:
-        """``dst := -(sum of sources) / parts`` for every destination, FLAG-masked."""
-        a = self._a
-        total = self._sum_closure(ins.srcs)
-        t0, t1, t2 = self._t
-        noise = self.noise
-        ideal = noise.ideal
-        divided = parts > 1
-        mask_of = self._flag_mask
-        blend = self._blend
-        rows, cols = self.rows, self.cols
+        """``dst := -(sum of sources) / parts`` for every destination, FLAG-masked.
+
+        One of three builders, by precondition (each is cross-checked against the
+        reference engine by tests/sim/test_engines.py, which draws ICWs of every kind):
+        :meth:`_transfer_direct` (ideal, one destination that is a plane of this element),
+        :meth:`_transfer_ideal` (ideal, several destinations or a pushed one) and
+        :meth:`_transfer_noisy` (any ICW under noise).
+        """
+        value = self._bus_value(ins, parts)
+        dsts = self._transfer_destinations(ins)
+        if not self.noise.ideal:
+            return self._transfer_noisy(value, dsts, divided=parts > 1)
+        # Ideal values that cannot leave [-128, 127] need no clip: no source gives 0, and
+        # bus3 divides one source in [-128, 127] by 3.
+        clip = _clip if (ins.srcs and parts != 3) else _no_clip
+        if len(dsts) == 1 and dsts[0][2] is None:
+            return self._transfer_direct(value, dsts[0][0], clip)
+        return self._transfer_ideal(value, dsts, clip)
+
+    def _transfer_destinations(
+        self, ins: Instruction
+    ) -> list[tuple[np.ndarray, int, tuple | None]]:
+        """(plane, plane index, shift) per destination; shift: (out, in, edges) of a push."""
         dsts = []
         for d in ins.dsts:
             if d.role == "neighbour":
                 # NEWS[r] := value of the element r - offset(d) (the sender)
                 dr, dc = d.direction.offset
                 o, i = _slices(-dr, -dc)
-                edges = _edge_slices(-dr, -dc, rows, cols)
-                dsts.append((a[_NEWS_I], d.index, (o, i, edges)))
+                edges = _edge_slices(-dr, -dc, self.rows, self.cols)
+                dsts.append((self._a[_NEWS_I], d.index, (o, i, edges)))
             else:
-                dsts.append((a[d.index], d.index, None))
-        single = len(dsts) == 1
-        has_nbr_src = any(s.role == "neighbour" for s in ins.srcs)
-        direct_ok = (
-            ideal and single and dsts[0][2] is None and not (dsts[0][1] == _NEWS_I and has_nbr_src)
-        )
+                dsts.append((self._a[d.index], d.index, None))
+        return dsts
 
+    def _bus_value(self, ins: Instruction, parts: int) -> Callable[[np.ndarray], None]:
+        """``value(out)``: out := -(sum of sources) / parts (times the ICW's gain when noisy)."""
+        a = self._a
+        total = self._sum_closure(ins.srcs)
+        noise = self.noise
+        ideal = noise.ideal
+        has_nbr_src = any(s.role == "neighbour" for s in ins.srcs)
         local = [s for s in ins.srcs if s.role != "neighbour"]
         lone = a[local[0].index] if len(local) == 1 and not has_nbr_src else None
         m_half = np.float32(-0.5)
         d_parts = np.float32(-parts)
 
         def value(out: np.ndarray) -> None:
-            """out := -(sum of sources) / parts (times the transfer gain when noisy)."""
             src = out
             if lone is not None:
                 src = lone  # one local source: no copy, scale straight from it
@@ -449,26 +465,41 @@ class Scamp5(ControllerMixin, ProgramAPI):
             else:
                 np.divide(src, d_parts, out=out)
 
-        # Ideal values that cannot leave [-128, 127] need no clip: no source gives 0, and
-        # bus3 divides one source in [-128, 127] by 3.
-        clip = _clip if (not ideal or (ins.srcs and parts != 3)) else _no_clip
+        return value
 
-        if direct_ok:
-            dst0 = dsts[0][0]
+    def _transfer_direct(self, value, plane: np.ndarray, clip) -> Op:
+        """Precondition: ideal, one destination, a plane of the element itself (not pushed).
 
-            def run_direct() -> None:
-                mask = mask_of()
-                if mask is None:  # straight into the destination
-                    value(dst0)
-                    clip(dst0, _LO, _HI, out=dst0)
-                else:
-                    value(t0)
-                    clip(t0, _LO, _HI, out=t0)
-                    blend(dst0, t0, mask)
+        The value goes straight into the plane when FLAG is 1 everywhere, else through a
+        scratch plane and the exact bitwise blend. Safe in place: an ICW never reads the
+        register it writes (``isa.make``), so the destination is not a source.
+        """
+        t0 = self._t[0]
+        mask_of = self._flag_mask
+        blend = self._blend
 
-            return run_direct
+        def run_direct() -> None:
+            mask = mask_of()
+            if mask is None:  # straight into the destination
+                value(plane)
+                clip(plane, _LO, _HI, out=plane)
+            else:
+                value(t0)
+                clip(t0, _LO, _HI, out=t0)
+                blend(plane, t0, mask)
 
+        return run_direct
+
+    def _transfer_ideal(self, value, dsts: list, clip) -> Op:
+        """Precondition: ideal; several destinations (``bus2``, ``bus3``) or a pushed one.
+
+        One saturated value for every destination; a pushed destination receives its
+        sender's value (0 from an unflagged sender and beyond the edge).
+        """
+        t0, t1, t2 = self._t
         t0u, t1u = t0.view(np.uint32), t1.view(np.uint32)
+        mask_of = self._flag_mask
+        blend = self._blend
 
         def run_ideal() -> None:
             mask = mask_of()
@@ -494,6 +525,18 @@ class Scamp5(ControllerMixin, ProgramAPI):
                         t2[e] = 0
                     blend(plane, t2, mask)
 
+        return run_ideal
+
+    def _transfer_noisy(self, value, dsts: list, divided: bool) -> Op:
+        """Precondition: noisy. The value carries the ICW's transfer gain; each destination
+        adds its cell's offset and one temporal noise draw (in destination order), then
+        saturates and is FLAG-masked; a pushed one first receives its sender's value."""
+        t0, t1, t2 = self._t
+        noise = self.noise
+        mask_of = self._flag_mask
+        blend = self._blend
+        single = len(dsts) == 1
+
         def run_noisy() -> None:
             mask = mask_of()
             value(t0)
@@ -517,7 +560,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
                     _clip(val, _LO, _HI, out=val)
                     blend(plane, val, mask)
 
-        return run_ideal if ideal else run_noisy
+        return run_noisy
 
     def _op_where(self, ins: Instruction) -> Op:
         total = self._sum_closure(ins.srcs)
