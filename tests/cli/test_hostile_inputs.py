@@ -3,6 +3,8 @@ what is accepted, exit 1, and is refused before any work (so every case is fast)
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 import pytest
@@ -169,6 +171,24 @@ def test_hostile_input_is_one_line_exit_1(tmp_path, monkeypatch, capsys, argv, t
     assert err.startswith("ppaloc: error: ") and err.count("\n") == 1, err
     assert fragment in err
     assert not Path("r").exists() and not Path("m.npz").exists()  # refused before any work
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [*MAP, "--out", "pipe"],
+        [*EV, "--out", "pipe"],
+        ["localise", "m.npz", "f.png", "--out", "pipe"],
+        ["show", "r", "--out", "pipe"],
+    ],
+)
+def test_a_device_or_pipe_is_never_replaced(tmp_path, monkeypatch, capsys, argv):
+    # an atomic write replaces its target: a pipe (or /dev/null, as root) would be destroyed
+    monkeypatch.chdir(tmp_path)
+    os.mkfifo("pipe")
+    assert main(argv) == 1
+    assert "is a device, pipe or socket" in capsys.readouterr().err
+    assert stat.S_ISFIFO(os.stat("pipe").st_mode)
 
 
 def test_nul_in_a_dataset_spec_is_one_line(capsys):

@@ -3,8 +3,9 @@
 A run that fails only after minutes of work because ``--out`` cannot be written wastes the
 work; so each command checks its output first: the text is not empty and holds no NUL,
 no part of the way to it is a regular file, a folder target is not a file and a file
-target is not a folder, and the nearest existing folder accepts a new file (tried for
-real, so it holds for root and read-only mounts alike).
+target is not a folder, an existing device, pipe or socket (``/dev/null``) is never
+replaced, and the nearest existing folder accepts a new file (tried for real, so it holds
+for root and read-only mounts alike).
 """
 
 from __future__ import annotations
@@ -64,6 +65,11 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
     path = check_path_text(text, flag)
     what = "folder" if folder else "file"
     if path.exists() or path.is_symlink():
+        if path.exists() and not (path.is_dir() or path.is_file()):
+            raise PpalocError(
+                f"{flag} {path} is a device, pipe or socket, not a {what}; writing would "
+                f"replace it: give a {what} name"
+            )
         if folder and not path.is_dir():
             raise PpalocError(f"{flag} {path} is a file; give a folder for the results")
         if not folder and path.is_dir():
