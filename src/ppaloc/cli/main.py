@@ -213,7 +213,7 @@ class _SafePath(click.Path):
         path = Path(super().convert(value, param, ctx))
         if not self.want_dir and path.is_dir():
             raise PpalocError(f"{flag} {path} is a folder; give a file")
-        if not self.want_file and path.exists() and not path.is_dir():
+        if not self.want_file and path.is_file():
             raise PpalocError(f"{flag} {path} is a file; give a folder")
         return path
 
