@@ -88,7 +88,10 @@ class RunResult:
         s = self.session
         return {
             "kernels": [k.as_dict() for k in s.kernels.values()],
-            "frames": [{"frame": i, "modelled_us": us} for i, us in enumerate(s.frame_us)],
+            "frames": [
+                {"frame": i, "modelled_us": us, "chip_us": us - loop, "loop_us": loop}
+                for i, (us, loop) in enumerate(zip(s.frame_us, s.frame_loop_us, strict=True))
+            ],
             "total_us": s.sim.timing.now_us,
             "stages": s.sim.timing.report().as_dict(),
         }

@@ -107,8 +107,10 @@ class Session:
     warnings: list[str] = field(default_factory=list)
     loops: int = 0
     finished: bool = False
+    frame_loop_us: list[float] = field(default_factory=list)
     _bitstack: list | None = None
     _frame_start_us: float = 0.0
+    _loop_us: float = 0.0
 
     def __post_init__(self) -> None:
         if len(self.frames):
@@ -131,12 +133,27 @@ class Session:
             self.outputs.append({})
         self.outputs[self.frame][handle] = plane
 
+    def host(self, call: str, units: float = 0.0) -> None:
+        """Charge a host-side cost (loop control, output to the host) to stage ``loop``,
+        the boundary docs/sim-controller.md keeps apart from the chip's work."""
+        timing = self.sim.timing
+        t0 = timing.now_us
+        with self.sim.stage("loop"):
+            timing.charge_call(call, units)
+        self._loop_us += timing.now_us - t0
+
     def loop(self) -> int:
-        """``vs_frame_loop_control``: 1 to run the next frame, 0 when the frames are done."""
+        """``vs_frame_loop_control``: 1 to run the next frame, 0 when the frames are done.
+
+        A frame's modelled time runs from its loop control call to the next one.
+        """
         now = self.sim.timing.now_us
         if self.loops:
             self.frame_us.append(now - self._frame_start_us)
+            self.frame_loop_us.append(self._loop_us)
         self._frame_start_us = now
+        self._loop_us = 0.0
+        self.host("vs_frame_loop_control")
         self.loops += 1
         if self.loops > len(self.frames):
             self.finished = True
@@ -375,7 +392,14 @@ def _flags_addr(method: str, n_plain: int) -> Handler:
 
 def _output_image(s: Session, a: list, line: int) -> None:
     reg, handle = a
-    s._output(handle, s.sim.read(reg), line)
+    sim = s.sim
+    if reg.kind == "analog":  # the whole plane through the ADC, one byte per element
+        s.host("scan_areg", sim.rows * sim.cols)
+        s.host("usb_output", sim.rows * sim.cols)
+    else:
+        s.host("scan_dreg", sim.rows)
+        s.host("usb_output", sim.rows * sim.cols // 8)
+    s._output(handle, sim.read(reg), line)
 
 
 def _bitstack_begin(s: Session, a: list, line: int) -> None:
@@ -387,6 +411,8 @@ def _bitstack_bit(s: Session, a: list, line: int) -> None:
         raise ProgramError(
             f"{s.program}:{line}: a bit-stack bit before scamp5_output_bitstack_begin"
         )
+    s.host("scan_dreg", s.sim.rows)
+    s.host("usb_output", s.sim.rows * s.sim.cols // 8)
     s._bitstack[2].append(s.sim.read(a[0]))
 
 
@@ -421,6 +447,7 @@ def _slider(kind: str) -> Handler:
 
 
 def _post_text(s: Session, a: list, line: int) -> None:
+    s.host("usb_output", len(a[0].encode()))
     s.texts.append((s.frame, a[0]))
 
 
