@@ -21,6 +21,9 @@ from ppaloc.sim import (
     R3,
     R4,
     R5,
+    R6,
+    R7,
+    R8,
     R12,
     SELECT,
     XE,
@@ -32,6 +35,9 @@ from ppaloc.sim import (
     E,
     Scamp5,
     east,
+    north,
+    south,
+    west,
 )
 from ppaloc.sim.bits import decode, encode
 from ppaloc.sim.kernel import IcwStackWarning
@@ -78,6 +84,137 @@ GOLDEN = {
     "bus({A, B, C, D}, {E})": (lambda k: k.bus((A, B, C, D), (E,)), ["busn(A, B, C, D, E)"]),
     "bus({A, B}, {C, D, E})": (lambda k: k.bus((A, B), (C, D, E)), ["busn(A, B, C, D, E)"]),
 }
+
+
+# The macros of the earlier rounds, from the same headers (scamp5_kernel_api_macro_*.hpp).
+GOLDEN.update(
+    {
+        "res(A)": (lambda k: k.res(A), ["bus(NEWS)", "bus(A, NEWS)"]),
+        "res(A, B)": (lambda k: k.res(A, B), ["bus(NEWS)", "bus(A, NEWS)", "bus(B, NEWS)"]),
+        "mov(A, B)": (lambda k: k.mov(A, B), ["bus(NEWS, B)", "bus(A, NEWS)"]),
+        "add(A, B, C)": (lambda k: k.add(A, B, C), ["bus(NEWS, B, C)", "bus(A, NEWS)"]),
+        "add(A, B, C, D)": (lambda k: k.add(A, B, C, D), ["bus(NEWS, B, C, D)", "bus(A, NEWS)"]),
+        "sub(A, B, C)": (lambda k: k.sub(A, B, C), ["bus(NEWS, B)", "bus(A, NEWS, C)"]),
+        "neg(A, B)": (lambda k: k.neg(A, B), ["bus(NEWS)", "bus(A, NEWS, B)"]),
+        "abs(A, B)": (
+            lambda k: k.abs(A, B),
+            ["bus(NEWS)", "bus(A, NEWS, B)", "bus(NEWS, B)", "where(B)", "bus(A, NEWS)", "all()"],
+        ),
+        "divq(A, B)": (lambda k: k.divq(A, B), ["bus2(A, NEWS, B)", "bus(A, NEWS)"]),
+        "div(A, B, C)": (
+            lambda k: k.div(A, B, C),
+            ["bus2(A, B, C)", "bus(NEWS, C, B)", "bus(C, NEWS, A)", "bus2(A, B, C)", "bus(A, B)"],
+        ),
+        "div(A, B, C, D)": (
+            lambda k: k.div(A, B, C, D),
+            ["bus2(A, B, D)", "bus(NEWS, D, B)", "bus(C, NEWS, A)", "bus2(A, B, C)", "bus(A, B)"],
+        ),
+        "diva(A, B, C)": (
+            lambda k: k.diva(A, B, C),
+            ["bus2(B, C, A)", "bus(NEWS, B, A)", "bus(A, NEWS, C)", "bus2(B, C, A)", "bus(A, B)"],
+        ),
+        "movx(A, B, east)": (lambda k: k.movx(A, B, east), ["bus(XW, B)", "bus(A, NEWS)"]),
+        "movx(A, B, west)": (lambda k: k.movx(A, B, west), ["bus(XE, B)", "bus(A, NEWS)"]),
+        "movx(A, B, north)": (lambda k: k.movx(A, B, north), ["bus(XS, B)", "bus(A, NEWS)"]),
+        "movx(A, B, south)": (lambda k: k.movx(A, B, south), ["bus(XN, B)", "bus(A, NEWS)"]),
+        "mov(A, B, west)": (lambda k: k.mov(A, B, west), ["bus(XE, B)", "bus(A, NEWS)"]),
+        "sub(A, B, east, C)": (lambda k: k.sub(A, B, east, C), ["bus(NEWS, B)", "bus(A, XE, C)"]),
+        "sub(A, B, south, C)": (
+            lambda k: k.sub(A, B, south, C),
+            ["bus(NEWS, B)", "bus(A, XS, C)"],
+        ),
+        "mov2x(A, B, east, north)": (
+            lambda k: k.mov2x(A, B, east, north),
+            ["bus(XW, B)", "bus(A, XN)"],
+        ),
+        "addx(A, B, C, south)": (
+            lambda k: k.addx(A, B, C, south),
+            ["bus(XN, B, C)", "bus(A, NEWS)"],
+        ),
+        "add2x(A, B, C, west, south)": (
+            lambda k: k.add2x(A, B, C, west, south),
+            ["bus(XE, B, C)", "bus(A, XS)"],
+        ),
+        "subx(A, B, north, C)": (
+            lambda k: k.subx(A, B, north, C),
+            ["bus(XS, B)", "bus(A, NEWS, C)"],
+        ),
+        "sub2x(A, B, east, west, C)": (
+            lambda k: k.sub2x(A, B, east, west, C),
+            ["bus(XW, B)", "bus(A, XW, C)"],
+        ),
+        "get_image(A)": (
+            lambda k: k.get_image(A),
+            ["bus(NEWS, PIX)", "rpix()", "rpix()", "nop()", "bus(A, NEWS, PIX)"],
+        ),
+        "get_image(A, B)": (
+            lambda k: k.get_image(A, B),
+            ["bus(NEWS, PIX)", "bus(B, PIX)", "rpix()", "rpix()", "nop()", "bus(A, B, NEWS, PIX)"],
+        ),
+        "respix()": (lambda k: k.respix(), ["rpix()", "rpix()", "nop()"]),
+        "respix(A)": (
+            lambda k: k.respix(A),
+            ["rpix()", "rpix()", "nop()", "bus(NEWS, PIX)", "bus(A, NEWS)"],
+        ),
+        "getpix(A, B)": (lambda k: k.getpix(A, B), ["bus(NEWS, PIX)", "bus(A, NEWS, B)"]),
+        "getpix(A, B, C)": (
+            lambda k: k.getpix(A, B, C),
+            ["bus(B, PIX)", "bus(NEWS, PIX)", "bus(A, B, NEWS, C)"],
+        ),
+        "newsblur(A, B, 2)": (
+            lambda k: k.newsblur(A, B, 2),
+            ["bus(NEWS, B)", "bus(A, XE, XW, XN, XS)", "bus(NEWS, A)", "bus(A, XE, XW, XN, XS)"],
+        ),
+        "newsblurh(A, B)": (lambda k: k.newsblurh(A, B), ["bus(NEWS, B)", "bus(A, XE, XW)"]),
+        "newsblurv(A, B)": (lambda k: k.newsblurv(A, B), ["bus(NEWS, B)", "bus(A, XN, XS)"]),
+        "NOT(R5)": (lambda k: k.NOT(R5), ["LATCHN(R5)", "UNLATCH(R5)"]),
+        "OR(R5, R6)": (lambda k: k.OR(R5, R6), ["LATCH(R5, R6)", "UNLATCH(R5)"]),
+        "NOR(R5, R6)": (lambda k: k.NOR(R5, R6), ["LATCHN(R5, R6)", "UNLATCH(R5)"]),
+        "DNEWS(R5, R6, north | east)": (
+            lambda k: k.DNEWS(R5, R6, north | east),
+            ["CLR(R1, R2, R3, R4)", "SET(R3, R4)", "DNEWS0(R5, R6)"],
+        ),
+        "DNEWS(R5, R6, south | west, 1)": (
+            lambda k: k.DNEWS(R5, R6, south | west, 1),
+            ["CLR(R1, R2, R3, R4)", "SET(R1, R2)", "DNEWS1(R5, R6)"],
+        ),
+        "AND(R5, R6, R7)": (
+            lambda k: k.AND(R5, R6, R7),
+            ["SET(R0)", "NOT(R12, R6)", "NOT(R0, R7)", "NOR(R5, R0, R12)"],
+        ),
+        "NAND(R5, R6, R7)": (
+            lambda k: k.NAND(R5, R6, R7),
+            ["SET(R0)", "NOT(R12, R6)", "NOT(R0, R7)", "OR(R5, R0, R12)"],
+        ),
+        "ANDX(R5, R6, R7)": (
+            lambda k: k.ANDX(R5, R6, R7),
+            ["NOT(R0, R6)", "NOT(R6, R7)", "NOR(R5, R0, R6)"],
+        ),
+        "NANDX(R5, R6, R7)": (
+            lambda k: k.NANDX(R5, R6, R7),
+            ["NOT(R0, R6)", "NOT(R6, R7)", "OR(R5, R0, R6)"],
+        ),
+        "IMP(R5, R6, R7)": (lambda k: k.IMP(R5, R6, R7), ["NOT(R0, R7)", "OR(R5, R6, R0)"]),
+        "NIMP(R5, R6, R7)": (lambda k: k.NIMP(R5, R6, R7), ["NOT(R0, R7)", "NOR(R5, R6, R0)"]),
+        "XORX(R5, R6, R7)": (
+            lambda k: k.XORX(R5, R6, R7),
+            [
+                "NOT(R0, R7)",
+                "NOR(R5, R6, R0)",
+                "NOT(R0, R6)",
+                "NOR(R6, R7, R0)",
+                "LATCH(R5, R6)",
+                "UNLATCH(R5)",
+            ],
+        ),
+        "MUX(R5, R6, R7, R8)": (
+            lambda k: k.MUX(R5, R6, R7, R8),
+            ["SET(R0)", "MOV(R12, R8)", "MOV(R0, R6)", "MOV(R12, R7)", "MOV(R5, R12)"],
+        ),
+        "CLR_IF(R5, R6)": (lambda k: k.CLR_IF(R5, R6), ["NOT(R0, R5)", "NOR(R5, R0, R6)"]),
+        "REFRESH(R5)": (lambda k: k.REFRESH(R5), ["LATCH(R5)", "UNLATCH(R5)"]),
+    }
+)
 
 
 @pytest.mark.parametrize("name", list(GOLDEN))

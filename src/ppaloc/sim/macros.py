@@ -634,7 +634,10 @@ class ProgramAPI:
             raise RegisterMisuseError(
                 f"{call}: dir must be north, east, south, west or a | of them from ppaloc.sim"
             )
-        sels = tuple(DNEWS_SELECTORS[m] for m in Direction if m in dir)
+        # in the header's order (R1 south, R2 west, R3 north, R4 east): the same word
+        sels = tuple(
+            sorted((DNEWS_SELECTORS[m] for m in Direction if m in dir), key=lambda r: r.index)
+        )
         _forbid(call, (d0,), tuple(DNEWS_SELECTORS.values()), "DNEWS overwrites R1-R4 first")
         self._emit(
             expand(
