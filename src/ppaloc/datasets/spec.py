@@ -17,6 +17,7 @@ Grammar
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,6 +41,11 @@ INT_LIMIT = 2**63 - 1
 """Largest magnitude of any integer key (one a 64-bit array index can hold)."""
 
 
+_INT = re.compile(r"[+-]?[0-9]+")
+_FLOAT = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?|[+-]?(inf|nan)", re.I)
+"""Plain decimal numbers only (Python's int/float also take ``2_0``, ``０`` and hex floats)."""
+
+
 def _show(text: str, limit: int = 80) -> str:
     """``repr(text)``, cut to about ``limit`` characters (a message never echoes a huge value)."""
     shown = repr(text)
@@ -60,7 +66,7 @@ def _range_words(noun: str, minimum: float | None, maximum: float | None) -> str
 def _parse_int(text: str, minimum: int | None, maximum: int | None) -> int:
     words = _range_words("an integer", minimum, maximum)
     text = text.strip()
-    if len(text) > 40 or not text.isascii():  # no key takes 40 digits or non-ASCII ones
+    if len(text) > 40 or not _INT.fullmatch(text):  # no key takes 40 digits
         raise ValueError(words)
     try:
         value = int(text, 10)
@@ -78,7 +84,7 @@ def _parse_int(text: str, minimum: int | None, maximum: int | None) -> int:
 def _parse_float(text: str, minimum: float | None, maximum: float | None) -> float:
     words = _range_words("a number", minimum, maximum)
     text = text.strip()
-    if len(text) > 40 or not text.isascii():
+    if len(text) > 40 or not _FLOAT.fullmatch(text):
         raise ValueError(words)
     try:
         value = float(text)
