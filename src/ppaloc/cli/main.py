@@ -111,6 +111,8 @@ def _check_cli_values(values: dict[str, Any], source: Path | None) -> None:
     where = f" in {source}" if source else ""
     for key, types in _CLI_TYPES.items():
         value = values.get(key)
+        if isinstance(value, str) and key in ("method", "scheduler") and not value.strip():
+            raise PpalocError(f"{key} = '' is empty{where}: give a name, or leave it out")
         if value is None or isinstance(value, types):
             continue
         wanted = {"quiet": "true or false", "no_report": "true or false"}.get(key, "a string")
