@@ -6,8 +6,10 @@ Each case must be refused before any frame is rendered or read (fast, no hang).
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from ppaloc.datasets import load_dataset
+from ppaloc.datasets import KINDS, load_dataset, parse_dataset_spec
 from ppaloc.errors import DataError
 
 CASES = [
@@ -101,3 +103,29 @@ def test_largest_accepted_values_load_lazily() -> None:
     ds = load_dataset("synthetic:?places=40&size=1024&stops=40&extra=40&spacing=100&speed=10")
     assert len(ds.reference) == 40
     assert load_dataset("synthetic:?places=20&seed=9223372036854775807&sync=1").query
+
+
+_KEYS = ["places", "size", "spacing", "speed", "stops", "extra", "offset", "seed", "turns"]
+_VALUES = ["", "0", "-1", "1e308", "nan", "inf", "2_0", "0x10", "9" * 30, "１", "x", "20", "0.5"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.one_of(
+        st.text(max_size=60),
+        st.lists(
+            st.tuples(
+                st.sampled_from(_KEYS) | st.text(max_size=6),
+                st.sampled_from(_VALUES) | st.text(max_size=8),
+            ),
+            max_size=4,
+        ).map(lambda kv: "synthetic:?" + "&".join(f"{k}={v}" for k, v in kv)),
+    )
+)
+def test_any_spec_text_parses_or_is_one_dataset_spec_error(text: str) -> None:
+    try:
+        spec = parse_dataset_spec(text)
+    except DataError as exc:
+        assert "\n" not in str(exc) and len(str(exc)) < 1000
+    else:
+        assert spec.kind in KINDS
