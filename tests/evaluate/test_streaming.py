@@ -22,36 +22,53 @@ from ppaloc.localise.base import Estimate
 from ppaloc.methods import available_methods, make_localiser
 from ppaloc.topomap import TopoMap
 
-ALIVE_BOUND = DEFAULT_CACHE + 4
-"""Frames a streaming run may hold at once: one sequence's cache and the frames in use."""
+ALIVE_BOUND = 2 * DEFAULT_CACHE + 4
+"""Sensor frames a streaming run may hold at once: the caches of its two traversals (the
+last few frames of each) and the frames in use; the routes here are longer (240 frames)."""
 
 HOST_METHODS = [m for m in available_methods() if not m.startswith("onsensor")]
 
 
-class Watched:
-    """A generated traversal: frame ``i`` (a (256, 256) sensor frame) made on request.
+class Alive:
+    """Counts the arrays it is shown (``made``) and the most still referenced at once."""
 
-    ``made`` counts the frames made, ``peak`` the most alive at once; ``interrupt_at``
-    raises KeyboardInterrupt when that frame is requested (a Ctrl-C between frames).
-    """
+    def __init__(self) -> None:
+        self.made = self.alive = self.peak = 0
+
+    def track(self, a: np.ndarray) -> np.ndarray:
+        self.made += 1
+        self.alive += 1
+        self.peak = max(self.peak, self.alive)
+        weakref.finalize(a, self._gone)
+        return a
+
+    def _gone(self) -> None:
+        self.alive -= 1
+
+
+class Watched(Alive):
+    """A generated traversal: frame ``i`` (128x128, so the front-end resizes it) made on
+    request; ``interrupt_at`` raises KeyboardInterrupt when that frame is requested (a
+    Ctrl-C between frames)."""
 
     def __init__(self, seed: int, interrupt_at: int | None = None) -> None:
+        super().__init__()
         self.seed, self.interrupt_at = seed, interrupt_at
-        self.made = self.alive = self.peak = 0
 
     def __call__(self, i: int) -> np.ndarray:
         if i == self.interrupt_at:
             raise KeyboardInterrupt
         rng = np.random.default_rng([self.seed, i // 2])  # two frames per place
-        frame = np.repeat(np.repeat(rng.integers(0, 256, (16, 16), np.uint8), 16, 0), 16, 1)
-        self.made += 1
-        self.alive += 1
-        self.peak = max(self.peak, self.alive)
-        weakref.finalize(frame, self._gone)
-        return frame
+        blocks = rng.integers(0, 256, (16, 16), np.uint8)
+        return self.track(np.kron(blocks, np.ones((8, 8), np.uint8)))
 
-    def _gone(self) -> None:
-        self.alive -= 1
+
+@pytest.fixture(autouse=True)
+def sensor(monkeypatch) -> Alive:
+    """Every sensor frame a run makes (the front-end's outputs), counted while alive."""
+    alive, real = Alive(), run_module.to_sensor
+    monkeypatch.setattr(run_module, "to_sensor", lambda frame: alive.track(real(frame)))
+    return alive
 
 
 def watched_dataset(n: int = 120, **kw) -> tuple[RouteDataset, Watched, Watched]:
@@ -85,44 +102,42 @@ class Pacer:
         return Estimate(node=self.steps - 1, score=1.0)
 
 
-def test_a_run_reads_each_frame_when_it_is_consumed_and_drops_it():
+def test_a_run_reads_each_frame_when_it_is_consumed_and_drops_it(sensor):
     ds, ref, qry = watched_dataset()
     run = run_evaluation(
         EvaluateConfig(), dataset=ds, localisers={"pacer": Pacer(ref, qry)}, progress=False
     )
     assert run.runs["pacer"].node.tolist() == list(range(120))
     assert (ref.made, qry.made) == (120, 120)  # each frame read once, in order
-    assert max(ref.peak, qry.peak) <= ALIVE_BOUND
+    assert sensor.made == 240 and sensor.peak <= ALIVE_BOUND
 
 
 @pytest.mark.parametrize("method", HOST_METHODS)
-def test_every_host_method_maps_and_localises_a_stream(method):
+def test_every_host_method_maps_and_localises_a_stream(method, sensor):
     """build_map keeps descriptors, not frames; a run keeps numbers, not estimates."""
-    ds, ref, qry = watched_dataset()
+    ds, _, _ = watched_dataset()
     loc = make_localiser(method, **({"seed": 0} if method == "particle-filter" else {}))
     cfg = EvaluateConfig(record_weights=False)
     run_evaluation(cfg, dataset=ds, localisers={method: loc}, progress=False)
-    assert ref.peak <= ALIVE_BOUND, f"{method} held {ref.peak} reference frames at once"
-    assert qry.peak <= ALIVE_BOUND, f"{method} held {qry.peak} query frames at once"
+    assert sensor.made == 240, f"{method} read {sensor.made} frames for 240"
+    assert sensor.peak <= ALIVE_BOUND, f"{method} held {sensor.peak} frames at once"
 
 
-def test_several_methods_share_a_short_route_and_stream_a_long_one(monkeypatch):
-    ds, ref, qry = watched_dataset()
-    pacers = {"a": Pacer(ref, qry), "b": Pacer(ref, qry)}
-    cfg = EvaluateConfig()
-    run_evaluation(cfg, dataset=ds, localisers={"a": pacers["a"]}, progress=False)
-    assert ref.made == 120  # one method: nothing kept for a next one
+def test_several_methods_share_a_short_route_and_stream_a_long_one(monkeypatch, sensor):
+    def two() -> dict:
+        return {"a": make_localiser("weighted-node-lbp"), "b": make_localiser("single-frame")}
 
     ds, ref, qry = watched_dataset()
-    loc_a, loc_b = make_localiser("weighted-node-lbp"), make_localiser("single-frame")
-    run_evaluation(cfg, dataset=ds, localisers={"a": loc_a, "b": loc_b}, progress=False)
-    assert (ref.made, qry.made) == (120, 120)  # fits SHARED_FRAMES_BYTES: read once
+    run_evaluation(EvaluateConfig(), dataset=ds, localisers=two(), progress=False)
+    assert (ref.made, qry.made) == (120, 120)  # fits SHARED_FRAMES_BYTES: read once, kept
+    assert sensor.peak >= 240 and sensor.alive == 0  # and let go with the run
 
     monkeypatch.setattr(run_module, "SHARED_FRAMES_BYTES", 0)
+    sensor.peak = 0
     ds, ref, qry = watched_dataset()
-    run_evaluation(cfg, dataset=ds, localisers={"a": loc_a, "b": loc_b}, progress=False)
+    run_evaluation(EvaluateConfig(), dataset=ds, localisers=two(), progress=False)
     assert (ref.made, qry.made) == (240, 240)  # too long to keep: each method reads again
-    assert max(ref.peak, qry.peak) <= ALIVE_BOUND
+    assert sensor.peak <= ALIVE_BOUND
 
 
 class Weighing(Pacer):
@@ -130,13 +145,11 @@ class Weighing(Pacer):
 
     def __init__(self, ref: Watched, qry: Watched) -> None:
         super().__init__(ref, qry)
-        self.weights = Watched(2)
+        self.weights = Alive()
 
     def step(self, frame: np.ndarray) -> Estimate:
         est = super().step(frame)
-        w = self.weights(self.steps).ravel()[:120].astype(np.float32)
-        weakref.finalize(w, self.weights._gone)
-        self.weights.alive += 1
+        w = self.weights.track(np.full(120, float(self.steps), np.float32))
         return Estimate(node=est.node, score=est.score, weights=w)
 
 
@@ -175,11 +188,12 @@ def watched_spec(monkeypatch):
     return made
 
 
-def test_map_command_streams_the_reference(watched_spec, tmp_path):
+def test_map_command_streams_the_reference(watched_spec, tmp_path, sensor):
     from ppaloc.cli.main import main
 
-    assert main(["map", "w", "-m", "weighted-node-lbp", "-q", "--out", str(tmp_path / "m.npz")]) == 0
-    assert watched_spec["ref"].made == 60 and watched_spec["ref"].peak <= ALIVE_BOUND
+    args = ["map", "w", "-m", "weighted-node-lbp", "-q", "--out", str(tmp_path / "m.npz")]
+    assert main(args) == 0
+    assert watched_spec["ref"].made == 60 and sensor.peak <= ALIVE_BOUND
 
 
 @pytest.mark.parametrize("side", ["ref", "query"])
@@ -237,3 +251,58 @@ def test_ctrl_c_during_localise_keeps_the_earlier_csv(tmp_path, capsys, monkeypa
     assert capsys.readouterr().err.strip() == "ppaloc: interrupted"
     assert len(calls) == 5 and csv.read_text() == "earlier\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["est.csv", "frames", "m.npz"]
+
+
+def test_loading_a_synthetic_route_renders_no_frame(monkeypatch):
+    from ppaloc.datasets import load_dataset
+    from ppaloc.datasets.synthetic.render import Renderer
+
+    rendered: list[float] = []
+    real = Renderer.render
+
+    def counted(self, s_cam, *args, **kw):
+        rendered.append(s_cam)
+        return real(self, s_cam, *args, **kw)
+
+    monkeypatch.setattr(Renderer, "render", counted)
+    ds = load_dataset("synthetic:?places=5000&seed=1&size=32")
+    assert rendered == []  # 5,000 places and their query, not one frame drawn yet
+    for frame in ds.reference[:3]:
+        assert frame.shape == (32, 32)
+    assert len(rendered) == 3
+
+
+@pytest.mark.slow
+def test_sigint_stops_a_long_evaluation_within_a_second(tmp_path):
+    """A real Ctrl-C (SIGINT) while the map is built: one line, exit 130, nothing written."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run"
+    exe = Path(sys.executable).with_name("ppaloc")
+    spec = "synthetic:?places=3000&seed=1"
+    args = [str(exe), "-v", "evaluate", "-d", spec, "-m", "weighted-node-lbp", "--out", str(out)]
+    proc = subprocess.Popen(args, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        lines = []
+        for line in proc.stderr:  # wait until the frames are being read
+            lines.append(line)
+            if "mapping 3000 reference frames" in line:
+                break
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        t0 = time.perf_counter()
+        for line in proc.stderr:  # the message comes as soon as the current frame is done
+            lines.append(line)
+            if line.strip():
+                break
+        waited = time.perf_counter() - t0
+        rest = proc.communicate(timeout=60)[1]
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, "".join(lines) + rest
+    assert lines[-1].strip() == "ppaloc: interrupted" and not rest.strip(), "".join(lines) + rest
+    assert waited < 1.0, f"took {waited:.2f} s to stop"
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
