@@ -492,8 +492,9 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     if path.is_dir():
         return _show_results(path, quiet=quiet)
     if not path.is_file():
+        state = "is not a regular file" if path.exists() else "does not exist"
         raise DataError(
-            f"{path} does not exist; give a results folder, a map (.npz) or register planes (.npz)"
+            f"{path} {state}; give a results folder, a map (.npz) or register planes (.npz)"
         )
     try:
         with zipfile.ZipFile(path) as archive:
