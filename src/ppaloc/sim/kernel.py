@@ -9,14 +9,13 @@ The ICW stack: as in the SCAMP-5 library, recorded kernels keep their ICWs on on
 kernel there lives for the whole program; here a kernel leaves the stack when it is garbage
 collected, as a dynamic kernel's destructor frees it, or at the end of its recording after
 ``k.move_to_heap(True)``). An ICW recorded when the stack is full is dropped, as the
-library drops it; the kernel then warns once (:class:`IcwStackWarning`) and ``k.dropped``
-counts the ICWs lost.
+library drops it, silently as there: ``k.dropped`` counts the ICWs lost and ``repr(k)``
+shows them.
 """
 
 from __future__ import annotations
 
 import itertools
-import warnings
 import weakref
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
@@ -28,14 +27,10 @@ from ppaloc.sim.macros import ProgramAPI
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["MAX_ICWS", "IcwStack", "IcwStackWarning", "Kernel", "icw_stack"]
+__all__ = ["MAX_ICWS", "IcwStack", "Kernel", "icw_stack"]
 
 #: Capacity of the SCAMP-5 ICW stack (``ICW_STACK_CAP`` of the kernel API).
 MAX_ICWS = 1024
-
-
-class IcwStackWarning(UserWarning):
-    """ICWs were dropped because the shared ICW stack was full (the library drops them)."""
 
 
 class IcwStack:
@@ -129,15 +124,6 @@ class Kernel(ProgramAPI):
             stack.release(self._stack_key)
         if exc_type is None:
             self._sealed = True
-            if self.dropped:
-                warnings.warn(
-                    f"kernel dropped {self.dropped} of its {len(self) + self.dropped} ICWs: "
-                    f"the ICW stack holds {MAX_ICWS}, shared by every live kernel "
-                    f"({stack.used - (0 if self._heap else len(self))} held by others); "
-                    "split the work, free kernels no longer needed, or k.move_to_heap(True)",
-                    IcwStackWarning,
-                    stacklevel=2,
-                )
             self.run()
         else:
             self._failed = True
@@ -181,7 +167,8 @@ class Kernel(ProgramAPI):
 
     def __repr__(self) -> str:
         state = "recorded" if self._sealed else "recording"
-        return f"Kernel({len(self._recorded)} ICWs, {state}, {self.counts})"
+        lost = f", {self.dropped} dropped (ICW stack full)" if self.dropped else ""
+        return f"Kernel({len(self._recorded)} ICWs{lost}, {state}, {self.counts})"
 
     def __len__(self) -> int:
         return len(self._recorded)
