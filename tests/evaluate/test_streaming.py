@@ -306,3 +306,20 @@ def test_sigint_stops_a_long_evaluation_within_a_second(tmp_path):
     assert lines[-1].strip() == "ppaloc: interrupted" and not rest.strip(), "".join(lines) + rest
     assert waited < 1.0, f"took {waited:.2f} s to stop"
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_closes_the_progress_bar(monkeypatch, capsys):
+    import sys
+    import threading
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # the bar draws only on a terminal
+    before = set(threading.enumerate())
+    ds, _, qry = watched_dataset(interrupt_at=50)
+    loc = make_localiser("weighted-node-lbp")
+    with pytest.raises(KeyboardInterrupt):
+        run_evaluation(EvaluateConfig(), dataset=ds, localisers={"lbp": loc}, progress=True)
+    assert qry.made == 50
+    for thread in set(threading.enumerate()) - before:  # the bar's refresh thread, told to stop
+        thread.join(timeout=2.0)
+        assert not thread.is_alive(), f"{thread.name} still runs after the interrupt"
+    assert "\x1b[?25h" in capsys.readouterr().err  # the bar closed: the cursor shown again
