@@ -29,6 +29,7 @@ from ppaloc.methods import make_localiser
 __all__ = ["load_bench", "run_bench", "save_bench"]
 
 _POOL = 32
+MAX_BENCH_BYTES = 64 << 20  # a bench file is a few kB; anything this large is not one
 _PROBE = 256  # nodes of the trial build that budgets a first size above it
 
 log = logging.getLogger(__name__)
@@ -167,11 +168,30 @@ def load_bench(path: str | Path) -> dict[str, Any] | None:
     if not path.is_file():
         return None
     try:
-        bench = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
+        if path.stat().st_size > MAX_BENCH_BYTES:
+            raise DataError(
+                f"{path} is larger than {MAX_BENCH_BYTES} bytes, not a bench file; delete it "
+                "or run `ppaloc bench` again"
+            )
+        bench = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError) as exc:
+        reason = "nested too deeply" if isinstance(exc, RecursionError) else type(exc).__name__
         raise DataError(
-            f"cannot read {path} ({exc}); delete it or run `ppaloc bench` again"
+            f"cannot read {path} ({reason}); delete it or run `ppaloc bench` again"
         ) from None
     if not isinstance(bench, dict) or not isinstance(bench.get("rows"), list):
         raise DataError(f"{path} has no 'rows' list; it was not written by `ppaloc bench`")
+    for i, row in enumerate(bench["rows"]):
+        ok = isinstance(row, dict) and isinstance(row.get("method"), str)
+        nodes = row.get("n_nodes") if isinstance(row, dict) else None
+        if not ok or not isinstance(nodes, int) or isinstance(nodes, bool) or nodes < 1:
+            raise DataError(
+                f"{path}: row {i} is not a bench row (method, n_nodes, ...); delete the file or "
+                "run `ppaloc bench` again"
+            )
+        times = [row.get(k) for k in ("latency_ms_median", "latency_ms_p95", "build_s")]
+        if "skipped" not in row and not all(
+            isinstance(t, int | float) and not isinstance(t, bool) and t >= 0 for t in times
+        ):
+            raise DataError(f"{path}: row {i} lacks its timings; run `ppaloc bench` again")
     return bench
