@@ -147,3 +147,23 @@ def test_each_numpy_transfer_path_is_the_reference(noise, op, dsts, srcs, path) 
         sims.append(sim)
     assert sims[1]._compile(make(op, dsts, srcs)).__name__ == path
     same_bytes(*sims)
+
+
+@pytest.mark.skipif("compiled" not in available_engines(), reason="numba is not installed")
+@pytest.mark.parametrize("mode", ["ideal", "typical"])
+def test_dead_scratch_writes_are_skipped_with_the_same_bytes(mode: str) -> None:
+    from ppaloc.sim.engines.compiled import dead_writes
+
+    W, R = ("bus", (s.NEWS,), (s.A,)), ("bus", (s.B,), (s.NEWS,))
+    where, flag_all = ("where", (), (s.C,)), ("all", (), ())
+    cases = {
+        (W, W, R): [0],  # overwritten before any read
+        (W, R, W, R): [1],  # NEWS read in between (B, written twice, is not)
+        (W, where, W, R): [],  # FLAG may have shrunk: the second write covers less
+        (W, flag_all, ("bus", (s.XE,), (s.C,)), R): [0],  # all only grows FLAG; a push too
+    }
+    for program, dead in cases.items():
+        assert dead_writes([make(*ins) for ins in program]) == dead, program
+        same_bytes(
+            run("compiled", mode, [list(program)], 9), run("reference", mode, [list(program)], 9)
+        )

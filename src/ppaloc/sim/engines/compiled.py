@@ -103,7 +103,34 @@ def encode(instructions: list[Instruction]) -> tuple[np.ndarray, int]:
         row[_DRAW] = draw
         row[_EDGE] = ins.op == "DNEWS1"
         draw += _draws(ins)
+    for n in dead_writes(instructions):
+        prog[n, _OP] = _NOP  # its noise draws stay counted: later draws keep their index
     return prog, draw
+
+
+def dead_writes(instructions: list[Instruction]) -> list[int]:
+    """Indices of one-destination transfers whose plane is overwritten before it is read.
+
+    A later write to the same plane covers every element an earlier one wrote if FLAG
+    has not shrunk in between (``where``/``WHERE`` may shrink it; ``all`` only grows it),
+    and the earlier value is lost if no ICW between reads that plane (NEWS through any
+    alias). Typical: a macro's NEWS scratch written again by the next macro. The kernel's
+    end is a read of everything.
+    """
+    killed: set[int] = set()  # planes fully overwritten later, before any read
+    dead = []
+    for n in range(len(instructions) - 1, -1, -1):
+        ins = instructions[n]
+        if ins.op in ("where", "WHERE"):
+            killed.clear()
+        if ins.op in _TRANSFERS:
+            planes = {d.index for d in ins.dsts}
+            if len(ins.dsts) == 1 and planes <= killed:
+                dead.append(n)
+            killed |= planes
+        if ins.spec.src_kind == "analog":
+            killed -= {r.index for r in ins.srcs}
+    return sorted(dead)
 
 
 class CompiledEngine:
