@@ -227,3 +227,12 @@ def test_select_point_sets_the_parts_too() -> None:
     sim.select_point(1, 2)
     sim.select_rowx(0b10)  # rows 1 and 3 of column 2
     assert np.argwhere(sim.read(SELECT)).tolist() == [[1, 2], [3, 2]]
+
+
+def test_digital_shift_takes_the_headers_refresh_interval() -> None:
+    sim = Scamp5(3, 3)
+    sim.write(R5, np.eye(3, dtype=bool))
+    sim.scamp5_shift(R5, 1, 0, 0, 4)
+    assert sim.read(R5).astype(int).tolist() == [[0, 1, 0], [0, 0, 1], [0, 0, 0]]
+    with pytest.raises(SimulatorError, match="refresh=0"):
+        sim.shift(R5, 1, 0, 0, 0)

@@ -497,7 +497,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Shifts
 
-    def shift(self, reg: Register, h: int, v: int, boundary: int = 0) -> None:
+    def shift(self, reg: Register, h: int, v: int, boundary: int = 0, refresh: int = 2) -> None:
         """``scamp5_shift``: move a whole register plane by (h, v) elements.
 
         Parameters
@@ -511,6 +511,11 @@ class ControllerMixin(DrawMixin):
         boundary : int
             Digital registers only: the value (0 or 1) shifted in at the edge. Analogue
             registers shift in 0.
+        refresh : int
+            Digital registers only: the header's refresh interval (a ``REFRESH`` every
+            ``refresh`` steps, >= 1). Ideal digital registers do not degrade within a
+            shift, so it changes nothing here, and the modelled time is that of the
+            default 2.
 
         Notes
         -----
@@ -535,6 +540,7 @@ class ControllerMixin(DrawMixin):
         h = _as_int(call, "h", h, -(self.cols - 1), self.cols - 1)
         v = _as_int(call, "v", v, -(self.rows - 1), self.rows - 1)
         b = _as_int(call, "boundary", boundary, 0, 1)
+        _as_int(call, "refresh", refresh, 1, 1 << 16)
         self._catch_up()  # shift the values as they are now
         if reg.kind == "analog":
             self._areg(call, reg)
