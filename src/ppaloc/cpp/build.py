@@ -3,7 +3,8 @@
 :func:`check_source` names every API call the simulator does not model, with its line,
 before anything is compiled; :func:`compile_program` runs the system C++ compiler (``g++``,
 or ``$CXX``) with AddressSanitizer, so an out-of-bounds write stops the program at once,
-and keeps the executable under a hash of everything that went into it.
+and keeps the executable under a hash of everything that went into it (the file's name,
+not its folder: the same program compiled from a temporary copy hits the cache).
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
         "\0".join(
             [text, _shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(),
              (gen / "ppaloc_gen_consts.hpp").read_text(), " ".join(FLAGS), version,
-             str(path.resolve())]
+             path.name]
         ).encode()
     ).hexdigest()[:24]  # fmt: skip
     exe = root / f"prog-{key}"
@@ -187,4 +188,15 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
             f"{path} does not compile:\n{_compiler_message(done.stderr + done.stdout)}"
         )
     os.replace(tmp, exe)
+    _prune(root)
     return exe
+
+
+#: Compiled programs kept in the cache (the least recently built beyond this are removed).
+KEEP = 64
+
+
+def _prune(root: Path) -> None:
+    progs = sorted(root.glob("prog-*"), key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in progs[KEEP:]:
+        old.unlink(missing_ok=True)

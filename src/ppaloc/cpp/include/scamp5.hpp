@@ -73,7 +73,9 @@ struct Arg {
 
 [[noreturn]] inline void fail(const Loc& loc, const std::string& msg) {
     std::fflush(stdout);
-    std::fprintf(stderr, "ppaloc-shim: %s:%u: %s\n", loc.file, loc.line, msg.c_str());
+    const char* name = std::strrchr(loc.file, '/');  // the file's name, as messages give it
+    std::fprintf(stderr, "ppaloc-shim: %s:%u: %s\n", name ? name + 1 : loc.file, loc.line,
+                 msg.c_str());
     std::_Exit(SHIM_EXIT);
 }
 
