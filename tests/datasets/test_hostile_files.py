@@ -4,6 +4,7 @@ tells a damaged file from one that needs ``trust=1``, and bounds sizes before al
 from __future__ import annotations
 
 import pickle
+import re
 import struct
 import zlib
 from pathlib import Path
@@ -41,13 +42,13 @@ def _png_claiming(path: Path, width: int, height: int) -> Path:
 @pytest.mark.parametrize(
     ("size", "fragment"),
     [
-        ((100_000, 100_000), "claims more pixels than an image may have"),
+        ((100_000, 100_000), "claims too many pixels (10000000000; at most 50000000)"),
         ((8000, 8000), "claims 8000 x 8000 pixels, outside 1 to 50000000"),
     ],
 )
 def test_image_bomb_names_the_file(tmp_path, size, fragment):
     path = _png_claiming(tmp_path / "bomb.png", *size)
-    with pytest.raises(DataError, match=fragment) as info:
+    with pytest.raises(DataError, match=re.escape(fragment)) as info:
         read_grey(path)
     assert str(path) in str(info.value)
 
@@ -57,7 +58,7 @@ def test_image_bomb_in_a_folder_run_names_the_file(write_frames, tmp_path):
     write_frames(tmp_path / "qry", [10, 20])
     _png_claiming(tmp_path / "qry" / "Image002.png", 100_000, 100_000)
     ds = load_dataset(f"folder:{tmp_path / 'ref'},{tmp_path / 'qry'}")
-    with pytest.raises(DataError, match=r"qry/Image002\.png claims more pixels"):
+    with pytest.raises(DataError, match=r"qry/Image002\.png claims too many pixels"):
         list(ds.query)
 
 

@@ -169,9 +169,11 @@ def read_grey(path: Path) -> np.ndarray:
         raise DataError(f"image {path} does not exist (was it moved after listing?)") from None
     except IsADirectoryError:
         raise DataError(f"image {path} is a folder, not an image file") from None
-    except Image.DecompressionBombError as exc:
+    except Image.DecompressionBombError as exc:  # Pillow refuses it in open()
+        claimed = re.search(r"\((\d+) pixels\)", str(exc))
+        count = f"{claimed.group(1)}; " if claimed else ""
         raise DataError(
-            f"image {path} claims more pixels than an image may have ({_reason(exc)}); "
+            f"image {path} claims too many pixels ({count}at most {MAX_IMAGE_PIXELS}); "
             "replace the file or remove it from the folder"
         ) from None
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError) as exc:

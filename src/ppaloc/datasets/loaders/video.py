@@ -60,7 +60,10 @@ class _Decoder:
         try:
             self.container = av.open(str(self.path))
             if not self.container.streams.video:
-                raise DataError(f"{self.path} holds no video stream")
+                raise DataError(
+                    f"{self.path} holds no video stream (not a video, or cut short); give a "
+                    "complete video file"
+                )
             context = self.container.streams.video[0].codec_context
             w, h = int(context.width or 0), int(context.height or 0)
             if w * h > MAX_IMAGE_PIXELS:
