@@ -1,4 +1,5 @@
-"""Invariants of the shared primitive definitions and of the ICW bit encoding."""
+"""Invariants of the shared primitive definitions, the ICW bit encoding and the drawing
+geometry."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 from ppaloc.sim import OPS
 from ppaloc.sim.bits import decode, encode
+from ppaloc.sim.draw import circle_points, line_points
 from ppaloc.sim.isa import make
 from ppaloc.sim.registers import (
     ANALOG_PLANES,
@@ -100,3 +102,23 @@ def test_every_encoded_word_decodes_back(ins) -> None:
     assert same_op
     assert frozenset(back.dsts) == frozenset(ins.dsts)
     assert frozenset(back.srcs) == frozenset(ins.srcs)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(-20, 20), st.integers(-20, 20), st.integers(-20, 20), st.integers(-20, 20))
+def test_lines_are_8_connected_from_end_to_end(r0, c0, r1, c1) -> None:
+    rows, cols = line_points(r0, c0, r1, c1)
+    assert (rows[0], cols[0], rows[-1], cols[-1]) == (r0, c0, r1, c1)
+    assert len(rows) == max(abs(r1 - r0), abs(c1 - c0)) + 1
+    assert (np.abs(np.diff(rows)) <= 1).all() and (np.abs(np.diff(cols)) <= 1).all()
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(-5, 5), st.integers(-5, 5), st.integers(0, 30))
+def test_circle_points_lie_on_the_radius(r, c, radius) -> None:
+    rows, cols = circle_points(r, c, radius)
+    dist = np.hypot(rows - r, cols - c)
+    assert (np.abs(dist - radius) < 1).all()
+    assert {(r + radius, c), (r - radius, c), (r, c + radius), (r, c - radius)} <= set(
+        zip(rows.tolist(), cols.tolist(), strict=True)
+    )
