@@ -43,6 +43,7 @@ __all__ = [
     "CSV_COLUMNS",
     "MAX_RESULT_BYTES",
     "array_file",
+    "check_replaceable",
     "load_results",
     "results_folder",
     "save_results",
@@ -105,10 +106,6 @@ _OWN_NAMES = frozenset(
 )
 """What ppaloc writes at the top of a results folder (matrix runs add ``NN-<spec>/``)."""
 _CARRIED = ("bench.json", "bench.csv")  # a separate `ppaloc bench --out` into the folder
-
-
-def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
-    return npz_bytes(arrays, compress=True)
 
 
 def _ours(name: str) -> bool:
@@ -210,7 +207,7 @@ def write_results(result: RunResult, out: str | Path) -> Path:
         arrays["curve_thresholds"] = run.metrics.curve.thresholds
         arrays["curve_precision"] = run.metrics.curve.precision
         arrays["curve_recall"] = run.metrics.curve.recall
-        write_bytes(out / rel, _npz_bytes(arrays))
+        write_bytes(out / rel, npz_bytes(arrays))
         written.append(rel)
         if run.registers:
             names = list(run.registers)
@@ -218,7 +215,7 @@ def write_results(result: RunResult, out: str | Path) -> Path:
             planes["labels"] = np.array(names)
             reg_rel = rel.replace(".npz", ".registers.npz")
             summary["methods"][name]["registers"] = reg_rel
-            write_bytes(out / reg_rel, _npz_bytes(planes))
+            write_bytes(out / reg_rel, npz_bytes(planes))
             written.append(reg_rel)
     gt = result.ground_truth
     ds_arrays = {
@@ -229,7 +226,7 @@ def write_results(result: RunResult, out: str | Path) -> Path:
         value = getattr(result, key)
         if value is not None:
             ds_arrays[key] = np.asarray(value)
-    write_bytes(out / "arrays" / "_dataset.npz", _npz_bytes(ds_arrays))
+    write_bytes(out / "arrays" / "_dataset.npz", npz_bytes(ds_arrays))
     written.append("arrays/_dataset.npz")
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
