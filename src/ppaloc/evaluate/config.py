@@ -92,12 +92,12 @@ def check_limits(values: Mapping[str, Any], *, source: str = "") -> None:
         items = value if isinstance(value, list | tuple) else [value]
         real = isinstance(low, float)
         noun = "a number" if real else "an integer"
+        bound = f"[{low:g}, {high:g}]" if real else f"[{int(low)}, {int(high)}]"
         for item in items:
             number = isinstance(item, int | float) and not isinstance(item, bool)
             if not number or (not real and not float(item).is_integer()):
-                raise PpalocError(f"{key}={item!r}{where} must be {noun} in [{low:g}, {high:g}]")
+                raise PpalocError(f"{key}={item!r}{where} must be {noun} in {bound}")
             if not (math.isfinite(item) and low <= item <= high):
-                bound = f"[{low:g}, {high:g}]" if real else f"[{int(low)}, {int(high)}]"
                 raise PpalocError(f"{key}={item!r}{where} must be {noun} in {bound}")
 
 
