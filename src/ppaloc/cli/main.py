@@ -611,7 +611,8 @@ def sweep(
     timeout = options["connect_timeout"]
     if timeout is not None and not (math.isfinite(timeout) and 0 < timeout <= 3600):
         raise PpalocError(f"connect_timeout={timeout!r} must be a number of seconds in (0, 3600]")
-    check_limits({k: values.get(k) for k in ("seed", "tolerance")}, source=source)
+    keys = ("seed", "tolerance", "max_weight_values")
+    check_limits({k: values.get(k) for k in keys}, source=source)  # before any cluster starts
     out_dir = _output(out_dir, folder=True)
     config = sweep_config_from_mapping(values, source=source)
     run_sweep(
