@@ -9,6 +9,13 @@ low-res images, 2048 LBP descriptors; one full register each). The motion model 
 
 Target on one core of this machine: >= 50 simulated frames per second for the 8x8
 low-res pipeline in ideal mode (SCAMP-5 itself runs it at 386 frames per second).
+
+``python benchmarks/bench_onsensor.py --bank [--bank-nodes N --bank-frames F --rep R]``
+runs a map of the whole Nordland line's length (35,768 nodes: the shared Nordland
+summer map repeated, each copy rotated by 97 places so copies differ at their joins) on
+a bank of simulated sensors (docs/onsensor.md, "Sensor banks") over the first winter
+query frames, and the host's ppa8 filter on the same map: agreement, modelled time and
+energy per frame, simulation speed, upload time and peak memory.
 """
 
 from __future__ import annotations
@@ -87,7 +94,63 @@ def measure(representation: str, noise: str, preset: str = "robust") -> tuple[fl
     return 1.0 / statistics.median(seconds), statistics.median(latency)
 
 
+def bank(n_nodes: int = 35_768, n_frames: int = 200, rep: str = "lbp") -> None:
+    """The bank run of the module docstring; prints one block of figures."""
+    import resource
+
+    from ppaloc.datasets import to_sensor
+    from ppaloc.datasets.registry import load_dataset
+    from ppaloc.localise.weighted import WeightedNodeLocaliser
+
+    ds = load_dataset("nordland:../shared/data/nordland-64x32?ref=summer&query=winter")
+    ref = [to_sensor(f) for f in ds.reference]
+    query = [to_sensor(f) for f in list(ds.query)[:n_frames]]
+    kw = {"motion": "always_forward", "record_weights": True}
+    host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
+    base = host.build_map(ref).descriptors
+    copies = -(-n_nodes // len(base))
+    desc = np.concatenate([np.roll(base, -97 * c, axis=0) for c in range(copies)])[:n_nodes]
+    big = TopoMap(rep, desc)
+    host.use_map(big)
+    t = time.perf_counter()
+    loc = OnSensorLocaliser(rep, **kw)
+    loc.use_map(big)
+    upload = time.perf_counter() - t
+    pipe = loc.pipeline
+    sensors = getattr(pipe, "sensors", [pipe])
+    want = host.localise(query)
+    t = time.perf_counter()
+    got = loc.localise(query)
+    wall = time.perf_counter() - t
+    same = np.mean([a.node == b.node for a, b in zip(want, got, strict=True)])
+    werr = max(float(np.abs(a.weights - b.weights).max()) for a, b in zip(want, got, strict=True))
+    ms = [e.modelled_latency_ms for e in got[1:]]
+    mj = [e.energy_mj for e in got[1:]]
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(
+        f"bank {rep}: {n_nodes} nodes on {len(sensors)} sensors "
+        f"({sum(s.tiles for s in sensors)} tiles), {len(query)} query frames\n"
+        f"  estimates equal to the host's ppa8 filter: {same * 100:.2f}% of frames, "
+        f"max |dw| {werr:.1e}\n"
+        f"  modelled per frame: {statistics.median(ms):.3f} ms (median; slowest sensor per "
+        f"phase + exchanges), {statistics.median(mj):.3f} mJ (sum of the sensors)\n"
+        f"  simulation: {len(query) / wall:.2f} frames/s ({wall:.0f} s for the query), map "
+        f"upload {upload:.0f} s, peak memory {rss:.0f} MB"
+    )
+
+
 def main() -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--bank", action="store_true", help="the sensor-bank run only")
+    parser.add_argument("--bank-nodes", type=int, default=35_768)
+    parser.add_argument("--bank-frames", type=int, default=200)
+    parser.add_argument("--rep", default="lbp", choices=["lbp", "lowres"])
+    args = parser.parse_args()
+    if args.bank:
+        bank(args.bank_nodes, args.bank_frames, args.rep)
+        return
     print(f"{'pipeline':8s} {'preset':7s} {'noise':8s} {'frames/s':>9s} {'modelled ms':>12s}")
     for rep in ("lowres", "lbp"):
         for preset in ("robust", "paper"):

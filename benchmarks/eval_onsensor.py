@@ -45,8 +45,10 @@ import numpy as np
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.evaluate.metrics import is_correct, max_f1, pr_curve
+from ppaloc.localise.params import FilterParams
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor import OnSensorLocaliser
+from ppaloc.onsensor.pipeline import PIPELINES
 from ppaloc.sim import PRESETS
 from ppaloc.topomap import TopoMap
 
@@ -183,12 +185,14 @@ def _max_f1(loc: OnSensorLocaliser, query, truth) -> float:
 
 
 def _noisy_f1(args) -> float:
-    spec, rep, preset, level, seed, n_query, exact = args
+    spec, rep, preset, level, seed, n_query, exact, store = (*args, None)[:8]
     ref, query, ds = load(spec)
     query = query[:n_query]
     truth = list(ds.ground_truth)[: len(query)]
     setting = NO_DROOP if level == "typical-no-droop" else level
-    loc = OnSensorLocaliser(rep, noise=setting, seed=seed, preset=preset, motion="always_forward")
+    loc = OnSensorLocaliser(
+        rep, noise=setting, seed=seed, preset=preset, motion="always_forward", store=store
+    )
     loc.build_map(ref)  # mapped by the same (noisy) sensor
     if exact:
         exact_stages(loc, set(exact))
@@ -204,42 +208,56 @@ def _map(jobs: list, processes: int) -> list:
         return pool.map(_noisy_f1, jobs, chunksize=1)
 
 
+def _stores(rep: str, preset: str, stores: tuple[str, ...]) -> list[str | None]:
+    """The map stores to run: ``"default"`` is the preset's own; others where they exist."""
+    own = PIPELINES[rep].stores
+    out = [None if s == "default" else s for s in stores if s == "default" or s in own]
+    default = PIPELINES[rep].default_store(FilterParams.create(rep, preset=preset))
+    return list(dict.fromkeys(default if s is None else s for s in out))
+
+
 def noise(
     n_query: int | None = None,
     presets: tuple[str, ...] = FILTER_PRESETS,
     seeds: int = 4,
     processes: int = 2,
     routes: tuple[str, ...] = tuple(NOISE_ROUTES),
+    stores: tuple[str, ...] = ("default",),
+    levels: tuple[str, ...] = ("typical", "typical-no-droop"),
 ) -> None:
-    """Max F1 ideal / typical / typical without droop, the noisy ones over ``seeds``."""
-    levels = ("ideal", "typical", "typical-no-droop")
+    """Max F1 ideal and under each noisy ``levels`` (over ``seeds``), per map store."""
     rows = []
     for name, spec in (NOISE_ROUTES[r] for r in routes):
         for rep in ("lowres", "lbp"):
             for preset in presets:
-                t = time.perf_counter()
-                jobs = [(spec, rep, preset, "ideal", 0, n_query, ())]
-                for level in levels[1:]:
-                    jobs += [(spec, rep, preset, level, seed, n_query, ()) for seed in range(seeds)]
-                f1 = _map(jobs, processes)
-                ideal, rest = f1[0], f1[1:]
-                typ, nodroop = rest[:seeds], rest[seeds:]
-                rows.append((name, rep, preset, ideal, np.mean(typ), np.mean(nodroop)))
-                print(
-                    f"noise {name:24s} {rep:6s} {preset:6s} ideal={ideal:.3f} "
-                    f"typical={np.mean(typ):.3f} [{' '.join(f'{v:.2f}' for v in typ)}] "
-                    f"no-droop={np.mean(nodroop):.3f} [{' '.join(f'{v:.2f}' for v in nodroop)}] "
-                    f"kept {np.mean(typ) / ideal:.2f} / {np.mean(nodroop) / ideal:.2f} "
-                    f"({time.perf_counter() - t:.0f} s)",
-                    flush=True,
-                )
-    print("\n| route | rep | preset | ideal | typical (kept) | typical without droop (kept) |")
-    print("|---|---|---|---:|---:|---:|")
-    for name, rep, preset, ideal, typ, nodroop in rows:
-        print(
-            f"| {name} | {rep} | {preset} | {ideal:.3f} | {typ:.3f} ({typ / ideal:.2f}) "
-            f"| {nodroop:.3f} ({nodroop / ideal:.2f}) |"
-        )
+                for store in _stores(rep, preset, stores):
+                    t = time.perf_counter()
+                    jobs = [(spec, rep, preset, "ideal", 0, n_query, (), store)]
+                    for level in levels:
+                        jobs += [
+                            (spec, rep, preset, level, seed, n_query, (), store)
+                            for seed in range(seeds)
+                        ]
+                    f1 = _map(jobs, processes)
+                    ideal = f1[0]
+                    per = [f1[1 + i * seeds : 1 + (i + 1) * seeds] for i in range(len(levels))]
+                    means = [float(np.mean(v)) for v in per]
+                    rows.append((name, rep, preset, store, ideal, means))
+                    text = " ".join(
+                        f"{lv}={m:.3f} [{' '.join(f'{v:.2f}' for v in vals)}] kept {m / ideal:.2f}"
+                        for lv, m, vals in zip(levels, means, per, strict=True)
+                    )
+                    print(
+                        f"noise {name:24s} {rep:6s} {preset:6s} {store:8s} ideal={ideal:.3f} "
+                        f"{text} ({time.perf_counter() - t:.0f} s)",
+                        flush=True,
+                    )
+    head = " | ".join(f"{lv} (kept)" for lv in levels)
+    print(f"\n| route | rep | preset | map store | ideal | {head} |")
+    print("|---|---|---|---|---:|" + "---:|" * len(levels))
+    for name, rep, preset, store, ideal, means in rows:
+        cells = " | ".join(f"{m:.3f} ({m / ideal:.2f})" for m in means)
+        print(f"| {name} | {rep} | {preset} | {store} | {ideal:.3f} | {cells} |")
 
 
 # ------------------------------------------------------------------ stages made exact
@@ -294,7 +312,7 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
             out = np.empty(pipe.n_nodes)
             for t in range(pipe.tiles):
                 nodes, br, bc = pipe._tile_nodes[t]
-                db = sim.read(pipe.db[t]).astype(np.float64)
+                db = pipe.map_plane(t).astype(np.float64)
                 a = np.minimum(np.abs(np.clip(frame + db, -128, 127)), 127)
                 m = a.reshape(pipe.size // 8, 8, pipe.size // 8, 8).mean(axis=(1, 3))
                 out[nodes] = m[br, bc]
@@ -485,6 +503,19 @@ def main() -> None:
         choices=list(NOISE_ROUTES),
         help="routes of the noise and stages parts (default all)",
     )
+    parser.add_argument(
+        "--store",
+        nargs="*",
+        default=["default"],
+        help="noise part: map stores (default: each preset's; e.g. levels analogue)",
+    )
+    parser.add_argument(
+        "--noise-levels",
+        nargs="*",
+        default=["typical", "typical-no-droop"],
+        choices=["low", "typical", "high", "typical-no-droop"],
+        help="noise part: the noisy settings (default typical, typical without droop)",
+    )
     parser.add_argument("--figures", type=Path, default=Path("onsensor-figures"))
     parser.add_argument("--max-query", type=int, default=None, help="first N queries only")
     parser.add_argument(
@@ -511,7 +542,15 @@ def main() -> None:
         if "nordland" in args.route:
             agreement("nordland summer->winter", NORDLAND, ("image", "always_forward"), presets)
     if "noise" in args.part:
-        noise(args.max_query, presets, args.seeds, args.processes, tuple(args.noise_route))
+        noise(
+            args.max_query,
+            presets,
+            args.seeds,
+            args.processes,
+            tuple(args.noise_route),
+            tuple(args.store),
+            tuple(args.noise_levels),
+        )
     if "stages" in args.part:
         stages_table(
             args.max_query, args.seeds, args.processes, args.exact, tuple(args.noise_route)

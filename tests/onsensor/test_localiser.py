@@ -166,8 +166,20 @@ def test_oracle_motion_and_other_scales_agree_with_the_host(shift, gamma):
     assert [e.moved for e in b] == moves
 
 
-@pytest.mark.parametrize(("rep", "tile"), [("lowres", "A: map tile 0"), ("lbp", "R10: map tile 0")])
-def test_register_planes_name_their_roles_and_hold_the_map(rep, tile):
+@pytest.mark.parametrize(
+    ("rep", "tiles"),
+    [
+        (
+            "lowres",
+            [
+                "A: map tile 0, high 4 bits (levels 16 h - 120)",
+                "B: map tile 0, low 4 bits (levels 16 l - 128)",
+            ],
+        ),
+        ("lbp", ["R10: map tile 0"]),
+    ],
+)
+def test_register_planes_name_their_roles_and_hold_the_map(rep, tiles):
     loc = OnSensorLocaliser(rep, motion="always_forward")
     assert loc.register_planes() == {}
     ref, query = _route(6, seed=3)
@@ -175,9 +187,9 @@ def test_register_planes_name_their_roles_and_hold_the_map(rep, tile):
     for f in query[:3]:
         loc.step(f)
     planes = loc.register_planes()
-    assert [k for k in planes if "map tile" in k] == [tile]  # one tile holds 6 nodes
+    assert [k for k in planes if "map tile" in k] == tiles  # one tile holds 6 nodes
     assert "C: weights" in planes and "R9: detection candidates" in planes
     assert all(p.shape == (256, 256) for p in planes.values())
-    db = planes[tile]
+    db = planes[tiles[0]]
     assert db.dtype == (np.float32 if rep == "lowres" else bool)
     assert np.any(db != db.flat[-1])  # the map was written into the register

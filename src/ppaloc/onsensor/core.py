@@ -136,6 +136,24 @@ def mask_bits(n: int) -> int:
     return 0xFF & ~(n - 1)
 
 
+def _join_digit(k) -> None:
+    """Kernel body: ``D := -(D / 128 + IN)`` given ``D = -P`` (seven halvings, ``E`` scratch)."""
+    cur, other = D, E
+    for _ in range(7):
+        k.bus2(other, NEWS, cur)  # other = -cur / 2
+        cur, other = other, cur
+    k.bus(D, cur, IN)
+
+
+def _next_digit(k, src: Register) -> None:
+    """Kernel body: ``D := 128 (src - IN)`` (one ``sub``, seven doublings; ``E`` scratch)."""
+    k.sub(D, src, IN)
+    for _ in range(7):
+        k.mov(E, D)
+        k.bus(NEWS, D, E)  # -2D
+        k.bus(D, NEWS)
+
+
 class SensorPipeline(ABC):
     """One simulated sensor holding a map, and the per-frame pipeline on it.
 
@@ -158,6 +176,8 @@ class SensorPipeline(ABC):
         Seed of the simulator's noise.
     size : int
         Array side (256 on SCAMP-5; smaller arrays, multiples of 64, for tests).
+    store : str, optional
+        How the map is held (a key of :attr:`stores`; default :meth:`default_store`).
 
     Attributes
     ----------
@@ -185,6 +205,9 @@ class SensorPipeline(ABC):
     static_masks: ClassVar[tuple[Register, ...]]
     root_means: ClassVar[Register | None] = None
     spread_means: ClassVar[bool] = True
+    #: Map stores of the representation and the tiles one sensor holds with each
+    #: (docs/onsensor.md, "Map store").
+    stores: ClassVar[dict[str, int]]
 
     def __init__(
         self,
@@ -195,6 +218,7 @@ class SensorPipeline(ABC):
         noise: str | NoiseParams = "ideal",
         seed: int = 0,
         size: int = 256,
+        store: str | None = None,
     ) -> None:
         if size % 64 or size < 64:
             raise PpalocError(f"array size {size} must be a multiple of 64 (8x8 grid of blocks)")
@@ -205,6 +229,14 @@ class SensorPipeline(ABC):
         representation = self.representation
         self.params = params
         self.robust = params.preset == "robust"
+        self.store = self.default_store(params) if store is None else store
+        if self.store not in self.stores:
+            raise PpalocError(
+                f"store={store!r} is not a {representation} map store; use one of "
+                f"{', '.join(self.stores)}"
+            )
+        #: Tiles this sensor can hold with its store.
+        self.max_tiles = self.stores[self.store]
         if alpha is None:
             alpha = params.alpha
         self.alpha: int | None = None if alpha is None else int(alpha)
@@ -220,13 +252,23 @@ class SensorPipeline(ABC):
         self._node_grid()
         self.reset()
 
+    @classmethod
+    def default_store(cls, params: FilterParams) -> str:
+        """The map store used when none is given (the first of :attr:`stores`)."""
+        return next(iter(cls.stores))
+
+    @property
+    def capacity(self) -> int:
+        """Nodes one sensor holds with this store (its tiles times a tile's nodes)."""
+        return self.max_tiles * self.layout.capacity
+
     def _tiles_for(self, n_nodes: int) -> int:
         tiles = self.layout.n_tiles(n_nodes)
-        if tiles > 2:
+        if tiles > self.max_tiles:
             raise PpalocError(
                 f"a {self.representation} map of {n_nodes} nodes needs {tiles} tiles; one "
-                f"simulated sensor holds at most 2 ({2 * self.layout.capacity} nodes): "
-                "split the route"
+                f"simulated sensor holds at most {self.max_tiles} with store={self.store!r} "
+                f"({self.capacity} nodes): run it on a bank (ppaloc.onsensor.bank.SensorBank)"
             )
         return tiles
 
@@ -545,11 +587,20 @@ class SensorPipeline(ABC):
         self._root_pattern(dr.tmp_a, None, row_mod=2)
         self._run("sn_inner", lambda k: (k.CLR_IF(dr.cand, dr.tmp_b), k.CLR_IF(dr.tmp_a, dr.tmp_b)))
 
-    def _park(self, reg: Register, scratch: Register, edge: int, steps: int) -> None:
+    def _park(
+        self,
+        reg: Register,
+        scratch: Register,
+        edge: int,
+        steps: int,
+        carried: bool = False,
+    ) -> None:
         """Park what enters the snake's starts during ``steps`` shifts of ``reg``.
 
         Row 1 of the top block row holds no root, so it is storage: at the tile-0 column
-        of the first ``steps`` blocks it gets the edge value (``edge``, the DAC), and with
+        of the first ``steps`` blocks it gets the edge value (``edge``, the DAC; on a
+        bank's later sensor, ``carried``, the previous sensor's weights are there
+        already, :meth:`carry_in`), and with
         two tiles, at the tile-1 column of block ``k - 1`` (counting from the top-right),
         ``reg`` of tile 0's ``k``-th last node (one ``scamp5_shift`` of a copy: 1 + 247
         steps on a 256 array). :meth:`_snake_step` then moves the right one into the two
@@ -562,15 +613,19 @@ class SensorPipeline(ABC):
             self._run(f"park_copy_{reg.name}", lambda k: k.bus(scratch, reg))
             # scratch[1, c] = -reg[n - bh, c - 1]: tile 0's last block row, one column east
             sim.shift(scratch, 1, n - bh - 1)
-            sim.load_pattern(dr.pattern, 1, 0, 0, 0xFF)  # row 1
+            if carried:  # row 1, tile-1 columns (tile 0's hold the carry)
+                sim.load_pattern(dr.pattern, 1, 1, 0, mask_bits(self.bw))
+            else:
+                sim.load_pattern(dr.pattern, 1, 0, 0, 0xFF)  # row 1
             self._run(
                 f"park_carry_{reg.name}",
                 lambda k: (k.WHERE(dr.pattern), k.bus(reg, scratch), k.all()),
             )
-        sim.load_pattern(dr.pattern, 1, 0, 0, mask_bits(self.bw))  # row 1, tile-0 columns
-        self._run("where_pattern", lambda k: k.WHERE(dr.pattern))
-        sim.scamp5_in(reg, edge)
-        self._run("all", lambda k: k.all())
+        if not carried:
+            sim.load_pattern(dr.pattern, 1, 0, 0, mask_bits(self.bw))  # row 1, tile-0 columns
+            self._run("where_pattern", lambda k: k.WHERE(dr.pattern))
+            sim.scamp5_in(reg, edge)
+            self._run("all", lambda k: k.all())
         # the node-0 roots of the tiles, which every step writes from the parked row
         if self.tiles > 1:
             sim.load_pattern(dr.pattern, 0, n - self.bw, 0, 1)
@@ -652,7 +707,7 @@ class SensorPipeline(ABC):
             self._run(name, lambda k: k.add(reg, reg, IN))
             value -= part
 
-    def transition(self, costs: tuple[int, ...]) -> None:
+    def transition(self, costs: tuple[int, ...], carried: bool = False) -> None:
         """Robust: the last frame's normalisation, then ``w_i := clip(max_d (w_{i-d} - c_d))``.
 
         docs/ppa8.md (robust preset, items 5 and 2). The normalisation of the last frame
@@ -667,11 +722,13 @@ class SensorPipeline(ABC):
         Stage ``"normalise"``: the floor last, ``w := max(w, max(-memory - min c, -127))``
         (:meth:`_floor`). Exact: a candidate from a node below the floor, the array edge
         (``-memory - c_d``, for every ``d``, also ``d >= N``) and any clip at -127 are at
-        most the floor, and no candidate reaches the top clip (``w - T < 1``).
+        most the floor, and no candidate reaches the top clip (``w - T < 1``). On a
+        bank's later sensor (``carried``) the previous sensor's last weights, written by
+        :meth:`carry_in`, enter node 0 instead of the edge.
         """
         sim, s, x = self.sim, SHIFTED, _X
         top = self.pending_top or 0
-        steps = min(len(costs) - 1, self.n_nodes - 1)
+        steps = len(costs) - 1 if carried else min(len(costs) - 1, self.n_nodes - 1)
         with sim.stage("transition"):
             if steps:
                 self._snake_masks()
@@ -680,7 +737,7 @@ class SensorPipeline(ABC):
                     self._run("tr_copy_t", lambda k: k.bus(s, _W, IN))  # S := -(W - T)
                 else:
                     self._run("tr_copy", lambda k: k.bus(s, _W))  # S := -W
-                self._park(s, x, int(self.params.memory), steps)
+                self._park(s, x, int(self.params.memory), steps, carried)
             self._subtract(_W, int(top) + int(costs[0]), "tr_stay")
             for d in range(1, steps + 1):
                 self._snake_step(s, x, d)
@@ -688,6 +745,82 @@ class SensorPipeline(ABC):
         self.pending_top = None
         with sim.stage("normalise"):
             self._floor(max(-int(self.params.memory) - min(costs), -127))
+
+    # --------------------------------------------------------------- bank carry
+    #: Base-128 digits of a carried value: the integer part and four of seven bits, 28
+    #: fractional bits (a weight's own resolution is at most 2**-23, docs/ppa8.md).
+    CARRY_DIGITS = 5
+
+    def carry_out(self, steps: int) -> list[float]:
+        """This sensor's last ``steps`` weights for the next sensor of a bank, read exactly.
+
+        Stage ``"carry"``, before this sensor's own transition. Each weight is read in
+        :attr:`CARRY_DIGITS` ADC passes: the code gives the nearest integer ``x``, then
+        ``D := 128 (D - x)`` (one ``sub`` with ``x`` in ``IN``, seven doublings) brings
+        the next digit into range (``D``, ``E`` are free between the motion stage and the
+        transition). Item ``j`` is node ``n - 1 - j``, raised to ``T - memory`` (the
+        pending normalisation's floor: a value below it loses anyway).
+        """
+        sim = self.sim
+        floor = (self.pending_top or 0) - int(self.params.memory)
+        scale = 128 ** (self.CARRY_DIGITS - 1)
+        out = []
+        with sim.stage("carry"):
+            for j in range(steps):
+                tile, br, bc = self.layout.node_to_block(np.array([self.n_nodes - 1 - j]))
+                r, c = int(br[0]) * self.bh, int(bc[0]) * self.bw + int(tile[0])
+                total, src = 0, _W
+                for i in range(self.CARRY_DIGITS):
+                    x = int(sim.read_areg(src, r, c)) - 128
+                    total = total * 128 + x
+                    if i == self.CARRY_DIGITS - 1:
+                        break
+                    sim.load_in(x)
+                    self._run(f"carry_digit_{src.name}", lambda k, src=src: _next_digit(k, src))
+                    src = D
+                out.append(max(total / scale, floor))
+        return out
+
+    def carry_in(self, values: list[float]) -> None:
+        """Write the previous sensor's last weights where this snake's start reads them.
+
+        Stage ``"carry"``, before :meth:`transition` (``carried=True``): value ``j`` goes
+        into the weight register at row 1 of block ``j`` (tile 0's column, a PE that
+        holds no weight), so the transition's copy ``S := -(w - T)`` turns it into the
+        parked ``S`` of node ``-1 - j``. Each value is built exactly in ``D``
+        (:meth:`_write_value`) and copied by one ``bus`` at that PE.
+        """
+        sim, dr = self.sim, self.dr
+        with sim.stage("carry"):
+            for j, value in enumerate(values):
+                self._write_value(value)
+                sim.load_point(dr.pattern, 1, self.size - self.bw * (j + 1))
+                self._run("carry_put", lambda k: (k.WHERE(dr.pattern), k.bus(_W, D), k.all()))
+
+    def _write_value(self, value: float) -> None:
+        """``D := -value`` in every PE, exactly: DAC digits joined by halvings (``E`` scratch).
+
+        ``value`` (a multiple of ``2**-28`` in [-127, 127]) in balanced base-128 digits
+        ``y_0 + y_1/128 + ...``: ``D := -y_last``, then per digit seven halvings (each
+        negates; ``D``, ``E`` in turn) and ``D := -(E + y)`` with the digit in ``IN``;
+        trailing zero digits cost nothing (an integer is one DAC load).
+        """
+        sim = self.sim
+        scale = 128 ** (self.CARRY_DIGITS - 1)
+        v = round(value * scale)
+        digits = []
+        for _ in range(self.CARRY_DIGITS - 1):
+            d = (v + 64) % 128 - 64
+            digits.append(d)
+            v = (v - d) // 128
+        digits.append(v)  # the integer part, first
+        digits.reverse()
+        while len(digits) > 1 and digits[-1] == 0:
+            digits.pop()
+        sim.scamp5_in(D, -digits[-1])
+        for d in reversed(digits[:-1]):
+            sim.load_in(d)
+            self._run("carry_join", _join_digit)
 
     def _floor(self, floor: int) -> None:
         """``w := max(w, floor)``: one kernel with ``-floor`` in ``IN``,
@@ -718,26 +851,46 @@ class SensorPipeline(ABC):
         the readout read; without :meth:`_tree_tiles` the last tile's are still in
         ``D`` and an earlier tile's tree is recomputed.
         """
+        values = self.robust_values()
+        best, mean = frame_statistics(values)
+        s = likelihood_shift(mean - best, int(self.params.gain))
+        self.robust_update(s, best >> s)
+
+    def robust_values(self) -> np.ndarray:
+        """Robust, stage ``"scale"``: every node's integer ``r_i`` (the trees, read out).
+
+        The first half of :meth:`compare_robust` (after :meth:`prepare_live`); the trees'
+        values stay in their registers for :meth:`robust_update`. A bank combines the
+        values of all its sensors before the update (:mod:`ppaloc.onsensor.bank`).
+        """
         sim = self.sim
         values = np.empty(self.n_nodes, np.int64)
         both = self.tiles > 1 and self._tree_tiles(None) is not None
+        regs = self._tree_tiles(None) if both else None
         with sim.stage("scale"):
             if both:
                 self._run("tree_tiles", self._tree_tiles)
-                regs = self._tree_tiles(None)
             for t in range(self.tiles):
                 if not both:
                     self._tree_calls(t)
                     self._run(f"tree_{t}", lambda k, t=t: self._tree(k, t))
-                reg = regs[t] if both else D
+                reg = regs[t] if regs else D
                 nodes, br, bc = self._tile_nodes[t]
                 last_row = int(br.max()) * self.bh
                 codes = sim.scan_areg(reg, 0, 0, last_row, self.size - 1, self.bh, self.bw)
                 values[nodes] = self._values(codes[br, bc].astype(np.int64))
-            best, mean = frame_statistics(values)
-            s = likelihood_shift(mean - best, int(self.params.gain))
-            alpha = best >> s
+        return values
+
+    def robust_update(self, s: int, alpha: int) -> None:
+        """Robust, stage ``"compare"``: ``w += alpha_t - mu 2**-s`` at every node.
+
+        After :meth:`robust_values`, with this frame's shift ``s`` and ``alpha_t`` (the
+        controller's, from every node of the map).
+        """
+        sim = self.sim
         self.last_shift, self.last_alpha = s, alpha
+        both = self.tiles > 1 and self._tree_tiles(None) is not None
+        regs = self._tree_tiles(None) if both else None
         with sim.stage("compare"):
             for t in reversed(range(self.tiles)):
                 recompute = not both and t != self.tiles - 1
@@ -746,7 +899,7 @@ class SensorPipeline(ABC):
                 self._root_pattern(self.dr.pattern, t)
                 sim.load_in(alpha)
                 # the pair's value and scratch registers: tile 1 (E) keeps tile 0's D
-                value, scratch = (regs[t], F if t else E) if both else (D, E)
+                value, scratch = (regs[t], F if t else E) if regs else (D, E)
 
                 def build(k, t=t, recompute=recompute, value=value, scratch=scratch):
                     if recompute:
@@ -936,30 +1089,44 @@ class SensorPipeline(ABC):
 
     def detect(self) -> tuple[int, int]:
         """Return ``(node, T)``: the candidate ``w >= T = floor(max W)`` nearest the previous."""
-        sim, dr = self.sim, self.dr
-        with sim.stage("detect"):
-            self._allow(False)
-            top = self._max_threshold(-127, 127)
-            assert top is not None
-            self._at_least(top)
-            events = sim.scan_events(dr.cand, EVENT_SLOTS)
-            while not len(events) and top > -127:
+        with self.sim.stage("detect"):
+            top = self.local_top()
+            found = self.candidates(top, self.prev)
+            while found is None and top > -127:
                 # only with noise: the comparator's noise hid every candidate this time
                 top -= 1
-                self._at_least(top)
-                events = sim.scan_events(dr.cand, EVENT_SLOTS)
-            if not len(events):
-                node = 0 if self.prev is None else self.prev
-            elif len(events) < EVENT_SLOTS:
-                node = choose_candidate(self._nodes_of(events), self.prev)
-            else:
-                node = self._nearest(top)
-        return node, top
+                found = self.candidates(top, self.prev)
+        if not found:
+            return (0 if self.prev is None else self.prev), top
+        return choose_candidate(np.asarray(found), self.prev), top
 
-    def _nearest(self, top: int) -> int:
-        """Window search: the candidate nearest the previous estimate (smaller index first)."""
-        prev = 0 if self.prev is None else self.prev
-        lo, hi = 0, self.n_nodes
+    def local_top(self) -> int:
+        """``floor(max W)`` over this sensor's nodes (a ``global_or`` threshold search)."""
+        self._allow(False)
+        top = self._max_threshold(-127, 127)
+        assert top is not None
+        return top
+
+    def candidates(self, top: int, prev: int | None) -> list[int] | None:
+        """Nodes with ``w >= top``: all of them (fewer than :data:`EVENT_SLOTS`), or the one
+        nearest ``prev`` (a window search, :meth:`_nearest`); None if none is found.
+
+        ``prev`` may lie outside this sensor's nodes (a bank gives it in local numbers).
+        """
+        sim, dr = self.sim, self.dr
+        self._allow(False)
+        self._at_least(top)
+        events = sim.scan_events(dr.cand, EVENT_SLOTS)
+        if not len(events):
+            return None
+        if len(events) < EVENT_SLOTS:
+            return [int(i) for i in self._nodes_of(events)]
+        return [self._nearest(top, prev)]
+
+    def _nearest(self, top: int, prev: int | None) -> int:
+        """Window search: the candidate nearest ``prev`` (smaller index first)."""
+        prev = 0 if prev is None else prev
+        lo, hi = 0, self.n_nodes + abs(prev)
         while lo < hi:
             mid = (lo + hi) // 2
             if self._candidate_in(prev - mid, prev + mid, top):
@@ -969,7 +1136,7 @@ class SensorPipeline(ABC):
         for node in (prev - lo, prev + lo):
             if 0 <= node < self.n_nodes and self._candidate_in(node, node, top):
                 return node
-        return prev  # only with noise: the comparator's noise hid the candidate
+        return min(max(prev, 0), self.n_nodes - 1)  # only with noise: the candidate hid
 
     def _candidate_in(self, a: int, b: int, top: int) -> bool:
         """Whether a node in ``a..b`` has ``w >= top`` (``cand`` keeps those nodes)."""
@@ -986,10 +1153,14 @@ class SensorPipeline(ABC):
         if node - r <= 0 and node + r >= self.n_nodes - 1:
             return 0.0
         with self.sim.stage("confidence"):
-            self._window(node - r, node + r)
-            self._allow(True)
-            out = self._max_threshold(-127, top)
+            out = self.outside_max(node - r, node + r, top)
         return 0.0 if out is None else float(top - out)
+
+    def outside_max(self, a: int, b: int, top: int) -> int | None:
+        """Largest integer threshold in [-127, ``top``] met by a node outside ``a..b``."""
+        self._window(a, b)
+        self._allow(True)
+        return self._max_threshold(-127, top)
 
     def adjust(self, top: int) -> None:
         """``w := clip(w - floor(gamma T))`` (an integer through the DAC)."""
@@ -1087,6 +1258,7 @@ class SensorPipeline(ABC):
         normalisation (docs/ppa8.md).
         """
         self.frames += 1
+        self.refresh()
         self.capture(frame)
         self.block_means()
         if moved is None:
@@ -1119,16 +1291,23 @@ class SensorPipeline(ABC):
         planes are left out, since after a frame they hold whatever the last stage left.
         """
         sim, dr = self.sim, self.dr
-        planes = {
-            f"{reg.name}: map tile {t}": sim.read(reg)
-            for t, reg in enumerate(self.db[: self.tiles])
-        }
+        planes = self._map_planes()
         planes[f"{_W.name}: weights"] = sim.read(_W)  # robust: before the pending normalisation
         planes.update(self._live_planes())
         planes[f"{dr.u.name}: motion, above block mean"] = sim.read(dr.u)
         planes[f"{dr.d.name}: motion, below block mean"] = sim.read(dr.d)
         planes[f"{dr.cand.name}: detection candidates"] = sim.read(dr.cand)
         return planes
+
+    def _map_planes(self) -> dict[str, np.ndarray]:
+        """The map's registers for :meth:`register_planes`, labelled."""
+        return {
+            f"{reg.name}: map tile {t}": self.sim.read(reg)
+            for t, reg in enumerate(self.db[: self.tiles])
+        }
+
+    def refresh(self) -> None:  # noqa: B027 - an optional hook, empty by default
+        """Restore a map store that needs it (the low-res levels); run before each frame."""
 
     def weights(self) -> np.ndarray:
         """The weights in map order, read from the register (inspection, untimed).

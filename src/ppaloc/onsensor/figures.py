@@ -42,12 +42,18 @@ def _pipeline(localiser: OnSensorLocaliser) -> SensorPipeline:
 def database_figure(
     localiser: OnSensorLocaliser, path: str | os.PathLike[str], *, scale: int = 2
 ) -> Path:
-    """Write the database register of every tile (``A``/``B`` images, ``R10``/``R11`` bits)."""
+    """Write the database of every tile (``A``/``B`` images, ``R10``/``R11`` bits).
+
+    The low-res levels store is drawn as the values ``n`` its two registers give.
+    """
     pipe = _pipeline(localiser)
-    planes = {
-        f"database tile {t} ({pipe.db[t].name})": pipe.sim.read(pipe.db[t])
-        for t in range(pipe.tiles)
-    }
+    if getattr(pipe, "store", None) == "levels":
+        planes = {"database tile 0 (n = A/2 + B/32)": pipe.map_plane(0)}
+    else:
+        planes = {
+            f"database tile {t} ({pipe.db[t].name})": pipe.sim.read(pipe.db[t])
+            for t in range(pipe.tiles)
+        }
     return render_montage(planes, path, scale=scale)
 
 
@@ -110,13 +116,19 @@ def difference_figure(
                 pipe.block_means()
                 pipe.replicate()
 
+            levels = pipe.store == "levels"
+
             def build(k):
-                k.add(D, F, db)
+                if levels:
+                    pipe._levels_difference(k)  # f - n
+                else:
+                    k.add(D, F, db)
                 k.abs(E, D)
 
             pipe._run("inspect_difference", build)
             planes["replicated 8x8 grid (-F)"] = -sim.read(F)
-            planes[f"database ({db.name})"] = sim.read(db)
+            name = "n = A/2 + B/32" if levels else db.name
+            planes[f"database ({name})"] = pipe.map_plane(0)
             planes["difference |f - n| (E)"] = sim.read(E)
         else:
             pipe.load_descriptor(pipe.last_code)  # R3 served as a temp since

@@ -61,6 +61,7 @@ class LbpPipeline(SensorPipeline):
     dr = LBP_DREGS
     db = (R10, R11)
     static_masks = (R2, R10, R11)  # valid roots, database tiles
+    stores: ClassVar[dict[str, int]] = {"digital": 2}
     root_means = B
     spread_means = False  # only the image motion model needs F = -m over the blocks
 

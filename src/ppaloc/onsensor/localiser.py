@@ -20,8 +20,9 @@ from ppaloc.localise.base import Estimate
 from ppaloc.localise.motion import OracleMotion
 from ppaloc.localise.params import FilterParams
 from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.onsensor.bank import SensorBank
 from ppaloc.onsensor.mapping import upload_map
-from ppaloc.onsensor.pipeline import SensorPipeline, make_pipeline
+from ppaloc.onsensor.pipeline import PIPELINES, SensorPipeline, make_pipeline
 from ppaloc.onsensor.precursor import STRUCTURES, loop_counts, structure_counts
 from ppaloc.sim import NoiseParams
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
@@ -55,6 +56,15 @@ class OnSensorLocaliser:
         Put the weights (read from the register, untimed) in every Estimate.
     size : int
         Array side, 256 as on SCAMP-5 (smaller arrays are for tests of the stages).
+    store : str, optional
+        How the map is held (docs/onsensor.md, "Map store"): low-res ``"levels"`` (the
+        robust default: two 4-bit halves as restorable levels, one tile per sensor) or
+        ``"analogue"`` (the paper default: one analogue value per pixel, two tiles per
+        sensor, droops); LBP ``"digital"``. A map larger than one sensor runs on a
+        :class:`~ppaloc.onsensor.bank.SensorBank` (robust preset).
+    sensor_nodes : int, optional
+        At most this many nodes per sensor (default: a sensor's capacity); smaller values
+        make small banks, e.g. for tests.
     **filter_params
         The filter's parameters, with the defaults and checks of
         :class:`ppaloc.localise.weighted.WeightedNodeLocaliser` (one
@@ -70,8 +80,9 @@ class OnSensorLocaliser:
     params : FilterParams
         The resolved parameters, the host's object: the pipeline reads the same one.
     preset : {"robust", "paper"}
-    pipeline : SensorPipeline or None
-        The simulated sensor holding the map (None before a map).
+    pipeline : SensorPipeline, SensorBank or None
+        The simulated sensor holding the map, or the bank of them for a map larger than
+        one sensor (None before a map).
 
     Notes
     -----
@@ -91,6 +102,8 @@ class OnSensorLocaliser:
         record_weights: bool = False,
         size: int = 256,
         timing_structure: str = "ppaloc",
+        store: str | None = None,
+        sensor_nodes: int | None = None,
         **filter_params: Any,
     ) -> None:
         if timing_structure not in STRUCTURES:
@@ -128,6 +141,16 @@ class OnSensorLocaliser:
         self.noise = noise
         self.seed = int(seed)
         self.size = int(size)
+        stores = PIPELINES[representation].stores if representation in PIPELINES else {}
+        if store is not None and store not in stores:
+            raise PpalocError(
+                f"store={store!r} is not a {representation} map store; use one of "
+                f"{', '.join(stores)}"
+            )
+        self.store = store
+        if sensor_nodes is not None and (isinstance(sensor_nodes, bool) or int(sensor_nodes) < 1):
+            raise PpalocError(f"sensor_nodes={sensor_nodes!r} must be a positive integer")
+        self.sensor_nodes = None if sensor_nodes is None else int(sensor_nodes)
         self.record_weights = bool(record_weights)
         self.timing_structure = timing_structure
         self.frame_times: list[tuple[Interval, Interval]] = []
@@ -170,15 +193,14 @@ class OnSensorLocaliser:
         for frame in frames:
             self._check_frame(frame)
         frames = [np.asarray(f) for f in frames]
+        capacity = layout_for(self.representation, (self.size, self.size)).capacity
+        mapper = self._new_pipeline(min(len(frames), capacity))
         if self.params.keyframes:
-            most = 2 * layout_for(self.representation, (self.size, self.size)).capacity
-            pipe = self._new_pipeline(min(len(frames), most))
-            nodes, kept = pipe.map_keyframes(frames)
-            pipe.set_nodes(len(kept))  # raises if the kept nodes need more than 2 tiles
+            nodes, kept = mapper.map_keyframes(frames)
         else:
-            pipe = self._new_pipeline(len(frames))
-            nodes = [pipe.sense_node(f) for f in frames]
+            nodes = [mapper.sense_node(f) for f in frames]
             kept = list(range(len(frames)))
+        pipe = self._place(len(kept), mapper)
         dtype = np.uint32 if self.representation == "lbp" else np.uint8
         topomap = TopoMap(
             self.representation,
@@ -200,28 +222,42 @@ class OnSensorLocaliser:
         """Write ``topomap`` (e.g. loaded from a file) into a fresh simulated sensor."""
         if topomap.kind != self.representation:
             self._host.use_map(topomap)  # raises the host's clear error
-        self._install(topomap, self._new_pipeline(len(topomap)))
+        capacity = layout_for(self.representation, (self.size, self.size)).capacity
+        self._install(topomap, self._place(len(topomap), self._new_pipeline(capacity)))
 
     def _noise_name(self) -> str:
         return self.noise if isinstance(self.noise, str) else "custom"
 
-    def _new_pipeline(self, n_nodes: int) -> SensorPipeline:
+    def _new_pipeline(self, n_nodes: int, index: int = 0) -> SensorPipeline:
         # the oracle's decisions come from the controller (step(moved=...)); the paper's
-        # alpha is set in _install, once the map is known
+        # alpha is set in _install, once the map is known; sensor i of a bank has its own
+        # noise seed (sensor 0's is the localiser's)
         return make_pipeline(
             self.representation,
             n_nodes,
             self.params,
             noise=self.noise,
-            seed=self.seed,
+            seed=self.seed + 7919 * index,
             size=self.size,
+            store=self.store,
         )
 
-    def _install(self, topomap: TopoMap, pipe: SensorPipeline) -> None:
+    def _place(self, n_nodes: int, first: SensorPipeline) -> SensorPipeline | SensorBank:
+        """``first`` holding ``n_nodes`` nodes, or a bank starting with it if they don't fit."""
+        per = first.capacity if self.sensor_nodes is None else self.sensor_nodes
+        if n_nodes <= min(per, first.capacity):
+            first.set_nodes(n_nodes)
+            return first
+        return SensorBank(first, n_nodes, self._new_pipeline, per)
+
+    def _install(self, topomap: TopoMap, pipe: SensorPipeline | SensorBank) -> None:
         self._host.use_map(topomap)  # checks the map and chooses the paper's alpha from it
         if self._host.alpha is not None:
             pipe.alpha = int(self._host.alpha)
-        upload_map(pipe, topomap)
+        if isinstance(pipe, SensorBank):
+            pipe.upload(topomap)
+        else:
+            upload_map(pipe, topomap)
         self.pipeline = pipe
         self.topomap = topomap
         self.reset()
@@ -251,11 +287,12 @@ class OnSensorLocaliser:
         frame = np.asarray(frame)
         self._check_frame(frame)
         moved = None if self._oracle is None else self._oracle.step(frame)
-        timing = pipe.sim.timing
+        timing = pipe.timing  # a bank's: the slowest sensor per phase plus the exchanges
         t0, e0 = timing.now_us, timing.energy_uj
-        before = timing.counts_by_stage()
+        counts = pipe.sim.timing  # a bank's chip and loop intervals are sensor 0's
+        before = counts.counts_by_stage()
         node, score, moved, _ = pipe.step(frame, moved)
-        self._time_frame(frame, diff_counts(timing.counts_by_stage(), before), bool(moved))
+        self._time_frame(frame, diff_counts(counts.counts_by_stage(), before), bool(moved))
         weights = pipe.weights() if self.record_weights else None
         return Estimate(
             node=int(node),

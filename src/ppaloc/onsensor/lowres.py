@@ -1,18 +1,30 @@
 """Low-res place images on the sensor: map tiles in analogue registers, SAD comparison.
 
-Every node is an 8x8 image ``n = q/2 - 64`` in an 8x8 PE block of an analogue database
-register (``A``, ``B``: 1024 nodes per tile on a 256 array). Each frame the live 8x8 grid
-of block means is replicated over every node block and compared by the clipped absolute
-difference, summed by a halving tree per block (docs/onsensor.md).
+Every node is an 8x8 image in an 8x8 PE block (1024 nodes per tile on a 256 array), held
+in one of two map stores (docs/onsensor.md, "Map store"):
+
+- ``"analogue"`` (the paper preset's default): ``n = q/2 - 64`` in one analogue database
+  register per tile (``A``, ``B``: two tiles per sensor); it droops over a long query.
+- ``"levels"`` (the robust preset's default): each pixel's two 4-bit halves ``q = 16 h +
+  l`` as levels 16 apart in ``A`` (``16 h - 120``) and ``B`` (``16 l - 128``), one tile
+  per sensor. Levels 16 apart survive droop and write noise: every few frames a ladder of
+  15 comparisons rewrites each register with exact DAC levels (:meth:`refresh`), and the
+  comparison rebuilds ``n = H/2 + L/32`` exactly (ideal mode) before its tree.
+
+Each frame the live 8x8 grid of block means is replicated over every node block and
+compared by the clipped absolute difference, summed by a halving tree per block.
 """
 
 from __future__ import annotations
+
+from typing import ClassVar
 
 import numpy as np
 
 from ppaloc.onsensor.core import GRID, DRegs, SensorPipeline
 from ppaloc.onsensor.program import halve_level, pull_shift
 from ppaloc.sim import (
+    IN,
     NEWS,
     R1,
     R2,
@@ -90,10 +102,68 @@ class LowresPipeline(SensorPipeline):
     representation = "lowres"
     dr = LOWRES_DREGS
     db = (A, B)
+    stores: ClassVar[dict[str, int]] = {"levels": 1, "analogue": 2}
+    #: Levels store: the level of 0 in ``A`` (high halves) and ``B`` (low halves); levels
+    #: are ``LEVEL_STEP`` apart, so a value is restored while its error stays below 8.
+    LEVEL_BASES = (-120, -128)
+    LEVEL_STEP = 16
+    #: Levels store: frames between refreshes (droop <= 0.05 units/ms x 4 frames x ~1.2 ms
+    #: = 0.25 of the margin of 8; an error of at most 0.12 in ``n``).
+    REFRESH_EVERY = 4
     #: Replication class masks: rows, columns whose residue mod 8 is their block's index.
     class_masks: tuple[Register, Register] = (R1, R2)
     static_masks = (R1, R2, R4)  # class masks, valid roots
     spread_means = True
+
+    @classmethod
+    def default_store(cls, params) -> str:
+        """``"levels"`` for the robust preset, ``"analogue"`` (as it was) for the paper's."""
+        return "levels" if params.preset == "robust" else "analogue"
+
+    @classmethod
+    def level_planes(cls, plane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ``A`` and ``B`` levels (integers) of a plane of uint8 pixels ``q``."""
+        q = plane.astype(np.int64)
+        step = cls.LEVEL_STEP
+        return step * (q >> 4) + cls.LEVEL_BASES[0], step * (q & 15) + cls.LEVEL_BASES[1]
+
+    def map_plane(self, tile: int = 0) -> np.ndarray:
+        """The map values ``n`` of tile ``tile`` as the comparison sees them (untimed read)."""
+        if self.store == "levels":
+            return self.sim.read(A) / 2 + self.sim.read(B) / 32
+        return self.sim.read(self.db[tile])
+
+    def refresh(self) -> None:
+        """Levels store: rewrite ``A`` and ``B`` with exact levels (stage ``"refresh"``).
+
+        Every :attr:`REFRESH_EVERY` frames (from the first after ``reset``). Per
+        register: ``D := -R`` (one ``bus``), ``R := `` the top level (``scamp5_in``), then
+        from the top down, per level ``m``: ``FLAG := R_old < m``'s lower midpoint
+        (``where(D, IN)``, the midpoint through ``IN``) and ``R := `` level ``m - 1``
+        where flagged (``scamp5_in``, the DAC with offset correction: no write offsets).
+        Exact in ideal mode; with noise a value is restored while droop and noise stay
+        below half the step (8 units).
+        """
+        if self.store != "levels" or (self.frames - 1) % self.REFRESH_EVERY:
+            return
+        sim, step = self.sim, self.LEVEL_STEP
+        with sim.stage("refresh"):
+            for reg, base in zip((A, B), self.LEVEL_BASES, strict=True):
+                self._run(f"lv_copy_{reg.name}", lambda k, reg=reg: (k.all(), k.bus(D, reg)))
+                sim.scamp5_in(reg, base + 15 * step)
+                for m in range(15, 0, -1):
+                    sim.load_in(base + m * step - step // 2)
+                    self._run("lv_below", lambda k: k.where(D, IN))  # R_old < midpoint
+                    sim.scamp5_in(reg, base + (m - 1) * step)
+                self._run("all", lambda k: k.all())
+
+    def _map_planes(self) -> dict[str, np.ndarray]:
+        if self.store != "levels":
+            return super()._map_planes()
+        return {
+            "A: map tile 0, high 4 bits (levels 16 h - 120)": self.sim.read(A),
+            "B: map tile 0, low 4 bits (levels 16 l - 128)": self.sim.read(B),
+        }
 
     def _setup_masks(self) -> None:
         """Class masks ``R1`` (rows), ``R2`` (columns): see :func:`class_rows`."""
@@ -148,12 +218,31 @@ class LowresPipeline(SensorPipeline):
         A halving tree over ``D`` and ``E``; the robust preset with two tiles computes
         both tiles' trees at once (:meth:`_tree_tiles`).
         """
-        k.add(D, F, self.db[tile])  # n - f
+        if self.store == "levels":
+            self._levels_difference(k)
+        else:
+            k.add(D, F, self.db[tile])  # n - f
         k.abs(E, D)  # min(|f - n|, 127)
         k.bus2(D, NEWS, E)  # D = -|f - n| / 2
         for direction in (east, south):
             for step in (1, 2, 4):
                 halve_level(k, D, E, direction, step)
+
+    @staticmethod
+    def _levels_difference(k) -> None:
+        """Levels store: ``D := f - n`` with ``n = H/2 + L/32`` rebuilt from ``A``, ``B``.
+
+        Five halvings of ``L`` (``D = -L/32``), one of ``H`` (``E = -H/2``), ``NEWS :=
+        n``, ``D := -(n - f)`` (``F = -f``): exact in ideal mode, and the sign is
+        irrelevant to the ``abs`` after it.
+        """
+        k.bus2(D, NEWS, B)  # -L/2
+        for _ in range(2):
+            k.bus2(E, NEWS, D)
+            k.bus2(D, NEWS, E)  # L/4, -L/8; L/16, -L/32
+        k.bus2(E, NEWS, A)  # -H/2
+        k.bus(NEWS, D, E)  # n
+        k.bus(D, NEWS, F)  # -(n - f)
 
     def _tree_tiles(self, k) -> tuple[Register, ...] | None:
         """Robust, two tiles: both trees in one kernel, tile 0's ``-mu/2`` in ``D``, tile

@@ -7,7 +7,8 @@ plane in the snake layout of :mod:`ppaloc.topomap.layout`:
 - low-res nodes (``n = q/2 - 64``) into an analogue register: for every distinct value
   ``2n = q - 128`` the controller ORs one ``load_rect`` per horizontal run of PEs holding
   it into a digital mask, loads the value through the DAC where the mask is set, and at
-  the end one halving turns ``2n`` into ``n`` exactly;
+  the end one halving turns ``2n`` into ``n`` exactly; with the levels store the two
+  4-bit halves' levels go into ``A`` and ``B`` the same way (16 values each, no halving);
 - LBP descriptors into a digital register: one ``load_rect`` per run of set bits, ORed.
 
 Everything is charged to the stage ``"mapping"``.
@@ -45,27 +46,36 @@ def _mask_from_runs(pipe: SensorPipeline, target: Register, runs) -> None:
         pipe._run(f"or_{target.name}_tmp_a", lambda k: k.OR(target, dr.tmp_a))
 
 
+def _write_values(pipe: SensorPipeline, db: Register, values: np.ndarray, skip: int | None):
+    """``db := values`` (integers): ``res``, then per distinct value (but ``skip``, which
+    ``res`` leaves as 0) a mask of its runs and one DAC load where it is set."""
+    pipe._run(f"res_{db.name}", lambda k: k.res(db))
+    runs = [run for run in row_runs(values) if skip is None or run[0] != skip]
+    runs.sort(key=lambda run: run[0])
+    by_value: dict[int, list] = {}
+    for run in runs:
+        by_value.setdefault(run[0], []).append(run)
+    for value, group in by_value.items():
+        _mask_from_runs(pipe, pipe.dr.tmp_b, group)
+        pipe._run("where_tmp_b", lambda k: k.WHERE(pipe.dr.tmp_b))
+        pipe.sim.scamp5_in(db, value)
+        pipe._run("all", lambda k: k.all())
+
+
 def upload_map(pipe: SensorPipeline, topomap: TopoMap) -> None:
     """Write ``topomap``'s nodes into ``pipe``'s database registers (timed, stage "mapping")."""
     # the map's own PE blocks (uint8 images, or 4x8 bits), laid out for this array's size
     blocks = topomap.node_blocks()
     with pipe.sim.stage("mapping"):
-        if pipe.representation == "lowres":
+        if pipe.representation == "lowres" and pipe.store == "levels":
+            (plane,) = pipe.layout.to_planes(blocks, fill=0)
+            for db, values in zip(pipe.db, pipe.level_planes(plane), strict=True):
+                _write_values(pipe, db, values, skip=None)
+        elif pipe.representation == "lowres":
             planes = pipe.layout.to_planes(blocks, fill=128)
             for t, plane in enumerate(planes):
                 db = pipe.db[t]
-                pipe._run(f"res_{db.name}", lambda k, db=db: k.res(db))
-                values = plane.astype(np.int64) - 128
-                runs = [run for run in row_runs(values) if run[0] != 0]
-                runs.sort(key=lambda run: run[0])
-                by_value: dict[int, list] = {}
-                for run in runs:
-                    by_value.setdefault(run[0], []).append(run)
-                for value, group in by_value.items():
-                    _mask_from_runs(pipe, pipe.dr.tmp_b, group)
-                    pipe._run("where_tmp_b", lambda k: k.WHERE(pipe.dr.tmp_b))
-                    pipe.sim.scamp5_in(db, value)
-                    pipe._run("all", lambda k: k.all())
+                _write_values(pipe, db, plane.astype(np.int64) - 128, skip=0)
 
                 def halve(k, db=db):
                     k.bus2(D, NEWS, db)  # D = -(2n)/2

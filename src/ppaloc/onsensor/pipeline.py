@@ -74,6 +74,7 @@ def make_pipeline(
     noise: str | NoiseParams = "ideal",
     seed: int = 0,
     size: int = 256,
+    store: str | None = None,
 ) -> SensorPipeline:
     """Build the pipeline of ``representation`` (``"lowres"`` or ``"lbp"``).
 
@@ -92,6 +93,8 @@ def make_pipeline(
         Seed of the simulator's noise.
     size : int
         Array side (256 on SCAMP-5; multiples of 64).
+    store : str, optional
+        Map store (``SensorPipeline.stores``; default the representation's for the preset).
 
     Returns
     -------
@@ -111,4 +114,4 @@ def make_pipeline(
             f"no on-sensor pipeline for representation {representation!r}; known: "
             f"{', '.join(PIPELINES)}"
         ) from None
-    return cls(n_nodes, params, alpha=alpha, noise=noise, seed=seed, size=size)
+    return cls(n_nodes, params, alpha=alpha, noise=noise, seed=seed, size=size, store=store)
