@@ -58,6 +58,8 @@ _NEWS_I = NEWS.index
 _N_ANALOG = len(ANALOG_PLANES)
 _N_DIGITAL = len(DIGITAL_PLANES)
 _DECAYING = tuple(r.index for r in ANALOG_PLANES if r.role in ("general", "news"))
+assert _DECAYING == tuple(range(len(_DECAYING)))  # contiguous: one slice droops them all
+_DECAY_PLANES = slice(0, len(_DECAYING))
 
 Op = Callable[[], None]
 _Dest = tuple[np.ndarray, int, tuple | None]  # (plane, plane index, push slices or None)
@@ -316,10 +318,13 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._last_us = now
         if elapsed <= 0:
             return
-        for i in _DECAYING:
-            self.noise.droop(self._a[i], elapsed)
-        for i in range(R12.index + 1):
-            self.noise.digital_decay(self._d[i], now - self._dtouch_us[i], elapsed)
+        self.noise.droop(self._a[_DECAY_PLANES], elapsed)  # A-F and NEWS in one call
+        retention = self.noise.params.digital_retention_ms if self.noise.params else None
+        if retention is None or not self.noise.params.digital_flip_per_ms:
+            return
+        ages = now - self._dtouch_us[: R12.index + 1]
+        for i in np.flatnonzero(ages > retention * 1e3):  # only registers past retention
+            self.noise.digital_decay(self._d[i], ages[i], elapsed)
 
     # ------------------------------------------------------------- FLAG machinery
     def _flag_mask(self) -> np.ndarray | None:
