@@ -16,10 +16,13 @@ from pathlib import Path
 
 from ppaloc.errors import PpalocError
 
-__all__ = ["MAX_PATH", "check_output", "check_path_text"]
+__all__ = ["MAX_NAME", "MAX_PATH", "check_output", "check_path_text"]
 
 MAX_PATH = 4096
 """Longest path accepted (Linux's PATH_MAX)."""
+
+MAX_NAME = 255
+"""Longest name between two slashes, in bytes (NAME_MAX)."""
 
 
 def check_path_text(text: str | os.PathLike[str], flag: str) -> Path:
@@ -45,6 +48,11 @@ def check_path_text(text: str | os.PathLike[str], flag: str) -> Path:
         raise PpalocError(f"{flag} {raw!r} holds a NUL character, which no path can hold")
     if len(raw) > MAX_PATH:
         raise PpalocError(f"{flag} is a path of {len(raw)} characters: at most {MAX_PATH}")
+    longest = max((len(os.fsencode(part)) for part in Path(raw).parts), default=0)
+    if longest > MAX_NAME:
+        raise PpalocError(
+            f"{flag} has a name of {longest} bytes between slashes: at most {MAX_NAME}"
+        )
     return Path(raw).expanduser()
 
 

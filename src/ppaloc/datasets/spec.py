@@ -163,6 +163,9 @@ class Key:
 MAX_TEXT = 4096
 """Longest text value (a file name) a key accepts."""
 
+MAX_NAME = 255
+"""Longest name between two slashes in a path, in bytes (the file system's NAME_MAX)."""
+
 MAX_SPEC = 16384
 """Longest spec string accepted (paths included)."""
 
@@ -289,6 +292,13 @@ def parse_spec(
         raise DatasetSpecError(
             f"dataset spec {_show(text)} has an empty path; e.g. {schema.example}"
         )
+    for p in parts:
+        longest = max((len(part.encode("utf-8", "replace")) for part in Path(p).parts), default=0)
+        if longest > MAX_NAME:
+            raise DatasetSpecError(
+                f"dataset spec {_show(text)}: a path has a name of {longest} bytes between "
+                f"slashes; at most {MAX_NAME}"
+            )
     if path_check is not None:
         for p in parts:
             path_check(p)
