@@ -14,6 +14,7 @@ imports nothing heavy at start-up) and maps errors to exit codes in :func:`main`
 from __future__ import annotations
 
 import dataclasses
+import errno
 import logging
 import math
 import sys
@@ -860,13 +861,42 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except OSError as exc:  # the system refused a path the user gave: not a bug
+        if exc.errno not in _USER_ERRNOS or exc.filename is None:
+            return _internal_error(exc)
+        name = _short(str(exc.filename), 120)
+        print(f"ppaloc: error: {exc.strerror}: {name}; check the path", file=sys.stderr)
+        return 1
     except Exception as exc:  # a bug: keep the traceback for the report, show one line
-        path = _crash_log(exc)
-        log.debug("internal error", exc_info=exc)
-        print(
-            f"ppaloc: internal error ({type(exc).__name__}: {_one_line(str(exc))}); "
-            f"this is a bug, the traceback is in {path}",
-            file=sys.stderr,
-        )
-        return 3
+        return _internal_error(exc)
     return 0
+
+
+_USER_ERRNOS = frozenset(
+    {
+        errno.ENAMETOOLONG,
+        errno.ELOOP,
+        errno.EACCES,
+        errno.EPERM,
+        errno.ENOSPC,
+        errno.EDQUOT,
+        errno.EROFS,
+        errno.ENOTDIR,
+        errno.EISDIR,
+        errno.ENOENT,
+        errno.ENXIO,
+    }
+)
+"""OS errors that name a path the user gave or the space it lives in (exit 1, not 3)."""
+
+
+def _internal_error(exc: BaseException) -> int:
+    """Keep the traceback for the report, show one line (exit 3)."""
+    path = _crash_log(exc)
+    log.debug("internal error", exc_info=exc)
+    print(
+        f"ppaloc: internal error ({type(exc).__name__}: {_one_line(str(exc))[:300]}); "
+        f"this is a bug, the traceback is in {path}",
+        file=sys.stderr,
+    )
+    return 3
