@@ -165,6 +165,13 @@ def test_several_destination_bus(frames):
     assert kernel.calls[0] == "bus({C, D}, {A})" and len(kernel.kernel) == 3
 
 
+def test_raw_icw_word(frames):
+    result = run(frames, 10)
+    np.testing.assert_array_equal(result.session.outputs[0][ANALOG], -full_range(frames[0]))
+    (kernel,) = [k for k in result.session.kernels.values() if "icw" in " ".join(k.calls)]
+    assert kernel.calls[1] == "icw(0, {13, 21, 22})"
+
+
 def test_outputs_folder(frames, tmp_path):
     out = tmp_path / "run"
     result = run_program(SOURCE, frames, settings={"mode": "1"}, out=out)

@@ -34,11 +34,11 @@ __all__ = [
 #: Compiler flags: C++17, debug lines for messages, AddressSanitizer for bad memory access.
 FLAGS = ("-std=c++17", "-O0", "-g", "-fsanitize=address", "-fno-omit-frame-pointer")
 
-# Kernel functions of the SCAMP-5d library the simulator has no model of (analogue
-# diffusion, asynchronous propagation, squaring, raw ICWs, analogue output).
+# Kernel functions of the SCAMP-5d library, refused unless the simulator has them (a name
+# the simulator has, e.g. blur since it models diffusion, is in its kernel functions).
 _VENDOR_KERNEL_ONLY = (
     "blur", "blurh", "blurv", "blurset", "gauss", "gaussh", "gaussv", "sq", "aout",
-    "PROP0", "PROP1", "PROP_R1", "PROP_R2", "icw", "allow_highspeed", "move_to_heap",
+    "PROP0", "PROP1", "PROP_R1", "PROP_R2", "allow_highspeed",
 )  # fmt: skip
 
 

@@ -21,7 +21,7 @@ __all__ = ["constants_header", "kernel_macros", "macros_header"]
 # Extra arguments a starred parameter (``bus(a, *srcs)``, ``OR(d, *srcs)``) may take.
 _STAR_MAX = 4
 # Methods of ProgramAPI that are not SCAMP-5d kernel functions.
-_NOT_MACROS = frozenset({"icw"})
+_NOT_MACROS = frozenset({"icw"})  # the raw word has its own signature (include/scamp5.hpp)
 _CPP_KEYWORDS = frozenset({"and", "or", "not", "xor", "new", "delete", "register", "default"})
 
 
@@ -70,7 +70,27 @@ def constants_header() -> str:
     }  # fmt: skip
     lines += [f"constexpr dreg_t {a} = {r};" for a, r in aliases.items()]
     lines += ["}  // namespace SCAMP5_PE", ""]
+    from ppaloc.sim.bits import CLOCKS  # the raw word's clock field values
+
+    lines += [f"#define SCAMP5_CLOCK_{k.upper()} {v}" for k, v in CLOCKS.items()]
+    lines.append("")
     return "\n".join(lines)
+
+
+def icw_bits() -> dict[str, int]:
+    """Bit positions of the raw ICW word (the device API's ``SCAMP5_ICW_BITS``), for
+    ``icw(clock, {bits...})``: flag bits, then the analogue write (``W1``-``W7``) and
+    select (``SEL1``-``SEL7``) bits, the digital read (``RR1``-``RR12``) and write
+    (``LR1``-``LR12``) bits, and the readout control bits."""
+    names = ["selsq", "selpix", "rstpix", "seldiffe", "seldiffs", "s_in", "rana", "sels",
+             "_bit8", "sele", "selx", "rid", "seln"]  # fmt: skip
+    names += [f"W{i}" for i in range(1, 8)] + ["wrf"] + [f"SEL{i}" for i in range(1, 8)]
+    names += ["setf", "selw", "pupd", "fbus"]
+    names += [f"RR{i}" for i in range(1, 13)] + [f"LR{i}" for i in range(1, 13)]
+    names += ["lfl", "rfl", "nbit", "nb", "plwb", "plrb", "bit", "bitmode", "wr", "ana",
+              "dig8", "g_start", "g_stop", "col_out", "dir", "row_out", "s0_left", "s1_left",
+              "rst_start", "rst_stop", "s0_bot", "s1_bot", "pgdb", "pgdbobus"]  # fmt: skip
+    return {n: i for i, n in enumerate(names)}
 
 
 def macros_header() -> str:
@@ -87,4 +107,7 @@ def macros_header() -> str:
                 f'ppa::emit("{name}", loc, v, {n}); }}'
             )
     lines += ["}  // namespace scamp5_kernel_api", ""]
+    lines.append("namespace SCAMP5_ICW_BITS {")
+    lines += [f"constexpr uint8_t {n} = {v};" for n, v in icw_bits().items()]
+    lines += ["}  // namespace SCAMP5_ICW_BITS", ""]
     return "\n".join(lines)

@@ -9,7 +9,7 @@ int main() {
     vs_handle out_d = vs_gui_add_display("digital", 0, 1);
     vs_handle out_b = vs_gui_add_display("bits", 0, 2);
     int mode = 0, threshold = 20;
-    vs_gui_add_slider("mode", 0, 9, 0, &mode);
+    vs_gui_add_slider("mode", 0, 19, 0, &mode);
     vs_gui_add_slider("threshold", -128, 127, 20, &threshold);
     vs_handle use_or = vs_gui_add_switch("dilate", true);
 
@@ -124,6 +124,12 @@ int main() {
             scamp5_kernel_end();
             scamp5_output_image(C, out_a);
             scamp5_output_image(E, out_b);
+        } else if (mode == 10) {  // a raw ICW word: bus(A, B) written as its bits
+            scamp5_kernel_begin();
+                mov(B, A);
+                icw(SCAMP5_CLOCK_ANALOG, {W1, SEL1, SEL2});
+            scamp5_kernel_end();
+            scamp5_output_image(A, out_a);
         }
         vs_post_text("frame %u done", vs_loop_counter_get());
     }

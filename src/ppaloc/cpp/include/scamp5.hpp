@@ -326,10 +326,29 @@ inline void bus(std::initializer_list<ppa::Arg> dst, std::initializer_list<ppa::
     }
     k->calls++;
 }
+// The raw word: icw(clock, {bit positions of SCAMP5_ICW_BITS}), decoded by the simulator.
+inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc = PPA_HERE) {
+    scamp5_kernel* k = ppa::active();
+    if (!k) ppa::fail(loc, "icw() is a kernel function: call it inside a kernel");
+    std::vector<uint8_t>& b = k->body;
+    auto put = [&b](uint8_t tag, uint32_t v) {
+        b.push_back(tag);
+        for (int s = 0; s < 4; ++s) b.push_back((v >> (8 * s)) & 0xFF);
+    };
+    b.push_back(3);
+    b.insert(b.end(), {'i', 'c', 'w'});
+    for (int s = 0; s < 4; ++s) b.push_back((loc.line >> (8 * s)) & 0xFF);
+    b.push_back(2);
+    put(ppa::TAG_INT, clock);
+    put(ppa::TAG_LIST, uint32_t(bits.size()));
+    for (uint8_t bit : bits) put(ppa::TAG_INT, bit);
+    k->calls++;
+}
 }  // namespace scamp5_kernel_api
 
 #define scamp5_kernel_begin()                   \
     {                                           \
+        using namespace SCAMP5_ICW_BITS;        \
         using namespace scamp5_kernel_api;      \
         static scamp5_kernel __ppa_sk;          \
         if (__ppa_sk.null()) {                  \
@@ -341,6 +360,7 @@ inline void bus(std::initializer_list<ppa::Arg> dst, std::initializer_list<ppa::
     }
 #define scamp5_dynamic_kernel_begin()      \
     {                                      \
+        using namespace SCAMP5_ICW_BITS;   \
         using namespace scamp5_kernel_api; \
         scamp5_kernel __ppa_sk;            \
         __ppa_sk.recording_start(__FILE__, __LINE__)
