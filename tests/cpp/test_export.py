@@ -12,6 +12,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.sim import (
     IN,
+    NEWS,
     R5,
     R6,
     R7,
@@ -65,6 +66,31 @@ def test_kernel_to_cpp_regroups_the_macros():
         "bus(C);",
     ]
     assert text.startswith(f"// {len(k)} ICWs")
+
+
+def test_icws_without_a_device_function_become_raw_words(cxx, tmp_path):
+    sim = Scamp5(8, 8)
+    with sim.kernel() as k:
+        k.mov(B, A)
+        k.sq(B)  # a primitive with no macro call of its own
+        k.bus(C, NEWS)
+    text = kernel_to_cpp(k, "squares")
+    assert "icw(SCAMP5_CLOCK_ANALOG, {selsq" in text
+    program = tmp_path / "squares.cpp"
+    program.write_text(
+        "#include <scamp5.hpp>\nusing namespace SCAMP5_PE;\n"
+        + text
+        + "\nint main() { vs_init(); vs_frame_loop_control(); squares(); }\n"
+    )
+    frame = np.random.default_rng(1).integers(0, 256, (8, 8), dtype=np.uint8)
+    got = run_program(program, [frame]).session.sim
+    want = Scamp5(8, 8)
+    want.set_image(frame)
+    with want.kernel() as k2:
+        for ins in k:
+            k2.icw(ins.op, ins.dsts, ins.srcs)
+    for name, plane in planes(want).items():
+        np.testing.assert_array_equal(planes(got)[name], plane, err_msg=name)
 
 
 def test_trace_refuses_inspection_writes():

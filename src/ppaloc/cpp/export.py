@@ -119,14 +119,30 @@ def _calls(instructions: Sequence[Instruction]) -> list[str]:
                 out.append(f"{origin};")
                 i += n
                 continue
-        if ins.op not in _DEVICE_PRIMITIVES:
-            raise PpalocError(
-                f"cannot export ICW #{i} {ins} ({origin or 'no macro'}): the device API "
-                "has no call that issues it alone"
-            )
-        out.append(f"{ins.op}({', '.join(r.name for r in (*ins.dsts, *ins.srcs))});")
+        if ins.op in _DEVICE_PRIMITIVES:
+            out.append(f"{ins.op}({', '.join(r.name for r in (*ins.dsts, *ins.srcs))});")
+        else:
+            out.append(_raw_word(ins, i))
         i += 1
     return out
+
+
+def _raw_word(ins: Instruction, i: int) -> str:
+    """``icw(clock, {bits})``: an ICW no device function issues alone, as its raw word."""
+    from ppaloc.cpp.shimgen import icw_bits
+    from ppaloc.sim.bits import CLOCKS, decode, encode
+
+    try:
+        clock, bits = encode(ins)
+        back = decode(clock, bits)
+    except PpalocError as exc:
+        raise PpalocError(f"cannot export ICW #{i} {ins}: {exc}") from None
+    if not _same(back, ins):
+        raise PpalocError(f"cannot export ICW #{i} {ins}: its raw word reads back as {back}")
+    names = {v: k for k, v in icw_bits().items()}
+    clocks = {v: k for k, v in CLOCKS.items()}
+    shown = ", ".join(names[b] for b in sorted(bits))
+    return f"icw(SCAMP5_CLOCK_{clocks[clock].upper()}, {{{shown}}});  // {ins}"
 
 
 def kernel_to_cpp(
