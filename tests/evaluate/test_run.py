@@ -186,7 +186,7 @@ def test_config_rejects_unknown_keys_and_bad_values(tmp_path):
         EvaluateConfig(recall="D")
     with pytest.raises(PpalocError, match=r"tolerance=-1 must be an integer in \[0, 1000\]"):
         EvaluateConfig(tolerance=-1)
-    with pytest.raises(PpalocError, match=r"sizes=\[1\] must be map sizes of at least 2"):
+    with pytest.raises(PpalocError, match=r"sizes=1 must be an integer in \[2, 262144\]"):
         BenchConfig(sizes=(1,))
     for cls, key, value, words in [
         (EvaluateConfig, "methods", 3, "a list of strings"),

@@ -24,6 +24,8 @@ __all__ = [
     "MAX_BENCH_SIZE",
     "BenchConfig",
     "EvaluateConfig",
+    "check_limits",
+    "check_types",
     "config_from_mapping",
     "demo_dataset",
     "read_toml",
@@ -240,17 +242,32 @@ def config_from_mapping(cls: type[C], values: Mapping[str, Any], *, source: str 
     fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     reject_unknown_keys(values, list(fields), source=source)
     where = f" in {source}" if source else ""
-    for key, value in values.items():
-        expected = str(fields[key].type).split(" | ")[0]
-        if value is not None and not _has_type(value, expected):
-            raise PpalocError(
-                f"{key}={value!r}{where} must be {_TYPE_WORDS.get(expected, expected)}"
-            )
+    check_types(cls, values, source=source)
     check_limits(values, source=source)
     try:
         return cls(**{k: v for k, v in values.items() if v is not None})
     except (TypeError, ValueError) as exc:
         raise PpalocError(f"bad configuration{where}: {exc}") from exc
+
+
+def check_types(cls: type, values: Mapping[str, Any], *, source: str = "") -> None:
+    """Refuse a value whose type does not fit the field of ``cls`` it sets (other keys
+    are left alone), e.g. ``tolerance = "2"``.
+
+    Raises
+    ------
+    PpalocError
+        Naming the key, the value and the type expected.
+    """
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    where = f" in {source}" if source else ""
+    for key, value in values.items():
+        if key not in fields:
+            continue
+        expected = str(fields[key].type).split(" | ")[0]
+        if value is not None and not _has_type(value, expected):
+            shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
+            raise PpalocError(f"{key}={shown}{where} must be {_TYPE_WORDS.get(expected, expected)}")
 
 
 _TYPE_WORDS = {
