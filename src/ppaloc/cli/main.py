@@ -148,6 +148,19 @@ def _check_method_params(params: Any, source: Path | None) -> None:
         make_localiser(method, **values)
 
 
+def _check_file_types(
+    cls: type, file_values: dict[str, Any], source: Path | None, skip: tuple[str, ...] = ()
+) -> None:
+    """A config file's values are typed and ranged even where a flag overrides them."""
+    from ppaloc.evaluate.config import check_limits, check_types
+
+    values = {k: v for k, v in file_values.items() if k not in skip}
+    if isinstance(values.get("methods"), str):  # one name stands for a list of one
+        values["methods"] = [values["methods"]]
+    check_types(cls, values, source=str(source or ""))
+    check_limits(values, source=str(source or ""))
+
+
 def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
     """The checked output location (see :func:`ppaloc.cli.outputs.check_output`)."""
     from ppaloc.cli.outputs import check_output
@@ -387,8 +400,10 @@ def evaluate(
     from ppaloc.cli.commands import run_evaluate, run_matrix
     from ppaloc.evaluate.config import EvaluateConfig, config_from_mapping, reject_unknown_keys
 
+    file_values = _file_values(config_file, "evaluate")
+    _check_file_types(EvaluateConfig, file_values, config_file, skip=("dataset",))
     values = _merge(
-        _file_values(config_file, "evaluate"),
+        file_values,
         {
             "dataset": list(datasets) if len(datasets) > 1 else (datasets or [None])[0],
             "methods": methods,
@@ -481,8 +496,10 @@ def bench(
     from ppaloc.evaluate.config import BenchConfig, config_from_mapping, reject_unknown_keys
 
     size_list = None if sizes is None else _sizes(sizes)
+    file_values = _file_values(config_file, "bench")
+    _check_file_types(BenchConfig, file_values, config_file)
     values = _merge(
-        _file_values(config_file, "bench"),
+        file_values,
         {
             "methods": methods,
             "sizes": size_list,
