@@ -1112,9 +1112,9 @@ class SensorPipeline(ABC):
         nearest ``prev`` (a window search, :meth:`_nearest`); None if none is found.
 
         ``prev`` may lie outside this sensor's nodes (a bank gives it in local numbers).
+        After :meth:`local_top`, whose ``tmp_a`` (NOT valid) it reuses.
         """
         sim, dr = self.sim, self.dr
-        self._allow(False)
         self._at_least(top)
         events = sim.scan_events(dr.cand, EVENT_SLOTS)
         if not len(events):
