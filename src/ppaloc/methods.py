@@ -218,15 +218,7 @@ def check_parameters(name: str, params: Mapping[str, Any]) -> None:
     Traceback (most recent call last):
     ppaloc.errors.PpalocError: method 'seqslam': ds=100000 must be in [0, 500]
     """
-    if name not in METHODS:
-        raise PpalocError(
-            f"unknown method {name!r}; choose one of: {', '.join(available_methods())}"
-        )
-    spec = METHODS[name]
-    try:
-        cls = _load(spec)
-    except (ImportError, AttributeError) as exc:
-        raise PpalocError(f"method {name!r} is not available in this install ({exc})") from exc
+    spec, cls = _method_class(name)
     accepted = accepted_parameters(name)
     unknown = [key for key in params if accepted is not None and key not in accepted]
     if unknown:
@@ -255,6 +247,19 @@ def check_parameters(name: str, params: Mapping[str, Any]) -> None:
                 raise PpalocError(f"method {name!r}: {key}={shown} must be in [{bounds}]")
 
 
+def _method_class(name: str) -> tuple[MethodSpec, type]:
+    """The registry entry of ``name`` and its class, or a one-line error naming the fix."""
+    if name not in METHODS:
+        raise PpalocError(
+            f"unknown method {name!r}; choose one of: {', '.join(available_methods())}"
+        )
+    spec = METHODS[name]
+    try:
+        return spec, _load(spec)
+    except (ImportError, AttributeError) as exc:
+        raise PpalocError(f"method {name!r} is not available in this install ({exc})") from exc
+
+
 def _load(spec: MethodSpec) -> type:
     module, _, cls = spec.target.partition(":")
     return getattr(importlib.import_module(module), cls)
@@ -280,15 +285,7 @@ def make_localiser(name: str, **params: Any) -> Localiser:
     PpalocError
         If the name is unknown or unavailable, or a parameter is not accepted.
     """
-    if name not in METHODS:
-        raise PpalocError(
-            f"unknown method {name!r}; choose one of: {', '.join(available_methods())}"
-        )
-    spec = METHODS[name]
-    try:
-        cls = _load(spec)
-    except (ImportError, AttributeError) as exc:
-        raise PpalocError(f"method {name!r} is not available in this install ({exc})") from exc
+    spec, cls = _method_class(name)
     check_parameters(name, params)
     try:
         return cls(**{**spec.defaults, **params})
