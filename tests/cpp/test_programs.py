@@ -172,6 +172,19 @@ def test_raw_icw_word(frames):
     assert kernel.calls[1] == "icw(0, {13, 21, 22})"
 
 
+def test_dynamic_kernels_leave_the_icw_stack(frames):
+    result = run(frames, 11)
+    assert result.session.warnings == []
+    sim = Scamp5(N, N)
+    sim.set_image(frames[-1])
+    with sim.kernel() as k:
+        k.get_image(A, B)
+        k.newsblur(C, A, 61)
+    np.testing.assert_array_equal(result.session.outputs[-1][ANALOG], sim.read(C))
+    overflow = run(frames, 12)
+    assert overflow.session.warnings and "ICW stack" in overflow.session.warnings[0]
+
+
 def test_outputs_folder(frames, tmp_path):
     out = tmp_path / "run"
     result = run_program(SOURCE, frames, settings={"mode": "1"}, out=out)

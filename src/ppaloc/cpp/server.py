@@ -48,6 +48,7 @@ class KernelStats:
     line: int
     calls: list[str]
     kernel: Kernel | None = None
+    dynamic: bool = False
     runs: int = 0
     modelled_us: float = 0.0
 
@@ -207,8 +208,8 @@ class Session:
         return out, at
 
     def _define(self, payload: memoryview) -> None:
-        kid, line, n = struct.unpack_from("<IIH", payload)
-        at = 10
+        kid, line, dynamic, n = struct.unpack_from("<IIBH", payload)
+        at = 11
         body = []
         for _ in range(n):
             size = payload[at]
@@ -219,6 +220,7 @@ class Session:
             body.append((name, call_line, args))
         stats = KernelStats(kid, line, [f"{b[0]}({', '.join(map(_show, b[2]))})" for b in body])
         stats._body = body  # type: ignore[attr-defined]
+        stats.dynamic = bool(dynamic)
         self.kernels[kid] = stats
 
     def _run(self, kid: int) -> None:
@@ -232,6 +234,8 @@ class Session:
             try:
                 with warnings.catch_warnings(record=True) as caught, kernel as k:
                     warnings.simplefilter("always")
+                    if stats.dynamic:  # freed after its launch on the device: off the stack
+                        k.move_to_heap(True)
                     for name, line, args in stats._body:  # type: ignore[attr-defined]
                         try:
                             getattr(k, name)(*args)
@@ -247,6 +251,13 @@ class Session:
             stats.kernel = kernel
             for w in caught:
                 self.warnings.append(f"{self.program}:{stats.line}: {w.message}")
+            dropped = getattr(kernel, "dropped", 0)
+            if dropped and not caught:
+                self.warnings.append(
+                    f"{self.program}:{stats.line}: the kernel begun here lost {dropped} of its "
+                    "ICWs: the 1024-ICW stack that static kernels share is full (free some, "
+                    "use dynamic kernels or move_to_heap(true))"
+                )
         else:
             stats.kernel.run()
         stats.runs += 1

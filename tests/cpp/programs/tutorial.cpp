@@ -130,6 +130,22 @@ int main() {
                 icw(SCAMP5_CLOCK_ANALOG, {W1, SEL1, SEL2});
             scamp5_kernel_end();
             scamp5_output_image(A, out_a);
+        } else if (mode == 11) {  // dynamic kernels: each leaves the ICW stack after use
+            for (int i = 0; i < 12; ++i) {
+                scamp5_dynamic_kernel_begin();
+                    newsblur(C, A, 50 + i);
+                scamp5_dynamic_kernel_end();
+            }
+            scamp5_output_image(C, out_a);
+        } else if (mode == 12) {  // kernel objects stay on the stack: 1300 ICWs overflow it
+            static scamp5_kernel* kernels[12];
+            for (int i = 0; i < 12; ++i) {
+                if (!kernels[i]) {
+                    using namespace scamp5_kernel_api;
+                    kernels[i] = new scamp5_kernel([=] { newsblur(C, A, 50 + i); });
+                }
+                scamp5_launch_kernel(*kernels[i]);
+            }
         }
         vs_post_text("frame %u done", vs_loop_counter_get());
     }

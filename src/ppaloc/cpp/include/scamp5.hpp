@@ -246,10 +246,13 @@ class scamp5_kernel {
     }
     bool null() const { return id == 0; }
 
-    void recording_start(const char* f = "", unsigned l = 0) {
+    bool dynamic = false;  // a dynamic kernel leaves the ICW stack after its launch
+
+    void recording_start(const char* f = "", unsigned l = 0, bool dyn = false) {
         if (ppa::active()) ppa::fail(ppa::Loc{f, l}, "a kernel begins inside another kernel");
         file = f;
         line = l;
+        dynamic = dyn;
         body.clear();
         calls = 0;
         ppa::active() = this;
@@ -257,6 +260,7 @@ class scamp5_kernel {
     void recording_stop() {
         ppa::active() = nullptr;
         std::string key(body.begin(), body.end());
+        key.push_back(dynamic ? 'd' : 's');
         auto& known = ppa::known_bodies();
         auto it = known.find(key);
         if (it != known.end()) {
@@ -269,6 +273,7 @@ class scamp5_kernel {
         size_t at = c.begin(ppa::OP_DEF);
         c.u32(id);
         c.u32(line);
+        c.u8(dynamic ? 1 : 0);
         c.u16(calls);
         c.bytes(body.data(), body.size());
         c.end(at);
@@ -363,7 +368,7 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
         using namespace SCAMP5_ICW_BITS;   \
         using namespace scamp5_kernel_api; \
         scamp5_kernel __ppa_sk;            \
-        __ppa_sk.recording_start(__FILE__, __LINE__)
+        __ppa_sk.recording_start(__FILE__, __LINE__, true)
 #define scamp5_dynamic_kernel_end() \
     __ppa_sk.recording_stop();      \
     scamp5_launch_kernel(__ppa_sk); \
