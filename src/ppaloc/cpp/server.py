@@ -10,6 +10,8 @@ frame, posted text, modelled time per kernel and per frame.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import struct
 import warnings
 from collections import Counter
@@ -65,6 +67,27 @@ class KernelStats:
             "modelled_us_per_run": self.modelled_us / self.runs if self.runs else 0.0,
             "modelled_us_total": self.modelled_us,
         }
+
+
+@functools.cache
+def _direction_slots(name: str) -> frozenset[int]:
+    """Positions of a kernel function's direction parameters (``dir``, ``dir2``)."""
+    fn = getattr(Kernel, name, None)
+    if fn is None:
+        return frozenset()
+    params = list(inspect.signature(fn).parameters)[1:]
+    return frozenset(i for i, p in enumerate(params) if p in ("dir", "dir2"))
+
+
+def _directions(name: str, args: list) -> list:
+    """Integer directions (``DNEWS(R6, R5, 5)``, the device takes an ``int``) as Direction."""
+    slots = _direction_slots(name)
+    if not slots:
+        return args
+    return [
+        Direction(a) if i in slots and type(a) is int and 0 <= a <= 15 else a
+        for i, a in enumerate(args)
+    ]
 
 
 def _show(arg: Any) -> str:
@@ -238,7 +261,7 @@ class Session:
                         k.move_to_heap(True)
                     for name, line, args in stats._body:  # type: ignore[attr-defined]
                         try:
-                            getattr(k, name)(*args)
+                            getattr(k, name)(*_directions(name, args))
                         except (PpalocError, TypeError) as exc:
                             call = f"{name}({', '.join(map(_show, args))})"
                             raise ProgramError(f"{self.program}:{line}: {call}: {exc}") from None

@@ -31,7 +31,7 @@ int main() {
             scamp5_kernel_end();
             if (mode == 2 && vs_gui_read_switch(use_or)) {
                 scamp5_kernel_begin();
-                    DNEWS(R6, R5, alldir);
+                    DNEWS(R6, R5, 15);  // an int, as the device's DNEWS takes: alldir
                     OR(R7, R5, R6);
                 scamp5_kernel_end();
                 scamp5_output_image(R7, out_d);
