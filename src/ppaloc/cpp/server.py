@@ -49,6 +49,7 @@ class KernelStats:
     id: int
     line: int
     calls: list[str]
+    body: list[tuple[str, int, list]] = field(default_factory=list, repr=False)
     kernel: Kernel | None = None
     dynamic: bool = False
     runs: int = 0
@@ -241,10 +242,8 @@ class Session:
             call_line, nargs = struct.unpack_from("<IB", payload, at)
             args, at = self._args(payload, at + 5, nargs)
             body.append((name, call_line, args))
-        stats = KernelStats(kid, line, [f"{b[0]}({', '.join(map(_show, b[2]))})" for b in body])
-        stats._body = body  # type: ignore[attr-defined]
-        stats.dynamic = bool(dynamic)
-        self.kernels[kid] = stats
+        calls = [f"{b[0]}({', '.join(map(_show, b[2]))})" for b in body]
+        self.kernels[kid] = KernelStats(kid, line, calls, body, dynamic=bool(dynamic))
 
     def _run(self, kid: int) -> None:
         stats = self.kernels.get(kid)
@@ -259,7 +258,7 @@ class Session:
                     warnings.simplefilter("always")
                     if stats.dynamic:  # freed after its launch on the device: off the stack
                         k.move_to_heap(True)
-                    for name, line, args in stats._body:  # type: ignore[attr-defined]
+                    for name, line, args in stats.body:
                         try:
                             getattr(k, name)(*_directions(name, args))
                         except (PpalocError, TypeError) as exc:
