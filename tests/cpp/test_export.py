@@ -111,13 +111,16 @@ def route():
     return places, query
 
 
-@pytest.mark.parametrize("rep", ["lowres", "lbp"])
-def test_pipeline_round_trip(cxx, route, tmp_path, rep):
+@pytest.mark.parametrize(
+    ("rep", "preset"), [("lowres", "robust"), ("lbp", "robust"), ("lbp", "paper")]
+)
+def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     places, query = route
-    mapper = OnSensorLocaliser(rep, size=SIZE, keyframes=False)
+    kw = {"preset": preset} if preset == "paper" else {"keyframes": False}
+    mapper = OnSensorLocaliser(rep, size=SIZE, **kw)
     topomap = mapper.build_map(places)
     with trace_pipeline() as tracer:
-        loc = OnSensorLocaliser(rep, size=SIZE, keyframes=False)
+        loc = OnSensorLocaliser(rep, size=SIZE, **kw)
         loc.use_map(topomap)
         estimates = [loc.step(f) for f in query]
     sim = loc.pipeline.sim
@@ -126,7 +129,7 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep):
     source = to_cpp(
         trace, estimates=[(e.node, e.score) for e in estimates], title=f"on-sensor {rep}"
     )
-    path = tmp_path / f"pipeline_{rep}.cpp"
+    path = tmp_path / f"pipeline_{rep}_{preset}.cpp"
     path.write_text(source)
     result = run_program(path, query, timeout=120)
     texts = result.texts
