@@ -14,6 +14,7 @@ import os
 import re
 import shutil
 import subprocess
+import tempfile
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -57,7 +58,8 @@ def compiler() -> str | None:
 
 
 def cache_dir() -> Path:
-    """Where compiled programs are kept (``$PPALOC_CPP_CACHE``, else the user cache)."""
+    """Where compiled programs are kept (``$PPALOC_CPP_CACHE``, else the user cache; a
+    private folder under the system's temp where that cannot be written)."""
     env = os.environ.get("PPALOC_CPP_CACHE")
     if env:
         return Path(env)
@@ -165,7 +167,14 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
     if cxx is None:
         raise PpalocError("no C++ compiler found (g++); install Debian's g++ package or set $CXX")
     root = cache_dir()
-    root.mkdir(parents=True, exist_ok=True)
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        probe = root / f".probe-{os.getpid()}"
+        probe.touch()
+        probe.unlink()
+    except OSError:  # a read-only home: a private folder under the system's temp
+        root = Path(tempfile.gettempdir()) / f"ppaloc-cpp-{os.getuid()}"
+        root.mkdir(mode=0o700, exist_ok=True)
     include = resources.files("ppaloc.cpp").joinpath("include")
     gen = _generated(root)
     version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
