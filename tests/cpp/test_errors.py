@@ -40,6 +40,8 @@ def test_unmodelled_call_named_before_the_run():
     with pytest.raises(UnmodelledCallError, match=r"p.cpp:2: aout is"):
         check_source("scamp5_kernel_begin();\n  aout(A);\n", "p.cpp")
     check_source('vs_post_text("scamp5_output_events");\nmov(A, B);\n', "p.cpp")  # strings, known
+    own = "static int scamp5_total = 0;\nvoid vs_helper(int x) { scamp5_total += x; }\n"
+    check_source(own + "int main() { vs_helper(scamp5_total); }\n", "p.cpp")  # its own names
 
 
 def test_hang_is_stopped(faults, tmp_path):

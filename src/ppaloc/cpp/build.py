@@ -91,6 +91,12 @@ def _strip(text: str) -> str:
     return re.sub(pattern, blank, text, flags=re.S)
 
 
+def _defined_here(code: str) -> set[str]:
+    """Names the program defines itself (a function or variable written after a type)."""
+    pattern = r"\b[A-Za-z_][\w:<>]*[\s*&]+((?:scamp5|vs)_\w+)\s*(?:\([^;{}]*\)\s*\{|[=;\[])"
+    return set(re.findall(pattern, code))
+
+
 def check_source(text: str, name: str) -> None:
     """Refuse a program that calls SCAMP-5d functions the simulator does not model.
 
@@ -101,9 +107,9 @@ def check_source(text: str, name: str) -> None:
         SCAMP-5d function the simulator does not model``.
     """
     code = _strip(text)
-    known = known_names()
+    known = known_names() | _defined_here(code)
     found: list[tuple[int, str]] = []
-    for m in re.finditer(r"\b((?:scamp5|vs)_\w+)", code):
+    for m in re.finditer(r"\b((?:scamp5|vs)_\w+)\b(?=\s*\()", code):
         if m.group(1) not in known:
             found.append((m.start(), m.group(1)))
     unmodelled = [n for n in _VENDOR_KERNEL_ONLY if n not in known]
