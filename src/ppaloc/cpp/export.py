@@ -415,7 +415,8 @@ class _Program:
             reg = a["reg"]
             if reg.kind == "analog":
                 return f"scamp5_shift({_reg(reg)}, {a['h']}, {a['v']});"
-            return f"scamp5_shift({_reg(reg)}, {a['h']}, {a['v']}, {a['boundary']});"
+            refresh = a.get("refresh", 2)
+            return f"scamp5_shift({_reg(reg)}, {a['h']}, {a['v']}, {a['boundary']}, {refresh});"
         if name in ("global_sum_16", "global_sum_64"):
             return self.check_int(f"(int)scamp5_{name}({_reg(a['areg'])})", result)
         if name == "global_or":

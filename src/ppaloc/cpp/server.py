@@ -351,11 +351,11 @@ def _global_sum(n: int) -> Handler:
 
 
 def _shift(s: Session, a: list, line: int) -> None:
-    reg, h, v, boundary = a
+    reg, h, v, boundary, refresh = a
     if reg.kind == "analog":
         s.sim.shift(reg, h, v)
     else:
-        s.sim.shift(reg, h, v, boundary)
+        s.sim.shift(reg, h, v, boundary, refresh)
 
 
 def pack_dreg_rows(rows: np.ndarray) -> bytes:

@@ -392,7 +392,7 @@ inline void scamp5_load_in(int8_t value, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("scamp5_load_in_value", false, int(value));
 }
 inline void scamp5_shift(AREG areg, int h, int v, ppa::Loc loc = PPA_HERE) {
-    PPA_CALL("scamp5_shift", false, areg, h, v, 0);
+    PPA_CALL("scamp5_shift", false, areg, h, v, 0, 2);
 }
 inline uint8_t scamp5_read_areg(ASRC areg, uint8_t r, uint8_t c, ppa::Loc loc = PPA_HERE) {
     return uint8_t(ppa::as_int(PPA_CALL("scamp5_read_areg", true, areg, int(r), int(c))));
@@ -414,8 +414,7 @@ inline uint32_t scamp5_global_sum_64(AREG areg, uint8_t* result64v = NULL,
 // ------------------------------------------------------------------ controller: digital
 inline void scamp5_shift(DREG dreg, int h, int v, const int boundary = 0, const int refresh = 2,
                          ppa::Loc loc = PPA_HERE) {
-    (void)refresh;  // the simulator's digital shift does not decay between steps
-    PPA_CALL("scamp5_shift", false, dreg, h, v, boundary);
+    PPA_CALL("scamp5_shift", false, dreg, h, v, boundary, refresh);
 }
 inline int scamp5_global_or(DSRC dreg, uint8_t r = 0, uint8_t c = 0, uint8_t rx = 255,
                             uint8_t cx = 255, ppa::Loc loc = PPA_HERE) {
