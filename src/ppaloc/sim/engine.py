@@ -155,6 +155,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._image: np.ndarray | None = None
         self._ops_cache: dict[tuple, Op] = {}
         self._last_us = 0.0
+        self._droop_us = np.zeros(len(_DECAYING))  # droop not yet applied, per plane (us)
         self._dtouch_us = np.zeros(_N_DIGITAL)
         if not self.noise.ideal:
             self._a[PIX.index] = self.noise.pixel_offset
@@ -171,7 +172,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
             raise SimulatorError(
                 f"{reg!r} is not an analogue register plane: use A..F, NEWS, PIX or IN"
             )
-        return self._a[reg.index]
+        i = reg.index
+        if i < len(_DECAYING) and self._droop_us[i]:
+            self._flush_droop((i,))
+        return self._a[i]
 
     def _dplane(self, reg: Register) -> np.ndarray:
         """The live bool plane of digital ``reg`` (incl. FLAG and SELECT; a view)."""
@@ -206,11 +210,12 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
     def _write_analog(self, reg: Register, values: object) -> None:
         """Set analogue ``reg`` everywhere (clipped; with write noise when not ideal)."""
+        if not self.noise.ideal:
+            self._elapse()  # older values droop first; the new one starts fresh
         plane = self._aplane(reg)
         t = self._t[2]
         np.copyto(t, self._as_plane(reg, values, float), casting="unsafe")
         if not self.noise.ideal:
-            self._elapse()  # older values droop first; the new one starts fresh
             self.noise.perturb(t, reg.index, divided=False)
         _clip(t, _LO, _HI, out=plane)
 
@@ -239,13 +244,12 @@ class Scamp5(ControllerMixin, ProgramAPI):
         if isinstance(reg, Register) and reg.kind == "digital":
             self._write_digital(reg, values)
         else:
-            plane = self._aplane(reg)
             arr = self._as_plane(reg, values, float)
             if not np.isfinite(arr).all():
                 raise SimulatorError(f"cannot write NaN or infinity into {reg.name}")
             if not self.noise.ideal:
-                self._elapse()
-            np.copyto(plane, np.clip(arr, -128, 127), casting="unsafe")
+                self._elapse()  # before the plane is taken: the new value starts fresh
+            np.copyto(self._aplane(reg), np.clip(arr, -128, 127), casting="unsafe")
 
     def set_image(self, image: np.ndarray) -> None:
         """Set the scene ``PIX`` sees until the next ``rpix``: a uint8 (rows, cols) image.
@@ -300,8 +304,32 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._run_ops(run, count_clocks(instructions), written_digital(instructions))
 
     def _compile_kernel(self, instructions: tuple[Instruction, ...]) -> Op:
-        """A runner performing ``instructions`` in order, built by this simulator's engine."""
-        return self.engine.compile(tuple(instructions))
+        """A runner performing ``instructions`` in order, built by this simulator's engine.
+
+        With droop, the runner first applies the droop pending on the planes the ICWs read
+        or write (the others keep accumulating it until something touches them).
+        """
+        run = self.engine.compile(tuple(instructions))
+        if self.noise.ideal or not self.noise.params.decay_per_ms:
+            return run
+        touched = tuple(
+            sorted(
+                {
+                    r.index
+                    for ins in instructions
+                    for r in (*ins.dsts, *ins.srcs)
+                    if r.kind == "analog" and r.index < len(_DECAYING)
+                }
+            )
+        )
+        pending = self._droop_us
+
+        def run_aged() -> None:
+            if pending.any():
+                self._flush_droop(touched)
+            run()
+
+        return run_aged
 
     def _run_ops(self, run: Op, counts: dict[str, int], dwritten: np.ndarray) -> None:
         if not self.noise.ideal:
@@ -312,19 +340,37 @@ class Scamp5(ControllerMixin, ProgramAPI):
             self._dtouch_us[dwritten] = self.timing.now_us
 
     def _elapse(self) -> None:
-        """Apply analogue droop and digital decay for the modelled time since last time."""
+        """Account analogue droop (applied when a plane is next touched: a kernel reading or
+        writing it, or any host access) and apply digital decay, for the modelled time
+        since last time."""
         now = self.timing.now_us
         elapsed = now - self._last_us
         self._last_us = now
         if elapsed <= 0:
             return
-        self.noise.droop(self._a[_DECAY_PLANES], elapsed)  # A-F and NEWS in one call
+        if self.noise.params and self.noise.params.decay_per_ms:  # applied at next touch
+            self._droop_us += elapsed
         retention = self.noise.params.digital_retention_ms if self.noise.params else None
         if retention is None or not self.noise.params.digital_flip_per_ms:
             return
         ages = now - self._dtouch_us[: R12.index + 1]
         for i in np.flatnonzero(ages > retention * 1e3):  # only registers past retention
             self.noise.digital_decay(self._d[i], ages[i], elapsed)
+
+    def _flush_droop(self, planes: tuple[int, ...]) -> None:
+        """Apply the droop pending on ``planes`` (indices of A-F, NEWS), all at once.
+
+        Droop moves a value towards 0 by a step proportional to time and never past 0, so
+        one step for the whole pending time is the same as the steps one by one.
+        """
+        pending = self._droop_us
+        if len(planes) == len(_DECAYING) and np.all(pending == pending[0]):
+            self.noise.droop(self._a[_DECAY_PLANES], pending[0])  # one call for all
+        else:
+            for i in planes:
+                if pending[i]:
+                    self.noise.droop(self._a[i], pending[i])
+        pending[list(planes)] = 0.0
 
     # ------------------------------------------------------------- FLAG machinery
     def _flag_mask(self) -> np.ndarray | None:

@@ -256,15 +256,17 @@ class NoiseModel:
         np.add(values, self.window(divided), out=values)
 
     def droop(self, planes: np.ndarray, elapsed_us: float) -> None:
-        """Let analogue ``planes`` (n, rows, cols) droop towards 0 for ``elapsed_us``."""
+        """Let analogue ``planes`` (one plane or (n, rows, cols)) droop towards 0 for
+        ``elapsed_us``."""
         if self.ideal or elapsed_us <= 0 or self.params.decay_per_ms == 0:
             return
         step = np.float32(self.params.decay_per_ms * elapsed_us / 1000.0)
         # v -> v - clip(v, -step, step): towards 0 by `step`, never past it
-        if self._droop_tmp is None or self._droop_tmp.shape != planes.shape:
-            self._droop_tmp = np.empty_like(planes)
-        fast_clip(planes, -step, step, out=self._droop_tmp)
-        np.subtract(planes, self._droop_tmp, out=planes)
+        if self._droop_tmp is None or self._droop_tmp.size < planes.size:
+            self._droop_tmp = np.empty(planes.size, dtype=np.float32)
+        tmp = self._droop_tmp[: planes.size].reshape(planes.shape)
+        fast_clip(planes, -step, step, out=tmp)
+        np.subtract(planes, tmp, out=planes)
 
     def digital_decay(self, plane: np.ndarray, age_us: float, elapsed_us: float) -> None:
         """Let ones in a digital ``plane`` decay after its retention time has passed.
