@@ -167,3 +167,23 @@ def test_dead_scratch_writes_are_skipped_with_the_same_bytes(mode: str) -> None:
         same_bytes(
             run("compiled", mode, [list(program)], 9), run("reference", mode, [list(program)], 9)
         )
+
+
+def test_pending_droop_equals_droop_step_by_step() -> None:
+    """A plane no kernel touches droops as much, applied at once when it is next read."""
+    params = NoiseParams(decay_per_ms=40.0)
+    sims = [Scamp5(ROWS, COLS, noise=params, seed=1) for _ in range(2)]
+    values = np.linspace(-120, 120, ROWS * COLS).reshape(ROWS, COLS)
+    for sim in sims:
+        sim.write(s.A, values)
+    with sims[0].kernel() as idle:
+        idle.bus(s.B, s.C)
+    with sims[1].kernel() as touching:
+        touching.bus(s.B, s.A)
+    for _ in range(50):
+        idle.run()
+        touching.run()
+    lazy, eager = sims[0].read(s.A), sims[1].read(s.A)
+    assert np.abs(lazy - values).max() > 1  # it did droop
+    assert np.allclose(lazy, eager, atol=1e-4)
+    assert np.all(np.abs(lazy) <= np.abs(values))  # towards 0, never past it
