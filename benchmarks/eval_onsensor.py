@@ -21,7 +21,8 @@ presets given, default both):
   Nordland summer -> winter, Gardens Point day_left -> day_right and day_right ->
   night_right, both representations, always-forward motion (all are frame-synchronised);
   the noisy figures are means over ``--seeds`` noise seeds (default 4), with the fraction
-  of the ideal max F1 each preset keeps.
+  of the ideal max F1 each preset keeps; ``--store levels analogue`` runs both low-res map
+  stores (default: each preset's own), ``--noise-levels`` picks the noisy settings.
 - ``stages``: where the noise enters: the robust preset under the typical preset without
   droop with single stages made exact (``--exact``), each as a simulation experiment that
   lets the stage run and then puts the exact result of its noisy inputs in its output
