@@ -778,6 +778,14 @@ Examples:
 )
 @click.option("--timeout", type=float, default=60.0, show_default=True, help="Seconds.")
 @click.option(
+    "--noise",
+    type=click.Choice(["ideal", "low", "typical", "high"]),
+    default="ideal",
+    show_default=True,
+    help="The simulator's noise preset.",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
+@click.option(
     "--out",
     required=True,
     type=click.Path(file_okay=False, path_type=Path),
@@ -791,6 +799,8 @@ def cpp_run(
     frames: int | None,
     settings: tuple[str, ...],
     timeout: float,
+    noise: str,
+    seed: int,
     out: Path,
     quiet: bool | None,
 ) -> None:
@@ -805,6 +815,8 @@ def cpp_run(
         frames=frames,
         settings=settings,
         timeout=timeout,
+        noise=noise,
+        seed=seed,
         quiet=bool(quiet),
     )
 
