@@ -92,6 +92,11 @@ def test_cli_exit_codes(faults, tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["cpp", "run", str(FAULTS), "--out", str(out), "--frames", "2", "-q"]) == 0
     assert (out / "displays" / "image" / "frame_0001.png").exists()
+    noisy = tmp_path / "noisy"
+    args = ["cpp", "run", str(FAULTS), "--out", str(noisy), "--noise", "typical", "--seed", "3"]
+    assert main([*args, "-q"]) == 0
+    assert main(["cpp", "run", str(FAULTS), "--out", str(noisy), "--seed", "-1"]) == 1
+    assert "--seed -1 must be 0 or more" in capsys.readouterr().err
     code = main(["cpp", "run", str(FAULTS), "--out", str(tmp_path / "bad"), "--set", "fault=3"])
     assert code == 1
     err = capsys.readouterr().err

@@ -68,15 +68,21 @@ def run_cpp(
     frames: int | None = None,
     settings: Sequence[str] = (),
     timeout: float = 60.0,
+    noise: str = "ideal",
+    seed: int = 0,
     quiet: bool = False,
 ) -> RunResult:
     """Run ``program`` on the simulator and write ``out``; print one summary line."""
+    if seed < 0:
+        raise PpalocError(f"--seed {seed} must be 0 or more")
     result = run_program(
         program,
         load_frames(image, dataset, frames),
         settings=parse_settings(settings),
         timeout=timeout,
         out=out,
+        noise=noise,
+        seed=seed,
     )
     if not quiet:
         s = result.summary()
