@@ -59,6 +59,8 @@ CASES = [
         "is longer than the generator's 4000000 m",
     ),
     ("synthetic:?places=1000000&speed=0.05", "the query would need about"),
+    ("synthetic:?places=28000&world=lab", "more than the generator's 30000000 turn-places"),
+    ("synthetic:?places=25000&turns=6000", "at most 1200 turns on this route"),
     # the keys every kind takes
     ("synthetic:?tolerance=1000000000000", "key 'tolerance' must be an integer in [0, 1000]"),
     ("synthetic:?tolerance=-1", "key 'tolerance' must be an integer in [0, 1000]"),

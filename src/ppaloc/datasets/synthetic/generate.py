@@ -38,6 +38,7 @@ __all__ = [
     "MAX_SIZE",
     "MAX_SPACING",
     "MAX_SPEED",
+    "MAX_TURN_PLACES",
     "WORLDS",
     "make_synthetic",
     "synthetic_route",
@@ -51,9 +52,12 @@ MAX_PLACES = 1_000_000
 """Most places of one route (the positions and ground truth grow with it)."""
 MAX_ROUTE_M = 4_000_000.0
 """Longest route, ``(places + extra) * spacing`` metres (the world is built per metre:
-about 20 s for the longest)."""
+about 30 s for the longest)."""
 MAX_QUERY_FRAMES = 2_000_000
 """Most query frames a route may need (``(places + extra) / speed`` plus the stops)."""
+MAX_TURN_PLACES = 30_000_000
+"""Most ``turns x (places + extra)`` of a route with turns (the lab always has some): the
+bent route's geometry grows with both)."""
 MAX_SPACING = 100.0
 """Widest spacing between places, metres."""
 MAX_SPEED = 10.0
@@ -222,6 +226,14 @@ def synthetic_route(
     if not 0 <= turns <= places // 4:
         raise DataError(
             f"turns={turns}: a route of {places} places takes 0 to places//4 = {places // 4} turns"
+        )
+    if turns * (places + extra) > MAX_TURN_PLACES:
+        most = MAX_TURN_PLACES // (places + extra)
+        raise DataError(
+            f"turns={turns} on {places + extra} places (places + extra) is more than the "
+            f"generator's {MAX_TURN_PLACES} turn-places (turns x places): at most {most} "
+            "turns on this route, or fewer places"
+            + (" (the lab's default is places // 25)" if world == "lab" else "")
         )
     if not 0.0 <= speed_var <= 0.9:
         raise DataError(
