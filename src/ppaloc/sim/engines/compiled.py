@@ -285,7 +285,8 @@ def _add_neighbours(t, news, flag, row, nsrc, flag_all):
                     trow[c] = trow[c] + nrow[c]
             else:
                 for c in range(w):
-                    trow[c] = trow[c] + (nrow[c] if frow[c] else zero)
+                    v = nrow[c]  # loads outside the select, so that it vectorises
+                    trow[c] = trow[c] + (v if frow[c] else zero)
 
 
 @_jit
@@ -309,8 +310,20 @@ def _bus_value(tf, parts, ideal, scale):
 
 
 @_jit
-def _write(dst, src, flag, flag_all, noisy, off, win):
-    """dst := src (+ the cell's offset + temporal noise, saturated, when noisy), FLAG-masked."""
+def _blend(dst, src, flag):
+    """dst := src where flag, bit for bit (a branch-free blend of the float32 bits)."""
+    du, su, f8 = dst.view(np.uint32), src.view(np.uint32), flag.view(np.uint8)
+    for p in range(dst.size):
+        m = np.uint32(0) - np.uint32(f8[p])
+        du[p] = (su[p] & m) | (du[p] & ~m)
+
+
+@_jit
+def _write(dst, src, flag, flag_all, noisy, off, win, tmp):
+    """dst := src (+ the cell's offset + temporal noise, saturated, when noisy), FLAG-masked.
+
+    ``tmp`` is a scratch plane for the noisy masked case (it may be ``src`` itself).
+    """
     n = dst.size
     if noisy:
         if flag_all:
@@ -318,14 +331,13 @@ def _write(dst, src, flag, flag_all, noisy, off, win):
                 dst[p] = _clip((src[p] + off[p]) + win[p])
         else:
             for p in range(n):
-                v = _clip((src[p] + off[p]) + win[p])
-                dst[p] = v if flag[p] else dst[p]
+                tmp[p] = _clip((src[p] + off[p]) + win[p])
+            _blend(dst, tmp, flag)
     elif flag_all:
         for p in range(n):
             dst[p] = src[p]
     else:
-        for p in range(n):
-            dst[p] = src[p] if flag[p] else dst[p]
+        _blend(dst, src, flag)
 
 
 @_jit
@@ -339,14 +351,16 @@ def _fused_copy(dst, x0, x1, nl, flag, flag_all):
         else:
             for p in range(n):
                 v = _clip(-x0[p])
-                dst[p] = v if flag[p] else dst[p]
+                old = dst[p]
+                dst[p] = v if flag[p] else old
     elif flag_all:
         for p in range(n):
             dst[p] = _clip(-(x0[p] + x1[p]))
     else:
         for p in range(n):
             v = _clip(-(x0[p] + x1[p]))
-            dst[p] = v if flag[p] else dst[p]
+            old = dst[p]
+            dst[p] = v if flag[p] else old
 
 
 @_jit
@@ -356,11 +370,13 @@ def _fused_noisy(dst, x0, x1, nl, scale, off, win, flag, flag_all):
     if nl == 1:
         for p in range(n):
             v = _clip((x0[p] * scale + off[p]) + win[p])
-            dst[p] = v if (flag_all or flag[p]) else dst[p]
+            old = dst[p]
+            dst[p] = v if (flag_all or flag[p]) else old
     else:
         for p in range(n):
             v = _clip(((x0[p] + x1[p]) * scale + off[p]) + win[p])
-            dst[p] = v if (flag_all or flag[p]) else dst[p]
+            old = dst[p]
+            dst[p] = v if (flag_all or flag[p]) else old
 
 
 @_jit
@@ -390,7 +406,8 @@ def _push(t2, t, flag, code, flag_all):
                 o[c] = trow[c]
         else:
             for c in range(w):
-                o[c] = trow[c] if frow[c] else zero
+                v = trow[c]
+                o[c] = v if frow[c] else zero
 
 
 @_jit
@@ -416,11 +433,13 @@ def _write_bus(dst, tf, parts, ideal, scale, flag, flag_all, off, win):
         else:
             for p in range(n):
                 v = _value(tf[p], parts, True, scale)
-                dst[p] = v if flag[p] else dst[p]
+                old = dst[p]
+                dst[p] = v if flag[p] else old
     else:
         for p in range(n):
             v = _clip((tf[p] * scale + off[p]) + win[p])
-            dst[p] = v if (flag_all or flag[p]) else dst[p]
+            old = dst[p]
+            dst[p] = v if (flag_all or flag[p]) else old
 
 
 @_jit
@@ -464,7 +483,7 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
         if code != 0:  # pushed: the receiver gets its sender's value
             _push(t2, t, flag2, code, flag_all)
             src = t2.ravel()
-        _write(af[di], src, flagf, flag_all, not ideal, offsets[di].ravel(), win)
+        _write(af[di], src, flagf, flag_all, not ideal, offsets[di].ravel(), win, t2.ravel())
 
 
 @_jit
@@ -494,7 +513,8 @@ def _store(df, di, val):
     if di == _R12:
         r0 = df[_R0]
         for p in range(out.size):
-            out[p] = val[p] if r0[p] else out[p]
+            v, o = val[p], out[p]
+            out[p] = v if r0[p] else o
     else:
         for p in range(out.size):
             out[p] = val[p]
