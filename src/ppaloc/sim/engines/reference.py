@@ -19,8 +19,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ppaloc.sim import semantics
 from ppaloc.sim.isa import Instruction
-from ppaloc.sim.registers import DNEWS_SELECTORS, FLAG, NEWS, PIX, R0, R12, Register
+from ppaloc.sim.registers import DNEWS_SELECTORS, FLAG, NEWS, PIX, R0, R1, R2, R12, Register
 
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
@@ -72,17 +73,22 @@ class ReferenceEngine:
             "sq": lambda ins: self._transfer(ins, 1),
             "blurset": lambda ins: None,
             "PROP_R": lambda ins: np.copyto(sim._latch, self._or(ins.srcs)),
+            "blur": lambda ins: self._blur(ins, True, True),
+            "blurh": lambda ins: self._blur(ins, True, False),
+            "blurv": lambda ins: self._blur(ins, False, True),
+            "PROP0": lambda ins: self._prop(False),
+            "PROP1": lambda ins: self._prop(True),
         }
 
     def supports(self, op: str) -> bool:
-        """Whether this engine has its own model of ``op`` (else it runs the shared one)."""
+        """Whether this engine has its own model of ``op`` (else it runs the numpy one)."""
         return op in self._ops
 
     def compile(self, instructions: tuple[Instruction, ...]) -> Callable[[], None]:
         """A runner interpreting ``instructions`` in order (nothing is precomputed).
 
-        A primitive defined once for every engine (``ppaloc.sim.semantics``: diffusion,
-        propagation) runs through that definition, as the numpy engine builds it.
+        An op without a model here (a row added to ``isa.OPS`` later) runs through the
+        numpy engine's building block.
         """
         steps = []
         for ins in instructions:
@@ -155,6 +161,28 @@ class ReferenceEngine:
                 written = np.clip(written, _F32(-128), _F32(127))
             plane = self._a(dst)
             np.copyto(plane, np.where(flag, written, plane))
+
+    def _blur(self, ins: Instruction, horizontal: bool, vertical: bool) -> None:
+        """A bus transfer of ``semantics.diffuse(x)`` (links enabled by R1, R2)."""
+        noise = self.sim.noise
+        (dst,), (src,) = ins.dsts, ins.srcs
+        spread = semantics.diffuse(
+            self._a(src), horizontal=horizontal, vertical=vertical, r1=self._d(R1), r2=self._d(R2)
+        )
+        if noise.ideal:
+            value = -spread
+        else:  # one transfer: its gain, the written cell's offset, one noise draw
+            value = spread * _F32(noise.negated_gain())
+            value = value + noise.offsets[dst.index]
+            value = value + noise.window()
+        value = np.clip(value, _F32(-128), _F32(127))
+        plane = self._a(dst)
+        np.copyto(plane, np.where(self._flag, value, plane))
+
+    def _prop(self, boundary: bool) -> None:
+        """R12 := ``semantics.propagate`` of R12 through R0 along the DNEWS selectors."""
+        selectors = {d: self._d(r) for d, r in DNEWS_SELECTORS.items()}
+        self._store(R12, semantics.propagate(self._d(R12), self._d(R0), selectors, boundary))
 
     def _where(self, ins: Instruction) -> None:
         total = self._sum(ins.srcs)
