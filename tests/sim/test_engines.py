@@ -187,3 +187,8 @@ def test_pending_droop_equals_droop_step_by_step() -> None:
     assert np.abs(lazy - values).max() > 1  # it did droop
     assert np.allclose(lazy, eager, atol=1e-4)
     assert np.all(np.abs(lazy) <= np.abs(values))  # towards 0, never past it
+
+
+def test_the_reference_engine_models_every_op() -> None:
+    engine = Scamp5(2, 2, engine="reference").engine
+    assert [op for op in OPS if not engine.supports(op)] == []
