@@ -480,6 +480,9 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
         di, code = row[_D0 + k], row[_DD0 + k]
         win = bank_w[starts[base + k] : starts[base + k] + n] if not ideal else bank
         src = tf
+        if code != 0 and ideal and flag_all:  # every element receives: push straight in
+            _push(a[di], t, flag2, code, True)
+            continue
         if code != 0:  # pushed: the receiver gets its sender's value
             _push(t2, t, flag2, code, flag_all)
             src = t2.ravel()
