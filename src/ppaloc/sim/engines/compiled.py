@@ -264,6 +264,28 @@ def _local_sum(out, af, locs, nl):
 
 
 @_jit
+def _sum_value(out, af, locs, nl, parts, ideal, scale):
+    """out := the bus's value of the local sources' sum (1 to 4 of them), in one pass."""
+    n = out.size
+    x0 = af[locs[0]]
+    x1 = af[locs[1]] if nl > 1 else x0
+    x2 = af[locs[2]] if nl > 2 else x0
+    x3 = af[locs[3]] if nl > 3 else x0
+    if nl == 1:
+        for p in range(n):
+            out[p] = _value(x0[p], parts, ideal, scale)
+    elif nl == 2:
+        for p in range(n):
+            out[p] = _value(x0[p] + x1[p], parts, ideal, scale)
+    elif nl == 3:
+        for p in range(n):
+            out[p] = _value((x0[p] + x1[p]) + x2[p], parts, ideal, scale)
+    else:
+        for p in range(n):
+            out[p] = _value(((x0[p] + x1[p]) + x2[p]) + x3[p], parts, ideal, scale)
+
+
+@_jit
 def _add_neighbours(t, news, flag, row, nsrc, flag_all):
     """t += each neighbour source's NEWS (0 from an unflagged PE; beyond the edge no term)."""
     rows, cols = t.shape
@@ -467,15 +489,18 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
             _fused_noisy(af[d0], x0, x1, nl, scale, offsets[d0].ravel(), win, flagf, flag_all)
             return
     tf = t.ravel()
-    _local_sum(tf, af, locs, nl)
-    if nl < nsrc:
-        _add_neighbours(t, a[_NEWS], flag2, row, nsrc, flag_all)
-    if nd == 1 and row[_DD0] == 0:  # value, noise, saturation and mask in one pass
-        d0 = row[_D0]
-        win = bank_w[starts[base] : starts[base] + n] if not ideal else bank
-        _write_bus(af[d0], tf, parts, ideal, scale, flagf, flag_all, offsets[d0].ravel(), win)
-        return
-    _bus_value(tf, parts, ideal, scale)
+    if nl == nsrc and nl > 0 and (nd > 1 or row[_DD0] != 0):  # sum and value in one pass
+        _sum_value(tf, af, locs, nl, parts, ideal, scale)
+    else:
+        _local_sum(tf, af, locs, nl)
+        if nl < nsrc:
+            _add_neighbours(t, a[_NEWS], flag2, row, nsrc, flag_all)
+        if nd == 1 and row[_DD0] == 0:  # value, noise, saturation and mask in one pass
+            d0 = row[_D0]
+            win = bank_w[starts[base] : starts[base] + n] if not ideal else bank
+            _write_bus(af[d0], tf, parts, ideal, scale, flagf, flag_all, offsets[d0].ravel(), win)
+            return
+        _bus_value(tf, parts, ideal, scale)
     for k in range(nd):
         di, code = row[_D0 + k], row[_DD0 + k]
         win = bank_w[starts[base + k] : starts[base + k] + n] if not ideal else bank
