@@ -351,7 +351,7 @@ def method_metrics(
         score,
         ground_truth,
         recall=recall,
-        rankings=[r[r >= 0] for r in ranking] if ranking.shape[1] else None,
+        rankings=ranking if ranking.shape[1] else None,  # rows padded with -1, which never match
         reference_positions=reference_positions,
         query_positions=query_positions,
         turning=turning,
@@ -408,15 +408,6 @@ def node_frames(
             else:
                 out[i, j] = int(min(max(round(centre), a), b))
     return out.reshape(nodes.shape)
-
-
-def _stack_rankings(rankings: list[np.ndarray | None]) -> np.ndarray:
-    k = max((len(r) for r in rankings if r is not None), default=0)
-    out = np.full((len(rankings), k), -1, dtype=np.int64)
-    for i, r in enumerate(rankings):
-        if r is not None and len(r):
-            out[i, : len(r)] = np.asarray(r, dtype=np.int64)
-    return out
 
 
 def run_method(
@@ -496,10 +487,9 @@ def run_method(
     if m and (node.min() < 0 or node.max() >= n_nodes):
         raise RuntimeError(f"{name} returned a node outside its map of {n_nodes} nodes")
     ref_index = node_frames(node, spans, ground_truth)
-    ranking = node_frames(_stack_rankings(record.rankings), spans, ground_truth)
-    modelled = _optional_array(record.modelled)
-    energy = _optional_array(record.energy)
-    weights = record.weights
+    ranking = node_frames(record.ranking, spans, ground_truth)
+    modelled, energy, weights = record.modelled, record.energy, record.weights
+    del record
     metrics = method_metrics(
         ref_index,
         score,
@@ -536,18 +526,20 @@ def run_method(
 
 
 class _Record:
-    """What a run keeps of each query's :class:`Estimate`: numbers in preallocated
-    arrays, the ranking, and the weights only into the (M, N) matrix when it is kept (an
-    estimate's own copy of N weights is dropped with it)."""
+    """What a run keeps of each query's :class:`Estimate`: its numbers, written into arrays
+    of M rows made before the first query (the ranking's K columns when the first ranking
+    arrives), so no per-query object outlives its step; the weights only into the (M, N)
+    matrix when it is kept (an estimate's own copy of N weights is dropped with it)."""
 
     def __init__(self, m: int, weight_nodes: int | None) -> None:
         self.node = np.empty(m, dtype=np.int64)
         self.score = np.empty(m, dtype=np.float64)
         self.moved = np.empty(m, dtype=np.int8)
         self.latency = np.empty(m, dtype=np.float64)
-        self.rankings: list[np.ndarray | None] = []
-        self.modelled: list[float | None] = []
-        self.energy: list[float | None] = []
+        self.ranking = np.full((m, 0), -1, dtype=np.int64)  # best first, -1 pads
+        self._modelled = np.full(m, np.nan)
+        self._energy = np.full(m, np.nan)
+        self._has_modelled = self._has_energy = False
         self.weights: np.ndarray | None = None
         self._m, self._weight_nodes = m, weight_nodes
 
@@ -556,15 +548,31 @@ class _Record:
         self.score[i] = est.score
         self.moved[i] = -1 if est.moved is None else int(est.moved)
         self.latency[i] = latency_ms
-        # a copy: a ranking may be a view of an (N,) array the localiser made
-        r = est.ranking
-        self.rankings.append(None if r is None else np.array(r, dtype=np.int64))
-        self.modelled.append(est.modelled_latency_ms)
-        self.energy.append(est.energy_mj)
+        if est.ranking is not None and len(est.ranking):
+            r = np.asarray(est.ranking, dtype=np.int64)
+            if len(r) > self.ranking.shape[1]:  # the first (or a longer) ranking: widen
+                wider = np.full((self._m, len(r)), -1, dtype=np.int64)
+                wider[:, : self.ranking.shape[1]] = self.ranking
+                self.ranking = wider
+            self.ranking[i, : len(r)] = r
+        if est.modelled_latency_ms is not None:
+            self._modelled[i], self._has_modelled = float(est.modelled_latency_ms), True
+        if est.energy_mj is not None:
+            self._energy[i], self._has_energy = float(est.energy_mj), True
         if est.weights is not None and self._weight_nodes is not None:
             if self.weights is None:
                 self.weights = np.full((self._m, self._weight_nodes), np.nan, dtype=np.float32)
             self.weights[i] = np.asarray(est.weights, dtype=np.float32)
+
+    @property
+    def modelled(self) -> np.ndarray | None:
+        """Modelled on-sensor time per query (NaN where not modelled); None if never."""
+        return self._modelled if self._has_modelled else None
+
+    @property
+    def energy(self) -> np.ndarray | None:
+        """Modelled energy per query (NaN where not modelled); None if never."""
+        return self._energy if self._has_energy else None
 
 
 def modelled_time(localiser: Any) -> dict[str, dict[str, float]] | None:
@@ -588,12 +596,6 @@ def register_planes(localiser: Any) -> dict[str, np.ndarray] | None:
         return None
     planes = {str(k): np.asarray(v) for k, v in fn().items()}
     return planes or None
-
-
-def _optional_array(values: list[float | None]) -> np.ndarray | None:
-    if not values or all(v is None for v in values):
-        return None
-    return np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
 
 
 def _jsonable(v: Any) -> Any:

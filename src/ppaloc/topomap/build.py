@@ -46,6 +46,31 @@ def _change(kind: str, descriptor: np.ndarray, last: np.ndarray) -> float:
     return float(hamming(descriptor, last.reshape(1))[0])
 
 
+class _Rows:
+    """Rows appended one at a time into one preallocated array (``capacity`` rows, doubled
+    when full): a long traversal leaves no per-frame object behind, only the array."""
+
+    def __init__(self, dtype: np.dtype, shape: tuple[int, ...], capacity: int | None) -> None:
+        self._a = np.empty((max(int(capacity or 0), 1), *shape), dtype)
+        self._n = 0
+
+    def __len__(self) -> int:
+        return self._n
+
+    def append(self, row: Any) -> None:
+        if self._n == len(self._a):
+            self._a = np.concatenate((self._a, np.empty_like(self._a)))
+        self._a[self._n] = row
+        self._n += 1
+
+    def last(self) -> np.ndarray:
+        return self._a[self._n - 1]
+
+    def array(self) -> np.ndarray:
+        """The rows so far (a trimmed copy when fewer than the capacity)."""
+        return self._a if self._n == len(self._a) else self._a[: self._n].copy()
+
+
 def build_topomap(
     frames: Iterable[np.ndarray],
     kind: str,
@@ -107,31 +132,31 @@ def build_topomap(
     if keyframe_threshold is not None and keep is not None:
         raise ValueError("give keyframe_threshold or keep, not both")
     total = len(frames) if hasattr(frames, "__len__") else None  # type: ignore[arg-type]
-    descriptors: list[np.ndarray] = []
-    kept: list[int] = []
+    dtype, shape = KIND_SPECS[kind]
+    descriptors = _Rows(dtype, shape, total)
+    kept = _Rows(np.dtype(np.int64), (), total)
     n_frames = 0
     for i, frame in enumerate(frames):
         sensor = to_sensor(frame)
         d = describe_sensor(sensor)
         moved_on = True if keep is None else bool(keep(sensor))
-        if not descriptors or (
+        if not len(descriptors) or (
             moved_on
             if keyframe_threshold is None
-            else _change(kind, d, descriptors[-1]) > keyframe_threshold
+            else _change(kind, d, descriptors.last()) > keyframe_threshold
         ):
             descriptors.append(d)
             kept.append(i)
         n_frames = i + 1
         if progress is not None:
             progress(n_frames, total)
-    dtype, shape = KIND_SPECS[kind]
-    stacked = np.stack(descriptors) if descriptors else np.empty((0, *shape), dtype)
+    stacked, kept_index = descriptors.array(), kept.array()
     node_positions = None
     if positions is not None:
         pos = np.asarray(positions, dtype=np.float64)
         if len(pos) != n_frames:
             raise ValueError(f"positions has {len(pos)} rows for {n_frames} frames")
-        node_positions = pos[kept]
+        node_positions = pos[kept_index]
     params: dict[str, Any] = {
         "kind": kind,
         "keyframe_threshold": keyframe_threshold,
@@ -142,8 +167,8 @@ def build_topomap(
     provenance = {} if dataset is None else {"dataset": dataset}
     return TopoMap(
         kind,
-        stacked.astype(dtype, copy=False),
-        frame_index=np.asarray(kept, dtype=np.int64),
+        stacked,
+        frame_index=kept_index,
         positions=node_positions,
         params=params,
         provenance=provenance,
