@@ -26,7 +26,7 @@ from ppaloc.sim.isa import Instruction
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["ENGINES", "Engine", "available_engines", "default_engine", "make_engine"]
+__all__ = ["ENGINES", "Engine", "available_engines", "default_engine", "in_order", "make_engine"]
 
 #: Engine name -> "module:Class", slowest first.
 ENGINES: dict[str, str] = {
@@ -49,6 +49,18 @@ class Engine(Protocol):
 
     def compile(self, instructions: tuple[Instruction, ...]) -> Callable[[], None]:
         """A runner performing ``instructions`` on the simulator's planes."""
+
+
+def in_order(ops: list[Callable[[], None]]) -> Callable[[], None]:
+    """One runner calling ``ops`` in order (the op itself when there is one)."""
+    if len(ops) == 1:
+        return ops[0]
+
+    def run() -> None:
+        for op in ops:
+            op()
+
+    return run
 
 
 def _installed(name: str) -> bool:

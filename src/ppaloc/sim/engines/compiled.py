@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
+from ppaloc.sim.engines import in_order
 from ppaloc.sim.isa import Instruction
 from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
 
@@ -169,14 +170,7 @@ class CompiledEngine:
                 run_of = []
             if ins is not None:
                 parts.append(self.sim._compile(ins))
-        if len(parts) == 1:
-            return parts[0]
-
-        def run() -> None:
-            for part in parts:
-                part()
-
-        return run
+        return in_order(parts)
 
     def _segment(self, instructions: list[Instruction]) -> Callable[[], None]:
         sim = self.sim

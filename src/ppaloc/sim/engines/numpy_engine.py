@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from ppaloc.sim.engines import in_order
 from ppaloc.sim.isa import OPS, Instruction
 
 if TYPE_CHECKING:
@@ -31,12 +32,4 @@ class NumpyEngine:
 
     def compile(self, instructions: tuple[Instruction, ...]) -> Callable[[], None]:
         """Closures for each ICW, called in order by the returned runner."""
-        ops = [self.sim._compile(ins) for ins in instructions]
-        if len(ops) == 1:
-            return ops[0]
-
-        def run() -> None:
-            for op in ops:
-                op()
-
-        return run
+        return in_order([self.sim._compile(ins) for ins in instructions])
