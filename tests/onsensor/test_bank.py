@@ -96,3 +96,17 @@ def test_bank_and_store_mistakes_name_the_value():
     paper = OnSensorLocaliser("lbp", preset="paper", alpha=8, sensor_nodes=4)
     with pytest.raises(PpalocError, match="robust preset only"):
         paper.use_map(TopoMap("lbp", np.arange(10, dtype=np.uint32)))
+
+
+def test_a_noisy_read_below_the_weight_range_is_carried_as_its_edge():
+    """A weight read as -127.9 (noise) under a low pending T is carried as -127."""
+    params = FilterParams.create("lowres", motion="always_forward")
+    pipe = make_pipeline("lowres", 10, params, size=64)
+    _, br, bc = pipe.layout.node_to_block(np.array([9]))
+    plane = pipe.sim.read(C).copy()
+    plane[br[0] * pipe.bh, bc[0] * pipe.bw] = -127.9
+    pipe.sim.write(C, plane)
+    pipe.pending_top = -5  # floor -5 - memory, below the register's range
+    (got,) = pipe.carry_out(1)
+    assert got == -127.0
+    make_pipeline("lowres", 10, params, size=64).carry_in([got])  # the DAC takes it

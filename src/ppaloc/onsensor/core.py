@@ -759,7 +759,8 @@ class SensorPipeline(ABC):
         ``D := 128 (D - x)`` (one ``sub`` with ``x`` in ``IN``, seven doublings) brings
         the next digit into range (``D``, ``E`` are free between the motion stage and the
         transition). Item ``j`` is node ``n - 1 - j``, raised to ``T - memory`` (the
-        pending normalisation's floor: a value below it loses anyway).
+        pending normalisation's floor: a value below it loses anyway) and kept in the
+        weights' range [-127, 127].
         """
         sim = self.sim
         floor = (self.pending_top or 0) - int(self.params.memory)
@@ -778,7 +779,8 @@ class SensorPipeline(ABC):
                     sim.load_in(x)
                     self._run(f"carry_digit_{src.name}", lambda k, src=src: _next_digit(k, src))
                     src = D
-                out.append(max(total / scale, floor))
+                # with noise a read can leave the register's range: clip to it
+                out.append(min(max(total / scale, floor, -127.0), 127.0))
         return out
 
     def carry_in(self, values: list[float]) -> None:
