@@ -323,3 +323,12 @@ def test_ctrl_c_closes_the_progress_bar(monkeypatch, capsys):
         thread.join(timeout=2.0)
         assert not thread.is_alive(), f"{thread.name} still runs after the interrupt"
     assert "\x1b[?25h" in capsys.readouterr().err  # the bar closed: the cursor shown again
+
+
+@pytest.mark.parametrize("module", ["ppaloc.evaluate.run", "ppaloc.datasets.frames"])
+def test_docstring_examples_of_the_streaming_modules(module):
+    import doctest
+    import importlib
+
+    result = doctest.testmod(importlib.import_module(module))
+    assert result.attempted > 0 and result.failed == 0
