@@ -257,18 +257,26 @@ class ControllerMixin(DrawMixin):
     def _dac_value(self, call: str, value: Any) -> int:
         return _as_int(call, "value", value, -128, 127)
 
-    def _write_masked(self, reg: Register, values: np.ndarray, *, noisy: bool) -> None:
-        """Write an analogue plane where FLAG is set (analogue writes obey FLAG)."""
+    def _write_masked(self, reg: Register, values: np.ndarray | float, *, noisy: bool) -> None:
+        """Write an analogue plane (or a scalar) where FLAG is set (analogue writes obey FLAG).
+
+        One masked copy over the plane (``np.copyto(..., where=FLAG)``), not a gather and a
+        scatter through boolean indices: the DAC loads of a frame are its most frequent
+        controller calls.
+        """
         self._catch_up()  # older values droop up to now; the new ones start fresh
         flag = self._flag()
         current = self._aplane(reg)
-        if noisy:
-            keep = None if flag.all() else current[~flag].copy()
+        everywhere = bool(flag.all())
+        if noisy and not self.noise.ideal:
+            keep = None if everywhere else current.copy()
             self._write_analog(reg, values)
             if keep is not None:
-                current[~flag] = keep
+                np.copyto(current, keep, where=~flag)
+        elif everywhere:
+            current[...] = np.clip(values, -128, 127)
         else:
-            current[flag] = np.clip(values, -128, 127)[flag]
+            np.copyto(current, np.clip(values, -128, 127), where=flag, casting="unsafe")
 
     def _temp(self, call: str, areg: Register, temp: Any) -> Register | None:
         """The header's ``temp`` register (default NEWS), or None when it is ``areg``."""
@@ -314,12 +322,12 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call(call)
         shape = (self.rows, self.cols)
         self._aplane(IN)[...] = v
-        target = np.full(shape, float(v))
         sd = self._readout_sd()
+        target: np.ndarray | float = float(v)
         if sd > 0:
             target = target + self.rng.normal(0.0, sd, shape)
         if t is not None:
-            self._write_masked(t, np.full(shape, -float(v)), noisy=False)
+            self._write_masked(t, -float(v), noisy=False)
         self._write_masked(areg, target, noisy=False)
 
     def scamp5_get_image(self, yf: Register, yh: Register, gain: int = 1) -> None:
@@ -376,10 +384,9 @@ class ControllerMixin(DrawMixin):
         v = self._dac_value(call, value)
         self.timing.charge_call(call)
         self._aplane(IN)[...] = v
-        shape = (self.rows, self.cols)
         if t is not None:
-            self._write_masked(t, np.full(shape, -float(v)), noisy=True)
-        self._write_masked(areg, np.full(shape, float(v)), noisy=True)
+            self._write_masked(t, -float(v), noisy=True)
+        self._write_masked(areg, float(v), noisy=True)
 
     # ----------------------------------------------------------------------------------
     # Address patterns
@@ -887,10 +894,9 @@ class ControllerMixin(DrawMixin):
         level = dac_level(_as_int(call, "dac", dac, 0, 4095))
         self.timing.charge_call("load_in")
         self._aplane(IN)[...] = level
-        shape = (self.rows, self.cols)
         if t is not None:
-            self._write_masked(t, np.full(shape, -level), noisy=True)
-        self._write_masked(areg, np.full(shape, level), noisy=True)
+            self._write_masked(t, -float(level), noisy=True)
+        self._write_masked(areg, float(level), noisy=True)
 
     # ----------------------------------------------------------------------------------
     # Analogue diffusion and asynchronous flooding (kernels of modelled ICWs)
