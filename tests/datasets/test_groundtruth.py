@@ -185,3 +185,65 @@ def test_fuzz_truth_mat_random_bytes_only_data_error(tmp_path_factory, payload):
     path.write_bytes(payload)
     with pytest.raises(DataError):
         read_truth_mat(path)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.lists(st.integers(0, 50), max_size=6), max_size=20), st.data())
+def test_packed_sets_behave_as_a_sequence_of_arrays(sets, data):
+    from ppaloc.datasets.groundtruth import PackedSets
+
+    packed = PackedSets.from_sets(sets)
+    assert len(packed) == len(sets)
+    assert [g.tolist() for g in packed] == sets
+    assert packed.lengths.tolist() == [len(s) for s in sets]
+    start = data.draw(st.integers(-25, 25))
+    stop = data.draw(st.integers(-25, 25))
+    step = data.draw(st.sampled_from([1, 2, -1]))
+    cut = packed[start:stop:step]
+    assert isinstance(cut, PackedSets)
+    assert [g.tolist() for g in cut] == sets[start:stop:step]
+    if sets:
+        k = data.draw(st.integers(-len(sets), len(sets) - 1))
+        assert packed[k].dtype == np.int64 and packed[k].tolist() == sets[k]
+        with pytest.raises(ValueError):
+            packed[k][...] = 0  # rows are read-only views
+    with pytest.raises(IndexError):
+        packed[len(sets)]
+    assert PackedSets.from_sets(packed) is packed
+
+
+def test_packed_sets_refuse_a_broken_index():
+    from ppaloc.datasets.groundtruth import PackedSets
+
+    with pytest.raises(ValueError, match="indptr must run from 0"):
+        PackedSets(np.arange(3), np.array([0, 2]))
+    with pytest.raises(ValueError, match="must not decrease"):
+        PackedSets(np.arange(3), np.array([0, 2, 1, 3]))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.one_of(
+            st.floats(-1e308, 1e308, allow_nan=False),
+            st.floats(-8, 40),
+            st.sampled_from([np.nan, np.inf, -np.inf]),
+        ),
+        max_size=12,
+    ),
+    st.integers(1, 30),
+    st.integers(0, 5),
+)
+def test_from_positions_matches_one_query_at_a_time(positions, n_ref, tol):
+    """The packed, vectorised form accepts exactly the frames a per-query loop does."""
+    reach = tol + 0.5
+    want = []
+    for q in np.asarray(positions, dtype=np.float64):
+        if not np.isfinite(q):
+            want.append([])
+            continue
+        lo = max(int(np.ceil(q - reach - 1e-9)), 0)
+        hi = min(int(np.floor(q + reach + 1e-9)), n_ref - 1)
+        want.append(list(range(lo, hi + 1)))
+    got = from_positions(np.asarray(positions, dtype=np.float64), n_ref, tol)
+    assert [g.tolist() for g in got] == want

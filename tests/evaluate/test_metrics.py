@@ -209,3 +209,27 @@ def test_vectorised_lookups_match_a_slow_reference(rows):
             np.mean([any(x in g for x in r[:k]) for r, g in matched]) for k in range(1, k_max + 1)
         ]
         np.testing.assert_allclose(got, want)
+
+
+@settings(max_examples=100, deadline=None)
+@given(sets, st.integers(1, 4))
+def test_padded_rankings_and_packed_truth_give_the_list_results(rows, block):
+    """The (M, K) matrix a run records and the packed truth (looked up a few rows at a
+    time) give exactly what one array per query gives, unsorted truth included."""
+    import ppaloc.evaluate.metrics as metrics
+    from ppaloc.datasets.groundtruth import PackedSets
+
+    gt = [g[::-1] for _, g, _ in rows]  # descending: the lookup must not rely on order
+    ranks = [r for _, _, r in rows]
+    k_max = max((len(r) for r in ranks), default=0)
+    padded = np.full((len(ranks), k_max), -1, np.int64)
+    for i, r in enumerate(ranks):
+        padded[i, : len(r)] = r
+    want = recall_at_k(ranks, gt)
+    saved = metrics._RECALL_ROWS
+    metrics._RECALL_ROWS = block
+    try:
+        got = recall_at_k(padded, PackedSets.from_sets(gt))
+    finally:
+        metrics._RECALL_ROWS = saved
+    assert got.tobytes() == want.tobytes()

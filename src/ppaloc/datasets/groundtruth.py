@@ -1,7 +1,10 @@
 """Ground truth: which reference frames each query frame may match.
 
 Two forms reach :class:`~ppaloc.datasets.base.RouteDataset`, both ending as one sorted
-``int64`` array of accepted reference indices per query (empty: no true match):
+``int64`` array of accepted reference indices per query (empty: no true match), held
+packed in a :class:`PackedSets` (one flat index array and one offsets array, CSR-style):
+a route of M queries costs two arrays, not M array objects, and the metrics read the
+packed arrays directly.
 
 - *positions*: each query has a true position ``p`` on the reference, in reference-frame
   units (``p = i`` for frame-synchronised traversals, fractional for the generator's
@@ -17,10 +20,12 @@ This module also reads the two ground-truth file formats, never running untruste
 from __future__ import annotations
 
 import io
+import itertools
 import math
 import pickle
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
@@ -30,6 +35,7 @@ __all__ = [
     "MAX_GROUND_TRUTH_BYTES",
     "MAX_GROUND_TRUTH_ITEMS",
     "MAX_TRUTH_SIDE",
+    "PackedSets",
     "dilate",
     "from_positions",
     "read_truth_mat",
@@ -38,7 +44,87 @@ __all__ = [
 ]
 
 
-def from_positions(positions: np.ndarray, n_ref: int, tolerance: int) -> list[np.ndarray]:
+class PackedSets(Sequence[np.ndarray]):
+    """Accepted reference indices per query, packed: query ``i`` accepts
+    ``indices[indptr[i]:indptr[i + 1]]``.
+
+    Behaves as a read-only sequence of ``int64`` arrays (indexing, iteration, ``len``;
+    a slice gives a ``PackedSets``); each row is a read-only view made on demand, so M
+    queries hold two arrays instead of M array objects.
+
+    Examples
+    --------
+    >>> g = PackedSets.from_sets([[0, 1], [], [4]])
+    >>> len(g), g[0].tolist(), [r.tolist() for r in g[1:]], g.indptr.tolist()
+    (3, [0, 1], [[], [4]], [0, 2, 2, 3])
+    """
+
+    __slots__ = ("indices", "indptr")
+
+    def __init__(self, indices: np.ndarray, indptr: np.ndarray) -> None:
+        # Views (no copy) made read-only, so a row handed out cannot change the truth.
+        indices = np.asarray(indices, dtype=np.int64).ravel().view()
+        indptr = np.asarray(indptr, dtype=np.int64).ravel().view()
+        if indptr.size == 0 or indptr[0] != 0 or indptr[-1] != indices.size:
+            raise ValueError(
+                f"indptr must run from 0 to {indices.size} (the number of indices), "
+                f"got {indptr[:1].tolist()} .. {indptr[-1:].tolist()}"
+            )
+        if np.any(indptr[1:] < indptr[:-1]):
+            raise ValueError("indptr must not decrease")
+        indices.flags.writeable = False
+        indptr.flags.writeable = False
+        self.indices, self.indptr = indices, indptr
+
+    @classmethod
+    def from_sets(cls, sets: Iterable[object]) -> PackedSets:
+        """Pack a sequence of per-query index arrays (a ``PackedSets`` is returned as is)."""
+        if isinstance(sets, PackedSets):
+            return sets
+        rows = [np.asarray(s, dtype=np.int64).ravel() for s in sets]
+        lengths = np.fromiter((r.size for r in rows), dtype=np.int64, count=len(rows))
+        indptr = np.zeros(len(rows) + 1, dtype=np.int64)
+        np.cumsum(lengths, out=indptr[1:])
+        indices = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+        return cls(indices, indptr)
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """How many references each query accepts, shape (M,)."""
+        return np.diff(self.indptr)
+
+    def __len__(self) -> int:
+        return self.indptr.size - 1
+
+    @overload
+    def __getitem__(self, i: int) -> np.ndarray: ...
+    @overload
+    def __getitem__(self, i: slice) -> PackedSets: ...
+    def __getitem__(self, i: int | slice) -> np.ndarray | PackedSets:
+        if isinstance(i, slice):
+            start, stop, step = i.indices(len(self))
+            if step == 1:
+                stop = max(stop, start)
+                lo, hi = self.indptr[start], self.indptr[stop]
+                return PackedSets(self.indices[lo:hi], self.indptr[start : stop + 1] - lo)
+            return PackedSets.from_sets([self[k] for k in range(start, stop, step)])
+        n = len(self)
+        k = int(i)
+        if not -n <= k < n:
+            raise IndexError(f"query {k} is outside the {n} queries")
+        k %= n
+        return self.indices[self.indptr[k] : self.indptr[k + 1]]
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        indices, bounds = self.indices, self.indptr.tolist()
+        for a, b in itertools.pairwise(bounds):
+            yield indices[a:b]
+
+    def __repr__(self) -> str:
+        return f"PackedSets({len(self)} queries, {self.indices.size} indices)"
+
+
+def from_positions(positions: np.ndarray, n_ref: int, tolerance: int) -> PackedSets:
     """Accepted reference indices for queries at fractional reference positions.
 
     Parameters
@@ -52,28 +138,30 @@ def from_positions(positions: np.ndarray, n_ref: int, tolerance: int) -> list[np
 
     Returns
     -------
-    list of ndarray of int64
-        One sorted array per query.
+    PackedSets
+        One sorted run of indices per query.
 
     Examples
     --------
     >>> [a.tolist() for a in from_positions(np.array([0.0, 2.5, 9.0, np.nan]), 4, 1)]
     [[0, 1], [1, 2, 3], [], []]
     """
-    p = np.asarray(positions, dtype=np.float64)
+    p = np.asarray(positions, dtype=np.float64).ravel()
     reach = tolerance + 0.5
-    out = []
-    for q in p:
-        if not np.isfinite(q):
-            out.append(np.empty(0, np.int64))
-            continue
-        lo = max(int(np.ceil(q - reach - 1e-9)), 0)
-        hi = min(int(np.floor(q + reach + 1e-9)), n_ref - 1)
-        out.append(np.arange(lo, hi + 1, dtype=np.int64) if hi >= lo else np.empty(0, np.int64))
-    return out
+    finite = np.isfinite(p)
+    q = np.where(finite, p, 0.0)
+    # Clipped in floating point first, so a huge position cannot overflow the cast.
+    lo = np.maximum(np.ceil(q - reach - 1e-9), 0.0)
+    hi = np.minimum(np.floor(q + reach + 1e-9), float(n_ref - 1))
+    count = np.where(finite & (hi >= lo), hi - lo + 1, 0).astype(np.int64)
+    first = np.where(count > 0, lo, 0).astype(np.int64)
+    indptr = np.zeros(p.size + 1, dtype=np.int64)
+    np.cumsum(count, out=indptr[1:])
+    offset = np.arange(indptr[-1], dtype=np.int64) - np.repeat(indptr[:-1], count)
+    return PackedSets(np.repeat(first, count) + offset, indptr)
 
 
-def dilate(sets: Iterable[np.ndarray], n_ref: int, tolerance: int) -> list[np.ndarray]:
+def dilate(sets: Iterable[np.ndarray], n_ref: int, tolerance: int) -> PackedSets:
     """Widen each accepted set by ``tolerance`` frames on both sides (clipped to the map).
 
     Examples
@@ -88,13 +176,13 @@ def dilate(sets: Iterable[np.ndarray], n_ref: int, tolerance: int) -> list[np.nd
             s = (s[:, None] + np.arange(-tolerance, tolerance + 1)[None, :]).ravel()
             s = s[(s >= 0) & (s < n_ref)]
         out.append(np.unique(s))
-    return out
+    return PackedSets.from_sets(out)
 
 
 def validate_sets(
     sets: Sequence[np.ndarray], n_ref: int, source: str, overhang: int = 0
-) -> list[np.ndarray]:
-    """Return ``sets`` as sorted ``int64`` arrays; raise if any index is outside the map.
+) -> PackedSets:
+    """Return ``sets`` as sorted ``int64`` runs; raise if any index is outside the map.
 
     Parameters
     ----------
@@ -124,7 +212,7 @@ def validate_sets(
                 f"{n_ref} reference frames; the ground truth does not belong to these folders"
             )
         out.append(a[(a >= 0) & (a < n_ref)])
-    return out
+    return PackedSets.from_sets(out)
 
 
 # --- VPR-Bench ------------------------------------------------------------------------------
@@ -251,7 +339,7 @@ def _row_to_ints(value: object) -> np.ndarray:
     return a.astype(np.int64).ravel()
 
 
-def read_vprbench(path: Path, n_query: int, n_ref: int, trust: bool = False) -> list[np.ndarray]:
+def read_vprbench(path: Path, n_query: int, n_ref: int, trust: bool = False) -> PackedSets:
     """Read a VPR-Bench ``ground_truth_new.npy``: rows ``[query_index, [reference indices]]``.
 
     The file is a pickled object array. By default it is decoded by an unpickler that can
@@ -274,7 +362,7 @@ def read_vprbench(path: Path, n_query: int, n_ref: int, trust: bool = False) -> 
 
     Returns
     -------
-    list of ndarray of int64
+    PackedSets
         Accepted reference indices for each query ``0 .. n_query-1``.
 
     Raises
@@ -298,7 +386,7 @@ def read_vprbench(path: Path, n_query: int, n_ref: int, trust: bool = False) -> 
     return _vprbench_rows(arr, path, n_query, n_ref)
 
 
-def _vprbench_rows(arr: object, path: Path, n_query: int, n_ref: int) -> list[np.ndarray]:
+def _vprbench_rows(arr: object, path: Path, n_query: int, n_ref: int) -> PackedSets:
     rows = np.asarray(arr, dtype=object)
     if rows.ndim != 2 or rows.shape[1] != 2:
         raise DataError(

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import PpalocError
 
 __all__ = [
@@ -56,19 +57,16 @@ RECALL_DEFINITIONS: dict[str, str] = {
 """Recall definition letter -> what it divides by (see the module docstring)."""
 
 
-def _as_ground_truth(ground_truth: Sequence[Any], n: int) -> list[np.ndarray]:
+def _as_ground_truth(ground_truth: Sequence[Any], n: int) -> PackedSets:
+    """The ground truth packed (no copy when it already is), checked to have ``n`` rows."""
     if len(ground_truth) != n:
         raise ValueError(f"ground truth has {len(ground_truth)} rows for {n} estimates")
-    return [np.asarray(g, dtype=np.int64).ravel() for g in ground_truth]
+    return PackedSets.from_sets(ground_truth)
 
 
-def _csr(gt: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Ground truth as (row of each entry, entries, row starts) for vectorised lookups."""
-    lengths = np.array([len(g) for g in gt], dtype=np.int64)
-    indices = np.concatenate(gt) if gt else np.zeros(0, np.int64)
-    rows = np.repeat(np.arange(len(gt)), lengths)
-    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]) if gt else np.zeros(0, np.int64)
-    return rows, indices.astype(np.int64), starts.astype(np.int64)
+def _entry_rows(gt: PackedSets) -> np.ndarray:
+    """The query (row) of every packed index."""
+    return np.repeat(np.arange(len(gt), dtype=np.int64), gt.lengths)
 
 
 def is_correct(nodes: np.ndarray, ground_truth: Sequence[Any]) -> np.ndarray:
@@ -92,8 +90,8 @@ def is_correct(nodes: np.ndarray, ground_truth: Sequence[Any]) -> np.ndarray:
     """
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
     gt = _as_ground_truth(ground_truth, len(nodes))
-    rows, indices, _ = _csr(gt)
-    hit = indices == nodes[rows]
+    rows = _entry_rows(gt)
+    hit = gt.indices == nodes[rows]
     return np.bincount(rows[hit], minlength=len(nodes)) > 0
 
 
@@ -279,8 +277,31 @@ def accuracy(correct: np.ndarray) -> float:
     return float(correct.mean()) if correct.size else 0.0
 
 
+_RECALL_ROWS = 4096
+"""Queries looked up per block in :func:`recall_at_k`: its working arrays stay a few MB
+whatever the route's length."""
+
+
+def _padded_rankings(
+    rankings: np.ndarray | Sequence[np.ndarray | None], nodes: np.ndarray | None
+) -> np.ndarray:
+    """Rankings as an (M, K) int64 matrix padded with -1 (a 2-D array is used as is)."""
+    if isinstance(rankings, np.ndarray) and rankings.ndim == 2:
+        return rankings.astype(np.int64, copy=False)
+    flat_nodes = None if nodes is None else np.asarray(nodes).ravel()
+    ranks = []
+    for i, r in enumerate(rankings):
+        if r is None:
+            r = [] if flat_nodes is None else [int(flat_nodes[i])]
+        ranks.append(np.asarray(r, dtype=np.int64).ravel())
+    padded = np.full((len(ranks), max((len(r) for r in ranks), default=0)), -1, np.int64)
+    for i, r in enumerate(ranks):
+        padded[i, : len(r)] = r
+    return padded
+
+
 def recall_at_k(
-    rankings: Sequence[np.ndarray | None],
+    rankings: np.ndarray | Sequence[np.ndarray | None],
     ground_truth: Sequence[Any],
     nodes: np.ndarray | None = None,
 ) -> np.ndarray:
@@ -289,10 +310,12 @@ def recall_at_k(
 
     Parameters
     ----------
-    rankings : sequence of (array_like of int, shape (K_i,)) or None, length M
-        Candidates per query, best first, as reference indices. ``None`` (a frame where
-        the method did not rank) counts as the single candidate ``nodes[i]``.
+    rankings : ndarray of int, shape (M, K), or sequence of (array_like of int or None)
+        Candidates per query, best first, as reference indices: an (M, K) matrix padded
+        with -1 (what a run records; read as is), or one array per query. ``None`` (a
+        frame where the method did not rank) counts as the single candidate ``nodes[i]``.
     ground_truth : sequence of array_like of int, length M
+        Accepted reference indices per query (a :class:`PackedSets` is read without a copy).
     nodes : array_like of int, shape (M,), optional
         Predicted reference index per query, used where a ranking is ``None``.
 
@@ -305,27 +328,30 @@ def recall_at_k(
     --------
     >>> recall_at_k([[4, 2, 9], [1, 5, 6]], [[2], [6, 7]]).tolist()
     [0.0, 0.5, 1.0]
+    >>> recall_at_k(np.array([[4, 2, -1], [1, 5, 6]]), [[2], [6, 7]]).tolist()
+    [0.0, 0.5, 1.0]
     """
-    gt = _as_ground_truth(ground_truth, len(rankings))
-    ranks = []
-    for i, r in enumerate(rankings):
-        if r is None:
-            r = [] if nodes is None else [int(np.asarray(nodes).ravel()[i])]
-        ranks.append(np.asarray(r, dtype=np.int64).ravel())
-    k_max = max((len(r) for r in ranks), default=0)
-    has_match = np.array([len(g) > 0 for g in gt], dtype=bool)
+    padded = _padded_rankings(rankings, nodes)
+    gt = _as_ground_truth(ground_truth, len(padded))
+    m, k_max = padded.shape
+    has_match = gt.lengths > 0
     if k_max == 0 or not has_match.any():
         return np.zeros(k_max, dtype=np.float64)
-    # Candidates as an (M, K) matrix padded with -1, looked up as (row, value) keys.
-    padded = np.full((len(ranks), k_max), -1, dtype=np.int64)
-    for i, r in enumerate(ranks):
-        padded[i, : len(r)] = r
-    rows, indices, _ = _csr(gt)
-    span = int(max(padded.max(), indices.max(initial=0))) + 2
-    keys = np.arange(len(ranks))[:, None] * span + (padded + 1)
-    hits = np.isin(keys, rows * span + (indices + 1)) & (padded >= 0)
+    # Every accepted (query, reference) pair as one sorted key; a candidate is correct
+    # when its own key is among them.
+    span = int(max(padded.max(), gt.indices.max(initial=0))) + 2
+    truth = _entry_rows(gt) * span + (gt.indices + 1)
+    if np.any(truth[1:] < truth[:-1]):
+        truth = np.sort(truth)
     # First position (1-based) of a correct candidate; k_max + 1 when none.
-    first = np.where(hits.any(axis=1), hits.argmax(axis=1) + 1, k_max + 1)
+    first = np.full(m, k_max + 1, dtype=np.int64)
+    for a in range(0, m, _RECALL_ROWS):
+        block = padded[a : a + _RECALL_ROWS]
+        keys = np.arange(a, a + len(block), dtype=np.int64)[:, None] * span + (block + 1)
+        at = np.minimum(np.searchsorted(truth, keys), len(truth) - 1)
+        hits = (truth[at] == keys) & (block >= 0)
+        found = hits.any(axis=1)
+        first[a : a + len(block)][found] = hits.argmax(axis=1)[found] + 1
     first = first[has_match]
     ks = np.arange(1, k_max + 1)
     return (first[None, :] <= ks[:, None]).mean(axis=1)
@@ -349,11 +375,10 @@ def localisation_error_frames(nodes: np.ndarray, ground_truth: Sequence[Any]) ->
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
     gt = _as_ground_truth(ground_truth, len(nodes))
     out = np.full(len(nodes), np.nan)
-    rows, indices, starts = _csr(gt)
-    nonempty = np.array([g.size > 0 for g in gt], dtype=bool)
+    nonempty = gt.lengths > 0
     if nonempty.any():
-        distance = np.abs(indices - nodes[rows]).astype(np.float64)
-        out[nonempty] = np.minimum.reduceat(distance, starts[nonempty])
+        distance = np.abs(gt.indices - nodes[_entry_rows(gt)]).astype(np.float64)
+        out[nonempty] = np.minimum.reduceat(distance, gt.indptr[:-1][nonempty])
     return out
 
 
@@ -478,7 +503,7 @@ def evaluate_estimates(
     ground_truth: Sequence[Any],
     *,
     recall: str = "A",
-    rankings: Sequence[np.ndarray | None] | None = None,
+    rankings: np.ndarray | Sequence[np.ndarray | None] | None = None,
     reference_positions: np.ndarray | None = None,
     query_positions: np.ndarray | None = None,
     turning: np.ndarray | None = None,
@@ -493,11 +518,13 @@ def evaluate_estimates(
     scores : array_like of float, shape (M,)
         Confidence per query, higher = surer.
     ground_truth : sequence of array_like of int, length M
-        Accepted reference indices per query (``RouteDataset.ground_truth``).
+        Accepted reference indices per query (``RouteDataset.ground_truth``, a
+        :class:`~ppaloc.datasets.groundtruth.PackedSets` read without a copy).
     recall : {"A", "B", "C"}
         Recall definition, default ``"A"`` (see :data:`RECALL_DEFINITIONS`).
-    rankings : sequence of (array_like of int or None), length M, optional
-        Candidate reference indices per query, best first, for recall@K.
+    rankings : ndarray of int, shape (M, K), or sequence of (array_like of int or None)
+        Candidate reference indices per query, best first, for recall@K: the (M, K)
+        matrix a run records (padded with -1), or one array per query.
     reference_positions, query_positions : ndarray of float, optional
         Route positions in metres, shapes (N, D) and (M, D), for the error in metres.
     turning : array_like of bool, shape (M,), optional
@@ -521,7 +548,7 @@ def evaluate_estimates(
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
     gt = _as_ground_truth(ground_truth, len(nodes))
     correct = is_correct(nodes, gt)
-    has_match = np.array([g.size > 0 for g in gt], dtype=bool)
+    has_match = gt.lengths > 0
     curve = pr_curve(scores, correct, has_match, recall=recall)
     f1, p_f1, r_f1, t_f1 = max_f1(curve)
     err_frames = localisation_error_frames(nodes, gt)
@@ -529,11 +556,13 @@ def evaluate_estimates(
     if reference_positions is not None and query_positions is not None:
         err_m = localisation_error_m(nodes, reference_positions, query_positions)
         err_m = np.where(has_match, err_m, np.nan)
-    rk = (
-        recall_at_k(rankings, gt, nodes)
-        if rankings is not None and any(r is not None for r in rankings)
-        else np.zeros(0)
-    )
+    if rankings is None:
+        ranked = False
+    elif isinstance(rankings, np.ndarray) and rankings.ndim == 2:
+        ranked = len(rankings) > 0
+    else:
+        ranked = any(r is not None for r in rankings)
+    rk = recall_at_k(rankings, gt, nodes) if ranked else np.zeros(0)
     split: dict[str, float | None] = {"f1_max_straight": None, "f1_max_turning": None}
     if turning is not None:
         turning = np.asarray(turning, dtype=bool).ravel()

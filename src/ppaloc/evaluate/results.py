@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import DataError
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
 from ppaloc.fileio import new_folder, recover_folder, source_date, write_bytes
@@ -217,11 +218,8 @@ def write_results(result: RunResult, out: str | Path) -> Path:
             summary["methods"][name]["registers"] = reg_rel
             write_bytes(out / reg_rel, npz_bytes(planes))
             written.append(reg_rel)
-    gt = result.ground_truth
-    ds_arrays = {
-        "gt_indptr": np.cumsum([0] + [len(g) for g in gt]).astype(np.int64),
-        "gt_indices": (np.concatenate(gt) if gt else np.zeros(0)).astype(np.int64),
-    }
+    gt = PackedSets.from_sets(result.ground_truth)
+    ds_arrays = {"gt_indptr": gt.indptr, "gt_indices": gt.indices}
     for key in _DATASET_OPTIONAL:
         value = getattr(result, key)
         if value is not None:
@@ -403,7 +401,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             _check_array(value, f"{ds_path}: {key}", length=n_queries, ndim=value.ndim or 1)
         elif key in ("reference_positions", "reference_turning") and n_ref:
             _check_array(value, f"{ds_path}: {key}", length=n_ref, ndim=value.ndim or 1)
-    gt = [indices[indptr[i] : indptr[i + 1]] for i in range(n_queries)]
+    gt = PackedSets(indices, indptr)
     runs: dict[str, MethodRun] = {}
     for name, s in summary["methods"].items():
         a_path = _inner(folder, s.get("arrays", array_file(name)), f"{name}.arrays")

@@ -29,6 +29,7 @@ import numpy as np
 from ppaloc import __version__
 from ppaloc.datasets import RouteDataset, to_sensor
 from ppaloc.datasets.frames import FrameSequence, as_frames
+from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
@@ -181,8 +182,8 @@ class RunResult:
         ``RouteDataset.name``.
     tolerance : int
         Ground-truth tolerance in reference frames.
-    ground_truth : list of ndarray of int
-        Accepted reference indices per query.
+    ground_truth : PackedSets
+        Accepted reference indices per query (packed: two arrays, not one per query).
     n_reference : int
         Reference frames (the map is built from them).
     runs : dict of str to MethodRun
@@ -203,7 +204,7 @@ class RunResult:
     dataset: str
     dataset_name: str
     tolerance: int
-    ground_truth: list[np.ndarray]
+    ground_truth: Sequence[np.ndarray]
     n_reference: int
     runs: dict[str, MethodRun]
     config: dict[str, Any] = field(default_factory=dict)
@@ -719,7 +720,7 @@ def run_evaluation(
                 )
             loc = make_localiser(name, **params, oracle_moves=dataset.query_moved)
             plan[name] = ({**params, "oracle_moves": "dataset query_moved"}, loc)
-    gt = [np.asarray(g, dtype=np.int64) for g in dataset.ground_truth]
+    gt = PackedSets.from_sets(dataset.ground_truth)
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
     names = list(plan)
