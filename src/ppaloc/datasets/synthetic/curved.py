@@ -172,18 +172,19 @@ class CurvedRenderer(Renderer):
         i0 = int(np.searchsorted(sp.s, s_cam + Z_NEAR))
         i1 = int(np.searchsorted(sp.s, s_cam + self.z_far))
         f, S, cx, cy, h = self.f, self.S, self.cx, self.cy, self.h
-        s_all, x_all, w_all, h_all, k_all = self._sprite_lists
         if i1 <= i0:
             return
-        shifts = self.lateral(np.asarray(s_all[i0:i1]) - s_cam).tolist()
+        s_in, x_in, w_in, h_in, k_in = self._sprite_window(i0, i1)
+        shifts = self.lateral(np.asarray(s_in) - s_cam).tolist()
         for i in range(i0, i1):
-            z = s_all[i] - s_cam
-            w_px = f * w_all[i] / z
+            j = i - i0
+            z = s_in[j] - s_cam
+            w_px = f * w_in[j] / z
             if w_px < 1.5:
                 continue
-            xc = cx + f * (x_all[i] - x_cam + shifts[i - i0]) / z
+            xc = cx + f * (x_in[j] - x_cam + shifts[j]) / z
             yb = cy + f * h / z
-            yt = cy - f * (h_all[i] - h) / z
+            yt = cy - f * (h_in[j] - h) / z
             xl = xc - w_px / 2
             c0, c1 = max(int(xl), 0), min(math.ceil(xc + w_px / 2), S)
             r0, r1 = max(int(yt), 0), min(math.ceil(yb), S)
@@ -197,7 +198,7 @@ class CurvedRenderer(Renderer):
             tj = ((self.xs[c0:c1] - np.float32(xl)) * np.float32(TW / w_px)).astype(np.intp)
             np.clip(ti, 0, TH - 1, out=ti)
             np.clip(tj, 0, TW - 1, out=tj)
-            k = k_all[i]
+            k = k_in[j]
             if i % 2 and k < 7:
                 tj = TW - 1 - tj
             m = self.tmat[k][ti[:, None], tj[None, :]]

@@ -110,13 +110,19 @@ class Renderer:
             np.float32
         )
         self.row_up = ((self.cy - self.ys)[:, None] / self.f).astype(np.float32)
-        sp = world.sprites
-        self._sprite_lists = (
-            sp.s.tolist(), sp.x.tolist(), sp.width.tolist(), sp.height.tolist(),
-            sp.template.tolist(),
-        )  # fmt: skip
         self._plane_reach = float(np.max(world.planes.s1 - world.planes.s0, initial=0.0))
         self._box_reach = float(np.max(world.boxes.s1 - world.boxes.s0, initial=0.0))
+
+    def _sprite_window(self, i0: int, i1: int) -> tuple[list, list, list, list, list]:
+        """Sprites ``i0 .. i1 - 1`` (the ones in view) as Python lists (s, x, width, height,
+        template) for the scalar loop: made per frame for the few in view, so a long route
+        keeps its sprites in the world's arrays only."""
+        sp = self.world.sprites
+        cut = slice(i0, i1)
+        return (
+            sp.s[cut].tolist(), sp.x[cut].tolist(), sp.width[cut].tolist(),
+            sp.height[cut].tolist(), sp.template[cut].tolist(),
+        )  # fmt: skip
 
     # ------------------------------------------------------------------ set-up helpers
     def _make_sky(self, rng: np.random.Generator) -> np.ndarray:
@@ -410,15 +416,16 @@ class Renderer:
         i0 = int(np.searchsorted(sp.s, s_cam + Z_NEAR))
         i1 = int(np.searchsorted(sp.s, s_cam + Z_FAR))
         f, S, cx, cy, h = self.f, self.S, self.cx, self.cy, self.h
-        s_all, x_all, w_all, h_all, k_all = self._sprite_lists
+        s_in, x_in, w_in, h_in, k_in = self._sprite_window(i0, i1)
         for i in range(i0, i1):
-            z = s_all[i] - s_cam
-            w_px = f * w_all[i] / z
+            j = i - i0
+            z = s_in[j] - s_cam
+            w_px = f * w_in[j] / z
             if w_px < 1.5:
                 continue
-            xc = cx + f * (x_all[i] - x_cam) / z
+            xc = cx + f * (x_in[j] - x_cam) / z
             yb = cy + f * h / z
-            yt = cy - f * (h_all[i] - h) / z
+            yt = cy - f * (h_in[j] - h) / z
             xl = xc - w_px / 2
             c0, c1 = max(int(xl), 0), min(math.ceil(xc + w_px / 2), S)
             r0, r1 = max(int(yt), 0), min(math.ceil(yb), S)
@@ -435,7 +442,7 @@ class Renderer:
             np.minimum(ti, TH - 1, out=ti)
             np.maximum(tj, 0, out=tj)
             np.minimum(tj, TW - 1, out=tj)
-            k = k_all[i]
+            k = k_in[j]
             if i % 2 and k < 7:  # mirror every other tree: more variety
                 tj = TW - 1 - tj
             m = self.tmat[k][ti[:, None], tj[None, :]]
