@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ppaloc.cpp import compile_program, run_program
-from ppaloc.sim import A, B, C, D, E, Scamp5, east
+from ppaloc.sim import A, C, D, E, Scamp5, east
 from ppaloc.sim.controller import to_scamp_buffer
 
 from .conftest import PROGRAMS
@@ -33,7 +33,7 @@ def run(frames, mode: int, **settings):
 
 
 def full_range(frame: np.ndarray) -> np.ndarray:
-    return frame.astype(np.float32) / 2 - 64  # get_image(A, B): A = p/2 - 64
+    return frame.astype(np.float32) / 2 - 64  # get_image(A): the half range, p/2 - 64
 
 
 def codes(values: np.ndarray) -> np.ndarray:
@@ -151,7 +151,7 @@ def test_drawing_flood_and_box(frames):
     sim = Scamp5(N, N)
     sim.set_image(frames[0])
     with sim.kernel() as k:
-        k.get_image(A, B)
+        k.get_image(A)
     assert f"fast {sim.global_sum_fast(A)}" in result.texts
 
 
@@ -178,7 +178,7 @@ def test_dynamic_kernels_leave_the_icw_stack(frames):
     sim = Scamp5(N, N)
     sim.set_image(frames[-1])
     with sim.kernel() as k:
-        k.get_image(A, B)
+        k.get_image(A)
         k.newsblur(C, A, 61)
     np.testing.assert_array_equal(result.session.outputs[-1][ANALOG], sim.read(C))
     overflow = run(frames, 12)
@@ -209,7 +209,7 @@ def test_outputs_folder(frames, tmp_path):
         sim.set_image(frame)
         t0 = sim.timing.now_us
         with sim.kernel() as k:
-            k.get_image(A, B)
+            k.get_image(A)
         with sim.kernel() as k:
             k.movx(C, A, east)
             k.sub(E, A, C)

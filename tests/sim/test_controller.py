@@ -464,7 +464,7 @@ def test_readouts_reject_wrong_register_kinds():
 def test_pix_is_readable_through_the_adc():
     sim = sim_(4, 4)
     sim.set_image(np.full((4, 4), 200, np.uint8))
-    assert (sim.scan_areg(PIX) == 128 + 200 // 4 - 32).all()
+    assert (sim.scan_areg(PIX) == 128 + 200 // 2 - 64).all()
 
 
 # --------------------------------------------------------------------------- noise
@@ -537,7 +537,8 @@ def test_scamp5_get_image_runs_the_capture_kernel():
     sim = sim_(2, 2)
     sim.set_image(np.array([[0, 100], [200, 255]], np.uint8))
     sim.scamp5_get_image(A, B)
-    assert sim.read(A).tolist() == [[-64.0, -14.0], [36.0, 63.5]]
+    assert sim.read(A).tolist() == [[-128.0, -28.0], [72.0, 127.0]]  # full range: p - 128
+    assert sim.read(B).tolist() == [[64.0, 14.0], [-36.0, -63.5]]  # -(p/2 - 64)
     rep = sim.timing.report()
     assert (rep.total_kernels, rep.total_icws, rep.total_calls) == (1, 6, 0)
     with pytest.raises(SimulatorError, match="gain=2 is not modelled; use gain=1"):

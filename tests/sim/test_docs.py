@@ -38,11 +38,11 @@ def test_programming_model_example(capsys) -> None:
     ns, printed = run(python_blocks()[0], capsys)
     for got, claim in printed:
         assert got == claim
-    y = ns["frame"] / 2 - 64  # get_image: p/2 - 64
+    y = ns["frame"] - 128.0  # get_image(A, B): the full range, p - 128
     east_y = np.pad(y[:, 1:], ((0, 0), (0, 1)))  # 0 beyond the east edge
     assert np.array_equal(ns["edges"], np.clip(y - east_y, -128, 127))
     # the replay captured the second scene
-    y2 = synthetic_scene(seed=1) / 2 - 64
+    y2 = synthetic_scene(seed=1) - 128.0
     assert np.array_equal(ns["sim"].read(A), y2)
 
 
@@ -50,7 +50,7 @@ def test_porting_example_matches_numpy(capsys) -> None:
     ns, printed = run(python_blocks()[1], capsys)
     for got, claim in printed:
         assert got == claim
-    y = ns["frame"] / 2 - 64
+    y = ns["frame"] - 128.0
     east_y = np.pad(y[:, 1:], ((0, 0), (0, 1)))
     grad = np.minimum(np.abs(np.clip(y - east_y, -128, 127)), 127)
     r5 = grad - ns["threshold"] > 0

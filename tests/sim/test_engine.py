@@ -158,12 +158,12 @@ def test_get_image_capture_contract() -> None:
     img = np.array([[0, 1, 2], [128, 254, 255]], dtype=np.uint8)
     sim.set_image(img)
     sim.get_image(A, B)
-    assert np.array_equal(sim.read(A), img / 2 - 64)
-    assert np.array_equal(sim.read(B), -(img / 4 - 32))
+    assert np.array_equal(sim.read(A), img - 128.0)  # the full range [-128, 127]
+    assert np.array_equal(sim.read(B), -(img / 2 - 64))  # the negated half range
     assert np.array_equal(sim.read(PIX), np.zeros((2, 3)))  # reset
     sim.set_image(img)
     sim.get_image(C)
-    assert np.array_equal(sim.read(C), img / 4 - 32)
+    assert np.array_equal(sim.read(C), img / 2 - 64)  # half range
 
 
 def test_misuse_errors_name_the_instruction(sim: Scamp5) -> None:

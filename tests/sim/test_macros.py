@@ -281,17 +281,17 @@ def test_deprecated_sub_golden() -> None:
 
 def test_getpix_with_a_stored_reset_level() -> None:
     sim = Scamp5(rows=1, cols=3)
-    sim.set_image(np.array([[0, 128, 255]], dtype=np.uint8))  # PIX = p/4 - 32
+    sim.set_image(np.array([[0, 128, 255]], dtype=np.uint8))  # PIX = p/2 - 64
     sim.write(D, [[1.0, 2.0, 3.0]])  # stands for a reset level kept by respix(D)
     with sim.kernel() as k:
         k.getpix(A, D)
     assert len(k) == 2
-    assert sim.read(A).tolist() == [[-33.0, -2.0, 28.75]]  # PIX - D
+    assert sim.read(A).tolist() == [[-65.0, -2.0, 60.5]]  # PIX - D
     with sim.kernel() as k:
         k.getpix(B, C, D)
     assert len(k) == 3
-    assert sim.read(C).tolist() == [[32.0, 0.0, -31.75]]  # -PIX
-    assert sim.read(B).tolist() == [[-65.0, -2.0, 60.5]]  # 2 PIX - D
+    assert sim.read(C).tolist() == [[64.0, 0.0, -63.5]]  # -PIX
+    assert sim.read(B).tolist() == [[-128.0, -2.0, 124.0]]  # 2 PIX - D (clipped at -128)
 
 
 def test_newsblurh_and_newsblurv() -> None:

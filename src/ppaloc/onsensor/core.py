@@ -374,7 +374,7 @@ class SensorPipeline(ABC):
             static = self.static_masks
 
             def build(k):
-                k.get_image(E, F)
+                k.get_image(E)
                 for reg in static:
                     k.REFRESH(reg)
 

@@ -334,8 +334,9 @@ class ControllerMixin(DrawMixin):
         """``scamp5_get_image``: capture the exposure into ``yf`` (full range) and ``yh``.
 
         Runs the ``get_image(yf, yh)`` macro as a kernel of its own (6 ICWs): in ideal
-        mode ``yf = p/2 - 64`` for a pixel ``p`` of the image given to ``set_image``, and
-        ``yh`` holds the negated half-range image; PIX is reset. Only ``gain=1`` is
+        mode ``yf = p - 128`` (full range) for a pixel ``p`` of the image given to
+        ``set_image``, and ``yh`` holds the negated half-range image ``-(p/2 - 64)``; PIX
+        is reset. Only ``gain=1`` is
         modelled (the library's higher gains repeat the exposure accumulation, whose
         analogue details are not public).
 

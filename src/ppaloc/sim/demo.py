@@ -4,7 +4,7 @@
 seeded synthetic scene (gradients, a disc, a bar grating, a dark block), then runs, each
 as a timed stage:
 
-1. *capture*: one kernel, ``get_image(A, C)`` (A := the image, ``p/2 - 64``);
+1. *capture*: one kernel, ``get_image(A)`` (A := the half-range image, ``p/2 - 64``);
 2. *edges*: one kernel of neighbour differences, ``C := A_east - A``,
    ``B := A_south - A``, ``D := |C| + |B|``;
 3. *threshold*: ``scamp5_in(F, 16)``, ``load_rect`` of the interior into R6 (the last
@@ -92,7 +92,7 @@ def run_demo(
     sim.set_image(synthetic_scene(sim.rows, sim.cols, seed))
 
     with sim.stage("capture"), sim.kernel() as k:
-        k.get_image(A, C)
+        k.get_image(A)
 
     with sim.stage("edges"), sim.kernel() as k:
         k.movx(C, A, east)  # C := A of the east neighbour

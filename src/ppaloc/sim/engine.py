@@ -254,8 +254,9 @@ class Scamp5(ControllerMixin, ProgramAPI):
     def set_image(self, image: np.ndarray) -> None:
         """Set the scene ``PIX`` sees until the next ``rpix``: a uint8 (rows, cols) image.
 
-        ``PIX`` then reads ``p/4 - 32`` (half range) for a pixel ``p``, so ``get_image(y, h)``
-        yields ``y = p/2 - 64`` in ideal mode (docs/ppa8.md).
+        ``PIX`` then reads ``p/2 - 64`` (half range) for a pixel ``p``, so in ideal mode
+        ``get_image(y, h)`` yields the full-range ``y = p - 128`` (and ``h = -(p/2 - 64)``)
+        and ``get_image(y)`` the half-range ``y = p/2 - 64``, as the SCAMP-5d header states.
         """
         img = np.asarray(image)
         if img.dtype != np.uint8 or img.shape != (self.rows, self.cols):
@@ -267,8 +268,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         if not self.noise.ideal:
             self._elapse()
         pix = self._a[PIX.index]
-        np.multiply(img, np.float32(0.25), out=pix, casting="unsafe")
-        np.subtract(pix, np.float32(32.0), out=pix)
+        np.multiply(img, np.float32(0.5), out=pix, casting="unsafe")
+        np.subtract(pix, np.float32(64.0), out=pix)
         if not self.noise.ideal:
             np.add(pix, self.noise.pixel_offset, out=pix)
 

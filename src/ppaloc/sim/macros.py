@@ -490,8 +490,10 @@ class ProgramAPI:
     def get_image(self, y: Register, h: Register | None = None) -> None:
         """Capture: ``y`` := full-range image (``h`` := its negated half) and reset PIX.
 
-        With ``h`` (6 ICWs) an ideal pixel ``p`` gives ``y = p/2 - 64``; without it
-        (5 ICWs) ``y`` is the half-range image ``p/4 - 32``.
+        With ``h`` (6 ICWs) an ideal pixel ``p`` gives the full-range ``y = p - 128`` (in
+        [-128, 127]) and ``h = -(p/2 - 64)``, its negated half; without it (5 ICWs) ``y``
+        is the half-range image ``p/2 - 64``, in which the pixel's fixed-pattern offset
+        cancels against its reset level.
         """
         if h is None:
             steps: list[Step] = [

@@ -11,7 +11,7 @@ int main() {
     while (1) {
         vs_frame_loop_control();
         scamp5_kernel_begin();
-            get_image(A, B);
+            get_image(A);
         scamp5_kernel_end();
         scamp5_output_image(A, disp);
         if (fault == 1) {

@@ -16,9 +16,9 @@ int main() {
     while (1) {
         vs_frame_loop_control();
 
-        // every frame: capture, A = full-range image
+        // every frame: capture, A = the half-range image (p/2 - 64)
         scamp5_kernel_begin();
-            get_image(A, B);
+            get_image(A);
         scamp5_kernel_end();
 
         if (mode == 0 || mode == 2 || mode == 4) {  // threshold (slider), dilation, events
