@@ -6,7 +6,7 @@ Each size runs in a fresh subprocess, the command a user types::
 
 and its peak resident set size is the child's ``ru_maxrss`` (``os.wait4``: the same figure
 as ``/usr/bin/time -v``'s "Maximum resident set size"). Frames stream, so the peak should
-hardly move with N: the map (4 bytes a node for LBP) and the per-query arrays (some tens of
+hardly move with N: the map (4 bytes a node for LBP) and the per-query arrays (a few hundred
 bytes a query) are all that grow.
 
 ``python benchmarks/bench_memory.py`` prints the peak at N = 2,000 and N = 30,000 (several
