@@ -5,7 +5,10 @@ Files: every file ppaloc writes for a user (maps, results, reports, figures) goe
 ``O_TMPFILE``: it has no name, so a killed process leaves nothing behind), which is given a
 temporary name and moved over the target in one ``os.replace``. Where anonymous files are
 not available, a named ``.NAME.PID-XXXX.tmp`` is used instead; a later write of the same
-target removes those whose process is gone.
+target removes those whose process is gone. Only names of exactly that form (a process
+id and hex digits) are ever removed, and only when that process is gone from this
+machine: one machine is assumed to write a folder (on a volume that several hosts write at
+once, a live writer elsewhere would look gone).
 
 Folders: a results folder is written by :func:`new_folder` (or changed by
 :func:`update_folder`) into a hidden staging folder beside it, ``.NAME.ppaloc-new-PID-XXXX``,
@@ -28,9 +31,9 @@ import ctypes
 import datetime as dt
 import errno
 import os
+import re
 import secrets
 import shutil
-import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
@@ -47,8 +50,6 @@ __all__ = [
     "update_folder",
     "write_bytes",
 ]
-
-_STALE_UNNAMED_S = 3600.0  # a temporary without a process id is stale after an hour
 
 
 def default_file_mode() -> int:
@@ -105,9 +106,10 @@ def _alive(pid: int) -> bool:
 
 
 def _owner_pid(token: str) -> int | None:
-    """The process id at the start of ``PID-XXXX``, or None."""
-    head = token.split("-", 1)[0]
-    return int(head) if head.isdigit() else None
+    """The process id of a token ppaloc wrote (``PID-xxxxxxxx``: hex digits after the
+    process id), or None for any other name, which is never ppaloc's and so never removed."""
+    match = re.fullmatch(r"(\d{1,10})-[0-9a-f]{4,16}", token)
+    return int(match.group(1)) if match else None
 
 
 def _sweep_stale_files(folder: Path, name: str) -> None:
@@ -122,10 +124,7 @@ def _sweep_stale_files(folder: Path, name: str) -> None:
             with contextlib.suppress(OSError):
                 if not entry.is_file(follow_symlinks=False):
                     continue
-                if pid is None:
-                    if time.time() - entry.stat().st_mtime < _STALE_UNNAMED_S:
-                        continue
-                elif _alive(pid):
+                if pid is None or _alive(pid):  # not ppaloc's name, or its writer lives
                     continue
                 os.unlink(entry.path)
 
@@ -266,14 +265,14 @@ def recover_folder(target: str | os.PathLike) -> None:
     if not target.parent.is_dir():
         return
     for old, pid in _stages(target, "old"):
-        if pid is not None and _alive(pid):
+        if pid is None or _alive(pid):
             continue
         if not os.path.lexists(target):
             os.rename(old, target)
         else:
             shutil.rmtree(old, ignore_errors=True)
     for stage, pid in _stages(target, "new"):
-        if pid is None or not _alive(pid):
+        if pid is not None and not _alive(pid):
             shutil.rmtree(stage, ignore_errors=True)
 
 
@@ -301,9 +300,9 @@ def _link(src: str, dst: str | Path) -> None:
 
 @contextmanager
 def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[Path]:
-    if os.path.islink(target):  # replace the folder the link points to, not the link
-        target = Path(os.path.realpath(target))
-    target = Path(os.path.abspath(target))  # "." and "x/.." have a name and a parent
+    # the folder meant, links followed before "..", as the system resolves the path (a
+    # textual "lnk/.." would be the current folder); a link itself is kept, its folder replaced
+    target = Path(os.path.realpath(target))
     if os.path.lexists(target) and not target.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, "not a folder", str(target))
     recover_folder(target)

@@ -101,3 +101,21 @@ def test_cli_exit_codes(faults, tmp_path, capsys):
     assert code == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "faults.cpp:25" in err
+
+
+def test_an_output_folder_of_other_files_is_refused_before_the_run(tmp_path):
+    from ppaloc.cpp.run import check_output_folder
+    from ppaloc.errors import PpalocError
+
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep me")
+    with pytest.raises(PpalocError, match=r"holds 'notes\.txt', which no earlier run wrote"):
+        check_output_folder(mine)
+    (mine / "notes.txt").unlink()
+    (mine / "timing.json").write_text("{}")  # a run's name, but no summary.json
+    with pytest.raises(PpalocError, match="replaced whole"):
+        check_output_folder(mine)
+    (mine / "summary.json").write_text("{}")
+    check_output_folder(mine)  # an earlier run's folder
+    check_output_folder(tmp_path / "new")

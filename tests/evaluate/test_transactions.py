@@ -155,3 +155,72 @@ def test_a_folder_of_other_files_is_refused_before_the_run(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "holds 'notes.txt', which ppaloc did not write" in err and len(err.splitlines()) == 1
     assert os.listdir(mine) == ["notes.txt"]
+
+
+@pytest.mark.parametrize(
+    "names",
+    [
+        ["2024-01-01.jpg", "2024-01-02.jpg"],  # look like a matrix run's NN-<spec>, are files
+        ["10-holiday"],  # a folder of that form without a results.json
+        [".results.json.mybackup.tmp"],  # a hidden file of a results name, not ppaloc's form
+        ["figures"],  # only names ppaloc writes, but no results file marks it as a run's
+    ],
+)
+def test_a_folder_that_is_no_results_folder_is_refused(tmp_path, capsys, names):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    for n in names:
+        if "." in n:
+            (mine / n).write_text("keep me")
+        else:
+            (mine / n).mkdir()
+    assert main(_evaluate(mine, NEW)) == 1
+    assert len(capsys.readouterr().err.splitlines()) == 1
+    assert sorted(os.listdir(mine)) == sorted(names)
+
+
+def test_out_through_a_link_and_dotdot_is_the_folder_the_system_means(
+    tmp_path, capsys, monkeypatch
+):
+    """``lnk/..`` is the link target's parent, not the current folder."""
+    work = tmp_path / "work"
+    (tmp_path / "deep" / "01-x").mkdir(parents=True)
+    work.mkdir()
+    (work / "my-thesis.txt").write_text("keep me")
+    (work / "lnk").symlink_to(tmp_path / "deep" / "01-x")
+    monkeypatch.chdir(work)
+    assert main(_evaluate(Path("lnk/.."), NEW)) == 1  # deep/ holds 01-x, no results
+    capsys.readouterr()
+    assert (work / "my-thesis.txt").read_text() == "keep me"
+    assert (tmp_path / "deep" / "01-x").is_dir()
+
+
+def test_sweep_refuses_a_folder_of_other_files(tmp_path):
+    from ppaloc.errors import PpalocError
+    from ppaloc.evaluate.sweep import check_sweep_folder
+
+    mine = tmp_path / "proj"
+    (mine / "figures").mkdir(parents=True)
+    (mine / "figures" / "fig1.png").write_bytes(b"png")
+    with pytest.raises(PpalocError, match="not an earlier sweep's folder"):
+        check_sweep_folder(mine)
+    (mine / "notes.txt").write_text("keep me")
+    with pytest.raises(PpalocError, match=r"holds 'notes\.txt', which a sweep did not write"):
+        check_sweep_folder(mine)
+    check_sweep_folder(tmp_path / "new")  # absent: fine
+    (tmp_path / "old" / "cells").mkdir(parents=True)
+    check_sweep_folder(tmp_path / "old")  # an earlier sweep's: fine
+
+
+def test_stale_temporaries_of_other_forms_are_never_removed(tmp_path):
+    from ppaloc import fileio
+
+    target = tmp_path / "m.npz"
+    others = [".m.npz.mybackup.tmp", ".m.npz.123.tmp", ".m.npz.99999999-zzzzzzzz.tmp"]
+    for n in others:
+        (tmp_path / n).write_text("keep me")
+    dead = tmp_path / ".m.npz.999999999-0123abcd.tmp"  # ppaloc's form, no such process
+    dead.write_text("stale")
+    fileio.write_bytes(target, b"data")
+    assert all((tmp_path / n).exists() for n in others)
+    assert not dead.exists()

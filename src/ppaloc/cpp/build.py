@@ -188,7 +188,7 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
         "\0".join(
             [text, _shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(),
              (gen / "ppaloc_gen_consts.hpp").read_text(), " ".join(FLAGS), version,
-             path.name]
+             path.name, _local_headers(path)]
         ).encode()
     ).hexdigest()[:24]  # fmt: skip
     exe = root / f"prog-{key}"
@@ -196,15 +196,30 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
         return exe
     tmp = root / f".prog-{key}-{os.getpid()}"
     cmd = [cxx, *FLAGS, f"-I{include}", f"-I{gen}", str(path), "-o", str(tmp)]
-    done = subprocess.run(cmd, capture_output=True, text=True)
-    if done.returncode != 0:
-        tmp.unlink(missing_ok=True)
-        raise CompileError(
-            f"{path} does not compile:\n{_compiler_message(done.stderr + done.stdout)}"
-        )
-    os.replace(tmp, exe)
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise CompileError(
+                f"{path} does not compile:\n{_compiler_message(done.stderr + done.stdout)}"
+            )
+        os.replace(tmp, exe)
+    finally:
+        tmp.unlink(missing_ok=True)  # a failed or interrupted build leaves nothing
     _prune(root)
     return exe
+
+
+def _local_headers(path: Path) -> str:
+    """The headers beside the program (``#include "x.hpp"``), for the cache key: a changed
+    local header builds the program again."""
+    parts = []
+    for header in sorted(path.parent.glob("*")):
+        if header.suffix in {".h", ".hh", ".hpp", ".hxx", ".inc"} and header.is_file():
+            try:
+                parts.append(f"{header.name}\0{header.read_text(errors='replace')}")
+            except OSError:
+                continue
+    return "\0".join(parts)
 
 
 #: Compiled programs kept in the cache (the least recently built beyond this are removed).
@@ -212,6 +227,12 @@ KEEP = 64
 
 
 def _prune(root: Path) -> None:
-    progs = sorted(root.glob("prog-*"), key=lambda p: p.stat().st_mtime, reverse=True)
+    def built(p: Path) -> float:
+        try:
+            return p.stat().st_mtime
+        except FileNotFoundError:  # another process pruned it meanwhile
+            return 0.0
+
+    progs = sorted(root.glob("prog-*"), key=built, reverse=True)
     for old in progs[KEEP:]:
         old.unlink(missing_ok=True)

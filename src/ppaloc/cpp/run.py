@@ -148,6 +148,30 @@ def _crash_message(program: str, code: int, stderr: str, session: Session) -> st
     return f"{program} exited with status {code} {where}{last}"
 
 
+#: What a run writes at the top of its output folder.
+OUTPUT_NAMES = frozenset(
+    {"displays", "montage.png", "text.txt", "timing.json", "summary.json", "stdout.txt"}
+)
+
+
+def check_output_folder(out: str | os.PathLike) -> None:
+    """Refuse an ``out`` that is a file, or a non-empty folder that is not an earlier run's
+    (the folder is replaced whole: a user's own files must not go with it)."""
+    real = Path(os.path.realpath(out))
+    if not real.exists():
+        return
+    if not real.is_dir():
+        raise PpalocError(f"--out {out} is a file; give a folder for the run's outputs")
+    names = [n for n in os.listdir(real) if not n.startswith(".")]
+    foreign = sorted(n for n in names if n not in OUTPUT_NAMES)
+    if foreign or (names and not (real / "summary.json").is_file()):
+        shown = foreign[0] if foreign else names[0]
+        raise PpalocError(
+            f"--out {out} holds {shown!r}, which no earlier run wrote, and the folder is "
+            "replaced whole; give a new folder"
+        )
+
+
 def run_program(
     program: str | os.PathLike[str],
     frames: Sequence[np.ndarray] | None = None,
@@ -182,6 +206,8 @@ def run_program(
         a timeout, a crash; no output folder is left behind.
     """
     name = Path(program).name
+    if out is not None:
+        check_output_folder(out)
     if frames is None:
         from ppaloc.sim.demo import synthetic_scene
 
@@ -223,14 +249,19 @@ def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:
     )
     with tempfile.TemporaryFile() as out_f, tempfile.TemporaryFile() as err_f:
         start = time.perf_counter()
-        proc = subprocess.Popen(
-            [str(exe)],
-            stdin=subprocess.DEVNULL,
-            stdout=out_f,
-            stderr=err_f,
-            pass_fds=(to_sim_w, to_prog_r),
-            env=env,
-        )
+        try:
+            proc = subprocess.Popen(
+                [str(exe)],
+                stdin=subprocess.DEVNULL,
+                stdout=out_f,
+                stderr=err_f,
+                pass_fds=(to_sim_w, to_prog_r),
+                env=env,
+            )
+        except OSError as exc:
+            for fd in (to_sim_r, to_sim_w, to_prog_r, to_prog_w):
+                os.close(fd)
+            raise PpalocError(f"cannot start {name}: {exc.strerror or exc}") from None
         os.close(to_sim_w)
         os.close(to_prog_r)
         deadline = start + timeout
@@ -249,8 +280,10 @@ def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:
             except BrokenPipeError:
                 pass
 
+        served = False
         try:
             serve(session, read, write)
+            served = True
         except TimeoutError:
             where = f"in frame {session.frame}" if session.loops else "before its frame loop"
             error = PpalocError(
@@ -260,7 +293,7 @@ def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:
         except ProgramError as exc:
             error = exc
         finally:
-            if error is not None and proc.poll() is None:
+            if not served and proc.poll() is None:  # an error of any kind: stop it now
                 proc.kill()
             try:
                 code = proc.wait(timeout=max(deadline - time.perf_counter(), 0) + 5)

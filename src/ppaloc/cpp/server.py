@@ -435,8 +435,18 @@ def _output_image(s: Session, a: list, line: int) -> None:
     s._output(handle, sim.read(reg), line)
 
 
+#: The most bit-planes one bit-stack output takes (the value is accumulated in 64 bits).
+MAX_BITSTACK = 32
+
+
 def _bitstack_begin(s: Session, a: list, line: int) -> None:
-    s._bitstack = [a[0], a[1], []]
+    n_bits = int(a[1])
+    if not 1 <= n_bits <= MAX_BITSTACK:
+        raise ProgramError(
+            f"{s.program}:{line}: scamp5_output_bitstack_begin with {n_bits} bits: use 1 to "
+            f"{MAX_BITSTACK}"
+        )
+    s._bitstack = [a[0], n_bits, []]
 
 
 def _bitstack_bit(s: Session, a: list, line: int) -> None:

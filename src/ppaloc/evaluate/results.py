@@ -109,34 +109,51 @@ _OWN_NAMES = frozenset(
 _CARRIED = ("bench.json", "bench.csv")  # a separate `ppaloc bench --out` into the folder
 
 
-def _ours(name: str) -> bool:
-    """A name ppaloc writes in a results folder (a matrix run's ``NN-<spec>/``, or a
-    temporary an older, killed write left: ``.results.json.XXXX.tmp``)."""
+#: The results files whose presence marks a folder as ppaloc's (a run's, a matrix run's or
+#: a ``ppaloc bench --out``'s); only such a folder is replaced.
+_MARKERS = ("results.json", "matrix.csv", "bench.json")
+
+
+def _ours(folder: Path, name: str) -> bool:
+    """A name ppaloc writes in a results folder: one of :data:`_OWN_NAMES`, a matrix run's
+    ``NN-<spec>/`` (a folder holding a ``results.json``), or a temporary a killed write left
+    (``.results.json.PID-xxxxxxxx.tmp``)."""
     if name.startswith(".") and name.endswith(".tmp"):
-        return any(name.startswith(f".{own}.") for own in _OWN_NAMES)
-    return name in _OWN_NAMES or re.fullmatch(r"\d{2,}-.*", name) is not None
+        own = "|".join(re.escape(n) for n in _OWN_NAMES)
+        return re.fullmatch(rf"\.({own})\.\d{{1,10}}-[0-9a-f]{{4,16}}\.tmp", name) is not None
+    if re.fullmatch(r"\d{2,}-.*", name):
+        sub = folder / name
+        return sub.is_dir() and not sub.is_symlink() and (sub / "results.json").is_file()
+    return name in _OWN_NAMES
 
 
 def check_replaceable(out: str | Path) -> None:
     """Refuse an ``out`` that is a file or a folder holding files ppaloc did not write
     (a results folder is replaced whole; a user's own files must not go with it)."""
-    out = Path(out)
+    given, out = out, Path(os.path.realpath(out))  # the folder meant: links before ".."
     recover_folder(out)
     if not out.exists():
         return
     here = Path.cwd().resolve()
     if out.resolve() == here or out.resolve() in here.parents:
         raise DataError(
-            f"--out {out} is the current folder or holds it, and a results folder is replaced "
+            f"--out {given} is the current folder or holds it, and a results folder is replaced "
             "whole; give a new folder name such as results"
         )
     if not out.is_dir():
-        raise DataError(f"--out {out} is a file; give a folder for the results")
-    foreign = sorted(n for n in os.listdir(out) if not _ours(n))
+        raise DataError(f"--out {given} is a file; give a folder for the results")
+    names = os.listdir(out)
+    foreign = sorted(n for n in names if not _ours(out, n))
     if foreign:
         raise DataError(
-            f"--out {out} holds {foreign[0]!r}, which ppaloc did not write, and a results "
+            f"--out {given} holds {foreign[0]!r}, which ppaloc did not write, and a results "
             "folder is replaced whole; give a new folder or an earlier results folder"
+        )
+    if names and not any((out / m).is_file() for m in _MARKERS):
+        raise DataError(
+            f"--out {given} is not empty and holds no {' or '.join(_MARKERS)}, so it is not "
+            "an earlier results folder, and a results folder is replaced whole; give a new "
+            "folder"
         )
 
 

@@ -287,6 +287,35 @@ CellHook = Callable[[Cell, str], None]
 """Called on the client as ``hook(cell, status)`` after a cell's files are written."""
 
 
+#: What a sweep writes at the top of its folder; a folder holding anything else is not one.
+SWEEP_NAMES = frozenset(
+    {"cells", "summary.csv", "summary.json", "report.html", "report.md", "figures"}
+)
+
+
+def check_sweep_folder(out: Path) -> None:
+    """Refuse an ``out`` that is a file, or a folder holding files a sweep did not write:
+    its cell folders, figures and summaries are replaced, a user's files must not go with
+    them. An absent or empty folder, or an earlier sweep's (to resume it), is fine."""
+    real = Path(os.path.realpath(out))
+    if not real.exists():
+        return
+    if not real.is_dir():
+        raise DataError(f"--out {out} is a file; give a folder for the sweep")
+    names = [n for n in os.listdir(real) if not n.startswith(".")]
+    foreign = sorted(n for n in names if n not in SWEEP_NAMES)
+    if foreign:
+        raise DataError(
+            f"--out {out} holds {foreign[0]!r}, which a sweep did not write; give a new "
+            "folder or an earlier sweep's folder"
+        )
+    if names and not (real / "cells").is_dir() and not (real / "summary.json").is_file():
+        raise DataError(
+            f"--out {out} is not empty and holds no cells/ or summary.json, so it is not an "
+            "earlier sweep's folder; give a new folder"
+        )
+
+
 def run_sweep(
     config: SweepConfig,
     out: str | Path,
@@ -335,8 +364,7 @@ def run_sweep(
         After cancelling the cells in flight and rebuilding the summary.
     """
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise DataError(f"--out {out} is a file; give a folder for the sweep")
+    check_sweep_folder(out)
     cells = expand(config)
     validate(config, cells, source=source)
     todo = [c for c in cells if cell_status(out, c)[0] != "ok"]
