@@ -19,7 +19,6 @@ import json
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -517,11 +516,7 @@ def write_cell_error(out: Path, cell: Cell, line: str, trace: str) -> None:
     (one-line error, traceback)."""
     folder = out / cell.folder
     folder.parent.mkdir(parents=True, exist_ok=True)
-    record = {
-        "error": line,
-        "traceback": trace,
-        "created": datetime.now(UTC).isoformat(timespec="seconds"),
-    }
+    record = {"error": line, "traceback": trace, **_created()}
     with new_folder(folder) as stage:
         write_bytes(stage / "cell.json", json.dumps(cell.describe(), indent=2) + "\n")
         write_bytes(stage / "error.json", json.dumps(record, indent=2) + "\n")
