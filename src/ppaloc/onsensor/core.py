@@ -205,6 +205,10 @@ class SensorPipeline(ABC):
     static_masks: ClassVar[tuple[Register, ...]]
     root_means: ClassVar[Register | None] = None
     spread_means: ClassVar[bool] = True
+    #: Robust: a free analogue register the weight update writes ``-w`` into (one write
+    #: instead of ``w := -(-(...))``); the next transition writes ``w`` back with its
+    #: normalisation. None: the update writes the weights in place (two writes).
+    NEGATED: ClassVar[Register | None] = None
     #: Map stores of the representation and the tiles one sensor holds with each
     #: (docs/onsensor.md, "Map store").
     stores: ClassVar[dict[str, int]]
@@ -364,6 +368,11 @@ class SensorPipeline(ABC):
         #: Robust: the threshold ``T`` whose normalisation the next transition applies
         #: (None: none pending; the transition then normalises with ``T = 0``).
         self.pending_top: int | None = None
+        #: Robust, with :attr:`NEGATED`: the weights are ``-NEGATED`` (the last update's
+        #: one write) instead of ``WEIGHTS``; and the stay cost ``c_0`` the next update
+        #: still subtracts (:meth:`transition`).
+        self.negated = False
+        self.pending_offset = 0
 
     # ------------------------------------------------------------------ stages
     def capture(self, frame: np.ndarray) -> None:
@@ -729,22 +738,39 @@ class SensorPipeline(ABC):
         sim, s, x = self.sim, SHIFTED, _X
         top = self.pending_top or 0
         steps = len(costs) - 1 if carried else min(len(costs) - 1, self.n_nodes - 1)
+        floor = max(-int(self.params.memory) - min(costs), -127)
+        negated, neg = self.negated, self.NEGATED
+        # from -w (NEGATED): the stay cost waits for the update's write (w + c_0 units)
+        offset = int(costs[0]) if negated and 0 < costs[0] <= min(126, 127 - floor) else 0
         with sim.stage("transition"):
+            if negated:  # w := -(NEGATED + T), the normalisation in the one write back
+                sim.load_in(int(top))
+                self._run("tr_back", lambda k: k.bus(_W, neg, IN))
+                self.negated = False
             if steps:
                 self._snake_masks()
-                if top:
+                if top and not negated:
                     sim.load_in(-int(top))
                     self._run("tr_copy_t", lambda k: k.bus(s, _W, IN))  # S := -(W - T)
                 else:
                     self._run("tr_copy", lambda k: k.bus(s, _W))  # S := -W
                 self._park(s, x, int(self.params.memory), steps, carried)
-            self._subtract(_W, int(top) + int(costs[0]), "tr_stay")
+            stay = int(costs[0]) - offset + (0 if negated else int(top))
+            self._subtract(_W, stay, "tr_stay")
             for d in range(1, steps + 1):
                 self._snake_step(s, x, d)
-                self._take_candidate(s, x, int(costs[d]))
+                self._take_candidate(s, x, int(costs[d]) - offset)
         self.pending_top = None
         with sim.stage("normalise"):
-            self._floor(max(-int(self.params.memory) - min(costs), -127))
+            self._floor(floor + offset)
+        self.pending_offset = offset
+
+    def _settle(self) -> None:
+        """Write a stay cost the transition left to an update that does not come."""
+        if self.pending_offset:
+            with self.sim.stage("transition"):
+                self._subtract(_W, self.pending_offset, "tr_stay")
+            self.pending_offset = 0
 
     # --------------------------------------------------------------- bank carry
     #: Base-128 digits of a carried value: the integer part and four of seven bits, 28
@@ -770,7 +796,7 @@ class SensorPipeline(ABC):
             for j in range(steps):
                 tile, br, bc = self.layout.node_to_block(np.array([self.n_nodes - 1 - j]))
                 r, c = int(br[0]) * self.bh, int(bc[0]) * self.bw + int(tile[0])
-                total, src = 0, _W
+                total, src = 0, (self.NEGATED if self.negated else _W)
                 for i in range(self.CARRY_DIGITS):
                     x = int(sim.read_areg(src, r, c)) - 128
                     total = total * 128 + x
@@ -779,6 +805,7 @@ class SensorPipeline(ABC):
                     sim.load_in(x)
                     self._run(f"carry_digit_{src.name}", lambda k, src=src: _next_digit(k, src))
                     src = D
+                total = -total if self.negated else total
                 # with noise a read can leave the register's range: clip to it
                 out.append(min(max(total / scale, floor, -127.0), 127.0))
         return out
@@ -794,10 +821,14 @@ class SensorPipeline(ABC):
         """
         sim, dr = self.sim, self.dr
         with sim.stage("carry"):
+            reg, sign = (self.NEGATED, -1) if self.negated else (_W, 1)
             for j, value in enumerate(values):
-                self._write_value(value)
+                self._write_value(sign * value)
                 sim.load_point(dr.pattern, 1, self.size - self.bw * (j + 1))
-                self._run("carry_put", lambda k: (k.WHERE(dr.pattern), k.bus(_W, D), k.all()))
+                self._run(
+                    f"carry_put{'_n' if self.negated else ''}",
+                    lambda k, reg=reg: (k.WHERE(dr.pattern), k.bus(reg, D), k.all()),
+                )
 
     def _write_value(self, value: float) -> None:
         """``D := -value`` in every PE, exactly: DAC digits joined by halvings (``E`` scratch).
@@ -891,6 +922,12 @@ class SensorPipeline(ABC):
         """
         sim = self.sim
         self.last_shift, self.last_alpha = s, alpha
+        if self.negated:  # no transition since the last update: the weights back first
+            self._run("w_back", lambda k: k.bus(_W, self.NEGATED))
+            self.negated = False
+        if not -128 <= alpha - self.pending_offset <= 127:
+            self._settle()
+        offset, self.pending_offset = self.pending_offset, 0
         both = self.tiles > 1 and self._tree_tiles(None) is not None
         regs = self._tree_tiles(None) if both else None
         with sim.stage("compare"):
@@ -899,7 +936,7 @@ class SensorPipeline(ABC):
                 if recompute:
                     self._tree_calls(t)
                 self._root_pattern(self.dr.pattern, t)
-                sim.load_in(alpha)
+                sim.load_in(alpha - offset)  # with the stay cost the transition left
                 # the pair's value and scratch registers: tile 1 (E) keeps tile 0's D
                 value, scratch = (regs[t], F if t else E) if regs else (D, E)
 
@@ -909,7 +946,9 @@ class SensorPipeline(ABC):
                     self._update_robust(k, s, t, value, scratch)
 
                 name = "update" if not recompute else "tree_update"
-                self._run(f"{name}_{t}_s{s}{'_both' if both else ''}", build)
+                neg = "_n" if self.NEGATED is not None else ""
+                self._run(f"{name}_{t}_s{s}{'_both' if both else ''}{neg}", build)
+            self.negated = self.NEGATED is not None
 
     def _tree_tiles(self, k) -> tuple[Register, ...] | None:
         """Robust, two tiles: both tiles' distance trees in one kernel (``k``), or None.
@@ -967,11 +1006,15 @@ class SensorPipeline(ABC):
         the same two writes and clip on the weight, three fewer in all. ``value`` holds
         the tree's values, ``scratch`` is free (and ``X``).
         """
+        neg = self.NEGATED
         if tile == 0:
             sources = self._scaled_sources(k, s, -1, value, scratch)
             k.WHERE(self.dr.pattern)
-            k.bus(NEWS, *sources, _W, IN)  # -(w + alpha - mu_s), clipped; the pair first
-            k.bus(_W, NEWS)
+            if neg is not None:  # the one write: NEGATED := -(w + alpha - mu_s)
+                k.bus(neg, *sources, _W, IN)
+            else:
+                k.bus(NEWS, *sources, _W, IN)  # -(w + alpha - mu_s), clipped; pair first
+                k.bus(_W, NEWS)
             k.all()
             return
         if tile > 1:
@@ -979,8 +1022,11 @@ class SensorPipeline(ABC):
         sources = self._scaled_sources(k, s, 1, value, scratch)
         k.bus(XE, *sources)  # NEWS = -mu_s of the west neighbour: at tile 1's root
         k.WHERE(self.dr.pattern)
-        k.bus(scratch, _W, NEWS, IN)  # -(w + alpha - mu_s), clipped
-        k.bus(_W, scratch)
+        if neg is not None:
+            k.bus(neg, _W, NEWS, IN)
+        else:
+            k.bus(scratch, _W, NEWS, IN)  # -(w + alpha - mu_s), clipped
+            k.bus(_W, scratch)
         k.all()
 
     # --------------------------------------------------------------- robust normalisation
@@ -1017,14 +1063,18 @@ class SensorPipeline(ABC):
         """``cand := (W >= threshold) AND valid``; True if any PE is set (``global_or``)."""
         sim, dr = self.sim, self.dr
         sim.load_in(int(threshold))
+        neg = self.NEGATED if self.negated else None
 
         def build(k):
-            k.bus(NEWS, _W)
-            k.where(IN, NEWS)  # FLAG = W < threshold
+            if neg is not None:
+                k.where(IN, neg)  # FLAG = w < threshold, from -w: no write
+            else:
+                k.bus(NEWS, _W)
+                k.where(IN, NEWS)  # FLAG = W < threshold
             k.NOR(dr.cand, FLAG, dr.tmp_a)  # tmp_a = NOT allowed
             k.all()
 
-        self._run(name, build)
+        self._run(f"{name}_n" if neg is not None else name, build)
         return bool(sim.global_or(dr.cand))
 
     def _max_threshold(self, lo: int, hi: int) -> int | None:
@@ -1104,6 +1154,7 @@ class SensorPipeline(ABC):
 
     def local_top(self) -> int:
         """``floor(max W)`` over this sensor's nodes (a ``global_or`` threshold search)."""
+        self._settle()
         self._allow(False)
         top = self._max_threshold(-127, 127)
         assert top is not None
@@ -1294,6 +1345,8 @@ class SensorPipeline(ABC):
         """
         sim, dr = self.sim, self.dr
         planes = self._map_planes()
+        if self.negated:
+            planes[f"{self.NEGATED.name}: minus the weights"] = sim.read(self.NEGATED)
         planes[f"{_W.name}: weights"] = sim.read(_W)  # robust: before the pending normalisation
         planes.update(self._live_planes())
         planes[f"{dr.u.name}: motion, above block mean"] = sim.read(dr.u)
@@ -1317,10 +1370,12 @@ class SensorPipeline(ABC):
         Robust: with the last frame's normalisation applied (the register holds them
         before it, :meth:`normalise`), as the host reports them.
         """
-        plane = self.sim.read(_W)
+        plane = -self.sim.read(self.NEGATED) if self.negated else self.sim.read(_W)
         nodes = np.arange(self.n_nodes)
         tile, br, bc = self.layout.node_to_block(nodes)
         w = plane[br * self.bh, bc * self.bw + tile].astype(np.float64)
+        if self.pending_offset:
+            w = np.clip(w - self.pending_offset, -127, 127)
         if self.robust and self.pending_top is not None:
             w = np.maximum(np.clip(w - self.pending_top, -127, 127), -self.params.memory)
         return w

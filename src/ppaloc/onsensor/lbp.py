@@ -15,7 +15,7 @@ import numpy as np
 
 from ppaloc.onsensor.core import DRegs, SensorPipeline, mask_bits
 from ppaloc.onsensor.program import add_level, halve_level
-from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, B, D, E, east, south
+from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, A, B, D, E, east, south
 
 __all__ = [
     "DESCRIPTOR",
@@ -54,7 +54,8 @@ class LbpPipeline(SensorPipeline):
     Registers: database tiles in ``R10``, ``R11``; block roots and node-root patterns
     share ``R1`` (:data:`ROOTS`); valid node roots in ``R2``; the replicated descriptor in
     ``R3`` (also ``tmp_b``) with its temp ``R4`` (also ``tmp_a``); candidates in ``R9``;
-    ``+m`` at the block roots in ``B``. ``A`` is free.
+    ``+m`` at the block roots in ``B``; robust: minus the weights in ``A`` from the
+    update to the next transition (:attr:`SensorPipeline.NEGATED`).
     """
 
     representation = "lbp"
@@ -63,6 +64,7 @@ class LbpPipeline(SensorPipeline):
     static_masks = (R2, R10, R11)  # valid roots, database tiles
     stores: ClassVar[dict[str, int]] = {"digital": 2}
     root_means = B
+    NEGATED = A  # minus the weights after the update (A is otherwise free)
     spread_means = False  # only the image motion model needs F = -m over the blocks
 
     def reset(self) -> None:

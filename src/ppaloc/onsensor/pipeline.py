@@ -23,7 +23,7 @@ are the scratch of the logic macros, ``NEWS`` the scratch of the analogue ones):
 ===========  =========================================  ==================================
 register     lowres                                     lbp
 ===========  =========================================  ==================================
-A, B         database tile 0, tile 1 (``n = q/2 - 64``)  free, block-root means (B)
+A, B         database tile 0, tile 1 (``n = q/2 - 64``)  -w (robust, A), block means (B)
 C            weights (tile t at block PE (0, t))        weights
 D, E, F      working planes (robust transition: E the   same (F free after the motion
              shifted weights, D scratch; F keeps the    stage)
