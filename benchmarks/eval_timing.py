@@ -1,11 +1,13 @@
 """The timing model against published SCAMP-5 times, and the paper's frame times.
 
 Run from the project root: ``python benchmarks/eval_timing.py [--json] [--frames N]``.
-Not collected by pytest. Two parts:
+Not collected by pytest. Two parts (and ``validation_candidates``: the published times
+considered and not used, each with its source and reason):
 
-- ``validation``: published SCAMP-5 times of public, fully described programs that were
-  not used to fit any constant, each modelled as counts (kernels, ICWs, calls) and
-  given its low/mid/high interval (``ppaloc.sim.timing.interval_us``);
+- ``validation``: published SCAMP-5 times of public, fully described programs, each
+  modelled as counts (kernels, ICWs, calls) and given its low/mid/high interval
+  (``ppaloc.sim.timing_validation``: the workloads, the part of each that no constant was
+  fitted to, and the candidates considered and not used, with the reasons);
 - ``paper``: the weighted-node paper's measured frame times (2.59 ms with 8x8 images,
   3.17 ms with descriptors, SCAMP-5d) beside the modelled ``chip`` and ``loop``
   intervals of the paper preset at its map sizes, for both program structures
@@ -19,6 +21,7 @@ sets the injection's draw calls), or blocky random frames when it is absent.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import glob
 import json
 from collections import defaultdict
@@ -36,14 +39,8 @@ from ppaloc.onsensor.precursor import (
     precursor_stage_counts,
     structure_counts,
 )
-from ppaloc.sim.timing import (
-    ANALOGNET_STAGES,
-    TimingConstants,
-    add_counts,
-    diff_counts,
-    evaluate_us,
-    interval_us,
-)
+from ppaloc.sim.timing import TimingConstants, add_counts, diff_counts, evaluate_us
+from ppaloc.sim.timing_validation import CANDIDATES, WORKLOADS
 
 DATA = Path("../shared/data")
 PAPER_MS = {"lowres": 2.59, "lbp": 3.17}
@@ -53,42 +50,10 @@ PAPER_SOURCE = (
     "on a Pixel Processor Array', ICRA 2021: frame time on SCAMP-5d"
 )
 
-#: AnalogNet's whole frame: 2260 frames per second (Wong, Guillard, Murai, Saeedi, Kelly,
-#: "AnalogNet: Convolutional Neural Network Inference on Analog Focal Plane Sensor
-#: Processors", arXiv:2006.01765, 2020, abstract). Its three on-array stages are the fit;
-#: what this workload tests is the rest of the frame: the frame-loop control and the
-#: dense layer on the controller -- so it is partly dependent on the fit, and the only
-#: published whole-program time found.
-ANALOGNET_FPS = 2260.0
-#: Estimate of the dense layer on the controller (us): 100-300 events (200 mid) read out,
-#: each adding one weight to 10 class sums at 2-6 cycles per accumulate (4 mid) on a
-#: ~200 MHz controller core.
-DENSE_LAYER_US = tuple(e * 10 * c / 204.0 for e, c in ((100, 2), (200, 4), (300, 6)))
-
 
 def validation() -> list[dict]:
-    """Published SCAMP-5 times beside their modelled intervals (us)."""
-    stages = []
-    for prog in ANALOGNET_STAGES.values():
-        counts = [{f"icw:{c}": float(n) for c, n in k.items() if n} for k in prog["kernels"]]
-        counts.append({"kernels": float(len(prog["kernels"]))})
-        for name, units in prog["calls"]:
-            counts.append({f"calls:{name}": 1.0, f"units:{name}": float(units)})
-        stages.append(add_counts(*counts))
-    frame = add_counts(*stages, {"calls:vs_frame_loop_control": 1.0})
-    iv = interval_us(frame)
-    lo, mid, hi = DENSE_LAYER_US
-    return [
-        {
-            "workload": "AnalogNet MNIST inference, whole frame (3 fitted on-array stages "
-            "+ frame-loop control + dense layer on the controller)",
-            "source": "Wong et al., AnalogNet, arXiv:2006.01765 (2020), abstract: 2260 FPS",
-            "published_us": 1e6 / ANALOGNET_FPS,
-            "modelled_us": [iv.low + lo, iv.mid + mid, iv.high + hi],
-            "independent": "partly: the three stages (354 us) are the calibration; the "
-            "frame-loop control and the dense-layer estimate are not fitted",
-        }
-    ]
+    """Published SCAMP-5 times beside their modelled intervals (us; ``timing_validation``)."""
+    return [w.as_dict() for w in WORKLOADS]
 
 
 def _frames(n: int) -> tuple[list[np.ndarray], str]:
@@ -174,18 +139,27 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=40, help="query frames per run")
     ap.add_argument("--start", type=int, default=600, help="first query frame")
     args = ap.parse_args()
-    result = {"validation": validation(), "paper": paper(args.frames, args.start)}
+    result = {
+        "validation": validation(),
+        "validation_candidates": [dataclasses.asdict(c) for c in CANDIDATES],
+        "paper": paper(args.frames, args.start),
+    }
     if args.json:
         print(json.dumps(result, indent=1))
         return
     for v in result["validation"]:
-        lo, mid, hi = v["modelled_us"]
-        pub = v["published_us"]
-        print(
-            f"{v['workload']}\n  published {pub:.0f} us ({v['source']}); modelled "
-            f"{mid:.0f} us [{lo:.0f}, {hi:.0f}], mid {100 * (mid / pub - 1):+.0f}%, "
-            f"{'inside' if lo <= pub <= hi else 'OUTSIDE'}; independent: {v['independent']}"
-        )
+        print(f"{v['workload']}\n  {v['source']}; independent: {v['independent']}")
+        for label, part in (("whole", v), ("unfitted part", v["unfitted_part"])):
+            lo, mid, hi = part["modelled_us"]
+            pub = part["published_us"]
+            print(
+                f"  {label}: published {pub:.0f} us; modelled {mid:.0f} us [{lo:.0f}, "
+                f"{hi:.0f}], mid {100 * (mid / pub - 1):+.0f}%, "
+                f"{'inside' if lo <= pub <= hi else 'OUTSIDE'}"
+            )
+    print(f"\nconsidered and not used ({len(CANDIDATES)}):")
+    for c in CANDIDATES:
+        print(f"  {c.name} ({c.source}: {c.published}): {c.reason}")
     for p in result["paper"]:
         print(
             f"\n{p['representation']} ({p['nodes']} nodes, {p['frames']}): paper "
