@@ -180,7 +180,7 @@ class Candidate:
 
 
 #: The published figures considered for validation and not used (each with its source and
-#: the reason); figures as the stored public copies state them.
+#: the reason); figures as the abstracts, READMEs and code searched state them.
 CANDIDATES: tuple[Candidate, ...] = (
     Candidate(
         "BIT-VO: 6-DoF visual odometry from binary edges and corners",
@@ -210,23 +210,23 @@ CANDIDATES: tuple[Candidate, ...] = (
         "Strided-convolution CNNs, 4 applications",
         "Liu, Bose, Chen, Carey, Dudek, Mayol-Cuevas, BMVC 2020, abstract",
         "between 2,000 and 17,500 fps",
-        "the rate of each application is in the paper's body, not in the stored copies; "
-        "no public code found",
+        "the rate of each application is in the paper's body, not in the abstract "
+        "searched; no public code found",
     ),
     Candidate(
         "Closed-shape object location on the SCAMP-5 chip",
         "Carey, Lopich, Barr, Wang, Dudek, VLSI Circuits 2013, abstract",
         "100,000 fps",
         "the program is not described at the level of ICWs and controller calls in the "
-        "abstract, the only part in the stored copies",
+        "abstract, the only part searched",
     ),
     Candidate(
         "AUKE-generated convolution kernels",
         "Debrunner, Saeedi, Kelly, ACM Trans. Archit. Code Optim. 15 (2019), abstract",
         "speed and energy 'for a suite of well-known convolution filters' (no figure in "
         "the abstract)",
-        "the measured times are in the paper's body, not in the stored copies; the public "
-        "generator (ThomasDebrunner/auto_code_cpa) holds no measurements",
+        "any measured times are in the paper's body, not in the abstract searched; the "
+        "public generator (ThomasDebrunner/auto_code_cpa) holds no measurements",
     ),
     Candidate(
         "Cain-generated convolution kernels",
@@ -251,12 +251,12 @@ CANDIDATES: tuple[Candidate, ...] = (
         "PixelRNN on SCAMP-5",
         "So, Bose, Dudek, Wetzstein, CVPR 2024 (computational-imaging/PixelRNN)",
         "none in the README",
-        "no published time found in the stored copies",
+        "no published time in the README or code searched",
     ),
     Candidate(
         "Visual odometry by on-array image alignment",
         "Bose et al., ICCV 2017; Greatwood et al., IROS 2018 (lauriebose/Scamp_image_alignment_VO)",
-        "not in the stored copies",
-        "the papers' timings are in their bodies, not in the stored copies",
+        "none in the repository's README",
+        "the papers' text was not in the sources searched; the code holds no measurements",
     ),
 )
