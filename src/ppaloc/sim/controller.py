@@ -40,11 +40,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ppaloc.errors import RegisterMisuseError, SimulatorError
+from ppaloc.sim import hostloops
 from ppaloc.sim.draw import DrawMixin
 from ppaloc.sim.registers import (
     DNEWS_SELECTORS,
     FLAG,
-    IN,
     NEWS,
     R0,
     R1,
@@ -110,6 +110,8 @@ def from_scamp_buffer(buffer: np.ndarray, n_rows: int, n_cols: int) -> np.ndarra
 
 
 def _as_int(call: str, name: str, value: Any, lo: int, hi: int) -> int:
+    if type(value) is int and lo <= value <= hi:  # the common case, checked first
+        return value
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
         raise SimulatorError(f"{call}: {name}={value!r} must be an integer in [{lo}, {hi}]")
     if not lo <= int(value) <= hi:
@@ -118,8 +120,31 @@ def _as_int(call: str, name: str, value: Any, lo: int, hi: int) -> int:
 
 
 def _pattern_args(call: str, r: Any, c: Any, rx: Any, cx: Any) -> dict[str, int]:
-    names = ("r", "c", "rx", "cx")
-    return {n: _as_int(call, n, v, 0, 255) for n, v in zip(names, (r, c, rx, cx), strict=True)}
+    return {
+        "r": _as_int(call, "r", r, 0, 255),
+        "c": _as_int(call, "c", c, 0, 255),
+        "rx": _as_int(call, "rx", rx, 0, 255),
+        "cx": _as_int(call, "cx", cx, 0, 255),
+    }
+
+
+def _shift_slices(
+    rows: int, cols: int, h: int, v: int
+) -> tuple[tuple[slice, slice], tuple[slice, slice], tuple[tuple[slice, slice], ...]]:
+    """``(dst, src, edges)`` of ``new[row, col] = old[row + v, col - h]``: ``new[dst] =
+    old[src]``, and the parts in ``edges`` take what is shifted in from beyond the edge."""
+    dst = (slice(max(0, -v), min(rows, rows - v)), slice(max(0, h), min(cols, cols + h)))
+    src = (slice(max(0, v), min(rows, rows + v)), slice(max(0, -h), min(cols, cols - h)))
+    edges = []
+    if v > 0:
+        edges.append((slice(rows - v, rows), slice(None)))
+    elif v < 0:
+        edges.append((slice(0, -v), slice(None)))
+    if h > 0:
+        edges.append((slice(None), slice(0, h)))
+    elif h < 0:
+        edges.append((slice(None), slice(cols + h, cols)))
+    return dst, src, tuple(edges)
 
 
 #: ``vs_scamp5_get_parameter`` numbers of the header (``vs_scamp5.hpp``).
@@ -144,7 +169,8 @@ class ControllerMixin(DrawMixin):
     """Controller (host) calls of SCAMP-5, mixed into :class:`ppaloc.sim.engine.Scamp5`.
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
-    ``_dplane``, ``_write_analog``, ``_write_digital``, ``rng``, ``noise`` and ``timing``.
+    ``_dplane``, ``_write_analog``, ``_write_digital``, ``_flag_state``, ``_scratch``,
+    ``_set_in``, ``rng``, ``noise`` and ``timing``.
     """
 
     rows: int
@@ -152,13 +178,24 @@ class ControllerMixin(DrawMixin):
     timing: TimingModel
     noise: Any
     rng: np.random.Generator
+    #: Address-pattern planes by (r, c, rx, cx, scamp_addr), read-only (made on first use).
+    _address_masks: dict[tuple, np.ndarray] | None = None
+    #: Slices of ``shift`` by (h, v) (made on first use).
+    _shift_parts: dict[tuple[int, int], tuple] | None = None
+    #: float64 scratch plane of the error-corrected DAC load's readout noise.
+    _dac_noise: np.ndarray | None = None
 
     if TYPE_CHECKING:
 
         def _aplane(self, reg: Register) -> np.ndarray: ...
         def _dplane(self, reg: Register) -> np.ndarray: ...
-        def _write_analog(self, reg: Register, values: np.ndarray) -> None: ...
+        def _write_analog(
+            self, reg: Register, values: object, where: np.ndarray | None = None
+        ) -> None: ...
         def _write_digital(self, reg: Register, bools: np.ndarray) -> None: ...
+        def _flag_state(self) -> tuple[np.ndarray, bool]: ...
+        def _scratch(self) -> np.ndarray: ...
+        def _set_in(self, value: float) -> None: ...
 
     # ----------------------------------------------------------------------------------
     # Stages
@@ -243,13 +280,25 @@ class ControllerMixin(DrawMixin):
         return plane.reshape(n, br, n, bc).mean(axis=(1, 3), dtype=np.float64)
 
     def _address_mask(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> np.ndarray:
-        rows = np.arange(self.rows)
-        cols = np.arange(self.cols)
-        if scamp_addr:
-            cols = self.cols - 1 - cols
-        row_ok = (rows & ~rx) == (r & ~rx)
-        col_ok = (cols & ~cx) == (c & ~cx)
-        return row_ok[:, None] & col_ok[None, :]
+        """The (read-only) plane of the elements a pattern selects, made once per pattern."""
+        key = (r, c, rx, cx, scamp_addr)
+        cache = self._address_masks
+        if cache is None:
+            cache = self._address_masks = {}
+        mask = cache.get(key)
+        if mask is None:
+            rows = np.arange(self.rows)
+            cols = np.arange(self.cols)
+            if scamp_addr:
+                cols = self.cols - 1 - cols
+            row_ok = (rows & ~rx) == (r & ~rx)
+            col_ok = (cols & ~cx) == (c & ~cx)
+            mask = row_ok[:, None] & col_ok[None, :]
+            mask.flags.writeable = False
+            if len(cache) >= 1024:
+                cache.clear()
+            cache[key] = mask
+        return mask
 
     # ----------------------------------------------------------------------------------
     # DAC
@@ -260,23 +309,30 @@ class ControllerMixin(DrawMixin):
     def _write_masked(self, reg: Register, values: np.ndarray | float, *, noisy: bool) -> None:
         """Write an analogue plane (or a scalar) where FLAG is set (analogue writes obey FLAG).
 
-        One masked copy over the plane (``np.copyto(..., where=FLAG)``), not a gather and a
-        scatter through boolean indices: the DAC loads of a frame are its most frequent
-        controller calls.
+        One pass over the plane that selects the new value where FLAG is set
+        (:mod:`ppaloc.sim.hostloops`; a plain copy when FLAG is set everywhere, known
+        without a pass while the engine tracks it), not a gather and a scatter through
+        boolean indices: the DAC loads and shifts of a frame are its most frequent
+        controller calls. ``values`` are clipped to [-128, 127].
         """
         self._catch_up()  # older values droop up to now; the new ones start fresh
-        flag = self._flag()
         current = self._aplane(reg)
-        everywhere = bool(flag.all())
+        flag, everywhere = self._flag_state()
         if noisy and not self.noise.ideal:
-            keep = None if everywhere else current.copy()
-            self._write_analog(reg, values)
-            if keep is not None:
-                np.copyto(current, keep, where=~flag)
-        elif everywhere:
-            current[...] = np.clip(values, -128, 127)
+            self._write_analog(reg, values, None if everywhere else flag)
+            return
+        if isinstance(values, np.ndarray):  # the DAC's own noise plane is clipped in place
+            values = np.clip(values, -128, 127, out=values if values is self._dac_noise else None)
+            if everywhere:
+                current[...] = values
+            else:
+                hostloops.select(current, values, flag)
+            return
+        value = min(max(float(values), -128.0), 127.0)
+        if everywhere:
+            current.fill(value)
         else:
-            np.copyto(current, np.clip(values, -128, 127), where=flag, casting="unsafe")
+            hostloops.fill_where(current, value, flag)
 
     def _temp(self, call: str, areg: Register, temp: Any) -> Register | None:
         """The header's ``temp`` register (default NEWS), or None when it is ``areg``."""
@@ -320,15 +376,24 @@ class ControllerMixin(DrawMixin):
         t = self._temp(call, areg, temp)
         v = self._dac_value(call, value)
         self.timing.charge_call(call)
-        shape = (self.rows, self.cols)
-        self._aplane(IN)[...] = v
+        self._set_in(v)
         sd = self._readout_sd()
         target: np.ndarray | float = float(v)
         if sd > 0:
-            target = target + self.rng.normal(0.0, sd, shape)
+            target = self._dac_readout_noise(sd)
+            target += float(v)
         if t is not None:
             self._write_masked(t, -float(v), noisy=False)
         self._write_masked(areg, target, noisy=False)
+
+    def _dac_readout_noise(self, sd: float) -> np.ndarray:
+        """A float64 plane of ``rng.normal(0, sd)`` draws (the same draws, no allocation)."""
+        buf = self._dac_noise
+        if buf is None:
+            buf = self._dac_noise = np.empty((self.rows, self.cols), dtype=np.float64)
+        self.rng.standard_normal(out=buf)
+        buf *= sd
+        return buf
 
     def scamp5_get_image(self, yf: Register, yh: Register, gain: int = 1) -> None:
         """``scamp5_get_image``: capture the exposure into ``yf`` (full range) and ``yh``.
@@ -378,13 +443,13 @@ class ControllerMixin(DrawMixin):
                 )
             v = self._dac_value(call, areg_or_value)
             self.timing.charge_call(call)
-            self._aplane(IN)[...] = v
+            self._set_in(v)
             return
         areg = self._areg(call, areg_or_value)
         t = self._temp(call, areg, temp)
         v = self._dac_value(call, value)
         self.timing.charge_call(call)
-        self._aplane(IN)[...] = v
+        self._set_in(v)
         if t is not None:
             self._write_masked(t, -float(v), noisy=True)
         self._write_masked(areg, float(v), noisy=True)
@@ -552,10 +617,7 @@ class ControllerMixin(DrawMixin):
         self._catch_up()  # shift the values as they are now
         if reg.kind == "analog":
             self._areg(call, reg)
-            old = self._aplane(reg)
-            new = self._shifted(old, h, v, 0.0)
-            self.timing.charge_call("shift_areg", abs(h) + abs(v))
-            self._write_masked(reg, new, noisy=True)
+            self._shift_analog(reg, h, v)
         else:
             self._dreg(call, reg)
             old = self._dplane(reg)
@@ -570,6 +632,42 @@ class ControllerMixin(DrawMixin):
                 for sel in (R1, R2, R3, R4):
                     self._write_digital(sel, np.full(old.shape, DNEWS_SELECTORS[last] is sel))
             self._write_digital(reg, new)
+
+    def _shift_analog(self, reg: Register, h: int, v: int) -> None:
+        """The analogue ``shift``: 0 shifted in, written where FLAG, one write (noisy).
+
+        The shifted plane is formed in the engine's scratch plane and selected where FLAG
+        (ideal; moved in place when FLAG is set everywhere), or written by one noisy write.
+        """
+        key = (h, v)
+        parts = self._shift_parts
+        if parts is None:
+            parts = self._shift_parts = {}
+        sl = parts.get(key)
+        if sl is None:
+            sl = parts[key] = _shift_slices(self.rows, self.cols, h, v)
+        dst, src, edges = sl
+        plane = self._aplane(reg)
+        if self.noise.ideal:
+            self.timing.charge_call("shift_areg", abs(h) + abs(v))
+            flag, everywhere = self._flag_state()
+            if everywhere:
+                plane[dst] = plane[src]  # numpy copies overlapping operands first
+                for e in edges:
+                    plane[e] = 0.0
+            else:
+                new = self._scratch()
+                new[dst] = plane[src]
+                for e in edges:
+                    new[e] = 0.0
+                hostloops.select(plane, new, flag)
+            return
+        new = self._scratch()
+        new[dst] = plane[src]
+        for e in edges:
+            new[e] = 0.0
+        self.timing.charge_call("shift_areg", abs(h) + abs(v))
+        self._write_masked(reg, new, noisy=True)
 
     @staticmethod
     def _shifted(plane: np.ndarray, h: int, v: int, fill: float | bool) -> np.ndarray:
@@ -888,13 +986,13 @@ class ControllerMixin(DrawMixin):
                 )
             level = dac_level(_as_int(call, "dac", areg_or_dac, 0, 4095))
             self.timing.charge_call("load_in")
-            self._aplane(IN)[...] = level
+            self._set_in(level)
             return
         areg = self._areg(call, areg_or_dac)
         t = self._temp(call, areg, temp)
         level = dac_level(_as_int(call, "dac", dac, 0, 4095))
         self.timing.charge_call("load_in")
-        self._aplane(IN)[...] = level
+        self._set_in(level)
         if t is not None:
             self._write_masked(t, -float(level), noisy=True)
         self._write_masked(areg, float(level), noisy=True)

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ppaloc.errors import KernelError, SimulatorError
+from ppaloc.sim import hostloops
 from ppaloc.sim.controller import ControllerMixin
 from ppaloc.sim.engines import make_engine
 from ppaloc.sim.isa import CLOCK_CLASSES, Instruction
@@ -38,6 +39,7 @@ from ppaloc.sim.registers import (
     DIGITAL_PLANES,
     DNEWS_SELECTORS,
     FLAG,
+    IN,
     NEWS,
     PIX,
     R0,
@@ -55,6 +57,7 @@ _LO = np.float32(-128.0)
 _HI = np.float32(127.0)
 _FLAG_I = FLAG.index
 _NEWS_I = NEWS.index
+_IN_I = IN.index
 _N_ANALOG = len(ANALOG_PLANES)
 _N_DIGITAL = len(DIGITAL_PLANES)
 _DECAYING = tuple(r.index for r in ANALOG_PLANES if r.role in ("general", "news"))
@@ -152,6 +155,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._latch = np.zeros(shape, dtype=bool)
         self._mask = np.zeros(shape, dtype=np.uint32)
         self._flag_masked: bool | None = False  # None: unknown, recompute
+        self._in_level: float | None = 0.0  # the level IN holds everywhere (None: unknown)
         self._image: np.ndarray | None = None
         self._ops_cache: dict[tuple, Op] = {}
         self._last_us = 0.0
@@ -175,7 +179,27 @@ class Scamp5(ControllerMixin, ProgramAPI):
         i = reg.index
         if i < len(_DECAYING) and self._droop_us[i]:
             self._flush_droop((i,))
+        elif i == _IN_I:
+            self._in_level = None  # the caller may change IN through the view
         return self._a[i]
+
+    def _set_in(self, value: float) -> None:
+        """Drive ``IN`` with ``value`` everywhere (no pass when it already holds it)."""
+        if self._in_level != value:
+            self._a[_IN_I].fill(value)
+            self._in_level = value
+
+    def _flag_state(self) -> tuple[np.ndarray, bool]:
+        """FLAG's plane (to read) and whether it is 1 everywhere: the tracked state when it
+        is known, else one pass; the tracking is left as it was."""
+        flag = self._d[_FLAG_I]
+        masked = self._flag_masked
+        return flag, (not masked) if masked is not None else bool(flag.all())
+
+    def _scratch(self) -> np.ndarray:
+        """A float32 scratch plane for a host call's values (what :meth:`_write_analog`
+        copies from; overwritten by the next host write)."""
+        return self._t[2]
 
     def _dplane(self, reg: Register) -> np.ndarray:
         """The live bool plane of digital ``reg`` (incl. FLAG and SELECT; a view)."""
@@ -208,23 +232,40 @@ class Scamp5(ControllerMixin, ProgramAPI):
                 )
         return np.broadcast_to(arr, (self.rows, self.cols))
 
-    def _write_analog(self, reg: Register, values: object) -> None:
-        """Set analogue ``reg`` everywhere (clipped; with write noise when not ideal)."""
+    def _write_analog(self, reg: Register, values: object, where: np.ndarray | None = None) -> None:
+        """Set analogue ``reg`` everywhere, or where ``where`` is set (clipped; with write
+        noise when not ideal: the draw is taken for the whole plane either way)."""
         if not self.noise.ideal:
             self._elapse()  # older values droop first; the new one starts fresh
         plane = self._aplane(reg)
         t = self._t[2]
-        np.copyto(t, self._as_plane(reg, values, float), casting="unsafe")
+        if values is not t:  # a host call may form its values in the scratch plane
+            if type(values) is float or (
+                isinstance(values, np.ndarray)
+                and values.shape == t.shape
+                and values.dtype.kind == "f"
+            ):
+                np.copyto(t, values, casting="unsafe")
+            else:
+                np.copyto(t, self._as_plane(reg, values, float), casting="unsafe")
         if not self.noise.ideal:
             self.noise.perturb(t, reg.index, divided=False)
-        _clip(t, _LO, _HI, out=plane)
+        if where is None:
+            _clip(t, _LO, _HI, out=plane)
+        else:
+            _clip(t, _LO, _HI, out=t)
+            hostloops.select(plane, t, where)
 
     def _write_digital(self, reg: Register, values: object) -> None:
         """Set digital ``reg`` everywhere (no R0 rule: this is the host's pattern load)."""
         plane = self._dplane(reg)
         if not self.noise.ideal:
             self._elapse()
-        np.copyto(plane, self._as_plane(reg, values, bool), casting="unsafe")
+        if not (
+            isinstance(values, np.ndarray) and values.dtype == bool and values.shape == plane.shape
+        ):
+            values = self._as_plane(reg, values, bool)
+        np.copyto(plane, values, casting="unsafe")
         self._dtouch_us[reg.index] = self.timing.now_us
 
     def read(self, reg: Register) -> np.ndarray:

@@ -35,6 +35,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from ppaloc.errors import SimulatorError
+from ppaloc.sim import hostloops
 
 try:  # the ufunc behind np.clip, without the wrapper's per-call overhead
     from numpy._core.umath import clip as fast_clip
@@ -265,8 +266,7 @@ class NoiseModel:
         if self._droop_tmp is None or self._droop_tmp.size < planes.size:
             self._droop_tmp = np.empty(planes.size, dtype=np.float32)
         tmp = self._droop_tmp[: planes.size].reshape(planes.shape)
-        fast_clip(planes, -step, step, out=tmp)
-        np.subtract(planes, tmp, out=planes)
+        hostloops.droop(planes, step, tmp)  # planes -= clip(planes, -step, step), one pass
 
     def digital_decay(self, plane: np.ndarray, age_us: float, elapsed_us: float) -> None:
         """Let ones in a digital ``plane`` decay after its retention time has passed.

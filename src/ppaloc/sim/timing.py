@@ -677,16 +677,54 @@ class TimingModel:
                 f"constants={constants!r} is invalid: use a ppaloc.sim.TimingConstants "
                 "(e.g. dataclasses.replace(TimingConstants(), kernel_launch_us=0.5))"
             )
-        self.clock_hz = float(clock_hz)
-        self.constants = constants if constants is not None else TimingConstants()
-        self._corners: dict[str, list[TimingConstants]] | None = None
-        self.pe_count = int(pe_count)
+        self._clock_hz = float(clock_hz)
+        self._constants = constants if constants is not None else TimingConstants()
+        self._pe_count = int(pe_count)
+        self._forget_costs()
         self.reset()
+
+    # The per-kernel and per-call costs are computed once and kept (the same arithmetic,
+    # so the same floats); changing the clock, the constants or the PE count drops them.
+    @property
+    def clock_hz(self) -> float:
+        """Instruction clock of the array, Hz."""
+        return self._clock_hz
+
+    @clock_hz.setter
+    def clock_hz(self, value: float) -> None:
+        self._clock_hz = float(value)
+        self._forget_costs()
+
+    @property
+    def constants(self) -> TimingConstants:
+        """The constants table charged with (mid values)."""
+        return self._constants
+
+    @constants.setter
+    def constants(self, value: TimingConstants) -> None:
+        self._constants = value
+        self._forget_costs()
+
+    @property
+    def pe_count(self) -> int:
+        """Processing elements the chip energy counts per ICW."""
+        return self._pe_count
+
+    @pe_count.setter
+    def pe_count(self, value: int) -> None:
+        self._pe_count = int(value)
+        self._forget_costs()
+
+    def _forget_costs(self) -> None:
+        self._corners: dict[str, list[TimingConstants]] | None = None
+        self._kernel_costs: dict[tuple, tuple[float, float, tuple[tuple[str, int], ...]]] = {}
+        self._call_costs: dict[str, tuple[float, float, float]] = {}
 
     def reset(self) -> None:
         """Forget every charged cost and close all stages."""
         self._stages: dict[str, StageCost] = {}
         self._stack: list[str] = []
+        self._row: StageCost | None = None  # the current stage's row, once charged
         self._total_us = 0.0
         self._chip_uj = 0.0
 
@@ -719,10 +757,13 @@ class TimingModel:
         return self.constants.cycles(clock_class) / self.clock_hz * 1e6
 
     def _stage_row(self) -> StageCost:
-        name = self.current_stage
-        row = self._stages.get(name)
+        row = self._row
         if row is None:
-            row = self._stages[name] = StageCost(name)
+            name = self.current_stage
+            row = self._stages.get(name)
+            if row is None:
+                row = self._stages[name] = StageCost(name)
+            self._row = row
         return row
 
     def _icw_time(self, counts: Mapping[str, float]) -> tuple[float, float]:
@@ -738,11 +779,22 @@ class TimingModel:
         return us, n
 
     def _add(self, row: StageCost, us: float, n_icws: float) -> None:
-        chip = n_icws * self.pe_count * self.constants.energy_pj_per_pe_icw * 1e-6
+        chip = n_icws * self._pe_count * self._constants.energy_pj_per_pe_icw * 1e-6
         row.us += us
         row.chip_uj += chip
         self._total_us += us
         self._chip_uj += chip
+
+    def _kernel_cost(self, key: tuple) -> tuple[float, float, tuple[tuple[str, int], ...]]:
+        """(time, chip energy, nonzero ICW counts) of one run of a kernel's counts."""
+        counts = dict(key)
+        us, n = self._icw_time(counts)
+        chip = n * self._pe_count * self._constants.energy_pj_per_pe_icw * 1e-6
+        nonzero = tuple((cls, int(k)) for cls, k in counts.items() if k)
+        if len(self._kernel_costs) >= 4096:
+            self._kernel_costs.clear()
+        cost = self._kernel_costs[key] = (self._constants.kernel_launch_us + us, chip, nonzero)
+        return cost
 
     def charge_kernel(self, counts: Mapping[str, int]) -> None:
         """Charge one kernel run: launch overhead + its ICWs' cycles.
@@ -752,25 +804,43 @@ class TimingModel:
         counts : Mapping[str, int]
             ICWs per clock class; keys from :data:`CLOCK_CLASSES`, missing ones count 0.
         """
-        us, n = self._icw_time(counts)
-        row = self._stage_row()
-        for cls, k in counts.items():
-            if k:
-                row.icws[cls] = row.icws.get(cls, 0) + int(k)
+        key = tuple(counts.items())
+        cost = self._kernel_costs.get(key)
+        if cost is None:
+            cost = self._kernel_cost(key)
+        us, chip, nonzero = cost
+        row = self._row or self._stage_row()
+        icws = row.icws
+        for cls, k in nonzero:
+            icws[cls] = icws.get(cls, 0) + k
         row.kernels += 1
-        self._add(row, self.constants.kernel_launch_us + us, n)
+        row.us += us
+        row.chip_uj += chip
+        self._total_us += us
+        self._chip_uj += chip
 
-    def call_us(self, name: str, units: float = 1.0) -> float:
-        """Modelled duration of one controller call, microseconds (nothing is charged)."""
+    def _call_cost(self, name: str) -> tuple[float, float, float]:
+        """(fixed time with the overhead, time per unit, ICWs per unit) of call ``name``."""
         try:
-            cost = self.constants.calls[name]
+            cost = self._constants.calls[name]
         except KeyError:
-            known = ", ".join(sorted(self.constants.calls))
+            known = ", ".join(sorted(self._constants.calls))
             raise TimingError(
                 f"no modelled cost for controller call {name!r}; known: {known}"
             ) from None
         icw_us, _ = self._icw_time(cost.per_unit_icws)
-        return self.constants.call_overhead_us + cost.fixed_us + units * (cost.per_unit_us + icw_us)
+        entry = (
+            self._constants.call_overhead_us + cost.fixed_us,
+            cost.per_unit_us + icw_us,
+            sum(cost.per_unit_icws.values()),
+        )
+        self._call_costs[name] = entry
+        return entry
+
+    def call_us(self, name: str, units: float = 1.0) -> float:
+        """Modelled duration of one controller call, microseconds (nothing is charged)."""
+        base, per_unit, _ = self._call_costs.get(name) or self._call_cost(name)
+        return base + units * per_unit
 
     def charge_call(self, name: str, units: float = 1.0) -> None:
         """Charge one controller call by its SCAMP-5 name.
@@ -785,14 +855,20 @@ class TimingModel:
         """
         if units < 0:
             raise TimingError(f"negative units {units!r} for call {name!r}")
-        us = self.call_us(name, units)
-        cost = self.constants.calls[name]
-        n_icws = units * sum(cost.per_unit_icws.values())
-        row = self._stage_row()
-        row.calls[name] = row.calls.get(name, 0) + 1
+        base, per_unit, icws_per_unit = self._call_costs.get(name) or self._call_cost(name)
+        us = base + units * per_unit
+        row = self._row or self._stage_row()
+        calls = row.calls
+        calls[name] = calls.get(name, 0) + 1
         if units:
             row.units[name] = row.units.get(name, 0.0) + float(units)
-        self._add(row, us, n_icws)
+        n_icws = units * icws_per_unit
+        row.us += us
+        self._total_us += us
+        if n_icws:  # a call without ICWs adds no chip energy (+ 0.0 changes nothing)
+            chip = n_icws * self._pe_count * self._constants.energy_pj_per_pe_icw * 1e-6
+            row.chip_uj += chip
+            self._chip_uj += chip
 
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
@@ -806,10 +882,12 @@ class TimingModel:
                 "(nest stages with `with` blocks instead)"
             )
         self._stack.append(name)
+        self._row = None
         try:
             yield
         finally:
             self._stack.pop()
+            self._row = None
 
     def counts_by_stage(self) -> dict[str, dict[str, float]]:
         """Everything charged since the last reset as count vectors, by stage.
@@ -1029,28 +1107,51 @@ def evaluate_us(
     ``"calls:<name>"`` (controller calls) and ``"units:<name>"`` (their units). With the
     model's own constants this equals what :class:`TimingModel` charged.
     """
+    table = _coefficients(constants, clock_hz)
     us = 0.0
     for key, n in counts.items():
-        kind, _, name = key.partition(":")
-        if kind == "icw":
-            us += n * constants.cycles(name) / clock_hz * 1e6
-        elif kind == "kernels":
-            us += n * constants.kernel_launch_us
-        elif kind in ("calls", "units"):
-            try:
-                cost = constants.calls[name]
-            except KeyError:
-                raise TimingError(f"no modelled cost for controller call {name!r}") from None
-            if kind == "calls":
-                us += n * (constants.call_overhead_us + cost.fixed_us)
-            else:
-                per = cost.per_unit_us + sum(
-                    k * constants.cycles(c) / clock_hz * 1e6 for c, k in cost.per_unit_icws.items()
-                )
-                us += n * per
+        coef = table.get(key)
+        if coef is None:
+            coef = table[key] = _coefficient(key, constants, clock_hz)
+        if coef[0]:  # an ICW class: n * cycles / clock * 1e6, in that order
+            us += n * coef[1] / clock_hz * 1e6
         else:
-            raise TimingError(f"unknown count key {key!r}")
+            us += n * coef[1]
     return us
+
+
+#: (id(constants), clock) -> (constants, {count key: coefficient}): each key's cost is
+#: looked up once per point set (the constants are frozen; the entry keeps them alive).
+_COEFFICIENTS: dict[tuple[int, float], tuple[TimingConstants, dict[str, tuple[bool, float]]]] = {}
+
+
+def _coefficients(constants: TimingConstants, clock_hz: float) -> dict[str, tuple[bool, float]]:
+    entry = _COEFFICIENTS.get((id(constants), clock_hz))
+    if entry is None or entry[0] is not constants:
+        if len(_COEFFICIENTS) >= 256:
+            _COEFFICIENTS.clear()
+        entry = _COEFFICIENTS[(id(constants), clock_hz)] = (constants, {})
+    return entry[1]
+
+
+def _coefficient(key: str, constants: TimingConstants, clock_hz: float) -> tuple[bool, float]:
+    """``(is an ICW class, factor)``: the cost of one count of ``key``."""
+    kind, _, name = key.partition(":")
+    if kind == "icw":
+        return True, constants.cycles(name)
+    if kind == "kernels":
+        return False, constants.kernel_launch_us
+    if kind in ("calls", "units"):
+        try:
+            cost = constants.calls[name]
+        except KeyError:
+            raise TimingError(f"no modelled cost for controller call {name!r}") from None
+        if kind == "calls":
+            return False, constants.call_overhead_us + cost.fixed_us
+        return False, cost.per_unit_us + sum(
+            k * constants.cycles(c) / clock_hz * 1e6 for c, k in cost.per_unit_icws.items()
+        )
+    raise TimingError(f"unknown count key {key!r}")
 
 
 def interval_us(

@@ -1,0 +1,115 @@
+"""Plane loops of the host side: FLAG-masked writes and droop, one pass each.
+
+The controller's DAC loads and shifts write analogue planes only where FLAG is set, and
+droop steps every analogue value towards 0. In numpy a masked copy
+(``np.copyto(..., where=)``) runs several times slower when FLAG changes every few
+elements (as after a comparison of image data), and the droop takes two passes and a
+temporary plane. Here each is one branch-free loop over the plane, compiled by numba
+when it is installed (the compiled engine's dependency; imported on first use only),
+else the plain numpy operations, which give the same bytes (tests/sim/test_controller_fast.py
+checks one against the other).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from types import SimpleNamespace
+
+import numpy as np
+
+__all__ = ["droop", "fill_where", "have_numba", "select"]
+
+_LOOPS: SimpleNamespace | None = None
+
+
+def have_numba() -> bool:
+    """Whether the numba loops are used (numba installed, as for ``engine="compiled"``)."""
+    return importlib.util.find_spec("numba") is not None
+
+
+def _loops() -> SimpleNamespace:
+    global _LOOPS
+    if _LOOPS is None:
+        _LOOPS = _numba_loops() if have_numba() else _NUMPY
+    return _LOOPS
+
+
+def _loops_for(*arrays: np.ndarray) -> SimpleNamespace:
+    """The loops for these operands: numba's take C-contiguous arrays only."""
+    if all(a.flags.c_contiguous for a in arrays):
+        return _loops()
+    return _NUMPY
+
+
+def select(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
+    """``out := src`` (cast to ``out``'s float32) where ``flag``; planes of one shape."""
+    _loops_for(out, src, flag).select(out, src, flag)
+
+
+def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
+    """``out := float32(value)`` where ``flag``."""
+    _loops_for(out, flag).fill_where(out, np.float32(value), flag)
+
+
+def droop(planes: np.ndarray, step: float, tmp: np.ndarray) -> None:
+    """``planes -= clip(planes, -step, step)`` in float32 (``tmp``: a scratch of their shape)."""
+    _loops_for(planes).droop(planes, np.float32(step), tmp)
+
+
+def numpy_loops() -> SimpleNamespace:
+    """The plain numpy versions (used without numba; the tests' reference)."""
+
+    def select_np(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
+        np.copyto(out, src, where=flag, casting="unsafe")
+
+    def fill_np(out: np.ndarray, value: np.float32, flag: np.ndarray) -> None:
+        np.copyto(out, value, where=flag)
+
+    def droop_np(planes: np.ndarray, step: np.float32, tmp: np.ndarray) -> None:
+        np.clip(planes, -step, step, out=tmp)
+        np.subtract(planes, tmp, out=planes)
+
+    return SimpleNamespace(select=select_np, fill_where=fill_np, droop=droop_np)
+
+
+_NUMPY = numpy_loops()
+
+
+def _numba_loops() -> SimpleNamespace:
+    """The numba versions: flat loops that read both operands and select, so they vectorise."""
+    import numba
+
+    jit = numba.njit(cache=True, nogil=True, boundscheck=False)
+
+    @jit
+    def select_nb(out, src, flag):  # pragma: no cover - compiled
+        n = out.size
+        o = out.reshape(n)
+        s = src.reshape(n)
+        f = flag.reshape(n)
+        for i in range(n):
+            x = np.float32(s[i])
+            y = o[i]
+            o[i] = x if f[i] else y
+
+    @jit
+    def fill_nb(out, value, flag):  # pragma: no cover - compiled
+        n = out.size
+        o = out.reshape(n)
+        f = flag.reshape(n)
+        for i in range(n):
+            y = o[i]
+            o[i] = value if f[i] else y
+
+    @jit
+    def droop_nb(planes, step, tmp):  # pragma: no cover - compiled
+        n = planes.size
+        p = planes.reshape(n)
+        lo = -step
+        for i in range(n):
+            x = p[i]
+            t = x if x > lo else lo  # numpy's clip: max, then min
+            t = t if t < step else step
+            p[i] = x - t
+
+    return SimpleNamespace(select=select_nb, fill_where=fill_nb, droop=droop_nb)

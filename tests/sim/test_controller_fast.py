@@ -1,0 +1,199 @@
+"""The controller's fast paths against the plain operations they stand for.
+
+FLAG-masked host writes and droop (``sim.hostloops``: numba loops against the numpy
+versions), the in-place ``shift``, the cached IN level and address patterns, and the
+timing model's cached per-kernel and per-call costs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from ppaloc.sim import FLAG, IN, NEWS, R5, A, B, Scamp5, hostloops
+from ppaloc.sim.timing import TimingModel, evaluate_us
+
+SHAPES = st.tuples(st.integers(1, 12), st.integers(1, 12))
+VALUES = st.floats(-200, 200, width=32) | st.sampled_from([0.0, -0.0, -128.0, 127.0])
+
+
+def _bits(x: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(x).view(np.uint32 if x.dtype == np.float32 else np.uint64)
+
+
+@st.composite
+def planes(draw, n_extra: int = 0):
+    shape = draw(SHAPES)
+    out = draw(arrays(np.float32, shape, elements=VALUES))
+    flag = draw(arrays(np.bool_, shape))
+    extra = [draw(arrays(np.float32, shape, elements=VALUES)) for _ in range(n_extra)]
+    return out, flag, extra
+
+
+needs_numba = pytest.mark.skipif(not hostloops.have_numba(), reason="numba not installed")
+
+
+@needs_numba
+@settings(max_examples=60, deadline=None)
+@given(planes(n_extra=1), st.booleans())
+def test_select_equals_the_masked_copy(case, wide):
+    out, flag, (src,) = case
+    if wide:  # a float64 source is cast to float32 as numpy casts it
+        src = src.astype(np.float64) / 3
+    want, got = out.copy(), out.copy()
+    hostloops.numpy_loops().select(want, src, flag)
+    hostloops.select(got, src, flag)
+    assert np.array_equal(_bits(got), _bits(want))
+
+
+@needs_numba
+@settings(max_examples=60, deadline=None)
+@given(planes(), VALUES)
+def test_fill_where_equals_the_masked_fill(case, value):
+    out, flag, _ = case
+    want, got = out.copy(), out.copy()
+    hostloops.numpy_loops().fill_where(want, np.float32(value), flag)
+    hostloops.fill_where(got, value, flag)
+    assert np.array_equal(_bits(got), _bits(want))
+
+
+@needs_numba
+@settings(max_examples=60, deadline=None)
+@given(planes(), st.floats(1e-6, 300))
+def test_droop_equals_the_clip_and_subtract(case, step):
+    out, _, _ = case
+    want, got = out.copy(), out.copy()
+    hostloops.numpy_loops().droop(want, np.float32(step), np.empty_like(want))
+    hostloops.droop(got, step, np.empty_like(got))
+    assert np.array_equal(_bits(got), _bits(want))
+
+
+def _plain_shift(old: np.ndarray, h: int, v: int) -> np.ndarray:
+    """``new[r, c] = old[r + v, c - h]``, 0 from beyond the edge, index by index."""
+    rows, cols = old.shape
+    new = np.zeros_like(old)
+    for r in range(rows):
+        for c in range(cols):
+            if 0 <= r + v < rows and 0 <= c - h < cols:
+                new[r, c] = old[r + v, c - h]
+    return new
+
+
+@settings(max_examples=60, deadline=None)
+@given(planes(), st.integers(-13, 13), st.integers(-13, 13), st.sampled_from(["host", "kernel"]))
+def test_ideal_shift_writes_the_shifted_plane_where_flag(case, h, v, how):
+    old, flag, _ = case
+    old = np.clip(old, -128, 127)  # what a register holds
+    rows, cols = old.shape
+    h, v = max(-(cols - 1), min(cols - 1, h)), max(-(rows - 1), min(rows - 1, v))
+    sim = Scamp5(rows, cols)
+    sim.write(A, old)
+    if how == "host":
+        sim.write(FLAG, flag)
+    else:  # FLAG from a kernel's where: the tracked state is unknown afterwards
+        sim.write(B, np.where(flag, 1.0, -1.0))
+        with sim.kernel() as k:
+            k.where(B)
+    sim.shift(A, h, v)
+    want = np.where(flag, _plain_shift(old, h, v), old)
+    assert np.array_equal(_bits(sim.read(A)), _bits(want + np.float32(0)))
+
+
+def test_shift_with_flag_everywhere_moves_in_place():
+    sim = Scamp5(3, 4)
+    old = np.arange(12, dtype=np.float32).reshape(3, 4) - 6
+    sim.write(A, old)
+    sim.shift(A, -1, 1)  # from the south-east neighbour
+    assert sim.read(A).tolist() == _plain_shift(old, -1, 1).tolist()
+
+
+OPS = {
+    "scamp5_in": lambda sim: sim.scamp5_in(B, 17),
+    "load_in": lambda sim: sim.load_in(A, -5),
+    "shift": lambda sim: sim.shift(A, 2, -1),
+    "shift_west": lambda sim: sim.shift(B, -3, 0),
+}
+
+
+def _noisy_run(flag: np.ndarray | None, seed: int, op: str) -> Scamp5:
+    sim = Scamp5(8, 8, noise="typical", seed=seed)
+    sim.write(A, np.linspace(-100, 100, 64).reshape(8, 8))
+    sim.write(B, np.linspace(50, -70, 64).reshape(8, 8))
+    sim.load_in(7)  # some modelled time: droop pending on every plane
+    if flag is not None:
+        sim.write(FLAG, flag)
+    OPS[op](sim)
+    return sim
+
+
+@settings(max_examples=20, deadline=None)
+@given(arrays(np.bool_, (8, 8)), st.integers(0, 100), st.sampled_from(sorted(OPS)))
+def test_noisy_host_writes_take_the_same_draws_and_obey_flag(flag, seed, op):
+    """Masked or not, a noisy write takes the same draws: with FLAG partly set, each
+    element equals the run with FLAG everywhere (where set) or with FLAG nowhere."""
+    every = _noisy_run(None, seed, op)
+    masked = _noisy_run(flag, seed, op)
+    none = _noisy_run(np.zeros_like(flag), seed, op)
+    for reg in (A, B, NEWS):
+        want = np.where(flag, every.read(reg), none.read(reg))
+        assert np.array_equal(_bits(masked.read(reg)), _bits(want)), reg
+
+
+def test_in_is_driven_again_after_a_write_through_its_plane():
+    sim = Scamp5(4, 4)
+    sim.load_in(3)
+    sim.write(IN, 7)  # through the plane: the level the controller knows is stale
+    sim.load_in(3)
+    assert (sim.read(IN) == 3).all()
+    sim._aplane(IN)[0, 0] = 9
+    sim.load_in(3)
+    assert (sim.read(IN) == 3).all()
+
+
+def test_address_patterns_are_cached_read_only_and_equal_fresh_ones():
+    sim = Scamp5(8, 8)
+    sim.load_pattern(R5, 1, 2, 0b100, 0b001)
+    first = sim.read(R5)
+    sim.load_pattern(R5, 1, 2, 0b100, 0b001)
+    assert np.array_equal(sim.read(R5), first)
+    mask = sim._address_mask(1, 2, 0b100, 0b001, False)
+    assert not mask.flags.writeable
+    rows, cols = np.nonzero(first)
+    assert set(rows.tolist()) == {1, 5} and set(cols.tolist()) == {2, 3}
+
+
+def test_cached_kernel_and_call_costs_equal_fresh_ones_and_follow_the_constants():
+    t, fresh = TimingModel(), TimingModel()
+    counts = {"analog": 7, "digital": 3, "dnews": 0, "nop": 1}
+    for _ in range(3):
+        t.charge_kernel(counts)
+        t.charge_call("shift_areg", 5)
+    for _ in range(3):
+        fresh._kernel_costs.clear()
+        fresh._call_costs.clear()
+        fresh.charge_kernel(counts)
+        fresh._call_costs.clear()
+        fresh.charge_call("shift_areg", 5)
+    assert (t.now_us, t.chip_uj) == (fresh.now_us, fresh.chip_uj)
+    before = t.now_us
+    t.constants = dataclasses.replace(t.constants, kernel_launch_us=10.0)
+    t.charge_kernel(counts)
+    assert t.now_us - before > 10.0
+    before = t.now_us
+    t.clock_hz = 1e6  # ten times slower ICWs
+    t.charge_kernel({"digital": 10})
+    assert t.now_us - before == pytest.approx(10.0 + 10.0)
+
+
+def test_evaluate_us_cache_follows_the_constants_object():
+    t = TimingModel()
+    counts = {"icw:analog": 4.0, "kernels": 2.0, "calls:load_in": 3.0}
+    first = evaluate_us(counts, t.constants)
+    other = dataclasses.replace(t.constants, call_overhead_us=0.2)
+    assert evaluate_us(counts, other) < first
+    assert evaluate_us(counts, t.constants) == first
