@@ -76,12 +76,8 @@ def start_state(sim: Scamp5, seed: int) -> None:
     sim.set_image(rng.integers(0, 256, (ROWS, COLS), dtype=np.uint8))
 
 
-def run(
-    engine: str, mode: str, program: list, seed: int, direct: bool = False, band: int = 0
-) -> Scamp5:
+def run(engine: str, mode: str, program: list, seed: int, direct: bool = False) -> Scamp5:
     sim = Scamp5(ROWS, COLS, noise=MODES[mode], seed=seed % 7, engine=engine)
-    if band:
-        sim.engine.band_rows = band  # the compiled engine's rows per band
     start_state(sim, seed)
     for kernel in program:
         if direct:
@@ -196,41 +192,6 @@ def test_pending_droop_equals_droop_step_by_step() -> None:
 def test_the_reference_engine_models_every_op() -> None:
     engine = Scamp5(2, 2, engine="reference").engine
     assert [op for op in OPS if not engine.supports(op)] == []
-
-
-@pytest.mark.skipif("compiled" not in available_engines(), reason="numba is not installed")
-@pytest.mark.parametrize("band", [1, 2, 3])
-@pytest.mark.parametrize("mode", ["ideal", "typical", "zero"])
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
-@given(program=programs, seed=st.integers(0, 2**16))
-def test_banded_wavefront_leaves_the_reference_bytes(
-    band: int, mode: str, program: list, seed: int
-) -> None:
-    """Kernels run band by band (one to three rows, every ICW at its lag) as whole planes."""
-    banded = run("compiled", mode, program, seed, band=band)
-    same_bytes(banded, run("reference", mode, program, seed))
-
-
-@pytest.mark.skipif("compiled" not in available_engines(), reason="numba is not installed")
-def test_band_lags_follow_the_neighbour_reads() -> None:
-    """Golden lags: a reader one row south runs a row behind; an overwrite waits for reads."""
-    from ppaloc.sim.engines.compiled import bandable, encode, schedule
-
-    news_from_a = ("bus", (s.NEWS,), (s.A,))
-    cases = {
-        (news_from_a, ("bus", (s.B,), (s.XS,))): [0, 1],  # NEWS read at row r + 1
-        (news_from_a, ("bus", (s.B,), (s.XN,))): [0, 0],  # row r - 1: already written
-        (("bus", (s.B,), (s.XN,)), ("bus", (s.NEWS,), (s.C,))): [0, 1],  # row r - 1 still read
-        (("bus", (s.XS,), (s.A,)), ("bus", (s.B,), (s.NEWS,))): [0, 0],  # a push: same row
-        (("bus", (s.NEWS,), (s.A,)), ("bus", (s.B,), (s.XS,)), ("bus", (s.C,), (s.B,))): [0, 1, 1],
-    }
-    for program, lags in cases.items():
-        prog, _ = encode([make(*ins) for ins in program])
-        assert schedule(prog).tolist() == lags, program
-        assert all(bandable(row) for row in prog)
-    # FLAG from the north neighbour's NEWS, into FLAG: its own earlier band is gone
-    prog, _ = encode([make("where", (), (s.XN,))])
-    assert not bandable(prog[0])
 
 
 @pytest.mark.parametrize("engine", [e for e in available_engines() if e != "reference"])

@@ -5,25 +5,22 @@ neighbour direction of each, the kernel-relative index of its first noise draw) 
 whole kernel then runs in one call of :func:`_run`, machine code compiled once per machine
 (numba's ``cache=True`` keeps it in ``__pycache__``).
 
-**Bands.** The kernel runs as a wavefront over bands of rows instead of ICW by ICW over
-whole planes: at each step every ICW processes the next band of ``band_rows`` rows, ICW
-``k`` lagging ``lag[k]`` rows behind the top. The lags come from the kernel's data
-dependencies (:func:`schedule`): an ICW that reads a plane one row south of the element
-must run at least one row behind the ICW that wrote it, an ICW that overwrites a plane must
-not pass the rows a reader still needs, so every ICW sees exactly the values it would see
-if the ICWs ran one after the other over whole planes. Planes then move through the cache
-in bands a few rows deep, instead of every ICW streaming whole 256 KB planes; the
-per-ICW temporaries are a band, so they stay in the first-level cache. An ICW that reads
-a plane north of the element and writes that same plane cannot be banded (its own earlier
-band overwrote what it needs): it runs alone over the whole plane, between banded parts.
+Per ICW, each analogue transfer is one pass over the plane in the common case (local
+sources, one destination): the sum, the bus's negation or division, the transfer gain, the
+receiving cell's offset and temporal noise, the saturation and the FLAG mask in the same
+loop; a neighbour move (a push of one source, a read of one neighbour's NEWS, FLAG set
+everywhere) is one pass too. The noise draws of the kernel are taken from the seeded bank
+up front (:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order the other engines draw
+them, so every engine leaves the same bytes. Digital planes stay one byte per element and
+run as bytes (``uint8`` views), which LLVM vectorises 64 PEs to an instruction.
 
-Per band, each analogue transfer is one pass in the common case (local sources, one
-destination): the sum, the bus's negation or division, the transfer gain, the receiving
-cell's offset and temporal noise, the saturation and the FLAG mask in the same loop. The
-noise draws of the kernel are taken from the seeded bank up front
-(:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order the other engines draw them, so
-every engine leaves the same bytes. Digital planes stay one byte per element and run as
-bytes (``uint8`` views), which LLVM vectorises 64 PEs to an instruction.
+The dispatch of an ICW is inlined into the kernel's loop (``inline="always"``) and the
+whole engine runs without numba's reference-counting runtime (``_nrt=False``; nothing in
+it allocates): a call passing the simulator's planes as arguments cost about 250 ns, more
+than many ICWs' work. Every op takes the rows ``[r0, r1)`` it works on; kernels run them
+over the whole array (running a kernel as a wavefront of row bands, each ICW lagging as
+far as its data dependencies need, was measured and gave no gain at 256 x 256: the planes
+are served from the second-level and last-level caches either way).
 
 An ICW this engine has no code for runs through the numpy engine's closure, between
 compiled parts, so a new row of ``isa.OPS`` works at once.
@@ -41,12 +38,12 @@ import numpy as np
 
 from ppaloc.sim.engines import in_order
 from ppaloc.sim.isa import Instruction
-from ppaloc.sim.registers import ANALOG_PLANES, FLAG, NEWS, PIX, R0, R1, R4, R12
+from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
 
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["CompiledEngine", "dead_writes", "schedule"]
+__all__ = ["CompiledEngine", "dead_writes"]
 
 # op codes
 _NOP, _RPIX, _BUS, _WHERE, _ALL, _SET, _CLR, _MOV, _NOT, _OR, _NOR = range(11)
@@ -87,12 +84,6 @@ _DIR_CODE = {(-1, 0): 1, (0, 1): 2, (1, 0): 3, (0, -1): 4}
 # DNEWS selectors R1 south, R2 west, R3 north, R4 east, as direction codes
 _SEL_DIR = np.array([0, 3, 4, 1, 2], dtype=np.int64)
 _FLAG, _NEWS, _PIX, _R0, _R12 = FLAG.index, NEWS.index, PIX.index, R0.index, R12.index
-# plane identities for the schedule: analogue i -> i, digital j -> _NA + j, the bus latch
-_NA = len(ANALOG_PLANES)
-_LATCH_PLANE = -1
-
-#: Rows per band: 16 rows of a 256-column array are 16 KB of a float32 plane.
-BAND_ROWS = 16
 
 
 def _dir(reg) -> int:
@@ -152,126 +143,17 @@ def dead_writes(instructions: list[Instruction]) -> list[int]:
     return sorted(dead)
 
 
-def accesses(row: np.ndarray) -> tuple[list[tuple[int, int]], list[int]]:
-    """What one encoded ICW touches when it processes row ``r``.
-
-    Returns (reads, writes): reads as (plane, row offset) pairs, the plane read at row
-    ``r + offset``; writes as planes (always written at row ``r``). Planes are numbered
-    analogue ``i`` -> ``i``, digital ``j`` -> ``_NA + j``, the bus latch -> ``-1``.
-    """
-    op = int(row[_OP])
-    flag, news = _NA + _FLAG, _NEWS
-    dst = [int(row[_D0 + k]) for k in range(int(row[_ND]))]
-    src = [int(row[_S0 + k]) for k in range(int(row[_NS]))]
-    sdir = [int(row[_SD0 + k]) for k in range(int(row[_NS]))]
-    reads: list[tuple[int, int]] = []
-    writes: list[int] = []
-
-    def masked_store(d: int) -> None:  # a digital store: R12 keeps its value where R0 is 0
-        writes.append(_NA + d)
-        if d == _R12:
-            reads.append((_NA + _R0, 0))
-
-    if op in (_BUS, _WHERE):
-        value: list[tuple[int, int]] = []  # what the bus's value at row x reads, at x + dr
-        for s, code in zip(src, sdir, strict=True):
-            if code == 0:
-                value.append((s, 0))
-            else:
-                value += [(news, int(_DR[code])), (flag, int(_DR[code]))]
-        if op == _WHERE:
-            reads += value
-            writes.append(flag)
-        else:
-            for k, d in enumerate(dst):
-                code = int(row[_DD0 + k])
-                reads += [(flag, 0), (d, 0)]  # the FLAG mask, and the kept old value
-                if code == 0:
-                    reads += value
-                else:  # the receiver gets its sender's value, the sender at r - offset
-                    sender = -int(_DR[code])
-                    reads += [(p, o + sender) for p, o in value]
-                    reads.append((flag, sender))
-                writes.append(d)
-    elif op == _ALL:
-        writes.append(flag)
-    elif op == _RPIX:
-        writes.append(_PIX)
-    elif op in (_SET, _CLR):
-        for d in dst:
-            masked_store(d)
-    elif op in (_MOV, _NOT, _OR, _NOR):
-        reads += [(_NA + s, 0) for s in src]
-        masked_store(dst[0])
-    elif op == _WHERED:
-        reads += [(_NA + s, 0) for s in src]
-        writes.append(flag)
-    elif op in (_LATCH, _LATCHN):
-        reads += [(_NA + s, 0) for s in src]
-        writes.append(_LATCH_PLANE)
-    elif op == _UNLATCH:
-        reads.append((_LATCH_PLANE, 0))
-        masked_store(dst[0])
-    elif op == _DNEWS:
-        reads += [(_NA + sel, 0) for sel in range(R1.index, R4.index + 1)]
-        reads += [(_NA + src[0], int(_DR[_SEL_DIR[sel]])) for sel in range(1, 5)]
-        masked_store(dst[0])
-    return reads, writes
-
-
-def bandable(row: np.ndarray) -> bool:
-    """Whether an ICW can run band by band: it reads no plane it writes at a row north."""
-    reads, writes = accesses(row)
-    return not any(o < 0 and p in writes for p, o in reads)
-
-
-def schedule(prog: np.ndarray) -> np.ndarray:
-    """The smallest lag (rows behind the wavefront's top) of each ICW of a banded part.
-
-    With ``lag[k]`` rows behind, ICW ``k`` at any moment has processed every row above
-    ``top - lag[k]``. It reads plane ``P`` at row ``r + o`` when it processes row ``r``, so:
-
-    - read after write: the last earlier writer of ``P`` must have written that row
-      (``lag[k] >= lag[w] + o``);
-    - write after read: an earlier reader of ``P`` must have read every row before
-      ``k`` overwrites it (``lag[k] >= lag[j] - o``);
-    - write after write: the last writer stays the last (``lag[k] >= lag[w]``).
-
-    Every constraint ties an ICW to earlier ones, so one pass in program order gives the
-    least lags; within a step the ICWs run in program order.
-    """
-    lags = np.zeros(len(prog), dtype=np.int64)
-    last_write: dict[int, int] = {}  # plane -> lag of its last writer
-    war: dict[int, int] = {}  # plane -> max over earlier readers of lag - offset
-    for k, row in enumerate(prog):
-        reads, writes = accesses(row)
-        need = 0
-        for p, o in reads:
-            if p in last_write:
-                need = max(need, last_write[p] + o)
-        for p in writes:
-            need = max(need, last_write.get(p, 0), war.get(p, 0))
-        lags[k] = need
-        for p, o in reads:
-            war[p] = max(war.get(p, 0), need - o)
-        for p in writes:
-            last_write[p] = need
-    return lags
-
-
 class CompiledEngine:
     """Runs a kernel as one call of numba-compiled code (``engine="compiled"``)."""
 
     name = "compiled"
 
-    def __init__(self, sim: Scamp5, band_rows: int = BAND_ROWS) -> None:
+    def __init__(self, sim: Scamp5) -> None:
         self.sim = sim
-        self.band_rows = band_rows
         shape = (sim.rows, sim.cols)
         self._t = np.zeros(shape, dtype=np.float32)
         self._t2 = np.zeros(shape, dtype=np.float32)
         self._tb = np.zeros(shape, dtype=np.bool_)
-        self._flagrows = np.zeros(sim.rows, dtype=np.bool_)
         self._none = np.zeros(0, dtype=np.float32)
         self._no_starts = np.zeros(0, dtype=np.int64)
         self._no_gains = np.zeros(0, dtype=np.float64)
@@ -300,52 +182,39 @@ class CompiledEngine:
         return in_order(parts)
 
     def _segment(self, instructions: list[Instruction]) -> Callable[[], None]:
-        """One runner for a run of encodable ICWs: banded parts, unbandable ICWs alone."""
         sim = self.sim
         prog, m = encode(instructions)
-        # (first row, end row, lags, band) of each part: a part is one _run call
-        parts: list[tuple[int, int, np.ndarray, int]] = []
-        start = 0
-        for n in range(len(prog) + 1):
-            if n < len(prog) and bandable(prog[n]):
-                continue
-            if n > start:
-                parts.append((start, n, schedule(prog[start:n]), self.band_rows))
-            if n < len(prog):
-                parts.append((n, n + 1, np.zeros(1, dtype=np.int64), sim.rows))
-            start = n + 1
         noise = sim.noise
         a, d, latch = sim._a, sim._d, sim._latch
-        t, t2, tb, flagrows = self._t, self._t2, self._tb, self._flagrows
+        t, t2, tb = self._t, self._t2, self._tb
         if noise.ideal:
             bank = bank_div = self._none
         else:
             bank, bank_div = noise._bank, noise._bank_div
         offsets, pixel = noise.offsets, noise.pixel_offset
         none_s, none_g = self._no_starts, self._no_gains
-        tables = [(prog[i:j], lags, band) for i, j, lags, band in parts]
 
         def run() -> None:
             if noise.ideal or m == 0:
                 starts, gains = none_s, none_g
             else:
                 starts, gains = noise.take(m)
-            for part, lags, band in tables:
-                _run(
-                    part, lags, band, a, d, latch, t, t2, tb, flagrows,
-                    offsets, pixel, bank, bank_div, starts, gains,
-                )  # fmt: skip
+            _run(
+                prog, a, d, latch, t, t2, tb,
+                offsets, pixel, bank, bank_div, starts, gains,
+            )  # fmt: skip
             sim._flag_masked = None  # the numpy engine's cached FLAG mask may be stale
 
         return run
 
 
 _jit = numba.njit(cache=True, nogil=True, boundscheck=False, _nrt=False)
-# the per-band dispatch takes many arrays: inlined, so that no call passes them all
+# the per-ICW dispatch takes many arrays: inlined, so that no call passes them all
 _inline = numba.njit(cache=True, nogil=True, boundscheck=False, _nrt=False, inline="always")
 # Every loop below keeps its branches outside the innermost loop (or as selects inside),
 # so that LLVM vectorises it; values are float32 throughout, in the reference's order.
 # Every op works on the rows [r0, r1) of its planes (flat views [r0 * cols, r1 * cols)).
+# (A wavefront of row bands was tried and measured: no gain, so kernels run whole planes.)
 
 
 @_jit
@@ -360,27 +229,18 @@ def _clip(v):
 
 
 @_jit
-def _all_true(plane):
+def _all_set(flag):
+    """Whether every byte of a digital plane's ``uint8`` view is 1, eight bytes a word."""
+    n = flag.size
+    whole = n - n % 8
+    words = flag[:whole].view(np.uint64)
+    ones = np.uint64(0x0101010101010101)
     acc = True
-    for p in range(plane.size):  # no early exit: a reduction LLVM vectorises
-        acc = acc & plane[p]
+    for w in range(words.size):  # no early exit: a reduction LLVM vectorises
+        acc = acc & (words[w] == ones)
+    for p in range(whole, n):
+        acc = acc & (flag[p] == 1)
     return acc
-
-
-@_inline
-def _rows_all(flagrows, r0, r1):
-    """Whether FLAG is set everywhere on rows [r0 - 1, r1] (the band and its neighbours)."""
-    acc = True
-    for r in range(max(0, r0 - 1), min(flagrows.size, r1 + 1)):
-        acc = acc & flagrows[r]
-    return acc
-
-
-@_jit
-def _mark_rows(flagrows, flag2, r0, r1):
-    """Record which of the rows [r0, r1) of FLAG are set everywhere."""
-    for r in range(r0, r1):
-        flagrows[r] = _all_true(flag2[r])
 
 
 @_inline
@@ -430,6 +290,19 @@ def _local_sum(out, af, locs, nl, lo, hi):
             o[p] = ((x0[p] + x1[p]) + x2[p]) + x3[p]
 
 
+@_inline
+def _sum_at(x0, x1, x2, x3, nl, p):
+    """The local sources' sum at element ``p``, left to right (``nl`` of them, 1 to 4)."""
+    v = x0[p]
+    if nl > 1:
+        v = v + x1[p]
+    if nl > 2:
+        v = v + x2[p]
+    if nl > 3:
+        v = v + x3[p]
+    return v
+
+
 @_jit
 def _sum_value(out, af, locs, nl, parts, ideal, scale, lo, hi):
     """out[lo:hi] := the bus's value of the local sources' sum (1 to 4), in one pass."""
@@ -439,18 +312,20 @@ def _sum_value(out, af, locs, nl, parts, ideal, scale, lo, hi):
     x1 = af[locs[1]][lo:hi] if nl > 1 else x0
     x2 = af[locs[2]][lo:hi] if nl > 2 else x0
     x3 = af[locs[3]][lo:hi] if nl > 3 else x0
-    if nl == 1:
+    if not ideal:
         for p in range(n):
-            o[p] = _value(x0[p], parts, ideal, scale)
-    elif nl == 2:
+            o[p] = _sum_at(x0, x1, x2, x3, nl, p) * scale
+    elif parts == 1:
         for p in range(n):
-            o[p] = _value(x0[p] + x1[p], parts, ideal, scale)
-    elif nl == 3:
+            o[p] = _clip(-_sum_at(x0, x1, x2, x3, nl, p))
+    elif parts == 2:
+        m_half = np.float32(-0.5)
         for p in range(n):
-            o[p] = _value((x0[p] + x1[p]) + x2[p], parts, ideal, scale)
+            o[p] = _clip(_sum_at(x0, x1, x2, x3, nl, p) * m_half)
     else:
+        m_parts = np.float32(-parts)
         for p in range(n):
-            o[p] = _value(((x0[p] + x1[p]) + x2[p]) + x3[p], parts, ideal, scale)
+            o[p] = _clip(_sum_at(x0, x1, x2, x3, nl, p) / m_parts)
 
 
 @_jit
@@ -512,7 +387,7 @@ def _blend(du, su, f8):
 def _write(dst, src, flag, flag_all, noisy, off, win, tmp):
     """dst := src (+ the cell's offset + temporal noise, saturated, when noisy), FLAG-masked.
 
-    All arguments are the band's flat views; ``tmp`` is a scratch band for the noisy
+    All arguments are flat views of the rows worked on; ``tmp`` is scratch for the noisy
     masked case (it may be ``src`` itself).
     """
     n = dst.size
@@ -651,33 +526,30 @@ def _neighbour_copy(dst, news, code, r0, r1):
 
 
 @_jit
-def _value(v, parts, ideal, scale):
-    """The bus's value of a sum: -(v)/parts saturated when ideal, v * scale when noisy."""
-    if not ideal:
-        return v * scale
-    if parts == 1:
-        return _clip(-v)
-    if parts == 2:
-        return _clip(v * np.float32(-0.5))
-    return _clip(v / np.float32(-parts))
-
-
-@_jit
 def _write_bus(dst, tf, parts, ideal, scale, flag, flag_all, off, win):
     """dst := the bus's value of the sum in tf (+ offset and noise, saturated), FLAG-masked."""
     n = dst.size
-    if ideal:
-        if flag_all:
-            for p in range(n):
-                dst[p] = _value(tf[p], parts, True, scale)
-        else:
-            for p in range(n):
-                v = _value(tf[p], parts, True, scale)
-                old = dst[p]
-                dst[p] = v if flag[p] else old
-    else:
+    if not ideal:
         for p in range(n):
             v = _clip((tf[p] * scale + off[p]) + win[p])
+            old = dst[p]
+            dst[p] = v if (flag_all or flag[p]) else old
+        return
+    if parts == 1:
+        for p in range(n):
+            v = _clip(-tf[p])
+            old = dst[p]
+            dst[p] = v if (flag_all or flag[p]) else old
+    elif parts == 2:
+        m_half = np.float32(-0.5)
+        for p in range(n):
+            v = _clip(tf[p] * m_half)
+            old = dst[p]
+            dst[p] = v if (flag_all or flag[p]) else old
+    else:
+        m_parts = np.float32(-parts)
+        for p in range(n):
+            v = _clip(tf[p] / m_parts)
             old = dst[p]
             dst[p] = v if (flag_all or flag[p]) else old
 
@@ -718,7 +590,7 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
     pushed = False
     for k in range(nd):
         pushed = pushed or row[_DD0 + k] != 0
-    # a pushed destination takes its sender's value: the sum one row beyond the band too
+    # a pushed destination takes its sender's value: the sum one row beyond the rows too
     e0, e1 = (max(0, r0 - 1), min(rows, r1 + 1)) if pushed else (r0, r1)
     elo, ehi = e0 * cols, e1 * cols
     tf = t.reshape(-1)
@@ -757,11 +629,22 @@ def _where(row, a, af, df, t, bank, starts, flag_all, r0, r1):
     nsrc = row[_NS]
     tf = t.reshape(-1)
     locs, nl = _locals(row, nsrc)
-    _local_sum(tf, af, locs, nl, lo, hi)
     flagf = df[_FLAG]
+    zero = np.float32(0.0)
+    if nsrc == 1 and nl == 1:  # FLAG straight from one register, in one pass
+        fb, x = flagf[lo:hi], af[locs[0]][lo:hi]
+        if bank.size:
+            s0 = starts[row[_DRAW]] + lo
+            w = bank[s0 : s0 + (hi - lo)]
+            for p in range(fb.size):
+                fb[p] = (x[p] + w[p]) > zero
+        else:
+            for p in range(fb.size):
+                fb[p] = x[p] > zero
+        return
+    _local_sum(tf, af, locs, nl, lo, hi)
     if nl < nsrc:
         _add_neighbours(t, a[_NEWS], flagf.reshape(rows, cols), row, nsrc, flag_all, r0, r1)
-    zero = np.float32(0.0)
     fb, tb = flagf[lo:hi], tf[lo:hi]
     if bank.size:
         s0 = starts[row[_DRAW]] + lo
@@ -843,26 +726,23 @@ def _dnews(row, du2, tb2, edge, r0, r1):
 
 
 @_inline
-def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flagrows, flag2,
+def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
         offsets, pixel, bank, bank_div, starts, gains):  # fmt: skip
-    """One ICW over the rows [r0, r1)."""
+    """One ICW over the rows [r0, r1); returns whether FLAG is now set everywhere."""
     cols = a.shape[2]
     lo, hi = r0 * cols, r1 * cols
     op = row[_OP]
     if op == _BUS:
-        flag_all = _rows_all(flagrows, r0, r1)
         _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains,
                   flag_all, r0, r1)  # fmt: skip
     elif op == _WHERE:
-        flag_all = _rows_all(flagrows, r0, r1)
         _where(row, a, af, df, t, bank, starts, flag_all, r0, r1)
-        _mark_rows(flagrows, flag2, r0, r1)
+        flag_all = _all_set(du[_FLAG])
     elif op == _ALL:
         f = du[_FLAG][lo:hi]
         for p in range(f.size):
             f[p] = np.uint8(1)
-        for r in range(r0, r1):
-            flagrows[r] = True
+        flag_all = True
     elif op == _NOP:
         pass
     elif op == _RPIX:
@@ -894,7 +774,7 @@ def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flagrows, flag2,
             _or(du[row[_D0]][lo:hi], du, row, op != _OR, lo, hi)
     elif op == _WHERED:
         _or(du[_FLAG][lo:hi], du, row, False, lo, hi)
-        _mark_rows(flagrows, flag2, r0, r1)
+        flag_all = _all_set(du[_FLAG])
     elif op == _LATCH or op == _LATCHN:
         _or(lu[lo:hi], du, row, op == _LATCHN, lo, hi)
     elif op == _UNLATCH:
@@ -905,12 +785,12 @@ def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flagrows, flag2,
     elif op == _DNEWS:
         _dnews(row, du2, tbu2, row[_EDGE] != 0, r0, r1)
         _store(du, row[_D0], tbu[lo:hi], lo, hi)
+    return flag_all
 
 
 @_jit
-def _run(prog, lags, band, a, d, latch, t, t2, tb, flagrows, offsets, pixel, bank, bank_div,
-         starts, gains):  # fmt: skip
-    """Run the ICWs of ``prog`` as a wavefront of bands, ICW ``i`` ``lags[i]`` rows behind."""
+def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains):
+    """Run the ICWs of ``prog`` in order, each over the whole array."""
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     af = a.reshape(a.shape[0], n)
@@ -920,17 +800,7 @@ def _run(prog, lags, band, a, d, latch, t, t2, tb, flagrows, offsets, pixel, ban
     lu = latch.view(np.uint8).reshape(-1)
     tbu2 = tb.view(np.uint8)
     tbu = tbu2.reshape(-1)
-    flag2 = d[_FLAG]
-    _mark_rows(flagrows, flag2, 0, rows)
-    top_lag = 0
-    for i in range(lags.size):
-        top_lag = max(top_lag, lags[i])
-    steps = (rows + top_lag + band - 1) // band
-    for s in range(steps):
-        for i in range(prog.shape[0]):
-            r0 = s * band - lags[i]
-            r1 = min(r0 + band, rows)
-            r0 = max(r0, 0)
-            if r0 < r1:
-                _op(prog[i], r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flagrows, flag2,
-                    offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
+    flag_all = _all_set(du[_FLAG])
+    for i in range(prog.shape[0]):
+        flag_all = _op(prog[i], 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
+            offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
