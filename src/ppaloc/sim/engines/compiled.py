@@ -477,6 +477,28 @@ def _push(t2, t, flag, code, flag_all, r0, r1):
 
 
 @_jit
+def _halve_into_two(d0, d1, x0, parts):
+    """d0 := d1 := clip(x0 / -parts): a bus2/bus3 value into two planes in one pass.
+
+    Ideal, FLAG set everywhere, one local source, two local destinations (the halving
+    of ``divq`` and of the block means); a separate loop per ``parts``.
+    """
+    n = d0.size
+    if parts == 2:
+        m_half = np.float32(-0.5)
+        for p in range(n):
+            v = _clip(x0[p] * m_half)
+            d0[p] = v
+            d1[p] = v
+    else:
+        m_parts = np.float32(-parts)
+        for p in range(n):
+            v = _clip(x0[p] / m_parts)
+            d0[p] = v
+            d1[p] = v
+
+
+@_jit
 def _push_copy(dst, x, code, r0, r1):
     """dst[r] := clip(-x) of the sender r - offset, 0 beyond the edge (ideal, FLAG all set)."""
     rows, cols = x.shape
@@ -579,6 +601,11 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
             win = bank_w[starts[base] + lo : starts[base] + hi]
             off = offsets[d0].reshape(-1)[lo:hi]
             _fused_noisy(af[d0][lo:hi], x0, x1, nl, scale, off, win, fb, flag_all)
+            return
+    if ideal and flag_all and nd == 2 and nsrc == 1 and nl == 1 and parts > 1:
+        if row[_DD0] == 0 and row[_DD0 + 1] == 0 and row[_D0] != row[_D0 + 1]:
+            x0 = af[locs[0]][lo:hi]
+            _halve_into_two(af[row[_D0]][lo:hi], af[row[_D0 + 1]][lo:hi], x0, parts)
             return
     if ideal and parts == 1 and nd == 1 and nsrc == 1 and flag_all:  # a neighbour move
         if row[_DD0] != 0 and nl == 1:
@@ -778,10 +805,7 @@ def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
     elif op == _LATCH or op == _LATCHN:
         _or(lu[lo:hi], du, row, op == _LATCHN, lo, hi)
     elif op == _UNLATCH:
-        tb, x = tbu[lo:hi], lu[lo:hi]
-        for p in range(tb.size):
-            tb[p] = x[p]
-        _store(du, row[_D0], tb, lo, hi)
+        _store(du, row[_D0], lu[lo:hi], lo, hi)
     elif op == _DNEWS:
         _dnews(row, du2, tbu2, row[_EDGE] != 0, r0, r1)
         _store(du, row[_D0], tbu[lo:hi], lo, hi)
