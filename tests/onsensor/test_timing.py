@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ppaloc.errors import PpalocError
 from ppaloc.onsensor import OnSensorLocaliser
@@ -141,3 +143,29 @@ def test_a_run_summary_carries_both_boundaries():
     t = summary["modelled_time_ms"]
     assert set(t) == {"chip", "loop"} and set(t["chip"]) == {"low", "mid", "high"}
     assert t["chip"]["mid"] == pytest.approx(summary["modelled_latency_ms"])
+
+
+def _plain_draws(img: np.ndarray, bit_planes: int = 4) -> tuple[int, int]:
+    """(draw_rect, draw_pixel) counts byte by byte: a rect per run of 0xFF bytes in a row,
+    a pixel per set bit of every other byte."""
+    rects = pixels = 0
+    for b in range(bit_planes):
+        for row in (img >> (7 - b)) & 1:
+            run = False
+            for k in range(0, len(row), 8):
+                byte = row[k : k + 8]
+                full = bool(byte.all())
+                rects += full and not run
+                pixels += 0 if full else int(byte.sum())
+                run = full
+    return rects, pixels
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 8), st.sampled_from([1, 4, 16]))
+def test_injection_counts_every_byte_as_the_plain_walk(seed, rows, cell):
+    rng = np.random.default_rng(seed)
+    cells = rng.choice([0, 255, 128, 77], size=(rows, 64 // cell))
+    img = np.repeat(cells, cell, axis=1).astype(np.uint8)
+    c = injection_counts(img)
+    assert (c["calls:scamp5_draw_rect"], c["calls:scamp5_draw_pixel"]) == _plain_draws(img)

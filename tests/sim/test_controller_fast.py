@@ -68,8 +68,8 @@ def test_fill_where_equals_the_masked_fill(case, value):
 def test_droop_equals_the_clip_and_subtract(case, step):
     out, _, _ = case
     want, got = out.copy(), out.copy()
-    hostloops.numpy_loops().droop(want, np.float32(step), np.empty_like(want))
-    hostloops.droop(got, step, np.empty_like(got))
+    hostloops.numpy_loops().droop(want, np.float32(step))
+    hostloops.droop(got, step)
     assert np.array_equal(_bits(got), _bits(want))
 
 
@@ -197,3 +197,84 @@ def test_evaluate_us_cache_follows_the_constants_object():
     other = dataclasses.replace(t.constants, call_overhead_us=0.2)
     assert evaluate_us(counts, other) < first
     assert evaluate_us(counts, t.constants) == first
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    arrays(np.bool_, st.tuples(st.integers(1, 9), st.integers(1, 9))),
+    st.integers(1, 90),
+    st.integers(0, 1),
+    st.integers(0, 1),
+    st.booleans(),
+    st.booleans(),
+)
+def test_sparse_event_scan_equals_the_plane_walk(plane, n, h, v, rows_first, scamp_addr):
+    from ppaloc.sim import controller
+
+    sim = Scamp5(*plane.shape)
+    sim.write(R5, plane)
+    call = "scan_events_rc" if rows_first else "scan_events"
+    scan = sim.scan_events_rc if rows_first else sim.scan_events
+    got = scan(R5, n, h, v, scamp_addr=scamp_addr)
+    saved = controller._SPARSE_EVENTS
+    controller._SPARSE_EVENTS = -1  # every plane walked
+    try:
+        want = scan(R5, n, h, v, scamp_addr=scamp_addr)
+    finally:
+        controller._SPARSE_EVENTS = saved
+    assert got.dtype == want.dtype == np.int64, call
+    assert got.shape == want.shape and np.array_equal(got, want), call
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    arrays(np.bool_, (8, 16)),
+    st.integers(0, 255),
+    st.integers(0, 255),
+    st.integers(0, 255),
+    st.integers(0, 255),
+    st.booleans(),
+)
+def test_global_or_reads_the_pattern_grid(plane, r, c, rx, cx, scamp_addr):
+    sim = Scamp5(8, 16)
+    sim.write(R5, plane)
+    mask = sim._address_mask(r, c, rx, cx, scamp_addr)
+    got = sim.global_or(R5, r, c, rx, cx, scamp_addr=scamp_addr)
+    assert got == int((plane & mask).any())
+
+
+@needs_numba
+@settings(max_examples=30, deadline=None)
+@given(planes(), st.integers(-128, 127), st.floats(0.01, 40), st.integers(0, 2**32), st.booleans())
+def test_dac_noise_takes_numpys_draws(case, value, sd, seed, everywhere):
+    out, flag, _ = case
+    want, got = out.copy(), out.copy()
+    r_want, r_got = np.random.default_rng(seed), np.random.default_rng(seed)
+    buf = np.empty(out.shape)
+    plain = np.clip(value + r_want.normal(0.0, sd, out.shape), -128, 127)  # the model's words
+    np.copyto(want, plain, where=np.ones_like(flag) if everywhere else flag, casting="unsafe")
+    hostloops.dac_noise(got, flag, everywhere, value, sd, r_got, buf)
+    assert np.array_equal(_bits(got), _bits(want))
+    assert r_got.bit_generator.state == r_want.bit_generator.state
+
+
+def test_digital_decay_after_the_clock_is_reset():
+    from ppaloc.sim import NoiseParams
+    from ppaloc.sim.registers import register_by_name
+
+    params = NoiseParams(digital_retention_ms=0.5, digital_flip_per_ms=0.99)
+    sim = Scamp5(8, 8, noise=params, seed=1)
+    every = [register_by_name(f"R{i}") for i in range(13)]
+    with sim.kernel() as refresh:
+        for i in range(0, 13, 4):
+            refresh.SET(*every[i : i + 4])
+    with sim.kernel() as k:
+        k.nop()
+    for _ in range(2000):  # ~0.7 ms, every register rewritten: none past its retention
+        refresh.run()
+    assert sim.read(R5).all()
+    sim.timing.reset()  # the clock starts again at 0, below every register's last write
+    sim.SET(R5)
+    for _ in range(1500):  # ~1 ms: R5 past its retention
+        k.run()
+    assert sim.read(R5).mean() < 0.9

@@ -295,14 +295,11 @@ def injection_counts(
     rows, cols = img.shape
     rects = pixels = 0
     for b in range(bit_planes):
-        plane = (img >> (7 - b)) & 1
-        packed = np.packbits(plane, axis=1, bitorder="little")
-        full = packed == 0xFF
-        mixed = (packed != 0) & ~full
-        starts = full.copy()
-        starts[:, 1:] &= ~full[:, :-1]
-        rects += int(starts.sum())
-        pixels += int(np.unpackbits(packed[mixed]).sum())
+        on = np.bitwise_and(img, 0x80 >> b).astype(bool)  # the plane of bit 7 - b
+        full = np.packbits(on, axis=1) == 0xFF  # its bytes of eight set bits
+        n_full = int(np.count_nonzero(full))
+        rects += n_full - int(np.count_nonzero(full[:, 1:] & full[:, :-1]))  # run starts
+        pixels += int(np.count_nonzero(on)) - 8 * n_full  # the set bits of the other bytes
     if injection == "bytes":
         return _calls(("vs_gui_request_image", bit_planes * rows * cols // 8))
     refresh = kernel_counts("refresh4")

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -73,6 +73,8 @@ __all__ = [
 
 #: Largest ``max_num`` of ``scan_events`` (``SCAMP5_MAX_AER_ITERATIONS`` in the headers).
 MAX_EVENTS = 4000
+#: Up to this many 1s an event scan sorts them by scan position (beyond, it walks the plane).
+_SPARSE_EVENTS = 8192
 
 
 def to_scamp_buffer(grid: np.ndarray) -> np.ndarray:
@@ -147,6 +149,15 @@ def _shift_slices(
     return dst, src, tuple(edges)
 
 
+class _Pattern(NamedTuple):
+    """The elements an address pattern selects: the plane, and its rows and columns
+    (index arrays; None when every row, column matches)."""
+
+    mask: np.ndarray
+    rows: np.ndarray | None
+    cols: np.ndarray | None
+
+
 #: ``vs_scamp5_get_parameter`` numbers of the header (``vs_scamp5.hpp``).
 PARAMETERS = {
     "SCAMP5_GLOBAL_SUM_16_AREG_MIN": 4,
@@ -178,11 +189,11 @@ class ControllerMixin(DrawMixin):
     timing: TimingModel
     noise: Any
     rng: np.random.Generator
-    #: Address-pattern planes by (r, c, rx, cx, scamp_addr), read-only (made on first use).
-    _address_masks: dict[tuple, np.ndarray] | None = None
+    #: Address patterns by (r, c, rx, cx, scamp_addr) (made on first use).
+    _address_masks: dict[tuple, _Pattern] | None = None
     #: Slices of ``shift`` by (h, v) (made on first use).
     _shift_parts: dict[tuple[int, int], tuple] | None = None
-    #: float64 scratch plane of the error-corrected DAC load's readout noise.
+    #: float64 scratch plane of the error-corrected DAC load's noise (numpy's loops).
     _dac_noise: np.ndarray | None = None
 
     if TYPE_CHECKING:
@@ -279,14 +290,14 @@ class ControllerMixin(DrawMixin):
         br, bc = self.rows // n, self.cols // n
         return plane.reshape(n, br, n, bc).mean(axis=(1, 3), dtype=np.float64)
 
-    def _address_mask(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> np.ndarray:
-        """The (read-only) plane of the elements a pattern selects, made once per pattern."""
+    def _pattern(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> _Pattern:
+        """The elements an address pattern selects, worked out once per pattern."""
         key = (r, c, rx, cx, scamp_addr)
         cache = self._address_masks
         if cache is None:
             cache = self._address_masks = {}
-        mask = cache.get(key)
-        if mask is None:
+        pattern = cache.get(key)
+        if pattern is None:
             rows = np.arange(self.rows)
             cols = np.arange(self.cols)
             if scamp_addr:
@@ -295,10 +306,19 @@ class ControllerMixin(DrawMixin):
             col_ok = (cols & ~cx) == (c & ~cx)
             mask = row_ok[:, None] & col_ok[None, :]
             mask.flags.writeable = False
+            pattern = _Pattern(
+                mask,
+                None if row_ok.all() else np.flatnonzero(row_ok),
+                None if col_ok.all() else np.flatnonzero(col_ok),
+            )
             if len(cache) >= 1024:
                 cache.clear()
-            cache[key] = mask
-        return mask
+            cache[key] = pattern
+        return pattern
+
+    def _address_mask(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> np.ndarray:
+        """The (read-only) plane of the elements a pattern selects."""
+        return self._pattern(r, c, rx, cx, scamp_addr).mask
 
     # ----------------------------------------------------------------------------------
     # DAC
@@ -321,8 +341,8 @@ class ControllerMixin(DrawMixin):
         if noisy and not self.noise.ideal:
             self._write_analog(reg, values, None if everywhere else flag)
             return
-        if isinstance(values, np.ndarray):  # the DAC's own noise plane is clipped in place
-            values = np.clip(values, -128, 127, out=values if values is self._dac_noise else None)
+        if isinstance(values, np.ndarray):
+            values = np.clip(values, -128, 127)
             if everywhere:
                 current[...] = values
             else:
@@ -377,23 +397,19 @@ class ControllerMixin(DrawMixin):
         v = self._dac_value(call, value)
         self.timing.charge_call(call)
         self._set_in(v)
-        sd = self._readout_sd()
-        target: np.ndarray | float = float(v)
-        if sd > 0:
-            target = self._dac_readout_noise(sd)
-            target += float(v)
         if t is not None:
             self._write_masked(t, -float(v), noisy=False)
-        self._write_masked(areg, target, noisy=False)
-
-    def _dac_readout_noise(self, sd: float) -> np.ndarray:
-        """A float64 plane of ``rng.normal(0, sd)`` draws (the same draws, no allocation)."""
-        buf = self._dac_noise
-        if buf is None:
-            buf = self._dac_noise = np.empty((self.rows, self.cols), dtype=np.float64)
-        self.rng.standard_normal(out=buf)
-        buf *= sd
-        return buf
+        sd = self._readout_sd()
+        if sd > 0:  # the temporal noise of one write: value + rng.normal(0, sd), clipped
+            self._catch_up()
+            current = self._aplane(areg)
+            flag, everywhere = self._flag_state()
+            buf = self._dac_noise
+            if buf is None:
+                buf = self._dac_noise = np.empty((self.rows, self.cols), dtype=np.float64)
+            hostloops.dac_noise(current, flag, everywhere, float(v), sd, self.rng, buf)
+        else:
+            self._write_masked(areg, float(v), noisy=False)
 
     def scamp5_get_image(self, yf: Register, yh: Register, gain: int = 1) -> None:
         """``scamp5_get_image``: capture the exposure into ``yf`` (full range) and ``yh``.
@@ -743,10 +759,14 @@ class ControllerMixin(DrawMixin):
         call = "global_or"
         self._catch_up()
         self._dreg(call, dreg, source=True)
-        args = _pattern_args(call, r, c, rx, cx)
-        mask = self._address_mask(**args, scamp_addr=scamp_addr)
+        pattern = self._pattern(**_pattern_args(call, r, c, rx, cx), scamp_addr=scamp_addr)
         self.timing.charge_call(call)
-        return int(bool(np.any(self._dplane(dreg) & mask)))
+        selected = self._dplane(dreg)  # the pattern is a grid: its rows, then its columns
+        if pattern.rows is not None:
+            selected = selected[pattern.rows]
+        if pattern.cols is not None:
+            selected = selected[:, pattern.cols]
+        return int(selected.any())
 
     def global_count(self, dreg: Register, temp: Register, options: int = 0) -> int:
         """``scamp5_global_count``: an estimate of the number of 1s in ``dreg``.
@@ -946,23 +966,40 @@ class ControllerMixin(DrawMixin):
         n = _as_int(call, "max_num", max_num, 1, MAX_EVENTS)
         h = _as_int(call, "h_dir", h_dir, 0, 1)
         v = _as_int(call, "v_dir", v_dir, 0, 1)
-        addr = self._dplane(dreg)[:, ::-1]  # [row, hardware column]
-        if h:
-            addr = addr[:, ::-1]
-        if v:
-            addr = addr[::-1, :]
-        if rows_first:
-            r, a = np.nonzero(addr)  # row outer, hardware column inner
+        plane = self._dplane(dreg)
+        if np.count_nonzero(plane) <= _SPARSE_EVENTS:
+            r, a = self._events_sorted(plane, n, h, v, rows_first)
         else:
-            a, r = np.nonzero(addr.T)  # hardware column outer, row inner
-        a, r = a[:n], r[:n]
-        if h:
-            a = self.cols - 1 - a
-        if v:
-            r = self.rows - 1 - r
+            addr = plane[:, ::-1]  # [row, hardware column]
+            if h:
+                addr = addr[:, ::-1]
+            if v:
+                addr = addr[::-1, :]
+            if rows_first:
+                r, a = np.nonzero(addr)  # row outer, hardware column inner
+            else:
+                a, r = np.nonzero(addr.T)  # hardware column outer, row inner
+            a, r = a[:n], r[:n]
+            if h:
+                a = self.cols - 1 - a
+            if v:
+                r = self.rows - 1 - r
         self.timing.charge_call("scan_events", n)
         cols = a if scamp_addr else self.cols - 1 - a
         return np.stack([r, cols], axis=1).astype(np.int64)
+
+    def _events_sorted(
+        self, plane: np.ndarray, n: int, h: int, v: int, rows_first: bool
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, hardware columns) of the first ``n`` 1s in scan order, for a sparse plane:
+        found in memory order, then sorted by their scan position (unique keys)."""
+        r, c = np.nonzero(plane)
+        a = self.cols - 1 - c  # hardware column
+        rk = self.rows - 1 - r if v else r  # scan position along each axis
+        ak = self.cols - 1 - a if h else a
+        key = rk * self.cols + ak if rows_first else ak * self.rows + rk
+        order = np.argsort(key, kind="stable")[:n]
+        return r[order], a[order]
 
     # ----------------------------------------------------------------------------------
     # Raw DAC loads

@@ -161,6 +161,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._last_us = 0.0
         self._droop_us = np.zeros(len(_DECAYING))  # droop not yet applied, per plane (us)
         self._dtouch_us = np.zeros(_N_DIGITAL)
+        self._dtouch_low = 0.0  # at most the oldest of R0-R12's last writes (us)
         if not self.noise.ideal:
             self._a[PIX.index] = self.noise.pixel_offset
         self.engine = make_engine(engine, self)
@@ -266,7 +267,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         ):
             values = self._as_plane(reg, values, bool)
         np.copyto(plane, values, casting="unsafe")
-        self._dtouch_us[reg.index] = self.timing.now_us
+        self._touch_digital(reg.index)
 
     def read(self, reg: Register) -> np.ndarray:
         """A copy of ``reg``'s plane: float32 in [-128, 127] (analogue) or bool (digital).
@@ -379,7 +380,14 @@ class Scamp5(ControllerMixin, ProgramAPI):
         run()
         self.timing.charge_kernel(counts)
         if dwritten.size:
-            self._dtouch_us[dwritten] = self.timing.now_us
+            self._touch_digital(dwritten)
+
+    def _touch_digital(self, planes: np.ndarray | int) -> None:
+        """Digital ``planes`` (indices) written now: their retention starts again."""
+        now = self.timing.now_us
+        self._dtouch_us[planes] = now
+        if now < self._dtouch_low:  # the clock was reset
+            self._dtouch_low = now
 
     def _elapse(self) -> None:
         """Account analogue droop (applied when a plane is next touched: a kernel reading or
@@ -390,12 +398,17 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._last_us = now
         if elapsed <= 0:
             return
-        if self.noise.params and self.noise.params.decay_per_ms:  # applied at next touch
+        params = self.noise.params
+        if params and params.decay_per_ms:  # applied at next touch
             self._droop_us += elapsed
-        retention = self.noise.params.digital_retention_ms if self.noise.params else None
-        if retention is None or not self.noise.params.digital_flip_per_ms:
+        retention = params.digital_retention_ms if params else None
+        if retention is None or not params.digital_flip_per_ms:
             return
-        ages = now - self._dtouch_us[: R12.index + 1]
+        if now - self._dtouch_low <= retention * 1e3:  # no register can be past retention
+            return
+        touched = self._dtouch_us[: R12.index + 1]
+        self._dtouch_low = float(touched.min())
+        ages = now - touched
         for i in np.flatnonzero(ages > retention * 1e3):  # only registers past retention
             self.noise.digital_decay(self._d[i], ages[i], elapsed)
 
@@ -408,11 +421,14 @@ class Scamp5(ControllerMixin, ProgramAPI):
         pending = self._droop_us
         if len(planes) == len(_DECAYING) and np.all(pending == pending[0]):
             self.noise.droop(self._a[_DECAY_PLANES], pending[0])  # one call for all
-        else:
-            for i in planes:
-                if pending[i]:
-                    self.noise.droop(self._a[i], pending[i])
-        pending[list(planes)] = 0.0
+            pending[:] = 0.0
+            return
+        droop, a = self.noise.droop, self._a
+        for i in planes:
+            us = pending[i]
+            if us:
+                droop(a[i], us)
+                pending[i] = 0.0
 
     # ------------------------------------------------------------- FLAG machinery
     def _flag_mask(self) -> np.ndarray | None:

@@ -17,7 +17,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-__all__ = ["droop", "fill_where", "have_numba", "select"]
+__all__ = ["dac_noise", "droop", "fill_where", "have_numba", "numpy_loops", "select"]
 
 _LOOPS: SimpleNamespace | None = None
 
@@ -51,9 +51,25 @@ def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
     _loops_for(out, flag).fill_where(out, np.float32(value), flag)
 
 
-def droop(planes: np.ndarray, step: float, tmp: np.ndarray) -> None:
-    """``planes -= clip(planes, -step, step)`` in float32 (``tmp``: a scratch of their shape)."""
-    _loops_for(planes).droop(planes, np.float32(step), tmp)
+def droop(planes: np.ndarray, step: float) -> None:
+    """``planes -= clip(planes, -step, step)`` in float32."""
+    _loops_for(planes).droop(planes, np.float32(step))
+
+
+def dac_noise(
+    out: np.ndarray,
+    flag: np.ndarray,
+    everywhere: bool,
+    value: float,
+    sd: float,
+    rng: np.random.Generator,
+    scratch: np.ndarray,
+) -> None:
+    """``out := float32(clip(value + sd * z))`` where ``flag`` (everywhere if
+    ``everywhere``), ``z`` a plane of ``rng.standard_normal()`` in C order: the same
+    draws and bytes as ``value + rng.normal(0, sd, out.shape)`` clipped to [-128, 127].
+    ``scratch`` is a float64 plane of ``out``'s shape (the numpy version's)."""
+    _loops_for(out, flag).dac_noise(out, flag, everywhere, float(value), float(sd), rng, scratch)
 
 
 def numpy_loops() -> SimpleNamespace:
@@ -65,11 +81,28 @@ def numpy_loops() -> SimpleNamespace:
     def fill_np(out: np.ndarray, value: np.float32, flag: np.ndarray) -> None:
         np.copyto(out, value, where=flag)
 
-    def droop_np(planes: np.ndarray, step: np.float32, tmp: np.ndarray) -> None:
+    scratch: dict[tuple[int, ...], np.ndarray] = {}
+
+    def droop_np(planes: np.ndarray, step: np.float32) -> None:
+        tmp = scratch.get(planes.shape)
+        if tmp is None:
+            tmp = scratch[planes.shape] = np.empty(planes.shape, dtype=np.float32)
         np.clip(planes, -step, step, out=tmp)
         np.subtract(planes, tmp, out=planes)
 
-    return SimpleNamespace(select=select_np, fill_where=fill_np, droop=droop_np)
+    def dac_noise_np(out, flag, everywhere, value, sd, rng, buf) -> None:
+        rng.standard_normal(out=buf)
+        buf *= sd
+        buf += value
+        np.clip(buf, -128, 127, out=buf)
+        if everywhere:
+            out[...] = buf
+        else:
+            np.copyto(out, buf, where=flag, casting="unsafe")
+
+    return SimpleNamespace(
+        select=select_np, fill_where=fill_np, droop=droop_np, dac_noise=dac_noise_np
+    )
 
 
 _NUMPY = numpy_loops()
@@ -102,7 +135,7 @@ def _numba_loops() -> SimpleNamespace:
             o[i] = value if f[i] else y
 
     @jit
-    def droop_nb(planes, step, tmp):  # pragma: no cover - compiled
+    def droop_nb(planes, step):  # pragma: no cover - compiled
         n = planes.size
         p = planes.reshape(n)
         lo = -step
@@ -112,4 +145,19 @@ def _numba_loops() -> SimpleNamespace:
             t = t if t < step else step
             p[i] = x - t
 
-    return SimpleNamespace(select=select_nb, fill_where=fill_nb, droop=droop_nb)
+    @jit
+    def dac_nb(out, flag, everywhere, value, sd, rng, scratch):  # pragma: no cover - compiled
+        n = out.size
+        o = out.reshape(n)
+        f = flag.reshape(n)
+        lo = -128.0
+        hi = 127.0
+        for i in range(n):
+            x = rng.standard_normal() * sd  # numba's draws are numpy's, in order
+            x = x + value
+            x = x if x > lo else lo  # numpy's clip: max, then min
+            x = x if x < hi else hi
+            if everywhere or f[i]:
+                o[i] = np.float32(x)
+
+    return SimpleNamespace(select=select_nb, fill_where=fill_nb, droop=droop_nb, dac_noise=dac_nb)

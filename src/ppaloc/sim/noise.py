@@ -201,7 +201,6 @@ class NoiseModel:
             if p.temporal_sd > 0
             else (self.rng.standard_normal(bank_len) * div_sd).astype(np.float32)
         )
-        self._droop_tmp: np.ndarray | None = None
         self._k = _DRAWS
         self._starts = np.zeros(0, dtype=np.int64)
         self._gains = np.zeros(0)
@@ -263,10 +262,7 @@ class NoiseModel:
             return
         step = np.float32(self.params.decay_per_ms * elapsed_us / 1000.0)
         # v -> v - clip(v, -step, step): towards 0 by `step`, never past it
-        if self._droop_tmp is None or self._droop_tmp.size < planes.size:
-            self._droop_tmp = np.empty(planes.size, dtype=np.float32)
-        tmp = self._droop_tmp[: planes.size].reshape(planes.shape)
-        hostloops.droop(planes, step, tmp)  # planes -= clip(planes, -step, step), one pass
+        hostloops.droop(planes, step)
 
     def digital_decay(self, plane: np.ndarray, age_us: float, elapsed_us: float) -> None:
         """Let ones in a digital ``plane`` decay after its retention time has passed.
