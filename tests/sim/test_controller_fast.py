@@ -73,6 +73,17 @@ def test_droop_equals_the_clip_and_subtract(case, step):
     assert np.array_equal(_bits(got), _bits(want))
 
 
+@needs_numba
+@settings(max_examples=60, deadline=None)
+@given(planes(n_extra=3), st.booleans())
+def test_noisy_write_equals_add_add_clip_and_masked_copy(case, everywhere):
+    out, flag, (values, offset, window) = case
+    want, got = out.copy(), out.copy()
+    hostloops.numpy_loops().noisy_write(want, values.copy(), offset, window, flag, everywhere)
+    hostloops.noisy_write(got, values.copy(), offset, window, flag, everywhere)
+    assert np.array_equal(_bits(got), _bits(want))
+
+
 def _plain_shift(old: np.ndarray, h: int, v: int) -> np.ndarray:
     """``new[r, c] = old[r + v, c - h]``, 0 from beyond the edge, index by index."""
     rows, cols = old.shape

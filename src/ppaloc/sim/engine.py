@@ -249,9 +249,11 @@ class Scamp5(ControllerMixin, ProgramAPI):
                 np.copyto(t, values, casting="unsafe")
             else:
                 np.copyto(t, self._as_plane(reg, values, float), casting="unsafe")
-        if not self.noise.ideal:
-            self.noise.perturb(t, reg.index, divided=False)
-        if where is None:
+        if not self.noise.ideal:  # offset, noise, clip and FLAG in one pass
+            offset, window = self.noise.terms(reg.index, divided=False)
+            flag = self._d[_FLAG_I] if where is None else where
+            hostloops.noisy_write(plane, t, offset, window, flag, where is None)
+        elif where is None:
             _clip(t, _LO, _HI, out=plane)
         else:
             _clip(t, _LO, _HI, out=t)

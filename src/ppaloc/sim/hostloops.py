@@ -6,8 +6,9 @@ droop steps every analogue value towards 0. In numpy a masked copy
 elements (as after a comparison of image data), and the droop takes two passes and a
 temporary plane. Here each is one branch-free loop over the plane, compiled by numba
 when it is installed (the compiled engine's dependency; imported on first use only),
-else the plain numpy operations, which give the same bytes (tests/sim/test_controller_fast.py
-checks one against the other).
+else the plain numpy operations, which give the same bytes
+(tests/sim/test_controller_fast.py checks one against the other). Every array is
+C-contiguous (whole planes, or views of whole planes).
 """
 
 from __future__ import annotations
@@ -17,7 +18,15 @@ from types import SimpleNamespace
 
 import numpy as np
 
-__all__ = ["dac_noise", "droop", "fill_where", "have_numba", "numpy_loops", "select"]
+__all__ = [
+    "dac_noise",
+    "droop",
+    "fill_where",
+    "have_numba",
+    "noisy_write",
+    "numpy_loops",
+    "select",
+]
 
 _LOOPS: SimpleNamespace | None = None
 
@@ -34,26 +43,33 @@ def _loops() -> SimpleNamespace:
     return _LOOPS
 
 
-def _loops_for(*arrays: np.ndarray) -> SimpleNamespace:
-    """The loops for these operands: numba's take C-contiguous arrays only."""
-    if all(a.flags.c_contiguous for a in arrays):
-        return _loops()
-    return _NUMPY
-
-
 def select(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
     """``out := src`` (cast to ``out``'s float32) where ``flag``; planes of one shape."""
-    _loops_for(out, src, flag).select(out, src, flag)
+    _loops().select(out, src, flag)
 
 
 def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
     """``out := float32(value)`` where ``flag``."""
-    _loops_for(out, flag).fill_where(out, np.float32(value), flag)
+    _loops().fill_where(out, np.float32(value), flag)
 
 
 def droop(planes: np.ndarray, step: float) -> None:
     """``planes -= clip(planes, -step, step)`` in float32."""
-    _loops_for(planes).droop(planes, np.float32(step))
+    _loops().droop(planes, np.float32(step))
+
+
+def noisy_write(
+    out: np.ndarray,
+    values: np.ndarray,
+    offset: np.ndarray,
+    window: np.ndarray,
+    flag: np.ndarray,
+    everywhere: bool,
+) -> None:
+    """``out := clip((values + offset) + window, -128, 127)`` where ``flag`` (everywhere
+    if ``everywhere``), float32: a noisy host write (``values`` may be overwritten)."""
+    loops = _loops()
+    loops.noisy_write(out, values, offset, window, flag, everywhere)
 
 
 def dac_noise(
@@ -69,7 +85,7 @@ def dac_noise(
     ``everywhere``), ``z`` a plane of ``rng.standard_normal()`` in C order: the same
     draws and bytes as ``value + rng.normal(0, sd, out.shape)`` clipped to [-128, 127].
     ``scratch`` is a float64 plane of ``out``'s shape (the numpy version's)."""
-    _loops_for(out, flag).dac_noise(out, flag, everywhere, float(value), float(sd), rng, scratch)
+    _loops().dac_noise(out, flag, everywhere, float(value), float(sd), rng, scratch)
 
 
 def numpy_loops() -> SimpleNamespace:
@@ -90,6 +106,17 @@ def numpy_loops() -> SimpleNamespace:
         np.clip(planes, -step, step, out=tmp)
         np.subtract(planes, tmp, out=planes)
 
+    lo, hi = np.float32(-128.0), np.float32(127.0)
+
+    def noisy_np(out, values, offset, window, flag, everywhere) -> None:
+        np.add(values, offset, out=values)
+        np.add(values, window, out=values)
+        np.clip(values, lo, hi, out=values)
+        if everywhere:
+            np.copyto(out, values)
+        else:
+            np.copyto(out, values, where=flag)
+
     def dac_noise_np(out, flag, everywhere, value, sd, rng, buf) -> None:
         rng.standard_normal(out=buf)
         buf *= sd
@@ -101,7 +128,11 @@ def numpy_loops() -> SimpleNamespace:
             np.copyto(out, buf, where=flag, casting="unsafe")
 
     return SimpleNamespace(
-        select=select_np, fill_where=fill_np, droop=droop_np, dac_noise=dac_noise_np
+        select=select_np,
+        fill_where=fill_np,
+        droop=droop_np,
+        dac_noise=dac_noise_np,
+        noisy_write=noisy_np,
     )
 
 
@@ -146,6 +177,24 @@ def _numba_loops() -> SimpleNamespace:
             p[i] = x - t
 
     @jit
+    def noisy_nb(out, values, offset, window, flag, everywhere):  # pragma: no cover - compiled
+        n = out.size
+        o = out.reshape(n)
+        v = values.reshape(n)
+        off = offset.reshape(n)
+        win = window.reshape(n)
+        f = flag.reshape(n)
+        lo = np.float32(-128.0)
+        hi = np.float32(127.0)
+        for i in range(n):
+            x = v[i] + off[i]  # float32, in the numpy version's order
+            x = x + win[i]
+            x = x if x > lo else lo
+            x = x if x < hi else hi
+            y = o[i]
+            o[i] = x if everywhere or f[i] else y
+
+    @jit
     def dac_nb(out, flag, everywhere, value, sd, rng, scratch):  # pragma: no cover - compiled
         n = out.size
         o = out.reshape(n)
@@ -160,4 +209,10 @@ def _numba_loops() -> SimpleNamespace:
             if everywhere or f[i]:
                 o[i] = np.float32(x)
 
-    return SimpleNamespace(select=select_nb, fill_where=fill_nb, droop=droop_nb, dac_noise=dac_nb)
+    return SimpleNamespace(
+        select=select_nb,
+        fill_where=fill_nb,
+        droop=droop_nb,
+        dac_noise=dac_nb,
+        noisy_write=noisy_nb,
+    )

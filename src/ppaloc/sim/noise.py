@@ -250,10 +250,16 @@ class NoiseModel:
             done += n
         return starts, gains
 
+    def terms(self, plane: int, divided: bool) -> tuple[np.ndarray, np.ndarray]:
+        """The terms one noisy write of ``plane`` adds, in this order: the plane's
+        fixed-pattern offset and a fresh temporal-noise window (one draw)."""
+        return self.offsets[plane], self.window(divided)
+
     def perturb(self, values: np.ndarray, plane: int, divided: bool) -> None:
         """Add the fixed-pattern offset of ``plane`` and temporal noise to ``values`` in place."""
-        np.add(values, self.offsets[plane], out=values)
-        np.add(values, self.window(divided), out=values)
+        offset, window = self.terms(plane, divided)
+        np.add(values, offset, out=values)
+        np.add(values, window, out=values)
 
     def droop(self, planes: np.ndarray, elapsed_us: float) -> None:
         """Let analogue ``planes`` (one plane or (n, rows, cols)) droop towards 0 for
