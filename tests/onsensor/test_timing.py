@@ -169,3 +169,21 @@ def test_injection_counts_every_byte_as_the_plain_walk(seed, rows, cell):
     img = np.repeat(cells, cell, axis=1).astype(np.uint8)
     c = injection_counts(img)
     assert (c["calls:scamp5_draw_rect"], c["calls:scamp5_draw_pixel"]) == _plain_draws(img)
+
+
+def test_a_frames_counts_leave_out_what_is_charged_between_frames():
+    """The next frame starts from the last frame's end counts only while nothing else
+    was charged: a call between frames is in neither frame."""
+    frames = _route(4, seed=5)
+
+    def run(between: bool) -> list:
+        loc = OnSensorLocaliser("lbp", preset="paper", motion="always_forward", alpha=8)
+        loc.build_map(frames)
+        loc.reset()
+        for i, f in enumerate(frames):
+            loc.step(f)
+            if between and i == 1:
+                loc.pipeline.sim.load_in(5)  # charged outside any frame
+        return loc.frame_times
+
+    assert run(True) == run(False)

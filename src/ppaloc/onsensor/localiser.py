@@ -161,6 +161,7 @@ class OnSensorLocaliser:
         self.name = f"onsensor-{representation}"
         self.topomap: TopoMap | None = None
         self.pipeline: SensorPipeline | None = None
+        self._last_counts: tuple[Any, int, dict] | None = None
 
     @property
     def alpha(self) -> float | None:
@@ -290,9 +291,15 @@ class OnSensorLocaliser:
         timing = pipe.timing  # a bank's: the slowest sensor per phase plus the exchanges
         t0, e0 = timing.now_us, timing.energy_uj
         counts = pipe.sim.timing  # a bank's chip and loop intervals are sensor 0's
-        before = counts.counts_by_stage()
+        last = self._last_counts  # the last frame's end, if nothing was charged since
+        if last is not None and last[0] is counts and last[1] == counts.charges:
+            before = last[2]
+        else:
+            before = counts.counts_by_stage()
         node, score, moved, _ = pipe.step(frame, moved)
-        self._time_frame(frame, diff_counts(counts.counts_by_stage(), before), bool(moved))
+        after = counts.counts_by_stage()
+        self._last_counts = (counts, counts.charges, after)
+        self._time_frame(frame, diff_counts(after, before), bool(moved))
         weights = pipe.weights() if self.record_weights else None
         return Estimate(
             node=int(node),

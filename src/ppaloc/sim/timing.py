@@ -680,6 +680,7 @@ class TimingModel:
         self._clock_hz = float(clock_hz)
         self._constants = constants if constants is not None else TimingConstants()
         self._pe_count = int(pe_count)
+        self._charges = 0
         self._forget_costs()
         self.reset()
 
@@ -727,6 +728,13 @@ class TimingModel:
         self._row: StageCost | None = None  # the current stage's row, once charged
         self._total_us = 0.0
         self._chip_uj = 0.0
+        self._charges += 1
+
+    @property
+    def charges(self) -> int:
+        """A token that changes whenever anything is charged or the model is reset (equal
+        tokens: equal :meth:`counts_by_stage`)."""
+        return self._charges
 
     @property
     def now_us(self) -> float:
@@ -809,6 +817,7 @@ class TimingModel:
         if cost is None:
             cost = self._kernel_cost(key)
         us, chip, nonzero = cost
+        self._charges += 1
         row = self._row or self._stage_row()
         icws = row.icws
         for cls, k in nonzero:
@@ -857,6 +866,7 @@ class TimingModel:
             raise TimingError(f"negative units {units!r} for call {name!r}")
         base, per_unit, icws_per_unit = self._call_costs.get(name) or self._call_cost(name)
         us = base + units * per_unit
+        self._charges += 1
         row = self._row or self._stage_row()
         calls = row.calls
         calls[name] = calls.get(name, 0) + 1
