@@ -433,11 +433,14 @@ def _fused_copy(dst, x0, x1, nl, flag, flag_all):
 def _fused_noisy(dst, x0, x1, nl, scale, off, win, flag, flag_all):
     """One noisy ICW in one pass: dst := clip((sum * scale + offset) + noise), FLAG-masked."""
     n = dst.size
-    if nl == 1:
+    if nl == 1 and flag_all:
+        for p in range(n):
+            dst[p] = _clip((x0[p] * scale + off[p]) + win[p])
+    elif nl == 1:
         for p in range(n):
             v = _clip((x0[p] * scale + off[p]) + win[p])
             old = dst[p]
-            dst[p] = v if (flag_all or flag[p]) else old
+            dst[p] = v if flag[p] else old
     else:
         for p in range(n):
             v = _clip(((x0[p] + x1[p]) * scale + off[p]) + win[p])
@@ -496,6 +499,64 @@ def _halve_into_two(d0, d1, x0, parts):
             v = _clip(x0[p] / m_parts)
             d0[p] = v
             d1[p] = v
+
+
+@_jit
+def _push_noisy(dst, x, off, win, code, scale, r0, r1):
+    """dst[r] := clip((x of the sender r - offset * gain, 0 beyond the edge) + offset + noise).
+
+    A noisy push of one local source with FLAG set everywhere, in one pass; ``off`` and
+    ``win`` are (rows, cols) views of the receiver's offsets and its noise window.
+    """
+    rows, cols = x.shape
+    dr, dc = -_DR[code], -_DC[code]
+    zero = np.float32(0.0)
+    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
+    w = c_hi - c_lo
+    for r in range(r0, r1):
+        out, orow, wrow = dst[r], off[r], win[r]
+        rr = r + dr
+        if rr < 0 or rr >= rows:
+            for c in range(cols):
+                out[c] = _clip((zero + orow[c]) + wrow[c])
+            continue
+        for c in range(0, c_lo):
+            out[c] = _clip((zero + orow[c]) + wrow[c])
+        for c in range(c_hi, cols):
+            out[c] = _clip((zero + orow[c]) + wrow[c])
+        o, oo, ww = out[c_lo:c_hi], orow[c_lo:c_hi], wrow[c_lo:c_hi]
+        xr = x[rr, c_lo + dc : c_hi + dc]
+        for c in range(w):
+            o[c] = _clip((xr[c] * scale + oo[c]) + ww[c])
+
+
+@_jit
+def _neighbour_noisy(dst, news, off, win, code, scale, r0, r1):
+    """dst := clip(((0 + the neighbour's NEWS) * gain + offset) + noise), in one pass.
+
+    A noisy read of one neighbour with FLAG set everywhere; beyond the edge no term.
+    """
+    rows, cols = news.shape
+    dr, dc = _DR[code], _DC[code]
+    zero = np.float32(0.0)
+    edge = zero * scale
+    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
+    w = c_hi - c_lo
+    for r in range(r0, r1):
+        out, orow, wrow = dst[r], off[r], win[r]
+        rr = r + dr
+        if rr < 0 or rr >= rows:
+            for c in range(cols):
+                out[c] = _clip((edge + orow[c]) + wrow[c])
+            continue
+        for c in range(0, c_lo):
+            out[c] = _clip((edge + orow[c]) + wrow[c])
+        for c in range(c_hi, cols):
+            out[c] = _clip((edge + orow[c]) + wrow[c])
+        o, oo, ww = out[c_lo:c_hi], orow[c_lo:c_hi], wrow[c_lo:c_hi]
+        nr = news[rr, c_lo + dc : c_hi + dc]
+        for c in range(w):
+            o[c] = _clip(((zero + nr[c]) * scale + oo[c]) + ww[c])
 
 
 @_jit
@@ -607,13 +668,22 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
             x0 = af[locs[0]][lo:hi]
             _halve_into_two(af[row[_D0]][lo:hi], af[row[_D0 + 1]][lo:hi], x0, parts)
             return
-    if ideal and parts == 1 and nd == 1 and nsrc == 1 and flag_all:  # a neighbour move
-        if row[_DD0] != 0 and nl == 1:
-            _push_copy(a[row[_D0]], a[locs[0]], row[_DD0], r0, r1)
+    if parts == 1 and nd == 1 and nsrc == 1 and flag_all and r0 == 0 and r1 == rows:
+        d0 = row[_D0]  # a neighbour move: a push of one source, or one neighbour's NEWS
+        if ideal and row[_DD0] != 0 and nl == 1:
+            _push_copy(a[d0], a[locs[0]], row[_DD0], r0, r1)
             return
-        if row[_DD0] == 0 and nl == 0:
-            _neighbour_copy(a[row[_D0]], a[_NEWS], row[_SD0], r0, r1)
+        if ideal and row[_DD0] == 0 and nl == 0:
+            _neighbour_copy(a[d0], a[_NEWS], row[_SD0], r0, r1)
             return
+        if not ideal:
+            win = bank_w[starts[base] : starts[base] + rows * cols].reshape(rows, cols)
+            if row[_DD0] != 0 and nl == 1:
+                _push_noisy(a[d0], a[locs[0]], offsets[d0], win, row[_DD0], scale, r0, r1)
+                return
+            if row[_DD0] == 0 and nl == 0:
+                _neighbour_noisy(a[d0], a[_NEWS], offsets[d0], win, row[_SD0], scale, r0, r1)
+                return
     pushed = False
     for k in range(nd):
         pushed = pushed or row[_DD0 + k] != 0
