@@ -210,3 +210,39 @@ def test_signed_zeros_move_as_the_reference_moves_them(engine: str) -> None:
                 k.icw(*ins)
             sims.append(sim)
         same_bytes(*sims)
+
+
+FAST_PATHS = [
+    ("bus", (s.B,), (s.A,)),
+    ("bus", (s.B,), (s.A, s.C)),
+    ("bus2", (s.B, s.C), (s.A,)),
+    ("bus2", (s.B, s.NEWS), (s.A,)),
+    ("bus3", (s.B, s.C, s.D), (s.A,)),
+    ("bus", (s.XE,), (s.A,)),
+    ("bus", (s.XS,), (s.A,)),
+    ("bus", (s.B,), (s.XN,)),
+    ("bus", (s.B,), (s.XW,)),
+    ("bus", (s.B,), (s.XE, s.A)),
+    ("where", (), (s.A,)),
+    ("where", (), (s.A, s.B)),
+]
+
+
+@pytest.mark.parametrize("flag_all", [True, False], ids=["flag-all", "flag-some"])
+@pytest.mark.parametrize("mode", ["ideal", "typical", "zero"])
+@pytest.mark.parametrize("ins", FAST_PATHS, ids=lambda i: f"{i[0]}{[r.name for r in i[1]]}")
+def test_each_fast_path_is_the_reference(ins: tuple, mode: str, flag_all: bool) -> None:
+    """Each ICW a fast path exists for, with FLAG set everywhere or not, in each mode."""
+    for engine in available_engines():
+        if engine == "reference":
+            continue
+        sims = []
+        for name in ("reference", engine):
+            sim = Scamp5(ROWS, COLS, noise=MODES[mode], seed=4, engine=name)
+            start_state(sim, 11)
+            if flag_all:
+                sim.write(s.FLAG, np.ones((ROWS, COLS), dtype=bool))
+            with sim.kernel() as k:
+                k.icw(*ins)
+            sims.append(sim)
+        same_bytes(*sims)

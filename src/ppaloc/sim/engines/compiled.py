@@ -441,11 +441,14 @@ def _fused_noisy(dst, x0, x1, nl, scale, off, win, flag, flag_all):
             v = _clip((x0[p] * scale + off[p]) + win[p])
             old = dst[p]
             dst[p] = v if flag[p] else old
+    elif flag_all:
+        for p in range(n):
+            dst[p] = _clip(((x0[p] + x1[p]) * scale + off[p]) + win[p])
     else:
         for p in range(n):
             v = _clip(((x0[p] + x1[p]) * scale + off[p]) + win[p])
             old = dst[p]
-            dst[p] = v if (flag_all or flag[p]) else old
+            dst[p] = v if flag[p] else old
 
 
 @_jit
@@ -560,6 +563,19 @@ def _neighbour_noisy(dst, news, off, win, code, scale, r0, r1):
 
 
 @_jit
+def _noisy_into_two(d0, d1, x0, scale, off0, win0, off1, win1):
+    """A noisy bus of one local source into two local planes in one pass, FLAG all set.
+
+    Each destination gets the value times the ICW's gain plus its own cell offset and
+    noise draw: d_k := clip((x0 * scale + off_k) + win_k).
+    """
+    for p in range(d0.size):
+        v = x0[p] * scale
+        d0[p] = _clip((v + off0[p]) + win0[p])
+        d1[p] = _clip((v + off1[p]) + win1[p])
+
+
+@_jit
 def _push_copy(dst, x, code, r0, r1):
     """dst[r] := clip(-x) of the sender r - offset, 0 beyond the edge (ideal, FLAG all set)."""
     rows, cols = x.shape
@@ -663,10 +679,16 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
             off = offsets[d0].reshape(-1)[lo:hi]
             _fused_noisy(af[d0][lo:hi], x0, x1, nl, scale, off, win, fb, flag_all)
             return
-    if ideal and flag_all and nd == 2 and nsrc == 1 and nl == 1 and parts > 1:
+    if flag_all and nd == 2 and nsrc == 1 and nl == 1 and parts > 1:
         if row[_DD0] == 0 and row[_DD0 + 1] == 0 and row[_D0] != row[_D0 + 1]:
-            x0 = af[locs[0]][lo:hi]
-            _halve_into_two(af[row[_D0]][lo:hi], af[row[_D0 + 1]][lo:hi], x0, parts)
+            x0, e0, e1 = af[locs[0]][lo:hi], row[_D0], row[_D0 + 1]
+            if ideal:
+                _halve_into_two(af[e0][lo:hi], af[e1][lo:hi], x0, parts)
+            else:
+                w0 = bank_w[starts[base] + lo : starts[base] + hi]
+                w1 = bank_w[starts[base + 1] + lo : starts[base + 1] + hi]
+                o0, o1 = offsets[e0].reshape(-1)[lo:hi], offsets[e1].reshape(-1)[lo:hi]
+                _noisy_into_two(af[e0][lo:hi], af[e1][lo:hi], x0, scale, o0, w0, o1, w1)
             return
     if parts == 1 and nd == 1 and nsrc == 1 and flag_all and r0 == 0 and r1 == rows:
         d0 = row[_D0]  # a neighbour move: a push of one source, or one neighbour's NEWS
