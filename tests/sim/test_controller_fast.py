@@ -289,3 +289,25 @@ def test_digital_decay_after_the_clock_is_reset():
     for _ in range(1500):  # ~1 ms: R5 past its retention
         k.run()
     assert sim.read(R5).mean() < 0.9
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    st.integers(0, 8),
+    st.integers(0, 12),
+    st.integers(0, 8),
+    st.integers(0, 12),
+    st.integers(1, 9),
+    st.integers(1, 13),
+    st.booleans(),
+)
+def test_scan_areg_reads_the_grid_element_by_element(r0, c0, dr, dc, rs, cs, scamp_addr):
+    rows, cols = 9, 13
+    r1, c1 = min(rows - 1, r0 + dr), min(cols - 1, c0 + dc)
+    sim = Scamp5(rows, cols)
+    plane = np.arange(rows * cols, dtype=np.float32).reshape(rows, cols) - 60
+    sim.write(A, plane)
+    got = sim.scan_areg(A, r0, c0, r1, c1, rs, cs, scamp_addr=scamp_addr)
+    picked = sorted(cols - 1 - c if scamp_addr else c for c in range(c0, c1 + 1, cs))
+    want = [[int(plane[r, c]) + 128 for c in picked] for r in range(r0, r1 + 1, rs)]
+    assert got.tolist() == want

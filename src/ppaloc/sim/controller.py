@@ -121,13 +121,14 @@ def _as_int(call: str, name: str, value: Any, lo: int, hi: int) -> int:
     return int(value)
 
 
-def _pattern_args(call: str, r: Any, c: Any, rx: Any, cx: Any) -> dict[str, int]:
-    return {
-        "r": _as_int(call, "r", r, 0, 255),
-        "c": _as_int(call, "c", c, 0, 255),
-        "rx": _as_int(call, "rx", rx, 0, 255),
-        "cx": _as_int(call, "cx", cx, 0, 255),
-    }
+def _pattern_args(call: str, r: Any, c: Any, rx: Any, cx: Any) -> tuple[int, int, int, int]:
+    """``(r, c, rx, cx)`` checked: 8-bit integers."""
+    return (
+        _as_int(call, "r", r, 0, 255),
+        _as_int(call, "c", c, 0, 255),
+        _as_int(call, "rx", rx, 0, 255),
+        _as_int(call, "cx", cx, 0, 255),
+    )
 
 
 def _shift_slices(
@@ -509,7 +510,7 @@ class ControllerMixin(DrawMixin):
         self._dreg(call, dreg)
         args = _pattern_args(call, r, c, rx, cx)
         self.timing.charge_call(call)
-        self._write_digital(dreg, self._address_mask(**args, scamp_addr=scamp_addr))
+        self._write_digital(dreg, self._pattern(*args, scamp_addr).mask)
 
     def load_point(self, dreg: Register, r: int, c: int, *, scamp_addr: bool = False) -> None:
         """Set ``dreg`` to 1 at element (r, c) and to 0 elsewhere.
@@ -556,7 +557,7 @@ class ControllerMixin(DrawMixin):
         """Like :meth:`load_pattern`, into ``SELECT`` (also the address parts that
         :meth:`select_col` and its siblings change one at a time)."""
         call = "select_pattern"
-        args = _pattern_args(call, r, c, rx, cx)
+        args = dict(zip(("r", "c", "rx", "cx"), _pattern_args(call, r, c, rx, cx), strict=True))
         self.timing.charge_call(call)
         self._dplane(SELECT)[...] = self._address_mask(**args, scamp_addr=scamp_addr)
         if scamp_addr:  # the parts are kept in array columns (exact for 2^k columns)
@@ -759,7 +760,7 @@ class ControllerMixin(DrawMixin):
         call = "global_or"
         self._catch_up()
         self._dreg(call, dreg, source=True)
-        pattern = self._pattern(**_pattern_args(call, r, c, rx, cx), scamp_addr=scamp_addr)
+        pattern = self._pattern(*_pattern_args(call, r, c, rx, cx), scamp_addr)
         self.timing.charge_call(call)
         selected = self._dplane(dreg)  # the pattern is a grid: its rows, then its columns
         if pattern.rows is not None:
@@ -841,9 +842,12 @@ class ControllerMixin(DrawMixin):
             raise SimulatorError(
                 f"{call}: empty region r0={r0}..r1={r1}, c0={c0}..c1={c1}; need r0 <= r1, c0 <= c1"
             )
-        rows = np.arange(r0, r1 + 1, rs)
-        cols = np.sort([self._col_index(c, scamp_addr) for c in range(c0, c1 + 1, cs)])
-        values = self._aplane(areg)[np.ix_(rows, cols)]
+        if scamp_addr:  # hardware columns c0, c0 + cs, ... are array columns east to west
+            last = c0 + (c1 - c0) // cs * cs
+            cols = slice(self.cols - 1 - last, self.cols - c0, cs)
+        else:
+            cols = slice(c0, c1 + 1, cs)
+        values = self._aplane(areg)[r0 : r1 + 1 : rs, cols]  # the grid, west to east
         self.timing.charge_call(call, values.size)
         return self._adc(values)
 
@@ -1189,7 +1193,7 @@ class ControllerMixin(DrawMixin):
         call = "global_sum_sparse"
         self._catch_up()
         self._areg(call, areg, source=True)
-        mask = self._address_mask(**_pattern_args(call, r, c, rx, cx), scamp_addr=scamp_addr)
+        mask = self._address_mask(*_pattern_args(call, r, c, rx, cx), scamp_addr)
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg)[mask])
 
