@@ -131,25 +131,6 @@ def _pattern_args(call: str, r: Any, c: Any, rx: Any, cx: Any) -> tuple[int, int
     )
 
 
-def _shift_slices(
-    rows: int, cols: int, h: int, v: int
-) -> tuple[tuple[slice, slice], tuple[slice, slice], tuple[tuple[slice, slice], ...]]:
-    """``(dst, src, edges)`` of ``new[row, col] = old[row + v, col - h]``: ``new[dst] =
-    old[src]``, and the parts in ``edges`` take what is shifted in from beyond the edge."""
-    dst = (slice(max(0, -v), min(rows, rows - v)), slice(max(0, h), min(cols, cols + h)))
-    src = (slice(max(0, v), min(rows, rows + v)), slice(max(0, -h), min(cols, cols - h)))
-    edges = []
-    if v > 0:
-        edges.append((slice(rows - v, rows), slice(None)))
-    elif v < 0:
-        edges.append((slice(0, -v), slice(None)))
-    if h > 0:
-        edges.append((slice(None), slice(0, h)))
-    elif h < 0:
-        edges.append((slice(None), slice(cols + h, cols)))
-    return dst, src, tuple(edges)
-
-
 class _Pattern(NamedTuple):
     """The elements an address pattern selects: the plane, and its rows and columns
     (index arrays; None when every row, column matches)."""
@@ -661,8 +642,11 @@ class ControllerMixin(DrawMixin):
         if parts is None:
             parts = self._shift_parts = {}
         sl = parts.get(key)
-        if sl is None:
-            sl = parts[key] = _shift_slices(self.rows, self.cols, h, v)
+        if sl is None:  # new[r, c] = old[r + v, c - h]: the engine's slices of that read
+            from ppaloc.sim.engine import _edge_slices, _slices
+
+            dst, src = _slices(v, -h)
+            sl = parts[key] = (dst, src, tuple(_edge_slices(v, -h, self.rows, self.cols)))
         dst, src, edges = sl
         plane = self._aplane(reg)
         if self.noise.ideal:
