@@ -192,10 +192,16 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
     def _flag_state(self) -> tuple[np.ndarray, bool]:
         """FLAG's plane (to read) and whether it is 1 everywhere: the tracked state when it
-        is known, else one pass; the tracking is left as it was."""
+        is known, else one pass (kept when it finds FLAG set everywhere, which needs no
+        mask; a partial FLAG stays unknown until the numpy engine builds its mask)."""
         flag = self._d[_FLAG_I]
         masked = self._flag_masked
-        return flag, (not masked) if masked is not None else bool(flag.all())
+        if masked is not None:
+            return flag, not masked
+        if flag.all():
+            self._flag_masked = False
+            return flag, True
+        return flag, False
 
     def _scratch(self) -> np.ndarray:
         """A float32 scratch plane for a host call's values (what :meth:`_write_analog`
