@@ -505,64 +505,6 @@ def _halve_into_two(d0, d1, x0, parts):
 
 
 @_jit
-def _push_noisy(dst, x, off, win, code, scale, r0, r1):
-    """dst[r] := clip((x of the sender r - offset * gain, 0 beyond the edge) + offset + noise).
-
-    A noisy push of one local source with FLAG set everywhere, in one pass; ``off`` and
-    ``win`` are (rows, cols) views of the receiver's offsets and its noise window.
-    """
-    rows, cols = x.shape
-    dr, dc = -_DR[code], -_DC[code]
-    zero = np.float32(0.0)
-    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
-    w = c_hi - c_lo
-    for r in range(r0, r1):
-        out, orow, wrow = dst[r], off[r], win[r]
-        rr = r + dr
-        if rr < 0 or rr >= rows:
-            for c in range(cols):
-                out[c] = _clip((zero + orow[c]) + wrow[c])
-            continue
-        for c in range(0, c_lo):
-            out[c] = _clip((zero + orow[c]) + wrow[c])
-        for c in range(c_hi, cols):
-            out[c] = _clip((zero + orow[c]) + wrow[c])
-        o, oo, ww = out[c_lo:c_hi], orow[c_lo:c_hi], wrow[c_lo:c_hi]
-        xr = x[rr, c_lo + dc : c_hi + dc]
-        for c in range(w):
-            o[c] = _clip((xr[c] * scale + oo[c]) + ww[c])
-
-
-@_jit
-def _neighbour_noisy(dst, news, off, win, code, scale, r0, r1):
-    """dst := clip(((0 + the neighbour's NEWS) * gain + offset) + noise), in one pass.
-
-    A noisy read of one neighbour with FLAG set everywhere; beyond the edge no term.
-    """
-    rows, cols = news.shape
-    dr, dc = _DR[code], _DC[code]
-    zero = np.float32(0.0)
-    edge = zero * scale
-    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
-    w = c_hi - c_lo
-    for r in range(r0, r1):
-        out, orow, wrow = dst[r], off[r], win[r]
-        rr = r + dr
-        if rr < 0 or rr >= rows:
-            for c in range(cols):
-                out[c] = _clip((edge + orow[c]) + wrow[c])
-            continue
-        for c in range(0, c_lo):
-            out[c] = _clip((edge + orow[c]) + wrow[c])
-        for c in range(c_hi, cols):
-            out[c] = _clip((edge + orow[c]) + wrow[c])
-        o, oo, ww = out[c_lo:c_hi], orow[c_lo:c_hi], wrow[c_lo:c_hi]
-        nr = news[rr, c_lo + dc : c_hi + dc]
-        for c in range(w):
-            o[c] = _clip(((zero + nr[c]) * scale + oo[c]) + ww[c])
-
-
-@_jit
 def _noisy_into_two(d0, d1, x0, scale, off0, win0, off1, win1):
     """A noisy bus of one local source into two local planes in one pass, FLAG all set.
 
@@ -575,53 +517,53 @@ def _noisy_into_two(d0, d1, x0, scale, off0, win0, off1, win1):
         d1[p] = _clip((v + off1[p]) + win1[p])
 
 
-@_jit
-def _push_copy(dst, x, code, r0, r1):
-    """dst[r] := clip(-x) of the sender r - offset, 0 beyond the edge (ideal, FLAG all set)."""
-    rows, cols = x.shape
-    dr, dc = -_DR[code], -_DC[code]
-    zero = np.float32(0.0)
-    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
-    w = c_hi - c_lo
-    for r in range(r0, r1):
-        out = dst[r]
-        rr = r + dr
-        if rr < 0 or rr >= rows:
-            for c in range(cols):
-                out[c] = zero
-            continue
-        for c in range(0, c_lo):
-            out[c] = zero
-        for c in range(c_hi, cols):
-            out[c] = zero
-        o, xr = out[c_lo:c_hi], x[rr, c_lo + dc : c_hi + dc]
-        for c in range(w):
-            o[c] = _clip(-xr[c])
+@_inline
+def _edge(out, c0, c1, value, noisy, orow, wrow):
+    """out[c0:c1] := the value an element gets with no neighbour (+ offset and noise)."""
+    for c in range(c0, c1):
+        out[c] = _clip((value + orow[c]) + wrow[c]) if noisy else value
 
 
 @_jit
-def _neighbour_copy(dst, news, code, r0, r1):
-    """dst := clip(-(0 + the neighbour's NEWS)), no term beyond the edge (ideal, FLAG all set)."""
-    rows, cols = news.shape
-    dr, dc = _DR[code], _DC[code]
+def _neighbour_move(dst, src, code, read, ideal, scale, off, win, r0, r1):
+    """A neighbour move in one pass, FLAG set everywhere: a push or a read of NEWS.
+
+    ``read``: dst := the value of (0 + the neighbour's NEWS ``src``), no term beyond the
+    edge; else a push: dst := the value of the sender's ``src``, 0 where no sender is. The
+    value is clip(-sum) when ideal, else clip((sum * gain + offset) + noise) (``off`` and
+    ``win``, (rows, cols) views of the receiver's offsets and its noise window).
+    """
+    rows, cols = src.shape
+    sign = 1 if read else -1  # a read looks at the neighbour, a push comes from the sender
+    dr, dc = sign * _DR[code], sign * _DC[code]
     zero = np.float32(0.0)
-    edge = _clip(-zero)
+    edge = zero  # what a receiver with no sender gets
+    if read:
+        edge = _clip(-zero) if ideal else zero * scale
     c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
     w = c_hi - c_lo
     for r in range(r0, r1):
-        out = dst[r]
+        out, orow, wrow = dst[r], off[r], win[r]
         rr = r + dr
         if rr < 0 or rr >= rows:
-            for c in range(cols):
-                out[c] = edge
+            _edge(out, 0, cols, edge, not ideal, orow, wrow)
             continue
-        for c in range(0, c_lo):
-            out[c] = edge
-        for c in range(c_hi, cols):
-            out[c] = edge
-        o, nr = out[c_lo:c_hi], news[rr, c_lo + dc : c_hi + dc]
-        for c in range(w):
-            o[c] = _clip(-(zero + nr[c]))
+        _edge(out, 0, c_lo, edge, not ideal, orow, wrow)
+        _edge(out, c_hi, cols, edge, not ideal, orow, wrow)
+        o, oo, ww = out[c_lo:c_hi], orow[c_lo:c_hi], wrow[c_lo:c_hi]
+        x = src[rr, c_lo + dc : c_hi + dc]
+        if ideal and read:
+            for c in range(w):
+                o[c] = _clip(-(zero + x[c]))
+        elif ideal:
+            for c in range(w):
+                o[c] = _clip(-x[c])
+        elif read:
+            for c in range(w):
+                o[c] = _clip(((zero + x[c]) * scale + oo[c]) + ww[c])
+        else:
+            for c in range(w):
+                o[c] = _clip((x[c] * scale + oo[c]) + ww[c])
 
 
 @_jit
@@ -691,21 +633,17 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
                 _noisy_into_two(af[e0][lo:hi], af[e1][lo:hi], x0, scale, o0, w0, o1, w1)
             return
     if parts == 1 and nd == 1 and nsrc == 1 and flag_all and r0 == 0 and r1 == rows:
-        d0 = row[_D0]  # a neighbour move: a push of one source, or one neighbour's NEWS
-        if ideal and row[_DD0] != 0 and nl == 1:
-            _push_copy(a[d0], a[locs[0]], row[_DD0], r0, r1)
+        d0, code = row[_D0], row[_DD0]  # a neighbour move: a push of one source, or a read
+        if (code != 0 and nl == 1) or (code == 0 and nl == 0):
+            read = code == 0
+            src = a[_NEWS] if read else a[locs[0]]
+            off, win = a[d0], a[d0]  # unused when ideal
+            if not ideal:
+                off = offsets[d0]
+                win = bank_w[starts[base] : starts[base] + rows * cols].reshape(rows, cols)
+            _neighbour_move(a[d0], src, row[_SD0] if read else code, read, ideal, scale,
+                            off, win, r0, r1)  # fmt: skip
             return
-        if ideal and row[_DD0] == 0 and nl == 0:
-            _neighbour_copy(a[d0], a[_NEWS], row[_SD0], r0, r1)
-            return
-        if not ideal:
-            win = bank_w[starts[base] : starts[base] + rows * cols].reshape(rows, cols)
-            if row[_DD0] != 0 and nl == 1:
-                _push_noisy(a[d0], a[locs[0]], offsets[d0], win, row[_DD0], scale, r0, r1)
-                return
-            if row[_DD0] == 0 and nl == 0:
-                _neighbour_noisy(a[d0], a[_NEWS], offsets[d0], win, row[_SD0], scale, r0, r1)
-                return
     pushed = False
     for k in range(nd):
         pushed = pushed or row[_DD0 + k] != 0
@@ -751,28 +689,21 @@ def _where(row, a, af, df, t, bank, starts, flag_all, r0, r1):
     flagf = df[_FLAG]
     zero = np.float32(0.0)
     if nsrc == 1 and nl == 1:  # FLAG straight from one register, in one pass
-        fb, x = flagf[lo:hi], af[locs[0]][lo:hi]
-        if bank.size:
-            s0 = starts[row[_DRAW]] + lo
-            w = bank[s0 : s0 + (hi - lo)]
-            for p in range(fb.size):
-                fb[p] = (x[p] + w[p]) > zero
-        else:
-            for p in range(fb.size):
-                fb[p] = x[p] > zero
-        return
-    _local_sum(tf, af, locs, nl, lo, hi)
-    if nl < nsrc:
-        _add_neighbours(t, a[_NEWS], flagf.reshape(rows, cols), row, nsrc, flag_all, r0, r1)
-    fb, tb = flagf[lo:hi], tf[lo:hi]
+        x = af[locs[0]][lo:hi]
+    else:
+        _local_sum(tf, af, locs, nl, lo, hi)
+        if nl < nsrc:
+            _add_neighbours(t, a[_NEWS], flagf.reshape(rows, cols), row, nsrc, flag_all, r0, r1)
+        x = tf[lo:hi]
+    fb = flagf[lo:hi]
     if bank.size:
         s0 = starts[row[_DRAW]] + lo
         w = bank[s0 : s0 + (hi - lo)]
-        for p in range(tb.size):
-            fb[p] = (tb[p] + w[p]) > zero
+        for p in range(fb.size):
+            fb[p] = (x[p] + w[p]) > zero
     else:
-        for p in range(tb.size):
-            fb[p] = tb[p] > zero
+        for p in range(fb.size):
+            fb[p] = x[p] > zero
 
 
 @_jit
