@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
+from numba.core.cpu import CPUTargetOptions
 
 from ppaloc.sim.engines import in_order
 from ppaloc.sim.isa import Instruction
@@ -208,9 +209,12 @@ class CompiledEngine:
         return run
 
 
-_jit = numba.njit(cache=True, nogil=True, boundscheck=False, _nrt=False)
+# numba's option to compile without its reference-counting runtime (``_nrt``, long
+# present though underscored); a numba without it compiles the same code with the runtime
+_NO_RUNTIME = {"_nrt": False} if hasattr(CPUTargetOptions, "_nrt") else {}
+_jit = numba.njit(cache=True, nogil=True, boundscheck=False, **_NO_RUNTIME)
 # the per-ICW dispatch takes many arrays: inlined, so that no call passes them all
-_inline = numba.njit(cache=True, nogil=True, boundscheck=False, _nrt=False, inline="always")
+_inline = numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **_NO_RUNTIME)
 # Every loop below keeps its branches outside the innermost loop (or as selects inside),
 # so that LLVM vectorises it; values are float32 throughout, in the reference's order.
 # Every op works on the rows [r0, r1) of its planes (flat views [r0 * cols, r1 * cols)).
