@@ -382,7 +382,9 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
         return run_aged
 
-    def _run_ops(self, run: Op, counts: dict[str, int], dwritten: np.ndarray) -> None:
+    def _run_ops(
+        self, run: Op, counts: dict[str, int] | tuple[tuple[str, int], ...], dwritten: np.ndarray
+    ) -> None:
         if not self.noise.ideal:
             self._elapse()
         run()

@@ -98,7 +98,7 @@ class Kernel(ProgramAPI):
         self._open = False
         self._sealed = False
         self._ops: list | None = None
-        self._counts: dict[str, int] | None = None
+        self._counts: tuple[tuple[str, int], ...] | None = None
         self._dwritten = None
         self._failed = False
         self._heap = False
@@ -193,6 +193,6 @@ class Kernel(ProgramAPI):
             from ppaloc.sim.engine import count_clocks, written_digital
 
             self._ops = self.sim._compile_kernel(self._recorded)
-            self._counts = count_clocks(self._recorded)
+            self._counts = tuple(count_clocks(self._recorded).items())  # the timing's key
             self._dwritten = written_digital(self._recorded)
         self.sim._run_ops(self._ops, self._counts, self._dwritten)

@@ -804,15 +804,17 @@ class TimingModel:
         cost = self._kernel_costs[key] = (self._constants.kernel_launch_us + us, chip, nonzero)
         return cost
 
-    def charge_kernel(self, counts: Mapping[str, int]) -> None:
+    def charge_kernel(self, counts: Mapping[str, int] | tuple[tuple[str, int], ...]) -> None:
         """Charge one kernel run: launch overhead + its ICWs' cycles.
 
         Parameters
         ----------
-        counts : Mapping[str, int]
+        counts : Mapping[str, int] or tuple of (str, int)
             ICWs per clock class; keys from :data:`CLOCK_CLASSES`, missing ones count 0.
+            A recorded kernel passes its counts' items as a tuple, made once, so that a
+            run looks its cost up without building the key.
         """
-        key = tuple(counts.items())
+        key = counts if isinstance(counts, tuple) else tuple(counts.items())
         cost = self._kernel_costs.get(key)
         if cost is None:
             cost = self._kernel_cost(key)
