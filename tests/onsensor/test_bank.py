@@ -15,23 +15,13 @@ from ppaloc.sim import NoiseParams
 from ppaloc.sim.registers import C
 from ppaloc.topomap import TopoMap
 
-
-def _route(n: int, seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """Blocky random places; the query revisits them with noise, stops and skips."""
-    rng = np.random.default_rng(seed)
-    base = rng.integers(0, 256, (n, 16, 16)).astype(np.uint8)
-    ref = [np.kron(b, np.ones((16, 16), np.uint8)) for b in base]
-    order = [0, 1, 2, 2, 3, 5, 6, 7, 7, 8, 9, 11, 12, 13, 14, 16, 17, 18, 19, 20, 22, 23]
-    query = []
-    for i in order:
-        noise = rng.integers(-12, 13, ref[i].shape)
-        query.append(np.clip(ref[i].astype(int) + noise, 0, 255).astype(np.uint8))
-    return ref, query
+#: The bank tests' query: stops (2, 7) and skips (4, 10, 15, 21) across the sensors.
+_ORDER = [0, 1, 2, 2, 3, 5, 6, 7, 7, 8, 9, 11, 12, 13, 14, 16, 17, 18, 19, 20, 22, 23]
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])
-def test_a_bank_of_three_sensors_equals_the_host(rep):
-    ref, query = _route(24, seed=3)
+def test_a_bank_of_three_sensors_equals_the_host(blocky_route, rep):
+    ref, query = blocky_route(24, 3, _ORDER)
     kw = {"motion": "always_forward", "record_weights": True}
     host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
     topomap = host.build_map(ref)
@@ -71,9 +61,9 @@ def test_the_carry_reads_and_writes_a_weight_exactly():
     np.testing.assert_array_equal(parked, np.float32(got))
 
 
-def test_the_levels_store_survives_droop_the_analogue_store_does_not():
+def test_the_levels_store_survives_droop_the_analogue_store_does_not(blocky_route):
     """Droop only (1 unit/ms): after a dozen frames the refreshed levels still give n."""
-    ref, query = _route(24, seed=4)
+    ref, query = blocky_route(24, 4, _ORDER)
     droop = NoiseParams(decay_per_ms=1.0)
     errors = {}
     for store in ("levels", "analogue"):

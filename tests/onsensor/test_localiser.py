@@ -12,25 +12,18 @@ from ppaloc.methods import make_localiser
 from ppaloc.onsensor import OnSensorLocaliser
 
 
-def _route(n: int, seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """A generated route: blocky random places; the query is noisy, with two stops."""
-    rng = np.random.default_rng(seed)
-    base = rng.integers(0, 256, (n, 16, 16)).astype(np.uint8)
-    ref = [np.kron(b, np.ones((16, 16), np.uint8)) for b in base]
+def _order(n: int) -> list[int]:
+    """The query's order: each place once, with two stops when the route is long enough."""
     order = list(range(n))
     if n > 12:
         order[4:4] = [3, 3]  # the vehicle stops at place 3
         order[12:12] = [10]
-    query = []
-    for i in order:
-        noise = rng.integers(-12, 13, ref[i].shape)
-        query.append(np.clip(ref[i].astype(int) + noise, 0, 255).astype(np.uint8))
-    return ref, query
+    return order
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])
-def test_estimates_and_weights_equal_the_host_ppa8_filter(rep):
-    ref, query = _route(16, seed=1)
+def test_estimates_and_weights_equal_the_host_ppa8_filter(blocky_route, rep):
+    ref, query = blocky_route(16, 1, _order(16))
     kw = {"preset": "paper", "motion": "image", "alpha": 10, "shift": 2, "k": 3}
     kw["record_weights"] = True
     host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
@@ -52,11 +45,11 @@ def test_estimates_and_weights_equal_the_host_ppa8_filter(rep):
 @pytest.mark.parametrize(
     ("method", "preset"), [("onsensor-lbp", "robust"), ("onsensor-paper-lbp", "paper")]
 )
-def test_protocol_registry_and_rebuild(method, preset):
+def test_protocol_registry_and_rebuild(blocky_route, method, preset):
     loc = make_localiser(method, motion="always_forward")
     assert isinstance(loc, Localiser) and loc.name == "onsensor-lbp"
     assert loc.preset == preset == loc.params.preset
-    ref, query = _route(6, seed=2)
+    ref, query = blocky_route(6, 2)
     topomap = loc.build_map(ref)
     assert topomap.kind == "lbp" and len(topomap) == 6
     first = [loc.step(f).node for f in query[:4]]
@@ -64,8 +57,8 @@ def test_protocol_registry_and_rebuild(method, preset):
     assert [loc.step(f).node for f in query[:4]] == first
 
 
-def test_noise_is_seeded():
-    ref, query = _route(6, seed=3)
+def test_noise_is_seeded(blocky_route):
+    ref, query = blocky_route(6, 3)
     runs = []
     for _ in range(2):
         loc = OnSensorLocaliser("lowres", noise="typical", seed=7, motion="always_forward")
@@ -94,11 +87,11 @@ def test_bad_parameters_name_the_value(kwargs, message):
         OnSensorLocaliser("lowres", **kwargs)
 
 
-def test_step_needs_a_map_and_a_sensor_frame():
+def test_step_needs_a_map_and_a_sensor_frame(blocky_route):
     loc = OnSensorLocaliser("lbp")
     with pytest.raises(PpalocError, match="no map"):
         loc.step(np.zeros((256, 256), np.uint8))
-    loc.build_map(_route(3, seed=4)[0])
+    loc.build_map(blocky_route(3, 4)[0])
     with pytest.raises(PpalocError, match="to_sensor"):
         loc.step(np.zeros((100, 100), np.uint8))
     with pytest.raises(PpalocError, match="empty"):
@@ -106,7 +99,7 @@ def test_step_needs_a_map_and_a_sensor_frame():
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])
-def test_figures_are_written(tmp_path, rep):
+def test_figures_are_written(blocky_route, tmp_path, rep):
     from PIL import Image
 
     from ppaloc.onsensor.figures import (
@@ -116,7 +109,7 @@ def test_figures_are_written(tmp_path, rep):
         weights_history_image,
     )
 
-    ref, query = _route(5, seed=5)
+    ref, query = blocky_route(5, 5)
     loc = OnSensorLocaliser(rep, motion="always_forward", record_weights=True)
     loc.build_map(ref)
     paths = [
@@ -136,10 +129,10 @@ def test_figures_are_written(tmp_path, rep):
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])
-def test_mapping_on_the_sensor_gives_the_host_nodes(rep):
+def test_mapping_on_the_sensor_gives_the_host_nodes(blocky_route, rep):
     from ppaloc.topomap import build_topomap
 
-    ref, _ = _route(4, seed=6)
+    ref, _ = blocky_route(4, 6)
     ref.append(np.zeros((256, 256), np.uint8))  # block sums of 0: the saturating case
     ref.append(np.full((256, 256), 255, np.uint8))
     ramp = np.tile(np.arange(256, dtype=np.uint8), (256, 1))
@@ -153,8 +146,8 @@ def test_mapping_on_the_sensor_gives_the_host_nodes(rep):
 
 
 @pytest.mark.parametrize(("shift", "gamma"), [(0, 1.0), (3, 0.0)])
-def test_oracle_motion_and_other_scales_agree_with_the_host(shift, gamma):
-    ref, query = _route(14, seed=8)
+def test_oracle_motion_and_other_scales_agree_with_the_host(blocky_route, shift, gamma):
+    ref, query = blocky_route(14, 8, _order(14))
     moves = [False, True, True, True, False, False] + [True] * (len(query) - 6)
     kw = {"motion": "oracle", "oracle_moves": moves, "alpha": 6, "shift": shift, "gamma": gamma}
     kw["preset"] = "paper"
@@ -179,10 +172,10 @@ def test_oracle_motion_and_other_scales_agree_with_the_host(shift, gamma):
         ("lbp", ["R10: map tile 0"]),
     ],
 )
-def test_register_planes_name_their_roles_and_hold_the_map(rep, tiles):
+def test_register_planes_name_their_roles_and_hold_the_map(blocky_route, rep, tiles):
     loc = OnSensorLocaliser(rep, motion="always_forward")
     assert loc.register_planes() == {}
-    ref, query = _route(6, seed=3)
+    ref, query = blocky_route(6, 3)
     loc.build_map(ref)
     for f in query[:3]:
         loc.step(f)

@@ -92,14 +92,8 @@ def test_precursor_replication_is_64_dac_loads():
     assert rep["shift"]["units:shift_dreg"] >= 248
 
 
-def _route(n: int, seed: int) -> list[np.ndarray]:
-    rng = np.random.default_rng(seed)
-    base = rng.integers(0, 256, (n, 16, 16)).astype(np.uint8)
-    return [np.kron(b, np.ones((16, 16), np.uint8)) for b in base]
-
-
-def test_the_localiser_reports_both_boundaries_with_chip_mid_the_latency():
-    frames = _route(6, seed=3)
+def test_the_localiser_reports_both_boundaries_with_chip_mid_the_latency(blocky_route):
+    frames = blocky_route(6, 3, [])[0]
     loc = OnSensorLocaliser("lbp", preset="paper", motion="always_forward", alpha=8)
     loc.build_map(frames)
     assert loc.modelled_time_ms() is None
@@ -122,8 +116,8 @@ def test_the_localiser_reports_both_boundaries_with_chip_mid_the_latency():
         OnSensorLocaliser("lbp", timing_structure="x")
 
 
-def test_mid_counts_evaluate_to_the_charged_time():
-    frames = _route(4, seed=5)
+def test_mid_counts_evaluate_to_the_charged_time(blocky_route):
+    frames = blocky_route(4, 5, [])[0]
     loc = OnSensorLocaliser("lowres", preset="paper", motion="always_forward", alpha=8)
     loc.build_map(frames)
     est = loc.localise(frames)
@@ -133,10 +127,10 @@ def test_mid_counts_evaluate_to_the_charged_time():
     assert evaluate_us({"kernels": 2.0}, K) == pytest.approx(2 * K.kernel_launch_us)
 
 
-def test_a_run_summary_carries_both_boundaries():
+def test_a_run_summary_carries_both_boundaries(blocky_route):
     from ppaloc.evaluate.run import run_method
 
-    frames = _route(5, seed=7)
+    frames = blocky_route(5, 7, [])[0]
     loc = OnSensorLocaliser("lbp", preset="paper", motion="always_forward", alpha=8)
     truth = [np.array([i]) for i in range(5)]
     summary = run_method("onsensor-paper-lbp", frames, frames, truth, localiser=loc).summary()
@@ -171,10 +165,10 @@ def test_injection_counts_every_byte_as_the_plain_walk(seed, rows, cell):
     assert (c["calls:scamp5_draw_rect"], c["calls:scamp5_draw_pixel"]) == _plain_draws(img)
 
 
-def test_a_frames_counts_leave_out_what_is_charged_between_frames():
+def test_a_frames_counts_leave_out_what_is_charged_between_frames(blocky_route):
     """The next frame starts from the last frame's end counts only while nothing else
     was charged: a call between frames is in neither frame."""
-    frames = _route(4, seed=5)
+    frames = blocky_route(4, 5, [])[0]
 
     def run(between: bool) -> list:
         loc = OnSensorLocaliser("lbp", preset="paper", motion="always_forward", alpha=8)
