@@ -200,11 +200,13 @@ class CompiledEngine:
                 starts, gains = none_s, none_g
             else:
                 starts, gains = noise.take(m)
-            _run(
+            all_set = _run(
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains,
             )  # fmt: skip
-            sim._flag_masked = None  # the numpy engine's cached FLAG mask may be stale
+            # what the kernel knows of FLAG at its end: set everywhere (no mask), or unknown
+            # (the numpy engine's cached mask and the host calls look again)
+            sim._flag_masked = False if all_set else None
 
         return run
 
@@ -841,7 +843,8 @@ def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
 
 @_jit
 def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains):
-    """Run the ICWs of ``prog`` in order, each over the whole array."""
+    """Run the ICWs of ``prog`` in order, each over the whole array; returns whether FLAG
+    is then set everywhere (tracked through the kernel, as each ICW needs it)."""
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     af = a.reshape(a.shape[0], n)
@@ -855,3 +858,4 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     for i in range(prog.shape[0]):
         flag_all = _op(prog[i], 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
             offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
+    return flag_all
