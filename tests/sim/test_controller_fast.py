@@ -52,6 +52,34 @@ def test_select_equals_the_masked_copy(case, wide):
 
 
 @needs_numba
+@settings(max_examples=80, deadline=None)
+@given(planes(), st.integers(-13, 13), st.integers(-13, 13), st.booleans())
+def test_shift_loop_equals_the_numpy_shift(case, v, h, everywhere):
+    """The in-place numba shift (chunks read before they are written, edges after)
+    against the numpy one, every offset sign and FLAG everywhere or not."""
+    out, flag, _ = case
+    rows, cols = out.shape
+    v, h = max(-(rows - 1), min(rows - 1, v)), max(-(cols - 1), min(cols - 1, h))
+    want, got = out.copy(), out.copy()
+    hostloops.numpy_loops().shift(want, v, h, flag, everywhere)
+    hostloops.shift(got, v, h, flag, everywhere)
+    assert np.array_equal(_bits(got), _bits(want))
+
+
+@needs_numba
+def test_shift_loop_on_a_full_plane_crosses_its_chunks():
+    rng = np.random.default_rng(3)
+    for v, h in ((9, -3), (-9, 3), (0, 1), (0, -1), (-255, 0), (17, 250)):
+        plane = rng.normal(0, 60, (256, 256)).astype(np.float32)
+        flag = rng.random((256, 256)) < 0.5
+        for everywhere in (True, False):
+            want, got = plane.copy(), plane.copy()
+            hostloops.numpy_loops().shift(want, v, h, flag, everywhere)
+            hostloops.shift(got, v, h, flag, everywhere)
+            assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere)
+
+
+@needs_numba
 @settings(max_examples=60, deadline=None)
 @given(planes(), VALUES)
 def test_fill_where_equals_the_masked_fill(case, value):

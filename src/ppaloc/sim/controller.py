@@ -634,9 +634,17 @@ class ControllerMixin(DrawMixin):
     def _shift_analog(self, reg: Register, h: int, v: int) -> None:
         """The analogue ``shift``: 0 shifted in, written where FLAG, one write (noisy).
 
-        The shifted plane is formed in the engine's scratch plane and selected where FLAG
-        (ideal; moved in place when FLAG is set everywhere), or written by one noisy write.
+        Ideal: moved in place where FLAG, one pass (:func:`hostloops.shift`). Noisy: the
+        shifted plane is formed in the engine's scratch plane and written by one noisy
+        write (which applies the droop pending since the shift's charge to the elements
+        it keeps, after the shifted values were read).
         """
+        if self.noise.ideal:
+            plane = self._aplane(reg)
+            self.timing.charge_call("shift_areg", abs(h) + abs(v))
+            flag, everywhere = self._flag_state()
+            hostloops.shift(plane, v, h, flag, everywhere)
+            return
         key = (h, v)
         parts = self._shift_parts
         if parts is None:
@@ -649,20 +657,6 @@ class ControllerMixin(DrawMixin):
             sl = parts[key] = (dst, src, tuple(_edge_slices(v, -h, self.rows, self.cols)))
         dst, src, edges = sl
         plane = self._aplane(reg)
-        if self.noise.ideal:
-            self.timing.charge_call("shift_areg", abs(h) + abs(v))
-            flag, everywhere = self._flag_state()
-            if everywhere:
-                plane[dst] = plane[src]  # numpy copies overlapping operands first
-                for e in edges:
-                    plane[e] = 0.0
-            else:
-                new = self._scratch()
-                new[dst] = plane[src]
-                for e in edges:
-                    new[e] = 0.0
-                hostloops.select(plane, new, flag)
-            return
         new = self._scratch()
         new[dst] = plane[src]
         for e in edges:

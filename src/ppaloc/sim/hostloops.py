@@ -26,6 +26,7 @@ __all__ = [
     "noisy_write",
     "numpy_loops",
     "select",
+    "shift",
 ]
 
 _LOOPS: SimpleNamespace | None = None
@@ -51,6 +52,12 @@ def select(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
 def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
     """``out := float32(value)`` where ``flag``."""
     _loops().fill_where(out, np.float32(value), flag)
+
+
+def shift(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
+    """``plane[r, c] := plane[r + v, c - h]`` (0 from beyond the edge) where ``flag``
+    (everywhere if ``everywhere``), in place: the ideal analogue ``shift`` in one pass."""
+    _loops().shift(plane, v, h, flag, everywhere)
 
 
 def droop(planes: np.ndarray, step: float) -> None:
@@ -99,6 +106,15 @@ def numpy_loops() -> SimpleNamespace:
 
     scratch: dict[tuple[int, ...], np.ndarray] = {}
 
+    def shift_np(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
+        rows, cols = plane.shape
+        new = np.zeros_like(plane)
+        r0, r1 = max(0, -v), min(rows, rows - v)
+        c0, c1 = max(0, h), min(cols, cols + h)
+        if r0 < r1 and c0 < c1:
+            new[r0:r1, c0:c1] = plane[r0 + v : r1 + v, c0 - h : c1 - h]
+        np.copyto(plane, new, where=True if everywhere else flag)
+
     def droop_np(planes: np.ndarray, step: np.float32) -> None:
         tmp = scratch.get(planes.shape)
         if tmp is None:
@@ -130,6 +146,7 @@ def numpy_loops() -> SimpleNamespace:
     return SimpleNamespace(
         select=select_np,
         fill_where=fill_np,
+        shift=shift_np,
         droop=droop_np,
         dac_noise=dac_noise_np,
         noisy_write=noisy_np,
@@ -164,6 +181,52 @@ def _numba_loops() -> SimpleNamespace:
         for i in range(n):
             y = o[i]
             o[i] = value if f[i] else y
+
+    @jit
+    def shift_nb(plane, v, h, flag, everywhere):  # pragma: no cover - compiled
+        # flat: new[i] = old[i + off]; chunks of the source are buffered before their
+        # destination is written, in the order that reads every source before it is
+        # written (ascending when reading ahead); then the elements whose source lies
+        # beyond the edge (rows, then wrapped columns) get 0
+        rows, cols = plane.shape
+        n = rows * cols
+        p = plane.reshape(n)
+        f = flag.reshape(n)
+        buf = np.empty(2048, dtype=np.float32)
+        zero = np.float32(0.0)
+        off = v * cols - h
+        lo, hi = (0, n - off) if off >= 0 else (-off, n)
+        size = buf.size
+        chunks = (hi - lo + size - 1) // size if hi > lo else 0
+        for j in range(chunks):
+            k = j if off >= 0 else chunks - 1 - j
+            d0 = lo + k * size
+            d1 = min(d0 + size, hi)
+            b = buf[: d1 - d0]
+            src = p[d0 + off : d1 + off]
+            for i in range(b.size):
+                b[i] = src[i]
+            dst = p[d0:d1]
+            if everywhere:
+                for i in range(b.size):
+                    dst[i] = b[i]
+            else:
+                fd = f[d0:d1]
+                for i in range(b.size):
+                    x = b[i]
+                    y = dst[i]
+                    dst[i] = x if fd[i] else y
+        r_lo, r_hi = max(0, -v), min(rows, rows - v)  # the rows with a source row
+        c_lo, c_hi = max(0, h), min(cols, cols + h)  # the columns with a source column
+        for r in range(rows):
+            out, fr = plane[r], flag[r]
+            a0, a1 = (c_lo, c_hi) if r_lo <= r < r_hi else (cols, cols)
+            for c in range(0, a0):
+                y = out[c]
+                out[c] = zero if everywhere or fr[c] else y
+            for c in range(a1, cols):
+                y = out[c]
+                out[c] = zero if everywhere or fr[c] else y
 
     @jit
     def droop_nb(planes, step):  # pragma: no cover - compiled
@@ -212,6 +275,7 @@ def _numba_loops() -> SimpleNamespace:
     return SimpleNamespace(
         select=select_nb,
         fill_where=fill_nb,
+        shift=shift_nb,
         droop=droop_nb,
         dac_noise=dac_nb,
         noisy_write=noisy_nb,

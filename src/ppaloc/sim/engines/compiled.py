@@ -202,7 +202,7 @@ class CompiledEngine:
                 starts, gains = noise.take(m)
             all_set = _run(
                 prog, a, d, latch, t, t2, tb,
-                offsets, pixel, bank, bank_div, starts, gains,
+                offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
             )  # fmt: skip
             # what the kernel knows of FLAG at its end: set everywhere (no mask), or unknown
             # (the numpy engine's cached mask and the host calls look again)
@@ -842,9 +842,11 @@ def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
 
 
 @_jit
-def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains):
+def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains, known):
     """Run the ICWs of ``prog`` in order, each over the whole array; returns whether FLAG
-    is then set everywhere (tracked through the kernel, as each ICW needs it)."""
+    is then set everywhere (tracked through the kernel, as each ICW needs it). ``known``:
+    FLAG is set everywhere to begin with (the simulator's tracked state), else it is
+    tested."""
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     af = a.reshape(a.shape[0], n)
@@ -854,7 +856,7 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     lu = latch.view(np.uint8).reshape(-1)
     tbu2 = tb.view(np.uint8)
     tbu = tbu2.reshape(-1)
-    flag_all = _all_set(du[_FLAG])
+    flag_all = True if known else _all_set(du[_FLAG])
     for i in range(prog.shape[0]):
         flag_all = _op(prog[i], 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
             offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
