@@ -67,6 +67,29 @@ def test_shift_loop_equals_the_numpy_shift(case, v, h, everywhere):
 
 
 @needs_numba
+@settings(max_examples=40, deadline=None)
+@given(planes(), VALUES)
+def test_fill_and_any_equal_numpys(case, value):
+    out, flag, _ = case
+    want, got = out.copy(), out.copy()
+    want.fill(np.float32(value))
+    hostloops.fill(got, value)
+    assert np.array_equal(_bits(got), _bits(want))
+    assert hostloops.any_set(flag) == bool(flag.any())
+    assert not hostloops.any_set(np.zeros_like(flag))
+
+
+@needs_numba
+def test_any_finds_a_lone_one_anywhere_in_a_full_plane():
+    plane = np.zeros((256, 256), dtype=bool)
+    assert not hostloops.any_set(plane)
+    for r, c in ((0, 0), (255, 255), (100, 7), (3, 250)):
+        plane[r, c] = True
+        assert hostloops.any_set(plane)
+        plane[r, c] = False
+
+
+@needs_numba
 def test_shift_loop_on_a_full_plane_crosses_its_chunks():
     rng = np.random.default_rng(3)
     for v, h in ((9, -3), (-9, 3), (0, 1), (0, -1), (-255, 0), (17, 250)):

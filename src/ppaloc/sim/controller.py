@@ -332,7 +332,7 @@ class ControllerMixin(DrawMixin):
             return
         value = min(max(float(values), -128.0), 127.0)
         if everywhere:
-            current.fill(value)
+            hostloops.fill(current, value)
         else:
             hostloops.fill_where(current, value, flag)
 
@@ -741,6 +741,8 @@ class ControllerMixin(DrawMixin):
         pattern = self._pattern(*_pattern_args(call, r, c, rx, cx), scamp_addr)
         self.timing.charge_call(call)
         selected = self._dplane(dreg)  # the pattern is a grid: its rows, then its columns
+        if pattern.rows is None and pattern.cols is None:
+            return int(hostloops.any_set(selected))
         if pattern.rows is not None:
             selected = selected[pattern.rows]
         if pattern.cols is not None:

@@ -187,7 +187,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
     def _set_in(self, value: float) -> None:
         """Drive ``IN`` with ``value`` everywhere (no pass when it already holds it)."""
         if self._in_level != value:
-            self._a[_IN_I].fill(value)
+            hostloops.fill(self._a[_IN_I], value)
             self._in_level = value
 
     def _flag_state(self) -> tuple[np.ndarray, bool]:

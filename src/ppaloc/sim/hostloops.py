@@ -19,8 +19,10 @@ from types import SimpleNamespace
 import numpy as np
 
 __all__ = [
+    "any_set",
     "dac_noise",
     "droop",
+    "fill",
     "fill_where",
     "have_numba",
     "noisy_write",
@@ -47,6 +49,16 @@ def _loops() -> SimpleNamespace:
 def select(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
     """``out := src`` (cast to ``out``'s float32) where ``flag``; planes of one shape."""
     _loops().select(out, src, flag)
+
+
+def fill(out: np.ndarray, value: float) -> None:
+    """``out := float32(value)`` everywhere (``ndarray.fill`` takes twice as long)."""
+    _loops().fill(out, np.float32(value))
+
+
+def any_set(plane: np.ndarray) -> bool:
+    """Whether any element of a bool plane is set (``plane.any()``)."""
+    return bool(_loops().any_set(plane))
 
 
 def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
@@ -104,6 +116,12 @@ def numpy_loops() -> SimpleNamespace:
     def fill_np(out: np.ndarray, value: np.float32, flag: np.ndarray) -> None:
         np.copyto(out, value, where=flag)
 
+    def fill_all_np(out: np.ndarray, value: np.float32) -> None:
+        out.fill(value)
+
+    def any_np(plane: np.ndarray) -> bool:
+        return bool(plane.any())
+
     scratch: dict[tuple[int, ...], np.ndarray] = {}
 
     def shift_np(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
@@ -145,6 +163,8 @@ def numpy_loops() -> SimpleNamespace:
 
     return SimpleNamespace(
         select=select_np,
+        fill=fill_all_np,
+        any_set=any_np,
         fill_where=fill_np,
         shift=shift_np,
         droop=droop_np,
@@ -229,6 +249,25 @@ def _numba_loops() -> SimpleNamespace:
                 out[c] = zero if everywhere or fr[c] else y
 
     @jit
+    def fill_all_nb(out, value):  # pragma: no cover - compiled
+        o = out.reshape(out.size)
+        for i in range(o.size):
+            o[i] = value
+
+    @jit
+    def any_nb(plane):  # pragma: no cover - compiled
+        b = plane.reshape(plane.size).view(np.uint8)
+        whole = b.size - b.size % 8
+        words = b[:whole].view(np.uint64)
+        acc = np.uint64(0)
+        for w in range(words.size):  # no early exit: a reduction LLVM vectorises
+            acc |= words[w]
+        found = acc != 0
+        for i in range(whole, b.size):
+            found = found or b[i] != 0
+        return found
+
+    @jit
     def droop_nb(planes, step):  # pragma: no cover - compiled
         n = planes.size
         p = planes.reshape(n)
@@ -274,6 +313,8 @@ def _numba_loops() -> SimpleNamespace:
 
     return SimpleNamespace(
         select=select_nb,
+        fill=fill_all_nb,
+        any_set=any_nb,
         fill_where=fill_nb,
         shift=shift_nb,
         droop=droop_nb,
