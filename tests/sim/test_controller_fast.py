@@ -61,7 +61,7 @@ def test_shift_loop_equals_the_numpy_shift(case, v, h, everywhere):
     rows, cols = out.shape
     v, h = max(-(rows - 1), min(rows - 1, v)), max(-(cols - 1), min(cols - 1, h))
     want, got = out.copy(), out.copy()
-    hostloops.numpy_loops().shift(want, v, h, flag, everywhere)
+    hostloops.numpy_loops().shift(want, v, h, flag, everywhere, False, want, want, False, 0)
     hostloops.shift(got, v, h, flag, everywhere)
     assert np.array_equal(_bits(got), _bits(want))
 
@@ -90,6 +90,36 @@ def test_any_finds_a_lone_one_anywhere_in_a_full_plane():
 
 
 @needs_numba
+@settings(max_examples=80, deadline=None)
+@given(
+    planes(n_extra=2),
+    st.integers(-13, 13),
+    st.integers(-13, 13),
+    st.booleans(),
+    st.none() | st.floats(0, 3, width=32),
+)
+def test_noisy_shift_loop_equals_droop_shift_and_noisy_write(case, v, h, everywhere, step):
+    """The one-pass noisy shift against its definition: the shifted plane, the droop
+    of the kept elements, then a noisy write where FLAG."""
+    out, flag, (offset, window) = case
+    rows, cols = out.shape
+    v, h = max(-(rows - 1), min(rows - 1, v)), max(-(cols - 1), min(cols - 1, h))
+    want, got = out.copy(), out.copy()
+    shifted = want.copy()
+    loops = hostloops.numpy_loops()
+    loops.shift(shifted, v, h, flag, True, False, shifted, shifted, False, np.float32(0))
+    if step is not None:
+        loops.droop(want, np.float32(step))
+    loops.noisy_write(want, shifted, offset, window, flag, everywhere)
+    hostloops.noisy_shift(got, v, h, flag, everywhere, offset, window, step)
+    assert np.array_equal(_bits(got), _bits(want))
+    numpy_got = out.copy()  # and the numpy version of the same call
+    s = np.float32(0) if step is None else np.float32(step)
+    loops.shift(numpy_got, v, h, flag, everywhere, True, offset, window, step is not None, s)
+    assert np.array_equal(_bits(numpy_got), _bits(want))
+
+
+@needs_numba
 def test_shift_loop_on_a_full_plane_crosses_its_chunks():
     rng = np.random.default_rng(3)
     for v, h in ((9, -3), (-9, 3), (0, 1), (0, -1), (-255, 0), (17, 250)):
@@ -97,7 +127,7 @@ def test_shift_loop_on_a_full_plane_crosses_its_chunks():
         flag = rng.random((256, 256)) < 0.5
         for everywhere in (True, False):
             want, got = plane.copy(), plane.copy()
-            hostloops.numpy_loops().shift(want, v, h, flag, everywhere)
+            hostloops.numpy_loops().shift(want, v, h, flag, everywhere, False, want, want, False, 0)
             hostloops.shift(got, v, h, flag, everywhere)
             assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere)
 

@@ -162,8 +162,8 @@ class ControllerMixin(DrawMixin):
     """Controller (host) calls of SCAMP-5, mixed into :class:`ppaloc.sim.engine.Scamp5`.
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
-    ``_dplane``, ``_write_analog``, ``_write_digital``, ``_flag_state``, ``_scratch``,
-    ``_set_in``, ``rng``, ``noise`` and ``timing``.
+    ``_dplane``, ``_write_analog``, ``_write_digital``, ``_flag_state``, ``_set_in``,
+    ``_take_droop``, ``rng``, ``noise`` and ``timing``.
     """
 
     rows: int
@@ -173,8 +173,6 @@ class ControllerMixin(DrawMixin):
     rng: np.random.Generator
     #: Address patterns by (r, c, rx, cx, scamp_addr) (made on first use).
     _address_masks: dict[tuple, _Pattern] | None = None
-    #: Slices of ``shift`` by (h, v) (made on first use).
-    _shift_parts: dict[tuple[int, int], tuple] | None = None
     #: float64 scratch plane of the error-corrected DAC load's noise (numpy's loops).
     _dac_noise: np.ndarray | None = None
 
@@ -187,8 +185,8 @@ class ControllerMixin(DrawMixin):
         ) -> None: ...
         def _write_digital(self, reg: Register, bools: np.ndarray) -> None: ...
         def _flag_state(self) -> tuple[np.ndarray, bool]: ...
-        def _scratch(self) -> np.ndarray: ...
         def _set_in(self, value: float) -> None: ...
+        def _take_droop(self, reg: Register) -> np.float32 | None: ...
 
     # ----------------------------------------------------------------------------------
     # Stages
@@ -634,35 +632,21 @@ class ControllerMixin(DrawMixin):
     def _shift_analog(self, reg: Register, h: int, v: int) -> None:
         """The analogue ``shift``: 0 shifted in, written where FLAG, one write (noisy).
 
-        Ideal: moved in place where FLAG, one pass (:func:`hostloops.shift`). Noisy: the
-        shifted plane is formed in the engine's scratch plane and written by one noisy
-        write (which applies the droop pending since the shift's charge to the elements
-        it keeps, after the shifted values were read).
+        Moved in place where FLAG, one pass (:func:`hostloops.shift`); noisy, with the
+        cell offset and noise window added as by a noisy write, and the droop of the time
+        the shift takes applied to the elements FLAG keeps, after the shifted values were
+        read (:func:`hostloops.noisy_shift`).
         """
+        plane = self._aplane(reg)
+        self.timing.charge_call("shift_areg", abs(h) + abs(v))
+        flag, everywhere = self._flag_state()
         if self.noise.ideal:
-            plane = self._aplane(reg)
-            self.timing.charge_call("shift_areg", abs(h) + abs(v))
-            flag, everywhere = self._flag_state()
             hostloops.shift(plane, v, h, flag, everywhere)
             return
-        key = (h, v)
-        parts = self._shift_parts
-        if parts is None:
-            parts = self._shift_parts = {}
-        sl = parts.get(key)
-        if sl is None:  # new[r, c] = old[r + v, c - h]: the engine's slices of that read
-            from ppaloc.sim.engine import _edge_slices, _slices
-
-            dst, src = _slices(v, -h)
-            sl = parts[key] = (dst, src, tuple(_edge_slices(v, -h, self.rows, self.cols)))
-        dst, src, edges = sl
-        plane = self._aplane(reg)
-        new = self._scratch()
-        new[dst] = plane[src]
-        for e in edges:
-            new[e] = 0.0
-        self.timing.charge_call("shift_areg", abs(h) + abs(v))
-        self._write_masked(reg, new, noisy=True)
+        self._catch_up()
+        step = self._take_droop(reg)  # the droop since the charge, for the kept elements
+        offset, window = self.noise.terms(reg.index, divided=False)
+        hostloops.noisy_shift(plane, v, h, flag, everywhere, offset, window, step)
 
     @staticmethod
     def _shifted(plane: np.ndarray, h: int, v: int, fill: float | bool) -> np.ndarray:

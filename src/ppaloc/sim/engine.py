@@ -190,6 +190,16 @@ class Scamp5(ControllerMixin, ProgramAPI):
             hostloops.fill(self._a[_IN_I], value)
             self._in_level = value
 
+    def _take_droop(self, reg: Register) -> np.float32 | None:
+        """The droop step pending on analogue ``reg``, cleared without a pass: the caller
+        applies it to the elements it does not overwrite (None: nothing droops)."""
+        i = reg.index
+        if i >= len(_DECAYING) or not self._droop_us[i]:
+            return None
+        us = self._droop_us[i]
+        self._droop_us[i] = 0.0
+        return self.noise.droop_step(us)
+
     def _flag_state(self) -> tuple[np.ndarray, bool]:
         """FLAG's plane (to read) and whether it is 1 everywhere: the tracked state when it
         is known, else one pass (kept when it finds FLAG set everywhere, which needs no

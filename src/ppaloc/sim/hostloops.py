@@ -25,6 +25,7 @@ __all__ = [
     "fill",
     "fill_where",
     "have_numba",
+    "noisy_shift",
     "noisy_write",
     "numpy_loops",
     "select",
@@ -69,7 +70,27 @@ def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
 def shift(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
     """``plane[r, c] := plane[r + v, c - h]`` (0 from beyond the edge) where ``flag``
     (everywhere if ``everywhere``), in place: the ideal analogue ``shift`` in one pass."""
-    _loops().shift(plane, v, h, flag, everywhere)
+    _loops().shift(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0))
+
+
+def noisy_shift(
+    plane: np.ndarray,
+    v: int,
+    h: int,
+    flag: np.ndarray,
+    everywhere: bool,
+    offset: np.ndarray,
+    window: np.ndarray,
+    step: np.float32 | None,
+) -> None:
+    """A noisy ``shift`` in place, one pass: where ``flag`` (everywhere if ``everywhere``)
+    ``plane[r, c] := clip((plane[r + v, c - h] + offset) + window, -128, 127)`` (0 for
+    the value from beyond the edge), as :func:`noisy_write` writes the shifted plane;
+    elsewhere the old value droops by ``step`` (none if None), as :func:`droop` after
+    the shifted values were read."""
+    droops = step is not None and not everywhere
+    s = np.float32(0.0) if step is None else np.float32(step)
+    _loops().shift(plane, v, h, flag, everywhere, True, offset, window, droops, s)
 
 
 def droop(planes: np.ndarray, step: float) -> None:
@@ -124,14 +145,19 @@ def numpy_loops() -> SimpleNamespace:
 
     scratch: dict[tuple[int, ...], np.ndarray] = {}
 
-    def shift_np(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
+    def shift_np(plane, v, h, flag, everywhere, noisy, offset, window, droops, step) -> None:
         rows, cols = plane.shape
         new = np.zeros_like(plane)
         r0, r1 = max(0, -v), min(rows, rows - v)
         c0, c1 = max(0, h), min(cols, cols + h)
         if r0 < r1 and c0 < c1:
             new[r0:r1, c0:c1] = plane[r0 + v : r1 + v, c0 - h : c1 - h]
-        np.copyto(plane, new, where=True if everywhere else flag)
+        if noisy:
+            if droops:  # the kept elements droop after the shifted values were read
+                droop_np(plane, step)
+            noisy_np(plane, new, offset, window, flag, everywhere)
+        else:
+            np.copyto(plane, new, where=True if everywhere else flag)
 
     def droop_np(planes: np.ndarray, step: np.float32) -> None:
         tmp = scratch.get(planes.shape)
@@ -202,16 +228,33 @@ def _numba_loops() -> SimpleNamespace:
             y = o[i]
             o[i] = value if f[i] else y
 
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
+    def _noisy_value(x, offset, noise):  # pragma: no cover - compiled
+        v = x + offset  # float32, in noisy_write's order; clipped max, then min
+        v = v + noise
+        v = v if v > np.float32(-128.0) else np.float32(-128.0)
+        return v if v < np.float32(127.0) else np.float32(127.0)
+
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
+    def _droop_of(x, step):  # pragma: no cover - compiled
+        t = x if x > -step else -step  # numpy's clip: max, then min
+        return t if t < step else step
+
     @jit
-    def shift_nb(plane, v, h, flag, everywhere):  # pragma: no cover - compiled
+    def shift_nb(plane, v, h, flag, everywhere, noisy, offset, window, droops, step):
+        # pragma: no cover - compiled
         # flat: new[i] = old[i + off]; chunks of the source are buffered before their
         # destination is written, in the order that reads every source before it is
         # written (ascending when reading ahead); then the elements whose source lies
-        # beyond the edge (rows, then wrapped columns) get 0
+        # beyond the edge (rows, then wrapped columns) get 0. Noisy: each written
+        # element gets clip((new + offset) + window) instead, and with ``droops`` each
+        # kept one its old value drooped by ``step`` (once: in the main loop if there)
         rows, cols = plane.shape
         n = rows * cols
         p = plane.reshape(n)
         f = flag.reshape(n)
+        o = offset.reshape(offset.size)
+        w = window.reshape(window.size)
         buf = np.empty(2048, dtype=np.float32)
         zero = np.float32(0.0)
         off = v * cols - h
@@ -227,7 +270,23 @@ def _numba_loops() -> SimpleNamespace:
             for i in range(b.size):
                 b[i] = src[i]
             dst = p[d0:d1]
-            if everywhere:
+            if noisy:  # a separate loop for each case, so that each vectorises
+                od, wd, fd = o[d0:d1], w[d0:d1], f[d0:d1]
+                if everywhere:
+                    for i in range(b.size):
+                        dst[i] = _noisy_value(b[i], od[i], wd[i])
+                elif droops:
+                    for i in range(b.size):
+                        x = _noisy_value(b[i], od[i], wd[i])
+                        y = dst[i]
+                        y = y - _droop_of(y, step)
+                        dst[i] = x if fd[i] else y
+                else:
+                    for i in range(b.size):
+                        x = _noisy_value(b[i], od[i], wd[i])
+                        y = dst[i]
+                        dst[i] = x if fd[i] else y
+            elif everywhere:
                 for i in range(b.size):
                     dst[i] = b[i]
             else:
@@ -241,12 +300,16 @@ def _numba_loops() -> SimpleNamespace:
         for r in range(rows):
             out, fr = plane[r], flag[r]
             a0, a1 = (c_lo, c_hi) if r_lo <= r < r_hi else (cols, cols)
-            for c in range(0, a0):
-                y = out[c]
-                out[c] = zero if everywhere or fr[c] else y
-            for c in range(a1, cols):
-                y = out[c]
-                out[c] = zero if everywhere or fr[c] else y
+            for c0, c1 in ((0, a0), (a1, cols)):
+                for c in range(c0, c1):
+                    i = r * cols + c
+                    if not (everywhere or fr[c]):
+                        if noisy and droops and not lo <= i < hi:  # not in the main loop
+                            out[c] = out[c] - _droop_of(out[c], step)
+                    elif noisy:
+                        out[c] = _noisy_value(zero, o[i], w[i])
+                    else:
+                        out[c] = zero
 
     @jit
     def fill_all_nb(out, value):  # pragma: no cover - compiled

@@ -264,11 +264,15 @@ class NoiseModel:
     def droop(self, planes: np.ndarray, elapsed_us: float) -> None:
         """Let analogue ``planes`` (one plane or (n, rows, cols)) droop towards 0 for
         ``elapsed_us``."""
+        step = self.droop_step(elapsed_us)
+        if step is not None:  # v -> v - clip(v, -step, step): towards 0, never past it
+            hostloops.droop(planes, step)
+
+    def droop_step(self, elapsed_us: float) -> np.float32 | None:
+        """How far a value droops towards 0 in ``elapsed_us`` (None: not at all)."""
         if self.ideal or elapsed_us <= 0 or self.params.decay_per_ms == 0:
-            return
-        step = np.float32(self.params.decay_per_ms * elapsed_us / 1000.0)
-        # v -> v - clip(v, -step, step): towards 0 by `step`, never past it
-        hostloops.droop(planes, step)
+            return None
+        return np.float32(self.params.decay_per_ms * elapsed_us / 1000.0)
 
     def digital_decay(self, plane: np.ndarray, age_us: float, elapsed_us: float) -> None:
         """Let ones in a digital ``plane`` decay after its retention time has passed.
