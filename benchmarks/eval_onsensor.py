@@ -27,6 +27,12 @@ presets given, default both):
   droop with single stages made exact (``--exact``), each as a simulation experiment that
   lets the stage run and then puts the exact result of its noisy inputs in its output
   registers (:func:`exact_stages`), mean max F1 over ``--seeds``; routes as ``noise``.
+- ``terms``: what each physical term of the ``"typical"`` preset costs: the robust
+  preset's max F1 with each term switched off in turn (:data:`TERMS`), both
+  representations at their default map stores, mean over ``--seeds``.
+- ``forgetting``: the host's robust filter with its weights scaled by a factor every
+  frame, the forgetting a signal-proportional transfer gain on the weights' analogue
+  writes amounts to (no other noise).
 - ``figures``: the database, weights and difference registers (PNG) into ``--figures``
   (the paper preset's files as before, the robust preset's with ``_robust``).
 """
@@ -261,6 +267,98 @@ def noise(
         print(f"| {name} | {rep} | {preset} | {store} | {ideal:.3f} | {cells} |")
 
 
+# ------------------------------------------------------------------ noise terms
+#: The terms of a noise preset the ``terms`` part switches off, one at a time: each
+#: label's fields are set to 0 (the transfer gain's mean and spread together, and its
+#: mean alone).
+TERMS = {
+    "transfer gain": ("transfer_gain", "transfer_gain_sd"),
+    "transfer gain mean": ("transfer_gain",),
+    "fixed-pattern offset": ("fixed_offset_sd",),
+    "temporal": ("temporal_sd",),
+    "division": ("division_sd",),
+    "droop": ("decay_per_ms",),
+    "pixel offset": ("pixel_offset_sd",),
+    "digital flips": ("digital_flip_per_ms",),
+}
+
+
+def terms(
+    n_query: int | None = None,
+    seeds: int = 3,
+    processes: int = 2,
+    routes: tuple[str, ...] = ("nordland",),
+    level: str = "typical",
+) -> None:
+    """Max F1 of the robust preset under ``level`` with each of its terms switched off.
+
+    What each physical term of the preset costs (the gain of switching it off, mean over
+    ``seeds``), each map store and representation at its default; complements
+    ``stages``, which says where in the program the noise enters.
+    """
+    base = PRESETS[level]
+    configs = [("none", base)]
+    for label, names in TERMS.items():
+        if any(getattr(base, n) for n in names):
+            configs.append((label, dataclasses.replace(base, **dict.fromkeys(names, 0.0))))
+    print(f"\n| route | rep | {level} with this term off | max F1 (mean over seeds) | seeds |")
+    print("|---|---|---|---:|---|")
+    for name, spec in (NOISE_ROUTES[r] for r in routes):
+        for rep in ("lowres", "lbp"):
+            jobs = [(spec, rep, "robust", "ideal", 0, n_query, ())]
+            jobs += [
+                (spec, rep, "robust", params, seed, n_query, ())
+                for _, params in configs
+                for seed in range(seeds)
+            ]
+            f1 = _map(jobs, processes)
+            print(f"| {name} | {rep} | ideal | {f1[0]:.3f} | |", flush=True)
+            for i, (label, _) in enumerate(configs):
+                vals = f1[1 + i * seeds : 1 + (i + 1) * seeds]
+                print(
+                    f"| {name} | {rep} | {label} | {np.mean(vals):.3f} | "
+                    f"{' '.join(f'{v:.2f}' for v in vals)} |",
+                    flush=True,
+                )
+
+
+def forgetting(
+    factors: tuple[float, ...] = (1.0, 0.998, 0.996, 0.992, 0.985),
+    routes: tuple[str, ...] = ("nordland",),
+) -> None:
+    """The host's robust filter with its weights scaled by ``factor`` every frame.
+
+    A signal-proportional transfer gain ``g`` on each of the ``k`` analogue writes a
+    weight takes per frame scales the weights (and so every difference between two
+    hypotheses) by about ``(1 + g) ** k``: exponential forgetting. This runs the host
+    filter (float arithmetic, the robust preset's defaults, always-forward motion) with
+    that forgetting alone, to show what it costs without any other noise.
+    """
+    print("\n| route | rep | weights x factor per frame | max F1 |")
+    print("|---|---|---|---:|")
+    for name, spec in (NOISE_ROUTES[r] for r in routes):
+        ref, query, ds = load(spec)
+        truth = list(ds.ground_truth)[: len(query)]
+        has_match = np.array([len(t) > 0 for t in truth])
+        for rep in ("lowres", "lbp"):
+            for factor in factors:
+                host = WeightedNodeLocaliser(
+                    rep, arithmetic="float", preset="robust", motion="always_forward"
+                )
+                host.build_map(ref)
+                transition = host._transition
+
+                def forget(costs, host=host, transition=transition, factor=factor):
+                    host._w *= factor  # a simulation experiment: the weights before it
+                    transition(costs)
+
+                host._transition = forget
+                est = host.localise(query)
+                correct = is_correct(np.array([e.node for e in est]), truth)
+                curve = pr_curve([e.score for e in est], correct, has_match, recall="A")
+                print(f"| {name} | {rep} | {factor} | {max_f1(curve)[0]:.3f} |", flush=True)
+
+
 # ------------------------------------------------------------------ stages made exact
 #: The stages :func:`exact_stages` can make exact, per representation.
 STAGES = {
@@ -436,16 +534,23 @@ def stages_table(
     processes: int = 2,
     exact: list[str] | None = None,
     routes: tuple[str, ...] = tuple(NOISE_ROUTES),
+    store: str | None = None,
 ) -> None:
-    """Max F1 of the robust preset (typical, no droop) with single stages made exact."""
+    """Max F1 of the robust preset (typical, no droop) with single stages made exact.
+
+    ``store`` picks the low-res map store (``"analogue"`` keeps a two-tile map on one
+    sensor, which the experiment needs; the default ``levels`` store runs Nordland on a
+    bank).
+    """
     print("\n| route | rep | stage made exact | max F1 (mean over seeds) | seeds |")
     print("|---|---|---|---:|---|")
     for name, spec in (NOISE_ROUTES[r] for r in routes):
         for rep in ("lowres", "lbp"):
             stages = [s for s in STAGES[rep] if exact is None or s in exact]
+            own = store if store in PIPELINES[rep].stores else None
             configs = [(), *((s,) for s in stages), tuple(stages)]
             jobs = [
-                (spec, rep, "robust", "typical-no-droop", seed, n_query, c)
+                (spec, rep, "robust", "typical-no-droop", seed, n_query, c, own)
                 for c in configs
                 for seed in range(seeds)
             ]
@@ -490,7 +595,7 @@ def main() -> None:
         "--part",
         nargs="*",
         default=["agreement", "timing", "noise", "figures"],
-        choices=["agreement", "timing", "noise", "stages", "figures"],
+        choices=["agreement", "timing", "noise", "stages", "terms", "forgetting", "figures"],
     )
     parser.add_argument("--seeds", type=int, default=4, help="noise seeds (noise, stages)")
     parser.add_argument("--processes", type=int, default=2, help="worker processes")
@@ -508,7 +613,8 @@ def main() -> None:
         "--store",
         nargs="*",
         default=["default"],
-        help="noise part: map stores (default: each preset's; e.g. levels analogue)",
+        help="noise part: map stores (default: each preset's; e.g. levels analogue); stages "
+        "part: the first one given",
     )
     parser.add_argument(
         "--noise-levels",
@@ -554,8 +660,17 @@ def main() -> None:
         )
     if "stages" in args.part:
         stages_table(
-            args.max_query, args.seeds, args.processes, args.exact, tuple(args.noise_route)
+            args.max_query,
+            args.seeds,
+            args.processes,
+            args.exact,
+            tuple(args.noise_route),
+            next((s for s in args.store if s != "default"), None),
         )
+    if "terms" in args.part:
+        terms(args.max_query, args.seeds, args.processes, tuple(args.noise_route))
+    if "forgetting" in args.part:
+        forgetting(routes=tuple(args.noise_route))
     if "figures" in args.part:
         figures(args.figures, presets)
 

@@ -24,6 +24,7 @@ per-frame scale on forward frames, detection, normalisation).
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -40,6 +41,7 @@ from ppaloc.localise.params import (
     transition_costs,
 )
 from ppaloc.localise.weighted import choose_candidate
+from ppaloc.onsensor import gain
 from ppaloc.onsensor.program import (
     KernelCache,
     add_level,
@@ -254,6 +256,9 @@ class SensorPipeline(ABC):
         self.kc = KernelCache(self.sim)
         self._setup_static_masks()
         self._node_grid()
+        #: Robust: the weights' scale under the array's transfer gain, calibrated on the
+        #: array once (:mod:`ppaloc.onsensor.gain`); the paper preset runs as it did.
+        self.scale = gain.WeightScale(gain.calibrate(self) if self.robust else 0.0)
         self.reset()
 
     @classmethod
@@ -359,6 +364,7 @@ class SensorPipeline(ABC):
         """Zero the weights, forget the previous frame and estimate."""
         with self.sim.stage("reset"):
             self._run("reset_w", lambda k: k.res(_W))
+        self.scale.reset()
         self.frames = 0
         self.prev: int | None = None
         self.have_prev_planes = False
@@ -760,16 +766,47 @@ class SensorPipeline(ABC):
             for d in range(1, steps + 1):
                 self._snake_step(s, x, d)
                 self._take_candidate(s, x, int(costs[d]) - offset)
+        self.scale.charge(int(negated) + self._path_writes(costs, steps, stay, offset))
+        self._restore_scale()
         self.pending_top = None
         with sim.stage("normalise"):
             self._floor(floor + offset)
         self.pending_offset = offset
+
+    @staticmethod
+    def _path_writes(costs: tuple[int, ...], steps: int, stay: int, offset: int) -> int:
+        """``bus`` writes on the weight of the cheapest candidate of :meth:`transition`.
+
+        Stay: two per ``add`` of :meth:`_subtract` (none for 0); a move: the copy into
+        ``S`` and the take (the snake's shifts are controller shifts, no ``bus``), two
+        more beyond the DAC (the far path's copy and ``sub``). The other candidates of a
+        frame take as many, except a free stay; a move into a snake's row start takes a
+        few more copies (the first node of each block row).
+        """
+        d = min(range(steps + 1), key=lambda i: costs[i])
+        if d == 0:
+            return 2 * math.ceil(abs(stay) / 127)
+        return 2 + (2 if int(costs[d]) - offset > 127 else 0)
+
+    def _restore_scale(self) -> None:
+        """Robust: scale the weights back when the transfer gain has drifted them a step.
+
+        At the end of the transition (``D``, ``E`` and ``NEWS`` are free, the weights in
+        ``WEIGHTS``), at the valid node roots only (stage ``"restore"``;
+        :mod:`ppaloc.onsensor.gain`).
+        """
+        sign = self.scale.due()
+        if sign:
+            with self.sim.stage("restore"):
+                gain.restore(self, _W, self.dr.valid, sign, self.scale.step)
+            self.scale.restored(sign, gain.RESTORE_WRITES)
 
     def _settle(self) -> None:
         """Write a stay cost the transition left to an update that does not come."""
         if self.pending_offset:
             with self.sim.stage("transition"):
                 self._subtract(_W, self.pending_offset, "tr_stay")
+            self.scale.charge(2 * math.ceil(self.pending_offset / 127))
             self.pending_offset = 0
 
     # --------------------------------------------------------------- bank carry
@@ -949,6 +986,7 @@ class SensorPipeline(ABC):
                 neg = "_n" if self.NEGATED is not None else ""
                 self._run(f"{name}_{t}_s{s}{'_both' if both else ''}{neg}", build)
             self.negated = self.NEGATED is not None
+        self.scale.charge(1 if self.negated else 2)  # -(w + ...) into NEGATED, or twice
 
     def _tree_tiles(self, k) -> tuple[Register, ...] | None:
         """Robust, two tiles: both tiles' distance trees in one kernel (``k``), or None.
