@@ -160,6 +160,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._ops_cache: dict[tuple, Op] = {}
         self._last_us = 0.0
         self._droop_us = np.zeros(len(_DECAYING))  # droop not yet applied, per plane (us)
+        self._droop_which = np.zeros(len(_DECAYING), dtype=np.int64)  # _flush_droop's
+        self._droop_steps = np.zeros(len(_DECAYING), dtype=np.float32)
         self._dtouch_us = np.zeros(_N_DIGITAL)
         self._dtouch_low = 0.0  # at most the oldest of R0-R12's last writes (us)
         if not self.noise.ideal:
@@ -443,12 +445,18 @@ class Scamp5(ControllerMixin, ProgramAPI):
             self.noise.droop(self._a[_DECAY_PLANES], pending[0])  # one call for all
             pending[:] = 0.0
             return
-        droop, a = self.noise.droop, self._a
-        for i in planes:
+        which, steps = self._droop_which, self._droop_steps
+        n = 0
+        for i in planes:  # the planes' steps, then one call for them all
             us = pending[i]
             if us:
-                droop(a[i], us)
+                step = self.noise.droop_step(us)
                 pending[i] = 0.0
+                if step is not None:
+                    which[n], steps[n] = i, step
+                    n += 1
+        if n:
+            hostloops.droop_each(self._a, which, steps, n)
 
     # ------------------------------------------------------------- FLAG machinery
     def _flag_mask(self) -> np.ndarray | None:

@@ -22,6 +22,7 @@ __all__ = [
     "any_set",
     "dac_noise",
     "droop",
+    "droop_each",
     "fill",
     "fill_where",
     "have_numba",
@@ -98,6 +99,11 @@ def droop(planes: np.ndarray, step: float) -> None:
     _loops().droop(planes, np.float32(step))
 
 
+def droop_each(planes: np.ndarray, which: np.ndarray, steps: np.ndarray, n: int) -> None:
+    """:func:`droop` of ``planes[which[k]]`` by ``steps[k]`` for ``k < n``, in one call."""
+    _loops().droop_each(planes, which, steps, n)
+
+
 def noisy_write(
     out: np.ndarray,
     values: np.ndarray,
@@ -166,6 +172,10 @@ def numpy_loops() -> SimpleNamespace:
         np.clip(planes, -step, step, out=tmp)
         np.subtract(planes, tmp, out=planes)
 
+    def droop_each_np(planes, which, steps, n) -> None:
+        for k in range(n):
+            droop_np(planes[which[k]], steps[k])
+
     lo, hi = np.float32(-128.0), np.float32(127.0)
 
     def noisy_np(out, values, offset, window, flag, everywhere) -> None:
@@ -194,6 +204,7 @@ def numpy_loops() -> SimpleNamespace:
         fill_where=fill_np,
         shift=shift_np,
         droop=droop_np,
+        droop_each=droop_each_np,
         dac_noise=dac_noise_np,
         noisy_write=noisy_np,
     )
@@ -342,6 +353,11 @@ def _numba_loops() -> SimpleNamespace:
             p[i] = x - t
 
     @jit
+    def droop_each_nb(planes, which, steps, n):  # pragma: no cover - compiled
+        for k in range(n):
+            droop_nb(planes[which[k]], steps[k])
+
+    @jit
     def noisy_nb(out, values, offset, window, flag, everywhere):  # pragma: no cover - compiled
         n = out.size
         o = out.reshape(n)
@@ -381,6 +397,7 @@ def _numba_loops() -> SimpleNamespace:
         fill_where=fill_nb,
         shift=shift_nb,
         droop=droop_nb,
+        droop_each=droop_each_nb,
         dac_noise=dac_nb,
         noisy_write=noisy_nb,
     )
