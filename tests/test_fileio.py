@@ -159,3 +159,31 @@ def test_a_folder_that_cannot_be_written_is_a_user_error(tmp_path):
     finally:
         locked.chmod(0o755)
     assert (locked / "run" / "results.json").read_text() == "old"
+
+
+@pytest.mark.parametrize(
+    "check",
+    [
+        "ppaloc.evaluate.results:check_replaceable",
+        "ppaloc.evaluate.sweep:check_sweep_folder",
+        "ppaloc.cpp.run:check_output_folder",
+    ],
+)
+def test_every_whole_folder_output_refuses_the_current_folder_and_its_parents(
+    check, tmp_path, monkeypatch
+):
+    """Results, sweeps and C++ runs share one check (fileio.check_replaceable_folder)."""
+    import importlib
+
+    module, name = check.split(":")
+    func = getattr(importlib.import_module(module), name)
+    work = tmp_path / "work"
+    (work / "sub").mkdir(parents=True)
+    monkeypatch.chdir(work / "sub")
+    for out in (".", "..", str(work)):
+        with pytest.raises(PpalocError, match="is the current folder or holds it"):
+            func(out)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(PpalocError, match="is a file"):
+        func(tmp_path / "file")
+    func(tmp_path / "absent")

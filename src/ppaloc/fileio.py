@@ -43,6 +43,7 @@ from ppaloc.errors import PpalocError
 
 __all__ = [
     "atomic_write",
+    "check_replaceable_folder",
     "default_file_mode",
     "new_folder",
     "recover_folder",
@@ -274,6 +275,53 @@ def recover_folder(target: str | os.PathLike) -> None:
     for stage, pid in _stages(target, "new"):
         if pid is not None and not _alive(pid):
             shutil.rmtree(stage, ignore_errors=True)
+
+
+def check_replaceable_folder(
+    out: str | os.PathLike,
+    *,
+    owned: Callable[[Path, str], bool],
+    marked: Callable[[Path], bool],
+    markers: str,
+    writer: str,
+    kind: str,
+    error: type[PpalocError] = PpalocError,
+) -> None:
+    """Refuse an ``--out`` that a command replaces whole when a user's files may be in it.
+
+    The one check of every command that writes a folder whole (results, sweeps, C++ runs),
+    before any work: first what a killed transaction on the folder left is finished
+    (:func:`recover_folder`); then an absent folder is fine; the current folder (or one
+    holding it), a file, a folder holding a name ``owned(folder, name)`` rejects, or a
+    non-empty folder without ``marked(folder)`` (not an earlier one) raise ``error``.
+    ``markers`` names what marks an earlier folder, ``writer`` who writes these folders
+    ("ppaloc", "a sweep") and ``kind`` what the folder is ("results folder"), for the
+    one-line messages. Links are resolved before ``..`` (the folder the path names).
+    """
+    given, real = out, Path(os.path.realpath(out))
+    recover_folder(real)
+    if not real.exists():
+        return
+    here = Path.cwd().resolve()
+    if real.resolve() == here or real.resolve() in here.parents:
+        raise error(
+            f"--out {given} is the current folder or holds it, and a {kind} is replaced "
+            "whole; give a new folder name"
+        )
+    if not real.is_dir():
+        raise error(f"--out {given} is a file; give a folder for the {kind}")
+    names = os.listdir(real)
+    foreign = sorted(n for n in names if not owned(real, n))
+    if foreign:
+        raise error(
+            f"--out {given} holds {foreign[0]!r}, which {writer} did not write, and a "
+            f"{kind} is replaced whole; give a new folder or an earlier {kind}"
+        )
+    if names and not marked(real):
+        raise error(
+            f"--out {given} is not empty and holds no {markers}, so it is not an earlier "
+            f"{kind}, and a {kind} is replaced whole; give a new folder"
+        )
 
 
 def _link_tree(source: Path, dest: Path, keep: Callable[[str], bool]) -> None:

@@ -110,7 +110,7 @@ def test_an_output_folder_of_other_files_is_refused_before_the_run(tmp_path):
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("keep me")
-    with pytest.raises(PpalocError, match=r"holds 'notes\.txt', which no earlier run wrote"):
+    with pytest.raises(PpalocError, match=r"holds 'notes\.txt', which ppaloc cpp run did not"):
         check_output_folder(mine)
     (mine / "notes.txt").unlink()
     (mine / "timing.json").write_text("{}")  # a run's name, but no summary.json

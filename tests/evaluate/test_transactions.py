@@ -202,7 +202,7 @@ def test_sweep_refuses_a_folder_of_other_files(tmp_path):
     mine = tmp_path / "proj"
     (mine / "figures").mkdir(parents=True)
     (mine / "figures" / "fig1.png").write_bytes(b"png")
-    with pytest.raises(PpalocError, match="not an earlier sweep's folder"):
+    with pytest.raises(PpalocError, match="not an earlier sweep folder"):
         check_sweep_folder(mine)
     (mine / "notes.txt").write_text("keep me")
     with pytest.raises(PpalocError, match=r"holds 'notes\.txt', which a sweep did not write"):

@@ -27,7 +27,7 @@ from ppaloc.cpp.build import compile_program
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
 from ppaloc.cpp.server import ProgramError, Session, serve
 from ppaloc.errors import PpalocError
-from ppaloc.fileio import new_folder
+from ppaloc.fileio import check_replaceable_folder, new_folder
 from ppaloc.sim import NoiseParams, Scamp5
 from ppaloc.sim.render import plane_to_image, render_montage, save_png
 
@@ -157,19 +157,14 @@ OUTPUT_NAMES = frozenset(
 def check_output_folder(out: str | os.PathLike) -> None:
     """Refuse an ``out`` that is a file, or a non-empty folder that is not an earlier run's
     (the folder is replaced whole: a user's own files must not go with it)."""
-    real = Path(os.path.realpath(out))
-    if not real.exists():
-        return
-    if not real.is_dir():
-        raise PpalocError(f"--out {out} is a file; give a folder for the run's outputs")
-    names = [n for n in os.listdir(real) if not n.startswith(".")]
-    foreign = sorted(n for n in names if n not in OUTPUT_NAMES)
-    if foreign or (names and not (real / "summary.json").is_file()):
-        shown = foreign[0] if foreign else names[0]
-        raise PpalocError(
-            f"--out {out} holds {shown!r}, which no earlier run wrote, and the folder is "
-            "replaced whole; give a new folder"
-        )
+    check_replaceable_folder(
+        out,
+        owned=lambda _, name: name.startswith(".") or name in OUTPUT_NAMES,
+        marked=lambda folder: (folder / "summary.json").is_file(),
+        markers="summary.json",
+        writer="ppaloc cpp run",
+        kind="run's folder",
+    )
 
 
 def run_program(

@@ -26,7 +26,6 @@ import csv
 import hashlib
 import io
 import json
-import os
 import re
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -37,7 +36,13 @@ import numpy as np
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import DataError
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
-from ppaloc.fileio import new_folder, recover_folder, source_date, write_bytes
+from ppaloc.fileio import (
+    check_replaceable_folder,
+    new_folder,
+    recover_folder,
+    source_date,
+    write_bytes,
+)
 from ppaloc.npzfile import NpzError, npz_bytes, read_npz
 
 __all__ = [
@@ -130,31 +135,15 @@ def _ours(folder: Path, name: str) -> bool:
 def check_replaceable(out: str | Path) -> None:
     """Refuse an ``out`` that is a file or a folder holding files ppaloc did not write
     (a results folder is replaced whole; a user's own files must not go with it)."""
-    given, out = out, Path(os.path.realpath(out))  # the folder meant: links before ".."
-    recover_folder(out)
-    if not out.exists():
-        return
-    here = Path.cwd().resolve()
-    if out.resolve() == here or out.resolve() in here.parents:
-        raise DataError(
-            f"--out {given} is the current folder or holds it, and a results folder is replaced "
-            "whole; give a new folder name such as results"
-        )
-    if not out.is_dir():
-        raise DataError(f"--out {given} is a file; give a folder for the results")
-    names = os.listdir(out)
-    foreign = sorted(n for n in names if not _ours(out, n))
-    if foreign:
-        raise DataError(
-            f"--out {given} holds {foreign[0]!r}, which ppaloc did not write, and a results "
-            "folder is replaced whole; give a new folder or an earlier results folder"
-        )
-    if names and not any((out / m).is_file() for m in _MARKERS):
-        raise DataError(
-            f"--out {given} is not empty and holds no {' or '.join(_MARKERS)}, so it is not "
-            "an earlier results folder, and a results folder is replaced whole; give a new "
-            "folder"
-        )
+    check_replaceable_folder(
+        out,
+        owned=_ours,
+        marked=lambda folder: any((folder / m).is_file() for m in _MARKERS),
+        markers=" or ".join(_MARKERS),
+        writer="ppaloc",
+        kind="results folder",
+        error=DataError,
+    )
 
 
 @contextlib.contextmanager

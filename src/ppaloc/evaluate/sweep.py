@@ -61,6 +61,7 @@ from ppaloc.evaluate.sweep_grid import (
     write_cell_error,
     write_summary,
 )
+from ppaloc.fileio import check_replaceable_folder
 
 __all__ = [
     "COMBINE",
@@ -297,23 +298,15 @@ def check_sweep_folder(out: Path) -> None:
     """Refuse an ``out`` that is a file, or a folder holding files a sweep did not write:
     its cell folders, figures and summaries are replaced, a user's files must not go with
     them. An absent or empty folder, or an earlier sweep's (to resume it), is fine."""
-    real = Path(os.path.realpath(out))
-    if not real.exists():
-        return
-    if not real.is_dir():
-        raise DataError(f"--out {out} is a file; give a folder for the sweep")
-    names = [n for n in os.listdir(real) if not n.startswith(".")]
-    foreign = sorted(n for n in names if n not in SWEEP_NAMES)
-    if foreign:
-        raise DataError(
-            f"--out {out} holds {foreign[0]!r}, which a sweep did not write; give a new "
-            "folder or an earlier sweep's folder"
-        )
-    if names and not (real / "cells").is_dir() and not (real / "summary.json").is_file():
-        raise DataError(
-            f"--out {out} is not empty and holds no cells/ or summary.json, so it is not an "
-            "earlier sweep's folder; give a new folder"
-        )
+    check_replaceable_folder(
+        out,
+        owned=lambda _, name: name.startswith(".") or name in SWEEP_NAMES,
+        marked=lambda folder: (folder / "cells").is_dir() or (folder / "summary.json").is_file(),
+        markers="cells/ or summary.json",
+        writer="a sweep",
+        kind="sweep folder",
+        error=DataError,
+    )
 
 
 def run_sweep(
