@@ -406,8 +406,8 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
 
     def exact_mu() -> np.ndarray:
         """``mu`` per node from the registers' operands, exactly."""
-        if rep == "lowres":
-            frame = sim.read(F).astype(np.float64)
+        if rep == "lowres":  # F as the trees found it (two tiles use it as a scratch)
+            frame = state.get("frame", sim.read(F)).astype(np.float64)
             out = np.empty(pipe.n_nodes)
             for t in range(pipe.tiles):
                 nodes, br, bc = pipe._tile_nodes[t]
@@ -424,6 +424,8 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
     def kc_run(name, build):
         if name in ("spread", "spread_seed"):  # the halving tree's means, at the roots
             state["roots"] = sim.read(D)[:: pipe.block, :: pipe.block].astype(np.float64)
+        if name in ("tree_0", "tree_1", "tree_tiles"):
+            state["frame"] = sim.read(F).copy()
         run_kernel(name, build)
         if "tree" in stages and name in ("tree_0", "tree_1", "tree_tiles"):
             state["mu"] = exact_mu()
