@@ -7,14 +7,15 @@ frame (the transition's copy and take, or its stay subtraction; the update's two
 without care they are scaled by about ``(1 + g) ** 4`` every frame: exponential forgetting
 of the evidence, which the filter's long memory does not survive (``g = -0.2%`` is a
 factor of 0.992 per frame, and the host's own filter with that forgetting loses 0.84 ->
-0.73 max F1 on Nordland; docs/onsensor.md, "Noise").
+0.73 max F1 on Nordland; docs/onsensor.md, "The weights' scale").
 
 The controller corrects it as a PPA program would, from the chip itself:
 
 1. at start-up (:func:`calibrate`, stage ``"calibrate"``) it loads a DAC level into
    ``D``, copies it :data:`CALIBRATION_WRITES` times between ``D`` and ``E`` in one kernel
-   and reads the mean back by ``scan_areg_mean_8x8``: the log gain per write, averaged over
-   the whole array (the fixed-pattern offsets and the temporal noise average out);
+   and reads the mean back by ``scan_areg_mean_8x8``, :data:`CALIBRATION_CHAINS` times:
+   the log gain per write, averaged over the whole array (the fixed-pattern offsets and
+   the temporal noise average out);
 2. the pipeline counts the writes its weight path issues (:meth:`WeightScale.charge`);
 3. when the weights have drifted by one :data:`RESTORE_STEP` (``1/16``) they are scaled
    back by ``1 +- 1/16`` at the node roots (:func:`restore`: four halvings and one ``add``,
@@ -36,15 +37,24 @@ from ppaloc.sim import NEWS, D, E, Register
 if TYPE_CHECKING:  # the pipeline imports this module
     from ppaloc.onsensor.core import SensorPipeline
 
-__all__ = ["CALIBRATION_LEVEL", "CALIBRATION_WRITES", "RESTORE_STEP", "WeightScale", "calibrate"]
+__all__ = [
+    "CALIBRATION_CHAINS",
+    "CALIBRATION_LEVEL",
+    "CALIBRATION_WRITES",
+    "RESTORE_STEP",
+    "RESTORE_WRITES",
+    "WeightScale",
+    "calibrate",
+    "restore",
+]
 
 #: The DAC level the calibration copies: room for the chain's gain either way (a gain of
 #: up to +0.5% per write keeps it below 127, and -3% above 1) and for the chain's
 #: fixed-pattern walk (about 22 units per PE after the chain, averaged out in the mean).
 CALIBRATION_LEVEL = 64
 #: ``bus`` copies in one calibration chain (an even number: the value keeps its sign). At
-#: ``g = -0.2%`` they take 64 to 49.4; the ADC's rounding of the mean (at most half a code)
-#: is then 3% of ``g``.
+#: ``g = -0.2%`` they take 64 to 49.5; the ADC's rounding of the mean (at most half a code)
+#: is then up to 4% of ``g`` (less when the readout noise dithers it).
 CALIBRATION_WRITES = 128
 #: Chains measured and averaged: the per-instruction spread of the gain (sd 0.2% each)
 #: averages to 4.5% of ``g`` over 512 writes (one chain of 512 would saturate sooner).
