@@ -397,12 +397,26 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
     state: dict = {}
 
     def get_w() -> np.ndarray:
+        """The weights' register values (minus ``NEGATED`` after a one-write update)."""
+        if getattr(pipe, "negated", False):
+            return -sim.read(pipe.NEGATED)[rows, cols].astype(np.float64)
         return sim.read(C)[rows, cols].astype(np.float64)
 
     def set_w(w: np.ndarray) -> None:
-        plane = sim.read(C).copy()
-        plane[rows, cols] = w
-        sim.write(C, plane)
+        negated = getattr(pipe, "negated", False)
+        reg = pipe.NEGATED if negated else C
+        plane = sim.read(reg).copy()
+        plane[rows, cols] = -w if negated else w
+        sim.write(reg, plane)
+
+    def keep_scale(before: float | None) -> None:
+        """An exact stage leaves the weights' scale as it found it (no drift, no step)."""
+        if before is not None:
+            pipe.scale.log_scale = before
+
+    def scale_now() -> float | None:
+        scale = getattr(pipe, "scale", None)
+        return None if scale is None else scale.log_scale
 
     def exact_mu() -> np.ndarray:
         """``mu`` per node from the registers' operands, exactly."""
@@ -485,22 +499,25 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
     compare = pipe.compare_robust
 
     def exact_compare() -> None:
-        w = get_w()
+        w, offset, before = get_w(), pipe.pending_offset, scale_now()
         state["tile"], state["tree_mu"] = 0, np.empty(pipe.n_nodes)
         compare()
-        if "update" in stages:
+        if "update" in stages:  # the register holds w + offset: the update subtracts it
             s, alpha = pipe.last_shift, pipe.last_alpha
-            t = np.clip(alpha - state["tree_mu"] * 2.0**-s, -128, 127)
+            t = np.clip(alpha - offset - state["tree_mu"] * 2.0**-s, -128, 127)
             set_w(np.clip(w + t, -127, 127))
+            keep_scale(before)
 
     pipe.compare_robust = exact_compare
     transition, normalise = pipe.transition, pipe.normalise
     fused = hasattr(pipe, "pending_top")
 
     def exact_transition(costs) -> None:
-        w, top = get_w(), getattr(pipe, "pending_top", None)
+        w, top, before = get_w(), getattr(pipe, "pending_top", None), scale_now()
         transition(costs)
         if "transition" in stages:
+            keep_scale(before)
+            offset = pipe.pending_offset  # the stay cost left to the update, in the register
             if fused and top is not None:
                 w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
             n = len(w)
@@ -508,7 +525,7 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
             for d in range(1, len(costs)):
                 moved = np.r_[np.full(min(d, n), -float(p.memory)), w[: max(n - d, 0)]]
                 best = np.maximum(best, np.clip(moved - costs[d], -127, 127))
-            set_w(np.clip(best, -127, 127))
+            set_w(np.clip(np.clip(best, -127, 127) + offset, -127, 127))
 
     def exact_normalise(top: int) -> None:
         w = get_w()
