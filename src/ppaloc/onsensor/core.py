@@ -24,7 +24,6 @@ per-frame scale on forward frames, detection, normalisation).
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, fields
@@ -677,7 +676,7 @@ class SensorPipeline(ABC):
 
         self._run(f"sn_starts_{reg.name}_{step}", starts)
 
-    def _take_candidate(self, neg: Register, scratch: Register, cost: int) -> None:
+    def _take_candidate(self, neg: Register, scratch: Register, cost: int) -> int:
         """``w := max(w, clip(x - cost))`` in place, from ``neg = -x``, ``cost >= 0``.
 
         One kernel with ``cost`` in ``IN`` (the DAC, up to 127): ``NEWS = -(neg + w +
@@ -685,7 +684,8 @@ class SensorPipeline(ABC):
         ``bus(w, neg, IN)`` writes ``x - cost`` there: one write per taken candidate
         (``w >= -127``, so a taken one is never clipped, and the others are not
         written). Beyond the DAC (``cost > 127``) ``scratch := clip(x - 127)`` first (a
-        value clipped at -128 is below every weight, so it never wins).
+        value clipped at -128 is below every weight, so it never wins). Returns the ``bus``
+        writes a taken candidate's value went through from ``neg`` (1, or 3 beyond the DAC).
         """
         sim = self.sim
         if cost > 127:
@@ -700,7 +700,7 @@ class SensorPipeline(ABC):
                 k.all()
 
             self._run(f"tr_max_far_{scratch.name}", far)
-            return
+            return 3  # scratch, then the sub's two
         if cost:
             sim.load_in(cost)
         sources = (neg, IN) if cost else (neg,)
@@ -712,15 +712,20 @@ class SensorPipeline(ABC):
             k.all()
 
         self._run(f"tr_max_{neg.name}_{int(bool(cost))}", take)
+        return 1
 
-    def _subtract(self, reg: Register, value: int, name: str) -> None:
+    def _subtract(self, reg: Register, value: int, name: str) -> int:
         """``reg := clip(reg - value)`` by ``add`` with ``-value`` in ``IN`` (the DAC takes
-        [-128, 127], so a larger ``value`` goes in steps of 127); nothing for 0."""
+        [-128, 127], so a larger ``value`` goes in steps of 127); nothing for 0. Returns
+        the ``bus`` writes ``reg`` went through (two per ``add``)."""
+        writes = 0
         while value:
             part = max(min(value, 127), -128)
             self.sim.load_in(-part)
             self._run(name, lambda k: k.add(reg, reg, IN))
+            writes += 2
             value -= part
+        return writes
 
     def transition(self, costs: tuple[int, ...], carried: bool = False) -> None:
         """Robust: the last frame's normalisation, then ``w_i := clip(max_d (w_{i-d} - c_d))``.
@@ -762,31 +767,22 @@ class SensorPipeline(ABC):
                     self._run("tr_copy", lambda k: k.bus(s, _W))  # S := -W
                 self._park(s, x, int(self.params.memory), steps, carried)
             stay = int(costs[0]) - offset + (0 if negated else int(top))
-            self._subtract(_W, stay, "tr_stay")
+            # the bus writes on each candidate's weight: the stay's adds; a move's copy
+            # into S and its take (the snake's shifts are controller shifts, no bus)
+            writes = [self._subtract(_W, stay, "tr_stay")]
             for d in range(1, steps + 1):
                 self._snake_step(s, x, d)
-                self._take_candidate(s, x, int(costs[d]) - offset)
-        self.scale.charge(int(negated) + self._path_writes(costs, steps, stay, offset))
+                writes.append(1 + self._take_candidate(s, x, int(costs[d]) - offset))
+        # the weights' scale follows the cheapest candidate's path (the others of a frame
+        # take as many, but a free stay; a move into a snake's row start, the first node
+        # of each block row, takes a few more copies)
+        cheapest = min(range(steps + 1), key=lambda d: costs[d])
+        self.scale.charge(int(negated) + writes[cheapest])
         self._restore_scale()
         self.pending_top = None
         with sim.stage("normalise"):
             self._floor(floor + offset)
         self.pending_offset = offset
-
-    @staticmethod
-    def _path_writes(costs: tuple[int, ...], steps: int, stay: int, offset: int) -> int:
-        """``bus`` writes on the weight of the cheapest candidate of :meth:`transition`.
-
-        Stay: two per ``add`` of :meth:`_subtract` (none for 0); a move: the copy into
-        ``S`` and the take (the snake's shifts are controller shifts, no ``bus``), two
-        more beyond the DAC (the far path's copy and ``sub``). The other candidates of a
-        frame take as many, except a free stay; a move into a snake's row start takes a
-        few more copies (the first node of each block row).
-        """
-        d = min(range(steps + 1), key=lambda i: costs[i])
-        if d == 0:
-            return 2 * math.ceil(abs(stay) / 127)
-        return 2 + (2 if int(costs[d]) - offset > 127 else 0)
 
     def _restore_scale(self) -> None:
         """Robust: scale the weights back when the transfer gain has drifted them a step.
@@ -805,8 +801,7 @@ class SensorPipeline(ABC):
         """Write a stay cost the transition left to an update that does not come."""
         if self.pending_offset:
             with self.sim.stage("transition"):
-                self._subtract(_W, self.pending_offset, "tr_stay")
-            self.scale.charge(2 * math.ceil(self.pending_offset / 127))
+                self.scale.charge(self._subtract(_W, self.pending_offset, "tr_stay"))
             self.pending_offset = 0
 
     # --------------------------------------------------------------- bank carry
