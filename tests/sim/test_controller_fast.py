@@ -336,18 +336,31 @@ def test_global_or_reads_the_pattern_grid(plane, r, c, rx, cx, scamp_addr):
 
 
 @needs_numba
-@settings(max_examples=30, deadline=None)
-@given(planes(), st.integers(-128, 127), st.floats(0.01, 40), st.integers(0, 2**32), st.booleans())
-def test_dac_noise_takes_numpys_draws(case, value, sd, seed, everywhere):
-    out, flag, _ = case
-    want, got = out.copy(), out.copy()
-    r_want, r_got = np.random.default_rng(seed), np.random.default_rng(seed)
-    buf = np.empty(out.shape)
-    plain = np.clip(value + r_want.normal(0.0, sd, out.shape), -128, 127)  # the model's words
-    np.copyto(want, plain, where=np.ones_like(flag) if everywhere else flag, casting="unsafe")
-    hostloops.dac_noise(got, flag, everywhere, value, sd, r_got, buf)
+@settings(max_examples=60, deadline=None)
+@given(planes(n_extra=1), st.integers(-128, 127), st.booleans())
+def test_noisy_level_is_the_level_plus_its_window_clipped_where_flag(case, value, everywhere):
+    out, flag, (window,) = case
+    window = window * np.float32(2)  # some sums beyond the range, so the clip is tested
+    want, got, numpy_got = out.copy(), out.copy(), out.copy()
+    plain = np.clip(np.float32(value) + window, np.float32(-128), np.float32(127))
+    np.copyto(want, plain, where=np.ones_like(flag) if everywhere else flag)
+    hostloops.noisy_level(got, value, window, flag, everywhere)
+    hostloops.numpy_loops().noisy_level(numpy_got, np.float32(value), window, flag, everywhere)
     assert np.array_equal(_bits(got), _bits(want))
-    assert r_got.bit_generator.state == r_want.bit_generator.state
+    assert np.array_equal(_bits(numpy_got), _bits(want))
+
+
+def test_scamp5_in_under_noise_writes_the_value_plus_one_window():
+    """The error-corrected DAC load carries one temporal-noise window, no cell offset."""
+    from ppaloc.sim import NEWS, A
+
+    sim, twin = Scamp5(8, 8, noise="typical", seed=4), Scamp5(8, 8, noise="typical", seed=4)
+    sim.scamp5_in(A, 40)
+    window = twin.noise.window()  # the twin's next draw is the one the load took
+    want = np.clip(np.float32(40) + window, np.float32(-128), np.float32(127))
+    assert np.array_equal(_bits(sim.read(A)), _bits(want))
+    assert not np.array_equal(sim.read(A), np.full((8, 8), 40, np.float32))
+    assert np.array_equal(sim.read(NEWS), np.full((8, 8), -40, np.float32))
 
 
 def test_digital_decay_after_the_clock_is_reset():

@@ -173,8 +173,6 @@ class ControllerMixin(DrawMixin):
     rng: np.random.Generator
     #: Address patterns by (r, c, rx, cx, scamp_addr) (made on first use).
     _address_masks: dict[tuple, _Pattern] | None = None
-    #: float64 scratch plane of the error-corrected DAC load's noise (numpy's loops).
-    _dac_noise: np.ndarray | None = None
 
     if TYPE_CHECKING:
 
@@ -379,15 +377,12 @@ class ControllerMixin(DrawMixin):
         self._set_in(v)
         if t is not None:
             self._write_masked(t, -float(v), noisy=False)
-        sd = self._readout_sd()
-        if sd > 0:  # the temporal noise of one write: value + rng.normal(0, sd), clipped
+        if self._readout_sd() > 0:  # one write's temporal noise: a window of the bank
             self._catch_up()
             current = self._aplane(areg)
             flag, everywhere = self._flag_state()
-            buf = self._dac_noise
-            if buf is None:
-                buf = self._dac_noise = np.empty((self.rows, self.cols), dtype=np.float64)
-            hostloops.dac_noise(current, flag, everywhere, float(v), sd, self.rng, buf)
+            window = self.noise.window()
+            hostloops.noisy_level(current, float(v), window, flag, everywhere)
         else:
             self._write_masked(areg, float(v), noisy=False)
 

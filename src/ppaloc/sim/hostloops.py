@@ -20,12 +20,12 @@ import numpy as np
 
 __all__ = [
     "any_set",
-    "dac_noise",
     "droop",
     "droop_each",
     "fill",
     "fill_where",
     "have_numba",
+    "noisy_level",
     "noisy_shift",
     "noisy_write",
     "numpy_loops",
@@ -118,20 +118,12 @@ def noisy_write(
     loops.noisy_write(out, values, offset, window, flag, everywhere)
 
 
-def dac_noise(
-    out: np.ndarray,
-    flag: np.ndarray,
-    everywhere: bool,
-    value: float,
-    sd: float,
-    rng: np.random.Generator,
-    scratch: np.ndarray,
+def noisy_level(
+    out: np.ndarray, value: float, window: np.ndarray, flag: np.ndarray, everywhere: bool
 ) -> None:
-    """``out := float32(clip(value + sd * z))`` where ``flag`` (everywhere if
-    ``everywhere``), ``z`` a plane of ``rng.standard_normal()`` in C order: the same
-    draws and bytes as ``value + rng.normal(0, sd, out.shape)`` clipped to [-128, 127].
-    ``scratch`` is a float64 plane of ``out``'s shape (the numpy version's)."""
-    _loops().dac_noise(out, flag, everywhere, float(value), float(sd), rng, scratch)
+    """``out := clip(float32(value) + window, -128, 127)`` where ``flag`` (everywhere if
+    ``everywhere``), float32: one DAC level written with one temporal-noise window."""
+    _loops().noisy_level(out, np.float32(value), window, flag, everywhere)
 
 
 def numpy_loops() -> SimpleNamespace:
@@ -187,15 +179,9 @@ def numpy_loops() -> SimpleNamespace:
         else:
             np.copyto(out, values, where=flag)
 
-    def dac_noise_np(out, flag, everywhere, value, sd, rng, buf) -> None:
-        rng.standard_normal(out=buf)
-        buf *= sd
-        buf += value
-        np.clip(buf, -128, 127, out=buf)
-        if everywhere:
-            out[...] = buf
-        else:
-            np.copyto(out, buf, where=flag, casting="unsafe")
+    def noisy_level_np(out, value, window, flag, everywhere) -> None:
+        new = np.clip(value + window, np.float32(-128), np.float32(127))
+        np.copyto(out, new, where=True if everywhere else flag)
 
     return SimpleNamespace(
         select=select_np,
@@ -205,7 +191,7 @@ def numpy_loops() -> SimpleNamespace:
         shift=shift_np,
         droop=droop_np,
         droop_each=droop_each_np,
-        dac_noise=dac_noise_np,
+        noisy_level=noisy_level_np,
         noisy_write=noisy_np,
     )
 
@@ -376,19 +362,19 @@ def _numba_loops() -> SimpleNamespace:
             o[i] = x if everywhere or f[i] else y
 
     @jit
-    def dac_nb(out, flag, everywhere, value, sd, rng, scratch):  # pragma: no cover - compiled
+    def level_nb(out, value, window, flag, everywhere):  # pragma: no cover - compiled
         n = out.size
         o = out.reshape(n)
+        win = window.reshape(n)
         f = flag.reshape(n)
-        lo = -128.0
-        hi = 127.0
+        lo = np.float32(-128.0)
+        hi = np.float32(127.0)
         for i in range(n):
-            x = rng.standard_normal() * sd  # numba's draws are numpy's, in order
-            x = x + value
-            x = x if x > lo else lo  # numpy's clip: max, then min
+            x = value + win[i]  # float32, as the numpy version
+            x = x if x > lo else lo
             x = x if x < hi else hi
-            if everywhere or f[i]:
-                o[i] = np.float32(x)
+            y = o[i]
+            o[i] = x if everywhere or f[i] else y
 
     return SimpleNamespace(
         select=select_nb,
@@ -398,6 +384,6 @@ def _numba_loops() -> SimpleNamespace:
         shift=shift_nb,
         droop=droop_nb,
         droop_each=droop_each_nb,
-        dac_noise=dac_nb,
+        noisy_level=level_nb,
         noisy_write=noisy_nb,
     )
