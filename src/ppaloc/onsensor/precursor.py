@@ -293,27 +293,56 @@ def injection_counts(
             f"SCAMP-5), got {img.dtype} {img.shape}"
         )
     rows, cols = img.shape
-    rects = pixels = 0
-    for b in range(bit_planes):
-        on = np.bitwise_and(img, 0x80 >> b).astype(bool)  # the plane of bit 7 - b
-        full = np.packbits(on, axis=1) == 0xFF  # its bytes of eight set bits
-        n_full = int(np.count_nonzero(full))
-        rects += n_full - int(np.count_nonzero(full[:, 1:] & full[:, :-1]))  # run starts
-        pixels += int(np.count_nonzero(on)) - 8 * n_full  # the set bits of the other bytes
     if injection == "bytes":
         return _calls(("vs_gui_request_image", bit_planes * rows * cols // 8))
+    counts = dict(_drawn_injection(bit_planes, rows, cols))
+    rects, pixels = _draws(img, bit_planes)
+    counts["calls:scamp5_draw_rect"] = float(rects)
+    counts["calls:scamp5_draw_pixel"] = float(pixels)
+    return counts
+
+
+@cache
+def _drawn_injection(bit_planes: int, rows: int, cols: int) -> dict[str, float]:
+    """:func:`injection_counts` of a drawn frame with no draws: what does not depend on the
+    frame's content, made once per frame size (the draw counts keep their places)."""
     refresh = kernel_counts("refresh4")
     draw = add_counts(
         _calls(("vs_gui_request_image", bit_planes * rows * cols // 8)),
         {k: bit_planes * v for k, v in kernel_counts("clr").items()},
         {k: bit_planes * -(-rows // 16) * v for k, v in refresh.items()},
     )
-    draw["calls:scamp5_draw_rect"] = float(rects)
-    draw["calls:scamp5_draw_pixel"] = float(pixels)
+    draw["calls:scamp5_draw_rect"] = 0.0
+    draw["calls:scamp5_draw_pixel"] = 0.0
     rebuild = _program(["where_add_all", "refresh4"], [("scamp5_in", 0)])
     return add_counts(
         draw, _calls(("scamp5_in", 0)), {k: bit_planes * v for k, v in rebuild.items()}
     )
+
+
+def _draws(img: np.ndarray, bit_planes: int) -> tuple[int, int]:
+    """``(draw_rect calls, draw_pixel calls)`` of the top ``bit_planes`` planes of ``img``.
+
+    A plane's byte is 8 pixels of a row, so each 64-bit word of the frame holds one byte
+    of every plane: ANDing its 8 bytes gives the planes in which that byte is 0xFF. A run
+    of full bytes is one rect; the other bytes' set bits are pixels. Both are totals over
+    the planes, so they are bit counts under a mask of the planes' bits (no per-plane
+    pass).
+    """
+    top = (0xFF00 >> min(max(bit_planes, 0), 8)) & 0xFF  # the bits of the planes drawn
+    words = np.ascontiguousarray(img).view(np.uint64)
+    all8 = words & (words >> np.uint64(32))
+    all8 &= all8 >> np.uint64(16)
+    all8 &= all8 >> np.uint64(8)
+    full = all8.astype(np.uint8) & np.uint8(top)  # per byte: the planes it is 0xFF in
+    n_full = _bits_set(full)
+    rects = n_full - _bits_set(full[:, 1:] & full[:, :-1])  # runs of full bytes
+    pixels = _bits_set(words & np.uint64(top * 0x0101010101010101)) - 8 * n_full
+    return rects, pixels
+
+
+def _bits_set(a: np.ndarray) -> int:
+    return int(np.bitwise_count(a).sum())
 
 
 def loop_counts(
