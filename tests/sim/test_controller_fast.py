@@ -77,6 +77,8 @@ def test_fill_and_any_equal_numpys(case, value):
     assert np.array_equal(_bits(got), _bits(want))
     assert hostloops.any_set(flag) == bool(flag.any())
     assert not hostloops.any_set(np.zeros_like(flag))
+    assert hostloops.all_set(flag) == bool(flag.all())
+    assert hostloops.all_set(np.ones_like(flag))
 
 
 @needs_numba
@@ -87,6 +89,41 @@ def test_any_finds_a_lone_one_anywhere_in_a_full_plane():
         plane[r, c] = True
         assert hostloops.any_set(plane)
         plane[r, c] = False
+
+
+@needs_numba
+@pytest.mark.parametrize("shape", [(256, 256), (3, 5), (1, 1)])
+def test_all_finds_a_lone_zero_anywhere_in_a_set_plane(shape):
+    plane = np.ones(shape, dtype=bool)
+    assert hostloops.all_set(plane)
+    for r, c in ((0, 0), (shape[0] - 1, shape[1] - 1), (shape[0] // 2, shape[1] // 3)):
+        plane[r, c] = False
+        assert not hostloops.all_set(plane) and not hostloops.numpy_loops().all_set(plane)
+        plane[r, c] = True
+
+
+def test_a_partial_flag_is_looked_at_once_until_a_kernel_or_a_flag_access():
+    """Host calls between two kernels find a partial FLAG by one pass; a kernel run or a
+    write through FLAG's plane makes the next call look again."""
+    sim = Scamp5(4, 4, engine="compiled" if hostloops.have_numba() else "numpy")
+    sim.write(A, np.arange(16.0).reshape(4, 4) - 8)
+    with sim.kernel() as k:
+        k.where(A)  # FLAG := A > 0, partial
+    sim._flag_masked = None  # unknown, as after an engine that does not track it
+    sim.scamp5_in(B, 5)
+    assert sim._flag_partial
+    assert sim.read(B)[0, 0] == 0 and sim.read(B)[3, 3] == 5
+    k.run()  # FLAG may have changed: looked at again
+    assert not sim._flag_partial
+    with sim.kernel() as k2:
+        k2.all()
+    sim.scamp5_in(B, 7)
+    assert (sim.read(B) == 7).all()
+    sim._dplane(FLAG)[0, 0] = False  # a write through the plane
+    assert not sim._flag_partial and sim._flag_masked is None
+    sim.scamp5_in(B, 9)
+    assert sim.read(B)[0, 0] == 7 and sim.read(B)[0, 1] == 9
+    assert sim._flag_partial
 
 
 @needs_numba

@@ -155,6 +155,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._latch = np.zeros(shape, dtype=bool)
         self._mask = np.zeros(shape, dtype=np.uint32)
         self._flag_masked: bool | None = False  # None: unknown, recompute
+        self._flag_partial = False  # FLAG seen partial since the last kernel or FLAG access
         self._in_level: float | None = 0.0  # the level IN holds everywhere (None: unknown)
         self._image: np.ndarray | None = None
         self._ops_cache: dict[tuple, Op] = {}
@@ -204,15 +205,21 @@ class Scamp5(ControllerMixin, ProgramAPI):
 
     def _flag_state(self) -> tuple[np.ndarray, bool]:
         """FLAG's plane (to read) and whether it is 1 everywhere: the tracked state when it
-        is known, else one pass (kept when it finds FLAG set everywhere, which needs no
-        mask; a partial FLAG stays unknown until the numpy engine builds its mask)."""
+        is known, else one pass. A pass that finds FLAG set everywhere is kept as the
+        tracked state (no mask needed); one that finds it partial is kept in
+        ``_flag_partial`` (the numpy engine's mask is not built) until the next kernel run
+        or FLAG access, the only ways FLAG changes: the host calls of a frame between two
+        kernels look once, not once each."""
         flag = self._d[_FLAG_I]
         masked = self._flag_masked
         if masked is not None:
             return flag, not masked
-        if flag.all():
+        if self._flag_partial:
+            return flag, False
+        if hostloops.all_set(flag):
             self._flag_masked = False
             return flag, True
+        self._flag_partial = True
         return flag, False
 
     def _scratch(self) -> np.ndarray:
@@ -226,6 +233,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
             raise SimulatorError(f"{reg!r} is not a digital register: use R0..R12, FLAG or SELECT")
         if reg.index == _FLAG_I:
             self._flag_masked = None  # the caller may change FLAG through the view
+            self._flag_partial = False
         return self._d[reg.index]
 
     def _as_plane(self, reg: Register, values: object, dtype: type) -> np.ndarray:
@@ -399,6 +407,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
     ) -> None:
         if not self.noise.ideal:
             self._elapse()
+        self._flag_partial = False  # the kernel may change FLAG
         run()
         self.timing.charge_kernel(counts)
         if dwritten.size:

@@ -19,6 +19,7 @@ from types import SimpleNamespace
 import numpy as np
 
 __all__ = [
+    "all_set",
     "any_set",
     "droop",
     "droop_each",
@@ -61,6 +62,11 @@ def fill(out: np.ndarray, value: float) -> None:
 def any_set(plane: np.ndarray) -> bool:
     """Whether any element of a bool plane is set (``plane.any()``)."""
     return bool(_loops().any_set(plane))
+
+
+def all_set(plane: np.ndarray) -> bool:
+    """Whether every element of a bool plane is set (``plane.all()``)."""
+    return bool(_loops().all_set(plane))
 
 
 def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
@@ -141,6 +147,9 @@ def numpy_loops() -> SimpleNamespace:
     def any_np(plane: np.ndarray) -> bool:
         return bool(plane.any())
 
+    def all_np(plane: np.ndarray) -> bool:
+        return bool(plane.all())
+
     scratch: dict[tuple[int, ...], np.ndarray] = {}
 
     def shift_np(plane, v, h, flag, everywhere, noisy, offset, window, droops, step) -> None:
@@ -187,6 +196,7 @@ def numpy_loops() -> SimpleNamespace:
         select=select_np,
         fill=fill_all_np,
         any_set=any_np,
+        all_set=all_np,
         fill_where=fill_np,
         shift=shift_np,
         droop=droop_np,
@@ -328,6 +338,19 @@ def _numba_loops() -> SimpleNamespace:
         return found
 
     @jit
+    def all_nb(plane):  # pragma: no cover - compiled
+        b = plane.reshape(plane.size).view(np.uint8)
+        whole = b.size - b.size % 8
+        words = b[:whole].view(np.uint64)
+        ones = np.uint64(0x0101010101010101)
+        acc = True
+        for w in range(words.size):  # no early exit: a reduction LLVM vectorises
+            acc = acc & (words[w] == ones)
+        for i in range(whole, b.size):
+            acc = acc and b[i] != 0
+        return acc
+
+    @jit
     def droop_nb(planes, step):  # pragma: no cover - compiled
         n = planes.size
         p = planes.reshape(n)
@@ -380,6 +403,7 @@ def _numba_loops() -> SimpleNamespace:
         select=select_nb,
         fill=fill_all_nb,
         any_set=any_nb,
+        all_set=all_nb,
         fill_where=fill_nb,
         shift=shift_nb,
         droop=droop_nb,
