@@ -8,7 +8,9 @@ temporary plane. Here each is one branch-free loop over the plane, compiled by n
 when it is installed (the compiled engine's dependency; imported on first use only),
 else the plain numpy operations, which give the same bytes
 (tests/sim/test_controller_fast.py checks one against the other). Every array is
-C-contiguous (whole planes, or views of whole planes).
+C-contiguous (whole planes, or views of whole planes). Scalar values are passed as
+Python floats and rounded to float32 inside the loops: a call from the host is a few
+arguments to type, and a ``np.float32`` made per call cost as much as the typing.
 """
 
 from __future__ import annotations
@@ -56,7 +58,7 @@ def select(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
 
 def fill(out: np.ndarray, value: float) -> None:
     """``out := float32(value)`` everywhere (``ndarray.fill`` takes twice as long)."""
-    _loops().fill(out, np.float32(value))
+    _loops().fill(out, float(value))
 
 
 def any_set(plane: np.ndarray) -> bool:
@@ -71,13 +73,13 @@ def all_set(plane: np.ndarray) -> bool:
 
 def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
     """``out := float32(value)`` where ``flag``."""
-    _loops().fill_where(out, np.float32(value), flag)
+    _loops().fill_where(out, float(value), flag)
 
 
 def shift(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
     """``plane[r, c] := plane[r + v, c - h]`` (0 from beyond the edge) where ``flag``
     (everywhere if ``everywhere``), in place: the ideal analogue ``shift`` in one pass."""
-    _loops().shift(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0))
+    _loops().ideal_shift(plane, v, h, flag, everywhere)
 
 
 def noisy_shift(
@@ -129,7 +131,7 @@ def noisy_level(
 ) -> None:
     """``out := clip(float32(value) + window, -128, 127)`` where ``flag`` (everywhere if
     ``everywhere``), float32: one DAC level written with one temporal-noise window."""
-    _loops().noisy_level(out, np.float32(value), window, flag, everywhere)
+    _loops().noisy_level(out, float(value), window, flag, everywhere)
 
 
 def numpy_loops() -> SimpleNamespace:
@@ -138,11 +140,11 @@ def numpy_loops() -> SimpleNamespace:
     def select_np(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
         np.copyto(out, src, where=flag, casting="unsafe")
 
-    def fill_np(out: np.ndarray, value: np.float32, flag: np.ndarray) -> None:
-        np.copyto(out, value, where=flag)
+    def fill_np(out: np.ndarray, value: float, flag: np.ndarray) -> None:
+        np.copyto(out, np.float32(value), where=flag)
 
-    def fill_all_np(out: np.ndarray, value: np.float32) -> None:
-        out.fill(value)
+    def fill_all_np(out: np.ndarray, value: float) -> None:
+        out.fill(np.float32(value))
 
     def any_np(plane: np.ndarray) -> bool:
         return bool(plane.any())
@@ -165,6 +167,9 @@ def numpy_loops() -> SimpleNamespace:
             noisy_np(plane, new, offset, window, flag, everywhere)
         else:
             np.copyto(plane, new, where=True if everywhere else flag)
+
+    def ideal_shift_np(plane, v, h, flag, everywhere) -> None:
+        shift_np(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0))
 
     def droop_np(planes: np.ndarray, step: np.float32) -> None:
         tmp = scratch.get(planes.shape)
@@ -189,7 +194,7 @@ def numpy_loops() -> SimpleNamespace:
             np.copyto(out, values, where=flag)
 
     def noisy_level_np(out, value, window, flag, everywhere) -> None:
-        new = np.clip(value + window, np.float32(-128), np.float32(127))
+        new = np.clip(np.float32(value) + window, np.float32(-128), np.float32(127))
         np.copyto(out, new, where=True if everywhere else flag)
 
     return SimpleNamespace(
@@ -199,6 +204,7 @@ def numpy_loops() -> SimpleNamespace:
         all_set=all_np,
         fill_where=fill_np,
         shift=shift_np,
+        ideal_shift=ideal_shift_np,
         droop=droop_np,
         droop_each=droop_each_np,
         noisy_level=noisy_level_np,
@@ -231,9 +237,10 @@ def _numba_loops() -> SimpleNamespace:
         n = out.size
         o = out.reshape(n)
         f = flag.reshape(n)
+        x = np.float32(value)  # the wrappers pass a float: rounded here, once
         for i in range(n):
             y = o[i]
-            o[i] = value if f[i] else y
+            o[i] = x if f[i] else y
 
     @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
     def _noisy_value(x, offset, noise):  # pragma: no cover - compiled
@@ -319,10 +326,16 @@ def _numba_loops() -> SimpleNamespace:
                         out[c] = zero
 
     @jit
+    def ideal_shift_nb(plane, v, h, flag, everywhere):  # pragma: no cover - compiled
+        # shift_nb's ideal case: fewer arguments for the call to pass
+        shift_nb(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0.0))
+
+    @jit
     def fill_all_nb(out, value):  # pragma: no cover - compiled
         o = out.reshape(out.size)
+        x = np.float32(value)
         for i in range(o.size):
-            o[i] = value
+            o[i] = x
 
     @jit
     def any_nb(plane):  # pragma: no cover - compiled
@@ -392,8 +405,9 @@ def _numba_loops() -> SimpleNamespace:
         f = flag.reshape(n)
         lo = np.float32(-128.0)
         hi = np.float32(127.0)
+        v = np.float32(value)
         for i in range(n):
-            x = value + win[i]  # float32, as the numpy version
+            x = v + win[i]  # float32, as the numpy version
             x = x if x > lo else lo
             x = x if x < hi else hi
             y = o[i]
@@ -406,6 +420,7 @@ def _numba_loops() -> SimpleNamespace:
         all_set=all_nb,
         fill_where=fill_nb,
         shift=shift_nb,
+        ideal_shift=ideal_shift_nb,
         droop=droop_nb,
         droop_each=droop_each_nb,
         noisy_level=level_nb,
