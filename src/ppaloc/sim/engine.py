@@ -165,6 +165,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._droop_steps = np.zeros(len(_DECAYING), dtype=np.float32)
         self._dtouch_us = np.zeros(_N_DIGITAL)
         self._dtouch_low = 0.0  # at most the oldest of R0-R12's last writes (us)
+        params = self.noise.params  # digital writes are timed only if registers decay
+        self._retention = bool(params and params.digital_retention_ms is not None)
         if not self.noise.ideal:
             self._a[PIX.index] = self.noise.pixel_offset
         self.engine = make_engine(engine, self)
@@ -414,7 +416,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
             self._touch_digital(dwritten)
 
     def _touch_digital(self, planes: np.ndarray | int) -> None:
-        """Digital ``planes`` (indices) written now: their retention starts again."""
+        """Digital ``planes`` (indices) written now: their retention starts again (nothing
+        to note when the noise model has no retention, as in ideal mode)."""
+        if not self._retention:
+            return
         now = self.timing.now_us
         self._dtouch_us[planes] = now
         if now < self._dtouch_low:  # the clock was reset
