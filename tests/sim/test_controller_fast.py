@@ -296,6 +296,34 @@ def test_address_patterns_are_cached_read_only_and_equal_fresh_ones():
     assert set(rows.tolist()) == {1, 5} and set(cols.tolist()) == {2, 3}
 
 
+@settings(max_examples=40, deadline=None)
+@given(
+    SHAPES,
+    st.integers(0, 255),
+    st.integers(0, 255),
+    st.integers(0, 255),
+    st.integers(0, 255),
+    st.booleans(),
+)
+def test_load_pattern_writes_the_address_definition_from_its_vectors(
+    shape, r, c, rx, cx, scamp_addr
+):
+    """The pattern is written row by row from its row and column vectors (numba and
+    numpy alike): the header's definition, over whatever the register held."""
+    sim = Scamp5(*shape)
+    sim.write(R5, np.random.default_rng(r).random(shape) < 0.5)
+    sim.load_pattern(R5, r, c, rx, cx, scamp_addr=scamp_addr)
+    rows, cols = np.arange(shape[0])[:, None], np.arange(shape[1])[None, :]
+    if scamp_addr:
+        cols = shape[1] - 1 - cols
+    want = ((rows & ~rx) == (r & ~rx)) & ((cols & ~cx) == (c & ~cx))
+    assert np.array_equal(sim.read(R5), want)
+    pattern = sim._pattern(r, c, rx, cx, scamp_addr)
+    plain = np.ones(shape, dtype=bool)
+    hostloops.numpy_loops().grid(plain, pattern.row_ok, pattern.col_ok)
+    assert np.array_equal(plain, want) and np.array_equal(pattern.mask, want)
+
+
 def test_cached_kernel_and_call_costs_equal_fresh_ones_and_follow_the_constants():
     t, fresh = TimingModel(), TimingModel()
     counts = {"analog": 7, "digital": 3, "dnews": 0, "nop": 1}

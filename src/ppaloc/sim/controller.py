@@ -132,12 +132,15 @@ def _pattern_args(call: str, r: Any, c: Any, rx: Any, cx: Any) -> tuple[int, int
 
 
 class _Pattern(NamedTuple):
-    """The elements an address pattern selects: the plane, and its rows and columns
-    (index arrays; None when every row, column matches)."""
+    """The elements an address pattern selects: the plane, its rows and columns (index
+    arrays; None when every row, column matches), and whether each row and column
+    matches (bool vectors: the plane is their outer AND)."""
 
     mask: np.ndarray
     rows: np.ndarray | None
     cols: np.ndarray | None
+    row_ok: np.ndarray
+    col_ok: np.ndarray
 
 
 #: ``vs_scamp5_get_parameter`` numbers of the header (``vs_scamp5.hpp``).
@@ -162,8 +165,8 @@ class ControllerMixin(DrawMixin):
     """Controller (host) calls of SCAMP-5, mixed into :class:`ppaloc.sim.engine.Scamp5`.
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
-    ``_dplane``, ``_write_analog``, ``_write_digital``, ``_flag_state``, ``_set_in``,
-    ``_take_droop``, ``rng``, ``noise`` and ``timing``.
+    ``_dplane``, ``_write_analog``, ``_write_digital``, ``_write_digital_grid``,
+    ``_flag_state``, ``_set_in``, ``_take_droop``, ``rng``, ``noise`` and ``timing``.
     """
 
     rows: int
@@ -182,6 +185,9 @@ class ControllerMixin(DrawMixin):
             self, reg: Register, values: object, where: np.ndarray | None = None
         ) -> None: ...
         def _write_digital(self, reg: Register, bools: np.ndarray) -> None: ...
+        def _write_digital_grid(
+            self, reg: Register, rows: np.ndarray, cols: np.ndarray
+        ) -> None: ...
         def _flag_state(self) -> tuple[np.ndarray, bool]: ...
         def _set_in(self, value: float) -> None: ...
         def _take_droop(self, reg: Register) -> np.float32 | None: ...
@@ -288,6 +294,8 @@ class ControllerMixin(DrawMixin):
                 mask,
                 None if row_ok.all() else np.flatnonzero(row_ok),
                 None if col_ok.all() else np.flatnonzero(col_ok),
+                row_ok,
+                col_ok,
             )
             if len(cache) >= 1024:
                 cache.clear()
@@ -484,7 +492,8 @@ class ControllerMixin(DrawMixin):
         self._dreg(call, dreg)
         args = _pattern_args(call, r, c, rx, cx)
         self.timing.charge_call(call)
-        self._write_digital(dreg, self._pattern(*args, scamp_addr).mask)
+        pattern = self._pattern(*args, scamp_addr)
+        self._write_digital_grid(dreg, pattern.row_ok, pattern.col_ok)
 
     def load_point(self, dreg: Register, r: int, c: int, *, scamp_addr: bool = False) -> None:
         """Set ``dreg`` to 1 at element (r, c) and to 0 elsewhere.

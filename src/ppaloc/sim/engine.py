@@ -299,6 +299,16 @@ class Scamp5(ControllerMixin, ProgramAPI):
         np.copyto(plane, values, casting="unsafe")
         self._touch_digital(reg.index)
 
+    def _write_digital_grid(self, reg: Register, rows: np.ndarray, cols: np.ndarray) -> None:
+        """Set digital ``reg`` to an address pattern, ``rows[r] and cols[c]`` (bool
+        vectors): :meth:`_write_digital` of the pattern's plane, written from the vectors
+        (the pattern loads of a frame would each read a cached 64 KB plane)."""
+        plane = self._dplane(reg)
+        if not self.noise.ideal:
+            self._elapse()
+        hostloops.grid(plane, rows, cols)
+        self._touch_digital(reg.index)
+
     def read(self, reg: Register) -> np.ndarray:
         """A copy of ``reg``'s plane: float32 in [-128, 127] (analogue) or bool (digital).
 

@@ -27,6 +27,7 @@ __all__ = [
     "droop_each",
     "fill",
     "fill_where",
+    "grid",
     "have_numba",
     "noisy_level",
     "noisy_shift",
@@ -69,6 +70,12 @@ def any_set(plane: np.ndarray) -> bool:
 def all_set(plane: np.ndarray) -> bool:
     """Whether every element of a bool plane is set (``plane.all()``)."""
     return bool(_loops().all_set(plane))
+
+
+def grid(out: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
+    """``out[r, c] := rows[r] and cols[c]`` (bool planes and vectors): an address pattern
+    written row by row from its two vectors, without reading a plane."""
+    _loops().grid(out, rows, cols)
 
 
 def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
@@ -152,6 +159,9 @@ def numpy_loops() -> SimpleNamespace:
     def all_np(plane: np.ndarray) -> bool:
         return bool(plane.all())
 
+    def grid_np(out: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
+        np.logical_and(rows[:, None], cols[None, :], out=out)
+
     scratch: dict[tuple[int, ...], np.ndarray] = {}
 
     def shift_np(plane, v, h, flag, everywhere, noisy, offset, window, droops, step) -> None:
@@ -202,6 +212,7 @@ def numpy_loops() -> SimpleNamespace:
         fill=fill_all_np,
         any_set=any_np,
         all_set=all_np,
+        grid=grid_np,
         fill_where=fill_np,
         shift=shift_np,
         ideal_shift=ideal_shift_np,
@@ -364,6 +375,19 @@ def _numba_loops() -> SimpleNamespace:
         return acc
 
     @jit
+    def grid_nb(out, rows, cols):  # pragma: no cover - compiled
+        n_cols = cols.size
+        o = out.reshape(out.size)
+        for r in range(rows.size):  # flat indices: no row view is made
+            base = r * n_cols
+            if rows[r]:
+                for c in range(n_cols):
+                    o[base + c] = cols[c]
+            else:
+                for c in range(n_cols):
+                    o[base + c] = False
+
+    @jit
     def droop_nb(planes, step):  # pragma: no cover - compiled
         n = planes.size
         p = planes.reshape(n)
@@ -418,6 +442,7 @@ def _numba_loops() -> SimpleNamespace:
         fill=fill_all_nb,
         any_set=any_nb,
         all_set=all_nb,
+        grid=grid_nb,
         fill_where=fill_nb,
         shift=shift_nb,
         ideal_shift=ideal_shift_nb,
