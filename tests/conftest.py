@@ -15,6 +15,13 @@ if os.environ.get("CI"):
     settings.load_profile("ci")
 
 
+# The compiled engine's fused tier compiles each stretch it fuses (about 0.1 s an ICW, once
+# per machine): the suite runs the first tier, and the tests of the fused tier (in
+# tests/sim/test_engines.py and test_fused.py) fuse what they run. `PPALOC_FUSE_AFTER=1
+# pytest` runs the whole suite fused.
+os.environ.setdefault("PPALOC_FUSE_AFTER", "never")
+
+
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption(
         "--engine",

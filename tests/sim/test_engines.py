@@ -109,6 +109,23 @@ def test_every_engine_leaves_the_reference_bytes(mode: str, program: list, seed:
     same_bytes(run(default_engine(), mode, program, seed, direct=True), direct)
 
 
+needs_numba = pytest.mark.skipif("compiled" not in available_engines(), reason="no numba")
+fused_programs = st.lists(st.lists(icws(), min_size=2, max_size=10), min_size=1, max_size=1)
+
+
+@needs_numba
+@pytest.mark.parametrize("mode", list(MODES))
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@given(program=fused_programs, seed=st.integers(0, 2**16))
+def test_the_fused_tier_leaves_the_reference_bytes(mode: str, program: list, seed: int) -> None:
+    """Random kernels with every stretch the second tier can fuse fused from the first
+    run (each compiles, so fewer examples than the first tier's test)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PPALOC_FUSE_AFTER", "1")
+        fused = run("compiled", mode, program, seed)
+    same_bytes(fused, run("reference", mode, program, seed))
+
+
 def test_engine_by_name_and_errors(monkeypatch: pytest.MonkeyPatch) -> None:
     for name in available_engines():
         assert Scamp5(2, 2, engine=name).engine.name == name
@@ -194,10 +211,27 @@ def test_the_reference_engine_models_every_op() -> None:
     assert [op for op in OPS if not engine.supports(op)] == []
 
 
-@pytest.mark.parametrize("engine", [e for e in available_engines() if e != "reference"])
-def test_signed_zeros_move_as_the_reference_moves_them(engine: str) -> None:
-    """-0.0 and 0.0 are different bytes: each neighbour read and push keeps the reference's."""
+FAST_ENGINES = [e for e in available_engines() if e != "reference"]
+FAST_ENGINES += ["fused"] if "compiled" in FAST_ENGINES else []
+
+
+def fast(engine: str, monkeypatch: pytest.MonkeyPatch) -> str:
+    """The engine's name; "fused" is the compiled engine fusing from the first run."""
+    if engine == "fused":
+        monkeypatch.setenv("PPALOC_FUSE_AFTER", "1")
+        return "compiled"
+    return engine
+
+
+@pytest.mark.parametrize("engine", FAST_ENGINES)
+def test_signed_zeros_move_as_the_reference_moves_them(
+    engine: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """-0.0 and 0.0 are different bytes: each neighbour read and push keeps the reference's
+    (with an ICW after it, so that the fused tier has a stretch to fuse)."""
+    engine = fast(engine, monkeypatch)
     values = np.array([[-0.0, 0.0, -0.0, 1.0, -0.0], [0.0, -0.0, -2.0, -0.0, 0.0]] * 2)
+    after = ("bus", (s.C,), (s.B,))
     for ins in [("bus", (s.B,), (n,)) for n in (s.XN, s.XE, s.XS, s.XW)] + [
         ("bus", (p,), (s.A,)) for p in (s.XN, s.XE, s.XS, s.XW)
     ]:
@@ -208,6 +242,7 @@ def test_signed_zeros_move_as_the_reference_moves_them(engine: str) -> None:
             sim.write(s.NEWS, -values)
             with sim.kernel() as k:
                 k.icw(*ins)
+                k.icw(*after)
             sims.append(sim)
         same_bytes(*sims)
 

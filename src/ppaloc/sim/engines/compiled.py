@@ -30,6 +30,7 @@ numba is imported here only: ``ppaloc.sim`` imports without it.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -37,6 +38,7 @@ import numba
 import numpy as np
 from numba.core.cpu import CPUTargetOptions
 
+from ppaloc.errors import SimulatorError
 from ppaloc.sim.engines import in_order
 from ppaloc.sim.isa import Instruction
 from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
@@ -44,7 +46,7 @@ from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["CompiledEngine", "dead_writes"]
+__all__ = ["FUSE_AFTER", "FUSE_ENV", "CompiledEngine", "dead_writes", "fuse_after_from_env"]
 
 # op codes
 _NOP, _RPIX, _BUS, _WHERE, _ALL, _SET, _CLR, _MOV, _NOT, _OR, _NOR = range(11)
@@ -151,6 +153,11 @@ class CompiledEngine:
 
     def __init__(self, sim: Scamp5) -> None:
         self.sim = sim
+        #: Runs of a fusable stretch on the first tier before it is compiled into fused
+        #: loops (``$PPALOC_FUSE_AFTER``; None: never). Compiling costs about 0.1 s per
+        #: ICW once per machine (numba's typing and lowering), so the default waits for
+        #: a stretch that is run often; one already in the cache folder is fused at once.
+        self.fuse_after = fuse_after_from_env()
         shape = (sim.rows, sim.cols)
         self._t = np.zeros(shape, dtype=np.float32)
         self._t2 = np.zeros(shape, dtype=np.float32)
@@ -168,7 +175,11 @@ class CompiledEngine:
         return ins.op in _CODES and len(ins.dsts) <= 4 and len(ins.srcs) <= 4
 
     def compile(self, instructions: tuple[Instruction, ...]) -> Callable[[], None]:
-        """Compiled segments of the kernel, with numpy closures for any other op."""
+        """Compiled segments of the kernel, with numpy closures for any other op.
+
+        A run of at least two ICWs the second tier can fuse (:mod:`.fused`) starts on
+        this tier and moves to generated, fused loops on its :attr:`fuse_after`-th run.
+        """
         parts: list[Callable[[], None]] = []
         run_of: list[Instruction] = []
         for ins in (*instructions, None):
@@ -176,11 +187,91 @@ class CompiledEngine:
                 run_of.append(ins)
                 continue
             if run_of:
-                parts.append(self._segment(run_of))
+                parts.extend(self._tiered(run_of))
                 run_of = []
             if ins is not None:
                 parts.append(self.sim._compile(ins))
         return in_order(parts)
+
+    def _tiered(self, instructions: list[Instruction]) -> list[Callable[[], None]]:
+        """Runners of an encodable run: its fusable stretches (two ICWs or more) tiered,
+        the rest on this tier."""
+        from ppaloc.sim.engines import fused
+
+        parts: list[Callable[[], None]] = []
+        stretch: list[Instruction] = []
+        other: list[Instruction] = []
+        for ins in (*instructions, None):
+            if ins is not None and fused.fusable(ins):
+                if other:
+                    parts.append(self._segment(other))
+                    other = []
+                stretch.append(ins)
+                continue
+            if len(stretch) >= 2 and self.fuse_after is not None:
+                parts.append(self._tier_up(stretch))
+            elif stretch:
+                other.extend(stretch)
+            stretch = []
+            if ins is not None:
+                other.append(ins)
+        if other:
+            parts.append(self._segment(other))
+        return parts
+
+    def _tier_up(self, instructions: list[Instruction]) -> Callable[[], None]:
+        """A runner on this tier that becomes the fused one on its ``fuse_after``-th run,
+        or on its first when the fused code is already in the cache folder."""
+        from ppaloc.sim.engines import fused
+
+        sim = self.sim
+        text = fused.source(instructions, sim.rows, sim.cols, not sim.noise.ideal)
+        after = self.fuse_after
+        if after <= 1 or fused.cached(text):
+            return self._fused(instructions, text)
+        first = self._segment(instructions)
+        runs = 0
+
+        def run() -> None:
+            nonlocal runs, first
+            runs += 1
+            if runs == after:
+                first = self._fused(instructions, text)
+            first()
+
+        return run
+
+    def _fused(self, instructions: list[Instruction], text: str) -> Callable[[], None]:
+        """The stretch as generated, fused loops (``text``, compiled once per machine)."""
+        from ppaloc.sim.engines import fused
+
+        sim = self.sim
+        noise = sim.noise
+        noisy = not noise.ideal
+        fn = fused.load(text)
+        k = max(len(p.pre) for p in fused.plan(instructions))
+        scratch = np.zeros((max(k, 1), sim.rows, sim.cols), dtype=np.float32)
+        m = sum(fused.draws(ins, noisy) for ins in instructions)
+        a, d, latch = sim._a, sim._d, sim._latch
+        if noise.ideal:
+            bank = bank_div = self._none
+        else:
+            bank, bank_div = noise._bank, noise._bank_div
+        offsets, pixel = noise.offsets, noise.pixel_offset
+        none_s, none_g = self._no_starts, self._no_gains
+        marked = fused.cached(text)
+
+        def run() -> None:
+            nonlocal marked
+            starts, gains = noise.take(m) if m else (none_s, none_g)
+            all_set = fn(a, d, latch, scratch, offsets, pixel, bank, bank_div, starts, gains,
+                         sim._flag_masked is False)  # fmt: skip
+            sim._flag_masked = False if all_set else None
+            if not marked:  # compiled and run once: later processes take it from the cache
+                fused.mark_cached(text)
+                marked = True
+
+        return run
 
     def _segment(self, instructions: list[Instruction]) -> Callable[[], None]:
         sim = self.sim
@@ -209,6 +300,24 @@ class CompiledEngine:
             sim._flag_masked = False if all_set else None
 
         return run
+
+
+#: The default of :attr:`CompiledEngine.fuse_after`.
+FUSE_AFTER = 64
+#: The environment variable that sets it: a number of runs, or "never".
+FUSE_ENV = "PPALOC_FUSE_AFTER"
+
+
+def fuse_after_from_env() -> int | None:
+    """``$PPALOC_FUSE_AFTER`` as a number of runs (None for "never"), else the default."""
+    value = os.environ.get(FUSE_ENV, "").strip().lower()
+    if not value:
+        return FUSE_AFTER
+    if value == "never":
+        return None
+    if value.isdigit() and int(value) >= 1:
+        return int(value)
+    raise SimulatorError(f"{FUSE_ENV}={value!r} is invalid: use a number of runs >= 1, or never")
 
 
 # numba's option to compile without its reference-counting runtime (``_nrt``, long

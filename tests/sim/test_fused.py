@@ -1,0 +1,164 @@
+"""The compiled engine's fused tier: passes, saturation by range, when it fuses, its cache.
+
+Its results against the reference engine's bytes are tested on random programs in
+tests/sim/test_engines.py; here are the planner's cuts, the generated code's choices and
+the engine's policy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import ppaloc.sim as s
+from ppaloc.errors import SimulatorError
+from ppaloc.sim import Scamp5
+from ppaloc.sim.engines import available_engines
+from ppaloc.sim.isa import make
+
+pytestmark = pytest.mark.skipif("compiled" not in available_engines(), reason="no numba")
+
+
+@pytest.fixture
+def fused(monkeypatch: pytest.MonkeyPatch, tmp_path):
+    """The fused module with a cache folder of the test's own."""
+    from ppaloc.sim.engines import fused
+
+    monkeypatch.setenv("PPALOC_CACHE_DIR", str(tmp_path / "kernels"))
+    return fused
+
+
+def block_mean_step(direction) -> list:
+    """movx(B, A, direction); add(C, A, B); divq(A, C) as ICWs: a push, then local ICWs."""
+    return [
+        make("bus", (direction,), (s.A,)),
+        make("bus", (s.B,), (s.NEWS,)),
+        make("bus", (s.NEWS,), (s.A, s.B)),
+        make("bus", (s.C,), (s.NEWS,)),
+        make("bus2", (s.A, s.NEWS), (s.C,)),
+        make("bus", (s.A,), (s.NEWS,)),
+    ]
+
+
+def test_a_pass_ends_where_a_neighbour_term_would_read_what_it_wrote(fused) -> None:
+    step = block_mean_step(s.XE)
+    passes = fused.plan(step + step)
+    # the second push reads A, which the first pass wrote: a new pass, with its pre-step
+    assert [len(p.icws) for p in passes] == [6, 6]
+    assert [[kind for kind, _, _ in p.pre] for p in passes] == [["push"], ["push"]]
+    read = [make("bus", (s.NEWS,), (s.A,)), make("bus", (s.B,), (s.XW,))]
+    assert [len(p.icws) for p in fused.plan(read)] == [1, 1]  # NEWS written, then read
+    flag = [make("where", (), (s.A,)), make("bus", (s.XE,), (s.B,))]
+    assert [len(p.icws) for p in fused.plan(flag)] == [1, 1]  # FLAG written, then pushed by
+
+
+def test_saturation_is_written_only_where_a_value_can_leave_the_range(fused) -> None:
+    def body(*icws) -> str:
+        return fused.source([make(*i) for i in icws], 4, 4, noisy=False)
+
+    copy = body(("bus", (s.B,), (s.A,)), ("nop", (), ()))
+    assert "clip_hi(-" in copy and "clip(" not in copy  # -A can only exceed 127
+    half = body(("bus2", (s.B, s.C), (s.A,)), ("nop", (), ()))
+    assert "clip" not in half.split("def run")[1]  # A / -2 stays inside
+    total = body(("bus", (s.B,), (s.A, s.C)), ("nop", (), ()))
+    assert "clip(-" in total  # A + C can leave at both ends
+    pixel = body(("bus", (s.B,), (s.PIX,)), ("nop", (), ()))
+    assert "clip(-" in pixel  # PIX is not assumed inside the range
+
+
+@pytest.mark.parametrize("mode", ["ideal", "typical"])
+def test_saturated_ends_and_masks_are_the_reference_bytes(mode: str, monkeypatch) -> None:
+    """Every value at the ends of the range, FLAG set in some elements, every kind of
+    write the ranges reason about."""
+    program = [
+        ("where", (), (s.D,)),
+        ("bus", (s.B,), (s.A,)),
+        ("bus", (s.C,), (s.A, s.B)),
+        ("bus", (s.F,), (s.A, s.D)),  # -(A + D): beyond both ends
+        ("bus2", (s.E, s.NEWS), (s.F,)),
+        ("bus3", (s.B, s.C, s.D), (s.A,)),
+        ("all", (), ()),
+        ("bus", (s.XS,), (s.A, s.C)),
+        ("bus", (s.E,), (s.NEWS,)),
+    ]
+    sims = []
+    for engine, after in (("reference", "never"), ("compiled", "1")):
+        monkeypatch.setenv("PPALOC_FUSE_AFTER", after)
+        sim = Scamp5(4, 6, noise=mode, seed=3, engine=engine)
+        ends = np.array([[-128, 127, -0.0, 0.0, -127.5, 126.5]] * 4)
+        sim.write(s.A, ends)
+        sim.write(s.C, ends[:, ::-1])
+        sim.write(s.D, np.array([[-128, 127, 0, 2, -3, 1]] * 4))
+        with sim.kernel() as k:
+            for ins in program:
+                k.icw(*ins)
+        k.run()
+        sims.append(sim)
+    ref, got = sims
+    assert got._a.tobytes() == ref._a.tobytes()
+    assert got._d.tobytes() == ref._d.tobytes()
+
+
+def test_fuse_after_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from ppaloc.sim.engines.compiled import FUSE_AFTER, fuse_after_from_env
+
+    monkeypatch.delenv("PPALOC_FUSE_AFTER", raising=False)
+    assert fuse_after_from_env() == FUSE_AFTER
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "never")
+    assert fuse_after_from_env() is None
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "5")
+    assert fuse_after_from_env() == 5
+    for bad in ("0", "-2", "soon"):
+        monkeypatch.setenv("PPALOC_FUSE_AFTER", bad)
+        with pytest.raises(SimulatorError, match="PPALOC_FUSE_AFTER"):
+            fuse_after_from_env()
+
+
+def _stretch_text(fused, sim: Scamp5, kernel) -> str:
+    return fused.source(list(kernel.instructions), sim.rows, sim.cols, not sim.noise.ideal)
+
+
+def test_a_stretch_is_fused_on_its_nth_run_and_then_taken_from_the_cache(
+    fused, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "3")
+    sim = Scamp5(4, 4, seed=1, engine="compiled")
+    sim.write(s.A, np.arange(16).reshape(4, 4))
+    with sim.kernel() as k:  # the first run
+        for ins in block_mean_step(s.XS):
+            k.icw(ins.op, ins.dsts, ins.srcs)
+    text = _stretch_text(fused, sim, k)
+    k.run()
+    assert not fused.cached(text)  # two runs: still the first tier
+    k.run()
+    assert fused.cached(text)  # the third run compiled and ran the fused code
+    loads = []
+    real_load = fused.load
+    monkeypatch.setattr(fused, "load", lambda t: loads.append(t) or real_load(t))
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "1000")
+    again = Scamp5(4, 4, seed=1, engine="compiled")
+    with again.kernel() as k2:  # cached: fused on the first run, whatever fuse_after says
+        for ins in block_mean_step(s.XS):
+            k2.icw(ins.op, ins.dsts, ins.srcs)
+    assert loads == [text]
+
+
+def test_a_cache_folder_that_cannot_be_written_compiles_in_memory(
+    monkeypatch: pytest.MonkeyPatch, tmp_path
+) -> None:
+    from ppaloc.sim.engines import fused
+
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("PPALOC_CACHE_DIR", str(blocker / "kernels"))
+    sims = []
+    for after in ("never", "1"):
+        monkeypatch.setenv("PPALOC_FUSE_AFTER", after)
+        sim = Scamp5(4, 4, seed=2, engine="compiled")
+        sim.write(s.A, np.arange(16).reshape(4, 4) - 8)
+        with sim.kernel() as k:
+            for ins in block_mean_step(s.XW):
+                k.icw(ins.op, ins.dsts, ins.srcs)
+        sims.append(sim)
+    assert sims[0]._a.tobytes() == sims[1]._a.tobytes()
+    assert not fused.cached(_stretch_text(fused, sims[1], k))
