@@ -324,6 +324,21 @@ def test_load_pattern_writes_the_address_definition_from_its_vectors(
     assert np.array_equal(plain, want) and np.array_equal(pattern.mask, want)
 
 
+@settings(max_examples=30, deadline=None)
+@given(SHAPES, st.integers(0, 2**32 - 1), st.booleans())
+def test_load_image_is_the_half_range_level_plus_the_offset(shape, seed, offsets):
+    rng = np.random.default_rng(seed)
+    image = rng.integers(0, 256, shape).astype(np.uint8)
+    offset = rng.normal(0, 2, shape).astype(np.float32) if offsets else None
+    want = np.multiply(image, np.float32(0.5), dtype=np.float32) - np.float32(64.0)
+    if offsets:
+        want = want + offset
+    got, plain = np.empty(shape, np.float32), np.empty(shape, np.float32)
+    hostloops.load_image(got, image, offset)
+    hostloops.numpy_loops().load_image(plain, image, got if offset is None else offset, offsets)
+    assert np.array_equal(_bits(got), _bits(want)) and np.array_equal(_bits(plain), _bits(want))
+
+
 def test_cached_kernel_and_call_costs_equal_fresh_ones_and_follow_the_constants():
     t, fresh = TimingModel(), TimingModel()
     counts = {"analog": 7, "digital": 3, "dnews": 0, "nop": 1}

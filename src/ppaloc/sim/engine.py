@@ -349,11 +349,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         self._image = img.copy()
         if not self.noise.ideal:
             self._elapse()
-        pix = self._a[PIX.index]
-        np.multiply(img, np.float32(0.5), out=pix, casting="unsafe")
-        np.subtract(pix, np.float32(64.0), out=pix)
-        if not self.noise.ideal:
-            np.add(pix, self.noise.pixel_offset, out=pix)
+        offset = None if self.noise.ideal else self.noise.pixel_offset
+        hostloops.load_image(self._a[PIX.index], self._image, offset)
 
     # --------------------------------------------------------------------- kernels
     def kernel(self) -> Kernel:

@@ -29,6 +29,7 @@ __all__ = [
     "fill_where",
     "grid",
     "have_numba",
+    "load_image",
     "noisy_level",
     "noisy_shift",
     "noisy_write",
@@ -70,6 +71,16 @@ def any_set(plane: np.ndarray) -> bool:
 def all_set(plane: np.ndarray) -> bool:
     """Whether every element of a bool plane is set (``plane.all()``)."""
     return bool(_loops().all_set(plane))
+
+
+def load_image(out: np.ndarray, image: np.ndarray, offset: np.ndarray | None) -> None:
+    """``out := float32(image) * 0.5 - 64`` (+ ``offset``, float32, unless None): a uint8
+    image as the half-range level ``PIX`` reads, in one pass."""
+    loops = _loops()
+    if offset is None:
+        loops.load_image(out, image, out, False)
+    else:
+        loops.load_image(out, image, offset, True)
 
 
 def grid(out: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
@@ -159,6 +170,12 @@ def numpy_loops() -> SimpleNamespace:
     def all_np(plane: np.ndarray) -> bool:
         return bool(plane.all())
 
+    def load_image_np(out, image, offset, offsets: bool) -> None:
+        np.multiply(image, np.float32(0.5), out=out, casting="unsafe")
+        np.subtract(out, np.float32(64.0), out=out)
+        if offsets:
+            np.add(out, offset, out=out)
+
     def grid_np(out: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
         np.logical_and(rows[:, None], cols[None, :], out=out)
 
@@ -213,6 +230,7 @@ def numpy_loops() -> SimpleNamespace:
         any_set=any_np,
         all_set=all_np,
         grid=grid_np,
+        load_image=load_image_np,
         fill_where=fill_np,
         shift=shift_np,
         ideal_shift=ideal_shift_np,
@@ -375,6 +393,21 @@ def _numba_loops() -> SimpleNamespace:
         return acc
 
     @jit
+    def load_image_nb(out, image, offset, offsets):  # pragma: no cover - compiled
+        n = out.size
+        o = out.reshape(n)
+        img = image.reshape(n)
+        off = offset.reshape(offset.size)
+        half = np.float32(0.5)
+        mid = np.float32(64.0)
+        if offsets:  # the numpy version's operations, element by element
+            for i in range(n):
+                o[i] = (np.float32(img[i]) * half - mid) + off[i]
+        else:
+            for i in range(n):
+                o[i] = np.float32(img[i]) * half - mid
+
+    @jit
     def grid_nb(out, rows, cols):  # pragma: no cover - compiled
         n_cols = cols.size
         o = out.reshape(out.size)
@@ -443,6 +476,7 @@ def _numba_loops() -> SimpleNamespace:
         any_set=any_nb,
         all_set=all_nb,
         grid=grid_nb,
+        load_image=load_image_nb,
         fill_where=fill_nb,
         shift=shift_nb,
         ideal_shift=ideal_shift_nb,
