@@ -24,6 +24,7 @@ import statistics
 import sys
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -121,11 +122,40 @@ def analogue_frame(sim: Scamp5) -> Kernel:
 KERNELS: dict[str, Callable[[Scamp5], Kernel]] = {"mixed": mixed_kernel, "frame": analogue_frame}
 
 
+#: "fused": the compiled engine with every stretch fused from its first run (its second
+#: tier; compiled once per machine, then taken from the cache folder).
+FUSED = "fused"
+
+
+def bench_engines() -> list[str]:
+    """The installed engines, and the compiled engine's fused tier where numba is."""
+    engines = available_engines()
+    return [*engines, FUSED] if "compiled" in engines else engines
+
+
+@contextmanager
+def engine_env(engine: str):
+    """``PPALOC_ENGINE`` (and ``PPALOC_FUSE_AFTER``) for ``engine``, restored afterwards."""
+    wanted = {"PPALOC_ENGINE": "compiled" if engine == FUSED else engine}
+    wanted["PPALOC_FUSE_AFTER"] = "1" if engine == FUSED else "never"
+    before = {key: os.environ.get(key) for key in wanted}
+    os.environ.update(wanted)
+    try:
+        yield
+    finally:
+        for key, value in before.items():
+            if value is None:
+                del os.environ[key]
+            else:
+                os.environ[key] = value
+
+
 def prepared(kernel: str, noise: str, engine: str | None = None) -> tuple[Scamp5, Kernel]:
-    sim = Scamp5(noise=noise, seed=1, engine=engine)
-    rng = np.random.default_rng(2)
-    sim.set_image(rng.integers(0, 256, (256, 256), dtype=np.uint8))
-    return sim, KERNELS[kernel](sim)
+    with engine_env(engine or available_engines()[-1]):
+        sim = Scamp5(noise=noise, seed=1)
+        rng = np.random.default_rng(2)
+        sim.set_image(rng.integers(0, 256, (256, 256), dtype=np.uint8))
+        return sim, KERNELS[kernel](sim)
 
 
 def numpy_floor() -> Callable[[], None]:
@@ -143,7 +173,7 @@ def numpy_floor() -> Callable[[], None]:
 
 @pytest.mark.parametrize("noise", MODES)
 @pytest.mark.parametrize("kernel", list(KERNELS))
-@pytest.mark.parametrize("engine", available_engines())
+@pytest.mark.parametrize("engine", bench_engines())
 def test_icws_per_second(benchmark, engine: str, kernel: str, noise: str) -> None:
     sim, k = prepared(kernel, noise, engine)
     benchmark.extra_info["icws"] = len(k)
@@ -183,19 +213,12 @@ def _onsensor_module():
 
 def _localiser(bench, representation: str, noise: str, engine: str):
     """An on-sensor localiser whose simulators run on ``engine`` (kernels recorded)."""
-    before = os.environ.get("PPALOC_ENGINE")
-    os.environ["PPALOC_ENGINE"] = engine
-    try:
+    with engine_env(engine):
         return bench.localiser(representation, noise)
-    finally:
-        if before is None:
-            del os.environ["PPALOC_ENGINE"]
-        else:
-            os.environ["PPALOC_ENGINE"] = before
 
 
 def main(rounds: int = 7, engines: list[str] | None = None, onsensor: bool = True) -> None:
-    engines = engines or available_engines()
+    engines = engines or bench_engines()
     timers: dict[tuple, Callable[[], float]] = {("floor", "-", "-"): _timer(numpy_floor(), 200)}
     sizes = {}
     for engine in engines:

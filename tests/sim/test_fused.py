@@ -118,29 +118,42 @@ def _stretch_text(fused, sim: Scamp5, kernel) -> str:
     return fused.source(list(kernel.instructions), sim.rows, sim.cols, not sim.noise.ideal)
 
 
-def test_a_stretch_is_fused_on_its_nth_run_and_then_taken_from_the_cache(
+def test_a_stretch_is_compiled_in_the_background_and_then_taken_from_the_cache(
     fused, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setenv("PPALOC_FUSE_AFTER", "3")
-    sim = Scamp5(4, 4, seed=1, engine="compiled")
-    sim.write(s.A, np.arange(16).reshape(4, 4))
-    with sim.kernel() as k:  # the first run
-        for ins in block_mean_step(s.XS):
-            k.icw(ins.op, ins.dsts, ins.srcs)
-    text = _stretch_text(fused, sim, k)
-    k.run()
-    assert not fused.cached(text)  # two runs: still the first tier
-    k.run()
-    assert fused.cached(text)  # the third run compiled and ran the fused code
-    loads = []
+    """On its nth run a stretch's fused code is compiled by another process; the stretch
+    moves to it once it is there, and a later simulator takes it from the cache at once."""
+    loads: list[str] = []
     real_load = fused.load
     monkeypatch.setattr(fused, "load", lambda t: loads.append(t) or real_load(t))
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "3")
+    sims = [Scamp5(4, 4, seed=1, engine="compiled"), Scamp5(4, 4, seed=1, engine="reference")]
+    kernels = []
+    for sim in sims:
+        sim.write(s.A, np.arange(16).reshape(4, 4))
+        with sim.kernel() as k:  # the first run
+            for ins in block_mean_step(s.XS):
+                k.icw(ins.op, ins.dsts, ins.srcs)
+        kernels.append(k)
+    text = _stretch_text(fused, sims[0], kernels[0])
+    for k in kernels:
+        k.run()
+    assert fused.background._running is None and not fused.cached(text)  # two runs
+    for k in kernels:
+        k.run()  # the third: the compile starts
+    assert fused.background._running.wait(timeout=300) == 0
+    assert fused.cached(text) and loads == []  # compiled elsewhere, not loaded here yet
+    for _ in range(40):
+        for k in kernels:
+            k.run()
+    assert loads == [text]  # moved to the fused code
+    assert sims[0]._a.tobytes() == sims[1]._a.tobytes()
     monkeypatch.setenv("PPALOC_FUSE_AFTER", "1000")
     again = Scamp5(4, 4, seed=1, engine="compiled")
     with again.kernel() as k2:  # cached: fused on the first run, whatever fuse_after says
         for ins in block_mean_step(s.XS):
             k2.icw(ins.op, ins.dsts, ins.srcs)
-    assert loads == [text]
+    assert loads == [text, text]
 
 
 def test_a_cache_folder_that_cannot_be_written_compiles_in_memory(

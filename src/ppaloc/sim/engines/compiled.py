@@ -153,10 +153,12 @@ class CompiledEngine:
 
     def __init__(self, sim: Scamp5) -> None:
         self.sim = sim
-        #: Runs of a fusable stretch on the first tier before it is compiled into fused
-        #: loops (``$PPALOC_FUSE_AFTER``; None: never). Compiling costs about 0.1 s per
-        #: ICW once per machine (numba's typing and lowering), so the default waits for
-        #: a stretch that is run often; one already in the cache folder is fused at once.
+        #: Runs of a fusable stretch on the first tier before its fused code is compiled
+        #: (``$PPALOC_FUSE_AFTER``; None: never). Compiling costs about 0.1 s per ICW
+        #: once per machine (numba's typing and lowering): it runs in a background
+        #: process and the stretch moves to the fused code when that is done (at once
+        #: when ``fuse_after`` is 1, in this process); one already in the cache folder is
+        #: fused on its first run.
         self.fuse_after = fuse_after_from_env()
         shape = (sim.rows, sim.cols)
         self._t = np.zeros(shape, dtype=np.float32)
@@ -229,17 +231,41 @@ class CompiledEngine:
         after = self.fuse_after
         if after <= 1 or fused.cached(text):
             return self._fused(instructions, text)
-        first = self._segment(instructions)
+        current = self._segment(instructions)
         runs = 0
+        waiting = True  # for the fused code: until it is there, or its compile failed
 
         def run() -> None:
-            nonlocal runs, first
-            runs += 1
-            if runs == after:
-                first = self._fused(instructions, text)
-            first()
+            nonlocal runs, current, waiting
+            if waiting:
+                runs += 1
+                if runs == after:  # compiled in another process while this tier goes on
+                    fused.background.request(text, self._shapes(instructions))
+                elif runs > after and runs % 16 == 0:
+                    fused.background.poll()
+                    if fused.cached(text):
+                        current, waiting = self._fused(instructions, text), False
+                    elif fused.failed(text):
+                        waiting = False
+            current()
 
         return run
+
+    def _shapes(self, instructions: list[Instruction]) -> dict[str, list[int]]:
+        """The shapes of the fused code's array arguments (for the background compile)."""
+        from ppaloc.sim.engines import fused
+
+        sim, noise = self.sim, self.sim.noise
+        k = max(len(p.pre) for p in fused.plan(instructions))
+        m = sum(fused.draws(ins, not noise.ideal) for ins in instructions)
+        size = sim.rows * sim.cols
+        bank = [0] if noise.ideal else [size]
+        return {
+            "a": list(sim._a.shape), "d": list(sim._d.shape), "latch": list(sim._latch.shape),
+            "scratch": [max(k, 1), sim.rows, sim.cols], "offsets": list(noise.offsets.shape),
+            "pixel": list(noise.pixel_offset.shape), "bank": bank, "bank_div": bank,
+            "starts": [m], "gains": [m],
+        }  # fmt: skip
 
     def _fused(self, instructions: list[Instruction], text: str) -> Callable[[], None]:
         """The stretch as generated, fused loops (``text``, compiled once per machine)."""

@@ -26,9 +26,11 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import json
 import math
 import os
 import re
+import subprocess
 import sys
 import tempfile
 from dataclasses import dataclass, field
@@ -42,8 +44,8 @@ from ppaloc.sim.isa import Instruction
 from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
 
 __all__ = [
-    "FUSABLE", "Pass", "cache_folder", "cached", "draws", "fusable", "load", "mark_cached",
-    "plan", "source",
+    "FUSABLE", "Background", "Pass", "background", "cache_folder", "cached", "draws",
+    "failed", "fusable", "load", "mark_cached", "plan", "source",
 ]  # fmt: skip
 
 _TRANSFERS = ("bus", "bus2", "bus3", "busn", "sq")
@@ -597,8 +599,21 @@ def load(text: str):
     name = _name(text)
     if name in sys.modules:
         return sys.modules[name].run
+    path = _module_path(text)
+    if path is None:
+        module = _in_memory(name, text)
+    else:
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = sys.modules[name] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    sys.modules[name] = module
+    return module.run
+
+
+def _module_path(text: str) -> Path | None:
+    """The module ``text`` written to the cache folder (None where it cannot be)."""
     folder = cache_folder()
-    path = folder / f"{name}.py"
+    path = folder / f"{_name(text)}.py"
     try:
         folder.mkdir(parents=True, exist_ok=True)
         if not path.exists() or path.read_text() != text:
@@ -606,13 +621,75 @@ def load(text: str):
             with os.fdopen(fd, "w") as f:
                 f.write(text)
             os.replace(tmp, path)
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
     except OSError:
-        module = _in_memory(name, text)
-    sys.modules[name] = module
-    return module.run
+        return None
+    return path
+
+
+class Background:
+    """Compiles generated modules in a separate process, one at a time, so that a
+    simulator keeps running its first tier meanwhile (compiling takes seconds per
+    stretch; the second core of a machine does it). A finished module is marked as
+    :func:`cached`; a process that fails marks it ``.failed`` and it is not tried again."""
+
+    def __init__(self) -> None:
+        self._queue: list[tuple[str, list[str]]] = []
+        self._running: subprocess.Popen | None = None
+
+    def request(self, text: str, shapes: dict[str, list[int]]) -> None:
+        """Queue ``text`` for compiling with arguments of ``shapes`` (see :func:`_warm`)."""
+        path = _module_path(text)
+        if path is None or cached(text) or failed(text):
+            return
+        argv = [sys.executable, "-m", __name__, str(path), json.dumps(shapes)]
+        self._queue.append((text, argv))
+        self.poll()
+
+    def poll(self) -> None:
+        """Start the next queued compile when none is running."""
+        if self._running is not None and self._running.poll() is None:
+            return
+        self._running = None
+        while self._queue:
+            text, argv = self._queue.pop(0)
+            if not (cached(text) or failed(text)):
+                self._running = subprocess.Popen(
+                    argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )  # fmt: skip
+                return
+
+
+#: The one background compiler of this process.
+background = Background()
+
+
+def failed(text: str) -> bool:
+    """Whether a background compile of ``text`` failed on this machine."""
+    return (cache_folder() / f"{_name(text)}.failed").exists()
+
+
+def _warm(path: str, shapes: dict[str, list[int]]) -> None:
+    """Compile the module at ``path`` by one run on zero arrays of ``shapes`` (those of
+    the simulator's arguments, so numba caches the same signature), then mark it."""
+    os.nice(10)
+    name = Path(path).stem
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = sys.modules[name] = importlib.util.module_from_spec(spec)  # numba's cache
+    spec.loader.exec_module(module)  # records the module by name, as the simulator's
+    text = Path(path).read_text()
+    try:
+        dtypes = {
+            "a": np.float32, "d": np.bool_, "latch": np.bool_, "scratch": np.float32,
+            "offsets": np.float32, "pixel": np.float32, "bank": np.float32,
+            "bank_div": np.float32, "starts": np.int64, "gains": np.float64,
+        }  # fmt: skip
+        args = [np.zeros(shapes[key], dtype) for key, dtype in dtypes.items()]
+        module.run(*args, False)
+    except Exception:
+        (Path(path).with_suffix(".failed")).touch()
+        raise
+    mark_cached(text)
 
 
 def _in_memory(name: str, text: str):
@@ -622,3 +699,7 @@ def _in_memory(name: str, text: str):
     text = text.replace("import JIT as JIT", "import JIT_IN_MEMORY as JIT")
     exec(compile(text, f"<{name}>", "exec"), module.__dict__)
     return module
+
+
+if __name__ == "__main__":  # the background compiler's process: module path, shapes
+    _warm(sys.argv[1], json.loads(sys.argv[2]))
