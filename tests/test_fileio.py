@@ -187,3 +187,16 @@ def test_every_whole_folder_output_refuses_the_current_folder_and_its_parents(
     with pytest.raises(PpalocError, match="is a file"):
         func(tmp_path / "file")
     func(tmp_path / "absent")
+
+
+def test_user_cache_is_the_variable_else_under_xdg_else_home(monkeypatch, tmp_path) -> None:
+    from ppaloc.fileio import user_cache
+
+    monkeypatch.setenv("PPALOC_TEST_CACHE", str(tmp_path / "mine"))
+    assert user_cache("things", "PPALOC_TEST_CACHE") == tmp_path / "mine"
+    monkeypatch.delenv("PPALOC_TEST_CACHE")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert user_cache("things", "PPALOC_TEST_CACHE") == tmp_path / "xdg" / "ppaloc" / "things"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert user_cache("things", "X") == tmp_path / "home" / ".cache" / "ppaloc" / "things"

@@ -49,6 +49,7 @@ __all__ = [
     "recover_folder",
     "source_date",
     "update_folder",
+    "user_cache",
     "write_bytes",
 ]
 
@@ -206,6 +207,16 @@ def write_bytes(path: str | os.PathLike, data: bytes | str) -> Path:
     with atomic_write(path) as f:
         f.write(data.encode("utf-8") if isinstance(data, str) else data)
     return path
+
+
+def user_cache(name: str, env: str) -> Path:
+    """The cache folder ``name`` of ppaloc: ``$env`` if set, else
+    ``$XDG_CACHE_HOME/ppaloc/name`` (``~/.cache/ppaloc/name``). Not created here."""
+    explicit = os.environ.get(env)
+    if explicit:
+        return Path(explicit)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "ppaloc" / name
 
 
 # -- folders ---------------------------------------------------------------------------------

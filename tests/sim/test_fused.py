@@ -24,7 +24,7 @@ def fused(monkeypatch: pytest.MonkeyPatch, tmp_path):
     """The fused module with a cache folder of the test's own."""
     from ppaloc.sim.engines import fused
 
-    monkeypatch.setenv("PPALOC_CACHE_DIR", str(tmp_path / "kernels"))
+    monkeypatch.setenv("PPALOC_KERNEL_CACHE", str(tmp_path / "kernels"))
     return fused
 
 
@@ -163,7 +163,7 @@ def test_a_cache_folder_that_cannot_be_written_compiles_in_memory(
 
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")
-    monkeypatch.setenv("PPALOC_CACHE_DIR", str(blocker / "kernels"))
+    monkeypatch.setenv("PPALOC_KERNEL_CACHE", str(blocker / "kernels"))
     sims = []
     for after in ("never", "1"):
         monkeypatch.setenv("PPALOC_FUSE_AFTER", after)

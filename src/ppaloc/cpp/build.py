@@ -21,6 +21,7 @@ from pathlib import Path
 
 from ppaloc.cpp.shimgen import constants_header, kernel_macros, macros_header
 from ppaloc.errors import PpalocError
+from ppaloc.fileio import user_cache
 
 __all__ = [
     "CompileError",
@@ -60,11 +61,7 @@ def compiler() -> str | None:
 def cache_dir() -> Path:
     """Where compiled programs are kept (``$PPALOC_CPP_CACHE``, else the user cache; a
     private folder under the system's temp where that cannot be written)."""
-    env = os.environ.get("PPALOC_CPP_CACHE")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "ppaloc" / "cpp"
+    return user_cache("cpp", "PPALOC_CPP_CACHE")
 
 
 def _shim_text() -> str:

@@ -32,13 +32,13 @@ import os
 import re
 import subprocess
 import sys
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numba
 import numpy as np
 
+from ppaloc.fileio import user_cache, write_bytes
 from ppaloc.sim.engines.compiled import _NO_RUNTIME, _all_set, _clip, _inline
 from ppaloc.sim.isa import Instruction
 from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
@@ -562,13 +562,9 @@ def source(instructions: list[Instruction], rows: int, cols: int, noisy: bool) -
 
 # ------------------------------------------------------------------------------ loading
 def cache_folder() -> Path:
-    """Where generated modules and their numba cache live: ``$PPALOC_CACHE_DIR``, else
-    ``$XDG_CACHE_HOME/ppaloc/kernels``, else ``~/.cache/ppaloc/kernels``."""
-    explicit = os.environ.get("PPALOC_CACHE_DIR")
-    if explicit:
-        return Path(explicit)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "ppaloc" / "kernels"
+    """Where generated modules and their numba cache live: ``$PPALOC_KERNEL_CACHE``, else
+    ``~/.cache/ppaloc/kernels`` (under ``$XDG_CACHE_HOME`` when set)."""
+    return user_cache("kernels", "PPALOC_KERNEL_CACHE")
 
 
 def _name(text: str) -> str:
@@ -612,15 +608,10 @@ def load(text: str):
 
 def _module_path(text: str) -> Path | None:
     """The module ``text`` written to the cache folder (None where it cannot be)."""
-    folder = cache_folder()
-    path = folder / f"{_name(text)}.py"
+    path = cache_folder() / f"{_name(text)}.py"
     try:
-        folder.mkdir(parents=True, exist_ok=True)
         if not path.exists() or path.read_text() != text:
-            fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
-            with os.fdopen(fd, "w") as f:
-                f.write(text)
-            os.replace(tmp, path)
+            write_bytes(path, text)
     except OSError:
         return None
     return path
