@@ -158,15 +158,22 @@ def test_noisy_shift_loop_equals_droop_shift_and_noisy_write(case, v, h, everywh
 
 @needs_numba
 def test_shift_loop_on_a_full_plane_crosses_its_chunks():
+    """Full planes, every kind of FLAG row the row-by-row ideal shift tells apart (none,
+    every, some element of a row flagged), offsets of every sign and the array's ends."""
     rng = np.random.default_rng(3)
-    for v, h in ((9, -3), (-9, 3), (0, 1), (0, -1), (-255, 0), (17, 250)):
+    row_flags = np.zeros((256, 256), dtype=bool)
+    row_flags[rng.random(256) < 0.5] = True  # whole rows, as address patterns make
+    row_flags[7, ::3] = True  # and a mixed row
+    offsets = ((9, -3), (-9, 3), (0, 1), (0, -1), (-255, 0), (17, 250), (32, 0), (0, 0))
+    for v, h in (*offsets, (-32, 32), (0, -255), (255, -255)):
         plane = rng.normal(0, 60, (256, 256)).astype(np.float32)
-        flag = rng.random((256, 256)) < 0.5
-        for everywhere in (True, False):
-            want, got = plane.copy(), plane.copy()
-            hostloops.numpy_loops().shift(want, v, h, flag, everywhere, False, want, want, False, 0)
-            hostloops.shift(got, v, h, flag, everywhere)
-            assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere)
+        for flag in (rng.random((256, 256)) < 0.5, row_flags):
+            for everywhere in (True, False):
+                want, got = plane.copy(), plane.copy()
+                numpy_shift = hostloops.numpy_loops().shift
+                numpy_shift(want, v, h, flag, everywhere, False, want, want, False, 0)
+                hostloops.shift(got, v, h, flag, everywhere)
+                assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere)
 
 
 @needs_numba

@@ -97,7 +97,7 @@ def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
 def shift(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
     """``plane[r, c] := plane[r + v, c - h]`` (0 from beyond the edge) where ``flag``
     (everywhere if ``everywhere``), in place: the ideal analogue ``shift`` in one pass."""
-    _loops().ideal_shift(plane, v, h, flag, everywhere)
+    _loops().ideal_shift(plane, v, h, flag, everywhere, np.empty(plane.shape[1], np.float32))
 
 
 def noisy_shift(
@@ -195,7 +195,7 @@ def numpy_loops() -> SimpleNamespace:
         else:
             np.copyto(plane, new, where=True if everywhere else flag)
 
-    def ideal_shift_np(plane, v, h, flag, everywhere) -> None:
+    def ideal_shift_np(plane, v, h, flag, everywhere, buf) -> None:
         shift_np(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0))
 
     def droop_np(planes: np.ndarray, step: np.float32) -> None:
@@ -354,10 +354,70 @@ def _numba_loops() -> SimpleNamespace:
                     else:
                         out[c] = zero
 
-    @jit
-    def ideal_shift_nb(plane, v, h, flag, everywhere):  # pragma: no cover - compiled
-        # shift_nb's ideal case: fewer arguments for the call to pass
-        shift_nb(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0.0))
+    from numba.core.cpu import CPUTargetOptions
+
+    # row views without reference counting (numba's underscored option, long present; a
+    # numba without it compiles the same code with its runtime)
+    no_runtime = {"_nrt": False} if hasattr(CPUTargetOptions, "_nrt") else {}
+    rows_jit = numba.njit(cache=True, nogil=True, boundscheck=False, **no_runtime)
+
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **no_runtime)
+    def _move(dst, src, fr, whole):  # pragma: no cover - compiled
+        # dst := src (views of one length) where fr, or everywhere if whole
+        if whole:
+            for i in range(dst.size):
+                dst[i] = src[i]
+        else:
+            for i in range(dst.size):
+                x = src[i]
+                y = dst[i]
+                dst[i] = x if fr[i] else y
+
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **no_runtime)
+    def _clear(dst, fr, whole):  # pragma: no cover - compiled
+        # dst := 0 where fr, or everywhere if whole
+        zero = np.float32(0.0)
+        if whole:
+            for i in range(dst.size):
+                dst[i] = zero
+        else:
+            for i in range(dst.size):
+                y = dst[i]
+                dst[i] = zero if fr[i] else y
+
+    @rows_jit
+    def rows_shift_nb(plane, v, h, flag, everywhere, buf):  # pragma: no cover - compiled
+        # the ideal shift row by row: row r takes row r + v moved by h (0 from beyond the
+        # edge), the rows in the order that reads every source row before it is written
+        # (a row's own values, v = 0, through ``buf``, one row long); a row FLAG leaves
+        # whole is skipped, one it sets whole copied without a select (address patterns
+        # flag whole rows). Row views: no reference counting, no allocation
+        rows, cols = plane.shape
+        c_lo, c_hi = max(0, h), min(cols, cols + h)  # the columns with a source column
+        for j in range(rows):
+            r = j if v > 0 else rows - 1 - j
+            dst, fr = plane[r], flag[r]
+            n_set = cols
+            if not everywhere:
+                n_set = 0
+                for c in range(cols):
+                    n_set += fr[c]
+            if n_set == 0:
+                continue
+            whole = n_set == cols
+            s = r + v
+            if 0 <= s < rows:
+                src = plane[s, c_lo - h : c_hi - h]
+                if v == 0:
+                    own = src
+                    src = buf[: own.size]
+                    for i in range(own.size):
+                        src[i] = own[i]
+                _move(dst[c_lo:c_hi], src, fr[c_lo:c_hi], whole)
+                _clear(dst[:c_lo], fr[:c_lo], whole)
+                _clear(dst[c_hi:], fr[c_hi:], whole)
+            else:
+                _clear(dst, fr, whole)
 
     @jit
     def fill_all_nb(out, value):  # pragma: no cover - compiled
@@ -479,7 +539,7 @@ def _numba_loops() -> SimpleNamespace:
         load_image=load_image_nb,
         fill_where=fill_nb,
         shift=shift_nb,
-        ideal_shift=ideal_shift_nb,
+        ideal_shift=rows_shift_nb,
         droop=droop_nb,
         droop_each=droop_each_nb,
         noisy_level=level_nb,
