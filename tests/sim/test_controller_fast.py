@@ -158,8 +158,9 @@ def test_noisy_shift_loop_equals_droop_shift_and_noisy_write(case, v, h, everywh
 
 @needs_numba
 def test_shift_loop_on_a_full_plane_crosses_its_chunks():
-    """Full planes, every kind of FLAG row the row-by-row ideal shift tells apart (none,
-    every, some element of a row flagged), offsets of every sign and the array's ends."""
+    """Full planes, every kind of FLAG row the row-by-row shift tells apart (none, every,
+    some element of a row flagged), offsets of every sign and the array's ends, ideal and
+    noisy (with and without the droop of the kept elements)."""
     rng = np.random.default_rng(3)
     row_flags = np.zeros((256, 256), dtype=bool)
     row_flags[rng.random(256) < 0.5] = True  # whole rows, as address patterns make
@@ -174,6 +175,13 @@ def test_shift_loop_on_a_full_plane_crosses_its_chunks():
                 numpy_shift(want, v, h, flag, everywhere, False, want, want, False, 0)
                 hostloops.shift(got, v, h, flag, everywhere)
                 assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere)
+                offset, window = (rng.normal(0, 3, (256, 256)).astype(np.float32) for _ in "ow")
+                for step in (None, np.float32(0.25)):
+                    want, got = plane.copy(), plane.copy()
+                    droops, s = step is not None and not everywhere, np.float32(step or 0)
+                    numpy_shift(want, v, h, flag, everywhere, True, offset, window, droops, s)
+                    hostloops.noisy_shift(got, v, h, flag, everywhere, offset, window, step)
+                    assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere, step)
 
 
 @needs_numba

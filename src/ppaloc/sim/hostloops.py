@@ -117,7 +117,8 @@ def noisy_shift(
     the shifted values were read."""
     droops = step is not None and not everywhere
     s = np.float32(0.0) if step is None else np.float32(step)
-    _loops().shift(plane, v, h, flag, everywhere, True, offset, window, droops, s)
+    buf = np.empty(plane.shape[1], np.float32)
+    _loops().noisy_shift(plane, v, h, flag, everywhere, buf, True, offset, window, droops, s)
 
 
 def droop(planes: np.ndarray, step: float) -> None:
@@ -198,6 +199,9 @@ def numpy_loops() -> SimpleNamespace:
     def ideal_shift_np(plane, v, h, flag, everywhere, buf) -> None:
         shift_np(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0))
 
+    def noisy_shift_np(plane, v, h, flag, everywhere, buf, noisy, offset, window, droops, step):
+        shift_np(plane, v, h, flag, everywhere, noisy, offset, window, droops, step)
+
     def droop_np(planes: np.ndarray, step: np.float32) -> None:
         tmp = scratch.get(planes.shape)
         if tmp is None:
@@ -234,6 +238,7 @@ def numpy_loops() -> SimpleNamespace:
         fill_where=fill_np,
         shift=shift_np,
         ideal_shift=ideal_shift_np,
+        noisy_shift=noisy_shift_np,
         droop=droop_np,
         droop_each=droop_each_np,
         noisy_level=noisy_level_np,
@@ -283,77 +288,6 @@ def _numba_loops() -> SimpleNamespace:
         t = x if x > -step else -step  # numpy's clip: max, then min
         return t if t < step else step
 
-    @jit
-    def shift_nb(plane, v, h, flag, everywhere, noisy, offset, window, droops, step):
-        # pragma: no cover - compiled
-        # flat: new[i] = old[i + off]; chunks of the source are buffered before their
-        # destination is written, in the order that reads every source before it is
-        # written (ascending when reading ahead); then the elements whose source lies
-        # beyond the edge (rows, then wrapped columns) get 0. Noisy: each written
-        # element gets clip((new + offset) + window) instead, and with ``droops`` each
-        # kept one its old value drooped by ``step`` (once: in the main loop if there)
-        rows, cols = plane.shape
-        n = rows * cols
-        p = plane.reshape(n)
-        f = flag.reshape(n)
-        o = offset.reshape(offset.size)
-        w = window.reshape(window.size)
-        buf = np.empty(2048, dtype=np.float32)
-        zero = np.float32(0.0)
-        off = v * cols - h
-        lo, hi = (0, n - off) if off >= 0 else (-off, n)
-        size = buf.size
-        chunks = (hi - lo + size - 1) // size if hi > lo else 0
-        for j in range(chunks):
-            k = j if off >= 0 else chunks - 1 - j
-            d0 = lo + k * size
-            d1 = min(d0 + size, hi)
-            b = buf[: d1 - d0]
-            src = p[d0 + off : d1 + off]
-            for i in range(b.size):
-                b[i] = src[i]
-            dst = p[d0:d1]
-            if noisy:  # a separate loop for each case, so that each vectorises
-                od, wd, fd = o[d0:d1], w[d0:d1], f[d0:d1]
-                if everywhere:
-                    for i in range(b.size):
-                        dst[i] = _noisy_value(b[i], od[i], wd[i])
-                elif droops:
-                    for i in range(b.size):
-                        x = _noisy_value(b[i], od[i], wd[i])
-                        y = dst[i]
-                        y = y - _droop_of(y, step)
-                        dst[i] = x if fd[i] else y
-                else:
-                    for i in range(b.size):
-                        x = _noisy_value(b[i], od[i], wd[i])
-                        y = dst[i]
-                        dst[i] = x if fd[i] else y
-            elif everywhere:
-                for i in range(b.size):
-                    dst[i] = b[i]
-            else:
-                fd = f[d0:d1]
-                for i in range(b.size):
-                    x = b[i]
-                    y = dst[i]
-                    dst[i] = x if fd[i] else y
-        r_lo, r_hi = max(0, -v), min(rows, rows - v)  # the rows with a source row
-        c_lo, c_hi = max(0, h), min(cols, cols + h)  # the columns with a source column
-        for r in range(rows):
-            out, fr = plane[r], flag[r]
-            a0, a1 = (c_lo, c_hi) if r_lo <= r < r_hi else (cols, cols)
-            for c0, c1 in ((0, a0), (a1, cols)):
-                for c in range(c0, c1):
-                    i = r * cols + c
-                    if not (everywhere or fr[c]):
-                        if noisy and droops and not lo <= i < hi:  # not in the main loop
-                            out[c] = out[c] - _droop_of(out[c], step)
-                    elif noisy:
-                        out[c] = _noisy_value(zero, o[i], w[i])
-                    else:
-                        out[c] = zero
-
     from numba.core.cpu import CPUTargetOptions
 
     # row views without reference counting (numba's underscored option, long present; a
@@ -385,13 +319,55 @@ def _numba_loops() -> SimpleNamespace:
                 y = dst[i]
                 dst[i] = zero if fr[i] else y
 
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **no_runtime)
+    def _move_noisy(dst, src, od, wd, fr, whole, droops, step):  # pragma: no cover
+        # dst := the noisy value of src where fr (everywhere if whole); elsewhere the old
+        # value drooped by step if droops (the operations of noisy_write and droop)
+        if whole:
+            for i in range(dst.size):
+                dst[i] = _noisy_value(src[i], od[i], wd[i])
+        elif droops:
+            for i in range(dst.size):
+                x = _noisy_value(src[i], od[i], wd[i])
+                y = dst[i]
+                y = y - _droop_of(y, step)
+                dst[i] = x if fr[i] else y
+        else:
+            for i in range(dst.size):
+                x = _noisy_value(src[i], od[i], wd[i])
+                y = dst[i]
+                dst[i] = x if fr[i] else y
+
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **no_runtime)
+    def _clear_noisy(dst, od, wd, fr, whole, droops, step):  # pragma: no cover
+        # _move_noisy of a source of zeros (the elements whose source lies beyond the edge)
+        zero = np.float32(0.0)
+        if whole:
+            for i in range(dst.size):
+                dst[i] = _noisy_value(zero, od[i], wd[i])
+        elif droops:
+            for i in range(dst.size):
+                x = _noisy_value(zero, od[i], wd[i])
+                y = dst[i]
+                y = y - _droop_of(y, step)
+                dst[i] = x if fr[i] else y
+        else:
+            for i in range(dst.size):
+                x = _noisy_value(zero, od[i], wd[i])
+                y = dst[i]
+                dst[i] = x if fr[i] else y
+
     @rows_jit
-    def rows_shift_nb(plane, v, h, flag, everywhere, buf):  # pragma: no cover - compiled
-        # the ideal shift row by row: row r takes row r + v moved by h (0 from beyond the
-        # edge), the rows in the order that reads every source row before it is written
-        # (a row's own values, v = 0, through ``buf``, one row long); a row FLAG leaves
-        # whole is skipped, one it sets whole copied without a select (address patterns
-        # flag whole rows). Row views: no reference counting, no allocation
+    def rows_shift_nb(plane, v, h, flag, everywhere, buf, noisy, offset, window, droops, step):
+        # pragma: no cover - compiled
+        # the shift row by row: row r takes row r + v moved by h (0 from beyond the edge),
+        # the rows in the order that reads every source row before it is written (a row's
+        # own values, v = 0, through ``buf``, one row long); a row FLAG leaves whole is
+        # skipped (noisy with droop: only drooped), one it sets whole written without a
+        # select (address patterns flag whole rows). Noisy, each written element gets
+        # clip((value + offset) + window) and with ``droops`` each kept one droops by
+        # ``step`` after the values were read. Row views: no reference counting, no
+        # allocation
         rows, cols = plane.shape
         c_lo, c_hi = max(0, h), min(cols, cols + h)  # the columns with a source column
         for j in range(rows):
@@ -403,9 +379,14 @@ def _numba_loops() -> SimpleNamespace:
                 for c in range(cols):
                     n_set += fr[c]
             if n_set == 0:
+                if noisy and droops:
+                    for c in range(cols):
+                        y = dst[c]
+                        dst[c] = y - _droop_of(y, step)
                 continue
             whole = n_set == cols
             s = r + v
+            od, wd = offset[r], window[r]
             if 0 <= s < rows:
                 src = plane[s, c_lo - h : c_hi - h]
                 if v == 0:
@@ -413,11 +394,27 @@ def _numba_loops() -> SimpleNamespace:
                     src = buf[: own.size]
                     for i in range(own.size):
                         src[i] = own[i]
-                _move(dst[c_lo:c_hi], src, fr[c_lo:c_hi], whole)
-                _clear(dst[:c_lo], fr[:c_lo], whole)
-                _clear(dst[c_hi:], fr[c_hi:], whole)
+                if noisy:
+                    inner = slice(c_lo, c_hi)
+                    _move_noisy(
+                        dst[inner], src, od[inner], wd[inner], fr[inner], whole, droops, step
+                    )
+                    _clear_noisy(dst[:c_lo], od[:c_lo], wd[:c_lo], fr[:c_lo], whole, droops, step)
+                    _clear_noisy(dst[c_hi:], od[c_hi:], wd[c_hi:], fr[c_hi:], whole, droops, step)
+                else:
+                    _move(dst[c_lo:c_hi], src, fr[c_lo:c_hi], whole)
+                    _clear(dst[:c_lo], fr[:c_lo], whole)
+                    _clear(dst[c_hi:], fr[c_hi:], whole)
+            elif noisy:
+                _clear_noisy(dst, od, wd, fr, whole, droops, step)
             else:
                 _clear(dst, fr, whole)
+
+    @rows_jit
+    def ideal_rows_shift_nb(plane, v, h, flag, everywhere, buf):  # pragma: no cover
+        # rows_shift_nb's ideal case: fewer arguments for the call to pass
+        zero = np.float32(0.0)
+        rows_shift_nb(plane, v, h, flag, everywhere, buf, False, plane, plane, False, zero)
 
     @jit
     def fill_all_nb(out, value):  # pragma: no cover - compiled
@@ -538,8 +535,8 @@ def _numba_loops() -> SimpleNamespace:
         grid=grid_nb,
         load_image=load_image_nb,
         fill_where=fill_nb,
-        shift=shift_nb,
-        ideal_shift=rows_shift_nb,
+        ideal_shift=ideal_rows_shift_nb,
+        noisy_shift=rows_shift_nb,
         droop=droop_nb,
         droop_each=droop_each_nb,
         noisy_level=level_nb,
