@@ -428,6 +428,15 @@ def test_global_or_reads_the_pattern_grid(plane, r, c, rx, cx, scamp_addr):
     mask = sim._address_mask(r, c, rx, cx, scamp_addr)
     got = sim.global_or(R5, r, c, rx, cx, scamp_addr=scamp_addr)
     assert got == int((plane & mask).any())
+    pattern = sim._pattern(r, c, rx, cx, scamp_addr)
+    for i in (0, r % 8 * 16 + c % 16, 127):  # a lone 1, inside or outside the pattern
+        lone = np.zeros((8, 16), dtype=bool)
+        lone.flat[i] = True
+        sim.write(R5, lone)
+        want = bool(mask.flat[i])
+        assert sim.global_or(R5, r, c, rx, cx, scamp_addr=scamp_addr) == want
+        plain = hostloops.numpy_loops().any_in_grid(lone, pattern.row_ok, pattern.col_ok)
+        assert plain == want
 
 
 @needs_numba

@@ -728,14 +728,11 @@ class ControllerMixin(DrawMixin):
         self._dreg(call, dreg, source=True)
         pattern = self._pattern(*_pattern_args(call, r, c, rx, cx), scamp_addr)
         self.timing.charge_call(call)
-        selected = self._dplane(dreg)  # the pattern is a grid: its rows, then its columns
+        selected = self._dplane(dreg)
         if pattern.rows is None and pattern.cols is None:
             return int(hostloops.any_set(selected))
-        if pattern.rows is not None:
-            selected = selected[pattern.rows]
-        if pattern.cols is not None:
-            selected = selected[:, pattern.cols]
-        return int(selected.any())
+        # the pattern is a grid: its rows only, each ANDed with the columns' vector
+        return int(hostloops.any_in_grid(selected, pattern.row_ok, pattern.col_ok))
 
     def global_count(self, dreg: Register, temp: Register, options: int = 0) -> int:
         """``scamp5_global_count``: an estimate of the number of 1s in ``dreg``.

@@ -22,6 +22,7 @@ import numpy as np
 
 __all__ = [
     "all_set",
+    "any_in_grid",
     "any_set",
     "droop",
     "droop_each",
@@ -66,6 +67,12 @@ def fill(out: np.ndarray, value: float) -> None:
 def any_set(plane: np.ndarray) -> bool:
     """Whether any element of a bool plane is set (``plane.any()``)."""
     return bool(_loops().any_set(plane))
+
+
+def any_in_grid(plane: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> bool:
+    """Whether a bool plane is set at any ``[r, c]`` with ``rows[r] and cols[c]`` (an
+    address pattern's elements), reading only the pattern's rows."""
+    return bool(_loops().any_in_grid(plane, rows, cols))
 
 
 def all_set(plane: np.ndarray) -> bool:
@@ -171,6 +178,9 @@ def numpy_loops() -> SimpleNamespace:
     def all_np(plane: np.ndarray) -> bool:
         return bool(plane.all())
 
+    def any_in_grid_np(plane: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> bool:
+        return bool(plane[rows][:, cols].any())
+
     def load_image_np(out, image, offset, offsets: bool) -> None:
         np.multiply(image, np.float32(0.5), out=out, casting="unsafe")
         np.subtract(out, np.float32(64.0), out=out)
@@ -233,6 +243,7 @@ def numpy_loops() -> SimpleNamespace:
         fill=fill_all_np,
         any_set=any_np,
         all_set=all_np,
+        any_in_grid=any_in_grid_np,
         grid=grid_np,
         load_image=load_image_np,
         fill_where=fill_np,
@@ -411,6 +422,18 @@ def _numba_loops() -> SimpleNamespace:
                 _clear(dst, fr, whole)
 
     @rows_jit
+    def any_in_grid_nb(plane, rows, cols):  # pragma: no cover - compiled
+        found = False
+        for r in range(rows.size):
+            if rows[r]:
+                row = plane[r]
+                acc = False
+                for c in range(cols.size):  # no early exit: a reduction LLVM vectorises
+                    acc = acc | (row[c] & cols[c])
+                found = found or acc
+        return found
+
+    @rows_jit
     def ideal_rows_shift_nb(plane, v, h, flag, everywhere, buf):  # pragma: no cover
         # rows_shift_nb's ideal case: fewer arguments for the call to pass
         zero = np.float32(0.0)
@@ -536,6 +559,7 @@ def _numba_loops() -> SimpleNamespace:
         load_image=load_image_nb,
         fill_where=fill_nb,
         ideal_shift=ideal_rows_shift_nb,
+        any_in_grid=any_in_grid_nb,
         noisy_shift=rows_shift_nb,
         droop=droop_nb,
         droop_each=droop_each_nb,
