@@ -164,6 +164,7 @@ class CompiledEngine:
         self._t = np.zeros(shape, dtype=np.float32)
         self._t2 = np.zeros(shape, dtype=np.float32)
         self._tb = np.zeros(shape, dtype=np.bool_)
+        self._pre = np.zeros((0, *shape), dtype=np.float32)  # the fused tier's (_scratch)
         self._none = np.zeros(0, dtype=np.float32)
         self._no_starts = np.zeros(0, dtype=np.int64)
         self._no_gains = np.zeros(0, dtype=np.float64)
@@ -198,6 +199,8 @@ class CompiledEngine:
     def _tiered(self, instructions: list[Instruction]) -> list[Callable[[], None]]:
         """Runners of an encodable run: its fusable stretches (two ICWs or more) tiered,
         the rest on this tier."""
+        if self.fuse_after is None:  # never fused: the fused module is not even imported
+            return [self._segment(instructions)]
         from ppaloc.sim.engines import fused
 
         parts: list[Callable[[], None]] = []
@@ -251,6 +254,14 @@ class CompiledEngine:
 
         return run
 
+    def _scratch(self, k: int) -> np.ndarray:
+        """Scratch planes for ``k`` pre-steps, shared by every fused stretch (one block of
+        memory stays in the caches, not one per stretch); grown when a stretch needs more."""
+        k = max(k, 1)
+        if self._pre.shape[0] < k:
+            self._pre = np.zeros((k, self.sim.rows, self.sim.cols), dtype=np.float32)
+        return self._pre[:k]
+
     def _shapes(self, instructions: list[Instruction]) -> dict[str, list[int]]:
         """The shapes of the fused code's array arguments (for the background compile)."""
         from ppaloc.sim.engines import fused
@@ -275,8 +286,7 @@ class CompiledEngine:
         noise = sim.noise
         noisy = not noise.ideal
         fn = fused.load(text)
-        k = max(len(p.pre) for p in fused.plan(instructions))
-        scratch = np.zeros((max(k, 1), sim.rows, sim.cols), dtype=np.float32)
+        scratch = self._scratch(max(len(p.pre) for p in fused.plan(instructions)))
         m = sum(fused.draws(ins, noisy) for ins in instructions)
         a, d, latch = sim._a, sim._d, sim._latch
         if noise.ideal:

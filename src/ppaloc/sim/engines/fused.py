@@ -461,27 +461,32 @@ def pre_push(T, k, A, D, rows, cols, dr, dc, srcs, ns, parts, noisy, scale):
         s = q * cols + c_lo - dc
         w = c_hi - c_lo
         oi, f = o[c_lo:c_hi], flag[s : s + w]
-        x0 = A[srcs[0] * n + s : srcs[0] * n + s + w]
-        x1 = A[srcs[1] * n + s : srcs[1] * n + s + w]
-        x2 = A[srcs[2] * n + s : srcs[2] * n + s + w]
-        x3 = A[srcs[3] * n + s : srcs[3] * n + s + w]
-        for c in range(w):
-            v = x0[c] if ns > 0 else zero  # no source: a sum of 0
-            if ns > 1:
-                v = v + x1[c]
-            if ns > 2:
-                v = v + x2[c]
-            if ns > 3:
-                v = v + x3[c]
-            if noisy:
-                v = v * scale
-            elif parts == 1:
-                v = clip(-v)
-            elif parts == 2:
-                v = clip(v * m_half)
+        for c in range(w):  # the sum of the sources, left to right (0 with none)
+            oi[c] = zero
+        for j in range(ns):
+            x = A[srcs[j] * n + s : srcs[j] * n + s + w]
+            if j == 0:
+                for c in range(w):
+                    oi[c] = x[c]
             else:
-                v = clip(v / m_parts)
-            oi[c] = v if f[c] else zero
+                for c in range(w):
+                    oi[c] = oi[c] + x[c]
+        if noisy:  # the bus's value, then 0 from an unflagged sender: loops without branches
+            for c in range(w):
+                v = oi[c] * scale
+                oi[c] = v if f[c] else zero
+        elif parts == 1:
+            for c in range(w):
+                v = clip(-oi[c])
+                oi[c] = v if f[c] else zero
+        elif parts == 2:
+            for c in range(w):
+                v = clip(oi[c] * m_half)
+                oi[c] = v if f[c] else zero
+        else:
+            for c in range(w):
+                v = clip(oi[c] / m_parts)
+                oi[c] = v if f[c] else zero
 
 
 def _pre_step(w: _Writer, depth: int, k: int, kind: str, ins: Instruction, reg, rows: int,
