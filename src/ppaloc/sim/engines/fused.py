@@ -18,8 +18,10 @@ and exact: the same float32 operations in the same order as the reference engine
 draws at the same indices, so results are the same bytes.
 
 Generated modules are kept in a cache folder (:func:`cache_folder`) with numba's own
-cache beside them, so a kernel is compiled once per machine; each is named by the hash
-of its source.
+cache beside them, so a stretch is compiled once per machine; each is named by the hash
+of its source (which holds the hash of the helpers it calls). Compiling takes seconds per
+stretch, so the engine has it done by another process (:class:`Background`, this
+module run as ``python -m``) while its first tier goes on.
 """
 
 from __future__ import annotations
