@@ -236,3 +236,18 @@ def test_confidence_is_the_threshold_gap_outside_the_window():
     node, top = pipe.detect()
     assert (node, top) == (60, 40)
     assert pipe.confidence(node, top) == 40 - 10
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_event_nodes_come_from_the_block_table_as_the_layout_maps_them(rep):
+    """Every node root of every tile maps to its node through the table made once, as
+    the layout's block_to_node maps it; events come back sorted."""
+    p = FilterParams.create(rep, motion="always_forward")
+    pipe = make_pipeline(rep, 4, p, size=64)
+    nodes = np.arange(2 * pipe.layout.capacity)
+    tile, br, bc = pipe.layout.node_to_block(nodes)
+    events = np.stack([br * pipe.bh, bc * pipe.bw + tile], axis=1)
+    assert np.array_equal(pipe._nodes_of(events[::-1]), nodes)
+    rows, cols = events[:, 0], events[:, 1]
+    want = pipe.layout.block_to_node(cols % pipe.bw, rows // pipe.bh, cols // pipe.bw)
+    assert np.array_equal(pipe._nodes_of(events), np.sort(want))

@@ -249,6 +249,7 @@ class SensorPipeline(ABC):
         self.block = size // GRID  # pixels per grid block side (32 on a 256 array)
         self.layout: SnakeLayout = layout_for(representation, (size, size))
         self.bh, self.bw = self.layout.block_shape
+        self._block_nodes = self._block_node_table()
         self.n_nodes = int(n_nodes)
         self.tiles = self._tiles_for(self.n_nodes)
         self.sim = Scamp5(size, size, noise=noise, seed=seed)
@@ -1123,9 +1124,16 @@ class SensorPipeline(ABC):
         return lo
 
     def _nodes_of(self, events: np.ndarray) -> np.ndarray:
-        rows, cols = events[:, 0], events[:, 1]
-        tile = cols % self.bw
-        return np.sort(self.layout.block_to_node(tile, rows // self.bh, cols // self.bw))
+        """The nodes of event PEs (node roots: tile ``t`` at block column offset ``t``),
+        sorted, looked up in :attr:`_block_nodes`."""
+        return np.sort(self._block_nodes[events[:, 0] // self.bh, events[:, 1]])
+
+    def _block_node_table(self) -> np.ndarray:
+        """``[block row, PE column]`` -> the node whose root that PE is in that block row
+        (tile ``col % bw``; the layout's ``block_to_node``): made once per layout, as the
+        detection and confidence stages map their events every frame."""
+        rows, cols = np.indices((self.size // self.bh, self.size))
+        return self.layout.block_to_node(cols % self.bw, rows, cols // self.bw)
 
     def _window(self, a: int, b: int) -> None:
         """``tmp_b`` := the roots of nodes ``a..b`` (clipped to the map), via rectangles."""

@@ -17,6 +17,7 @@ compared by the clipped absolute difference, summed by a halving tree per block.
 
 from __future__ import annotations
 
+from functools import cache
 from typing import ClassVar
 
 import numpy as np
@@ -58,8 +59,11 @@ ROOTS = R3
 LOWRES_DREGS = DRegs(valid=R4, cand=R9, tmp_a=R10, tmp_b=R11, pattern=ROOTS, root32=ROOTS)
 
 
-def after_patterns(block: int) -> list[tuple[int, int]]:
+@cache
+def after_patterns(block: int) -> tuple[tuple[int, int], ...]:
     """``load_pattern`` (address, don't-care bits) pairs whose union is ``a // block > a % 8``.
+
+    Made once per block size (the replication asks every frame).
 
     For 8-bit addresses ``a`` (rows or columns) of an array of ``8 * block`` PEs: the
     block index ``B = a // block`` exceeds the residue ``b = a % 8`` where, at the highest
@@ -88,7 +92,7 @@ def after_patterns(block: int) -> list[tuple[int, int]]:
                 if values >> i & 1:
                     addr |= pair
             out.append((addr, 0xFF & ~care))
-    return out
+    return tuple(out)
 
 
 class LowresPipeline(SensorPipeline):
