@@ -303,6 +303,7 @@ class CompiledEngine:
             all_set = fn(a, d, latch, scratch, offsets, pixel, bank, bank_div, starts, gains,
                          sim._flag_masked is False)  # fmt: skip
             sim._flag_masked = False if all_set else None
+            sim._flag_partial = not all_set  # known: the host calls need not look
             if not marked:  # compiled and run once: later processes take it from the cache
                 fused.mark_cached(text)
                 marked = True
@@ -331,9 +332,10 @@ class CompiledEngine:
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
             )  # fmt: skip
-            # what the kernel knows of FLAG at its end: set everywhere (no mask), or unknown
-            # (the numpy engine's cached mask and the host calls look again)
+            # what the kernel knows of FLAG at its end: set everywhere (no mask), or partial
+            # (the host calls need not look; the numpy engine's cached mask is rebuilt)
             sim._flag_masked = False if all_set else None
+            sim._flag_partial = not all_set
 
         return run
 
