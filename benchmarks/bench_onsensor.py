@@ -11,6 +11,9 @@ Targets on one core of this machine, the 8x8 low-res pipeline (robust preset) on
 compiled engine: >= 50 simulated frames per second in ideal mode (met), and issue 12's
 386 (the chip's own rate) ideal and 100 with ``typical`` noise.
 
+``--fused`` runs the compiled engine's fused tier from the first run (its code compiled
+while the localisers are set up, once per machine); without it, the first tier only.
+
 ``python benchmarks/bench_onsensor.py --split`` prints, for the robust pipelines, the
 median frame time and how much of it the engine's kernel runs take (the ICWs, and under
 noise the droop applied to the planes a kernel touches); the rest is the controller's
@@ -26,6 +29,7 @@ energy per frame, simulation speed, upload time and peak memory.
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 from functools import cache
@@ -181,7 +185,14 @@ def main() -> None:
     parser.add_argument("--bank-frames", type=int, default=200)
     parser.add_argument("--rep", default="lbp", choices=["lbp", "lowres"])
     parser.add_argument("--split", action="store_true", help="kernel runs vs the rest")
+    parser.add_argument(
+        "--fused",
+        action="store_true",
+        help="the compiled engine's fused tier from the first run (compiled at set-up, once "
+        "per machine); without it the first tier only, so that no compile runs meanwhile",
+    )
     args = parser.parse_args()
+    os.environ["PPALOC_FUSE_AFTER"] = "1" if args.fused else "never"
     if args.bank:
         bank(args.bank_nodes, args.bank_frames, args.rep)
         return

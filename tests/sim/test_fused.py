@@ -175,3 +175,42 @@ def test_a_cache_folder_that_cannot_be_written_compiles_in_memory(
         sims.append(sim)
     assert sims[0]._a.tobytes() == sims[1]._a.tobytes()
     assert not fused.cached(_stretch_text(fused, sims[1], k))
+
+
+@pytest.mark.parametrize("slow", ["fused", "first"])
+def test_after_a_trial_of_both_tiers_a_stretch_keeps_the_faster(
+    slow: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import time
+
+    from ppaloc.sim.engines.compiled import CompiledEngine
+
+    calls = {"fused": 0, "first": 0}
+    real = {"fused": CompiledEngine._fused, "first": CompiledEngine._segment}
+
+    def counted(which: str):
+        def build(self, *args):
+            inner = real[which](self, *args)
+
+            def run() -> None:
+                calls[which] += 1
+                if which == slow:
+                    time.sleep(0.002)
+                inner()
+
+            return run
+
+        return build
+
+    monkeypatch.setattr(CompiledEngine, "_fused", counted("fused"))
+    monkeypatch.setattr(CompiledEngine, "_segment", counted("first"))
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "1")
+    sim = Scamp5(4, 4, seed=1, engine="compiled")
+    with sim.kernel() as k:
+        for ins in block_mean_step(s.XE):
+            k.icw(ins.op, ins.dsts, ins.srcs)
+    trial = CompiledEngine.TRIAL_RUNS
+    for _ in range(2 * trial + 9):  # the trial (the recording run is its first), then 10
+        k.run()
+    fast = "first" if slow == "fused" else "fused"
+    assert calls[slow] == trial and calls[fast] == trial + 10

@@ -31,6 +31,8 @@ numba is imported here only: ``ppaloc.sim`` imports without it.
 from __future__ import annotations
 
 import os
+import statistics
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -224,33 +226,51 @@ class CompiledEngine:
             parts.append(self._segment(other))
         return parts
 
+    #: Runs of each tier, alternating, after which a stretch keeps the faster one.
+    TRIAL_RUNS = 16
+
     def _tier_up(self, instructions: list[Instruction]) -> Callable[[], None]:
-        """A runner on this tier that becomes the fused one on its ``fuse_after``-th run,
-        or on its first when the fused code is already in the cache folder."""
+        """A runner of a fusable stretch: this tier until its fused code is there (from its
+        ``fuse_after``-th run, compiled in the background; at once when ``fuse_after`` is
+        1 or the code is in the cache folder), then both tiers in turn for
+        :attr:`TRIAL_RUNS` runs each, then the faster. Both leave the same bytes; which is
+        faster depends on the stretch and the machine (the fused code of a stretch of
+        small passes under a partial FLAG can lose to this tier's one-pass loops)."""
         from ppaloc.sim.engines import fused
 
         sim = self.sim
         text = fused.source(instructions, sim.rows, sim.cols, not sim.noise.ideal)
         after = self.fuse_after
-        if after <= 1 or fused.cached(text):
-            return self._fused(instructions, text)
-        current = self._segment(instructions)
+        first = self._segment(instructions)
+        state = "waiting"  # for the fused code; then "trial"; then "chosen"
+        chosen, fast = first, first
+        times: tuple[list[float], list[float]] = ([], [])  # (first tier, fused) per run
         runs = 0
-        waiting = True  # for the fused code: until it is there, or its compile failed
+        if after <= 1 or fused.cached(text):
+            state, fast = "trial", self._fused(instructions, text)
 
         def run() -> None:
-            nonlocal runs, current, waiting
-            if waiting:
+            nonlocal state, chosen, fast, runs
+            if state == "trial":  # both tiers in turn, each run timed
+                k = len(times[0]) > len(times[1])
+                t = time.perf_counter()
+                (fast if k else first)()
+                times[k].append(time.perf_counter() - t)
+                if len(times[1]) == self.TRIAL_RUNS:
+                    faster = statistics.median(times[1]) < statistics.median(times[0])
+                    state, chosen = "chosen", fast if faster else first
+                return
+            if state == "waiting":
                 runs += 1
                 if runs == after:  # compiled in another process while this tier goes on
                     fused.background.request(text, self._shapes(instructions))
                 elif runs > after and runs % 16 == 0:
                     fused.background.poll()
                     if fused.cached(text):
-                        current, waiting = self._fused(instructions, text), False
+                        state, fast = "trial", self._fused(instructions, text)
                     elif fused.failed(text):
-                        waiting = False
-            current()
+                        state = "chosen"  # this tier for good
+            chosen()
 
         return run
 
