@@ -41,7 +41,7 @@ import numpy as np
 from numba.core.cpu import CPUTargetOptions
 
 from ppaloc.errors import SimulatorError
-from ppaloc.sim.engines import in_order
+from ppaloc.sim.engines import chains, in_order
 from ppaloc.sim.isa import Instruction
 from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
 
@@ -53,6 +53,7 @@ __all__ = ["FUSE_AFTER", "FUSE_ENV", "CompiledEngine", "dead_writes", "fuse_afte
 # op codes
 _NOP, _RPIX, _BUS, _WHERE, _ALL, _SET, _CLR, _MOV, _NOT, _OR, _NOR = range(11)
 _WHERED, _LATCH, _LATCHN, _UNLATCH, _DNEWS = range(11, 16)
+_CHAIN = 16  # the head of a chain of neighbour moves (.chains): its index and length
 _CODES = {
     "nop": _NOP,
     "rpix": _RPIX,
@@ -102,12 +103,19 @@ def _draws(ins: Instruction) -> int:
     return 1 if ins.op == "where" else 0
 
 
-def encode(instructions: list[Instruction]) -> tuple[np.ndarray, int]:
-    """(table of rows, noise draws of the whole segment when noisy)."""
-    prog = np.zeros((len(instructions), _WIDTH), dtype=np.int64)
+def encode(
+    instructions: list[Instruction], ideal: bool = False, rows: int = 0, cols: int = 0
+) -> tuple[np.ndarray, int, tuple[np.ndarray, ...]]:
+    """(table of rows, noise draws of the whole segment when noisy, chain tables).
+
+    In ideal mode every chain of neighbour moves (:mod:`.chains`, on a ``rows`` x
+    ``cols`` array) gets a head row before its ICWs: run composed when FLAG is set
+    everywhere, else its ICWs run one by one.
+    """
+    body = np.zeros((len(instructions), _WIDTH), dtype=np.int64)
     draw = 0
     for n, ins in enumerate(instructions):
-        row = prog[n]
+        row = body[n]
         row[_OP] = _CODES[ins.op]
         row[_PARTS] = len(ins.dsts) if ins.op in ("bus2", "bus3", "busn") else 1
         row[_ND], row[_NS] = len(ins.dsts), len(ins.srcs)
@@ -118,9 +126,15 @@ def encode(instructions: list[Instruction]) -> tuple[np.ndarray, int]:
         row[_DRAW] = draw
         row[_EDGE] = ins.op == "DNEWS1"
         draw += _draws(ins)
-    for n in dead_writes(instructions):
-        prog[n, _OP] = _NOP  # its noise draws stay counted: later draws keep their index
-    return prog, draw
+    dead = dead_writes(instructions)
+    for n in dead:
+        body[n, _OP] = _NOP  # its noise draws stay counted: later draws keep their index
+    found = chains.compose(instructions, set(dead), rows) if ideal else []
+    heads = np.zeros((len(found), _WIDTH), dtype=np.int64)
+    for c, ch in enumerate(found):
+        heads[c, _OP], heads[c, _PARTS], heads[c, _ND] = _CHAIN, c, len(ch.steps)
+    prog = np.insert(body, [ch.start for ch in found], heads, axis=0) if found else body
+    return prog, draw, chains.tables(found, rows, cols)
 
 
 def dead_writes(instructions: list[Instruction]) -> list[int]:
@@ -332,8 +346,8 @@ class CompiledEngine:
 
     def _segment(self, instructions: list[Instruction]) -> Callable[[], None]:
         sim = self.sim
-        prog, m = encode(instructions)
         noise = sim.noise
+        prog, m, (heads, outs, edges) = encode(instructions, noise.ideal, sim.rows, sim.cols)
         a, d, latch = sim._a, sim._d, sim._latch
         t, t2, tb = self._t, self._t2, self._tb
         if noise.ideal:
@@ -351,6 +365,7 @@ class CompiledEngine:
             all_set = _run(
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
+                heads, outs, edges,
             )  # fmt: skip
             # what the kernel knows of FLAG at its end: set everywhere (no mask), or partial
             # (the host calls need not look; the numpy engine's cached mask is rebuilt)
@@ -861,6 +876,18 @@ def _where(row, a, af, df, t, bank, starts, flag_all, r0, r1):
     locs, nl = _locals(row, nsrc)
     flagf = df[_FLAG]
     zero = np.float32(0.0)
+    fb = flagf[lo:hi]
+    if nsrc == 2 and nl == 2:  # FLAG from the sum of two registers, in one pass
+        x0, x1 = af[locs[0]][lo:hi], af[locs[1]][lo:hi]
+        if bank.size:
+            s0 = starts[row[_DRAW]] + lo
+            w = bank[s0 : s0 + (hi - lo)]
+            for p in range(fb.size):
+                fb[p] = ((x0[p] + x1[p]) + w[p]) > zero
+        else:
+            for p in range(fb.size):
+                fb[p] = (x0[p] + x1[p]) > zero
+        return
     if nsrc == 1 and nl == 1:  # FLAG straight from one register, in one pass
         x = af[locs[0]][lo:hi]
     else:
@@ -868,7 +895,6 @@ def _where(row, a, af, df, t, bank, starts, flag_all, r0, r1):
         if nl < nsrc:
             _add_neighbours(t, a[_NEWS], flagf.reshape(rows, cols), row, nsrc, flag_all, r0, r1)
         x = tf[lo:hi]
-    fb = flagf[lo:hi]
     if bank.size:
         s0 = starts[row[_DRAW]] + lo
         w = bank[s0 : s0 + (hi - lo)]
@@ -1008,12 +1034,91 @@ def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
     return flag_all
 
 
+@_inline
+def _chain_row(b, x, w, read1, read2, n, flip):
+    """b[:w] := the first ``n`` steps of a chain applied to x[:w] (.chains._form): each
+    step a read's clip(-(0 + v)) or a push's clip(-v), steps 3..n one negation or none.
+    Selects, not branches, so that it vectorises."""
+    z = np.float32(0.0)
+    two, neg = n > 1, flip != 0
+    for p in range(w):
+        v = x[p]
+        v1 = _clip(-((z + v) if read1 else v))
+        v2 = _clip(-((z + v1) if read2 else v1))
+        v = v2 if two else v1
+        b[p] = -v if neg else v
+
+
+@_inline
+def _chain_edges(out, e, lo, hi, cols):
+    """A row chain's elements outside its interior [lo, hi) get their fixed values."""
+    for p in range(lo):
+        out[p] = e[p]
+    for p in range(hi, cols):
+        out[p] = e[p]
+
+
 @_jit
-def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains, known):
+def _chain(a, c, heads, outs, edges, t, t2):
+    """Chain ``c`` of neighbour moves composed (.chains), ideal, FLAG set everywhere: each
+    plane it leaves written, in one pass. An output that is the chain's source goes
+    through a row buffer (``t[0]``), written once the row is read; ``t2`` holds a copy of
+    the source when a column chain's rows cannot be ordered to read first."""
+    rows, cols = a.shape[1], a.shape[2]
+    src, axis, o0, no, order = heads[c, 0], heads[c, 1], heads[c, 2], heads[c, 3], heads[c, 4]
+    x0 = a[src]
+    if order == 0:
+        for r in range(rows):
+            copy, orig = t2[r], x0[r]
+            for p in range(cols):
+                copy[p] = orig[p]
+        x0 = t2
+    buf = t[0]
+    for i in range(rows):
+        r = i if order >= 0 else rows - 1 - i
+        own = -1  # the output that is the source, if any: written last
+        for k in range(no):
+            o = outs[o0 + k]
+            plane, n, off, lo, hi = o[0], o[1], o[2], o[3], o[4]
+            out = a[plane, r]
+            if plane == src and order != 0:
+                own, out = k, buf
+            if axis == 1:
+                target = out[: hi - lo] if own == k else out[lo:hi]
+                _chain_row(target, x0[r, lo + off : hi + off], hi - lo, o[5], o[6], n, o[7])
+                if own != k:
+                    _chain_edges(out, edges[o0 + k], lo, hi, cols)
+            elif lo <= r < hi:
+                _chain_row(out, x0[r + off], cols, o[5], o[6], n, o[7])
+            elif own != k:
+                v = edges[o0 + k, r]
+                for p in range(cols):
+                    out[p] = v
+        if own >= 0:
+            lo, hi = outs[o0 + own, 3], outs[o0 + own, 4]
+            out = a[src, r]
+            if axis == 1:
+                inner, b = out[lo:hi], buf[: hi - lo]  # plain indices, so that it vectorises
+                for p in range(hi - lo):
+                    inner[p] = b[p]
+                _chain_edges(out, edges[o0 + own], lo, hi, cols)
+            elif lo <= r < hi:
+                for p in range(cols):
+                    out[p] = buf[p]
+            else:
+                v = edges[o0 + own, r]
+                for p in range(cols):
+                    out[p] = v
+
+
+@_jit
+def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains, known,
+         heads, outs, edges):  # fmt: skip
     """Run the ICWs of ``prog`` in order, each over the whole array; returns whether FLAG
     is then set everywhere (tracked through the kernel, as each ICW needs it). ``known``:
     FLAG is set everywhere to begin with (the simulator's tracked state), else it is
-    tested."""
+    tested. A chain's head row runs the chain composed when FLAG is set everywhere and
+    skips its ICWs; else they run one by one."""
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     af = a.reshape(a.shape[0], n)
@@ -1024,7 +1129,15 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     tbu2 = tb.view(np.uint8)
     tbu = tbu2.reshape(-1)
     flag_all = True if known else _all_set(du[_FLAG])
-    for i in range(prog.shape[0]):
-        flag_all = _op(prog[i], 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
+    i = 0
+    while i < prog.shape[0]:
+        row = prog[i]
+        i += 1
+        if row[_OP] == _CHAIN:
+            if flag_all:
+                _chain(a, row[_PARTS], heads, outs, edges, t, t2)
+                i += row[_ND]
+            continue
+        flag_all = _op(row, 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
             offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
     return flag_all
