@@ -214,3 +214,34 @@ def test_after_a_trial_of_both_tiers_a_stretch_keeps_the_faster(
         k.run()
     fast = "first" if slow == "fused" else "fused"
     assert calls[slow] == trial and calls[fast] == trial + 10
+
+
+@pytest.mark.parametrize("noise", ["ideal", "typical"])
+def test_a_stretch_of_only_nops_fuses_into_no_loop(fused, noise, monkeypatch) -> None:
+    """Two nops are a fusable stretch; their pass touches nothing, so it has no loop (an
+    empty loop is not valid Python) and the kernel leaves the reference's bytes."""
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "1")
+    nops = [("nop", (), ()), ("nop", (), ())]
+    assert "for p" not in fused.source([make(*i) for i in nops], 4, 5, noisy=noise != "ideal")
+    sims = []
+    for engine in ("reference", "compiled"):
+        sim = Scamp5(4, 5, noise=noise, seed=2, engine=engine)
+        sim.write(s.A, np.arange(20.0).reshape(4, 5))
+        with sim.kernel() as k:
+            k.icw("bus", (s.B,), (s.A,))
+            for icw in nops:
+                k.icw(*icw)
+        sims.append(sim)
+    assert sims[0]._a.tobytes() == sims[1]._a.tobytes()
+
+
+def test_a_module_that_fails_to_load_leaves_nothing_behind(fused, monkeypatch) -> None:
+    """A generated module whose import fails raises its own error every time, not a
+    missing ``run`` of a half-made module left in sys.modules."""
+    import sys
+
+    text = "raise ValueError('broken on purpose')\n"
+    for _ in range(2):
+        with pytest.raises(ValueError, match="broken on purpose"):
+            fused.load(text)
+    assert fused._name(text) not in sys.modules

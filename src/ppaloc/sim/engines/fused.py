@@ -546,6 +546,8 @@ def source(instructions: list[Instruction], rows: int, cols: int, noisy: bool) -
     w(1, "BK, BD = bank, bank_div")
     w(1, f"fa = known or all_ones(D[{_F * n}:{(_F + 1) * n}])")
     for number, ps in enumerate(passes):
+        if not any(_touched(ps)):  # only nops: no loop (its body would be empty)
+            continue
         for i, ins in ps.icws:
             if noisy:
                 bank = "BK" if _parts(ins) == 1 or ins.op == "where" else "BD"
@@ -608,7 +610,11 @@ def load(text: str):
     else:
         spec = importlib.util.spec_from_file_location(name, path)
         module = sys.modules[name] = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:  # no half-made module left behind to hide the error
+            del sys.modules[name]
+            raise
     sys.modules[name] = module
     return module.run
 
@@ -674,9 +680,9 @@ def _warm(path: str, shapes: dict[str, list[int]]) -> None:
     name = Path(path).stem
     spec = importlib.util.spec_from_file_location(name, path)
     module = sys.modules[name] = importlib.util.module_from_spec(spec)  # numba's cache
-    spec.loader.exec_module(module)  # records the module by name, as the simulator's
     text = Path(path).read_text()
     try:
+        spec.loader.exec_module(module)  # records the module by name, as the simulator's
         dtypes = {
             "a": np.float32, "d": np.bool_, "latch": np.bool_, "scratch": np.float32,
             "offsets": np.float32, "pixel": np.float32, "bank": np.float32,
