@@ -168,6 +168,8 @@ def test_get_parameter_matches_the_global_sums() -> None:
     assert p["SCAMP5_GLOBAL_SUM_16_SPAN"] == 4080
     with pytest.raises(SimulatorError, match="which=3"):
         sim.vs_scamp5_get_parameter(3)
+    # vs_vision_chip.hpp declares the same table under the vision system's name
+    assert [sim.vs_vision_chip_get_parameter(w) for w in range(4, 12)] == list(p.values())
 
 
 # ------------------------------------------------------------------ drawing

@@ -1249,6 +1249,9 @@ class ControllerMixin(DrawMixin):
         n_blocks = 16 if w < 8 else 64
         return (-128, 127, 0, 255 * n_blocks)[(w - 4) % 4]
 
+    #: ``vs_vision_chip_get_parameter`` (``vs_vision_chip.hpp``), the same table.
+    vs_vision_chip_get_parameter = vs_scamp5_get_parameter
+
 
 # SCAMP-5 spellings of every controller call, so published host code ports line by line.
 for _name in (

@@ -497,6 +497,9 @@ inline uint8_t scamp5_global_sum_region(const areg_t& areg, uint8_t r0, uint8_t 
 inline int32_t vs_scamp5_get_parameter(int which, ppa::Loc loc = PPA_HERE) {
     return ppa::as_int(PPA_CALL("vs_scamp5_get_parameter", true, which));
 }
+inline int32_t vs_vision_chip_get_parameter(int which, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("vs_scamp5_get_parameter", true, which));  // the same table
+}
 inline void scamp5_draw_begin(DREG dr, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("scamp5_draw_begin", false, dr);
 }
