@@ -32,7 +32,8 @@ from ppaloc.sim.isa import Instruction
 __all__ = ["Chain", "compose", "find", "live_after", "tables"]
 
 _F32 = np.float32
-#: Longest chain composed (its steps are unrolled per row of the result).
+#: Longest chain composed as one (a longer run of moves is composed in pieces; this
+#: bounds the work of the edge tables, made when a kernel is encoded).
 MAX_STEPS = 64
 
 
@@ -119,20 +120,17 @@ def live_after(instructions: list[Instruction], n: int) -> set[int]:
     return {i for i in range(64) if i not in dead}
 
 
-def compose(instructions: list[Instruction], skipped: set[int], rows: int) -> list[Chain]:
+def compose(instructions: list[Instruction], skipped: set[int]) -> list[Chain]:
     """The chains worth composing, each with the outputs a later ICW may read.
 
-    Left to run ICW by ICW: a two-step chain whose result is its own source (the row
-    buffer that needs makes it cost what its two moves do), and a chain with more
-    outputs than the array has rows (a row buffer each).
+    A two-step chain whose result is its own source is left to run ICW by ICW: the row
+    buffer that result needs makes it cost what its two moves do.
     """
     kept = []
     for ch in find(instructions, skipped):
         live = live_after(instructions, ch.start + len(ch.steps) - 1)
         outputs = tuple((p, n) for p, n in ch.outputs if p in live)
-        if len(ch.steps) == 2 and ch.source in {p for p, _ in outputs}:
-            continue
-        if len(outputs) <= rows:
+        if len(ch.steps) > 2 or ch.source not in {p for p, _ in outputs}:
             kept.append(replace(ch, outputs=outputs))
     return kept
 

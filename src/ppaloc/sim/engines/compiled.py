@@ -9,10 +9,12 @@ Per ICW, each analogue transfer is one pass over the plane in the common case (l
 sources, one destination): the sum, the bus's negation or division, the transfer gain, the
 receiving cell's offset and temporal noise, the saturation and the FLAG mask in the same
 loop; a neighbour move (a push of one source, a read of one neighbour's NEWS, FLAG set
-everywhere) is one pass too. The noise draws of the kernel are taken from the seeded bank
-up front (:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order the other engines draw
-them, so every engine leaves the same bytes. Digital planes stay one byte per element and
-run as bytes (``uint8`` views), which LLVM vectorises 64 PEs to an instruction.
+everywhere) is one pass too, and in ideal mode a chain of such moves (a shift by several
+elements, :mod:`.chains`) is one pass in all. The noise draws of the kernel are taken
+from the seeded bank up front (:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order
+the other engines draw them, so every engine leaves the same bytes. Digital planes stay
+one byte per element and run as bytes (``uint8`` views), which LLVM vectorises 64 PEs to
+an instruction.
 
 The dispatch of an ICW is inlined into the kernel's loop (``inline="always"``) and the
 whole engine runs without numba's reference-counting runtime (``_nrt=False``; nothing in
@@ -129,7 +131,7 @@ def encode(
     dead = dead_writes(instructions)
     for n in dead:
         body[n, _OP] = _NOP  # its noise draws stay counted: later draws keep their index
-    found = chains.compose(instructions, set(dead), rows) if ideal else []
+    found = chains.compose(instructions, set(dead)) if ideal else []
     heads = np.zeros((len(found), _WIDTH), dtype=np.int64)
     for c, ch in enumerate(found):
         heads[c, _OP], heads[c, _PARTS], heads[c, _ND] = _CHAIN, c, len(ch.steps)
