@@ -111,8 +111,8 @@ def encode(
     """(table of rows, noise draws of the whole segment when noisy, chain tables).
 
     In ideal mode every chain of neighbour moves (:mod:`.chains`, on a ``rows`` x
-    ``cols`` array) gets a head row before its ICWs: run composed when FLAG is set
-    everywhere, else its ICWs run one by one.
+    ``cols`` array; none without the array's shape) gets a head row before its ICWs: run
+    composed when FLAG is set everywhere, else its ICWs run one by one.
     """
     body = np.zeros((len(instructions), _WIDTH), dtype=np.int64)
     draw = 0
@@ -131,7 +131,7 @@ def encode(
     dead = dead_writes(instructions)
     for n in dead:
         body[n, _OP] = _NOP  # its noise draws stay counted: later draws keep their index
-    found = chains.compose(instructions, set(dead)) if ideal else []
+    found = chains.compose(instructions, set(dead)) if ideal and rows and cols else []
     heads = np.zeros((len(found), _WIDTH), dtype=np.int64)
     for c, ch in enumerate(found):
         heads[c, _OP], heads[c, _PARTS], heads[c, _ND] = _CHAIN, c, len(ch.steps)
