@@ -83,6 +83,12 @@ def test_a_composed_chain_leaves_the_reference_bytes(case) -> None:
     assert got._d.tobytes() == ref._d.tobytes()
 
 
+def unread(icws: list) -> list:
+    from ppaloc.sim.engines.compiled import overwritten_unread
+
+    return overwritten_unread(icws)
+
+
 def recorded(build) -> list:
     sim = Scamp5(16, 16, noise="ideal", engine="reference")
     with sim.kernel() as k:
@@ -98,7 +104,7 @@ def test_shift_chains_are_found_and_the_planes_read_later_kept() -> None:
         k.add(s.E, s.D, s.F)  # overwrites NEWS unread
 
     icws = recorded(build)
-    (chain,) = chains.compose(icws, set())
+    (chain,) = chains.compose(icws, set(), unread(icws))
     assert (chain.start, len(chain.steps), chain.source, chain.axis) == (2, 8, s.F.index, 1)
     assert chain.outputs == ((s.F.index, 8),)  # NEWS left out: overwritten before a read
     assert chains.find(icws, set())[0].outputs == ((s.NEWS.index, 7), (s.F.index, 8))
@@ -107,6 +113,6 @@ def test_shift_chains_are_found_and_the_planes_read_later_kept() -> None:
 def test_a_two_step_chain_onto_its_source_is_left_to_run_icw_by_icw() -> None:
     icws = recorded(lambda k: k.mov2x(s.F, s.F, s.south, s.south))
     assert len(chains.find(icws, set())) == 1
-    assert chains.compose(icws, set()) == []
+    assert chains.compose(icws, set(), unread(icws)) == []
     icws = recorded(lambda k: k.mov2x(s.F, s.D, s.south, s.south))
-    assert len(chains.compose(icws, set())) == 1
+    assert len(chains.compose(icws, set(), unread(icws))) == 1

@@ -29,7 +29,7 @@ import numpy as np
 
 from ppaloc.sim.isa import Instruction
 
-__all__ = ["Chain", "compose", "find", "live_after", "tables"]
+__all__ = ["Chain", "compose", "find", "tables"]
 
 _F32 = np.float32
 #: Longest chain composed as one (a longer run of moves is composed in pieces; this
@@ -104,32 +104,19 @@ def find(instructions: list[Instruction], skipped: set[int]) -> list[Chain]:
     return chains
 
 
-def live_after(instructions: list[Instruction], n: int) -> set[int]:
-    """Analogue planes whose value after ICW ``n`` may still be read: not overwritten
-    (by a one-destination transfer, FLAG not shrunk in between) before a read. The
-    kernel's end reads everything."""
-    dead: set[int] = set()
-    read: set[int] = set()
-    for ins in instructions[n + 1 :]:
-        if ins.spec.src_kind == "analog":
-            read |= {r.index for r in ins.srcs} - dead
-        if ins.op in ("where", "WHERE"):
-            break
-        if ins.op == "bus" and len(ins.dsts) == 1:
-            dead |= {ins.dsts[0].index} - read
-    return {i for i in range(64) if i not in dead}
-
-
-def compose(instructions: list[Instruction], skipped: set[int]) -> list[Chain]:
-    """The chains worth composing, each with the outputs a later ICW may read.
+def compose(
+    instructions: list[Instruction], skipped: set[int], unread: list[set[int]]
+) -> list[Chain]:
+    """The chains worth composing, each with the outputs a later ICW may read (not in
+    ``unread`` at its last step: the planes whose value there no later ICW reads).
 
     A two-step chain whose result is its own source is left to run ICW by ICW: the row
     buffer that result needs makes it cost what its two moves do.
     """
     kept = []
     for ch in find(instructions, skipped):
-        live = live_after(instructions, ch.start + len(ch.steps) - 1)
-        outputs = tuple((p, n) for p, n in ch.outputs if p in live)
+        gone = unread[ch.start + len(ch.steps) - 1]
+        outputs = tuple((p, n) for p, n in ch.outputs if p not in gone)
         if len(ch.steps) > 2 or ch.source not in {p for p, _ in outputs}:
             kept.append(replace(ch, outputs=outputs))
     return kept
@@ -138,7 +125,7 @@ def compose(instructions: list[Instruction], skipped: set[int]) -> list[Chain]:
 def _step(read: bool, x: np.float32) -> np.float32:
     """One move's value, as the engine computes it (float32; saturation at every step)."""
     v = -(_F32(0.0) + x) if read else -x
-    return _F32(min(max(v, _F32(-128.0)), _F32(127.0))) if v == v else v
+    return _F32(min(max(v, _F32(-128.0)), _F32(127.0)))
 
 
 def _interior(steps: tuple[tuple[bool, int], ...], n: int, size: int) -> tuple[int, int, int]:
@@ -195,9 +182,8 @@ def tables(chains: list[Chain], rows: int, cols: int) -> tuple[np.ndarray, np.nd
     width = max(rows, cols)
     for ch in chains:
         size = cols if ch.axis == 1 else rows
-        kept = ch.outputs
         offsets = []
-        for plane, n in kept:
+        for plane, n in ch.outputs:
             lo, hi, off = _interior(ch.steps, n, size)
             outs.append((plane, n, off, lo, hi, *_form(ch.steps, n)))
             e = np.zeros(width, dtype=_F32)
@@ -205,9 +191,9 @@ def tables(chains: list[Chain], rows: int, cols: int) -> tuple[np.ndarray, np.nd
             edges.append(e)
             offsets.append(off)
         order = 1
-        if ch.axis == 0 and ch.source in {p for p, _ in kept}:  # rows read before written
+        if ch.axis == 0 and ch.source in {p for p, _ in ch.outputs}:  # rows read first
             order = 1 if min(offsets) >= 0 else -1 if max(offsets) <= 0 else 0
-        heads.append((ch.source, ch.axis, len(outs) - len(kept), len(kept), order))
+        heads.append((ch.source, ch.axis, len(outs) - len(offsets), len(offsets), order))
     return (
         np.array(heads, dtype=np.int64).reshape(-1, 5),
         np.array(outs, dtype=np.int64).reshape(-1, 8),

@@ -50,7 +50,14 @@ from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["FUSE_AFTER", "FUSE_ENV", "CompiledEngine", "dead_writes", "fuse_after_from_env"]
+__all__ = [
+    "FUSE_AFTER",
+    "FUSE_ENV",
+    "CompiledEngine",
+    "dead_writes",
+    "fuse_after_from_env",
+    "overwritten_unread",
+]
 
 # op codes
 _NOP, _RPIX, _BUS, _WHERE, _ALL, _SET, _CLR, _MOV, _NOT, _OR, _NOR = range(11)
@@ -128,10 +135,11 @@ def encode(
         row[_DRAW] = draw
         row[_EDGE] = ins.op == "DNEWS1"
         draw += _draws(ins)
-    dead = dead_writes(instructions)
+    unread = overwritten_unread(instructions)
+    dead = dead_writes(instructions, unread)
     for n in dead:
         body[n, _OP] = _NOP  # its noise draws stay counted: later draws keep their index
-    found = chains.compose(instructions, set(dead)) if ideal and rows and cols else []
+    found = chains.compose(instructions, set(dead), unread) if ideal and rows and cols else []
     heads = np.zeros((len(found), _WIDTH), dtype=np.int64)
     for c, ch in enumerate(found):
         heads[c, _OP], heads[c, _PARTS], heads[c, _ND] = _CHAIN, c, len(ch.steps)
@@ -139,29 +147,39 @@ def encode(
     return prog, draw, chains.tables(found, rows, cols)
 
 
-def dead_writes(instructions: list[Instruction]) -> list[int]:
-    """Indices of one-destination transfers whose plane is overwritten before it is read.
+def overwritten_unread(instructions: list[Instruction]) -> list[set[int]]:
+    """Per ICW, the analogue planes whose value just after it no later ICW reads.
 
-    A later write to the same plane covers every element an earlier one wrote if FLAG
-    has not shrunk in between (``where``/``WHERE`` may shrink it; ``all`` only grows it),
-    and the earlier value is lost if no ICW between reads that plane (NEWS through any
-    alias). Typical: a macro's NEWS scratch written again by the next macro. The kernel's
-    end is a read of everything.
+    A later transfer's write covers every element an earlier one wrote if FLAG has not
+    shrunk in between (``where``/``WHERE`` may shrink it; ``all`` only grows it), and the
+    earlier value is lost if no ICW between reads that plane (NEWS through any alias).
+    The kernel's end is a read of everything.
     """
+    after: list[set[int]] = [set()] * len(instructions)
     killed: set[int] = set()  # planes fully overwritten later, before any read
-    dead = []
     for n in range(len(instructions) - 1, -1, -1):
+        after[n] = set(killed)
         ins = instructions[n]
         if ins.op in ("where", "WHERE"):
             killed.clear()
         if ins.op in _TRANSFERS:
-            planes = {d.index for d in ins.dsts}
-            if len(ins.dsts) == 1 and planes <= killed:
-                dead.append(n)
-            killed |= planes
+            killed |= {d.index for d in ins.dsts}
         if ins.spec.src_kind == "analog":
             killed -= {r.index for r in ins.srcs}
-    return sorted(dead)
+    return after
+
+
+def dead_writes(instructions: list[Instruction], unread: list[set[int]] | None = None) -> list[int]:
+    """Indices of one-destination transfers whose plane is overwritten before it is read
+    (:func:`overwritten_unread`, or ``unread`` when given). Typical: a macro's NEWS
+    scratch written again by the next macro."""
+    if unread is None:
+        unread = overwritten_unread(instructions)
+    return [
+        n
+        for n, ins in enumerate(instructions)
+        if ins.op in _TRANSFERS and len(ins.dsts) == 1 and ins.dsts[0].index in unread[n]
+    ]
 
 
 class CompiledEngine:
