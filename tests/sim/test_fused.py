@@ -245,3 +245,97 @@ def test_a_module_that_fails_to_load_leaves_nothing_behind(fused, monkeypatch) -
         with pytest.raises(ValueError, match="broken on purpose"):
             fused.load(text)
     assert fused._name(text) not in sys.modules
+
+
+def _neighbour_stretch(seed: int) -> list:
+    """A random fusable stretch of many passes: pushes and reads in every direction (each
+    reading what the ICW before wrote, so each starts a pass), local sums and halvings,
+    and now and then a FLAG change, which ends a group of passes."""
+    rng = np.random.default_rng(seed)
+    planes = [s.A, s.B, s.C, s.D]
+    out = []
+    for _ in range(14):
+        x, y = rng.choice(len(planes), 2, replace=False)
+        a, b = planes[x], planes[y]
+        direction = [s.XN, s.XS, s.XE, s.XW][rng.integers(4)]
+        kind = rng.integers(9)
+        if kind == 0:  # a push of a plane the pass may have written, then its use
+            out += [make("bus", (direction,), (a,)), make("bus", (b,), (s.NEWS,))]
+        elif kind == 1:  # NEWS written, then a neighbour's read
+            out += [make("bus", (s.NEWS,), (a,)), make("bus", (b,), (direction, a))]
+        elif kind == 2:
+            out += [make("bus", (s.NEWS,), (a, b)), make("bus2", (a, b), (s.NEWS,))]
+        elif kind == 3:
+            out += [make("bus", (b,), (a,)), make("bus", (s.NEWS,), (b, a))]
+        elif kind == 4:
+            out += [make("bus", (b,), (direction,)), make("bus", (s.NEWS,), (b,))]
+        elif kind < 8:
+            out += [make("bus", (s.NEWS,), (a,)), make("bus", (b,), (direction,))]
+        else:
+            out += [make("where", (), (a,)) if rng.integers(2) else make("all", (), ())]
+    return out
+
+
+@pytest.mark.parametrize(
+    ("rows", "cols", "mode", "seed"),
+    [(7, 5, "ideal", 1), (6, 9, "typical", 2), (1, 6, "ideal", 3), (5, 1, "ideal", 4),
+     (2, 3, "typical", 5), (9, 4, "ideal", 6)],
+)  # fmt: skip
+def test_passes_run_row_by_row_leave_the_reference_bytes(
+    fused, rows: int, cols: int, mode: str, seed: int, monkeypatch
+) -> None:
+    """Groups of passes run as a wavefront over rows (each neighbour term keeping three
+    rows): vertical terms in both directions, edges, one-row and one-column arrays, FLAG
+    partial at the start or set by the stretch."""
+    program = _neighbour_stretch(seed)
+    groups = fused.groups(fused.plan(program))
+    assert len(groups) < len(fused.plan(program))  # passes do run together
+    assert any(any(r.direction.offset[0] for _, _, r in ps.pre) for g in groups for ps in g)
+    sims = []
+    for engine, after in (("reference", "never"), ("compiled", "1")):
+        monkeypatch.setenv("PPALOC_FUSE_AFTER", after)
+        sim = Scamp5(rows, cols, noise=mode, seed=seed, engine=engine)
+        rng = np.random.default_rng(seed)
+        for plane in (s.A, s.B, s.C, s.D, s.NEWS):
+            sim.write(plane, rng.integers(-128, 128, (rows, cols)) / rng.choice([1, 2]))
+        sim.write(s.FLAG, rng.random((rows, cols)) < 0.7 if seed % 2 else np.ones((rows, cols)))
+        with sim.kernel() as k:
+            for ins in program:
+                k.icw(ins.op, ins.dsts, ins.srcs)
+        k.run()
+        sims.append(sim)
+    ref, got = sims
+    assert got._a.tobytes() == ref._a.tobytes()
+    assert got._d.tobytes() == ref._d.tobytes()
+
+
+@pytest.mark.parametrize("flag", ["partial", "full"])
+def test_a_write_overwritten_by_a_later_pass_is_stored_only_when_needed(
+    fused, flag: str, monkeypatch
+) -> None:
+    """C written in one pass and overwritten in the next, which reads no C: with FLAG set
+    everywhere the first write need not reach memory; under a partial FLAG the second
+    write keeps it where FLAG is 0, so it must."""
+    program = [
+        make("bus", (s.C,), (s.A,)),
+        make("bus", (s.NEWS,), (s.A,)),
+        make("bus", (s.B,), (s.XE,)),  # reads the NEWS just written: a second pass
+        make("bus", (s.C,), (s.B,)),
+    ]
+    (group,) = fused.groups(fused.plan(program))
+    assert fused._unstored(group, [True, True])[0] == {s.C.index}
+    assert fused._unstored(group, [False, False])[0] == frozenset()
+    sims = []
+    for engine, after in (("reference", "never"), ("compiled", "1")):
+        monkeypatch.setenv("PPALOC_FUSE_AFTER", after)
+        sim = Scamp5(4, 5, seed=1, engine=engine)
+        rng = np.random.default_rng(0)
+        for plane in (s.A, s.B, s.C):
+            sim.write(plane, rng.integers(-128, 128, (4, 5)))
+        if flag == "partial":
+            sim.write(s.FLAG, rng.random((4, 5)) < 0.5)
+        with sim.kernel() as k:
+            for ins in program:
+                k.icw(ins.op, ins.dsts, ins.srcs)
+        sims.append(sim)
+    assert sims[1]._a.tobytes() == sims[0]._a.tobytes()

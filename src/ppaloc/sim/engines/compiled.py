@@ -309,7 +309,7 @@ class CompiledEngine:
         return run
 
     def _scratch(self, k: int) -> np.ndarray:
-        """Scratch planes for ``k`` pre-steps, shared by every fused stretch (one block of
+        """``k`` scratch planes for neighbour terms, shared by every fused stretch (one block of
         memory stays in the caches, not one per stretch); grown when a stretch needs more."""
         k = max(k, 1)
         if self._pre.shape[0] < k:
@@ -321,13 +321,13 @@ class CompiledEngine:
         from ppaloc.sim.engines import fused
 
         sim, noise = self.sim, self.sim.noise
-        k = max(len(p.pre) for p in fused.plan(instructions))
+        k = fused.scratch_planes(instructions, sim.rows)
         m = sum(fused.draws(ins, not noise.ideal) for ins in instructions)
         size = sim.rows * sim.cols
         bank = [0] if noise.ideal else [size]
         return {
             "a": list(sim._a.shape), "d": list(sim._d.shape), "latch": list(sim._latch.shape),
-            "scratch": [max(k, 1), sim.rows, sim.cols], "offsets": list(noise.offsets.shape),
+            "scratch": [k, sim.rows, sim.cols], "offsets": list(noise.offsets.shape),
             "pixel": list(noise.pixel_offset.shape), "bank": bank, "bank_div": bank,
             "starts": [m], "gains": [m],
         }  # fmt: skip
@@ -340,7 +340,7 @@ class CompiledEngine:
         noise = sim.noise
         noisy = not noise.ideal
         fn = fused.load(text)
-        scratch = self._scratch(max(len(p.pre) for p in fused.plan(instructions)))
+        scratch = self._scratch(fused.scratch_planes(instructions, sim.rows))
         m = sum(fused.draws(ins, noisy) for ins in instructions)
         a, d, latch = sim._a, sim._d, sim._latch
         if noise.ideal:
