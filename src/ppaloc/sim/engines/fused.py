@@ -162,14 +162,31 @@ def fusable(ins: Instruction) -> bool:
     return True
 
 
+_ANALOGUE = frozenset((*_TRANSFERS, "where", "rpix"))
+_NEUTRAL = frozenset(("nop", "blurset", "all"))
+
+
+def _side(ins: Instruction) -> str | None:
+    """Which side an ICW works on: "a" analogue, "d" digital, None neither."""
+    if ins.op in _NEUTRAL:
+        return None
+    return "a" if ins.op in _ANALOGUE else "d"
+
+
 def plan(instructions: list[Instruction]) -> list[Pass]:
-    """Cut a run of fusable ICWs into passes (see the module's docstring)."""
+    """Cut a run of fusable ICWs into passes (see the module's docstring); a pass also
+    ends where the ICWs turn from analogue to digital or back: a loop of float32 and one
+    of byte planes each vectorise, a loop of both much less well."""
     passes = [Pass()]
+    side = None
     for n, ins in enumerate(instructions):
         if not fusable(ins):
             raise ValueError(f"{ins} cannot be fused")
-        if not passes[-1].admits(ins):
+        now = _side(ins)
+        turn = now is not None and side is not None and now != side
+        if turn or not passes[-1].admits(ins):
             passes.append(Pass())
+        side = now or side
         passes[-1].add(n, ins)
     return passes
 
