@@ -200,6 +200,7 @@ class CompiledEngine:
         self._t = np.zeros(shape, dtype=np.float32)
         self._t2 = np.zeros(shape, dtype=np.float32)
         self._tb = np.zeros(shape, dtype=np.bool_)
+        self._runs = np.zeros(2 * sim.rows + 2, dtype=np.int64)  # rows of FLAG's 1s (_run)
         self._pre = np.zeros((0, *shape), dtype=np.float32)  # the fused tier's (_scratch)
         self._none = np.zeros(0, dtype=np.float32)
         self._no_starts = np.zeros(0, dtype=np.int64)
@@ -376,6 +377,7 @@ class CompiledEngine:
             bank, bank_div = noise._bank, noise._bank_div
         offsets, pixel = noise.offsets, noise.pixel_offset
         none_s, none_g = self._no_starts, self._no_gains
+        runs = self._runs
 
         def run() -> None:
             if noise.ideal or m == 0:
@@ -385,7 +387,7 @@ class CompiledEngine:
             all_set = _run(
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
-                heads, outs, edges,
+                heads, outs, edges, runs,
             )  # fmt: skip
             # what the kernel knows of FLAG at its end: set everywhere (no mask), or partial
             # (the host calls need not look; the numpy engine's cached mask is rebuilt)
@@ -1131,14 +1133,63 @@ def _chain(a, c, heads, outs, edges, t, t2):
                     out[p] = v
 
 
+@_inline
+def _local_only(row):
+    """Whether a transfer reads and writes only its own element (no neighbour term, no
+    push): under a partial FLAG it changes nothing in a row where FLAG is all 0."""
+    for k in range(row[_NS]):
+        if row[_SD0 + k] != 0:
+            return False
+    for k in range(row[_ND]):
+        if row[_DD0 + k] != 0:
+            return False
+    return True
+
+
+@_jit
+def _flag_rows(flag, rows, cols, runs):
+    """The runs of rows in which FLAG has a 1: ``runs[2j], runs[2j + 1]`` = first row and
+    end of run ``j``; returns how many. Eight bytes a word where a row is a whole number
+    of words."""
+    nruns = 0
+    inside = False
+    words = cols // 8 if cols % 8 == 0 else 0
+    for r in range(rows):
+        row = flag[r * cols : (r + 1) * cols]
+        hit = False
+        if words:
+            w = row.view(np.uint64)
+            acc = np.uint64(0)
+            for k in range(words):
+                acc |= w[k]
+            hit = acc != 0
+        else:
+            for p in range(cols):
+                hit = hit or row[p] != 0
+        if hit and not inside:
+            runs[2 * nruns] = r
+            inside = True
+        elif inside and not hit:
+            runs[2 * nruns + 1] = r
+            nruns += 1
+            inside = False
+    if inside:
+        runs[2 * nruns + 1] = rows
+        nruns += 1
+    return nruns
+
+
 @_jit
 def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains, known,
-         heads, outs, edges):  # fmt: skip
+         heads, outs, edges, runs):  # fmt: skip
     """Run the ICWs of ``prog`` in order, each over the whole array; returns whether FLAG
     is then set everywhere (tracked through the kernel, as each ICW needs it). ``known``:
     FLAG is set everywhere to begin with (the simulator's tracked state), else it is
     tested. A chain's head row runs the chain composed when FLAG is set everywhere and
-    skips its ICWs; else they run one by one."""
+    skips its ICWs; else they run one by one. Under a partial FLAG a transfer that stays
+    inside its element runs only over the rows where FLAG has a 1 (``runs``: scratch of
+    ``2 * rows + 2``, found once per change of FLAG): the rows it skips it would leave
+    as they are, and noise is drawn by position, so the bytes are the same."""
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     af = a.reshape(a.shape[0], n)
@@ -1149,15 +1200,26 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     tbu2 = tb.view(np.uint8)
     tbu = tbu2.reshape(-1)
     flag_all = True if known else _all_set(du[_FLAG])
+    nruns = -1  # the rows of FLAG's 1s, not yet found
     i = 0
     while i < prog.shape[0]:
         row = prog[i]
         i += 1
-        if row[_OP] == _CHAIN:
+        op = row[_OP]
+        if op == _CHAIN:
             if flag_all:
                 _chain(a, row[_PARTS], heads, outs, edges, t, t2)
                 i += row[_ND]
             continue
+        if not flag_all and op == _BUS and _local_only(row):
+            if nruns < 0:
+                nruns = _flag_rows(du[_FLAG], rows, cols, runs)
+            for j in range(nruns):
+                _op(row, runs[2 * j], runs[2 * j + 1], a, af, df, du, du2, lu, tbu, tbu2,
+                    t, t2, flag_all, offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
+            continue
         flag_all = _op(row, 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
             offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
+        if op == _WHERE or op == _WHERED or op == _ALL:
+            nruns = -1
     return flag_all
