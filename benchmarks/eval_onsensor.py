@@ -377,7 +377,8 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
 
     Each stage still runs (timing, noise draws), then its output registers get the exact
     result of the inputs it had (read untimed): ``replicate`` (low-res: spread and
-    replication) ``F`` := the block means the halving tree left at the roots, tiled;
+    replication, or the live image's readout, normalisation and load) ``F`` := the block
+    means the halving tree left at the roots (contrast-normalised), tiled;
     ``descriptor`` (LBP) the live code := the LBP code of those root means (``B``);
     ``tree`` the readout trees' values := ``mu`` of the replicated frame or descriptor
     and the database as they are (a tree recomputed inside an update kernel, two tiles
@@ -388,7 +389,7 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
     steps; ``detect`` the node and ``T`` from the weights.
     """
     from ppaloc.localise.weighted import choose_candidate
-    from ppaloc.place import lbp_from_grid
+    from ppaloc.place import lbp_from_grid, normalise_contrast
     from ppaloc.sim import C, D, F
 
     pipe = loc.pipeline
@@ -457,14 +458,24 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
     pipe.kc.run = kc_run
 
     if rep == "lowres":
-        replicate = pipe.replicate
+        live = pipe.load_live if pipe.robust else pipe.replicate
 
         def exact_replicate() -> None:
-            replicate()
-            if "replicate" in stages:  # F = -m of grid block (r % 8, c % 8)
-                sim.write(F, np.tile(state["roots"], (pipe.size // 8, pipe.size // 8)))
+            live()
+            if "replicate" not in stages:
+                return
+            if pipe.robust:  # F = -f' of the exact grid, contrast-normalised
+                m = -state["roots"]  # the exact block means (state: the reduce's roots)
+                q = normalise_contrast(np.floor(2 * m + 128).astype(np.int64), p.contrast)
+                grid = -(q.astype(np.float64) / 2 - 64)
+            else:  # F = -m of grid block (r % 8, c % 8)
+                grid = state["roots"]
+            sim.write(F, np.tile(grid, (pipe.size // 8, pipe.size // 8)))
 
-        pipe.replicate = exact_replicate
+        if pipe.robust:
+            pipe.load_live = exact_replicate
+        else:
+            pipe.replicate = exact_replicate
     else:
         descriptor = pipe.descriptor
 

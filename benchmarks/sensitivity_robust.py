@@ -38,6 +38,7 @@ GRID: dict[str, tuple[int, ...]] = {
     "move_cost": (1, 2, 4, 8, 16),
     "skip_cost": (1, 2, 4, 8, 16),
     "max_advance": (1, 2, 3),
+    "contrast": (0, 16, 24, 32, 48, 64, 96, 127),
 }
 """Each parameter's values: at least a 4x range around the default."""
 

@@ -1,7 +1,7 @@
 import numpy as np
 
 from ppaloc.localise.likelihood import NodeDistances, distance_scale
-from ppaloc.place import lowres_image
+from ppaloc.place import lowres_image, normalise_contrast
 
 from .conftest import blocky
 
@@ -33,3 +33,24 @@ def test_lbp_distances():
     d = NodeDistances("lbp", np.array([0, 0xFFFFFFFF], np.uint32), exact=True)
     frame = np.zeros((256, 256), np.uint8)  # flat: every neighbour >= centre, all ones
     assert d(frame).tolist() == [32, 0]
+
+
+def test_contrast_normalised_lowres_compares_the_normalised_images():
+    """With ``contrast`` both the live image and the nodes are normalised first: a darker,
+    flatter copy of a node's scene is near distance 0; ``exact`` gives the same integers
+    in the units of the unquantised path (1024 per grey level)."""
+    rng = np.random.default_rng(3)
+    scene = rng.integers(40, 216, (8, 8))
+    dim = (scene - 40) // 2 + 10  # the same place at dusk: darker, half the contrast
+    nodes = np.stack([scene, np.full((8, 8), 255), np.full((8, 8), 1)]).astype(np.uint8)
+    frame = blocky(dim)
+    exact = NodeDistances("lowres", nodes, exact=True, contrast=48)
+    quant = NodeDistances("lowres", nodes, exact=False, contrast=48)
+    live = normalise_contrast(dim, 48).astype(np.int64)
+    want = np.abs(live[None] - normalise_contrast(nodes, 48).astype(np.int64)).sum(axis=(1, 2))
+    np.testing.assert_array_equal(quant(frame), want)
+    assert exact(frame).tolist() == [1024 * int(w) for w in want]
+    assert want[0] < 64 * 2  # within a grey level or two per cell (rounding, the gain step)
+    np.testing.assert_array_equal(exact.live(frame), live)
+    # the paper preset's path (contrast None) sees the raw images: far apart
+    assert NodeDistances("lowres", nodes, exact=False)(frame)[0] > 64 * 40

@@ -71,7 +71,8 @@ def test_the_levels_store_survives_droop_the_analogue_store_does_not(blocky_rout
         topomap = loc.build_map(ref)
         loc.localise(query[:13])  # refreshes at frames 1, 5, 9, 13
         pipe = loc.pipeline
-        want = pipe.layout.to_planes(topomap.node_blocks(), fill=128)[0] / 2.0 - 64
+        stored = pipe.node_blocks(topomap)  # the robust preset's normalised images
+        want = pipe.layout.to_planes(stored, fill=128)[0] / 2.0 - 64
         valid = pipe.layout.to_planes(topomap.node_blocks() * 0 + 1, fill=0)[0] > 0
         errors[store] = float(np.abs(pipe.map_plane(0) - want)[valid].max())
     assert errors["levels"] < 1.0  # the droop of one frame after the last refresh

@@ -23,7 +23,7 @@ def _config(block: str):
 
 
 @pytest.mark.parametrize(
-    ("index", "cells"), [(0, 6), (1, 60), (2, 336)], ids=["issue", "gain", "robust"]
+    ("index", "cells"), [(0, 6), (1, 60), (2, 384)], ids=["issue", "gain", "robust"]
 )
 def test_the_toml_files_are_valid_sweeps_of_the_size_the_page_says(index, cells):
     assert len(TOML) == 3

@@ -13,6 +13,12 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
   (``floor(S/1024)``, :func:`ppaloc.place.lowres_image`) and the uint8 SAD
   (:meth:`ppaloc.place.LowresIndex.sad`), ``mu_i = SAD_i / 128``: the fast path, within
   half a register unit of the exact value.
+- ``"lowres"`` with ``contrast`` (the robust preset): the live image quantised like a
+  node, then both it and every node normalised by
+  :func:`ppaloc.place.normalise_contrast`; ``arithmetic="ppa8"`` caps each cell at 254 as
+  the register does (``T_i = 1024 * sum of min(|f - n_i|, 254)`` in the units above),
+  ``"float"`` takes the uint8 SAD. On the sensor the controller reads the live image's
+  64 codes, normalises them and loads them through the DAC (docs/ppa8.md).
 - ``"lbp"``: ``h_i = popcount(x XOR d_i)`` in [0, 32]. On the PPA each differing bit of a
   node's 4x8-PE block loads the DAC constant 2 and an adding tree over the 32 PEs leaves
   their sum, so ``mu_i = 2 * h_i`` in [0, 64] register units.
@@ -24,7 +30,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ppaloc.place import LowresIndex, block_sums, hamming, lbp_descriptor, lowres_image
+from ppaloc.place import (
+    LowresIndex,
+    block_sums,
+    hamming,
+    lbp_descriptor,
+    lowres_image,
+    normalise_contrast,
+)
 
 __all__ = ["LOWRES_CAP", "NodeDistances", "distance_scale"]
 
@@ -54,24 +67,44 @@ class NodeDistances:
     descriptors : ndarray
         The map's nodes: uint8 (N, 8, 8) or uint32 (N,).
     exact : bool
-        Low-res only: the exact distance to the unquantised live frame (ppa8) instead of
-        the quantised SAD.
+        Low-res only: the register's distance (ppa8): to the unquantised live frame, or
+        with ``contrast`` capped per cell; else the uint8 SAD to the quantised frame.
+    contrast : int, optional
+        Low-res only: compare contrast-normalised images
+        (:func:`ppaloc.place.normalise_contrast` with this target; 0 compares the
+        quantised images as they are). None (the paper preset): no normalisation, and
+        ``exact`` compares the unquantised live frame.
     """
 
-    def __init__(self, kind: str, descriptors: np.ndarray, *, exact: bool) -> None:
+    def __init__(
+        self, kind: str, descriptors: np.ndarray, *, exact: bool, contrast: int | None = None
+    ) -> None:
         self.kind = kind
         self.exact = exact
+        self.contrast = contrast
         if kind == "lbp":
             self._nodes = np.ascontiguousarray(descriptors, dtype=np.uint32)
             self.out = np.empty(len(self._nodes), np.uint8)
         else:
-            self._index = LowresIndex(np.asarray(descriptors, np.uint8))
+            nodes = np.asarray(descriptors, np.uint8)
+            if contrast is not None:
+                nodes = normalise_contrast(nodes, contrast)
+            self._index = LowresIndex(nodes)
             self.out = np.empty(len(self._index), np.uint16)
+
+    def live(self, frame: np.ndarray) -> np.ndarray:
+        """Low-res: the live image as the comparison sees it, (8, 8) uint8 (normalised
+        with ``contrast``; without it the quantised image, which ``exact`` does not use)."""
+        image = lowres_image(frame)
+        return image if self.contrast is None else normalise_contrast(image, self.contrast)
 
     def __call__(self, frame: np.ndarray) -> np.ndarray:
         """Return the raw distances (shape (N,); reused buffer except for exact low-res)."""
         if self.kind == "lbp":
             return hamming(lbp_descriptor(frame), self._nodes, out=self.out)
         if self.exact:
-            return self._index.sad_to_sums(block_sums(frame, 8), cap=LOWRES_CAP)
-        return self._index.sad(lowres_image(frame), out=self.out)
+            if self.contrast is None:
+                return self._index.sad_to_sums(block_sums(frame, 8), cap=LOWRES_CAP)
+            sums = self.live(frame).astype(np.int64) << 10  # integers: S = 1024 q
+            return self._index.sad_to_sums(sums, cap=LOWRES_CAP)
+        return self._index.sad(self.live(frame), out=self.out)

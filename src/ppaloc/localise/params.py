@@ -34,8 +34,10 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import PpalocError
+from ppaloc.place.normalise import MAX_CONTRAST
 
 __all__ = [
+    "DEFAULT_CONTRAST",
     "DEFAULT_SHIFT",
     "FILTER_KEYS",
     "GAMMAS",
@@ -64,7 +66,9 @@ _MOTIONS = ("image", "always_forward", "oracle")
 
 # Parameters that only one preset uses; giving one to the other preset is an error.
 _PAPER_ONLY = ("alpha", "gamma", "k", "shift", "advance")
-_ROBUST_ONLY = ("gain", "memory", "stay_cost", "move_cost", "skip_cost", "max_advance")
+_ROBUST_ONLY = (
+    "gain", "memory", "stay_cost", "move_cost", "skip_cost", "max_advance", "contrast"
+)  # fmt: skip
 
 
 MAX_ALPHA = 1e6
@@ -76,6 +80,10 @@ MAX_PERIOD = 1_000_000
 
 MAX_WINDOW = 1_000_000
 """Largest ``advance`` bound and ``confidence_radius`` (nodes)."""
+
+DEFAULT_CONTRAST = 48
+"""Robust preset: the mean absolute deviation (grey levels) low-res images are normalised
+to (the middle of the plateau of docs/localise.md's sensitivity table, 32-96)."""
 
 DEFAULT_SHIFT = {"lowres": 2, "lbp": 1}
 """Paper preset: the default likelihood shift per representation. One frame's term spans
@@ -133,6 +141,13 @@ class FilterParams:
         default 4.
     max_advance : int
         Robust: the most nodes one frame may advance. Range [1, 3]; default 2.
+    contrast : int
+        Robust, low-res images: the mean absolute deviation (grey levels) every image,
+        live or node, is brought near by :func:`ppaloc.place.normalise_contrast` (offset
+        removed, gain from x1/2 to x4) before the comparison, so that light and contrast
+        changes (dusk, night, snow) do not decide the match; 0 compares the images as
+        they are. Range [0, 127]; default 48. LBP codes need none (they are invariant
+        to any increasing change of intensity).
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor,
         adjustment period, likelihood shift and forward window (docs/localise.md).
@@ -151,6 +166,7 @@ class FilterParams:
     move_cost: int | None = 4
     skip_cost: int | None = 4
     max_advance: int | None = 2
+    contrast: int | None = 48
     alpha: float | None = None
     gamma: float | None = None
     k: int | None = None
@@ -228,6 +244,9 @@ class FilterParams:
             for key in ("stay_cost", "move_cost", "skip_cost"):
                 out[key] = check_int(key, values.get(key, 4), 0, 64)
             out["max_advance"] = check_int("max_advance", values.get("max_advance", 2), 1, 3)
+            out["contrast"] = check_int(
+                "contrast", values.get("contrast", DEFAULT_CONTRAST), 0, MAX_CONTRAST
+            )
         else:
             out.update(dict.fromkeys(_ROBUST_ONLY))
             out.update(_paper_values(representation, arithmetic, values))

@@ -5,7 +5,8 @@
 1. transition: ``w_i := max over d of (w_{i-d} - c_d)``, ``d = 0 .. max_advance``, with
    the costs ``c_d`` set by the motion test (:func:`ppaloc.localise.params.transition_costs`);
    nodes before node 0 read the floor ("no hypothesis");
-2. likelihood scaled per frame: ``mu_s = mu * 2**-s_t`` with ``s_t`` chosen from the
+2. likelihood scaled per frame (low-res images contrast-normalised first,
+   :func:`ppaloc.place.normalise_contrast`): ``mu_s = mu * 2**-s_t`` with ``s_t`` chosen from the
    frame's own best and mean distance (:func:`~ppaloc.localise.params.likelihood_shift`);
 3. update ``w_i += alpha_t - mu_s_i`` with ``alpha_t = best * 2**-s_t``;
 4. detection as below;
@@ -273,10 +274,11 @@ class WeightedNodeLocaliser:
         ``"robust"`` (default): the max-product filter of docs/localise.md ("The robust
         filter"), which absorbs motion-test errors, stops and speed changes. ``"paper"``:
         Algorithm 1 of the paper, exactly (forward-or-stay shift, ``alpha``, ``gamma``).
-    gain, memory, stay_cost, move_cost, skip_cost, max_advance : int, optional
+    gain, memory, stay_cost, move_cost, skip_cost, max_advance, contrast : int, optional
         The robust filter's parameters (:class:`ppaloc.localise.params.FilterParams`):
         per-frame likelihood span (4), floor below the best weight (127), transition
-        costs (4, 4, 4) and the most nodes one frame may advance (2).
+        costs (4, 4, 4), the most nodes one frame may advance (2) and the contrast low-res
+        images are normalised to (48 grey levels; 0: none).
     keyframes : bool, optional
         One node per distinct place (a reference frame starts a node when the motion
         test says forward). Default: on for the robust preset with the image motion
@@ -335,6 +337,7 @@ class WeightedNodeLocaliser:
         move_cost: int | None = None,
         skip_cost: int | None = None,
         max_advance: int | None = None,
+        contrast: int | None = None,
         keyframes: bool | None = None,
         alpha: float | None = None,
         gamma: float | None = None,
@@ -364,6 +367,7 @@ class WeightedNodeLocaliser:
             "move_cost": move_cost,
             "skip_cost": skip_cost,
             "max_advance": max_advance,
+            "contrast": contrast,
             "keyframes": keyframes,
             "alpha": alpha,
             "gamma": gamma,
@@ -435,7 +439,10 @@ class WeightedNodeLocaliser:
             )
         if len(topomap) == 0:
             raise PpalocError("the map has no nodes")
-        self._distances = NodeDistances(self.representation, topomap.descriptors, exact=self._exact)
+        contrast = self.params.contrast if self.robust and self.representation == "lowres" else None
+        self._distances = NodeDistances(
+            self.representation, topomap.descriptors, exact=self._exact, contrast=contrast
+        )
         self.topomap = topomap
         if self.robust:
             self.alpha = None  # chosen per frame from the frame's own distances

@@ -71,7 +71,7 @@ from ppaloc.sim import (
     south,
     west,
 )
-from ppaloc.topomap import SnakeLayout, layout_for
+from ppaloc.topomap import SnakeLayout, TopoMap, layout_for
 
 __all__ = [
     "EVENT_SLOTS",
@@ -1301,6 +1301,10 @@ class SensorPipeline(ABC):
         self.have_prev_planes = False
         self.last_counts = None
         return nodes, kept
+
+    def node_blocks(self, topomap: TopoMap) -> np.ndarray:
+        """Each node's values on the PEs of its block, as the comparison reads them."""
+        return topomap.node_blocks()
 
     @abstractmethod
     def _describe(self) -> np.ndarray | int:

@@ -12,18 +12,22 @@ in one of two map stores (docs/onsensor.md, "Map store"):
   comparison rebuilds ``n = H/2 + L/32`` exactly (ideal mode) before its tree.
 
 Each frame the live 8x8 grid of block means is replicated over every node block and
-compared by the clipped absolute difference, summed by a halving tree per block.
+compared by the clipped absolute difference, summed by a halving tree per block. The
+paper preset replicates the exact means by shifts; the robust preset reads the grid's 64
+codes, contrast-normalises them on the controller (:func:`ppaloc.place.normalise_contrast`,
+as its map's nodes were before upload) and loads them through the DAC
+(:meth:`LowresPipeline.load_live`).
 """
 
 from __future__ import annotations
 
-from functools import cache
 from typing import ClassVar
 
 import numpy as np
 
 from ppaloc.onsensor.core import GRID, DRegs, SensorPipeline
 from ppaloc.onsensor.program import halve_level, pull_shift
+from ppaloc.place import normalise_contrast
 from ppaloc.sim import (
     IN,
     NEWS,
@@ -47,7 +51,7 @@ from ppaloc.sim import (
     west,
 )
 
-__all__ = ["LOWRES_DREGS", "ROOTS", "LowresPipeline", "after_patterns"]
+__all__ = ["LOWRES_DREGS", "ROOTS", "LowresPipeline"]
 
 #: R3 holds two roles in turn: ``root32`` (the 32x32 block roots, loaded at every capture
 #: and read by the spread of the block means) and ``pattern`` (node roots of one tile in
@@ -57,42 +61,6 @@ ROOTS = R3
 #: Digital register roles of the low-res pipeline (``pattern`` and ``root32`` are both
 #: :data:`ROOTS`).
 LOWRES_DREGS = DRegs(valid=R4, cand=R9, tmp_a=R10, tmp_b=R11, pattern=ROOTS, root32=ROOTS)
-
-
-@cache
-def after_patterns(block: int) -> tuple[tuple[int, int], ...]:
-    """``load_pattern`` (address, don't-care bits) pairs whose union is ``a // block > a % 8``.
-
-    Made once per block size (the replication asks every frame).
-
-    For 8-bit addresses ``a`` (rows or columns) of an array of ``8 * block`` PEs: the
-    block index ``B = a // block`` exceeds the residue ``b = a % 8`` where, at the highest
-    of their three bits that differ, ``B`` has the 1. Seven patterns: per bit ``k`` the
-    bit pair ``(B_k, b_k) = (1, 0)`` under each value of the higher pairs (equal).
-
-    Examples
-    --------
-    >>> a = np.arange(256)
-    >>> hit = np.zeros(256, bool)
-    >>> for addr, dont_care in after_patterns(32):
-    ...     hit |= (a & ~dont_care) == (addr & ~dont_care)
-    >>> bool((hit == (a // 32 > a % 8)).all()), len(after_patterns(32))
-    (True, 7)
-    """
-    low = block.bit_length() - 1  # the block index's lowest bit
-    out = []
-    for k in (2, 1, 0):
-        higher = range(k + 1, 3)
-        for values in range(1 << len(higher)):
-            addr = 1 << (low + k)
-            care = addr | (1 << k)
-            for i, j in enumerate(higher):
-                pair = (1 << (low + j)) | (1 << j)
-                care |= pair
-                if values >> i & 1:
-                    addr |= pair
-            out.append((addr, 0xFF & ~care))
-    return tuple(out)
 
 
 class LowresPipeline(SensorPipeline):
@@ -205,8 +173,58 @@ class LowresPipeline(SensorPipeline):
     value_scale = (-1, 1)
 
     def prepare_live(self) -> None:
-        """Replicate the live grid over every node block (:meth:`replicate`)."""
-        self.replicate()
+        """The live grid over every node block: robust, :meth:`load_live` (the grid read
+        out, contrast-normalised and loaded back); paper, :meth:`replicate`."""
+        if self.robust:
+            self.load_live()
+        else:
+            self.replicate()
+
+    def node_blocks(self, topomap) -> np.ndarray:
+        """Robust: the nodes' images contrast-normalised (as the live one will be)."""
+        if not self.robust:
+            return topomap.node_blocks()
+        return normalise_contrast(topomap.node_blocks(), self.params.contrast)
+
+    #: Address-pattern "don't care" bits of :meth:`load_live`'s classes: every PE whose
+    #: row and column residues mod 8 are the grid cell's.
+    CLASS_DONT_CARE = 0xFF & ~(GRID - 1)
+
+    def load_live(self) -> None:
+        """Robust: ``F := -f'``, PE (r, c) holding the normalised live cell (r%8, c%8).
+
+        The controller reads the live grid as the mapping run reads a node
+        (:meth:`_describe`: ``q = floor(S / 1024)`` per block, exact in ideal mode),
+        normalises it (:func:`ppaloc.place.normalise_contrast`, ``params.contrast``) and
+        writes each of the 64 cells into every node block, as the public precursor
+        loads an image (``load_analog_image``): one periodic ``load_pattern`` (row and
+        column residues mod 8), one ``load_in(q' - 128)`` and one kernel ``WHERE;
+        bus(F, IN); all`` per cell (``F = 128 - q' = -2 f'``, one write; ``q' >= 1``, so
+        it never negates -128), then one halving over the plane, ``D = -F/2 = f'``, ``F :=
+        -D``. The cells partition the array, so every PE of ``F`` is written once before
+        the halving. The normalised image is kept in :attr:`live_image` (inspection).
+        """
+        sim, dr = self.sim, self.dr
+        with sim.stage("replicate"):
+            live = normalise_contrast(self._describe(), self.params.contrast)
+            self.live_image = live
+            free = self.CLASS_DONT_CARE
+            for (i, j), q in np.ndenumerate(live):
+                sim.load_pattern(dr.tmp_a, i, j, free, free)
+                sim.load_in(int(q) - 128)
+
+                def cell(k):
+                    k.WHERE(dr.tmp_a)
+                    k.bus(F, IN)
+                    k.all()
+
+                self._run("load_live", cell)
+
+            def halve(k):
+                k.bus2(D, NEWS, F)
+                k.bus(F, D)
+
+            self._run("load_live_halve", halve)
 
     def compare_paper(self) -> None:
         """Paper: :meth:`compare_lowres`."""
@@ -275,51 +293,9 @@ class LowresPipeline(SensorPipeline):
         return {"F: live 8x8 grid, replicated (negated)": self.sim.read(F)}
 
     def replicate(self) -> None:
-        """``F := -f`` replicated: PE (r, c) holds minus the mean of grid block (r%8, c%8).
-
-        The robust preset copies (:meth:`replicate_copies`); the paper preset adds
-        (:meth:`replicate_sums`).
-        """
-        if self.robust:
-            self.replicate_copies()
-        else:
-            self.replicate_sums()
-
-    def replicate_copies(self) -> None:
-        """Robust: the replication by FLAG-masked chains of copies (no sums).
-
-        ``F`` holds the spread block means (:meth:`SensorPipeline._spread_copies`), so
-        the rows of residue ``b`` in block row ``b`` (the class mask ``R1``) already hold
-        class ``b``. Rows: the other rows take theirs along a chain of ``scamp5_shift``s
-        of one block (``block`` PEs), each written only where it carries the right class:
-        7 shifts from the north written at the rows of block ``B > b``
-        (:func:`after_patterns`, 7 periodic ``load_pattern``s ORed), then 7 from the south
-        at ``B < b`` (the NOR of that mask and ``R1``). Then the same for the columns
-        (``R2``). Every PE is written ``|B - b|`` times per axis (at most 7), where the
-        doubling of the paper preset sums the write noise of the zero background; exact
-        in ideal mode. ``4 * 7 * block`` PE steps (896 on a 256 array, the paper's 960).
-        """
-        sim, dr = self.sim, self.dr
-        after, before, temp = dr.cand, dr.tmp_a, dr.tmp_b
-        with sim.stage("replicate"):
-            for axis, own, (north_of, south_of) in (
-                (0, self.class_masks[0], (north, south)),
-                (1, self.class_masks[1], (west, east)),
-            ):
-                for i, (addr, dont_care) in enumerate(after_patterns(self.block)):
-                    target = after if i == 0 else temp
-                    if axis:
-                        sim.load_pattern(target, 0, addr, 0xFF, dont_care)
-                    else:
-                        sim.load_pattern(target, addr, 0, dont_care, 0xFF)
-                    if i:
-                        self._run(f"or_{after.name}", lambda k: k.OR(after, temp))
-                self._run(f"rep_before_{axis}", lambda k, own=own: k.NOR(before, after, own))
-                for mask, pull_from in ((after, north_of), (before, south_of)):
-                    self._run(f"where_{mask.name}", lambda k, mask=mask: k.WHERE(mask))
-                    for _ in range(GRID - 1):
-                        pull_shift(sim, F, pull_from, self.block)
-                self._run("all", lambda k: k.all())
+        """Paper: ``F := -f`` replicated, PE (r, c) holding minus the exact mean of grid
+        block (r%8, c%8) (:meth:`replicate_sums`)."""
+        self.replicate_sums()
 
     def replicate_sums(self) -> None:
         """Paper: the replication by shift-and-add doubling over a zero background.

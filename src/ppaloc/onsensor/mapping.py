@@ -4,11 +4,13 @@ The controller can reach individual PEs only through address patterns (``load_re
 ``load_point``, ``load_pattern``) and the DAC (``scamp5_in``). A map is written plane by
 plane in the snake layout of :mod:`ppaloc.topomap.layout`:
 
-- low-res nodes (``n = q/2 - 64``) into an analogue register: for every distinct value
-  ``2n = q - 128`` the controller ORs one ``load_rect`` per horizontal run of PEs holding
-  it into a digital mask, loads the value through the DAC where the mask is set, and at
-  the end one halving turns ``2n`` into ``n`` exactly; with the levels store the two
-  4-bit halves' levels go into ``A`` and ``B`` the same way (16 values each, no halving);
+- low-res nodes (``n = q/2 - 64``; the robust preset's ``q`` contrast-normalised by the
+  controller first, :func:`ppaloc.place.normalise_contrast`) into an analogue register:
+  for every distinct value ``2n = q - 128`` the controller ORs one ``load_rect`` per
+  horizontal run of PEs holding it into a digital mask, loads the value through the DAC
+  where the mask is set, and at the end one halving turns ``2n`` into ``n`` exactly;
+  with the levels store the two 4-bit halves' levels go into ``A`` and ``B`` the same
+  way (16 values each, no halving);
 - LBP descriptors into a digital register: one ``load_rect`` per run of set bits, ORed.
 
 Everything is charged to the stage ``"mapping"``.
@@ -64,8 +66,9 @@ def _write_values(pipe: SensorPipeline, db: Register, values: np.ndarray, skip: 
 
 def upload_map(pipe: SensorPipeline, topomap: TopoMap) -> None:
     """Write ``topomap``'s nodes into ``pipe``'s database registers (timed, stage "mapping")."""
-    # the map's own PE blocks (uint8 images, or 4x8 bits), laid out for this array's size
-    blocks = topomap.node_blocks()
+    # the map's own PE blocks (uint8 images, or 4x8 bits) as the comparison reads them
+    # (the robust preset's low-res images contrast-normalised), laid out for this array
+    blocks = pipe.node_blocks(topomap)
     with pipe.sim.stage("mapping"):
         if pipe.representation == "lowres" and pipe.store == "levels":
             (plane,) = pipe.layout.to_planes(blocks, fill=0)

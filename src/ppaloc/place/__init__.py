@@ -2,8 +2,9 @@
 
 Both start from the exact 8x8 block means of a (256, 256) uint8 sensor frame
 (docs/ppa8.md). Low-res nodes are compared by the sum of absolute differences (:func:`sad`),
-LBP descriptors by Hamming distance (:func:`hamming`). Everything is vectorised over
-leading axes (frames) or N nodes and exact.
+LBP descriptors by Hamming distance (:func:`hamming`); the robust filter compares low-res
+images after a per-image contrast normalisation (:func:`normalise_contrast`). Everything
+is vectorised over leading axes (frames) or N nodes and exact.
 """
 
 from ppaloc.place.grid import SENSOR_SIZE, block_means, block_sums, lowres_image
@@ -17,19 +18,23 @@ from ppaloc.place.lbp import (
     pack_bits,
     unpack_bits,
 )
+from ppaloc.place.normalise import CONTRAST_SCALES, contrast_scale, normalise_contrast
 from ppaloc.place.sad import sad
 
 __all__ = [
+    "CONTRAST_SCALES",
     "LBP_BITS",
     "SENSOR_SIZE",
     "LowresIndex",
     "block_means",
     "block_sums",
+    "contrast_scale",
     "hamming",
     "lbp_descriptor",
     "lbp_from_grid",
     "lbp_grid",
     "lowres_image",
+    "normalise_contrast",
     "pack_bits",
     "sad",
     "unpack_bits",
