@@ -50,6 +50,7 @@ from ppaloc.sim import (
     south,
     west,
 )
+from ppaloc.topomap import TopoMap
 
 __all__ = ["LOWRES_DREGS", "ROOTS", "LowresPipeline"]
 
@@ -180,11 +181,14 @@ class LowresPipeline(SensorPipeline):
         else:
             self.replicate()
 
-    def node_blocks(self, topomap) -> np.ndarray:
+    def node_blocks(self, topomap: TopoMap) -> np.ndarray:
         """Robust: the nodes' images contrast-normalised (as the live one will be)."""
         if not self.robust:
             return topomap.node_blocks()
         return normalise_contrast(topomap.node_blocks(), self.params.contrast)
+
+    #: Robust: the live grid as :meth:`load_live` last loaded it (normalised; inspection).
+    live_image: np.ndarray | None = None
 
     #: Address-pattern "don't care" bits of :meth:`load_live`'s classes: every PE whose
     #: row and column residues mod 8 are the grid cell's.
