@@ -15,10 +15,11 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
   half a register unit of the exact value.
 - ``"lowres"`` with ``contrast`` (the robust preset): the live image quantised like a
   node, then both it and every node normalised by
-  :func:`ppaloc.place.normalise_contrast`; ``arithmetic="ppa8"`` caps each cell at 254 as
-  the register does (``T_i = 1024 * sum of min(|f - n_i|, 254)`` in the units above),
-  ``"float"`` takes the uint8 SAD. On the sensor the controller reads the live image's
-  64 codes, normalises them and loads them through the DAC (docs/ppa8.md).
+  :func:`ppaloc.place.normalise_contrast`, and the uint8 SAD; ``arithmetic="ppa8"`` gives
+  it in the units above, ``T_i = 1024 * SAD_i`` (the register's cap of 254 grey levels
+  per cell never binds: the normalised levels run 1..255). On the sensor the controller
+  reads the live image's 64 codes, normalises them and loads them through the DAC
+  (docs/ppa8.md).
 - ``"lbp"``: ``h_i = popcount(x XOR d_i)`` in [0, 32]. On the PPA each differing bit of a
   node's 4x8-PE block loads the DAC constant 2 and an adding tree over the 32 PEs leaves
   their sum, so ``mu_i = 2 * h_i`` in [0, 64] register units.
@@ -105,6 +106,6 @@ class NodeDistances:
         if self.exact:
             if self.contrast is None:
                 return self._index.sad_to_sums(block_sums(frame, 8), cap=LOWRES_CAP)
-            sums = self.live(frame).astype(np.int64) << 10  # integers: S = 1024 q
-            return self._index.sad_to_sums(sums, cap=LOWRES_CAP)
+            # levels 1..255: no cell reaches the cap, so T = 1024 SAD exactly
+            return self._index.sad(self.live(frame), out=self.out).astype(np.int64) << 10
         return self._index.sad(self.live(frame), out=self.out)

@@ -298,11 +298,7 @@ class LowresPipeline(SensorPipeline):
 
     def replicate(self) -> None:
         """Paper: ``F := -f`` replicated, PE (r, c) holding minus the exact mean of grid
-        block (r%8, c%8) (:meth:`replicate_sums`)."""
-        self.replicate_sums()
-
-    def replicate_sums(self) -> None:
-        """Paper: the replication by shift-and-add doubling over a zero background.
+        block (r%8, c%8), by shift-and-add doubling over a zero background.
 
         Per axis: copy the block means at the PEs whose residue mod 8 is their block's
         index (zero elsewhere), then double that pattern over the zero background by

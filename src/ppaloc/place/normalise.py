@@ -79,7 +79,11 @@ def contrast_scale(images: np.ndarray, target: int) -> tuple[np.ndarray, np.ndar
     >>> contrast_scale(img, 20), contrast_scale(np.full((2, 2), 7), 20)
     ((array(120), array(4)), (array(7), array(16)))
     """
-    v = _as_values(images)
+    return _offset_quarters(_as_values(images), target)
+
+
+def _offset_quarters(v: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`contrast_scale` of values already flattened to (..., n) int64."""
     n = v.shape[-1]
     if not 1 <= int(target) <= MAX_CONTRAST:
         raise ValueError(f"target={target!r} must be in [1, {MAX_CONTRAST}]")
@@ -121,10 +125,9 @@ def normalise_contrast(images: np.ndarray, target: int) -> np.ndarray:
     True
     """
     a = np.asarray(images)
-    if int(target) == 0:
-        v = _as_values(a)
-        return np.maximum(v, 1).reshape(a.shape).astype(np.uint8)
-    offset, quarters = contrast_scale(a, target)
     v = _as_values(a)
+    if int(target) == 0:
+        return np.maximum(v, 1).reshape(a.shape).astype(np.uint8)
+    offset, quarters = _offset_quarters(v, target)
     out = (512 + (v - offset[..., None]) * quarters[..., None] + 2) >> 2
     return np.clip(out, 1, 255).astype(np.uint8).reshape(a.shape)
