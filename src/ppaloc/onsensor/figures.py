@@ -111,10 +111,10 @@ def difference_figure(
     planes = {"live frame (PIX as captured)": frame.astype(np.float32) / 2 - 64}
     with sim.stage("inspection"):
         if pipe.representation == "lowres":
-            if pipe.robust and pipe.tiles > 1:  # the trees used F: replicate the frame again
+            if pipe.robust and pipe.tiles > 1:  # the trees used F: load the frame again
                 pipe.capture(frame)
                 pipe.block_means()
-                pipe.replicate()
+                pipe.prepare_live()
 
             levels = pipe.store == "levels"
 
