@@ -7,7 +7,25 @@ import numpy as np
 import pytest
 
 from ppaloc.errors import RegisterMisuseError, SimulatorError
-from ppaloc.sim import FLAG, IN, NEWS, R0, R1, R2, R3, R4, R5, R6, R7, R12, SELECT, A, B, Scamp5
+from ppaloc.sim import (
+    FLAG,
+    IN,
+    NEWS,
+    PIX,
+    R0,
+    R1,
+    R2,
+    R3,
+    R4,
+    R5,
+    R6,
+    R7,
+    R12,
+    SELECT,
+    A,
+    B,
+    Scamp5,
+)
 from ppaloc.sim.controller import PARAMETERS, dac_level
 from ppaloc.sim.draw import circle_points, line_points
 from ppaloc.sim.registers import RECT
@@ -128,10 +146,55 @@ def test_global_sums_fast_sparse_region_scale() -> None:
     assert sim.global_sum_fast(A) == 255  # saturates
     assert sim.global_sum_region(A, 0, 0, 3, 3) == 228
     vals = np.zeros((16, 16))
-    vals[0::2, 0::2] = 8  # only the sparse grid's elements
+    vals[0::2, 0::2] = 8  # even rows and even array columns
+    sim.write(A, vals)
+    # the header's default pattern is in hardware addresses: hardware-even columns are the
+    # odd array columns of an even-width array, which hold 0 here
+    assert sim.global_sum_sparse(A) == 128
+    assert sim.global_sum_sparse(A, scamp_addr=True) == 128
+    assert sim.global_sum_sparse(A, 2, 2, 254, 254) == 8 * 4 + 128  # array coordinates
+    assert sim.global_sum_sparse(A, 1, 1, 254, 254) == 128  # the other grid: all 0
+    vals[0::2] = np.roll(vals[0::2], 1, axis=1)  # now on the odd array columns
     sim.write(A, vals)
     assert sim.global_sum_sparse(A) == 8 * 4 + 128
-    assert sim.global_sum_sparse(A, 1, 1, 254, 254) == 128  # the other grid: all 0
+    assert sim.global_sum_sparse(A, c=1) == 8 * 4 + 128  # the rest of the default, as given
+
+
+def test_global_sums_take_an_areg_not_pix_or_in() -> None:
+    # the header's global sums take AREG (A-F, NEWS); PIX and IN are sources only
+    sim = Scamp5(8, 8)
+    for call in (sim.global_sum_16, sim.global_sum_64, sim.global_sum_fast, sim.global_sum_sparse):
+        for reg in (PIX, IN):
+            with pytest.raises(RegisterMisuseError, match="is not one of A-F or NEWS"):
+                call(reg)
+    with pytest.raises(RegisterMisuseError):
+        sim.global_sum_region(PIX, 0, 0, 3, 3)
+    assert sim.global_sum_fast(NEWS) == 128
+
+
+def test_shift_diffuse_flood_take_any_header_int() -> None:
+    # the header's int arguments have no stated bounds: a shift beyond the array moves
+    # everything out (its time is that of the steps asked for), 0 iterations do nothing
+    sim = Scamp5(4, 4)
+    sim.write(A, np.full((4, 4), 9.0))
+    sim.write(R5, np.ones((4, 4), bool))
+    before = sim.timing.now_us
+    sim.shift(A, 0, -100)
+    assert not sim.read(A).any()
+    sim.shift(R5, 7, 0, boundary=1)
+    assert sim.read(R5).all()
+    sim.shift(R5, -5, 0, boundary=0)
+    assert not sim.read(R5).any()
+    t = sim.timing
+    charged = t.call_us("shift_areg", 100) + t.call_us("shift_dreg", 7) + t.call_us("shift_dreg", 5)
+    assert t.now_us - before == pytest.approx(charged)
+    sim.write(A, np.eye(4) * 40)
+    sim.diffuse(A, 0)
+    assert sim.read(A).tolist() == (np.eye(4) * 40).tolist()
+    sim.write(R6, np.ones((4, 4), bool))
+    sim.load_point(R5, 0, 0)
+    sim.flood(R5, R6, 0, iterations=0)
+    assert sim.read(R5).sum() == 1
 
 
 def test_scan_events_rc_scans_rows_first() -> None:

@@ -610,19 +610,22 @@ class ControllerMixin(DrawMixin):
         call = "shift"
         if not isinstance(reg, Register):
             raise RegisterMisuseError(f"{call}: {reg!r} is not a register")
-        h = _as_int(call, "h", h, -(self.cols - 1), self.cols - 1)
-        v = _as_int(call, "v", v, -(self.rows - 1), self.rows - 1)
+        h = _as_int(call, "h", h, -(1 << 16), 1 << 16)
+        v = _as_int(call, "v", v, -(1 << 16), 1 << 16)
         b = _as_int(call, "boundary", boundary, 0, 1)
         _as_int(call, "refresh", refresh, 1, 1 << 16)
+        steps = abs(h) + abs(v)  # the time is the steps asked for, the move at most the array
+        h = max(min(h, self.cols), -self.cols)
+        v = max(min(v, self.rows), -self.rows)
         self._catch_up()  # shift the values as they are now
         if reg.kind == "analog":
             self._areg(call, reg)
-            self._shift_analog(reg, h, v)
+            self._shift_analog(reg, h, v, steps)
         else:
             self._dreg(call, reg)
             old = self._dplane(reg)
             new = self._shifted(old, h, v, bool(b))
-            self.timing.charge_call("shift_dreg", abs(h) + abs(v))
+            self.timing.charge_call("shift_dreg", steps)
             last = None
             if v:
                 last = Direction.south if v > 0 else Direction.north
@@ -633,7 +636,7 @@ class ControllerMixin(DrawMixin):
                     self._write_digital(sel, np.full(old.shape, DNEWS_SELECTORS[last] is sel))
             self._write_digital(reg, new)
 
-    def _shift_analog(self, reg: Register, h: int, v: int) -> None:
+    def _shift_analog(self, reg: Register, h: int, v: int, steps: int) -> None:
         """The analogue ``shift``: 0 shifted in, written where FLAG, one write (noisy).
 
         Moved in place where FLAG, one pass (:func:`hostloops.shift`); noisy, with the
@@ -642,7 +645,7 @@ class ControllerMixin(DrawMixin):
         read (:func:`hostloops.noisy_shift`).
         """
         plane = self._aplane(reg)
-        self.timing.charge_call("shift_areg", abs(h) + abs(v))
+        self.timing.charge_call("shift_areg", steps)
         flag, everywhere = self._flag_state()
         if self.noise.ideal:
             hostloops.shift(plane, v, h, flag, everywhere)
@@ -695,7 +698,7 @@ class ControllerMixin(DrawMixin):
 
     def _global_sum(self, call: str, areg: Register, n: int, out: np.ndarray | None) -> int:
         self._catch_up()
-        self._areg(call, areg, source=True)
+        self._areg(call, areg)  # the header's AREG: A-F or NEWS, not PIX or IN
         codes = self._adc(self._block_means(call, self._aplane(areg), n))
         self.timing.charge_call(call)
         if out is not None:
@@ -1026,7 +1029,7 @@ class ControllerMixin(DrawMixin):
         self._areg(call, t0)
         if t0 is target:
             raise RegisterMisuseError(f"{call}: t0={t0.name} is the target; use another register")
-        n = _as_int(call, "iterations", iterations, 1, 1 << 16)
+        n = _as_int(call, "iterations", iterations, 0, 1 << 16)
         if not (vertical or horizontal):
             raise SimulatorError(f"{call}: vertical and horizontal are both off; enable one")
         op = "blur" if vertical and horizontal else ("blurv" if vertical else "blurh")
@@ -1055,7 +1058,7 @@ class ControllerMixin(DrawMixin):
         t = self._dreg(call, dreg_target)
         m = self._dreg(call, dreg_mask, source=True)
         b = _as_int(call, "boundary", boundary, 0, 1)
-        n = _as_int(call, "iterations", iterations, 1, 1 << 16)
+        n = _as_int(call, "iterations", iterations, 0, 1 << 16)
         scratch = (R0, R12, R1, R2, R3, R4)
         for name, reg in (("dreg_target", t), ("dreg_mask", m)):
             if reg in scratch:
@@ -1138,26 +1141,36 @@ class ControllerMixin(DrawMixin):
         """
         call = "global_sum_fast"
         self._catch_up()
-        self._areg(call, areg, source=True)
+        self._areg(call, areg)
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg))
 
     def global_sum_sparse(
         self,
         areg: Register,
-        r: int = 2,
-        c: int = 2,
-        rx: int = 254,
-        cx: int = 254,
+        r: int | None = None,
+        c: int | None = None,
+        rx: int | None = None,
+        cx: int | None = None,
         *,
         scamp_addr: bool = False,
     ) -> int:
         """``scamp5_global_sum_sparse``: :meth:`global_sum_fast` over the elements the
-        pattern selects (default: even rows and columns, a quarter of the array, so a
-        constant plane reads ``4 v + 128`` and saturates less)."""
+        pattern selects (a quarter of the array by default, so a constant plane reads
+        ``4 v + 128`` and saturates less).
+
+        With no pattern given, the header's default ``(2, 2, 254, 254)`` in hardware
+        addresses: even rows and hardware-even columns (array columns ``cols - 1 - c``
+        for even ``c``), the elements the chip's call samples. A pattern given in part
+        takes 2 and 254 for what is left out, in the caller's coordinates.
+        """
         call = "global_sum_sparse"
         self._catch_up()
-        self._areg(call, areg, source=True)
+        self._areg(call, areg)
+        if r is None and c is None and rx is None and cx is None:
+            r, c, rx, cx, scamp_addr = 2, 2, 254, 254, True
+        r, c = (2 if x is None else x for x in (r, c))
+        rx, cx = (254 if x is None else x for x in (rx, cx))
         mask = self._address_mask(*_pattern_args(call, r, c, rx, cx), scamp_addr)
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg)[mask])
@@ -1170,7 +1183,7 @@ class ControllerMixin(DrawMixin):
         on a 256 x 256 array, spanning [0, 255] as the header says."""
         call = "global_sum_region"
         self._catch_up()
-        self._areg(call, areg, source=True)
+        self._areg(call, areg)
         rect = self._rect(call, r0, c0, r1, c1, scamp_addr)
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg)[rect])
