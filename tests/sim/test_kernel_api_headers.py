@@ -282,6 +282,31 @@ def test_encode_decode_round_trip() -> None:
         assert (back.op, back.dsts, set(back.srcs)) == (ins.op, ins.dsts, set(ins.srcs))
 
 
+def test_encode_spells_latch_halves_as_their_macro() -> None:
+    # the header's words (scamp5_kernel_api_macro_digital.hpp, scamp5_icw.hpp): NOT and NOR
+    # write back with nbit, OR with bit and bitmode, REFRESH_R / REFRESH_L set s_in
+    sim = Scamp5(2, 2)
+    with sim.kernel() as k:
+        k.NOT(R5)
+        k.NOR(R5, R6)
+        k.OR(R5, R6)
+        k.REFRESH(R5)
+    words = [(clock, sorted(bits)) for clock, bits in map(encode, k)]
+    assert words == [
+        (1, [36, 58, 61]),
+        (1, [48, 58]),
+        (1, [36, 37, 58, 61]),
+        (1, [48, 58]),
+        (1, [36, 37, 61, 62, 63]),
+        (1, [48, 62, 63]),
+        (1, [5, 36, 61, 62, 63]),
+        (1, [5, 48, 62, 63]),
+    ]
+    for ins in k:
+        back = decode(*encode(ins))
+        assert (back.op, back.dsts, back.srcs) == (ins.op, ins.dsts, ins.srcs)
+
+
 @pytest.mark.parametrize(
     ("clock", "bits", "message"),
     [

@@ -97,8 +97,23 @@ _DIGITAL_FLAGS = {
 }
 
 
+def _macro_name(origin: str | None) -> str:
+    """The macro an ICW was expanded from: ``"NOT"`` for ``"NOT(R5)"``."""
+    return "" if origin is None else origin.split("(", 1)[0]
+
+
+_NBIT_WRITES = frozenset({"NOT", "NOR", "XOR"})
+"""Macros whose latch is read with ``nbit`` (``LATCHN``) and written back with it too."""
+
+
 def encode(ins: Instruction) -> tuple[int, frozenset[int]]:
-    """``(clock, bit positions)`` of the ICW the header builds for ``ins``."""
+    """``(clock, bit positions)`` of the ICW the header builds for ``ins``.
+
+    The latch halves of the 2-ICW digital macros are spelt as their macro spells them:
+    the write half of ``NOT``/``NOR`` (whose read half sets ``nbit``) as ``nbit`` and the
+    register, that of ``OR`` as ``bit, bitmode``; ``REFRESH``'s halves (the header's
+    ``REFRESH_R``/``REFRESH_L``) also set ``s_in``. :func:`decode` reads each spelling.
+    """
     op, bits = ins.op, set()
     if op == "nop":
         return 0, frozenset()
@@ -125,6 +140,11 @@ def encode(ins: Instruction) -> tuple[int, frozenset[int]]:
         bits = {S_IN, 43, 55, FBUS, RID, NB} | ({PUPD} if op == "PROP1" else set())
         return CLOCKS["prop"], frozenset(bits)
     bits = set(_DIGITAL_FLAGS[op])
+    macro = _macro_name(ins.origin)
+    if op == "UNLATCH" and macro in _NBIT_WRITES:
+        bits = {NBIT}
+    if op in ("LATCH", "UNLATCH") and macro in ("REFRESH", "kernel_refresh_dreg"):
+        bits.add(S_IN)
     for d in ins.dsts:
         bits.add(_lr(d))
     for s in ins.srcs:

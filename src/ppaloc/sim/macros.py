@@ -426,7 +426,8 @@ class ProgramAPI:
         )
 
     def newsblur(self, y: Register, x: Register, iterations: int = 1) -> None:
-        """Sum of the four neighbours (negated per pass), ``iterations`` times; NEWS scratch."""
+        """``y :=`` the sum of the four neighbours of ``x`` (each pass sums those of the last
+        pass), ``iterations`` times; NEWS scratch (it holds the negated input of a pass)."""
         self._newsblur("newsblur", y, x, iterations, (XE, XW, XN, XS))
 
     def newsblurh(self, y: Register, x: Register, iterations: int = 1) -> None:
