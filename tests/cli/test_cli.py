@@ -335,6 +335,49 @@ def test_show_results_map_and_planes(mean_match, tiny_spec, tmp_path, capsys):
         assert im.size[0] > 512
 
 
+def test_show_and_localise_never_write_over_their_inputs(mean_match, tmp_path, capsys):
+    spec = "synthetic:?places=6&size=32&sync=1"
+    m = tmp_path / "m.npz"
+    assert run(capsys, "map", spec, "-m", mean_match, "--out", m, "-q")[0] == 0
+    saved = m.read_bytes()
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i in range(2):
+        Image.fromarray(np.full((32, 32), 40 * i, np.uint8)).save(frames / f"f{i}.png")
+    for argv in (
+        ("show", m, "--out", m),
+        ("localise", m, frames, "--out", m),
+        ("localise", m, frames, "--out", frames / "f1.png"),
+    ):
+        code, _, err = run(capsys, *argv)
+        assert code == 1 and "would overwrite the input" in err and err.count("\n") == 1
+    assert m.read_bytes() == saved
+    assert (frames / "f1.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_show_refuses_a_map_of_no_nodes(tmp_path, capsys):
+    from ppaloc.topomap import TopoMap
+
+    empty = TopoMap("lbp", np.zeros(0, np.uint32)).save(tmp_path / "z.npz")
+    code, _, err = run(capsys, "show", empty)
+    assert code == 1 and "is a map of 0 nodes: there is nothing to draw" in err
+
+
+def test_show_refuses_planes_that_are_not_numbers(tmp_path, capsys):
+    bad = tmp_path / "p.npz"
+    np.savez(bad, A=np.zeros((4, 4)), T=np.array([["a", "b"]]))
+    code, _, err = run(capsys, "show", bad)
+    assert code == 1 and "array 'T' holds <U1 values, not numbers or bits" in err
+    assert not (tmp_path / "p.png").exists()
+
+
+def test_an_oracle_motion_run_takes_the_datasets_moves(mean_match, tiny_spec, tmp_path, capsys):
+    argv = ["evaluate", "-d", "synthetic:?places=8&size=32", "-m", "weighted-node-lbp"]
+    param = ["--param", 'weighted-node-lbp.motion="oracle"', "--no-report", "-q"]
+    code, _, err = run(capsys, *argv, *param, "--out", tmp_path / "r")
+    assert code == 0, err
+
+
 def test_demo_end_to_end(mean_match, monkeypatch, tmp_path, capsys):
     import ppaloc.evaluate.run as run_module
 

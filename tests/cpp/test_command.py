@@ -31,5 +31,15 @@ def test_frames_from_a_dataset_and_defaults():
     assert len(load_frames(None, None, 2)) == 2
     with pytest.raises(PpalocError, match="not both"):
         load_frames("a.png", "synthetic:", None)
-    with pytest.raises(PpalocError, match="at least 1"):
+    with pytest.raises(PpalocError, match=r"--frames 0 must be in \[1, 2000\]"):
         load_frames(None, None, 0)
+    with pytest.raises(PpalocError, match="held in memory"):  # refused before any is made
+        load_frames(None, None, 10**8)
+
+
+@pytest.mark.parametrize("timeout", [float("inf"), float("nan"), 1e300, 0, -1])
+def test_a_timeout_out_of_range_is_refused_before_the_build(tmp_path, timeout):
+    from ppaloc.cpp.run import run_program
+
+    with pytest.raises(PpalocError, match=r"timeout=.* must be a number of seconds in"):
+        run_program(tmp_path / "none.cpp", timeout=timeout)

@@ -133,6 +133,10 @@ def test_a_member_claiming_more_than_the_archive_holds(small, tmp_path):
             r"descriptors has 6 entries, header.n_nodes is 7",
         ),
         (lambda h, a: h.__setitem__("n_nodes", "6"), r"header.n_nodes is '6', expected a int"),
+        (  # an array the format does not have is named in one line
+            lambda h, a: a.__setitem__("extra", np.zeros(6)),
+            r"header.arrays names \['descriptors', 'extra', 'frame_index'\], expected",
+        ),
         (lambda h, a: h.__setitem__("kind", ["lbp"]), r"header.kind is \['lbp'\], expected a str"),
         (
             lambda h, a: h["provenance"]["method_params"].__setitem__("alpha", float("nan")),

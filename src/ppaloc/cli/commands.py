@@ -401,6 +401,20 @@ def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
     )
 
 
+def _refuse_input_as_out(out: Path | None, inputs: Sequence[Path]) -> None:
+    """Refuse an ``--out`` that is one of the command's inputs or lies in an input folder:
+    writing it would replace what the user saved."""
+    if out is None:
+        return
+    target = out.resolve()
+    for given in inputs:
+        source = Path(given).resolve()
+        if target == source or (source.is_dir() and source in target.parents):
+            raise DataError(
+                f"--out {out} would overwrite the input {given}; give another file name"
+            )
+
+
 def run_localise(
     map_path: Path,
     frames: Sequence[Path],
@@ -443,6 +457,7 @@ def run_localise(
     use(topomap)
     loc.reset()
     paths = _frame_paths(frames)
+    _refuse_input_as_out(out, [map_path, *frames, *paths])
     frame_index = np.asarray(topomap.frame_index)
     header = "frame,path,node,reference_frame,score,moved,latency_ms\n"
     if out is not None:
@@ -536,7 +551,10 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
     from ppaloc.topomap import load_map
 
     topomap = load_map(path)
+    if not len(topomap):
+        raise DataError(f"{path} is a map of 0 nodes: there is nothing to draw")
     out = out or path.with_suffix(".png")
+    _refuse_input_as_out(out, [path])
     layout = topomap.layout
     if layout is not None:
         from ppaloc.sim.render import render_montage
@@ -589,7 +607,13 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     planes = {k: a for k, a in arrays.items() if a.ndim == 2}
     if not planes:
         raise DataError(f"{path} holds no 2-D arrays to draw as register planes")
+    for name, a in planes.items():
+        if a.dtype.kind not in "biuf":  # register planes are real numbers or bits
+            raise DataError(
+                f"{path}: array {name!r} holds {a.dtype} values, not numbers or bits to draw"
+            )
     out = out or path.with_suffix(".png")
+    _refuse_input_as_out(out, [path])
     render_montage(planes, out, scale=1)
     if not quiet:
         print(f"{path}: {len(planes)} planes -> {out}")

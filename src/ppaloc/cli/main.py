@@ -145,6 +145,8 @@ def _check_method_params(params: Any, source: Path | None) -> None:
                 f"params given for unknown method {_short(method)}{where}; methods: "
                 + ", ".join(METHODS)
             )
+        if values.get("motion") == "oracle" and "oracle_moves" not in values:
+            values = {**values, "oracle_moves": [False]}  # the dataset's, when it runs
         make_localiser(method, **values)
 
 

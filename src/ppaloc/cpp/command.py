@@ -31,14 +31,20 @@ def parse_settings(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
+MAX_FRAMES = 2000
+"""Most frames one run takes: every exposure is held in memory (64 KB each at 256 x 256)."""
+
+
 def load_frames(
     image: Path | None, dataset: str | None, frames: int | None
 ) -> list[np.ndarray] | None:
     """The run's sensor frames: ``image`` repeated, or a dataset's query traversal."""
     from ppaloc.frontend import to_sensor
 
-    if frames is not None and frames < 1:
-        raise PpalocError(f"--frames {frames} must be at least 1")
+    if frames is not None and not 1 <= frames <= MAX_FRAMES:
+        raise PpalocError(
+            f"--frames {frames} must be in [1, {MAX_FRAMES}] (the frames are held in memory)"
+        )
     if image is not None and dataset is not None:
         raise PpalocError("give --image or --dataset, not both")
     if image is not None:

@@ -215,8 +215,8 @@ def run_program(
         raise PpalocError(
             "frames must be uint8 images of one shape: convert them with ppaloc.frontend.to_sensor"
         )
-    if not (isinstance(timeout, int | float) and timeout > 0):
-        raise PpalocError(f"timeout={timeout!r} must be a positive number of seconds")
+    if not (isinstance(timeout, int | float) and 0 < timeout <= MAX_TIMEOUT):
+        raise PpalocError(f"timeout={timeout!r} must be a number of seconds in (0, {MAX_TIMEOUT}]")
     exe = compile_program(program)
     sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
     session = Session(sim, frames, dict(settings or {}), program=name)
@@ -231,6 +231,10 @@ def run_program(
             write_outputs(result, stage)
         result.out = Path(out)
     return result
+
+
+MAX_TIMEOUT = 86_400
+"""The longest ``timeout`` a run takes, seconds (one day; also keeps ``select`` in range)."""
 
 
 def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:

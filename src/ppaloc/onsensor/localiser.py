@@ -249,6 +249,12 @@ class OnSensorLocaliser:
         if n_nodes <= min(per, first.capacity):
             first.set_nodes(n_nodes)
             return first
+        carry = self.params.transition_defaults()[3] if self.params.preset == "robust" else 1
+        if per < carry:
+            raise PpalocError(
+                f"sensor_nodes={per} is too small for a bank: each sensor must hold at least "
+                f"the {carry} node(s) a frame may advance into the next sensor"
+            )
         return SensorBank(first, n_nodes, self._new_pipeline, per)
 
     def _install(self, topomap: TopoMap, pipe: SensorPipeline | SensorBank) -> None:

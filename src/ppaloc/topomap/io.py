@@ -308,7 +308,7 @@ def load_map(path: str | Path) -> TopoMap:
     specs = header["arrays"]
     names = sorted(specs)
     if not {"descriptors", "frame_index"} <= set(names) or not set(names) <= set(_ARRAYS):
-        raise _fail(path, f"header.arrays names {names:.80}, expected descriptors, frame_index")
+        raise _fail(path, f"header.arrays names {names!r:.80}, expected descriptors, frame_index")
     missing = [n for n in names if n not in found]
     if missing:
         raise _fail(path, f"no {missing[0]!r} array, which header.arrays lists (truncated)")
