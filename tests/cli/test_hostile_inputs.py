@@ -18,6 +18,24 @@ BASE_TOML = f'dataset = "{TINY}"\nmethods = ["single-frame"]\nno_report = true\n
 
 # (command line, config file text or None, fragment of the one-line message)
 CASES: list[tuple[list[str], str | bytes | None, str]] = [
+    # ground-truth moves are booleans, whatever the motion model
+    (
+        [*EV[:4], "weighted-node-lbp", "--param", "weighted-node-lbp.oracle_moves=nan"],
+        None,
+        "oracle_moves=nan must be a list of booleans",
+    ),
+    (
+        [*MAP[:2], "-m", "weighted-node-lbp", "--param", "oracle_moves=1979-05-27", "--out", "m"],
+        None,
+        "oracle_moves=datetime.date(1979, 5, 27) must be a list of booleans",
+    ),
+    (
+        [*EV[:4], "weighted-node-lbp", "--param", "weighted-node-lbp.oracle_moves=[2, 1]"],
+        None,
+        "oracle_moves=[2, 1] must be a list of booleans",
+    ),
+    (["cpp", "run", "p.cpp", "--timeout", "inf", "--out", "r"], None, "timeout=inf must be"),
+    (["cpp", "run", "p.cpp", "--frames", "100000000", "--out", "r"], None, "must be in [1, 2000]"),
     # flags
     ([*EV, "-m", "particle-filter", "--seed", "-1", "--out", "r"], None, "seed=-1 must be"),
     ([*EV, "--seed", "9" * 30, "--out", "r"], None, "seed=9999"),

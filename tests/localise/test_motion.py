@@ -3,9 +3,12 @@ import pytest
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.motion import (
+    MARGIN,
+    PAPER_MARGIN,
     AlwaysForward,
     ImageMotion,
     OracleMotion,
+    check_moves,
     crossing_counts,
     forward_decision,
     motion_planes,
@@ -109,3 +112,22 @@ def test_always_forward_and_oracle():
 def test_bad_parameter_message():
     with pytest.raises(PpalocError, match=r"motion margin=-1 must be a non-negative integer"):
         ImageMotion(margin=-1)
+
+
+def test_the_dead_zone_is_the_presets():
+    from ppaloc.localise import WeightedNodeLocaliser
+    from ppaloc.localise.params import FilterParams
+
+    assert FilterParams.create("lbp").motion_margin == MARGIN == 4
+    assert FilterParams.create("lbp", preset="paper").motion_margin == PAPER_MARGIN == 3
+    assert FilterParams.create("lowres", preset="paper", motion_margin=5).motion_margin == 5
+    assert WeightedNodeLocaliser("lbp").motion_model.margin == 4
+    assert WeightedNodeLocaliser("lbp", preset="paper").motion_model.margin == 3
+    assert ImageMotion().margin == MARGIN
+
+
+@pytest.mark.parametrize("moves", [float("nan"), [0, 2], [[True]], ["yes"], [0.5], "10"])
+def test_oracle_moves_are_booleans_only(moves):
+    with pytest.raises(PpalocError, match="must be a list of booleans"):
+        check_moves(moves)
+    assert check_moves([1, 0, True]).tolist() == [True, False, True]

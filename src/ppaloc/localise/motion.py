@@ -40,10 +40,13 @@ from ppaloc.errors import PpalocError
 from ppaloc.place import SENSOR_SIZE, block_sums
 
 __all__ = [
+    "MARGIN",
+    "PAPER_MARGIN",
     "AlwaysForward",
     "ImageMotion",
     "MotionModel",
     "OracleMotion",
+    "check_moves",
     "crossing_counts",
     "forward_decision",
     "motion_planes",
@@ -51,8 +54,16 @@ __all__ = [
 
 _BLOCK = 32  # pixels per block side: the 8x8 grid of docs/ppa8.md
 
+MARGIN = 4
+"""Default dead zone of the test, register units (8 grey levels), the robust filter's
+(docs/localise.md, "The motion model": 2-8 measured on every route of
+``benchmarks/eval_robust.py``)."""
 
-def motion_planes(frame: np.ndarray, margin: int = 3) -> tuple[np.ndarray, np.ndarray]:
+PAPER_MARGIN = 3
+"""The paper preset's dead zone (6 grey levels), as it was measured with Algorithm 1."""
+
+
+def motion_planes(frame: np.ndarray, margin: int = MARGIN) -> tuple[np.ndarray, np.ndarray]:
     """Return the two one-bit planes ``(U, D)`` of a sensor frame.
 
     In register units (``v = p/2 - 64``, docs/ppa8.md) with ``m`` the exact mean of ``v``
@@ -144,9 +155,10 @@ class ImageMotion(MotionModel):
     Parameters
     ----------
     margin : int
-        Dead zone in register units (default 3 = 6 grey levels): still Nordland frames
-        with added Gaussian noise of 2 grey levels count no crossings at all, while real
-        motion crosses thousands of pixels.
+        Dead zone in register units (default :data:`MARGIN`, 4 = 8 grey levels): still
+        Nordland frames with added Gaussian noise of 2 grey levels count no crossings at
+        all, while real motion crosses thousands of pixels; a winter train standing at a
+        station (snow, people) crosses fewer of its pixels with 8 grey levels than with 6.
     shift : int
         Forward when at least ``2**-shift`` of the textured pixels crossed (default 6:
         1/64). On the synthetic route with stops (seed 1), still frames cross 0.56-0.85%
@@ -157,7 +169,7 @@ class ImageMotion(MotionModel):
         blank frames) and the model says forward.
     """
 
-    margin: int = 3
+    margin: int = MARGIN
     shift: int = 6
     min_support: int = 1024
     name = "image"
@@ -203,6 +215,25 @@ class AlwaysForward(MotionModel):
         return started
 
 
+def check_moves(moves: object) -> np.ndarray:
+    """``moves`` as a 1-D bool array, or a one-line error: ground-truth moves are a list
+    of booleans (True/False or 1/0), one per query frame, nothing else."""
+    try:
+        a = np.asarray(moves)
+    except (TypeError, ValueError):
+        a = np.asarray([object()])  # ragged or nested beyond an array: refused below
+    ok = a.ndim == 1 and (
+        a.dtype == np.bool_ or (a.dtype.kind in "iu" and bool(np.isin(a, (0, 1)).all()))
+    )
+    if not ok:
+        shown = repr(moves)
+        raise PpalocError(
+            f"oracle_moves={shown[:60]}{'...' if len(shown) > 60 else ''} must be a list of "
+            "booleans (true/false or 1/0), one per query frame"
+        )
+    return a.astype(bool)
+
+
 class OracleMotion(MotionModel):
     """The ground-truth decisions: frame ``n`` after ``reset`` gets ``moves[n]``.
 
@@ -216,7 +247,7 @@ class OracleMotion(MotionModel):
     name = "oracle"
 
     def __init__(self, moves: Sequence[bool] | np.ndarray) -> None:
-        self.moves = np.asarray(moves, dtype=bool).reshape(-1)
+        self.moves = check_moves(moves)
         self._n = 0
 
     def reset(self) -> None:

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import PpalocError
+from ppaloc.localise.motion import MARGIN, PAPER_MARGIN
 from ppaloc.place.normalise import MAX_CONTRAST
 
 __all__ = [
@@ -115,7 +116,8 @@ class FilterParams:
         The motion model. Robust: its decision sets the transition costs. Paper: it
         decides the shift.
     motion_margin, motion_shift, motion_min_support : int
-        The image motion test (:func:`ppaloc.localise.motion.forward_decision`).
+        The image motion test (:func:`ppaloc.localise.motion.forward_decision`); the
+        dead zone ``motion_margin`` is 4 with the robust preset, 3 with the paper's.
     confidence_radius : int
         ``R`` of the confidence: best weight minus the best outside ``node +- R``.
     keyframes : bool
@@ -155,7 +157,7 @@ class FilterParams:
 
     preset: str = "robust"
     motion: str = "image"
-    motion_margin: int = 3
+    motion_margin: int = MARGIN
     motion_shift: int = 6
     motion_min_support: int = 1024
     confidence_radius: int = 10
@@ -224,7 +226,10 @@ class FilterParams:
         if motion not in _MOTIONS:
             raise PpalocError(f"motion={motion!r} is not one of {', '.join(_MOTIONS)}")
         out: dict[str, Any] = {"preset": preset, "motion": motion}
-        out["motion_margin"] = check_int("motion_margin", values.get("motion_margin", 3), 0, 127)
+        margin = values.get("motion_margin")
+        if margin is None:
+            margin = MARGIN if preset == "robust" else PAPER_MARGIN
+        out["motion_margin"] = check_int("motion_margin", margin, 0, 127)
         out["motion_shift"] = check_int("motion_shift", values.get("motion_shift", 6), 0, 16)
         out["motion_min_support"] = check_int(
             "motion_min_support", values.get("motion_min_support", 1024), 0, 256 * 256

@@ -42,7 +42,13 @@ import numpy as np
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.localise.likelihood import NodeDistances, distance_scale
-from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel, OracleMotion
+from ppaloc.localise.motion import (
+    AlwaysForward,
+    ImageMotion,
+    MotionModel,
+    OracleMotion,
+    check_moves,
+)
 from ppaloc.localise.params import (
     DEFAULT_SHIFT,
     GAMMAS,
@@ -314,7 +320,8 @@ class WeightedNodeLocaliser:
     oracle_moves : sequence of bool, optional
         Ground-truth moves for ``motion="oracle"`` (a dataset's ``query_moved``).
     motion_margin, motion_shift, motion_min_support : int
-        Parameters of the image motion model (:class:`ImageMotion`).
+        Parameters of the image motion model (:class:`ImageMotion`); ``motion_margin``
+        defaults to the preset's (4 robust, 3 paper).
 
     Examples
     --------
@@ -350,7 +357,7 @@ class WeightedNodeLocaliser:
         ranking_k: int = 10,
         record_weights: bool = False,
         oracle_moves: Sequence[bool] | np.ndarray | None = None,
-        motion_margin: int = 3,
+        motion_margin: int | None = None,
         motion_shift: int = 6,
         motion_min_support: int = 1024,
     ) -> None:
@@ -374,6 +381,7 @@ class WeightedNodeLocaliser:
             "k": k,
             "shift": shift,
             "advance": advance,
+            "motion_margin": motion_margin,
         }
         self.params = FilterParams.create(
             representation,
@@ -381,13 +389,14 @@ class WeightedNodeLocaliser:
             arithmetic=arithmetic,
             motion=motion,
             confidence_radius=confidence_radius,
-            motion_margin=motion_margin,
             motion_shift=motion_shift,
             motion_min_support=motion_min_support,
             **{key: v for key, v in given.items() if v is not None},
         )
         p = self.params
         self.ranking_k = check_int("ranking_k", ranking_k, 0)
+        if oracle_moves is not None:  # checked whatever the motion model: results keep it
+            oracle_moves = check_moves(oracle_moves)
         self._motion = make_motion_model(p, oracle_moves)
         self.representation = representation
         self.arithmetic = arithmetic
