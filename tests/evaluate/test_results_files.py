@@ -146,3 +146,47 @@ def test_show_from_inside_the_folder_keeps_the_folder_in_place(saved, monkeypatc
     assert main(["show", ".", "-q"]) == 0
     assert os.path.samefile(".", saved), "the folder the shell stands in was swapped away"
     assert (saved / "report.html").is_file()
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda m: m.__setitem__("f1_max", "high"), r"f1_max is 'high', expected a number"),
+        (lambda m: m.pop("f1_max"), r"f1_max is 'missing', expected a number"),
+        (lambda m: m.__setitem__("auc", True), r"auc is True, expected a number"),
+        (lambda m: m.__setitem__("latency_ms_median", "x"), r"latency_ms_median is 'x'"),
+        (lambda m: m.__setitem__("recall_at_k", [1, 2]), r"recall_at_k is \[1, 2\]"),
+        (lambda m: m.__setitem__("map_kind", 3), r"map_kind is 3, expected a string"),
+        (
+            lambda m: m.__setitem__("modelled_time_ms", {"chip": 5}),
+            r"modelled_time_ms is \{'chip': 5\}, expected a table of \{low, mid, high\}",
+        ),
+    ],
+)
+def test_a_hand_edited_summary_is_named(saved, mean_match, edit, message):
+    # results.json is the one file its checksums do not cover; what a table reads is checked
+    summary = json.loads((saved / "results.json").read_text())
+    edit(summary["methods"][mean_match])
+    (saved / "results.json").write_text(json.dumps(summary))
+    with pytest.raises(DataError, match=rf"methods\.{mean_match}\.{message}"):
+        load_results(saved)
+
+
+def test_a_summary_without_methods_is_named(saved):
+    summary = json.loads((saved / "results.json").read_text())
+    summary["methods"] = {}
+    (saved / "results.json").write_text(json.dumps(summary))
+    with pytest.raises(DataError, match="'methods' is empty"):
+        load_results(saved)
+
+
+def test_a_file_where_the_figures_go_is_replaced_by_them(saved):
+    from ppaloc.evaluate.report import write_report
+
+    (saved / "figures").mkdir(exist_ok=True)
+    for p in (saved / "figures").iterdir():
+        p.unlink()
+    (saved / "figures").rmdir()
+    (saved / "figures").write_text("not a folder")
+    write_report(saved)
+    assert (saved / "figures").is_dir()

@@ -465,7 +465,10 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
     reader shares); earlier figures are removed first. Returns ``folder/report.html``."""
     folder = Path(folder)
     result, summary = load_results(folder)
-    shutil.rmtree(folder / "figures", ignore_errors=True)
+    old = folder / "figures"  # the report's own output: earlier figures, or whatever took the name
+    if old.is_symlink() or (old.exists() and not old.is_dir()):
+        old.unlink()
+    shutil.rmtree(old, ignore_errors=True)
     bench = load_bench(bench_path if bench_path is not None else folder / "bench.json")
     figs = _figures(result, bench)
     header, rows = comparison_table(summary)

@@ -331,6 +331,63 @@ def _check_array(
             )
 
 
+_METRICS = ("f1_max", "precision_at_f1", "recall_at_f1", "auc", "recall_at_100p", "accuracy")
+"""Every method's entry of results.json has these (a number, or null)."""
+_NUMBERS = (
+    "latency_ms_median",
+    "latency_ms_p95",
+    "modelled_latency_ms",
+    "modelled_latency_ms_mean",
+    "energy_mj",
+    "f1_max_straight",
+    "f1_max_turning",
+    "error_frames_median",
+    "error_m_median",
+    "motion_accuracy",
+    "n_nodes",
+    "build_s",
+)
+"""Optional fields of a method's entry that hold a number or null."""
+
+
+def _is_number(v: Any) -> bool:
+    return v is None or (isinstance(v, int | float) and not isinstance(v, bool))
+
+
+def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
+    """The fields a table or report reads from a method's entry have the types ppaloc
+    writes (a hand-edited results.json is named, field and all, in one line)."""
+
+    def bad(field: str, value: Any, want: str) -> DataError:
+        return DataError(
+            f"{path}: methods.{name}.{field} is {value!r:.40}, expected {want}; "
+            "give a folder written by `ppaloc evaluate --out` (or run it again)"
+        )
+
+    for field in _METRICS:
+        if field not in entry:
+            raise bad(field, "missing", "a number")
+    for field in (*_METRICS, *_NUMBERS):
+        if not _is_number(entry.get(field)):
+            raise bad(field, entry[field], "a number or null")
+    for field in ("map_kind", "recall_definition"):
+        if not isinstance(entry.get(field, ""), str):
+            raise bad(field, entry[field], "a string")
+    rk = entry.get("recall_at_k", {})
+    if not isinstance(rk, dict) or not all(_is_number(v) for v in rk.values()):
+        raise bad("recall_at_k", rk, "a table of numbers")
+    times = entry.get("modelled_time_ms")
+    if times is not None:
+        ok = isinstance(times, dict) and all(
+            isinstance(t, dict)
+            and {"low", "mid", "high"} <= set(t)
+            and all(_is_number(x) and x is not None for x in t.values())
+            for t in times.values()
+        )
+        if not ok:
+            raise bad("modelled_time_ms", times, "a table of {low, mid, high} numbers")
+
+
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     """Read a results folder written by :func:`save_results`.
 
@@ -378,6 +435,10 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         isinstance(v, dict) for v in summary["methods"].values()
     ):
         raise DataError(f"{path}: 'methods' is not a table of methods; {_again(folder)}")
+    if not summary["methods"]:
+        raise DataError(f"{path}: 'methods' is empty; {_again(folder)}")
+    for name, entry in summary["methods"].items():
+        _check_fields(entry, name, path)
     if "files" in summary:
         _check_whole(folder, summary["files"])
     tolerance = _count(summary, "tolerance", path)
