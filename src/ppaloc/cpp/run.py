@@ -167,6 +167,10 @@ def check_output_folder(out: str | os.PathLike) -> None:
     )
 
 
+MAX_TIMEOUT = 86_400
+"""The longest ``timeout`` a run takes, seconds (one day; also keeps ``select`` in range)."""
+
+
 def run_program(
     program: str | os.PathLike[str],
     frames: Sequence[np.ndarray] | None = None,
@@ -231,10 +235,6 @@ def run_program(
             write_outputs(result, stage)
         result.out = Path(out)
     return result
-
-
-MAX_TIMEOUT = 86_400
-"""The longest ``timeout`` a run takes, seconds (one day; also keeps ``select`` in range)."""
 
 
 def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:

@@ -157,8 +157,9 @@ class ImageMotion(MotionModel):
     margin : int
         Dead zone in register units (default :data:`MARGIN`, 4 = 8 grey levels): still
         Nordland frames with added Gaussian noise of 2 grey levels count no crossings at
-        all, while real motion crosses thousands of pixels; a winter train standing at a
-        station (snow, people) crosses fewer of its pixels with 8 grey levels than with 6.
+        all, while real motion crosses thousands of pixels. On Nordland the winter frames
+        where the map holds one node for a summer stop are called moving less often with 8
+        grey levels than with 6 (the paper preset keeps :data:`PAPER_MARGIN`).
     shift : int
         Forward when at least ``2**-shift`` of the textured pixels crossed (default 6:
         1/64). On the synthetic route with stops (seed 1), still frames cross 0.56-0.85%
