@@ -457,7 +457,7 @@ def run_localise(
     use(topomap)
     loc.reset()
     paths = _frame_paths(frames)
-    _refuse_input_as_out(out, [map_path, *frames, *paths])
+    _refuse_input_as_out(out, [map_path, *frames, *paths])  # paths: symlinked frames too
     frame_index = np.asarray(topomap.frame_index)
     header = "frame,path,node,reference_frame,score,moved,latency_ms\n"
     if out is not None:

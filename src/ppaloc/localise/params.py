@@ -168,7 +168,7 @@ class FilterParams:
     move_cost: int | None = 4
     skip_cost: int | None = 4
     max_advance: int | None = 2
-    contrast: int | None = 48
+    contrast: int | None = DEFAULT_CONTRAST
     alpha: float | None = None
     gamma: float | None = None
     k: int | None = None

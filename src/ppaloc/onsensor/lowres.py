@@ -183,9 +183,8 @@ class LowresPipeline(SensorPipeline):
 
     def node_blocks(self, topomap: TopoMap) -> np.ndarray:
         """Robust: the nodes' images contrast-normalised (as the live one will be)."""
-        if not self.robust:
-            return topomap.node_blocks()
-        return normalise_contrast(topomap.node_blocks(), self.params.contrast)
+        blocks = super().node_blocks(topomap)
+        return normalise_contrast(blocks, self.params.contrast) if self.robust else blocks
 
     #: Robust: the live grid as :meth:`load_live` last loaded it (normalised; inspection).
     live_image: np.ndarray | None = None
@@ -209,6 +208,16 @@ class LowresPipeline(SensorPipeline):
         the halving. The normalised image is kept in :attr:`live_image` (inspection).
         """
         sim, dr = self.sim, self.dr
+
+        def cell(k):  # recorded at the first cell, replayed at every other
+            k.WHERE(dr.tmp_a)
+            k.bus(F, IN)
+            k.all()
+
+        def halve(k):
+            k.bus2(D, NEWS, F)
+            k.bus(F, D)
+
         with sim.stage("replicate"):
             live = normalise_contrast(self._describe(), self.params.contrast)
             self.live_image = live
@@ -216,18 +225,7 @@ class LowresPipeline(SensorPipeline):
             for (i, j), q in np.ndenumerate(live):
                 sim.load_pattern(dr.tmp_a, i, j, free, free)
                 sim.load_in(int(q) - 128)
-
-                def cell(k):
-                    k.WHERE(dr.tmp_a)
-                    k.bus(F, IN)
-                    k.all()
-
                 self._run("load_live", cell)
-
-            def halve(k):
-                k.bus2(D, NEWS, F)
-                k.bus(F, D)
-
             self._run("load_live_halve", halve)
 
     def compare_paper(self) -> None:
