@@ -23,7 +23,7 @@ import numpy as np
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.evaluate.metrics import is_correct, max_f1, pr_curve
-from ppaloc.evaluate.run import node_frames
+from ppaloc.evaluate.run import predicted_frames
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
 DATA = "../shared/data"
@@ -45,7 +45,7 @@ def evaluate(loc: WeightedNodeLocaliser, ref: list, query: list, truth: list) ->
     t0 = time.perf_counter()
     topomap = loc.build_map(ref)
     est = loc.localise(query)
-    frames = node_frames(np.array([e.node for e in est]), topomap.frame_spans(), truth)
+    frames = predicted_frames(np.array([e.node for e in est]), topomap.frame_index)
     correct = is_correct(frames, truth)
     has_match = np.array([len(t) > 0 for t in truth])
     curve = pr_curve([e.score for e in est], correct, has_match, recall="A")

@@ -82,15 +82,36 @@ def test_run_method_maps_nodes_through_frame_index(standin, tiny):
     ref, qry = sensor_frames(tiny.reference), sensor_frames(tiny.query)
     run = run_method("k", ref, qry, tiny.ground_truth, localiser=Keyframed())
     assert run.n_nodes == 5
-    # node j stands for frames 2j and 2j + 1 (the last node for frame 8 only): each
-    # prediction is reported as the frame of its span nearest the accepted ones
-    span_end = np.minimum(2 * run.node + 1, 8)
-    assert ((run.ref_index >= 2 * run.node) & (run.ref_index <= span_end)).all()
-    for i, node in enumerate(run.node):
-        span = {2 * node, min(2 * node + 1, 8)}
-        if span & set(tiny.ground_truth[i].tolist()):
-            assert run.ref_index[i] in tiny.ground_truth[i]
+    # node j stands for frames 2j and 2j + 1, and predicts its own frame, 2j, whatever
+    # the ground truth says
+    assert run.ref_index.tolist() == (2 * run.node).tolist()
     assert run.ranking.max() <= 8
+    strict = [np.array([2 * int(n) + 1]) for n in run.node]  # the other frame of each span
+    again = run_method("k", ref, qry, strict, localiser=Keyframed())
+    assert again.ref_index.tolist() == run.ref_index.tolist()
+    assert again.metrics.accuracy == 0.0
+
+
+def test_predictions_do_not_depend_on_the_tolerance():
+    """Every method predicts the same reference frames at tolerance 1 and 3 (a reference
+    stop merged into one node by the keyframe maps included)."""
+    from ppaloc.datasets import load_dataset
+
+    spec = "synthetic:?places=24&query=winter&seed=3&sync=1&stops=1"
+    methods = ["weighted-node-lowres", "weighted-node-lbp", "seqslam", "single-frame"]
+    predicted = []
+    for tol in (1, 3):
+        ds = load_dataset(f"{spec}&tolerance={tol}")
+        stop = [*ds.reference[:8], *[ds.reference[8]] * 4, *ds.reference[9:]]
+        ds.reference = stop  # a reference that stands still for 4 frames
+        ds.reference_positions = ds.query_positions = None
+        ds.ground_truth = [np.where(g > 8, g + 3, g) for g in ds.ground_truth]
+        config = EvaluateConfig(dataset=spec, methods=methods)
+        result = run_evaluation(config, dataset=ds, progress=False)
+        predicted.append({m: r.ref_index.tolist() for m, r in result.runs.items()})
+        assert result.runs["weighted-node-lowres"].n_nodes < len(stop)
+        assert result.protocol["prediction"].startswith("one reference frame per query")
+    assert predicted[0] == predicted[1]
 
 
 def test_weights_dropped_above_the_limit(standin, tiny):

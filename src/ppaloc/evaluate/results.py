@@ -544,6 +544,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         query_moved=ds.get("query_moved"),
         query_turning=_bools(ds.get("query_turning")),
         reference_turning=_bools(ds.get("reference_turning")),
+        protocol=summary["protocol"] if isinstance(summary.get("protocol"), dict) else {},
         ppaloc_version=summary.get("ppaloc_version", ""),
         created=summary.get("created", ""),
     )

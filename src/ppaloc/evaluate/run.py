@@ -37,6 +37,7 @@ from ppaloc.localise.base import Estimate, Localiser
 from ppaloc.methods import METHODS, accepted_parameters, available_methods, make_localiser
 
 __all__ = [
+    "PREDICTION_RULE",
     "SHARED_FRAMES_BYTES",
     "MethodRun",
     "ProgressBar",
@@ -44,11 +45,12 @@ __all__ = [
     "RunResult",
     "localiser_params",
     "method_metrics",
-    "node_frames",
+    "predicted_frames",
     "register_planes",
     "resolve_methods",
     "run_evaluation",
     "run_method",
+    "scoring_protocol",
     "sensor_frames",
     "sensor_stream",
 ]
@@ -61,6 +63,12 @@ an evaluation of several methods keeps for the next method; a longer route is re
 by each method, so memory stays flat whatever its length."""
 
 _SENSOR_FRAME_BYTES = 256 * 256
+
+PREDICTION_RULE = (
+    "one reference frame per query, the predicted node's own frame (TopoMap.frame_index); "
+    "it never depends on the ground truth"
+)
+"""How every method's prediction becomes a reference frame (recorded in results.json)."""
 
 ProgressHook = Callable[[str, int], None]
 """Called as ``hook(method, frames_done)`` while a method runs."""
@@ -85,8 +93,8 @@ class MethodRun:
     node : ndarray of int, shape (M,)
         Predicted map node per query.
     ref_index : ndarray of int, shape (M,)
-        Predicted reference frame per query: ``node`` through the map's frame spans, with
-        the ground truth carried to nodes (:func:`node_frames`).
+        Predicted reference frame per query: each node's own frame
+        (:func:`predicted_frames`), never depending on the ground truth.
     score : ndarray of float, shape (M,)
         Confidence per query.
     moved : ndarray of int8, shape (M,)
@@ -197,6 +205,11 @@ class RunResult:
     query_turning, reference_turning : ndarray of bool, optional
         Which query and reference frames were taken in a turn (the dataset's
         ``meta["query_turning"]`` and ``meta["reference_turning"]``), where known.
+    protocol : dict
+        How predictions were scored, the same for every method: ``"prediction"`` (each
+        method's predicted reference frame, :data:`PREDICTION_RULE`) and
+        ``"ground_truth"`` (the dataset's own description of its accepted sets, its
+        ``meta["ground_truth_rule"]``, where it gives one).
     ppaloc_version, created : str
         Provenance.
     """
@@ -213,6 +226,7 @@ class RunResult:
     query_moved: np.ndarray | None = None
     query_turning: np.ndarray | None = None
     reference_turning: np.ndarray | None = None
+    protocol: dict[str, Any] = field(default_factory=dict)
     ppaloc_version: str = __version__
     created: str = ""
 
@@ -225,6 +239,7 @@ class RunResult:
             "n_reference": self.n_reference,
             "n_queries": len(self.ground_truth),
             "methods": {name: run.summary() for name, run in self.runs.items()},
+            "protocol": self.protocol,
             "config": self.config,
             "ppaloc_version": self.ppaloc_version,
             "created": self.created,
@@ -359,56 +374,32 @@ def method_metrics(
     )
 
 
-def node_frames(
-    nodes: np.ndarray,
-    spans: tuple[np.ndarray, np.ndarray],
-    ground_truth: Sequence[np.ndarray],
-) -> np.ndarray:
-    """The reference frame each predicted node stands for, with the truth carried to nodes.
+def predicted_frames(nodes: np.ndarray, frame_index: np.ndarray) -> np.ndarray:
+    """The reference frame each predicted (or ranked) node stands for: the node's own frame.
 
-    Node ``j`` stands for frames ``first[j] <= f < end[j]`` (:meth:`TopoMap.frame_spans`;
-    one frame unless the map merged a stop into one node). A prediction is reported as
-    the frame of its span nearest to the query's accepted frames (an accepted one when
-    the span holds one), so a node that merged a stop is right for every query frame at
-    that stop, and the error in frames is measured from the span. With one node per
-    frame this is ``first[nodes]``.
+    A node of a keyframe map stands for the reference frames from its own to the next
+    node's, but it is the picture of its own frame (``TopoMap.frame_index``), so that is
+    the prediction, for every method alike: it never depends on the ground truth (which
+    reference frames show one place, such as a stop, is the dataset's to say, and every
+    method is scored against the same accepted sets). With one node per frame this is
+    the node itself.
 
     Parameters
     ----------
     nodes : ndarray of int, shape (M,) or (M, K)
         Predicted (or ranked) nodes per query; -1 pads a ranking and stays -1.
-    spans : (ndarray, ndarray)
-        ``(first, end)`` of every node.
-    ground_truth : sequence of ndarray of int
-        Accepted reference frames per query.
+    frame_index : ndarray of int, shape (N,)
+        Each node's reference frame (``TopoMap.frame_index``).
 
     Examples
     --------
-    >>> spans = (np.array([0, 1, 5]), np.array([1, 5, 8]))
-    >>> node_frames(np.array([1, 1, 2]), spans, [np.array([3, 4]), np.array([7]), np.array([])])
-    array([3, 4, 5])
+    >>> predicted_frames(np.array([[1, 2], [0, -1]]), np.array([0, 1, 5]))
+    array([[ 1,  5],
+           [ 0, -1]])
     """
-    first, end = spans
     nodes = np.asarray(nodes, dtype=np.int64)
-    flat = nodes.reshape(len(nodes), -1)
-    out = np.where(flat >= 0, first[np.maximum(flat, 0)], -1)
-    if np.array_equal(end, first + 1):
-        return out.reshape(nodes.shape)
-    for i, g in enumerate(ground_truth):
-        g = np.asarray(g, dtype=np.int64)
-        if not len(g):
-            continue
-        for j, node in enumerate(flat[i]):
-            if node < 0 or end[node] - first[node] <= 1:
-                continue
-            a, b = first[node], end[node] - 1
-            inside = g[(g >= a) & (g <= b)]
-            centre = float(np.median(g))
-            if len(inside):
-                out[i, j] = inside[np.argmin(np.abs(inside - centre))]
-            else:
-                out[i, j] = int(min(max(round(centre), a), b))
-    return out.reshape(nodes.shape)
+    first = np.asarray(frame_index, dtype=np.int64)
+    return np.where(nodes >= 0, first[np.maximum(nodes, 0)], -1)
 
 
 def run_method(
@@ -469,7 +460,6 @@ def run_method(
     topomap = loc.build_map(reference)
     build_s = time.perf_counter() - t0
     loc.reset()
-    spans = topomap.frame_spans()
     n_nodes = len(topomap)
     m = len(query)
     log.info("%s: %d nodes; localising %d query frames", name, n_nodes, m)
@@ -487,8 +477,8 @@ def run_method(
     node, score, moved, latency = record.node, record.score, record.moved, record.latency
     if m and (node.min() < 0 or node.max() >= n_nodes):
         raise RuntimeError(f"{name} returned a node outside its map of {n_nodes} nodes")
-    ref_index = node_frames(node, spans, ground_truth)
-    ranking = node_frames(record.ranking, spans, ground_truth)
+    ref_index = predicted_frames(node, topomap.frame_index)
+    ranking = predicted_frames(record.ranking, topomap.frame_index)
     modelled, energy, weights = record.modelled, record.energy, record.weights
     del record
     metrics = method_metrics(
@@ -599,6 +589,16 @@ def register_planes(localiser: Any) -> dict[str, np.ndarray] | None:
     return planes or None
 
 
+def scoring_protocol(dataset: RouteDataset) -> dict[str, Any]:
+    """The rules every method of a run is scored by, for results.json: the prediction rule
+    and the dataset's ground-truth rule (its ``meta["ground_truth_rule"]``, if any)."""
+    out: dict[str, Any] = {"prediction": PREDICTION_RULE}
+    rule = dataset.meta.get("ground_truth_rule")
+    if rule is not None:
+        out["ground_truth"] = _jsonable(rule)
+    return out
+
+
 def _jsonable(v: Any) -> Any:
     if isinstance(v, np.generic):
         return v.item()
@@ -606,6 +606,8 @@ def _jsonable(v: Any) -> Any:
         return [_jsonable(x) for x in v]
     if isinstance(v, np.ndarray):
         return v.tolist()
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
     return v
 
 
@@ -767,5 +769,6 @@ def run_evaluation(
         query_moved=dataset.query_moved,
         query_turning=_flags(dataset.meta.get("query_turning")),
         reference_turning=_flags(dataset.meta.get("reference_turning")),
+        protocol=scoring_protocol(dataset),
         created=datetime.now(UTC).isoformat(timespec="seconds"),
     )
