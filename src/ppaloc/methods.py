@@ -3,6 +3,15 @@
 Each entry names the class that implements it (imported only when asked for) and the
 keyword arguments that select the variant. A method whose module is not importable is
 simply not available. Adding a method means adding one line here.
+
+What a method accepts and what it reads from a dataset is the class's own declaration:
+``parameters() -> tuple[MethodParam, ...]`` (each parameter's type, default and range;
+:class:`ppaloc.localise.base.MethodParam`) and ``dataset_needs(params) -> {argument:
+DatasetNeed}`` (:class:`ppaloc.localise.base.DatasetNeed`, e.g. the true moves for the
+oracle motion model). The command, evaluation and sweeps read those declarations
+(:func:`method_parameters`, :func:`check_method`, :func:`dataset_arguments`) and know no
+method by name. A class that declares no parameters is read from its signature (and
+:data:`PARAM_LIMITS`).
 """
 
 from __future__ import annotations
@@ -17,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.base import Localiser
+from ppaloc.localise.base import DatasetNeed, Localiser, MethodParam
 
 __all__ = [
     "METHODS",
@@ -25,8 +34,12 @@ __all__ = [
     "MethodSpec",
     "accepted_parameters",
     "available_methods",
+    "check_method",
     "check_parameters",
+    "dataset_arguments",
+    "dataset_needs",
     "make_localiser",
+    "method_parameters",
 ]
 
 
@@ -144,18 +157,12 @@ PARAM_LIMITS: dict[str, dict[str, tuple[float, float]]] = {
         "radius": (0, 1_000_000),
         "top_k": _TOP_K,
     },
-    "ppaloc.localise.weighted:WeightedNodeLocaliser": {
-        "confidence_radius": (0, 1_000_000),
-        "ranking_k": _TOP_K,
-        "motion_margin": (0, 255),
-        "motion_shift": (0, 16),
-        "motion_min_support": (0, 65_536),
-    },
     "ppaloc.onsensor.localiser:OnSensorLocaliser": {"seed": _SEED, "size": (16, 256)},
 }
-"""Accepted range of each numeric parameter, per implementation (a list parameter's range
-holds for each item), where a value drives memory or time or leaves the method's meaning;
-the types come from the class's signature. The published defaults all lie inside."""
+"""Accepted range of each numeric parameter of the classes that declare no ``parameters()``,
+per implementation (a list parameter's range holds for each item), where a value drives
+memory or time or leaves the method's meaning; the types come from the class's signature.
+The published defaults all lie inside."""
 
 
 def _type_words(hint: Any) -> str:
@@ -203,9 +210,39 @@ def _fits(value: Any, hint: Any) -> bool:
     return True  # a type the command line cannot express (an array, an object): the class checks
 
 
+def method_parameters(name: str) -> dict[str, MethodParam] | None:
+    """The parameters method ``name`` accepts, by name, in the class's order (None: any,
+    for a class that declares none and takes ``**kwargs``).
+
+    Examples
+    --------
+    >>> p = method_parameters("weighted-node-lbp")["gain"]
+    >>> p.default, p.low, p.high
+    (4, 1, 32)
+    """
+    spec, cls = _method_class(name)
+    declared = getattr(cls, "parameters", None)
+    if callable(declared):
+        return {p.name: p for p in declared()}
+    signature = inspect.signature(cls)
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values()):
+        return None
+    try:
+        hints = typing.get_type_hints(cls.__init__)
+    except Exception:  # an annotation that does not resolve: leave the types to the class
+        hints = {}
+    limits = PARAM_LIMITS.get(spec.target, {})
+    out = {}
+    for key, p in signature.parameters.items():
+        default = None if p.default is inspect.Parameter.empty else p.default
+        low, high = limits.get(key, (None, None))
+        out[key] = MethodParam(key, hints.get(key, Any), default, low, high)
+    return out
+
+
 def check_parameters(name: str, params: Mapping[str, Any]) -> None:
-    """Check each parameter of method ``name`` against its type (the class's signature)
-    and its range (:data:`PARAM_LIMITS`), before the method is built.
+    """Check each parameter of method ``name`` against its declared type and range
+    (:func:`method_parameters`), before the method is built.
 
     Raises
     ------
@@ -218,8 +255,8 @@ def check_parameters(name: str, params: Mapping[str, Any]) -> None:
     Traceback (most recent call last):
     ppaloc.errors.PpalocError: method 'seqslam': ds=100000 must be in [0, 500]
     """
-    spec, cls = _method_class(name)
-    accepted = accepted_parameters(name)
+    spec, _ = _method_class(name)
+    accepted = method_parameters(name)
     unknown = [key for key in params if accepted is not None and key not in accepted]
     if unknown:
         offered = [p for p in accepted or () if p not in spec.defaults]
@@ -227,24 +264,64 @@ def check_parameters(name: str, params: Mapping[str, Any]) -> None:
             f"method {name!r}: unknown parameter {str(unknown[0])[:60]!r}; its parameters: "
             + ", ".join(offered)
         )
-    try:
-        hints = typing.get_type_hints(cls.__init__)
-    except Exception:  # an annotation that does not resolve: leave the types to the class
-        hints = {}
-    limits = PARAM_LIMITS.get(spec.target, {})
     for key, value in params.items():
         shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
-        hint = hints.get(key, Any)
+        declared = (accepted or {}).get(key)
+        hint = Any if declared is None else declared.hint
         if not _fits(value, hint):
             raise PpalocError(f"method {name!r}: {key}={shown} must be {_type_words(hint)}")
-        if key not in limits or value is None:
+        if declared is None or value is None or (declared.low is None and declared.high is None):
             continue
-        low, high = limits[key]
+        low = -math.inf if declared.low is None else declared.low
+        high = math.inf if declared.high is None else declared.high
         for item in value if isinstance(value, list | tuple) else [value]:
             number = isinstance(item, int | float) and not isinstance(item, bool)
             if not number or not math.isfinite(item) or not low <= item <= high:
                 bounds = ", ".join(str(b) if isinstance(b, int) else f"{b:g}" for b in (low, high))
                 raise PpalocError(f"method {name!r}: {key}={shown} must be in [{bounds}]")
+
+
+def dataset_needs(name: str, params: Mapping[str, Any]) -> dict[str, DatasetNeed]:
+    """What method ``name`` reads from its dataset with ``params`` (argument -> need; the
+    class's ``dataset_needs``, nothing for a class that declares none)."""
+    _, cls = _method_class(name)
+    declared = getattr(cls, "dataset_needs", None)
+    return dict(declared(params)) if callable(declared) else {}
+
+
+def check_method(name: str, params: Mapping[str, Any]) -> None:
+    """Check ``params`` for method ``name`` once, before any data is loaded: their types
+    and ranges (:func:`check_parameters`), then the method's own checks (it is built once,
+    without a map, with a stand-in for what it would read from a dataset).
+
+    Raises
+    ------
+    PpalocError
+        One line naming the method, the parameter and the fix.
+    """
+    check_parameters(name, params)
+    stand_ins = {arg: need.stand_in for arg, need in dataset_needs(name, params).items()}
+    make_localiser(name, **params, **stand_ins)
+
+
+def dataset_arguments(
+    name: str, params: Mapping[str, Any], dataset: Any, spec: str
+) -> dict[str, Any]:
+    """The keyword arguments method ``name`` takes from ``dataset`` (its
+    :func:`dataset_needs`), or a one-line error when the dataset has one of them not.
+
+    Examples
+    --------
+    >>> dataset_arguments("seqslam", {}, None, "synthetic")
+    {}
+    """
+    out = {}
+    for arg, need in dataset_needs(name, params).items():
+        value = getattr(dataset, need.attribute, None)
+        if value is None:
+            raise PpalocError(f"{name}: {need.why}, which {spec} does not have; {need.fix}")
+        out[arg] = value
+    return out
 
 
 def _method_class(name: str) -> tuple[MethodSpec, type]:
@@ -294,15 +371,13 @@ def make_localiser(name: str, **params: Any) -> Localiser:
 
 
 def accepted_parameters(name: str) -> tuple[str, ...] | None:
-    """Keyword parameters the class behind method ``name`` accepts, in its signature's order
-    (None: any, the class takes ``**kwargs``).
+    """Keyword parameters the class behind method ``name`` accepts, in its declared order
+    (None: any, the class takes ``**kwargs`` and declares no parameters).
 
     Examples
     --------
     >>> accepted_parameters("single-frame")
     ('size', 'patch', 'radius', 'top_k', 'record_weights')
     """
-    signature = inspect.signature(_load(METHODS[name]))
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values()):
-        return None
-    return tuple(signature.parameters)
+    params = method_parameters(name)
+    return None if params is None else tuple(params)

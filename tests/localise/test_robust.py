@@ -96,13 +96,14 @@ def test_transition_golden():
     p = FilterParams.create("lbp", memory=100)
     loc = WeightedNodeLocaliser("lbp", memory=100, arithmetic="ppa8")
     loc.use_map(TopoMap("lbp", np.zeros(4, np.uint32)))
-    loc._w[:] = [0, -10, -20, -127]
-    loc._transition(transition_costs(True, p))
+    ex = loc.executor
+    ex.set_weights([0, -10, -20, -127])
+    ex.transition(transition_costs(True, p))
     # node 0: max(0 - 4, edge -100 - 0, edge - 4); node 1: max(-14, 0, -104);
     # node 2: max(-24, -10, 0 - 4); node 3: max(-131 -> clip, -20, -14)
-    np.testing.assert_array_equal(loc._w, [-4, 0, -4, -14])
-    loc._transition(transition_costs(False, p))  # stay: free; +1 costs 4, +2 costs 8
-    np.testing.assert_array_equal(loc._w, [-4, 0, -4, -8])
+    np.testing.assert_array_equal(ex.weights(), [-4, 0, -4, -14])
+    ex.transition(transition_costs(False, p))  # stay: free; +1 costs 4, +2 costs 8
+    np.testing.assert_array_equal(ex.weights(), [-4, 0, -4, -8])
 
 
 def _stepped(route, pattern):

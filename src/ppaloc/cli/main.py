@@ -136,7 +136,7 @@ def _check_method_params(params: Any, source: Path | None) -> None:
     """Each ``params`` table names a known method and holds only its valid parameters
     (type and range, then the method's own checks: it is built once, without a map),
     before any work."""
-    from ppaloc.methods import METHODS, make_localiser
+    from ppaloc.methods import METHODS, check_method
 
     where = f" in {source}" if source else ""
     for method, values in (params or {}).items():
@@ -145,9 +145,7 @@ def _check_method_params(params: Any, source: Path | None) -> None:
                 f"params given for unknown method {_short(method)}{where}; methods: "
                 + ", ".join(METHODS)
             )
-        if values.get("motion") == "oracle" and "oracle_moves" not in values:
-            values = {**values, "oracle_moves": [False]}  # the dataset's, when it runs
-        make_localiser(method, **values)
+        check_method(method, values)  # what it reads from the dataset: when it runs
 
 
 def _check_file_types(

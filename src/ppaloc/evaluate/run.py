@@ -34,7 +34,15 @@ from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
 from ppaloc.localise.base import Estimate, Localiser
-from ppaloc.methods import METHODS, accepted_parameters, available_methods, make_localiser
+from ppaloc.methods import (
+    METHODS,
+    accepted_parameters,
+    available_methods,
+    check_method,
+    dataset_arguments,
+    dataset_needs,
+    make_localiser,
+)
 
 __all__ = [
     "PREDICTION_RULE",
@@ -703,8 +711,9 @@ def run_evaluation(
                 seed=config.seed,
                 record_weights=config.record_weights,
             )
-            oracle = params.get("motion") == "oracle" and "oracle_moves" not in params
-            plan[name] = (params, None if oracle else make_localiser(name, **params))
+            needs = dataset_needs(name, params)
+            check_method(name, params)
+            plan[name] = (params, None if needs else make_localiser(name, **params))
     else:
         plan = {name: (dict(config.params.get(name, {})), loc) for name, loc in localisers.items()}
     if dataset is None:
@@ -714,14 +723,12 @@ def run_evaluation(
     else:
         spec = str(dataset.meta.get("spec", dataset.name))
     for name, (params, loc) in plan.items():
-        if loc is None:  # the oracle motion model reads the dataset's true motion
-            if dataset.query_moved is None:
-                raise PpalocError(
-                    f"{name}: motion='oracle' needs the true query motion, which {spec} does "
-                    "not have; use motion='image' or a dataset with query_moved (synthetic)"
-                )
-            loc = make_localiser(name, **params, oracle_moves=dataset.query_moved)
-            plan[name] = ({**params, "oracle_moves": "dataset query_moved"}, loc)
+        if loc is None:  # the method reads the dataset (e.g. the oracle's true moves)
+            given = dataset_arguments(name, params, dataset, spec)
+            loc = make_localiser(name, **params, **given)
+            needs = dataset_needs(name, params)
+            shown = {arg: f"dataset {needs[arg].attribute}" for arg in given}
+            plan[name] = ({**params, **shown}, loc)
     gt = PackedSets.from_sets(dataset.ground_truth)
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}

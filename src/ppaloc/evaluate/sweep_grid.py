@@ -431,7 +431,7 @@ def validate(config: SweepConfig, cells: Sequence[Cell], *, source: str = "") ->
     """
     from ppaloc.datasets.registry import parse_dataset_spec
     from ppaloc.evaluate.run import localiser_params, resolve_methods
-    from ppaloc.methods import make_localiser
+    from ppaloc.methods import check_method
 
     where = f"{source}: " if source else ""
     try:
@@ -452,10 +452,8 @@ def validate(config: SweepConfig, cells: Sequence[Cell], *, source: str = "") ->
         params = localiser_params(
             cell.method, cell.params, seed=cell.seed, record_weights=cell.record_weights
         )
-        if params.get("motion") == "oracle" and "oracle_moves" not in params:
-            params["oracle_moves"] = np.zeros(1, dtype=bool)  # the dataset's, on the worker
         try:
-            make_localiser(cell.method, **params)
+            check_method(cell.method, params)  # what it reads from the dataset: on the worker
         except PpalocError as exc:
             swept = ", ".join(f"{k}={_text(v)}" for k, v in cell.axes.items())
             at = f" (cell {swept})" if swept else ""

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
 if TYPE_CHECKING:
     from ppaloc.topomap import TopoMap
 
-__all__ = ["Estimate", "Localiser"]
+__all__ = ["DatasetNeed", "Estimate", "Localiser", "MethodParam"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,3 +70,51 @@ class Localiser(Protocol):
     def step(self, frame: np.ndarray) -> Estimate:
         """Localise one new query frame."""
         ...
+
+
+@dataclass(frozen=True)
+class MethodParam:
+    """One keyword parameter a localiser accepts: its type, its default and its range.
+
+    A localiser class declares its parameters with a classmethod ``parameters() ->
+    tuple[MethodParam, ...]``; the method registry (:mod:`ppaloc.methods`) checks every
+    value a user gives (``--param``, TOML, a sweep) against them before any work, and the
+    command's help lists them. A class that declares none is read from its signature.
+
+    Attributes
+    ----------
+    name : str
+    hint : type hint
+        What a value must be (``int``, ``float``, ``bool``, ``str``, ``tuple[int, int]``,
+        a ``Literal``, unions with ``None``; ``Any``: the class checks it).
+    default : Any
+        The default (None where it is resolved later, e.g. per preset).
+    low, high : float, optional
+        The accepted range of a number (of each item of a tuple).
+    doc : str
+        One line for help texts.
+    """
+
+    name: str
+    hint: Any
+    default: Any = None
+    low: float | None = None
+    high: float | None = None
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class DatasetNeed:
+    """What a localiser reads from the dataset it runs on, for one keyword argument.
+
+    A localiser class declares them with a classmethod ``dataset_needs(params) -> dict[str,
+    DatasetNeed]`` (argument name -> need), for the given parameters (e.g. the true moves
+    only with ``motion="oracle"``). Evaluation and sweeps pass ``getattr(dataset,
+    attribute)`` as that argument, or stop with ``why`` and ``fix`` when the dataset has
+    none; checks made before any data is loaded pass ``stand_in``.
+    """
+
+    attribute: str
+    why: str
+    fix: str
+    stand_in: Any = None

@@ -15,10 +15,12 @@ of its two presets:
   stay by the motion test, ``w_i += alpha - mu_i``, the adjustment ``w -= gamma max(W)``
   every ``k`` frames, one node per reference frame.
 
-The host filter (float and ppa8 arithmetic) and the on-sensor pipeline read the same
-object and call the same decision functions (:func:`transition_costs`,
-:func:`likelihood_shift`, :func:`frame_statistics`, and
-:func:`ppaloc.localise.motion.forward_decision`), so the contract of docs/ppa8.md lives
+Each preset's per-frame steps are a schedule (:mod:`ppaloc.localise.schedule`), which
+every executor (the host in float or ppa8 arithmetic, the simulated sensor, a bank of
+sensors) runs; the schedules call the decision functions here
+(:func:`transition_costs`, :func:`frame_scale` with :func:`likelihood_shift` and
+:func:`frame_statistics`, :func:`adjustment`) and
+:func:`ppaloc.localise.motion.forward_decision`, so the contract of docs/ppa8.md lives
 in one place. Every value is a small integer a PPA controller loads through its DAC or
 compares in its integer unit.
 """
@@ -34,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import PpalocError
+from ppaloc.localise.base import MethodParam
 from ppaloc.localise.motion import MARGIN, PAPER_MARGIN
 from ppaloc.place.normalise import MAX_CONTRAST
 
@@ -46,30 +49,28 @@ __all__ = [
     "MAX_PERIOD",
     "MAX_SHIFT",
     "MAX_WINDOW",
-    "PRESETS",
+    "MOTIONS",
     "FilterParams",
+    "Param",
+    "adjustment",
     "check_int",
+    "choose_candidate",
+    "filter_method_params",
+    "frame_scale",
     "frame_statistics",
     "likelihood_shift",
+    "preset_group",
     "transition_costs",
 ]
 
 GAMMAS = (0.0, 0.125, 0.25, 0.5, 1.0)
 """Adjustment factors a PPA applies by halving (docs/ppa8.md)."""
 
-PRESETS = ("robust", "paper")
-"""Named presets: the robust filter (default) and the paper's Algorithm 1."""
-
 MAX_SHIFT = 6
 """Largest per-frame likelihood shift of the robust filter (``mu * 2**-6``)."""
 
-_MOTIONS = ("image", "always_forward", "oracle")
-
-# Parameters that only one preset uses; giving one to the other preset is an error.
-_PAPER_ONLY = ("alpha", "gamma", "k", "shift", "advance")
-_ROBUST_ONLY = (
-    "gain", "memory", "stay_cost", "move_cost", "skip_cost", "max_advance", "contrast"
-)  # fmt: skip
+MOTIONS = ("image", "always_forward", "oracle")
+"""The motion models (:mod:`ppaloc.localise.motion`)."""
 
 
 MAX_ALPHA = 1e6
@@ -102,28 +103,73 @@ def check_int(name: str, value: Any, low: int, high: int | None = None) -> int:
 
 
 @dataclass(frozen=True)
-class FilterParams:
-    """Every setting of the weighted-node filter (host and sensor), validated.
-
-    Build it with :meth:`create` (preset defaults, then the given values); the dataclass
-    fields are the resolved values. ``None`` in a paper-only or robust-only field means
-    "not used by this preset".
+class Param:
+    """One filter parameter's contract: which presets read it, its default and its range.
 
     Attributes
     ----------
-    preset : {"robust", "paper"}
+    group : {"robust", "paper"} or None
+        The parameter group of the presets that read it (None: every preset); giving it
+        to a preset of the other group is an error.
+    kind : {"int", "bool", "motion", "gamma", "alpha", "advance"}
+        How a value is checked.
+    default : Any
+        The value when none (or None) is given; a callable ``default(representation,
+        group, values)`` where it depends on them (documented with the field).
+    low, high : int, optional
+        The accepted range of an ``int``.
+    """
+
+    group: str | None
+    kind: str
+    default: Any
+    low: int | None = None
+    high: int | None = None
+
+
+def _param(group: str | None, kind: str, default: Any, low=None, high=None) -> dict:
+    return {"param": Param(group, kind, default, low, high)}
+
+
+def _margin_default(representation: str, group: str, values: Mapping[str, Any]) -> int:
+    return MARGIN if group == "robust" else PAPER_MARGIN
+
+
+def _keyframes_default(representation: str, group: str, values: Mapping[str, Any]) -> bool:
+    return group == "robust" and values.get("motion", "image") == "image"
+
+
+def _shift_default(representation: str, group: str, values: Mapping[str, Any]) -> int:
+    return DEFAULT_SHIFT.get(representation, 2)
+
+
+@dataclass(frozen=True)
+class FilterParams:
+    """Every setting of the weighted-node filter (host and sensor), validated.
+
+    Build it with :meth:`create` (the preset's defaults, then the given values); the
+    dataclass fields are the resolved values. Each field's one default and one range are
+    in its :class:`Param` (``dataclasses.fields(FilterParams)[i].metadata["param"]``), read
+    by :meth:`create`, the documentation and the command's checks alike. ``None`` in a
+    field of the other preset's group means "not used by this preset".
+
+    Attributes
+    ----------
+    preset : str
+        A registered schedule (:mod:`ppaloc.localise.schedule`): ``"robust"`` (the
+        default) or ``"paper"``, or one registered since.
     motion : {"image", "always_forward", "oracle"}
         The motion model. Robust: its decision sets the transition costs. Paper: it
         decides the shift.
     motion_margin, motion_shift, motion_min_support : int
         The image motion test (:func:`ppaloc.localise.motion.forward_decision`); the
-        dead zone ``motion_margin`` is 4 with the robust preset, 3 with the paper's.
+        dead zone ``motion_margin`` is 4 with the robust group, 3 with the paper's.
     confidence_radius : int
         ``R`` of the confidence: best weight minus the best outside ``node +- R``.
     keyframes : bool
         Map one node per distinct place: a reference frame starts a new node only when
-        the motion test says forward from the previous reference frame (robust default
-        with the image model); False maps one node per frame (the paper).
+        the motion test says forward from the previous reference frame (default: on for
+        the robust group with the image model); False maps one node per frame (the paper).
     gain : int
         Robust: the likelihood span of one frame between its best node and the mean
         node, in register units (the per-frame shift brings the spread to within a
@@ -151,30 +197,38 @@ class FilterParams:
         they are. Range [0, 127]; default 48. LBP codes need none (they are invariant
         to any increasing change of intensity).
     alpha, gamma, k, shift, advance
-        Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor,
-        adjustment period, likelihood shift and forward window (docs/localise.md).
+        Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
+        (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
+        shift (default :data:`DEFAULT_SHIFT` of the representation) and forward window
+        (default ``(1, 1)``) (docs/localise.md).
     """
 
     preset: str = "robust"
-    motion: str = "image"
-    motion_margin: int = MARGIN
-    motion_shift: int = 6
-    motion_min_support: int = 1024
-    confidence_radius: int = 10
-    keyframes: bool = True
-    gain: int | None = 4
-    memory: int | None = 127
-    stay_cost: int | None = 4
-    move_cost: int | None = 4
-    skip_cost: int | None = 4
-    max_advance: int | None = 2
-    contrast: int | None = DEFAULT_CONTRAST
-    alpha: float | None = None
-    gamma: float | None = None
-    k: int | None = None
-    shift: int | None = None
-    advance: tuple[int, int] | None = None
-    extra: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    motion: str = field(default="image", metadata=_param(None, "motion", "image"))
+    motion_margin: int = field(
+        default=MARGIN, metadata=_param(None, "int", _margin_default, 0, 127)
+    )
+    motion_shift: int = field(default=6, metadata=_param(None, "int", 6, 0, 16))
+    motion_min_support: int = field(default=1024, metadata=_param(None, "int", 1024, 0, 256 * 256))
+    confidence_radius: int = field(default=10, metadata=_param(None, "int", 10, 0, MAX_WINDOW))
+    keyframes: bool = field(default=True, metadata=_param(None, "bool", _keyframes_default))
+    gain: int | None = field(default=4, metadata=_param("robust", "int", 4, 1, 32))
+    memory: int | None = field(default=127, metadata=_param("robust", "int", 127, 8, 127))
+    stay_cost: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, 64))
+    move_cost: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, 64))
+    skip_cost: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, 64))
+    max_advance: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 3))
+    contrast: int | None = field(
+        default=DEFAULT_CONTRAST,
+        metadata=_param("robust", "int", DEFAULT_CONTRAST, 0, MAX_CONTRAST),
+    )
+    alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
+    gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
+    k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
+    shift: int | None = field(default=None, metadata=_param("paper", "int", _shift_default, 0, 16))
+    advance: tuple[int, int] | None = field(
+        default=None, metadata=_param("paper", "advance", (1, 1))
+    )
 
     @classmethod
     def create(
@@ -191,12 +245,13 @@ class FilterParams:
         ----------
         representation : {"lowres", "lbp"}
             Sets the paper preset's default likelihood shift.
-        preset : {"robust", "paper"}
+        preset : str
+            A registered schedule's name (:data:`PRESETS`: ``"robust"``, ``"paper"``).
         arithmetic : {"float", "ppa8"}
             ``"ppa8"`` requires an integer ``alpha`` (a DAC constant).
         **values
-            Any field; a field of the other preset is an error naming the preset it
-            belongs to.
+            Any field; None takes the default; a field of the other preset's group is
+            an error naming the preset it belongs to.
 
         Examples
         --------
@@ -205,108 +260,106 @@ class FilterParams:
         >>> FilterParams.create("lbp", preset="paper").shift
         1
         """
-        if preset not in PRESETS:
-            raise PpalocError(f"preset={preset!r} is not one of {', '.join(PRESETS)}")
-        known = {f.name for f in dataclasses.fields(cls)} - {"preset", "extra"}
-        unknown = sorted(set(values) - known)
+        group = preset_group(preset)
+        params = {f.name: f.metadata["param"] for f in dataclasses.fields(cls) if f.metadata}
+        unknown = sorted(set(values) - set(params))
         if unknown:
             raise PpalocError(
-                f"unknown filter parameter {unknown[0]!r}; parameters: {', '.join(sorted(known))}"
+                f"unknown filter parameter {unknown[0]!r}; parameters: {', '.join(sorted(params))}"
             )
-        foreign = _ROBUST_ONLY if preset == "paper" else _PAPER_ONLY
-        other = "robust" if preset == "paper" else "paper"
-        for key in foreign:
-            if values.get(key) is not None:
+        for key, spec in params.items():
+            if spec.group not in (None, group) and values.get(key) is not None:
+                other = spec.group
                 methods = "weighted-node-paper-*" if other == "paper" else "weighted-node-*"
                 raise PpalocError(
                     f"{key}={values[key]!r} is a parameter of preset {other!r}, not of "
                     f"preset {preset!r}; pass preset={other!r} (the methods {methods}) to use it"
                 )
-        motion = values.get("motion", "image")
-        if motion not in _MOTIONS:
-            raise PpalocError(f"motion={motion!r} is not one of {', '.join(_MOTIONS)}")
-        out: dict[str, Any] = {"preset": preset, "motion": motion}
-        margin = values.get("motion_margin")
-        if margin is None:
-            margin = MARGIN if preset == "robust" else PAPER_MARGIN
-        out["motion_margin"] = check_int("motion_margin", margin, 0, 127)
-        out["motion_shift"] = check_int("motion_shift", values.get("motion_shift", 6), 0, 16)
-        out["motion_min_support"] = check_int(
-            "motion_min_support", values.get("motion_min_support", 1024), 0, 256 * 256
-        )
-        out["confidence_radius"] = check_int(
-            "confidence_radius", values.get("confidence_radius", 10), 0, MAX_WINDOW
-        )
-        keyframes = values.get("keyframes")
-        if keyframes is None:
-            keyframes = preset == "robust" and motion == "image"
-        if not isinstance(keyframes, bool | np.bool_):
-            raise PpalocError(f"keyframes={keyframes!r} must be True or False")
-        out["keyframes"] = bool(keyframes)
-        if preset == "robust":
-            out["gain"] = check_int("gain", values.get("gain", 4), 1, 32)
-            out["memory"] = check_int("memory", values.get("memory", 127), 8, 127)
-            for key in ("stay_cost", "move_cost", "skip_cost"):
-                out[key] = check_int(key, values.get(key, 4), 0, 64)
-            out["max_advance"] = check_int("max_advance", values.get("max_advance", 2), 1, 3)
-            out["contrast"] = check_int(
-                "contrast", values.get("contrast", DEFAULT_CONTRAST), 0, MAX_CONTRAST
-            )
-        else:
-            out.update(dict.fromkeys(_ROBUST_ONLY))
-            out.update(_paper_values(representation, arithmetic, values))
+        out: dict[str, Any] = {"preset": preset}
+        for key, spec in params.items():
+            if spec.group not in (None, group):
+                out[key] = None
+                continue
+            value = values.get(key)
+            if value is None or (spec.kind == "advance" and not value):
+                value = spec.default
+                if callable(value):
+                    value = value(representation, group, values)
+                if spec.kind in ("alpha",):
+                    out[key] = value
+                    continue
+            out[key] = _check(key, value, spec, arithmetic)
         return cls(**out)
 
+    @property
+    def group(self) -> str:
+        """The parameter group of this preset (``"robust"`` or ``"paper"``)."""
+        return preset_group(self.preset)
+
     def transition_defaults(self) -> tuple[int, int, int, int]:
-        """``(stay_cost, move_cost, skip_cost, max_advance)`` (robust preset)."""
-        assert self.preset == "robust"
+        """``(stay_cost, move_cost, skip_cost, max_advance)`` (robust group)."""
+        assert self.group == "robust"
         return (self.stay_cost, self.move_cost, self.skip_cost, self.max_advance)  # type: ignore[return-value]
 
     def as_dict(self) -> dict[str, Any]:
         """The resolved parameters as plain values (for reports and results files)."""
-        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "extra"}
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         if out["advance"] is not None:
             out["advance"] = list(out["advance"])
         return out
 
 
-def _paper_values(representation: str, arithmetic: str, values: Mapping[str, Any]) -> dict:
-    out: dict[str, Any] = {}
-    gamma = values.get("gamma", 0.5)
-    if gamma is None:
-        gamma = 0.5
-    if gamma not in GAMMAS:
-        raise PpalocError(f"gamma={gamma!r} must be one of {GAMMAS} (a PPA scales only by halving)")
-    out["gamma"] = float(gamma)
-    out["k"] = check_int("k", 1 if values.get("k") is None else values["k"], 1, MAX_PERIOD)
-    shift = values.get("shift")
-    if shift is None:
-        shift = DEFAULT_SHIFT.get(representation, 2)
-    out["shift"] = check_int("shift", shift, 0, 16)
-    advance = values.get("advance") or (1, 1)
-    try:
-        lo, hi = advance
-    except (TypeError, ValueError):
-        raise PpalocError(f"advance={advance!r} must be a pair (lo, hi)") from None
-    lo_ok = check_int("advance[0]", lo, 0, MAX_WINDOW)
-    if not lo_ok <= check_int("advance[1]", hi, 1, MAX_WINDOW):
-        raise PpalocError(f"advance={advance!r} must be (lo, hi) with 0 <= lo <= hi, hi >= 1")
-    out["advance"] = (int(lo), int(hi))
-    alpha = values.get("alpha")
-    if alpha is not None:
-        if arithmetic == "ppa8":
-            alpha = check_int("alpha", alpha, -128, 127)  # a DAC constant
-        elif isinstance(alpha, bool) or not isinstance(alpha, int | float | np.number):
-            raise PpalocError(f"alpha={alpha!r} must be a number")
-        elif not (math.isfinite(float(alpha)) and abs(float(alpha)) <= MAX_ALPHA):
+def preset_group(preset: str) -> str:
+    """The parameter group (``"robust"`` or ``"paper"``) of a registered preset, or a
+    one-line error listing the presets."""
+    from ppaloc.localise.schedule import SCHEDULES  # the registry imports this module
+
+    schedule = SCHEDULES.get(preset) if isinstance(preset, str) else None
+    if schedule is None:
+        raise PpalocError(f"preset={preset!r} is not one of {', '.join(SCHEDULES)}")
+    return schedule.uses
+
+
+def _check(key: str, value: Any, spec: Param, arithmetic: str) -> Any:
+    """``value`` checked against ``spec`` (a one-line error naming ``key`` otherwise)."""
+    if spec.kind == "int":
+        return check_int(key, value, spec.low, spec.high)  # type: ignore[arg-type]
+    if spec.kind == "bool":
+        if not isinstance(value, bool | np.bool_):
+            raise PpalocError(f"{key}={value!r} must be True or False")
+        return bool(value)
+    if spec.kind == "motion":
+        if value not in MOTIONS:
+            raise PpalocError(f"{key}={value!r} is not one of {', '.join(MOTIONS)}")
+        return value
+    if spec.kind == "gamma":
+        if value not in GAMMAS:
             raise PpalocError(
-                f"alpha={alpha!r} must be a number in [-{MAX_ALPHA:g}, {MAX_ALPHA:g}]"
+                f"gamma={value!r} must be one of {GAMMAS} (a PPA scales only by halving)"
             )
-    out["alpha"] = alpha
-    return out
+        return float(value)
+    if spec.kind == "advance":
+        try:
+            lo, hi = value
+        except (TypeError, ValueError):
+            raise PpalocError(f"advance={value!r} must be a pair (lo, hi)") from None
+        lo_ok = check_int("advance[0]", lo, 0, MAX_WINDOW)
+        if not lo_ok <= check_int("advance[1]", hi, 1, MAX_WINDOW):
+            raise PpalocError(f"advance={value!r} must be (lo, hi) with 0 <= lo <= hi, hi >= 1")
+        return (int(lo), int(hi))
+    if spec.kind == "alpha":
+        if arithmetic == "ppa8":
+            return check_int("alpha", value, -128, 127)  # a DAC constant
+        if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+            raise PpalocError(f"alpha={value!r} must be a number")
+        if not (math.isfinite(float(value)) and abs(float(value)) <= MAX_ALPHA):
+            bounds = f"[-{MAX_ALPHA:g}, {MAX_ALPHA:g}]"
+            raise PpalocError(f"alpha={value!r} must be a number in {bounds}")
+        return value
+    raise AssertionError(f"unknown parameter kind {spec.kind!r}")
 
 
-FILTER_KEYS = tuple(f.name for f in dataclasses.fields(FilterParams) if f.name != "extra")
+FILTER_KEYS = tuple(f.name for f in dataclasses.fields(FilterParams))
 """Every parameter name of the filter contract."""
 
 
@@ -357,3 +410,78 @@ def frame_statistics(values: np.ndarray) -> tuple[int, int]:
     """
     v = np.asarray(values, dtype=np.int64)
     return int(v.min()), int(v.sum() // len(v))
+
+
+def frame_scale(values: np.ndarray, gain: int, *, exact: bool) -> tuple[int, float]:
+    """Robust: this frame's likelihood shift ``s`` and offset ``alpha_t`` from the values
+    read from every node (docs/ppa8.md, robust preset, item 3).
+
+    ``exact`` (register arithmetic: the sensor and ppa8): ``(b, m) =
+    frame_statistics(values)`` in integers and ``alpha_t = b >> s``; otherwise (float)
+    the minimum and the mean as floats and ``alpha_t = b 2**-s``. In both ``s =
+    likelihood_shift(m - b, gain)``.
+
+    Examples
+    --------
+    >>> frame_scale(np.array([6, 20, 30, 11]), 4, exact=True)
+    (2, 1)
+    >>> frame_scale(np.array([6.0, 20.0, 30.0, 11.0]), 4, exact=False)
+    (2, 1.5)
+    """
+    if exact:
+        best, mean = frame_statistics(values)
+        s = likelihood_shift(mean - best, gain)
+        return s, best >> s
+    fbest, fmean = float(values.min()), float(values.mean())
+    s = likelihood_shift(fmean - fbest, gain)
+    return s, fbest * 2.0**-s
+
+
+def adjustment(gamma: float, top: float, *, exact: bool) -> float:
+    """Paper: what the adjustment takes off every weight, ``gamma T`` (floored to an
+    integer in register arithmetic, which loads it through the DAC).
+
+    Examples
+    --------
+    >>> adjustment(0.5, 7, exact=True), adjustment(0.5, 7.0, exact=False)
+    (3, 3.5)
+    """
+    return math.floor(gamma * top) if exact else gamma * top
+
+
+def choose_candidate(candidates: np.ndarray, previous: int | None) -> int:
+    """The detection tie-break: the candidate nearest ``previous``, then the smaller index.
+
+    Parameters
+    ----------
+    candidates : ndarray of int, shape (C,)
+        Sorted node indices whose weight reached the detection threshold (C >= 1).
+    previous : int or None
+        The previous estimate; None on the first frame (the smallest candidate wins).
+
+    Examples
+    --------
+    >>> choose_candidate(np.array([2, 7, 12]), 10), choose_candidate(np.array([4, 8]), 6)
+    (12, 4)
+    """
+    if previous is None:
+        return int(candidates[0])
+    # argmin returns the first minimum, i.e. the smaller index on equal distance
+    return int(candidates[np.argmin(np.abs(candidates - previous))])
+
+
+def filter_method_params() -> tuple[MethodParam, ...]:
+    """Every filter parameter as a method parameter (type, default, range), from the one
+    declaration of each in :class:`FilterParams` (a default that depends on the preset or
+    the representation is given as None)."""
+    import typing
+
+    hints = typing.get_type_hints(FilterParams)
+    out = [MethodParam("preset", str, "robust", doc="a registered schedule: robust, paper")]
+    for f in dataclasses.fields(FilterParams):
+        spec: Param | None = f.metadata.get("param")
+        if spec is None:
+            continue
+        default = None if callable(spec.default) else spec.default
+        out.append(MethodParam(f.name, hints[f.name], default, spec.low, spec.high))
+    return tuple(out)

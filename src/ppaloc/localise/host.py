@@ -1,0 +1,343 @@
+"""The weighted-node filter's steps on the host: the executor the schedules run.
+
+:class:`HostExecutor` holds one weight per node in a contiguous array and does what a
+schedule (:mod:`ppaloc.localise.schedule`) asks of it, in one of two arithmetics:
+
+- ``"float"``: float32 weights clipped to the register's range [-127, 127] (the bound is
+  what gives the filter a finite memory: without it one long run of good matches
+  outweighs any later evidence), ties only between equal weights, the live low-res image
+  quantised like a node (uint8 SAD, the fast path);
+- ``"ppa8"``: the register arithmetic of docs/ppa8.md exactly (saturation of every write,
+  integer DAC constants, integer detection thresholds), in float64 (every value is a
+  dyadic rational with few bits): the reference the sensor is checked against.
+
+The weights live in a rotated frame: node ``i`` is element ``(i + offset) % N``. The
+paper's forward move decrements ``offset`` and zeroes one element instead of moving N
+weights; the robust transition keeps offset 0 (its max over shifted copies moves every
+weight anyway).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.likelihood import NodeDistances, distance_scale
+from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
+from ppaloc.localise.params import FilterParams, choose_candidate
+from ppaloc.topomap import TopoMap
+
+__all__ = ["ARITHMETICS", "HostExecutor", "motion_model", "read_values", "top_k"]
+
+ARITHMETICS = ("float", "ppa8")
+_W_MIN, _W_MAX = -127.0, 127.0  # the weight clip of the ``add`` macro (docs/ppa8.md)
+_T_MIN, _T_MAX = -128.0, 127.0  # any other register write
+_RANK_ROWS = 256  # the two-level top-k search splits the weights into 256 rows
+
+
+def _clip(a: np.ndarray, low: float, high: float) -> float:
+    """Clip ``a`` in place to [low, high] and return its maximum.
+
+    Checking the extremes first (two fast reductions) and clipping only a side that is
+    out of range is several times cheaper than ``np.clip`` on every frame.
+    """
+    top = float(a.max())
+    if top > high:
+        np.minimum(a, high, out=a)
+        top = high
+    if float(a.min()) < low:
+        np.maximum(a, low, out=a)
+        top = max(top, low)  # every weight may have been below the bound
+    return top
+
+
+def top_k(w: np.ndarray, k: int) -> np.ndarray:
+    """Physical indices of ``k`` largest weights (unordered), in about one pass over ``w``.
+
+    The weights are viewed as 256 rows; the element-wise maximum of the rows gives one
+    maximum per column. The ``k`` largest column maxima are ``k`` distinct weights, so
+    the ``k``-th largest weight is at least the ``k``-th largest column maximum: only
+    columns whose maximum reaches it can hold a top-``k`` weight. A full
+    ``argpartition`` of 10**6 weights costs several times more.
+    """
+    n = len(w)
+    if k >= n:
+        return np.arange(n)
+    cols = n // _RANK_ROWS
+    if cols <= 4 * k:
+        return np.argpartition(w, n - k)[n - k :]
+    head = w[: cols * _RANK_ROWS].reshape(_RANK_ROWS, cols)
+    maxima = head.max(axis=0)
+    bound = np.partition(maxima, cols - k)[cols - k]
+    chosen = np.flatnonzero(maxima >= bound)
+    idx = (np.arange(_RANK_ROWS)[:, None] * cols + chosen).reshape(-1)
+    idx = np.concatenate((idx, np.arange(cols * _RANK_ROWS, n)))
+    return idx[np.argpartition(w[idx], len(idx) - k)[len(idx) - k :]]
+
+
+def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
+    """The per-node values the controller reads to scale the likelihood (docs/ppa8.md).
+
+    LBP: ``mu = 2h``, exact. Low-res ``ppa8``: the ADC code of ``-mu/2`` (the halving
+    tree's result, ``code = floor(128.5 - mu/2)``) read back as ``2 (128 - code)``.
+    Low-res ``float``: ``mu`` itself.
+    """
+    if kind == "lbp":
+        return raw.astype(np.int64) * 2
+    if exact:  # raw = T, mu = T / 2**17, mu / 2 = T / 2**18
+        code = (257 * 2**17 - raw.astype(np.int64)) >> 18
+        return 2 * (128 - code)
+    return raw.astype(np.float64) / 128.0
+
+
+def motion_model(params: FilterParams) -> MotionModel | None:
+    """The host's own motion test of ``params.motion`` (None for the oracle, whose
+    decisions the schedule hands over)."""
+    if params.motion == "always_forward":
+        return AlwaysForward()
+    if params.motion == "image":
+        return ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
+    return None
+
+
+class HostExecutor:
+    """The weighted-node filter's weights on the host, and every step a schedule calls.
+
+    Parameters
+    ----------
+    representation : {"lowres", "lbp"}
+    params : FilterParams
+    arithmetic : {"float", "ppa8"}
+    ranking_k : int
+        How many nodes :attr:`ranking` lists after each frame (0: none).
+
+    Attributes
+    ----------
+    exact : bool
+        Register arithmetic (``"ppa8"``).
+    ranking : ndarray of int or None
+        The last frame's best nodes, best first (the estimate first), taken before the
+        normalisation or adjustment.
+    last_shift : int or None
+        Robust: the likelihood shift of the last frame that added a likelihood.
+    motion_model : MotionModel or None
+        The image or always-forward test (None with the oracle).
+    """
+
+    def __init__(
+        self,
+        representation: str,
+        params: FilterParams,
+        *,
+        arithmetic: str = "float",
+        ranking_k: int = 10,
+    ) -> None:
+        if arithmetic not in ARITHMETICS:
+            raise PpalocError(f"arithmetic={arithmetic!r} is not one of {', '.join(ARITHMETICS)}")
+        self.representation = representation
+        self.params = params
+        self.exact = arithmetic == "ppa8"
+        self.ranking_k = ranking_k
+        self.motion_model = motion_model(params)
+        self._dtype = np.float64 if self.exact else np.float32
+        self._distances: NodeDistances | None = None
+        self._w = np.zeros(0, self._dtype)
+        self.ranking: np.ndarray | None = None
+        self.last_shift: int | None = None
+        self.reset()
+
+    # -- map and state -----------------------------------------------------------------
+    def use_map(self, topomap: TopoMap) -> None:
+        """Compare frames with ``topomap``'s nodes from now on (weights zeroed)."""
+        n = len(topomap)
+        self._distances = NodeDistances(
+            self.representation,
+            topomap.descriptors,
+            exact=self.exact,
+            contrast=self.params.contrast if self.representation == "lowres" else None,
+        )
+        self._w = np.zeros(n, self._dtype)
+        self._term = np.empty(n, self._dtype)
+        self._pred = np.empty(n, self._dtype)
+        self._shifted = np.empty(n, self._dtype)
+        self.reset()
+
+    def reset(self) -> None:
+        """Zero weights, no frame, the motion test's previous frame forgotten."""
+        self._w[:] = 0
+        self._offset = 0
+        self._frame: np.ndarray | None = None
+        self._raw: np.ndarray | None = None
+        self._top: float | None = None
+        self.ranking = None
+        if self.motion_model is not None:
+            self.motion_model.reset()
+
+    def weights(self) -> np.ndarray:
+        """A copy of the weights in map order (node 0 first)."""
+        return np.roll(self._w, -self._offset)
+
+    def set_weights(self, weights: np.ndarray) -> None:
+        """Set the weights, given in map order (for tests and experiments)."""
+        self._w[:] = np.roll(np.asarray(weights, self._dtype), self._offset)
+        self._top = None
+
+    # -- the steps ---------------------------------------------------------------------
+    def begin(self, frame: np.ndarray) -> None:
+        """Take the frame (its distances are computed when a likelihood step asks)."""
+        self._frame = frame
+        self._raw = None
+        self._top = None
+
+    def motion(self, decided: bool | None) -> bool:
+        """``decided`` when given (the oracle's), else the host's motion test."""
+        if decided is not None:
+            return decided
+        assert self.motion_model is not None, "the oracle's decisions come from the schedule"
+        return self.motion_model.step(self._frame)  # type: ignore[arg-type]
+
+    def _raw_distances(self) -> np.ndarray:
+        if self._distances is None:
+            raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
+        if self._raw is None:
+            self._raw = self._distances(self._frame)  # type: ignore[arg-type]
+        return self._raw
+
+    def transition(self, costs: tuple[int, ...]) -> None:
+        """Robust: ``w_i := clip(max_d (w_{i-d} - c_d))``; nodes before node 0 read the
+        floor (the array edge's "no hypothesis")."""
+        w, pred, tmp = self._w, self._pred, self._shifted
+        floor = -float(self.params.memory)  # type: ignore[arg-type]
+        np.subtract(w, self._dtype(costs[0]), out=pred)
+        n = len(w)
+        for d, cost in enumerate(costs[1:], start=1):
+            if d < n:
+                np.subtract(w[:-d], self._dtype(cost), out=tmp[d:])
+                np.maximum(pred[d:], tmp[d:], out=pred[d:])
+            # nodes i < d take the array edge's "no hypothesis"
+            np.maximum(pred[: min(d, n)], self._dtype(floor - cost), out=pred[: min(d, n)])
+        w[:] = pred
+        _clip(w, _W_MIN, _W_MAX)  # every candidate is a register write (the add macro)
+        self._top = None
+
+    def node_values(self) -> np.ndarray:
+        """Robust: each node's value as the controller reads it (:func:`read_values`)."""
+        return read_values(self.representation, self._raw_distances(), self.exact)
+
+    def add_scaled(self, shift: int, alpha: float) -> None:
+        """Robust: ``w += alpha_t - mu 2**-s`` (the term clipped to a register in ppa8)."""
+        self.last_shift = shift
+        self._add_term(shift, alpha)
+
+    def shift(self) -> None:
+        """Paper: ``w_i := max(w_{i-d} for d in advance)``; indices below 0 read the
+        edge's 0 (``advance = (1, 1)``: one node, an offset change and one zero)."""
+        w, n = self._w, len(self._w)
+        lo, hi = self.params.advance  # type: ignore[misc]
+        for _ in range(min(lo, n)):  # shift by one: an offset change and one zero
+            self._offset = (self._offset - 1) % n
+            w[self._offset] = 0
+        for _ in range(hi - lo):  # w_i := max(w_i, w_{i-1}) for all i at once
+            first, last = self._offset, float(w[-1])
+            head = float(w[first])
+            np.maximum(w[1:], w[:-1], out=w[1:])  # numpy buffers the overlap
+            w[0] = max(float(w[0]), last)
+            w[first] = max(head, 0.0)  # node 0's predecessor is the edge
+        self._top = None
+
+    def add_likelihood(self, alpha: float, shift: int) -> None:
+        """Paper: ``w += alpha - mu 2**-shift`` (the term clipped to a register in ppa8)."""
+        self._add_term(shift, alpha)
+
+    def _add_term(self, shift: int, alpha: float) -> None:
+        raw, term = self._raw_distances(), self._term
+        np.multiply(
+            raw, self._dtype(-distance_scale(self.representation, shift, self.exact)), out=term
+        )
+        term += self._dtype(alpha)
+        if self.exact:
+            _clip(term, _T_MIN, _T_MAX)
+        w, off = self._w, self._offset
+        n = len(w)
+        w[off:] += term[: n - off]
+        w[:off] += term[n - off :]
+        self._top = _clip(w, _W_MIN, _W_MAX)
+
+    def detect(self, prev: int | None) -> tuple[int, float]:
+        """``(node, T)``: ``T = max W`` (``floor(max W)`` in ppa8), the candidate
+        ``w >= T`` nearest ``prev`` (:func:`choose_candidate`)."""
+        w = self._w
+        top = float(w.max()) if self._top is None else self._top
+        threshold = math.floor(top) if self.exact else top
+        if threshold == top and np.count_nonzero(w == top) == 1:  # no tie: skip the search
+            return int(self._to_node(int(w.argmax()))), threshold
+        candidates = self._to_node(np.flatnonzero(w >= threshold))
+        if len(candidates) == 1:
+            return int(candidates[0]), threshold
+        return choose_candidate(np.sort(candidates), prev), threshold
+
+    def confidence(self, node: int, top: float) -> float:
+        """Best weight minus the best weight outside +-R nodes (0 when the map is smaller)."""
+        best = float(self._w[(node + self._offset) % len(self._w)])
+        outside = self._max_outside(node)
+        return 0.0 if outside is None else best - outside
+
+    def rank(self, node: int) -> None:
+        """:attr:`ranking`: the ``ranking_k`` best nodes, best first, the estimate first."""
+        self.ranking = self._ranking(node) if self.ranking_k else None
+
+    def normalise(self, top: float) -> None:
+        """Robust: ``w := max(clip(w - T), -memory)``: the best weight returns to [0, 1)
+        and every hypothesis stays within ``memory`` of it."""
+        w = self._w
+        w -= self._dtype(top)
+        _clip(w, _W_MIN, _W_MAX)
+        np.maximum(w, self._dtype(-self.params.memory), out=w)  # type: ignore[operator]
+        self._top = None
+
+    def adjust(self, amount: float) -> None:
+        """Paper: ``w := clip(w - amount)``. Only the lower bound can be crossed: for
+        ``max(W) >= 0`` every weight falls, and for ``max(W) < 0`` the largest becomes
+        ``max(W) - g < 1``; so one subtraction and one ``maximum`` pass."""
+        w = self._w
+        g = amount if self.exact else self._dtype(amount)
+        w -= g
+        if g > 0:
+            np.maximum(w, _W_MIN, out=w)
+        self._top = None
+
+    # -- helpers -----------------------------------------------------------------------
+    def _to_node(self, physical: np.ndarray | int) -> np.ndarray | int:
+        return (physical - self._offset) % len(self._w)
+
+    def _max_outside(self, node: int) -> float | None:
+        """The largest weight outside nodes ``node - R .. node + R`` (None if there is none)."""
+        n, r = len(self._w), self.params.confidence_radius
+        lo, hi = max(node - r, 0), min(node + r + 1, n)
+        best = None
+        for a, b in ((0, lo), (hi, n)):  # logical ranges [a, b)
+            for pa, pb in self._physical(a, b):
+                m = float(self._w[pa:pb].max())
+                best = m if best is None else max(best, m)
+        return best
+
+    def _physical(self, a: int, b: int) -> list[tuple[int, int]]:
+        """Physical slices covering logical nodes [a, b)."""
+        if b <= a:
+            return []
+        n, off = len(self._w), self._offset
+        pa, pb = (a + off) % n, (b + off) % n or n
+        if pa < pb:
+            return [(pa, pb)]
+        return [(pa, n), (0, pb)]
+
+    def _ranking(self, node: int) -> np.ndarray:
+        w = self._w
+        k = min(self.ranking_k + 1, len(w))
+        top = top_k(w, k)
+        nodes = self._to_node(top)
+        nodes = nodes[np.lexsort((nodes, -w[top]))]  # by weight, then node index
+        nodes = nodes[nodes != node]
+        return np.concatenate(([node], nodes))[: self.ranking_k].astype(np.int64)

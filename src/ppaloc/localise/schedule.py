@@ -1,0 +1,334 @@
+"""The weighted-node filter's frame, once per preset: schedules run by executors.
+
+A *schedule* states the steps of one frame in order (motion, transition or shift,
+likelihood, detection, confidence, normalisation or adjustment) and makes every
+decision between them with the shared decision functions of
+:mod:`ppaloc.localise.params`. An *executor* does the steps on one set of weights:
+
+- the host in float arithmetic and in the register arithmetic of docs/ppa8.md
+  (:class:`ppaloc.localise.host.HostExecutor`);
+- one simulated sensor (:class:`ppaloc.onsensor.executor.SensorExecutor`);
+- a bank of simulated sensors, each running the sensor executor's stages on its part of
+  the map (:class:`ppaloc.onsensor.bank.SensorBank`).
+
+So a preset is written once, and the host filter, the sensor and the bank cannot drift
+apart. A new preset is one :class:`Schedule` subclass and one :func:`register_schedule`
+call: it reads the parameters of the group it names (:attr:`Schedule.uses`), runs on every
+executor that has the steps it calls, and is offered by every weighted-node and
+on-sensor method as ``preset=NAME``.
+
+Examples
+--------
+A preset that never moves (every frame adds its likelihood to the node it is on):
+
+>>> class Stay(PaperSchedule):
+...     def step(self, ex, frame):
+...         self.frames += 1
+...         ex.begin(frame)
+...         moved = ex.motion(self.decided())
+...         ex.add_likelihood(self.alpha, self.params.shift)
+...         return self.finish(ex, moved)
+>>> sorted(SCHEDULES)
+['paper', 'robust']
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.motion import OracleMotion, check_moves
+from ppaloc.localise.params import (
+    FilterParams,
+    adjustment,
+    frame_scale,
+    transition_costs,
+)
+
+if TYPE_CHECKING:
+    from ppaloc.topomap import TopoMap
+
+__all__ = [
+    "SCHEDULES",
+    "Executor",
+    "FrameResult",
+    "PaperSchedule",
+    "RobustSchedule",
+    "Schedule",
+    "SensorPlan",
+    "make_schedule",
+    "register_schedule",
+]
+
+
+class Executor(Protocol):
+    """The steps a schedule calls, on one set of weights (host, sensor or bank).
+
+    An executor need not offer every step: a schedule calls only its own (the robust
+    schedule never shifts, the paper's never transitions). Values are in register units
+    (docs/ppa8.md); ``exact`` executors compute in register arithmetic (integer
+    thresholds and DAC constants), the others in float.
+    """
+
+    exact: bool
+
+    def begin(self, frame: np.ndarray) -> None:
+        """Take the frame (on a sensor: refresh, capture, block means)."""
+
+    def motion(self, decided: bool | None) -> bool:
+        """The motion decision: ``decided`` (the controller's, e.g. the oracle's) when
+        given, else the executor's own test (image motion, or forward after the first)."""
+        ...
+
+    def transition(self, costs: tuple[int, ...]) -> None:
+        """Robust: ``w_i := clip(max_d (w_{i-d} - c_d))`` (after the pending normalisation)."""
+
+    def node_values(self) -> np.ndarray:
+        """Robust: each node's distance as the controller reads it (docs/ppa8.md)."""
+        ...
+
+    def add_scaled(self, shift: int, alpha: float) -> None:
+        """Robust: ``w_i += alpha - mu_i 2**-shift`` from the values just read."""
+
+    def shift(self) -> None:
+        """Paper: every weight one node along the map (``advance`` nodes on the host)."""
+
+    def add_likelihood(self, alpha: float, shift: int) -> None:
+        """Paper: ``w_i += alpha - mu_i 2**-shift``."""
+
+    def detect(self, prev: int | None) -> tuple[int, float]:
+        """``(node, T)``: the threshold ``T`` (``floor(max W)`` when exact) and the
+        candidate ``w >= T`` nearest ``prev``."""
+        ...
+
+    def confidence(self, node: int, top: float) -> float:
+        """The best weight minus the best outside ``node +- confidence_radius``."""
+        ...
+
+    def rank(self, node: int) -> None:
+        """Keep what the frame's estimate reports before the weights change again (the
+        host's ranking); nothing on executors that report none."""
+
+    def normalise(self, top: float) -> None:
+        """Robust: ``w := max(clip(w - T), -memory)`` (a sensor may defer it)."""
+
+    def adjust(self, amount: float) -> None:
+        """Paper: ``w := clip(w - amount)``."""
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """What a schedule's frame decided: the estimate, its confidence, the motion
+    decision and the detection threshold ``top`` (``T``)."""
+
+    node: int
+    score: float
+    moved: bool
+    top: float
+
+
+@dataclass(frozen=True)
+class SensorPlan:
+    """What a schedule asks of the sensor executor besides its steps.
+
+    Attributes
+    ----------
+    stores : tuple of str
+        Map stores in order of preference; the sensor takes the first its
+        representation has (docs/onsensor.md, "Map store").
+    spread : {"copies", "tree"}
+        How the block means are spread over their blocks: masked copies from the block
+        roots (a few writes per PE) or the paper's doubling tree over a zero background.
+    keep_scale : bool
+        Calibrate the array's transfer gain at start-up and restore the weights' scale
+        in steps (:mod:`ppaloc.onsensor.gain`): for weights that live through many writes.
+    bank : bool
+        Whether the schedule's frame runs on a bank of sensors (its exchange points are
+        the ones :class:`ppaloc.onsensor.bank.SensorBank` implements).
+    """
+
+    stores: tuple[str, ...] = ("levels", "digital")
+    spread: str = "copies"
+    keep_scale: bool = True
+    bank: bool = True
+
+
+class Schedule:
+    """One preset's frame: the steps in order and the decisions between them.
+
+    Parameters
+    ----------
+    params : FilterParams
+        The filter's parameters (resolved for this preset).
+    oracle_moves : sequence of bool, optional
+        The true moves for ``motion="oracle"`` (a dataset's ``query_moved``): the
+        schedule hands frame ``n``'s to the executor as the controller's decision.
+
+    Attributes
+    ----------
+    uses : {"robust", "paper"}
+        The parameter group the schedule reads (:class:`FilterParams`).
+    sensor : SensorPlan
+        What it asks of a sensor executor.
+    frames : int
+        Frames since :meth:`reset`.
+    prev : int or None
+        The last estimate.
+    """
+
+    uses: ClassVar[str] = "robust"
+    sensor: ClassVar[SensorPlan] = SensorPlan()
+
+    def __init__(self, params: FilterParams, oracle_moves: Any = None) -> None:
+        self.params = params
+        if oracle_moves is not None:  # checked whatever the motion model: results keep it
+            oracle_moves = check_moves(oracle_moves)
+        self._oracle: OracleMotion | None = None
+        if params.motion == "oracle":
+            if oracle_moves is None:
+                raise PpalocError(
+                    "motion='oracle' needs oracle_moves= (e.g. the dataset's query_moved)"
+                )
+            self._oracle = OracleMotion(oracle_moves)
+        self.alpha: float | None = None
+        self.reset()
+
+    @property
+    def max_advance(self) -> int:
+        """The most nodes one frame may move a weight (what a bank carries across)."""
+        return 1
+
+    def use_map(self, topomap: TopoMap) -> None:
+        """Choose the per-map constants (the paper's ``alpha``) once the map is known."""
+
+    def reset(self) -> None:
+        """A new query: no frame, no previous estimate, the oracle from its first move."""
+        self.frames = 0
+        self.prev: int | None = None
+        if self._oracle is not None:
+            self._oracle.reset()
+
+    def decided(self) -> bool | None:
+        """The controller's motion decision for this frame (the oracle's), or None."""
+        return None if self._oracle is None else self._oracle.step(None)  # type: ignore[arg-type]
+
+    def step(self, ex: Executor, frame: np.ndarray) -> FrameResult:  # pragma: no cover
+        """Run one frame on ``ex``."""
+        raise NotImplementedError
+
+    def finish(self, ex: Executor, moved: bool) -> FrameResult:
+        """The end of every preset's frame: detection, confidence and ranking, then
+        :meth:`end_frame` (the normalisation or the adjustment)."""
+        node, top = ex.detect(self.prev)
+        score = ex.confidence(node, top)
+        ex.rank(node)
+        self.end_frame(ex, top)
+        self.prev = node
+        return FrameResult(node, score, moved, top)
+
+    def end_frame(self, ex: Executor, top: float) -> None:
+        """What the weights undergo after detection (nothing by default)."""
+
+
+class RobustSchedule(Schedule):
+    """The robust filter (docs/localise.md, "The robust filter"; docs/ppa8.md).
+
+    Per frame: motion; the transition over stay/+1/+2 nodes at the costs the motion
+    decision sets (from the second frame); on the first frame and on frames the motion
+    test calls forward, every node's value read, this frame's scale chosen from them
+    (:func:`~ppaloc.localise.params.frame_scale`) and the likelihood added (a still frame
+    repeats the last one: no new evidence); detection, confidence; normalisation.
+    """
+
+    uses = "robust"
+    sensor = SensorPlan(stores=("levels", "digital"), spread="copies", keep_scale=True, bank=True)
+
+    @property
+    def max_advance(self) -> int:
+        return int(self.params.max_advance)  # type: ignore[arg-type]
+
+    def step(self, ex: Executor, frame: np.ndarray) -> FrameResult:
+        p = self.params
+        self.frames += 1
+        first = self.frames == 1
+        ex.begin(frame)
+        moved = bool(ex.motion(self.decided()))
+        if not first:
+            ex.transition(transition_costs(moved, p))
+        if first or moved:
+            values = ex.node_values()
+            shift, alpha = frame_scale(values, int(p.gain), exact=ex.exact)  # type: ignore[arg-type]
+            ex.add_scaled(shift, alpha)
+        return self.finish(ex, moved)
+
+    def end_frame(self, ex: Executor, top: float) -> None:
+        """The normalisation ``w := max(clip(w - T), -memory)``."""
+        ex.normalise(top)
+
+
+class PaperSchedule(Schedule):
+    """Algorithm 1 of the paper (docs/localise.md, "The paper's preset").
+
+    Per frame: motion; on forward every weight one node along the map; ``w += alpha -
+    mu 2**-shift``; detection, confidence; every ``k``-th frame ``w -= gamma T``.
+    ``alpha`` is the given one, or chosen from the map (:func:`suggest_alpha`; 0 for a
+    map of fewer than 3 nodes).
+    """
+
+    uses = "paper"
+    sensor = SensorPlan(stores=("analogue", "digital"), spread="tree", keep_scale=False, bank=False)
+
+    @property
+    def max_advance(self) -> int:
+        return int(self.params.advance[1])  # type: ignore[index]
+
+    def use_map(self, topomap: TopoMap) -> None:
+        from ppaloc.localise.alpha import suggest_alpha
+
+        p = self.params
+        if p.alpha is not None:
+            self.alpha = p.alpha
+        else:
+            self.alpha = suggest_alpha(topomap, p.shift) if len(topomap) >= 3 else 0  # type: ignore[arg-type]
+
+    def step(self, ex: Executor, frame: np.ndarray) -> FrameResult:
+        self.frames += 1
+        ex.begin(frame)
+        moved = bool(ex.motion(self.decided()))
+        if moved:
+            ex.shift()
+        ex.add_likelihood(self.alpha, self.params.shift)  # type: ignore[arg-type]
+        return self.finish(ex, moved)
+
+    def end_frame(self, ex: Executor, top: float) -> None:
+        """Every ``k``-th frame the adjustment ``w -= gamma T`` (nothing when it is 0)."""
+        p = self.params
+        if self.frames % p.k == 0 and p.gamma:  # type: ignore[operator]
+            amount = adjustment(p.gamma, top, exact=ex.exact)
+            if amount:
+                ex.adjust(amount)
+
+
+SCHEDULES: dict[str, type[Schedule]] = {"robust": RobustSchedule, "paper": PaperSchedule}
+"""Preset name -> schedule class; ``FilterParams.create(preset=...)`` and every weighted-node
+and on-sensor method accept these names."""
+
+
+def register_schedule(name: str, schedule: type[Schedule]) -> None:
+    """Offer ``schedule`` as ``preset=name`` everywhere (a new preset in one place)."""
+    if not (isinstance(schedule, type) and issubclass(schedule, Schedule)):
+        raise PpalocError(f"{schedule!r} is not a Schedule subclass")
+    if schedule.uses not in ("robust", "paper"):
+        raise PpalocError(f"{name}: uses={schedule.uses!r} must be 'robust' or 'paper'")
+    SCHEDULES[name] = schedule
+
+
+def make_schedule(
+    params: FilterParams, oracle_moves: Sequence[bool] | np.ndarray | None = None
+) -> Schedule:
+    """The schedule of ``params.preset``, built on ``params``."""
+    return SCHEDULES[params.preset](params, oracle_moves)
