@@ -52,10 +52,10 @@ import numpy as np
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.evaluate.metrics import is_correct, max_f1, pr_curve
-from ppaloc.localise.params import FilterParams
+from ppaloc.localise.schedule import SCHEDULES
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor import OnSensorLocaliser
-from ppaloc.onsensor.pipeline import PIPELINES
+from ppaloc.onsensor.executor import PLACES
 from ppaloc.sim import PRESETS
 from ppaloc.topomap import TopoMap
 
@@ -217,9 +217,9 @@ def _map(jobs: list, processes: int) -> list:
 
 def _stores(rep: str, preset: str, stores: tuple[str, ...]) -> list[str | None]:
     """The map stores to run: ``"default"`` is the preset's own; others where they exist."""
-    own = PIPELINES[rep].stores
+    own = PLACES[rep].stores
     out = [None if s == "default" else s for s in stores if s == "default" or s in own]
-    default = PIPELINES[rep].default_store(FilterParams.create(rep, preset=preset))
+    default = PLACES[rep].choose_store(SCHEDULES[preset].sensor, None)
     return list(dict.fromkeys(default if s is None else s for s in out))
 
 
@@ -368,8 +368,9 @@ STAGES = {
 
 
 def _roots(pipe) -> tuple[np.ndarray, np.ndarray]:
-    t, br, bc = pipe.layout.node_to_block(np.arange(pipe.n_nodes))
-    return br * pipe.bh, bc * pipe.bw + t
+    sensor = pipe.sensor
+    t, br, bc = sensor.layout.node_to_block(np.arange(sensor.n_nodes))
+    return br * sensor.bh, bc * sensor.bw + t
 
 
 def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
@@ -381,123 +382,130 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
     means the halving tree left at the roots (contrast-normalised), tiled;
     ``descriptor`` (LBP) the live code := the LBP code of those root means (``B``);
     ``tree`` the readout trees' values := ``mu`` of the replicated frame or descriptor
-    and the database as they are (a tree recomputed inside an update kernel, two tiles
-    before this change, stays as it is); ``scale`` the readout := the integers ``r_i``
-    of exact values; ``update`` the weights := ``clip(w + clip(alpha_t - mu 2**-s))``
-    with the values the readout read; ``transition`` (with the normalisation: the one it
-    applies, or the separate one of the code before) the weights := the host's two
+    and the database as they are (a tree recomputed inside an update kernel stays as it
+    is); ``scale`` the readout := the integers ``r_i`` of exact values; ``update`` the
+    weights := ``clip(w + clip(alpha_t - mu 2**-s))`` with the values the readout read;
+    ``transition`` (with the normalisation it applies) the weights := the host's two
     steps; ``detect`` the node and ``T`` from the weights.
+
+    The hooks wrap the executor's steps and its sensor's ``run`` on this one localiser
+    (an experiment on a copy of the pipeline, never a mode of the library).
     """
-    from ppaloc.localise.weighted import choose_candidate
+    from ppaloc.localise.params import choose_candidate
+    from ppaloc.onsensor import capture, lbp, lowres
     from ppaloc.place import lbp_from_grid, normalise_contrast
     from ppaloc.sim import C, D, F
 
     pipe = loc.pipeline
+    sensor, places, weights = pipe.sensor, pipe.places, pipe.state
     p, rep, sim = pipe.params, pipe.representation, pipe.sim
+    neg_reg = sensor.roles.negated
     rows, cols = _roots(pipe)
     state: dict = {}
 
     def get_w() -> np.ndarray:
-        """The weights' register values (minus ``NEGATED`` after a one-write update)."""
-        if getattr(pipe, "negated", False):
-            return -sim.read(pipe.NEGATED)[rows, cols].astype(np.float64)
+        """The weights' register values (minus ``negated`` after a one-write update)."""
+        if weights.negated:
+            return -sim.read(neg_reg)[rows, cols].astype(np.float64)
         return sim.read(C)[rows, cols].astype(np.float64)
 
     def set_w(w: np.ndarray) -> None:
-        negated = getattr(pipe, "negated", False)
-        reg = pipe.NEGATED if negated else C
+        reg = neg_reg if weights.negated else C
         plane = sim.read(reg).copy()
-        plane[rows, cols] = -w if negated else w
+        plane[rows, cols] = -w if weights.negated else w
         sim.write(reg, plane)
 
-    def keep_scale(before: float | None) -> None:
+    def keep_scale(before: float) -> None:
         """An exact stage leaves the weights' scale as it found it (no drift, no step)."""
-        if before is not None:
-            pipe.scale.log_scale = before
-
-    def scale_now() -> float | None:
-        scale = getattr(pipe, "scale", None)
-        return None if scale is None else scale.log_scale
+        weights.scale.log_scale = before
 
     def exact_mu() -> np.ndarray:
         """``mu`` per node from the registers' operands, exactly."""
         if rep == "lowres":  # F as the trees found it (two tiles use it as a scratch)
             frame = state.get("frame", sim.read(F)).astype(np.float64)
-            out = np.empty(pipe.n_nodes)
-            for t in range(pipe.tiles):
-                nodes, br, bc = pipe._tile_nodes[t]
-                db = pipe.map_plane(t).astype(np.float64)
+            out = np.empty(sensor.n_nodes)
+            for t in range(sensor.tiles):
+                nodes, br, bc = sensor.tile_nodes[t]
+                db = places.map_plane(t).astype(np.float64)
                 a = np.minimum(np.abs(np.clip(frame + db, -128, 127)), 127)
-                m = a.reshape(pipe.size // 8, 8, pipe.size // 8, 8).mean(axis=(1, 3))
+                m = a.reshape(sensor.size // 8, 8, sensor.size // 8, 8).mean(axis=(1, 3))
                 out[nodes] = m[br, bc]
             return out
         db = np.asarray(loc.topomap.descriptors, np.uint32)
-        return 2.0 * np.bitwise_count(db ^ np.uint32(pipe.last_code))
+        return 2.0 * np.bitwise_count(db ^ np.uint32(places.last_code))
 
-    run_kernel = pipe.kc.run
+    def pair_registers():
+        pair = places.tree_tiles() if sensor.tiles > 1 else None
+        return None if pair is None else pair[2]
 
-    def kc_run(name, build):
-        if name in ("spread", "spread_seed"):  # the halving tree's means, at the roots
-            state["roots"] = sim.read(D)[:: pipe.block, :: pipe.block].astype(np.float64)
-        if name in ("tree_0", "tree_1", "tree_tiles"):
+    trees = {lowres._tree, lowres._tree_pair, lbp._tree}
+    run_kernel = sensor.run
+
+    def run(build, *args):
+        if build in (capture._spread_tree, capture._mov):  # the halving tree's root means
+            state["roots"] = sim.read(D)[:: sensor.block, :: sensor.block].astype(np.float64)
+        if build in trees:
             state["frame"] = sim.read(F).copy()
-        run_kernel(name, build)
-        if "tree" in stages and name in ("tree_0", "tree_1", "tree_tiles"):
+        kernel = run_kernel(build, *args)
+        if "tree" in stages and build in trees:
             state["mu"] = exact_mu()
-            sign, exponent = pipe.value_scale
-            regs = pipe._tree_tiles(None) if name == "tree_tiles" else None
-            for t in range(pipe.tiles):
-                if regs is None and name != f"tree_{t}":
+            sign, exponent = places.value_scale
+            regs = pair_registers() if build is lowres._tree_pair else None
+            db = args[0] if build is lowres._tree_pair else args[1]
+            for t in range(sensor.tiles):
+                if regs is None and db != sensor.roles.db[t]:
                     continue
                 reg = regs[t] if regs else D
-                nodes, br, bc = pipe._tile_nodes[t]
+                nodes, br, bc = sensor.tile_nodes[t]
                 plane = sim.read(reg).copy()
-                plane[br * pipe.bh, bc * pipe.bw] = sign * state["mu"][nodes] * 2.0**-exponent
+                plane[br * sensor.bh, bc * sensor.bw] = sign * state["mu"][nodes] * 2.0**-exponent
                 sim.write(reg, plane)
+        return kernel
 
-    pipe.kc.run = kc_run
+    sensor.run = run
 
     if rep == "lowres":
-        live = pipe.load_live if pipe.robust else pipe.replicate
+        live = places.load_live if places.normalised else places.replicate
 
         def exact_replicate() -> None:
             live()
             if "replicate" not in stages:
                 return
-            if pipe.robust:  # F = -f' of the exact grid, contrast-normalised
+            if places.normalised:  # F = -f' of the exact grid, contrast-normalised
                 m = -state["roots"]  # the exact block means (state: the reduce's roots)
                 q = normalise_contrast(np.floor(2 * m + 128).astype(np.int64), p.contrast)
                 grid = -(q.astype(np.float64) / 2 - 64)
             else:  # F = -m of grid block (r % 8, c % 8)
                 grid = state["roots"]
-            sim.write(F, np.tile(grid, (pipe.size // 8, pipe.size // 8)))
+            sim.write(F, np.tile(grid, (sensor.size // 8, sensor.size // 8)))
 
-        if pipe.robust:
-            pipe.load_live = exact_replicate
+        if places.normalised:
+            places.load_live = exact_replicate
         else:
-            pipe.replicate = exact_replicate
+            places.replicate = exact_replicate
     else:
-        descriptor = pipe.descriptor
+        descriptor = places.descriptor
 
         def exact_descriptor() -> int:
             code = descriptor()
             if "descriptor" in stages:
-                m = sim.read(pipe.root_means)[:: pipe.block, :: pipe.block].astype(np.float64)
+                means = sim.read(sensor.roles.root_means)
+                m = means[:: sensor.block, :: sensor.block].astype(np.float64)
                 code = int(lbp_from_grid(m[1:7, 1:7]))
             return code
 
-        pipe.descriptor = exact_descriptor
+        places.descriptor = exact_descriptor
 
-    values = pipe._values
+    values = places.values
 
     def exact_values(codes: np.ndarray) -> np.ndarray:
         t = state["tile"]
         state["tile"] = t + 1
-        nodes, br, bc = pipe._tile_nodes[t]
-        regs = pipe._tree_tiles(None) if hasattr(pipe, "_tree_tiles") else None
-        reg = regs[t] if (regs and pipe.tiles > 1) else D
-        sign, exponent = pipe.value_scale
-        tree = sim.read(reg)[br * pipe.bh, bc * pipe.bw].astype(np.float64)
+        nodes, br, bc = sensor.tile_nodes[t]
+        regs = pair_registers()
+        reg = regs[t] if regs else D
+        sign, exponent = places.value_scale
+        tree = sim.read(reg)[br * sensor.bh, bc * sensor.bw].astype(np.float64)
         state["tree_mu"][nodes] = sign * tree * 2.0**exponent
         if "scale" not in stages:
             return values(codes)
@@ -506,30 +514,32 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
             return 2 * (128 - np.floor(128.5 - mu / 2)).astype(np.int64)
         return mu.astype(np.int64)
 
-    pipe._values = exact_values
-    compare = pipe.compare_robust
+    places.values = exact_values
+    node_values, add_scaled = pipe.node_values, pipe.add_scaled
 
-    def exact_compare() -> None:
-        w, offset, before = get_w(), pipe.pending_offset, scale_now()
-        state["tile"], state["tree_mu"] = 0, np.empty(pipe.n_nodes)
-        compare()
+    def exact_node_values() -> np.ndarray:
+        state["tile"], state["tree_mu"] = 0, np.empty(sensor.n_nodes)
+        return node_values()
+
+    def exact_add_scaled(shift: int, alpha: float) -> None:
+        w, offset, before = get_w(), weights.pending_offset, weights.scale.log_scale
+        add_scaled(shift, alpha)
         if "update" in stages:  # the register holds w + offset: the update subtracts it
-            s, alpha = pipe.last_shift, pipe.last_alpha
-            t = np.clip(alpha - offset - state["tree_mu"] * 2.0**-s, -128, 127)
+            s, alpha_t = weights.last_shift, weights.last_alpha
+            t = np.clip(alpha_t - offset - state["tree_mu"] * 2.0**-s, -128, 127)
             set_w(np.clip(w + t, -127, 127))
             keep_scale(before)
 
-    pipe.compare_robust = exact_compare
-    transition, normalise = pipe.transition, pipe.normalise
-    fused = hasattr(pipe, "pending_top")
+    pipe.node_values, pipe.add_scaled = exact_node_values, exact_add_scaled
+    transition = pipe.transition
 
-    def exact_transition(costs) -> None:
-        w, top, before = get_w(), getattr(pipe, "pending_top", None), scale_now()
-        transition(costs)
+    def exact_transition(costs, carried: bool = False) -> None:
+        w, top, before = get_w(), weights.pending_top, weights.scale.log_scale
+        transition(costs, carried)
         if "transition" in stages:
             keep_scale(before)
-            offset = pipe.pending_offset  # the stay cost left to the update, in the register
-            if fused and top is not None:
+            offset = weights.pending_offset  # the stay cost left to the update
+            if top is not None:
                 w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
             n = len(w)
             best = w - costs[0]
@@ -538,21 +548,15 @@ def exact_stages(loc: OnSensorLocaliser, stages: set[str]) -> None:
                 best = np.maximum(best, np.clip(moved - costs[d], -127, 127))
             set_w(np.clip(np.clip(best, -127, 127) + offset, -127, 127))
 
-    def exact_normalise(top: int) -> None:
-        w = get_w()
-        normalise(top)
-        if "transition" in stages and not fused:
-            set_w(np.maximum(np.clip(w - top, -127, 127), -p.memory))
-
-    pipe.transition, pipe.normalise = exact_transition, exact_normalise
+    pipe.transition = exact_transition
     detect = pipe.detect
 
-    def exact_detect() -> tuple[int, int]:
-        node, top = detect()
+    def exact_detect(prev: int | None) -> tuple[int, int]:
+        node, top = detect(prev)
         if "detect" in stages:
             w = get_w()
             top = int(np.floor(w.max()))
-            node = choose_candidate(np.flatnonzero(w >= top), pipe.prev)
+            node = choose_candidate(np.flatnonzero(w >= top), prev)
         return node, top
 
     pipe.detect = exact_detect
@@ -577,7 +581,7 @@ def stages_table(
     for name, spec in (NOISE_ROUTES[r] for r in routes):
         for rep in ("lowres", "lbp"):
             stages = [s for s in STAGES[rep] if exact is None or s in exact]
-            own = store if store in PIPELINES[rep].stores else None
+            own = store if store in PLACES[rep].stores else None
             configs = [(), *((s,) for s in stages), tuple(stages)]
             jobs = [
                 (spec, rep, "robust", "typical-no-droop", seed, n_query, c, own)

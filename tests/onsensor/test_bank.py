@@ -47,12 +47,12 @@ def test_the_carry_reads_and_writes_a_weight_exactly():
     pipe = make_pipeline("lowres", 40, params, size=64)
     nodes = np.arange(40)
     tile, br, bc = pipe.layout.node_to_block(nodes)
-    rows, cols = br * pipe.bh, bc * pipe.bw + tile
+    rows, cols = br * pipe.sensor.bh, bc * pipe.sensor.bw + tile
     plane = pipe.sim.read(C).copy()
     want = [float(np.float32(w)) for w in (-3.0 + 2.0**-21 * 12345, 17.5 - 2.0**-17, -126.25)]
     plane[rows[-3:], cols[-3:]] = want[::-1]
     pipe.sim.write(C, plane)
-    pipe.pending_top = None
+    pipe.state.pending_top = None
     got = pipe.carry_out(3)
     assert got == [max(w, -params.memory) for w in want]
     receiver = make_pipeline("lowres", 40, params, size=64)
@@ -74,7 +74,7 @@ def test_the_levels_store_survives_droop_the_analogue_store_does_not(blocky_rout
         stored = pipe.node_blocks(topomap)  # the robust preset's normalised images
         want = pipe.layout.to_planes(stored, fill=128)[0] / 2.0 - 64
         valid = pipe.layout.to_planes(topomap.node_blocks() * 0 + 1, fill=0)[0] > 0
-        errors[store] = float(np.abs(pipe.map_plane(0) - want)[valid].max())
+        errors[store] = float(np.abs(pipe.places.map_plane(0) - want)[valid].max())
     assert errors["levels"] < 1.0  # the droop of one frame after the last refresh
     assert errors["analogue"] > 5.0
 
@@ -100,9 +100,9 @@ def test_a_noisy_read_below_the_weight_range_is_carried_as_its_edge():
     pipe = make_pipeline("lowres", 10, params, size=64)
     _, br, bc = pipe.layout.node_to_block(np.array([9]))
     plane = pipe.sim.read(C).copy()
-    plane[br[0] * pipe.bh, bc[0] * pipe.bw] = -127.9
+    plane[br[0] * pipe.sensor.bh, bc[0] * pipe.sensor.bw] = -127.9
     pipe.sim.write(C, plane)
-    pipe.pending_top = -5  # floor -5 - memory, below the register's range
+    pipe.state.pending_top = -5  # floor -5 - memory, below the register's range
     (got,) = pipe.carry_out(1)
     assert got == -127.0
     make_pipeline("lowres", 10, params, size=64).carry_in([got])  # the DAC takes it

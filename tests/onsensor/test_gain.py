@@ -26,7 +26,7 @@ def _pipe(rep: str = "lowres", n: int = 40, noise="ideal", seed: int = 0, preset
 def test_calibration_reads_the_arrays_transfer_gain(g):
     pipe = _pipe(noise=NoiseParams(transfer_gain=g))
     # the ADC rounds the chain's mean to a code: at most 4% of g without other noise
-    assert pipe.scale.log_gain == pytest.approx(math.log1p(g), rel=0.05)
+    assert pipe.state.scale.log_gain == pytest.approx(math.log1p(g), rel=0.05)
     assert "calibrate" in [s.name for s in pipe.timing.report().stages]
 
 
@@ -34,15 +34,15 @@ def test_calibration_reads_the_arrays_transfer_gain(g):
 def test_calibration_sees_through_the_other_noise_terms(seed):
     typical = PRESETS["typical"]
     pipe = _pipe(noise="typical", seed=seed)
-    assert pipe.scale.log_gain == pytest.approx(math.log1p(typical.transfer_gain), rel=0.15)
+    assert pipe.state.scale.log_gain == pytest.approx(math.log1p(typical.transfer_gain), rel=0.15)
 
 
 def test_ideal_sensor_measures_no_gain_and_never_restores():
     pipe = _pipe()
-    assert pipe.scale.log_gain == 0.0
-    pipe.scale.charge(10_000)
-    assert pipe.scale.due() == 0
-    assert _pipe(preset="paper").scale.log_gain == 0.0  # the paper preset does not calibrate
+    assert pipe.state.scale.log_gain == 0.0
+    pipe.state.scale.charge(10_000)
+    assert pipe.state.scale.due() == 0
+    assert _pipe(preset="paper").state.scale.log_gain == 0.0  # the paper preset does not calibrate
 
 
 def test_scale_is_due_after_one_step_of_drift_either_way():
@@ -65,14 +65,14 @@ def test_scale_is_due_after_one_step_of_drift_either_way():
 def test_restore_scales_the_node_roots_only(sign, step):
     pipe = _pipe("lowres", 40)
     t, br, bc = pipe.layout.node_to_block(np.arange(pipe.n_nodes))
-    rows, cols = br * pipe.bh, bc * pipe.bw + t
+    rows, cols = br * pipe.sensor.bh, bc * pipe.sensor.bw + t
     rng = np.random.default_rng(step)
     w = np.full((SIZE, SIZE), 99.0, np.float32)
     values = rng.uniform(-127, 1, pipe.n_nodes).astype(np.float32)
     values[:2] = (-127, 0.5)
     w[rows, cols] = values
     pipe.sim.write(C, w)
-    gain.restore(pipe, C, pipe.dr.valid, sign, step)
+    gain.restore(pipe.sensor, C, pipe.sensor.roles.d.valid, sign, step)
     got = pipe.sim.read(C)
     want = np.clip(values.astype(np.float64) * (1 + sign * 2.0**-step), -127, 127)
     np.testing.assert_allclose(got[rows, cols], want, atol=1e-5)
@@ -95,7 +95,7 @@ def _weight_slope(route, restore: bool, g: float, monkeypatch) -> tuple[float, i
     a, b = host.localise(query), sensor.localise(query)
     x, y = a[-1].weights, b[-1].weights
     keep = x > -100  # above the floor and its clip
-    return float(np.polyfit(x[keep], y[keep], 1)[0]), sensor.pipeline.scale.restores
+    return float(np.polyfit(x[keep], y[keep], 1)[0]), sensor.pipeline.state.scale.restores
 
 
 def test_restorations_keep_the_weights_scale_under_a_transfer_gain(blocky_route, monkeypatch):
@@ -118,15 +118,15 @@ def test_a_transition_scales_the_weights_by_the_writes_it_counts(costs):
     free stay (no write); checked where that candidate wins, away from the row starts."""
     g = -0.01
     pipe = _pipe("lowres", 40, noise=NoiseParams(transfer_gain=g))
-    pipe.scale.step = 30  # no restoration inside the test
+    pipe.state.scale.step = 30  # no restoration inside the test
     t, br, bc = pipe.layout.node_to_block(np.arange(pipe.n_nodes))
-    rows, cols = br * pipe.bh, bc * pipe.bw + t
+    rows, cols = br * pipe.sensor.bh, bc * pipe.sensor.bw + t
     rng = np.random.default_rng(1)
     w = rng.uniform(-60, 0, pipe.n_nodes)
     plane = np.zeros((SIZE, SIZE), np.float32)
     plane[rows, cols] = w
     pipe.sim.write(C, plane)
-    before = pipe.scale.log_scale
+    before = pipe.state.scale.log_scale
     pipe.transition(costs)
     got = pipe.sim.read(C)[rows, cols].astype(np.float64)
     cands = np.full((len(costs), len(w)), -np.inf)
@@ -137,5 +137,5 @@ def test_a_transition_scales_the_weights_by_the_writes_it_counts(costs):
     # a snake's row starts take their moved candidates through a few more copies
     wins &= np.arange(len(w)) % pipe.layout.grid_shape[1] >= len(costs) - 1
     assert wins.sum() > 5
-    factor = math.exp(pipe.scale.log_scale - before)
+    factor = math.exp(pipe.state.scale.log_scale - before)
     np.testing.assert_allclose(got[wins], cands.max(axis=0)[wins] * factor, atol=0.05)

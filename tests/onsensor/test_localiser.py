@@ -79,7 +79,7 @@ def test_noise_is_seeded(blocky_route):
         ({"gain": 0}, "gain=0 must be in \\[1, 32\\]"),
         ({"max_advance": 4}, "max_advance=4 must be in \\[1, 3\\]"),
         ({"preset": "fast"}, "preset='fast' is not one of"),
-        ({"colour": 1}, "unexpected keyword argument 'colour'"),
+        ({"colour": 1}, "unknown filter parameter 'colour'"),
     ],
 )
 def test_bad_parameters_name_the_value(kwargs, message):

@@ -18,10 +18,12 @@ from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.localise.params import (
     FilterParams,
+    frame_scale,
     frame_statistics,
     likelihood_shift,
     transition_costs,
 )
+from ppaloc.localise.schedule import make_schedule
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.onsensor.mapping import upload_map
@@ -46,8 +48,14 @@ def _put_weights(pipe, values: np.ndarray, fill: float = 99.0) -> None:
     """Weights at the node roots, ``fill`` at every other PE (which must not matter)."""
     t, br, bc = pipe.layout.node_to_block(np.arange(pipe.n_nodes))
     w = np.full((SIZE, SIZE), fill, np.float32)
-    w[br * pipe.bh, bc * pipe.bw + t] = values
+    w[br * pipe.sensor.bh, bc * pipe.sensor.bw + t] = values
     pipe.sim.write(C, w)
+
+
+def _flat(tree):
+    """``(builder, args)`` as the arguments of ``Sensor.run``."""
+    build, args = tree
+    return (build, *args)
 
 
 def _normalised(w: np.ndarray, top: int, memory: int) -> np.ndarray:
@@ -145,10 +153,10 @@ def test_normalise_is_applied_by_the_next_transition(memory):
     assert pipe.timing.now_us == before
     np.testing.assert_array_equal(pipe.weights(), _normalised(w, top, memory))
     t, br, bc = pipe.layout.node_to_block(np.arange(100))
-    np.testing.assert_array_equal(pipe.sim.read(C)[br * pipe.bh, bc * pipe.bw + t], w)
+    np.testing.assert_array_equal(pipe.sim.read(C)[br * pipe.sensor.bh, bc * pipe.sensor.bw + t], w)
     pipe.transition((0,))  # stay on every node for free: the normalisation alone
     np.testing.assert_array_equal(pipe.weights(), _normalised(w, top, memory))
-    assert pipe.pending_top is None
+    assert pipe.state.pending_top is None
 
 
 def test_robust_stages_leave_the_means_of_the_replication_alone():
@@ -179,8 +187,9 @@ def test_scale_readout_and_update_follow_the_frame_statistics(rep, n, gain):
     frame = np.kron(rng.integers(0, 256, (16, 16)), np.ones((4, 4))).astype(np.uint8)
     _put_weights(pipe, np.zeros(n, np.float32))
     pipe.capture(frame)
-    pipe.block_means()
-    pipe.compare()
+    values = pipe.node_values()
+    s, alpha = frame_scale(values, gain, exact=True)
+    pipe.add_scaled(s, alpha)
     f = _frame_means(frame)
     if rep == "lowres":  # live and nodes contrast-normalised (docs/ppa8.md, robust)
         c = pipe.params.contrast
@@ -218,16 +227,15 @@ def test_robust_live_image_takes_one_write_instead_of_summing_the_write_noise(si
         )
         pipe = make_pipeline("lowres", 40, params, size=size, noise="typical", seed=1)
         pipe.capture(frame)
-        pipe.block_means()
-        pipe.prepare_live()
+        pipe.places.prepare_live()
         if preset == "robust":  # the cells the controller read and normalised
             q = np.floor(2 * (f + 64)).astype(np.int64)
             # the noisy readout (write noise and offsets of the reduce tree, the spread
             # and the readout; its transfer gain shrinks the means by a few percent, which
             # can move the normalisation to the next gain) gives the same picture
             ideal = normalise_contrast(q, 48).reshape(-1)
-            assert np.corrcoef(pipe.live_image.reshape(-1), ideal)[0, 1] > 0.98
-            want = pipe.live_image / 2.0 - 64
+            assert np.corrcoef(pipe.places.live_image.reshape(-1), ideal)[0, 1] > 0.98
+            want = pipe.places.live_image / 2.0 - 64
         else:
             want = f
         err[preset] = float(np.std(-pipe.sim.read(F) - np.tile(want, (size // 8, size // 8))))
@@ -249,13 +257,13 @@ def test_robust_hamming_tree_halves_instead_of_summing_the_write_noise():
         pipe = make_pipeline("lbp", 200, params, size=SIZE, noise="typical", seed=2)
         upload_map(pipe, TopoMap("lbp", nodes))
         pipe.capture(frame)
-        pipe.block_means()
-        code = pipe.descriptor()
-        pipe.load_descriptor(code)
-        pipe._tree_calls(0)
-        pipe._run("tree_0", lambda k, pipe=pipe: pipe._tree(k, 0))
-        _, br, bc = pipe._tile_nodes[0]
-        got = pipe.sim.read(D)[br * pipe.bh, bc * pipe.bw]
+        code = pipe.places.descriptor()
+        pipe.places.load_descriptor(code)
+        halving = preset == "robust"  # the scaled readout's tree, or the paper's adding tree
+        pipe.places.tree_calls(0, halving=halving)
+        pipe.sensor.run(*_flat(pipe.places.tree(0, halving=halving)))
+        _, br, bc = pipe.sensor.tile_nodes[0]
+        got = pipe.sim.read(D)[br * pipe.sensor.bh, bc * pipe.sensor.bw]
         want = 2.0 * np.bitwise_count(nodes[: len(br)] ^ np.uint32(code))
         err[preset] = float(np.std(got - want))
     assert err["robust"] < 1.5 < 3 * err["robust"] < err["paper"]
@@ -266,15 +274,16 @@ def test_robust_frames_leave_the_free_register_alone(rep, free):
     # lowres: one tile of the analogue store, so B holds no map (the levels store's
     # low halves are in B)
     pipe = _pipe(rep, 40, store="analogue" if rep == "lowres" else None)
+    schedule = make_schedule(pipe.params)
     pipe.sim.write(free, np.full((SIZE, SIZE), 7.0, np.float32))
     rng = np.random.default_rng(0)
     for _ in range(3):
-        pipe.step(rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
+        schedule.step(pipe, rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
     keep = np.ones((SIZE, SIZE), bool)
-    if pipe.NEGATED is free:  # lbp: the update writes -w at the weights' PEs only
-        assert pipe.negated
-        keep[:: pipe.bh, :: pipe.bw] = False
-        keep[:: pipe.bh, 1 :: pipe.bw] = False
+    if pipe.sensor.roles.negated is free:  # lbp: the update writes -w at the weights' PEs only
+        assert pipe.state.negated
+        keep[:: pipe.sensor.bh, :: pipe.sensor.bw] = False
+        keep[:: pipe.sensor.bh, 1 :: pipe.sensor.bw] = False
     assert (pipe.sim.read(free)[keep] == 7.0).all()
 
 

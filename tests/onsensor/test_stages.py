@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ppaloc.errors import PpalocError
 from ppaloc.localise.params import FilterParams
+from ppaloc.localise.schedule import make_schedule
+from ppaloc.onsensor.executor import SensorExecutor
+from ppaloc.onsensor.lbp import LbpPlaces
+from ppaloc.onsensor.lowres import LowresPlaces
 from ppaloc.onsensor.mapping import row_runs, upload_map
-from ppaloc.onsensor.pipeline import (
-    LbpPipeline,
-    LowresPipeline,
-    SensorPipeline,
-    class_rows,
-    make_pipeline,
-)
+from ppaloc.onsensor.motion import count
+from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.onsensor.program import KernelCache, halve_level, pull, scale_negated
 from ppaloc.place import lbp_from_grid, normalise_contrast
 from ppaloc.sim import NEWS, A, B, C, D, E, F, Scamp5, east, north, south, west
@@ -28,7 +28,7 @@ PARAMS = FilterParams.create(
 ROBUST = FilterParams.create("lowres", arithmetic="ppa8", motion="always_forward")
 
 
-def _pipe(rep: str = "lowres", n: int = 40, preset: str = "paper") -> SensorPipeline:
+def _pipe(rep: str = "lowres", n: int = 40, preset: str = "paper") -> SensorExecutor:
     params = PARAMS if preset == "paper" else ROBUST
     return make_pipeline(rep, n, params, size=SIZE)
 
@@ -80,20 +80,81 @@ def test_scale_negated(sign, exponent):
     np.testing.assert_array_equal(sim.read(out), -base * 2.0**exponent)
 
 
+def _acc(k, x):
+    k.add(A, A, x)
+
+
+BUILT: list[int] = []
+
+
+def _counted(k, x):
+    BUILT.append(1)
+    _acc(k, x)
+
+
 def test_kernel_cache_records_once_and_replays():
     sim = Scamp5(2, 2)
     cache = KernelCache(sim)
-    built = []
-
-    def build(k):
-        built.append(1)
-        k.add(A, A, B)
-
+    BUILT.clear()
     sim.write(B, np.ones((2, 2)))
     for _ in range(3):
-        cache.run("acc", build)
-    assert built == [1] and cache.icws("acc") == 2 and "acc" in cache
+        cache.run(_counted, B)
+    assert BUILT == [1] and cache.icws == 2 and cache.kernels == 1
     np.testing.assert_array_equal(sim.read(A), np.full((2, 2), 3.0))
+
+
+def test_kernel_cache_keys_hold_every_value_the_body_reads():
+    """A kernel is known by its builder and the values it is built from: another
+    argument records another kernel, two builders of the same body share one, and a
+    builder over an object (whose state may change under the same key) is refused."""
+    sim = Scamp5(2, 2)
+    cache = KernelCache(sim)
+    cache.run(_acc, B)
+    cache.run(_acc, C)  # another body under the same builder
+    cache.run(lambda k: k.add(A, A, B))  # the first body again, from another builder
+    assert cache.kernels == 2 and cache.icws == 4
+
+    class Holder:
+        reg = B
+
+    holder = Holder()
+    with pytest.raises(PpalocError, match="closure value 'holder' is Holder"):
+        cache.run(lambda k: k.add(A, A, holder.reg))
+    with pytest.raises(PpalocError, match="must be a function, not method"):
+        cache.run(cache.run, B)
+
+
+def test_kernel_cache_check_mode_finds_a_body_its_key_does_not_hold():
+    sim = Scamp5(2, 2)
+    cache = KernelCache(sim, check=True)
+    source = {"reg": B}
+
+    def sneaky(k):  # reads a dict it was not given: the key cannot see it
+        k.add(A, A, source["reg"])
+
+    with pytest.raises(PpalocError, match="closure value 'source' is dict"):
+        cache.run(sneaky)
+    which = [B]
+
+    def build(k, i):
+        k.add(A, A, GLOBAL_REGS[which[0] is C])
+
+    with pytest.raises(PpalocError, match="closure value 'which' is list"):
+        cache.run(build, 0)
+    cache.run(_global_reader)
+    GLOBAL_REGS[0] = C  # a global the builder reads changes
+    try:
+        with pytest.raises(AssertionError, match="records a different body under the same key"):
+            cache.run(_global_reader)
+    finally:
+        GLOBAL_REGS[0] = B
+
+
+GLOBAL_REGS = [B, C]
+
+
+def _global_reader(k):
+    k.add(A, A, GLOBAL_REGS[0])
 
 
 @pytest.mark.parametrize("preset", ["paper", "robust"])
@@ -101,15 +162,8 @@ def test_block_means_are_exact_everywhere_in_the_block(preset):
     pipe = _pipe(preset=preset)
     frame = _frame(1)
     pipe.capture(frame)
-    pipe.block_means()
     got = -pipe.sim.read(F).astype(np.float64)
     np.testing.assert_array_equal(got, np.kron(_means(frame), np.ones((8, 8))))
-
-
-def test_class_rows_hold_one_row_per_residue_and_block():
-    rows = class_rows(256, 32)
-    assert len(rows) == 32 and set(rows % 8) == set(range(8))
-    np.testing.assert_array_equal(rows // 32, rows % 8)
 
 
 @pytest.mark.parametrize("preset", ["paper", "robust"])
@@ -117,8 +171,7 @@ def test_replicate_tiles_the_grid_into_every_node_block(preset):
     pipe = _pipe(preset=preset)
     frame = _frame(2)
     pipe.capture(frame)
-    pipe.block_means()
-    pipe.prepare_live()
+    pipe.places.prepare_live()
     got = -pipe.sim.read(F).astype(np.float64)
     grid = _means(frame)  # paper: the exact block means
     if preset == "robust":  # the block means' floors, contrast-normalised (levels q'/2 - 64)
@@ -145,7 +198,7 @@ def test_upload_lbp_bits_and_row_runs():
     pipe = _pipe("lbp", 2)
     upload_map(pipe, TopoMap("lbp", codes))
     plane = pipe.layout.to_planes(bits.astype(bool), fill=False)[0]
-    np.testing.assert_array_equal(pipe.sim.read(pipe.db[0]), plane)
+    np.testing.assert_array_equal(pipe.sim.read(pipe.sensor.roles.db[0]), plane)
 
 
 @pytest.mark.parametrize("n", [40, 100])
@@ -156,7 +209,7 @@ def test_snake_shift_moves_every_weight_one_node_and_zeroes_node_0(n):
     values = np.arange(n, dtype=np.float32) % 100 + 1
     w[br * 8, bc * 8 + t] = values
     pipe.sim.write(C, w)
-    pipe.shift_weights()
+    pipe.shift()
     np.testing.assert_array_equal(pipe.weights(), np.r_[0, values[:-1]])
 
 
@@ -165,8 +218,7 @@ def test_descriptor_equals_the_host_lbp_of_the_central_grid():
     for seed in range(3):
         frame = _frame(10 + seed)
         pipe.capture(frame)
-        pipe.block_means()
-        code = pipe.descriptor()
+        code = pipe.places.descriptor()
         assert code == int(lbp_from_grid(_means(frame)[1:7, 1:7]))
 
 
@@ -175,17 +227,17 @@ def test_motion_counts_are_exact():
     pipe = make_pipeline("lowres", 10, params, size=SIZE)
     rng = np.random.default_rng(5)
     plane = rng.random((SIZE, SIZE)) < 0.3
-    pipe.sim.write(pipe.dr.tmp_b, plane)
-    assert pipe._count(pipe.dr.tmp_b, "t") == int(plane.sum())
-    pipe.sim.write(pipe.dr.tmp_b, np.ones((SIZE, SIZE), bool))
-    assert pipe._count(pipe.dr.tmp_b, "t") == SIZE * SIZE  # full 8x16 blocks: -128, no clip
+    tmp = pipe.sensor.roles.d.tmp_b
+    pipe.sim.write(tmp, plane)
+    assert count(pipe.sensor, tmp) == int(plane.sum())
+    pipe.sim.write(tmp, np.ones((SIZE, SIZE), bool))
+    assert count(pipe.sensor, tmp) == SIZE * SIZE  # full 8x16 blocks: -128, no clip
 
 
-def test_make_pipeline_picks_the_class_of_the_representation():
-    from ppaloc.errors import PpalocError
-
-    assert type(_pipe("lowres")) is LowresPipeline and type(_pipe("lbp", 4)) is LbpPipeline
-    assert isinstance(_pipe("lbp", 4), SensorPipeline)
+def test_make_pipeline_picks_the_places_of_the_representation():
+    assert type(_pipe("lowres").places) is LowresPlaces
+    assert type(_pipe("lbp", 4).places) is LbpPlaces
+    assert isinstance(_pipe("lbp", 4), SensorExecutor)
     with pytest.raises(PpalocError, match="no on-sensor pipeline"):
         make_pipeline("hog", 4, PARAMS, size=SIZE)
 
@@ -193,23 +245,43 @@ def test_make_pipeline_picks_the_class_of_the_representation():
 def test_shared_registers_are_named():
     from ppaloc.onsensor import lbp, lowres
 
-    assert LowresPipeline.dr.aliases() == {"R3": ("pattern", "root32")}
-    assert LbpPipeline.dr.aliases() == {"R1": ("pattern", "root32")}
-    assert lowres.ROOTS == LowresPipeline.dr.pattern == LowresPipeline.dr.root32
-    assert lbp.DESCRIPTOR == LbpPipeline.dr.tmp_b and lbp.DESCRIPTOR_TMP == LbpPipeline.dr.tmp_a
+    dl, db = LowresPlaces.roles.d, LbpPlaces.roles.d
+    assert dl.aliases() == {"R3": ("pattern", "root32")}
+    assert db.aliases() == {"R1": ("pattern", "root32")}
+    assert lowres.ROOTS == dl.pattern == dl.root32
+    assert lbp.DESCRIPTOR == db.tmp_b and lbp.DESCRIPTOR_TMP == db.tmp_a
+
+
+@pytest.mark.parametrize("places", [LowresPlaces, LbpPlaces])
+def test_register_roles_keep_live_values_apart(places):
+    """Each representation's roles pass the check, and moving any working role onto a
+    register a kept role holds is refused."""
+    import dataclasses
+
+    roles = places.roles.check()
+    kept = dict(roles.kept())
+    for role in ("means", "spare", "frame"):
+        for reg in kept.values():
+            if reg.kind != "analog":
+                continue
+            with pytest.raises(PpalocError, match=f"working {role} is on {reg.name}"):
+                dataclasses.replace(roles, **{role: reg}).check()
+    d = dataclasses.replace(roles.d, cand=roles.d.valid)
+    with pytest.raises(PpalocError, match=r"working d\.cand is on"):
+        dataclasses.replace(roles, d=d).check()
 
 
 def test_too_many_tiles_is_a_clear_error():
-    from ppaloc.errors import PpalocError
-
     with pytest.raises(PpalocError, match="needs 3 tiles"):
         _pipe("lowres", 3 * 64)
 
 
 def test_unused_registers_are_untouched_by_a_frame():
     pipe = _pipe("lbp", 4)
+    schedule = make_schedule(pipe.params)
+    schedule.use_map(TopoMap("lbp", np.zeros(4, np.uint32)))
     pipe.sim.write(A, np.full((SIZE, SIZE), 7.0))
-    pipe.step(_frame(7))
+    schedule.step(pipe, _frame(7))
     assert (pipe.sim.read(A) == 7.0).all() and NEWS.name == "NEWS" and D != E
 
 
@@ -224,8 +296,7 @@ def test_detection_tie_break_with_more_ties_than_event_slots(prev, want):
     w[br * 4, bc * 8 + t] = values
     w[4 * 15, 8 * 7] = 90.0  # an unused block (beyond node 119) never counts
     pipe.sim.write(C, w)
-    pipe.prev = prev
-    assert pipe.detect() == (want, 30)
+    assert pipe.detect(prev) == (want, 30)
 
 
 def test_confidence_is_the_threshold_gap_outside_the_window():
@@ -237,7 +308,7 @@ def test_confidence_is_the_threshold_gap_outside_the_window():
     w = np.zeros((SIZE, SIZE), np.float32)
     w[br * 4, bc * 8 + t] = values
     pipe.sim.write(C, w)
-    node, top = pipe.detect()
+    node, top = pipe.detect(None)
     assert (node, top) == (60, 40)
     assert pipe.confidence(node, top) == 40 - 10
 
@@ -250,8 +321,10 @@ def test_event_nodes_come_from_the_block_table_as_the_layout_maps_them(rep):
     pipe = make_pipeline(rep, 4, p, size=64)
     nodes = np.arange(2 * pipe.layout.capacity)
     tile, br, bc = pipe.layout.node_to_block(nodes)
-    events = np.stack([br * pipe.bh, bc * pipe.bw + tile], axis=1)
-    assert np.array_equal(pipe._nodes_of(events[::-1]), nodes)
+    events = np.stack([br * pipe.sensor.bh, bc * pipe.sensor.bw + tile], axis=1)
+    assert np.array_equal(pipe.sensor.nodes_of(events[::-1]), nodes)
     rows, cols = events[:, 0], events[:, 1]
-    want = pipe.layout.block_to_node(cols % pipe.bw, rows // pipe.bh, cols // pipe.bw)
-    assert np.array_equal(pipe._nodes_of(events), np.sort(want))
+    want = pipe.layout.block_to_node(
+        cols % pipe.sensor.bw, rows // pipe.sensor.bh, cols // pipe.sensor.bw
+    )
+    assert np.array_equal(pipe.sensor.nodes_of(events), np.sort(want))

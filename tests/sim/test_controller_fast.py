@@ -306,7 +306,7 @@ def test_address_patterns_are_cached_read_only_and_equal_fresh_ones():
     first = sim.read(R5)
     sim.load_pattern(R5, 1, 2, 0b100, 0b001)
     assert np.array_equal(sim.read(R5), first)
-    mask = sim._address_mask(1, 2, 0b100, 0b001, False)
+    mask = sim.address_mask(1, 2, 0b100, 0b001, False)
     assert not mask.flags.writeable
     rows, cols = np.nonzero(first)
     assert set(rows.tolist()) == {1, 5} and set(cols.tolist()) == {2, 3}
@@ -426,7 +426,7 @@ def test_sparse_event_scan_equals_the_plane_walk(plane, n, h, v, rows_first, sca
 def test_global_or_reads_the_pattern_grid(plane, r, c, rx, cx, scamp_addr):
     sim = Scamp5(8, 16)
     sim.write(R5, plane)
-    mask = sim._address_mask(r, c, rx, cx, scamp_addr)
+    mask = sim.address_mask(r, c, rx, cx, scamp_addr)
     got = sim.global_or(R5, r, c, rx, cx, scamp_addr=scamp_addr)
     assert got == int((plane & mask).any())
     pattern = sim._pattern(r, c, rx, cx, scamp_addr)

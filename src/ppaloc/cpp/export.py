@@ -40,7 +40,7 @@ __all__ = ["Trace", "kernel_to_cpp", "to_cpp", "trace_pipeline"]
 
 # Public simulator methods that are not controller calls (inspection, recording, setup).
 _NOT_CALLS = frozenset(
-    {"stage", "kernel", "run", "read", "write", "set_image", "icw", "move_to_heap"}
+    {"stage", "kernel", "run", "read", "write", "set_image", "icw", "move_to_heap", "address_mask"}
 )
 
 
@@ -329,9 +329,9 @@ def _hw_pattern(sim: Scamp5, r: int, c: int, rx: int, cx: int, scamp_addr: bool)
     """The hardware column ``c'`` whose pattern selects what ``(r, c, rx, cx)`` selects."""
     if scamp_addr:
         return int(c)
-    want = sim._address_mask(r, c, rx, cx, False)
+    want = sim.address_mask(r, c, rx, cx, False)
     for guess in (int(c) ^ (sim.cols - 1), (sim.cols - 1 - int(c)) & 0xFF):
-        if np.array_equal(sim._address_mask(r, guess, rx, cx, True), want):
+        if np.array_equal(sim.address_mask(r, guess, rx, cx, True), want):
             return guess
     raise PpalocError(
         f"the pattern (r={r}, c={c}, rx={rx}, cx={cx}) has no hardware-address form on a "

@@ -424,9 +424,9 @@ def frame_scale(values: np.ndarray, gain: int, *, exact: bool) -> tuple[int, flo
     Examples
     --------
     >>> frame_scale(np.array([6, 20, 30, 11]), 4, exact=True)
-    (2, 1)
+    (1, 3)
     >>> frame_scale(np.array([6.0, 20.0, 30.0, 11.0]), 4, exact=False)
-    (2, 1.5)
+    (1, 3.0)
     """
     if exact:
         best, mean = frame_statistics(values)

@@ -1,19 +1,20 @@
 """A map of any size on a bank of simulated sensors, combined by their controllers.
 
-One simulated SCAMP-5 holds at most a few tiles (:attr:`SensorPipeline.capacity`: two
+One simulated SCAMP-5 holds at most a few tiles (:attr:`SensorExecutor.capacity`: two
 tiles of 2048 descriptors, or one low-res tile with the levels store). A
 :class:`SensorBank` cuts a longer snake into consecutive parts, one sensor per part, all
-seeing the same frame. Each sensor runs the robust preset's stages on its part; the
-controllers exchange only integers at five points of the frame (docs/onsensor.md, "Sensor
-banks"):
+seeing the same frame. It is an executor of the schedules
+(:class:`ppaloc.localise.schedule.Executor`): each of its steps runs the sensor
+executor's stages on every part, and the controllers exchange only integers at five
+points of the frame (docs/onsensor.md, "Sensor banks"):
 
 1. the motion decision of sensor 0 (the others skip the motion stage);
 2. the transition's carry: before any transition, each sensor reads the weights of its
-   last ``max_advance`` nodes exactly (:meth:`SensorPipeline.carry_out`, five ADC digits)
-   and the next sensor writes them where its snake start reads them, instead of the
-   array edge (:meth:`SensorPipeline.carry_in`);
-3. the likelihood scale: ``frame_statistics`` over every sensor's readout, then each
-   sensor adds the terms with the common ``s`` and ``alpha_t``;
+   last ``max_advance`` nodes exactly (:meth:`SensorExecutor.carry_out`, five ADC
+   digits) and the next sensor writes them where its snake start reads them, instead of
+   the array edge (:meth:`SensorExecutor.carry_in`);
+3. the likelihood scale: the schedule's ``frame_scale`` over every sensor's readout,
+   then each sensor adds the terms with the common ``s`` and ``alpha_t``;
 4. detection: ``T`` is the largest of the sensors' thresholds, the candidates the union
    of theirs at ``T`` (each gives all, or its one nearest the previous estimate);
 5. confidence: the largest of the sensors' maxima outside the window; every sensor's
@@ -31,15 +32,10 @@ from collections.abc import Callable
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.params import (
-    FilterParams,
-    frame_statistics,
-    likelihood_shift,
-    transition_costs,
-)
-from ppaloc.localise.weighted import choose_candidate
-from ppaloc.onsensor.core import SensorPipeline
+from ppaloc.localise.params import FilterParams, choose_candidate
+from ppaloc.onsensor.executor import SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
+from ppaloc.sim import Scamp5
 from ppaloc.topomap import TopoMap
 
 __all__ = ["SYNC_US", "BankTiming", "SensorBank"]
@@ -58,7 +54,7 @@ class BankTiming:
     synchronisation point; ``energy_uj`` is the sum of the sensors' energies.
     """
 
-    def __init__(self, sensors: list[SensorPipeline]) -> None:
+    def __init__(self, sensors: list[SensorExecutor]) -> None:
         self._sensors = sensors
         self.now_us = 0.0
         self.syncs = 0
@@ -81,11 +77,11 @@ class BankTiming:
 
 
 class SensorBank:
-    """A robust-preset map on several simulated sensors (see the module docstring).
+    """A map on several simulated sensors, run as one executor (see the module docstring).
 
     Parameters
     ----------
-    first : SensorPipeline
+    first : SensorExecutor
         Sensor 0 (e.g. the one that mapped the route); it keeps the first part.
     n_nodes : int
         Nodes of the whole map.
@@ -98,19 +94,21 @@ class SensorBank:
 
     Attributes
     ----------
-    sensors : list of SensorPipeline
+    sensors : list of SensorExecutor
     offsets : list of int
         The map index of each sensor's node 0.
     """
 
+    exact = True
+
     def __init__(
         self,
-        first: SensorPipeline,
+        first: SensorExecutor,
         n_nodes: int,
-        make: Callable[[int, int], SensorPipeline],
+        make: Callable[[int, int], SensorExecutor],
         per_sensor: int | None = None,
     ) -> None:
-        if first.params.preset != "robust":
+        if not first.plan.bank:
             raise PpalocError(
                 f"a map of {n_nodes} nodes needs more than one sensor; a bank runs the robust "
                 f"preset only (the paper preset holds at most {first.capacity} nodes): use "
@@ -122,8 +120,6 @@ class SensorBank:
         self.params: FilterParams = first.params
         self.representation = first.representation
         self.store = first.store
-        self.robust = True
-        self.alpha: int | None = None
         self.n_nodes = int(n_nodes)
         self.offsets = list(range(0, self.n_nodes, per))
         first.set_nodes(min(per, self.n_nodes))
@@ -146,11 +142,9 @@ class SensorBank:
         """Zero every sensor's weights, forget the previous frame and estimate."""
         for s in self.sensors:
             s.reset()
-        self.frames = 0
-        self.prev: int | None = None
 
     @property
-    def sim(self):
+    def sim(self) -> Scamp5:
         """Sensor 0's simulator (its chip and loop intervals stand for the bank's)."""
         return self.sensors[0].sim
 
@@ -162,47 +156,43 @@ class SensorBank:
         """Sensor 0's registers worth a picture, labelled ``"sensor 0, ..."``."""
         return {f"sensor 0, {k}": v for k, v in self.sensors[0].register_planes().items()}
 
-    # ------------------------------------------------------------------ frame
-    def step(self, frame: np.ndarray, moved: bool | None = None) -> tuple[int, float, bool, int]:
-        """Run one frame on every sensor; return ``(node, score, moved, T)`` of the map."""
-        sensors, sync = self.sensors, self.timing.sync
-        self.frames += 1
-        for s in sensors:
-            s.frames += 1
-            s.refresh()
-            s.capture(frame)
-            s.block_means()
-        if moved is None:
-            moved = sensors[0].motion()
-        sync()
-        first = self.frames == 1
-        if not first:
-            costs = transition_costs(bool(moved), self.params)
-            carries = [s.carry_out(len(costs) - 1) for s in sensors[:-1]]
-            sync()
-            for s, carry in zip(sensors[1:], carries, strict=True):
-                s.carry_in(carry)
-            for i, s in enumerate(sensors):
-                s.transition(costs, carried=i > 0)
-        if first or moved:
-            values = []
-            for s in sensors:
-                s.prepare_live()
-                values.append(s.robust_values())
-            sync()
-            best, mean = frame_statistics(np.concatenate(values))
-            shift = likelihood_shift(mean - best, int(self.params.gain))
-            for s in sensors:
-                s.robust_update(shift, best >> shift)
-        node, top = self._detect()
-        score = self._confidence(node, top)
-        for s in sensors:
-            s.normalise(top)
-            s.prev = node
-        self.prev = node
-        return node, score, bool(moved), top
+    # ------------------------------------------------------------------ the steps
+    def begin(self, frame: np.ndarray) -> None:
+        """Every sensor takes the frame (refresh, capture, block means)."""
+        for s in self.sensors:
+            s.begin(frame)
 
-    def _detect(self) -> tuple[int, int]:
+    def motion(self, decided: bool | None) -> bool:
+        """Sensor 0's motion decision (or the controller's), shared with the others."""
+        moved = self.sensors[0].motion(decided)
+        self.timing.sync()
+        return moved
+
+    def transition(self, costs: tuple[int, ...]) -> None:
+        """Every sensor's transition, the previous sensor's last weights carried into its
+        snake's start."""
+        sensors = self.sensors
+        carries = [s.carry_out(len(costs) - 1) for s in sensors[:-1]]
+        self.timing.sync()
+        for s, carry in zip(sensors[1:], carries, strict=True):
+            s.carry_in(carry)
+        for i, s in enumerate(sensors):
+            s.transition(costs, carried=i > 0)
+
+    def node_values(self) -> np.ndarray:
+        """Every sensor's node values, in map order."""
+        values = [s.node_values() for s in self.sensors]
+        self.timing.sync()
+        return np.concatenate(values)
+
+    def add_scaled(self, shift: int, alpha: float) -> None:
+        """Every sensor adds its terms with the common ``s`` and ``alpha_t``."""
+        for s in self.sensors:
+            s.add_scaled(shift, alpha)
+
+    def detect(self, prev: int | None) -> tuple[int, float]:
+        """``T``: the largest of the sensors' thresholds; the candidates: the union of
+        theirs at ``T``."""
         sensors, sync = self.sensors, self.timing.sync
         tops = []
         for s in sensors:
@@ -215,26 +205,35 @@ class SensorBank:
             for s, off, own in zip(sensors, self.offsets, tops, strict=True):
                 if own < top:
                     continue
-                prev = None if self.prev is None else self.prev - off
+                local = None if prev is None else prev - off
                 with s.sim.stage("detect"):
-                    nodes = s.candidates(top, prev)
+                    nodes = s.candidates(top, local)
                 found += [off + i for i in nodes or ()]
             sync()
             if found or top <= -127:
                 break
             top -= 1  # only with noise: the comparators hid every candidate this time
         if not found:
-            return (0 if self.prev is None else self.prev), top
-        return choose_candidate(np.array(sorted(found)), self.prev), top
+            return (0 if prev is None else prev), top
+        return choose_candidate(np.array(sorted(found)), prev), top
 
-    def _confidence(self, node: int, top: int) -> float:
+    def confidence(self, node: int, top: float) -> float:
+        """``T`` minus the largest of the sensors' maxima outside ``node +- R``."""
         r = self.params.confidence_radius
         if node - r <= 0 and node + r >= self.n_nodes - 1:
             return 0.0
         outs = []
         for s, off in zip(self.sensors, self.offsets, strict=True):
             with s.sim.stage("confidence"):
-                outs.append(s.outside_max(node - r - off, node + r - off, top))
+                outs.append(s.outside_max(node - r - off, node + r - off, int(top)))
         self.timing.sync()
         found = [o for o in outs if o is not None]
         return 0.0 if not found else float(top - max(found))
+
+    def rank(self, node: int) -> None:
+        """A bank reports no ranking."""
+
+    def normalise(self, top: float) -> None:
+        """Every sensor's normalisation takes the common ``T``."""
+        for s in self.sensors:
+            s.normalise(top)

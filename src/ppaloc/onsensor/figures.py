@@ -25,18 +25,23 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
+from ppaloc.onsensor.executor import SensorExecutor
+from ppaloc.onsensor.lbp import DESCRIPTOR
 from ppaloc.onsensor.localiser import OnSensorLocaliser
-from ppaloc.onsensor.pipeline import SensorPipeline
-from ppaloc.sim import R3, R9, D, E, F
+from ppaloc.onsensor.lowres import LowresPlaces, levels_difference
+from ppaloc.sim import R9, D, E, F, Kernel, Register
 from ppaloc.sim.render import render_montage, save_png
 
 __all__ = ["database_figure", "difference_figure", "weights_figure", "weights_history_image"]
 
 
-def _pipeline(localiser: OnSensorLocaliser) -> SensorPipeline:
-    if localiser.pipeline is None:
+def _pipeline(localiser: OnSensorLocaliser) -> SensorExecutor:
+    pipe = localiser.pipeline
+    if pipe is None:
         raise PpalocError("the localiser has no map yet: call build_map(frames) first")
-    return localiser.pipeline
+    if not isinstance(pipe, SensorExecutor):  # a bank: its first sensor
+        pipe = pipe.sensors[0]
+    return pipe
 
 
 def database_figure(
@@ -47,17 +52,17 @@ def database_figure(
     The low-res levels store is drawn as the values ``n`` its two registers give.
     """
     pipe = _pipeline(localiser)
-    if getattr(pipe, "store", None) == "levels":
-        planes = {"database tile 0 (n = A/2 + B/32)": pipe.map_plane(0)}
+    db = pipe.sensor.roles.db
+    if pipe.store == "levels":
+        planes = {"database tile 0 (n = A/2 + B/32)": pipe.places.map_plane(0)}  # type: ignore[attr-defined]
     else:
         planes = {
-            f"database tile {t} ({pipe.db[t].name})": pipe.sim.read(pipe.db[t])
-            for t in range(pipe.tiles)
+            f"database tile {t} ({db[t].name})": pipe.sim.read(db[t]) for t in range(pipe.tiles)
         }
     return render_montage(planes, path, scale=scale)
 
 
-def _weight_blocks(pipe: SensorPipeline) -> np.ndarray:
+def _weight_blocks(pipe: SensorExecutor) -> np.ndarray:
     """The weight register with each node's root value drawn over its block (tile 0)."""
     w = pipe.weights()
     n = min(len(w), pipe.layout.capacity)
@@ -107,36 +112,38 @@ def difference_figure(
     pipe = _pipeline(localiser)
     sim = pipe.sim
     localiser.step(frame)
-    db = pipe.db[0]
+    db = pipe.sensor.roles.db[0]
     planes = {"live frame (PIX as captured)": frame.astype(np.float32) / 2 - 64}
+    places = pipe.places
     with sim.stage("inspection"):
-        if pipe.representation == "lowres":
-            if pipe.robust and pipe.tiles > 1:  # the trees used F: load the frame again
+        if isinstance(places, LowresPlaces):
+            if places.live_overwritten():  # the trees used F: load the frame again
                 pipe.capture(frame)
-                pipe.block_means()
-                pipe.prepare_live()
-
-            levels = pipe.store == "levels"
-
-            def build(k):
-                if levels:
-                    pipe._levels_difference(k)  # f - n
-                else:
-                    k.add(D, F, db)
-                k.abs(E, D)
-
-            pipe._run("inspect_difference", build)
+                places.prepare_live()
+            pipe.sensor.run(_difference, places.levels, db)
             planes["replicated 8x8 grid (-F)"] = -sim.read(F)
-            name = "n = A/2 + B/32" if levels else db.name
-            planes[f"database ({name})"] = pipe.map_plane(0)
+            name = "n = A/2 + B/32" if places.levels else db.name
+            planes[f"database ({name})"] = places.map_plane(0)
             planes["difference |f - n| (E)"] = sim.read(E)
         else:
-            pipe.load_descriptor(pipe.last_code)  # R3 served as a temp since
-            pipe._run("inspect_xor", lambda k: k.XOR(R9, R3, db))
-            planes["replicated descriptor (R3)"] = sim.read(R3)
+            places.load_descriptor(places.last_code)  # type: ignore[attr-defined]
+            pipe.sensor.run(_xor, db)
+            planes[f"replicated descriptor ({DESCRIPTOR.name})"] = sim.read(DESCRIPTOR)
             planes[f"database ({db.name})"] = sim.read(db)
             planes["difference XOR (R9)"] = sim.read(R9)
     return render_montage(planes, path, scale=scale)
+
+
+def _difference(k: Kernel, levels: bool, db: Register) -> None:
+    if levels:
+        levels_difference(k)  # f - n
+    else:
+        k.add(D, F, db)
+    k.abs(E, D)
+
+
+def _xor(k: Kernel, db: Register) -> None:
+    k.XOR(R9, DESCRIPTOR, db)
 
 
 def weights_history_image(

@@ -32,10 +32,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ppaloc.sim import NEWS, D, E, Register
+from ppaloc.sim import NEWS, D, E, Kernel, Register
 
-if TYPE_CHECKING:  # the pipeline imports this module
-    from ppaloc.onsensor.core import SensorPipeline
+if TYPE_CHECKING:  # the sensor imports nothing of this module; only the types are needed
+    from ppaloc.onsensor.sensor import Sensor
 
 __all__ = [
     "CALIBRATION_CHAINS",
@@ -66,7 +66,7 @@ CALIBRATION_CHAINS = 4
 RESTORE_STEP = 4
 
 
-def calibrate(pipe: SensorPipeline) -> float:
+def calibrate(pipe: Sensor) -> float:
     """The array's mean log transfer gain per ``bus`` write, measured on the array.
 
     Per chain (:data:`CALIBRATION_CHAINS`): ``D := CALIBRATION_LEVEL`` (the DAC),
@@ -75,23 +75,27 @@ def calibrate(pipe: SensorPipeline) -> float:
     Uses ``D``, ``E`` and ``NEWS`` (free at start-up); stage ``"calibrate"``.
     """
     sim = pipe.sim
-
-    def chain(k):
-        for _ in range(CALIBRATION_WRITES // 2):
-            k.bus(E, D)
-            k.bus(D, E)
-
     logs = []
     with sim.stage("calibrate"):
-        pipe._run("all", lambda k: k.all())
+        pipe.run(_all)
         for _ in range(CALIBRATION_CHAINS):
             sim.scamp5_in(D, CALIBRATION_LEVEL)
-            pipe._run("gain_chain", chain)
+            pipe.run(_chain)
             mean = float(sim.scan_areg_mean_8x8(D).astype(np.float64).mean()) - 128.0
             if mean <= 0:  # a gain beyond any SCAMP-5's: nothing sensible to correct
                 return 0.0
             logs.append(math.log(mean / CALIBRATION_LEVEL))  # code = floor(mean + 128.5)
     return float(np.mean(logs)) / CALIBRATION_WRITES
+
+
+def _all(k: Kernel) -> None:
+    k.all()
+
+
+def _chain(k: Kernel) -> None:
+    for _ in range(CALIBRATION_WRITES // 2):
+        k.bus(E, D)
+        k.bus(D, E)
 
 
 class WeightScale:
@@ -140,7 +144,7 @@ class WeightScale:
 RESTORE_WRITES = 2
 
 
-def restore(pipe: SensorPipeline, reg: Register, mask: Register, sign: int, step: int) -> None:
+def restore(pipe: Sensor, reg: Register, mask: Register, sign: int, step: int) -> None:
     """``reg := reg (1 + sign 2**-step)`` where ``mask`` is set (the node roots).
 
     ``step`` halvings alternate between ``D`` and ``E`` (each ``bus2`` negates, so the
@@ -148,19 +152,19 @@ def restore(pipe: SensorPipeline, reg: Register, mask: Register, sign: int, step
     ``NEWS := -(reg + term)``, ``reg := -NEWS``: two writes on the weights. ``D``, ``E``
     and ``NEWS`` must be free (the end of the robust transition).
     """
+    pipe.run(_restore, reg, mask, sign, step)
 
-    def build(k):
-        k.WHERE(mask)
-        cur, other = reg, D
-        for _ in range(step):
-            k.bus2(other, NEWS, cur)  # other = -cur / 2
-            cur, other = other, (E if other is D else D)
-        # cur = (-1)**step reg 2**-step; the term must be sign reg 2**-step
-        if (-1) ** step != sign:
-            k.bus(other, cur)
-            cur = other
-        k.bus(NEWS, reg, cur)
-        k.bus(reg, NEWS)
-        k.all()
 
-    pipe._run(f"restore_{reg.name}_{'up' if sign > 0 else 'down'}_{step}", build)
+def _restore(k: Kernel, reg: Register, mask: Register, sign: int, step: int) -> None:
+    k.WHERE(mask)
+    cur, other = reg, D
+    for _ in range(step):
+        k.bus2(other, NEWS, cur)  # other = -cur / 2
+        cur, other = other, (E if other is D else D)
+    # cur = (-1)**step reg 2**-step; the term must be sign reg 2**-step
+    if (-1) ** step != sign:
+        k.bus(other, cur)
+        cur = other
+    k.bus(NEWS, reg, cur)
+    k.bus(reg, NEWS)
+    k.all()

@@ -3,7 +3,7 @@
 Every node is a 32-bit LBP code in a 4x8 PE block of a digital database register
 (``R10``, ``R11``: 2048 nodes per tile on a 256 array). Each frame the live code is
 computed on the array from the block means, read by the controller, replicated into
-every 4x8 block and compared by XOR, its bits counted per block by an adding tree
+every 4x8 block and compared by XOR, its bits counted per block by a tree
 (docs/onsensor.md).
 """
 
@@ -13,9 +13,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from ppaloc.onsensor.core import DRegs, SensorPipeline, mask_bits
+from ppaloc.onsensor.places import Places, Tree
 from ppaloc.onsensor.program import add_level, halve_level
-from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, A, B, D, E, east, south
+from ppaloc.onsensor.roles import DRegs, Roles
+from ppaloc.onsensor.sensor import mask_bits
+from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, A, B, D, E, Kernel, Register, east, south
 
 __all__ = [
     "DESCRIPTOR",
@@ -23,8 +25,9 @@ __all__ = [
     "LBP_CENTRES",
     "LBP_DREGS",
     "LBP_NEIGHBOURS",
+    "LBP_ROLES",
     "ROOTS",
-    "LbpPipeline",
+    "LbpPlaces",
 ]
 
 #: Neighbour offsets of an LBP code, MSB first: clockwise from the top-left (docs/ppa8.md).
@@ -36,8 +39,8 @@ LBP_CENTRES = ((2, 2), (2, 5), (5, 2), (5, 5))
 #: and read by the spread of the block means) and ``pattern`` (node roots of one tile in
 #: the comparison, the window of the detection), which each stage reloads before use.
 ROOTS = R1
-#: The replicated frame descriptor: the same register as ``tmp_b`` (R3), so it lives
-#: from :meth:`LbpPipeline.load_descriptor` to the comparison only (detection reuses R3).
+#: The replicated frame descriptor: the same register as ``tmp_b`` (R3), so it lives from
+#: :meth:`LbpPlaces.load_descriptor` to the comparison only (detection reuses R3).
 DESCRIPTOR = R3
 #: The descriptor's pattern temp: the same register as ``tmp_a`` (R4).
 DESCRIPTOR_TMP = R4
@@ -46,77 +49,61 @@ DESCRIPTOR_TMP = R4
 LBP_DREGS = DRegs(
     valid=R2, cand=R9, tmp_a=DESCRIPTOR_TMP, tmp_b=DESCRIPTOR, pattern=ROOTS, root32=ROOTS
 )
+#: Every register role of the LBP pipeline: the map in ``R10``, ``R11`` (refreshed with
+#: the valid node roots ``R2`` at every capture); ``+m`` at the block roots in ``B``;
+#: robust: minus the weights in ``A`` from the update to the next transition.
+LBP_ROLES = Roles(
+    db=(R10, R11),
+    d=LBP_DREGS,
+    static=(R2, R10, R11),
+    negated=A,
+    root_means=B,
+    in_turn=(("d.pattern", "d.root32"),),
+)
 
 
-class LbpPipeline(SensorPipeline):
-    """The pipeline for 32-bit LBP descriptors (see :class:`SensorPipeline`).
-
-    Registers: database tiles in ``R10``, ``R11``; block roots and node-root patterns
-    share ``R1`` (:data:`ROOTS`); valid node roots in ``R2``; the replicated descriptor in
-    ``R3`` (also ``tmp_b``) with its temp ``R4`` (also ``tmp_a``); candidates in ``R9``;
-    ``+m`` at the block roots in ``B``; robust: minus the weights in ``A`` from the
-    update to the next transition (:attr:`SensorPipeline.NEGATED`).
-    """
+class LbpPlaces(Places):
+    """32-bit LBP descriptors on the sensor (see the module docstring)."""
 
     representation = "lbp"
-    dr = LBP_DREGS
-    db = (R10, R11)
-    static_masks = (R2, R10, R11)  # valid roots, database tiles
+    roles = LBP_ROLES
     stores: ClassVar[dict[str, int]] = {"digital": 2}
-    root_means = B
-    NEGATED = A  # minus the weights after the update (A is otherwise free)
     spread_means = False  # only the image motion model needs F = -m over the blocks
-
-    def reset(self) -> None:
-        """Zero the weights, forget the previous frame, estimate and live descriptor."""
-        super().reset()
-        self.last_code = 0  # the controller's copy of the last live descriptor
-
-    def _describe(self) -> int:
-        """The live descriptor of :meth:`descriptor`."""
-        return self.descriptor()
-
     #: The tree leaves ``mu = 2h`` at each node root.
     value_scale = (1, 0)
+    #: The DAC constant loaded per differing bit: the adding tree (paper) sums ``2`` per
+    #: bit (``mu = 2h``), the halving tree (the scaled readout) averages ``64``.
+    BIT_VALUE: ClassVar[dict[bool, int]] = {False: 2, True: 2 * 32}
+
+    def reset(self) -> None:
+        """Forget the live descriptor."""
+        self.last_code = 0  # the controller's copy of the last live descriptor
+
+    def describe(self) -> int:
+        """The live descriptor of :meth:`descriptor`."""
+        return self.descriptor()
 
     def prepare_live(self) -> None:
         """Compute and read the live descriptor and replicate it (:data:`DESCRIPTOR`)."""
         code = self.last_code = self.descriptor()
         self.load_descriptor(code)
 
-    def compare_paper(self) -> None:
-        """Paper: :meth:`compare_lbp`."""
-        self.compare_lbp()
-
-    #: The DAC constant loaded per differing bit: the paper preset's adding tree sums
-    #: ``2`` per bit (``mu = 2h``), the robust preset's halving tree averages ``64``.
-    BIT_VALUE: ClassVar[dict[bool, int]] = {False: 2, True: 2 * 32}
-
-    def _tree_calls(self, tile: int) -> None:
+    def tree_calls(self, tile: int, halving: bool) -> None:
         """``E :=`` the value of one differing bit (:attr:`BIT_VALUE`), through the DAC."""
-        self.sim.scamp5_in(E, self.BIT_VALUE[self.robust])
+        self.sensor.sim.scamp5_in(E, self.BIT_VALUE[halving])
 
-    def _tree(self, k, tile: int) -> None:
+    def tree(self, tile: int, halving: bool) -> Tree:
         """``D = 2h = mu`` at each node root, ``h`` the differing bits (``E`` loaded first).
 
-        Paper: an adding tree of 2 per differing bit (``mu`` itself, <= 64, cannot
-        saturate). Robust: a halving tree of 64 per differing bit over the 32 PEs (the
-        positive sums ``-(q + q')`` lie in [-128, 0], and every halving is exact), which
-        halves the write noise of the levels below at every level where the adding tree
-        sums it: under the typical preset about 1 unit of ``mu`` instead of 6.6.
+        Adding tree (the paper's): 2 per differing bit (``mu`` itself, <= 64, cannot
+        saturate). Halving tree (the scaled readout): 64 per differing bit averaged over
+        the 32 PEs (the positive sums ``-(q + q')`` lie in [-128, 0], and every halving is
+        exact), which halves the write noise of the levels below at every level where the
+        adding tree sums it: under the typical preset about 1 unit of ``mu`` instead of 6.6.
         """
-        k.XOR(self.dr.cand, DESCRIPTOR, self.db[tile])
-        k.res(D)
-        k.WHERE(self.dr.cand)
-        k.mov(D, E)
-        k.all()
-        level = halve_level if self.robust else add_level
-        for step in (1, 2, 4):
-            level(k, D, E, east, step)
-        for step in (1, 2):
-            level(k, D, E, south, step)
+        return (_tree, (self.roles.d.cand, self.roles.db[tile], halving))
 
-    def _values(self, codes: np.ndarray) -> np.ndarray:
+    def values(self, codes: np.ndarray) -> np.ndarray:
         """``r = code - 128 = mu = 2h`` (exact: ``mu`` is an integer)."""
         return codes - 128
 
@@ -129,53 +116,59 @@ class LbpPipeline(SensorPipeline):
         ``where(m_centre - m_neighbour)`` decides the bit (neighbour >= centre) at the four
         cell-centre roots, read by point ``global_or``s.
         """
-        sim, dr, means = self.sim, self.dr, self.root_means
+        sensor = self.sensor
+        sim, dr, means = sensor.sim, self.roles.d, self.roles.root_means
         code = 0
         with sim.stage("lbp"):
             for j, (drow, dcol) in enumerate(LBP_NEIGHBOURS):
-                self._run("lbp_copy", lambda k: k.bus(E, means))  # E = -m
+                sensor.run(_neg_copy, E, means)  # E = -m
                 # E[x] := -m of the neighbour block: the picture moves by minus the offset
-                sim.shift(E, -dcol * self.block, drow * self.block)
-
-                def build(k):
-                    k.where(means, E)  # centre > neighbour
-                    k.NOT(dr.cand, FLAG)  # neighbour >= centre
-                    k.all()
-
-                self._run("lbp_compare", build)
+                sim.shift(E, -dcol * sensor.block, drow * sensor.block)
+                sensor.run(_compare, means, dr.cand)
                 for cell, (gi, gj) in enumerate(LBP_CENTRES):
-                    if sim.global_or(dr.cand, gi * self.block, gj * self.block, 0, 0):
+                    if sim.global_or(dr.cand, gi * sensor.block, gj * sensor.block, 0, 0):
                         code |= 1 << (31 - (cell * 8 + j))
         return code
 
     def load_descriptor(self, code: int) -> None:
         """Replicate a 32-bit code into every 4x8 block of :data:`DESCRIPTOR` (R3)."""
-        sim = self.sim
+        sensor = self.sensor
+        sim = sensor.sim
         with sim.stage("lbp"):
-            self._run("desc_clr", lambda k: k.CLR(DESCRIPTOR))
+            sensor.run(_clr, DESCRIPTOR)
             for b in range(32):
                 if code >> (31 - b) & 1:
-                    bits_r, bits_c = mask_bits(self.bh), mask_bits(self.bw)
+                    bits_r, bits_c = mask_bits(sensor.bh), mask_bits(sensor.bw)
                     sim.load_pattern(DESCRIPTOR_TMP, b // 8, b % 8, bits_r, bits_c)
-                    self._run("desc_or", lambda k: k.OR(DESCRIPTOR, DESCRIPTOR_TMP))
+                    sensor.run(_or, DESCRIPTOR, DESCRIPTOR_TMP)
 
-    def compare_lbp(self) -> None:
-        """Per tile: ``w += alpha - 2 h 2**-s``, ``h`` the count of XOR bits in the block.
 
-        Each differing bit loads 2 (the DAC constant), so the adding tree leaves
-        ``mu = 2h`` itself (<= 64): the largest signal that cannot saturate, which keeps
-        the write offsets of the tree small beside it.
-        """
-        sim, dr, p = self.sim, self.dr, self.params
-        with sim.stage("compare"):
-            for t in range(self.tiles):
-                self._tree_calls(t)
-                self._root_pattern(dr.pattern, t)
-                sim.load_in(self.alpha)
+def _neg_copy(k: Kernel, y: Register, x: Register) -> None:
+    k.bus(y, x)
 
-                def build(k, t=t):
-                    self._tree(k, t)
-                    # D = 2h = mu; mu_s = mu 2**-s
-                    self._update(k, D, E, 1, -p.shift, t)
 
-                self._run(f"hamming_{t}", build)
+def _compare(k: Kernel, means: Register, cand: Register) -> None:
+    k.where(means, E)  # centre > neighbour
+    k.NOT(cand, FLAG)  # neighbour >= centre
+    k.all()
+
+
+def _clr(k: Kernel, reg: Register) -> None:
+    k.CLR(reg)
+
+
+def _or(k: Kernel, reg: Register, x: Register) -> None:
+    k.OR(reg, x)
+
+
+def _tree(k: Kernel, cand: Register, db: Register, halving: bool) -> None:
+    k.XOR(cand, DESCRIPTOR, db)
+    k.res(D)
+    k.WHERE(cand)
+    k.mov(D, E)
+    k.all()
+    level = halve_level if halving else add_level
+    for step in (1, 2, 4):
+        level(k, D, E, east, step)
+    for step in (1, 2):
+        level(k, D, E, south, step)

@@ -2,27 +2,30 @@
 
 It implements :class:`ppaloc.localise.base.Localiser`, so evaluation treats it like any
 other method. The map lives in the simulated sensor's registers (written by
-:func:`ppaloc.onsensor.mapping.upload_map`), and every frame runs the pipeline of
-:func:`ppaloc.onsensor.pipeline.make_pipeline`. In ideal mode the estimates equal those
-of ``WeightedNodeLocaliser(arithmetic="ppa8")`` with the same parameters (docs/ppa8.md,
-docs/onsensor.md); with a noise preset they show what the analogue array does to them.
+:func:`ppaloc.onsensor.mapping.upload_map`), and every frame is the preset's schedule
+(:mod:`ppaloc.localise.schedule`, the host's own) run on the sensor executor of
+:func:`ppaloc.onsensor.pipeline.make_pipeline`, or on a bank of them. In ideal mode the
+estimates equal those of ``WeightedNodeLocaliser(arithmetic="ppa8")`` with the same
+parameters (docs/ppa8.md, docs/onsensor.md); with a noise preset they show what the
+analogue array does to them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.base import Estimate
-from ppaloc.localise.motion import OracleMotion
-from ppaloc.localise.params import FilterParams
-from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.localise.base import DatasetNeed, Estimate, MethodParam
+from ppaloc.localise.params import FilterParams, check_int, filter_method_params
+from ppaloc.localise.schedule import Schedule, make_schedule
+from ppaloc.localise.weighted import MAX_RANKING, check_representation, oracle_needs
 from ppaloc.onsensor.bank import SensorBank
+from ppaloc.onsensor.executor import PLACES, SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
-from ppaloc.onsensor.pipeline import PIPELINES, SensorPipeline, make_pipeline
+from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.onsensor.precursor import STRUCTURES, loop_counts, structure_counts
 from ppaloc.sim import NoiseParams
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
@@ -65,24 +68,29 @@ class OnSensorLocaliser:
     sensor_nodes : int, optional
         At most this many nodes per sensor (default: a sensor's capacity); smaller values
         make small banks, e.g. for tests.
+    ranking_k : int
+        Accepted (as the host filter's) but the sensor reports no ranking.
+    oracle_moves : sequence of bool, optional
+        Ground-truth moves for ``motion="oracle"`` (the controller's input).
     **filter_params
-        The filter's parameters, with the defaults and checks of
-        :class:`ppaloc.localise.weighted.WeightedNodeLocaliser` (one
-        :class:`ppaloc.localise.params.FilterParams`, :attr:`params`): ``preset``,
-        ``motion``, ``motion_margin``, ``motion_shift``, ``motion_min_support``,
-        ``confidence_radius``, ``keyframes``, ``oracle_moves``; robust ``gain``,
-        ``memory``, ``stay_cost``, ``move_cost``, ``skip_cost``, ``max_advance``; paper
-        ``alpha``, ``gamma``, ``k``, ``shift``, ``advance`` (must be (1, 1)).
-        ``ranking_k`` is accepted but the sensor reports no ranking.
+        The filter's parameters, each with its one default and range
+        (:class:`ppaloc.localise.params.FilterParams`, :attr:`params`, the host's
+        object): ``preset``, ``motion``, ``motion_margin``, ``motion_shift``,
+        ``motion_min_support``, ``confidence_radius``, ``keyframes``; robust ``gain``,
+        ``memory``, ``stay_cost``, ``move_cost``, ``skip_cost``, ``max_advance``,
+        ``contrast``; paper ``alpha``, ``gamma``, ``k``, ``shift``, ``advance`` (must be
+        (1, 1)).
 
     Attributes
     ----------
     params : FilterParams
-        The resolved parameters, the host's object: the pipeline reads the same one.
+        The resolved parameters, the host's object: the executor reads the same one.
+    schedule : Schedule
+        The preset's frame (:mod:`ppaloc.localise.schedule`), the host's own.
     preset : {"robust", "paper"}
-    pipeline : SensorPipeline, SensorBank or None
-        The simulated sensor holding the map, or the bank of them for a map larger than
-        one sensor (None before a map).
+    pipeline : SensorExecutor, SensorBank or None
+        The simulated sensor holding the map (the schedule's executor), or the bank of
+        them for a map larger than one sensor (None before a map).
 
     Notes
     -----
@@ -104,8 +112,11 @@ class OnSensorLocaliser:
         timing_structure: str = "ppaloc",
         store: str | None = None,
         sensor_nodes: int | None = None,
+        ranking_k: int = 10,
+        oracle_moves: Sequence[bool] | np.ndarray | None = None,
         **filter_params: Any,
     ) -> None:
+        check_representation(representation)
         if timing_structure not in STRUCTURES:
             raise PpalocError(
                 f"timing_structure={timing_structure!r} is not one of {', '.join(STRUCTURES)}"
@@ -120,34 +131,25 @@ class OnSensorLocaliser:
                 f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "
                 "use arithmetic='ppa8' (or the host WeightedNodeLocaliser for 'float')"
             )
-        # The host filter validates every parameter (with the same defaults) and chooses
-        # the paper's alpha from the map; the sensor reads the host's FilterParams.
-        try:
-            self._host = WeightedNodeLocaliser(representation, arithmetic="ppa8", **filter_params)
-        except TypeError as exc:
-            raise PpalocError(f"OnSensorLocaliser: {exc}") from exc
-        self.params: FilterParams = self._host.params
+        self.params: FilterParams = FilterParams.create(
+            representation, arithmetic="ppa8", **filter_params
+        )
+        check_int("ranking_k", ranking_k, 0, MAX_RANKING)  # accepted; the sensor ranks none
+        self.schedule: Schedule = make_schedule(self.params, oracle_moves)
         p = self.params
-        if p.preset == "paper":
-            if p.advance != (1, 1):
-                raise PpalocError(
-                    f"advance={p.advance!r}: the sensor shifts weights by exactly one node "
-                    "per forward move (the paper's motion model); use advance=(1, 1)"
-                )
-            if p.shift > 8:
-                raise PpalocError(f"shift={p.shift} is too large for the sensor; use 0..8")
+        if p.advance is not None and p.advance != (1, 1):
+            raise PpalocError(
+                f"advance={p.advance!r}: the sensor shifts weights by exactly one node "
+                "per forward move (the paper's motion model); use advance=(1, 1)"
+            )
+        if p.shift is not None and p.shift > 8:
+            raise PpalocError(f"shift={p.shift} is too large for the sensor; use 0..8")
         self.preset = p.preset
         self.representation = representation
         self.noise = noise
         self.seed = int(seed)
         self.size = int(size)
-        stores = PIPELINES[representation].stores if representation in PIPELINES else {}
-        if store is not None and store not in stores:
-            raise PpalocError(
-                f"store={store!r} is not a {representation} map store; use one of "
-                f"{', '.join(stores)}"
-            )
-        self.store = store
+        self.store = PLACES[representation].choose_store(self.schedule.sensor, store)
         if sensor_nodes is not None and (isinstance(sensor_nodes, bool) or int(sensor_nodes) < 1):
             raise PpalocError(f"sensor_nodes={sensor_nodes!r} must be a positive integer")
         self.sensor_nodes = None if sensor_nodes is None else int(sensor_nodes)
@@ -155,34 +157,55 @@ class OnSensorLocaliser:
         self.timing_structure = timing_structure
         self.frame_times: list[tuple[Interval, Interval]] = []
         self.motion = p.motion
-        # the oracle's moves are the controller's input; the host has checked them
-        moves = filter_params.get("oracle_moves")
-        self._oracle = OracleMotion(moves) if self.motion == "oracle" else None
         self.name = f"onsensor-{representation}"
         self.topomap: TopoMap | None = None
-        self.pipeline: SensorPipeline | None = None
+        self.pipeline: SensorExecutor | SensorBank | None = None
         self._last_counts: tuple[Any, int, dict] | None = None
+
+    @classmethod
+    def parameters(cls) -> tuple[MethodParam, ...]:
+        """Every keyword this localiser takes: its own options, then the filter's
+        parameters (:class:`~ppaloc.localise.params.FilterParams`)."""
+        return (
+            MethodParam("representation", str, "lowres"),
+            MethodParam("noise", str | NoiseParams, "ideal", doc="ideal, low, typical, high"),
+            MethodParam("seed", int, 0, 0, 2**63 - 1, "seed of the simulator's noise"),
+            MethodParam("arithmetic", str, "ppa8"),
+            MethodParam("record_weights", bool, False),
+            MethodParam("size", int, 256, 16, 256, "array side (multiples of 64)"),
+            MethodParam("timing_structure", str, "ppaloc", doc=", ".join(STRUCTURES)),
+            MethodParam("store", str | None, None, doc="the map store (docs/onsensor.md)"),
+            MethodParam("sensor_nodes", int | None, None, doc="at most this many nodes a sensor"),
+            MethodParam("ranking_k", int, 10, 0, MAX_RANKING, "accepted; the sensor ranks none"),
+            MethodParam("oracle_moves", Any, None),
+            *filter_method_params(),
+        )
+
+    @classmethod
+    def dataset_needs(cls, params: Mapping[str, Any]) -> dict[str, DatasetNeed]:
+        """The true moves for ``motion="oracle"`` (the controller's input)."""
+        return oracle_needs(params)
 
     @property
     def alpha(self) -> float | None:
         """Paper: the likelihood offset in use (chosen from the map when not given).
 
-        None for the robust preset (``alpha_t`` is chosen per frame: the pipeline's
+        None for the robust preset (``alpha_t`` is chosen per frame: the executor's
         ``last_alpha``).
         """
-        return self._host.alpha
+        return self.schedule.alpha
 
     # -- map ---------------------------------------------------------------------------
     def build_map(self, frames: Iterable[np.ndarray]) -> TopoMap:
         """Map a reference traversal on the sensor and write the map into its registers.
 
         Every frame is captured and described by the sensor itself
-        (:meth:`SensorPipeline.sense_node`: the block means read through the ADC, or the
+        (:meth:`SensorExecutor.sense_node`: the block means read through the ADC, or the
         descriptor compared on the array), so with noise the map carries the same
         fixed-pattern errors as the queries. One node per frame, or with ``keyframes``
         (the robust default with the image motion model) one per distinct place: the
         sensor's own motion stage runs over consecutive reference frames and a frame
-        starts a node when it says forward (:meth:`SensorPipeline.map_keyframes`);
+        starts a node when it says forward (:meth:`SensorExecutor.map_keyframes`);
         ``frame_index`` holds the kept frames and ``params["n_frames"]`` the frame
         count. In ideal mode the kept frames and nodes equal the host's ``build_map``.
         The nodes are then written into the database registers
@@ -221,35 +244,43 @@ class OnSensorLocaliser:
 
     def use_map(self, topomap: TopoMap) -> None:
         """Write ``topomap`` (e.g. loaded from a file) into a fresh simulated sensor."""
-        if topomap.kind != self.representation:
-            self._host.use_map(topomap)  # raises the host's clear error
+        self._check_map(topomap)
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
         self._install(topomap, self._place(len(topomap), self._new_pipeline(capacity)))
+
+    def _check_map(self, topomap: TopoMap) -> None:
+        if topomap.kind != self.representation:
+            raise PpalocError(
+                f"the map holds {topomap.kind!r} nodes but this localiser uses "
+                f"{self.representation!r} nodes; localise it with representation="
+                f"{topomap.kind!r}, or build a map with representation={self.representation!r}"
+            )
+        if len(topomap) == 0:
+            raise PpalocError("the map has no nodes")
 
     def _noise_name(self) -> str:
         return self.noise if isinstance(self.noise, str) else "custom"
 
-    def _new_pipeline(self, n_nodes: int, index: int = 0) -> SensorPipeline:
-        # the oracle's decisions come from the controller (step(moved=...)); the paper's
-        # alpha is set in _install, once the map is known; sensor i of a bank has its own
-        # noise seed (sensor 0's is the localiser's)
+    def _new_pipeline(self, n_nodes: int, index: int = 0) -> SensorExecutor:
+        # sensor i of a bank has its own noise seed (sensor 0's is the localiser's)
         return make_pipeline(
             self.representation,
             n_nodes,
             self.params,
+            plan=self.schedule.sensor,
             noise=self.noise,
             seed=self.seed + 7919 * index,
             size=self.size,
             store=self.store,
         )
 
-    def _place(self, n_nodes: int, first: SensorPipeline) -> SensorPipeline | SensorBank:
+    def _place(self, n_nodes: int, first: SensorExecutor) -> SensorExecutor | SensorBank:
         """``first`` holding ``n_nodes`` nodes, or a bank starting with it if they don't fit."""
         per = first.capacity if self.sensor_nodes is None else self.sensor_nodes
         if n_nodes <= min(per, first.capacity):
             first.set_nodes(n_nodes)
             return first
-        carry = self.params.transition_defaults()[3] if self.params.preset == "robust" else 1
+        carry = self.schedule.max_advance
         if per < carry:
             raise PpalocError(
                 f"sensor_nodes={per} is too small for a bank: each sensor must hold at least "
@@ -257,10 +288,9 @@ class OnSensorLocaliser:
             )
         return SensorBank(first, n_nodes, self._new_pipeline, per)
 
-    def _install(self, topomap: TopoMap, pipe: SensorPipeline | SensorBank) -> None:
-        self._host.use_map(topomap)  # checks the map and chooses the paper's alpha from it
-        if self._host.alpha is not None:
-            pipe.alpha = int(self._host.alpha)
+    def _install(self, topomap: TopoMap, pipe: SensorExecutor | SensorBank) -> None:
+        self._check_map(topomap)
+        self.schedule.use_map(topomap)  # the paper's alpha, chosen from the map
         if isinstance(pipe, SensorBank):
             pipe.upload(topomap)
         else:
@@ -282,18 +312,16 @@ class OnSensorLocaliser:
         """Zero the weight register and forget the previous frame (the map stays)."""
         if self.pipeline is not None:
             self.pipeline.reset()
-        if self._oracle is not None:
-            self._oracle.reset()
+        self.schedule.reset()
         self.frame_times = []
 
     def step(self, frame: np.ndarray) -> Estimate:
-        """Localise one sensor frame ((size, size) uint8) on the simulated sensor."""
+        """Localise one sensor frame ((size, size) uint8): the schedule on the sensor."""
         pipe = self.pipeline
         if pipe is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
         frame = np.asarray(frame)
         self._check_frame(frame)
-        moved = None if self._oracle is None else self._oracle.step(frame)
         timing = pipe.timing  # a bank's: the slowest sensor per phase plus the exchanges
         t0, e0 = timing.now_us, timing.energy_uj
         counts = pipe.sim.timing  # a bank's chip and loop intervals are sensor 0's
@@ -302,15 +330,15 @@ class OnSensorLocaliser:
             before = last[2]
         else:
             before = counts.counts_by_stage()
-        node, score, moved, _ = pipe.step(frame, moved)
+        r = self.schedule.step(pipe, frame)
         after = counts.counts_by_stage()
         self._last_counts = (counts, counts.charges, after)
-        self._time_frame(frame, diff_counts(after, before), bool(moved))
+        self._time_frame(frame, diff_counts(after, before), bool(r.moved))
         weights = pipe.weights() if self.record_weights else None
         return Estimate(
-            node=int(node),
-            score=float(score),
-            moved=moved,
+            node=int(r.node),
+            score=float(r.score),
+            moved=r.moved,
             ranking=None,
             weights=weights,
             modelled_latency_ms=(timing.now_us - t0) / 1000.0,

@@ -8,15 +8,16 @@ in one of two map stores (docs/onsensor.md, "Map store"):
 - ``"levels"`` (the robust preset's default): each pixel's two 4-bit halves ``q = 16 h +
   l`` as levels 16 apart in ``A`` (``16 h - 120``) and ``B`` (``16 l - 128``), one tile
   per sensor. Levels 16 apart survive droop and write noise: every few frames a ladder of
-  15 comparisons rewrites each register with exact DAC levels (:meth:`refresh`), and the
-  comparison rebuilds ``n = H/2 + L/32`` exactly (ideal mode) before its tree.
+  15 comparisons rewrites each register with exact DAC levels (:meth:`LowresPlaces.refresh`),
+  and the comparison rebuilds ``n = H/2 + L/32`` exactly (ideal mode) before its tree.
 
 Each frame the live 8x8 grid of block means is replicated over every node block and
-compared by the clipped absolute difference, summed by a halving tree per block. The
-paper preset replicates the exact means by shifts; the robust preset reads the grid's 64
-codes, contrast-normalises them on the controller (:func:`ppaloc.place.normalise_contrast`,
-as its map's nodes were before upload) and loads them through the DAC
-(:meth:`LowresPipeline.load_live`).
+compared by the clipped absolute difference, summed by a halving tree per block. Where
+the filter compares contrast-normalised images (``FilterParams.contrast``, the robust
+preset) the controller reads the grid's 64 codes, normalises them
+(:func:`ppaloc.place.normalise_contrast`, as its map's nodes were before upload) and
+loads them through the DAC (:meth:`LowresPlaces.load_live`); otherwise the exact means
+are replicated by shifts (:meth:`LowresPlaces.replicate`).
 """
 
 from __future__ import annotations
@@ -25,8 +26,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from ppaloc.onsensor.core import GRID, DRegs, SensorPipeline
+from ppaloc.onsensor.places import Places, Tree
 from ppaloc.onsensor.program import halve_level, pull_shift
+from ppaloc.onsensor.roles import DRegs, Roles
+from ppaloc.onsensor.sensor import GRID
 from ppaloc.place import normalise_contrast
 from ppaloc.sim import (
     IN,
@@ -44,6 +47,7 @@ from ppaloc.sim import (
     Direction,
     E,
     F,
+    Kernel,
     Register,
     east,
     north,
@@ -52,7 +56,7 @@ from ppaloc.sim import (
 )
 from ppaloc.topomap import TopoMap
 
-__all__ = ["LOWRES_DREGS", "ROOTS", "LowresPipeline"]
+__all__ = ["LOWRES_DREGS", "LOWRES_ROLES", "ROOTS", "LowresPlaces"]
 
 #: R3 holds two roles in turn: ``root32`` (the 32x32 block roots, loaded at every capture
 #: and read by the spread of the block means) and ``pattern`` (node roots of one tile in
@@ -62,20 +66,24 @@ ROOTS = R3
 #: Digital register roles of the low-res pipeline (``pattern`` and ``root32`` are both
 #: :data:`ROOTS`).
 LOWRES_DREGS = DRegs(valid=R4, cand=R9, tmp_a=R10, tmp_b=R11, pattern=ROOTS, root32=ROOTS)
+#: Every register role of the low-res pipeline: the map in ``A``, ``B``; the replication
+#: class masks (rows, columns) in ``R1``, ``R2`` and the valid node roots in ``R4``,
+#: refreshed at every capture.
+LOWRES_ROLES = Roles(
+    db=(A, B),
+    d=LOWRES_DREGS,
+    static=(R1, R2, R4),
+    in_turn=(("d.pattern", "d.root32"),),
+)
 
 
-class LowresPipeline(SensorPipeline):
-    """The pipeline for low-res 8x8 place images (see :class:`SensorPipeline`).
-
-    Registers: database tiles in ``A``, ``B``; replication class masks (rows, columns) in
-    ``R1``, ``R2``; block roots and node-root patterns share ``R3`` (:data:`ROOTS`); valid
-    node roots in ``R4``; candidates and temps in ``R9``-``R11``.
-    """
+class LowresPlaces(Places):
+    """Low-res 8x8 place images on the sensor (see the module docstring)."""
 
     representation = "lowres"
-    dr = LOWRES_DREGS
-    db = (A, B)
+    roles = LOWRES_ROLES
     stores: ClassVar[dict[str, int]] = {"levels": 1, "analogue": 2}
+    spread_means = True
     #: Levels store: the level of 0 in ``A`` (high halves) and ``B`` (low halves); levels
     #: are ``LEVEL_STEP`` apart, so a value is restored while its error stays below 8.
     LEVEL_BASES = (-120, -128)
@@ -85,13 +93,28 @@ class LowresPipeline(SensorPipeline):
     REFRESH_EVERY = 4
     #: Replication class masks: rows, columns whose residue mod 8 is their block's index.
     class_masks: tuple[Register, Register] = (R1, R2)
-    static_masks = (R1, R2, R4)  # class masks, valid roots
-    spread_means = True
+    #: The tree leaves ``-mu / 2`` at each node root.
+    value_scale = (-1, 1)
+    #: Address-pattern "don't care" bits of :meth:`load_live`'s classes: every PE whose
+    #: row and column residues mod 8 are the grid cell's.
+    CLASS_DONT_CARE = 0xFF & ~(GRID - 1)
+    #: Two tiles: the node trees' levels, the long pulls first (their write noise is
+    #: halved by the most levels after them).
+    PAIR_LEVELS = ((east, 4), (south, 4), (east, 2), (south, 2), (east, 1), (south, 1))
 
-    @classmethod
-    def default_store(cls, params) -> str:
-        """``"levels"`` for the robust preset, ``"analogue"`` (as it was) for the paper's."""
-        return "levels" if params.preset == "robust" else "analogue"
+    def reset(self) -> None:
+        #: The live grid as :meth:`load_live` last loaded it (normalised; inspection).
+        self.live_image: np.ndarray | None = None
+
+    @property
+    def normalised(self) -> bool:
+        """Whether the filter compares contrast-normalised images (``contrast`` set)."""
+        return self.params.contrast is not None
+
+    @property
+    def levels(self) -> bool:
+        """Whether the map is held in the levels store."""
+        return self.sensor.store == "levels"
 
     @classmethod
     def level_planes(cls, plane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -102,261 +125,273 @@ class LowresPipeline(SensorPipeline):
 
     def map_plane(self, tile: int = 0) -> np.ndarray:
         """The map values ``n`` of tile ``tile`` as the comparison sees them (untimed read)."""
-        if self.store == "levels":
-            return self.sim.read(A) / 2 + self.sim.read(B) / 32
-        return self.sim.read(self.db[tile])
+        sim = self.sensor.sim
+        if self.levels:
+            return sim.read(A) / 2 + sim.read(B) / 32
+        return sim.read(self.roles.db[tile])
 
-    def refresh(self) -> None:
+    def refresh(self, frame: int) -> None:
         """Levels store: rewrite ``A`` and ``B`` with exact levels (stage ``"refresh"``).
 
         Every :attr:`REFRESH_EVERY` frames (from the first after ``reset``). Per
-        register: ``D := -R`` (one ``bus``), ``R := `` the top level (``scamp5_in``), then
+        register: ``D := -R`` (one ``bus``), ``R :=`` the top level (``scamp5_in``), then
         from the top down, per level ``m``: ``FLAG := R_old < m``'s lower midpoint
-        (``where(D, IN)``, the midpoint through ``IN``) and ``R := `` level ``m - 1``
+        (``where(D, IN)``, the midpoint through ``IN``) and ``R :=`` level ``m - 1``
         where flagged (``scamp5_in``, the DAC with offset correction: no write offsets).
         Exact in ideal mode; with noise a value is restored while droop and noise stay
         below half the step (8 units).
         """
-        if self.store != "levels" or (self.frames - 1) % self.REFRESH_EVERY:
+        if not self.levels or (frame - 1) % self.REFRESH_EVERY:
             return
-        sim, step = self.sim, self.LEVEL_STEP
+        sensor, step = self.sensor, self.LEVEL_STEP
+        sim = sensor.sim
         with sim.stage("refresh"):
             for reg, base in zip((A, B), self.LEVEL_BASES, strict=True):
-                self._run(f"lv_copy_{reg.name}", lambda k, reg=reg: (k.all(), k.bus(D, reg)))
+                sensor.run(_level_copy, reg)
                 sim.scamp5_in(reg, base + 15 * step)
                 for m in range(15, 0, -1):
                     sim.load_in(base + m * step - step // 2)
-                    self._run("lv_below", lambda k: k.where(D, IN))  # R_old < midpoint
+                    sensor.run(_below)  # R_old < midpoint
                     sim.scamp5_in(reg, base + (m - 1) * step)
-                self._run("all", lambda k: k.all())
+                sensor.run(_all)
 
-    def _map_planes(self) -> dict[str, np.ndarray]:
-        if self.store != "levels":
-            return super()._map_planes()
+    def map_planes(self) -> dict[str, np.ndarray]:
+        if not self.levels:
+            return super().map_planes()
+        sim = self.sensor.sim
         return {
-            "A: map tile 0, high 4 bits (levels 16 h - 120)": self.sim.read(A),
-            "B: map tile 0, low 4 bits (levels 16 l - 128)": self.sim.read(B),
+            "A: map tile 0, high 4 bits (levels 16 h - 120)": sim.read(A),
+            "B: map tile 0, low 4 bits (levels 16 l - 128)": sim.read(B),
         }
 
-    def _setup_masks(self) -> None:
-        """Class masks ``R1`` (rows), ``R2`` (columns): see :func:`class_rows`."""
-        sim, dr = self.sim, self.dr
-        free = (self.block - 1) & ~(GRID - 1) & 0xFF
+    def setup_masks(self) -> None:
+        """Class masks ``R1`` (rows), ``R2`` (columns): the residue mod 8 of the row
+        (column) is its grid block's index."""
+        sensor = self.sensor
+        sim, dr = sensor.sim, self.roles.d
+        free = (sensor.block - 1) & ~(GRID - 1) & 0xFF
         for reg, axis in zip(self.class_masks, (0, 1), strict=True):
-            self._run("clr_" + reg.name, lambda k, reg=reg: k.CLR(reg))
+            sensor.run(_clr, reg)
             for i in range(GRID):
-                base = i * self.block + i
+                base = i * sensor.block + i
                 if axis == 0:
                     sim.load_pattern(dr.tmp_a, base, 0, free, 0xFF)
                 else:
                     sim.load_pattern(dr.tmp_a, 0, base, 0xFF, free)
-                self._run(f"or_{reg.name}", lambda k, reg=reg: k.OR(reg, dr.tmp_a))
+                sensor.run(_or, reg, dr.tmp_a)
 
-    def _describe(self) -> np.ndarray:
+    def describe(self) -> np.ndarray:
         """The node's uint8 image from the exact block means ``m`` (stage ``reduce``).
 
         ``2m - 0.5`` in one bus (the only saturation, at -128, maps to the right code 0),
         and ``scan_areg_mean_8x8`` reads ``floor(2m + 128) = floor(S / 1024) = q`` per
         block: exact in ideal mode.
         """
-        sim = self.sim
+        sim = self.sensor.sim
         sim.scamp5_in(E, -1)
-
-        def build(k):
-            k.bus2(D, NEWS, E)  # D = 0.5
-            k.mov(E, F)  # E = -m
-            k.bus(NEWS, F, E, D)  # NEWS = 2m - 0.5
-
-        self._run("sense_lowres", build)
+        self.sensor.run(_sense)
         return sim.scan_areg_mean_8x8(NEWS)
 
-    #: The tree leaves ``-mu / 2`` at each node root.
-    value_scale = (-1, 1)
-
     def prepare_live(self) -> None:
-        """The live grid over every node block: robust, :meth:`load_live` (the grid read
-        out, contrast-normalised and loaded back); paper, :meth:`replicate`."""
-        if self.robust:
+        """The live grid over every node block: normalised (:meth:`load_live`, the grid
+        read out, contrast-normalised and loaded back) or exact (:meth:`replicate`)."""
+        if self.normalised:
             self.load_live()
         else:
             self.replicate()
 
     def node_blocks(self, topomap: TopoMap) -> np.ndarray:
-        """Robust: the nodes' images contrast-normalised (as the live one will be)."""
+        """The nodes' images, contrast-normalised where the live one will be."""
         blocks = super().node_blocks(topomap)
-        return normalise_contrast(blocks, self.params.contrast) if self.robust else blocks
-
-    #: Robust: the live grid as :meth:`load_live` last loaded it (normalised; inspection).
-    live_image: np.ndarray | None = None
-
-    #: Address-pattern "don't care" bits of :meth:`load_live`'s classes: every PE whose
-    #: row and column residues mod 8 are the grid cell's.
-    CLASS_DONT_CARE = 0xFF & ~(GRID - 1)
+        return normalise_contrast(blocks, self.params.contrast) if self.normalised else blocks
 
     def load_live(self) -> None:
-        """Robust: ``F := -f'``, PE (r, c) holding the normalised live cell (r%8, c%8).
+        """``F := -f'``, PE (r, c) holding the normalised live cell (r%8, c%8).
 
         The controller reads the live grid as the mapping run reads a node
-        (:meth:`_describe`: ``q = floor(S / 1024)`` per block, exact in ideal mode),
+        (:meth:`describe`: ``q = floor(S / 1024)`` per block, exact in ideal mode),
         normalises it (:func:`ppaloc.place.normalise_contrast`, ``params.contrast``) and
-        writes each of the 64 cells into every node block, as the public precursor
-        loads an image (``load_analog_image``): one periodic ``load_pattern`` (row and
-        column residues mod 8), one ``load_in(q' - 128)`` and one kernel ``WHERE;
-        bus(F, IN); all`` per cell (``F = 128 - q' = -2 f'``, one write; ``q' >= 1``, so
-        it never negates -128), then one halving over the plane, ``D = -F/2 = f'``, ``F :=
-        -D``. The cells partition the array, so every PE of ``F`` is written once before
-        the halving. The normalised image is kept in :attr:`live_image` (inspection).
+        writes each of the 64 cells into every node block, as the public precursor loads
+        an image (``load_analog_image``): one periodic ``load_pattern`` (row and column
+        residues mod 8), one ``load_in(q' - 128)`` and one kernel ``WHERE; bus(F, IN);
+        all`` per cell (``F = 128 - q' = -2 f'``, one write; ``q' >= 1``, so it never
+        negates -128), then one halving over the plane, ``D = -F/2 = f'``, ``F := -D``.
+        The cells partition the array, so every PE of ``F`` is written once before the
+        halving. The normalised image is kept in :attr:`live_image` (inspection).
         """
-        sim, dr = self.sim, self.dr
-
-        def cell(k):  # recorded at the first cell, replayed at every other
-            k.WHERE(dr.tmp_a)
-            k.bus(F, IN)
-            k.all()
-
-        def halve(k):
-            k.bus2(D, NEWS, F)
-            k.bus(F, D)
-
+        sensor = self.sensor
+        sim, dr = sensor.sim, self.roles.d
         with sim.stage("replicate"):
-            live = normalise_contrast(self._describe(), self.params.contrast)
+            live = normalise_contrast(self.describe(), self.params.contrast)
             self.live_image = live
             free = self.CLASS_DONT_CARE
             for (i, j), q in np.ndenumerate(live):
                 sim.load_pattern(dr.tmp_a, i, j, free, free)
                 sim.load_in(int(q) - 128)
-                self._run("load_live", cell)
-            self._run("load_live_halve", halve)
-
-    def compare_paper(self) -> None:
-        """Paper: :meth:`compare_lowres`."""
-        self.compare_lowres()
-
-    #: Robust, two tiles: the node trees' levels, the long pulls first (their write noise
-    #: is halved by the most levels after them).
-    ROBUST_LEVELS = ((east, 4), (south, 4), (east, 2), (south, 2), (east, 1), (south, 1))
-
-    def _tree(self, k, tile: int) -> None:
-        """``D = -(mu / 2)`` at each node root, ``mu`` the mean of ``min(|f - n|, 127)``.
-
-        A halving tree over ``D`` and ``E``; the robust preset with two tiles computes
-        both tiles' trees at once (:meth:`_tree_tiles`).
-        """
-        if self.store == "levels":
-            self._levels_difference(k)
-        else:
-            k.add(D, F, self.db[tile])  # n - f
-        k.abs(E, D)  # min(|f - n|, 127)
-        k.bus2(D, NEWS, E)  # D = -|f - n| / 2
-        for direction in (east, south):
-            for step in (1, 2, 4):
-                halve_level(k, D, E, direction, step)
-
-    @staticmethod
-    def _levels_difference(k) -> None:
-        """Levels store: ``D := f - n`` with ``n = H/2 + L/32`` rebuilt from ``A``, ``B``.
-
-        Five halvings of ``L`` (``D = -L/32``), one of ``H`` (``E = -H/2``), ``NEWS :=
-        n``, ``D := -(n - f)`` (``F = -f``): exact in ideal mode, and the sign is
-        irrelevant to the ``abs`` after it.
-        """
-        k.bus2(D, NEWS, B)  # -L/2
-        for _ in range(2):
-            k.bus2(E, NEWS, D)
-            k.bus2(D, NEWS, E)  # L/4, -L/8; L/16, -L/32
-        k.bus2(E, NEWS, A)  # -H/2
-        k.bus(NEWS, D, E)  # n
-        k.bus(D, NEWS, F)  # -(n - f)
-
-    def _tree_tiles(self, k) -> tuple[Register, ...] | None:
-        """Robust, two tiles: both trees in one kernel, tile 0's ``-mu/2`` in ``D``, tile
-        1's in ``E`` (``F``, the replicated frame, is read by both first steps and then
-        serves as the scratch of both halving trees), so no tree is computed twice."""
-        if k is None:
-            return (D, E) if self.robust else None
-        k.add(D, F, self.db[0])  # n0 - f
-        k.add(E, F, self.db[1])  # n1 - f
-        k.abs(F, E)  # |n1 - f|
-        k.abs(E, D)  # |n0 - f|
-        k.bus2(D, NEWS, E)  # -|n0 - f| / 2
-        k.bus2(E, NEWS, F)  # -|n1 - f| / 2
-        for direction, step in self.ROBUST_LEVELS:
-            halve_level(k, D, F, direction, step)
-            halve_level(k, E, F, direction, step)
-        return (D, E)
-
-    def _values(self, codes: np.ndarray) -> np.ndarray:
-        """``r = 2 (128 - code)``: the ADC code of ``-mu/2`` read back (docs/ppa8.md)."""
-        return 2 * (128 - codes)
-
-    def _live_planes(self) -> dict[str, np.ndarray]:
-        if self.robust and self.tiles > 1:  # the two trees use F as a scratch
-            return {}
-        return {"F: live 8x8 grid, replicated (negated)": self.sim.read(F)}
+                sensor.run(_load_cell, dr.tmp_a)
+            sensor.run(_halve_live)
 
     def replicate(self) -> None:
-        """Paper: ``F := -f`` replicated, PE (r, c) holding minus the exact mean of grid
-        block (r%8, c%8), by shift-and-add doubling over a zero background.
+        """``F := -f`` replicated, PE (r, c) holding minus the exact mean of grid block
+        (r%8, c%8), by shift-and-add doubling over a zero background.
 
         Per axis: copy the block means at the PEs whose residue mod 8 is their block's
         index (zero elsewhere), then double that pattern over the zero background by
         controller shifts of 4, 8, 16 blocks of 8 PEs towards the far edge, and the same
         towards the near edge from a copy moved one step; the two halves are disjoint.
         """
-        sim = self.sim
-        k0 = self.block // GRID  # copies per class inside its block, in steps of 8 PEs
+        sensor = self.sensor
+        sim = sensor.sim
+        k0 = sensor.block // GRID  # copies per class inside its block, in steps of 8 PEs
         steps = []
         d = k0
-        while d < self.size // GRID:
+        while d < sensor.size // GRID:
             steps.append(d * GRID)
             d *= 2
         with sim.stage("replicate"):
             masks = self.class_masks
-            for axis, mask, far, near in ((0, masks[0], north, south), (1, masks[1], west, east)):
+            for mask, far, near in ((masks[0], north, south), (masks[1], west, east)):
                 # pulling from `far` (north/west) moves the pattern towards south/east
-                def init(k, mask=mask):
-                    k.res(D)
-                    k.WHERE(mask)
-                    k.mov(D, F)
-                    k.all()
-                    k.mov(E, D)
-                    k.mov(F, E)
-
-                self._run(f"rep_init_{axis}", init)
-                self._double(E, far, steps, f"rep_acc_{axis}")
+                sensor.run(_rep_init, mask)
+                self._double(E, far, steps)
                 pull_shift(sim, D, near, k0 * GRID)
-                self._run(f"rep_copy_{axis}", lambda k: k.mov(F, D))
-                self._double(D, near, steps, f"rep_acc2_{axis}")
-                self._run(f"rep_join_{axis}", lambda k: k.add(F, D, E))
+                sensor.run(_mov, F, D)
+                self._double(D, near, steps)
+                sensor.run(_join, F, D, E)
 
-    def _double(self, acc: Register, direction: Direction, steps: list[int], name: str) -> None:
+    def _double(self, acc: Register, direction: Direction, steps: list[int]) -> None:
         """``acc += F`` shifted from ``direction`` by each step in turn (``F`` = ``acc``).
 
         ``F`` starts as a copy of ``acc``; after each shift-and-add it takes the sum, so
         every step doubles the pattern (the last step leaves ``F`` as it is).
         """
         for i, step in enumerate(steps):
-            pull_shift(self.sim, F, direction, step)
-            last = i == len(steps) - 1
+            pull_shift(self.sensor.sim, F, direction, step)
+            self.sensor.run(_acc_step, acc, i == len(steps) - 1)
 
-            def acc_step(k, last=last):
-                k.add(acc, acc, F)
-                if not last:
-                    k.mov(F, acc)
+    def tree(self, tile: int, halving: bool) -> Tree:
+        """``D = -(mu / 2)`` at each node root, ``mu`` the mean of ``min(|f - n|, 127)``
+        (a halving tree over ``D`` and ``E``; the same for both presets)."""
+        return (_tree, (self.levels, self.roles.db[tile]))
 
-            self._run(f"{name}_{int(last)}", acc_step)
+    def tree_tiles(self) -> tuple:
+        """Both tiles' trees in one kernel, tile 0's ``-mu/2`` in ``D``, tile 1's in ``E``
+        (``F``, the replicated frame, is read by both first steps and then serves as the
+        scratch of both halving trees), so no tree is computed twice."""
+        return (_tree_pair, (self.roles.db[0], self.roles.db[1], self.PAIR_LEVELS), (D, E))
 
-    def compare_lowres(self) -> None:
-        """Paper, per tile: ``w += alpha - mu_s`` with ``mu`` the mean of ``min(|f - n|, 127)``."""
-        sim, dr, p = self.sim, self.dr, self.params
-        with sim.stage("compare"):
-            for t in range(self.tiles):
-                self._root_pattern(dr.pattern, t)
-                sim.load_in(self.alpha)
+    def values(self, codes: np.ndarray) -> np.ndarray:
+        """``r = 2 (128 - code)``: the ADC code of ``-mu/2`` read back (docs/ppa8.md)."""
+        return 2 * (128 - codes)
 
-                def build(k, t=t):
-                    self._tree(k, t)
-                    # D = -(mu / 2); mu_s = (mu / 2) * 2**(1 - s)
-                    self._update(k, D, E, -1, 1 - p.shift, t)
+    def live_overwritten(self) -> bool:
+        """Whether the last scaled readout used ``F`` (the live grid) as the scratch of
+        both tiles' trees (:meth:`tree_tiles`)."""
+        return self.normalised and self.sensor.tiles > 1
 
-                self._run(f"compare_{t}", build)
+    def live_planes(self) -> dict[str, np.ndarray]:
+        if self.live_overwritten():
+            return {}
+        return {"F: live 8x8 grid, replicated (negated)": self.sensor.sim.read(F)}
+
+
+# Kernel builders (pure functions of their arguments, cached by what they are).
+def _level_copy(k: Kernel, reg: Register) -> None:
+    k.all()
+    k.bus(D, reg)
+
+
+def _below(k: Kernel) -> None:
+    k.where(D, IN)
+
+
+def _all(k: Kernel) -> None:
+    k.all()
+
+
+def _clr(k: Kernel, reg: Register) -> None:
+    k.CLR(reg)
+
+
+def _or(k: Kernel, reg: Register, x: Register) -> None:
+    k.OR(reg, x)
+
+
+def _sense(k: Kernel) -> None:
+    k.bus2(D, NEWS, E)  # D = 0.5
+    k.mov(E, F)  # E = -m
+    k.bus(NEWS, F, E, D)  # NEWS = 2m - 0.5
+
+
+def _load_cell(k: Kernel, mask: Register) -> None:  # recorded at the first cell
+    k.WHERE(mask)
+    k.bus(F, IN)
+    k.all()
+
+
+def _halve_live(k: Kernel) -> None:
+    k.bus2(D, NEWS, F)
+    k.bus(F, D)
+
+
+def _rep_init(k: Kernel, mask: Register) -> None:
+    k.res(D)
+    k.WHERE(mask)
+    k.mov(D, F)
+    k.all()
+    k.mov(E, D)
+    k.mov(F, E)
+
+
+def _mov(k: Kernel, y: Register, x: Register) -> None:
+    k.mov(y, x)
+
+
+def _join(k: Kernel, y: Register, a: Register, b: Register) -> None:
+    k.add(y, a, b)
+
+
+def _acc_step(k: Kernel, acc: Register, last: bool) -> None:
+    k.add(acc, acc, F)
+    if not last:
+        k.mov(F, acc)
+
+
+def levels_difference(k: Kernel) -> None:
+    """Levels store: ``D := f - n`` with ``n = H/2 + L/32`` rebuilt from ``A``, ``B``.
+
+    Five halvings of ``L`` (``D = -L/32``), one of ``H`` (``E = -H/2``), ``NEWS := n``,
+    ``D := -(n - f)`` (``F = -f``): exact in ideal mode, and the sign is irrelevant to the
+    ``abs`` after it.
+    """
+    k.bus2(D, NEWS, B)  # -L/2
+    for _ in range(2):
+        k.bus2(E, NEWS, D)
+        k.bus2(D, NEWS, E)  # L/4, -L/8; L/16, -L/32
+    k.bus2(E, NEWS, A)  # -H/2
+    k.bus(NEWS, D, E)  # n
+    k.bus(D, NEWS, F)  # -(n - f)
+
+
+def _tree(k: Kernel, levels: bool, db: Register) -> None:
+    if levels:
+        levels_difference(k)
+    else:
+        k.add(D, F, db)  # n - f
+    k.abs(E, D)  # min(|f - n|, 127)
+    k.bus2(D, NEWS, E)  # D = -|f - n| / 2
+    for direction in (east, south):
+        for step in (1, 2, 4):
+            halve_level(k, D, E, direction, step)
+
+
+def _tree_pair(k: Kernel, db0: Register, db1: Register, levels: tuple) -> None:
+    k.add(D, F, db0)  # n0 - f
+    k.add(E, F, db1)  # n1 - f
+    k.abs(F, E)  # |n1 - f|
+    k.abs(E, D)  # |n0 - f|
+    k.bus2(D, NEWS, E)  # -|n0 - f| / 2
+    k.bus2(E, NEWS, F)  # -|n1 - f| / 2
+    for direction, step in levels:
+        halve_level(k, D, F, direction, step)
+        halve_level(k, E, F, direction, step)

@@ -18,11 +18,17 @@ Everything is charged to the stage ``"mapping"``.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from ppaloc.onsensor.pipeline import SensorPipeline
-from ppaloc.sim import NEWS, D, Register
+from ppaloc.onsensor.lowres import LowresPlaces
+from ppaloc.onsensor.sensor import Sensor
+from ppaloc.sim import NEWS, D, Kernel, Register
 from ppaloc.topomap import TopoMap
+
+if TYPE_CHECKING:
+    from ppaloc.onsensor.executor import SensorExecutor
 
 __all__ = ["row_runs", "upload_map"]
 
@@ -40,53 +46,76 @@ def row_runs(plane: np.ndarray) -> list[tuple[int, int, int, int]]:
     return runs
 
 
-def _mask_from_runs(pipe: SensorPipeline, target: Register, runs) -> None:
-    sim, dr = pipe.sim, pipe.dr
-    pipe._run(f"clr_{target.name}", lambda k: k.CLR(target))
+def _mask_from_runs(sensor: Sensor, target: Register, runs) -> None:
+    sim, dr = sensor.sim, sensor.roles.d
+    sensor.run(_clr, target)
     for _, r, c0, c1 in runs:
         sim.load_rect(dr.tmp_a, r, c0, r, c1)
-        pipe._run(f"or_{target.name}_tmp_a", lambda k: k.OR(target, dr.tmp_a))
+        sensor.run(_or, target, dr.tmp_a)
 
 
-def _write_values(pipe: SensorPipeline, db: Register, values: np.ndarray, skip: int | None):
+def _write_values(sensor: Sensor, db: Register, values: np.ndarray, skip: int | None) -> None:
     """``db := values`` (integers): ``res``, then per distinct value (but ``skip``, which
     ``res`` leaves as 0) a mask of its runs and one DAC load where it is set."""
-    pipe._run(f"res_{db.name}", lambda k: k.res(db))
+    sensor.run(_res, db)
     runs = [run for run in row_runs(values) if skip is None or run[0] != skip]
     runs.sort(key=lambda run: run[0])
     by_value: dict[int, list] = {}
     for run in runs:
         by_value.setdefault(run[0], []).append(run)
+    mask = sensor.roles.d.tmp_b
     for value, group in by_value.items():
-        _mask_from_runs(pipe, pipe.dr.tmp_b, group)
-        pipe._run("where_tmp_b", lambda k: k.WHERE(pipe.dr.tmp_b))
-        pipe.sim.scamp5_in(db, value)
-        pipe._run("all", lambda k: k.all())
+        _mask_from_runs(sensor, mask, group)
+        sensor.run(_where, mask)
+        sensor.sim.scamp5_in(db, value)
+        sensor.run(_all)
 
 
-def upload_map(pipe: SensorPipeline, topomap: TopoMap) -> None:
+def upload_map(pipe: SensorExecutor, topomap: TopoMap) -> None:
     """Write ``topomap``'s nodes into ``pipe``'s database registers (timed, stage "mapping")."""
     # the map's own PE blocks (uint8 images, or 4x8 bits) as the comparison reads them
-    # (the robust preset's low-res images contrast-normalised), laid out for this array
+    # (low-res images contrast-normalised where the filter compares them so), laid out
+    # for this array
     blocks = pipe.node_blocks(topomap)
-    with pipe.sim.stage("mapping"):
+    sensor = pipe.sensor
+    db = sensor.roles.db
+    with sensor.stage("mapping"):
         if pipe.representation == "lowres" and pipe.store == "levels":
-            (plane,) = pipe.layout.to_planes(blocks, fill=0)
-            for db, values in zip(pipe.db, pipe.level_planes(plane), strict=True):
-                _write_values(pipe, db, values, skip=None)
+            (plane,) = sensor.layout.to_planes(blocks, fill=0)
+            for reg, values in zip(db, LowresPlaces.level_planes(plane), strict=True):
+                _write_values(sensor, reg, values, skip=None)
         elif pipe.representation == "lowres":
-            planes = pipe.layout.to_planes(blocks, fill=128)
+            planes = sensor.layout.to_planes(blocks, fill=128)
             for t, plane in enumerate(planes):
-                db = pipe.db[t]
-                _write_values(pipe, db, plane.astype(np.int64) - 128, skip=0)
-
-                def halve(k, db=db):
-                    k.bus2(D, NEWS, db)  # D = -(2n)/2
-                    k.bus(db, D)
-
-                pipe._run(f"halve_{db.name}", halve)
+                _write_values(sensor, db[t], plane.astype(np.int64) - 128, skip=0)
+                sensor.run(_halve, db[t])
         else:
-            planes = pipe.layout.to_planes(blocks, fill=0)
+            planes = sensor.layout.to_planes(blocks, fill=0)
             for t, plane in enumerate(planes):
                 runs = [run for run in row_runs(plane.astype(np.int64)) if run[0]]
-                _mask_from_runs(pipe, pipe.db[t], runs)
+                _mask_from_runs(sensor, db[t], runs)
+
+
+def _clr(k: Kernel, r: Register) -> None:
+    k.CLR(r)
+
+
+def _or(k: Kernel, r: Register, x: Register) -> None:
+    k.OR(r, x)
+
+
+def _res(k: Kernel, r: Register) -> None:
+    k.res(r)
+
+
+def _where(k: Kernel, mask: Register) -> None:
+    k.WHERE(mask)
+
+
+def _all(k: Kernel) -> None:
+    k.all()
+
+
+def _halve(k: Kernel, db: Register) -> None:
+    k.bus2(D, NEWS, db)  # D = -(2n)/2
+    k.bus(db, D)

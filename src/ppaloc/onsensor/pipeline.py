@@ -1,19 +1,27 @@
-"""The weighted-node filter's per-frame pipeline as PPA programs: kernels plus controller calls.
+"""The weighted-node filter's per-frame pipeline as PPA programs: how the modules fit.
 
-A pipeline owns one simulated SCAMP-5 holding a map and runs either preset of the filter
-(``FilterParams.preset``: ``"robust"`` or ``"paper"``, docs/ppa8.md).
-:func:`make_pipeline` builds the one of a place representation by name. Modules:
+:func:`make_pipeline` builds the sensor executor of a place representation by name: a
+:class:`~ppaloc.onsensor.executor.SensorExecutor` on which a schedule
+(:mod:`ppaloc.localise.schedule`) runs its frame. Modules:
 
 =====================================  ==================================================
-:mod:`ppaloc.onsensor.core`            :class:`SensorPipeline`: capture, block means,
-                                       motion, weight shift (paper), transition, scale
-                                       readout and normalisation (robust), detection,
-                                       confidence, adjustment (paper), keyframe
-                                       mapping, reset, inspection
-:mod:`ppaloc.onsensor.lowres`          :class:`LowresPipeline`: replication, SAD
-                                       comparison, ``sense_node`` of 8x8 images
-:mod:`ppaloc.onsensor.lbp`             :class:`LbpPipeline`: descriptor on the array,
-                                       descriptor load, Hamming comparison
+:mod:`ppaloc.onsensor.sensor`          :class:`Sensor`: the simulator, its kernel cache,
+                                       the snake layout, node-root patterns and windows
+:mod:`ppaloc.onsensor.roles`           register roles, declared once and checked
+:mod:`ppaloc.onsensor.capture`         capture, block means (stages capture, reduce)
+:mod:`ppaloc.onsensor.motion`          the image motion test (stage motion)
+:mod:`ppaloc.onsensor.snake`           moves along the snake (paper shift; robust copies)
+:mod:`ppaloc.onsensor.transition`      robust transition, scale restore, floor
+:mod:`ppaloc.onsensor.likelihood`      robust scaled readout and update; paper update
+:mod:`ppaloc.onsensor.detect`          detection and confidence
+:mod:`ppaloc.onsensor.carry`           a bank's exact carry between sensors
+:mod:`ppaloc.onsensor.weights`         what the controller still owes the weights
+:mod:`ppaloc.onsensor.lowres`          :class:`LowresPlaces`: 8x8 images, map stores,
+                                       replication, SAD trees
+:mod:`ppaloc.onsensor.lbp`             :class:`LbpPlaces`: descriptor on the array,
+                                       descriptor load, Hamming trees
+:mod:`ppaloc.onsensor.executor`        :class:`SensorExecutor`: the schedule's steps
+:mod:`ppaloc.onsensor.bank`            :class:`SensorBank`: the same steps on a bank
 =====================================  ==================================================
 
 docs/onsensor.md gives the register allocation, every stage's kernels and calls, and the
@@ -34,35 +42,30 @@ R5-R8        motion planes U, D, previous U, D          same
 R9-R11       candidates and temps                       candidates, database tiles 0, 1
 ===========  =========================================  ==================================
 
-Shared registers: lowres R3 is both ``root32`` and ``pattern``
-(:data:`ppaloc.onsensor.lowres.ROOTS`); lbp R1 is both (:data:`ppaloc.onsensor.lbp.ROOTS`),
-and lbp R3/R4 are the descriptor and its temp as well as ``tmp_b``/``tmp_a``.
+The roles are :data:`ppaloc.onsensor.lowres.LOWRES_ROLES` and
+:data:`ppaloc.onsensor.lbp.LBP_ROLES` (:class:`ppaloc.onsensor.roles.Roles`, checked
+when a sensor is built).
 """
 
 from __future__ import annotations
 
-from ppaloc.errors import PpalocError
 from ppaloc.localise.params import FilterParams
-from ppaloc.onsensor.core import DRegs, SensorPipeline, class_rows
-from ppaloc.onsensor.lbp import LbpPipeline
-from ppaloc.onsensor.lowres import LowresPipeline
+from ppaloc.localise.schedule import SCHEDULES, SensorPlan
+from ppaloc.onsensor.executor import PLACES, SensorExecutor
+from ppaloc.onsensor.lbp import LbpPlaces
+from ppaloc.onsensor.lowres import LowresPlaces
+from ppaloc.onsensor.roles import DRegs, Roles
 from ppaloc.sim import NoiseParams
 
 __all__ = [
-    "PIPELINES",
+    "PLACES",
     "DRegs",
-    "LbpPipeline",
-    "LowresPipeline",
-    "SensorPipeline",
-    "class_rows",
+    "LbpPlaces",
+    "LowresPlaces",
+    "Roles",
+    "SensorExecutor",
     "make_pipeline",
 ]
-
-#: Pipeline class of each place representation.
-PIPELINES: dict[str, type[SensorPipeline]] = {
-    "lowres": LowresPipeline,
-    "lbp": LbpPipeline,
-}
 
 
 def make_pipeline(
@@ -70,13 +73,13 @@ def make_pipeline(
     n_nodes: int,
     params: FilterParams,
     *,
-    alpha: int | None = None,
+    plan: SensorPlan | None = None,
     noise: str | NoiseParams = "ideal",
     seed: int = 0,
     size: int = 256,
     store: str | None = None,
-) -> SensorPipeline:
-    """Build the pipeline of ``representation`` (``"lowres"`` or ``"lbp"``).
+) -> SensorExecutor:
+    """Build the sensor executor of ``representation`` (``"lowres"`` or ``"lbp"``).
 
     Parameters
     ----------
@@ -84,9 +87,10 @@ def make_pipeline(
     n_nodes : int
         Nodes of the map.
     params : FilterParams
-        The filter's parameters (the host's object, :class:`FilterParams`).
-    alpha : int, optional
-        Paper preset: the likelihood offset (default ``params.alpha``).
+        The filter's parameters.
+    plan : SensorPlan, optional
+        What the schedule asks of the sensor (default: the plan of ``params.preset``'s
+        schedule).
     noise : str or NoiseParams
         Noise preset (or parameters) of the simulator.
     seed : int
@@ -94,24 +98,16 @@ def make_pipeline(
     size : int
         Array side (256 on SCAMP-5; multiples of 64).
     store : str, optional
-        Map store (``SensorPipeline.stores``; default the representation's for the preset).
-
-    Returns
-    -------
-    SensorPipeline
-        A :class:`LowresPipeline` or :class:`LbpPipeline`.
+        Map store (default: the first of the plan's the representation has).
 
     Examples
     --------
     >>> p = FilterParams.create("lbp", motion="always_forward")
-    >>> type(make_pipeline("lbp", 4, p, size=64)).__name__
-    'LbpPipeline'
+    >>> type(make_pipeline("lbp", 4, p, size=64).places).__name__
+    'LbpPlaces'
     """
-    try:
-        cls = PIPELINES[representation]
-    except KeyError:
-        raise PpalocError(
-            f"no on-sensor pipeline for representation {representation!r}; known: "
-            f"{', '.join(PIPELINES)}"
-        ) from None
-    return cls(n_nodes, params, alpha=alpha, noise=noise, seed=seed, size=size, store=store)
+    if plan is None:
+        plan = SCHEDULES[params.preset].sensor
+    return SensorExecutor(
+        representation, n_nodes, params, plan, noise=noise, seed=seed, size=size, store=store
+    )

@@ -302,8 +302,10 @@ class ControllerMixin(DrawMixin):
             cache[key] = pattern
         return pattern
 
-    def _address_mask(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> np.ndarray:
-        """The (read-only) plane of the elements a pattern selects."""
+    def address_mask(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> np.ndarray:
+        """The (read-only) plane of the elements an address pattern selects: ``(r, c)``
+        with "don't care" bits ``rx``, ``cx``, in hardware addresses (``scamp_addr``) or
+        array coordinates (inspection; untimed, changes nothing)."""
         return self._pattern(r, c, rx, cx, scamp_addr).mask
 
     # ----------------------------------------------------------------------------------
@@ -542,7 +544,7 @@ class ControllerMixin(DrawMixin):
         call = "select_pattern"
         args = dict(zip(("r", "c", "rx", "cx"), _pattern_args(call, r, c, rx, cx), strict=True))
         self.timing.charge_call(call)
-        self._dplane(SELECT)[...] = self._address_mask(**args, scamp_addr=scamp_addr)
+        self._dplane(SELECT)[...] = self.address_mask(**args, scamp_addr=scamp_addr)
         if scamp_addr:  # the parts are kept in array columns (exact for 2^k columns)
             args["c"] = (self.cols - 1 - args["c"]) & 255
         self._select_state().update(args)
@@ -1098,7 +1100,7 @@ class ControllerMixin(DrawMixin):
         if part in ("r", "c"):  # selecting a row (column) selects that one row (column)
             state[part + "x"] = 0
         self.timing.charge_call("select_pattern")
-        self._dplane(SELECT)[...] = self._address_mask(**state, scamp_addr=False)
+        self._dplane(SELECT)[...] = self.address_mask(**state, scamp_addr=False)
 
     def select_col(self, c: int, *, scamp_addr: bool = False) -> None:
         """``scamp5_select_col``: SELECT the column ``c`` (in the rows selected so far).
@@ -1171,7 +1173,7 @@ class ControllerMixin(DrawMixin):
             r, c, rx, cx, scamp_addr = 2, 2, 254, 254, True
         r, c = (2 if x is None else x for x in (r, c))
         rx, cx = (254 if x is None else x for x in (rx, cx))
-        mask = self._address_mask(*_pattern_args(call, r, c, rx, cx), scamp_addr)
+        mask = self.address_mask(*_pattern_args(call, r, c, rx, cx), scamp_addr)
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg)[mask])
 

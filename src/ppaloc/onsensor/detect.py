@@ -1,0 +1,160 @@
+"""Detection and confidence on the sensor (docs/ppa8.md, items 4).
+
+Stages ``"detect"`` and ``"confidence"``. The controller finds ``T = floor(max W)`` by a
+binary search of ``global_or`` over thresholds loaded through the DAC
+(:func:`max_threshold`), then the candidates ``w >= T``: all of them from one event
+readout, or the one nearest the previous estimate by a window search
+(:func:`nearest`); the host's :func:`~ppaloc.localise.params.choose_candidate` breaks the
+tie. The confidence is ``T`` minus the same threshold outside ``node +- R``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ppaloc.localise.params import choose_candidate
+from ppaloc.onsensor.roles import DRegs
+from ppaloc.onsensor.sensor import Sensor
+from ppaloc.onsensor.transition import settle
+from ppaloc.onsensor.weights import WeightState
+from ppaloc.sim import FLAG, IN, NEWS, Kernel, Register
+
+__all__ = [
+    "EVENT_SLOTS",
+    "at_least",
+    "candidates",
+    "confidence",
+    "detect",
+    "local_top",
+    "max_threshold",
+    "nearest",
+    "outside_max",
+]
+
+#: Event slots of the first candidate readout; more candidates fall back to a window search.
+EVENT_SLOTS = 32
+
+
+def at_least(sensor: Sensor, state: WeightState, threshold: int) -> bool:
+    """``cand := (W >= threshold) AND valid``; True if any PE is set (``global_or``).
+
+    ``tmp_a`` must hold NOT allowed (:meth:`Sensor.allow`).
+    """
+    sim, r = sensor.sim, sensor.roles
+    sim.load_in(int(threshold))
+    if state.negated:
+        sensor.run(_at_least_negated, r.d, r.negated)
+    else:
+        sensor.run(_at_least, r.d, r.weights)
+    return bool(sim.global_or(r.d.cand))
+
+
+def _at_least(k: Kernel, dr: DRegs, w: Register) -> None:
+    k.bus(NEWS, w)
+    k.where(IN, NEWS)  # FLAG = W < threshold
+    k.NOR(dr.cand, FLAG, dr.tmp_a)  # tmp_a = NOT allowed
+    k.all()
+
+
+def _at_least_negated(k: Kernel, dr: DRegs, neg: Register) -> None:
+    k.where(IN, neg)  # FLAG = w < threshold, from -w: no write
+    k.NOR(dr.cand, FLAG, dr.tmp_a)
+    k.all()
+
+
+def max_threshold(sensor: Sensor, state: WeightState, lo: int, hi: int) -> int | None:
+    """Largest integer ``T`` in [lo, hi] with a set PE of ``cand``; None if none."""
+    if not at_least(sensor, state, lo):
+        return None
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if at_least(sensor, state, mid):
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+def detect(sensor: Sensor, state: WeightState, prev: int | None) -> tuple[int, int]:
+    """``(node, T)``: the candidate ``w >= T = floor(max W)`` nearest ``prev``."""
+    with sensor.stage("detect"):
+        top = local_top(sensor, state)
+        found = candidates(sensor, state, top, prev)
+        while found is None and top > -127:
+            # only with noise: the comparator's noise hid every candidate this time
+            top -= 1
+            found = candidates(sensor, state, top, prev)
+    if not found:
+        return (0 if prev is None else prev), top
+    return choose_candidate(np.asarray(found), prev), top
+
+
+def local_top(sensor: Sensor, state: WeightState) -> int:
+    """``floor(max W)`` over this sensor's nodes (a ``global_or`` threshold search)."""
+    settle(sensor, state)
+    sensor.allow(False)
+    top = max_threshold(sensor, state, -127, 127)
+    assert top is not None
+    return top
+
+
+def candidates(sensor: Sensor, state: WeightState, top: int, prev: int | None) -> list[int] | None:
+    """Nodes with ``w >= top``: all of them (fewer than :data:`EVENT_SLOTS`), or the one
+    nearest ``prev`` (a window search, :func:`nearest`); None if none is found.
+
+    ``prev`` may lie outside this sensor's nodes (a bank gives it in local numbers).
+    After :func:`local_top`, whose ``tmp_a`` (NOT valid) it reuses.
+    """
+    at_least(sensor, state, top)
+    events = sensor.sim.scan_events(sensor.roles.d.cand, EVENT_SLOTS)
+    if not len(events):
+        return None
+    if len(events) < EVENT_SLOTS:
+        return [int(i) for i in sensor.nodes_of(events)]
+    return [nearest(sensor, state, top, prev)]
+
+
+def nearest(sensor: Sensor, state: WeightState, top: int, prev: int | None) -> int:
+    """Window search: the candidate nearest ``prev`` (smaller index first)."""
+    prev = 0 if prev is None else prev
+    lo, hi = 0, sensor.n_nodes + abs(prev)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if _candidate_in(sensor, state, prev - mid, prev + mid, top):
+            hi = mid
+        else:
+            lo = mid + 1
+    for node in (prev - lo, prev + lo):
+        if 0 <= node < sensor.n_nodes and _candidate_in(sensor, state, node, node, top):
+            return node
+    return min(max(prev, 0), sensor.n_nodes - 1)  # only with noise: the candidate hid
+
+
+def _candidate_in(sensor: Sensor, state: WeightState, a: int, b: int, top: int) -> bool:
+    """Whether a node in ``a..b`` has ``w >= top`` (``cand`` keeps those nodes)."""
+    dr = sensor.roles.d
+    sensor.allow(False)
+    at_least(sensor, state, top)
+    sensor.window(a, b)
+    sensor.run(_and, dr.cand, dr.tmp_b)
+    return bool(sensor.sim.global_or(dr.cand))
+
+
+def _and(k: Kernel, cand: Register, window: Register) -> None:
+    k.AND(cand, cand, window)
+
+
+def confidence(sensor: Sensor, state: WeightState, node: int, top: int, radius: int) -> float:
+    """``T`` minus the integer maximum outside nodes ``node - R .. node + R``."""
+    if node - radius <= 0 and node + radius >= sensor.n_nodes - 1:
+        return 0.0
+    with sensor.stage("confidence"):
+        out = outside_max(sensor, state, node - radius, node + radius, top)
+    return 0.0 if out is None else float(top - out)
+
+
+def outside_max(sensor: Sensor, state: WeightState, a: int, b: int, top: int) -> int | None:
+    """Largest integer threshold in [-127, ``top``] met by a node outside ``a..b``."""
+    sensor.window(a, b)
+    sensor.allow(True)
+    return max_threshold(sensor, state, -127, top)

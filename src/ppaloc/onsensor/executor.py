@@ -1,0 +1,376 @@
+"""The sensor executor: a schedule's steps as PPA programs on one simulated sensor.
+
+:class:`SensorExecutor` implements :class:`ppaloc.localise.schedule.Executor` over a
+:class:`~ppaloc.onsensor.sensor.Sensor` and its representation's
+:class:`~ppaloc.onsensor.places.Places`: each step runs the stage modules
+(:mod:`~ppaloc.onsensor.capture`, :mod:`~ppaloc.onsensor.motion`,
+:mod:`~ppaloc.onsensor.snake`, :mod:`~ppaloc.onsensor.transition`,
+:mod:`~ppaloc.onsensor.likelihood`, :mod:`~ppaloc.onsensor.detect`), every one a recorded
+kernel or a ``scamp5_*`` call charged to the simulator's timing model under a stage name.
+The controller's side does only integer work on readouts, and the decisions are the
+host's (the schedule's), so in ideal mode the estimates are those of the host in ppa8
+arithmetic frame for frame (docs/ppa8.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.params import FilterParams
+from ppaloc.localise.schedule import SensorPlan
+from ppaloc.onsensor import detect, gain, likelihood
+from ppaloc.onsensor.capture import block_means, capture
+from ppaloc.onsensor.carry import carry_in, carry_out
+from ppaloc.onsensor.lbp import LbpPlaces
+from ppaloc.onsensor.lowres import LowresPlaces
+from ppaloc.onsensor.motion import MotionPlanes, image_motion
+from ppaloc.onsensor.places import Places
+from ppaloc.onsensor.sensor import Sensor
+from ppaloc.onsensor.snake import shift_weights
+from ppaloc.onsensor.transition import transition
+from ppaloc.onsensor.weights import WeightState, read_weights
+from ppaloc.sim import Kernel, NoiseParams, Register, Scamp5, TimingModel
+from ppaloc.topomap import SnakeLayout, TopoMap
+
+__all__ = ["PLACES", "SensorExecutor"]
+
+#: The representation of each place kind on the sensor.
+PLACES: dict[str, type[Places]] = {"lowres": LowresPlaces, "lbp": LbpPlaces}
+
+
+class SensorExecutor:
+    """One simulated sensor holding a map, and every step a schedule calls on it.
+
+    Parameters
+    ----------
+    representation : {"lowres", "lbp"}
+    n_nodes : int
+        Nodes of the map (tiles follow from the layout's capacity).
+    params : FilterParams
+        The filter's parameters (the schedule's).
+    plan : SensorPlan
+        What the schedule asks of the sensor (stores, spread, weight scale).
+    noise : str or NoiseParams
+        Noise preset (or parameters) of the simulator.
+    seed : int
+        Seed of the simulator's noise.
+    size : int
+        Array side (256 on SCAMP-5; smaller arrays, multiples of 64, for tests).
+    store : str, optional
+        How the map is held (a key of the representation's ``stores``; default the
+        first the plan prefers).
+
+    Attributes
+    ----------
+    sensor : Sensor
+    places : Places
+    state : WeightState
+        What the controller still owes the weights (pending normalisation, ...).
+    planes : MotionPlanes
+        The motion test's memory between frames.
+    frames : int
+        Frames since :meth:`reset`.
+    """
+
+    exact = True
+
+    def __init__(
+        self,
+        representation: str,
+        n_nodes: int,
+        params: FilterParams,
+        plan: SensorPlan,
+        *,
+        noise: str | NoiseParams = "ideal",
+        seed: int = 0,
+        size: int = 256,
+        store: str | None = None,
+    ) -> None:
+        if not isinstance(params, FilterParams):
+            raise PpalocError(
+                f"params must be a ppaloc.localise.params.FilterParams, got {type(params).__name__}"
+            )
+        try:
+            cls = PLACES[representation]
+        except KeyError:
+            raise PpalocError(
+                f"no on-sensor pipeline for representation {representation!r}; known: "
+                f"{', '.join(PLACES)}"
+            ) from None
+        store = cls.choose_store(plan, store)
+        self.sensor = Sensor(
+            representation,
+            cls.roles,
+            n_nodes,
+            store=store,
+            max_tiles=cls.stores[store],
+            noise=noise,
+            seed=seed,
+            size=size,
+        )
+        self.places = cls(self.sensor, params)
+        self.representation = representation
+        self.params, self.plan = params, plan
+        with self.sensor.stage("setup"):
+            self.places.setup_masks()
+            self.sensor.valid_roots()
+        # the weights' scale under the array's transfer gain, calibrated on the array once
+        # where the schedule's weights live through many writes (mod:`ppaloc.onsensor.gain`)
+        log_gain = gain.calibrate(self.sensor) if plan.keep_scale else 0.0
+        self.state = WeightState(gain.WeightScale(log_gain))
+        self.planes = MotionPlanes()
+        self.reset()
+
+    # ------------------------------------------------------------------ the sensor
+    @property
+    def sim(self) -> Scamp5:
+        """The simulator."""
+        return self.sensor.sim
+
+    @property
+    def timing(self) -> TimingModel:
+        """The simulator's timing model: modelled time and energy, by stage."""
+        return self.sensor.sim.timing
+
+    @property
+    def layout(self) -> SnakeLayout:
+        """The map's snake layout."""
+        return self.sensor.layout
+
+    @property
+    def store(self) -> str:
+        """How the map is held."""
+        return self.sensor.store
+
+    @property
+    def n_nodes(self) -> int:
+        """Nodes of the map on this sensor."""
+        return self.sensor.n_nodes
+
+    @property
+    def tiles(self) -> int:
+        """Tiles the map takes."""
+        return self.sensor.tiles
+
+    @property
+    def capacity(self) -> int:
+        """Nodes this sensor holds with its store."""
+        return self.sensor.capacity
+
+    def set_nodes(self, n_nodes: int) -> None:
+        """Hold a map of ``n_nodes`` nodes from now on (after a keyframe mapping run).
+
+        Recomputes the tiles and the valid roots (stage ``"setup"``) on the same sensor.
+        """
+        sensor = self.sensor
+        sensor.tiles = sensor.tiles_for(int(n_nodes))
+        sensor.n_nodes = int(n_nodes)
+        with sensor.stage("setup"):
+            sensor.valid_roots()
+        sensor.node_grid()
+
+    def reset(self) -> None:
+        """Zero the weights, forget the previous frame, estimate and pending work."""
+        with self.sensor.stage("reset"):
+            self.sensor.run(_res, self.sensor.roles.weights)
+        self.state.reset()
+        self.planes.forget()
+        self.places.reset()
+        self.frames = 0
+
+    # ------------------------------------------------------------------ the steps
+    def begin(self, frame: np.ndarray) -> None:
+        """Refresh the map store where it needs it, capture, block means."""
+        self.frames += 1
+        self.places.refresh(self.frames)
+        self.capture(frame)
+
+    def capture(self, frame: np.ndarray) -> None:
+        """Capture ``frame`` and reduce it to block means (spread where the comparison or
+        the image motion test needs them), without counting a frame."""
+        capture(self.sensor, frame)
+        image = self.params.motion == "image"
+        block_means(self.sensor, self.plan.spread if self.places.spread_means or image else None)
+
+    def motion(self, decided: bool | None) -> bool:
+        """``decided`` when given (the controller's), else the sensor's own test: the
+        image motion stage, or forward on every frame but the first."""
+        if decided is not None:
+            return decided
+        if self.params.motion == "always_forward":
+            return self.frames != 1
+        if self.params.motion != "image":
+            raise AssertionError(f"motion={self.params.motion!r}: the controller decides")
+        return image_motion(self.sensor, self.planes, self.params)
+
+    def transition(self, costs: tuple[int, ...], carried: bool = False) -> None:
+        """Robust: :func:`ppaloc.onsensor.transition.transition` (``carried``: on a bank's
+        later sensor, the previous sensor's weights enter node 0)."""
+        transition(self.sensor, self.state, int(self.params.memory), costs, carried)  # type: ignore[arg-type]
+
+    def node_values(self) -> np.ndarray:
+        """Robust: the live frame in place, then every node's ``r_i``
+        (:func:`ppaloc.onsensor.likelihood.node_values`)."""
+        self.places.prepare_live()
+        return likelihood.node_values(self.sensor, self.places)
+
+    def _normalised(self) -> None:
+        """Apply a normalisation still pending (a schedule whose frame has no transition
+        to carry it): the transition that stays on every node for free."""
+        if self.state.pending_top is not None:
+            self.transition((0,))
+
+    def add_scaled(self, shift: int, alpha: float) -> None:
+        """Robust: ``w += alpha_t - mu 2**-s`` (:func:`ppaloc.onsensor.likelihood.add_scaled`)."""
+        self._normalised()
+        likelihood.add_scaled(self.sensor, self.places, self.state, shift, int(alpha))
+
+    def shift(self) -> None:
+        """Paper: every weight one node along the snake (``advance = (1, 1)`` only)."""
+        self._normalised()
+        shift_weights(self.sensor)
+
+    def add_likelihood(self, alpha: float, shift: int) -> None:
+        """Paper: the live frame in place, then ``w += alpha - mu 2**-shift`` per tile."""
+        self._normalised()
+        self.places.prepare_live()
+        likelihood.add_paper(self.sensor, self.places, int(alpha), shift)
+
+    def detect(self, prev: int | None) -> tuple[int, float]:
+        """``(node, T)`` (:func:`ppaloc.onsensor.detect.detect`)."""
+        self._normalised()
+        return detect.detect(self.sensor, self.state, prev)
+
+    def confidence(self, node: int, top: float) -> float:
+        """``T`` minus the integer maximum outside ``node +- R``."""
+        radius = self.params.confidence_radius
+        return detect.confidence(self.sensor, self.state, node, int(top), radius)
+
+    def rank(self, node: int) -> None:
+        """The sensor reports no ranking."""
+
+    def normalise(self, top: float) -> None:
+        """Robust: ``w := max(clip(w - T), -memory)``, only remembered: the next frame's
+        transition subtracts ``T`` with the copy and the stay candidate it writes anyway
+        and applies the floor after its candidates, so the normalisation costs no weight
+        write of its own. :meth:`weights` applies a pending normalisation to what it reads.
+        """
+        self.state.pending_top = int(top)
+
+    def adjust(self, amount: float) -> None:
+        """Paper: ``w := clip(w - g)``, ``g`` an integer through the DAC (stage ``"adjust"``)."""
+        sensor = self.sensor
+        with sensor.stage("adjust"):
+            sensor.sim.scamp5_in(sensor.roles.spare, -int(amount))
+            sensor.run(_subtract_plane, sensor.roles.weights, sensor.roles.spare)
+
+    # ------------------------------------------------------------------ a bank's exchanges
+    def carry_out(self, steps: int) -> list[float]:
+        """This sensor's last ``steps`` weights, read exactly (:mod:`ppaloc.onsensor.carry`)."""
+        return carry_out(self.sensor, self.state, int(self.params.memory), steps)  # type: ignore[arg-type]
+
+    def carry_in(self, values: Sequence[float]) -> None:
+        """The previous sensor's last weights, where this snake's start reads them."""
+        carry_in(self.sensor, self.state, list(values))
+
+    def local_top(self) -> int:
+        """``floor(max W)`` over this sensor's nodes."""
+        return detect.local_top(self.sensor, self.state)
+
+    def candidates(self, top: int, prev: int | None) -> list[int] | None:
+        """This sensor's nodes with ``w >= top`` (:func:`ppaloc.onsensor.detect.candidates`)."""
+        return detect.candidates(self.sensor, self.state, top, prev)
+
+    def outside_max(self, a: int, b: int, top: int) -> int | None:
+        """The largest threshold in [-127, top] met by a node outside ``a..b``."""
+        return detect.outside_max(self.sensor, self.state, a, b, top)
+
+    # ------------------------------------------------------------------ mapping
+    def sense_node(self, frame: np.ndarray) -> Any:
+        """Describe one reference frame on the sensor, as the mapping run does.
+
+        Capture, block means, then the representation's description; all charged to
+        the stage ``"mapping"``.
+        """
+        with self.sensor.stage("mapping"):
+            capture(self.sensor, frame)
+            self._block_means_for_mapping(spread=None)
+            return self.places.describe()
+
+    def _block_means_for_mapping(self, spread: bool | None) -> None:
+        if spread is None:
+            spread = self.places.spread_means or self.params.motion == "image"
+        block_means(self.sensor, self.plan.spread if spread else None)
+
+    def map_keyframes(self, frames: Sequence[np.ndarray]) -> tuple[list[Any], list[int]]:
+        """The keyframe mapping run: ``(nodes, kept)`` over a reference traversal.
+
+        Every frame is captured, reduced and put through the sensor's own image motion
+        stage (between consecutive reference frames); a frame becomes a node when it says
+        forward, the first frame always (docs/ppa8.md, "The map"; the host's
+        :func:`ppaloc.localise.weighted.keyframe_test`). Only kept frames are described.
+        All charged to the stage ``"mapping"``; the motion planes are forgotten at the end.
+        """
+        nodes: list[Any] = []
+        kept: list[int] = []
+        self.planes.forget()
+        for i, frame in enumerate(frames):
+            with self.sensor.stage("mapping"):
+                capture(self.sensor, frame)
+                self._block_means_for_mapping(spread=True)
+                moved = image_motion(self.sensor, self.planes, self.params)
+                if moved or not kept:
+                    nodes.append(self.places.describe())
+                    kept.append(i)
+        self.planes.forget()
+        return nodes, kept
+
+    def node_blocks(self, topomap: TopoMap) -> np.ndarray:
+        """Each node's values on the PEs of its block, as the comparison reads them."""
+        return self.places.node_blocks(topomap)
+
+    # ------------------------------------------------------------------ inspection
+    @property
+    def last_shift(self) -> int | None:
+        """Robust: the likelihood shift of the last frame that added a likelihood."""
+        return self.state.last_shift
+
+    @property
+    def last_alpha(self) -> int | None:
+        """Robust: the offset ``alpha_t`` of the last frame that added a likelihood."""
+        return self.state.last_alpha
+
+    def weights(self) -> np.ndarray:
+        """The weights in map order, read from the register (inspection, untimed), with
+        the pending stay cost and normalisation applied, as the host reports them."""
+        return read_weights(self.sensor, self.state, self.params.memory)
+
+    def register_planes(self) -> dict[str, np.ndarray]:
+        """The registers worth a picture, labelled ``"NAME: role"`` (untimed reads).
+
+        The map tiles, the weights, the representation's live planes, the motion
+        bit-planes of the last frame and the last detection's candidates; the working
+        planes are left out, since after a frame they hold whatever the last stage left.
+        """
+        sim, r = self.sensor.sim, self.sensor.roles
+        planes = self.places.map_planes()
+        if self.state.negated:
+            planes[f"{r.negated.name}: minus the weights"] = sim.read(r.negated)  # type: ignore[union-attr]
+        planes[f"{r.weights.name}: weights"] = sim.read(r.weights)  # before a pending step
+        planes.update(self.places.live_planes())
+        planes[f"{r.d.u.name}: motion, above block mean"] = sim.read(r.d.u)
+        planes[f"{r.d.d.name}: motion, below block mean"] = sim.read(r.d.d)
+        planes[f"{r.d.cand.name}: detection candidates"] = sim.read(r.d.cand)
+        return planes
+
+
+def _res(k: Kernel, w: Register) -> None:
+    k.res(w)
+
+
+def _subtract_plane(k: Kernel, w: Register, minus: Register) -> None:
+    k.add(w, w, minus)

@@ -1,0 +1,73 @@
+"""The weights on the sensor between stages: what the controller still owes them.
+
+The robust frame defers work from one stage to the next so that a weight is written as
+few times as possible (docs/onsensor.md, "The robust weights"): the normalisation waits
+for the next transition, the update may leave minus the weights in a free register, and
+the transition may leave its stay cost to the next update. :class:`WeightState` is the
+controller's record of that; :func:`read_weights` applies it to what an untimed read
+of the register shows, so the weights reported are the host's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ppaloc.onsensor import gain
+from ppaloc.onsensor.sensor import Sensor
+
+__all__ = ["WeightState", "read_weights"]
+
+
+@dataclass
+class WeightState:
+    """The controller's record of the weights' deferred work.
+
+    Attributes
+    ----------
+    scale : gain.WeightScale
+        The weights' scale under the array's transfer gain (:mod:`ppaloc.onsensor.gain`).
+    pending_top : int or None
+        Robust: the threshold ``T`` whose normalisation the next transition applies (None:
+        none pending; the transition then normalises with ``T = 0``).
+    negated : bool
+        Robust, with a ``negated`` role: the weights are minus that register (the last
+        update's one write) instead of ``weights``.
+    pending_offset : int
+        Robust: the stay cost ``c_0`` the next update still subtracts.
+    last_shift, last_alpha : int or None
+        Robust: the likelihood shift ``s`` and offset ``alpha_t`` of the last frame that
+        added a likelihood (None before one).
+    """
+
+    scale: gain.WeightScale
+    pending_top: int | None = None
+    negated: bool = False
+    pending_offset: int = 0
+    last_shift: int | None = None
+    last_alpha: int | None = None
+
+    def reset(self) -> None:
+        """New weights (all zero): nothing pending, the scale exact."""
+        self.scale.reset()
+        self.pending_top = None
+        self.negated = False
+        self.pending_offset = 0
+        self.last_shift = None
+        self.last_alpha = None
+
+
+def read_weights(sensor: Sensor, state: WeightState, memory: int | None) -> np.ndarray:
+    """The weights in map order, read from the register (inspection, untimed), with what
+    the controller still owes them applied (the stay cost, the normalisation)."""
+    r = sensor.roles
+    plane = -sensor.sim.read(r.negated) if state.negated else sensor.sim.read(r.weights)
+    nodes = np.arange(sensor.n_nodes)
+    tile, br, bc = sensor.layout.node_to_block(nodes)
+    w = plane[br * sensor.bh, bc * sensor.bw + tile].astype(np.float64)
+    if state.pending_offset:
+        w = np.clip(w - state.pending_offset, -127, 127)
+    if state.pending_top is not None:
+        w = np.maximum(np.clip(w - state.pending_top, -127, 127), -memory)  # type: ignore[operator]
+    return w
