@@ -483,6 +483,8 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
         f"frame{'' if result.tolerance == 1 else 's'}. "
         f"ppaloc {result.ppaloc_version}{', ' + result.created if result.created else ''}."
     )
+    if result.roles:  # one line: what the map was built from and what was localised
+        meta += f" Database: {result.roles['database']}; query: {result.roles['query']}."
     meta_html = html.escape(meta).replace("`", "<code>", 1).replace("`", "</code>", 1)
     parts = [
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
