@@ -249,3 +249,14 @@ def test_soft_tolerance_builds_soft_sets_and_is_checked():
     assert ds.meta["ground_truth_rule"]["soft_tolerance"] == 1
     with pytest.raises(DataError, match=r"soft_tolerance=1 is below tolerance=2; .* >= tolerance"):
         assemble(_route(FRAMES, places=range(8)), {"tolerance": 2, "soft_tolerance": 1})
+
+
+def test_the_closure_is_bounded(monkeypatch):
+    from ppaloc.datasets import sameplace
+
+    monkeypatch.setattr(sameplace, "MAX_GROUND_TRUTH_ITEMS", 22)
+    groups = np.array([[0, 10]])
+    assert close_over_groups([[1], [2]], groups, 12).indices.size == 20
+    with pytest.raises(DataError, match=r"\(the longest 10 frames\) would accept up to 34 \(query, "
+                       r"reference\) pairs, more than 22; .* \(same_place=off\)"):  # fmt: skip
+        close_over_groups([[1], [2], [11, 3]], groups, 12)

@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from ppaloc.datasets.groundtruth import PackedSets
+from ppaloc.datasets.groundtruth import MAX_GROUND_TRUTH_ITEMS, PackedSets
+from ppaloc.errors import DataError
 
 __all__ = [
     "STILL_FRAMES",
@@ -261,6 +262,13 @@ def close_over_groups(sets: Sequence[np.ndarray], groups: np.ndarray, n_ref: int
     -------
     PackedSets
 
+    Raises
+    ------
+    DataError
+        When the closed sets would hold more than
+        :data:`~ppaloc.datasets.groundtruth.MAX_GROUND_TRUTH_ITEMS` (query, reference)
+        pairs in all (a camera standing still for most of a long route).
+
     Examples
     --------
     >>> g = close_over_groups([[0], [3], [], [5, 6]], np.array([[2, 5]]), 7)
@@ -279,6 +287,15 @@ def close_over_groups(sets: Sequence[np.ndarray], groups: np.ndarray, n_ref: int
     pairs = np.unique(rows[hit] * len(groups) + touched[hit])  # (query, group), once each
     q, g = pairs // len(groups), pairs % len(groups)
     lengths = groups[g, 1] - groups[g, 0]
+    total = int(lengths.sum()) + packed.indices.size
+    if total > MAX_GROUND_TRUTH_ITEMS:
+        longest = int((groups[:, 1] - groups[:, 0]).max())
+        raise DataError(
+            f"closing the accepted sets over the reference's same-place groups (the longest "
+            f"{longest} frames) would accept up to {total} (query, reference) pairs, more than "
+            f"{MAX_GROUND_TRUTH_ITEMS}; a reference that stands still this long is better cut "
+            "(start=, stop=) or left unclosed (same_place=off)"
+        )
     add_rows = np.repeat(q, lengths)
     add_refs = np.repeat(groups[g, 0], lengths) + _ramp(lengths)
     keys = np.unique(np.concatenate([rows * n_ref + packed.indices, add_rows * n_ref + add_refs]))
