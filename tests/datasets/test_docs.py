@@ -58,9 +58,13 @@ def test_the_worked_example_runs_and_prints_what_it_shows(tmp_path, monkeypatch,
 
     args = shlex.split(command)
     assert args[0] == "ppaloc"
-    assert main([*args[1:], "--no-report", "--quiet"]) == 0, capsys.readouterr().err
+    assert main([*args[1:], "--quiet"]) == 0, capsys.readouterr().err
     summary = json.loads((tmp_path / "my-results" / "results.json").read_text())
     assert summary["roles"] == {
         "database": "images in my-route/ref", "query": "images in my-route/query"
     }  # fmt: skip
     assert summary["n_queries"] == 6
+    assert summary["protocol"]["ground_truth"]["tolerance_unit"] == "metres"
+    report = (tmp_path / "my-results" / "report.md").read_text()
+    assert "(5 with a true match), tolerance 25.0 m." in report
+    assert "Database: images in my-route/ref; query: images in my-route/query." in report
