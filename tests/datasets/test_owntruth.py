@@ -197,3 +197,22 @@ def test_video_with_positions(tmp_path):
             f"video:{tmp_path / 'ref.mp4'},{tmp_path / 'qry.mp4'}?gt={tmp_path / 'x.npy'}"
             "&align=proportional"
         )
+
+
+def test_positions_beside_a_matrix_give_metres_and_groups_on_request(folders):
+    (folders / "ref.csv").write_text("x,y\n0,0\n10,0\n10.5,0\n20,0\n30,0\n")
+    (folders / "qry.csv").write_text("x,y\n0,0\n10,0\n20,0\n30,0\n")
+    hard = np.zeros((4, 5), bool)
+    hard[0, 0] = hard[1, 1] = hard[2, 3] = hard[3, 4] = True
+    np.save(folders / "gt.npy", hard)
+    spec = _spec(folders, gt=folders / "gt.npy", ref_positions=folders / "ref.csv",
+                 query_positions=folders / "qry.csv")  # fmt: skip
+    ds = load_dataset(spec)
+    assert [g.tolist() for g in ds.ground_truth] == [[0], [1], [3], [4]]  # the matrix's word
+    assert (
+        ds.reference_positions.shape == (5, 2) and ds.meta["ground_truth_rule"]["kind"] == "matrix"
+    )
+    closed = load_dataset(spec + "&same_place=positions")
+    assert closed.ground_truth[1].tolist() == [1, 2] and closed.reference_groups.tolist() == [
+        [1, 3]
+    ]
