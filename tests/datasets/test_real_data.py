@@ -38,3 +38,31 @@ def test_gardens_point_index_matches_vprbench_file(gardens_point_dir):
         np.array_equal(a, b)
         for a, b in zip(by_index.ground_truth, by_file.ground_truth, strict=True)
     )
+
+
+def test_nordland_summer_stops_are_closed_and_tunnels_are_not(nordland_dir):
+    ds = load_dataset(f"nordland:{nordland_dir}?ref=summer&query=winter")
+    groups = [tuple(g) for g in ds.reference_groups.tolist()]
+    rule = ds.meta["ground_truth_rule"]["same_place"]
+    assert (rule["rule"], rule["groups"], rule["grouped_frames"]) == ("still-frames", 17, 235)
+    # the station stops measured by grey difference (128-177, 221-227, 250-263, 340-363,
+    # 506-539, 606-619, 708-724, 777-785) lie inside groups
+    for a, b in [(128, 177), (221, 227), (250, 263), (340, 363), (506, 539), (606, 619),
+                 (708, 724), (777, 785)]:  # fmt: skip
+        assert any(g0 <= a and b < g1 for g0, g1 in groups), (a, b)
+    # the blank start and the dark frames (a tunnel at 187-201, 1191-1202) are in none
+    for frame in (0, 10, 190, 195, 1195):
+        assert not any(g0 <= frame < g1 for g0, g1 in groups)
+    assert ds.ground_truth[150].tolist() == list(range(128, 179))
+    assert ds.ground_truth[100].tolist() == [99, 100, 101]
+    assert rule["queries_changed"] == 260
+
+
+def test_gardens_point_walks_have_no_stops(gardens_point_dir):
+    for ref in ("day_left", "day_right", "night_right"):
+        ds = load_dataset(
+            f"gardens-point:{gardens_point_dir}?ref={ref}"
+            f"&query={'day_right' if ref == 'day_left' else 'day_left'}"
+        )
+        assert ds.reference_groups.shape == (0, 2), ref
+        assert ds.meta["ground_truth_rule"]["same_place"]["queries_changed"] == 0

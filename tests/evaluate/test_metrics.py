@@ -49,8 +49,9 @@ def test_curve_golden_recall_b_and_c():
     b = pr_curve(SCORES, correct, has, recall="B")
     np.testing.assert_allclose(b.recall, [1 / 3, 2 / 3, 1, 1, 1])
     c = pr_curve(SCORES, correct, has, recall="c")  # case-insensitive
-    # rejected = 5, 3, 2, 1, 0
-    np.testing.assert_allclose(c.recall, [1 / 6, 2 / 5, 3 / 5, 3 / 4, 3 / 3])
+    # false negatives = rejected queries with a true match: 4, 2, 1, 0, 0 (query 5, with
+    # no true match, is a true negative while rejected, never a false negative)
+    np.testing.assert_allclose(c.recall, [1 / 5, 2 / 4, 3 / 4, 3 / 3, 3 / 3])
     assert c.recall_definition == "C"
 
 
@@ -233,3 +234,70 @@ def test_padded_rankings_and_packed_truth_give_the_list_results(rows, block):
     finally:
         metrics._RECALL_ROWS = saved
     assert got.tobytes() == want.tobytes()
+
+
+# Soft ground truth: query 2's prediction (40) and query 5's (50, a query with no true
+# match) are soft: near enough not to be wrong, not right.
+SOFT = [[9, 10, 11], [10, 11, 12], [11, 12, 13, 40], [12, 13, 14], [13, 14, 15], [50]]
+
+
+def test_soft_predictions_are_neither_true_nor_false_positives():
+    correct = is_correct(NODES, GT)
+    soft = is_correct(NODES, SOFT) & ~correct
+    assert soft.tolist() == [False, False, True, False, False, True]
+    has = [len(g) > 0 for g in GT]
+    a = pr_curve(SCORES, correct, has, recall="A", soft=soft)
+    assert a.accepted.tolist() == [1, 3, 4, 5, 6]
+    assert a.soft_accepted.tolist() == [0, 1, 1, 1, 2]
+    np.testing.assert_allclose(a.precision, [1, 2 / 2, 3 / 3, 3 / 4, 3 / 4])
+    np.testing.assert_allclose(a.recall, [1 / 5, 2 / 5, 3 / 5, 3 / 5, 3 / 5])
+    b = pr_curve(SCORES, correct, has, recall="B", soft=soft)
+    np.testing.assert_allclose(b.recall, [1 / 3, 2 / 3, 1, 1, 1])
+    c = pr_curve(SCORES, correct, has, recall="C", soft=soft)
+    np.testing.assert_allclose(c.recall, [1 / 5, 2 / 4, 3 / 4, 1, 1])
+
+
+def test_soft_summary_golden():
+    m = evaluate_estimates(NODES, SCORES, GT, soft=SOFT, rankings=[[n, 12] for n in NODES])
+    assert m.f1_max == pytest.approx(0.75)  # P 1, R 0.6 at threshold 0.5
+    assert (m.precision_at_f1, m.recall_at_f1, m.threshold_at_f1) == (1.0, 0.6, 0.5)
+    assert m.recall_at_100p == pytest.approx(0.6)
+    assert m.accuracy == pytest.approx(3 / 4)  # 3 correct of the 4 right-or-wrong
+    assert (m.n_correct, m.n_soft, m.n_with_match) == (3, 2, 5)
+    assert m.auc == pytest.approx(0.6)
+    # soft counts nowhere in recall@K or the error: hard matches only
+    np.testing.assert_allclose(m.recall_at_k, [3 / 5, 4 / 5])  # query 2 finds 12 second
+    np.testing.assert_array_equal(m.error_frames, [0, 0, 27, 0, 75, np.nan])
+    assert m.summary()["n_soft"] == 2
+    # the soft sets a PackedSets carries are read the same way
+    from ppaloc.datasets.groundtruth import PackedSets
+
+    carried = evaluate_estimates(NODES, SCORES, PackedSets.from_sets(GT).with_soft(SOFT))
+    assert (carried.f1_max, carried.accuracy, carried.n_soft) == (m.f1_max, m.accuracy, 2)
+    plain = evaluate_estimates(NODES, SCORES, GT)
+    assert plain.n_soft == 0 and plain.accuracy == pytest.approx(3 / 6)
+
+
+def test_queries_without_a_true_match_in_every_recall_definition():
+    # two queries with a match (both correct), three without (their predictions wrong)
+    nodes, scores = [1, 2, 7, 8, 9], [0.9, 0.8, 0.7, 0.6, 0.5]
+    gt = [[1], [2], [], [], []]
+    for definition in ("A", "B", "C"):
+        m = evaluate_estimates(nodes, scores, gt, recall=definition)
+        # accepting the two with a match finds everything and accepts nothing wrong
+        assert (m.f1_max, m.recall_at_f1, m.precision_at_f1) == (1.0, 1.0, 1.0), definition
+        assert m.recall_at_100p == 1.0 and m.threshold_at_f1 == 0.8
+        # the whole curve: precision falls as the no-match queries are accepted, recall stays
+        np.testing.assert_allclose(m.curve.recall, [0.5, 1, 1, 1, 1])
+        np.testing.assert_allclose(m.curve.precision, [1, 1, 2 / 3, 2 / 4, 2 / 5])
+    assert evaluate_estimates(nodes, scores, gt).accuracy == pytest.approx(2 / 5)
+    nothing = evaluate_estimates([0, 1], [0.5, 0.4], [[], []], recall="C")
+    assert (nothing.f1_max, nothing.recall_at_100p, nothing.n_with_match) == (0.0, 0.0, 0)
+    # rejecting a query without a match is no false negative under C
+    c = pr_curve([0.9, 0.1], [True, False], [True, False], recall="C")
+    assert c.recall.tolist() == [1.0, 1.0]
+
+
+def test_a_correct_prediction_cannot_be_soft():
+    with pytest.raises(ValueError, match="cannot also be soft"):
+        pr_curve([0.5], [True], [True], soft=[True])

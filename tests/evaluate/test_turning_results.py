@@ -39,7 +39,7 @@ def test_flags_round_trip_and_split_metrics(mean_match, turned, tmp_path):
     short, _ = comparison_table(summary, short=True)
     assert len(short) == len(header)
     csv = (tmp_path / "results.csv").read_text().splitlines()
-    assert csv[0].endswith(",f1_max_straight,f1_max_turning")
+    assert csv[0].endswith(",f1_max_straight,f1_max_turning,database,query")
     assert (
         position_along_route(back).axes[0].get_title().endswith(f"turning {m.f1_max_turning:.2f}")
     )

@@ -19,6 +19,7 @@ This module also reads the two ground-truth file formats, never running untruste
 
 from __future__ import annotations
 
+import hashlib
 import io
 import itertools
 import math
@@ -37,6 +38,7 @@ __all__ = [
     "MAX_TRUTH_SIDE",
     "PackedSets",
     "dilate",
+    "file_digest",
     "from_positions",
     "read_truth_mat",
     "read_vprbench",
@@ -52,16 +54,28 @@ class PackedSets(Sequence[np.ndarray]):
     a slice gives a ``PackedSets``); each row is a read-only view made on demand, so M
     queries hold two arrays instead of M array objects.
 
+    The rows are the *hard* ground truth: what a method must find. ``soft``, where a
+    dataset has one, is a second ``PackedSets`` of the same length whose rows hold each
+    hard row and more: the reference frames a prediction may fall on without being wrong
+    (VPR_Tutorial's ``GTsoft``; how the metrics count them is in
+    :mod:`ppaloc.evaluate.metrics`). It travels with the rows through slicing and
+    :meth:`from_sets`.
+
     Examples
     --------
     >>> g = PackedSets.from_sets([[0, 1], [], [4]])
     >>> len(g), g[0].tolist(), [r.tolist() for r in g[1:]], g.indptr.tolist()
     (3, [0, 1], [[], [4]], [0, 2, 2, 3])
+    >>> s = g.with_soft([[2], [5], [3, 4, 5]])
+    >>> [r.tolist() for r in s.soft], s.soft.soft is None
+    ([[0, 1, 2], [5], [3, 4, 5]], True)
     """
 
-    __slots__ = ("indices", "indptr")
+    __slots__ = ("indices", "indptr", "soft")
 
-    def __init__(self, indices: np.ndarray, indptr: np.ndarray) -> None:
+    def __init__(
+        self, indices: np.ndarray, indptr: np.ndarray, soft: PackedSets | None = None
+    ) -> None:
         # Views (no copy) made read-only, so a row handed out cannot change the truth.
         indices = np.asarray(indices, dtype=np.int64).ravel().view()
         indptr = np.asarray(indptr, dtype=np.int64).ravel().view()
@@ -75,6 +89,28 @@ class PackedSets(Sequence[np.ndarray]):
         indices.flags.writeable = False
         indptr.flags.writeable = False
         self.indices, self.indptr = indices, indptr
+        if soft is not None and (not isinstance(soft, PackedSets) or len(soft) != len(self)):
+            raise ValueError(f"soft sets must be a PackedSets of {len(self)} rows, got {soft!r}")
+        self.soft = soft
+
+    def with_soft(self, soft: Iterable[object] | None) -> PackedSets:
+        """These rows with ``soft`` as their soft sets, each made to hold its hard row.
+
+        ``soft`` is packed (:meth:`from_sets`) and every row is united with this one's, so
+        a hard match is never outside its soft set; ``None`` removes the soft sets.
+        """
+        if soft is None:
+            return PackedSets(self.indices, self.indptr)
+        loose = PackedSets.from_sets(soft)
+        if len(loose) != len(self):
+            raise ValueError(f"{len(loose)} soft rows for {len(self)} queries")
+        n = int(max(self.indices.max(initial=-1), loose.indices.max(initial=-1))) + 1
+        rows = np.repeat(np.arange(len(self), dtype=np.int64), self.lengths)
+        loose_rows = np.repeat(np.arange(len(self), dtype=np.int64), loose.lengths)
+        keys = np.unique(np.concatenate([rows * n + self.indices, loose_rows * n + loose.indices]))
+        indptr = np.zeros(len(self) + 1, dtype=np.int64)
+        np.cumsum(np.bincount(keys // max(n, 1), minlength=len(self)), out=indptr[1:])
+        return PackedSets(self.indices, self.indptr, PackedSets(keys % max(n, 1), indptr))
 
     @classmethod
     def from_sets(cls, sets: Iterable[object]) -> PackedSets:
@@ -103,11 +139,13 @@ class PackedSets(Sequence[np.ndarray]):
     def __getitem__(self, i: int | slice) -> np.ndarray | PackedSets:
         if isinstance(i, slice):
             start, stop, step = i.indices(len(self))
+            soft = None if self.soft is None else self.soft[i]
             if step == 1:
                 stop = max(stop, start)
                 lo, hi = self.indptr[start], self.indptr[stop]
-                return PackedSets(self.indices[lo:hi], self.indptr[start : stop + 1] - lo)
-            return PackedSets.from_sets([self[k] for k in range(start, stop, step)])
+                return PackedSets(self.indices[lo:hi], self.indptr[start : stop + 1] - lo, soft)
+            rows = PackedSets.from_sets([self[k] for k in range(start, stop, step)])
+            return PackedSets(rows.indices, rows.indptr, soft)
         n = len(self)
         k = int(i)
         if not -n <= k < n:
@@ -121,7 +159,18 @@ class PackedSets(Sequence[np.ndarray]):
             yield indices[a:b]
 
     def __repr__(self) -> str:
-        return f"PackedSets({len(self)} queries, {self.indices.size} indices)"
+        soft = "" if self.soft is None else f", soft {self.soft.indices.size}"
+        return f"PackedSets({len(self)} queries, {self.indices.size} indices{soft})"
+
+
+def file_digest(path: Path) -> dict[str, str]:
+    """``{"name": <file name>, "sha256": <digest of its bytes>}``: a ground-truth file as
+    ``meta["ground_truth_rule"]`` records it (the same file, the same entry)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+    return {"name": Path(path).name, "sha256": h.hexdigest()}
 
 
 def from_positions(positions: np.ndarray, n_ref: int, tolerance: int) -> PackedSets:

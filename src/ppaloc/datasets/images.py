@@ -18,6 +18,7 @@ __all__ = [
     "list_images",
     "natural_key",
     "read_grey",
+    "read_grey_reduced",
     "require_dir",
 ]
 
@@ -141,7 +142,34 @@ def read_grey(path: Path) -> np.ndarray:
     DataError
         If the file is missing, not an image, or corrupt (e.g. truncated).
     """
-    path = Path(path)
+    return _read(Path(path), None)[0]
+
+
+def read_grey_reduced(path: Path, at_least: int) -> tuple[np.ndarray, tuple[float, float]]:
+    """Read an image as grey, a JPEG decoded at a reduced scale, for thumbnails.
+
+    A JPEG is decoded by Pillow's ``draft`` at the largest power-of-two reduction (up to
+    1/8) that keeps both sides at least ``at_least`` pixels, luma only, several times
+    faster than a full decode; any other format is read whole (:func:`read_grey`).
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w)
+        The (possibly reduced) grey image.
+    (float, float)
+        The width and height of the whole image in the returned image's pixels (a reduced
+        JPEG's last row and column may hold a partial block, so they can be less than
+        ``w`` and ``h``): the box to resample from.
+
+    Raises
+    ------
+    DataError
+        As :func:`read_grey`.
+    """
+    return _read(Path(path), int(at_least))
+
+
+def _read(path: Path, draft: int | None) -> tuple[np.ndarray, tuple[float, float]]:
     try:
         with Image.open(path) as im:
             w, h = im.size
@@ -150,11 +178,17 @@ def read_grey(path: Path) -> np.ndarray:
                     f"image {path} claims {w} x {h} pixels, outside 1 to {MAX_IMAGE_PIXELS} "
                     "pixels; replace the file or remove it from the folder"
                 )
+            if draft is not None and im.format == "JPEG":
+                im.draft("L", (draft, draft))
             im.load()
+            # A draft decodes at 1/s (s = 1, 2, 4 or 8) to ceil(w / s) x ceil(h / s) pixels.
+            rw, rh = im.size
+            scale = next((k for k in (1, 2, 4, 8) if -(-w // k) == rw and -(-h // k) == rh), 1)
+            extent = (w / scale, h / scale)
             if im.mode in ("I;16", "I;16B", "I;16L", "I"):
                 a = np.asarray(im, dtype=np.float64)
                 top = 65535.0 if im.mode.startswith("I;16") or a.max() > 255 else 255.0
-                return np.clip(np.rint(a * (255.0 / top)), 0, 255).astype(np.uint8)
+                return np.clip(np.rint(a * (255.0 / top)), 0, 255).astype(np.uint8), extent
             if im.mode == "F":
                 a = np.asarray(im, dtype=np.float64)
                 if not np.isfinite(a).all():
@@ -162,9 +196,9 @@ def read_grey(path: Path) -> np.ndarray:
                         f"image {path} holds {int((~np.isfinite(a)).sum())} NaN or infinite "
                         "pixels; fill them (e.g. with 0) or remove the file from the folder"
                     )
-                scale = 255.0 if a.size and a.max() <= 1.0 else 1.0
-                return np.clip(np.rint(a * scale), 0, 255).astype(np.uint8)
-            return np.asarray(im.convert("L"), dtype=np.uint8)
+                top = 255.0 if a.size and a.max() <= 1.0 else 1.0
+                return np.clip(np.rint(a * top), 0, 255).astype(np.uint8), extent
+            return np.asarray(im.convert("L"), dtype=np.uint8), extent
     except FileNotFoundError:
         raise DataError(f"image {path} does not exist (was it moved after listing?)") from None
     except IsADirectoryError:

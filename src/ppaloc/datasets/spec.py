@@ -180,6 +180,20 @@ COMMON_KEYS: dict[str, Key] = {
         0,
         maximum=MAX_TOLERANCE,
     ),
+    "soft_tolerance": Key(
+        "int",
+        None,
+        "soft ground truth: also not wrong within this many frames (>= tolerance)",
+        0,
+        maximum=MAX_TOLERANCE,
+    ),
+    "same_place": Key(
+        "choice",
+        "auto",
+        "close the accepted sets over the reference's same-place groups: auto (the "
+        "kind's rule), images, positions, off",
+        choices=("auto", "images", "positions", "off"),
+    ),
     "start": Key("int", None, "first frame (or place) kept", 0),
     "stop": Key("int", None, "frame (or place) where the selection stops (exclusive)", 1),
     "step": Key("int", 1, "keep every step-th frame", 1),

@@ -1,24 +1,43 @@
 """Place-recognition metrics: the precision-recall curve and what is read off it.
 
 Every query frame gets one estimate: a predicted reference index and a confidence score
-(higher = surer). A threshold ``t`` *accepts* the queries with ``score >= t``; an accepted
-query is *correct* when its predicted index is in the query's ground-truth set (tolerance
-already applied). The curve has one point per distinct score value, from the highest
-(fewest accepted) to the lowest (all accepted): a fixed grid of thresholds would skip points
-and under-report recall at 100% precision.
+(higher = surer). A threshold ``t`` *accepts* the queries with ``score >= t``. Each
+prediction is one of three things:
 
-Precision is ``correct accepted / accepted``. Recall has three definitions in use in the
-place-recognition literature, so it is always labelled:
+*correct*
+    its reference index is in the query's (hard) ground-truth set (tolerance already
+    applied): what the method had to find;
+*soft*
+    it is not in the hard set but in the query's soft set, where the dataset has one
+    (VPR_Tutorial's ``GTsoft``): near enough not to be wrong, not near enough to be right;
+*wrong*
+    anything else, including every prediction for a query with no true match (empty hard
+    set) that is not soft.
+
+The curve has one point per distinct score value, from the highest (fewest accepted) to the
+lowest (all accepted): a fixed grid of thresholds would skip points and under-report recall
+at 100% precision.
+
+Precision is ``correct accepted / (correct accepted + wrong accepted)``: an accepted soft
+prediction is neither a true nor a false positive. Recall counts hard matches found and has
+three definitions in use in the place-recognition literature, so it is always labelled:
 
 ``A`` (default)
     correct accepted / queries that have a true match. The strict one: a query whose best
-    match is wrong still counts against recall, and queries with no true match do not.
+    match is wrong (or only soft) still counts against recall, and queries with no true
+    match do not.
 ``B``
     correct accepted / queries whose best match is correct. Measures only how well the
     score separates right from wrong estimates; reaches 1 when everything is accepted.
 ``C``
-    correct accepted / (correct accepted + rejected). The classic ``TP / (TP + FN)`` with
-    every rejected query counted as a false negative.
+    correct accepted / (correct accepted + rejected queries that have a true match). The
+    classic ``TP / (TP + FN)``: a rejected query with a true match is a false negative; a
+    rejected query without one is a true negative and counts nowhere.
+
+The same rule holds for every metric: a soft prediction is never a true positive (recall
+A, B, C, recall@K and the error in frames count hard matches only) and never a false
+positive (precision and accuracy leave it out); a query without a true match is never in
+a recall's denominator, and its prediction, accepted, is a false positive unless soft.
 """
 
 from __future__ import annotations
@@ -52,7 +71,7 @@ __all__ = [
 RECALL_DEFINITIONS: dict[str, str] = {
     "A": "correct accepted / queries that have a true match",
     "B": "correct accepted / queries whose best match is correct",
-    "C": "correct accepted / (correct accepted + rejected)",
+    "C": "correct accepted / (correct accepted + rejected queries that have a true match)",
 }
 """Recall definition letter -> what it divides by (see the module docstring)."""
 
@@ -109,6 +128,8 @@ class PRCurve:
         Counts at each threshold.
     recall_definition : str
         ``"A"``, ``"B"`` or ``"C"`` (see :data:`RECALL_DEFINITIONS`).
+    soft_accepted : ndarray of int, shape (P,)
+        Accepted soft predictions at each threshold (neither true nor false positives).
     """
 
     thresholds: np.ndarray
@@ -118,6 +139,7 @@ class PRCurve:
     accepted: np.ndarray
     correct_accepted: np.ndarray
     recall_definition: str = "A"
+    soft_accepted: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
 def _check_recall(recall: str) -> str:
@@ -142,6 +164,7 @@ def pr_curve(
     has_match: np.ndarray,
     *,
     recall: str = "A",
+    soft: np.ndarray | None = None,
 ) -> PRCurve:
     """The precision-recall curve swept over every distinct score value.
 
@@ -155,6 +178,9 @@ def pr_curve(
         Whether the query has any true match (non-empty ground truth).
     recall : {"A", "B", "C"}
         Recall definition (:data:`RECALL_DEFINITIONS`).
+    soft : array_like of bool, shape (M,), optional
+        Whether the prediction is soft (in the soft set, not the hard one): left out of
+        precision, never correct (see the module docstring).
 
     Returns
     -------
@@ -166,39 +192,52 @@ def pr_curve(
     >>> c = pr_curve([0.9, 0.8, 0.8, 0.1], [True, False, True, True], [True] * 4)
     >>> c.thresholds.tolist(), c.precision.tolist(), c.recall.tolist()
     ([0.9, 0.8, 0.1], [1.0, 0.6666666666666666, 0.75], [0.25, 0.5, 0.75])
+    >>> c = pr_curve([0.9, 0.8, 0.8, 0.1], [True, False, True, True], [True] * 4,
+    ...              soft=[False, True, False, False])
+    >>> c.precision.tolist(), c.recall.tolist(), c.soft_accepted.tolist()
+    ([1.0, 1.0, 1.0], [0.25, 0.5, 0.75], [0, 1, 1])
     """
     definition = _check_recall(recall)
     scores = np.asarray(scores, dtype=np.float64).ravel()
     correct = np.asarray(correct, dtype=bool).ravel()
     has_match = np.asarray(has_match, dtype=bool).ravel()
-    if not (len(scores) == len(correct) == len(has_match)):
+    soft = np.zeros(len(scores), bool) if soft is None else np.asarray(soft, dtype=bool).ravel()
+    if not (len(scores) == len(correct) == len(has_match) == len(soft)):
         raise ValueError(
-            f"scores, correct and has_match differ in length: "
-            f"{len(scores)}, {len(correct)}, {len(has_match)}"
+            f"scores, correct, has_match and soft differ in length: "
+            f"{len(scores)}, {len(correct)}, {len(has_match)}, {len(soft)}"
         )
     if np.isnan(scores).any():
         raise ValueError("scores contain NaN; a localiser must return a comparable confidence")
     if np.any(correct & ~has_match):
         raise ValueError("a query without a true match cannot be correct")
+    if np.any(correct & soft):
+        raise ValueError("a correct prediction cannot also be soft (soft means: not hard)")
     m = len(scores)
     # Sort by score descending; the last index of each run of equal scores is one point.
     order = np.argsort(-scores, kind="stable")
     s = scores[order]
     tp_cum = np.cumsum(correct[order])
+    soft_cum = np.cumsum(soft[order])
+    match_cum = np.cumsum(has_match[order])
     if m:
         last = np.flatnonzero(np.append(s[1:] != s[:-1], True))
     else:
         last = np.zeros(0, dtype=np.int64)
     thresholds = s[last]
     accepted = last + 1
-    tp = tp_cum[last] if m else np.zeros(0, dtype=np.int64)
-    precision = tp / np.maximum(accepted, 1)
+    empty = np.zeros(0, dtype=np.int64)
+    tp = tp_cum[last] if m else empty
+    soft_acc = soft_cum[last] if m else empty
+    judged = accepted - soft_acc  # accepted predictions that are right or wrong
+    precision = np.where(judged > 0, tp / np.maximum(judged, 1), 0.0)
     if definition == "A":
         denom = np.full(len(tp), int(has_match.sum()))
     elif definition == "B":
         denom = np.full(len(tp), int(correct.sum()))
-    else:
-        denom = tp + (m - accepted)
+    else:  # false negatives: rejected queries that have a true match
+        rejected_with_match = int(has_match.sum()) - (match_cum[last] if m else empty)
+        denom = tp + rejected_with_match
     rec = np.where(denom > 0, tp / np.maximum(denom, 1), 0.0)
     return PRCurve(
         thresholds=thresholds,
@@ -208,6 +247,7 @@ def pr_curve(
         accepted=accepted.astype(np.int64),
         correct_accepted=tp.astype(np.int64),
         recall_definition=definition,
+        soft_accepted=soft_acc.astype(np.int64),
     )
 
 
@@ -265,16 +305,23 @@ def recall_at_100_precision(curve: PRCurve) -> float:
     return float(curve.recall[perfect].max()) if perfect.any() else 0.0
 
 
-def accuracy(correct: np.ndarray) -> float:
-    """Fraction of all queries whose best match is correct (every estimate accepted).
+def accuracy(correct: np.ndarray, soft: np.ndarray | None = None) -> float:
+    """Fraction of the queries whose best match is correct, every estimate accepted.
+
+    The precision of the run with every estimate accepted: a query without a true match
+    counts as wrong (its prediction is accepted and cannot be correct), a soft prediction
+    counts nowhere (0 when nothing is left).
 
     Examples
     --------
     >>> accuracy([True, False, True, True])
     0.75
+    >>> accuracy([True, False, True, True], soft=[False, True, False, False])
+    1.0
     """
-    correct = np.asarray(correct, dtype=bool)
-    return float(correct.mean()) if correct.size else 0.0
+    correct = np.asarray(correct, dtype=bool).ravel()
+    judged = correct.size if soft is None else int(np.count_nonzero(~np.asarray(soft, bool)))
+    return float(correct.sum() / judged) if judged else 0.0
 
 
 _RECALL_ROWS = 4096
@@ -440,6 +487,8 @@ class Metrics:
     recall_definition : str
         ``"A"``, ``"B"`` or ``"C"``.
     n_queries, n_with_match, n_correct : int
+    n_soft : int
+        Queries whose prediction is soft (in the soft set, not the hard one).
     error_frames_median, error_frames_mean : float or None
         Of :func:`localisation_error_frames` over queries with a true match.
     error_m_median, error_m_mean : float or None
@@ -478,6 +527,7 @@ class Metrics:
     error_m: np.ndarray | None = field(default=None, repr=False)
     f1_max_straight: float | None = None
     f1_max_turning: float | None = None
+    n_soft: int = 0
 
     def summary(self) -> dict[str, Any]:
         """The scalar metrics as a JSON-ready dict (recall@K as ``{"1": r1, "5": r5, ...}``)."""
@@ -507,6 +557,7 @@ def evaluate_estimates(
     reference_positions: np.ndarray | None = None,
     query_positions: np.ndarray | None = None,
     turning: np.ndarray | None = None,
+    soft: Sequence[Any] | None = None,
 ) -> Metrics:
     """All metrics of one run in one call.
 
@@ -529,6 +580,10 @@ def evaluate_estimates(
         Route positions in metres, shapes (N, D) and (M, D), for the error in metres.
     turning : array_like of bool, shape (M,), optional
         Which queries were taken in a turn: gives ``f1_max_straight`` and ``f1_max_turning``.
+    soft : sequence of array_like of int, length M, optional
+        Soft ground truth per query (a prediction there is neither right nor wrong; see the
+        module docstring). Default: the soft sets ``ground_truth`` carries
+        (:attr:`~ppaloc.datasets.groundtruth.PackedSets.soft`), if any.
 
     Returns
     -------
@@ -544,12 +599,18 @@ def evaluate_estimates(
     >>> m = evaluate_estimates([0, 1, 5, 3], [0.9, 0.8, 0.1, 0.7], [[0], [1], [2], [3]])
     >>> round(m.f1_max, 4), m.precision_at_f1, m.recall_at_f1, m.accuracy, m.recall_at_100p
     (0.8571, 1.0, 0.75, 0.75, 0.75)
+    >>> m = evaluate_estimates([0, 1, 5, 3], [0.9, 0.8, 0.1, 0.7], [[0], [1], [2], [3]],
+    ...                        soft=[[0], [1], [2, 5], [3]])
+    >>> m.f1_max, m.accuracy, m.n_soft
+    (0.8571428571428571, 1.0, 1)
     """
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
     gt = _as_ground_truth(ground_truth, len(nodes))
     correct = is_correct(nodes, gt)
     has_match = gt.lengths > 0
-    curve = pr_curve(scores, correct, has_match, recall=recall)
+    loose = gt.soft if soft is None else _as_ground_truth(soft, len(nodes))
+    in_soft = np.zeros(len(nodes), bool) if loose is None else is_correct(nodes, loose) & ~correct
+    curve = pr_curve(scores, correct, has_match, recall=recall, soft=in_soft)
     f1, p_f1, r_f1, t_f1 = max_f1(curve)
     err_frames = localisation_error_frames(nodes, gt)
     err_m = None
@@ -573,7 +634,9 @@ def evaluate_estimates(
         sc = np.asarray(scores, dtype=np.float64).ravel()
         for key, mask in (("f1_max_straight", ~turning), ("f1_max_turning", turning)):
             if mask.any():
-                sub = pr_curve(sc[mask], correct[mask], has_match[mask], recall=recall)
+                sub = pr_curve(
+                    sc[mask], correct[mask], has_match[mask], recall=recall, soft=in_soft[mask]
+                )
                 split[key] = max_f1(sub)[0]
     return Metrics(
         **split,
@@ -583,11 +646,12 @@ def evaluate_estimates(
         threshold_at_f1=t_f1,
         auc=auc(curve),
         recall_at_100p=recall_at_100_precision(curve),
-        accuracy=accuracy(correct),
+        accuracy=accuracy(correct, in_soft),
         recall_definition=curve.recall_definition,
         n_queries=len(nodes),
         n_with_match=int(has_match.sum()),
         n_correct=int(correct.sum()),
+        n_soft=int(in_soft.sum()),
         error_frames_median=_nan_stat(np.median, err_frames),
         error_frames_mean=_nan_stat(np.mean, err_frames),
         error_m_median=_nan_stat(np.median, err_m),

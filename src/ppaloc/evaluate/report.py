@@ -477,12 +477,18 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
     title = f"ppaloc report: {result.dataset_name}"
     n_q = len(result.ground_truth)
     n_match = sum(1 for g in result.ground_truth if len(g))
+    truth = result.protocol.get("ground_truth") or {}
+    if truth.get("tolerance_unit") == "metres":  # positions files: the tolerance is metres
+        tolerance = f"tolerance {truth.get('tolerance')} m"
+    else:
+        tolerance = f"tolerance ±{result.tolerance} frame{'' if result.tolerance == 1 else 's'}"
     meta = (
         f"Dataset `{result.dataset}`: {result.n_reference} reference frames, {n_q} query "
-        f"frames ({n_match} with a true match), tolerance ±{result.tolerance} "
-        f"frame{'' if result.tolerance == 1 else 's'}. "
+        f"frames ({n_match} with a true match), {tolerance}. "
         f"ppaloc {result.ppaloc_version}{', ' + result.created if result.created else ''}."
     )
+    if result.roles:  # one line: what the map was built from and what was localised
+        meta += f" Database: {result.roles['database']}; query: {result.roles['query']}."
     meta_html = html.escape(meta).replace("`", "<code>", 1).replace("`", "</code>", 1)
     parts = [
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",

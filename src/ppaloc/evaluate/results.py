@@ -2,10 +2,14 @@
 
 Layout of a results folder::
 
-    results.json          summary: dataset, tolerance, per-method metrics, config, version
-    results.csv           one row per method, the same scalars as results.json
-    arrays/_dataset.npz   ground truth (CSR: gt_indptr, gt_indices), positions, query_moved,
-                          query_turning and reference_turning (where the dataset has them)
+    results.json          summary: dataset, its roles, tolerance, per-method metrics, config,
+                          version
+    results.csv           one row per method, the same scalars as results.json, and the
+                          roles (database, query)
+    arrays/_dataset.npz   ground truth (CSR: gt_indptr, gt_indices; soft ground truth as
+                          gt_soft_indptr, gt_soft_indices where the dataset has one),
+                          positions, query_moved, query_turning and reference_turning
+                          (where the dataset has them)
     arrays/<method>.npz   per-query arrays of one method (see MethodRun)
     arrays/<method>.registers.npz  register planes after the last frame (on-sensor only):
                           ``labels`` (P,) str and ``plane0`` .. ``plane{P-1}`` (2-D)
@@ -48,6 +52,7 @@ from ppaloc.npzfile import NpzError, npz_bytes, read_npz
 __all__ = [
     "CSV_COLUMNS",
     "MAX_RESULT_BYTES",
+    "ROLE_COLUMNS",
     "array_file",
     "check_replaceable",
     "load_results",
@@ -83,8 +88,15 @@ CSV_COLUMNS = [
     "build_s",
     "f1_max_straight",
     "f1_max_turning",
+    "database",
+    "query",
 ]
-"""Columns of ``results.csv``, in order."""
+"""Columns of ``results.csv``, in order (the last two: the dataset's roles,
+:data:`ROLE_COLUMNS`)."""
+
+ROLE_COLUMNS = ("database", "query")
+"""The columns of ``results.csv`` that say what the reference and the query traversals are
+(the same in every row), not metrics."""
 
 _ARRAYS = ("node", "ref_index", "score", "moved", "ranking", "latency_ms")
 _OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj")
@@ -174,9 +186,11 @@ def array_file(method: str) -> str:
     return f"arrays/{re.sub(r'[^A-Za-z0-9_.-]', '_', method)}.npz"
 
 
-def _csv_row(name: str, summary: dict[str, Any], n_queries: int) -> list[Any]:
+def _csv_row(
+    name: str, summary: dict[str, Any], n_queries: int, roles: dict[str, str] | None
+) -> list[Any]:
     rk = summary.get("recall_at_k", {})
-    row = {**summary, "method": name, "n_queries": n_queries}
+    row = {**summary, **(roles or {}), "method": name, "n_queries": n_queries}
     for k in ("1", "5", "10"):
         row[f"recall_at_{k}"] = rk.get(k)
     return ["" if row.get(c) is None else row.get(c) for c in CSV_COLUMNS]
@@ -226,6 +240,8 @@ def write_results(result: RunResult, out: str | Path) -> Path:
             written.append(reg_rel)
     gt = PackedSets.from_sets(result.ground_truth)
     ds_arrays = {"gt_indptr": gt.indptr, "gt_indices": gt.indices}
+    if gt.soft is not None:
+        ds_arrays.update(gt_soft_indptr=gt.soft.indptr, gt_soft_indices=gt.soft.indices)
     for key in _DATASET_OPTIONAL:
         value = getattr(result, key)
         if value is not None:
@@ -236,7 +252,7 @@ def write_results(result: RunResult, out: str | Path) -> Path:
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
     for name, s in summary["methods"].items():
-        writer.writerow(_csv_row(name, s, summary["n_queries"]))
+        writer.writerow(_csv_row(name, s, summary["n_queries"], summary.get("roles")))
     write_bytes(out / "results.csv", text.getvalue())
     written.append("results.csv")
     summary["files"] = {rel: _sha256(out / rel) for rel in sorted(written)}
@@ -468,7 +484,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             _check_array(value, f"{ds_path}: {key}", length=n_queries, ndim=value.ndim or 1)
         elif key in ("reference_positions", "reference_turning") and n_ref:
             _check_array(value, f"{ds_path}: {key}", length=n_ref, ndim=value.ndim or 1)
-    gt = PackedSets(indices, indptr)
+    gt = PackedSets(indices, indptr, _soft_sets(ds, ds_path, n_queries, n_ref, folder))
     runs: dict[str, MethodRun] = {}
     for name, s in summary["methods"].items():
         a_path = _inner(folder, s.get("arrays", array_file(name)), f"{name}.arrays")
@@ -547,5 +563,47 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         protocol=summary["protocol"] if isinstance(summary.get("protocol"), dict) else {},
         ppaloc_version=summary.get("ppaloc_version", ""),
         created=summary.get("created", ""),
+        roles=_roles(summary, path),
     )
     return result, summary
+
+
+def _roles(summary: Mapping[str, Any], path: Path) -> dict[str, str] | None:
+    """``results.json``'s roles: absent or null (older folders), or two strings."""
+    roles = summary.get("roles")
+    if roles is None:
+        return None
+    if (
+        not isinstance(roles, dict)
+        or set(roles) != set(ROLE_COLUMNS)
+        or not all(isinstance(v, str) for v in roles.values())
+    ):
+        raise DataError(
+            f'{path}: \'roles\' is {roles!r:.60}, expected {{"database": text, "query": '
+            "text}; give a folder written by `ppaloc evaluate --out` (or run it again)"
+        )
+    return dict(roles)
+
+
+def _soft_sets(
+    ds: Mapping[str, np.ndarray], ds_path: Path, n_queries: int, n_ref: int, folder: Path
+) -> PackedSets | None:
+    """The soft ground truth of ``_dataset.npz``, checked like the hard one (None if none)."""
+    if "gt_soft_indptr" not in ds and "gt_soft_indices" not in ds:
+        return None
+    _require(ds, ("gt_soft_indptr", "gt_soft_indices"), ds_path)
+    indptr, indices = ds["gt_soft_indptr"], ds["gt_soft_indices"]
+    if indptr.ndim != 1 or len(indptr) != n_queries + 1 or indptr.dtype.kind not in "iu":
+        raise DataError(
+            f"{ds_path}: gt_soft_indptr has shape {indptr.shape}, expected ({n_queries + 1},)"
+        )
+    _check_array(indices, f"{ds_path}: gt_soft_indices", length=len(indices))
+    if indptr[0] != 0 or np.any(np.diff(indptr) < 0) or indptr[-1] != len(indices):
+        raise DataError(
+            f"{ds_path}: gt_soft_indptr is not a CSR index (0 first, non-decreasing, "
+            f"{len(indices)} last); {_again(folder)}"
+        )
+    if n_ref:
+        bounds = (0, n_ref)
+        _check_array(indices, f"{ds_path}: gt_soft_indices", length=len(indices), bounds=bounds)
+    return PackedSets(indices, indptr)

@@ -220,6 +220,9 @@ class RunResult:
         ``meta["ground_truth_rule"]``, where it gives one).
     ppaloc_version, created : str
         Provenance.
+    roles : dict of str to str, optional
+        What the database (reference) and the query traversals are (the dataset's
+        ``meta["roles"]``).
     """
 
     dataset: str
@@ -237,12 +240,14 @@ class RunResult:
     protocol: dict[str, Any] = field(default_factory=dict)
     ppaloc_version: str = __version__
     created: str = ""
+    roles: dict[str, str] | None = None
 
     def summary(self) -> dict[str, Any]:
         """The content of ``results.json``."""
         return {
             "dataset": self.dataset,
             "dataset_name": self.dataset_name,
+            "roles": self.roles,
             "tolerance": self.tolerance,
             "n_reference": self.n_reference,
             "n_queries": len(self.ground_truth),
@@ -778,4 +783,5 @@ def run_evaluation(
         reference_turning=_flags(dataset.meta.get("reference_turning")),
         protocol=scoring_protocol(dataset),
         created=datetime.now(UTC).isoformat(timespec="seconds"),
+        roles=dataset.meta.get("roles"),
     )

@@ -27,7 +27,7 @@ import numpy as np
 from ppaloc import __version__
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig, reject_unknown_keys, with_tolerance
-from ppaloc.evaluate.results import CSV_COLUMNS
+from ppaloc.evaluate.results import CSV_COLUMNS, ROLE_COLUMNS
 from ppaloc.fileio import new_folder, source_date, write_bytes
 
 __all__ = [
@@ -51,8 +51,9 @@ COMBINE = ("product", "one-at-a-time")
 """How the swept parameters of a method combine: every combination (the Cartesian
 product), or each parameter varied alone with the others at their defaults."""
 
-METRIC_COLUMNS = [c for c in CSV_COLUMNS if c != "method"]
-"""The metric columns of ``summary.csv``: those of ``results.csv`` after ``method``."""
+METRIC_COLUMNS = [c for c in CSV_COLUMNS if c != "method" and c not in ROLE_COLUMNS]
+"""The metric columns of ``summary.csv``: those of ``results.csv`` after ``method``, but the
+roles."""
 
 _RESERVED = {"method", "dataset", "status", "cell", "tolerance", *METRIC_COLUMNS}
 _NOT_RUN = "not run"

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ppaloc.datasets.frames import ImageFrames
-from ppaloc.datasets.groundtruth import read_truth_mat
+from ppaloc.datasets.groundtruth import file_digest, read_truth_mat
 from ppaloc.datasets.images import dataset_file, list_images, require_dir
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
@@ -112,5 +112,15 @@ def load(spec: DatasetSpec) -> RawRoute:
         query=ImageFrames(own[split:pairs]),
         default_tolerance=0,
         accepted=accepted,
-        meta={"kind": "citycentre", "root": str(root), "split": split, "truth": str(truth_path)},
+        meta={
+            "kind": "citycentre",
+            "root": str(root),
+            "split": split,
+            "truth": str(truth_path),
+            "roles": {
+                "database": f"{root.name}, {o['camera']} camera, pairs 0-{split - 1} (first pass)",
+                "query": f"{root.name}, {o['camera']} camera, pairs {split}-{pairs - 1} (revisits)",
+            },
+        },
+        truth={"source": "FAB-MAP truth matrix", "files": {"truth": file_digest(truth_path)}},
     )

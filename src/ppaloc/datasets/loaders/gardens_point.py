@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ppaloc.datasets.frames import ImageFrames
-from ppaloc.datasets.groundtruth import read_vprbench
+from ppaloc.datasets.groundtruth import file_digest, read_vprbench
 from ppaloc.datasets.images import list_images, require_dir
 from ppaloc.datasets.loaders.folder import require_equal_length
 from ppaloc.datasets.route import RawRoute
@@ -60,11 +60,22 @@ def load(spec: DatasetSpec) -> RawRoute:
         reference=ref,
         query=query,
         default_tolerance=DEFAULT_TOLERANCE,
-        meta={"kind": "gardens-point", "root": str(root), "gt": o["gt"]},
+        meta={
+            "kind": "gardens-point",
+            "root": str(root),
+            "gt": o["gt"],
+            "roles": {
+                "database": f"Gardens Point {o['ref']} walk",
+                "query": f"Gardens Point {o['query']} walk",
+            },
+        },
     )
     if o["gt"] == "vprbench":
-        raw.accepted = read_vprbench(root / VPRBENCH_FILE, len(query), len(ref), o["trust"])
+        path = root / VPRBENCH_FILE
+        raw.accepted = read_vprbench(path, len(query), len(ref), o["trust"])
         raw.default_tolerance = 0
+        raw.truth = {"source": "VPR-Bench rows", "files": {"gt": file_digest(path)}}
     else:
         raw.query_place = np.arange(len(query), dtype=np.float64)
+        raw.truth = {"source": "index (frame-synchronised walks)"}
     return raw

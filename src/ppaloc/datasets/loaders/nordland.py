@@ -73,7 +73,16 @@ def load(spec: DatasetSpec) -> RawRoute:
         )
     ref, query = ImageFrames(ref_files), ImageFrames(query_files)
     keep = np.arange(len(ref))
-    meta = {"kind": "nordland", "root": str(root), "ref": o["ref"], "query": o["query"]}
+    meta = {
+        "kind": "nordland",
+        "root": str(root),
+        "ref": o["ref"],
+        "query": o["query"],
+        "roles": {
+            "database": f"Nordland {o['ref']} journey ({dirs[0].name}/)",
+            "query": f"Nordland {o['query']} journey ({dirs[1].name}/)",
+        },
+    }
     if o["drop_dark"]:
         dark = dark_frames(ref, o["dark"]) | dark_frames(query, o["dark"])
         keep = np.flatnonzero(~dark)
@@ -89,4 +98,5 @@ def load(spec: DatasetSpec) -> RawRoute:
         default_tolerance=DEFAULT_TOLERANCE,
         query_place=np.arange(len(query), dtype=np.float64),
         meta=meta,
+        truth={"source": "file name (frame-synchronised seasons)"},
     )

@@ -8,6 +8,8 @@ Colour frames become grey by the same ITU-R 601 rule as images.
 Ground truth: ``align=index`` (default) takes frame ``i`` of both videos as the same place
 and needs equal frame counts; ``align=proportional`` assumes both traversals moved at
 constant speed, so query frame ``i`` of ``M`` is at reference frame ``i (N - 1) / (M - 1)``.
+Or the user's own, as for ``folder:``: positions files with a tolerance in metres, or
+hard and soft matrices (:mod:`ppaloc.datasets.loaders.owntruth`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 
 from ppaloc.datasets.frames import FrameSequence
 from ppaloc.datasets.images import MAX_IMAGE_PIXELS
+from ppaloc.datasets.loaders import owntruth
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.errors import DataError
@@ -35,6 +38,7 @@ SCHEMA = KindSchema(
             "ground truth: same index, or constant-speed proportional",
             choices=("index", "proportional"),
         ),
+        **owntruth.KEYS,
     },
     example="video:ref.mp4,query.mp4?step=2&align=proportional",
 )
@@ -142,11 +146,15 @@ class VideoFrames(FrameSequence):
 
 
 def load(spec: DatasetSpec) -> RawRoute:
-    """Open both videos; the ground truth follows ``align``."""
+    """Open both videos; the ground truth follows ``align`` (or the spec's own)."""
+    owntruth.check(spec)
     ref_path, query_path = spec.paths
     ref, query = VideoFrames(ref_path), VideoFrames(query_path)
     n, m = len(ref), len(query)
-    if spec.options["align"] == "index":
+    own = owntruth.given(spec)
+    if own:
+        place = np.arange(m, dtype=np.float64)  # replaced by owntruth.apply
+    elif spec.options["align"] == "index":
         if n != m:
             ref.close()
             query.close()
@@ -157,11 +165,26 @@ def load(spec: DatasetSpec) -> RawRoute:
         place = np.arange(m, dtype=np.float64)
     else:
         place = np.arange(m, dtype=np.float64) * ((n - 1) / max(m - 1, 1))
-    return RawRoute(
+    raw = RawRoute(
         name=f"video {ref_path.name}->{query_path.name}",
         reference=ref,
         query=query,
         default_tolerance=0,
         query_place=place,
-        meta={"kind": "video", "reference": str(ref_path), "query": str(query_path)},
-    )
+        meta={
+            "kind": "video",
+            "reference": str(ref_path),
+            "query": str(query_path),
+            "roles": {"database": f"frames of {ref_path}", "query": f"frames of {query_path}"},
+        },
+        truth={"source": f"{spec.options['align']} (frame-synchronised)"
+               if spec.options["align"] == "index" else "proportional (constant speed)"},
+    )  # fmt: skip
+    if own:
+        try:
+            owntruth.apply(raw, spec)
+        except BaseException:
+            ref.close()
+            query.close()
+            raise
+    return raw

@@ -12,7 +12,7 @@ absolute path (:func:`ppaloc.datasets.images.dataset_file`).
 from __future__ import annotations
 
 from ppaloc.datasets.frames import ImageFrames
-from ppaloc.datasets.groundtruth import read_vprbench
+from ppaloc.datasets.groundtruth import file_digest, read_vprbench
 from ppaloc.datasets.images import dataset_file, list_images, require_dir
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
@@ -46,5 +46,13 @@ def load(spec: DatasetSpec) -> RawRoute:
         query=query,
         default_tolerance=0,
         accepted=accepted,
-        meta={"kind": "vprbench", "root": str(root)},
+        meta={
+            "kind": "vprbench",
+            "root": str(root),
+            "roles": {
+                "database": f"VPR-Bench {root.name}/ref",
+                "query": f"VPR-Bench {root.name}/query",
+            },
+        },
+        truth={"source": "VPR-Bench rows", "files": {"gt": file_digest(gt)}},
     )

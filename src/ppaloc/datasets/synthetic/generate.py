@@ -71,6 +71,17 @@ MAX_SEED = 2**63 - 1
 
 _MAX_DWELL = 24  # frames of one stop (motion.py draws 6-24)
 
+_ONE_PER_PLACE = "generated reference: one frame per place, never standing still"
+
+
+def _roles(world: str, ref: str, query: str, sync: bool, spacing: float) -> dict[str, str]:
+    """``meta["roles"]``: what the generated reference and query traversals are."""
+    drive = "one frame per place (stops included)" if sync else "variable speed with stops"
+    return {
+        "database": f"synthetic {world}, {ref}, one frame per place ({spacing:g} m apart)",
+        "query": f"synthetic {world}, {query}, {drive}",
+    }
+
 
 def _check_bounds(
     places: int, spacing: float, speed: float, stops: int | None, extra: int, sync: bool,
@@ -270,8 +281,11 @@ def synthetic_route(
         reference_positions=np.stack([ref_s, ref_x], 1),
         query_positions=np.stack([q_s, q_x], 1),
         motion_known=True,
+        same_place="none",
+        truth={"source": "route position", "same_place_reason": _ONE_PER_PLACE},
         meta={
             "kind": "synthetic",
+            "roles": _roles("road", ref, query, sync, spacing),
             "seed": seed,
             "spacing_m": spacing,
             "conditions": (ref, query),
@@ -331,8 +345,11 @@ def _bent_route(
         reference_positions=np.stack([ref_s, ref_x], 1),
         query_positions=np.stack([q_s, q_x], 1),
         motion_known=True,
+        same_place="none",
+        truth={"source": "route position", "same_place_reason": _ONE_PER_PLACE},
         meta={
             "kind": "synthetic",
+            "roles": _roles(world, ref, query, sync, spacing),
             "seed": seed,
             "spacing_m": spacing,
             "conditions": (ref, query),
