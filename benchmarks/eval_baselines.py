@@ -50,7 +50,7 @@ METHODS: dict[str, tuple[str, dict]] = {
     # label: (registry name, parameters)
     "single-frame": ("single-frame", {}),
     "seqslam": ("seqslam", {}),
-    "seqslam-centred": ("seqslam", {"mode": "centred"}),  # offline: reads ds/2 future frames
+    "seqslam-centred": ("seqslam-centred", {}),  # offline: reads ds/2 future frames
     # OpenSeqSLAM's edges (inf off the map, windows cut at the query's ends): for comparison.
     "seqslam-cut": ("seqslam", {"edges": "cut"}),
     "seqslam-noenhance": ("seqslam", {"enhance_window": 0}),

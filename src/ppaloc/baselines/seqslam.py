@@ -20,11 +20,11 @@ Two modes:
     comparison for an online localiser: nothing of the future is read.
     :meth:`SeqSLAM.step` keeps a ring buffer of the last ``ds + 1`` enhanced columns, so a
     step costs O(N x (pixels + ds x velocities)).
-``mode="centred"``
+``mode="centred"`` (method ``seqslam-centred``)
     OpenSeqSLAM's original window, columns ``t - ds/2 .. t + ds/2``: it reads ``ds/2``
     future frames, so it is offline: over a whole query with
     :meth:`SeqSLAM.localise_sequence`, or frame by frame after :meth:`SeqSLAM.read_ahead`
-    has been handed the query (``reads_future`` is true).
+    has been handed the query (``reads_future`` is true: the evaluation does so).
 
 A trajectory that lacks frames (before the start or past the end of the query, or off the
 map) pays the expected cost of an unrelated pair for each (``edges="expected"``), so a
@@ -418,8 +418,8 @@ class SeqSLAM(ImageLocaliser):
         if self._ahead is None:
             raise PpalocError(
                 "SeqSLAM mode='centred' needs ds/2 future frames and cannot run online; "
-                "call read_ahead(query) first, or localise_sequence(frames), or use "
-                "mode='past'"
+                "call read_ahead(query) first (ppaloc evaluate does, for seqslam-centred), "
+                "or localise_sequence(frames), or use mode='past'"
             )
         t, q, half = self._t, len(self._ahead), self.ds // 2
         if t >= q:

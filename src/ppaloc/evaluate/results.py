@@ -376,6 +376,8 @@ def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
     rk = entry.get("recall_at_k", {})
     if not isinstance(rk, dict) or not all(_is_number(v) for v in rk.values()):
         raise bad("recall_at_k", rk, "a table of numbers")
+    if not isinstance(entry.get("reads_future", False), bool):
+        raise bad("reads_future", entry["reads_future"], "true or false")
     times = entry.get("modelled_time_ms")
     if times is not None:
         ok = isinstance(times, dict) and all(
@@ -530,6 +532,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             modelled_time_ms=s.get("modelled_time_ms"),
             motion_accuracy=s.get("motion_accuracy"),
             registers=registers,
+            reads_future=bool(s.get("reads_future", False)),
         )
     result = RunResult(
         dataset=summary["dataset"],

@@ -51,6 +51,7 @@ __all__ = [
     "ProgressBar",
     "ReportedFrames",
     "RunResult",
+    "hand_query",
     "localiser_params",
     "method_metrics",
     "predicted_frames",
@@ -123,6 +124,8 @@ class MethodRun:
         Agreement of ``moved`` with the dataset's ``query_moved``, where both exist.
     registers : dict of str to ndarray, optional
         Register planes after the last frame (:func:`register_planes`), on-sensor only.
+    reads_future : bool
+        The method read frames after the one it localised (offline, e.g. seqslam-centred).
     """
 
     method: str
@@ -143,6 +146,7 @@ class MethodRun:
     modelled_time_ms: dict[str, dict[str, float]] | None = None
     motion_accuracy: float | None = None
     registers: dict[str, np.ndarray] | None = None
+    reads_future: bool = False
 
     def summary(self) -> dict[str, Any]:
         """The method's entry of ``results.json`` (scalars only)."""
@@ -170,6 +174,7 @@ class MethodRun:
                 "n_nodes": self.n_nodes,
                 "build_s": self.build_s,
                 "params": self.params,
+                "reads_future": self.reads_future,
             }
         )
         return out
@@ -468,6 +473,7 @@ def run_method(
     topomap = loc.build_map(reference)
     build_s = time.perf_counter() - t0
     loc.reset()
+    reads_future = hand_query(loc, query)
     n_nodes = len(topomap)
     m = len(query)
     log.info("%s: %d nodes; localising %d query frames", name, n_nodes, m)
@@ -521,6 +527,7 @@ def run_method(
         modelled_time_ms=modelled_time(loc),
         motion_accuracy=motion_acc,
         registers=register_planes(loc),
+        reads_future=reads_future,
     )
 
 
@@ -572,6 +579,21 @@ class _Record:
     def energy(self) -> np.ndarray | None:
         """Modelled energy per query (NaN where not modelled); None if never."""
         return self._energy if self._has_energy else None
+
+
+def hand_query(localiser: Any, query: Sequence[np.ndarray]) -> bool:
+    """Hand an offline localiser (``reads_future`` true, e.g. ``seqslam-centred``) the whole
+    query before its first ``step``, through its ``read_ahead``; an online one is left alone.
+
+    Returns
+    -------
+    bool
+        Whether the localiser reads future frames.
+    """
+    if not getattr(localiser, "reads_future", False):
+        return False
+    localiser.read_ahead(query)
+    return True
 
 
 def modelled_time(localiser: Any) -> dict[str, dict[str, float]] | None:
