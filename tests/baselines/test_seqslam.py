@@ -247,6 +247,8 @@ def test_centred_step_reads_ahead_and_equals_the_batch(toy_route) -> None:
         SeqSLAM().read_ahead(query)
 
 
-def test_unknown_edges_are_refused() -> None:
+def test_speed_range_is_the_velocities_searched() -> None:
+    assert SeqSLAM().speed_range == (0.8, 1.2)
+    assert SeqSLAM(vmin=0.5, vmax=2.0, vstep=0.5).speed_range == (0.5, 2.0)
     with pytest.raises(PpalocError, match="edges='none' is unknown; choose 'expected' or 'cut'"):
         SeqSLAM(edges="none")

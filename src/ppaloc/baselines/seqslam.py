@@ -231,6 +231,8 @@ class SeqSLAM(ImageLocaliser):
     >>> _ = s.build_map(frames)
     >>> [s.step(f).node for f in frames[5:12]]
     [5, 6, 7, 8, 9, 10, 11]
+    >>> s.speed_range
+    (0.8, 1.2)
     """
 
     name = "seqslam"
@@ -292,6 +294,12 @@ class SeqSLAM(ImageLocaliser):
         """Whether an estimate reads frames after its own (the centred mode): such a method
         is offline and is handed the whole query first (:meth:`read_ahead`)."""
         return self.mode == "centred"
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """The query speeds the trajectory search covers, in map nodes (reference frames)
+        per query frame: the slowest and fastest velocity searched."""
+        return (round(float(self.velocities[0]), 9), round(float(self.velocities[-1]), 9))
 
     # ------------------------------------------------------------------ map
     def params(self) -> dict:

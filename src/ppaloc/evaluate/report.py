@@ -118,7 +118,8 @@ def method_label(name: str, entry: dict[str, Any], *, short: bool = False) -> st
 
 def method_notes(summary: dict[str, Any], *, short: bool = False) -> list[str]:
     """What a reader must know about some methods' figures: an offline method that read
-    future frames; ``short`` for a terminal."""
+    future frames, and the speed check's warnings (:mod:`ppaloc.evaluate.speed`); ``short``
+    for a terminal, where the warning itself was logged during the run."""
     notes = []
     for name, m in summary["methods"].items():
         if m.get("reads_future"):
@@ -127,6 +128,15 @@ def method_notes(summary: dict[str, Any], *, short: bool = False) -> list[str]:
                 if short
                 else f"{name} is offline: its estimate for a frame reads frames after it, "
                 "which an online method never sees; compare it with online methods with care."
+            )
+        check = m.get("speed_check") or {}
+        if check.get("warning"):
+            lo, hi = check["range"]
+            notes.append(
+                f"{name}: the query moves outside the speeds it searches ({lo:.3g}-{hi:.3g}) "
+                f"on {check['share_outside']:.0%} of the route"
+                if short
+                else check["warning"]
             )
     return notes
 

@@ -33,6 +33,7 @@ from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
+from ppaloc.evaluate.speed import speed_checks
 from ppaloc.localise.base import Estimate, Localiser
 from ppaloc.methods import (
     METHODS,
@@ -126,6 +127,8 @@ class MethodRun:
         Register planes after the last frame (:func:`register_planes`), on-sensor only.
     reads_future : bool
         The method read frames after the one it localised (offline, e.g. seqslam-centred).
+    speed_check : dict, optional
+        :func:`ppaloc.evaluate.speed.check_speed` for a method that declares its speeds.
     """
 
     method: str
@@ -147,6 +150,7 @@ class MethodRun:
     motion_accuracy: float | None = None
     registers: dict[str, np.ndarray] | None = None
     reads_future: bool = False
+    speed_check: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
         """The method's entry of ``results.json`` (scalars only)."""
@@ -175,6 +179,7 @@ class MethodRun:
                 "build_s": self.build_s,
                 "params": self.params,
                 "reads_future": self.reads_future,
+                "speed_check": self.speed_check,
             }
         )
         return out
@@ -752,6 +757,7 @@ def run_evaluation(
             shown = {arg: f"dataset {needs[arg].attribute}" for arg in given}
             plan[name] = ({**params, **shown}, loc)
     gt = PackedSets.from_sets(dataset.ground_truth)
+    speeds = speed_checks({name: loc for name, (_, loc) in plan.items()}, gt)  # logs warnings
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
     names = list(plan)
@@ -782,6 +788,7 @@ def run_evaluation(
                 localiser=loc,
                 query_turning=dataset.meta.get("query_turning"),
             )
+            runs[name].speed_check = speeds.get(name)
     resolved = config.to_dict()
     resolved["dataset"] = spec
     resolved["methods"] = list(names)
