@@ -98,6 +98,11 @@ METHODS: dict[str, MethodSpec] = {
     "seqslam": MethodSpec(
         "ppaloc.baselines.seqslam:SeqSLAM", {}, "SeqSLAM (Milford & Wyeth 2012), past-only"
     ),
+    "seqslam-centred": MethodSpec(
+        "ppaloc.baselines.seqslam:SeqSLAM",
+        {"mode": "centred"},
+        "OFFLINE, reads ds/2 future frames: SeqSLAM with OpenSeqSLAM's centred window",
+    ),
     "able-m": MethodSpec(
         "ppaloc.baselines.ablem:ABLEM", {}, "ABLE-M (Arroyo et al., ICRA 2015), binary sequences"
     ),

@@ -173,3 +173,82 @@ def test_user_errors_name_the_fix(toy_route) -> None:
         SeqSLAM(size=(16, 32)).use_map(m)
     with pytest.raises(PpalocError, match="reference traversal is empty"):
         SeqSLAM().build_map([])
+
+
+def test_window_costs_count_missing_frames_at_the_expected_cost() -> None:
+    # ds = 2 (3-frame windows), one velocity (1 node a frame), 4 nodes. Two columns exist
+    # (frames t-1, t), medians 2 and 4: frame t-2 is missing and costs their mean, 3.
+    s = SeqSLAM(ds=2, vmin=1.0, vmax=1.0)
+    cols = np.array([[1.0, 2.0, 2.0, 9.0], [4.0, 0.0, 4.0, 5.0]])
+    fills = np.array([2.0, 4.0])
+    # node 0: (off the map at t-1: 2) + 4 + 3; node 1: 1 + 0 + 3; node 2: 2 + 4 + 3; ...
+    np.testing.assert_allclose(s.window_costs(cols, fills, -1), [9.0, 4.0, 9.0, 10.0])
+    cut = SeqSLAM(ds=2, vmin=1.0, vmax=1.0, edges="cut")
+    np.testing.assert_allclose(cut.window_costs(cols, fills, -1), [np.inf, 1.0, 6.0, 7.0])
+    # The same columns as frames t, t+1 of a centred window at the first query frame:
+    # frame t-1 does not exist (3), and node 3's line leaves the map at t+1 (4).
+    np.testing.assert_allclose(s.window_costs(cols, fills, 0), [4.0, 9.0, 10.0, 16.0])
+
+
+def test_a_short_sequence_is_not_surer_than_a_full_one(toy_route) -> None:
+    # With the frames before the start of the query counted at their expected cost, the
+    # first (one-frame) estimates are much less sure than those of full sequences; summed
+    # over the frames that exist (OpenSeqSLAM's cut), the first frame looked as sure.
+    ref, query = toy_route
+    scores = {}
+    for edges in ("expected", "cut"):
+        s = SeqSLAM(edges=edges)
+        s.build_map(ref)
+        scores[edges] = np.array([s.step(f).score for f in query])
+    full = scores["expected"][11:]
+    assert scores["expected"][0] < 0.25 * np.median(full)
+    assert np.all(np.diff(scores["expected"][:6]) > 0)  # surer with every frame seen
+    assert scores["cut"][0] > 0.5 * np.median(scores["cut"][11:])
+
+
+def test_nodes_at_the_start_of_the_map_stay_reachable(toy_route) -> None:
+    # The query starts 5 frames before the map does, then drives along it: at frames
+    # 10-12 it is at places 5-7, where every line of 11 frames at 0.8-1.2 nodes a frame
+    # leaves the map. OpenSeqSLAM's inf makes those places unreachable; at the expected cost
+    # they are found.
+    ref, _ = toy_route
+    rng = np.random.default_rng(5)
+    before = rng.integers(0, 256, (5, 256, 256), dtype=np.uint8)
+    walk = np.clip(ref[:20] * 0.7 + rng.normal(0.0, 25.0, ref[:20].shape), 0, 255)
+    query = np.concatenate([before, walk.astype(np.uint8)])
+    for edges, found in (("expected", True), ("cut", False)):
+        s = SeqSLAM(edges=edges)
+        s.build_map(ref)
+        nodes = [s.step(f).node for f in query]
+        assert (nodes[10:13] == [5, 6, 7]) is found
+
+
+def test_centred_step_reads_ahead_and_equals_the_batch(toy_route) -> None:
+    ref, query = toy_route
+    s = SeqSLAM(mode="centred", record_weights=True)
+    s.build_map(ref)
+    assert s.reads_future and not SeqSLAM().reads_future
+    batch = s.localise_sequence(query)
+    s.read_ahead(query)
+    online = [s.step(f) for f in query]
+    assert [e.node for e in online] == [e.node for e in batch]
+    np.testing.assert_allclose([e.score for e in online], [e.score for e in batch], atol=1e-9)
+    np.testing.assert_allclose(online[20].weights, batch[20].weights, atol=1e-9)
+    # The centred window reads ahead: replacing frames after t changes the estimate at t.
+    other = np.concatenate([query[:25], query[::-1][:15]])
+    altered = s.localise_sequence(other)
+    assert [e.score for e in altered[20:25]] != [e.score for e in batch[20:25]]
+    with pytest.raises(PpalocError, match="read_ahead was given 40 frames"):
+        s.step(query[0])
+    s.read_ahead(query)
+    with pytest.raises(PpalocError, match="step got a frame other than frame 0 of the query"):
+        s.step(query[5])
+    with pytest.raises(PpalocError, match="mode='past' reads no future frame"):
+        SeqSLAM().read_ahead(query)
+
+
+def test_speed_range_is_the_velocities_searched() -> None:
+    assert SeqSLAM().speed_range == (0.8, 1.2)
+    assert SeqSLAM(vmin=0.5, vmax=2.0, vstep=0.5).speed_range == (0.5, 2.0)
+    with pytest.raises(PpalocError, match="edges='none' is unknown; choose 'expected' or 'cut'"):
+        SeqSLAM(edges="none")

@@ -133,6 +133,12 @@ class ABLEM(MapLocaliser):
         self.map: TopoMap | None = None
         self.reset()
 
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """The query speed the sequence assumes, in map nodes (reference frames) per query
+        frame: query frame ``t - k`` is compared with node ``e - k``, one node a frame."""
+        return (1.0, 1.0)
+
     def params(self) -> dict:
         """The parameters that shape the map (JSON-serialisable)."""
         return {

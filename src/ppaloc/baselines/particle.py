@@ -45,6 +45,9 @@ __all__ = ["ParticleFilter", "systematic_resample"]
 
 KIND = "particle-filter"
 
+SPEED_WINDOW = 10
+"""Frames over which :attr:`ParticleFilter.speed_range` averages a particle's moves."""
+
 
 def systematic_resample(weights: np.ndarray, u: float) -> np.ndarray:
     """Indices drawn by systematic resampling.
@@ -156,6 +159,27 @@ class ParticleFilter(ImageLocaliser):
         self.record_weights = bool(record_weights)
         self.map: TopoMap | None = None
         self.reset()
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """The query speeds the motion prior follows, in map nodes per query frame: the mean
+        move of a particle that is not re-drawn, +- two standard deviations of its average
+        over ``WINDOW`` = 10 frames (the window :mod:`ppaloc.evaluate.speed` measures the
+        query over); 0.64 to 1.67 at the defaults.
+
+        Examples
+        --------
+        >>> [round(v, 2) for v in ParticleFilter().speed_range]
+        [0.64, 1.67]
+        """
+        moving = self.p_stay + self.p_forward + self.p_jump
+        if moving <= 0:
+            return (0.0, 0.0)
+        jumps = np.arange(2, self.max_jump + 1, dtype=np.float64)
+        mean = (self.p_forward + self.p_jump * jumps.mean()) / moving
+        square = (self.p_forward + self.p_jump * (jumps**2).mean()) / moving
+        spread = 2.0 * np.sqrt(max(square - mean**2, 0.0) / SPEED_WINDOW)
+        return (float(max(mean - spread, 0.0)), float(mean + spread))
 
     def params(self) -> dict:
         """The parameters that shape the map (JSON-serialisable)."""

@@ -43,7 +43,7 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     from rich import box
     from rich.table import Table
 
-    from ppaloc.evaluate.report import comparison_table
+    from ppaloc.evaluate.report import comparison_table, method_notes
 
     header, rows = comparison_table(summary, short=True)
     keep = [i for i, h in enumerate(header) if h not in ("Repr.", "p95 ms")]  # fit 80 columns
@@ -70,6 +70,8 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
         "frame on the sensor and for the whole hardware loop (docs/onsensor.md, Timing);\n"
         "mJ = modelled energy per frame."
     )
+    for note in method_notes(summary, short=True):
+        print(f"note: {note}")
 
 
 # -- evaluate ------------------------------------------------------------------------------
@@ -434,8 +436,9 @@ def run_localise(
         Frames localised.
     """
     from ppaloc.datasets import to_sensor
+    from ppaloc.datasets.frames import FrameSequence
     from ppaloc.datasets.images import read_grey
-    from ppaloc.evaluate.run import ProgressBar, resolve_methods
+    from ppaloc.evaluate.run import ProgressBar, hand_query, resolve_methods
     from ppaloc.methods import make_localiser
     from ppaloc.topomap import load_map
 
@@ -458,6 +461,8 @@ def run_localise(
     loc.reset()
     paths = _frame_paths(frames)
     _refuse_input_as_out(out, [map_path, *frames, *paths])  # paths: symlinked frames too
+    # An offline method (seqslam-centred) reads every frame before its first step.
+    hand_query(loc, FrameSequence(lambda i: to_sensor(read_grey(paths[i])), range(len(paths))))
     frame_index = np.asarray(topomap.frame_index)
     header = "frame,path,node,reference_frame,score,moved,latency_ms\n"
     if out is not None:

@@ -101,7 +101,7 @@ def pr_curves(result: RunResult) -> Figure:
             color=colours[name],
             ls=_linestyle(name),
             lw=1.8,
-            label=f"{name} (F1 {run.metrics.f1_max:.2f})",
+            label=f"{name}{' (offline)' if run.reads_future else ''} (F1 {run.metrics.f1_max:.2f})",
         )
         ax.plot(
             run.metrics.recall_at_f1,

@@ -30,6 +30,8 @@ from ppaloc.fileio import update_folder, write_bytes
 __all__ = [
     "REPRESENTATIONS",
     "comparison_table",
+    "method_label",
+    "method_notes",
     "paper_table",
     "write_report",
     "write_report_files",
@@ -101,6 +103,44 @@ _SHORT_HEADER = [
 _SHORT_REPR = {"lowres": "8x8 img", "lbp": "LBP"}
 
 
+def method_label(name: str, entry: dict[str, Any], *, short: bool = False) -> str:
+    """A method's name as tables show it: marked when it read future frames (offline).
+
+    Examples
+    --------
+    >>> method_label("seqslam-centred", {"reads_future": True}, short=True)
+    'seqslam-centred (offline)'
+    """
+    if not entry.get("reads_future"):
+        return name
+    return f"{name} (offline)" if short else f"{name} (offline: reads future frames)"
+
+
+def method_notes(summary: dict[str, Any], *, short: bool = False) -> list[str]:
+    """What a reader must know about some methods' figures: an offline method that read
+    future frames, and the speed check's warnings (:mod:`ppaloc.evaluate.speed`); ``short``
+    for a terminal, where the warning itself was logged during the run."""
+    notes = []
+    for name, m in summary["methods"].items():
+        if m.get("reads_future"):
+            notes.append(
+                f"{name} is offline (reads future frames)"
+                if short
+                else f"{name} is offline: its estimate for a frame reads frames after it, "
+                "which an online method never sees; compare it with online methods with care."
+            )
+        check = m.get("speed_check") or {}
+        if check.get("warning"):
+            lo, hi = check["range"]
+            notes.append(
+                f"{name}: the query moves outside the speeds it searches ({lo:.3g}-{hi:.3g}) "
+                f"on {check['share_outside']:.0%} of the route"
+                if short
+                else check["warning"]
+            )
+    return notes
+
+
 def comparison_table(
     summary: dict[str, Any], *, short: bool = False
 ) -> tuple[list[str], list[list[str]]]:
@@ -139,7 +179,7 @@ def comparison_table(
         rep = _SHORT_REPR.get(kind, "own") if short else REPRESENTATIONS.get(kind, kind or "-")
         rows.append(
             [
-                name,
+                method_label(name, m, short=short),
                 rep,
                 _fmt(m["f1_max"]),
                 _fmt(m["precision_at_f1"]),
@@ -209,7 +249,8 @@ def paper_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
         header += [f"F1 ({label})", f"ms/frame host | chip | loop ({label})"]
     rows = []
     for family, reps in cells.items():
-        row = [family]
+        offline = any(m.get("reads_future") for m in reps.values())
+        row = [method_label(family, {"reads_future": offline})]
         for rep, _ in used:
             m = reps.get(rep)
             if m is None:
@@ -241,7 +282,7 @@ def _extra_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
         rk = m.get("recall_at_k", {})
         rows.append(
             [
-                name,
+                method_label(name, m),
                 _fmt(rk.get("1")),
                 _fmt(rk.get("5")),
                 _fmt(rk.get("10")),
@@ -514,6 +555,11 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
         _html_table(header, rows, best_cols=_best_columns(header)),
         _html_table(xheader, xrows, best_cols=(1, 2, 3)),
     ]
+    notes = method_notes(summary)
+    if notes:
+        parts.append("<h2 id='notes'>Notes on the methods</h2><ul>")
+        parts += [f"<li>{html.escape(n)}</li>" for n in notes]
+        parts.append("</ul>")
     for f in figs:
         b64 = base64.b64encode(f.png).decode("ascii")
         parts.append(
@@ -531,6 +577,8 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
     md = [f"# {title}", "", meta, ""]
     md += ["## Comparison (layout of the paper's Table I)", "", _md_table(pheader, prows), ""]
     md += ["## All metrics", "", _md_table(header, rows), "", _md_table(xheader, xrows), ""]
+    if notes:
+        md += ["## Notes on the methods", "", *(f"- {n}" for n in notes), ""]
     for f in figs:
         rel = f"figures/{f.key}.png"
         write_bytes(folder / rel, f.png)

@@ -392,6 +392,21 @@ def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
     rk = entry.get("recall_at_k", {})
     if not isinstance(rk, dict) or not all(_is_number(v) for v in rk.values()):
         raise bad("recall_at_k", rk, "a table of numbers")
+    if not isinstance(entry.get("reads_future", False), bool):
+        raise bad("reads_future", entry["reads_future"], "true or false")
+    speed = entry.get("speed_check")
+    if speed is not None and not (
+        isinstance(speed, dict)
+        and isinstance(speed.get("warning"), str | None)
+        and _is_number(speed.get("query_speed_median"))
+        and _is_number(speed.get("share_outside"))
+        and isinstance(speed.get("range"), list)
+        and len(speed["range"]) == 2
+        and all(_is_number(x) and x is not None for x in speed["range"])
+    ):
+        raise bad(
+            "speed_check", speed, "a table of range, query_speed_median, share_outside, warning"
+        )
     times = entry.get("modelled_time_ms")
     if times is not None:
         ok = isinstance(times, dict) and all(
@@ -546,6 +561,8 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             modelled_time_ms=s.get("modelled_time_ms"),
             motion_accuracy=s.get("motion_accuracy"),
             registers=registers,
+            reads_future=bool(s.get("reads_future", False)),
+            speed_check=s.get("speed_check"),
         )
     result = RunResult(
         dataset=summary["dataset"],

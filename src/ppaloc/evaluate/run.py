@@ -33,6 +33,7 @@ from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
+from ppaloc.evaluate.speed import speed_checks
 from ppaloc.localise.base import Estimate, Localiser
 from ppaloc.methods import (
     METHODS,
@@ -51,6 +52,7 @@ __all__ = [
     "ProgressBar",
     "ReportedFrames",
     "RunResult",
+    "hand_query",
     "localiser_params",
     "method_metrics",
     "predicted_frames",
@@ -123,6 +125,10 @@ class MethodRun:
         Agreement of ``moved`` with the dataset's ``query_moved``, where both exist.
     registers : dict of str to ndarray, optional
         Register planes after the last frame (:func:`register_planes`), on-sensor only.
+    reads_future : bool
+        The method read frames after the one it localised (offline, e.g. seqslam-centred).
+    speed_check : dict, optional
+        :func:`ppaloc.evaluate.speed.check_speed` for a method that declares its speeds.
     """
 
     method: str
@@ -143,6 +149,8 @@ class MethodRun:
     modelled_time_ms: dict[str, dict[str, float]] | None = None
     motion_accuracy: float | None = None
     registers: dict[str, np.ndarray] | None = None
+    reads_future: bool = False
+    speed_check: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
         """The method's entry of ``results.json`` (scalars only)."""
@@ -170,6 +178,8 @@ class MethodRun:
                 "n_nodes": self.n_nodes,
                 "build_s": self.build_s,
                 "params": self.params,
+                "reads_future": self.reads_future,
+                "speed_check": self.speed_check,
             }
         )
         return out
@@ -473,6 +483,7 @@ def run_method(
     topomap = loc.build_map(reference)
     build_s = time.perf_counter() - t0
     loc.reset()
+    reads_future = hand_query(loc, query)
     n_nodes = len(topomap)
     m = len(query)
     log.info("%s: %d nodes; localising %d query frames", name, n_nodes, m)
@@ -526,6 +537,7 @@ def run_method(
         modelled_time_ms=modelled_time(loc),
         motion_accuracy=motion_acc,
         registers=register_planes(loc),
+        reads_future=reads_future,
     )
 
 
@@ -577,6 +589,21 @@ class _Record:
     def energy(self) -> np.ndarray | None:
         """Modelled energy per query (NaN where not modelled); None if never."""
         return self._energy if self._has_energy else None
+
+
+def hand_query(localiser: Any, query: Sequence[np.ndarray]) -> bool:
+    """Hand an offline localiser (``reads_future`` true, e.g. ``seqslam-centred``) the whole
+    query before its first ``step``, through its ``read_ahead``; an online one is left alone.
+
+    Returns
+    -------
+    bool
+        Whether the localiser reads future frames.
+    """
+    if not getattr(localiser, "reads_future", False):
+        return False
+    localiser.read_ahead(query)
+    return True
 
 
 def modelled_time(localiser: Any) -> dict[str, dict[str, float]] | None:
@@ -735,6 +762,7 @@ def run_evaluation(
             shown = {arg: f"dataset {needs[arg].attribute}" for arg in given}
             plan[name] = ({**params, **shown}, loc)
     gt = PackedSets.from_sets(dataset.ground_truth)
+    speeds = speed_checks({name: loc for name, (_, loc) in plan.items()}, gt)  # logs warnings
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
     names = list(plan)
@@ -765,6 +793,7 @@ def run_evaluation(
                 localiser=loc,
                 query_turning=dataset.meta.get("query_turning"),
             )
+            runs[name].speed_check = speeds.get(name)
     resolved = config.to_dict()
     resolved["dataset"] = spec
     resolved["methods"] = list(names)

@@ -1,0 +1,131 @@
+"""The query-speed check: centres from the ground truth, robust window speeds, the warning
+once per method, and its field in results.json and the report."""
+
+from __future__ import annotations
+
+import json
+import logging
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ppaloc.datasets import load_dataset
+from ppaloc.errors import DataError
+from ppaloc.evaluate import EvaluateConfig, load_results, run_evaluation, save_results
+from ppaloc.evaluate.report import method_notes, write_report
+from ppaloc.evaluate.speed import (
+    check_speed,
+    match_centres,
+    speed_checks,
+    window_speeds,
+)
+
+
+def test_centres_skip_queries_without_a_match() -> None:
+    got = match_centres([np.array([1, 2, 3]), np.array([], dtype=np.int64), np.array([9])])
+    np.testing.assert_array_equal(got, [2.0, np.nan, 9.0])
+
+
+def test_window_speed_is_robust_to_a_glitch_and_to_gaps() -> None:
+    # 1.5 reference frames a frame, one ground-truth jump and two queries without a match.
+    c = 1.5 * np.arange(40.0)
+    c[12] = 200.0
+    c[[5, 30]] = np.nan
+    speeds = window_speeds(c, 10)
+    assert speeds.shape == (30,)
+    np.testing.assert_allclose(speeds, 1.5, atol=1e-9)
+    # A window with fewer than two known frames has no speed.
+    assert np.isnan(window_speeds(np.array([0.0, np.nan, np.nan, np.nan]), 2)).all()
+    assert window_speeds(np.arange(5.0), 10).size == 0
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    speed=st.floats(0.1, 5.0),
+    start=st.integers(0, 100),
+    window=st.integers(2, 12),
+)
+def test_a_constant_speed_is_measured_to_within_the_rounding(speed, start, window) -> None:
+    c = np.round(start + speed * np.arange(40))  # centres are whole reference frames
+    speeds = window_speeds(c, window)
+    assert np.all(np.abs(speeds - speed) <= 1.0 / ((window + 1) // 2) + 1e-9)
+
+
+def test_check_speed_thresholds_and_message() -> None:
+    # 0.8..1.2 with the 25% margin: far outside below 0.64 and above 1.5.
+    speeds = np.array([1.0] * 6 + [1.49] * 2 + [1.6] * 2 + [np.nan] * 3)
+    ok = check_speed(speeds, (0.8, 1.2), method="seqslam")
+    assert ok["share_outside"] == pytest.approx(0.2) and ok["warning"] is None
+    assert ok["range"] == [0.8, 1.2] and ok["query_speed_median"] == pytest.approx(1.0)
+    bad = check_speed(np.array([2.0] * 7 + [1.0] * 3), (0.8, 1.2), method="seqslam")
+    assert bad["share_outside"] == pytest.approx(0.7)
+    assert bad["warning"].startswith(
+        "seqslam searches query speeds of 0.8 to 1.2 reference frames per query frame, but "
+        "on 70% of this route the query moves at under 0.64 or over 1.5 (median 2.00)"
+    )
+    one = check_speed(np.full(5, 0.5), (1.0, 1.0), method="able-m")["warning"]
+    assert one.startswith("able-m assumes a query speed of 1 reference frames per query")
+    nothing = check_speed(np.full(3, np.nan), (0.8, 1.2))
+    assert nothing["share_outside"] is None and nothing["warning"] is None
+
+
+class _Declares:
+    def __init__(self, speed_range):
+        self.speed_range = speed_range
+
+
+def test_speed_checks_warn_once_per_declaring_method(caplog) -> None:
+    gt = [np.array([2 * i]) for i in range(40)]  # twice the mapping speed
+    locs = {"a": _Declares((0.8, 1.2)), "b": _Declares((0.5, 3.0)), "c": object()}
+    with caplog.at_level(logging.WARNING, logger="ppaloc.evaluate.speed"):
+        out = speed_checks(locs, gt)
+    assert set(out) == {"a", "b"}
+    assert out["a"]["share_outside"] == 1.0 and out["b"]["warning"] is None
+    assert [r.getMessage()[:2] for r in caplog.records] == ["a "]
+
+
+def test_baselines_declare_their_speeds() -> None:
+    from ppaloc.methods import make_localiser
+
+    assert make_localiser("seqslam").speed_range == (0.8, 1.2)
+    assert make_localiser("seqslam-centred").speed_range == (0.8, 1.2)
+    assert make_localiser("able-m").speed_range == (1.0, 1.0)
+    lo, hi = make_localiser("particle-filter").speed_range
+    assert 0.6 < lo < 0.7 and 1.6 < hi < 1.7
+    assert not hasattr(make_localiser("single-frame"), "speed_range")
+
+
+@pytest.fixture(scope="module")
+def fast_route():
+    """A generated route driven at twice the mapping speed (small frames, short)."""
+    return load_dataset("synthetic:?places=60&query=winter&seed=1&speed=2&stops=0&size=64")
+
+
+def test_an_evaluation_at_twice_the_speed_warns_and_records_it(fast_route, tmp_path, caplog):
+    cfg = EvaluateConfig(methods=("seqslam", "single-frame"), record_weights=False)
+    with caplog.at_level(logging.WARNING):
+        result = run_evaluation(cfg, dataset=fast_route, progress=False)
+    warned = [r.getMessage() for r in caplog.records if r.name == "ppaloc.evaluate.speed"]
+    assert len(warned) == 1 and warned[0].startswith("seqslam searches query speeds of 0.8")
+    check = result.runs["seqslam"].speed_check
+    assert check["share_outside"] > 0.9 and 1.8 <= check["query_speed_median"] <= 2.2
+    assert result.runs["single-frame"].speed_check is None
+    out = save_results(result, tmp_path / "out")
+    summary = json.loads(out.read_text())
+    assert summary["methods"]["seqslam"]["speed_check"]["warning"] == warned[0]
+    assert summary["methods"]["single-frame"]["speed_check"] is None
+    back, _ = load_results(tmp_path / "out")
+    assert back.runs["seqslam"].speed_check == check
+    report = write_report(tmp_path / "out")
+    assert warned[0] in (tmp_path / "out" / "report.md").read_text()
+    assert "Notes on the methods" in report.read_text()
+    assert method_notes(summary, short=True) == [
+        f"seqslam: the query moves outside the speeds it searches (0.8-1.2) on "
+        f"{check['share_outside']:.0%} of the route"
+    ]
+    summary["methods"]["seqslam"]["speed_check"] = {"warning": 3}
+    out.write_text(json.dumps(summary))
+    with pytest.raises(DataError, match=r"methods.seqslam.speed_check is \{'warning': 3\}"):
+        load_results(tmp_path / "out")
