@@ -212,6 +212,11 @@ ERRORS = {
         "query,reference,score,latency_ms\n0,0,1,-2\n",
         "F line 2: latency_ms is -2; a time is >= 0 (or leave it empty)",
     ),
+    "a name column left empty": (
+        "query_name,reference,score\n,0,1\n,1,1\n",
+        "F: query_name is empty on every row; give each row its query frame's name, or "
+        "query indices (query column)",
+    ),
     "a bad method label": (
         "method,query,reference,score\n_x,0,0,1\n",
         "F line 2: method '_x', which is not a label of 1 to 64 printable characters not "

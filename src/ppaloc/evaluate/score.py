@@ -559,6 +559,11 @@ def _indices(
     suffix = "" if rank == 1 else f"_{rank}"
     by_name = _use_names(texts.get(f"{what}_name"), names)
     column = f"{what}_name" if by_name else what
+    if column not in texts and names.names is not None:  # only a name column, all empty
+        raise DataError(
+            f"{p.source}: {what}_name{suffix} is empty on every row; give each row its "
+            f"{what} frame's name, or {what} indices ({what}{suffix} column)"
+        )
     if column not in texts:  # a name column on a traversal without names
         raise DataError(
             f"{p.source}: {what}_name needs frame names, and the {what} frames of {dataset} "
