@@ -130,7 +130,7 @@ def test_several_datasets_make_a_matrix(mean_match, tmp_path, capsys):
     rows = (out / "matrix.csv").read_text().splitlines()
     assert rows[0].startswith("dataset,folder,method,f1_max")
     assert [r.split(",")[0] for r in rows[1:]] == [a, b]
-    assert (out / "01-synthetic-places-8-size-32-sync-1" / "results.json").is_file()
+    assert (out / "01-synthetic-places-8-size-32-sync-1-365c8a84" / "results.json").is_file()
     assert len(list(out.glob("02-*/results.json"))) == 1
     code, stdout, err = run(capsys, "show", out)
     assert code == 0, err
@@ -269,11 +269,14 @@ def test_map_then_localise_streams_csv(mean_match, tmp_path, capsys):
     assert code == 0, err
     assert "6 mean nodes" in out
     csv_path = tmp_path / "est.csv"
-    code, _, err = run(capsys, "localise", tmp_path / "m.npz", *frames[::-1], "--out", csv_path)
+    code, _, err = run(
+        capsys, "localise", tmp_path / "m.npz", *frames[::-1], "--out", csv_path, "--keep-order"
+    )
     assert code == 0, err
     lines = csv_path.read_text().splitlines()
-    assert lines[0] == "frame,path,node,reference_frame,score,moved,latency_ms"
+    assert lines[0] == "frame,path,node,reference_frame,score,moved,latency_ms,reference_name"
     assert [int(line.split(",")[2]) for line in lines[1:]] == [5, 4, 3, 2, 1, 0]
+    assert [line.split(",")[-1] for line in lines[1:]] == [f"q{i:02d}.png" for i in range(6)][::-1]
     # the folder form and stdout
     code, out, err = run(capsys, "localise", tmp_path / "m.npz", tmp_path / "ref")
     assert code == 0, err

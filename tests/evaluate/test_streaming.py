@@ -240,11 +240,11 @@ def test_ctrl_c_during_localise_keeps_the_earlier_csv(tmp_path, capsys, monkeypa
 
     read, calls = images.read_grey, []
 
-    def interrupted(path: Path) -> np.ndarray:
+    def interrupted(path: Path, **kw: str) -> np.ndarray:
         calls.append(path)
         if len(calls) == 5:
             raise KeyboardInterrupt
-        return read(path)
+        return read(path, **kw)
 
     monkeypatch.setattr(images, "read_grey", interrupted)
     assert main(["localise", str(map_path), str(frames), "--out", str(csv)]) == 130

@@ -11,14 +11,14 @@ import sys
 import time
 import zipfile
 from collections.abc import Sequence
-from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ppaloc.cli.localise import run_localise
+from ppaloc.cli.outputs import refuse_input_as_out
 from ppaloc.errors import DataError, PpalocError
-from ppaloc.fileio import atomic_write
 
 __all__ = [
     "run_bench",
@@ -27,6 +27,7 @@ __all__ = [
     "run_localise",
     "run_map",
     "run_matrix",
+    "run_score",
     "run_show",
     "run_sweep",
 ]
@@ -64,11 +65,17 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
         table.add_row(*(r[i] for i in keep))
     _console().print(table)
     recall = {m.get("recall_definition", "A") for m in summary["methods"].values()}
+    config = summary.get("config")
+    scored = isinstance(config, dict) and config.get("command") == "score"
+    host = (
+        "median time per query as the predictions file gives it"
+        if scored
+        else "median wall-clock time of step on this machine"
+    )
     print(
-        f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); host ms = median "
-        "wall-clock time of step on this machine;\nchip ms, loop ms = modelled time per "
-        "frame on the sensor and for the whole hardware loop (docs/onsensor.md, Timing);\n"
-        "mJ = modelled energy per frame."
+        f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); host ms = {host};\n"
+        "chip ms, loop ms = modelled time per frame on the sensor and for the whole hardware "
+        "loop (docs/onsensor.md, Timing);\nmJ = modelled energy per frame."
     )
     for note in method_notes(summary, short=True):
         print(f"note: {note}")
@@ -94,14 +101,28 @@ def run_evaluate(
     Path
         ``out/results.json``.
     """
-    from ppaloc.evaluate.bench import save_bench
-    from ppaloc.evaluate.report import write_report_files
-    from ppaloc.evaluate.results import check_replaceable, results_folder, write_results
     from ppaloc.evaluate.run import run_evaluation
 
-    _check_out_dir(out)
-    check_replaceable(out)
+    _check_results_out(out, config.dataset)
     result = run_evaluation(config, progress=not quiet)
+    return _write_run(result, out, quiet=quiet, bench=bench, report=report, shown_as=shown_as)
+
+
+def _write_run(
+    result: Any,
+    out: Path,
+    *,
+    quiet: bool,
+    bench: Any = None,
+    report: bool = True,
+    shown_as: Path | None = None,
+) -> Path:
+    """Write a RunResult (of ``evaluate`` or ``score``) as the folder ``out`` with its
+    report, in one transaction; print the table. Returns ``out/results.json``."""
+    from ppaloc.evaluate.bench import save_bench
+    from ppaloc.evaluate.report import write_report_files
+    from ppaloc.evaluate.results import results_folder, write_results
+
     # One transaction: `out` is replaced whole by the results, bench and report at the end.
     with results_folder(out) as stage:
         write_results(result, stage)
@@ -121,6 +142,45 @@ def run_evaluate(
     return path
 
 
+def run_score(config: Any, out: Path, *, quiet: bool = False, report: bool = True) -> Path:
+    """Score predictions files (a ScoreConfig) against a dataset: the same metrics, result
+    files and report as ``run_evaluate``, written as the folder ``out``.
+
+    Returns
+    -------
+    Path
+        ``out/results.json``.
+    """
+    from ppaloc.evaluate.score import score_predictions
+
+    _check_results_out(out, config.dataset, [Path(p) for p in config.predictions])
+    result = score_predictions(config)
+    return _write_run(result, out, quiet=quiet, report=report)
+
+
+def _dataset_paths(spec: str, *, reference: bool = False) -> list[Path]:
+    """The files and folders a dataset spec reads (``reference``: a spec of ``ppaloc map``,
+    whose reference may come alone); none when the spec does not parse (its own error
+    comes when it is loaded)."""
+    from ppaloc.datasets.registry import parse_dataset_spec, parse_reference_spec
+
+    try:
+        return list((parse_reference_spec if reference else parse_dataset_spec)(spec).paths)
+    except PpalocError:
+        return []
+
+
+def _check_results_out(out: Path, spec: str, inputs: Sequence[Path] = ()) -> None:
+    """Before any work: ``out`` can become a results folder (absent, empty or an earlier
+    one), and is neither an input nor inside a file or folder the dataset reads."""
+    from ppaloc.evaluate.results import check_replaceable
+
+    _check_out_dir(out)
+    check_replaceable(out)
+    refuse_input_as_out(out, inputs)
+    refuse_input_as_out(out, _dataset_paths(spec), what="the dataset's")
+
+
 def run_matrix(
     configs: Sequence[Any], out: Path, *, quiet: bool = False, report: bool = True
 ) -> Path:
@@ -135,20 +195,20 @@ def run_matrix(
     import csv
     import io
     import json
-    import re
 
     from ppaloc.evaluate.results import CSV_COLUMNS, check_replaceable, results_folder
     from ppaloc.fileio import write_bytes
 
     _check_out_dir(out)
     check_replaceable(out)
+    for config in configs:
+        refuse_input_as_out(out, _dataset_paths(config.dataset), what="the dataset's")
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(["dataset", "folder", *CSV_COLUMNS])
     with results_folder(out) as stage:  # the whole matrix replaces `out` at the end
         for i, config in enumerate(configs):
-            slug = re.sub(r"[^A-Za-z0-9]+", "-", config.dataset).strip("-")[:60]
-            name = f"{i + 1:02d}-{slug}"
+            name = matrix_folder(i, config.resolved_dataset())
             path = run_evaluate(
                 config, stage / name, quiet=quiet, report=report, shown_as=out / name
             )
@@ -161,6 +221,31 @@ def run_matrix(
     if not quiet:
         print(f"matrix: {matrix}")
     return matrix
+
+
+def matrix_folder(position: int, spec: str) -> str:
+    """The results folder of the dataset at ``position`` (0-based) of a matrix run.
+
+    ``NN-<kind>-<last part of each path>-<keys>-<hash>``: the spec made readable (its
+    folders dropped, runs of other characters as ``-``, cut to 48 characters) and the
+    first 8 hex digits of the SHA-256 of the whole spec as run, so two specs never share
+    a name even where their readable parts are cut alike, and the same spec gets the same
+    name in every run.
+
+    Examples
+    --------
+    >>> matrix_folder(0, "nordland:../shared/data/nordland-64x32?ref=summer&query=winter")
+    '01-nordland-nordland-64x32-ref-summer-query-winter-2a00ad56'
+    """
+    import hashlib
+    import re
+
+    head, _, query = spec.partition("?")
+    kind, _, paths = head.partition(":")
+    parts = [kind, *(re.split(r"[/\\]", p.strip().rstrip("/"))[-1] for p in paths.split(","))]
+    slug = re.sub(r"[^A-Za-z0-9]+", "-", "-".join([*parts, query])).strip("-")[:48].strip("-")
+    digest = hashlib.sha256(spec.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+    return f"{position + 1:02d}-{slug or 'dataset'}-{digest}"
 
 
 def _check_out_dir(out: Path) -> None:
@@ -326,14 +411,18 @@ def run_sweep(
 
 # -- map and localise ------------------------------------------------------------------------
 
-_KIND_METHOD = {"lowres": "weighted-node-lowres", "lbp": "weighted-node-lbp"}
-
 
 def run_map(
     dataset: str, method: str, out: Path, params: dict[str, Any], *, quiet: bool = False
 ) -> Path:
-    """Build the map of ``method`` from the reference traversal of ``dataset``; save it."""
-    from ppaloc.datasets.registry import load_dataset
+    """Build the map of ``method`` from the reference traversal of ``dataset``; save it.
+
+    ``dataset`` is a spec; a kind of two traversals (``folder:``, ``video:``) may name its
+    reference alone (``folder:REF_DIR``). Where the reference frames are files, the map's
+    provenance records each node's frame name (``reference_names``, see
+    :data:`MAX_NAMES_BYTES`), which ``ppaloc localise`` writes beside the reference index.
+    """
+    from ppaloc.datasets.registry import load_reference
     from ppaloc.evaluate.run import ProgressBar, ReportedFrames, resolve_methods, sensor_stream
     from ppaloc.methods import make_localiser
 
@@ -341,7 +430,8 @@ def run_map(
     if out.is_dir():
         raise DataError(f"--out {out} is a folder; give a file name such as map.npz")
     loc = make_localiser(method, **params)  # parameters checked before the dataset loads
-    ds = load_dataset(dataset)
+    refuse_input_as_out(out, _dataset_paths(dataset, reference=True), what="the dataset's")
+    ds = load_reference(dataset)
     reference = sensor_stream(ds.reference)  # read, converted and described one at a time
     with ProgressBar(not quiet) as bar:
         bar.add("reference", len(reference), label="reference frames")
@@ -351,155 +441,40 @@ def run_map(
         topomap.positions = np.asarray(ds.reference_positions)[idx]
     topomap.provenance["method"] = method
     topomap.provenance["method_params"] = params
+    names = node_names(ds.reference, topomap.frame_index)
+    if names is not None:
+        topomap.provenance["reference_names"] = names
     path = topomap.save(out, dataset=dataset)
     if not quiet:
         print(f"map: {path} ({len(topomap)} {topomap.kind} nodes from {ds.name}, {method})")
     return path
 
 
-def _frame_paths(inputs: Sequence[Path]) -> list[Path]:
-    from ppaloc.datasets.images import list_images
-
-    paths: list[Path] = []
-    for p in inputs:
-        if p.is_dir():
-            paths += list_images(p, "frame folder")
-        elif p.is_file():
-            paths.append(p)
-        else:
-            raise DataError(f"frame {p} does not exist; give image files or a folder of images")
-    if not paths:
-        raise DataError("no frames given; give image files or a folder of images")
-    return paths
+MAX_NAMES_BYTES = 512 << 10
+"""Most bytes of node frame names a map records (512 KiB of its 1 MiB header: about
+25,000 names such as ``images-00010.png``); a longer map records none."""
 
 
-def _method_for_map(topomap: Any, method: str | None) -> str:
-    if method:
-        return method
-    named = topomap.provenance.get("method")
-    if named:
-        return str(named)
-    guess = _KIND_METHOD.get(topomap.kind, topomap.kind)
-    return guess
-
-
-def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
-    """Refuse a map of another kind than ``loc`` needs, naming the methods that read it and
-    how to build the right one."""
-    from ppaloc.methods import METHODS
-
-    needs = getattr(loc, "representation", None) or getattr(loc, "kind", None)
-    if needs is None or topomap.kind == needs:
-        return
-    readers = [m for m, s in METHODS.items() if s.defaults.get("representation") == topomap.kind]
-    built_by = topomap.provenance.get("method")
-    if built_by and built_by not in readers:
-        readers.insert(0, str(built_by))
-    use = f"localise it with --method {readers[0]}" if readers else "use a matching map"
-    raise PpalocError(
-        f"map {map_path} holds {topomap.kind!r} nodes but method {name!r} needs "
-        f"{needs!r} nodes: {use}, or build a map for {name} with "
-        f"`ppaloc map DATASET --method {name} --out MAP.npz`"
-    )
-
-
-def _refuse_input_as_out(out: Path | None, inputs: Sequence[Path]) -> None:
-    """Refuse an ``--out`` that is one of the command's inputs or lies in an input folder:
-    writing it would replace what the user saved."""
-    if out is None:
-        return
-    target = out.resolve()
-    for given in inputs:
-        source = Path(given).resolve()
-        if target == source or (source.is_dir() and source in target.parents):
-            raise DataError(
-                f"--out {out} would overwrite the input {given}; give another file name"
-            )
-
-
-def run_localise(
-    map_path: Path,
-    frames: Sequence[Path],
-    out: Path | None,
-    *,
-    method: str | None = None,
-    params: dict[str, Any] | None = None,
-) -> int:
-    """Localise image frames against a saved map, one CSV line per frame as it is processed.
-
-    With ``out`` the lines go to a temporary file that replaces ``out`` at the end
-    (never a half-written CSV under the final name); without, to stdout.
-
-    Returns
-    -------
-    int
-        Frames localised.
-    """
-    from ppaloc.datasets import to_sensor
-    from ppaloc.datasets.frames import FrameSequence
-    from ppaloc.datasets.images import read_grey
-    from ppaloc.evaluate.run import ProgressBar, hand_query, resolve_methods
-    from ppaloc.methods import make_localiser
-    from ppaloc.topomap import load_map
-
-    topomap = load_map(map_path)
-    name = _method_for_map(topomap, method)
-    (name,) = resolve_methods([name])
-    stored = topomap.provenance.get("method_params") or {} if not method else {}
-    if not isinstance(stored, dict):
-        raise DataError(f"map {map_path}: provenance.method_params is not a table of parameters")
-    try:
-        make_localiser(name, **stored)  # the map's own parameters, checked as the user's are
-    except PpalocError as exc:
-        raise DataError(f"map {map_path}: provenance.method_params refused: {exc}") from None
-    loc = make_localiser(name, **{**stored, **(params or {})})
-    use = getattr(loc, "use_map", None)
-    if use is None:
-        raise PpalocError(f"method {name!r} cannot load a saved map (it has no use_map)")
-    _check_map_kind(topomap, loc, name, map_path)
-    use(topomap)
-    loc.reset()
-    paths = _frame_paths(frames)
-    _refuse_input_as_out(out, [map_path, *frames, *paths])  # paths: symlinked frames too
-    # An offline method (seqslam-centred) reads every frame before its first step.
-    hand_query(loc, FrameSequence(lambda i: to_sensor(read_grey(paths[i])), range(len(paths))))
-    frame_index = np.asarray(topomap.frame_index)
-    header = "frame,path,node,reference_frame,score,moved,latency_ms\n"
-    if out is not None:
-        if out.is_dir():
-            raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
-        out.parent.mkdir(parents=True, exist_ok=True)
-    # The bar only when the CSV goes to a file: on stdout it would interleave with the lines.
-    with (
-        atomic_write(out, "w") if out is not None else nullcontext(sys.stdout) as stream,
-        ProgressBar(out is not None) as bar,
-    ):
-        bar.add("frames", len(paths), label="frames")
-        stream.write(header)
-        for i, p in enumerate(paths):
-            frame = to_sensor(read_grey(p))
-            t = time.perf_counter_ns()
-            est = loc.step(frame)
-            ms = (time.perf_counter_ns() - t) / 1e6
-            moved = "" if est.moved is None else int(est.moved)
-            stream.write(
-                f"{i},{_csv_text(str(p))},{est.node},{int(frame_index[est.node])},"
-                f"{est.score:.6g},{moved},{ms:.4f}\n"
-            )
-            stream.flush()
-            bar("frames", i + 1)
-    return len(paths)
-
-
-def _csv_text(s: str) -> str:
-    return '"' + s.replace('"', '""') + '"' if any(c in s for c in ',"\n') else s
+def node_names(reference: Any, frame_index: np.ndarray) -> list[str] | None:
+    """The name of each node's reference frame (``FrameSequence.names``), or None where
+    the frames have no names or the names exceed :data:`MAX_NAMES_BYTES`."""
+    names = reference.names() if hasattr(reference, "names") else None
+    if names is None:
+        return None
+    chosen = [names[int(i)] for i in np.asarray(frame_index)]
+    size = sum(len(n.encode("utf-8", "surrogateescape")) + 4 for n in chosen)
+    if size > MAX_NAMES_BYTES:
+        return None
+    return chosen
 
 
 # -- show ------------------------------------------------------------------------------------
 
 
 def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | None:
-    """Show a results folder (table + report), a saved map or saved register planes.
+    """Show a results folder (table + report), a saved map, saved register planes, or a
+    localise CSV (any predictions file: a table and a plot of predicted reference against
+    query).
 
     Returns
     -------
@@ -508,14 +483,17 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     """
     from ppaloc.fileio import recover_folder
 
+    what = "give a results folder, a map (.npz), register planes (.npz) or a localise CSV"
     recover_folder(path)  # a results folder whose replacement was killed half-way
     if path.is_dir():
         return _show_results(path, quiet=quiet)
     if not path.is_file():
         state = "is not a regular file" if path.exists() else "does not exist"
-        raise DataError(
-            f"{path} {state}; give a results folder, a map (.npz) or register planes (.npz)"
-        )
+        raise DataError(f"{path} {state}; {what}")
+    if path.suffix.lower() == ".csv":
+        from ppaloc.cli.showcsv import show_predictions
+
+        return show_predictions(path, out, quiet=quiet)
     try:
         with zipfile.ZipFile(path) as archive:
             is_map = "header.npy" in archive.namelist()  # a map's JSON header entry
@@ -559,7 +537,7 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
     if not len(topomap):
         raise DataError(f"{path} is a map of 0 nodes: there is nothing to draw")
     out = out or path.with_suffix(".png")
-    _refuse_input_as_out(out, [path])
+    refuse_input_as_out(out, [path])
     layout = topomap.layout
     if layout is not None:
         from ppaloc.sim.render import render_montage
@@ -617,8 +595,14 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
             raise DataError(
                 f"{path}: array {name!r} holds {a.dtype} values, not numbers or bits to draw"
             )
+        bad = int(np.count_nonzero(~np.isfinite(a))) if a.dtype.kind == "f" else 0
+        if bad:  # a register holds a number; NaN has no grey level
+            raise DataError(
+                f"{path}: array {name!r} holds {bad} NaN or infinite values, which no "
+                "register holds; replace them (e.g. np.nan_to_num) before drawing"
+            )
     out = out or path.with_suffix(".png")
-    _refuse_input_as_out(out, [path])
+    refuse_input_as_out(out, [path])
     render_montage(planes, out, scale=1)
     if not quiet:
         print(f"{path}: {len(planes)} planes -> {out}")

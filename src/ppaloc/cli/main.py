@@ -31,18 +31,28 @@ __all__ = ["cli", "main"]
 
 log = logging.getLogger("ppaloc")
 
-_SECTIONS = ("evaluate", "bench", "map", "localise", "demo", "sweep")
+_SECTIONS = ("evaluate", "bench", "map", "localise", "demo", "sweep", "score")
 
 
 # -- configuration ------------------------------------------------------------------------
 
 
 def _parse_value(text: str) -> Any:
-    """A flag value as TOML would read it (``8`` -> 8, ``0.5``, ``true``, ``[1, 2]``), else text."""
+    """A flag value as TOML would read it (``8`` -> 8, ``0.5``, ``true``, ``[1, 2]``), a
+    parenthesised tuple as a list (``(8, 8)`` -> [8, 8], as Python writes it), else text.
+
+    Examples
+    --------
+    >>> _parse_value("(8,8)"), _parse_value("[8, 8]"), _parse_value("0.5"), _parse_value("image")
+    ([8, 8], [8, 8], 0.5, 'image')
+    """
     import tomllib
 
+    stripped = text.strip()
+    if stripped.startswith("(") and stripped.endswith(")"):
+        stripped = f"[{stripped[1:-1]}]"
     try:
-        return tomllib.loads(f"v = {text}")["v"]
+        return tomllib.loads(f"v = {stripped}")["v"]
     except (tomllib.TOMLDecodeError, RecursionError):
         return text
 
@@ -244,6 +254,20 @@ _QUIET = click.option(
     "--quiet", "-q", is_flag=True, default=None, help="No table, no progress bar."
 )
 
+_RECALL = click.option(
+    "--recall",
+    type=click.Choice(["A", "B", "C"], case_sensitive=False),
+    help="Recall definition (default A: correct accepted / queries with a true match).",
+)
+_RESULTS_OUT = click.option(
+    "--out",
+    type=_SafePath(file_okay=False, path_type=Path),
+    help="Folder for results.json, results.csv, arrays/ and the report [default: results].",
+)
+_NO_REPORT = click.option(
+    "--no-report", is_flag=True, default=None, help="Write result files only."
+)
+
 
 class _MethodsHelp(click.Command):
     """A command whose help ends with the methods available in this install."""
@@ -265,6 +289,7 @@ Examples:
   ppaloc evaluate --dataset 'synthetic:?places=300&seed=1' --method weighted-node-lbp --out run1
   ppaloc map 'nordland:../shared/data/nordland-64x32?ref=summer' --out summer.npz
   ppaloc localise summer.npz frames/ --out estimates.csv
+  ppaloc score estimates.csv --dataset 'nordland:../shared/data/nordland-64x32' --out scored
   ppaloc bench --sizes 256,1024,4096
   ppaloc sweep --config sweep.toml --out sweep1
   ppaloc show run1
@@ -356,11 +381,7 @@ run.toml:
     help="Method name, repeatable (default: every available method).",
 )
 @click.option("--tolerance", type=int, help="Accepted distance to the true frame, in frames.")
-@click.option(
-    "--recall",
-    type=click.Choice(["A", "B", "C"], case_sensitive=False),
-    help="Recall definition (default A: correct accepted / queries with a true match).",
-)
+@_RECALL
 @click.option("--seed", type=int, help="Seed for methods that draw random numbers.")
 @click.option(
     "--param",
@@ -375,12 +396,8 @@ run.toml:
     default=None,
     help="Record per-node weights for the heatmap (default on).",
 )
-@click.option(
-    "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
-    help="Folder for results.json, results.csv, arrays/ and the report [default: results].",
-)
-@click.option("--no-report", is_flag=True, default=None, help="Write result files only.")
+@_RESULTS_OUT
+@_NO_REPORT
 @_CONFIG
 @_QUIET
 def evaluate(
@@ -448,6 +465,86 @@ def evaluate(
     else:
         config = config_from_mapping(EvaluateConfig, values, source=source)
         run_evaluate(config, out_dir, quiet=quiet_, report=report)
+
+
+@cli.command(
+    epilog="""\b
+Examples:
+  ppaloc score netvlad.csv --dataset 'gardens-point:DIR?ref=day_left&query=night_right' \\
+      --out scored
+  ppaloc score a.csv b.csv -d 'nordland:DIR?ref=summer&query=winter' --tolerance 2
+  ppaloc localise route.npz winter/ --out est.csv && ppaloc score est.csv -d SPEC
+\b
+PREDICTIONS columns (a header line; docs/evaluate-cli.md, Predictions files):
+  query or query_name          the 0-based query index, or the query frame's file name
+  reference or reference_name  the predicted reference frame (index or file name)
+  score                        confidence, higher = surer
+  method                       optional label (several methods in one file)
+  reference_2 .. reference_K   optional next best reference frames, best first
+  latency_ms, moved            optional time per query (ms) and motion decision (1/0)
+A CSV of `ppaloc localise` is read as it is (frame, path, reference_frame).""",
+)
+@click.argument(
+    "predictions",
+    nargs=-1,
+    required=True,
+    type=_SafePath(dir_okay=False, path_type=Path),
+)
+@click.option(
+    "--dataset", "-d", help="Dataset spec KIND:PATH?key=value whose queries were predicted."
+)
+@click.option("--tolerance", type=int, help="Accepted distance to the true frame, in frames.")
+@_RECALL
+@_RESULTS_OUT
+@_NO_REPORT
+@_CONFIG
+@_QUIET
+def score(
+    predictions: tuple[Path, ...],
+    dataset: str | None,
+    tolerance: int | None,
+    recall: str | None,
+    out: Path | None,
+    no_report: bool | None,
+    config_file: Path | None,
+    quiet: bool | None,
+) -> None:
+    """Score PREDICTIONS files (CSV) of any method against a dataset: the metrics, result
+    files and report of `ppaloc evaluate`."""
+    from ppaloc.cli.commands import run_score
+    from ppaloc.evaluate.config import config_from_mapping, reject_unknown_keys
+    from ppaloc.evaluate.score import ScoreConfig
+
+    file_values = _file_values(config_file, "score")
+    _check_file_types(ScoreConfig, file_values, config_file, skip=("predictions",))
+    values = _merge(
+        file_values,
+        {
+            "dataset": dataset,
+            "tolerance": tolerance,
+            "recall": recall,
+            "out": out,
+            "no_report": no_report,
+            "quiet": quiet,
+        },
+        source=config_file,
+        nested=False,
+    )
+    source = str(config_file or "")
+    reject_unknown_keys(
+        values, ["dataset", "tolerance", "recall", "out", "no_report", "quiet"], source=source
+    )
+    out_dir = _output(_pop(values, "out", "results"), folder=True)
+    report = not _pop(values, "no_report", False)
+    quiet_ = bool(_pop(values, "quiet", False))
+    if values.get("dataset") is None:
+        raise PpalocError(
+            "no dataset: give --dataset SPEC, the dataset whose queries were predicted (e.g. "
+            "'folder:REF_DIR,QUERY_DIR'), or dataset = in the --config file"
+        )
+    values["predictions"] = [str(p) for p in predictions]
+    config = config_from_mapping(ScoreConfig, values, source=source)
+    run_score(config, out_dir, quiet=quiet_, report=report)
 
 
 @cli.command(
@@ -652,7 +749,9 @@ def sweep(
 Examples:
   ppaloc map 'synthetic:?places=300' --out route.npz
   ppaloc map 'nordland:../shared/data/nordland-64x32?ref=summer' --method weighted-node-lbp \\
-      --out summer-lbp.npz""",
+      --out summer-lbp.npz
+  ppaloc map folder:summer/ --out summer.npz       # a folder of reference images alone
+  ppaloc map video:drive.mp4?step=5 --out drive.npz""",
 )
 @click.argument("dataset")
 @click.option(
@@ -670,7 +769,10 @@ def map_(
     config_file: Path | None,
     quiet: bool | None,
 ) -> None:
-    """Build a map from the reference traversal of DATASET and save it."""
+    """Build a map from the reference traversal of DATASET and save it.
+
+    DATASET is a spec; folder: and video: also take the reference alone (folder:REF_DIR).
+    """
     from ppaloc.cli.commands import run_map
 
     values = _merge(
@@ -698,8 +800,15 @@ def map_(
 Examples:
   ppaloc localise route.npz frames/ --out estimates.csv
   ppaloc localise route.npz q0001.png q0002.png          # CSV lines on stdout
+  ppaloc localise route.npz drive.mp4 --out estimates.csv
 \b
-CSV columns: frame,path,node,reference_frame,score,moved,latency_ms""",
+Frames are localised in the order given; a folder's images in natural order of their
+names (img2 before img10). Image files of one folder given out of that order (a shell
+sorts frame10 before frame2) are refused unless --keep-order.
+\b
+CSV columns: frame,path,node,reference_frame,score,moved,latency_ms,reference_name
+(path: VIDEO#INDEX for a video frame; reference_name: the reference frame's file name,
+or VIDEO#INDEX, where the map records it)""",
 )
 @click.argument("map_path", metavar="MAP", type=_SafePath(dir_okay=False, path_type=Path))
 @click.argument("frames", nargs=-1, required=True, type=_SafePath(path_type=Path))
@@ -710,6 +819,11 @@ CSV columns: frame,path,node,reference_frame,score,moved,latency_ms""",
 )
 @click.option("--method", "-m", help="Method to localise with [default: the map's].")
 @click.option("--param", "params", multiple=True, metavar="KEY=VALUE", help="Method parameter.")
+@click.option(
+    "--keep-order",
+    is_flag=True,
+    help="Localise image files in the order given even where it is not natural order.",
+)
 @_CONFIG
 def localise(
     map_path: Path,
@@ -717,9 +831,11 @@ def localise(
     out: Path | None,
     method: str | None,
     params: tuple[str, ...],
+    keep_order: bool,
     config_file: Path | None,
 ) -> None:
-    """Localise FRAMES (image files or folders, in order) against a saved MAP."""
+    """Localise FRAMES (image files, folders of images or videos, in order) against a
+    saved MAP."""
     from ppaloc.cli.commands import run_localise
 
     values = _merge(
@@ -735,6 +851,7 @@ def localise(
         None if values.get("out") is None else _output(values["out"], folder=False),
         method=values.get("method"),
         params=dict(values.get("params", {})),
+        keep_order=keep_order,
     )
 
 
@@ -743,15 +860,19 @@ def localise(
 Examples:
   ppaloc show run1                  # table + run1/report.html rebuilt from the files
   ppaloc show route.npz --out route.png
-  ppaloc show planes.npz            # every 2-D array as a register plane"""
+  ppaloc show planes.npz            # every 2-D array as a register plane
+  ppaloc show est.csv               # a localise CSV: its rows, and est.png"""
 )
 @click.argument("path", type=_SafePath(path_type=Path))
 @click.option(
-    "--out", type=_SafePath(dir_okay=False, path_type=Path), help="PNG to write (maps, planes)."
+    "--out",
+    type=_SafePath(dir_okay=False, path_type=Path),
+    help="PNG to write (maps, planes, CSV).",
 )
 @_QUIET
 def show(path: Path, out: Path | None, quiet: bool | None) -> None:
-    """Render a results folder (table and report), a saved map or register planes."""
+    """Render a results folder (table and report), a saved map, register planes or a
+    localise CSV (rows, and a plot of predicted reference against query)."""
     from ppaloc.cli.commands import run_show
 
     run_show(path, None if out is None else _output(out, folder=False), quiet=bool(quiet))
@@ -856,12 +977,51 @@ def _crash_log(exc: BaseException) -> Path:
     return Path(name)
 
 
+MAX_WORD = 300
+"""Longest run of characters without a space a message shows whole (a path is at most
+4096 characters; a 40 KB value pasted by mistake is cut)."""
+
+
 def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
+    """``text`` on one line, each over-long word cut to its start and its length.
+
+    Examples
+    --------
+    >>> _one_line("bad   value " + "a" * 1000 + " here")[:36]
+    'bad value aaaaaaaaaaaaaaaaaaaaaaaaaa'
+    >>> _one_line("x" * 1000).endswith("... (1000 characters)")
+    True
+    """
+    words = str(text).split()
+    return " ".join(
+        w if len(w) <= MAX_WORD else f"{w[:120]}... ({len(w)} characters)" for w in words
+    )
+
+
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: Any = None,
+    line: str | None = None,
+) -> None:
+    """A warning that reaches the user, as one line (not Python's file, line and source)."""
+    print(f"ppaloc: warning: {_one_line(f'{category.__name__}: {message}')}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the ``ppaloc`` command; return the exit code (see the module docstring)."""
+    import warnings
+
+    shown, warnings.showwarning = warnings.showwarning, _show_warning
+    try:
+        return _main(argv)
+    finally:
+        warnings.showwarning = shown
+
+
+def _main(argv: list[str] | None) -> int:
     try:
         cli.main(args=argv, prog_name="ppaloc", standalone_mode=False)
     except click.exceptions.Exit as exc:

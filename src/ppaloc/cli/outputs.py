@@ -12,11 +12,18 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
-from ppaloc.errors import PpalocError
+from ppaloc.errors import DataError, PpalocError
 
-__all__ = ["MAX_NAME", "MAX_PATH", "check_output", "check_path_text"]
+__all__ = [
+    "MAX_NAME",
+    "MAX_PATH",
+    "check_output",
+    "check_path_text",
+    "refuse_input_as_out",
+]
 
 MAX_PATH = 4096
 """Longest path accepted (Linux's PATH_MAX)."""
@@ -104,3 +111,41 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
     os.close(fd)
     os.unlink(name)
     return path
+
+
+def refuse_input_as_out(
+    out: Path | None, inputs: Sequence[str | os.PathLike[str]], what: str = "the"
+) -> None:
+    """Refuse an ``--out`` that is one of the command's inputs or lies in an input folder:
+    writing it would replace what the user saved, or add a file to a folder the command
+    (or its next run) reads as input (a map named ``x.png`` among a folder's frames).
+
+    Parameters
+    ----------
+    out : Path, optional
+        The output (None: nothing is written).
+    inputs : sequence of path
+        The files and folders the command reads.
+    what : str
+        Whose inputs, for the message (``"the dataset's"``).
+
+    Raises
+    ------
+    DataError
+        Naming the output, the input and the fix.
+    """
+    if out is None:
+        return
+    target = Path(out).resolve()
+    for given in inputs:
+        if target == Path(given).resolve():
+            raise DataError(
+                f"--out {out} would overwrite {what} input {given}; give another file name"
+            )
+    for given in inputs:
+        source = Path(given).resolve()
+        if source.is_dir() and source in target.parents:
+            raise DataError(
+                f"--out {out} lies inside {what} input folder {given}, which would then hold "
+                "it among its inputs; write it outside that folder"
+            )

@@ -127,6 +127,16 @@ class FrameSequence(Sequence[np.ndarray]):
             new._cache_size = int(cache)
         return new
 
+    def names(self) -> list[str] | None:
+        """The name of each frame's source, in this sequence's order, or None where frames
+        have no file (rendered frames, arrays in memory).
+
+        Image files are named by their file name (``images-00010.png``), video frames by
+        the video's file name and the frame's 0-based index in it (``query.mp4#12``): the
+        names ``ppaloc localise`` writes and ``ppaloc score`` matches.
+        """
+        return None
+
     def __iter__(self) -> Iterator[np.ndarray]:
         for src in self._indices:
             yield self._get(int(src))
@@ -199,6 +209,16 @@ class ImageFrames(FrameSequence):
     def path(self, i: int) -> Path:
         """The file behind frame ``i`` of this (possibly sliced) sequence."""
         return self.paths[int(self._indices[i])]
+
+    def names(self) -> list[str]:
+        """Each frame's file name (without its folder), in this sequence's order.
+
+        Examples
+        --------
+        >>> ImageFrames([Path("a/f1.png"), Path("a/f2.png")])[::-1].names()
+        ['f2.png', 'f1.png']
+        """
+        return [self.paths[int(i)].name for i in self._indices]
 
 
 class RenderedFrames(FrameSequence):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,7 @@ from PIL import Image, UnidentifiedImageError
 from ppaloc.errors import DataError
 
 __all__ = [
+    "FOLDER_FIX",
     "IMAGE_SUFFIXES",
     "MAX_IMAGES",
     "MAX_IMAGE_PIXELS",
@@ -131,11 +133,25 @@ def _link_target(p: Path) -> str:
         return "a missing file"
 
 
-def read_grey(path: Path) -> np.ndarray:
+FOLDER_FIX = "replace the file or remove it from the folder"
+"""The advice of a :func:`read_grey` error about an image found in a folder."""
+
+
+def read_grey(path: Path, *, fix: str = FOLDER_FIX) -> np.ndarray:
     """Read an image file as a 2-D ``uint8`` grey array.
 
     Colour is converted with the ITU-R 601 luma weights (Pillow ``convert("L")``), 16-bit
-    grey is scaled to 8 bits.
+    grey is scaled to 8 bits. An image over :data:`MAX_IMAGE_PIXELS` is refused from its
+    header, before any pixel is decoded (Pillow's own decompression-bomb warning, for
+    sizes between its warning and error limits, is not shown: the refusal says it).
+
+    Parameters
+    ----------
+    path : Path
+    fix : str
+        What the user should do about a bad file, ending each error (default: the
+        advice for an image listed from a folder; a command given the file itself says
+        otherwise).
 
     Raises
     ------
@@ -171,12 +187,15 @@ def read_grey_reduced(path: Path, at_least: int) -> tuple[np.ndarray, tuple[floa
 
 def _read(path: Path, draft: int | None) -> tuple[np.ndarray, tuple[float, float]]:
     try:
-        with Image.open(path) as im:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            im = Image.open(path)
+        with im:
             w, h = im.size
             if w < 1 or h < 1 or w * h > MAX_IMAGE_PIXELS:
                 raise DataError(
                     f"image {path} claims {w} x {h} pixels, outside 1 to {MAX_IMAGE_PIXELS} "
-                    "pixels; replace the file or remove it from the folder"
+                    f"pixels; {fix}"
                 )
             if draft is not None and im.format == "JPEG":
                 im.draft("L", (draft, draft))
@@ -194,7 +213,7 @@ def _read(path: Path, draft: int | None) -> tuple[np.ndarray, tuple[float, float
                 if not np.isfinite(a).all():
                     raise DataError(
                         f"image {path} holds {int((~np.isfinite(a)).sum())} NaN or infinite "
-                        "pixels; fill them (e.g. with 0) or remove the file from the folder"
+                        f"pixels; fill them (e.g. with 0), or {fix}"
                     )
                 top = 255.0 if a.size and a.max() <= 1.0 else 1.0
                 return np.clip(np.rint(a * top), 0, 255).astype(np.uint8), extent
@@ -207,14 +226,10 @@ def _read(path: Path, draft: int | None) -> tuple[np.ndarray, tuple[float, float
         claimed = re.search(r"\((\d+) pixels\)", str(exc))
         count = f"{claimed.group(1)}; " if claimed else ""
         raise DataError(
-            f"image {path} claims too many pixels ({count}at most {MAX_IMAGE_PIXELS}); "
-            "replace the file or remove it from the folder"
+            f"image {path} claims too many pixels ({count}at most {MAX_IMAGE_PIXELS}); {fix}"
         ) from None
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError) as exc:
-        raise DataError(
-            f"cannot read image {path}: {_reason(exc)}; replace the file or remove it from the "
-            "folder"
-        ) from None
+        raise DataError(f"cannot read image {path}: {_reason(exc)}; {fix}") from None
     except MemoryError:
         raise DataError(f"image {path} is too large to decode") from None
 

@@ -7,14 +7,22 @@ like ``synthetic``) with ``SCHEMA`` and ``load(spec) -> RawRoute``, and one line
 
 from __future__ import annotations
 
+import dataclasses
 from importlib import import_module
 from types import ModuleType
 
 from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.route import assemble
-from ppaloc.datasets.spec import DatasetSpec, KindSchema, parse_spec
+from ppaloc.datasets.spec import DatasetSpec, DatasetSpecError, KindSchema, parse_spec
 
-__all__ = ["KINDS", "load_dataset", "parse_dataset_spec"]
+__all__ = [
+    "KINDS",
+    "REFERENCE_ALONE",
+    "load_dataset",
+    "load_reference",
+    "parse_dataset_spec",
+    "parse_reference_spec",
+]
 
 KINDS: dict[str, str] = {
     "folder": "ppaloc.datasets.loaders.folder",
@@ -87,6 +95,63 @@ def load_dataset(spec: str) -> RouteDataset:
     """
     parsed = parse_dataset_spec(spec)
     raw = _modules()[parsed.kind].load(parsed)
+    ds = assemble(raw, parsed.options)
+    ds.meta.setdefault("spec", spec)
+    return ds
+
+
+REFERENCE_ALONE = ("folder", "video")
+"""Kinds of two traversals whose reference may be given alone where only it is read."""
+
+
+def parse_reference_spec(spec: str) -> DatasetSpec:
+    """Parse ``spec`` as :func:`parse_dataset_spec` does, with the reference of a kind of
+    two traversals (:data:`REFERENCE_ALONE`) allowed alone (``folder:REF_DIR``).
+
+    Raises
+    ------
+    DatasetSpecError
+        Naming the bad part of the spec and the fix.
+    """
+    kinds = schemas()
+    for kind in REFERENCE_ALONE:
+        if kind in kinds:
+            kinds[kind] = dataclasses.replace(kinds[kind], n_paths=(1, *kinds[kind].n_paths))
+    return parse_spec(spec, kinds)
+
+
+def load_reference(spec: str) -> RouteDataset:
+    """The dataset of a spec whose reference traversal alone is read (``ppaloc map``).
+
+    As :func:`load_dataset`, and a kind of two traversals (``folder:``, ``video:``) also
+    takes its reference alone (``folder:REF_DIR``, ``video:REF.mp4``): the query is then
+    the reference itself (read by nobody), so no query folder has to exist for a map.
+
+    Raises
+    ------
+    DatasetSpecError, DataError
+        As :func:`load_dataset`.
+
+    Examples
+    --------
+    >>> import tempfile, numpy as np
+    >>> from PIL import Image
+    >>> folder = tempfile.mkdtemp()
+    >>> for i in range(3):
+    ...     Image.fromarray(np.full((4, 4), i, np.uint8)).save(f"{folder}/f{i}.png")
+    >>> ds = load_reference(f"folder:{folder}?step=2")
+    >>> len(ds.reference), ds.name.startswith("folder ")
+    (2, True)
+    """
+    try:
+        parsed = parse_reference_spec(spec)
+    except DatasetSpecError:
+        return load_dataset(spec)  # the same mistake, named as load_dataset names it
+    if len(parsed.paths) != 1 or parsed.kind not in REFERENCE_ALONE:
+        return load_dataset(spec)
+    (path,) = parsed.paths
+    raw = _modules()[parsed.kind].load(dataclasses.replace(parsed, paths=(path, path)))
+    raw.name = f"{parsed.kind} {path.name}"
     ds = assemble(raw, parsed.options)
     ds.meta.setdefault("spec", spec)
     return ds

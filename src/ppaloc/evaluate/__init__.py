@@ -1,6 +1,8 @@
 """Evaluation: metrics, runs of methods over datasets, result files and the report.
 
-See ``docs/evaluate-cli.md`` for the metric definitions and the result file formats.
+See ``docs/evaluate-cli.md`` for the metric definitions and the result file formats;
+``score_predictions`` measures any method's predictions read from CSV files (``ppaloc
+score``) by the same code.
 ``write_report`` and ``run_bench`` are imported on first use (the report needs
 matplotlib, which importing the metrics should not); so are the sweep's ``SweepConfig``,
 ``run_sweep`` and ``write_sweep_report`` (docs/sweep.md; a sweep runs on Dask, imported
@@ -13,6 +15,7 @@ from ppaloc.evaluate.config import BenchConfig, EvaluateConfig
 from ppaloc.evaluate.metrics import RECALL_DEFINITIONS, Metrics, PRCurve, evaluate_estimates
 from ppaloc.evaluate.results import load_results, save_results
 from ppaloc.evaluate.run import MethodRun, RunResult, run_evaluation
+from ppaloc.evaluate.score import ScoreConfig, read_predictions, score_predictions
 
 __all__ = [
     "RECALL_DEFINITIONS",
@@ -22,13 +25,16 @@ __all__ = [
     "Metrics",
     "PRCurve",
     "RunResult",
+    "ScoreConfig",
     "SweepConfig",
     "evaluate_estimates",
     "load_results",
+    "read_predictions",
     "run_bench",
     "run_evaluation",
     "run_sweep",
     "save_results",
+    "score_predictions",
     "write_report",
     "write_sweep_report",
 ]

@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import re
+import stat
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -25,6 +28,7 @@ __all__ = [
     "BenchConfig",
     "EvaluateConfig",
     "check_limits",
+    "check_tolerance",
     "check_types",
     "config_from_mapping",
     "demo_dataset",
@@ -114,8 +118,9 @@ class EvaluateConfig:
     methods : tuple of str
         Method names (``ppaloc.methods``); empty means every available method.
     tolerance : int, optional
-        Accepted distance to the true reference frame, in frames; overrides the spec's
-        ``tolerance`` key (None: the spec's, else the dataset kind's default).
+        Accepted distance to the true reference frame, in frames (None: the spec's
+        ``tolerance`` key, else the dataset kind's default). A spec that sets another
+        ``tolerance`` is refused (:func:`check_tolerance`): one run, one tolerance.
     recall : {"A", "B", "C"}
         Recall definition (``ppaloc.evaluate.metrics.RECALL_DEFINITIONS``).
     seed : int
@@ -143,6 +148,7 @@ class EvaluateConfig:
     def __post_init__(self) -> None:
         object.__setattr__(self, "methods", tuple(self.methods))
         check_limits({k: getattr(self, k) for k in ("tolerance", "seed", "max_weight_values")})
+        check_tolerance(self.dataset, self.tolerance)
         if str(self.recall).upper() not in ("A", "B", "C"):
             raise PpalocError(f"recall={self.recall!r} must be one of A, B, C")
         object.__setattr__(self, "recall", str(self.recall).upper())
@@ -329,6 +335,12 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     try:
         if path.is_dir():
             raise PpalocError(f"config file {path} is a folder; give a TOML file")
+        mode = os.stat(path).st_mode  # before opening: a FIFO would block the open
+        if not stat.S_ISREG(mode):
+            raise PpalocError(
+                f"config file {path} is not a regular file (a pipe, device or socket); give a "
+                "TOML file"
+            )
         with path.open("rb") as f:
             raw = f.read(MAX_CONFIG_BYTES + 1)
     except FileNotFoundError:
@@ -352,6 +364,54 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise PpalocError(f"config file {path} is not valid TOML: {exc}") from None
     except RecursionError:
         raise PpalocError(f"config file {path} nests arrays or tables too deeply") from None
+
+
+def _spec_tolerance(spec: str) -> str | None:
+    """The text of the ``tolerance`` key a spec sets (keys compared as the spec parser
+    compares them: stripped, lower-case), or None."""
+    query = spec.partition("?")[2]
+    for pair in query.split("&"):
+        key, eq, value = pair.partition("=")
+        if eq and key.strip().lower() == "tolerance":
+            return value.strip()
+    return None
+
+
+def check_tolerance(spec: str, tolerance: int | None) -> None:
+    """Refuse a tolerance given beside a spec that sets another one.
+
+    ``--tolerance`` (or ``tolerance =`` in a configuration file) and a spec's own
+    ``tolerance=`` key say the same thing twice: the same value is accepted, two values
+    are a contradiction the user must settle, never silently decided for them.
+
+    Raises
+    ------
+    PpalocError
+        Naming both values and the fix.
+
+    Examples
+    --------
+    >>> check_tolerance("synthetic:?places=20&tolerance=2", 2)
+    >>> try:
+    ...     check_tolerance("synthetic:?places=20&tolerance=1", 2)
+    ... except PpalocError as exc:
+    ...     print(str(exc).split(" in the ")[0].split(") ")[1])
+    contradicts tolerance=1
+    """
+    if tolerance is None or not isinstance(spec, str):
+        return
+    text = _spec_tolerance(spec)
+    if text is None:
+        return
+    same = re.fullmatch(r"\+?[0-9]{1,6}", text) is not None and int(text) == tolerance
+    if not same:
+        shown = repr(spec) if len(spec) <= 120 else repr(spec[:100]) + f"... ({len(spec)} chars)"
+        value = text if len(text) <= 20 else text[:17] + "..."
+        raise PpalocError(
+            f"tolerance {tolerance} (--tolerance, or tolerance = in a configuration file) "
+            f"contradicts tolerance={value} in the dataset spec {shown}: give the tolerance "
+            "in one place only"
+        )
 
 
 def with_tolerance(spec: str, tolerance: int) -> str:

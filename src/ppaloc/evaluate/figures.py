@@ -260,11 +260,14 @@ def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:
 
 
 def latency_per_frame(result: RunResult) -> Figure:
-    """Distribution of host time per frame of every method in this run (box plot)."""
-    names = list(result.runs)
+    """Distribution of host time per frame of every method in this run that was timed
+    (box plot; predictions scored from a file without times are left out)."""
+    data = {n: np.asarray(r.latency_ms) for n, r in result.runs.items()}
+    data = {n: a[np.isfinite(a)] for n, a in data.items() if np.isfinite(a).any()}
+    names = list(data)
     fig = _figure(10.0, 0.45 * len(names) + 1.4)
     ax = fig.add_subplot()
-    data = [np.asarray(result.runs[n].latency_ms) for n in names]
+    data = list(data.values())
     import matplotlib as mpl
 
     version = tuple(int(x) for x in mpl.__version__.split(".")[:2] if x.isdigit())

@@ -362,15 +362,19 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
             )
         )
     out += _register_figures(result)
-    out.append(
-        ReportFigure(
-            "latency",
-            "Host time per frame in this run",
-            "Wall-clock time of each call to step, all methods measured in one run on "
-            "this machine.",
-            figures.png_bytes(figures.latency_per_frame(result)),
+    if any(np.isfinite(run.latency_ms).any() for run in result.runs.values()):
+        out.append(
+            ReportFigure(
+                "latency",
+                "Host time per frame in this run",
+                "Time per query as the predictions files give it (ppaloc score), not "
+                "measured by ppaloc."
+                if isinstance(result.config, dict) and result.config.get("command") == "score"
+                else "Wall-clock time of each call to step, all methods measured in one "
+                "run on this machine.",
+                figures.png_bytes(figures.latency_per_frame(result)),
+            )
         )
-    )
     lat = figures.latency_vs_map_size(bench) if bench else None
     if lat is not None:
         timed = [r for r in bench["rows"] if "skipped" not in r]

@@ -547,7 +547,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             params=s.get("params", {}),
             map_kind=s.get("map_kind", ""),
             n_nodes=n_nodes,
-            build_s=float(s.get("build_s", 0.0)),
+            build_s=None if s.get("build_s") is None else float(s["build_s"]),
             node=a["node"],
             ref_index=a["ref_index"],
             score=a["score"],

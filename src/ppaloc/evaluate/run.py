@@ -98,8 +98,9 @@ class MethodRun:
         ``TopoMap.kind`` of the map it built.
     n_nodes : int
         Map size.
-    build_s : float
-        Host time to build the map, in seconds.
+    build_s : float or None
+        Host time to build the map, in seconds (None: no map was built, e.g. predictions
+        read from a file).
     node : ndarray of int, shape (M,)
         Predicted map node per query.
     ref_index : ndarray of int, shape (M,)
@@ -112,7 +113,7 @@ class MethodRun:
     ranking : ndarray of int, shape (M, K)
         Best K reference indices per query, best first; -1 pads; K = 0 when not ranked.
     latency_ms : ndarray of float, shape (M,)
-        Host wall-clock time of each ``step``, in milliseconds.
+        Host wall-clock time of each ``step``, in milliseconds (NaN where not measured).
     weights : ndarray of float32, shape (M, N), optional
         Per-node weights after each frame, in map order, where recorded.
     modelled_latency_ms, energy_mj : ndarray of float, shape (M,), optional
@@ -135,7 +136,7 @@ class MethodRun:
     params: dict[str, Any]
     map_kind: str
     n_nodes: int
-    build_s: float
+    build_s: float | None
     node: np.ndarray
     ref_index: np.ndarray
     score: np.ndarray
@@ -162,8 +163,8 @@ class MethodRun:
             "auc": self.metrics.auc,
             "recall_at_100p": self.metrics.recall_at_100p,
             "accuracy": self.metrics.accuracy,
-            "latency_ms_median": float(np.median(lat)) if lat.size else None,
-            "latency_ms_p95": float(np.percentile(lat, 95)) if lat.size else None,
+            "latency_ms_median": _median_or_none(lat),
+            "latency_ms_p95": _p95_or_none(lat),
             "modelled_latency_ms": _median_or_none(self.modelled_latency_ms),
             "energy_mj": _mean_or_none(self.energy_mj),
             "modelled_time_ms": self.modelled_time_ms,
@@ -189,6 +190,11 @@ def _median_or_none(a: np.ndarray | None) -> float | None:
     """Median of the finite values (frames a method did not model are NaN); None if none."""
     finite = None if a is None else a[np.isfinite(a)]
     return None if finite is None or not finite.size else float(np.median(finite))
+
+
+def _p95_or_none(a: np.ndarray | None) -> float | None:
+    finite = None if a is None else a[np.isfinite(a)]
+    return None if finite is None or not finite.size else float(np.percentile(finite, 95))
 
 
 def _mean_or_none(a: np.ndarray | None) -> float | None:

@@ -26,7 +26,12 @@ import numpy as np
 
 from ppaloc import __version__
 from ppaloc.errors import PpalocError
-from ppaloc.evaluate.config import EvaluateConfig, reject_unknown_keys, with_tolerance
+from ppaloc.evaluate.config import (
+    EvaluateConfig,
+    check_tolerance,
+    reject_unknown_keys,
+    with_tolerance,
+)
 from ppaloc.evaluate.results import CSV_COLUMNS, ROLE_COLUMNS
 from ppaloc.fileio import new_folder, source_date, write_bytes
 
@@ -442,6 +447,11 @@ def validate(config: SweepConfig, cells: Sequence[Cell], *, source: str = "") ->
     for spec in dict.fromkeys(c.spec for c in cells):
         try:
             parse_dataset_spec(spec)
+        except PpalocError as exc:
+            raise PpalocError(f"{where}datasets: {exc}") from None
+    for dataset, tolerance in dict.fromkeys((c.dataset, c.tolerance) for c in cells):
+        try:  # a tolerance axis beside a spec's own tolerance= is a contradiction
+            check_tolerance(dataset, tolerance)
         except PpalocError as exc:
             raise PpalocError(f"{where}datasets: {exc}") from None
     seen: set[str] = set()

@@ -144,6 +144,11 @@ class VideoFrames(FrameSequence):
         """Release the decoder (it reopens on the next access)."""
         self._decoder.close()
 
+    def names(self) -> list[str]:
+        """``VIDEO#INDEX`` per frame: the video's file name and the frame's 0-based index in
+        the video (before any ``step`` selection), in this sequence's order."""
+        return [f"{self.path.name}#{int(i)}" for i in self._indices]
+
 
 def load(spec: DatasetSpec) -> RawRoute:
     """Open both videos; the ground truth follows ``align`` (or the spec's own)."""
