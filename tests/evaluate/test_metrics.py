@@ -60,7 +60,7 @@ def test_summary_values_golden():
     assert m.f1_max == pytest.approx(2 * 0.75 * 0.6 / 1.35)
     assert (m.precision_at_f1, m.recall_at_f1, m.threshold_at_f1) == (0.75, 0.6, 0.5)
     assert m.recall_at_100p == pytest.approx(0.2)
-    assert m.accuracy == pytest.approx(3 / 6)
+    assert m.precision_at_100r == pytest.approx(3 / 6)
     assert (m.n_queries, m.n_with_match, m.n_correct) == (6, 5, 3)
     # trapezoid from (0, 1): (0.2*1) + 0.2*(1+2/3)/2 + 0.2*(2/3+3/4)/2 + 0 + 0
     assert m.auc == pytest.approx(0.2 + 0.2 * (5 / 3) / 2 + 0.2 * (17 / 12) / 2)
@@ -75,7 +75,8 @@ def test_summary_values_golden():
 
 def test_perfect_and_hopeless_runs():
     perfect = evaluate_estimates([0, 1, 2], [0.1, 0.5, 0.2], [[0], [1], [2]])
-    assert (perfect.f1_max, perfect.auc, perfect.recall_at_100p, perfect.accuracy) == (1, 1, 1, 1)
+    assert (perfect.f1_max, perfect.auc, perfect.recall_at_100p) == (1, 1, 1)
+    assert perfect.precision_at_100r == 1
     hopeless = evaluate_estimates([5, 5, 5], [0.1, 0.5, 0.2], [[0], [1], [2]])
     assert (hopeless.f1_max, hopeless.auc, hopeless.recall_at_100p) == (0, 0, 0)
 
@@ -102,7 +103,7 @@ def test_nan_scores_are_a_bug():
 
 def test_empty_run():
     m = evaluate_estimates([], [], [])
-    assert (m.f1_max, m.auc, m.accuracy, m.n_queries) == (0, 0, 0, 0)
+    assert (m.f1_max, m.auc, m.precision_at_100r, m.n_queries) == (0, 0, 0, 0)
 
 
 def test_recall_at_k_golden():
@@ -148,8 +149,9 @@ def test_values_in_unit_interval_and_recall_monotone(run, definition):
     nodes, scores, truth = run
     gt = [[t] if t >= 0 else [] for t in truth]
     m = evaluate_estimates(nodes, scores, gt, recall=definition)
-    for v in (m.f1_max, m.precision_at_f1, m.recall_at_f1, m.auc, m.recall_at_100p, m.accuracy):
+    for v in (m.f1_max, m.precision_at_f1, m.recall_at_f1, m.auc, m.recall_at_100p):
         assert 0.0 <= v <= 1.0
+    assert 0.0 <= m.precision_at_100r <= 1.0
     c = m.curve
     for a in (c.precision, c.recall, c.f1):
         assert np.all((a >= 0) & (a <= 1))
@@ -158,8 +160,8 @@ def test_values_in_unit_interval_and_recall_monotone(run, definition):
     assert np.all(np.diff(c.recall) >= -1e-12)
     assert np.all(np.diff(c.accepted) > 0)
     assert c.accepted[-1] == len(nodes)
-    # the last point accepts everything: its precision is the accuracy over accepted queries
-    assert c.precision[-1] == pytest.approx(m.accuracy)
+    # the last point accepts everything: its precision is the precision at 100% recall
+    assert c.precision[-1] == pytest.approx(m.precision_at_100r)
     # a reference sweep: accept score >= t for every distinct t, count by brute force
     correct = is_correct(nodes, gt)
     for t, tp in zip(c.thresholds, c.correct_accepted, strict=True):
@@ -233,3 +235,19 @@ def test_padded_rankings_and_packed_truth_give_the_list_results(rows, block):
     finally:
         metrics._RECALL_ROWS = saved
     assert got.tobytes() == want.tobytes()
+
+
+@settings(max_examples=100, deadline=None)
+@given(runs, st.sampled_from(["A", "B", "C"]))
+def test_precision_at_100_recall_is_what_its_name_says(run, definition):
+    """Correct / all queries; the curve's recall there is 1 under B and C (when any query
+    is correct) and correct / queries with a true match under A."""
+    nodes, scores, truth = run
+    gt = [[t] if t >= 0 else [] for t in truth]
+    m = evaluate_estimates(nodes, scores, gt, recall=definition)
+    assert m.precision_at_100r == pytest.approx(m.n_correct / len(nodes))
+    at_all = m.curve.recall[-1]
+    if definition == "A":
+        assert at_all == pytest.approx(m.n_correct / max(m.n_with_match, 1))
+    elif m.n_correct:
+        assert at_all == 1.0

@@ -65,10 +65,12 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     _console().print(table)
     recall = {m.get("recall_definition", "A") for m in summary["methods"].values()}
     print(
-        f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); host ms = median "
-        "wall-clock time of step on this machine;\nchip ms, loop ms = modelled time per "
-        "frame on the sensor and for the whole hardware loop (docs/onsensor.md, Timing);\n"
-        "mJ = modelled energy per frame."
+        f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); "
+        "R@100P = recall at 100% precision;\n"
+        "P@100R = precision with every query accepted (100% recall under recall B and C);\n"
+        "host ms = median wall-clock time of step on this machine;\n"
+        "chip ms, loop ms = modelled time per frame on the sensor and for the whole hardware "
+        "loop (docs/onsensor.md, Timing);\nmJ = modelled energy per frame."
     )
 
 

@@ -171,7 +171,7 @@ def position_along_route(result: RunResult) -> Figure:
         ax.plot(q, truth, color="0.55", lw=2.5, label="true", zorder=1)
         ax.scatter(q[ok], run.ref_index[ok], s=5, color="tab:green", label="correct", zorder=2)
         ax.scatter(q[~ok], run.ref_index[~ok], s=5, color="tab:red", label="wrong", zorder=3)
-        title = f"{name}: accuracy {run.metrics.accuracy:.2f}"
+        title = f"{name}: P@100%R {run.metrics.precision_at_100r:.2f}"
         m = run.metrics
         if m.f1_max_turning is not None:  # some queries turn
             title += f", F1 straight {_f2(m.f1_max_straight)} | turning {_f2(m.f1_max_turning)}"

@@ -17,6 +17,9 @@ that then takes its place in one step, so a reader (or a run killed at any momen
 the whole earlier folder or the whole new one, and nothing of an earlier run is left in
 the new one. ``results.json``, written last, lists every other result file with its
 SHA-256 (``files``); :func:`load_results` checks them, and bounds every array and index.
+``results.json`` carries its format version (``format``, :data:`RESULTS_FORMAT`); a folder
+written before the field existed (format 1) is read with its fields renamed
+(:func:`upgrade_summary`), one written by a newer ppaloc is refused.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc import __version__
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import DataError
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
@@ -48,13 +52,26 @@ from ppaloc.npzfile import NpzError, npz_bytes, read_npz
 __all__ = [
     "CSV_COLUMNS",
     "MAX_RESULT_BYTES",
+    "RESULTS_FORMAT",
     "array_file",
     "check_replaceable",
     "load_results",
     "results_folder",
     "save_results",
+    "upgrade_summary",
     "write_results",
 ]
+
+RESULTS_FORMAT = 2
+"""Version of the results folder's format, written as ``format`` in ``results.json``.
+
+1 (no ``format`` field): each method's precision with every query accepted is named
+``accuracy``.
+2: that number is ``precision_at_100r``.
+"""
+
+_RENAMED = {1: {"accuracy": "precision_at_100r"}}
+"""Per older format, the method fields renamed since (old name -> current name)."""
 
 MAX_RESULT_BYTES = 16 << 30
 """Most array bytes one result ``.npz`` may hold (16 GiB); larger claims are refused."""
@@ -66,7 +83,7 @@ CSV_COLUMNS = [
     "recall_at_f1",
     "auc",
     "recall_at_100p",
-    "accuracy",
+    "precision_at_100r",
     "recall_definition",
     "latency_ms_median",
     "latency_ms_p95",
@@ -200,7 +217,7 @@ def write_results(result: RunResult, out: str | Path) -> Path:
     """
     out = Path(out)
     written: list[str] = []
-    summary = result.summary()
+    summary = {"format": RESULTS_FORMAT, **result.summary()}
     when = source_date()
     if when is None:
         summary.pop("created", None)
@@ -331,7 +348,14 @@ def _check_array(
             )
 
 
-_METRICS = ("f1_max", "precision_at_f1", "recall_at_f1", "auc", "recall_at_100p", "accuracy")
+_METRICS = (
+    "f1_max",
+    "precision_at_f1",
+    "recall_at_f1",
+    "auc",
+    "recall_at_100p",
+    "precision_at_100r",
+)
 """Every method's entry of results.json has these (a number, or null)."""
 _NUMBERS = (
     "latency_ms_median",
@@ -388,6 +412,54 @@ def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
             raise bad("modelled_time_ms", times, "a table of {low, mid, high} numbers")
 
 
+def upgrade_summary(summary: dict[str, Any], path: str | Path = "results.json") -> dict[str, Any]:
+    """A ``results.json`` summary in the current format (:data:`RESULTS_FORMAT`).
+
+    A summary of an older format comes back as a new dict whose method entries carry
+    today's names (format 1: ``accuracy`` -> ``precision_at_100r``); the given one is not
+    changed. A current summary is returned as it is.
+
+    Raises
+    ------
+    DataError
+        If ``format`` is not a known version (one written by a newer ppaloc, or edited).
+
+    Examples
+    --------
+    >>> old = {"methods": {"m": {"f1_max": 0.5, "accuracy": 0.75}}}
+    >>> new = upgrade_summary(old)
+    >>> new["format"], new["methods"]["m"], old["methods"]["m"]["accuracy"]
+    (2, {'f1_max': 0.5, 'precision_at_100r': 0.75}, 0.75)
+    """
+    version = summary.get("format", 1)
+    if version == RESULTS_FORMAT:
+        return summary
+    if not isinstance(version, int) or isinstance(version, bool) or version not in _RENAMED:
+        newer = isinstance(version, int) and not isinstance(version, bool) and version > 0
+        raise DataError(
+            f"{path} is in results format {version!r:.40}, "
+            + (
+                f"newer than this ppaloc {__version__} reads (1 to {RESULTS_FORMAT}); "
+                "read it with the ppaloc that wrote it, or run `ppaloc evaluate` again"
+                if newer
+                else f"not one ppaloc writes (1 to {RESULTS_FORMAT}); give a folder written "
+                "by `ppaloc evaluate --out`"
+            )
+        )
+    out = {**summary, "format": RESULTS_FORMAT}
+    methods = summary.get("methods")
+    if isinstance(methods, dict):
+        out["methods"] = {k: dict(v) if isinstance(v, dict) else v for k, v in methods.items()}
+        for old in range(version, RESULTS_FORMAT):
+            for entry in out["methods"].values():
+                if not isinstance(entry, dict):
+                    continue
+                for before, after in _RENAMED.get(old, {}).items():
+                    if before in entry and after not in entry:
+                        entry[after] = entry.pop(before)
+    return out
+
+
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     """Read a results folder written by :func:`save_results`.
 
@@ -426,6 +498,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         raise DataError(f"cannot read the results in {folder}: {exc}") from None
     if not isinstance(summary, dict):
         raise DataError(f"{path} is not a results table; give a folder written by ppaloc")
+    summary = upgrade_summary(summary, path)
     missing = [k for k in ("dataset", "tolerance", "methods") if k not in summary]
     if missing:
         raise DataError(

@@ -153,7 +153,7 @@ class MethodRun:
             "recall_at_f1": self.metrics.recall_at_f1,
             "auc": self.metrics.auc,
             "recall_at_100p": self.metrics.recall_at_100p,
-            "accuracy": self.metrics.accuracy,
+            "precision_at_100r": self.metrics.precision_at_100r,
             "latency_ms_median": float(np.median(lat)) if lat.size else None,
             "latency_ms_p95": float(np.percentile(lat, 95)) if lat.size else None,
             "modelled_latency_ms": _median_or_none(self.modelled_latency_ms),
