@@ -64,6 +64,8 @@ def test_result_files_names_every_array_and_field(folder):
             members |= {m for m in z.files if not re.fullmatch(r"plane\d+", m)}
     missing = sorted(m for m in members if m not in named)
     assert not missing, f"arrays not in docs' Result files: {missing}"
+    assert {"frame_index", "difference", "query_index", "reference_index"} <= named
+    assert "`arrays/_difference.npz`" in doc or "<code>arrays/_difference.npz</code>" in doc
 
 
 def test_result_files_lists_the_csv_columns_in_order():

@@ -8,6 +8,7 @@ import pytest
 
 import ppaloc.evaluate.columns
 import ppaloc.evaluate.config
+import ppaloc.evaluate.difference
 import ppaloc.evaluate.figures
 import ppaloc.evaluate.metrics
 import ppaloc.evaluate.results
@@ -19,6 +20,7 @@ import ppaloc.evaluate.results
         ppaloc.evaluate.metrics,
         ppaloc.evaluate.config,
         ppaloc.evaluate.columns,
+        ppaloc.evaluate.difference,
         ppaloc.evaluate.figures,
         ppaloc.evaluate.results,
     ],

@@ -1,9 +1,10 @@
 """Tiny hand-made results (5 queries, 6 reference frames, two methods): what the folder
-holds, the report drawn from its files only, and folders of the older format read."""
+holds, the figures drawn from its files only, and folders of the older format read."""
 
 from __future__ import annotations
 
 import base64
+import hashlib
 import io
 import json
 import re
@@ -16,13 +17,19 @@ from PIL import Image
 
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import DataError
+from ppaloc.evaluate import figures
 from ppaloc.evaluate.columns import COLUMNS, column_of
+from ppaloc.evaluate.difference import DifferenceMatrix
 from ppaloc.evaluate.report import comparison_table, paper_table, write_report
 from ppaloc.evaluate.results import RESULTS_FORMAT, load_results, save_results, upgrade_summary
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
+from ppaloc.npzfile import npz_bytes
 
 GT = [[0], [1, 2], [3], [4], []]
 """Accepted reference frames of the five queries (the last has no true match)."""
+
+VALUES = (np.arange(30, dtype=np.float32).reshape(5, 6) % 7) / 4
+"""A 5 x 6 difference matrix: query i against reference frame j."""
 
 IMG = re.compile(r"<img src='data:image/png;base64,([A-Za-z0-9+/=]+)' alt='([^']*)'>")
 
@@ -33,7 +40,7 @@ def method(name: str, ref_index, score, frame_index, weights=None) -> MethodRun:
     score = np.array(score, np.float64)
     ranking = ref_index[:, None].copy()
     frame_index = np.array(frame_index, np.int64)
-    node = np.searchsorted(frame_index, ref_index, side="right") - 1  # the node's own frame
+    node = np.searchsorted(frame_index, ref_index, side="right") - 1
     return MethodRun(
         method=name,
         params={},
@@ -48,6 +55,7 @@ def method(name: str, ref_index, score, frame_index, weights=None) -> MethodRun:
         latency_ms=np.array([1.0, 2.0, 3.0, 4.0, 5.0]),
         metrics=method_metrics(ref_index, score, gt, ranking, recall="A"),
         weights=weights,
+        frame_index=frame_index,
     )
 
 
@@ -67,6 +75,7 @@ def folder(tmp_path) -> Path:
         ground_truth=PackedSets.from_sets([np.array(g, np.int64) for g in GT]),
         n_reference=6,
         runs=runs,
+        difference=DifferenceMatrix(VALUES, np.arange(5), np.arange(6)),
     )
     save_results(result, tmp_path / "golden")
     return tmp_path / "golden"
@@ -83,9 +92,56 @@ def test_the_folder_holds_the_golden_numbers(folder):
     # beta: its most confident query is wrong, so no threshold has precision 1
     assert beta["precision_at_100r"] == pytest.approx(0.6)
     assert (beta["f1_max"], beta["threshold_at_f1"], beta["recall_at_100p"]) == (0.75, 0.4, 0)
-    assert "accuracy" not in alpha
+    assert "accuracy" not in alpha and summary["difference"]["arrays"] == "arrays/_difference.npz"
+    with np.load(folder / "arrays" / "_difference.npz") as z:
+        assert sorted(z.files) == ["difference", "query_index", "reference_index"]
+        np.testing.assert_array_equal(z["difference"], VALUES)
+        assert z["difference"].dtype == np.float32 and z["query_index"].tolist() == [0, 1, 2, 3, 4]
+    with np.load(folder / "arrays" / "beta.npz") as z:
+        assert z["frame_index"].tolist() == [0, 2, 3, 5]
     csv_header = (folder / "results.csv").read_text().splitlines()[0].split(",")
     assert csv_header[6] == "precision_at_100r"  # where accuracy was: readers by position
+
+
+def test_the_difference_matrix_comes_back(folder):
+    result, _ = load_results(folder)
+    d = result.difference
+    np.testing.assert_array_equal(d.values, VALUES)
+    assert d.reference_index.tolist() == list(range(6)) and d.measure.startswith("mean absolute")
+    assert result.runs["beta"].frame_index.tolist() == [0, 2, 3, 5]
+
+
+def test_the_difference_figure_from_files(folder):
+    result, _ = load_results(folder)
+    fig = figures.difference_matrix(result)
+    shown = [ax for ax in fig.axes if ax.get_visible() and ax.images]
+    assert len(shown) == 3  # the matrix alone, then one panel per method
+    alone, alpha, _ = shown
+    np.testing.assert_array_equal(alone.images[0].get_array(), VALUES.T)  # x query, y reference
+    assert alone.images[0].get_extent() == [-0.5, 4.5, -0.5, 5.5]
+    accepted, rejected = (c.get_offsets() for c in alpha.collections[1:3])
+    assert np.asarray(accepted).tolist() == [[0, 0], [1, 2], [2, 3]]  # score >= 0.7
+    assert np.asarray(rejected).tolist() == [[3, 1], [4, 5]]
+    assert "2 of 5" not in alpha.get_title() and "3 of 5 accepted" in alpha.get_title()
+    assert figures.png_bytes(fig)[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_weights_figure_draws_the_truth_in_nodes(folder):
+    result, _ = load_results(folder)
+    fig = figures.weights_heatmaps(result)
+    (ax,) = [a for a in fig.axes if a.images]
+    truth = ax.lines[0].get_ydata()
+    # middle accepted frames 0, 1.5, 3, 4, none -> nodes of frames 0-1, 0-1, 3-4, 3-4
+    np.testing.assert_array_equal(truth, [0, 0, 2, 2, np.nan])
+    assert ax.get_ylabel() == "map node (index)" and "4 nodes for 6 reference frames" in (
+        ax.get_title()
+    )
+
+
+def test_true_nodes_by_hand():
+    frames = np.array([2, 5, 9])
+    out = figures.true_nodes(np.array([0, 2, 4.5, 5, 8, 9, 30, np.nan]), frames)
+    np.testing.assert_array_equal(out, [0, 0, 0, 1, 1, 2, 2, np.nan])
 
 
 def test_the_report_from_files_only(folder, tmp_path):
@@ -93,11 +149,14 @@ def test_the_report_from_files_only(folder, tmp_path):
     shutil.copytree(folder, copy)
     page = write_report(copy).read_text()
     titles = [alt for _, alt in IMG.findall(page)]
-    assert titles[:2] == ["Precision-recall curves", "Position estimate along the route"]
+    assert titles[:2] == ["Precision-recall curves", "Difference matrix"]
     for data, _ in IMG.findall(page):
         Image.open(io.BytesIO(base64.b64decode(data))).load()
     assert "P @100%R" in page and "Accuracy" not in page
-    assert "<th>Recall definition</th>" in page
+    assert "<th>Recall definition</th>" in page and "one query frame in" not in page
+    md = (copy / "report.md").read_text()
+    assert "![Difference matrix](figures/difference.png)" in md
+    assert (copy / "figures" / "difference.png").is_file()
 
 
 def test_every_column_the_tables_show_has_a_definition(folder):
@@ -119,11 +178,20 @@ def test_every_column_the_tables_show_has_a_definition(folder):
 
 
 def _as_format_1(folder: Path) -> None:
-    """Rewrite a folder as format 1 wrote it: no format, `accuracy`."""
+    """Rewrite a folder as format 1 wrote it: no format, `accuracy`, no frame_index, no
+    difference matrix (checksums recorded again, as that version did)."""
     summary = json.loads((folder / "results.json").read_text())
-    del summary["format"]
-    for entry in summary["methods"].values():
+    del summary["format"], summary["difference"]
+    del summary["files"]["arrays/_difference.npz"]
+    (folder / "arrays" / "_difference.npz").unlink()
+    for name, entry in summary["methods"].items():
         entry["accuracy"] = entry.pop("precision_at_100r")
+        path = folder / entry["arrays"]
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in z.files if k != "frame_index"}
+        path.write_bytes(npz_bytes(arrays))
+        summary["files"][entry["arrays"]] = hashlib.sha256(path.read_bytes()).hexdigest()
+        assert name
     (folder / "results.json").write_text(json.dumps(summary))
 
 
@@ -133,9 +201,12 @@ def test_a_format_1_folder_is_read_under_todays_names(folder, capsys):
     assert comparison_table(raw)[1][0][7] == "0.600"  # the printed table of `ppaloc show`
     result, summary = load_results(folder)
     assert summary["methods"]["alpha"]["precision_at_100r"] == pytest.approx(0.6)
-    assert result.runs["alpha"].metrics.precision_at_100r == pytest.approx(0.6)
+    assert result.difference is None and result.runs["beta"].frame_index is None
     page = write_report(folder).read_text()
-    assert ">0.600</td>" in page and "P @100%R" in page
+    titles = [alt for _, alt in IMG.findall(page)]
+    assert "Difference matrix" not in titles and "Weights over time" in titles
+    fig = figures.weights_heatmaps(result)
+    assert "true node not drawn" in fig.axes[0].get_title()  # 4 nodes for 6 frames
 
     from ppaloc.cli import main
 
@@ -171,6 +242,41 @@ def test_upgrade_leaves_the_given_summary_alone():
     assert new["methods"]["m"] == {"f1_max": 0.1, "precision_at_100r": 0.5}
     assert old == {"dataset": "d", "methods": {"m": {"accuracy": 0.5, "f1_max": 0.1}}}
     assert upgrade_summary(new) is new
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"query_index": np.array([0, 1, 2, 3, 9])}, r"query_index\[4\] is 9, outside 0\.\.4"),
+        ({"reference_index": np.array([0, 2, 1, 3, 4, 5])}, r"reference_index is not increasing"),
+        ({"difference": np.zeros((5, 5), np.float32)}, r"difference has 5 columns for 6"),
+        ({"difference": np.zeros((4, 6), np.float32)}, r"difference has shape \(4, 6\)"),
+    ],
+)
+def test_a_damaged_difference_matrix_is_named(folder, change, message):
+    path = folder / "arrays" / "_difference.npz"
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays.update(change)
+    path.write_bytes(npz_bytes(arrays))
+    summary = json.loads((folder / "results.json").read_text())
+    summary["files"]["arrays/_difference.npz"] = hashlib.sha256(path.read_bytes()).hexdigest()
+    (folder / "results.json").write_text(json.dumps(summary))
+    with pytest.raises(DataError, match=rf"_difference.npz: {message}"):
+        load_results(folder)
+
+
+def test_a_frame_index_outside_the_route_is_named(folder):
+    path = folder / "arrays" / "beta.npz"
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["frame_index"] = np.array([0, 2, 3, 6])
+    path.write_bytes(npz_bytes(arrays))
+    summary = json.loads((folder / "results.json").read_text())
+    summary["files"]["arrays/beta.npz"] = hashlib.sha256(path.read_bytes()).hexdigest()
+    (folder / "results.json").write_text(json.dumps(summary))
+    with pytest.raises(DataError, match=r"beta.npz: frame_index\[3\] is 6, outside 0\.\.5"):
+        load_results(folder)
 
 
 def test_a_sweep_reads_a_format_1_cell_under_todays_names(folder):

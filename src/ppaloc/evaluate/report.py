@@ -23,6 +23,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.evaluate import figures
 from ppaloc.evaluate.bench import load_bench
 from ppaloc.evaluate.columns import COLUMNS, TERMS, column_of
+from ppaloc.evaluate.difference import DIFFERENCE_SAMPLES, MEASURE
 from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
 from ppaloc.evaluate.results import load_results, upgrade_summary
 from ppaloc.evaluate.run import RunResult
@@ -297,6 +298,27 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
             f"{d}: {RECALL_DEFINITIONS[d]}. Dots mark each method's maximum F1.",
             figures.png_bytes(figures.pr_curves(result)),
         ),
+    ]
+    diff = figures.difference_matrix(result)
+    if diff is not None and result.difference is not None:
+        dm = result.difference
+        sampled = dm.sampling()
+        if sampled != "every frame":
+            sampled += f" (at most {DIFFERENCE_SAMPLES} of each traversal)"
+        out.append(
+            ReportFigure(
+                "difference",
+                "Difference matrix",
+                "How unlike each query frame (x) is to each reference frame (y), whatever the "
+                f"method: {dm.measure or MEASURE}, dark = alike, colour clipped to the 1st-99th "
+                f"percentile; {sampled}. First panel: the matrix alone. Then per method: the "
+                "accepted reference frames of each query (band) and the predicted reference "
+                "frame of each query, filled where the method's max-F1 threshold accepts "
+                "it, hollow where it rejects it.",
+                figures.png_bytes(diff),
+            )
+        )
+    out += [
         ReportFigure(
             "position",
             "Position estimate along the route",
@@ -318,8 +340,10 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
                 "weights",
                 "Weights over time",
                 "Per-node weight (or score) after each query frame, for methods that "
-                "record it; colour clipped to the 1st-99.5th percentile. Dashed: the true "
-                "reference frame.",
+                "record it, in the method's own units; y is the map's nodes (a keyframe map "
+                "has fewer nodes than reference frames); colour clipped to the 1st-99.5th "
+                "percentile. Dashed: the true node, the node whose own reference frame is the "
+                "last at or before the middle accepted frame of the query.",
                 figures.png_bytes(heat),
             )
         )

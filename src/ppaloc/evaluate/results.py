@@ -6,7 +6,10 @@ Layout of a results folder::
     results.csv           one row per method, the same scalars as results.json
     arrays/_dataset.npz   ground truth (CSR: gt_indptr, gt_indices), positions, query_moved,
                           query_turning and reference_turning (where the dataset has them)
-    arrays/<method>.npz   per-query arrays of one method (see MethodRun)
+    arrays/<method>.npz   per-query arrays of one method (see MethodRun) and its map's
+                          frame_index
+    arrays/_difference.npz  the difference matrix of sampled (query, reference) frame pairs
+                          (see ppaloc.evaluate.difference)
     arrays/<method>.registers.npz  register planes after the last frame (on-sensor only):
                           ``labels`` (P,) str and ``plane0`` .. ``plane{P-1}`` (2-D)
     bench.json            latency against map size, where measured (ppaloc bench / demo)
@@ -39,6 +42,7 @@ import numpy as np
 from ppaloc import __version__
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import DataError
+from ppaloc.evaluate.difference import DifferenceMatrix
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
 from ppaloc.fileio import (
     check_replaceable_folder,
@@ -66,8 +70,8 @@ RESULTS_FORMAT = 2
 """Version of the results folder's format, written as ``format`` in ``results.json``.
 
 1 (no ``format`` field): each method's precision with every query accepted is named
-``accuracy``.
-2: that number is ``precision_at_100r``.
+``accuracy``; no ``frame_index`` per method and no difference matrix.
+2: that number is ``precision_at_100r``; ``frame_index`` and ``arrays/_difference.npz``.
 """
 
 _RENAMED = {1: {"accuracy": "precision_at_100r"}}
@@ -104,7 +108,9 @@ CSV_COLUMNS = [
 """Columns of ``results.csv``, in order."""
 
 _ARRAYS = ("node", "ref_index", "score", "moved", "ranking", "latency_ms")
-_OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj")
+_OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj", "frame_index")
+_DIFFERENCE = ("difference", "query_index", "reference_index")
+_DIFFERENCE_FILE = "arrays/_difference.npz"
 _DATASET_OPTIONAL = (
     "reference_positions",
     "query_positions",
@@ -249,6 +255,20 @@ def write_results(result: RunResult, out: str | Path) -> Path:
             ds_arrays[key] = np.asarray(value)
     write_bytes(out / "arrays" / "_dataset.npz", npz_bytes(ds_arrays))
     written.append("arrays/_dataset.npz")
+    if result.difference is not None:
+        d = result.difference
+        write_bytes(
+            out / _DIFFERENCE_FILE,
+            npz_bytes(
+                {
+                    "difference": np.asarray(d.values, dtype=np.float32),
+                    "query_index": np.asarray(d.query_index, dtype=np.int64),
+                    "reference_index": np.asarray(d.reference_index, dtype=np.int64),
+                }
+            ),
+        )
+        written.append(_DIFFERENCE_FILE)
+        summary["difference"] = {"arrays": _DIFFERENCE_FILE, "measure": d.measure}
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
@@ -460,6 +480,45 @@ def upgrade_summary(summary: dict[str, Any], path: str | Path = "results.json") 
     return out
 
 
+def _load_difference(
+    folder: Path, summary: Mapping[str, Any], n_queries: int, n_ref: int
+) -> DifferenceMatrix | None:
+    """The difference matrix a folder records (None when it has none: format 1)."""
+    entry = summary.get("difference")
+    if entry is None:
+        return None
+    path = folder / "results.json"
+    if not isinstance(entry, dict) or not isinstance(entry.get("measure", ""), str):
+        raise DataError(
+            f"{path}: difference is {entry!r:.60}, expected a table with arrays and measure; "
+            f"{_again(folder)}"
+        )
+    d_path = _inner(folder, entry.get("arrays", _DIFFERENCE_FILE), "difference.arrays")
+    d = _read_npz(d_path, _DIFFERENCE, folder)
+    q_index, r_index, values = d["query_index"], d["reference_index"], d["difference"]
+    _check_array(
+        q_index, f"{d_path}: query_index", length=len(q_index), bounds=(0, max(n_queries, 1))
+    )
+    _check_array(
+        r_index, f"{d_path}: reference_index", length=len(r_index), bounds=(0, n_ref or 2**62)
+    )
+    for name, index in (("query_index", q_index), ("reference_index", r_index)):
+        if np.any(np.diff(index) <= 0):
+            raise DataError(f"{d_path}: {name} is not increasing; {_again(folder)}")
+    _check_array(values, f"{d_path}: difference", length=len(q_index), ndim=2)
+    if values.shape[1] != len(r_index):
+        raise DataError(
+            f"{d_path}: difference has {values.shape[1]} columns for {len(r_index)} "
+            f"reference frames; {_again(folder)}"
+        )
+    return DifferenceMatrix(
+        values.astype(np.float32, copy=False),
+        q_index.astype(np.int64, copy=False),
+        r_index.astype(np.int64, copy=False),
+        entry.get("measure", ""),
+    )
+
+
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     """Read a results folder written by :func:`save_results`.
 
@@ -548,7 +607,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         a = _read_npz(a_path, _ARRAYS, folder)
         n_nodes = _count(s, "n_nodes", path, 0)
         where = f"{a_path}:"
-        for key in ("score", "moved", "latency_ms", *_OPTIONAL[1:]):
+        for key in ("score", "moved", "latency_ms", "modelled_latency_ms", "energy_mj"):
             if key in a:
                 _check_array(a[key], f"{where} {key}", length=n_queries)
         _check_array(a["node"], f"{where} node", length=n_queries, bounds=(0, n_nodes or 2**62))
@@ -566,6 +625,14 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
                 raise DataError(
                     f"{where} weights has {a['weights'].shape[1]} columns for {n_nodes} nodes"
                 )
+        frame_index = a.get("frame_index")
+        if frame_index is not None:
+            _check_array(
+                frame_index,
+                f"{where} frame_index",
+                length=n_nodes or len(frame_index),
+                bounds=(0, n_ref or 2**62),
+            )
         registers = None
         if s.get("registers"):
             reg_path = _inner(folder, s["registers"], f"{name}.registers")
@@ -603,6 +670,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             modelled_time_ms=s.get("modelled_time_ms"),
             motion_accuracy=s.get("motion_accuracy"),
             registers=registers,
+            frame_index=frame_index,
         )
     result = RunResult(
         dataset=summary["dataset"],
@@ -618,6 +686,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         query_turning=_bools(ds.get("query_turning")),
         reference_turning=_bools(ds.get("reference_turning")),
         protocol=summary["protocol"] if isinstance(summary.get("protocol"), dict) else {},
+        difference=_load_difference(folder, summary, n_queries, n_ref),
         ppaloc_version=summary.get("ppaloc_version", ""),
         created=summary.get("created", ""),
     )

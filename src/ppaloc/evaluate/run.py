@@ -32,6 +32,7 @@ from ppaloc.datasets.frames import FrameSequence, as_frames
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
+from ppaloc.evaluate.difference import DifferenceMatrix, DifferenceRecorder
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
 from ppaloc.localise.base import Estimate, Localiser
 from ppaloc.methods import (
@@ -123,6 +124,9 @@ class MethodRun:
         Agreement of ``moved`` with the dataset's ``query_moved``, where both exist.
     registers : dict of str to ndarray, optional
         Register planes after the last frame (:func:`register_planes`), on-sensor only.
+    frame_index : ndarray of int, shape (N,), optional
+        The map's ``TopoMap.frame_index``: each node's own reference frame (the weights
+        figure carries the truth from frames to nodes with it).
     """
 
     method: str
@@ -143,6 +147,7 @@ class MethodRun:
     modelled_time_ms: dict[str, dict[str, float]] | None = None
     motion_accuracy: float | None = None
     registers: dict[str, np.ndarray] | None = None
+    frame_index: np.ndarray | None = None
 
     def summary(self) -> dict[str, Any]:
         """The method's entry of ``results.json`` (scalars only)."""
@@ -218,6 +223,9 @@ class RunResult:
         method's predicted reference frame, :data:`PREDICTION_RULE`) and
         ``"ground_truth"`` (the dataset's own description of its accepted sets, its
         ``meta["ground_truth_rule"]``, where it gives one).
+    difference : DifferenceMatrix, optional
+        The method-independent frame difference of sampled (query, reference) pairs
+        (:mod:`ppaloc.evaluate.difference`), recorded as the run streams the frames.
     ppaloc_version, created : str
         Provenance.
     """
@@ -235,6 +243,7 @@ class RunResult:
     query_turning: np.ndarray | None = None
     reference_turning: np.ndarray | None = None
     protocol: dict[str, Any] = field(default_factory=dict)
+    difference: DifferenceMatrix | None = None
     ppaloc_version: str = __version__
     created: str = ""
 
@@ -521,6 +530,7 @@ def run_method(
         modelled_time_ms=modelled_time(loc),
         motion_accuracy=motion_acc,
         registers=register_planes(loc),
+        frame_index=np.asarray(topomap.frame_index, dtype=np.int64),
     )
 
 
@@ -739,16 +749,19 @@ def run_evaluation(
     keep = len(plan) > 1 and (n_ref + n_query) * _SENSOR_FRAME_BYTES <= SHARED_FRAMES_BYTES
     reference = sensor_stream(dataset.reference, keep=keep)
     query = sensor_stream(dataset.query, keep=keep)
+    # The difference matrix, from the frames the first method streams (evaluate.difference)
+    difference = DifferenceRecorder(n_ref, n_query)
     with ProgressBar(progress) as bar:
         for name in names:
             bar.add(name, n_ref + n_query, label=f"{name} (map, queries)")
         for name, (params, loc) in plan.items():
             if localisers is None:
                 params = {**METHODS[name].defaults, **params}  # record the variant too
+            first = not runs
             runs[name] = run_method(
                 name,
-                reference,
-                query,
+                difference.watch_reference(reference) if first else reference,
+                difference.watch_query(query) if first else query,
                 gt,
                 params=params,
                 recall=config.recall,
@@ -760,6 +773,8 @@ def run_evaluation(
                 localiser=loc,
                 query_turning=dataset.meta.get("query_turning"),
             )
+            if first:  # the recorder's work during the map build is not the method's
+                runs[name].build_s = max(0.0, runs[name].build_s - difference.reference_seconds)
     resolved = config.to_dict()
     resolved["dataset"] = spec
     resolved["methods"] = list(names)
@@ -777,5 +792,6 @@ def run_evaluation(
         query_turning=_flags(dataset.meta.get("query_turning")),
         reference_turning=_flags(dataset.meta.get("reference_turning")),
         protocol=scoring_protocol(dataset),
+        difference=difference.result(reference, query),
         created=datetime.now(UTC).isoformat(timespec="seconds"),
     )
