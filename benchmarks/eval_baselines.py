@@ -229,14 +229,14 @@ def main() -> None:
                 "dataset": name,
                 "method": method,
                 "f1_max": round(m.f1_max, 4),
-                "accuracy": round(m.accuracy, 4),
+                "precision_at_100r": round(m.precision_at_100r, 4),
                 "recall_at_100p": round(m.recall_at_100p, 4),
                 "ms_per_frame": round(dt, 2),
                 "n_queries": m.n_queries,
             }
             rows.append(row)
             print(
-                f"{name:28s} {method:22s} maxF1 {m.f1_max:.4f}  acc {m.accuracy:.4f}  "
+                f"{name:28s} {method:22s} maxF1 {m.f1_max:.4f}  P@100R {m.precision_at_100r:.4f}  "
                 f"R@100P {m.recall_at_100p:.4f}  {dt:7.2f} ms/frame",
                 flush=True,
             )

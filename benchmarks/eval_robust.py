@@ -245,7 +245,7 @@ def evaluate_route(
             m = run.metrics
             result = {
                 "f1_max": float(m.f1_max),
-                "accuracy": float(m.accuracy),
+                "precision_at_100r": float(m.precision_at_100r),
                 "recall_at_100p": float(m.recall_at_100p),
                 "n_queries": int(m.n_queries),
                 "n_reference": len(reference),

@@ -22,7 +22,7 @@ RESULT_KEYS = {
     "recall_at_f1",
     "auc",
     "recall_at_100p",
-    "accuracy",
+    "precision_at_100r",
     "latency_ms_median",
     "latency_ms_p95",
     "modelled_latency_ms",

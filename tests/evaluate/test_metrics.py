@@ -61,7 +61,7 @@ def test_summary_values_golden():
     assert m.f1_max == pytest.approx(2 * 0.75 * 0.6 / 1.35)
     assert (m.precision_at_f1, m.recall_at_f1, m.threshold_at_f1) == (0.75, 0.6, 0.5)
     assert m.recall_at_100p == pytest.approx(0.2)
-    assert m.accuracy == pytest.approx(3 / 6)
+    assert m.precision_at_100r == pytest.approx(3 / 6)
     assert (m.n_queries, m.n_with_match, m.n_correct) == (6, 5, 3)
     # trapezoid from (0, 1): (0.2*1) + 0.2*(1+2/3)/2 + 0.2*(2/3+3/4)/2 + 0 + 0
     assert m.auc == pytest.approx(0.2 + 0.2 * (5 / 3) / 2 + 0.2 * (17 / 12) / 2)
@@ -76,7 +76,8 @@ def test_summary_values_golden():
 
 def test_perfect_and_hopeless_runs():
     perfect = evaluate_estimates([0, 1, 2], [0.1, 0.5, 0.2], [[0], [1], [2]])
-    assert (perfect.f1_max, perfect.auc, perfect.recall_at_100p, perfect.accuracy) == (1, 1, 1, 1)
+    assert (perfect.f1_max, perfect.auc, perfect.recall_at_100p) == (1, 1, 1)
+    assert perfect.precision_at_100r == 1
     hopeless = evaluate_estimates([5, 5, 5], [0.1, 0.5, 0.2], [[0], [1], [2]])
     assert (hopeless.f1_max, hopeless.auc, hopeless.recall_at_100p) == (0, 0, 0)
 
@@ -103,7 +104,7 @@ def test_nan_scores_are_a_bug():
 
 def test_empty_run():
     m = evaluate_estimates([], [], [])
-    assert (m.f1_max, m.auc, m.accuracy, m.n_queries) == (0, 0, 0, 0)
+    assert (m.f1_max, m.auc, m.precision_at_100r, m.n_queries) == (0, 0, 0, 0)
 
 
 def test_recall_at_k_golden():
@@ -149,8 +150,9 @@ def test_values_in_unit_interval_and_recall_monotone(run, definition):
     nodes, scores, truth = run
     gt = [[t] if t >= 0 else [] for t in truth]
     m = evaluate_estimates(nodes, scores, gt, recall=definition)
-    for v in (m.f1_max, m.precision_at_f1, m.recall_at_f1, m.auc, m.recall_at_100p, m.accuracy):
+    for v in (m.f1_max, m.precision_at_f1, m.recall_at_f1, m.auc, m.recall_at_100p):
         assert 0.0 <= v <= 1.0
+    assert 0.0 <= m.precision_at_100r <= 1.0
     c = m.curve
     for a in (c.precision, c.recall, c.f1):
         assert np.all((a >= 0) & (a <= 1))
@@ -159,8 +161,8 @@ def test_values_in_unit_interval_and_recall_monotone(run, definition):
     assert np.all(np.diff(c.recall) >= -1e-12)
     assert np.all(np.diff(c.accepted) > 0)
     assert c.accepted[-1] == len(nodes)
-    # the last point accepts everything: its precision is the accuracy over accepted queries
-    assert c.precision[-1] == pytest.approx(m.accuracy)
+    # the last point accepts everything: its precision is the precision at 100% recall
+    assert c.precision[-1] == pytest.approx(m.precision_at_100r)
     # a reference sweep: accept score >= t for every distinct t, count by brute force
     correct = is_correct(nodes, gt)
     for t, tp in zip(c.thresholds, c.correct_accepted, strict=True):
@@ -262,7 +264,7 @@ def test_soft_summary_golden():
     assert m.f1_max == pytest.approx(0.75)  # P 1, R 0.6 at threshold 0.5
     assert (m.precision_at_f1, m.recall_at_f1, m.threshold_at_f1) == (1.0, 0.6, 0.5)
     assert m.recall_at_100p == pytest.approx(0.6)
-    assert m.accuracy == pytest.approx(3 / 4)  # 3 correct of the 4 right-or-wrong
+    assert m.precision_at_100r == pytest.approx(3 / 4)  # 3 correct of the 4 right-or-wrong
     assert (m.n_correct, m.n_soft, m.n_with_match) == (3, 2, 5)
     assert m.auc == pytest.approx(0.6)
     # soft counts nowhere in recall@K or the error: hard matches only
@@ -273,9 +275,13 @@ def test_soft_summary_golden():
     from ppaloc.datasets.groundtruth import PackedSets
 
     carried = evaluate_estimates(NODES, SCORES, PackedSets.from_sets(GT).with_soft(SOFT))
-    assert (carried.f1_max, carried.accuracy, carried.n_soft) == (m.f1_max, m.accuracy, 2)
+    assert (carried.f1_max, carried.precision_at_100r, carried.n_soft) == (
+        m.f1_max,
+        m.precision_at_100r,
+        2,
+    )
     plain = evaluate_estimates(NODES, SCORES, GT)
-    assert plain.n_soft == 0 and plain.accuracy == pytest.approx(3 / 6)
+    assert plain.n_soft == 0 and plain.precision_at_100r == pytest.approx(3 / 6)
 
 
 def test_queries_without_a_true_match_in_every_recall_definition():
@@ -290,7 +296,7 @@ def test_queries_without_a_true_match_in_every_recall_definition():
         # the whole curve: precision falls as the no-match queries are accepted, recall stays
         np.testing.assert_allclose(m.curve.recall, [0.5, 1, 1, 1, 1])
         np.testing.assert_allclose(m.curve.precision, [1, 1, 2 / 3, 2 / 4, 2 / 5])
-    assert evaluate_estimates(nodes, scores, gt).accuracy == pytest.approx(2 / 5)
+    assert evaluate_estimates(nodes, scores, gt).precision_at_100r == pytest.approx(2 / 5)
     nothing = evaluate_estimates([0, 1], [0.5, 0.4], [[], []], recall="C")
     assert (nothing.f1_max, nothing.recall_at_100p, nothing.n_with_match) == (0.0, 0.0, 0)
     # rejecting a query without a match is no false negative under C
@@ -301,3 +307,19 @@ def test_queries_without_a_true_match_in_every_recall_definition():
 def test_a_correct_prediction_cannot_be_soft():
     with pytest.raises(ValueError, match="cannot also be soft"):
         pr_curve([0.5], [True], [True], soft=[True])
+
+
+@settings(max_examples=100, deadline=None)
+@given(runs, st.sampled_from(["A", "B", "C"]))
+def test_precision_at_100_recall_is_what_its_name_says(run, definition):
+    """Correct / all queries; the curve's recall there is 1 under B and C (when any query
+    is correct) and correct / queries with a true match under A."""
+    nodes, scores, truth = run
+    gt = [[t] if t >= 0 else [] for t in truth]
+    m = evaluate_estimates(nodes, scores, gt, recall=definition)
+    assert m.precision_at_100r == pytest.approx(m.n_correct / len(nodes))
+    at_all = m.curve.recall[-1]
+    if definition == "A":
+        assert at_all == pytest.approx(m.n_correct / max(m.n_with_match, 1))
+    elif m.n_correct:
+        assert at_all == 1.0

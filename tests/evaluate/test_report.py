@@ -39,6 +39,7 @@ def test_report_is_self_contained_and_every_figure_decodes(results_dir):
     titles = [alt for _, alt in images]
     assert titles == [
         "Precision-recall curves",
+        "Difference matrix",
         "Position estimate along the route",
         "Weights over time",
         "Registers of mean-match-shifted after the last frame",
@@ -58,7 +59,7 @@ def test_markdown_twin_links_existing_pngs(results_dir):
     write_report(results_dir)
     md = (results_dir / "report.md").read_text()
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
-    assert len(links) == 6
+    assert len(links) == 7
     for rel in links:
         assert (results_dir / rel).is_file()
     assert "| mean-match |" in md

@@ -26,7 +26,7 @@ REQUIRED = {
     "recall_at_f1",
     "auc",
     "recall_at_100p",
-    "accuracy",
+    "precision_at_100r",
     "latency_ms_median",
     "latency_ms_p95",
     "modelled_latency_ms",
@@ -66,7 +66,7 @@ def test_run_method_arrays_and_metrics(standin, tiny):
     assert run.modelled_latency_ms is None and run.energy_mj is None
     m = run.metrics
     # nine queries with a true match, all correct; the last has none (wrong by definition)
-    assert (m.n_with_match, m.n_correct, m.accuracy) == (9, 9, 0.9)
+    assert (m.n_with_match, m.n_correct, m.precision_at_100r) == (9, 9, 0.9)
     assert m.recall_at_100p == 1.0 and m.f1_max == 1.0
     assert m.error_m_median == pytest.approx(1.0)  # query positions are 1 m off
     assert m.recall_at_k.tolist() == [1.0, 1.0, 1.0]
@@ -89,7 +89,7 @@ def test_run_method_maps_nodes_through_frame_index(standin, tiny):
     strict = [np.array([2 * int(n) + 1]) for n in run.node]  # the other frame of each span
     again = run_method("k", ref, qry, strict, localiser=Keyframed())
     assert again.ref_index.tolist() == run.ref_index.tolist()
-    assert again.metrics.accuracy == 0.0
+    assert again.metrics.precision_at_100r == 0.0
 
 
 def test_predictions_do_not_depend_on_the_tolerance():

@@ -103,7 +103,7 @@ def _check_whole(out: Path, expected: tuple[set[str], ...], capsys) -> None:
     assert not list(out.parent.rglob("*.tmp"))
     methods = _methods(out)
     assert methods in expected
-    arrays = {p.stem for p in (out / "arrays").glob("*.npz")} - {"_dataset"}
+    arrays = {p.stem for p in (out / "arrays").glob("*.npz")} - {"_dataset", "_difference"}
     assert arrays == methods, "arrays of another run's methods were left in the folder"
     assert sorted(os.listdir(out.parent)) == ["run"], "a staging folder was left behind"
 
@@ -143,7 +143,15 @@ def test_a_rerun_leaves_nothing_of_the_earlier_run(old_run, capsys):
     assert main(_evaluate(old_run, NEW, "--no-report")) == 0
     assert _methods(old_run) == NEW
     assert sorted(p.name for p in old_run.rglob("*")) == sorted(
-        ["arrays", "_dataset.npz", "single-frame.npz", "bench.json", "results.csv", "results.json"]
+        [
+            "arrays",
+            "_dataset.npz",
+            "_difference.npz",
+            "single-frame.npz",
+            "bench.json",
+            "results.csv",
+            "results.json",
+        ]
     )
 
 

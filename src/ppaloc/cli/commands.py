@@ -73,7 +73,10 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
         else "median wall-clock time of step on this machine"
     )
     print(
-        f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); host ms = {host};\n"
+        f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); "
+        "R@100P = recall at 100% precision;\n"
+        "P@100R = precision with every query accepted (100% recall under recall B and C);\n"
+        f"host ms = {host};\n"
         "chip ms, loop ms = modelled time per frame on the sensor and for the whole hardware "
         "loop (docs/onsensor.md, Timing);\nmJ = modelled energy per frame."
     )

@@ -17,11 +17,13 @@ from matplotlib.figure import Figure
 from ppaloc.evaluate.run import RunResult
 
 __all__ = [
+    "difference_matrix",
     "latency_per_frame",
     "latency_vs_map_size",
     "png_bytes",
     "position_along_route",
     "pr_curves",
+    "true_nodes",
     "turning_spans",
     "weights_heatmaps",
 ]
@@ -46,14 +48,17 @@ def _family(name: str) -> str:
 
 
 def _colours(names: Sequence[str]) -> dict[str, Any]:
-    """One colour per method family (tab10, then tab20's lighter shades past ten)."""
+    """One colour per method family: tab10 without its grey (grey draws truths and
+    backgrounds), then tab20's lighter shades."""
     import matplotlib as mpl
 
     families = list(dict.fromkeys(_family(n) for n in names))
     tab10, tab20 = mpl.colormaps["tab10"], mpl.colormaps["tab20"]
+    palette = [tab10(i) for i in range(10) if i != 7]
+    palette += [tab20(2 * i + 1) for i in range(10) if i != 7]
 
     def colour(i: int) -> Any:
-        return tab10(i) if i < 10 else tab20((2 * (i - 10) + 1) % 20)
+        return palette[i % len(palette)]
 
     return {n: colour(families.index(_family(n))) for n in names}
 
@@ -171,7 +176,7 @@ def position_along_route(result: RunResult) -> Figure:
         ax.plot(q, truth, color="0.55", lw=2.5, label="true", zorder=1)
         ax.scatter(q[ok], run.ref_index[ok], s=5, color="tab:green", label="correct", zorder=2)
         ax.scatter(q[~ok], run.ref_index[~ok], s=5, color="tab:red", label="wrong", zorder=3)
-        title = f"{name}: accuracy {run.metrics.accuracy:.2f}"
+        title = f"{name}: P@100%R {run.metrics.precision_at_100r:.2f}"
         m = run.metrics
         if m.f1_max_turning is not None:  # some queries turn
             title += f", F1 straight {_f2(m.f1_max_straight)} | turning {_f2(m.f1_max_turning)}"
@@ -180,7 +185,7 @@ def position_along_route(result: RunResult) -> Figure:
     for ax in axes.ravel()[len(names) :]:
         ax.set_visible(False)
     for ax in axes[:, 0]:
-        ax.set_ylabel("reference frame (node)")
+        ax.set_ylabel("reference frame")
     for ax in axes[-1, :]:
         ax.set_xlabel("query frame")
     axes[0, 0].legend(loc="upper left", markerscale=3)
@@ -188,8 +193,47 @@ def position_along_route(result: RunResult) -> Figure:
     return fig
 
 
+def true_nodes(truth: np.ndarray, frame_index: np.ndarray) -> np.ndarray:
+    """The map node standing for each true reference frame: the node whose own frame
+    (``TopoMap.frame_index``) is the last at or before it (a keyframe map's node stands
+    for the frames up to the next node's).
+
+    Parameters
+    ----------
+    truth : ndarray of float, shape (M,)
+        A reference frame per query (NaN: none).
+    frame_index : ndarray of int, shape (N,)
+        Each node's reference frame.
+
+    Returns
+    -------
+    ndarray of float, shape (M,)
+        Node index per query (NaN where ``truth`` is NaN).
+
+    Examples
+    --------
+    >>> true_nodes(np.array([0.0, 3.0, 4.0, 9.0, np.nan]), np.array([0, 1, 4, 8])).tolist()
+    [0.0, 1.0, 2.0, 3.0, nan]
+    """
+    truth = np.asarray(truth, dtype=np.float64)
+    frames = np.asarray(frame_index, dtype=np.int64)
+    out = np.full(truth.shape, np.nan)
+    ok = np.isfinite(truth)
+    if not len(frames) or not ok.any():
+        return out
+    order = np.argsort(frames, kind="stable")
+    at = np.searchsorted(frames[order], np.floor(truth[ok]), side="right") - 1
+    out[ok] = order[np.maximum(at, 0)]
+    return out
+
+
 def weights_heatmaps(result: RunResult) -> Figure | None:
-    """Per-node weights over time of every method that recorded them (None if none did)."""
+    """Per-node weights over time of every method that recorded them (None if none did).
+
+    The y axis is the map's nodes, so the true position is carried from reference frames
+    to nodes through the map's ``frame_index`` (:func:`true_nodes`); a folder that does not
+    record it draws the truth only where the map has one node per reference frame.
+    """
     runs = [r for r in result.runs.values() if r.weights is not None]
     if not runs:
         return None
@@ -210,13 +254,168 @@ def weights_heatmaps(result: RunResult) -> Figure | None:
             vmax=hi if hi > lo else lo + 1,
             extent=(-0.5, w.shape[0] - 0.5, -0.5, w.shape[1] - 0.5),
         )
-        ax.plot(np.arange(len(truth)), truth, color="cyan", lw=0.8, ls="--", label="true")
-        ax.set_title(f"{run.method}: node weights after each frame")
-        ax.set_ylabel("map node")
-        ax.legend(loc="upper left")
-        fig.colorbar(im, ax=ax, label="weight", pad=0.01)
-    axes[-1].set_xlabel("query frame")
+        n_nodes = w.shape[1]
+        frames = run.frame_index
+        if frames is None and n_nodes == result.n_reference:
+            frames = np.arange(n_nodes)
+        title = f"{run.method}: node weights after each frame ({n_nodes} nodes"
+        if result.n_reference and n_nodes != result.n_reference:
+            title += f" for {result.n_reference} reference frames"
+        title += ")"
+        if frames is not None and len(frames) == n_nodes:
+            q = np.arange(len(truth))
+            ax.plot(q, true_nodes(truth, frames), color="cyan", lw=0.9, ls="--", label="true node")
+            ax.legend(loc="upper left")
+        else:
+            title += "; true node not drawn: the folder lacks the map's frame_index"
+        ax.set_title(title)
+        ax.set_ylabel("map node (index)")
+        fig.colorbar(im, ax=ax, label="weight (method's own units)", pad=0.01)
+    axes[-1].set_xlabel("query frame (index)")
     return fig
+
+
+def _truth_span(ground_truth: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """First and last accepted reference frame per query (NaN where there is none)."""
+    lo = np.array([float(np.min(g)) if len(g) else np.nan for g in ground_truth])
+    hi = np.array([float(np.max(g)) if len(g) else np.nan for g in ground_truth])
+    return lo, hi
+
+
+_TRUTH_COLOUR = "#00d4ff"
+
+
+def difference_matrix(result: RunResult) -> Figure | None:
+    """The difference matrix with the ground truth and each method's predicted path over it.
+
+    The first panel is the matrix alone (``result.difference``: query frame on x, reference
+    frame on y, dark = alike), so the valley the images make is not hidden; then one panel
+    per method over the same matrix: the accepted reference frames of each query as a band,
+    and the method's predicted reference frame per query, a filled dot where the method's
+    maximum-F1 threshold accepts it and a hollow one where that threshold rejects it.
+    None when the result has no difference matrix.
+    """
+    d = result.difference
+    if d is None or not result.runs:
+        return None
+    names = list(result.runs)
+    panels = len(names) + 1
+    cols = 2 if panels <= 4 else 3
+    rows = -(-panels // cols)
+    side = 4.6 if cols == 2 else 3.7
+    fig = _figure(side * cols + 1.1, side * rows + 1.0)
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
+    values = np.asarray(d.values, dtype=np.float64)
+    finite = values[np.isfinite(values)]
+    lo, hi = np.percentile(finite, [1, 99]) if finite.size else (0.0, 1.0)
+    sq, sr = d.strides
+    extent = (
+        d.query_index[0] - sq / 2,
+        d.query_index[-1] + sq / 2,
+        d.reference_index[0] - sr / 2,
+        d.reference_index[-1] + sr / 2,
+    )
+    colours = _colours(names)
+    truth_lo, truth_hi = _truth_span(result.ground_truth)
+    q = np.arange(len(truth_lo))
+    size = float(np.clip(3000.0 / max(len(q), 1), 1.5, 18.0))
+    # crisp cells while a panel has more pixels than the matrix has samples, smoothed
+    # (anti-aliased) beyond: a nearest-neighbour shrink would drop rows, maybe the valley
+    fits = max(values.shape) <= side * fig.dpi * 0.8
+    image = None
+    for k, ax in enumerate(axes.ravel()[:panels]):
+        image = ax.imshow(
+            values.T,
+            origin="lower",
+            aspect="auto",
+            cmap="gray",
+            vmin=lo,
+            vmax=hi if hi > lo else lo + 1,
+            extent=extent,
+            interpolation="nearest" if fits else "antialiased",
+        )
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(extent[2], extent[3])
+        if k == 0:
+            ax.set_title("the frame difference alone\n(what the images say)")
+            continue
+        name = names[k - 1]
+        run = result.runs[name]
+        ax.fill_between(
+            q,
+            truth_lo - 0.5,
+            truth_hi + 0.5,
+            step="mid",
+            color=_TRUTH_COLOUR,
+            alpha=0.45,
+            lw=0,
+            label="true (accepted reference frames)",
+        )
+        m = run.metrics
+        if np.isfinite(m.threshold_at_f1):
+            kept = run.score >= m.threshold_at_f1
+        else:
+            kept = np.ones(len(q), dtype=bool)
+        c = colours[name]
+        ax.scatter(q[kept], run.ref_index[kept], s=size, color=c, lw=0)
+        ax.scatter(
+            q[~kept],
+            run.ref_index[~kept],
+            s=size * 1.6,
+            facecolors="none",
+            edgecolors=c,
+            lw=0.7,
+        )
+        ax.set_title(f"{name}\nF1 {m.f1_max:.2f}, {int(kept.sum())} of {len(q)} accepted")
+    for ax in axes.ravel()[panels:]:
+        ax.set_visible(False)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("reference frame")
+    for j in range(cols):  # the lowest panel shown in each column carries the x axis
+        lowest = axes[max(r for r in range(rows) if r * cols + j < panels), j]
+        lowest.xaxis.set_tick_params(labelbottom=True)
+        lowest.set_xlabel("query frame")
+    handles = [
+        _legend_patch(),
+        _legend_marker(filled=True),
+        _legend_marker(filled=False),
+    ]
+    labels = [
+        "true (accepted reference frames)",
+        "predicted, accepted at the method's max-F1 threshold",
+        "predicted, rejected there",
+    ]
+    fig.legend(handles, labels, loc="outside lower center", ncols=3, frameon=False)
+    fig.colorbar(
+        image,
+        ax=axes.ravel().tolist(),
+        label="frame difference, mean |z| per pixel (dark = alike)",
+        shrink=0.6 if rows > 2 else 0.9,
+        pad=0.01,
+    )
+    fig.suptitle(f"Difference matrix, {result.dataset_name} ({d.sampling()})")
+    return fig
+
+
+def _legend_patch() -> Any:
+    from matplotlib.patches import Patch
+
+    return Patch(color=_TRUTH_COLOUR, alpha=0.45, lw=0)
+
+
+def _legend_marker(*, filled: bool) -> Any:
+    """A neutral legend dot (each panel's method has its own colour)."""
+    from matplotlib.lines import Line2D
+
+    return Line2D(
+        [],
+        [],
+        ls="",
+        marker="o",
+        markersize=6,
+        markerfacecolor="0.3" if filled else "none",
+        markeredgecolor="0.3",
+    )
 
 
 def latency_vs_map_size(bench: dict[str, Any]) -> Figure | None:

@@ -36,8 +36,9 @@ three definitions in use in the place-recognition literature, so it is always la
 
 The same rule holds for every metric: a soft prediction is never a true positive (recall
 A, B, C, recall@K and the error in frames count hard matches only) and never a false
-positive (precision and accuracy leave it out); a query without a true match is never in
-a recall's denominator, and its prediction, accepted, is a false positive unless soft.
+positive (precision and precision at 100% recall leave it out); a query without a true
+match is never in a recall's denominator, and its prediction, accepted, is a false
+positive unless soft.
 """
 
 from __future__ import annotations
@@ -55,7 +56,6 @@ __all__ = [
     "RECALL_DEFINITIONS",
     "Metrics",
     "PRCurve",
-    "accuracy",
     "auc",
     "evaluate_estimates",
     "is_correct",
@@ -64,6 +64,7 @@ __all__ = [
     "max_f1",
     "metrics_table",
     "pr_curve",
+    "precision_at_100_recall",
     "recall_at_100_precision",
     "recall_at_k",
 ]
@@ -305,23 +306,25 @@ def recall_at_100_precision(curve: PRCurve) -> float:
     return float(curve.recall[perfect].max()) if perfect.any() else 0.0
 
 
-def accuracy(correct: np.ndarray, soft: np.ndarray | None = None) -> float:
-    """Fraction of the queries whose best match is correct, every estimate accepted.
+def precision_at_100_recall(curve: PRCurve) -> float:
+    """The precision with every query accepted: the curve's last point (0 if it is empty).
 
-    The precision of the run with every estimate accepted: a query without a true match
-    counts as wrong (its prediction is accepted and cannot be correct), a soft prediction
-    counts nowhere (0 when nothing is left).
+    That point accepts every estimate, so its precision is the fraction of *all* queries
+    whose best match is correct (queries without a true match count as wrong; a soft
+    prediction, neither right nor wrong, counts nowhere). Under recall
+    ``B`` and ``C`` accepting everything is recall 1, so this is the precision at 100%
+    recall (P@100R) the place-recognition literature reports; under ``A`` that point's
+    recall is ``correct / queries with a true match``, the highest the method reaches,
+    which is 1 only when every such query is right. The number itself does not depend on
+    the recall definition.
 
     Examples
     --------
-    >>> accuracy([True, False, True, True])
-    0.75
-    >>> accuracy([True, False, True, True], soft=[False, True, False, False])
-    1.0
+    >>> curve = pr_curve([0.9, 0.5, 0.2, 0.1], [True, False, True, True], [True] * 4)
+    >>> precision_at_100_recall(curve), float(curve.recall[-1])
+    (0.75, 0.75)
     """
-    correct = np.asarray(correct, dtype=bool).ravel()
-    judged = correct.size if soft is None else int(np.count_nonzero(~np.asarray(soft, bool)))
-    return float(correct.sum() / judged) if judged else 0.0
+    return float(curve.precision[-1]) if len(curve.precision) else 0.0
 
 
 _RECALL_ROWS = 4096
@@ -482,8 +485,9 @@ class Metrics:
         Area under the PR curve (trapezoid, see :func:`auc`).
     recall_at_100p : float
         Highest recall at 100% precision.
-    accuracy : float
-        Fraction of all queries whose best match is correct.
+    precision_at_100r : float
+        Precision with every query accepted: the fraction of all queries whose best match
+        is correct (:func:`precision_at_100_recall`; 100% recall under recall B and C).
     recall_definition : str
         ``"A"``, ``"B"`` or ``"C"``.
     n_queries, n_with_match, n_correct : int
@@ -511,7 +515,7 @@ class Metrics:
     threshold_at_f1: float
     auc: float
     recall_at_100p: float
-    accuracy: float
+    precision_at_100r: float
     recall_definition: str
     n_queries: int
     n_with_match: int
@@ -597,11 +601,11 @@ def evaluate_estimates(
     Examples
     --------
     >>> m = evaluate_estimates([0, 1, 5, 3], [0.9, 0.8, 0.1, 0.7], [[0], [1], [2], [3]])
-    >>> round(m.f1_max, 4), m.precision_at_f1, m.recall_at_f1, m.accuracy, m.recall_at_100p
+    >>> round(m.f1_max, 4), m.precision_at_f1, m.recall_at_f1, m.precision_at_100r, m.recall_at_100p
     (0.8571, 1.0, 0.75, 0.75, 0.75)
     >>> m = evaluate_estimates([0, 1, 5, 3], [0.9, 0.8, 0.1, 0.7], [[0], [1], [2], [3]],
     ...                        soft=[[0], [1], [2, 5], [3]])
-    >>> m.f1_max, m.accuracy, m.n_soft
+    >>> m.f1_max, m.precision_at_100r, m.n_soft
     (0.8571428571428571, 1.0, 1)
     """
     nodes = np.asarray(nodes, dtype=np.int64).ravel()
@@ -646,7 +650,7 @@ def evaluate_estimates(
         threshold_at_f1=t_f1,
         auc=auc(curve),
         recall_at_100p=recall_at_100_precision(curve),
-        accuracy=accuracy(correct, in_soft),
+        precision_at_100r=precision_at_100_recall(curve),
         recall_definition=curve.recall_definition,
         n_queries=len(nodes),
         n_with_match=int(has_match.sum()),

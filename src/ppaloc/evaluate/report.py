@@ -22,8 +22,10 @@ import numpy as np
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate import figures
 from ppaloc.evaluate.bench import load_bench
+from ppaloc.evaluate.columns import COLUMNS, TERMS, column_of
+from ppaloc.evaluate.difference import DIFFERENCE_SAMPLES, MEASURE
 from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
-from ppaloc.evaluate.results import load_results
+from ppaloc.evaluate.results import load_results, upgrade_summary
 from ppaloc.evaluate.run import RunResult
 from ppaloc.fileio import update_folder, write_bytes
 
@@ -93,7 +95,7 @@ _SHORT_HEADER = [
     "R@F1",
     "AUC",
     "R@100P",
-    "Acc.",
+    "P@100R",
     "host ms",
     "p95 ms",
     "chip ms",
@@ -158,6 +160,7 @@ def comparison_table(
     header : list of str
     rows : list of list of str
     """
+    summary = upgrade_summary(summary)  # an older folder's fields under today's names
     header = [
         "Method",
         "Representation",
@@ -166,7 +169,7 @@ def comparison_table(
         "R @F1",
         "AUC",
         "R @100%P",
-        "Accuracy",
+        "P @100%R",
         "Host ms/frame (median)",
         "Host ms (p95)",
         "Modelled chip ms/frame (low-high)",
@@ -186,7 +189,7 @@ def comparison_table(
                 _fmt(m["recall_at_f1"]),
                 _fmt(m["auc"]),
                 _fmt(m["recall_at_100p"]),
-                _fmt(m["accuracy"]),
+                _fmt(m["precision_at_100r"]),
                 _ms(m["latency_ms_median"]),
                 _ms(m["latency_ms_p95"]),
                 _bounded_ms(m, "chip", short),
@@ -239,6 +242,7 @@ def paper_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     rows : list of list of str
         Empty cells (``""``) where a family has no method with that representation.
     """
+    summary = upgrade_summary(summary)
     cells: dict[str, dict[str, dict[str, Any]]] = {}
     for name, m in summary["methods"].items():
         family, rep = _family(name, m.get("map_kind", ""))
@@ -335,6 +339,27 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
             f"{d}: {RECALL_DEFINITIONS[d]}. Dots mark each method's maximum F1.",
             figures.png_bytes(figures.pr_curves(result)),
         ),
+    ]
+    diff = figures.difference_matrix(result)
+    if diff is not None and result.difference is not None:
+        dm = result.difference
+        sampled = dm.sampling()
+        if sampled != "every frame":
+            sampled += f" (at most {DIFFERENCE_SAMPLES} of each traversal)"
+        out.append(
+            ReportFigure(
+                "difference",
+                "Difference matrix",
+                "How unlike each query frame (x) is to each reference frame (y), whatever the "
+                f"method: {dm.measure or MEASURE}, dark = alike, colour clipped to the 1st-99th "
+                f"percentile; {sampled}. First panel: the matrix alone. Then per method: the "
+                "accepted reference frames of each query (band) and the predicted reference "
+                "frame of each query, filled where the method's max-F1 threshold accepts "
+                "it, hollow where it rejects it.",
+                figures.png_bytes(diff),
+            )
+        )
+    out += [
         ReportFigure(
             "position",
             "Position estimate along the route",
@@ -356,8 +381,10 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
                 "weights",
                 "Weights over time",
                 "Per-node weight (or score) after each query frame, for methods that "
-                "record it; colour clipped to the 1st-99.5th percentile. Dashed: the true "
-                "reference frame.",
+                "record it, in the method's own units; y is the map's nodes (a keyframe map "
+                "has fewer nodes than reference frames); colour clipped to the 1st-99.5th "
+                "percentile. Dashed: the true node, the node whose own reference frame is the "
+                "last at or before the middle accepted frame of the query.",
                 figures.png_bytes(heat),
             )
         )
@@ -409,6 +436,8 @@ padding-bottom:.2em}
 table{border-collapse:collapse;margin:.6em 0;font-size:.92em}
 th,td{border:1px solid #ccd;padding:4px 9px;text-align:right}
 th{background:#eef1f7}td:first-child,td:nth-child(2){text-align:left}
+table.defs td,table.defs th{text-align:left;vertical-align:top}
+table.defs td:nth-child(3),table.defs td:nth-child(4){white-space:nowrap}th[title]{cursor:help}
 tr:nth-child(even) td{background:#f8f9fc}
 td.best{font-weight:700;color:#0a5c2b}
 figure{margin:1em 0 1.6em}figure img{max-width:100%;border:1px solid #e3e5ea}
@@ -419,12 +448,16 @@ nav{font-size:.92em;margin:.4em 0 1em}nav a{color:#2050a0;text-decoration:none}
 """
 
 
-def _html_table(header: list[str], rows: list[list[str]], best_cols: tuple[int, ...]) -> str:
+def _html_table(
+    header: list[str], rows: list[list[str]], best_cols: tuple[int, ...], *, cls: str = ""
+) -> str:
+    """An HTML table; each header defined in :mod:`ppaloc.evaluate.columns` carries its
+    definition as a tooltip, and the highest value of each of ``best_cols`` is marked."""
     best = {}
     for c in best_cols:
         vals = [float(r[c]) for r in rows if r[c] not in ("-", "")]
         best[c] = max(vals) if vals else None
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    head = "".join(f"<th{_tooltip(h)}>{html.escape(h)}</th>" for h in header)
     body = []
     for r in rows:
         cells = []
@@ -436,40 +469,61 @@ def _html_table(header: list[str], rows: list[list[str]], best_cols: tuple[int, 
             )
             cells.append(f"<td{cls}>{html.escape(v)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    attr = f" class='{cls}'" if cls else ""
+    return f"<table{attr}><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def _tooltip(header: str) -> str:
+    column = column_of(header)
+    if column is None:
+        return ""
+    return f" title='{html.escape(f'{column.definition} ({column.unit})', quote=True)}'"
 
 
 def _best_columns(header: list[str]) -> tuple[int, ...]:
     """The comparison table's columns where higher is better (marked best per column)."""
-    better = {"F1 max", "F1 straight", "F1 turning", "AUC", "R @100%P", "Accuracy"}
+    better = {"F1 max", "F1 straight", "F1 turning", "AUC", "R @100%P", "P @100%R"}
     return tuple(i for i, h in enumerate(header) if h in better)
 
 
+_DEFINITION_HEADER = ["Column", "Definition", "Unit", "Recall definition"]
+
+
 def _md_table(header: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(lines)
+    """A Markdown table; a ``|`` inside a cell is escaped so it does not split the cell."""
+
+    def line(cells: list[str]) -> str:
+        return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
+
+    return "\n".join([line(header), "|" + "---|" * len(header), *(line(r) for r in rows)])
 
 
-def _definitions() -> list[tuple[str, str]]:
-    return [
-        ("Precision", "correct accepted / accepted, at a confidence threshold"),
-        *[(f"Recall {k}", v) for k, v in RECALL_DEFINITIONS.items()],
-        ("F1 max", "the highest 2PR/(P+R) over every distinct threshold"),
-        (
-            "F1 straight, F1 turning",
-            "F1 max over the queries taken on straight stretches and over those taken in turns "
-            "(each subset's own PR curve), where the dataset says which frames turn",
-        ),
-        ("AUC", "area under the PR curve, trapezoid rule, from recall 0"),
-        ("R @100%P", "the highest recall at a threshold where every accepted query is correct"),
-        ("Accuracy", "queries whose best match is correct / all queries (all accepted)"),
-        ("Host ms/frame", "wall-clock time of step on this machine (median, 95th percentile)"),
-        (
-            "Modelled on-sensor",
-            "time and energy per frame from the simulator's timing model (on-sensor methods)",
-        ),
+def _definitions(
+    tables: list[list[str]], recall: list[str]
+) -> tuple[list[tuple[str, str]], list[list[str]]]:
+    """The words the definitions use, and one row (column, definition, unit, recall
+    definition) per column the report's tables show, in :data:`COLUMNS` order.
+
+    Raises
+    ------
+    RuntimeError
+        If a table shows a column without a definition (a bug: add it to
+        :mod:`ppaloc.evaluate.columns`).
+    """
+    shown = []
+    for header in (h for table in tables for h in table):
+        column = column_of(header)
+        if column is None:
+            raise RuntimeError(f"table column {header!r} has no definition in evaluate.columns")
+        if column not in shown:
+            shown.append(column)
+    letters = ", ".join(recall)
+    rows = [
+        [c.header, c.definition, c.unit, f"{letters} (this run)" if c.recall else "-"]
+        for c in COLUMNS
+        if c in shown
     ]
+    return list(TERMS), rows
 
 
 def write_report(folder: str | Path, *, bench_path: str | Path | None = None) -> Path:
@@ -519,6 +573,8 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
     header, rows = comparison_table(summary)
     pheader, prows = paper_table(summary)
     xheader, xrows = _extra_table(summary)
+    recall = sorted({m.get("recall_definition", "A") for m in summary["methods"].values()})
+    terms, columns = _definitions([pheader, header, xheader], recall)
     title = f"ppaloc report: {result.dataset_name}"
     n_q = len(result.ground_truth)
     n_match = sum(1 for g in result.ground_truth if len(g))
@@ -572,8 +628,10 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
             f"<figcaption>{html.escape(f.caption)}</figcaption></figure>"
         )
     parts.append("<h2 id='definitions'>Definitions</h2><dl>")
-    parts += [f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in _definitions()]
-    parts.append("</dl><h2 id='configuration'>Configuration</h2>")
+    parts += [f"<dt>{html.escape(k)}</dt><dd>{html.escape(v)}</dd>" for k, v in terms]
+    parts.append("</dl>")
+    parts.append(_html_table(_DEFINITION_HEADER, columns, best_cols=(), cls="defs"))
+    parts.append("<h2 id='configuration'>Configuration</h2>")
     parts.append(f"<pre>{html.escape(json.dumps(result.config, indent=2))}</pre>")
     parts.append("</body></html>\n")
     out = write_bytes(folder / "report.html", "\n".join(parts))
@@ -587,7 +645,8 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
         rel = f"figures/{f.key}.png"
         write_bytes(folder / rel, f.png)
         md += [f"## {f.title}", "", f"![{f.title}]({rel})", "", f.caption, ""]
-    md += ["## Definitions", ""] + [f"- **{k}**: {v}" for k, v in _definitions()]
+    md += ["## Definitions", ""] + [f"- **{k}**: {v}" for k, v in terms]
+    md += ["", _md_table(_DEFINITION_HEADER, columns)]
     md += ["", "## Configuration", "", "```json", json.dumps(result.config, indent=2), "```", ""]
     write_bytes(folder / "report.md", "\n".join(md))
     return out

@@ -10,7 +10,10 @@ Layout of a results folder::
                           gt_soft_indptr, gt_soft_indices where the dataset has one),
                           positions, query_moved, query_turning and reference_turning
                           (where the dataset has them)
-    arrays/<method>.npz   per-query arrays of one method (see MethodRun)
+    arrays/<method>.npz   per-query arrays of one method (see MethodRun) and its map's
+                          frame_index
+    arrays/_difference.npz  the difference matrix of sampled (query, reference) frame pairs
+                          (see ppaloc.evaluate.difference)
     arrays/<method>.registers.npz  register planes after the last frame (on-sensor only):
                           ``labels`` (P,) str and ``plane0`` .. ``plane{P-1}`` (2-D)
     bench.json            latency against map size, where measured (ppaloc bench / demo)
@@ -21,6 +24,9 @@ that then takes its place in one step, so a reader (or a run killed at any momen
 the whole earlier folder or the whole new one, and nothing of an earlier run is left in
 the new one. ``results.json``, written last, lists every other result file with its
 SHA-256 (``files``); :func:`load_results` checks them, and bounds every array and index.
+``results.json`` carries its format version (``format``, :data:`RESULTS_FORMAT`); a folder
+written before the field existed (format 1) is read with its fields renamed
+(:func:`upgrade_summary`), one written by a newer ppaloc is refused.
 """
 
 from __future__ import annotations
@@ -37,8 +43,10 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc import __version__
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import DataError
+from ppaloc.evaluate.difference import DifferenceMatrix
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics
 from ppaloc.fileio import (
     check_replaceable_folder,
@@ -52,14 +60,27 @@ from ppaloc.npzfile import NpzError, npz_bytes, read_npz
 __all__ = [
     "CSV_COLUMNS",
     "MAX_RESULT_BYTES",
+    "RESULTS_FORMAT",
     "ROLE_COLUMNS",
     "array_file",
     "check_replaceable",
     "load_results",
     "results_folder",
     "save_results",
+    "upgrade_summary",
     "write_results",
 ]
+
+RESULTS_FORMAT = 2
+"""Version of the results folder's format, written as ``format`` in ``results.json``.
+
+1 (no ``format`` field): each method's precision with every query accepted is named
+``accuracy``; no ``frame_index`` per method and no difference matrix.
+2: that number is ``precision_at_100r``; ``frame_index`` and ``arrays/_difference.npz``.
+"""
+
+_RENAMED = {1: {"accuracy": "precision_at_100r"}}
+"""Per older format, the method fields renamed since (old name -> current name)."""
 
 MAX_RESULT_BYTES = 16 << 30
 """Most array bytes one result ``.npz`` may hold (16 GiB); larger claims are refused."""
@@ -71,7 +92,7 @@ CSV_COLUMNS = [
     "recall_at_f1",
     "auc",
     "recall_at_100p",
-    "accuracy",
+    "precision_at_100r",
     "recall_definition",
     "latency_ms_median",
     "latency_ms_p95",
@@ -99,7 +120,9 @@ ROLE_COLUMNS = ("database", "query")
 (the same in every row), not metrics."""
 
 _ARRAYS = ("node", "ref_index", "score", "moved", "ranking", "latency_ms")
-_OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj")
+_OPTIONAL = ("weights", "modelled_latency_ms", "energy_mj", "frame_index")
+_DIFFERENCE = ("difference", "query_index", "reference_index")
+_DIFFERENCE_FILE = "arrays/_difference.npz"
 _DATASET_OPTIONAL = (
     "reference_positions",
     "query_positions",
@@ -214,7 +237,7 @@ def write_results(result: RunResult, out: str | Path) -> Path:
     """
     out = Path(out)
     written: list[str] = []
-    summary = result.summary()
+    summary = {"format": RESULTS_FORMAT, **result.summary()}
     when = source_date()
     if when is None:
         summary.pop("created", None)
@@ -248,6 +271,20 @@ def write_results(result: RunResult, out: str | Path) -> Path:
             ds_arrays[key] = np.asarray(value)
     write_bytes(out / "arrays" / "_dataset.npz", npz_bytes(ds_arrays))
     written.append("arrays/_dataset.npz")
+    if result.difference is not None:
+        d = result.difference
+        write_bytes(
+            out / _DIFFERENCE_FILE,
+            npz_bytes(
+                {
+                    "difference": np.asarray(d.values, dtype=np.float32),
+                    "query_index": np.asarray(d.query_index, dtype=np.int64),
+                    "reference_index": np.asarray(d.reference_index, dtype=np.int64),
+                }
+            ),
+        )
+        written.append(_DIFFERENCE_FILE)
+        summary["difference"] = {"arrays": _DIFFERENCE_FILE, "measure": d.measure}
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
@@ -347,7 +384,14 @@ def _check_array(
             )
 
 
-_METRICS = ("f1_max", "precision_at_f1", "recall_at_f1", "auc", "recall_at_100p", "accuracy")
+_METRICS = (
+    "f1_max",
+    "precision_at_f1",
+    "recall_at_f1",
+    "auc",
+    "recall_at_100p",
+    "precision_at_100r",
+)
 """Every method's entry of results.json has these (a number, or null)."""
 _NUMBERS = (
     "latency_ms_median",
@@ -419,6 +463,93 @@ def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
             raise bad("modelled_time_ms", times, "a table of {low, mid, high} numbers")
 
 
+def upgrade_summary(summary: dict[str, Any], path: str | Path = "results.json") -> dict[str, Any]:
+    """A ``results.json`` summary in the current format (:data:`RESULTS_FORMAT`).
+
+    A summary of an older format comes back as a new dict whose method entries carry
+    today's names (format 1: ``accuracy`` -> ``precision_at_100r``); the given one is not
+    changed. A current summary is returned as it is.
+
+    Raises
+    ------
+    DataError
+        If ``format`` is not a known version (one written by a newer ppaloc, or edited).
+
+    Examples
+    --------
+    >>> old = {"methods": {"m": {"f1_max": 0.5, "accuracy": 0.75}}}
+    >>> new = upgrade_summary(old)
+    >>> new["format"], new["methods"]["m"], old["methods"]["m"]["accuracy"]
+    (2, {'f1_max': 0.5, 'precision_at_100r': 0.75}, 0.75)
+    """
+    version = summary.get("format", 1)
+    if version == RESULTS_FORMAT:
+        return summary
+    if not isinstance(version, int) or isinstance(version, bool) or version not in _RENAMED:
+        newer = isinstance(version, int) and not isinstance(version, bool) and version > 0
+        raise DataError(
+            f"{path} is in results format {version!r:.40}, "
+            + (
+                f"newer than this ppaloc {__version__} reads (1 to {RESULTS_FORMAT}); "
+                "read it with the ppaloc that wrote it, or run `ppaloc evaluate` again"
+                if newer
+                else f"not one ppaloc writes (1 to {RESULTS_FORMAT}); give a folder written "
+                "by `ppaloc evaluate --out`"
+            )
+        )
+    out = {**summary, "format": RESULTS_FORMAT}
+    methods = summary.get("methods")
+    if isinstance(methods, dict):
+        out["methods"] = {k: dict(v) if isinstance(v, dict) else v for k, v in methods.items()}
+        for old in range(version, RESULTS_FORMAT):
+            for entry in out["methods"].values():
+                if not isinstance(entry, dict):
+                    continue
+                for before, after in _RENAMED.get(old, {}).items():
+                    if before in entry and after not in entry:
+                        entry[after] = entry.pop(before)
+    return out
+
+
+def _load_difference(
+    folder: Path, summary: Mapping[str, Any], n_queries: int, n_ref: int
+) -> DifferenceMatrix | None:
+    """The difference matrix a folder records (None when it has none: format 1)."""
+    entry = summary.get("difference")
+    if entry is None:
+        return None
+    path = folder / "results.json"
+    if not isinstance(entry, dict) or not isinstance(entry.get("measure", ""), str):
+        raise DataError(
+            f"{path}: difference is {entry!r:.60}, expected a table with arrays and measure; "
+            f"{_again(folder)}"
+        )
+    d_path = _inner(folder, entry.get("arrays", _DIFFERENCE_FILE), "difference.arrays")
+    d = _read_npz(d_path, _DIFFERENCE, folder)
+    q_index, r_index, values = d["query_index"], d["reference_index"], d["difference"]
+    _check_array(
+        q_index, f"{d_path}: query_index", length=len(q_index), bounds=(0, max(n_queries, 1))
+    )
+    _check_array(
+        r_index, f"{d_path}: reference_index", length=len(r_index), bounds=(0, n_ref or 2**62)
+    )
+    for name, index in (("query_index", q_index), ("reference_index", r_index)):
+        if np.any(np.diff(index) <= 0):
+            raise DataError(f"{d_path}: {name} is not increasing; {_again(folder)}")
+    _check_array(values, f"{d_path}: difference", length=len(q_index), ndim=2)
+    if values.shape[1] != len(r_index):
+        raise DataError(
+            f"{d_path}: difference has {values.shape[1]} columns for {len(r_index)} "
+            f"reference frames; {_again(folder)}"
+        )
+    return DifferenceMatrix(
+        values.astype(np.float32, copy=False),
+        q_index.astype(np.int64, copy=False),
+        r_index.astype(np.int64, copy=False),
+        entry.get("measure", ""),
+    )
+
+
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     """Read a results folder written by :func:`save_results`.
 
@@ -457,6 +588,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         raise DataError(f"cannot read the results in {folder}: {exc}") from None
     if not isinstance(summary, dict):
         raise DataError(f"{path} is not a results table; give a folder written by ppaloc")
+    summary = upgrade_summary(summary, path)
     missing = [k for k in ("dataset", "tolerance", "methods") if k not in summary]
     if missing:
         raise DataError(
@@ -506,7 +638,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         a = _read_npz(a_path, _ARRAYS, folder)
         n_nodes = _count(s, "n_nodes", path, 0)
         where = f"{a_path}:"
-        for key in ("score", "moved", "latency_ms", *_OPTIONAL[1:]):
+        for key in ("score", "moved", "latency_ms", "modelled_latency_ms", "energy_mj"):
             if key in a:
                 _check_array(a[key], f"{where} {key}", length=n_queries)
         _check_array(a["node"], f"{where} node", length=n_queries, bounds=(0, n_nodes or 2**62))
@@ -524,6 +656,14 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
                 raise DataError(
                     f"{where} weights has {a['weights'].shape[1]} columns for {n_nodes} nodes"
                 )
+        frame_index = a.get("frame_index")
+        if frame_index is not None:
+            _check_array(
+                frame_index,
+                f"{where} frame_index",
+                length=n_nodes or len(frame_index),
+                bounds=(0, n_ref or 2**62),
+            )
         registers = None
         if s.get("registers"):
             reg_path = _inner(folder, s["registers"], f"{name}.registers")
@@ -563,6 +703,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             registers=registers,
             reads_future=bool(s.get("reads_future", False)),
             speed_check=s.get("speed_check"),
+            frame_index=frame_index,
         )
     result = RunResult(
         dataset=summary["dataset"],
@@ -578,6 +719,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         query_turning=_bools(ds.get("query_turning")),
         reference_turning=_bools(ds.get("reference_turning")),
         protocol=summary["protocol"] if isinstance(summary.get("protocol"), dict) else {},
+        difference=_load_difference(folder, summary, n_queries, n_ref),
         ppaloc_version=summary.get("ppaloc_version", ""),
         created=summary.get("created", ""),
         roles=_roles(summary, path),

@@ -32,6 +32,7 @@ from ppaloc.datasets.frames import FrameSequence, as_frames
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.config import EvaluateConfig
+from ppaloc.evaluate.difference import DifferenceMatrix, DifferenceRecorder
 from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
 from ppaloc.evaluate.speed import speed_checks
 from ppaloc.localise.base import Estimate, Localiser
@@ -130,6 +131,9 @@ class MethodRun:
         The method read frames after the one it localised (offline, e.g. seqslam-centred).
     speed_check : dict, optional
         :func:`ppaloc.evaluate.speed.check_speed` for a method that declares its speeds.
+    frame_index : ndarray of int, shape (N,), optional
+        The map's ``TopoMap.frame_index``: each node's own reference frame (the weights
+        figure carries the truth from frames to nodes with it).
     """
 
     method: str
@@ -152,6 +156,7 @@ class MethodRun:
     registers: dict[str, np.ndarray] | None = None
     reads_future: bool = False
     speed_check: dict[str, Any] | None = None
+    frame_index: np.ndarray | None = None
 
     def summary(self) -> dict[str, Any]:
         """The method's entry of ``results.json`` (scalars only)."""
@@ -162,7 +167,7 @@ class MethodRun:
             "recall_at_f1": self.metrics.recall_at_f1,
             "auc": self.metrics.auc,
             "recall_at_100p": self.metrics.recall_at_100p,
-            "accuracy": self.metrics.accuracy,
+            "precision_at_100r": self.metrics.precision_at_100r,
             "latency_ms_median": _median_or_none(lat),
             "latency_ms_p95": _p95_or_none(lat),
             "modelled_latency_ms": _median_or_none(self.modelled_latency_ms),
@@ -234,6 +239,9 @@ class RunResult:
         method's predicted reference frame, :data:`PREDICTION_RULE`) and
         ``"ground_truth"`` (the dataset's own description of its accepted sets, its
         ``meta["ground_truth_rule"]``, where it gives one).
+    difference : DifferenceMatrix, optional
+        The method-independent frame difference of sampled (query, reference) pairs
+        (:mod:`ppaloc.evaluate.difference`), recorded as the run streams the frames.
     ppaloc_version, created : str
         Provenance.
     roles : dict of str to str, optional
@@ -254,6 +262,7 @@ class RunResult:
     query_turning: np.ndarray | None = None
     reference_turning: np.ndarray | None = None
     protocol: dict[str, Any] = field(default_factory=dict)
+    difference: DifferenceMatrix | None = None
     ppaloc_version: str = __version__
     created: str = ""
     roles: dict[str, str] | None = None
@@ -544,6 +553,7 @@ def run_method(
         motion_accuracy=motion_acc,
         registers=register_planes(loc),
         reads_future=reads_future,
+        frame_index=np.asarray(topomap.frame_index, dtype=np.int64),
     )
 
 
@@ -778,16 +788,19 @@ def run_evaluation(
     keep = len(plan) > 1 and (n_ref + n_query) * _SENSOR_FRAME_BYTES <= SHARED_FRAMES_BYTES
     reference = sensor_stream(dataset.reference, keep=keep)
     query = sensor_stream(dataset.query, keep=keep)
+    # The difference matrix, from the frames the first method streams (evaluate.difference)
+    difference = DifferenceRecorder(n_ref, n_query)
     with ProgressBar(progress) as bar:
         for name in names:
             bar.add(name, n_ref + n_query, label=f"{name} (map, queries)")
         for name, (params, loc) in plan.items():
             if localisers is None:
                 params = {**METHODS[name].defaults, **params}  # record the variant too
+            first = not runs
             runs[name] = run_method(
                 name,
-                reference,
-                query,
+                difference.watch_reference(reference) if first else reference,
+                difference.watch_query(query) if first else query,
                 gt,
                 params=params,
                 recall=config.recall,
@@ -800,6 +813,8 @@ def run_evaluation(
                 query_turning=dataset.meta.get("query_turning"),
             )
             runs[name].speed_check = speeds.get(name)
+            if first:  # the recorder's work during the map build is not the method's
+                runs[name].build_s = max(0.0, runs[name].build_s - difference.reference_seconds)
     resolved = config.to_dict()
     resolved["dataset"] = spec
     resolved["methods"] = list(names)
@@ -817,6 +832,7 @@ def run_evaluation(
         query_turning=_flags(dataset.meta.get("query_turning")),
         reference_turning=_flags(dataset.meta.get("reference_turning")),
         protocol=scoring_protocol(dataset),
+        difference=difference.result(reference, query),
         created=datetime.now(UTC).isoformat(timespec="seconds"),
         roles=dataset.meta.get("roles"),
     )

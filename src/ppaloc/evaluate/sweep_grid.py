@@ -25,14 +25,14 @@ from typing import Any
 import numpy as np
 
 from ppaloc import __version__
-from ppaloc.errors import PpalocError
+from ppaloc.errors import DataError, PpalocError
 from ppaloc.evaluate.config import (
     EvaluateConfig,
     check_tolerance,
     reject_unknown_keys,
     with_tolerance,
 )
-from ppaloc.evaluate.results import CSV_COLUMNS, ROLE_COLUMNS
+from ppaloc.evaluate.results import CSV_COLUMNS, ROLE_COLUMNS, upgrade_summary
 from ppaloc.fileio import new_folder, source_date, write_bytes
 
 __all__ = [
@@ -492,7 +492,10 @@ def cell_status(out: str | Path, cell: Cell) -> tuple[str, dict[str, Any] | None
         and isinstance(results.get("methods"), dict)
         and isinstance(results["methods"].get(cell.method), dict)
     ):
-        return "ok", results
+        try:  # a cell written before a field was renamed is read under today's names
+            return "ok", upgrade_summary(results, folder / "results.json")
+        except DataError as exc:
+            return str(exc), None
     error = _read_json(folder / "error.json")
     if isinstance(error, dict) and error.get("error"):
         return str(error["error"]), None
