@@ -158,7 +158,7 @@ def read_grey(path: Path, *, fix: str = FOLDER_FIX) -> np.ndarray:
     DataError
         If the file is missing, not an image, or corrupt (e.g. truncated).
     """
-    return _read(Path(path), None)[0]
+    return _read(Path(path), None, fix)[0]
 
 
 def read_grey_reduced(path: Path, at_least: int) -> tuple[np.ndarray, tuple[float, float]]:
@@ -182,10 +182,10 @@ def read_grey_reduced(path: Path, at_least: int) -> tuple[np.ndarray, tuple[floa
     DataError
         As :func:`read_grey`.
     """
-    return _read(Path(path), int(at_least))
+    return _read(Path(path), int(at_least), FOLDER_FIX)
 
 
-def _read(path: Path, draft: int | None) -> tuple[np.ndarray, tuple[float, float]]:
+def _read(path: Path, draft: int | None, fix: str) -> tuple[np.ndarray, tuple[float, float]]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)

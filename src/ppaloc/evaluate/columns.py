@@ -116,7 +116,8 @@ COLUMNS: tuple[Column, ...] = (
         "precision_at_100r",
         _FRACTION,
         "precision with every query accepted (the PR curve's last point) = queries whose best "
-        "match is correct / all queries, a query without a true match counting as wrong; accepting "
+        "match is correct / all queries, a query without a true match counting as wrong and a "
+        "soft prediction counting nowhere; accepting "
         "every query is 100% recall under recall B and C, while under A that point's recall is "
         "correct / queries with a true match (1 only when every one is right); the value is the "
         "same under every definition (results written before format 2 called it accuracy)",
@@ -165,8 +166,8 @@ COLUMNS: tuple[Column, ...] = (
         "error_frames_median",
         "reference frames",
         "per query with a true match, the distance from the predicted reference frame to the "
-        "nearest accepted one (0 when correct); the median over those queries, every estimate "
-        "counted (no threshold)",
+        "nearest accepted (hard) one (0 when correct); the median over those queries, every "
+        "estimate counted (no threshold)",
     ),
     Column(
         "Median error (m)",
