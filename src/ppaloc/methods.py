@@ -2,7 +2,9 @@
 
 Each entry names the class that implements it (imported only when asked for) and the
 keyword arguments that select the variant. A method whose module is not importable is
-simply not available. Adding a method means adding one line here.
+simply not available. Adding a built-in method means adding one line here; a package of
+one's own registers its methods in the ``ppaloc.methods`` entry-point group
+(:data:`ENTRY_POINTS`, :func:`registry`).
 
 What a method accepts and what it reads from a dataset is the class's own declaration:
 ``parameters() -> tuple[MethodParam, ...]`` (each parameter's type, default and range;
@@ -10,14 +12,17 @@ What a method accepts and what it reads from a dataset is the class's own declar
 DatasetNeed}`` (:class:`ppaloc.localise.base.DatasetNeed`, e.g. the true moves for the
 oracle motion model). The command, evaluation and sweeps read those declarations
 (:func:`method_parameters`, :func:`check_method`, :func:`dataset_arguments`) and know no
-method by name. A class that declares no parameters is read from its signature (and
-:data:`PARAM_LIMITS`).
+method by name. A class that declares no parameters (a plugin's, say) is read from its
+signature: types and defaults, no ranges.
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
+import importlib.metadata
 import inspect
+import logging
 import math
 import types
 import typing
@@ -26,11 +31,11 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.base import DatasetNeed, Localiser, MethodParam
+from ppaloc.localise.base import DatasetNeed, Localiser, MethodParam, signature_parameters
 
 __all__ = [
+    "ENTRY_POINTS",
     "METHODS",
-    "PARAM_LIMITS",
     "MethodSpec",
     "accepted_parameters",
     "available_methods",
@@ -40,7 +45,11 @@ __all__ = [
     "dataset_needs",
     "make_localiser",
     "method_parameters",
+    "plugins",
+    "registry",
 ]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -117,59 +126,6 @@ METHODS: dict[str, MethodSpec] = {
 }
 
 
-_SEED = (0, 2**63 - 1)
-_SIZE = (1, 1024)
-_TOP_K = (1, 10_000)
-_WINDOW = (0, 10_000)
-
-PARAM_LIMITS: dict[str, dict[str, tuple[float, float]]] = {
-    "ppaloc.baselines.seqslam:SeqSLAM": {
-        "size": _SIZE,
-        "patch": (1, 1024),
-        "ds": (0, 500),  # the trajectory set-up grows as ds^2: about 1 s at 500
-        "vmin": (0.001, 100.0),
-        "vmax": (0.001, 100.0),
-        "vstep": (0.001, 100.0),
-        "rwindow": (0, 1_000_000),
-        "enhance_window": _WINDOW,
-        "top_k": _TOP_K,
-    },
-    "ppaloc.baselines.ablem:ABLEM": {
-        "length": (1, 1000),
-        "side": (8, 1024),
-        "levels": (1, 64),
-        "n_bits": (1, 1_000_000),
-        "bit_seed": _SEED,
-        "rwindow": (0, 1_000_000),
-        "top_k": _TOP_K,
-    },
-    "ppaloc.baselines.particle:ParticleFilter": {
-        "n_particles": (1, 10_000_000),
-        "p_stay": (0.0, 1.0),
-        "p_forward": (0.0, 1.0),
-        "p_jump": (0.0, 1.0),
-        "max_jump": (2, 1_000_000),
-        "sigma_rel": (1e-9, 1e6),
-        "enhance_window": _WINDOW,
-        "size": _SIZE,
-        "patch": (1, 1024),
-        "seed": _SEED,
-        "top_k": _TOP_K,
-    },
-    "ppaloc.baselines.single:SingleFrame": {
-        "size": _SIZE,
-        "patch": (1, 1024),
-        "radius": (0, 1_000_000),
-        "top_k": _TOP_K,
-    },
-    "ppaloc.onsensor.localiser:OnSensorLocaliser": {"seed": _SEED, "size": (16, 256)},
-}
-"""Accepted range of each numeric parameter of the classes that declare no ``parameters()``,
-per implementation (a list parameter's range holds for each item), where a value drives
-memory or time or leaves the method's meaning; the types come from the class's signature.
-The published defaults all lie inside."""
-
-
 def _type_words(hint: Any) -> str:
     """What a type hint asks for, in words."""
     origin, args = typing.get_origin(hint), typing.get_args(hint)
@@ -215,6 +171,52 @@ def _fits(value: Any, hint: Any) -> bool:
     return True  # a type the command line cannot express (an array, an object): the class checks
 
 
+ENTRY_POINTS = "ppaloc.methods"
+"""The entry-point group a package registers its own methods in: ``NAME = "module:Class"``
+(a :class:`~ppaloc.localise.base.Localiser` class) or ``NAME = "module:SPEC"`` (a
+:class:`MethodSpec`, for fixed keyword arguments and a summary). They are offered
+everywhere a built-in method is (``evaluate``, ``sweep``, ``bench``, ``map``,
+``localise``); docs/evaluate-cli.md, "Your own method"."""
+
+
+def registry() -> dict[str, MethodSpec]:
+    """Every method by name: the built-in :data:`METHODS`, then the :func:`plugins`
+    installed packages register (a plugin never replaces a built-in method)."""
+    out = dict(METHODS)
+    for name, spec in plugins().items():
+        out.setdefault(name, spec)
+    return out
+
+
+@functools.cache
+def plugins() -> dict[str, MethodSpec]:
+    """The methods installed packages register in the :data:`ENTRY_POINTS` group.
+
+    A plugin that cannot be loaded, is neither a class nor a :class:`MethodSpec`, or takes
+    a built-in's name is left out with a logged warning naming it. Read once per process
+    (``plugins.cache_clear()`` reads again).
+    """
+    out: dict[str, MethodSpec] = {}
+    for ep in sorted(importlib.metadata.entry_points(group=ENTRY_POINTS), key=lambda e: e.name):
+        where = f"method {ep.name!r} of the {ENTRY_POINTS} entry point {ep.value!r}"
+        if ep.name in METHODS or ep.name in out:
+            log.warning("%s: a method of that name exists; the plugin is not offered", where)
+            continue
+        try:
+            obj = ep.load()
+        except Exception as exc:  # a broken plugin must not break the command
+            log.warning("%s cannot be loaded (%s); it is not offered", where, exc)
+            continue
+        if isinstance(obj, MethodSpec):
+            out[ep.name] = obj
+        elif isinstance(obj, type):
+            doc = (inspect.getdoc(obj) or "").split("\n")[0]
+            out[ep.name] = MethodSpec(ep.value, {}, f"{doc} (plugin)".strip())
+        else:
+            log.warning("%s is not a class or a MethodSpec; it is not offered", where)
+    return out
+
+
 def method_parameters(name: str) -> dict[str, MethodParam] | None:
     """The parameters method ``name`` accepts, by name, in the class's order (None: any,
     for a class that declares none and takes ``**kwargs``).
@@ -225,24 +227,14 @@ def method_parameters(name: str) -> dict[str, MethodParam] | None:
     >>> p.default, p.low, p.high
     (4, 1, 32)
     """
-    spec, cls = _method_class(name)
+    _, cls = _method_class(name)
     declared = getattr(cls, "parameters", None)
     if callable(declared):
         return {p.name: p for p in declared()}
     signature = inspect.signature(cls)
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values()):
         return None
-    try:
-        hints = typing.get_type_hints(cls.__init__)
-    except Exception:  # an annotation that does not resolve: leave the types to the class
-        hints = {}
-    limits = PARAM_LIMITS.get(spec.target, {})
-    out = {}
-    for key, p in signature.parameters.items():
-        default = None if p.default is inspect.Parameter.empty else p.default
-        low, high = limits.get(key, (None, None))
-        out[key] = MethodParam(key, hints.get(key, Any), default, low, high)
-    return out
+    return {p.name: p for p in signature_parameters(cls)}
 
 
 def check_parameters(name: str, params: Mapping[str, Any]) -> None:
@@ -331,11 +323,12 @@ def dataset_arguments(
 
 def _method_class(name: str) -> tuple[MethodSpec, type]:
     """The registry entry of ``name`` and its class, or a one-line error naming the fix."""
-    if name not in METHODS:
+    methods = registry()
+    if name not in methods:
         raise PpalocError(
             f"unknown method {name!r}; choose one of: {', '.join(available_methods())}"
         )
-    spec = METHODS[name]
+    spec = methods[name]
     try:
         return spec, _load(spec)
     except (ImportError, AttributeError) as exc:
@@ -350,7 +343,7 @@ def _load(spec: MethodSpec) -> type:
 def available_methods() -> list[str]:
     """Names of the registered methods whose implementation can be imported."""
     names = []
-    for name, spec in METHODS.items():
+    for name, spec in registry().items():
         try:
             _load(spec)
         except (ImportError, AttributeError):

@@ -51,7 +51,7 @@ def test_score_writes_the_results_and_report_of_evaluate(spec, tmp_path, capsys)
     summary = json.loads((out / "results.json").read_text())
     assert list(summary["methods"]) == ["mine"]
     m = summary["methods"]["mine"]
-    assert m["f1_max"] == 0.75 and m["accuracy"] == 0.75 and m["recall_at_100p"] == 0.5
+    assert m["f1_max"] == 0.75 and m["precision_at_100r"] == 0.75 and m["recall_at_100p"] == 0.5
     assert m["params"] == {"predictions": str(f)} and m["latency_ms_median"] is None
     assert summary["protocol"]["prediction"].startswith("one reference frame per query, as ")
     assert summary["config"]["command"] == "score"
@@ -77,7 +77,7 @@ def test_several_files_and_a_method_column_make_several_methods(spec, tmp_path, 
     assert code == 0, err
     methods = json.loads((out / "results.json").read_text())["methods"]
     assert list(methods) == ["netvlad", "x", "y"]
-    assert methods["x"]["f1_max"] == 1.0 and methods["y"]["accuracy"] == 0.0
+    assert methods["x"]["f1_max"] == 1.0 and methods["y"]["precision_at_100r"] == 0.0
 
 
 def test_a_localise_csv_is_scored_as_it_is(tmp_path, capsys, spec):
@@ -96,7 +96,7 @@ def test_a_localise_csv_is_scored_as_it_is(tmp_path, capsys, spec):
     code, _, err = run(capsys, "score", est, "-d", spec, "--out", tmp_path / "s", "-q")
     assert code == 0, err
     methods = json.loads((tmp_path / "s" / "results.json").read_text())["methods"]
-    assert methods["est"]["accuracy"] == 1.0 and methods["est"]["latency_ms_median"] > 0
+    assert methods["est"]["precision_at_100r"] == 1.0 and methods["est"]["latency_ms_median"] > 0
 
 
 # -- every problem: one line naming the row and the fix, before any work -----------------------

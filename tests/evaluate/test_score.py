@@ -56,7 +56,7 @@ def test_a_hand_computed_golden(tmp_path):
     m = run.metrics
     assert m.f1_max == pytest.approx(0.75)
     assert m.recall_at_100p == pytest.approx(0.5)
-    assert m.accuracy == pytest.approx(0.75)
+    assert m.precision_at_100r == pytest.approx(0.75)
     assert m.curve.precision.tolist() == pytest.approx([1, 1, 2 / 3, 3 / 4])
     assert run.ranking.shape == (4, 0) and np.isnan(run.latency_ms).all()
     assert (run.moved == -1).all() and run.build_s is None
@@ -101,7 +101,7 @@ def test_a_localise_csv_is_read_as_it_is(tmp_path):
     assert p.moved.tolist() == [0, 1, -1, 1] and p.latency_ms.tolist() == [0.5, 0.25, 1, 1]
     # a dataset without frame names: the indices are used (the empty names ignored)
     run = score_predictions(ScoreConfig("t", (str(f),)), dataset=_dataset(n=4)).runs["est"]
-    assert run.ref_index.tolist() == [3, 0, 2, 3] and run.metrics.accuracy == 0.5
+    assert run.ref_index.tolist() == [3, 0, 2, 3] and run.metrics.precision_at_100r == 0.5
     assert run.motion_accuracy is None  # the dataset does not know the true motion
 
 
@@ -127,7 +127,7 @@ def test_names_are_matched_where_the_dataset_has_files(tmp_path):
         + "".join(f"{i},{query}/img{i + 1}.png,{i},img{i + 1}.png,1\n" for i in range(4)),
     )
     run = score_predictions(ScoreConfig(spec, (str(f),))).runs["p"]
-    assert run.ref_index.tolist() == [0, 1, 2, 3] and run.metrics.accuracy == 1.0
+    assert run.ref_index.tolist() == [0, 1, 2, 3] and run.metrics.precision_at_100r == 1.0
 
 
 def test_a_video_frame_is_named_by_its_file_and_index(tmp_path):

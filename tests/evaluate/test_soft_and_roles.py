@@ -49,7 +49,11 @@ def test_soft_truth_and_roles_round_trip(mean_match, softened, tmp_path):
         r.tolist() for r in softened.soft_ground_truth
     ]
     m_back = back.runs[mean_match].metrics
-    assert (m_back.f1_max, m_back.accuracy, m_back.n_soft) == (m.f1_max, m.accuracy, m.n_soft)
+    assert (m_back.f1_max, m_back.precision_at_100r, m_back.n_soft) == (
+        m.f1_max,
+        m.precision_at_100r,
+        m.n_soft,
+    )
     assert summary["methods"][mean_match]["n_soft"] == m.n_soft
     with open(tmp_path / "results.csv") as f:
         rows = list(csv.DictReader(f))
@@ -65,7 +69,7 @@ def test_a_soft_prediction_changes_precision_not_recall(mean_match, softened, ti
     # every prediction one frame ahead: never hard, soft but for the last query's (no true
     # match, no soft set): precision and accuracy judge that one alone
     assert shifted.n_correct == 0 and shifted.n_soft == len(tiny.query) - 1
-    assert shifted.f1_max == 0.0 and shifted.accuracy == 0.0
+    assert shifted.f1_max == 0.0 and shifted.precision_at_100r == 0.0
     assert shifted.curve.soft_accepted[-1] == len(tiny.query) - 1
     plain = run_evaluation(
         cfg,
@@ -75,7 +79,7 @@ def test_a_soft_prediction_changes_precision_not_recall(mean_match, softened, ti
         ),
         progress=False,
     ).runs[mean_match].metrics  # fmt: skip
-    assert plain.n_soft == 0 and plain.accuracy == 0.0
+    assert plain.n_soft == 0 and plain.precision_at_100r == 0.0
 
 
 def test_old_folders_without_roles_or_soft_still_load(mean_match, tiny, tmp_path):

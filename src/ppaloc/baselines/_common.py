@@ -9,11 +9,13 @@ matching.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
+from typing import ClassVar
 
 import numpy as np
 
 from ppaloc.baselines._image import mean_abs_diff, preprocess
 from ppaloc.errors import PpalocError
+from ppaloc.localise.base import MethodParam, signature_parameters
 from ppaloc.topomap import TopoMap
 
 __all__ = [
@@ -130,6 +132,14 @@ class MapLocaliser:
     name: str
     kind: str
     map: TopoMap | None
+    #: Accepted range of each numeric keyword parameter (a subclass's table).
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {}
+
+    @classmethod
+    def parameters(cls) -> tuple[MethodParam, ...]:
+        """Every keyword the class takes (:class:`~ppaloc.localise.base.MethodParam`): the
+        signature's types and defaults, the ranges of :attr:`RANGES`."""
+        return signature_parameters(cls, cls.RANGES)
 
     @property
     def descriptor_shape(self) -> tuple[int, ...]:

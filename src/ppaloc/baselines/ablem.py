@@ -24,7 +24,7 @@ scalable augmented reality on mobile devices", ISMAR 2012.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
@@ -96,6 +96,18 @@ class ABLEM(MapLocaliser):
 
     name = "able-m"
     kind = KIND
+
+    #: Accepted range of each numeric parameter, where a value drives memory or time or
+    #: leaves the method's meaning; the published defaults lie inside.
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {
+        "length": (1, 1000),
+        "side": (8, 1024),
+        "levels": (1, 64),
+        "n_bits": (1, 1_000_000),
+        "bit_seed": (0, 2**63 - 1),
+        "rwindow": (0, 1_000_000),
+        "top_k": (1, 10_000),
+    }
 
     def __init__(
         self,

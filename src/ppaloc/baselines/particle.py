@@ -31,7 +31,7 @@ IROS 2012, and "Towards improving the efficiency of sequence-based SLAM", ICMA 2
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
@@ -113,6 +113,23 @@ class ParticleFilter(ImageLocaliser):
 
     name = "particle-filter"
     kind = KIND
+
+    #: Accepted range of each numeric parameter (of each item of a pair), where a value
+    #: drives memory or time or leaves the method's meaning; the published defaults lie
+    #: inside.
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {
+        "n_particles": (1, 10_000_000),
+        "p_stay": (0.0, 1.0),
+        "p_forward": (0.0, 1.0),
+        "p_jump": (0.0, 1.0),
+        "max_jump": (2, 1_000_000),
+        "sigma_rel": (1e-9, 1e6),
+        "enhance_window": (0, 10_000),
+        "size": (1, 1024),
+        "patch": (1, 1024),
+        "seed": (0, 2**63 - 1),
+        "top_k": (1, 10_000),
+    }
 
     def __init__(
         self,

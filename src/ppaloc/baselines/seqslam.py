@@ -42,7 +42,7 @@ Challenging SeqSLAM on a 3000 km journey across all four seasons", ICRA 2013 wor
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
@@ -237,6 +237,21 @@ class SeqSLAM(ImageLocaliser):
 
     name = "seqslam"
     kind = KIND
+
+    #: Accepted range of each numeric parameter (of each item of a pair), where a value
+    #: drives memory or time or leaves the method's meaning; the published defaults lie
+    #: inside. ``ds``: the trajectory set-up grows as ds^2, about 1 s at 500.
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {
+        "size": (1, 1024),
+        "patch": (1, 1024),
+        "ds": (0, 500),
+        "vmin": (0.001, 100.0),
+        "vmax": (0.001, 100.0),
+        "vstep": (0.001, 100.0),
+        "rwindow": (0, 1_000_000),
+        "enhance_window": (0, 10_000),
+        "top_k": (1, 10_000),
+    }
 
     def __init__(
         self,

@@ -8,6 +8,8 @@ distance outside ``+- radius`` nodes: ``1 - d_best / d_second``.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
 from ppaloc.baselines._common import ImageLocaliser, top_k, uniqueness_ratio
@@ -40,6 +42,15 @@ class SingleFrame(ImageLocaliser):
 
     name = "single-frame"
     kind = KIND
+
+    #: Accepted range of each numeric parameter (of each item of a pair), where a value
+    #: drives memory or time or leaves the method's meaning; the defaults lie inside.
+    RANGES: ClassVar[dict[str, tuple[float, float]]] = {
+        "size": (1, 1024),
+        "patch": (1, 1024),
+        "radius": (0, 1_000_000),
+        "top_k": (1, 10_000),
+    }
 
     def __init__(
         self,

@@ -187,12 +187,12 @@ def _method_for_map(topomap: Any, method: str | None) -> str:
 def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
     """Refuse a map of another kind than ``loc`` needs, naming the methods that read it and
     how to build the right one."""
-    from ppaloc.methods import METHODS
+    from ppaloc.methods import registry
 
     needs = getattr(loc, "representation", None) or getattr(loc, "kind", None)
     if needs is None or topomap.kind == needs:
         return
-    readers = [m for m, s in METHODS.items() if s.defaults.get("representation") == topomap.kind]
+    readers = [m for m, s in registry().items() if s.defaults.get("representation") == topomap.kind]
     built_by = topomap.provenance.get("method")
     if built_by and built_by not in readers:
         readers.insert(0, str(built_by))

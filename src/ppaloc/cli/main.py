@@ -146,14 +146,14 @@ def _check_method_params(params: Any, source: Path | None) -> None:
     """Each ``params`` table names a known method and holds only its valid parameters
     (type and range, then the method's own checks: it is built once, without a map),
     before any work."""
-    from ppaloc.methods import METHODS, check_method
+    from ppaloc.methods import check_method, registry
 
     where = f" in {source}" if source else ""
     for method, values in (params or {}).items():
-        if method not in METHODS:
+        if method not in registry():
             raise PpalocError(
                 f"params given for unknown method {_short(method)}{where}; methods: "
-                + ", ".join(METHODS)
+                + ", ".join(registry())
             )
         check_method(method, values)  # what it reads from the dataset: when it runs
 
@@ -274,11 +274,11 @@ class _MethodsHelp(click.Command):
 
     def format_epilog(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         super().format_epilog(ctx, formatter)
-        from ppaloc.methods import METHODS, available_methods
+        from ppaloc.methods import available_methods, registry
 
         names = available_methods()
         with formatter.section("Available methods"):
-            formatter.write_dl([(n, METHODS[n].summary) for n in names] or [("(none)", "")])
+            formatter.write_dl([(n, registry()[n].summary) for n in names] or [("(none)", "")])
 
 
 @click.group(

@@ -37,13 +37,13 @@ from ppaloc.evaluate.metrics import Metrics, evaluate_estimates
 from ppaloc.evaluate.speed import speed_checks
 from ppaloc.localise.base import Estimate, Localiser
 from ppaloc.methods import (
-    METHODS,
     accepted_parameters,
     available_methods,
     check_method,
     dataset_arguments,
     dataset_needs,
     make_localiser,
+    registry,
 )
 
 __all__ = [
@@ -305,7 +305,7 @@ def resolve_methods(names: Sequence[str]) -> list[str]:
     out: list[str] = []
     for name in names:
         if name not in available:
-            why = "is not available in this install" if name in METHODS else "is unknown"
+            why = "is not available in this install" if name in registry() else "is unknown"
             raise PpalocError(
                 f"method {name!r} {why}; choose from: {', '.join(available)} "
                 "(see `ppaloc evaluate --help`)"
@@ -747,10 +747,10 @@ def run_evaluation(
     # Construct every localiser before loading data, so a bad parameter fails fast.
     plan: dict[str, tuple[dict[str, Any], Localiser | None]] = {}
     if localisers is None:
-        unknown = sorted(set(config.params) - set(METHODS))
+        unknown = sorted(set(config.params) - set(registry()))
         if unknown:
             raise PpalocError(
-                f"params given for unknown method {unknown[0]!r}; methods: {', '.join(METHODS)}"
+                f"params given for unknown method {unknown[0]!r}; methods: {', '.join(registry())}"
             )
         for name in resolve_methods(config.methods):
             params = localiser_params(
@@ -795,7 +795,7 @@ def run_evaluation(
             bar.add(name, n_ref + n_query, label=f"{name} (map, queries)")
         for name, (params, loc) in plan.items():
             if localisers is None:
-                params = {**METHODS[name].defaults, **params}  # record the variant too
+                params = {**registry()[name].defaults, **params}  # record the variant too
             first = not runs
             runs[name] = run_method(
                 name,

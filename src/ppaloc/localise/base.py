@@ -11,7 +11,7 @@ import numpy as np
 if TYPE_CHECKING:
     from ppaloc.topomap import TopoMap
 
-__all__ = ["DatasetNeed", "Estimate", "Localiser", "MethodParam"]
+__all__ = ["DatasetNeed", "Estimate", "Localiser", "MethodParam", "signature_parameters"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,3 +118,34 @@ class DatasetNeed:
     why: str
     fix: str
     stand_in: Any = None
+
+
+def signature_parameters(
+    cls: type, ranges: dict[str, tuple[float, float]] | None = None
+) -> tuple[MethodParam, ...]:
+    """A class's keyword parameters as :class:`MethodParam`: the types of its ``__init__``
+    annotations, the defaults of its signature and ``ranges`` (name -> (low, high)), so each
+    parameter has one default (the signature's) and one range (the class's table).
+
+    Examples
+    --------
+    >>> class Toy:
+    ...     def __init__(self, *, size: int = 8, name: str = "toy") -> None: ...
+    >>> [(p.name, p.hint, p.default, p.high) for p in signature_parameters(Toy, {"size": (1, 64)})]
+    [('size', <class 'int'>, 8, 64), ('name', <class 'str'>, 'toy', None)]
+    """
+    import inspect
+    import typing
+
+    try:
+        hints = typing.get_type_hints(cls.__init__)  # type: ignore[misc]
+    except Exception:  # an annotation that does not resolve: leave the types to the class
+        hints = {}
+    out = []
+    for key, p in inspect.signature(cls).parameters.items():
+        if p.kind in (inspect.Parameter.VAR_KEYWORD, inspect.Parameter.VAR_POSITIONAL):
+            continue
+        default = None if p.default is inspect.Parameter.empty else p.default
+        low, high = (ranges or {}).get(key, (None, None))
+        out.append(MethodParam(key, hints.get(key, Any), default, low, high))
+    return tuple(out)
