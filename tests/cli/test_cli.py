@@ -454,3 +454,27 @@ def test_evaluate_on_a_nordland_slice(nordland_dir, tmp_path, capsys):
     summary = json.loads((out / "results.json").read_text())
     assert summary["n_queries"] == 40 and summary["n_reference"] == 40
     assert 0.0 <= summary["methods"][method]["f1_max"] <= 1.0
+
+
+def test_warm_up_runs_the_pipelines_then_waits_for_their_compiles(monkeypatch, capsys):
+    """`ppaloc warm-up` runs every on-sensor pipeline, then compiles in the foreground
+    (here the runs and the compiles are counted, not made)."""
+    import ppaloc.onsensor.warm as warm
+
+    calls = []
+
+    class Counted:
+        def __init__(self, rep, **kw):
+            calls.append((rep, kw["preset"], kw["noise"]))
+
+        def build_map(self, frames):
+            assert len(frames) == 24
+
+        def step(self, frame):
+            pass
+
+    monkeypatch.setattr(warm, "OnSensorLocaliser", Counted)
+    monkeypatch.setattr(warm, "finish_compiles", lambda progress: 2)
+    assert main(["warm-up"]) == 0
+    assert sorted(calls) == sorted(warm.CONFIGS)
+    assert "compiled 16 fused stretches" in capsys.readouterr().out

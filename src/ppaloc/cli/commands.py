@@ -30,6 +30,7 @@ __all__ = [
     "run_score",
     "run_show",
     "run_sweep",
+    "run_warm_up",
 ]
 
 
@@ -610,3 +611,27 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     if not quiet:
         print(f"{path}: {len(planes)} planes -> {out}")
     return out
+
+
+# -- warm-up ---------------------------------------------------------------------------------
+
+
+def run_warm_up(*, quiet: bool = False) -> int:
+    """Compile the fused code of every on-sensor pipeline (:func:`ppaloc.onsensor.warm.warm_up`)
+    with a progress bar; print how many stretches were compiled. Returns that number."""
+    from ppaloc.evaluate.run import ProgressBar
+    from ppaloc.onsensor.warm import CONFIGS, warm_up
+
+    with ProgressBar(not quiet) as bar:
+        bar.add("run", len(CONFIGS), label="pipelines run")
+        bar.add("compile", 1, label="stretches compiled")
+
+        def progress(task: str, done: int, total: int) -> None:
+            if task == "compile":
+                bar.set_total("compile", total)
+            bar(task, done)
+
+        n = warm_up(progress)
+    if not quiet:
+        print(f"compiled {n} fused stretches; later runs find them in the cache folder")
+    return n

@@ -878,6 +878,21 @@ def show(path: Path, out: Path | None, quiet: bool | None) -> None:
     run_show(path, None if out is None else _output(out, folder=False), quiet=bool(quiet))
 
 
+@cli.command(
+    "warm-up",
+    epilog="""\b
+Examples:
+  ppaloc warm-up        # once per machine (and after an upgrade); a few minutes""",
+)
+@_QUIET
+def warm_up(quiet: bool | None) -> None:
+    """Compile the simulator's fast code for the on-sensor pipelines now, in the
+    foreground, instead of in the background of the commands that run them."""
+    from ppaloc.cli.commands import run_warm_up
+
+    run_warm_up(quiet=bool(quiet))
+
+
 @cli.group()
 def cpp() -> None:
     """SCAMP-5d C++ programs on the simulator (docs/cpp.md)."""

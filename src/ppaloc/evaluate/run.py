@@ -705,6 +705,11 @@ class ProgressBar:
         if self._bar is not None:
             self._tasks[name] = self._bar.add_task(label or name, total=total)
 
+    def set_total(self, name: str, total: int) -> None:
+        """Change task ``name``'s total (work found as it goes)."""
+        if self._bar is not None and name in self._tasks:
+            self._bar.update(self._tasks[name], total=total)
+
     def __call__(self, name: str, done: int) -> None:
         if self._bar is not None and name in self._tasks:
             self._bar.update(self._tasks[name], completed=done)

@@ -26,7 +26,15 @@ from ppaloc.sim.isa import Instruction
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["ENGINES", "Engine", "available_engines", "default_engine", "in_order", "make_engine"]
+__all__ = [
+    "ENGINES",
+    "Engine",
+    "available_engines",
+    "default_engine",
+    "finish_compiles",
+    "in_order",
+    "make_engine",
+]
 
 #: Engine name -> "module:Class", slowest first.
 ENGINES: dict[str, str] = {
@@ -97,3 +105,15 @@ def make_engine(name: str | None, sim: Scamp5) -> Engine:
     _check(name, f"engine={name!r}")
     module, cls = ENGINES[name].split(":")
     return getattr(importlib.import_module(module), cls)(sim)
+
+
+def finish_compiles(progress: Callable[[int, int], None] | None = None) -> int:
+    """Compile, in the foreground, every fused stretch this process has asked for (the
+    compiled engine's second tier compiles them in a background process otherwise, and
+    stops at exit whatever is unfinished); ``progress(done, total)`` after each. Returns
+    how many were compiled (0 without numba)."""
+    if importlib.util.find_spec("numba") is None:
+        return 0
+    from ppaloc.sim.engines import fused
+
+    return fused.background.drain(progress)

@@ -30,9 +30,11 @@ module run as ``python -m``) while its first tier goes on.
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 import importlib.util
 import json
+import logging
 import math
 import os
 import re
@@ -55,6 +57,8 @@ __all__ = [
     "failed", "fusable", "groups", "load", "mark_cached", "plan", "scratch_planes",
     "source",
 ]  # fmt: skip
+
+log = logging.getLogger(__name__)
 
 _TRANSFERS = ("bus", "bus2", "bus3", "busn", "sq")
 #: ICWs a pass can hold (the others end it and run on the first tier).
@@ -780,11 +784,21 @@ class Background:
     """Compiles generated modules in a separate process, one at a time, so that a
     simulator keeps running its first tier meanwhile (compiling takes seconds per
     stretch; the second core of a machine does it). A finished module is marked as
-    :func:`cached`; a process that fails marks it ``.failed`` and it is not tried again."""
+    :func:`cached`; a process that fails marks it ``.failed`` and it is not tried again.
+
+    No compile outlives the process that asked for it: when that process exits (or is
+    killed) the running compile is stopped and the queue dropped (a stopped compile marks
+    nothing, so it is asked for again the next time). The first compile of a process is
+    announced (logged at INFO, ``ppaloc -v`` shows it); ``PPALOC_FUSE_AFTER=never``
+    switches the tier off, and ``ppaloc warm-up`` compiles ahead, in the foreground.
+    """
 
     def __init__(self) -> None:
         self._queue: list[tuple[str, list[str]]] = []
         self._running: subprocess.Popen | None = None
+        self.started = 0
+        self.stopped = 0
+        self._hooked = False
 
     def request(self, text: str, shapes: dict[str, list[int]]) -> None:
         """Queue ``text`` for compiling with arguments of ``shapes`` (see :func:`_warm`)."""
@@ -803,15 +817,87 @@ class Background:
         while self._queue:
             text, argv = self._queue.pop(0)
             if not (cached(text) or failed(text)):
+                if not self._hooked:
+                    atexit.register(self.stop)
+                    self._hooked = True
+                if not self.started:
+                    log.info(
+                        "compiling fused kernels in a background process while the first "
+                        "tier runs (PPALOC_FUSE_AFTER=never: off; `ppaloc warm-up` compiles "
+                        "them ahead)"
+                    )
                 self._running = subprocess.Popen(
                     argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                    stderr=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL, env={**os.environ, PARENT_ENV: str(os.getpid())},
                 )  # fmt: skip
+                self.started += 1
                 return
+
+    def drain(self, progress: Callable[[int, int], None] | None = None) -> int:
+        """Compile everything queued, waiting for each process in turn (the foreground
+        compile of ``ppaloc warm-up``); ``progress(done, total)`` after each. Returns how
+        many compiles ran."""
+        done = 0
+        while True:
+            if self._running is not None:
+                self._running.wait()
+                self._running = None
+                done += 1
+                if progress:
+                    progress(done, done + len(self._queue))
+            if not self._queue:
+                return done
+            self.poll()
+            if self._running is None:  # the rest were cached or failed meanwhile
+                self._queue.clear()
+                return done
+
+    def stop(self) -> int:
+        """Stop the running compile and drop the queue; returns how many were left
+        unfinished (the running one and the queued ones)."""
+        left = len(self._queue)
+        self._queue.clear()
+        proc, self._running = self._running, None
+        if proc is not None and proc.poll() is None:
+            left += 1
+            proc.terminate()
+            try:
+                proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        if left:
+            self.stopped += left
+            log.info("stopped %d unfinished fused-kernel compile(s) at exit", left)
+        return left
 
 
 #: The one background compiler of this process.
 background = Background()
+
+
+#: The environment variable through which a background compile learns which process
+#: asked for it (it ends at once if that one has died already).
+PARENT_ENV = "PPALOC_COMPILE_PARENT"
+
+
+def _die_with_parent() -> None:
+    """Linux: be sent SIGTERM when the process that started this one dies (even by
+    SIGKILL), so no compile outlives the command that asked for it; elsewhere nothing.
+    A process started by another than :data:`PARENT_ENV` names ends at once (its parent
+    died before this one could ask to follow it)."""
+    given = os.environ.get(PARENT_ENV, "")
+    parent = int(given) if given.isdigit() else os.getppid()
+    try:
+        import ctypes
+        import signal
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGTERM), 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:  # the parent died before the request took effect
+        sys.exit(0)
 
 
 def failed(text: str) -> bool:
@@ -822,6 +908,7 @@ def failed(text: str) -> bool:
 def _warm(path: str, shapes: dict[str, list[int]]) -> None:
     """Compile the module at ``path`` by one run on zero arrays of ``shapes`` (those of
     the simulator's arguments, so numba caches the same signature), then mark it."""
+    _die_with_parent()
     os.nice(10)
     name = Path(path).stem
     spec = importlib.util.spec_from_file_location(name, path)
