@@ -8,7 +8,10 @@
   map nodes (after Liu & Zhang);
 - :class:`~ppaloc.baselines.single.SingleFrame`: the best single-frame match.
 
-See docs/baselines.md for every parameter and each deviation from the original.
+SeqSLAM, the particle filter and single-frame matching compare SeqSLAM's patch-normalised
+image by default, or the weighted-node filter's own place (``descriptor="lowres"`` or
+``"lbp"``); ABLE-M its LDB code or the filter's LBP code. See docs/baselines.md for every
+parameter and each deviation from the original.
 """
 
 from ppaloc.baselines.ablem import ABLEM

@@ -1,9 +1,10 @@
 """What the baselines share: map building and checks, rankings and uniqueness confidences.
 
 :class:`MapLocaliser` holds the map handling every baseline repeats (``build_map``,
-``use_map``); :class:`ImageLocaliser` adds SeqSLAM's patch-normalised image as the node
-descriptor and the difference column, for SeqSLAM, the particle filter and single-frame
-matching.
+``use_map``); :class:`ImageLocaliser` adds the node descriptor of SeqSLAM, the particle
+filter and single-frame matching (SeqSLAM's patch-normalised image by default, or the
+weighted-node filter's low-res image or LBP code: :mod:`ppaloc.baselines._descriptors`)
+and the difference column.
 """
 
 from __future__ import annotations
@@ -13,6 +14,13 @@ from typing import ClassVar
 
 import numpy as np
 
+from ppaloc.baselines._descriptors import (
+    LOWRES_CONTRAST,
+    lbp_distances,
+    lbp_place,
+    lowres_distances,
+    lowres_place,
+)
 from ppaloc.baselines._image import mean_abs_diff, preprocess
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import MethodParam, signature_parameters
@@ -126,12 +134,18 @@ class MapLocaliser:
 
     A subclass sets ``name`` and ``kind`` (the ``TopoMap.kind`` it writes) and provides
     ``describe(frame)``, ``descriptor_shape`` (the per-node shape its parameters give),
-    ``params()`` (stored with the map) and ``reset()``.
+    ``params()`` (stored with the map) and ``reset()``. A subclass that takes several node
+    descriptors lists them in ``DESCRIPTORS`` (its own first), sets ``descriptor`` and
+    stores it in ``params()["descriptor"]``; :meth:`use_map` refuses a map of another.
     """
 
     name: str
     kind: str
     map: TopoMap | None
+    #: The node descriptors the class can compare, its own (the default) first.
+    DESCRIPTORS: ClassVar[tuple[str, ...]] = ()
+    #: The node descriptor of this instance (one of :attr:`DESCRIPTORS`).
+    descriptor: str = ""
     #: Accepted range of each numeric keyword parameter (a subclass's table).
     RANGES: ClassVar[dict[str, tuple[float, float]]] = {}
 
@@ -149,6 +163,11 @@ class MapLocaliser:
     def params(self) -> dict:
         """The parameters that shape the map (JSON-serialisable)."""
         raise NotImplementedError
+
+    def descriptor_params(self) -> dict:
+        """What the node descriptor is (JSON-serialisable), part of :meth:`params`:
+        ``{"descriptor": ...}`` for a class with :attr:`DESCRIPTORS`, else nothing."""
+        return {"descriptor": self.descriptor} if self.DESCRIPTORS else {}
 
     def describe(self, frame: np.ndarray) -> np.ndarray:
         """The node descriptor of one sensor frame, shape ``descriptor_shape``."""
@@ -175,35 +194,94 @@ class MapLocaliser:
         Raises
         ------
         PpalocError
-            If the map is of another kind, empty, or its descriptors have another shape.
+            If the map is of another kind, holds another node descriptor (a map without
+            ``params["descriptor"]`` holds the class's own), is empty, or its descriptors
+            have another shape.
         """
+        if self.DESCRIPTORS and topomap.kind == self.kind:
+            params = topomap.params if isinstance(topomap.params, dict) else {}
+            got = params.get("descriptor", self.DESCRIPTORS[0])
+            if got != self.descriptor:
+                raise PpalocError(
+                    f"{self.name}: the map's nodes are descriptor={got!r} but this localiser "
+                    f"compares descriptor={self.descriptor!r}; give descriptor={got!r} or "
+                    "build the map again"
+                )
+            want = self.descriptor_params().get("contrast")
+            if want is not None and params.get("contrast") != want:
+                raise PpalocError(
+                    f"{self.name}: the map's {got} nodes were normalised to "
+                    f"contrast={params.get('contrast')!r}, this version normalises them to "
+                    f"contrast={want!r}; build the map again"
+                )
         self.map = check_map(topomap, self.kind, self.descriptor_shape, self.name)
         self.reset()
         return self.map
 
 
 class ImageLocaliser(MapLocaliser):
-    """A :class:`MapLocaliser` whose node descriptor is SeqSLAM's patch-normalised image.
+    """A :class:`MapLocaliser` whose node descriptor is SeqSLAM's patch-normalised image
+    (``descriptor="patch"``), or the weighted-node filter's place: its contrast-normalised
+    8x8 image (``"lowres"``) or its 32-bit LBP code (``"lbp"``;
+    :mod:`ppaloc.baselines._descriptors`).
 
-    A subclass sets ``size`` (rows, cols), ``patch`` and, if it stores OpenSeqSLAM's
-    quantised form, ``quantise``.
+    A subclass sets ``descriptor``, ``size`` (rows, cols), ``patch`` and, if it stores
+    OpenSeqSLAM's quantised form, ``quantise`` (the last three shape ``"patch"`` only).
     """
 
+    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("patch", "lowres", "lbp")
+    descriptor: str = "patch"
     size: tuple[int, int]
     patch: int
     quantise: bool = False
 
     @property
     def descriptor_shape(self) -> tuple[int, ...]:
-        """``size``: one downsampled image per node."""
+        """``size`` (one downsampled image per node), ``(8, 8)`` for ``"lowres"``, ``()``
+        (one uint32 code) for ``"lbp"``."""
+        if self.descriptor == "lowres":
+            return (8, 8)
+        if self.descriptor == "lbp":
+            return ()
         return self.size
 
+    def descriptor_params(self) -> dict:
+        """What the node descriptor is: ``"descriptor"``, with ``size`` and ``patch`` for
+        ``"patch"`` and ``contrast`` (the target of the normalisation, checked by
+        :meth:`use_map`) for ``"lowres"``."""
+        if self.descriptor == "lowres":
+            return {"descriptor": "lowres", "contrast": LOWRES_CONTRAST}
+        if self.descriptor == "lbp":
+            return {"descriptor": "lbp"}
+        return {"descriptor": "patch", "size": list(self.size), "patch": self.patch}
+
     def describe(self, frame: np.ndarray) -> np.ndarray:
-        """The patch-normalised downsampled image of one sensor frame, shape ``size``."""
+        """The node descriptor of one sensor frame: the patch-normalised downsampled image
+        (float32, shape ``size``), the low-res place (uint8, (8, 8)) or the LBP code
+        (uint32, ())."""
+        if self.descriptor == "lowres":
+            return lowres_place(frame)
+        if self.descriptor == "lbp":
+            return lbp_place(frame)
         return preprocess(frame, self.size, self.patch, quantise=self.quantise)
 
+    def distances(self, described: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        """Distance from one described frame (:meth:`describe`) to every node.
+
+        Returns
+        -------
+        ndarray of float64, shape (N,)
+            The mean absolute difference per pixel (``"patch"``) or per cell
+            (``"lowres"``), or the Hamming distance in bits (``"lbp"``).
+        """
+        if self.descriptor == "lowres":
+            return lowres_distances(described, nodes)
+        if self.descriptor == "lbp":
+            return lbp_distances(described, nodes)
+        return mean_abs_diff(described, nodes)
+
     def difference_column(self, frame: np.ndarray) -> np.ndarray:
-        """Mean absolute difference per pixel between one query frame and every node.
+        """Distance between one query frame and every node (:meth:`distances`).
 
         Returns
         -------
@@ -215,4 +293,4 @@ class ImageLocaliser(MapLocaliser):
             Before a map exists.
         """
         topomap = require_map(self.map, self.name)
-        return mean_abs_diff(self.describe(frame), topomap.descriptors)
+        return self.distances(self.describe(frame), topomap.descriptors)

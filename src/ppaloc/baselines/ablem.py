@@ -1,9 +1,13 @@
 """ABLE-M (Arroyo et al.): global binary codes of image sequences, matched by Hamming distance.
 
 Each frame is described by one global LDB-style binary code of the whole downsampled image
-(:mod:`ppaloc.baselines.ldb`). The code of a *place* is the concatenation of the codes of
-the last ``L`` frames; a query sequence is compared with the map sequence ending at every
-node, ``e - L + 1 .. e``, by Hamming distance. As the Hamming distance of concatenations is
+(:mod:`ppaloc.baselines.ldb`), or with ``descriptor="lbp"`` by the weighted-node filter's
+32-bit LBP code (:func:`ppaloc.place.lbp_descriptor`, packed into 4 bytes most significant
+first). ABLE-M is binary by construction: it takes either code, never an image (the
+weighted-node filter's low-res image or SeqSLAM's patch-normalised one). The code of a
+*place* is the concatenation of the codes of the last ``L`` frames; a query sequence is
+compared with the map sequence ending at every node, ``e - L + 1 .. e``, by Hamming
+distance. As the Hamming distance of concatenations is
 the sum of the per-frame distances, the online form keeps the per-frame distance vectors of
 the last ``L`` frames and updates the sequence distance of every node in O(N) per frame:
 
@@ -29,10 +33,12 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from ppaloc.baselines._common import MapLocaliser, require_map, top_k, uniqueness_ratio
+from ppaloc.baselines._descriptors import check_descriptor, lbp_place
 from ppaloc.baselines._image import downsample
 from ppaloc.baselines.ldb import comparison_count, hamming_distances, ldb_comparisons, selected_bits
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
+from ppaloc.place import LBP_BITS
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ABLEM", "sequence_distances"]
@@ -72,16 +78,20 @@ class ABLEM(MapLocaliser):
     ----------
     length : int
         Frames per sequence ``L`` (see docs/baselines.md for the choice of default).
+    descriptor : {"ldb", "lbp"}
+        The binary code of a frame: its own global LDB code (default), or the weighted-node
+        filter's 32-bit LBP code (4 bytes). Only binary codes: an image (``"lowres"``,
+        ``"patch"``) is refused.
     side : int
         Side of the square image the descriptor is computed on (OpenABLE ``Patch_size``: 64);
-        must divide 256.
+        must divide 256; ``descriptor="ldb"`` only.
     levels : tuple of int
-        LDB grid levels (LDB: 2, 3, 4, 5).
+        LDB grid levels (LDB: 2, 3, 4, 5); ``descriptor="ldb"`` only.
     n_bits : int or None
         Comparisons kept per frame (OpenABLE: 1384 of 1386, 173 bytes; LDB's learned
-        table: 256, 32 bytes); None keeps all of them.
+        table: 256, 32 bytes); None keeps all of them; ``descriptor="ldb"`` only.
     bit_seed : int
-        Seed of the fixed subset of comparisons.
+        Seed of the fixed subset of comparisons; ``descriptor="ldb"`` only.
     confidence : {"similarity", "ratio"}
         ``"similarity"``: ``1 - d_min / (L x bits)``, the normalised similarity OpenABLE
         thresholds; ``"ratio"``: the uniqueness of the best node against the best outside
@@ -96,6 +106,7 @@ class ABLEM(MapLocaliser):
 
     name = "able-m"
     kind = KIND
+    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("ldb", "lbp")
 
     #: Accepted range of each numeric parameter, where a value drives memory or time or
     #: leaves the method's meaning; the published defaults lie inside.
@@ -113,6 +124,7 @@ class ABLEM(MapLocaliser):
         self,
         *,
         length: int = 10,
+        descriptor: Literal["ldb", "lbp"] = "ldb",
         side: int = 64,
         levels: tuple[int, ...] = (2, 3, 4, 5),
         n_bits: int | None = 1384,
@@ -130,10 +142,26 @@ class ABLEM(MapLocaliser):
             )
         if top_k < 1 or rwindow < 0:
             raise PpalocError(f"ABLE-M needs top_k >= 1 and rwindow >= 0, got {top_k}, {rwindow}")
+        if descriptor in ("lowres", "patch"):
+            raise PpalocError(
+                f"ABLE-M descriptor={descriptor!r} is an image, and ABLE-M matches binary "
+                "codes by Hamming distance; choose 'ldb' (its own LDB code) or 'lbp' (the "
+                "weighted-node filter's 32-bit LBP code)"
+            )
         self.length = int(length)
         self.side = int(side)
         self.levels = tuple(int(g) for g in levels)
-        self._bits = selected_bits(comparison_count(self.levels), n_bits, bit_seed)
+        own = {
+            "side": (self.side, 64),
+            "levels": (self.levels, (2, 3, 4, 5)),
+            "n_bits": (n_bits, 1384),
+            "bit_seed": (int(bit_seed), 0),
+        }
+        self.descriptor = check_descriptor("ABLE-M", descriptor, own, allowed=self.DESCRIPTORS)
+        if self.descriptor == "lbp":
+            self._bits = np.arange(LBP_BITS)
+        else:
+            self._bits = selected_bits(comparison_count(self.levels), n_bits, bit_seed)
         self.n_bits = len(self._bits)
         self.bit_seed = int(bit_seed)
         self.confidence = confidence
@@ -153,7 +181,10 @@ class ABLEM(MapLocaliser):
 
     def params(self) -> dict:
         """The parameters that shape the map (JSON-serialisable)."""
+        if self.descriptor == "lbp":
+            return {"descriptor": "lbp", "n_bits": self.n_bits, "length": self.length}
         return {
+            "descriptor": "ldb",
             "side": self.side,
             "levels": list(self.levels),
             "n_bits": self.n_bits,
@@ -162,7 +193,10 @@ class ABLEM(MapLocaliser):
         }
 
     def describe(self, frame: np.ndarray) -> np.ndarray:
-        """The packed binary code of one sensor frame, shape (ceil(n_bits / 8),) uint8."""
+        """The packed binary code of one sensor frame, shape (ceil(n_bits / 8),) uint8 (the
+        LBP code: its 4 bytes, most significant first)."""
+        if self.descriptor == "lbp":
+            return np.asarray(lbp_place(frame), dtype=">u4").reshape(1).view(np.uint8)
         image = downsample(frame, (self.side, self.side))
         bits = ldb_comparisons(image, self.levels)[self._bits]
         return np.packbits(bits)

@@ -9,7 +9,9 @@ Particles live on map nodes. Per query frame:
    the last node is re-drawn uniformly too (clamping it there would pile particles up at
    the end of the map). The first frame of a query has no motion step (particles start uniform).
 2. *weighting*: the query is compared with every node on SeqSLAM's patch-normalised 64x32
-   image (mean absolute difference per pixel), and by default the column of distances is
+   image (mean absolute difference per pixel; ``descriptor="lowres"`` or ``"lbp"``: the
+   weighted-node filter's place, :mod:`ppaloc.baselines._descriptors`), and by default
+   the column of distances is
    contrast-enhanced as in SeqSLAM (the filter replaces SeqSLAM's exhaustive trajectory
    search, not its difference matrix), giving ``d``; a particle on node ``i`` gets weight
    ``exp(-(d_i - d_min) / sigma)`` with ``sigma = sigma_rel x (median(d) - d_min)``, so
@@ -36,6 +38,7 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from ppaloc.baselines._common import ImageLocaliser, top_k
+from ppaloc.baselines._descriptors import check_descriptor
 from ppaloc.baselines.seqslam import contrast_enhance
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
@@ -98,10 +101,16 @@ class ParticleFilter(ImageLocaliser):
         trajectory search and keeps its difference matrix) or the raw distances.
     enhance_window : int
         Contrast enhancement window (as SeqSLAM: 10).
+    descriptor : {"patch", "lowres", "lbp"}
+        What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
+        mean absolute difference per pixel (default), the weighted-node filter's
+        contrast-normalised 8x8 image by the mean absolute difference per cell, or its
+        32-bit LBP code by the Hamming distance (:mod:`ppaloc.baselines._descriptors`).
+        The filter is the same on each.
     size : (rows, cols)
-        Downsampled image size (as SeqSLAM: 32 x 64).
+        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
     patch : int
-        Patch normalisation tile side (as SeqSLAM: 8).
+        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
     seed : int
         Seed of every random draw.
     top_k : int
@@ -142,6 +151,7 @@ class ParticleFilter(ImageLocaliser):
         sigma_rel: float = 0.5,
         observation: Literal["enhanced", "raw"] = "enhanced",
         enhance_window: int = 10,
+        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
         seed: int = 0,
@@ -171,6 +181,8 @@ class ParticleFilter(ImageLocaliser):
         self.enhance_window = int(enhance_window)
         self.size = (int(size[0]), int(size[1]))
         self.patch = int(patch)
+        own = {"size": (self.size, (32, 64)), "patch": (self.patch, 8)}
+        self.descriptor = check_descriptor("ParticleFilter", descriptor, own)
         self.seed = int(seed)
         self.top_k = int(top_k)
         self.record_weights = bool(record_weights)
@@ -200,7 +212,7 @@ class ParticleFilter(ImageLocaliser):
 
     def params(self) -> dict:
         """The parameters that shape the map (JSON-serialisable)."""
-        return {"size": list(self.size), "patch": self.patch}
+        return self.descriptor_params()
 
     def reset(self) -> None:
         """Re-seed the generator and spread the particles uniformly; keep the map."""

@@ -5,6 +5,8 @@ The pipeline and its defaults follow OpenSeqSLAM (Sünderhauf et al., 2013):
 1. each frame is reduced to a 64x32 grey image and patch normalised (8x8 tiles);
 2. a *difference column*: the mean absolute difference per pixel between the query image
    and every map node (one column of OpenSeqSLAM's difference matrix D, map along rows);
+   ``descriptor="lowres"`` or ``"lbp"`` replaces steps 1 and 2 by the weighted-node
+   filter's place and its distance (:mod:`ppaloc.baselines._descriptors`);
 3. *local contrast enhancement* of that column along the map axis: each entry minus the
    mean, over the standard deviation, of the entries within +-Rwindow/2 nodes;
 4. a search over straight-line trajectories through the last ``ds + 1`` enhanced columns,
@@ -47,7 +49,7 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from ppaloc.baselines._common import ImageLocaliser, require_map, top_k, uniqueness_ratio
-from ppaloc.baselines._image import mean_abs_diff
+from ppaloc.baselines._descriptors import check_descriptor
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.topomap import TopoMap
@@ -192,13 +194,21 @@ class SeqSLAM(ImageLocaliser):
         ``"centred"``: OpenSeqSLAM's window centred on the frame; it reads ``ds/2`` future
         frames, so it runs offline: over a whole query with :meth:`localise_sequence`, or
         frame by frame after :meth:`read_ahead` has been handed the query.
+    descriptor : {"patch", "lowres", "lbp"}
+        What a node holds and how the difference column compares it: OpenSeqSLAM's
+        patch-normalised image by the mean absolute difference per pixel (default), the
+        weighted-node filter's contrast-normalised 8x8 image by the mean absolute
+        difference per cell, or its 32-bit LBP code by the Hamming distance
+        (:mod:`ppaloc.baselines._descriptors`). Enhancement and line search are the same.
     size : (rows, cols)
-        Downsampled image size (OpenSeqSLAM: 32 rows x 64 columns).
+        Downsampled image size (OpenSeqSLAM: 32 rows x 64 columns); ``descriptor="patch"``
+        only.
     patch : int
-        Patch normalisation tile side (OpenSeqSLAM: 8).
+        Patch normalisation tile side (OpenSeqSLAM: 8); ``descriptor="patch"`` only.
     quantise : bool
         Store patch-normalised images as OpenSeqSLAM does (``127 + round(z)``); default
-        False keeps the float z-scores (see docs/baselines.md).
+        False keeps the float z-scores (see docs/baselines.md); ``descriptor="patch"``
+        only.
     ds : int
         Trajectory length in frames; the trajectory spans ``ds + 1`` frames (OpenSeqSLAM:
         10, rounded up to even for the centred mode).
@@ -257,6 +267,7 @@ class SeqSLAM(ImageLocaliser):
         self,
         *,
         mode: Literal["past", "centred"] = "past",
+        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
         quantise: bool = False,
@@ -290,6 +301,12 @@ class SeqSLAM(ImageLocaliser):
         self.size = (int(size[0]), int(size[1]))
         self.patch = int(patch)
         self.quantise = bool(quantise)
+        own = {
+            "size": (self.size, (32, 64)),
+            "patch": (self.patch, 8),
+            "quantise": (self.quantise, False),
+        }
+        self.descriptor = check_descriptor("SeqSLAM", descriptor, own)
         self.ds = int(ds) + (int(ds) % 2 if mode == "centred" else 0)
         n_v = round((vmax - vmin) / vstep) + 1
         self.velocities = vmin + vstep * np.arange(n_v)
@@ -320,9 +337,8 @@ class SeqSLAM(ImageLocaliser):
     def params(self) -> dict:
         """The parameters that shape the map and the matching (JSON-serialisable)."""
         return {
-            "size": list(self.size),
-            "patch": self.patch,
-            "quantise": self.quantise,
+            **self.descriptor_params(),
+            **({"quantise": self.quantise} if self.descriptor == "patch" else {}),
             "ds": self.ds,
             "velocities": [round(float(v), 9) for v in self.velocities],
             "rwindow": self.rwindow,
@@ -387,11 +403,7 @@ class SeqSLAM(ImageLocaliser):
 
     def _push(self, frame: np.ndarray) -> None:
         """Compute the enhanced column of the next frame into the ring buffer."""
-        image = self.describe(frame)
-        column = contrast_enhance(
-            mean_abs_diff(image, require_map(self.map, self.name).descriptors),
-            self.enhance_window,
-        )
+        column = contrast_enhance(self.difference_column(frame), self.enhance_window)
         slot = self._count % (self.ds + 1)
         self._columns[slot] = column
         self._fills[slot] = float(np.median(column))

@@ -3,16 +3,19 @@
 Each query frame is reduced exactly as SeqSLAM reduces it (64x32, 8x8 patch normalisation)
 and compared with every node by the mean absolute difference per pixel; the estimate is the
 closest node. The confidence is the uniqueness of the best distance against the best
-distance outside ``+- radius`` nodes: ``1 - d_best / d_second``.
+distance outside ``+- radius`` nodes: ``1 - d_best / d_second``. ``descriptor="lowres"``
+or ``"lbp"`` matches the weighted-node filter's place instead
+(:mod:`ppaloc.baselines._descriptors`).
 """
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import ClassVar, Literal
 
 import numpy as np
 
 from ppaloc.baselines._common import ImageLocaliser, top_k, uniqueness_ratio
+from ppaloc.baselines._descriptors import check_descriptor
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.topomap import TopoMap
@@ -27,10 +30,15 @@ class SingleFrame(ImageLocaliser):
 
     Parameters
     ----------
+    descriptor : {"patch", "lowres", "lbp"}
+        What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
+        mean absolute difference per pixel (default), the weighted-node filter's
+        contrast-normalised 8x8 image by the mean absolute difference per cell, or its
+        32-bit LBP code by the Hamming distance (:mod:`ppaloc.baselines._descriptors`).
     size : (rows, cols)
-        Downsampled image size (as SeqSLAM: 32 x 64).
+        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
     patch : int
-        Patch normalisation tile side (as SeqSLAM: 8).
+        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
     radius : int
         The competitor of the confidence is the closest node outside ``best +- radius``
         (5, SeqSLAM's ``Rwindow / 2``).
@@ -55,6 +63,7 @@ class SingleFrame(ImageLocaliser):
     def __init__(
         self,
         *,
+        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
         radius: int = 5,
@@ -67,6 +76,8 @@ class SingleFrame(ImageLocaliser):
             )
         self.size = (int(size[0]), int(size[1]))
         self.patch = int(patch)
+        own = {"size": (self.size, (32, 64)), "patch": (self.patch, 8)}
+        self.descriptor = check_descriptor("SingleFrame", descriptor, own)
         self.radius = int(radius)
         self.top_k = int(top_k)
         self.record_weights = bool(record_weights)
@@ -74,7 +85,7 @@ class SingleFrame(ImageLocaliser):
 
     def params(self) -> dict:
         """The parameters that shape the map (JSON-serialisable)."""
-        return {"size": list(self.size), "patch": self.patch, "radius": self.radius}
+        return {**self.descriptor_params(), "radius": self.radius}
 
     def reset(self) -> None:
         """Nothing to forget: every frame is matched on its own."""
