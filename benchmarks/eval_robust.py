@@ -7,6 +7,7 @@ Not collected by pytest. Run from anywhere (paths resolve from this file)::
     .venv/bin/python benchmarks/eval_robust.py --param particle-filter.sigma_rel=0.2
     .venv/bin/python benchmarks/eval_robust.py --sweep weighted-node-lbp.alpha=2,4,8,16
     .venv/bin/python benchmarks/eval_robust.py --json robust.json
+    .venv/bin/python benchmarks/eval_robust.py --representations     # filter x descriptor
 
 Routes (:func:`routes`): Nordland summer -> winter (tolerance +-2) and its sparse
 patch-normalised variant (every 10th frame, ``patch_norm=8``, tolerance +-1), three Gardens
@@ -29,6 +30,15 @@ Output: a Markdown table (route x method, max F1, and ``best WN - best baseline`
 better of weighted-node-lbp / weighted-node-lowres minus the best baseline) and a summary
 line; with ``--sweep METHOD.key=v1,v2,...`` a table route x value with the mean and the
 minimum over routes instead.
+
+``--representations`` gives every filter the same information: each baseline that takes a
+``descriptor`` (:func:`descriptor_columns`) runs once per descriptor, the weighted-node
+filter's two places first and the method's own last (``particle-filter/lowres``,
+``particle-filter/lbp``, ``particle-filter/patch``; ABLE-M, binary only, on ``lbp`` and its
+own ``ldb``), next to ``weighted-node-lowres`` and ``weighted-node-lbp``
+(:data:`REPRESENTATION_METHODS` unless ``--methods`` names others). After the route table
+comes a table of route groups (:func:`route_group`: each real route, each generated
+condition over its seeds) with the means over the real, the generated and all routes.
 """
 
 from __future__ import annotations
@@ -70,6 +80,15 @@ DEFAULT_METHODS = (
     "able-m",
     "single-frame",
 )
+REPRESENTATION_METHODS = (
+    "weighted-node-lowres",
+    "weighted-node-lbp",
+    "particle-filter",
+    "seqslam",
+    "single-frame",
+    "able-m",
+)
+"""The methods of ``--representations`` (each baseline expanded by :func:`descriptor_columns`)."""
 WN_BEST = ("weighted-node-lbp", "weighted-node-lowres")
 """The weighted-node methods the ``best WN - best baseline`` column takes the better of."""
 SEEDS = (1, 2, 3, 4, 5)
@@ -148,6 +167,56 @@ def parse_param(item: str) -> tuple[str, str, str]:
             f"error: {item!r} must look like METHOD.key=value, e.g. weighted-node-lbp.alpha=8"
         )
     return method.strip(), name.strip(), value
+
+
+def descriptor_columns(name: str, user: dict[str, Any]) -> list[tuple[str, str, dict[str, Any]]]:
+    """The ``(column, method, params)`` jobs of method ``name`` under ``--representations``.
+
+    A method that declares a ``descriptor`` parameter with a fixed set of values runs once
+    per value, the others first and its own (the default) last, in columns
+    ``NAME/DESCRIPTOR``; any other method is one column. ``user`` must not set the
+    descriptor itself.
+
+    Examples
+    --------
+    >>> [c for c, _, _ in descriptor_columns("particle-filter", {})]
+    ['particle-filter/lowres', 'particle-filter/lbp', 'particle-filter/patch']
+    >>> [c for c, _, p in descriptor_columns("able-m", {"length": 20})]
+    ['able-m/lbp', 'able-m/ldb']
+    >>> descriptor_columns("weighted-node-lbp", {})
+    [('weighted-node-lbp', 'weighted-node-lbp', {})]
+    """
+    from typing import Literal, get_args, get_origin
+
+    from ppaloc.methods import method_parameters
+
+    declared = (method_parameters(name) or {}).get("descriptor")
+    if declared is None or get_origin(declared.hint) is not Literal:
+        return [(name, name, dict(user))]
+    if "descriptor" in user:
+        raise SystemExit(
+            f"error: --representations runs {name} on every descriptor; drop "
+            f"--param {name}.descriptor={user['descriptor']!r}"
+        )
+    values = [v for v in get_args(declared.hint) if v != declared.default] + [declared.default]
+    return [(f"{name}/{v}", name, {**user, "descriptor": v}) for v in values]
+
+
+def route_group(label: str) -> str:
+    """The group a route's figures are averaged in: a real route is its own group, a
+    generated one is its condition over the seeds.
+
+    Examples
+    --------
+    >>> route_group("synthetic seed=3 speed_var=0.2 stops winter")
+    'generated, speed_var=0.2, stops, winter'
+    >>> route_group("gp day_left->day_right")
+    'gp day_left->day_right'
+    """
+    words = label.split()
+    if words[:1] != ["synthetic"]:
+        return label
+    return "generated, " + ", ".join(w for w in words[1:] if not w.startswith("seed="))
 
 
 def is_cached_method(name: str) -> bool:
@@ -387,6 +456,40 @@ def comparison_table(records: list[dict[str, Any]], methods: Sequence[str]) -> t
     return "\n".join(lines) + "\n\n" + "\n".join(text), summary
 
 
+def group_table(records: list[dict[str, Any]], columns: Sequence[str]) -> tuple[str, dict]:
+    """Route group x column table of the mean max F1 (:func:`route_group`), then the means
+    over the real routes, the generated routes and all routes.
+
+    Returns the Markdown table and ``{row: {column: mean or None}}`` (with ``routes``, the
+    number of routes averaged in the row).
+    """
+    rows: dict[str, list[dict[str, Any]]] = {}
+    for rec in records:
+        rows.setdefault(route_group(rec["label"]), []).append(rec)
+    real = [r for r in records if not r["label"].startswith("synthetic")]
+    generated = [r for r in records if r["label"].startswith("synthetic")]
+    summary_rows = [
+        (f"**mean of the {len(real)} real routes**", real),
+        (f"**mean of the {len(generated)} generated routes**", generated),
+        (f"**mean of the {len(records)} routes**", records),
+    ]
+    lines = ["| route group | " + " | ".join(columns) + " |", "|---|" + "---|" * len(columns)]
+    stats: dict[str, dict[str, Any]] = {}
+    seeds = {
+        g: f"{g} ({len(r)} seeds)" if g.startswith("generated") else g for g, r in rows.items()
+    }
+    for name, recs in [*((seeds[g], r) for g, r in rows.items()), *summary_rows]:
+        if not recs:
+            continue
+        means: dict[str, Any] = {"routes": len(recs)}
+        for c in columns:
+            vals = [v for r in recs if (v := _f1(r, c)) is not None]
+            means[c] = float(np.mean(vals)) if len(vals) == len(recs) else None
+        stats[name.strip("*")] = means
+        lines.append(f"| {name} | " + " | ".join(_cell(means[c]) for c in columns) + " |")
+    return "\n".join(lines), stats
+
+
 def sweep_table(records: list[dict[str, Any]], columns: Sequence[str]) -> tuple[str, dict]:
     """Route x value table with the mean and the minimum over routes."""
     lines = ["| route | " + " | ".join(columns) + " |", "|---|" + "---|" * len(columns)]
@@ -416,7 +519,19 @@ def main(argv: Sequence[str] | None = None) -> None:
     )
     parser.add_argument("--places", type=int, default=200, help="places of the generated routes")
     parser.add_argument(
-        "--methods", default=",".join(DEFAULT_METHODS), help="comma-separated method names"
+        "--methods",
+        default=None,
+        help="comma-separated method names (default: "
+        + ",".join(DEFAULT_METHODS)
+        + "; with --representations: "
+        + ",".join(REPRESENTATION_METHODS)
+        + ")",
+    )
+    parser.add_argument(
+        "--representations",
+        action="store_true",
+        help="run every baseline on each descriptor it takes (the weighted-node filter's "
+        "lowres and lbp places and its own) and add a table of route groups",
     )
     parser.add_argument(
         "--param",
@@ -455,6 +570,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     available = set(available_methods())
     notes: list[str] = []
 
+    if args.sweep and args.representations:
+        raise SystemExit("error: --sweep and --representations do not go together; give one")
     if args.sweep:
         method, key, values_text = parse_param(args.sweep)
         if method not in available:
@@ -468,6 +585,10 @@ def main(argv: Sequence[str] | None = None) -> None:
             for c, v in zip(columns, values, strict=True)
         ]
     else:
+        if args.methods is None:
+            args.methods = ",".join(
+                REPRESENTATION_METHODS if args.representations else DEFAULT_METHODS
+            )
         requested = [m.strip() for m in args.methods.split(",") if m.strip()]
         methods = []
         for name in requested:
@@ -479,8 +600,11 @@ def main(argv: Sequence[str] | None = None) -> None:
         for name in params:
             if name not in methods:
                 notes.append(f"note: --param for {name!r}, which is not run, is ignored")
-        columns = methods
-        jobs = [(name, name, params.get(name, {})) for name in methods]
+        if args.representations:
+            jobs = [j for name in methods for j in descriptor_columns(name, params.get(name, {}))]
+        else:
+            jobs = [(name, name, params.get(name, {})) for name in methods]
+        columns = [column for column, _, _ in jobs]
     for note in notes:
         print(note, file=sys.stderr)
     for _, name, user in jobs:  # a bad parameter fails here, before any route is loaded
@@ -508,22 +632,34 @@ def main(argv: Sequence[str] | None = None) -> None:
         table, summary = sweep_table(records, columns)
     else:
         table, summary = comparison_table(records, columns)
+    groups = None
+    if args.representations:
+        group_text, groups = group_table(records, columns)
+        table += "\n\nMean max F1 per route group:\n\n" + group_text
     wall = time.perf_counter() - t0
     print(table)
     print(f"\n{len(records)} routes, wall time {wall:.0f} s, {args.jobs} jobs", file=sys.stderr)
     if args.json:
         out = {
-            "mode": "sweep" if args.sweep else "compare",
+            "mode": "sweep"
+            if args.sweep
+            else "representations"
+            if args.representations
+            else "compare",
             "sweep": args.sweep,
             "columns": list(columns),
             "params": params,
             "places": args.places,
             "notes": notes,
             "summary": summary,
+            "groups": groups,
             "wall_s": wall,
             "routes": records,
         }
-        args.json.write_text(json.dumps(out, indent=1, default=repr))
+        from ppaloc.fileio import atomic_write
+
+        with atomic_write(args.json, "w") as f:
+            f.write(json.dumps(out, indent=1, default=repr))
 
 
 if __name__ == "__main__":
