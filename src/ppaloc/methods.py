@@ -375,7 +375,7 @@ def accepted_parameters(name: str) -> tuple[str, ...] | None:
     Examples
     --------
     >>> accepted_parameters("single-frame")
-    ('descriptor', 'size', 'patch', 'radius', 'top_k', 'record_weights')
+    ('size', 'patch', 'descriptor', 'radius', 'top_k', 'record_weights')
     """
     params = method_parameters(name)
     return None if params is None else tuple(params)

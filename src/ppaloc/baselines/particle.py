@@ -101,16 +101,16 @@ class ParticleFilter(ImageLocaliser):
         trajectory search and keeps its difference matrix) or the raw distances.
     enhance_window : int
         Contrast enhancement window (as SeqSLAM: 10).
+    size : (rows, cols)
+        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
+    patch : int
+        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
     descriptor : {"patch", "lowres", "lbp"}
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
         contrast-normalised 8x8 image by the mean absolute difference per cell, or its
         32-bit LBP code by the Hamming distance (:mod:`ppaloc.baselines._descriptors`).
         The filter is the same on each.
-    size : (rows, cols)
-        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
-    patch : int
-        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
     seed : int
         Seed of every random draw.
     top_k : int
@@ -151,9 +151,9 @@ class ParticleFilter(ImageLocaliser):
         sigma_rel: float = 0.5,
         observation: Literal["enhanced", "raw"] = "enhanced",
         enhance_window: int = 10,
-        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
+        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         seed: int = 0,
         top_k: int = 10,
         record_weights: bool = False,

@@ -194,12 +194,6 @@ class SeqSLAM(ImageLocaliser):
         ``"centred"``: OpenSeqSLAM's window centred on the frame; it reads ``ds/2`` future
         frames, so it runs offline: over a whole query with :meth:`localise_sequence`, or
         frame by frame after :meth:`read_ahead` has been handed the query.
-    descriptor : {"patch", "lowres", "lbp"}
-        What a node holds and how the difference column compares it: OpenSeqSLAM's
-        patch-normalised image by the mean absolute difference per pixel (default), the
-        weighted-node filter's contrast-normalised 8x8 image by the mean absolute
-        difference per cell, or its 32-bit LBP code by the Hamming distance
-        (:mod:`ppaloc.baselines._descriptors`). Enhancement and line search are the same.
     size : (rows, cols)
         Downsampled image size (OpenSeqSLAM: 32 rows x 64 columns); ``descriptor="patch"``
         only.
@@ -209,6 +203,12 @@ class SeqSLAM(ImageLocaliser):
         Store patch-normalised images as OpenSeqSLAM does (``127 + round(z)``); default
         False keeps the float z-scores (see docs/baselines.md); ``descriptor="patch"``
         only.
+    descriptor : {"patch", "lowres", "lbp"}
+        What a node holds and how the difference column compares it: OpenSeqSLAM's
+        patch-normalised image by the mean absolute difference per pixel (default), the
+        weighted-node filter's contrast-normalised 8x8 image by the mean absolute
+        difference per cell, or its 32-bit LBP code by the Hamming distance
+        (:mod:`ppaloc.baselines._descriptors`). Enhancement and line search are the same.
     ds : int
         Trajectory length in frames; the trajectory spans ``ds + 1`` frames (OpenSeqSLAM:
         10, rounded up to even for the centred mode).
@@ -267,10 +267,10 @@ class SeqSLAM(ImageLocaliser):
         self,
         *,
         mode: Literal["past", "centred"] = "past",
-        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
         quantise: bool = False,
+        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         ds: int = 10,
         vmin: float = 0.8,
         vmax: float = 1.2,

@@ -30,15 +30,15 @@ class SingleFrame(ImageLocaliser):
 
     Parameters
     ----------
+    size : (rows, cols)
+        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
+    patch : int
+        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
     descriptor : {"patch", "lowres", "lbp"}
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
         contrast-normalised 8x8 image by the mean absolute difference per cell, or its
         32-bit LBP code by the Hamming distance (:mod:`ppaloc.baselines._descriptors`).
-    size : (rows, cols)
-        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
-    patch : int
-        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
     radius : int
         The competitor of the confidence is the closest node outside ``best +- radius``
         (5, SeqSLAM's ``Rwindow / 2``).
@@ -63,9 +63,9 @@ class SingleFrame(ImageLocaliser):
     def __init__(
         self,
         *,
-        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
+        descriptor: Literal["patch", "lowres", "lbp"] = "patch",
         radius: int = 5,
         top_k: int = 10,
         record_weights: bool = False,
