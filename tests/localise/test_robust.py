@@ -8,7 +8,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ppaloc.evaluate.run import predicted_frames
-from ppaloc.localise.params import FilterParams, likelihood_shift, transition_costs
+from ppaloc.localise.params import (
+    FilterParams,
+    frame_scale,
+    likelihood_shift,
+    refined_minimum,
+    transition_costs,
+)
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.place import block_sums, lowres_image, normalise_contrast
 from ppaloc.topomap import TopoMap
@@ -36,12 +42,14 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
             mu = np.minimum(np.abs(f - (q / 2 - 64)), 127).mean(axis=1)
             code = np.floor(128.5 - mu / 2)
             r = 2 * (128 - code)
-            b, m = int(r.min()), int(r.sum()) // n
-            s = likelihood_shift(m - b, p.gain)
-            term = np.clip((b >> s) - mu * 2.0**-s, -128, 127)
+            b = math.ceil(16 * mu.min()) / 16 - 1 / 32  # mu_min to 1/16
+            s = 0
+            while s < 6 and 2 * (r.mean() - b) > 3 * p.gain * 2**s:
+                s += 1
+            term = np.clip(math.floor(b * 2.0**-s) - mu * 2.0**-s, -128, 127)
             w = np.clip(w + term, -127, 127)
         top = math.floor(w.max())
-        cands = np.flatnonzero(w >= top)
+        cands = np.flatnonzero(w >= math.floor(16 * w.max()) / 16)
         node = cands[0] if prev is None else cands[np.argmin(np.abs(cands - prev))]
         prev = node
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
@@ -172,3 +180,28 @@ def test_still_frames_add_no_evidence(route):
 def test_scale_follows_the_frame_not_the_map():
     """Distances four times larger (a darker, other-season query) get a shift two larger."""
     assert likelihood_shift(64, 4) == likelihood_shift(16, 4) + 2
+
+
+@given(st.integers(0, 128 * 128))
+def test_the_refined_minimum_is_the_middle_of_the_sixteenth_mu_lies_in(sad):
+    """On the distances' 1/128 grid: within 1/32 of ``mu``, and ``b + 1/32`` the first
+    sixteenth at or above it (what five threshold tests on the array give)."""
+    mu = sad / 128
+    b = refined_minimum(mu)
+    assert abs(b - mu) <= 1 / 32
+    assert (b + 1 / 32) * 16 == math.ceil(16 * mu)
+
+
+@given(
+    values=st.lists(st.integers(0, 256), min_size=1, max_size=40),
+    best32=st.integers(-1, 32 * 256),
+    gain=st.integers(1, 32),
+)
+def test_the_scale_in_integers_is_the_scale_of_the_exact_mean(values, best32, gain):
+    """Register arithmetic compares ``2 (mean - b)`` on the sum, without rounding the
+    mean: the same shift as in float, and ``alpha_t = floor(b 2**-s)``."""
+    v = np.array(values)
+    best = best32 / 32
+    s, alpha = frame_scale(v, best, gain, exact=True)
+    assert s == frame_scale(v.astype(float), best, gain, exact=False)[0]
+    assert alpha == math.floor(best * 2.0**-s)

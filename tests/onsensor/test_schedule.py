@@ -39,7 +39,9 @@ class AlwaysAdvance(Schedule):
         moved = bool(ex.motion(self.decided()))  # reported, not used
         if self.frames > 1:
             ex.transition((64, 0, 64))
-        shift, alpha = frame_scale(ex.node_values(), int(self.params.gain), exact=ex.exact)
+        values = ex.node_values()
+        best = ex.minimum(values)
+        shift, alpha = frame_scale(values, best, int(self.params.gain), exact=ex.exact)
         ex.add_scaled(shift, alpha)
         return self.finish(ex, moved)
 

@@ -8,6 +8,7 @@ import pytest
 from ppaloc.errors import PpalocError
 from ppaloc.localise.params import FilterParams
 from ppaloc.localise.schedule import make_schedule
+from ppaloc.onsensor import detect
 from ppaloc.onsensor.executor import SensorExecutor
 from ppaloc.onsensor.lbp import LbpPlaces
 from ppaloc.onsensor.lowres import LowresPlaces
@@ -297,6 +298,32 @@ def test_detection_tie_break_with_more_ties_than_event_slots(prev, want):
     w[4 * 15, 8 * 7] = 90.0  # an unused block (beyond node 119) never counts
     pipe.sim.write(C, w)
     assert pipe.detect(prev) == (want, 30)
+
+
+@pytest.mark.parametrize("negated", [False, True])
+@pytest.mark.parametrize(("bits", "want"), [(0, [3, 7, 40, 41]), (4, [7, 41]), (2, [3, 7, 41])])
+def test_detection_refines_the_candidates_threshold_by_fraction_bits(negated, bits, want):
+    """Candidates at ``floor(2**bits max W) / 2**bits`` (max 30.97: 30.9375 at 4 bits, 30.75
+    at 2), from the weights or from minus them in the free register; T stays 30."""
+    n = 60
+    pipe = _pipe("lbp", n)
+    t, br, bc = pipe.layout.node_to_block(np.arange(n))
+    values = np.full(n, -20.0, np.float32)
+    values[[3, 7, 40, 41]] = 30.8, 30.97, 30.1, 30.95
+    w = np.full((SIZE, SIZE), 99.0, np.float32)  # only the node roots count
+    w[br * 4, bc * 8 + t] = values
+    if negated:
+        pipe.sim.write(A, -w)
+        pipe.state.negated = True
+    else:
+        pipe.sim.write(C, w)
+    pipe.sensor.allow(False)
+    top = detect.local_top(pipe.sensor, pipe.state)
+    frac = detect.max_fraction(pipe.sensor, pipe.state, top, bits) if bits else 0
+    assert (top, frac) == (30, {0: 0, 2: 3, 4: 15}[bits])
+    assert detect.candidates(pipe.sensor, pipe.state, top, None, frac, bits) == want
+    nearest = min(want, key=lambda node: (abs(node - 40), node))
+    assert pipe.detect(40, bits) == (nearest, 30)
 
 
 def test_confidence_is_the_threshold_gap_outside_the_window():

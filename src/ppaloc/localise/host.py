@@ -26,7 +26,7 @@ import numpy as np
 from ppaloc.errors import PpalocError
 from ppaloc.localise.likelihood import NodeDistances, distance_scale
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
-from ppaloc.localise.params import FilterParams, choose_candidate
+from ppaloc.localise.params import FilterParams, choose_candidate, refined_minimum
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ARITHMETICS", "HostExecutor", "motion_model", "read_values", "top_k"]
@@ -226,6 +226,15 @@ class HostExecutor:
         """Robust: each node's value as the controller reads it (:func:`read_values`)."""
         return read_values(self.representation, self._raw_distances(), self.exact)
 
+    def minimum(self, values: np.ndarray) -> float:
+        """The frame's best distance: the least value (float); in register arithmetic the
+        LBP readout's least value (exact), the low-res one refined from the exact
+        distances as the sensor refines it on the array (:func:`refined_minimum`)."""
+        if self.exact and self.representation == "lowres":
+            raw = self._raw_distances()  # T = 1024 SAD: mu = T / 2**17
+            return refined_minimum(int(raw.min()) / 2.0**17)
+        return float(values.min()) if not self.exact else int(values.min())
+
     def add_scaled(self, shift: int, alpha: float) -> None:
         """Robust: ``w += alpha_t - mu 2**-s`` (the term clipped to a register in ppa8)."""
         self.last_shift = shift
@@ -265,15 +274,17 @@ class HostExecutor:
         w[:off] += term[n - off :]
         self._top = _clip(w, _W_MIN, _W_MAX)
 
-    def detect(self, prev: int | None) -> tuple[int, float]:
-        """``(node, T)``: ``T = max W`` (``floor(max W)`` in ppa8), the candidate
-        ``w >= T`` nearest ``prev`` (:func:`choose_candidate`)."""
+    def detect(self, prev: int | None, bits: int = 0) -> tuple[int, float]:
+        """``(node, T)``: ``T = max W`` (``floor(max W)`` in ppa8), the candidate nearest
+        ``prev`` (:func:`choose_candidate`) among ``w >= T`` (ppa8: ``w >=
+        floor(2**bits max W) / 2**bits``)."""
         w = self._w
         top = float(w.max()) if self._top is None else self._top
         threshold = math.floor(top) if self.exact else top
-        if threshold == top and np.count_nonzero(w == top) == 1:  # no tie: skip the search
+        cut = math.floor(top * 2**bits) / 2**bits if self.exact else top
+        if cut == top and np.count_nonzero(w == top) == 1:  # no tie: skip the search
             return int(self._to_node(int(w.argmax()))), threshold
-        candidates = self._to_node(np.flatnonzero(w >= threshold))
+        candidates = self._to_node(np.flatnonzero(w >= cut))
         if len(candidates) == 1:
             return int(candidates[0]), threshold
         return choose_candidate(np.sort(candidates), prev), threshold

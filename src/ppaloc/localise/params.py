@@ -19,7 +19,7 @@ Each preset's per-frame steps are a schedule (:mod:`ppaloc.localise.schedule`), 
 every executor (the host in float or ppa8 arithmetic, the simulated sensor, a bank of
 sensors) runs; the schedules call the decision functions here
 (:func:`transition_costs`, :func:`frame_scale` with :func:`likelihood_shift` and
-:func:`frame_statistics`, :func:`adjustment`) and
+:func:`refined_minimum`, :func:`adjustment`) and
 :func:`ppaloc.localise.motion.forward_decision`, so the contract of docs/ppa8.md lives
 in one place. Every value is a small integer a PPA controller loads through its DAC or
 compares in its integer unit.
@@ -43,12 +43,14 @@ from ppaloc.place.normalise import MAX_CONTRAST
 __all__ = [
     "DEFAULT_CONTRAST",
     "DEFAULT_SHIFT",
+    "DETECT_BITS",
     "FILTER_KEYS",
     "GAMMAS",
     "MAX_ALPHA",
     "MAX_PERIOD",
     "MAX_SHIFT",
     "MAX_WINDOW",
+    "MINIMUM_BITS",
     "MOTIONS",
     "FilterParams",
     "Param",
@@ -57,9 +59,9 @@ __all__ = [
     "choose_candidate",
     "filter_method_params",
     "frame_scale",
-    "frame_statistics",
     "likelihood_shift",
     "preset_group",
+    "refined_minimum",
     "transition_costs",
 ]
 
@@ -399,42 +401,62 @@ def likelihood_shift(spread: int, gain: int) -> int:
     return s
 
 
-def frame_statistics(values: np.ndarray) -> tuple[int, int]:
-    """``(best, mean)`` of a frame's integer distances to all nodes: the min and the floor
-    of the mean, which the controller computes from the readout of every node.
+MINIMUM_BITS = 4
+"""Robust, register arithmetic: the fraction bits of a frame's best distance ``b`` (the
+sensor refines the low-res readout's least value, good to 2 units, on the array:
+:func:`refined_minimum`)."""
+
+DETECT_BITS = 4
+"""Robust, register arithmetic: the fraction bits of the detection threshold (the
+candidates are the nodes with ``w >= floor(2**4 max W) / 2**4``; docs/ppa8.md)."""
+
+
+def refined_minimum(mu_min: float) -> float:
+    """Register arithmetic: the frame's best distance as the sensor refines it, ``b =
+    ceil(2**k mu_min) / 2**k - 2**-(k+1)`` with ``k =`` :data:`MINIMUM_BITS` (the middle of
+    the last step of a threshold search at ``2**-k``; exact for a dyadic ``mu_min``).
 
     Examples
     --------
-    >>> frame_statistics(np.array([6, 20, 30, 11]))
-    (6, 16)
+    >>> refined_minimum(3.0), refined_minimum(3.01), refined_minimum(0.0)
+    (2.96875, 3.03125, -0.03125)
     """
-    v = np.asarray(values, dtype=np.int64)
-    return int(v.min()), int(v.sum() // len(v))
+    step = 2**MINIMUM_BITS
+    return math.ceil(mu_min * step) / step - 0.5 / step
 
 
-def frame_scale(values: np.ndarray, gain: int, *, exact: bool) -> tuple[int, float]:
+def frame_scale(values: np.ndarray, best: float, gain: int, *, exact: bool) -> tuple[int, float]:
     """Robust: this frame's likelihood shift ``s`` and offset ``alpha_t`` from the values
-    read from every node (docs/ppa8.md, robust preset, item 3).
+    read from every node and the frame's best distance ``best`` (docs/ppa8.md, robust
+    preset, item 3).
 
-    ``exact`` (register arithmetic: the sensor and ppa8): ``(b, m) =
-    frame_statistics(values)`` in integers and ``alpha_t = b >> s``; otherwise (float)
-    the minimum and the mean as floats and ``alpha_t = b 2**-s``. In both ``s =
-    likelihood_shift(m - b, gain)``.
+    ``s`` is the smallest in ``[0, MAX_SHIFT]`` with ``2 (mean - best) <= 3 gain 2**s``
+    (:func:`likelihood_shift`). ``exact`` (register arithmetic: the sensor and ppa8):
+    ``values`` are the readout's integers and ``best`` a multiple of ``2**-5``; the
+    comparison is made in integers on the sum, ``2 (32 sum - 32 N best) <= 96 gain 2**s
+    N`` (no rounding of the mean), and ``alpha_t = floor(best 2**-s)``, a DAC integer.
+    Otherwise (float) the mean as a float and ``alpha_t = best 2**-s``.
 
     Examples
     --------
-    >>> frame_scale(np.array([6, 20, 30, 11]), 4, exact=True)
+    >>> frame_scale(np.array([6, 20, 30, 11]), 6, 4, exact=True)
     (1, 3)
-    >>> frame_scale(np.array([6.0, 20.0, 30.0, 11.0]), 4, exact=False)
+    >>> frame_scale(np.array([6.0, 20.0, 30.0, 11.0]), 6.0, 4, exact=False)
     (1, 3.0)
+    >>> frame_scale(np.array([0, 13, 13, 13]), 0, 1, exact=True)  # mean 9.75, not 9
+    (3, 0)
     """
     if exact:
-        best, mean = frame_statistics(values)
-        s = likelihood_shift(mean - best, gain)
-        return s, best >> s
-    fbest, fmean = float(values.min()), float(values.mean())
-    s = likelihood_shift(fmean - fbest, gain)
-    return s, fbest * 2.0**-s
+        n = len(values)
+        b32 = round(best * 32)
+        excess = 2 * (32 * int(np.sum(values, dtype=np.int64)) - n * b32)  # 64 N (mean - b)
+        s = 0
+        while s < MAX_SHIFT and excess > (96 * gain * n) << s:
+            s += 1
+        return s, b32 >> (5 + s)
+    fmean = float(values.mean())
+    s = likelihood_shift(fmean - best, gain)
+    return s, best * 2.0**-s
 
 
 def adjustment(gamma: float, top: float, *, exact: bool) -> float:

@@ -43,6 +43,7 @@ import numpy as np
 from ppaloc.errors import PpalocError
 from ppaloc.localise.motion import OracleMotion, check_moves
 from ppaloc.localise.params import (
+    DETECT_BITS,
     FilterParams,
     adjustment,
     frame_scale,
@@ -91,6 +92,11 @@ class Executor(Protocol):
         """Robust: each node's distance as the controller reads it (docs/ppa8.md)."""
         ...
 
+    def minimum(self, values: np.ndarray) -> float:
+        """Robust: the frame's best distance (refined beyond the readout's resolution in
+        register arithmetic, :func:`~ppaloc.localise.params.refined_minimum`)."""
+        ...
+
     def add_scaled(self, shift: int, alpha: float) -> None:
         """Robust: ``w_i += alpha - mu_i 2**-shift`` from the values just read."""
 
@@ -100,9 +106,11 @@ class Executor(Protocol):
     def add_likelihood(self, alpha: float, shift: int) -> None:
         """Paper: ``w_i += alpha - mu_i 2**-shift``."""
 
-    def detect(self, prev: int | None) -> tuple[int, float]:
+    def detect(self, prev: int | None, bits: int = 0) -> tuple[int, float]:
         """``(node, T)``: the threshold ``T`` (``floor(max W)`` when exact) and the
-        candidate ``w >= T`` nearest ``prev``."""
+        candidate nearest ``prev`` among ``w >= T`` (exact: ``w >= floor(2**bits max W) /
+        2**bits``, the threshold refined by ``bits`` fraction bits; ``T`` stays the
+        integer)."""
         ...
 
     def confidence(self, node: int, top: float) -> float:
@@ -149,12 +157,17 @@ class SensorPlan:
     bank : bool
         Whether the schedule's frame runs on a bank of sensors (its exchange points are
         the ones :class:`ppaloc.onsensor.bank.SensorBank` implements).
+    minimum : bool
+        Whether the schedule asks for the frame's best distance (:meth:`Executor.minimum`),
+        which the sensor refines on the array next to the tree's values: a low-res
+        sensor then holds one tile (:mod:`ppaloc.onsensor.minimum`).
     """
 
     stores: tuple[str, ...] = ("levels", "digital")
     spread: str = "copies"
     keep_scale: bool = True
     bank: bool = True
+    minimum: bool = True
 
 
 class Schedule:
@@ -182,6 +195,9 @@ class Schedule:
 
     uses: ClassVar[str] = "robust"
     sensor: ClassVar[SensorPlan] = SensorPlan()
+    #: Fraction bits of the detection threshold in register arithmetic (0: the integer
+    #: ``floor(max W)``, as Algorithm 1).
+    detect_bits: ClassVar[int] = 0
 
     def __init__(self, params: FilterParams, oracle_moves: Any = None) -> None:
         self.params = params
@@ -223,7 +239,7 @@ class Schedule:
     def finish(self, ex: Executor, moved: bool) -> FrameResult:
         """The end of every preset's frame: detection, confidence and ranking, then
         :meth:`end_frame` (the normalisation or the adjustment)."""
-        node, top = ex.detect(self.prev)
+        node, top = ex.detect(self.prev, self.detect_bits)
         score = ex.confidence(node, top)
         ex.rank(node)
         self.end_frame(ex, top)
@@ -239,13 +255,16 @@ class RobustSchedule(Schedule):
 
     Per frame: motion; the transition over stay/+1/+2 nodes at the costs the motion
     decision sets (from the second frame); on the first frame and on frames the motion
-    test calls forward, every node's value read, this frame's scale chosen from them
-    (:func:`~ppaloc.localise.params.frame_scale`) and the likelihood added (a still frame
-    repeats the last one: no new evidence); detection, confidence; normalisation.
+    test calls forward, every node's value read, the frame's best distance, this frame's
+    scale chosen from them (:func:`~ppaloc.localise.params.frame_scale`) and the
+    likelihood added (a still frame repeats the last one: no new evidence); detection
+    (in register arithmetic at :data:`~ppaloc.localise.params.DETECT_BITS` fraction
+    bits), confidence; normalisation.
     """
 
     uses = "robust"
     sensor = SensorPlan(stores=("levels", "digital"), spread="copies", keep_scale=True, bank=True)
+    detect_bits = DETECT_BITS
 
     @property
     def max_advance(self) -> int:
@@ -261,7 +280,8 @@ class RobustSchedule(Schedule):
             ex.transition(transition_costs(moved, p))
         if first or moved:
             values = ex.node_values()
-            shift, alpha = frame_scale(values, int(p.gain), exact=ex.exact)  # type: ignore[arg-type]
+            best = ex.minimum(values)
+            shift, alpha = frame_scale(values, best, int(p.gain), exact=ex.exact)  # type: ignore[arg-type]
             ex.add_scaled(shift, alpha)
         return self.finish(ex, moved)
 
@@ -280,7 +300,9 @@ class PaperSchedule(Schedule):
     """
 
     uses = "paper"
-    sensor = SensorPlan(stores=("analogue", "digital"), spread="tree", keep_scale=False, bank=False)
+    sensor = SensorPlan(
+        stores=("analogue", "digital"), spread="tree", keep_scale=False, bank=False, minimum=False
+    )
 
     @property
     def max_advance(self) -> int:

@@ -185,14 +185,27 @@ class SensorBank:
         self.timing.sync()
         return np.concatenate(values)
 
+    def minimum(self, values: np.ndarray) -> float:
+        """The frame's best distance: the least of the sensors' that hold the least
+        readout (a sensor whose least readout is larger has a larger best distance)."""
+        least = values.min()
+        best = [
+            s.minimum(part)
+            for s, off in zip(self.sensors, self.offsets, strict=True)
+            if (part := values[off : off + s.n_nodes]).min() == least
+        ]
+        self.timing.sync()
+        return min(best)
+
     def add_scaled(self, shift: int, alpha: float) -> None:
         """Every sensor adds its terms with the common ``s`` and ``alpha_t``."""
         for s in self.sensors:
             s.add_scaled(shift, alpha)
 
-    def detect(self, prev: int | None) -> tuple[int, float]:
-        """``T``: the largest of the sensors' thresholds; the candidates: the union of
-        theirs at ``T``."""
+    def detect(self, prev: int | None, bits: int = 0) -> tuple[int, float]:
+        """``T``: the largest of the sensors' thresholds; with ``bits``, the candidates'
+        threshold refined by the sensors at ``T`` (the largest fraction of theirs); the
+        candidates: the union of theirs at it."""
         sensors, sync = self.sensors, self.timing.sync
         tops = []
         for s in sensors:
@@ -200,19 +213,31 @@ class SensorBank:
                 tops.append(s.local_top())
         sync()
         top = max(tops)
+        fracs = [0] * len(sensors)
+        if bits:
+            for i, s in enumerate(sensors):
+                if tops[i] == top:
+                    with s.sim.stage("detect"):
+                        fracs[i] = s.local_fraction(top, bits)
+            sync()
+        frac = max(fracs)
         while True:
             found: list[int] = []
-            for s, off, own in zip(sensors, self.offsets, tops, strict=True):
-                if own < top:
+            for s, off, own, mine in zip(sensors, self.offsets, tops, fracs, strict=True):
+                if own < top or mine < frac:
                     continue
                 local = None if prev is None else prev - off
                 with s.sim.stage("detect"):
-                    nodes = s.candidates(top, local)
+                    nodes = s.candidates(top, local, frac, bits)
                 found += [off + i for i in nodes or ()]
             sync()
             if found or top <= -127:
                 break
-            top -= 1  # only with noise: the comparators hid every candidate this time
+            # only with noise: the comparators hid every candidate this time
+            if frac:
+                frac, fracs = 0, [0] * len(sensors)
+            else:
+                top -= 1
         if not found:
             return (0 if prev is None else prev), top
         return choose_candidate(np.array(sorted(found)), prev), top

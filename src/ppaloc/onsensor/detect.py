@@ -2,10 +2,14 @@
 
 Stages ``"detect"`` and ``"confidence"``. The controller finds ``T = floor(max W)`` by a
 binary search of ``global_or`` over thresholds loaded through the DAC
-(:func:`max_threshold`), then the candidates ``w >= T``: all of them from one event
-readout, or the one nearest the previous estimate by a window search
-(:func:`nearest`); the host's :func:`~ppaloc.localise.params.choose_candidate` breaks the
-tie. The confidence is ``T`` minus the same threshold outside ``node +- R``.
+(:func:`max_threshold`); with ``bits`` fraction bits (the robust preset,
+:data:`~ppaloc.localise.params.DETECT_BITS`) it refines the candidates' threshold to
+``floor(2**bits max W) / 2**bits`` by a search of as many steps over ``T + j 2**-bits``,
+the fraction a plane built by halvings of a DAC integer (:func:`max_fraction`). The
+candidates are then all of them from one event readout, or the one nearest the previous
+estimate by a window search (:func:`nearest`); the host's
+:func:`~ppaloc.localise.params.choose_candidate` breaks the tie. The confidence is ``T``
+minus the integer threshold outside ``node +- R``.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ __all__ = [
     "confidence",
     "detect",
     "local_top",
+    "max_fraction",
     "max_threshold",
     "nearest",
     "outside_max",
@@ -35,17 +40,27 @@ __all__ = [
 EVENT_SLOTS = 32
 
 
-def at_least(sensor: Sensor, state: WeightState, threshold: int) -> bool:
-    """``cand := (W >= threshold) AND valid``; True if any PE is set (``global_or``).
+def at_least(
+    sensor: Sensor, state: WeightState, threshold: int, frac: int = 0, bits: int = 0
+) -> bool:
+    """``cand := (W >= threshold + frac 2**-bits) AND valid``; True if any PE is set
+    (``global_or``).
 
-    ``tmp_a`` must hold NOT allowed (:meth:`Sensor.allow`).
+    ``tmp_a`` must hold NOT allowed (:meth:`Sensor.allow`). A fraction is a plane of
+    ``spare`` and ``frame`` (free at detection): the DAC integer ``+-frac``, then ``bits``
+    halvings (``bus2``, each flips the sign), a third source of the comparison.
     """
     sim, r = sensor.sim, sensor.roles
+    if frac:
+        sim.scamp5_in(r.spare, frac if bits % 2 == 0 else -frac)
     sim.load_in(int(threshold))
-    if state.negated:
-        sensor.run(_at_least_negated, r.d, r.negated)
+    src = r.negated if state.negated else r.weights
+    if frac:
+        sensor.run(_at_least_fraction, r.d, src, state.negated, r.spare, r.frame, bits)
+    elif state.negated:
+        sensor.run(_at_least_negated, r.d, src)
     else:
-        sensor.run(_at_least, r.d, r.weights)
+        sensor.run(_at_least, r.d, src)
     return bool(sim.global_or(r.d.cand))
 
 
@@ -58,6 +73,24 @@ def _at_least(k: Kernel, dr: DRegs, w: Register) -> None:
 
 def _at_least_negated(k: Kernel, dr: DRegs, neg: Register) -> None:
     k.where(IN, neg)  # FLAG = w < threshold, from -w: no write
+    k.NOR(dr.cand, FLAG, dr.tmp_a)
+    k.all()
+
+
+def _at_least_fraction(
+    k: Kernel, dr: DRegs, src: Register, negated: bool, a: Register, b: Register, bits: int
+) -> None:
+    """``a`` holds ``(-1)**bits frac``: ``bits`` halvings leave ``+frac 2**-bits`` in
+    ``a`` or ``b``, then ``FLAG = W < threshold + frac 2**-bits`` as :func:`_at_least`."""
+    cur, other = a, b
+    for _ in range(bits):
+        k.bus2(other, NEWS, cur)
+        cur, other = other, cur
+    if negated:
+        k.where(IN, cur, src)
+    else:
+        k.bus(NEWS, src)
+        k.where(IN, cur, NEWS)
     k.NOR(dr.cand, FLAG, dr.tmp_a)
     k.all()
 
@@ -75,11 +108,28 @@ def max_threshold(sensor: Sensor, state: WeightState, lo: int, hi: int) -> int |
     return lo
 
 
-def detect(sensor: Sensor, state: WeightState, prev: int | None) -> tuple[int, int]:
-    """``(node, T)``: the candidate ``w >= T = floor(max W)`` nearest ``prev``."""
+def max_fraction(sensor: Sensor, state: WeightState, top: int, bits: int) -> int:
+    """Largest ``j`` in ``[0, 2**bits)`` with a node at ``w >= top + j 2**-bits``, after
+    :func:`local_top` found ``top`` (``bits`` steps; ``j = 0`` is known to hold)."""
+    lo, hi = 0, 2**bits - 1
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if at_least(sensor, state, top, mid, bits):
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+def detect(sensor: Sensor, state: WeightState, prev: int | None, bits: int = 0) -> tuple[int, int]:
+    """``(node, T)``: the candidate nearest ``prev`` among ``w >= floor(2**bits max W) /
+    2**bits``, and ``T = floor(max W)``."""
     with sensor.stage("detect"):
         top = local_top(sensor, state)
-        found = candidates(sensor, state, top, prev)
+        frac = max_fraction(sensor, state, top, bits) if bits else 0
+        found = candidates(sensor, state, top, prev, frac, bits)
+        if found is None and frac:
+            found = candidates(sensor, state, top, prev)  # only with noise, as below
         while found is None and top > -127:
             # only with noise: the comparator's noise hid every candidate this time
             top -= 1
@@ -98,43 +148,58 @@ def local_top(sensor: Sensor, state: WeightState) -> int:
     return top
 
 
-def candidates(sensor: Sensor, state: WeightState, top: int, prev: int | None) -> list[int] | None:
-    """Nodes with ``w >= top``: all of them (fewer than :data:`EVENT_SLOTS`), or the one
-    nearest ``prev`` (a window search, :func:`nearest`); None if none is found.
+def candidates(
+    sensor: Sensor,
+    state: WeightState,
+    top: int,
+    prev: int | None,
+    frac: int = 0,
+    bits: int = 0,
+) -> list[int] | None:
+    """Nodes with ``w >= top + frac 2**-bits``: all of them (fewer than
+    :data:`EVENT_SLOTS`), or the one nearest ``prev`` (a window search, :func:`nearest`);
+    None if none is found.
 
     ``prev`` may lie outside this sensor's nodes (a bank gives it in local numbers).
     After :func:`local_top`, whose ``tmp_a`` (NOT valid) it reuses.
     """
-    at_least(sensor, state, top)
+    at_least(sensor, state, top, frac, bits)
     events = sensor.sim.scan_events(sensor.roles.d.cand, EVENT_SLOTS)
     if not len(events):
         return None
     if len(events) < EVENT_SLOTS:
         return [int(i) for i in sensor.nodes_of(events)]
-    return [nearest(sensor, state, top, prev)]
+    return [nearest(sensor, state, top, prev, frac, bits)]
 
 
-def nearest(sensor: Sensor, state: WeightState, top: int, prev: int | None) -> int:
-    """Window search: the candidate nearest ``prev`` (smaller index first)."""
+def nearest(
+    sensor: Sensor, state: WeightState, top: int, prev: int | None, frac: int = 0, bits: int = 0
+) -> int:
+    """Window search: the candidate (``w >= top + frac 2**-bits``) nearest ``prev``
+    (smaller index first)."""
     prev = 0 if prev is None else prev
+    level = (top, frac, bits)
     lo, hi = 0, sensor.n_nodes + abs(prev)
     while lo < hi:
         mid = (lo + hi) // 2
-        if _candidate_in(sensor, state, prev - mid, prev + mid, top):
+        if _candidate_in(sensor, state, prev - mid, prev + mid, level):
             hi = mid
         else:
             lo = mid + 1
     for node in (prev - lo, prev + lo):
-        if 0 <= node < sensor.n_nodes and _candidate_in(sensor, state, node, node, top):
+        if 0 <= node < sensor.n_nodes and _candidate_in(sensor, state, node, node, level):
             return node
     return min(max(prev, 0), sensor.n_nodes - 1)  # only with noise: the candidate hid
 
 
-def _candidate_in(sensor: Sensor, state: WeightState, a: int, b: int, top: int) -> bool:
-    """Whether a node in ``a..b`` has ``w >= top`` (``cand`` keeps those nodes)."""
+def _candidate_in(
+    sensor: Sensor, state: WeightState, a: int, b: int, level: tuple[int, int, int]
+) -> bool:
+    """Whether a node in ``a..b`` has ``w >= top + frac 2**-bits`` (``level``; ``cand``
+    keeps those nodes)."""
     dr = sensor.roles.d
     sensor.allow(False)
-    at_least(sensor, state, top)
+    at_least(sensor, state, *level)
     sensor.window(a, b)
     sensor.run(_and, dr.cand, dr.tmp_b)
     return bool(sensor.sim.global_or(dr.cand))

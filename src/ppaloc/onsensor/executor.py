@@ -107,7 +107,7 @@ class SensorExecutor:
             cls.roles,
             n_nodes,
             store=store,
-            max_tiles=cls.stores[store],
+            max_tiles=cls.max_tiles(plan, store),
             noise=noise,
             seed=seed,
             size=size,
@@ -218,6 +218,12 @@ class SensorExecutor:
         self.places.prepare_live()
         return likelihood.node_values(self.sensor, self.places)
 
+    def minimum(self, values: np.ndarray) -> float:
+        """Robust: the frame's best distance (the representation's
+        :meth:`~ppaloc.onsensor.places.Places.minimum`: refined on the array for low-res
+        images, the least readout for descriptors)."""
+        return self.places.minimum(values)
+
     def _normalised(self) -> None:
         """Apply a normalisation still pending (a schedule whose frame has no transition
         to carry it): the transition that stays on every node for free."""
@@ -240,10 +246,10 @@ class SensorExecutor:
         self.places.prepare_live()
         likelihood.add_paper(self.sensor, self.places, int(alpha), shift)
 
-    def detect(self, prev: int | None) -> tuple[int, float]:
+    def detect(self, prev: int | None, bits: int = 0) -> tuple[int, float]:
         """``(node, T)`` (:func:`ppaloc.onsensor.detect.detect`)."""
         self._normalised()
-        return detect.detect(self.sensor, self.state, prev)
+        return detect.detect(self.sensor, self.state, prev, bits)
 
     def confidence(self, node: int, top: float) -> float:
         """``T`` minus the integer maximum outside ``node +- R``."""
@@ -281,9 +287,17 @@ class SensorExecutor:
         """``floor(max W)`` over this sensor's nodes."""
         return detect.local_top(self.sensor, self.state)
 
-    def candidates(self, top: int, prev: int | None) -> list[int] | None:
-        """This sensor's nodes with ``w >= top`` (:func:`ppaloc.onsensor.detect.candidates`)."""
-        return detect.candidates(self.sensor, self.state, top, prev)
+    def local_fraction(self, top: int, bits: int) -> int:
+        """The largest ``j < 2**bits`` with a node of this sensor at ``w >= top + j
+        2**-bits`` (:func:`ppaloc.onsensor.detect.max_fraction`)."""
+        return detect.max_fraction(self.sensor, self.state, top, bits)
+
+    def candidates(
+        self, top: int, prev: int | None, frac: int = 0, bits: int = 0
+    ) -> list[int] | None:
+        """This sensor's nodes with ``w >= top + frac 2**-bits``
+        (:func:`ppaloc.onsensor.detect.candidates`)."""
+        return detect.candidates(self.sensor, self.state, top, prev, frac, bits)
 
     def outside_max(self, a: int, b: int, top: int) -> int | None:
         """The largest threshold in [-127, top] met by a node outside ``a..b``."""

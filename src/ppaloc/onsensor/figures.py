@@ -117,7 +117,7 @@ def difference_figure(
     places = pipe.places
     with sim.stage("inspection"):
         if isinstance(places, LowresPlaces):
-            if places.live_overwritten():  # the trees used F: load the frame again
+            if not places.live_kept:  # F served a later stage: load the frame again
                 pipe.capture(frame)
                 places.prepare_live()
             pipe.sensor.run(_difference, places.levels, db)

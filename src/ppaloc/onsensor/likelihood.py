@@ -34,28 +34,22 @@ Tree = tuple[Callable[..., Any], tuple]
 def node_values(sensor: Sensor, places: Any) -> np.ndarray:
     """Robust, stage ``"scale"``: every node's integer ``r_i`` (the trees, read out).
 
-    After the live frame is in place (``places.prepare_live``). The distance trees leave
-    each node's value at its block's top-left PE, per tile, or for both tiles in one
-    kernel where the representation has the registers for it (``places.tree_tiles``),
-    and ``scan_areg`` reads them (the ADC codes give the integers exactly,
-    ``places.values``); the trees' values stay in their registers for :func:`add_scaled`.
-    A bank combines the values of all its sensors before the update.
+    After the live frame is in place (``places.prepare_live``). The distance tree of each
+    tile leaves its nodes' values at their blocks' top-left PEs, and ``scan_areg`` reads
+    them (the ADC codes give the integers exactly, ``places.values``); the last tile's
+    values stay in ``spare`` for :func:`add_scaled`. A bank combines the values of all
+    its sensors before the update.
     """
     sim, r = sensor.sim, sensor.roles
     values = np.empty(sensor.n_nodes, np.int64)
-    pair = places.tree_tiles() if sensor.tiles > 1 else None
     with sim.stage("scale"):
-        if pair is not None:
-            sensor.run(pair[0], *pair[1])
         for t in range(sensor.tiles):
-            if pair is None:
-                places.tree_calls(t, halving=True)
-                build, args = places.tree(t, halving=True)
-                sensor.run(build, *args)
-            reg = pair[2][t] if pair is not None else r.spare
+            places.tree_calls(t, halving=True)
+            build, args = places.tree(t, halving=True)
+            sensor.run(build, *args)
             nodes, br, bc = sensor.tile_nodes[t]
             last_row = int(br.max()) * sensor.bh
-            codes = sim.scan_areg(reg, 0, 0, last_row, sensor.size - 1, sensor.bh, sensor.bw)
+            codes = sim.scan_areg(r.spare, 0, 0, last_row, sensor.size - 1, sensor.bh, sensor.bw)
             values[nodes] = places.values(codes[br, bc].astype(np.int64))
     return values
 
@@ -65,8 +59,7 @@ def add_scaled(sensor: Sensor, places: Any, state: WeightState, s: int, alpha: i
 
     After :func:`node_values`, with this frame's shift ``s`` and ``alpha_t`` (the
     controller's, from every node of the map). The last tile's tree values are still in
-    their register; an earlier tile's tree is recomputed where the representation keeps
-    one tile's values only.
+    ``spare``; an earlier tile's tree is recomputed.
     """
     sim, r = sensor.sim, sensor.roles
     w, neg = r.weights, r.negated
@@ -77,23 +70,25 @@ def add_scaled(sensor: Sensor, places: Any, state: WeightState, s: int, alpha: i
     if not -128 <= alpha - state.pending_offset <= 127:
         settle(sensor, state)
     offset, state.pending_offset = state.pending_offset, 0
-    pair = places.tree_tiles() if sensor.tiles > 1 else None
-    regs = None if pair is None else pair[2]
     with sim.stage("compare"):
         for t in reversed(range(sensor.tiles)):
-            recompute = pair is None and t != sensor.tiles - 1
+            recompute = t != sensor.tiles - 1
             if recompute:
                 places.tree_calls(t, halving=True)
             sensor.root_pattern(r.d.pattern, t)
             sim.load_in(alpha - offset)  # with the stay cost the transition left
-            # the pair's value and scratch registers: tile 1 (frame) keeps tile 0's spare
-            if regs is not None:
-                value, scratch = regs[t], (r.means if t else r.frame)
-            else:
-                value, scratch = r.spare, r.frame
             tree = places.tree(t, halving=True) if recompute else None
             sensor.run(
-                _tree_update, tree, s, t, value, scratch, places.value_scale, r.d.pattern, w, neg
+                _tree_update,
+                tree,
+                s,
+                t,
+                r.spare,
+                r.frame,
+                places.value_scale,
+                r.d.pattern,
+                w,
+                neg,
             )
         state.negated = neg is not None
     state.scale.charge(1 if state.negated else 2)  # -(w + ...) into negated, or twice

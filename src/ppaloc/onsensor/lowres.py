@@ -26,6 +26,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from ppaloc.localise.schedule import SensorPlan
+from ppaloc.onsensor.minimum import refine_minimum
 from ppaloc.onsensor.places import Places, Tree
 from ppaloc.onsensor.program import halve_level, pull_shift
 from ppaloc.onsensor.roles import DRegs, Roles
@@ -98,13 +100,20 @@ class LowresPlaces(Places):
     #: Address-pattern "don't care" bits of :meth:`load_live`'s classes: every PE whose
     #: row and column residues mod 8 are the grid cell's.
     CLASS_DONT_CARE = 0xFF & ~(GRID - 1)
-    #: Two tiles: the node trees' levels, the long pulls first (their write noise is
-    #: halved by the most levels after them).
-    PAIR_LEVELS = ((east, 4), (south, 4), (east, 2), (south, 2), (east, 1), (south, 1))
 
     def reset(self) -> None:
         #: The live grid as :meth:`load_live` last loaded it (normalised; inspection).
         self.live_image: np.ndarray | None = None
+        #: Whether ``F`` still holds the live frame :meth:`prepare_live` put there (the
+        #: refinement of the frame's best distance uses it as a working plane).
+        self.live_kept = False
+
+    @classmethod
+    def max_tiles(cls, plan: SensorPlan, store: str) -> int:
+        """One tile where the schedule asks for the frame's best distance: its refinement
+        (:mod:`ppaloc.onsensor.minimum`) works in the two planes beside the tree's value,
+        which a second tile's value would take."""
+        return 1 if plan.minimum else cls.stores[store]
 
     @property
     def normalised(self) -> bool:
@@ -199,6 +208,7 @@ class LowresPlaces(Places):
             self.load_live()
         else:
             self.replicate()
+        self.live_kept = True
 
     def node_blocks(self, topomap: TopoMap) -> np.ndarray:
         """The nodes' images, contrast-normalised where the live one will be."""
@@ -274,23 +284,20 @@ class LowresPlaces(Places):
         (a halving tree over ``D`` and ``E``; the same for both presets)."""
         return (_tree, (self.levels, self.roles.db[tile]))
 
-    def tree_tiles(self) -> tuple:
-        """Both tiles' trees in one kernel, tile 0's ``-mu/2`` in ``D``, tile 1's in ``E``
-        (``F``, the replicated frame, is read by both first steps and then serves as the
-        scratch of both halving trees), so no tree is computed twice."""
-        return (_tree_pair, (self.roles.db[0], self.roles.db[1], self.PAIR_LEVELS), (D, E))
-
     def values(self, codes: np.ndarray) -> np.ndarray:
         """``r = 2 (128 - code)``: the ADC code of ``-mu/2`` read back (docs/ppa8.md)."""
         return 2 * (128 - codes)
 
-    def live_overwritten(self) -> bool:
-        """Whether the last scaled readout used ``F`` (the live grid) as the scratch of
-        both tiles' trees (:meth:`tree_tiles`)."""
-        return self.normalised and self.sensor.tiles > 1
+    def minimum(self, values: np.ndarray) -> float:
+        """The frame's best distance refined on the array from the least readout
+        (:func:`ppaloc.onsensor.minimum.refine_minimum`; ``F`` is one of its planes)."""
+        if self.sensor.tiles > 1:
+            raise AssertionError("the refinement reads one tile's values: plan.minimum")
+        self.live_kept = False
+        return refine_minimum(self.sensor, int(values.min()))
 
     def live_planes(self) -> dict[str, np.ndarray]:
-        if self.live_overwritten():
+        if not self.live_kept:
             return {}
         return {"F: live 8x8 grid, replicated (negated)": self.sensor.sim.read(F)}
 
@@ -383,15 +390,3 @@ def _tree(k: Kernel, levels: bool, db: Register) -> None:
     for direction in (east, south):
         for step in (1, 2, 4):
             halve_level(k, D, E, direction, step)
-
-
-def _tree_pair(k: Kernel, db0: Register, db1: Register, levels: tuple) -> None:
-    k.add(D, F, db0)  # n0 - f
-    k.add(E, F, db1)  # n1 - f
-    k.abs(F, E)  # |n1 - f|
-    k.abs(E, D)  # |n0 - f|
-    k.bus2(D, NEWS, E)  # -|n0 - f| / 2
-    k.bus2(E, NEWS, F)  # -|n1 - f| / 2
-    for direction, step in levels:
-        halve_level(k, D, F, direction, step)
-        halve_level(k, E, F, direction, step)

@@ -13,6 +13,7 @@
 :mod:`ppaloc.onsensor.snake`           moves along the snake (paper shift; robust copies)
 :mod:`ppaloc.onsensor.transition`      robust transition, scale restore, floor
 :mod:`ppaloc.onsensor.likelihood`      robust scaled readout and update; paper update
+:mod:`ppaloc.onsensor.minimum`         the frame's best distance, refined on the array
 :mod:`ppaloc.onsensor.detect`          detection and confidence
 :mod:`ppaloc.onsensor.carry`           a bank's exact carry between sensors
 :mod:`ppaloc.onsensor.weights`         what the controller still owes the weights

@@ -77,6 +77,11 @@ class Places:
             )
         return store
 
+    @classmethod
+    def max_tiles(cls, plan: SensorPlan, store: str) -> int:
+        """Tiles one sensor holds with ``store`` under ``plan`` (:attr:`stores`)."""
+        return cls.stores[store]
+
     def reset(self) -> None:
         """Forget the query (a representation's own per-frame memory)."""
 
@@ -102,15 +107,14 @@ class Places:
     def tree_calls(self, tile: int, halving: bool) -> None:
         """Controller calls the tree of ``tile`` needs first (e.g. a DAC constant)."""
 
-    def tree_tiles(self) -> tuple[Callable[..., Any], tuple, tuple] | None:
-        """Both tiles' trees in one kernel for the scaled readout: ``(builder, args,
-        registers)`` (each tile's values in its register), or None where the
-        representation recomputes a tile's tree instead."""
-        return None
-
     def values(self, codes: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
         """The integers ``r_i`` of docs/ppa8.md from the ADC codes of the trees' roots."""
         raise NotImplementedError
+
+    def minimum(self, values: np.ndarray) -> float:
+        """Robust: the frame's best distance from the readout ``values`` (the least of
+        them where the readout is exact, as the descriptors' Hamming distances are)."""
+        return int(values.min())
 
     def node_blocks(self, topomap: TopoMap) -> np.ndarray:
         """Each node's values on the PEs of its block, as the comparison reads them."""
