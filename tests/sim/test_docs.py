@@ -62,12 +62,22 @@ def test_porting_example_matches_numpy(capsys) -> None:
 
 
 def test_controller_host_example(capsys) -> None:
-    (block,) = python_blocks(DOCS / "sim-controller.md")
+    _, block = python_blocks(DOCS / "sim-controller.md")
     ns, printed = run(block, capsys)
     assert len(printed) == 4
     for got, claim in printed:
         assert got == claim
     assert ns["sim"].read(R5).sum() == 2
+
+
+def test_observer_example_counts_what_ran(capsys) -> None:
+    block, _ = python_blocks(DOCS / "sim-controller.md")
+    ns, printed = run(block, capsys)
+    assert len(printed) == 2
+    for got, claim in printed:
+        assert got == claim
+    assert ns["sim"].observers == ()  # detached at the end of the with block
+    assert len(ns["edges"]) == 4  # movx and sub: 2 ICWs each, run twice
 
 
 def test_porting_kernel_spreads_a_lone_one_south_and_west() -> None:

@@ -42,6 +42,7 @@ import numpy as np
 from ppaloc.errors import RegisterMisuseError, SimulatorError
 from ppaloc.sim import hostloops
 from ppaloc.sim.draw import DrawMixin
+from ppaloc.sim.observe import controller_call
 from ppaloc.sim.registers import (
     DNEWS_SELECTORS,
     FLAG,
@@ -166,7 +167,9 @@ class ControllerMixin(DrawMixin):
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
     ``_dplane``, ``_write_analog``, ``_write_digital``, ``_write_digital_grid``,
-    ``_flag_state``, ``_set_in``, ``_take_droop``, ``rng``, ``noise`` and ``timing``.
+    ``_flag_state``, ``_set_in``, ``_take_droop``, ``rng``, ``noise`` and ``timing``, and
+    tells the engine's observers (:mod:`ppaloc.sim.observe`) each plane a call writes
+    (``_note_write``). Every public call is a :func:`~ppaloc.sim.observe.controller_call`.
     """
 
     rows: int
@@ -191,6 +194,10 @@ class ControllerMixin(DrawMixin):
         def _flag_state(self) -> tuple[np.ndarray, bool]: ...
         def _set_in(self, value: float) -> None: ...
         def _take_droop(self, reg: Register) -> np.float32 | None: ...
+
+        _call_frame: Any
+
+        def _note_write(self, reg: Register) -> None: ...
 
     # ----------------------------------------------------------------------------------
     # Stages
@@ -324,6 +331,8 @@ class ControllerMixin(DrawMixin):
         controller calls. ``values`` are clipped to [-128, 127].
         """
         self._catch_up()  # older values droop up to now; the new ones start fresh
+        if self._call_frame is not None:
+            self._note_write(reg)
         current = self._aplane(reg)
         flag, everywhere = self._flag_state()
         if noisy and not self.noise.ideal:
@@ -354,6 +363,7 @@ class ControllerMixin(DrawMixin):
             )
         return temp
 
+    @controller_call
     def scamp5_in(self, areg: Register, value: int, temp: Register = NEWS) -> None:
         """Load a constant into ``areg`` through the DAC, with error correction.
 
@@ -389,6 +399,8 @@ class ControllerMixin(DrawMixin):
             self._write_masked(t, -float(v), noisy=False)
         if self._readout_sd() > 0:  # one write's temporal noise: a window of the bank
             self._catch_up()
+            if self._call_frame is not None:
+                self._note_write(areg)
             current = self._aplane(areg)
             flag, everywhere = self._flag_state()
             window = self.noise.window()
@@ -396,6 +408,7 @@ class ControllerMixin(DrawMixin):
         else:
             self._write_masked(areg, float(v), noisy=False)
 
+    @controller_call
     def scamp5_get_image(self, yf: Register, yh: Register, gain: int = 1) -> None:
         """``scamp5_get_image``: capture the exposure into ``yf`` (full range) and ``yh``.
 
@@ -418,6 +431,7 @@ class ControllerMixin(DrawMixin):
             raise SimulatorError(f"{call}: gain={gain} is not modelled; use gain=1")
         self.get_image(yf, yh)  # type: ignore[attr-defined]
 
+    @controller_call
     def load_in(
         self, areg_or_value: Register | int, value: int | None = None, temp: Register = NEWS
     ) -> None:
@@ -458,6 +472,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Address patterns
 
+    @controller_call
     def load_pattern(
         self, dreg: Register, r: int, c: int, rx: int, cx: int, *, scamp_addr: bool = False
     ) -> None:
@@ -497,6 +512,7 @@ class ControllerMixin(DrawMixin):
         pattern = self._pattern(*args, scamp_addr)
         self._write_digital_grid(dreg, pattern.row_ok, pattern.col_ok)
 
+    @controller_call
     def load_point(self, dreg: Register, r: int, c: int, *, scamp_addr: bool = False) -> None:
         """Set ``dreg`` to 1 at element (r, c) and to 0 elsewhere.
 
@@ -523,6 +539,7 @@ class ControllerMixin(DrawMixin):
         plane[ra : rb + 1, ca : cb + 1] = True
         return plane
 
+    @controller_call
     def load_rect(
         self, dreg: Register, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False
     ) -> None:
@@ -538,6 +555,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call(call)
         self._write_digital(dreg, plane)
 
+    @controller_call
     def select_pattern(self, r: int, c: int, rx: int, cx: int, *, scamp_addr: bool = False) -> None:
         """Like :meth:`load_pattern`, into ``SELECT`` (also the address parts that
         :meth:`select_col` and its siblings change one at a time)."""
@@ -545,10 +563,13 @@ class ControllerMixin(DrawMixin):
         args = dict(zip(("r", "c", "rx", "cx"), _pattern_args(call, r, c, rx, cx), strict=True))
         self.timing.charge_call(call)
         self._dplane(SELECT)[...] = self.address_mask(**args, scamp_addr=scamp_addr)
+        if self._call_frame is not None:
+            self._note_write(SELECT)
         if scamp_addr:  # the parts are kept in array columns (exact for 2^k columns)
             args["c"] = (self.cols - 1 - args["c"]) & 255
         self._select_state().update(args)
 
+    @controller_call
     def select_point(self, r: int, c: int, *, scamp_addr: bool = False) -> None:
         """Like :meth:`load_point`, into ``SELECT`` (and the parts :meth:`select_col` edits)."""
         call = "select_point"
@@ -558,8 +579,11 @@ class ControllerMixin(DrawMixin):
         plane = self._dplane(SELECT)
         plane[...] = False
         plane[r, self._col_index(c, scamp_addr)] = True
+        if self._call_frame is not None:
+            self._note_write(SELECT)
         self._select_state().update(r=r, c=self._col_index(c, scamp_addr), rx=0, cx=0)
 
+    @controller_call
     def select_rect(self, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False) -> None:
         """Like :meth:`load_rect`, into ``RECT``; as the header says it also modifies
         ``SELECT``, which here holds the same rectangle."""
@@ -568,10 +592,14 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call(call)
         self._dplane(RECT)[...] = plane
         self._dplane(SELECT)[...] = plane
+        if self._call_frame is not None:
+            self._note_write(RECT)
+            self._note_write(SELECT)
 
     # ----------------------------------------------------------------------------------
     # Shifts
 
+    @controller_call
     def shift(self, reg: Register, h: int, v: int, boundary: int = 0, refresh: int = 2) -> None:
         """``scamp5_shift``: move a whole register plane by (h, v) elements.
 
@@ -648,6 +676,8 @@ class ControllerMixin(DrawMixin):
         """
         plane = self._aplane(reg)
         self.timing.charge_call("shift_areg", steps)
+        if self._call_frame is not None:
+            self._note_write(reg)
         flag, everywhere = self._flag_state()
         if self.noise.ideal:
             hostloops.shift(plane, v, h, flag, everywhere)
@@ -672,6 +702,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Global readouts
 
+    @controller_call
     def global_sum_16(self, areg: Register, out: np.ndarray | None = None) -> int:
         """``scamp5_global_sum_16``: a value proportional to the sum of ``areg``.
 
@@ -693,6 +724,7 @@ class ControllerMixin(DrawMixin):
         """
         return self._global_sum("global_sum_16", areg, 4, out)
 
+    @controller_call
     def global_sum_64(self, areg: Register, out: np.ndarray | None = None) -> int:
         """``scamp5_global_sum_64``: as :meth:`global_sum_16` on an 8 x 8 grid (sum of 64
         codes, in [0, 16320]); slower and finer."""
@@ -713,6 +745,7 @@ class ControllerMixin(DrawMixin):
             out[...] = codes
         return int(codes.sum(dtype=np.int64))
 
+    @controller_call
     def global_or(
         self,
         dreg: Register,
@@ -739,6 +772,7 @@ class ControllerMixin(DrawMixin):
         # the pattern is a grid: its rows only, each ANDed with the columns' vector
         return int(hostloops.any_in_grid(selected, pattern.row_ok, pattern.col_ok))
 
+    @controller_call
     def global_count(self, dreg: Register, temp: Register, options: int = 0) -> int:
         """``scamp5_global_count``: an estimate of the number of 1s in ``dreg``.
 
@@ -757,6 +791,8 @@ class ControllerMixin(DrawMixin):
         n = 4 if o == 0 else 8
         plane = np.where(self._dplane(dreg), 127.0, -128.0)
         self._aplane(temp)[...] = plane
+        if self._call_frame is not None:
+            self._note_write(temp)
         codes = self._adc(self._block_means(call, self._aplane(temp), n))
         self.timing.charge_call("global_count" if o == 0 else "global_count_64")
         total = int(codes.sum(dtype=np.int64))
@@ -765,6 +801,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Image readouts
 
+    @controller_call
     def read_areg(self, areg: Register, r: int, c: int, *, scamp_addr: bool = False) -> int:
         """``scamp5_read_areg``: the ADC code (0-255) of one element."""
         call = "read_areg"
@@ -776,6 +813,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call("scan_areg", 1)
         return int(self._adc(np.array(value)))
 
+    @controller_call
     def scan_areg(
         self,
         areg: Register,
@@ -821,6 +859,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call(call, values.size)
         return self._adc(values)
 
+    @controller_call
     def scan_areg_8x8(self, areg: Register) -> np.ndarray:
         """``scamp5_scan_areg_8x8``: ADC codes of an 8 x 8 grid of single elements.
 
@@ -847,6 +886,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call(call)
         return self._adc(values)
 
+    @controller_call
     def scan_areg_mean_8x8(self, areg: Register) -> np.ndarray:
         """``scamp5_scan_areg_mean_8x8``: ADC codes of the means of 8 x 8 blocks.
 
@@ -862,6 +902,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call(call)
         return self._adc(means)
 
+    @controller_call
     def scan_dreg(self, dreg: Register, r0: int = 0, r1: int | None = None) -> np.ndarray:
         """``scamp5_scan_dreg``: rows ``r0..r1`` (inclusive) of a digital register.
 
@@ -881,6 +922,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call(call, r1 - r0 + 1)
         return self._dplane(dreg)[r0 : r1 + 1].copy()
 
+    @controller_call
     def scan_events(
         self,
         dreg: Register,
@@ -978,6 +1020,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Raw DAC loads
 
+    @controller_call
     def load_dac(
         self, areg_or_dac: Register | int, dac: int | None = None, temp: Register = NEWS
     ) -> None:
@@ -1011,6 +1054,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Analogue diffusion and asynchronous flooding (kernels of modelled ICWs)
 
+    @controller_call
     def diffuse(
         self,
         target: Register,
@@ -1039,6 +1083,7 @@ class ControllerMixin(DrawMixin):
         steps += [(op, (t0,), (target,)), (op, (target,), (t0,))] * n
         self._macro(call, (target, n), steps)  # type: ignore[attr-defined]
 
+    @controller_call
     def flood(
         self,
         dreg_target: Register,
@@ -1075,10 +1120,12 @@ class ControllerMixin(DrawMixin):
         steps += [("MOV", (t,), (R12,))]
         self._macro(call, (t, m, b, n), steps)  # type: ignore[attr-defined]
 
+    @controller_call
     def kernel_all(self) -> None:
         """``scamp5_kernel_all``: run ``all()`` (FLAG := 1) as a kernel of its own."""
         self._macro("kernel_all", (), [("all", (), ())])  # type: ignore[attr-defined]
 
+    @controller_call
     def kernel_refresh_dreg(self) -> None:
         """``scamp5_kernel_refresh_dreg``: ``REFRESH`` every DREG R0-R12 (26 ICWs, the
         size of the library's ``const_icw_refresh`` table)."""
@@ -1101,7 +1148,10 @@ class ControllerMixin(DrawMixin):
             state[part + "x"] = 0
         self.timing.charge_call("select_pattern")
         self._dplane(SELECT)[...] = self.address_mask(**state, scamp_addr=False)
+        if self._call_frame is not None:
+            self._note_write(SELECT)
 
+    @controller_call
     def select_col(self, c: int, *, scamp_addr: bool = False) -> None:
         """``scamp5_select_col``: SELECT the column ``c`` (in the rows selected so far).
 
@@ -1113,14 +1163,17 @@ class ControllerMixin(DrawMixin):
         c = self._col_index(_as_int("select_col", "c", c, 0, self.cols - 1), scamp_addr)
         self._select_part("select_col", "c", c)
 
+    @controller_call
     def select_row(self, r: int) -> None:
         """``scamp5_select_row``: SELECT the row ``r`` (see :meth:`select_col`)."""
         self._select_part("select_row", "r", _as_int("select_row", "r", r, 0, self.rows - 1))
 
+    @controller_call
     def select_colx(self, cx: int) -> None:
         """``scamp5_select_colx``: the column address bits to ignore (see :meth:`select_col`)."""
         self._select_part("select_colx", "cx", cx)
 
+    @controller_call
     def select_rowx(self, rx: int) -> None:
         """``scamp5_select_rowx``: the row address bits to ignore (see :meth:`select_col`)."""
         self._select_part("select_rowx", "rx", rx)
@@ -1133,6 +1186,7 @@ class ControllerMixin(DrawMixin):
         scale = self.rows * self.cols / 16
         return int(self._adc(np.array(values.sum(dtype=np.float64) / scale)))
 
+    @controller_call
     def global_sum_fast(self, areg: Register) -> int:
         """``scamp5_global_sum_fast``: an approximate sum of the whole plane, one code.
 
@@ -1147,6 +1201,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg))
 
+    @controller_call
     def global_sum_sparse(
         self,
         areg: Register,
@@ -1177,6 +1232,7 @@ class ControllerMixin(DrawMixin):
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg)[mask])
 
+    @controller_call
     def global_sum_region(
         self, areg: Register, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False
     ) -> int:
@@ -1193,6 +1249,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Further digital readouts
 
+    @controller_call
     def scan_events_cr(
         self,
         dreg: Register,
@@ -1206,6 +1263,7 @@ class ControllerMixin(DrawMixin):
         address first; the header's buffer holds (col, row) pairs)."""
         return self.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=scamp_addr)
 
+    @controller_call
     def scan_events_rc(
         self,
         dreg: Register,
@@ -1223,6 +1281,7 @@ class ControllerMixin(DrawMixin):
         """
         return self._scan_events("scan_events_rc", dreg, max_num, h_dir, v_dir, scamp_addr, True)
 
+    @controller_call
     def scan_boundingbox(self, dreg: Register, *, scamp_addr: bool = False) -> np.ndarray | None:
         """``scamp5_scan_boundingbox``: the axis-aligned bounding box of the 1s of ``dreg``.
 
@@ -1252,6 +1311,7 @@ class ControllerMixin(DrawMixin):
     # ----------------------------------------------------------------------------------
     # Chip parameters
 
+    @controller_call
     def vs_scamp5_get_parameter(self, which: int) -> int:
         """``vs_scamp5_get_parameter``: the global-sum parameters of the modelled chip.
 

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ppaloc.errors import SimulatorError
+from ppaloc.sim.observe import controller_call
 
 if TYPE_CHECKING:
     from ppaloc.sim.registers import Register
@@ -84,10 +85,12 @@ class DrawMixin:
         def _write_digital(self, reg: Register, values: np.ndarray) -> None: ...
         def _rect(self, call: str, r0: int, c0: int, r1: int, c1: int, sa: bool) -> np.ndarray: ...
 
+    @controller_call
     def draw_begin(self, dreg: Register) -> None:
         """``scamp5_draw_begin``: the later ``draw_*`` calls draw into ``dreg`` (R0-R12)."""
         self.__dict__["_draw_target"] = self._dreg("draw_begin", dreg)
 
+    @controller_call
     def draw_end(self) -> None:
         """``scamp5_draw_end``: end the drawing operations."""
         self.__dict__["_draw_target"] = None
@@ -115,17 +118,20 @@ class DrawMixin:
             self.timing.charge_call("scamp5_draw_pixel")
         return len(rows)
 
+    @controller_call
     def draw_pixel(self, r: int, c: int, *, scamp_addr: bool = False) -> None:
         """``scamp5_draw_pixel``: a 1 at (r, c), wrapped round the array if outside."""
         self._draw("draw_pixel", np.array([_int("draw_pixel", "r", r)]),
                    np.array([_int("draw_pixel", "c", c)]), True, scamp_addr)  # fmt: skip
 
+    @controller_call
     def draw_point(self, r: int, c: int, *, scamp_addr: bool = False) -> bool:
         """``scamp5_draw_point``: a 1 at (r, c) if inside the array; returns whether drawn."""
         rows = np.array([_int("draw_point", "r", r)])
         cols = np.array([_int("draw_point", "c", c)])
         return bool(self._draw("draw_point", rows, cols, False, scamp_addr))
 
+    @controller_call
     def draw_rect(self, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False) -> None:
         """``scamp5_draw_rect``: 1s over the rectangle with corners (r0, c0), (r1, c1)
         (inclusive, any order; filled, as ``scamp5_load_rect`` fills it, but ORed into
@@ -135,6 +141,7 @@ class DrawMixin:
         self.timing.charge_call("scamp5_draw_rect")
         self._write_digital(target, self._dplane(target) | rect)
 
+    @controller_call
     def draw_line(
         self, r0: int, c0: int, r1: int, c1: int, repeat: bool = False, *, scamp_addr: bool = False
     ) -> None:
@@ -145,6 +152,7 @@ class DrawMixin:
         rows, cols = line_points(*args)
         self._draw(call, rows, cols, bool(repeat), scamp_addr)
 
+    @controller_call
     def draw_circle(
         self, r: int, c: int, radius: int, repeat: bool = False, *, scamp_addr: bool = False
     ) -> None:
@@ -157,6 +165,7 @@ class DrawMixin:
         rows, cols = circle_points(_int(call, "r", r), _int(call, "c", c), rad)
         self._draw(call, rows, cols, bool(repeat), scamp_addr)
 
+    @controller_call
     def draw_negate(self) -> None:
         """``scamp5_draw_negate``: invert the target DREG (the 2-ICW ``NOT`` macro)."""
         self.NOT(self._target("draw_negate"))  # type: ignore[attr-defined]

@@ -34,6 +34,7 @@ from ppaloc.sim.isa import CLOCK_CLASSES, Instruction
 from ppaloc.sim.macros import ProgramAPI
 from ppaloc.sim.noise import NoiseModel, NoiseParams
 from ppaloc.sim.noise import fast_clip as _clip
+from ppaloc.sim.observe import ImageSet, ObservableMixin, PlaneWrite, SimObserver
 from ppaloc.sim.registers import (
     ANALOG_PLANES,
     DIGITAL_PLANES,
@@ -96,7 +97,7 @@ def _edge_slices(dr: int, dc: int, rows: int, cols: int) -> list[tuple[slice, sl
     return out
 
 
-class Scamp5(ControllerMixin, ProgramAPI):
+class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
     """A simulated SCAMP-5 pixel processor array.
 
     Parameters
@@ -114,6 +115,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
         ``"reference"``, ``"numpy"`` or ``"compiled"`` (needs numba): what runs the ICWs
         (:mod:`ppaloc.sim.engines`; every engine gives the same bytes). None: the
         ``PPALOC_ENGINE`` environment variable, else the fastest installed.
+    observers : sequence of SimObserver
+        Attached from the start, as by :meth:`observe` one by one: each is called as
+        ``observer(sim, event)`` after every kernel run, controller call, ``set_image``
+        and ``write`` (:mod:`ppaloc.sim.observe`). Detach one with :meth:`unobserve`.
 
     Examples
     --------
@@ -136,6 +141,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         seed: int = 0,
         clock_hz: float = 10e6,
         engine: str | None = None,
+        observers: Iterable[SimObserver] = (),
     ) -> None:
         for name, v in (("rows", rows), ("cols", cols)):
             if not isinstance(v, int | np.integer) or isinstance(v, bool) or v < 1:
@@ -170,6 +176,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         if not self.noise.ideal:
             self._a[PIX.index] = self.noise.pixel_offset
         self.engine = make_engine(engine, self)
+        self._init_observers(observers)
 
     # ------------------------------------------------------------------ inspection
     def __repr__(self) -> str:
@@ -194,6 +201,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         if self._in_level != value:
             hostloops.fill(self._a[_IN_I], value)
             self._in_level = value
+        if self._call_frame is not None:
+            self._note_write(IN)
 
     def _take_droop(self, reg: Register) -> np.float32 | None:
         """The droop step pending on analogue ``reg``, cleared without a pass: the caller
@@ -266,6 +275,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         noise when not ideal: the draw is taken for the whole plane either way)."""
         if not self.noise.ideal:
             self._elapse()  # older values droop first; the new one starts fresh
+        if self._call_frame is not None:
+            self._note_write(reg)
         plane = self._aplane(reg)
         t = self._t[2]
         if values is not t:  # a host call may form its values in the scratch plane
@@ -298,6 +309,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
             values = self._as_plane(reg, values, bool)
         np.copyto(plane, values, casting="unsafe")
         self._touch_digital(reg.index)
+        if self._call_frame is not None:
+            self._note_write(reg)
 
     def _write_digital_grid(self, reg: Register, rows: np.ndarray, cols: np.ndarray) -> None:
         """Set digital ``reg`` to an address pattern, ``rows[r] and cols[c]`` (bool
@@ -308,6 +321,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
             self._elapse()
         hostloops.grid(plane, rows, cols)
         self._touch_digital(reg.index)
+        if self._call_frame is not None:
+            self._note_write(reg)
 
     def read(self, reg: Register) -> np.ndarray:
         """A copy of ``reg``'s plane: float32 in [-128, 127] (analogue) or bool (digital).
@@ -321,7 +336,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
     def write(self, reg: Register, values: object) -> None:
         """Set ``reg``'s plane exactly (analogue values clipped to [-128, 127]).
 
-        An inspection tool: untimed, noiseless, ignores FLAG and R0.
+        An inspection tool: untimed, noiseless, ignores FLAG and R0. Observers receive a
+        :class:`~ppaloc.sim.observe.PlaneWrite` (a program has no device call for it).
         """
         if isinstance(reg, Register) and reg.kind == "digital":
             self._write_digital(reg, values)
@@ -332,6 +348,10 @@ class Scamp5(ControllerMixin, ProgramAPI):
             if not self.noise.ideal:
                 self._elapse()  # before the plane is taken: the new value starts fresh
             np.copyto(self._aplane(reg), np.clip(arr, -128, 127), casting="unsafe")
+        if self._observers:
+            values = self.read(reg)
+            values.flags.writeable = False
+            self._notify(PlaneWrite(reg, values))
 
     def set_image(self, image: np.ndarray) -> None:
         """Set the scene ``PIX`` sees until the next ``rpix``: a uint8 (rows, cols) image.
@@ -339,6 +359,7 @@ class Scamp5(ControllerMixin, ProgramAPI):
         ``PIX`` then reads ``p/2 - 64`` (half range) for a pixel ``p``, so in ideal mode
         ``get_image(y, h)`` yields the full-range ``y = p - 128`` (and ``h = -(p/2 - 64)``)
         and ``get_image(y)`` the half-range ``y = p/2 - 64``, as the SCAMP-5d header states.
+        Observers receive an :class:`~ppaloc.sim.observe.ImageSet` (a frame boundary).
         """
         img = np.asarray(image)
         if img.dtype != np.uint8 or img.shape != (self.rows, self.cols):
@@ -351,6 +372,11 @@ class Scamp5(ControllerMixin, ProgramAPI):
             self._elapse()
         offset = None if self.noise.ideal else self.noise.pixel_offset
         hostloops.load_image(self._a[PIX.index], self._image, offset)
+        # observers receive this copy, read-only (made so after the compiled loop, which
+        # is specialised for writable arrays)
+        self._image.flags.writeable = False
+        if self._observers:
+            self._notify(ImageSet(self._image))
 
     # --------------------------------------------------------------------- kernels
     def kernel(self) -> Kernel:
@@ -382,6 +408,8 @@ class Scamp5(ControllerMixin, ProgramAPI):
         """Instructions issued directly on the simulator run at once as a kernel of their own."""
         run = self._compile_kernel(instructions)
         self._run_ops(run, count_clocks(instructions), written_digital(instructions))
+        if self._observers:
+            self._observed_icws(None, instructions)
 
     def _compile_kernel(self, instructions: tuple[Instruction, ...]) -> Op:
         """A runner performing ``instructions`` in order, built by this simulator's engine.

@@ -185,14 +185,21 @@ class Kernel(ProgramAPI):
         return "\n".join(lines)
 
     def run(self) -> None:
-        """Run the kernel on its simulator (compiled once, on the first run)."""
+        """Run the kernel on its simulator (compiled once, on the first run).
+
+        The simulator's observers receive a :class:`~ppaloc.sim.observe.KernelRun` of
+        this kernel after each run.
+        """
         self._check_not_failed()
         if not self._sealed:
             raise KernelError("a kernel runs after its `with` block has ended")
+        sim = self.sim
         if self._ops is None:
             from ppaloc.sim.engine import count_clocks, written_digital
 
-            self._ops = self.sim._compile_kernel(self._recorded)
+            self._ops = sim._compile_kernel(self._recorded)
             self._counts = tuple(count_clocks(self._recorded).items())  # the timing's key
             self._dwritten = written_digital(self._recorded)
-        self.sim._run_ops(self._ops, self._counts, self._dwritten)
+        sim._run_ops(self._ops, self._counts, self._dwritten)
+        if sim._observers:
+            sim._observed_icws(self, self.instructions)
