@@ -34,6 +34,7 @@ from ppaloc.onsensor.snake import shift_weights
 from ppaloc.onsensor.transition import transition
 from ppaloc.onsensor.weights import WeightState, read_weights
 from ppaloc.sim import Kernel, NoiseParams, Register, Scamp5, TimingModel
+from ppaloc.sim.observe import SimObserver
 from ppaloc.topomap import SnakeLayout, TopoMap
 
 __all__ = ["PLACES", "SensorExecutor"]
@@ -63,6 +64,8 @@ class SensorExecutor:
     store : str, optional
         How the map is held (a key of the representation's ``stores``; default the
         first the plan prefers).
+    observers : sequence of SimObserver
+        Observers of the sensor's simulator (:mod:`ppaloc.sim.observe`).
 
     Attributes
     ----------
@@ -89,6 +92,7 @@ class SensorExecutor:
         seed: int = 0,
         size: int = 256,
         store: str | None = None,
+        observers: Sequence[SimObserver] = (),
     ) -> None:
         if not isinstance(params, FilterParams):
             raise PpalocError(
@@ -111,6 +115,7 @@ class SensorExecutor:
             noise=noise,
             seed=seed,
             size=size,
+            observers=observers,
         )
         self.places = cls(self.sensor, params)
         self.representation = representation

@@ -28,6 +28,7 @@ from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.onsensor.precursor import STRUCTURES, loop_counts, structure_counts
 from ppaloc.sim import NoiseParams
+from ppaloc.sim.observe import SimObserver, check_observers
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
 from ppaloc.topomap import TopoMap, layout_for
 
@@ -68,6 +69,11 @@ class OnSensorLocaliser:
     sensor_nodes : int, optional
         At most this many nodes per sensor (default: a sensor's capacity); smaller values
         make small banks, e.g. for tests.
+    observers : sequence of SimObserver
+        Attached to every simulator the localiser creates (the mapping sensor of
+        :meth:`build_map`, the sensor or bank holding the map): each receives
+        ``observer(sim, event)`` for every kernel run, controller call and frame
+        (:mod:`ppaloc.sim.observe`), e.g. a :class:`ppaloc.cpp.Tracer` to export the run.
     ranking_k : int
         Accepted (as the host filter's) but the sensor reports no ranking.
     oracle_moves : sequence of bool, optional
@@ -114,6 +120,7 @@ class OnSensorLocaliser:
         sensor_nodes: int | None = None,
         ranking_k: int = 10,
         oracle_moves: Sequence[bool] | np.ndarray | None = None,
+        observers: Sequence[SimObserver] = (),
         **filter_params: Any,
     ) -> None:
         check_representation(representation)
@@ -153,6 +160,7 @@ class OnSensorLocaliser:
         if sensor_nodes is not None and (isinstance(sensor_nodes, bool) or int(sensor_nodes) < 1):
             raise PpalocError(f"sensor_nodes={sensor_nodes!r} must be a positive integer")
         self.sensor_nodes = None if sensor_nodes is None else int(sensor_nodes)
+        self.observers = check_observers(observers)
         self.record_weights = bool(record_weights)
         self.timing_structure = timing_structure
         self.frame_times: list[tuple[Interval, Interval]] = []
@@ -272,6 +280,7 @@ class OnSensorLocaliser:
             seed=self.seed + 7919 * index,
             size=self.size,
             store=self.store,
+            observers=self.observers,
         )
 
     def _place(self, n_nodes: int, first: SensorExecutor) -> SensorExecutor | SensorBank:

@@ -50,6 +50,8 @@ when a sensor is built).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from ppaloc.localise.params import FilterParams
 from ppaloc.localise.schedule import SCHEDULES, SensorPlan
 from ppaloc.onsensor.executor import PLACES, SensorExecutor
@@ -57,6 +59,7 @@ from ppaloc.onsensor.lbp import LbpPlaces
 from ppaloc.onsensor.lowres import LowresPlaces
 from ppaloc.onsensor.roles import DRegs, Roles
 from ppaloc.sim import NoiseParams
+from ppaloc.sim.observe import SimObserver
 
 __all__ = [
     "PLACES",
@@ -79,6 +82,7 @@ def make_pipeline(
     seed: int = 0,
     size: int = 256,
     store: str | None = None,
+    observers: Sequence[SimObserver] = (),
 ) -> SensorExecutor:
     """Build the sensor executor of ``representation`` (``"lowres"`` or ``"lbp"``).
 
@@ -100,6 +104,8 @@ def make_pipeline(
         Array side (256 on SCAMP-5; multiples of 64).
     store : str, optional
         Map store (default: the first of the plan's the representation has).
+    observers : sequence of SimObserver
+        Observers of the sensor's simulator (:mod:`ppaloc.sim.observe`).
 
     Examples
     --------
@@ -110,5 +116,13 @@ def make_pipeline(
     if plan is None:
         plan = SCHEDULES[params.preset].sensor
     return SensorExecutor(
-        representation, n_nodes, params, plan, noise=noise, seed=seed, size=size, store=store
+        representation,
+        n_nodes,
+        params,
+        plan,
+        noise=noise,
+        seed=seed,
+        size=size,
+        store=store,
+        observers=observers,
     )

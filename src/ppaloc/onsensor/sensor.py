@@ -14,7 +14,7 @@ object; :class:`ppaloc.onsensor.executor.SensorExecutor` runs them in a schedule
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager
 from typing import Any
 
@@ -24,6 +24,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.onsensor.program import KernelCache
 from ppaloc.onsensor.roles import Roles
 from ppaloc.sim import Kernel, NoiseParams, Register, Scamp5, TimingModel
+from ppaloc.sim.observe import SimObserver
 from ppaloc.topomap import SnakeLayout, layout_for
 
 __all__ = ["GRID", "Sensor", "mask_bits"]
@@ -58,6 +59,8 @@ class Sensor:
         Seed of the simulator's noise.
     size : int
         Array side (256 on SCAMP-5; smaller arrays, multiples of 64, for tests).
+    observers : sequence of SimObserver
+        Observers of the simulator (``Scamp5(observers=...)``, :mod:`ppaloc.sim.observe`).
 
     Attributes
     ----------
@@ -83,6 +86,7 @@ class Sensor:
         noise: str | NoiseParams = "ideal",
         seed: int = 0,
         size: int = 256,
+        observers: Sequence[SimObserver] = (),
     ) -> None:
         if size % 64 or size < 64:
             raise PpalocError(f"array size {size} must be a multiple of 64 (8x8 grid of blocks)")
@@ -97,7 +101,7 @@ class Sensor:
         self.block_nodes = self._block_node_table()
         self.n_nodes = int(n_nodes)
         self.tiles = self.tiles_for(self.n_nodes)
-        self.sim = Scamp5(size, size, noise=noise, seed=seed)
+        self.sim = Scamp5(size, size, noise=noise, seed=seed, observers=observers)
         self.kernels = KernelCache(self.sim)
         self.node_grid()
 
