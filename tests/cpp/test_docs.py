@@ -48,3 +48,16 @@ def test_the_kernel_export_example():
         exec(compile(code, "cpp.md", "exec"), {})
     want = "\n".join(line[4:] for line in shown.splitlines())
     assert printed.getvalue().strip() == want.strip()
+
+
+def test_the_trace_export_example():
+    code = _blocks("python")[1]
+    namespace: dict = {}
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        exec(compile(code, "cpp.md", "exec"), namespace)
+    claim = next(ln for ln in code.splitlines() if ln.startswith("print")).split("# ")[1]
+    assert printed.getvalue().strip() == claim
+    tracer, loc = namespace["tracer"], namespace["loc"]
+    assert [t.sim for t in tracer.traces] == [loc.pipeline.sim]  # not the mapping sensor
+    assert namespace["source"].startswith("// a ppaloc program\n")

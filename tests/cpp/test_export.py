@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ppaloc.cpp import kernel_to_cpp, run_program, to_cpp, trace_pipeline
-from ppaloc.errors import PpalocError
+from ppaloc.cpp import Tracer, kernel_to_cpp, run_program, to_cpp
+from ppaloc.errors import PpalocError, SimulatorError
 from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.sim import (
     IN,
@@ -20,12 +20,15 @@ from ppaloc.sim import (
     B,
     C,
     D,
+    Kernel,
     Scamp5,
     alldir,
     east,
     north,
 )
+from ppaloc.sim.observe import KernelRun
 from ppaloc.sim.registers import ANALOG_PLANES, DIGITAL_PLANES
+from ppaloc.topomap import TopoMap
 
 SIZE = 64
 
@@ -93,11 +96,24 @@ def test_icws_without_a_device_function_become_raw_words(cxx, tmp_path):
         np.testing.assert_array_equal(planes(got)[name], plane, err_msg=name)
 
 
-def test_trace_refuses_inspection_writes():
-    with trace_pipeline():
-        sim = Scamp5(8, 8)
-    with pytest.raises(PpalocError, match="inspection tool"):
-        sim.write(A, 1.0)
+def test_a_trace_with_an_inspection_write_is_refused():
+    tracer = Tracer()
+    sim = Scamp5(8, 8, observers=[tracer])
+    sim.scamp5_in(A, 5)
+    sim.write(B, 1.0)
+    with pytest.raises(PpalocError) as err:
+        to_cpp(tracer.trace_of(sim))
+    assert str(err.value) == (
+        "the traced run set B with sim.write, an inspection tool with no device call: set "
+        "registers through kernels and controller calls in a program to export"
+    )
+
+
+def test_a_simulator_the_tracer_never_saw_is_named():
+    tracer = Tracer()
+    Scamp5(8, 8, observers=[tracer]).scamp5_in(A, 5)
+    with pytest.raises(PpalocError, match=r"^this simulator did nothing while the tracer"):
+        tracer.trace_of(Scamp5(8, 8))
 
 
 @pytest.fixture(scope="module")
@@ -119,11 +135,12 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     kw = {"preset": preset} if preset == "paper" else {"keyframes": False}
     mapper = OnSensorLocaliser(rep, size=SIZE, **kw)
     topomap = mapper.build_map(places)
-    with trace_pipeline() as tracer:
-        loc = OnSensorLocaliser(rep, size=SIZE, **kw)
-        loc.use_map(topomap)
-        estimates = [loc.step(f) for f in query]
+    tracer = Tracer()
+    loc = OnSensorLocaliser(rep, size=SIZE, observers=[tracer], **kw)
+    loc.use_map(topomap)
+    estimates = [loc.step(f) for f in query]
     sim = loc.pipeline.sim
+    assert [t.sim for t in tracer.traces] == [sim]  # the one sensor holding the map
     trace = tracer.trace_of(sim)
     assert trace.frames == len(query)
     source = to_cpp(
@@ -146,6 +163,58 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     assert chip == pytest.approx(sim.timing.now_us)
     posts = sum(timing.call_us("usb_output", len(t)) for t in texts)
     assert loop == pytest.approx(timing.call_us("vs_frame_loop_control") * (len(query) + 1) + posts)
+
+
+def test_a_tracer_reaches_every_sensor_of_a_bank():
+    rng = np.random.default_rng(5)
+    tracer = Tracer()
+    loc = OnSensorLocaliser("lbp", size=SIZE, sensor_nodes=2, observers=[tracer])
+    loc.use_map(TopoMap("lbp", rng.integers(0, 2**32, 4, dtype=np.uint32)))
+    loc.step(rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
+    sensors = [s.sim for s in loc.pipeline.sensors]
+    assert len(sensors) == 2
+    assert [t.sim for t in tracer.traces] == sensors
+    assert [t.frames for t in tracer.traces] == [1, 1]
+
+
+def test_a_localiser_checks_its_observers_before_any_work():
+    with pytest.raises(SimulatorError) as err:
+        OnSensorLocaliser("lbp", size=SIZE, observers=Tracer())
+    assert str(err.value).endswith("wrap a single observer in a list")
+    with pytest.raises(SimulatorError, match=r"^observer 'x' is not callable"):
+        OnSensorLocaliser("lbp", size=SIZE, observers=["x"])
+
+
+def _shadowed(obj: object) -> set[str]:
+    """Instance attributes that hide a method of the object's class (a patched method)."""
+    return {n for n in vars(obj) if callable(getattr(type(obj), n, None))}
+
+
+def test_tracing_replaces_nothing_in_the_simulator(route):
+    """The export observes the run: no class attribute and no method of any simulator or
+    kernel is replaced while it traces or writes the program."""
+    places, query = route
+    classes = [c for c in (*Scamp5.__mro__, *Kernel.__mro__) if c is not object]
+    before = {c: dict(vars(c)) for c in classes}
+    init = Scamp5.__init__
+    checked = []
+
+    def unpatched(sim, event):
+        assert Scamp5.__init__ is init
+        assert not _shadowed(sim)
+        if isinstance(event, KernelRun) and event.kernel is not None:
+            assert not _shadowed(event.kernel)
+        checked.append(event)
+
+    tracer = Tracer()
+    loc = OnSensorLocaliser("lbp", size=SIZE, keyframes=False, observers=[tracer, unpatched])
+    loc.use_map(OnSensorLocaliser("lbp", size=SIZE, keyframes=False).build_map(places))
+    loc.step(query[0])
+    assert "void ppaloc_frame_0()" in to_cpp(tracer.trace_of(loc.pipeline.sim))
+    assert len(checked) == len(tracer.trace_of(loc.pipeline.sim).events) > 100
+    for c in classes:
+        assert vars(c) == before[c], c.__name__
+    assert not _shadowed(loc.pipeline.sim)
 
 
 # ------------------------------------------------------------------ invariant: exact ICWs

@@ -3,10 +3,12 @@
 - :func:`kernel_to_cpp`: one recorded kernel as a function holding a static kernel block.
   The ICWs are grouped back into the macro calls they came from (each group is expanded
   again and checked to give the same ICWs), so the C++ issues exactly the recorded ICWs.
-- :func:`trace_pipeline`: a context manager recording what every simulator created inside
-  it does, as it runs: kernel runs, controller calls with their arguments and readouts,
-  frame boundaries (``set_image``). Nothing is copied from the pipeline's code; whatever
-  the on-sensor pipeline runs is what gets exported.
+- :class:`Tracer`: an observer of the simulator (:mod:`ppaloc.sim.observe`) recording
+  what every simulator it observes does, as it runs: kernel runs, controller calls with
+  their arguments and readouts, frame boundaries (``set_image``). Pass it to the
+  simulators an on-sensor localiser creates with ``OnSensorLocaliser(...,
+  observers=[tracer])``. Nothing is copied from the pipeline's code, and nothing in the
+  simulator is replaced: whatever the on-sensor pipeline runs is what gets exported.
 - :func:`to_cpp`: a kernel, or a trace, as C++. A trace becomes a whole device program:
   the kernels, a setup function (the masks and the map upload), one function per frame
   with its controller calls (array coordinates turned into hardware addresses), every
@@ -22,7 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import re
-from collections.abc import Iterator, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,31 +36,10 @@ from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
 from ppaloc.sim.isa import Instruction
 from ppaloc.sim.macros import ProgramAPI
+from ppaloc.sim.observe import ControllerCall, ImageSet, KernelRun, PlaneWrite, SimEvent
 from ppaloc.sim.registers import register_by_name
 
-__all__ = ["Trace", "kernel_to_cpp", "to_cpp", "trace_pipeline"]
-
-# Public simulator methods that are not controller calls (inspection, recording, setup).
-_NOT_CALLS = frozenset(
-    {"stage", "kernel", "run", "read", "write", "set_image", "icw", "move_to_heap", "address_mask"}
-)
-
-
-def _controller_calls() -> dict[str, str]:
-    """Every controller call of the simulator: ``{attribute: canonical name}`` (the
-    ``scamp5_`` spelling and the short one map to the short one)."""
-    from ppaloc.sim.controller import ControllerMixin
-
-    names = {n for n in dir(ControllerMixin) if not n.startswith("_") and n not in _NOT_CALLS}
-    names = {n for n in names if callable(getattr(ControllerMixin, n))}
-    out = {}
-    for n in names:
-        short = n.removeprefix("scamp5_")
-        out[n] = short if short in names else n
-    if "in_" in out:
-        out["in_"] = "scamp5_in"
-    return out
-
+__all__ = ["Trace", "Tracer", "kernel_to_cpp", "to_cpp"]
 
 # Primitives whose ICW name is also the device API's function.
 _DEVICE_PRIMITIVES = frozenset(
@@ -191,134 +172,69 @@ def kernel_to_cpp(
 # ------------------------------------------------------------------ tracing
 @dataclass
 class Trace:
-    """What one simulator did, in order: ``("frame",)``, ``("kernel", Kernel)``,
-    ``("direct", instructions)`` and ``("call", name, args, kwargs, result)`` events."""
+    """What one simulator did, in order: the events its observers received
+    (:mod:`ppaloc.sim.observe`: kernel runs, controller calls, ``set_image``, ``write``)."""
 
     sim: Scamp5
-    events: list[tuple] = field(default_factory=list)
+    events: list[SimEvent] = field(default_factory=list)
 
     @property
     def frames(self) -> int:
         """Frames the simulator was given (``set_image`` calls)."""
-        return sum(1 for e in self.events if e[0] == "frame")
+        return sum(1 for e in self.events if isinstance(e, ImageSet))
 
 
 class Tracer:
-    """The traces of every simulator created while :func:`trace_pipeline` is active."""
+    """An observer recording one :class:`Trace` per simulator it observes.
 
-    def __init__(self) -> None:
-        self.traces: list[Trace] = []
-
-    def trace_of(self, sim: Scamp5) -> Trace:
-        """The trace of ``sim`` (created inside the ``with`` block)."""
-        for t in self.traces:
-            if t.sim is sim:
-                return t
-        raise PpalocError("this simulator was not created inside trace_pipeline()")
-
-
-def _install(sim: Scamp5, trace: Trace) -> None:
-    depth = [0]
-    log = trace.events
-
-    def wrap_call(name: str, fn):
-        def traced(*args, **kwargs):
-            depth[0] += 1
-            try:
-                result = fn(*args, **kwargs)
-            finally:
-                depth[0] -= 1
-            if depth[0] == 0:
-                log.append(("call", name, args, kwargs, result))
-            return result
-
-        return traced
-
-    wrapped: dict[str, Any] = {}
-    for attr, name in sorted(_controller_calls().items()):
-        if name not in wrapped:
-            wrapped[name] = wrap_call(name, getattr(type(sim), name).__get__(sim))
-        setattr(sim, attr, wrapped[name])
-    set_image, emit, make_kernel = sim.set_image, sim._emit, sim.kernel
-
-    def traced_set_image(image):
-        set_image(image)
-        log.append(("frame",))
-
-    def traced_emit(instructions):
-        emit(instructions)
-        if depth[0] == 0:
-            log.append(("direct", tuple(instructions)))
-
-    def traced_kernel():
-        kernel = make_kernel()
-        run = kernel.run
-
-        def traced_run():
-            run()
-            if depth[0] == 0:
-                log.append(("kernel", kernel))
-
-        kernel.run = traced_run  # type: ignore[method-assign]
-        return kernel
-
-    def refuse_write(reg, values):
-        raise PpalocError(
-            f"sim.write({reg!r}, ...) is an inspection tool with no device call: a traced "
-            "program must set registers through kernels and controller calls"
-        )
-
-    sim.set_image = traced_set_image  # type: ignore[method-assign]
-    sim._emit = traced_emit  # type: ignore[method-assign]
-    sim.kernel = traced_kernel  # type: ignore[method-assign]
-    sim.write = refuse_write  # type: ignore[method-assign]
-
-
-@contextlib.contextmanager
-def trace_pipeline() -> Iterator[Tracer]:
-    """Trace every ``Scamp5`` created inside the block (e.g. an on-sensor localiser's).
+    Attach it to a simulator (``Scamp5(..., observers=[tracer])`` or
+    ``sim.observe(tracer)``), or to every simulator an on-sensor localiser creates
+    (``OnSensorLocaliser(..., observers=[tracer])``); nothing else is changed.
 
     Examples
     --------
     >>> from ppaloc.sim import Scamp5, A, B
-    >>> with trace_pipeline() as tracer:
-    ...     sim = Scamp5(8, 8)
-    ...     sim.scamp5_in(A, 5)
-    ...     with sim.kernel() as k:
-    ...         k.mov(B, A)
-    >>> [e[0] for e in tracer.trace_of(sim).events]
-    ['call', 'kernel']
+    >>> tracer = Tracer()
+    >>> sim = Scamp5(8, 8, observers=[tracer])
+    >>> sim.scamp5_in(A, 5)
+    >>> with sim.kernel() as k:
+    ...     k.mov(B, A)
+    >>> [type(e).__name__ for e in tracer.trace_of(sim).events]
+    ['ControllerCall', 'KernelRun']
     """
-    tracer = Tracer()
-    original = Scamp5.__init__
 
-    def init(self, *args, **kwargs):
-        original(self, *args, **kwargs)
-        trace = Trace(self)
-        tracer.traces.append(trace)
-        _install(self, trace)
+    def __init__(self) -> None:
+        self.traces: list[Trace] = []
+        self._by_sim: dict[int, Trace] = {}  # id(sim): each Trace keeps its sim alive
 
-    Scamp5.__init__ = init  # type: ignore[method-assign]
-    try:
-        yield tracer
-    finally:
-        Scamp5.__init__ = original  # type: ignore[method-assign]
+    def __call__(self, sim: Scamp5, event: SimEvent) -> None:
+        trace = self._by_sim.get(id(sim))
+        if trace is None:
+            trace = self._by_sim[id(sim)] = Trace(sim)
+            self.traces.append(trace)
+        trace.events.append(event)
+
+    def trace_of(self, sim: Scamp5) -> Trace:
+        """The trace of ``sim``.
+
+        Raises
+        ------
+        PpalocError
+            If ``sim`` did nothing while this tracer observed it.
+        """
+        trace = self._by_sim.get(id(sim))
+        if trace is None:
+            raise PpalocError(
+                "this simulator did nothing while the tracer observed it: pass the tracer "
+                "as Scamp5(..., observers=[tracer]) or OnSensorLocaliser(..., "
+                "observers=[tracer]) before running the program"
+            )
+        return trace
 
 
 # ------------------------------------------------------------------ a trace as a program
 def _reg(r: Any) -> str:
     return r.name if isinstance(r, Register) else str(int(r))
-
-
-def _bind(sim: Scamp5, name: str, args: tuple, kwargs: dict) -> dict[str, Any]:
-    import inspect
-
-    fn = getattr(type(sim), name)
-    bound = inspect.signature(fn).bind(sim, *args, **kwargs)
-    bound.apply_defaults()
-    out = dict(bound.arguments)
-    out.pop("self", None)
-    return out
 
 
 def _hw_col(sim: Scamp5, c: int, scamp_addr: bool) -> int:
@@ -351,7 +267,7 @@ class _Program:
         self.tables: list[str] = []
         self.checks = 0
 
-    def kernel(self, key: Any, instructions: Sequence[Instruction]) -> str:
+    def kernel(self, key: Kernel | None, instructions: Sequence[Instruction]) -> str:
         ref = id(key) if isinstance(key, Kernel) else None
         if ref is not None and ref in self.kernels:
             return self.kernels[ref][0]
@@ -386,9 +302,8 @@ class _Program:
             f"ppaloc_check_bytes(got, {table}, {len(want)}, {self.checks}); }}"
         )
 
-    def call(self, name: str, args: tuple, kwargs: dict, result: Any) -> str:
+    def call(self, name: str, a: Mapping[str, Any], result: Any) -> str:
         sim = self.sim
-        a = _bind(sim, name, args, kwargs)
         hw = bool(a.get("scamp_addr", False))
         if name == "scamp5_in":
             return f"scamp5_in({_reg(a['areg'])}, {a['value']}, {_reg(a['temp'])});"
@@ -480,15 +395,20 @@ class _Program:
         """Statements of the setup (index 0) and of each frame."""
         out: list[list[str]] = [[]]
         for event in self.trace.events:
-            kind = event[0]
-            if kind == "frame":
+            if isinstance(event, ImageSet):
                 out.append([])
-            elif kind == "kernel":
-                out[-1].append(f"{self.kernel(event[1], list(event[1]))}();")
-            elif kind == "direct":
-                out[-1].append(f"{self.kernel(None, event[1])}();")
+            elif isinstance(event, KernelRun):
+                out[-1].append(f"{self.kernel(event.kernel, event.instructions)}();")
+            elif isinstance(event, ControllerCall):
+                out[-1].append(self.call(event.name, event.arguments, event.result))
+            elif isinstance(event, PlaneWrite):
+                raise PpalocError(
+                    f"the traced run set {event.register.name} with sim.write, an inspection "
+                    "tool with no device call: set registers through kernels and controller "
+                    "calls in a program to export"
+                )
             else:
-                out[-1].append(self.call(*event[1:]))
+                raise PpalocError(f"a trace holds simulator events, not {event!r}")
         return out
 
 
@@ -584,7 +504,7 @@ def to_cpp(
     Parameters
     ----------
     source : Kernel, sequence of Instruction, or Trace
-        A kernel, or a :class:`Trace` from :func:`trace_pipeline`.
+        A kernel, or a :class:`Trace` from a :class:`Tracer`.
     name : str
         A kernel's function name.
     estimates : sequence of (node, score), optional
