@@ -148,6 +148,7 @@ class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
                 raise SimulatorError(f"{name}={v!r} is invalid: use a positive integer")
         if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
             raise SimulatorError(f"seed={seed!r} is invalid: use an integer >= 0")
+        self._init_observers(observers)  # checked with the other arguments
         self.rows, self.cols = int(rows), int(cols)
         shape = (self.rows, self.cols)
         self.rng = np.random.default_rng(seed)
@@ -176,7 +177,6 @@ class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
         if not self.noise.ideal:
             self._a[PIX.index] = self.noise.pixel_offset
         self.engine = make_engine(engine, self)
-        self._init_observers(observers)
 
     # ------------------------------------------------------------------ inspection
     def __repr__(self) -> str:

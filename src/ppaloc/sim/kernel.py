@@ -98,6 +98,7 @@ class Kernel(ProgramAPI):
         self._open = False
         self._sealed = False
         self._ops: list | None = None
+        self._icws: tuple[Instruction, ...] | None = None
         self._counts: tuple[tuple[str, int], ...] | None = None
         self._dwritten = None
         self._failed = False
@@ -157,7 +158,9 @@ class Kernel(ProgramAPI):
     # ------------------------------------------------------------------ running
     @property
     def instructions(self) -> tuple[Instruction, ...]:
-        return tuple(self._recorded)
+        if self._icws is None:  # recording (or never run): the ICWs so far
+            return tuple(self._recorded)
+        return self._icws
 
     @property
     def counts(self) -> dict[str, int]:
@@ -197,6 +200,7 @@ class Kernel(ProgramAPI):
         if self._ops is None:
             from ppaloc.sim.engine import count_clocks, written_digital
 
+            self._icws = tuple(self._recorded)  # sealed: what observers receive
             self._ops = sim._compile_kernel(self._recorded)
             self._counts = tuple(count_clocks(self._recorded).items())  # the timing's key
             self._dwritten = written_digital(self._recorded)
