@@ -148,6 +148,20 @@ def test_get_image_reports_its_macro_icws_as_recorded():
     assert {i.origin for i in call.instructions} == {"get_image(C, D)"}
 
 
+def test_a_call_keeps_its_arguments_as_passed_and_bound():
+    log = Log()
+    sim = Scamp5(8, 8, observers=[log])
+    sim.load_pattern(R5, 0, 1, 2, 2)
+    sim.global_or(R5, 0, cx=3)
+    (call,) = log.events[1:]
+    assert call.args == (R5, 0) and dict(call.kwargs) == {"cx": 3}
+    assert dict(call.arguments) == {
+        "dreg": R5, "r": 0, "c": 0, "rx": 255, "cx": 3, "scamp_addr": False,
+    }  # fmt: skip
+    assert call.function is ControllerMixin.global_or.__wrapped__
+    assert call.arguments is call.arguments  # bound once
+
+
 def test_events_hold_what_was_read_and_written_not_later_changes():
     log = Log()
     sim = Scamp5(8, 8, observers=[log])

@@ -12,7 +12,7 @@ observer in the order they were attached. An observer is any callable
                         itself ran as a kernel of their own (``kernel`` is None): the ICWs
                         as recorded
 :class:`ControllerCall` a controller call returned (``scamp5_*``, ``load_pattern``,
-                        ``shift``, ``draw_*``, ...): its name, bound arguments, result (the
+                        ``shift``, ``draw_*``, ...): its name, arguments, result (the
                         readout, a copy), the ICWs it ran as kernels of its own, the planes
                         it wrote
 :class:`ImageSet`       ``set_image`` gave ``PIX`` a new scene (a frame boundary)
@@ -160,9 +160,11 @@ class ControllerCall:
         The call's name in ``ppaloc.sim`` (``"load_pattern"``, ``"scamp5_in"``,
         ``"scamp5_get_image"``; ``scamp5_load_pattern`` is reported as ``load_pattern``,
         ``in_`` as ``scamp5_in``).
-    arguments : Mapping[str, Any]
-        Every parameter by name, defaults filled in, values as passed (an ``out=`` array
-        is the caller's, as the call left it).
+    function : callable
+        The controller method that ran (unbound, e.g. ``ControllerMixin.load_pattern``
+        as written, without its observer wrapper): what :attr:`arguments` binds to.
+    args, kwargs : tuple, Mapping[str, Any]
+        The arguments as passed (an ``out=`` array is the caller's, as the call left it).
     result : Any
         What the call returned: None, an int, or a readout array (a read-only copy, so
         it stays what the call read).
@@ -175,10 +177,27 @@ class ControllerCall:
     """
 
     name: str
-    arguments: Mapping[str, Any]
+    function: Callable[..., Any] = field(repr=False)
+    args: tuple[Any, ...] = ()
+    kwargs: Mapping[str, Any] = field(default_factory=dict)
     result: Any = None
     instructions: tuple[Instruction, ...] = ()
     writes: tuple[Register, ...] = ()
+    _arguments: Mapping[str, Any] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
+
+    @property
+    def arguments(self) -> Mapping[str, Any]:
+        """Every parameter of the call by name, defaults filled in (bound on first use,
+        so observers that do not look pay nothing for it)."""
+        if self._arguments is None:
+            bound = _signature(self.function).bind(None, *self.args, **self.kwargs)
+            bound.apply_defaults()
+            arguments = dict(bound.arguments)
+            del arguments[next(iter(arguments))]  # the method's self
+            object.__setattr__(self, "_arguments", MappingProxyType(arguments))
+        return self._arguments  # type: ignore[return-value]
 
     def __str__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.arguments.items())
@@ -393,13 +412,11 @@ class ObservableMixin:
             result = fn(self, *args, **kwargs)
         finally:
             self._call_frame = None
-        bound = _signature(fn).bind(self, *args, **kwargs)
-        bound.apply_defaults()
-        arguments = dict(bound.arguments)
-        arguments.pop("self", None)
         event = ControllerCall(
             name,
-            MappingProxyType(arguments),
+            fn,
+            args,
+            MappingProxyType(kwargs),
             _frozen(result),
             tuple(frame.instructions),
             tuple(dict.fromkeys(frame.writes)),
