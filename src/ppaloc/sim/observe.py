@@ -287,8 +287,8 @@ def check_observers(observers: Iterable[SimObserver]) -> tuple[SimObserver, ...]
 class Observation:
     """An observer attached to one simulator (from :meth:`ObservableMixin.observe`).
 
-    ``close()`` detaches it (again: nothing more); as a context manager it detaches at the
-    end of the ``with`` block.
+    ``close()`` detaches it (closing again does nothing); as a context manager it
+    detaches it at the end of the ``with`` block.
     """
 
     def __init__(self, sim: ObservableMixin, observer: SimObserver) -> None:
