@@ -205,3 +205,78 @@ def test_the_scale_in_integers_is_the_scale_of_the_exact_mean(values, best32, ga
     s, alpha = frame_scale(v, best, gain, exact=True)
     assert s == frame_scale(v.astype(float), best, gain, exact=False)[0]
     assert alpha == math.floor(best * 2.0**-s)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(1, 30),
+    costs=st.tuples(st.integers(0, 64), st.integers(0, 64), st.integers(0, 64)),
+    arithmetic=st.sampled_from(["float", "ppa8"]),
+)
+def test_a_weight_flows_along_its_run_for_free(seed, n, costs, arithmetic):
+    """On a map with runs, the transition's result is the running maximum within each
+    run of nodes of one place, written out literally."""
+    from ppaloc.localise.host import HostExecutor
+
+    rng = np.random.default_rng(seed)
+    places = np.concatenate(([0], np.cumsum(rng.random(n - 1) < 0.5))).astype(np.int64)
+    topomap = TopoMap("lbp", np.zeros(n, np.uint32), places=places)
+    p = FilterParams.create("lbp", memory=127)
+    ex = HostExecutor("lbp", p, arithmetic=arithmetic)
+    ex.use_map(topomap)
+    w = np.round(rng.uniform(-127, 1, n) * 64) / 64
+    ex.set_weights(w)
+    ex.transition(costs)
+    want = np.empty(n)
+    for i in range(n):
+        cand = [w[i] - costs[0]]
+        cand += [(w[i - d] if i - d >= 0 else -127) - costs[d] for d in (1, 2)]
+        want[i] = np.clip(max(cand), -127, 127)
+    for i in range(1, n):
+        if places[i] == places[i - 1]:
+            want[i] = max(want[i], want[i - 1])
+    np.testing.assert_array_equal(ex.weights(), want.astype(ex.weights().dtype))
+
+
+def test_a_map_of_every_frame_follows_the_stops_of_the_reference():
+    """Frames repeated in the reference (stops) are runs of one place: the filter on a
+    map of every frame then estimates the places the keyframe map's filter does; without
+    the runs it lags behind after each stop."""
+    from ppaloc.datasets import to_sensor
+    from ppaloc.datasets.registry import load_dataset
+
+    ds = load_dataset("synthetic:?places=80&query=autumn&seed=3")
+    ref = [to_sensor(f) for f in ds.reference]
+    query = [to_sensor(f) for f in ds.query]
+    stops = {15: 12, 40: 20}
+    frames, place = [], []
+    for i, f in enumerate(ref):
+        frames += [f] * stops.get(i, 1)
+        place += [i] * stops.get(i, 1)
+    place = np.array(place)
+    for rep in ("lowres", "lbp"):
+        keyframes = WeightedNodeLocaliser(rep)
+        keyframes.build_map(ref)
+        want = keyframes.topomap.frame_index[[keyframes.step(f).node for f in query]]
+        every = WeightedNodeLocaliser(rep, keyframes=False)
+        m = every.build_map(frames)
+        assert np.array_equal(m.places, place)
+        got = place[[every.step(f).node for f in query]]
+        bare = WeightedNodeLocaliser(rep, keyframes=False)
+        bare.use_map(TopoMap(m.kind, m.descriptors, m.frame_index, params=m.params))
+        without = place[[bare.step(f).node for f in query]]
+        assert np.mean(got == want) >= 0.9 > 0.8 >= np.mean(without == want)
+
+
+def test_the_confidence_leaves_out_places_not_nodes():
+    from ppaloc.localise.schedule import make_schedule
+
+    places = np.array([0, 1, 1, 1, 1, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13])
+    topomap = TopoMap("lbp", np.zeros(len(places), np.uint32), places=places)
+    schedule = make_schedule(FilterParams.create("lbp", confidence_radius=2))
+    schedule.use_map(topomap)
+    assert schedule.window(5) == (0, 7)  # places 0..3 around place 1
+    assert schedule.window(12) == (10, 14)
+    schedule.use_map(TopoMap("lbp", np.zeros(len(places), np.uint32)))
+    assert schedule.window(5) == (3, 7)

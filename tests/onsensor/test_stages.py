@@ -337,7 +337,7 @@ def test_confidence_is_the_threshold_gap_outside_the_window():
     pipe.sim.write(C, w)
     node, top = pipe.detect(None)
     assert (node, top) == (60, 40)
-    assert pipe.confidence(node, top) == 40 - 10
+    assert pipe.confidence(node, top, (node - 10, node + 10)) == 40 - 10
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])
@@ -355,3 +355,15 @@ def test_event_nodes_come_from_the_block_table_as_the_layout_maps_them(rep):
         cols % pipe.sensor.bw, rows // pipe.sensor.bh, cols // pipe.sensor.bw
     )
     assert np.array_equal(pipe.sensor.nodes_of(events), np.sort(want))
+
+
+def test_the_sensor_refuses_a_map_of_every_frame_with_runs():
+    from ppaloc.onsensor import OnSensorLocaliser
+
+    with pytest.raises(PpalocError, match="keyframes=false with the image motion test"):
+        OnSensorLocaliser("lbp", keyframes=False, size=64)
+    loc = OnSensorLocaliser("lbp", size=64)
+    runs = TopoMap("lbp", np.zeros(4, np.uint32), places=[0, 1, 1, 2])
+    with pytest.raises(PpalocError, match="runs of nodes of one place"):
+        loc.use_map(runs)
+    OnSensorLocaliser("lbp", keyframes=False, motion="always_forward", size=64)

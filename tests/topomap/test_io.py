@@ -147,10 +147,10 @@ def test_newer_version(saved: Path) -> None:
     with np.load(saved, allow_pickle=False) as npz:
         arrays = {name: npz[name] for name in npz.files}
     header = json.loads(arrays["header"].tobytes())
-    header["format_version"] = 2
+    header["format_version"] = 3
     arrays["header"] = np.frombuffer(json.dumps(header).encode(), np.uint8)
     np.savez(saved, **arrays)
-    with pytest.raises(MapFormatError, match="format version 2 is newer than this ppaloc"):
+    with pytest.raises(MapFormatError, match="format version 3 is newer than this ppaloc"):
         load_map(saved)
     with pytest.raises(MapFormatError, match="upgrade ppaloc"):
         read_header(saved)
@@ -174,3 +174,17 @@ def test_failed_save_leaves_no_temporary_and_keeps_the_old_file(
         TopoMap("lbp", np.array([1], np.uint32)).save(saved)
     assert saved.read_bytes() == before
     assert [p.name for p in saved.parent.iterdir()] == ["map.npz"]
+
+
+def test_a_map_with_places_round_trips_as_version_2(tmp_path: Path) -> None:
+    """Places (runs of one place) are kept in version 2; a map without them is still
+    written as version 1, which older readers take."""
+    places = np.array([0, 1, 1, 1, 2], np.int64)
+    with_runs = TopoMap("lbp", np.arange(5, dtype=np.uint32), places=places)
+    back = load_map(save_map(with_runs, tmp_path / "runs.npz"))
+    assert back.equals(with_runs) and back.has_runs
+    assert read_header(tmp_path / "runs.npz")["format_version"] == 2
+    plain = TopoMap("lbp", np.arange(5, dtype=np.uint32))
+    save_map(plain, tmp_path / "plain.npz")
+    assert read_header(tmp_path / "plain.npz")["format_version"] == 1
+    assert load_map(tmp_path / "plain.npz").places is None

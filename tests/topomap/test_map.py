@@ -104,3 +104,30 @@ def test_planes_put_each_node_in_its_snake_block() -> None:
     np.testing.assert_array_equal(lbp[0, 0:4, 240:248].ravel(), np.eye(32, dtype=np.uint8)[31])
     with pytest.raises(ValueError, match="a 'seqslam' map has no PE layout"):
         TopoMap("seqslam", np.zeros((2, 4))).planes()
+
+
+def test_places_are_runs_from_zero_and_windows_count_places() -> None:
+    nodes = np.zeros(6, np.uint32)
+    m = TopoMap("lbp", nodes, places=[0, 1, 1, 1, 2, 3])
+    assert m.has_runs and not TopoMap("lbp", nodes, places=np.arange(6)).has_runs
+    assert [m.place_window(i, 1) for i in (0, 2, 4, 5)] == [(0, 3), (0, 4), (1, 5), (4, 5)]
+    assert TopoMap("lbp", nodes).place_window(2, 1) == (1, 3)
+    for bad in ([1, 1, 2, 3, 4, 5], [0, 2, 3, 4, 5, 6], [0, 1, 0, 1, 2, 3], [0, 1, 2]):
+        with pytest.raises(ValueError, match="places"):
+            TopoMap("lbp", nodes, places=bad)
+
+
+def test_a_map_of_every_frame_records_the_places_new_place_gives() -> None:
+    frames = [np.full((256, 256), v, np.uint8) for v in (10, 10, 10, 40, 40, 90)]
+    seen: list[int] = []
+
+    def new_place(frame: np.ndarray) -> bool:
+        new = not seen or int(frame[0, 0]) != seen[-1]
+        seen.append(int(frame[0, 0]))
+        return new
+
+    m = build_topomap(frames, "lowres", new_place=new_place)
+    assert m.places.tolist() == [0, 0, 0, 1, 1, 2] and len(m) == 6
+    assert m.params["places"] == "motion test"
+    with pytest.raises(ValueError, match="no keyframe rule"):
+        build_topomap(frames, "lowres", new_place=new_place, keyframe_threshold=1)

@@ -144,6 +144,7 @@ class HostExecutor:
         self._dtype = np.float64 if self.exact else np.float32
         self._distances: NodeDistances | None = None
         self._w = np.zeros(0, self._dtype)
+        self._lift: np.ndarray | None = None
         self.ranking: np.ndarray | None = None
         self.last_shift: int | None = None
         self.reset()
@@ -159,6 +160,9 @@ class HostExecutor:
             contrast=self.params.contrast if self.representation == "lowres" else None,
         )
         self._w = np.zeros(n, self._dtype)
+        # a map's runs (nodes of one place): the places lifted 256 apart, so one running
+        # maximum over ``w + lift`` is a maximum within each run (|w| <= 127)
+        self._lift = 256.0 * topomap.places if topomap.has_runs else None  # type: ignore[operator]
         self._term = np.empty(n, self._dtype)
         self._pred = np.empty(n, self._dtype)
         self._shifted = np.empty(n, self._dtype)
@@ -207,7 +211,9 @@ class HostExecutor:
 
     def transition(self, costs: tuple[int, ...]) -> None:
         """Robust: ``w_i := clip(max_d (w_{i-d} - c_d))``; nodes before node 0 read the
-        floor (the array edge's "no hypothesis")."""
+        floor (the array edge's "no hypothesis"). On a map with runs (``TopoMap.places``)
+        each weight then flows along its run for free: ``w_i := max(w_j, j <= i in the
+        run of i)``, as if the nodes of one place were one node."""
         w, pred, tmp = self._w, self._pred, self._shifted
         floor = -float(self.params.memory)  # type: ignore[arg-type]
         np.subtract(w, self._dtype(costs[0]), out=pred)
@@ -220,6 +226,9 @@ class HostExecutor:
             np.maximum(pred[: min(d, n)], self._dtype(floor - cost), out=pred[: min(d, n)])
         w[:] = pred
         _clip(w, _W_MIN, _W_MAX)  # every candidate is a register write (the add macro)
+        if self._lift is not None:
+            assert self._offset == 0, "a run is along the map, the robust weights unshifted"
+            w[:] = np.maximum.accumulate(w + self._lift) - self._lift
         self._top = None
 
     def node_values(self) -> np.ndarray:
@@ -289,10 +298,11 @@ class HostExecutor:
             return int(candidates[0]), threshold
         return choose_candidate(np.sort(candidates), prev), threshold
 
-    def confidence(self, node: int, top: float) -> float:
-        """Best weight minus the best weight outside +-R nodes (0 when the map is smaller)."""
+    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
+        """Best weight minus the best weight outside the nodes ``window`` (0 when none is
+        outside)."""
         best = float(self._w[(node + self._offset) % len(self._w)])
-        outside = self._max_outside(node)
+        outside = self._max_outside(*window)
         return 0.0 if outside is None else best - outside
 
     def rank(self, node: int) -> None:
@@ -323,10 +333,10 @@ class HostExecutor:
     def _to_node(self, physical: np.ndarray | int) -> np.ndarray | int:
         return (physical - self._offset) % len(self._w)
 
-    def _max_outside(self, node: int) -> float | None:
-        """The largest weight outside nodes ``node - R .. node + R`` (None if there is none)."""
-        n, r = len(self._w), self.params.confidence_radius
-        lo, hi = max(node - r, 0), min(node + r + 1, n)
+    def _max_outside(self, a: int, b: int) -> float | None:
+        """The largest weight outside nodes ``a .. b`` (None if there is none)."""
+        n = len(self._w)
+        lo, hi = max(a, 0), min(b + 1, n)
         best = None
         for a, b in ((0, lo), (hi, n)):  # logical ranges [a, b)
             for pa, pb in self._physical(a, b):

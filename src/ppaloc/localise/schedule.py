@@ -113,8 +113,9 @@ class Executor(Protocol):
         integer)."""
         ...
 
-    def confidence(self, node: int, top: float) -> float:
-        """The best weight minus the best outside ``node +- confidence_radius``."""
+    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
+        """The best weight minus the best outside the nodes ``window = (a, b)``
+        (inclusive; 0 when no node is outside)."""
         ...
 
     def rank(self, node: int) -> None:
@@ -198,6 +199,10 @@ class Schedule:
     #: Fraction bits of the detection threshold in register arithmetic (0: the integer
     #: ``floor(max W)``, as Algorithm 1).
     detect_bits: ClassVar[int] = 0
+    #: Whether a map of one node per frame records its places (a stop of the reference
+    #: is a run of nodes of one place, ``TopoMap.places``), which the schedule's
+    #: transition and confidence then use.
+    runs: ClassVar[bool] = False
 
     def __init__(self, params: FilterParams, oracle_moves: Any = None) -> None:
         self.params = params
@@ -211,6 +216,7 @@ class Schedule:
                 )
             self._oracle = OracleMotion(oracle_moves)
         self.alpha: float | None = None
+        self.topomap: TopoMap | None = None
         self.reset()
 
     @property
@@ -219,7 +225,17 @@ class Schedule:
         return 1
 
     def use_map(self, topomap: TopoMap) -> None:
-        """Choose the per-map constants (the paper's ``alpha``) once the map is known."""
+        """Take the per-map constants once the map is known (the places of its nodes; the
+        paper's ``alpha``)."""
+        self.topomap = topomap
+
+    def window(self, node: int) -> tuple[int, int]:
+        """The nodes the confidence leaves out around ``node``: ``node +-
+        confidence_radius``, counted in places where the schedule uses the map's runs."""
+        radius = int(self.params.confidence_radius)  # type: ignore[arg-type]
+        if self.runs and self.topomap is not None:
+            return self.topomap.place_window(node, radius)
+        return node - radius, node + radius
 
     def reset(self) -> None:
         """A new query: no frame, no previous estimate, the oracle from its first move."""
@@ -240,7 +256,7 @@ class Schedule:
         """The end of every preset's frame: detection, confidence and ranking, then
         :meth:`end_frame` (the normalisation or the adjustment)."""
         node, top = ex.detect(self.prev, self.detect_bits)
-        score = ex.confidence(node, top)
+        score = ex.confidence(node, top, self.window(node))
         ex.rank(node)
         self.end_frame(ex, top)
         self.prev = node
@@ -265,6 +281,7 @@ class RobustSchedule(Schedule):
     uses = "robust"
     sensor = SensorPlan(stores=("levels", "digital"), spread="copies", keep_scale=True, bank=True)
     detect_bits = DETECT_BITS
+    runs = True
 
     @property
     def max_advance(self) -> int:
@@ -311,6 +328,7 @@ class PaperSchedule(Schedule):
     def use_map(self, topomap: TopoMap) -> None:
         from ppaloc.localise.alpha import suggest_alpha
 
+        super().use_map(topomap)
         p = self.params
         if p.alpha is not None:
             self.alpha = p.alpha

@@ -48,7 +48,7 @@ from ppaloc.localise.params import (
     choose_candidate,
     filter_method_params,
 )
-from ppaloc.localise.schedule import Schedule, make_schedule
+from ppaloc.localise.schedule import SCHEDULES, Schedule, make_schedule
 from ppaloc.topomap import TopoMap, build_topomap
 
 __all__ = [
@@ -62,6 +62,7 @@ __all__ = [
     "WeightedNodeLocaliser",
     "choose_candidate",
     "keyframe_test",
+    "place_test",
     "suggest_alpha",
 ]
 
@@ -96,6 +97,22 @@ def keyframe_test(params: FilterParams):
     parameters, as the query's); a stop in the reference becomes one node.
     """
     if not params.keyframes:
+        return None
+    motion = ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
+    return motion.step
+
+
+def place_test(params: FilterParams):
+    """``new_place(frame) -> bool`` for :func:`ppaloc.topomap.build_topomap`, or None.
+
+    A map of one node per frame (``keyframes=False``) with the image motion model records
+    where the reference stood still when the preset's schedule uses runs (the robust
+    preset): the motion test over consecutive reference frames, as in
+    :func:`keyframe_test`, marks a frame that shows the previous frame's place, and the
+    filter treats a run of such nodes as one place. Other motion models (a
+    frame-synchronised query) map every frame as a place of its own.
+    """
+    if params.keyframes or params.motion != "image" or not SCHEDULES[params.preset].runs:
         return None
     motion = ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
     return motion.step
@@ -231,12 +248,19 @@ class WeightedNodeLocaliser:
 
         One node per frame, or with ``keyframes`` one per distinct place
         (:func:`keyframe_test`); ``TopoMap.frame_index`` keeps each node's first frame.
+        A map of one node per frame records its places where the preset uses them
+        (:func:`place_test`).
         The frames are read once, in order, and only their descriptors are kept.
         """
         empty = "the reference traversal is empty: a map needs at least one frame"
         if hasattr(frames, "__len__") and not len(frames):  # type: ignore[arg-type]
             raise PpalocError(empty)
-        topomap = build_topomap(frames, self.representation, keep=keyframe_test(self.params))
+        topomap = build_topomap(
+            frames,
+            self.representation,
+            keep=keyframe_test(self.params),
+            new_place=place_test(self.params),
+        )
         if not len(topomap):
             raise PpalocError(empty)
         self.use_map(topomap)

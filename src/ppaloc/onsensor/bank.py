@@ -242,15 +242,15 @@ class SensorBank:
             return (0 if prev is None else prev), top
         return choose_candidate(np.array(sorted(found)), prev), top
 
-    def confidence(self, node: int, top: float) -> float:
-        """``T`` minus the largest of the sensors' maxima outside ``node +- R``."""
-        r = self.params.confidence_radius
-        if node - r <= 0 and node + r >= self.n_nodes - 1:
+    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
+        """``T`` minus the largest of the sensors' maxima outside the nodes ``window``."""
+        a, b = window
+        if a <= 0 and b >= self.n_nodes - 1:
             return 0.0
         outs = []
         for s, off in zip(self.sensors, self.offsets, strict=True):
             with s.sim.stage("confidence"):
-                outs.append(s.outside_max(node - r - off, node + r - off, int(top)))
+                outs.append(s.outside_max(a - off, b - off, int(top)))
         self.timing.sync()
         found = [o for o in outs if o is not None]
         return 0.0 if not found else float(top - max(found))

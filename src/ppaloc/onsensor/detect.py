@@ -209,12 +209,12 @@ def _and(k: Kernel, cand: Register, window: Register) -> None:
     k.AND(cand, cand, window)
 
 
-def confidence(sensor: Sensor, state: WeightState, node: int, top: int, radius: int) -> float:
-    """``T`` minus the integer maximum outside nodes ``node - R .. node + R``."""
-    if node - radius <= 0 and node + radius >= sensor.n_nodes - 1:
+def confidence(sensor: Sensor, state: WeightState, top: int, a: int, b: int) -> float:
+    """``T`` minus the integer maximum outside nodes ``a .. b`` (0 when none is outside)."""
+    if a <= 0 and b >= sensor.n_nodes - 1:
         return 0.0
     with sensor.stage("confidence"):
-        out = outside_max(sensor, state, node - radius, node + radius, top)
+        out = outside_max(sensor, state, a, b, top)
     return 0.0 if out is None else float(top - out)
 
 

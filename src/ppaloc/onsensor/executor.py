@@ -256,10 +256,9 @@ class SensorExecutor:
         self._normalised()
         return detect.detect(self.sensor, self.state, prev, bits)
 
-    def confidence(self, node: int, top: float) -> float:
-        """``T`` minus the integer maximum outside ``node +- R``."""
-        radius = self.params.confidence_radius
-        return detect.confidence(self.sensor, self.state, node, int(top), radius)
+    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
+        """``T`` minus the integer maximum outside the nodes ``window``."""
+        return detect.confidence(self.sensor, self.state, int(top), *window)
 
     def rank(self, node: int) -> None:
         """The sensor reports no ranking."""

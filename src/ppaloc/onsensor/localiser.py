@@ -21,7 +21,12 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.base import DatasetNeed, Estimate, MethodParam
 from ppaloc.localise.params import FilterParams, check_int, filter_method_params
 from ppaloc.localise.schedule import Schedule, make_schedule
-from ppaloc.localise.weighted import MAX_RANKING, check_representation, oracle_needs
+from ppaloc.localise.weighted import (
+    MAX_RANKING,
+    check_representation,
+    oracle_needs,
+    place_test,
+)
 from ppaloc.onsensor.bank import SensorBank
 from ppaloc.onsensor.executor import PLACES, SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
@@ -151,6 +156,13 @@ class OnSensorLocaliser:
             )
         if p.shift is not None and p.shift > 8:
             raise PpalocError(f"shift={p.shift} is too large for the sensor; use 0..8")
+        if place_test(p) is not None:
+            raise PpalocError(
+                "keyframes=false with the image motion test maps every frame and treats a "
+                "stop of the reference as a run of one place, which only the host filter "
+                "runs; on the sensor use keyframes=true (the default) or "
+                "motion='always_forward'"
+            )
         self.preset = p.preset
         self.representation = representation
         self.noise = noise
@@ -257,6 +269,12 @@ class OnSensorLocaliser:
         self._install(topomap, self._place(len(topomap), self._new_pipeline(capacity)))
 
     def _check_map(self, topomap: TopoMap) -> None:
+        if topomap.has_runs and self.schedule.runs:
+            raise PpalocError(
+                "the map has runs of nodes of one place (a map of every frame made with the "
+                "image motion test), which only the host filter runs; map on the sensor, or "
+                "with keyframes=true"
+            )
         if topomap.kind != self.representation:
             raise PpalocError(
                 f"the map holds {topomap.kind!r} nodes but this localiser uses "

@@ -77,6 +77,7 @@ def build_topomap(
     *,
     keyframe_threshold: float | None = None,
     keep: Callable[[np.ndarray], bool] | None = None,
+    new_place: Callable[[np.ndarray], bool] | None = None,
     positions: np.ndarray | None = None,
     dataset: str | None = None,
     progress: Callable[[int, int | None], None] | None = None,
@@ -103,6 +104,12 @@ def build_topomap(
         and a frame after the first becomes a node only when it returns True (the
         weighted-node filter passes its motion test: a new node when the camera moved
         on). Cannot be combined with ``keyframe_threshold``.
+    new_place : callable, optional
+        With one node per frame: ``new_place(sensor_frame)`` is called on every frame in
+        order, and a frame after the first shows the previous frame's place when it
+        returns False; the map records the places (``TopoMap.places``: a stop of the
+        reference is a run of nodes of one place). Cannot be combined with a keyframe
+        rule.
     positions : ndarray, shape (n_frames, D) or (n_frames,), optional
         Per-frame route positions; the nodes keep those of their frames.
     dataset : str, optional
@@ -131,15 +138,21 @@ def build_topomap(
         raise ValueError(f"keyframe_threshold={keyframe_threshold!r} must be >= 0 or None")
     if keyframe_threshold is not None and keep is not None:
         raise ValueError("give keyframe_threshold or keep, not both")
+    if new_place is not None and (keep is not None or keyframe_threshold is not None):
+        raise ValueError("new_place records the places of a map of every frame: no keyframe rule")
     total = len(frames) if hasattr(frames, "__len__") else None  # type: ignore[arg-type]
     dtype, shape = KIND_SPECS[kind]
     descriptors = _Rows(dtype, shape, total)
     kept = _Rows(np.dtype(np.int64), (), total)
+    places = None if new_place is None else _Rows(np.dtype(np.int64), (), total)
     n_frames = 0
     for i, frame in enumerate(frames):
         sensor = to_sensor(frame)
         d = describe_sensor(sensor)
         moved_on = True if keep is None else bool(keep(sensor))
+        if places is not None:
+            new = bool(new_place(sensor))  # type: ignore[misc]
+            places.append(0 if not len(places) else places.last() + int(new))
         if not len(descriptors) or (
             moved_on
             if keyframe_threshold is None
@@ -164,12 +177,15 @@ def build_topomap(
         "keyframe_units": None if keyframe_threshold is None else KEYFRAME_UNITS[kind],
         "n_frames": n_frames,
     }
+    if new_place is not None:
+        params["places"] = "motion test"
     provenance = {} if dataset is None else {"dataset": dataset}
     return TopoMap(
         kind,
         stacked,
         frame_index=kept_index,
         positions=node_positions,
+        places=None if places is None else places.array(),
         params=params,
         provenance=provenance,
     )

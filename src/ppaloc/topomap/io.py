@@ -1,9 +1,11 @@
 """Save and load a TopoMap as one versioned, checksummed ``.npz`` file.
 
-Format ``ppaloc.topomap``, version 1: an uncompressed ``.npz`` (zip of ``.npy``) holding
+Format ``ppaloc.topomap``, version 2: an uncompressed ``.npz`` (zip of ``.npy``) holding
 
 - ``header``: a uint8 array, the UTF-8 bytes of a JSON object (see :func:`save_map`);
-- ``descriptors``, ``frame_index`` and, if the map has them, ``positions``.
+- ``descriptors``, ``frame_index`` and, if the map has them, ``positions`` and
+  ``places`` (version 2; a map without places is written as version 1, which every
+  reader takes).
 
 Nothing is pickled, and loading never unpickles. The same map gives the same bytes (no
 clock time is written unless ``SOURCE_DATE_EPOCH`` is set). Loading bounds every size
@@ -42,7 +44,7 @@ __all__ = [
 ]
 
 FORMAT_NAME = "ppaloc.topomap"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 MAX_MAP_BYTES = 4 << 30
 """Most array bytes a map file may hold (4 GiB: about 60 million 8x8 nodes)."""
 MAX_HEADER_BYTES = 1 << 20
@@ -52,7 +54,7 @@ MAX_HEADER_DEPTH = 32
 MAX_HEADER_NUMBER = 2**53
 """Largest magnitude of a number in a map's header (counts and parameters; the largest
 float64 that still holds every integer exactly)."""
-_ARRAYS = ("descriptors", "frame_index", "positions")
+_ARRAYS = ("descriptors", "frame_index", "positions", "places")
 
 
 def _jsonable(value: Any) -> Any:
@@ -115,6 +117,8 @@ def save_map(topomap: TopoMap, path: str | Path, *, dataset: str | None = None) 
     arrays = {"descriptors": topomap.descriptors, "frame_index": topomap.frame_index}
     if topomap.positions is not None:
         arrays["positions"] = topomap.positions
+    if topomap.places is not None:
+        arrays["places"] = topomap.places
     if any(a.dtype.hasobject for a in arrays.values()):
         raise ValueError("map arrays must be numeric, not object arrays")
     layout = topomap.layout
@@ -128,7 +132,7 @@ def save_map(topomap: TopoMap, path: str | Path, *, dataset: str | None = None) 
         provenance["dataset"] = dataset
     header: dict[str, Any] = {
         "format": FORMAT_NAME,
-        "format_version": FORMAT_VERSION,
+        "format_version": FORMAT_VERSION if topomap.places is not None else 1,
         "kind": topomap.kind,
         "n_nodes": len(topomap),
         "arrays": {name: _describe(a) for name, a in arrays.items()},
@@ -327,6 +331,7 @@ def load_map(path: str | Path) -> TopoMap:
             descriptors=arrays["descriptors"],
             frame_index=arrays["frame_index"],
             positions=arrays.get("positions"),
+            places=arrays.get("places"),
             params=header.get("params", {}),
             provenance=header.get("provenance", {}),
         )

@@ -44,6 +44,10 @@ class TopoMap:
     provenance : dict
         Where the map came from (JSON-serialisable): filled by :func:`build_topomap`
         (``dataset``) and by :meth:`save` (``ppaloc_version``, ``created``).
+    places : ndarray of int, shape (N,), optional
+        The place each node shows, from 0 and rising by 0 or 1 from node to node: the
+        nodes of one place are a run (a stop of the reference kept frame by frame, as a
+        map of one node per frame keeps it). None: every node is a place of its own.
 
     Examples
     --------
@@ -59,6 +63,7 @@ class TopoMap:
     positions: np.ndarray | None = None
     params: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
+    places: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.descriptors = np.asarray(self.descriptors)
@@ -90,8 +95,54 @@ class TopoMap:
                     f"got {self.positions.shape}"
                 )
 
+        if self.places is not None:
+            self.places = np.asarray(self.places)
+            if self.places.shape != (len(self.descriptors),) or not np.issubdtype(
+                self.places.dtype, np.integer
+            ):
+                raise ValueError(
+                    f"places must hold one integer per node ({len(self.descriptors)}), got "
+                    f"{self.places.dtype} {self.places.shape}"
+                )
+            self.places = self.places.astype(np.int64)
+            steps = np.diff(self.places)
+            if len(self.places) and (self.places[0] != 0 or ((steps != 0) & (steps != 1)).any()):
+                raise ValueError(
+                    "places must start at 0 and rise by 0 or 1 from node to node (a run of "
+                    "equal places is one place)"
+                )
+
     def __len__(self) -> int:
         return len(self.descriptors)
+
+    @property
+    def has_runs(self) -> bool:
+        """Whether some consecutive nodes show one place (:attr:`places`)."""
+        return (
+            self.places is not None
+            and bool(len(self.places))
+            and (int(self.places[-1]) + 1 < len(self.places))
+        )
+
+    def place_window(self, node: int, radius: int) -> tuple[int, int]:
+        """The nodes ``a .. b`` (inclusive) whose place is within ``radius`` places of
+        ``node``'s: ``node +- radius`` where every node is a place of its own.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> m = TopoMap("lbp", np.zeros(6, np.uint32), places=[0, 1, 1, 1, 2, 3])
+        >>> m.place_window(2, 1), m.place_window(5, 1)
+        ((0, 4), (4, 5))
+        >>> TopoMap("lbp", np.zeros(6, np.uint32)).place_window(2, 1)
+        (1, 3)
+        """
+        if self.places is None:
+            return node - radius, node + radius
+        p = int(self.places[node])
+        a = int(np.searchsorted(self.places, p - radius, side="left"))
+        b = int(np.searchsorted(self.places, p + radius, side="right")) - 1
+        return a, b
 
     def frame_spans(self) -> tuple[np.ndarray, np.ndarray]:
         """``(first, end)``: node ``j`` stands for reference frames ``first[j] <= f < end[j]``.
@@ -184,6 +235,7 @@ class TopoMap:
             and same(self.descriptors, other.descriptors)
             and same(self.frame_index, other.frame_index)
             and same(self.positions, other.positions)
+            and same(self.places, other.places)
             and _normalised(self.params) == _normalised(other.params)
         )
 
