@@ -43,6 +43,16 @@ class DRegs:
     u_prev: Register = R7
     d_prev: Register = R8
 
+    def __post_init__(self) -> None:
+        # the roles key the kernel cache on every kernel run: hash them once
+        object.__setattr__(self, "_hash", hash(tuple(getattr(self, f.name) for f in fields(self))))
+
+    def __hash__(self) -> int:
+        return self.__dict__["_hash"]
+
+    def __reduce__(self) -> tuple:
+        return (DRegs, tuple(getattr(self, f.name) for f in fields(self)))
+
     #: The kept digital roles (live from one frame to the next).
     KEPT = ("valid", "u_prev", "d_prev")
 

@@ -18,7 +18,7 @@ Directions are flags (east=1, west=2, north=4, south=8 as in the SCAMP-5 headers
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ppaloc.errors import RegisterMisuseError
 
@@ -136,6 +136,18 @@ class Register:
     index: int
     role: str = "general"
     direction: Direction | None = None
+    _hash: int = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # a handle keys caches on every kernel run: hash its fields once
+        object.__setattr__(self, "_hash", hash((self.name, self.kind, self.index, self.role)))
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __reduce__(self) -> tuple:
+        # rebuilt by the constructor: a string's hash differs from process to process
+        return (Register, (self.name, self.kind, self.index, self.role, self.direction))
 
     @property
     def writable(self) -> bool:
