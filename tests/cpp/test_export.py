@@ -132,7 +132,7 @@ def route():
 )
 def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     places, query = route
-    kw = {"preset": preset} if preset == "paper" else {"keyframes": False}
+    kw = {"preset": preset}
     mapper = OnSensorLocaliser(rep, size=SIZE, **kw)
     topomap = mapper.build_map(places)
     tracer = Tracer()
@@ -207,8 +207,8 @@ def test_tracing_replaces_nothing_in_the_simulator(route):
         checked.append(event)
 
     tracer = Tracer()
-    loc = OnSensorLocaliser("lbp", size=SIZE, keyframes=False, observers=[tracer, unpatched])
-    loc.use_map(OnSensorLocaliser("lbp", size=SIZE, keyframes=False).build_map(places))
+    loc = OnSensorLocaliser("lbp", size=SIZE, observers=[tracer, unpatched])
+    loc.use_map(OnSensorLocaliser("lbp", size=SIZE).build_map(places))
     loc.step(query[0])
     assert "void ppaloc_frame_0()" in to_cpp(tracer.trace_of(loc.pipeline.sim))
     assert len(checked) == len(tracer.trace_of(loc.pipeline.sim).events) > 100
