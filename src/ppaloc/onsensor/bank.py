@@ -1,7 +1,8 @@
 """A map of any size on a bank of simulated sensors, combined by their controllers.
 
 One simulated SCAMP-5 holds at most a few tiles (:attr:`SensorExecutor.capacity`: two
-tiles of 2048 descriptors, or one low-res tile with the levels store). A
+tiles of 2048 descriptors; one low-res tile with the levels store or where the
+schedule refines the frame's best distance, as the robust preset does). A
 :class:`SensorBank` cuts a longer snake into consecutive parts, one sensor per part, all
 seeing the same frame. It is an executor of the schedules
 (:class:`ppaloc.localise.schedule.Executor`): each of its steps runs the sensor
