@@ -17,6 +17,7 @@ import pytest
 
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
+from ppaloc.errors import PpalocError
 from ppaloc.localise.params import (
     MAX_SHIFT,
     FilterParams,
@@ -359,6 +360,90 @@ def _stop_route(seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
         noise = rng.integers(-12, 13, places[i].shape)
         query.append(np.clip(places[i].astype(int) + noise, 0, 255).astype(np.uint8))
     return [places[i] for i in ref_order], query
+
+
+def _run_reference(w: np.ndarray, places: np.ndarray) -> np.ndarray:
+    """The host's running maximum within each run of one place, written out."""
+    out = np.array(w, np.float64)
+    for i in range(1, len(out)):
+        if places[i] == places[i - 1]:
+            out[i] = max(out[i], out[i - 1])
+    return out
+
+
+def _places_with_runs(n: int, seed: int, crossing: tuple[int, ...]) -> np.ndarray:
+    """Places of ``n`` nodes with random runs, and a run over each node boundary of
+    ``crossing`` (a tile's end, a block row's end)."""
+    rng = np.random.default_rng(seed)
+    same = rng.random(n) < 0.3
+    for i in crossing:
+        same[i - 2 : i + 3] = True  # nodes i-2 .. i+2 continue their predecessors
+    same[0] = False
+    return np.cumsum(~same) - 1
+
+
+@pytest.mark.parametrize(("rep", "n"), [("lowres", 40), ("lowres", 100), ("lbp", 90), ("lbp", 200)])
+def test_the_transition_lets_weights_flow_along_runs(rep, n):
+    """On a map with runs the sensor's transition ends with the running maximum within
+    each run: one and two tiles (a run across the tiles' boundary), runs across block
+    rows (8 nodes a row at 64 x 64), the edge and the floor around it."""
+    from ppaloc.onsensor.runs import longest_run, plan_runs
+
+    pipe = _pipe(rep, n, memory=40)
+    cap = pipe.layout.capacity
+    places = _places_with_runs(n, n, tuple(i for i in (8, 23, cap) if i < n - 3))
+    plan_runs(pipe.sensor, places)
+    assert pipe.sensor.run_steps == longest_run(places) - 1 >= 4
+    assert pipe.sensor.tiles == (2 if n > cap else 1)
+    w = np.maximum(_random_weights(n, n + 1, low=-60) - np.float32(20), -127)
+    top = int(np.floor(w.max()))
+    costs = (3, 0, 6)
+    _put_weights(pipe, w)
+    pipe.normalise(top)
+    pipe.transition(costs)
+    moved = np.maximum(_transition_reference(_normalised(w, top, 40), costs, 40), -40)
+    want = _run_reference(moved, places)
+    assert (want != moved).sum() >= 3  # the runs change the weights
+    np.testing.assert_array_equal(pipe.weights(), want)
+    assert "runs" in {s.name for s in pipe.timing.report().stages}
+
+
+def test_a_bank_cuts_a_map_with_runs_between_places():
+    from ppaloc.onsensor.runs import bank_offsets
+
+    places = np.array([0, 1, 2, 2, 2, 3, 4, 5, 5, 6])
+    assert bank_offsets(places, 10, 4) == [0, 2, 6]
+    assert bank_offsets(None, 10, 4) == [0, 4, 8]
+    assert bank_offsets(np.arange(10), 10, 4) == [0, 4, 8]
+    with pytest.raises(PpalocError, match=r"cannot cut this map between places: the run of "
+                       r"nodes 1\.\.6 .* leaves sensor 0 1 node\(s\), fewer than 2"):  # fmt: skip
+        bank_offsets(np.array([0, 1, 1, 1, 1, 1, 1, 2]), 8, 4, least=2)
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+@pytest.mark.parametrize("sensor_nodes", [None, 6])
+def test_a_map_of_every_frame_keeps_its_stops_as_runs_on_the_sensor(rep, sensor_nodes):
+    """keyframes=false with the image motion test: the sensor maps the same places as the
+    host and localises as the host's ppa8 filter on every frame, on one sensor and on a
+    bank of 6-node sensors (cut between places)."""
+    ref, query = _stop_route(3)
+    if sensor_nodes is None:  # each maps the reference itself
+        host, sensor = _agree(rep, ref, query, keyframes=False)
+    else:  # the host's map on the bank
+        host = WeightedNodeLocaliser(rep, arithmetic="ppa8", record_weights=True, keyframes=False)
+        sensor = OnSensorLocaliser(
+            rep, record_weights=True, sensor_nodes=sensor_nodes, keyframes=False
+        )
+        sensor.use_map(host.build_map(ref))
+        a, b = host.localise(query), sensor.localise(query)
+        assert [e.node for e in b] == [e.node for e in a]
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)
+        offsets = sensor.pipeline.offsets
+        assert len(offsets) > 3
+        assert all(host.topomap.places[o] != host.topomap.places[o - 1] for o in offsets[1:])
+    np.testing.assert_array_equal(sensor.topomap.places, host.topomap.places)
+    assert host.topomap.has_runs and sensor.topomap.params["places"] == "motion test"
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])

@@ -357,13 +357,21 @@ def test_event_nodes_come_from_the_block_table_as_the_layout_maps_them(rep):
     assert np.array_equal(pipe.sensor.nodes_of(events), np.sort(want))
 
 
-def test_the_sensor_refuses_a_map_of_every_frame_with_runs():
+def test_a_map_with_runs_keeps_its_table_on_the_controller():
+    """A map of every frame with runs: the sensor takes it and keeps the runs' table
+    (longest run less one; the rectangles of continuing roots), the paper preset ignores
+    the runs, and a map without runs leaves nothing to do."""
     from ppaloc.onsensor import OnSensorLocaliser
 
-    with pytest.raises(PpalocError, match="keyframes=false with the image motion test"):
-        OnSensorLocaliser("lbp", keyframes=False, size=64)
+    runs = TopoMap("lbp", np.zeros(12, np.uint32), places=[0, 1, 1, 1, 2, 3, 3, 4, 5, 6, 7, 7])
     loc = OnSensorLocaliser("lbp", size=64)
-    runs = TopoMap("lbp", np.zeros(4, np.uint32), places=[0, 1, 1, 2])
-    with pytest.raises(PpalocError, match="runs of nodes of one place"):
-        loc.use_map(runs)
-    OnSensorLocaliser("lbp", keyframes=False, motion="always_forward", size=64)
+    loc.use_map(runs)
+    sensor = loc.pipeline.sensor
+    assert sensor.run_steps == 2
+    # nodes 2, 3 (block row 0, columns 5 and 4), 6 (column 1), 11 (row 1, column 3)
+    assert sensor.run_rects == {0: [(0, 32, 0, 47), (0, 8, 0, 15), (4, 24, 4, 31)]}
+    paper = OnSensorLocaliser("lbp", size=64, preset="paper")
+    paper.use_map(runs)
+    assert paper.pipeline.sensor.run_steps == 0
+    loc.use_map(TopoMap("lbp", np.zeros(12, np.uint32)))
+    assert loc.pipeline.sensor.run_steps == 0 and loc.pipeline.sensor.run_rects == {}

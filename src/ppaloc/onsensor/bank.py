@@ -36,6 +36,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.params import FilterParams, choose_candidate
 from ppaloc.onsensor.executor import SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
+from ppaloc.onsensor.runs import bank_offsets
 from ppaloc.sim import Scamp5
 from ppaloc.topomap import TopoMap
 
@@ -92,6 +93,9 @@ class SensorBank:
     per_sensor : int, optional
         Nodes per sensor (default and at most: a sensor's capacity; fewer make small
         banks for tests).
+    places : ndarray of int, optional
+        The map's places (``TopoMap.places``) where it has runs: the cuts between sensors
+        then fall between places (:func:`ppaloc.onsensor.runs.bank_offsets`).
 
     Attributes
     ----------
@@ -108,6 +112,7 @@ class SensorBank:
         n_nodes: int,
         make: Callable[[int, int], SensorExecutor],
         per_sensor: int | None = None,
+        places: np.ndarray | None = None,
     ) -> None:
         if not first.plan.bank:
             raise PpalocError(
@@ -122,21 +127,23 @@ class SensorBank:
         self.representation = first.representation
         self.store = first.store
         self.n_nodes = int(n_nodes)
-        self.offsets = list(range(0, self.n_nodes, per))
-        first.set_nodes(min(per, self.n_nodes))
-        self.sensors = [first] + [
-            make(min(per, self.n_nodes - off), i) for i, off in enumerate(self.offsets[1:], start=1)
-        ]
+        least = max(first.params.max_advance or 1, 1)  # type: ignore[operator]
+        self.offsets = bank_offsets(places, self.n_nodes, per, least)
+        sizes = np.diff([*self.offsets, self.n_nodes]).tolist()
+        first.set_nodes(sizes[0])
+        self.sensors = [first] + [make(n, i) for i, n in enumerate(sizes[1:], start=1)]
         self.tiles = sum(s.tiles for s in self.sensors)
         self.timing = BankTiming(self.sensors)
         self.reset()
 
     # ------------------------------------------------------------------ map and state
-    def upload(self, topomap: TopoMap) -> None:
-        """Write each sensor's part of ``topomap`` into its registers (stage "mapping")."""
-        desc = np.asarray(topomap.descriptors)
+    def upload(self, topomap: TopoMap, runs: bool = True) -> None:
+        """Write each sensor's part of ``topomap`` into its registers (stage "mapping"),
+        with its part of the map's runs (``runs``; :func:`ppaloc.onsensor.mapping.upload_map`)."""
+        desc, places = np.asarray(topomap.descriptors), topomap.places
         for s, off in zip(self.sensors, self.offsets, strict=True):
-            upload_map(s, TopoMap(topomap.kind, desc[off : off + s.n_nodes]))
+            part = None if places is None else places[off : off + s.n_nodes] - places[off]
+            upload_map(s, TopoMap(topomap.kind, desc[off : off + s.n_nodes], places=part), runs)
         self.timing.sync()
 
     def reset(self) -> None:

@@ -214,8 +214,10 @@ class SensorExecutor:
 
     def transition(self, costs: tuple[int, ...], carried: bool = False) -> None:
         """Robust: :func:`ppaloc.onsensor.transition.transition` (``carried``: on a bank's
-        later sensor, the previous sensor's weights enter node 0)."""
-        transition(self.sensor, self.state, int(self.params.memory), costs, carried)  # type: ignore[arg-type]
+        later sensor, the previous sensor's weights enter node 0), each weight then
+        flowing along its run on a map with runs (:mod:`ppaloc.onsensor.runs`)."""
+        memory = int(self.params.memory)  # type: ignore[arg-type]
+        transition(self.sensor, self.state, memory, costs, carried, runs=True)
 
     def node_values(self) -> np.ndarray:
         """Robust: the live frame in place, then every node's ``r_i``
@@ -233,7 +235,8 @@ class SensorExecutor:
         """Apply a normalisation still pending (a schedule whose frame has no transition
         to carry it): the transition that stays on every node for free."""
         if self.state.pending_top is not None:
-            self.transition((0,))
+            memory = int(self.params.memory)  # type: ignore[arg-type]
+            transition(self.sensor, self.state, memory, (0,))
 
     def add_scaled(self, shift: int, alpha: float) -> None:
         """Robust: ``w += alpha_t - mu 2**-s`` (:func:`ppaloc.onsensor.likelihood.add_scaled`)."""
@@ -346,6 +349,26 @@ class SensorExecutor:
                     kept.append(i)
         self.planes.forget()
         return nodes, kept
+
+    def map_places(self, frames: Sequence[np.ndarray]) -> tuple[list[Any], list[int]]:
+        """The mapping run of a map of every frame with places: ``(nodes, places)``.
+
+        As :meth:`map_keyframes`, but every frame is described and becomes a node; the
+        sensor's image motion stage says whether it shows a new place (the first frame
+        is place 0; the host's :func:`ppaloc.localise.weighted.place_test`).
+        """
+        nodes: list[Any] = []
+        places: list[int] = []
+        self.planes.forget()
+        for frame in frames:
+            with self.sensor.stage("mapping"):
+                capture(self.sensor, frame)
+                self._block_means_for_mapping(spread=True)
+                moved = image_motion(self.sensor, self.planes, self.params)
+                nodes.append(self.places.describe())
+                places.append(0 if not places else places[-1] + int(moved))
+        self.planes.forget()
+        return nodes, places
 
     def node_blocks(self, topomap: TopoMap) -> np.ndarray:
         """Each node's values on the PEs of its block, as the comparison reads them."""

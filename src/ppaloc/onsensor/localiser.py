@@ -156,13 +156,6 @@ class OnSensorLocaliser:
             )
         if p.shift is not None and p.shift > 8:
             raise PpalocError(f"shift={p.shift} is too large for the sensor; use 0..8")
-        if place_test(p) is not None:
-            raise PpalocError(
-                "keyframes=false with the image motion test maps every frame and treats a "
-                "stop of the reference as a run of one place, which only the host filter "
-                "runs; on the sensor use keyframes=true (the default) or "
-                "motion='always_forward'"
-            )
         self.preset = p.preset
         self.representation = representation
         self.noise = noise
@@ -227,8 +220,11 @@ class OnSensorLocaliser:
         sensor's own motion stage runs over consecutive reference frames and a frame
         starts a node when it says forward (:meth:`SensorExecutor.map_keyframes`);
         ``frame_index`` holds the kept frames and ``params["n_frames"]`` the frame
-        count. In ideal mode the kept frames and nodes equal the host's ``build_map``.
-        The nodes are then written into the database registers
+        count. Without keyframes, with the image motion model and a preset that uses
+        runs (robust), the motion stage marks instead where the reference stood still, and
+        the map keeps those frames as runs of one place (``TopoMap.places``;
+        :meth:`SensorExecutor.map_places`). In ideal mode the kept frames, nodes and places
+        equal the host's ``build_map``. The nodes are then written into the database registers
         (:func:`ppaloc.onsensor.mapping.upload_map`).
         """
         frames = list(frames)
@@ -239,26 +235,34 @@ class OnSensorLocaliser:
         frames = [np.asarray(f) for f in frames]
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
         mapper = self._new_pipeline(min(len(frames), capacity))
+        places: list[int] | None = None
         if self.params.keyframes:
             nodes, kept = mapper.map_keyframes(frames)
+        elif place_test(self.params) is not None:
+            nodes, places = mapper.map_places(frames)
+            kept = list(range(len(frames)))
         else:
             nodes = [mapper.sense_node(f) for f in frames]
             kept = list(range(len(frames)))
-        pipe = self._place(len(kept), mapper)
         dtype = np.uint32 if self.representation == "lbp" else np.uint8
+        params = {
+            "kind": self.representation,
+            "keyframe_threshold": None,
+            "keyframes": "motion test" if self.params.keyframes else None,
+            "keyframe_units": None,
+            "n_frames": len(frames),
+            "mapped_on": f"simulated SCAMP-5, noise={self._noise_name()}",
+        }
+        if places is not None:
+            params["places"] = "motion test"
         topomap = TopoMap(
             self.representation,
             np.asarray(nodes, dtype=dtype),
             frame_index=np.asarray(kept, dtype=np.int64),
-            params={
-                "kind": self.representation,
-                "keyframe_threshold": None,
-                "keyframes": "motion test" if self.params.keyframes else None,
-                "keyframe_units": None,
-                "n_frames": len(frames),
-                "mapped_on": f"simulated SCAMP-5, noise={self._noise_name()}",
-            },
+            params=params,
+            places=None if places is None else np.asarray(places, dtype=np.int64),
         )
+        pipe = self._place(len(kept), mapper, self._runs_of(topomap))
         self._install(topomap, pipe)
         return topomap
 
@@ -266,15 +270,14 @@ class OnSensorLocaliser:
         """Write ``topomap`` (e.g. loaded from a file) into a fresh simulated sensor."""
         self._check_map(topomap)
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
-        self._install(topomap, self._place(len(topomap), self._new_pipeline(capacity)))
+        pipe = self._new_pipeline(capacity)
+        self._install(topomap, self._place(len(topomap), pipe, self._runs_of(topomap)))
+
+    def _runs_of(self, topomap: TopoMap) -> np.ndarray | None:
+        """The map's places where the schedule runs its runs (None otherwise)."""
+        return topomap.places if self.schedule.runs and topomap.has_runs else None
 
     def _check_map(self, topomap: TopoMap) -> None:
-        if topomap.has_runs and self.schedule.runs:
-            raise PpalocError(
-                "the map has runs of nodes of one place (a map of every frame made with the "
-                "image motion test), which only the host filter runs; map on the sensor, or "
-                "with keyframes=true"
-            )
         if topomap.kind != self.representation:
             raise PpalocError(
                 f"the map holds {topomap.kind!r} nodes but this localiser uses "
@@ -301,8 +304,11 @@ class OnSensorLocaliser:
             observers=self.observers,
         )
 
-    def _place(self, n_nodes: int, first: SensorExecutor) -> SensorExecutor | SensorBank:
-        """``first`` holding ``n_nodes`` nodes, or a bank starting with it if they don't fit."""
+    def _place(
+        self, n_nodes: int, first: SensorExecutor, places: np.ndarray | None = None
+    ) -> SensorExecutor | SensorBank:
+        """``first`` holding ``n_nodes`` nodes, or a bank starting with it if they don't fit
+        (cut between ``places`` where the map's runs are run)."""
         per = first.capacity if self.sensor_nodes is None else self.sensor_nodes
         if n_nodes <= min(per, first.capacity):
             first.set_nodes(n_nodes)
@@ -313,15 +319,16 @@ class OnSensorLocaliser:
                 f"sensor_nodes={per} is too small for a bank: each sensor must hold at least "
                 f"the {carry} node(s) a frame may advance into the next sensor"
             )
-        return SensorBank(first, n_nodes, self._new_pipeline, per)
+        return SensorBank(first, n_nodes, self._new_pipeline, per, places)
 
     def _install(self, topomap: TopoMap, pipe: SensorExecutor | SensorBank) -> None:
         self._check_map(topomap)
         self.schedule.use_map(topomap)  # the paper's alpha, chosen from the map
+        runs = self.schedule.runs
         if isinstance(pipe, SensorBank):
-            pipe.upload(topomap)
+            pipe.upload(topomap, runs)
         else:
-            upload_map(pipe, topomap)
+            upload_map(pipe, topomap, runs)
         self.pipeline = pipe
         self.topomap = topomap
         self.reset()

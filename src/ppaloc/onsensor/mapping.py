@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ppaloc.onsensor.lowres import LowresPlaces
+from ppaloc.onsensor.runs import plan_runs
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.sim import NEWS, D, Kernel, Register
 from ppaloc.topomap import TopoMap
@@ -71,8 +72,12 @@ def _write_values(sensor: Sensor, db: Register, values: np.ndarray, skip: int | 
         sensor.run(_all)
 
 
-def upload_map(pipe: SensorExecutor, topomap: TopoMap) -> None:
-    """Write ``topomap``'s nodes into ``pipe``'s database registers (timed, stage "mapping")."""
+def upload_map(pipe: SensorExecutor, topomap: TopoMap, runs: bool = True) -> None:
+    """Write ``topomap``'s nodes into ``pipe``'s database registers (timed, stage "mapping").
+
+    With ``runs``, the controller also keeps the table of a map's runs of one place
+    (``TopoMap.places``; :func:`ppaloc.onsensor.runs.plan_runs`).
+    """
     # the map's own PE blocks (uint8 images, or 4x8 bits) as the comparison reads them
     # (low-res images contrast-normalised where the filter compares them so), laid out
     # for this array
@@ -92,8 +97,9 @@ def upload_map(pipe: SensorExecutor, topomap: TopoMap) -> None:
         else:
             planes = sensor.layout.to_planes(blocks, fill=0)
             for t, plane in enumerate(planes):
-                runs = [run for run in row_runs(plane.astype(np.int64)) if run[0]]
-                _mask_from_runs(sensor, db[t], runs)
+                found = [run for run in row_runs(plane.astype(np.int64)) if run[0]]
+                _mask_from_runs(sensor, db[t], found)
+    plan_runs(sensor, topomap.places if runs else None)
 
 
 def _clr(k: Kernel, r: Register) -> None:

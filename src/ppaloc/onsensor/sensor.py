@@ -73,6 +73,10 @@ class Sensor:
         Pixels per side of a grid block (32 on a 256 array).
     tiles : int
         Tiles the map takes.
+    run_steps, run_rects
+        The controller's table of the map's runs of one place (:mod:`ppaloc.onsensor.runs`):
+        the longest run less one (0: no runs) and, per tile, the rectangles that hold the
+        roots of the nodes continuing their predecessor's place.
     """
 
     def __init__(
@@ -101,6 +105,8 @@ class Sensor:
         self.block_nodes = self._block_node_table()
         self.n_nodes = int(n_nodes)
         self.tiles = self.tiles_for(self.n_nodes)
+        self.run_steps = 0
+        self.run_rects: dict[int, list[tuple[int, int, int, int]]] = {}
         self.sim = Scamp5(size, size, noise=noise, seed=seed, observers=observers)
         self.kernels = KernelCache(self.sim)
         self.node_grid()

@@ -8,6 +8,7 @@ when the transfer gain has drifted it a step, and the floor.
 from __future__ import annotations
 
 from ppaloc.onsensor import gain
+from ppaloc.onsensor.runs import running_max
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.snake import park, snake_masks, snake_step
 from ppaloc.onsensor.weights import WeightState
@@ -17,7 +18,12 @@ __all__ = ["floor", "settle", "subtract", "take_candidate", "transition"]
 
 
 def transition(
-    sensor: Sensor, state: WeightState, memory: int, costs: tuple[int, ...], carried: bool = False
+    sensor: Sensor,
+    state: WeightState,
+    memory: int,
+    costs: tuple[int, ...],
+    carried: bool = False,
+    runs: bool = False,
 ) -> None:
     """The last frame's normalisation, then ``w_i := clip(max_d (w_{i-d} - c_d))``.
 
@@ -35,7 +41,9 @@ def transition(
     (``-memory - c_d``, for every ``d``, also ``d >= N``) and any clip at -127 are at most
     the floor, and no candidate reaches the top clip (``w - T < 1``). On a bank's later
     sensor (``carried``) the previous sensor's last weights, written by
-    :func:`ppaloc.onsensor.carry.carry_in`, enter node 0 instead of the edge.
+    :func:`ppaloc.onsensor.carry.carry_in`, enter node 0 instead of the edge. With
+    ``runs``, on a map with runs of one place, each weight then flows along its run
+    (:func:`ppaloc.onsensor.runs.running_max`, stage ``"runs"``).
     """
     sim, r = sensor.sim, sensor.roles
     w, s, x = r.weights, r.shifted, r.spare
@@ -74,6 +82,8 @@ def transition(
     state.pending_top = None
     with sim.stage("normalise"):
         floor(sensor, lowest + offset)
+    if runs:
+        running_max(sensor)
     state.pending_offset = offset
 
 

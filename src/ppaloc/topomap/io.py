@@ -87,14 +87,15 @@ def _describe(a: np.ndarray) -> dict[str, Any]:
 def save_map(topomap: TopoMap, path: str | Path, *, dataset: str | None = None) -> Path:
     """Write ``topomap`` to ``path`` atomically (a temporary file, then ``os.replace``).
 
-    The JSON header holds ``format`` (``"ppaloc.topomap"``), ``format_version`` (1),
-    ``kind``, ``n_nodes``, ``arrays`` (dtype and shape of each array), ``layout`` (the
-    snake layout: ``block_shape``, ``array_shape``, ``capacity``, ``n_tiles``; null for
-    kinds without one), ``params``, ``provenance`` (the map's own provenance plus
-    ``ppaloc_version``, ``dataset`` if given and, only when ``SOURCE_DATE_EPOCH`` is set,
-    ``created`` as ISO 8601 UTC: the same map gives the same bytes) and
-    ``sha256``: the SHA-256 of the header serialised canonically without ``sha256`` (JSON,
-    sorted keys, no spaces) followed by the C-order bytes of the arrays in name order.
+    The JSON header holds ``format`` (``"ppaloc.topomap"``), ``format_version`` (2 for a
+    map with places, else 1), ``kind``, ``n_nodes``, ``arrays`` (dtype and shape of each
+    array), ``layout`` (the snake layout: ``block_shape``, ``array_shape``, ``capacity``,
+    ``n_tiles``; null for kinds without one), ``params``, ``provenance`` (the map's own
+    provenance plus ``ppaloc_version``, ``dataset`` if given and, only when
+    ``SOURCE_DATE_EPOCH`` is set, ``created`` as ISO 8601 UTC: the same map gives the same
+    bytes) and ``sha256``: the SHA-256 of the header serialised canonically without
+    ``sha256`` (JSON, sorted keys, no spaces) followed by the C-order bytes of the arrays
+    in name order.
 
     Parameters
     ----------

@@ -1,0 +1,195 @@
+"""A map's runs on the sensor: a weight flows along the nodes of one place for free.
+
+A map of every frame made with the image motion test keeps a stop of the reference as a
+run of nodes of one place (``TopoMap.places``), and the robust transition lets each
+weight flow along its run: ``w_i := max(w_j, j <= i in the run of i)``, the host's
+running maximum (:meth:`ppaloc.localise.host.HostExecutor.transition`).
+
+On the sensor the controller keeps, with the map, the rectangles of block rows that hold
+the nodes continuing their predecessor's place (:func:`plan_runs`; no register is kept:
+every digital register is taken, and ``R12`` is the macros' scratch). After the
+transition's floor (stage ``"runs"``) it loads those rectangles into a working plane and
+keeps the node roots among them (:func:`_run_mask`: one ``load_rect`` and one OR per
+rectangle, a root pattern and an AND per tile), then ``run_steps`` times (the longest
+run less one): ``S := -W`` moves one node along the snake
+(:func:`~ppaloc.onsensor.snake.snake_step`, tiles continuing), and a root of the mask
+takes its predecessor's weight where that is not smaller (one kernel, one analogue write
+per taken weight). After step ``k`` each weight is the largest of itself and the ``k``
+nodes before it in its run, so ``run_steps`` steps give the running maximum exactly in
+ideal mode. A map without runs costs nothing.
+
+The maximum commutes with what surrounds it on the sensor: the floor (a maximum with a
+constant) and the stay cost still pending on every weight alike
+(:mod:`ppaloc.onsensor.transition`). A bank cuts its map between places
+(:func:`bank_offsets`), so no run crosses from one sensor to the next.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ppaloc.errors import PpalocError
+from ppaloc.onsensor.sensor import Sensor
+from ppaloc.onsensor.snake import park, snake_masks, snake_step
+from ppaloc.sim import FLAG, Kernel, Register
+
+__all__ = ["bank_offsets", "continues", "longest_run", "plan_runs", "running_max"]
+
+
+def continues(places: np.ndarray) -> np.ndarray:
+    """Per node, whether it shows its predecessor's place (node 0 never does).
+
+    Examples
+    --------
+    >>> continues(np.array([0, 1, 1, 1, 2])).tolist()
+    [False, False, True, True, False]
+    """
+    places = np.asarray(places)
+    out = np.zeros(len(places), bool)
+    out[1:] = places[1:] == places[:-1]
+    return out
+
+
+def longest_run(places: np.ndarray) -> int:
+    """Nodes in the longest run of one place (0 for no node).
+
+    Examples
+    --------
+    >>> longest_run(np.array([0, 1, 1, 1, 2])), longest_run(np.array([0, 1, 2]))
+    (3, 1)
+    """
+    places = np.asarray(places)
+    if not len(places):
+        return 0
+    return int(np.bincount(places - places[0]).max())
+
+
+def bank_offsets(places: np.ndarray | None, n_nodes: int, per: int, least: int = 1) -> list[int]:
+    """The first node of each sensor of a bank holding ``n_nodes`` nodes, ``per`` at most
+    on one: every ``per`` nodes, or on a map with runs the start of the run a cut would
+    fall into, so that each run stays on one sensor. Every sensor but the last holds at
+    least ``least`` nodes (the nodes a frame may advance into the next sensor).
+
+    Examples
+    --------
+    >>> bank_offsets(None, 10, 4)
+    [0, 4, 8]
+    >>> bank_offsets(np.array([0, 1, 2, 2, 2, 3, 4, 5, 5, 6]), 10, 4)
+    [0, 2, 6]
+    """
+    if places is None:
+        return list(range(0, n_nodes, per))
+    places = np.asarray(places)
+    offsets, start = [0], 0
+    while start + per < n_nodes:
+        cut = start + per
+        if places[cut] == places[cut - 1]:  # inside a run: cut at its first node
+            cut = int(np.searchsorted(places, places[cut], side="left"))
+        if cut - start < least:
+            run = np.flatnonzero(places == places[start + per])
+            raise PpalocError(
+                f"a bank of {per}-node sensors cannot cut this map between places: the run "
+                f"of nodes {run[0]}..{run[-1]} (a stop of the reference, frame by frame) "
+                f"leaves sensor {len(offsets) - 1} {cut - start} node(s), fewer than "
+                f"{least}; map with keyframes=true (the default), which keeps a stop as one "
+                "node"
+            )
+        offsets.append(cut)
+        start = cut
+    return offsets
+
+
+def plan_runs(sensor: Sensor, places: np.ndarray | None) -> None:
+    """Keep the controller's table of the map's runs on ``sensor``: ``run_steps`` (the
+    longest run less one) and ``run_rects`` (per tile, the root rows of consecutive
+    blocks whose nodes continue their predecessor's place). None, or a map without
+    runs: nothing to do at the transition."""
+    sensor.run_steps, sensor.run_rects = 0, {}
+    if places is None or longest_run(places) < 2:
+        return
+    layout = sensor.layout
+    nodes = np.flatnonzero(continues(places))
+    tile, brow, bcol = layout.node_to_block(nodes)
+    rects: dict[int, list[tuple[int, int, int, int]]] = {}
+    # consecutive nodes of one block row sit in adjacent blocks: one rectangle for each
+    # stretch of them (along a row the snake's block column moves by one per node)
+    start = 0
+    for i in range(1, len(nodes) + 1):
+        if (
+            i < len(nodes)
+            and nodes[i] == nodes[i - 1] + 1
+            and (tile[i], brow[i])
+            == (
+                tile[start],
+                brow[start],
+            )
+        ):
+            continue
+        c0, c1 = sorted((int(bcol[start]), int(bcol[i - 1])))
+        row = int(brow[start]) * sensor.bh
+        rects.setdefault(int(tile[start]), []).append(
+            (row, c0 * sensor.bw, row, c1 * sensor.bw + sensor.bw - 1)
+        )
+        start = i
+    sensor.run_steps, sensor.run_rects = longest_run(places) - 1, rects
+
+
+def running_max(sensor: Sensor) -> None:
+    """``w_i := max(w_j, j <= i in the run of i)`` over the map's runs (module docstring);
+    ``run_steps`` one-node steps along the snake, nothing without runs."""
+    if not sensor.run_steps:
+        return
+    r = sensor.roles
+    w, s, x, dr = r.weights, r.shifted, r.spare, r.d
+    with sensor.stage("runs"):
+        _run_mask(sensor)  # d.u := NOT (the roots that continue their predecessor's place)
+        snake_masks(sensor)
+        for _ in range(sensor.run_steps):
+            sensor.run(_negate, s, w)  # S := -W
+            park(sensor, s, x, 127, 1)  # node 0 starts a run: its edge is never taken
+            snake_step(sensor, s, x, 1)  # S_i := -W_{i-1}
+            sensor.run(_take_run, w, s, dr.d, dr.u)
+
+
+def _run_mask(sensor: Sensor) -> None:
+    """``d.u`` := NOT the roots of the nodes that continue their predecessor's place
+    (working registers only: the motion stage's ``u`` and ``d`` are free after it)."""
+    sim, dr = sensor.sim, sensor.roles.d
+    sensor.run(_clr, dr.u)
+    for t, rects in sorted(sensor.run_rects.items()):
+        sensor.run(_clr, dr.tmp_b)
+        for rect in rects:
+            sim.load_rect(dr.tmp_a, *rect)
+            sensor.run(_or, dr.tmp_b, dr.tmp_a)
+        sensor.root_pattern(dr.tmp_a, t)
+        sensor.run(_and_or, dr.u, dr.tmp_a, dr.tmp_b)
+    sensor.run(_not, dr.u)
+
+
+def _clr(k: Kernel, r: Register) -> None:
+    k.CLR(r)
+
+
+def _or(k: Kernel, r: Register, x: Register) -> None:
+    k.OR(r, x)  # r := r OR x
+
+
+def _and_or(k: Kernel, y: Register, a: Register, b: Register) -> None:
+    k.AND(a, a, b)
+    k.OR(y, a)  # y := y OR (a AND b)
+
+
+def _not(k: Kernel, r: Register) -> None:
+    k.NOT(r)  # r := NOT r
+
+
+def _negate(k: Kernel, y: Register, x: Register) -> None:
+    k.bus(y, x)
+
+
+def _take_run(k: Kernel, w: Register, neg: Register, tmp: Register, outside: Register) -> None:
+    k.where(w, neg)  # FLAG = w - x > 0, x the predecessor's weight (neg = -x)
+    k.NOR(tmp, FLAG, outside)  # x >= w at a root that continues its predecessor's place
+    k.WHERE(tmp)
+    k.bus(w, neg)  # w := x
+    k.all()
