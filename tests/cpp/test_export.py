@@ -128,13 +128,19 @@ def route():
 
 
 @pytest.mark.parametrize(
-    ("rep", "preset"), [("lowres", "robust"), ("lbp", "robust"), ("lbp", "paper")]
+    ("rep", "preset"),
+    [("lowres", "robust"), ("lbp", "robust"), ("lbp", "paper"), ("lbp", "robust, every frame")],
 )
 def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     places, query = route
+    preset, _, every = preset.partition(", ")
     kw = {"preset": preset}
+    if every:  # a map of every frame whose first place stands three frames: a run
+        kw["keyframes"] = False
+        places = [places[0]] * 3 + places[1:]
     mapper = OnSensorLocaliser(rep, size=SIZE, **kw)
     topomap = mapper.build_map(places)
+    assert topomap.has_runs == bool(every)
     tracer = Tracer()
     loc = OnSensorLocaliser(rep, size=SIZE, observers=[tracer], **kw)
     loc.use_map(topomap)
@@ -146,7 +152,7 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     source = to_cpp(
         trace, estimates=[(e.node, e.score) for e in estimates], title=f"on-sensor {rep}"
     )
-    path = tmp_path / f"pipeline_{rep}_{preset}.cpp"
+    path = tmp_path / f"pipeline_{rep}_{preset}{'_runs' if every else ''}.cpp"
     path.write_text(source)
     result = run_program(path, query, timeout=120)
     texts = result.texts
