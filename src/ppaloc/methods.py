@@ -257,8 +257,16 @@ def check_parameters(name: str, params: Mapping[str, Any]) -> None:
     unknown = [key for key in params if accepted is not None and key not in accepted]
     if unknown:
         offered = [p for p in accepted or () if p not in spec.defaults]
+        key = str(unknown[0])
+        bare = key.partition(".")[2]
+        if bare in offered:  # the METHOD.KEY form where the method is already known
+            raise PpalocError(
+                f"method {name!r}: unknown parameter {key[:60]!r}; the parameters here "
+                f"are the method's own: give {bare}=... without the {key.partition('.')[0]!r} "
+                "prefix"
+            )
         raise PpalocError(
-            f"method {name!r}: unknown parameter {str(unknown[0])[:60]!r}; its parameters: "
+            f"method {name!r}: unknown parameter {key[:60]!r}; its parameters: "
             + ", ".join(offered)
         )
     for key, value in params.items():

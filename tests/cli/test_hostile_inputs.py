@@ -63,6 +63,11 @@ CASES: list[tuple[list[str], str | bytes | None, str]] = [
     ([*MAP, "--out", "m.npz", "--param", "size=[0, 0]"], None, "size=[0, 0] must be in"),
     ([*MAP, "--out", "m.npz", "--param", "size=[32]"], None, "must be a list of 2 integers"),
     ([*MAP, "--out", "m.npz", "--param", "nosuch=1"], None, "unknown parameter 'nosuch'"),
+    (
+        ["map", TINY, "-m", "weighted-node-lbp", "-q", "--out", "m.npz", "--param", "x.gain=2"],
+        None,
+        "unknown parameter 'x.gain'; the parameters here are the method's own: give gain=...",
+    ),
     ([*MAP, "--out", "m.npz", "--param", "=1"], None, "must look like KEY=VALUE"),
     ([*MAP, "--out", "m.npz", "--param", "top_k"], None, "must look like KEY=VALUE"),
     ([*MAP, "--out", "m.npz", "--param", "top_k=" + "[" * 3000], None, "must be an integer"),
