@@ -16,6 +16,43 @@ def test_parse_settings():
         parse_settings(["threshold"])
 
 
+def _session(**settings: str):
+    from ppaloc.cpp.server import Session
+    from ppaloc.sim import Scamp5
+
+    return Session(Scamp5(4, 4), [], settings, program="p.cpp")
+
+
+def test_a_gui_name_matches_as_declared_or_without_its_colon():
+    s = _session(**{"edge mode": "1", "gain": "2", "a": "on"})
+    assert s.gui_value("slider", "edge mode: ", 0, 9, 0, 1) == 1
+    assert s.gui_value("slider", "gain", 0, 9, 0, 2) == 2
+    assert s.gui_value("slider", "other", 0, 9, 7, 3) == 7
+    s.gui_value("switch", "a:", 0, 1, 0, 4)
+    s.check_settings()  # "a" fits one item so far
+    s.gui_value("switch", "a", 0, 1, 0, 5)
+    with pytest.raises(PpalocError, match=r"^--set a=\.\.\. names 2 items of p\.cpp \(a:, a\): "):
+        s.check_settings()
+
+
+def test_an_unknown_gui_name_lists_the_names_as_typed():
+    s = _session(nope="1")
+    s.gui_value("slider", "edge mode: ", 0, 9, 0, 1)
+    s.gui_value("slider", "threshold:", 0, 9, 0, 2)
+    with pytest.raises(PpalocError) as err:
+        s.check_settings()
+    assert str(err.value) == (
+        "--set nope=...: p.cpp has no slider or switch of that name "
+        "(it has: 'edge mode', threshold)"
+    )
+
+
+def test_two_names_of_one_gui_item_are_refused():
+    s = _session(gain="1", **{"gain:": "2"})
+    with pytest.raises(PpalocError, match=r"--set gain=\.\.\. and --set gain:=\.\.\. both name"):
+        s.gui_value("slider", "gain: ", 0, 9, 0, 1)
+
+
 def test_frames_from_an_image(tmp_path):
     path = tmp_path / "scene.png"
     Image.fromarray(np.full((40, 60), 200, np.uint8)).save(path)

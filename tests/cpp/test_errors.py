@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -86,6 +88,19 @@ def test_settings_checked(faults):
         fault(12)
     with pytest.raises(PpalocError, match="has no slider or switch of that name"):
         run_program(FAULTS, FRAMES, settings={"nope": "1"})
+
+
+def test_a_slider_named_with_a_colon_is_set_with_or_without_it(faults, tmp_path, capsys):
+    for name in ("gain: ", "gain:", "gain"):  # as declared, and without ': '
+        assert run_program(FAULTS, FRAMES, settings={name: "4"}).session.gui_values["gain: "] == 4
+    out = tmp_path / "run"
+    assert main(["cpp", "run", str(FAULTS), "--out", str(out), "-q", "--set", "gain=5"]) == 0
+    assert json.loads((out / "summary.json").read_text())["gui_values"]["gain: "] == 5
+    assert main(["cpp", "run", str(FAULTS), "--out", str(out), "-q", "--set", "gian=5"]) == 1
+    assert capsys.readouterr().err == (
+        "ppaloc: error: --set gian=...: faults.cpp has no slider or switch of that name "
+        "(it has: fault, index, gain)\n"
+    )
 
 
 def test_cli_exit_codes(faults, tmp_path, capsys):

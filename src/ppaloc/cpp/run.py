@@ -225,11 +225,7 @@ def run_program(
     sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
     session = Session(sim, frames, dict(settings or {}), program=name)
     result = _serve(exe, session, name, timeout)
-    if session.unused:
-        raise PpalocError(
-            f"--set {sorted(session.unused)[0]}=...: {name} has no slider or switch of that "
-            f"name (it has: {', '.join(session.gui_values) or 'none'})"
-        )
+    session.check_settings()
     if out is not None:
         with new_folder(out) as stage:
             write_outputs(result, stage)

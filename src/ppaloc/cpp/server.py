@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import functools
 import inspect
+import re
+import shlex
 import struct
 import warnings
 from collections import Counter
@@ -27,7 +29,15 @@ from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
 from ppaloc.sim.registers import register_by_name
 
-__all__ = ["HANDLERS", "KernelStats", "ProgramError", "Session", "events_buffer", "pack_dreg_rows"]
+__all__ = [
+    "HANDLERS",
+    "KernelStats",
+    "ProgramError",
+    "Session",
+    "events_buffer",
+    "gui_name",
+    "pack_dreg_rows",
+]
 
 _REGS: tuple[Register, ...] = tuple(register_by_name(n) for n in REGISTER_NAMES)
 _HELLO, _DEF, _RUN, _CALL, _EXIT = (OPS[k] for k in ("HELLO", "DEF", "RUN", "CALL", "EXIT"))
@@ -141,6 +151,7 @@ class Session:
         if len(self.frames):
             self.sim.set_image(self.frames[0])
         self.unused = set(self.settings)
+        self._matched: dict[str, list[str]] = {}
 
     # -------------------------------------------------------------- frames
     @property
@@ -308,11 +319,33 @@ class Session:
         return b"" if result is None else result
 
     # -------------------------------------------------------------- GUI items
-    def gui_value(self, kind: str, text: str, lo: int, hi: int, init: int, line: int) -> int:
-        """The value of a slider or switch: ``--set TEXT=VALUE`` or its initial value."""
+    def _setting_for(self, kind: str, text: str) -> str | None:
+        """The ``--set`` name that sets the item ``text``: the text as declared, or else the
+        text without its trailing colons and spaces (``threshold`` for ``"threshold: "``)."""
         if text in self.settings:
-            self.unused.discard(text)
-            raw = self.settings[text]
+            names = [text]
+        else:
+            names = [n for n in self.settings if gui_name(n) == gui_name(text)]
+        if len(names) > 1:
+            raise ProgramError(
+                f"--set {names[0]}=... and --set {names[1]}=... both name the {kind} "
+                f"{text!r} of {self.program}: give it once"
+            )
+        if not names:
+            return None
+        self._matched.setdefault(names[0], []).append(text)
+        return names[0]
+
+    def gui_value(self, kind: str, text: str, lo: int, hi: int, init: int, line: int) -> int:
+        """The value of a slider or switch: ``--set NAME=VALUE`` or its initial value.
+
+        ``NAME`` is the item's text as the program declares it, or that text without its
+        trailing colons and spaces (``--set threshold=30`` sets ``"threshold: "``).
+        """
+        name = self._setting_for(kind, text)
+        if name is not None:
+            self.unused.discard(name)
+            raw = self.settings[name]
             if kind == "switch" and raw.lower() in ("on", "true", "yes", "off", "false", "no"):
                 value = int(raw.lower() in ("on", "true", "yes"))
             else:
@@ -320,17 +353,50 @@ class Session:
                     value = int(raw)
                 except ValueError:
                     raise ProgramError(
-                        f"--set {text}={raw}: the {kind} takes an integer in [{lo}, {hi}]"
+                        f"--set {name}={raw}: the {kind} takes an integer in [{lo}, {hi}]"
                     ) from None
             if not lo <= value <= hi:
                 raise ProgramError(
-                    f"--set {text}={value} is outside the {kind}'s range [{lo}, {hi}] "
+                    f"--set {name}={value} is outside the {kind}'s range [{lo}, {hi}] "
                     f"({self.program}:{line})"
                 )
         else:
             value = init
         self.gui_values[text] = value
         return value
+
+    def check_settings(self) -> None:
+        """Refuse a ``--set`` name that no slider or switch of the run had, or that named
+        two of them; the message lists the names as they are typed after ``--set``."""
+        for name in sorted(self.settings):
+            items = list(dict.fromkeys(self._matched.get(name, [])))
+            if len(items) > 1:
+                shown = ", ".join(shlex.quote(t) for t in items)
+                raise PpalocError(
+                    f"--set {name}=... names {len(items)} items of {self.program} ({shown}): "
+                    "give one of them exactly as declared"
+                )
+        if self.unused:
+            raise PpalocError(
+                f"--set {sorted(self.unused)[0]}=...: {self.program} has no slider or switch "
+                f"of that name (it has: {', '.join(self.gui_names()) or 'none'})"
+            )
+
+    def gui_names(self) -> list[str]:
+        """The run's sliders and switches as ``--set`` takes them: without their trailing
+        colons and spaces unless two items share that name, quoted for a shell if need be."""
+        texts = list(self.gui_values)
+        bare = Counter(gui_name(t) for t in texts)
+        return [shlex.quote(gui_name(t) if bare[gui_name(t)] == 1 else t) for t in texts]
+
+
+def gui_name(text: str) -> str:
+    """A GUI item's text without surrounding spaces and trailing colons: its ``--set`` name.
+
+    >>> gui_name("threshold: ")
+    'threshold'
+    """
+    return re.sub(r"[\s:]+$", "", text).strip()
 
 
 # ------------------------------------------------------------------ handlers

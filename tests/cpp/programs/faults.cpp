@@ -4,9 +4,9 @@ using namespace SCAMP5_PE;
 
 int main() {
     vs_init();
-    int fault = 0, index = 0;
+    int fault = 0, index = 0, gain = 0;
     vs_gui_add_slider("fault", 0, 9, 0, &fault);
-    vs_gui_add_slider("index", 0, 100000, 0, &index);
+    vs_gui_add_slider("index", 0, 100000, 0, &index); vs_gui_add_slider("gain: ", 0, 9, 0, &gain);
     vs_handle disp = vs_gui_add_display("image", 0, 0);
     while (1) {
         vs_frame_loop_control();
