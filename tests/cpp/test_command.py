@@ -80,3 +80,34 @@ def test_a_timeout_out_of_range_is_refused_before_the_build(tmp_path, timeout):
 
     with pytest.raises(PpalocError, match=r"timeout=.* must be a number of seconds in"):
         run_program(tmp_path / "none.cpp", timeout=timeout)
+
+
+def test_settings_take_numbers_and_bools():
+    from ppaloc.cpp.run import check_settings
+
+    got = check_settings({"threshold": 30, "dilate": True, "off": False, "gain": 2.0, "m": "on"})
+    assert got == {"threshold": "30", "dilate": "1", "off": "0", "gain": "2", "m": "on"}
+    assert check_settings({"n": np.int64(-3)}) == {"n": "-3"}
+    assert check_settings(None) == {}
+
+
+@pytest.mark.parametrize(
+    ("settings", "message"),
+    [
+        (
+            {"threshold": None},
+            r"^settings\['threshold'\]=None: a slider or switch takes a number, ",
+        ),
+        ({"threshold": [1]}, r"^settings\['threshold'\]=\[1\]: "),
+        ({"threshold": 2.5}, r"^settings\['threshold'\]=2.5: a slider or switch takes an integer"),
+        ({"threshold": float("nan")}, r"^settings\['threshold'\]=nan: .* takes an integer"),
+        ({3: 1}, r"^settings key 3 must be a slider's or switch's name"),
+        ([("threshold", 1)], r"^settings=\[\('threshold', 1\)\] must be a mapping"),
+    ],
+)
+def test_other_settings_are_refused_before_the_build(tmp_path, settings, message):
+    from ppaloc.cpp.run import run_program
+
+    with pytest.raises(PpalocError, match=message):
+        run_program(tmp_path / "none.cpp", settings=settings)
+    assert list(tmp_path.iterdir()) == []

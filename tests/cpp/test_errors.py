@@ -103,6 +103,11 @@ def test_a_slider_named_with_a_colon_is_set_with_or_without_it(faults, tmp_path,
     )
 
 
+def test_settings_from_python_take_numbers(faults):
+    got = run_program(FAULTS, FRAMES, settings={"fault": 0, "gain": 4, "index": 2.0})
+    assert got.session.gui_values == {"fault": 0, "index": 2, "gain: ": 4}
+
+
 def test_cli_exit_codes(faults, tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["cpp", "run", str(FAULTS), "--out", str(out), "--frames", "2", "-q"]) == 0

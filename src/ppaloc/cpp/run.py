@@ -9,6 +9,8 @@ turns a crash into a one-line error, and writes the run's folder whole or not at
 from __future__ import annotations
 
 import json
+import math
+import numbers
 import os
 import re
 import select
@@ -31,7 +33,7 @@ from ppaloc.fileio import check_replaceable_folder, new_folder
 from ppaloc.sim import NoiseParams, Scamp5
 from ppaloc.sim.render import plane_to_image, render_montage, save_png
 
-__all__ = ["RunResult", "run_program", "write_outputs"]
+__all__ = ["RunResult", "check_settings", "run_program", "write_outputs"]
 
 #: Frames of the montage (the first ones; every frame has its own PNGs).
 MONTAGE_FRAMES = 8
@@ -167,6 +169,47 @@ def check_output_folder(out: str | os.PathLike) -> None:
     )
 
 
+def check_settings(settings: Mapping[str, object] | None) -> dict[str, str]:
+    """Slider and switch values as ``--set`` gives them: text by the item's name.
+
+    A value is a string (``"30"``, ``"on"``), an integer, a bool (a switch's ``True`` is
+    1) or a float with an integer value (``30.0``); anything else is refused in one line
+    naming the key and the value, before the program is built.
+
+    >>> check_settings({"threshold": 30, "dilate": True, "gain": 2.0, "mode": "on"})
+    {'threshold': '30', 'dilate': '1', 'gain': '2', 'mode': 'on'}
+    """
+    if settings is None:
+        return {}
+    if not isinstance(settings, Mapping):
+        raise PpalocError(
+            f"settings={settings!r} must be a mapping of slider or switch names to values, "
+            'e.g. {"threshold": 30}'
+        )
+    out: dict[str, str] = {}
+    for key, value in settings.items():
+        if not isinstance(key, str) or not key.strip():
+            raise PpalocError(
+                f"settings key {key!r} must be a slider's or switch's name (a non-empty string)"
+            )
+        if isinstance(value, str):
+            text = value
+        elif isinstance(value, bool | np.bool_ | numbers.Integral):
+            text = str(int(value))
+        elif isinstance(value, numbers.Real) and math.isfinite(value) and value == int(value):
+            text = str(int(value))
+        else:
+            kind = (
+                "an integer" if isinstance(value, numbers.Real) else "a number, a bool or a string"
+            )
+            raise PpalocError(
+                f"settings[{key!r}]={value!r}: a slider or switch takes {kind}, e.g. 30, True "
+                "or 'on'"
+            )
+        out[key] = text
+    return out
+
+
 MAX_TIMEOUT = 86_400
 """The longest ``timeout`` a run takes, seconds (one day; also keeps ``select`` in range)."""
 
@@ -175,7 +218,7 @@ def run_program(
     program: str | os.PathLike[str],
     frames: Sequence[np.ndarray] | None = None,
     *,
-    settings: Mapping[str, str] | None = None,
+    settings: Mapping[str, object] | None = None,
     timeout: float = 60.0,
     out: str | os.PathLike[str] | None = None,
     noise: str | NoiseParams = "ideal",
@@ -191,7 +234,8 @@ def run_program(
         The exposures, all of one square shape (the array size); default one
         synthetic scene of 256 x 256 (``ppaloc.sim.demo.synthetic_scene``).
     settings : mapping, optional
-        Slider and switch values by their GUI text.
+        Slider and switch values by their GUI text (as ``--set``): strings (``"on"``),
+        integers, bools or integral floats (:func:`check_settings`).
     timeout : float
         Seconds the program may run before it is stopped.
     out : path, optional
@@ -221,9 +265,10 @@ def run_program(
         )
     if not (isinstance(timeout, int | float) and 0 < timeout <= MAX_TIMEOUT):
         raise PpalocError(f"timeout={timeout!r} must be a number of seconds in (0, {MAX_TIMEOUT}]")
+    values = check_settings(settings)
     exe = compile_program(program)
     sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
-    session = Session(sim, frames, dict(settings or {}), program=name)
+    session = Session(sim, frames, values, program=name)
     result = _serve(exe, session, name, timeout)
     session.check_settings()
     if out is not None:
