@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -13,6 +15,7 @@ from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.sim import (
     IN,
     NEWS,
+    R0,
     R5,
     R6,
     R7,
@@ -69,6 +72,24 @@ def test_kernel_to_cpp_regroups_the_macros():
         "bus(C);",
     ]
     assert text.startswith(f"// {len(k)} ICWs")
+
+
+def test_xor_is_exported_as_the_device_calls_it_expands_to():
+    sim = Scamp5(8, 8)
+    with sim.kernel() as k:
+        k.XOR(R5, R6, R7)
+    body = [ln.strip() for ln in kernel_to_cpp(k, "xor").splitlines()[3:-2]]
+    assert body == ["AND(R5, R6, R7);", "NOR(R0, R6, R7);", "NOR(R5, R0);"]
+    assert _replay(body) == [(i.op, i.dsts, i.srcs) for i in k]
+    rng = np.random.default_rng(2)  # the device calls compute XOR
+    x, y = rng.random((2, 8, 8)) < 0.5
+    sim.write(R6, x)
+    sim.write(R7, y)
+    with sim.kernel() as k2:
+        k2.AND(R5, R6, R7)
+        k2.NOR(R0, R6, R7)
+        k2.NOR(R5, R0)
+    np.testing.assert_array_equal(sim.read(R5), x ^ y)
 
 
 def test_icws_without_a_device_function_become_raw_words(cxx, tmp_path):
@@ -152,6 +173,7 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     source = to_cpp(
         trace, estimates=[(e.node, e.score) for e in estimates], title=f"on-sensor {rep}"
     )
+    assert not re.search(r"\bXOR\s*\(", source)  # the device library has no XOR
     path = tmp_path / f"pipeline_{rep}_{preset}{'_runs' if every else ''}.cpp"
     path.write_text(source)
     result = run_program(path, query, timeout=120)
@@ -239,6 +261,7 @@ _MACROS = {
     "OR": (_DREGS, _DREGS, _DREGS),
     "NOT": (_DREGS, _DREGS),
     "AND": (_DREGS, _DREGS, _DREGS),
+    "XOR": (_DREGS, _DREGS, _DREGS),
     "DNEWS": (_DREGS, _DREGS, (north, east | north, alldir), (0, 1)),
     "bus": (_AREGS, _AREGS),
     "CLR": (_DREGS,),
@@ -274,3 +297,4 @@ def test_exported_kernels_issue_the_recorded_icws(data):
     text = kernel_to_cpp(rec.out, "k")
     statements = [ln.strip() for ln in text.splitlines()[3:-2]]
     assert _replay(statements) == [(i.op, i.dsts, i.srcs) for i in rec.out]
+    assert not any(s.startswith("XOR(") for s in statements)  # not a device function

@@ -3,6 +3,8 @@
 - :func:`kernel_to_cpp`: one recorded kernel as a function holding a static kernel block.
   The ICWs are grouped back into the macro calls they came from (each group is expanded
   again and checked to give the same ICWs), so the C++ issues exactly the recorded ICWs.
+  Only the device library's functions are named: ppaloc's own ``XOR`` is written as the
+  device calls it expands to (``AND``, ``NOR``, ``NOR``), so the program builds there.
 - :class:`Tracer`: an observer of the simulator (:mod:`ppaloc.sim.observe`) recording
   what every simulator it observes does, as it runs: kernel runs, controller calls with
   their arguments and readouts, frame boundaries (``set_image``). Pass it to the
@@ -24,7 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,6 +48,14 @@ _DEVICE_PRIMITIVES = frozenset(
     {"nop", "rpix", "bus", "bus2", "bus3", "where", "all", "SET", "CLR", "MOV", "OR", "NOR",
      "NOT", "WHERE", "DNEWS0", "DNEWS1"}
 )  # fmt: skip
+
+
+#: ppaloc's own macros (no device function), by the device calls that issue the same ICWs:
+#: ``XOR`` is the expansion ``AND(d, x, y)`` (the macro header's), the kernel API's
+#: ``NOR(R0, x, y)`` and the 2-ICW in-place ``NOR(d, R0)``: ``d := (x AND y) NOR (x NOR y)``.
+_DEVICE_FORMS: dict[str, Callable[..., list[str]]] = {
+    "XOR": lambda d, x, y: [f"AND({d}, {x}, {y})", f"NOR(R0, {x}, {y})", f"NOR({d}, R0)"],
+}
 
 
 # ------------------------------------------------------------------ kernels
@@ -97,7 +107,10 @@ def _calls(instructions: Sequence[Instruction]) -> list[str]:
             n = 0 if rec is None else len(rec.out)
             chunk = instructions[i : i + n]
             if n and len(chunk) == n and all(map(_same, chunk, rec.out)):  # type: ignore[union-attr]
-                out.append(f"{origin};")
+                if name in _DEVICE_FORMS:
+                    out += [f"{c};" for c in _device_form(name, args, chunk)]
+                else:
+                    out.append(f"{origin};")
                 i += n
                 continue
         if ins.op in _DEVICE_PRIMITIVES:
@@ -106,6 +119,19 @@ def _calls(instructions: Sequence[Instruction]) -> list[str]:
             out.append(_raw_word(ins, i))
         i += 1
     return out
+
+
+def _device_form(name: str, args: list, chunk: Sequence[Instruction]) -> list[str]:
+    """The device calls of :data:`_DEVICE_FORMS` for one macro call, checked to issue
+    exactly the ICWs ``chunk`` the call issued."""
+    calls = _DEVICE_FORMS[name](*(a.name for a in args))
+    rec = _Recorder()
+    for c in calls:
+        m = re.fullmatch(r"(\w+)\((.*)\)", c)
+        getattr(rec, m.group(1))(*(_parse_arg(t) for t in m.group(2).split(",")))  # type: ignore[union-attr]
+    if len(rec.out) != len(chunk) or not all(map(_same, chunk, rec.out)):
+        raise PpalocError(f"cannot export {name}{tuple(args)}: {'; '.join(calls)} differs")
+    return calls
 
 
 def _raw_word(ins: Instruction, i: int) -> str:
