@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ppaloc.errors import KernelError
-from ppaloc.sim import MAX_ICWS, NEWS, R5, R6, R7, A, B, C, D, Scamp5, east, north
+from ppaloc.sim import MAX_ICWS, NEWS, R5, R6, R7, A, B, C, D, IcwStackWarning, Scamp5, east, north
 
 
 def program(k) -> None:
@@ -36,8 +36,12 @@ def test_kernel_runs_once_at_exit_and_counts_clock_classes() -> None:
     sim = fresh()
     with sim.kernel() as k:
         program(k)
-        assert not sim.read(A).any()  # recorded, not yet run
+        with pytest.raises(KernelError, match=r"^sim.read\(A\) inside an open .* has not run yet"):
+            sim.read(A)  # recorded, not yet run: the old plane would mislead
     assert sim.read(A).any()
+    with pytest.raises(ZeroDivisionError), sim.kernel():
+        1 / 0  # noqa: B018
+    sim.read(A)  # a failed recording closes its block too
     assert len(k) == 6 + 2 + 2 + 1 + 2 + 1 + 1 + 1 + 3
     assert k.counts == {"analog": 13, "digital": 4, "dnews": 1, "nop": 1}
     assert "movx(C, A, east)" in k.listing()
@@ -76,7 +80,10 @@ def test_every_run_is_charged_to_the_timing_model() -> None:
 
 def test_the_icw_stack_drops_what_does_not_fit() -> None:
     sim = fresh()
-    with sim.kernel() as k:
+    with (
+        pytest.warns(IcwStackWarning, match=r"^this kernel lost 1 of its 1025 ICWs: the 1024-ICW"),
+        sim.kernel() as k,
+    ):
         for _ in range(MAX_ICWS // 2):
             k.mov(A, B)
         k.nop()

@@ -33,6 +33,7 @@ from ppaloc.sim import (
     C,
     D,
     E,
+    IcwStackWarning,
     Scamp5,
     east,
     north,
@@ -419,9 +420,13 @@ def test_live_kernels_share_the_stack() -> None:
     with sim.kernel() as first:
         for _ in range(1000):
             first.nop()
-    with sim.kernel() as second:
+    with (
+        pytest.warns(IcwStackWarning, match="lost 6 of its 30 ICWs") as said,
+        sim.kernel() as second,
+    ):
         for _ in range(30):
             second.nop()
+    assert len(said) == 1  # once per kernel, at the end of its recording
     assert len(second) == MAX_ICWS - 1000 and second.dropped == 6
     del second
     gc.collect()
@@ -436,7 +441,7 @@ def test_nested_kernels_count_together() -> None:
     with sim.kernel() as outer:
         for _ in range(600):
             outer.nop()
-        with sim.kernel() as inner:
+        with pytest.warns(IcwStackWarning, match="lost 176 of"), sim.kernel() as inner:
             for _ in range(600):
                 inner.nop()
     assert len(outer) == 600 and len(inner) == MAX_ICWS - 600

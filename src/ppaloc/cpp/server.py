@@ -27,6 +27,7 @@ from ppaloc.cpp.protocol import OPS, REGISTER_NAMES, TAGS, VERSION
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
+from ppaloc.sim.kernel import IcwStackWarning
 from ppaloc.sim.registers import register_by_name
 
 __all__ = [
@@ -282,10 +283,11 @@ class Session:
                     f"{self.program}:{stats.line}: the kernel begun here: {exc}"
                 ) from None
             stats.kernel = kernel
-            for w in caught:
-                self.warnings.append(f"{self.program}:{stats.line}: {w.message}")
+            for w in caught:  # the stack's own warning is worded for C++ below
+                if not issubclass(w.category, IcwStackWarning):
+                    self.warnings.append(f"{self.program}:{stats.line}: {w.message}")
             dropped = getattr(kernel, "dropped", 0)
-            if dropped and not caught:
+            if dropped:
                 self.warnings.append(
                     f"{self.program}:{stats.line}: the kernel begun here lost {dropped} of its "
                     "ICWs: the 1024-ICW stack that static kernels share is full (free some, "

@@ -10,7 +10,7 @@ the timing model, and register rendering.
 
 from ppaloc.sim.engine import Scamp5
 from ppaloc.sim.isa import CLOCK_CLASSES, OPS, Instruction, OpSpec
-from ppaloc.sim.kernel import MAX_ICWS, Kernel
+from ppaloc.sim.kernel import MAX_ICWS, IcwStackWarning, Kernel
 from ppaloc.sim.noise import PRESETS, NoiseModel, NoiseParams
 from ppaloc.sim.registers import (
     FLAG,
@@ -114,6 +114,7 @@ __all__ = [
     "Direction",
     "E",
     "F",
+    "IcwStackWarning",
     "Instruction",
     "Kernel",
     "NoiseModel",

@@ -327,8 +327,18 @@ class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
     def read(self, reg: Register) -> np.ndarray:
         """A copy of ``reg``'s plane: float32 in [-128, 127] (analogue) or bool (digital).
 
-        An inspection tool: untimed, no readout noise.
+        An inspection tool: untimed, no readout noise. Refused inside an open ``with
+        sim.kernel()`` block (the kernel runs when the block ends: the plane would be the
+        one from before it).
         """
+        from ppaloc.sim.kernel import recording
+
+        if recording(self):
+            name = reg.name if isinstance(reg, Register) else repr(reg)
+            raise KernelError(
+                f"sim.read({name}) inside an open `with sim.kernel()` block: the kernel has "
+                "not run yet (it runs when the block ends); read after the block"
+            )
         if isinstance(reg, Register) and reg.kind == "digital":
             return self._d[reg.index].copy()
         return self._aplane(reg) + np.float32(0.0)  # a copy; -0.0 shown as 0.0

@@ -9,13 +9,17 @@ The ICW stack: as in the SCAMP-5 library, recorded kernels keep their ICWs on on
 kernel there lives for the whole program; here a kernel leaves the stack when it is garbage
 collected, as a dynamic kernel's destructor frees it, or at the end of its recording after
 ``k.move_to_heap(True)``). An ICW recorded when the stack is full is dropped, as the
-library drops it, silently as there: ``k.dropped`` counts the ICWs lost and ``repr(k)``
-shows them.
+library drops it; where the library is silent, the end of the recording warns once
+(:class:`IcwStackWarning`), ``k.dropped`` counts the ICWs lost and ``repr(k)`` shows them.
+
+A kernel runs when its block ends, so ``sim.read`` inside an open block would show the
+planes as they were before it: it raises :class:`~ppaloc.errors.KernelError` instead.
 """
 
 from __future__ import annotations
 
 import itertools
+import warnings
 import weakref
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
@@ -27,7 +31,7 @@ from ppaloc.sim.macros import ProgramAPI
 if TYPE_CHECKING:
     from ppaloc.sim.engine import Scamp5
 
-__all__ = ["MAX_ICWS", "IcwStack", "Kernel", "icw_stack"]
+__all__ = ["MAX_ICWS", "IcwStack", "IcwStackWarning", "Kernel", "icw_stack", "recording"]
 
 #: Capacity of the SCAMP-5 ICW stack (``ICW_STACK_CAP`` of the kernel API).
 MAX_ICWS = 1024
@@ -65,6 +69,16 @@ class IcwStack:
 
 
 _STACKS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_RECORDING: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+class IcwStackWarning(UserWarning):
+    """A kernel lost ICWs: the shared 1024-ICW stack was full while it was recorded."""
+
+
+def recording(sim: Scamp5) -> int:
+    """How many ``with sim.kernel()`` blocks of ``sim`` are open (recording, not run yet)."""
+    return _RECORDING.get(sim, 0)
 
 
 def icw_stack(sim: Scamp5) -> IcwStack:
@@ -113,6 +127,7 @@ class Kernel(ProgramAPI):
         if self._sealed:
             raise KernelError("this kernel is already recorded; replay it with k.run()")
         self._open = True
+        _RECORDING[self.sim] = recording(self.sim) + 1
         stack = icw_stack(self.sim)
         self._stack_key = key = stack.open()
         weakref.finalize(self, stack.release, key)
@@ -120,11 +135,21 @@ class Kernel(ProgramAPI):
 
     def __exit__(self, exc_type, exc, tb) -> None:
         self._open = False
+        _RECORDING[self.sim] = recording(self.sim) - 1
         stack = icw_stack(self.sim)
         if exc_type is not None or self._heap:
             stack.release(self._stack_key)
         if exc_type is None:
             self._sealed = True
+            if self.dropped:
+                warnings.warn(
+                    f"this kernel lost {self.dropped} of its {len(self) + self.dropped} ICWs: "
+                    f"the {MAX_ICWS}-ICW stack that live kernels share is full (let kernels "
+                    "no longer needed go, or call k.move_to_heap(True) in their blocks); "
+                    "k.dropped counts them",
+                    IcwStackWarning,
+                    stacklevel=2,
+                )
             self.run()
         else:
             self._failed = True
