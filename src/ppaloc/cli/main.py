@@ -910,7 +910,11 @@ Examples:
 @click.option("--dataset", help="Dataset spec whose query frames are the exposures.")
 @click.option("--frames", type=int, help="Frames to run [default: 1 image, 10 of a dataset].")
 @click.option(
-    "--set", "settings", multiple=True, metavar="NAME=VALUE", help="A slider's or switch's value."
+    "--set",
+    "settings",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="A slider's or switch's value, NAME its GUI text with or without a trailing ':'.",
 )
 @click.option("--timeout", type=float, default=60.0, show_default=True, help="Seconds.")
 @click.option(
