@@ -46,6 +46,26 @@ def test_unmodelled_call_named_before_the_run():
     check_source(own + "int main() { vs_helper(scamp5_total); }\n", "p.cpp")  # its own names
 
 
+def test_every_unmodelled_call_is_named_at_once_sorted():
+    with pytest.raises(UnmodelledCallError) as err:
+        check_source("vs_b();\n  aout(A);\nvs_b();\nscamp5_c(1);\n", "p.cpp")
+    assert str(err.value) == (
+        "p.cpp: 3 SCAMP-5d functions the simulator does not model: aout (line 2), "
+        "scamp5_c (line 4), vs_b (lines 1, 3); docs/cpp.md lists what is modelled"
+    )
+    with pytest.raises(UnmodelledCallError, match=r"^p.cpp:1: vs_b is a .* \(also lines 3\);"):
+        check_source("vs_b();\n\nvs_b();\n", "p.cpp")
+    many = "".join(f"vs_missing_{k:02d}();\n" for k in reversed(range(12)))
+    with pytest.raises(UnmodelledCallError) as err:
+        check_source(many, "p.cpp")
+    lines = str(err.value).splitlines()
+    assert lines[0] == (
+        "p.cpp: 12 SCAMP-5d functions the simulator does not model (docs/cpp.md lists what "
+        "is modelled):"
+    )
+    assert lines[1:] == [f"  vs_missing_{k:02d} (line {12 - k})" for k in range(12)]
+
+
 def test_hang_is_stopped(faults, tmp_path):
     with pytest.raises(PpalocError, match=r"did not finish within 3 s \(stopped in frame 0\)"):
         fault(1, tmp_path, timeout=3)

@@ -44,6 +44,10 @@ _VENDOR_KERNEL_ONLY = (
 )  # fmt: skip
 
 
+#: The longest message that lists several unmodelled functions on one line.
+ONE_LINE = 160
+
+
 class CompileError(PpalocError):
     """The C++ compiler rejected the program (the message is the compiler's own)."""
 
@@ -100,8 +104,11 @@ def check_source(text: str, name: str) -> None:
     Raises
     ------
     UnmodelledCallError
-        Naming the first such call and its line, e.g. ``prog.cpp:12: scamp5_flood is a
-        SCAMP-5d function the simulator does not model``.
+        Naming every such function at once, sorted by name, each with its lines: one
+        function as ``prog.cpp:12: scamp5_foo is a SCAMP-5d function the simulator does not
+        model; ...``, several on one line while they fit in :data:`ONE_LINE` characters
+        (``prog.cpp: 2 SCAMP-5d functions the simulator does not model: aout (line 9),
+        vs_foo (lines 3, 7); ...``), else one a line.
     """
     code = _strip(text)
     known = known_names() | _defined_here(code)
@@ -113,15 +120,30 @@ def check_source(text: str, name: str) -> None:
     if unmodelled:
         calls = r"\b(" + "|".join(map(re.escape, unmodelled)) + r")\s*\("
         found += [(m.start(), m.group(1)) for m in re.finditer(calls, code)]
-    if found:
-        at, fn = min(found)
+    if not found:
+        return
+    lines: dict[str, list[int]] = {}
+    for at, fn in sorted(found):
         line = code.count("\n", 0, at) + 1
-        more = len({f for _, f in found}) - 1
-        also = f" (and {more} more)" if more > 0 else ""
+        if line not in lines.setdefault(fn, []):
+            lines[fn].append(line)
+    see = "docs/cpp.md lists what is modelled"
+    if len(lines) == 1:
+        ((fn, where),) = lines.items()
+        also = "" if len(where) == 1 else f" (also lines {', '.join(map(str, where[1:]))})"
         raise UnmodelledCallError(
-            f"{name}:{line}: {fn} is a SCAMP-5d function the simulator does not model{also}; "
-            "docs/cpp.md lists what is modelled"
+            f"{name}:{where[0]}: {fn} is a SCAMP-5d function the simulator does not model"
+            f"{also}; {see}"
         )
+    items = [
+        f"{fn} (line{'s' if len(w) > 1 else ''} {', '.join(map(str, w))})"
+        for fn, w in sorted(lines.items())
+    ]
+    head = f"{name}: {len(items)} SCAMP-5d functions the simulator does not model"
+    one = f"{head}: {', '.join(items)}; {see}"
+    if len(one) <= ONE_LINE:
+        raise UnmodelledCallError(one)
+    raise UnmodelledCallError(f"{head} ({see}):\n" + "\n".join(f"  {i}" for i in items))
 
 
 def _generated(root: Path) -> Path:
@@ -156,7 +178,8 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
     PpalocError
         If the file is missing or there is no C++ compiler.
     UnmodelledCallError
-        If it calls a SCAMP-5d function the simulator does not model (before compiling).
+        If it calls SCAMP-5d functions the simulator does not model (all named, before
+        compiling).
     CompileError
         With the compiler's own messages (file, line, column) when it does not compile.
     """
