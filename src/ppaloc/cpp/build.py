@@ -40,7 +40,7 @@ FLAGS = ("-std=c++17", "-O0", "-g", "-fsanitize=address", "-fno-omit-frame-point
 # the simulator has, e.g. blur since it models diffusion, is in its kernel functions).
 _VENDOR_KERNEL_ONLY = (
     "blur", "blurh", "blurv", "blurset", "gauss", "gaussh", "gaussv", "sq", "aout",
-    "PROP0", "PROP1", "PROP_R1", "PROP_R2", "allow_highspeed",
+    "PROP0", "PROP1", "PROP_R1", "PROP_R2",
 )  # fmt: skip
 
 
@@ -69,7 +69,12 @@ def cache_dir() -> Path:
 
 
 def _shim_text() -> str:
-    return resources.files("ppaloc.cpp").joinpath("include/scamp5.hpp").read_text()
+    """Every header of the shim (``scamp5.hpp``, ``vs_random.hpp``, ...), in name order."""
+    include = resources.files("ppaloc.cpp").joinpath("include")
+    headers = sorted(
+        (h for h in include.iterdir() if h.name.endswith(".hpp")), key=lambda h: h.name
+    )
+    return "\n".join(h.read_text() for h in headers)
 
 
 @cache

@@ -19,8 +19,9 @@ Program -> simulator, one message each::
 
 An argument is ``u8 tag, i32 value``; a string (tag ``STR``) is followed by its bytes
 (``value`` = length), a list (tag ``LIST``, e.g. the destinations of ``bus({a, b}, {x})``)
-by its ``value`` arguments. Register arguments carry the register's code (its index in
-:data:`REGISTER_NAMES`).
+by its ``value`` arguments, a byte block (tag ``BYTES``: the data of ``vs_post_int16``,
+``scamp5_display_image``, ...) by its ``value`` bytes. Register arguments carry the
+register's code (its index in :data:`REGISTER_NAMES`).
 
 Simulator -> program, one reply per answered message::
 
@@ -40,13 +41,13 @@ __all__ = [
 ]
 
 #: Protocol version (HELLO checks it).
-VERSION = 2
+VERSION = 3
 
 #: Message opcodes.
 OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5}
 
 #: Argument tags.
-TAGS: dict[str, int] = {"INT": 0, "AREG": 1, "DREG": 2, "DIR": 3, "STR": 4, "LIST": 5}
+TAGS: dict[str, int] = {"INT": 0, "AREG": 1, "DREG": 2, "DIR": 3, "STR": 4, "LIST": 5, "BYTES": 6}
 
 #: Register codes, in order: the C++ constants carry these indices.
 REGISTER_NAMES: tuple[str, ...] = (

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.cpp.build import compile_program
+from ppaloc.cpp.displays import fit_plane
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
 from ppaloc.cpp.server import ProgramError, Session, serve
 from ppaloc.errors import PpalocError
@@ -80,6 +81,8 @@ class RunResult:
             "displays": {str(h): name for h, name in s.displays.items()},
             "gui_values": s.gui_values,
             "texts": len(s.texts),
+            "host_calls": len(s.host_log),
+            "posts": len(s.posts),
             "warnings": s.warnings,
             "modelled_us": s.sim.timing.now_us,
             "wall_s": self.wall_s,
@@ -113,7 +116,7 @@ def write_outputs(result: RunResult, folder: Path) -> None:
             d.mkdir(parents=True, exist_ok=True)
             save_png(plane_to_image(plane), d / f"frame_{frame:04d}.png")
     tiles = {
-        f"{s.displays[h]} #{frame}": plane
+        f"{s.displays[h]} #{frame}": fit_plane(plane, s.sim.rows, s.sim.cols)
         for frame, outputs in enumerate(s.outputs[:MONTAGE_FRAMES])
         for h, plane in sorted(outputs.items())
     }
@@ -121,6 +124,13 @@ def write_outputs(result: RunResult, folder: Path) -> None:
         columns = max(len(o) for o in s.outputs[:MONTAGE_FRAMES])
         render_montage(tiles, folder / "montage.png", columns=columns)
     (folder / "text.txt").write_text("".join(f"frame {f}: {t}\n" for f, t in s.texts))
+    if s.host_log:  # host-side calls: "after the run" for the end-of-run callbacks
+        ran = len(s.frames)
+        (folder / "host.txt").write_text(
+            "".join(f"{f'frame {f}' if f < ran else 'after the run'}: {t}\n" for f, t in s.host_log)
+        )
+    if s.posts:
+        (folder / "posts.json").write_text(json.dumps(s.posts))
     (folder / "timing.json").write_text(json.dumps(result.timing(), indent=1))
     (folder / "summary.json").write_text(json.dumps(result.summary(), indent=1))
     (folder / "stdout.txt").write_text(result.stdout)
@@ -152,8 +162,9 @@ def _crash_message(program: str, code: int, stderr: str, session: Session) -> st
 
 #: What a run writes at the top of its output folder.
 OUTPUT_NAMES = frozenset(
-    {"displays", "montage.png", "text.txt", "timing.json", "summary.json", "stdout.txt"}
-)
+    {"displays", "montage.png", "text.txt", "timing.json", "summary.json", "stdout.txt",
+     "host.txt", "posts.json"}
+)  # fmt: skip
 
 
 def check_output_folder(out: str | os.PathLike) -> None:

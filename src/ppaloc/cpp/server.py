@@ -5,7 +5,9 @@ recorded on the simulator on their first run and replayed by id afterwards; cont
 calls are dispatched by name to :data:`HANDLERS`, which call the simulator with hardware
 addresses (``scamp_addr=True``, as a device program writes them) and answer readouts in the
 device's buffer layouts. The session also keeps what the run produced: display images per
-frame, posted text, modelled time per kernel and per frame.
+frame (register images, and the events, boxes and byte images of :mod:`ppaloc.cpp.displays`),
+posted text and data, the host-side calls that have no effect here (LEDs, frame triggers,
+io agents: :attr:`Session.host_log`), modelled time per kernel and per frame.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc.cpp.displays import box_outlines, byte_image, event_marks, subsample
 from ppaloc.cpp.protocol import OPS, REGISTER_NAMES, TAGS, VERSION
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
@@ -42,8 +45,8 @@ __all__ = [
 
 _REGS: tuple[Register, ...] = tuple(register_by_name(n) for n in REGISTER_NAMES)
 _HELLO, _DEF, _RUN, _CALL, _EXIT = (OPS[k] for k in ("HELLO", "DEF", "RUN", "CALL", "EXIT"))
-_INT, _AREG, _DREG, _DIR, _STR, _LIST = (
-    TAGS[k] for k in ("INT", "AREG", "DREG", "DIR", "STR", "LIST")
+_INT, _AREG, _DREG, _DIR, _STR, _LIST, _BYTES = (
+    TAGS[k] for k in ("INT", "AREG", "DREG", "DIR", "STR", "LIST", "BYTES")
 )
 _HEAD = struct.Struct("<BI")
 _ARG = struct.Struct("<Bi")
@@ -109,6 +112,8 @@ def _show(arg: Any) -> str:
         return arg.name
     if isinstance(arg, Direction):
         return "|".join(m.name for m in Direction if m in arg) or "0"
+    if isinstance(arg, bytes):
+        return f"<{len(arg)} bytes>"
     return repr(arg)
 
 
@@ -144,6 +149,9 @@ class Session:
     loops: int = 0
     finished: bool = False
     frame_loop_us: list[float] = field(default_factory=list)
+    host_log: list[tuple[int, str]] = field(default_factory=list)
+    posts: list[dict[str, Any]] = field(default_factory=list)
+    post_channel: int = 0
     _bitstack: list | None = None
     _frame_start_us: float = 0.0
     _loop_us: float = 0.0
@@ -169,6 +177,20 @@ class Session:
         while len(self.outputs) <= self.frame:
             self.outputs.append({})
         self.outputs[self.frame][handle] = plane
+
+    def note(self, text: str) -> None:
+        """Record a host-side call that has no effect here (an LED, a frame trigger, ...),
+        with the frame it came in (``host.txt``)."""
+        self.host_log.append((self.frame, text))
+
+    def display(self, handle: int, line: int) -> str:
+        """The name of display ``handle``; a one-line error if no display has it."""
+        if handle not in self.displays:
+            raise ProgramError(
+                f"{self.program}:{line}: display handle {handle} was not created by "
+                "vs_gui_add_display"
+            )
+        return self.displays[handle]
 
     def host(self, call: str, units: float = 0.0) -> None:
         """Charge a host-side cost (loop control, output to the host) to stage ``loop``,
@@ -239,6 +261,9 @@ class Session:
             elif tag == _LIST:
                 items, at = Session._args(payload, at, value)
                 out.append(tuple(items))
+            elif tag == _BYTES:
+                out.append(bytes(payload[at : at + value]))
+                at += value
             else:
                 raise ProgramError(f"unknown argument tag {tag} from the shim")
         return out, at
@@ -581,6 +606,180 @@ def _sim(method: str, *, addr: bool = False, reply: str | None = None) -> Handle
     return handler
 
 
+# ------------------------------------------------------------------ outputs beyond images
+def _output_areg(s: Session, a: list, line: int) -> None:
+    reg, handle, step, r0, c0 = a
+    s.display(handle, line)
+    plane = subsample(s.sim.read(reg), step, r0, c0)
+    s.host("scan_areg", plane.size)
+    s.host("usb_output", plane.size)
+    s._output(handle, plane, line)
+
+
+def _output_events(s: Session, a: list, line: int) -> None:
+    dreg, handle, max_num, h_dir, v_dir = a
+    s.display(handle, line)
+    buffer = events_buffer(s.sim.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=True), max_num)
+    s.host("usb_output", len(buffer))
+    s._output(handle, event_marks((s.sim.rows, s.sim.cols), buffer, max_num), line)
+
+
+def _output_boundingbox(s: Session, a: list, line: int) -> bytes:
+    dreg, handle = a
+    s.display(handle, line)
+    box = _bounding_box(s, [dreg], line)
+    s.host("usb_output", len(box))
+    s._output(handle, box_outlines((s.sim.rows, s.sim.cols), box, 1), line)
+    return box
+
+
+def _display_boxes(s: Session, a: list, line: int) -> None:
+    handle, data, count = a
+    s.display(handle, line)
+    s.host("usb_output", 4 * count)
+    s._output(handle, box_outlines((s.sim.rows, s.sim.cols), data, count), line)
+
+
+def _display_events(s: Session, a: list, line: int) -> None:
+    handle, data, count = a
+    s.display(handle, line)
+    s.host("usb_output", 2 * count)
+    s._output(handle, event_marks((s.sim.rows, s.sim.cols), data, count), line)
+
+
+def _display_image(s: Session, a: list, line: int) -> None:
+    handle, data, w, h = a
+    s.display(handle, line)
+    s.host("usb_output", w * h)
+    s._output(handle, byte_image(data, w, h), line)
+
+
+def _display_image_patch(s: Session, a: list, line: int) -> None:
+    handle, data, w, h, r0, c0 = a
+    s.display(handle, line)
+    rows, cols = (s.sim.rows, s.sim.cols)
+    if r0 + h > rows or c0 + w > cols:
+        raise ProgramError(
+            f"{s.program}:{line}: a {w} x {h} patch at row {r0}, column {c0} runs off the "
+            f"{cols} x {rows} display; place it within it"
+        )
+    patch = byte_image(data, w, h)
+    shown = s.outputs[s.frame].get(handle) if len(s.outputs) > s.frame else None
+    if shown is None or shown.shape != (rows, cols) or shown.dtype == bool:
+        shown = np.full((rows, cols), -128.0, np.float32)  # black
+    plane = shown.copy()
+    plane[r0 : r0 + h, c0 : c0 + w] = patch
+    s.host("usb_output", w * h)
+    s._output(handle, plane, line)
+
+
+def _gui_display_image(s: Session, a: list, line: int) -> None:
+    handle, data, w, h, fmt = a
+    s.display(handle, line)
+    plane = byte_image(
+        data, w, h, fmt & 0xF, bottom_to_top=bool(fmt & 0x10), right_to_left=bool(fmt & 0x20),
+        column_major=bool(fmt & 0x40), channel_array=bool(fmt & 0x80),
+    )  # fmt: skip
+    s.host("usb_output", len(data))
+    s._output(handle, plane, line)
+
+
+def _gui_display_text(s: Session, a: list, line: int) -> None:
+    handle, c, r, text, rgba = a
+    name = s.display(handle, line)
+    colour = ", ".join(str((rgba >> (8 * k)) & 0xFF) for k in range(4))
+    s.host("usb_output", len(text.encode()) + 8)
+    s.note(f"vs_gui_display_text: {name!r} at row {r}, column {c}, RGBA ({colour}): {text!r}")
+
+
+def _graph(kind: str) -> Handler:
+    """``vs_gui_set_scope`` / ``vs_gui_set_barplot``: a display drawn as a graph."""
+
+    def handler(s: Session, a: list, line: int) -> bytes:
+        handle, lo, hi, n, _opt = a
+        name = s.display(handle, line)
+        if lo >= hi:
+            raise ProgramError(
+                f"{s.program}:{line}: vs_gui_set_{kind}({name!r}, {lo}, {hi}, ...): the "
+                "minimum must be below the maximum"
+            )
+        s.note(f"vs_gui_set_{kind}: {name!r} shows posted values in [{lo}, {hi}], {n} wide")
+        return _i32(handle)
+
+    return handler
+
+
+def _post_channel(s: Session, a: list, line: int) -> None:
+    s.post_channel = int(a[0])
+
+
+_POST_TYPES = {"vs_post_int8": "<i1", "vs_post_int16": "<i2", "vs_post_int32": "<i4",
+               "vs_post_float": "<f4"}  # fmt: skip
+
+
+def _post(name: str) -> Handler:
+    """``vs_post_int8`` ... ``vs_post_float``: a ``rows`` x ``cols`` array to the host,
+    kept with its frame and channel (``posts.json``)."""
+    dtype = np.dtype(_POST_TYPES[name])
+
+    def handler(s: Session, a: list, line: int) -> None:
+        data, rows, cols = a
+        if rows < 0 or cols < 0 or rows * cols * dtype.itemsize > len(data):
+            raise ProgramError(f"{s.program}:{line}: {name} of {rows} x {cols}: a bad size")
+        values = np.frombuffer(data, dtype, rows * cols).reshape(rows, cols)
+        s.host("usb_output", len(data))
+        s.posts.append(
+            {"frame": s.frame, "channel": s.post_channel, "type": name[len("vs_post_"):],
+             "data": values.tolist()}
+        )  # fmt: skip
+
+    return handler
+
+
+#: The frame trigger modes of the device (``VS_FRAME_TRIGGER_*``), by number.
+TRIGGER_MODES = ("CONST_LOOP", "CONST_PIX", "GPIO_HIGH", "GPIO_LOW", "GPIO_RISE", "GPIO_FALL",
+                 "SYNC")  # fmt: skip
+#: The board's LEDs (``VS_LED_0`` ... ``VS_LED_2``).
+LEDS = 3
+
+
+def _accepted(name: str, check: Callable[[list], str | None] | None = None) -> Handler:
+    """A host-side call with no meaning on the simulator (an LED, a voltage, a frame
+    trigger, ...): checked with ``check`` (which returns what is wrong, or None) and
+    recorded in ``host.txt``; frames come as given, so a trigger paces nothing."""
+
+    def handler(s: Session, a: list, line: int) -> None:
+        call = f"{name}({', '.join(map(_show, a))})"
+        problem = check(a) if check else None
+        if problem:
+            raise ProgramError(f"{s.program}:{line}: {call}: {problem}")
+        s.note(call)
+
+    return handler
+
+
+def _led(a: list) -> str | None:
+    return None if 0 <= a[0] < LEDS else f"the board has LEDs 0 to {LEDS - 1} (VS_LED_0 ...)"
+
+
+def _trigger_mode(a: list) -> str | None:
+    mode, arg = a
+    if not 0 <= mode < len(TRIGGER_MODES):
+        return f"mode {mode} is not a frame trigger mode; use VS_FRAME_TRIGGER_* (0 to 6)"
+    if TRIGGER_MODES[mode] in ("CONST_LOOP", "CONST_PIX", "SYNC") and arg <= 0:
+        return f"a rate of {arg} Hz: give a rate above 0"
+    return None
+
+
+def _trigger_fraction(a: list) -> str | None:
+    num, den = a
+    return None if num > 0 and den > 0 else "the interval num/den s needs num and den above 0"
+
+
+def _host_event(s: Session, a: list, line: int) -> None:
+    s.note(f"host: {a[0]}")
+
+
 #: Every call the shim sends, by name: ``handler(session, args, line) -> answer or None``.
 HANDLERS: dict[str, Handler] = {
     "scamp5_get_image": _sim("scamp5_get_image"),
@@ -639,6 +838,52 @@ HANDLERS: dict[str, Handler] = {
     "vs_frame_loop_control": lambda s, a, line: _i32(s.loop()),
     "vs_stopwatch_now": _stopwatch,
 }
+
+# The device API beyond the chip: outputs other than whole images, host graphics and data
+# posts (drawn or kept), and host-only calls (accepted and recorded).
+HANDLERS.update(
+    {
+        "scamp5_output_areg": _output_areg,
+        "scamp5_output_events": _output_events,
+        "scamp5_output_boundingbox": _output_boundingbox,
+        "scamp5_display_boundingbox": _display_boxes,
+        "scamp5_display_events": _display_events,
+        "scamp5_display_image": _display_image,
+        "scamp5_display_image_patch": _display_image_patch,
+        "vs_gui_display_image": _gui_display_image,
+        "vs_gui_display_text": _gui_display_text,
+        "vs_gui_set_scope": _graph("scope"),
+        "vs_gui_set_barplot": _graph("barplot"),
+        "vs_post_set_channel": _post_channel,
+        **{name: _post(name) for name in _POST_TYPES},
+        "vs_led_on": _accepted("vs_led_on", _led),
+        "vs_led_off": _accepted("vs_led_off", _led),
+        "vs_led_toggle": _accepted("vs_led_toggle", _led),
+        "vs_configure_frame_trigger": _accepted("vs_configure_frame_trigger", _trigger_mode),
+        "vs_frame_trigger_set": _accepted("vs_frame_trigger_set", _trigger_fraction),
+        "vs_enable_frame_trigger": _accepted("vs_enable_frame_trigger"),
+        "vs_disable_frame_trigger": _accepted("vs_disable_frame_trigger"),
+        "vs_gui_save_image": _accepted("vs_gui_save_image"),
+        "vs_scamp5_configure_voltage": _accepted("vs_scamp5_configure_voltage"),
+        "vs_post_bind_io_agent": _accepted("vs_post_bind_io_agent"),
+        "scamp5_bind_io_agent": _accepted("scamp5_bind_io_agent"),
+        "scamp5_kernel::print_debug_info": _accepted("scamp5_kernel::print_debug_info"),
+        "allow_highspeed": _accepted("allow_highspeed"),
+        "vs_host_event": _host_event,
+        **{
+            f"vs_sim::{fn}": _accepted(f"vs_sim::{fn}")
+            for fn in (
+                "config",
+                "enable_keyboard_control",
+                "reset_model",
+                "pix_integrate",
+                "save_image",
+                "reset_video",
+                "use_subpix",
+            )
+        },
+    }
+)
 
 
 def serve(session: Session, read: Callable[[], bytes], write: Callable[[bytes], None]) -> None:

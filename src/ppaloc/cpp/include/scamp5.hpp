@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <array>
 #include <functional>
 #include <map>
 #include <string>
@@ -43,6 +44,7 @@ constexpr news_t operator|(news_t a, news_t b) { return news_t(int(a) | int(b));
 typedef int vs_handle;
 
 #include "ppaloc_gen_consts.hpp"
+#include "vs_random.hpp"
 
 // ------------------------------------------------------------------ the client
 namespace ppa {
@@ -69,6 +71,9 @@ struct Arg {
     constexpr Arg(news_t d) : tag(TAG_DIR), value(int(d)) {}
     constexpr Arg(int v) : tag(TAG_INT), value(v) {}
     Arg(const char* s) : tag(TAG_STR), value(int32_t(s ? std::strlen(s) : 0)), text(s) {}
+    // A block of n bytes (posted data, a byte image): sent as they are.
+    Arg(const void* p, size_t n)
+        : tag(TAG_BYTES), value(int32_t(p ? n : 0)), text(static_cast<const char*>(p)) {}
 };
 
 [[noreturn]] inline void fail(const Loc& loc, const std::string& msg) {
@@ -134,7 +139,7 @@ class Client {
     void arg(const Arg& a) {
         u8(a.tag);
         u32(uint32_t(a.value));
-        if (a.tag == TAG_STR && a.value) bytes(a.text, size_t(a.value));
+        if ((a.tag == TAG_STR || a.tag == TAG_BYTES) && a.value) bytes(a.text, size_t(a.value));
     }
 
     // Start a message; returns where its length goes.
@@ -245,6 +250,10 @@ class scamp5_kernel {
         recording_stop();
     }
     bool null() const { return id == 0; }
+    // Accepted and recorded (host.txt): the kernels' ICWs are in timing.json.
+    static void print_debug_info(ppa::Loc loc = PPA_HERE) {
+        ppa::call("scamp5_kernel::print_debug_info", false, {}, loc);
+    }
 
     bool dynamic = false;  // a dynamic kernel leaves the ICW stack after its launch
 
@@ -330,6 +339,12 @@ inline void bus(std::initializer_list<ppa::Arg> dst, std::initializer_list<ppa::
         for (const ppa::Arg& a : *list) put(a.tag, uint32_t(a.value));
     }
     k->calls++;
+}
+// The device's high-speed clock for this kernel: accepted and recorded (the timing model
+// charges every kernel at one clock).
+inline void allow_highspeed(bool k, ppa::Loc loc = PPA_HERE) {
+    if (!ppa::active()) ppa::fail(loc, "allow_highspeed() is a kernel function: call it inside a kernel");
+    ppa::call("allow_highspeed", false, {int(k)}, loc);
 }
 // The raw word: icw(clock, {bit positions of SCAMP5_ICW_BITS}), decoded by the simulator.
 inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc = PPA_HERE) {
@@ -586,8 +601,12 @@ inline uint32_t& loop_counter() {
     static uint32_t n = 0;
     return n;
 }
+// The host's own GUI items (the device's VS_GUI_* handles) and their values here: the host
+// is connected, the frame gain is 1 (scamp5_get_image's default), the frame rate 30 fps.
+constexpr vs_handle GUI_HOST_STATUS = 128, GUI_FRAME_RATE = 130, GUI_FRAME_GAIN = 131;
 struct Gui {
-    std::map<vs_handle, int32_t> values;
+    std::map<vs_handle, int32_t> values{
+        {GUI_HOST_STATUS, 1}, {GUI_FRAME_RATE, 30}, {GUI_FRAME_GAIN, 1}};
     std::map<vs_handle, volatile int*> writeback;
     std::map<vs_handle, std::function<void(int32_t)>> callbacks;
     vs_handle next = 1;
@@ -610,9 +629,49 @@ inline vs_handle gui_item(const char* kind, const char* text, int32_t lo, int32_
 }
 }  // namespace ppa
 
+// The host's side of a run: it is connected throughout (its connect callbacks run at the
+// first message processing after they are set), and at the end of the run it disconnects
+// and the core shuts down (those callbacks run once, in that order, as the program exits).
+namespace ppa {
+struct Hooks {
+    std::vector<std::function<void(void)>> connect, disconnect, shutdown;
+    size_t connected = 0;  // connect callbacks already run
+    bool ended = false;
+};
+inline Hooks& hooks() {
+    static Hooks h;
+    return h;
+}
+inline void host_event(const char* what) {
+    call("vs_host_event", false, {Arg(what)}, Loc{"", 0});
+}
+inline void process_messages() {
+    Hooks& h = hooks();
+    if (h.connected < h.connect.size()) {
+        host_event("connected (vs_on_host_connect)");
+        while (h.connected < h.connect.size()) h.connect[h.connected++]();
+    }
+}
+inline void end_of_run() {
+    Hooks& h = hooks();
+    if (h.ended) return;
+    h.ended = true;
+    if (!h.disconnect.empty()) host_event("disconnected (vs_on_host_disconnect)");
+    for (auto& f : h.disconnect) f();
+    if (!h.shutdown.empty()) host_event("shutting down (vs_on_shutdown)");
+    for (auto& f : h.shutdown) f();
+}
+}  // namespace ppa
+
 inline void vs_init(ppa::Loc loc = PPA_HERE) {
     (void)loc;
     ppa::Client::get().connect();
+    static bool once = false;
+    if (once) return;
+    once = true;
+    ppa::hooks();  // built before the exit handler, so alive when it runs
+    ppa::gui();
+    std::atexit([] { ppa::end_of_run(); });
 }
 inline int vs_frame_loop_control_impl(ppa::Loc loc) {
     ppa::loop_counter()++;
@@ -620,8 +679,14 @@ inline int vs_frame_loop_control_impl(ppa::Loc loc) {
 }
 inline void vs_frame_loop_control(ppa::Loc loc = PPA_HERE) {
     if (!vs_frame_loop_control_impl(loc)) std::exit(0);
+    ppa::process_messages();
 }
-inline void vs_process_message() {}
+inline void vs_process_message() { ppa::process_messages(); }
+inline void vs_on_host_connect(std::function<void(void)> f) { ppa::hooks().connect.push_back(f); }
+inline void vs_on_host_disconnect(std::function<void(void)> f) {
+    ppa::hooks().disconnect.push_back(f);
+}
+inline void vs_on_shutdown(std::function<void(void)> f) { ppa::hooks().shutdown.push_back(f); }
 inline void vs_wait_frame_trigger() {}
 inline void vs_wait(uint32_t usec) { (void)usec; }
 inline void vs_loop_counter_inc() { ppa::loop_counter()++; }
@@ -667,17 +732,37 @@ inline vs_handle vs_gui_add_switch(const char* text, bool init, volatile int* wr
 }
 inline vs_handle vs_gui_add_button(const char* text) {
     (void)text;
-    return ppa::gui().next++;
+    vs_handle h = ppa::gui().next++;
+    ppa::gui().values[h] = 0;  // never pressed
+    return h;
 }
-inline int32_t vs_gui_read_slider(vs_handle h) { return ppa::gui().values[h]; }
-inline int32_t vs_gui_read_switch(vs_handle h) { return ppa::gui().values[h]; }
-inline void vs_gui_set_slider(vs_handle h, int32_t value) {
+namespace ppa {
+inline int32_t& gui_value(const char* fn, vs_handle h, const Loc& loc) {
+    Gui& g = gui();
+    auto it = g.values.find(h);
+    if (it == g.values.end()) {
+        fail(loc, std::string(fn) + "(" + std::to_string(h) +
+                      ", ...): no slider, switch or button has this handle; give one that "
+                      "vs_gui_add_slider/_switch/_button returned, VS_GUI_FRAME_RATE or "
+                      "VS_GUI_FRAME_GAIN");
+    }
+    return it->second;
+}
+}  // namespace ppa
+inline int32_t vs_gui_read_slider(vs_handle h, ppa::Loc loc = PPA_HERE) {
+    return ppa::gui_value("vs_gui_read_slider", h, loc);
+}
+inline int32_t vs_gui_read_switch(vs_handle h, ppa::Loc loc = PPA_HERE) {
+    return ppa::gui_value("vs_gui_read_switch", h, loc);
+}
+inline void vs_gui_set_slider(vs_handle h, int32_t value, ppa::Loc loc = PPA_HERE) {
     ppa::Gui& g = ppa::gui();
-    g.values[h] = value;
+    ppa::gui_value("vs_gui_set_slider", h, loc) = value;
     if (g.writeback.count(h)) *g.writeback[h] = value;
 }
-inline void vs_gui_move_slider(vs_handle h, int32_t value, bool feedback = true) {
-    vs_gui_set_slider(h, value);
+inline void vs_gui_move_slider(vs_handle h, int32_t value, bool feedback = true,
+                               ppa::Loc loc = PPA_HERE) {
+    vs_gui_set_slider(h, value, loc);
     ppa::Gui& g = ppa::gui();
     if (feedback && g.callbacks.count(h)) g.callbacks[h](value);
 }
@@ -703,3 +788,225 @@ class vs_stopwatch {
     void reset() { start_us = now(); }
     uint32_t get_usec() const { return uint32_t(now() - start_us + 0.5); }
 };
+
+// ------------------------------------------------------------------ the device beyond the chip
+// The M0 core's project string, as vs_gui_set_info takes it.
+#define VS_M0_PROJECT_INFO_STRING \
+    "Simulation (ppaloc): " __FILE__ "\n" \
+    "Compile Time: " __TIME__ " " __DATE__ "\n"
+
+// The host's GUI items, readable with vs_gui_read_slider and vs_on_gui_update.
+#define VS_GUI_HOST_STATUS ppa::GUI_HOST_STATUS
+#define VS_GUI_FRAME_RATE ppa::GUI_FRAME_RATE
+#define VS_GUI_FRAME_GAIN ppa::GUI_FRAME_GAIN
+
+// A display style given by name to vs_gui_add_display (its JSON is for the host's GUI).
+class vs_gui_script {
+    const char* name_;
+    const char* content_;
+
+   public:
+    vs_gui_script(const char* name, const char* content) : name_(name), content_(content) {}
+    operator const char*() const { return name_; }
+    const char* content() const { return content_; }
+};
+#define VS_GUI_DISPLAY_STYLE(var_name, content) static vs_gui_script var_name(#var_name, content);
+
+// Frame triggers: accepted and recorded; the frames are the ones the run is given.
+#define VS_FRAME_TRIGGER_CONST_LOOP 0
+#define VS_FRAME_TRIGGER_CONST_PIX 1
+#define VS_FRAME_TRIGGER_GPIO_HIGH 2
+#define VS_FRAME_TRIGGER_GPIO_LOW 3
+#define VS_FRAME_TRIGGER_GPIO_RISE 4
+#define VS_FRAME_TRIGGER_GPIO_FALL 5
+#define VS_FRAME_TRIGGER_SYNC 6
+inline void vs_configure_frame_trigger(uint16_t mode, int arg, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_configure_frame_trigger", false, int(mode), arg);
+}
+inline void vs_frame_trigger_set(uint16_t f_num, uint16_t f_den, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_frame_trigger_set", false, int(f_num), int(f_den));
+}
+inline void vs_enable_frame_trigger(ppa::Loc loc = PPA_HERE) {
+    ppa::call("vs_enable_frame_trigger", false, {}, loc);
+}
+inline void vs_disable_frame_trigger(ppa::Loc loc = PPA_HERE) {
+    ppa::call("vs_disable_frame_trigger", false, {}, loc);
+}
+
+// The board's LEDs: accepted and recorded.
+#define VS_LED_0 0
+#define VS_LED_1 1
+#define VS_LED_2 2
+inline void vs_led_on(int idx, ppa::Loc loc = PPA_HERE) { PPA_CALL("vs_led_on", false, idx); }
+inline void vs_led_off(int idx, ppa::Loc loc = PPA_HERE) { PPA_CALL("vs_led_off", false, idx); }
+inline void vs_led_toggle(int idx, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_led_toggle", false, idx);
+}
+
+// The chip's bias voltages: accepted and recorded (the simulator has no analogue biases).
+inline void vs_scamp5_configure_voltage(int e, uint16_t d, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_scamp5_configure_voltage", false, e, int(d));
+}
+
+// IO agents: the buses a program may send its output through; here everything reaches
+// the run's folder, whichever is bound (the binding is recorded).
+struct vs_io_agent_api {
+    const char* name;
+};
+namespace ppa {
+inline vs_io_agent_api usb_agent{"vs_usb"}, spi_agent{"vs_spi"}, uart_agent{"vs_uart"};
+inline void bind_agent(const char* fn, vs_io_agent_api* p, const Loc& loc) {
+    if (!p) fail(loc, std::string(fn) + "(NULL): give an io agent: vs_usb, vs_spi or vs_uart");
+    call(fn, false, {Arg(p->name)}, loc);
+}
+}  // namespace ppa
+inline vs_io_agent_api* vs_usb = &ppa::usb_agent;
+inline vs_io_agent_api* vs_spi = &ppa::spi_agent;
+inline vs_io_agent_api* vs_uart = &ppa::uart_agent;
+inline void vs_post_bind_io_agent(vs_io_agent_api* u, ppa::Loc loc = PPA_HERE) {
+    ppa::bind_agent("vs_post_bind_io_agent", u, loc);
+}
+inline void scamp5_bind_io_agent(vs_io_agent_api* p, ppa::Loc loc = PPA_HERE) {
+    ppa::bind_agent("scamp5_bind_io_agent", p, loc);
+}
+
+// Data posted to the host: kept with the frame and the channel (posts.json).
+inline void vs_post_set_channel(uint32_t ch, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_post_set_channel", false, int(ch));
+}
+namespace ppa {
+template <typename T>
+inline void post(const char* fn, const T* data, size_t rows, size_t cols, const Loc& loc) {
+    if (!data && rows * cols) fail(loc, std::string(fn) + ": the data pointer is NULL");
+    call(fn, false, {Arg(data, rows * cols * sizeof(T)), int(rows), int(cols)}, loc);
+}
+}  // namespace ppa
+inline void vs_post_int8(const int8_t* data, size_t rows, size_t cols, ppa::Loc loc = PPA_HERE) {
+    ppa::post("vs_post_int8", data, rows, cols, loc);
+}
+inline void vs_post_int16(const int16_t* data, size_t rows, size_t cols,
+                          ppa::Loc loc = PPA_HERE) {
+    ppa::post("vs_post_int16", data, rows, cols, loc);
+}
+inline void vs_post_int32(const int32_t* data, size_t rows, size_t cols,
+                          ppa::Loc loc = PPA_HERE) {
+    ppa::post("vs_post_int32", data, rows, cols, loc);
+}
+inline void vs_post_float(const float* data, size_t rows, size_t cols, ppa::Loc loc = PPA_HERE) {
+    ppa::post("vs_post_float", data, rows, cols, loc);
+}
+
+// Displays drawn as graphs of posted data: checked and recorded.
+inline vs_handle vs_gui_set_scope(vs_handle h, int32_t min, int32_t max, uint16_t time,
+                                  uint16_t opt = 0, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("vs_gui_set_scope", true, h, min, max, int(time), int(opt)));
+}
+inline vs_handle vs_gui_set_barplot(vs_handle h, int32_t min, int32_t max, uint16_t width,
+                                    uint16_t opt = 0, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("vs_gui_set_barplot", true, h, min, max, int(width), int(opt)));
+}
+inline void vs_gui_save_image(vs_handle h, const char* filepath, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_gui_save_image", false, h, ppa::Arg(filepath));
+}
+
+// Host graphics: an image or a text over a display.
+struct vs_gui_imageformat_t {
+    uint16_t pixel_bytes : 4;
+    uint16_t is_bottom_to_top : 1;
+    uint16_t is_right_to_left : 1;
+    uint16_t is_column_major : 1;
+    uint16_t is_channel_array : 1;
+};
+inline void vs_gui_display_image(vs_handle display, const uint8_t* buffer, uint8_t w, uint8_t h,
+                                 vs_gui_imageformat_t format = {1, 0, 0, 0, 0},
+                                 ppa::Loc loc = PPA_HERE) {
+    if (!buffer) ppa::fail(loc, "vs_gui_display_image: the buffer is NULL");
+    int fmt = format.pixel_bytes | format.is_bottom_to_top << 4 | format.is_right_to_left << 5 |
+              format.is_column_major << 6 | format.is_channel_array << 7;
+    size_t n = size_t(w) * h * (format.pixel_bytes ? format.pixel_bytes : 1);
+    PPA_CALL("vs_gui_display_image", false, display, ppa::Arg(buffer, n), int(w), int(h), fmt);
+}
+inline void vs_gui_display_text(vs_handle display, int16_t c, int16_t r, const char* str,
+                                std::array<uint8_t, 4> color = {255, 255, 255, 255},
+                                ppa::Loc loc = PPA_HERE) {
+    int rgba = color[0] | color[1] << 8 | color[2] << 16 | int(uint32_t(color[3]) << 24);
+    PPA_CALL("vs_gui_display_text", false, display, int(c), int(r), ppa::Arg(str), rgba);
+}
+// The drawing callback runs at once (its display_* calls are served as they come).
+inline void vs_gui_display_graphics(vs_handle display, std::function<void(void)> f) {
+    (void)display;
+    if (f) f();
+}
+
+// Outputs of a register other than its whole image, drawn on a display.
+inline void scamp5_output_areg(ASRC areg, vs_handle display, int s = 1, int r0 = 0, int c0 = 0,
+                               ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_output_areg", false, areg, display, s, r0, c0);
+}
+inline void scamp5_output_events(DSRC dreg, vs_handle display, uint16_t max_num = 1000,
+                                 uint8_t h_dir = 0, uint8_t v_dir = 0, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("scamp5_output_events", false, dreg, display, int(max_num), int(h_dir), int(v_dir));
+}
+inline void scamp5_output_boundingbox(DSRC dr, vs_handle display, uint8_t* result = NULL,
+                                      ppa::Loc loc = PPA_HERE) {
+    ppa_fill(PPA_CALL("scamp5_output_boundingbox", true, dr, display), result);
+}
+// Data the program computed, drawn on a display: boxes (4 bytes each, the layout of
+// scamp5_scan_boundingbox), events ((column, row) pairs) and byte images.
+inline void scamp5_display_boundingbox(vs_handle display, const uint8_t* vec4v, size_t count,
+                                       ppa::Loc loc = PPA_HERE) {
+    if (!vec4v && count) ppa::fail(loc, "scamp5_display_boundingbox: the buffer is NULL");
+    PPA_CALL("scamp5_display_boundingbox", false, display, ppa::Arg(vec4v, 4 * count),
+             int(count));
+}
+inline void scamp5_display_events(vs_handle display, const uint8_t* vec2v, size_t count,
+                                  ppa::Loc loc = PPA_HERE) {
+    if (!vec2v && count) ppa::fail(loc, "scamp5_display_events: the buffer is NULL");
+    PPA_CALL("scamp5_display_events", false, display, ppa::Arg(vec2v, 2 * count), int(count));
+}
+inline void scamp5_display_image(vs_handle display, const uint8_t* buffer, uint8_t w, uint8_t h,
+                                 ppa::Loc loc = PPA_HERE) {
+    if (!buffer) ppa::fail(loc, "scamp5_display_image: the buffer is NULL");
+    PPA_CALL("scamp5_display_image", false, display, ppa::Arg(buffer, size_t(w) * h), int(w),
+             int(h));
+}
+inline void scamp5_display_image_patch(vs_handle display, const uint8_t* buffer, uint8_t w,
+                                       uint8_t h, uint8_t r0, uint8_t c0,
+                                       ppa::Loc loc = PPA_HERE) {
+    if (!buffer) ppa::fail(loc, "scamp5_display_image_patch: the buffer is NULL");
+    PPA_CALL("scamp5_display_image_patch", false, display, ppa::Arg(buffer, size_t(w) * h),
+             int(w), int(h), int(r0), int(c0));
+}
+
+// The device simulator's own controls: this is a simulation; the rest is accepted and
+// recorded (the noise model is the run's --noise preset, the frames its --image/--dataset).
+namespace vs_sim {
+inline bool is_simulation() { return true; }
+inline void config(const char* field, const char* value, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_sim::config", false, ppa::Arg(field), ppa::Arg(value));
+}
+inline void enable_keyboard_control(ppa::Loc loc = PPA_HERE) {
+    ppa::call("vs_sim::enable_keyboard_control", false, {}, loc);
+}
+inline void reset_model(uint32_t level, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_sim::reset_model", false, int(level));
+}
+inline void pix_integrate(uint16_t increment_num, uint16_t increment_den,
+                          ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_sim::pix_integrate", false, int(increment_num), int(increment_den));
+}
+inline void save_image(ASRC areg, const char* filepath, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_sim::save_image", false, areg, ppa::Arg(filepath));
+}
+inline void save_image(DSRC dreg, const char* filepath, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_sim::save_image", false, dreg, ppa::Arg(filepath));
+}
+inline void reset_video(int16_t arg = 0, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_sim::reset_video", false, int(arg));
+}
+inline void use_subpix(uint16_t r_check, uint16_t c_check, uint16_t div,
+                       ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_sim::use_subpix", false, int(r_check), int(c_check), int(div));
+}
+}  // namespace vs_sim
+#define scamp5_sim vs_sim

@@ -1,0 +1,195 @@
+"""The device API around the chip (programs/device_api.cpp, one case per ``mode``): the
+host's GUI items, vs_random, outputs other than whole images, host graphics, data posts
+and the host-only calls, each checked against numpy or a hand-computed value."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from ppaloc.cpp import compile_program, run_program
+from ppaloc.errors import PpalocError
+
+from .conftest import PROGRAMS
+
+SOURCE = PROGRAMS / "device_api.cpp"
+N = 64
+FIRST, SECOND, THIRD = 1, 2, 3  # display handles, in the order the program adds them
+
+
+@pytest.fixture(scope="module")
+def frames(cxx) -> list[np.ndarray]:
+    compile_program(SOURCE)  # once for the module
+    rng = np.random.default_rng(11)
+    return [rng.integers(0, 256, (N, N), dtype=np.uint8) for _ in range(2)]
+
+
+def run(frames, mode: int, **kwargs):
+    return run_program(SOURCE, frames, settings={"mode": str(mode)}, timeout=60, **kwargs)
+
+
+def test_host_gui_items_read_their_defaults(frames):
+    result = run(frames, 0)
+    # the frame gain reads 1, so scamp5_get_image(A, B, gain) runs; the rate callback
+    # got the frame rate at once
+    assert result.texts[:2] == ["gain 1 rate 30 callback 30 simulation 1"] * 2
+    for frame, out in zip(frames, result.session.outputs, strict=True):
+        np.testing.assert_array_equal(out[FIRST], frame.astype(np.float32) - 128)  # yf
+
+
+def test_host_connects_then_disconnects_and_shuts_down(frames, tmp_path):
+    result = run(frames, 0, out=tmp_path / "run")
+    log = result.session.host_log
+    assert log[:3] == [(0, "vs_sim::reset_model(0)"), (0, "host: connected (vs_on_host_connect)"),
+                       (0, "vs_led_on(2)")]  # fmt: skip
+    assert [t for _, t in log[3:]] == [
+        "host: disconnected (vs_on_host_disconnect)",
+        "vs_led_off(2)",
+        "host: shutting down (vs_on_shutdown)",
+    ]
+    assert result.texts[-1] == "shutdown"
+    host = (tmp_path / "run" / "host.txt").read_text().splitlines()
+    assert host[1] == "frame 0: host: connected (vs_on_host_connect)"
+    assert host[-1] == "after the run: host: shutting down (vs_on_shutdown)"
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["host_calls"] == 6
+
+
+def mwc(seed: int):
+    """The device generator: multiply-with-carry on two 16-bit lags."""
+    w, z = (521288629 + seed) % 2**32, (362436069 - seed) % 2**32
+    while True:
+        z = 36969 * (z & 0xFFFF) + (z >> 16)
+        w = 18000 * (w & 0xFFFF) + (w >> 16)
+        yield z, w
+
+
+def test_vs_random_is_seeded_and_reproducible(frames):
+    texts = run(frames, 1).texts
+    assert texts[0] == texts[1]  # a seed gives the same numbers every time
+    first, a, b, again, seed, plain16, chance = map(int, texts[0].split())
+    gen = mwc(7)
+    z, w = next(gen)
+    # by hand: z0 = 362436069 - 7 = 362436062 = 5530 * 65536 + 21982, so
+    # z = 36969 * 21982 + 5530 = 812658088; w0 = 521288636 = 7954 * 65536 + 15292, so
+    # w = 18000 * 15292 + 7954 = 275263954; first = (z << 16) + (w & 0xFFFF) mod 2^32
+    assert (z, w) == (812_658_088, 275_263_954)
+    assert first == 765_997_522 == ((z << 16) + (w & 0xFFFF)) % 2**32
+    z, w = next(gen)
+    assert a == (((z << 8) + (w & 0xFF)) & 0xFFFF) * 100 // 65536
+    z, w = next(gen)
+    assert b == (((z << 8) + (w & 0xFF)) & 0xFFFF) * 11 // 65536 - 5
+    assert again == first  # reset() starts the sequence again
+    z, w = next(mwc(0))
+    assert seed == 0 and plain16 == ((z << 8) + (w & 0xFF)) & 0xFFFF
+    assert chance == 1  # a chance of 1/1
+
+
+def test_outputs_of_areg_events_and_bounding_box(frames, tmp_path):
+    result = run(frames, 2, out=tmp_path / "run")
+    for frame, out in zip(frames, result.session.outputs, strict=True):
+        a = frame.astype(np.float32) - 128  # scamp5_get_image's yf
+        hw = a[:, ::-1]  # hardware column order
+        np.testing.assert_array_equal(out[FIRST], hw[1::2, 0::2][:, ::-1])  # s=2, r0=1, c0=0
+        assert out[FIRST].shape == (32, 32)
+        events = np.zeros((N, N), bool)
+        events[3, N - 1 - 2] = events[10, N - 1 - 20] = True
+        np.testing.assert_array_equal(out[SECOND], events)
+        box = np.zeros((N, N), bool)  # outline from (3, hw 2) to (10, hw 20)
+        box[3, N - 21 : N - 2] = box[10, N - 21 : N - 2] = True
+        box[3:11, N - 21] = box[3:11, N - 3] = True
+        np.testing.assert_array_equal(out[THIRD], box)
+    assert result.texts[0] == "box 3 2 10 20"  # the result buffer, as scan_boundingbox gives
+    # the sub-sampled display keeps its size; the montage shows it at the array's size
+    from PIL import Image
+
+    with Image.open(tmp_path / "run" / "displays" / "first" / "frame_0000.png") as png:
+        assert png.size == (32, 32)
+    assert (tmp_path / "run" / "montage.png").exists()
+
+
+def test_display_of_byte_images_and_events(frames):
+    out = run(frames, 3).session.outputs[0]
+    np.testing.assert_array_equal(
+        out[FIRST] + 128, [[0, 50, 100, 150], [200, 250, 255, 5]]
+    )  # 4 x 2, top-down
+    patched = frames[0].astype(np.float32) - 128
+    patched[5:7, 6:8] = np.array([[0, 50], [100, 150]]) - 128.0
+    np.testing.assert_array_equal(out[SECOND], patched)  # pasted over the image
+    marks = np.zeros((N, N), bool)
+    marks[2, N - 1 - 1] = marks[0, 0] = True  # (column 1, row 2), (column 63, row 0); (0,0) ends
+    np.testing.assert_array_equal(out[THIRD], marks)
+
+
+def test_display_of_boxes_rgb_image_and_text(frames):
+    result = run(frames, 4)
+    out = result.session.outputs[0]
+    boxes = np.zeros((N, N), bool)
+    boxes[1, 1:4] = boxes[3, 1:4] = boxes[1:4, 1] = boxes[1:4, 3] = True  # hw cols 60-62
+    boxes[10, N - 11] = True  # a one-pixel box
+    np.testing.assert_array_equal(out[FIRST], boxes)
+    # RGB drawn as its grey level, bottom row first
+    np.testing.assert_array_equal(out[SECOND] + 128, [[255], [60]])
+    assert (0, "vs_gui_display_text: 'third' at row 5, column 4, RGBA (255, 255, 255, 255): "
+            "'hello'") in result.session.host_log  # fmt: skip
+
+
+def test_host_only_calls_are_accepted_and_recorded(frames):
+    result = run(frames, 5)
+    frame0 = [t for f, t in result.session.host_log if f == 0][3:]
+    assert frame0 == [
+        "vs_configure_frame_trigger(1, 60)",
+        "vs_frame_trigger_set(1, 30)",
+        "vs_disable_frame_trigger()",
+        "vs_enable_frame_trigger()",
+        "vs_led_toggle(1)",
+        "vs_scamp5_configure_voltage(3, 1200)",
+        "vs_post_bind_io_agent('vs_usb')",
+        "scamp5_bind_io_agent('vs_spi')",
+        "vs_gui_set_scope: 'first' shows posted values in [0, 100], 64 wide",
+        "vs_gui_set_barplot: 'second' shows posted values in [-10, 10], 4 wide",
+        "vs_gui_save_image(1, 'saved/first.bmp')",
+        "vs_sim::config('server_port', '27715')",
+        "vs_sim::save_image(A, 'a.bmp')",
+        "scamp5_kernel::print_debug_info()",
+        "allow_highspeed(1)",  # recorded once: the static kernel is recorded once
+    ]
+    (kernel,) = [k for k in result.session.kernels.values() if k.calls == ["mov(C, A)"]]
+    assert kernel.runs == 2  # allow_highspeed leaves the kernel's ICWs as they are
+
+
+def test_posted_data_keeps_frame_channel_and_type(frames, tmp_path):
+    result = run(frames, 6, out=tmp_path / "run")
+    posts = result.session.posts
+    assert posts[:4] == [
+        {"frame": 0, "channel": SECOND, "type": "int16", "data": [[-1, 2, 300]]},
+        {"frame": 0, "channel": SECOND, "type": "int32", "data": [[1, -2], [3, 70000]]},
+        {"frame": 0, "channel": 9, "type": "int8", "data": [[-128], [127]]},
+        {"frame": 0, "channel": 9, "type": "float", "data": [[0.5]]},
+    ]
+    assert [p["frame"] for p in posts[4:]] == [1] * 4
+    assert json.loads((tmp_path / "run" / "posts.json").read_text()) == posts
+    run(frames, 6, out=tmp_path / "run")  # an earlier run's folder, host.txt and all, is replaced
+
+
+@pytest.mark.parametrize(
+    ("mode", "message"),
+    [
+        (10, r"device_api.cpp:\d+: vs_gui_read_slider\(77, \.\.\.\): no slider, switch or "
+             r"button has this handle; give one that vs_gui_add_slider"),
+        (11, r"device_api.cpp:\d+: vs_led_on\(7\): the board has LEDs 0 to 2"),
+        (12, r"vs_configure_frame_trigger\(9, 60\): mode 9 is not a frame trigger mode"),
+        (14, r"scamp5_output_areg\(A, 1, 2, 3, 0\): r0=3 is not a phase of s=2; use 0 to 1"),
+        (15, r"device_api.cpp:\d+: display handle 55 was not created by vs_gui_add_display"),
+        (16, r"a 2 x 2 patch at row 63, column 0 runs off the 64 x 64 display"),
+        (17, r"vs_post_bind_io_agent\(NULL\): give an io agent: vs_usb, vs_spi or vs_uart"),
+        (18, r"allow_highspeed\(\) is a kernel function: call it inside a kernel"),
+        (19, r"vs_frame_trigger_set\(1, 0\): the interval num/den s needs num and den above 0"),
+    ],
+)  # fmt: skip
+def test_misuse_is_one_line_with_its_line(frames, tmp_path, mode, message):
+    with pytest.raises(PpalocError, match=message) as err:
+        run(frames, mode, out=tmp_path / "run")
+    assert "\n" not in str(err.value)
+    assert not (tmp_path / "run").exists()
