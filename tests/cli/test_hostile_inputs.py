@@ -36,6 +36,8 @@ CASES: list[tuple[list[str], str | bytes | None, str]] = [
     ),
     (["cpp", "run", "p.cpp", "--timeout", "inf", "--out", "r"], None, "timeout=inf must be"),
     (["cpp", "run", "p.cpp", "--frames", "100000000", "--out", "r"], None, "must be in [1, 2000]"),
+    (["cpp", "run", "p.cpp", "--host", "0.0.0.0", "--out", "r"], None, "--host is for the live"),
+    (["cpp", "run", "p.cpp", "--live", "--port", "70000", "--out", "r"], None, "--port 70000 must"),
     # flags
     ([*EV, "-m", "particle-filter", "--seed", "-1", "--out", "r"], None, "seed=-1 must be"),
     ([*EV, "--seed", "9" * 30, "--out", "r"], None, "seed=9999"),

@@ -931,6 +931,25 @@ Examples:
     type=click.Path(file_okay=False, path_type=Path),
     help="Folder to write (replaced whole when the run succeeds).",
 )
+@click.option(
+    "--live",
+    is_flag=True,
+    help="Show the displays, sliders, switches and text in a browser as the program runs "
+    "(the URL is printed on stderr; frames paced to 30 per second).",
+)
+@click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address the --live page listens on (the default: this machine only).",
+)
+@click.option(
+    "--port",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Port of the --live page (0: a free one).",
+)
 @_QUIET
 def cpp_run(
     program: Path,
@@ -942,10 +961,25 @@ def cpp_run(
     noise: str,
     seed: int,
     out: Path,
+    live: bool,
+    host: str,
+    port: int,
     quiet: bool | None,
 ) -> None:
     """Compile PROGRAM against the SCAMP-5d shim and run it on the simulator."""
     from ppaloc.cpp.command import run_cpp
+    from ppaloc.cpp.live import LiveView
+
+    ctx = click.get_current_context()
+    if not live:
+        for flag in ("host", "port"):
+            if ctx.get_parameter_source(flag) is not click.core.ParameterSource.DEFAULT:
+                raise PpalocError(f"--{flag} is for the live view: give --live with it")
+    view = (
+        LiveView(host, port, announce=lambda url: click.echo(f"live view: {url}", err=True))
+        if live
+        else None
+    )
 
     run_cpp(
         program,
@@ -958,6 +992,7 @@ def cpp_run(
         noise=noise,
         seed=seed,
         quiet=bool(quiet),
+        live=view,
     )
 
 

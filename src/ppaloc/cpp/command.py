@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ppaloc.cpp.live import LiveView
 from ppaloc.cpp.run import RunResult, run_program
 from ppaloc.errors import PpalocError
 
@@ -77,8 +78,12 @@ def run_cpp(
     noise: str = "ideal",
     seed: int = 0,
     quiet: bool = False,
+    live: LiveView | None = None,
 ) -> RunResult:
-    """Run ``program`` on the simulator and write ``out``; print one summary line."""
+    """Run ``program`` on the simulator and write ``out``; print one summary line.
+
+    ``live`` (``--live``) shows the run in a browser as it goes (:mod:`ppaloc.cpp.live`).
+    """
     if seed < 0:
         raise PpalocError(f"--seed {seed} must be 0 or more")
     result = run_program(
@@ -89,6 +94,7 @@ def run_cpp(
         out=out,
         noise=noise,
         seed=seed,
+        live=live,
     )
     if not quiet:
         s = result.summary()

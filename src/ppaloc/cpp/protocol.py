@@ -27,6 +27,12 @@ Simulator -> program, one reply per answered message::
 
     u32 status (0 ok, else the program stops), u32 length, payload
 
+The answer to ``vs_frame_loop_control`` is its ``i32`` (1 to run the next frame, 0 at the
+end) followed by ``i32 handle, i32 value`` pairs: the sliders and switches a live view
+(:mod:`ppaloc.cpp.live`) changed since the last frame, which the shim applies as the device
+applies the host's GUI messages (value, writeback variable, ``vs_on_gui_update`` callback).
+A slider's or switch's ``CALL`` carries the handle the shim gave it after its initial value.
+
 The program buffers messages (64 KiB) and writes them only when it needs an answer, when
 the buffer is full, or at exit: a replayed kernel costs 9 bytes and no round trip.
 """
@@ -41,7 +47,7 @@ __all__ = [
 ]
 
 #: Protocol version (HELLO checks it).
-VERSION = 3
+VERSION = 4
 
 #: Message opcodes.
 OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5}

@@ -21,7 +21,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +33,9 @@ from ppaloc.errors import PpalocError
 from ppaloc.fileio import check_replaceable_folder, new_folder
 from ppaloc.sim import NoiseParams, Scamp5
 from ppaloc.sim.render import plane_to_image, render_montage, save_png
+
+if TYPE_CHECKING:
+    from ppaloc.cpp.live import LiveView
 
 __all__ = ["RunResult", "check_settings", "run_program", "write_outputs"]
 
@@ -234,6 +237,7 @@ def run_program(
     out: str | os.PathLike[str] | None = None,
     noise: str | NoiseParams = "ideal",
     seed: int = 0,
+    live: LiveView | None = None,
 ) -> RunResult:
     """Compile ``program`` (cached) and run it on the simulator, one frame per loop pass.
 
@@ -252,6 +256,11 @@ def run_program(
     out : path, optional
         Folder to write (replaced whole, only when the run succeeds).
     noise, seed : simulator noise preset and seed.
+    live : LiveView, optional
+        A live view (:mod:`ppaloc.cpp.live`): opened once the program is built, it shows
+        the displays, sliders, switches and text in a browser as frames run and feeds the
+        page's slider and switch changes to the program; closed when the run ends, however
+        it ends. Its frame pacing does not count against ``timeout``.
 
     Raises
     ------
@@ -280,7 +289,13 @@ def run_program(
     exe = compile_program(program)
     sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
     session = Session(sim, frames, values, program=name)
-    result = _serve(exe, session, name, timeout)
+    if live is not None:
+        live.open(session)
+    try:
+        result = _serve(exe, session, name, timeout, live)
+    finally:
+        if live is not None:
+            live.close(session)
     session.check_settings()
     if out is not None:
         with new_folder(out) as stage:
@@ -289,7 +304,9 @@ def run_program(
     return result
 
 
-def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:
+def _serve(
+    exe: Path, session: Session, name: str, timeout: float, live: LiveView | None = None
+) -> RunResult:
     to_sim_r, to_sim_w = os.pipe()
     to_prog_r, to_prog_w = os.pipe()
     env = dict(os.environ)
@@ -318,8 +335,11 @@ def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:
         deadline = start + timeout
         error: PpalocError | None = None
 
+        def read_deadline() -> float:  # a live view's frame pacing is not the program's time
+            return deadline + (live.waited_s if live is not None else 0.0)
+
         def read() -> bytes:
-            left = deadline - time.perf_counter()
+            left = read_deadline() - time.perf_counter()
             ready = select.select([to_sim_r], [], [], max(left, 0))[0] if left > 0 else []
             if not ready:
                 raise TimeoutError
@@ -347,7 +367,7 @@ def _serve(exe: Path, session: Session, name: str, timeout: float) -> RunResult:
             if not served and proc.poll() is None:  # an error of any kind: stop it now
                 proc.kill()
             try:
-                code = proc.wait(timeout=max(deadline - time.perf_counter(), 0) + 5)
+                code = proc.wait(timeout=max(read_deadline() - time.perf_counter(), 0) + 5)
             except subprocess.TimeoutExpired:
                 proc.kill()
                 code = proc.wait()

@@ -21,7 +21,7 @@ import warnings
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -35,7 +35,9 @@ from ppaloc.sim.registers import register_by_name
 
 __all__ = [
     "HANDLERS",
+    "GuiItem",
     "KernelStats",
+    "LiveHook",
     "ProgramError",
     "Session",
     "events_buffer",
@@ -82,6 +84,28 @@ class KernelStats:
             "modelled_us_per_run": self.modelled_us / self.runs if self.runs else 0.0,
             "modelled_us_total": self.modelled_us,
         }
+
+
+@functools.cache
+@dataclass(frozen=True)
+class GuiItem:
+    """A slider or switch of the run: its text, kind, range and the shim's handle for it."""
+
+    kind: str
+    text: str
+    lo: int
+    hi: int
+    handle: int | None = None
+
+
+class LiveHook(Protocol):
+    """What a live view (:class:`ppaloc.cpp.live.LiveView`) offers a session."""
+
+    def frame_done(self, session: Session) -> list[tuple[str, int]]:
+        """Called at each frame loop control, before the next frame starts: take what the
+        frame produced and give the slider and switch changes to apply, ``(text, value)``
+        pairs already checked against the items' ranges."""
+        ...
 
 
 @functools.cache
@@ -152,9 +176,12 @@ class Session:
     host_log: list[tuple[int, str]] = field(default_factory=list)
     posts: list[dict[str, Any]] = field(default_factory=list)
     post_channel: int = 0
+    gui_items: dict[str, GuiItem] = field(default_factory=dict)
+    live: LiveHook | None = None
     _bitstack: list | None = None
     _frame_start_us: float = 0.0
     _loop_us: float = 0.0
+    _changes: list[tuple[int, int]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if len(self.frames):
@@ -206,6 +233,8 @@ class Session:
 
         A frame's modelled time runs from its loop control call to the next one.
         """
+        changes = self.live.frame_done(self) if self.live is not None else []
+        self._changes = []
         now = self.sim.timing.now_us
         if self.loops:
             self.frame_us.append(now - self._frame_start_us)
@@ -218,7 +247,20 @@ class Session:
             self.finished = True
             return 0
         self.sim.set_image(self.frames[self.loops - 1])
+        for text, value in changes:
+            item = self.gui_items[text]
+            self.gui_values[text] = value
+            self.note(f"live view: {item.kind} {text!r} set to {value}")
+            if item.handle is not None:
+                self._changes.append((item.handle, value))
         return 1
+
+    def loop_answer(self) -> bytes:
+        """The answer to ``vs_frame_loop_control``: :meth:`loop`'s value, then the handles
+        and values of the sliders and switches a live view changed (:mod:`ppaloc.cpp.protocol`).
+        """
+        go = self.loop()
+        return _i32(go) + b"".join(struct.pack("<ii", h, v) for h, v in self._changes)
 
     # -------------------------------------------------------------- messages
     def handle(self, op: int, payload: memoryview) -> bytes | None:
@@ -363,7 +405,16 @@ class Session:
         self._matched.setdefault(names[0], []).append(text)
         return names[0]
 
-    def gui_value(self, kind: str, text: str, lo: int, hi: int, init: int, line: int) -> int:
+    def gui_value(
+        self,
+        kind: str,
+        text: str,
+        lo: int,
+        hi: int,
+        init: int,
+        line: int,
+        handle: int | None = None,
+    ) -> int:
         """The value of a slider or switch: ``--set NAME=VALUE`` or its initial value.
 
         ``NAME`` is the item's text as the program declares it, or that text without its
@@ -390,6 +441,7 @@ class Session:
         else:
             value = init
         self.gui_values[text] = value
+        self.gui_items[text] = GuiItem(kind, text, lo, hi, handle)
         return value
 
     def check_settings(self) -> None:
@@ -576,8 +628,8 @@ def _add_display(s: Session, a: list, line: int) -> None:
 
 def _slider(kind: str) -> Handler:
     def handler(s: Session, a: list, line: int) -> bytes:
-        text, lo, hi, init = a
-        return _i32(s.gui_value(kind, text, lo, hi, init, line))
+        text, lo, hi, init, *handle = a  # the handle since protocol 4
+        return _i32(s.gui_value(kind, text, lo, hi, init, line, *handle))
 
     return handler
 
@@ -835,7 +887,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_gui_add_slider": _slider("slider"),
     "vs_gui_add_switch": _slider("switch"),
     "vs_post_text": _post_text,
-    "vs_frame_loop_control": lambda s, a, line: _i32(s.loop()),
+    "vs_frame_loop_control": lambda s, a, line: s.loop_answer(),
     "vs_stopwatch_now": _stopwatch,
 }
 

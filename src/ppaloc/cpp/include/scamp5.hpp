@@ -619,7 +619,7 @@ inline vs_handle gui_item(const char* kind, const char* text, int32_t lo, int32_
                           int32_t init, volatile int* wb, const Loc& loc) {
     Gui& g = gui();
     vs_handle h = g.next++;
-    int32_t v = as_int(call(kind, true, {Arg(text), lo, hi, init}, loc));
+    int32_t v = as_int(call(kind, true, {Arg(text), lo, hi, init, int32_t(h)}, loc));
     g.values[h] = v;
     if (wb) {
         *wb = v;
@@ -673,9 +673,27 @@ inline void vs_init(ppa::Loc loc = PPA_HERE) {
     ppa::gui();
     std::atexit([] { ppa::end_of_run(); });
 }
+namespace ppa {
+// Slider and switch values the host changed while the program runs (a live view): the
+// frame loop's answer carries (handle, value) pairs after its own value, applied here as the
+// device applies the host's GUI messages: the value, its writeback variable, its callback.
+inline void gui_changes(const std::vector<uint8_t>& r) {
+    Gui& g = gui();
+    for (size_t at = 4; at + 8 <= r.size(); at += 8) {
+        vs_handle h = vs_handle(as_int(std::vector<uint8_t>(r.begin() + at, r.begin() + at + 4)));
+        int32_t v = as_int(std::vector<uint8_t>(r.begin() + at + 4, r.begin() + at + 8));
+        if (!g.values.count(h)) continue;
+        g.values[h] = v;
+        if (g.writeback.count(h)) *g.writeback[h] = v;
+        if (g.callbacks.count(h)) g.callbacks[h](v);
+    }
+}
+}  // namespace ppa
 inline int vs_frame_loop_control_impl(ppa::Loc loc) {
     ppa::loop_counter()++;
-    return ppa::as_int(PPA_CALL("vs_frame_loop_control", true, 0));
+    std::vector<uint8_t> r = PPA_CALL("vs_frame_loop_control", true, 0);
+    ppa::gui_changes(r);
+    return ppa::as_int(r);
 }
 inline void vs_frame_loop_control(ppa::Loc loc = PPA_HERE) {
     if (!vs_frame_loop_control_impl(loc)) std::exit(0);

@@ -1,0 +1,219 @@
+"""``ppaloc cpp run --live``: the live view's page, state, images and slider changes."""
+
+from __future__ import annotations
+
+import http.client
+import io
+import json
+import shutil
+import subprocess
+import tempfile
+import threading
+import time
+import urllib.error
+import urllib.request
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from ppaloc.cpp import compile_program, run_program
+from ppaloc.cpp.live import PAGE, LiveError, LiveView
+from ppaloc.errors import PpalocError
+
+from .conftest import PROGRAMS
+
+LIVE = PROGRAMS / "live.cpp"
+FRAMES = [np.full((64, 64), 100, np.uint8)] * 40
+
+
+@pytest.fixture(scope="module")
+def live_program(cxx):
+    return compile_program(LIVE)
+
+
+class Run:
+    """``run_program`` with a live view in a thread; the test talks to it over HTTP."""
+
+    def __init__(self, program=LIVE, frames=FRAMES, fps: float = 50.0, **kwargs) -> None:
+        self.urls: list[str] = []
+        self.view = LiveView(fps=fps, announce=self.urls.append)
+        self.result = None
+        self.error: Exception | None = None
+
+        def target() -> None:
+            try:
+                self.result = run_program(program, frames, live=self.view, **kwargs)
+            except Exception as exc:  # handed to the test
+                self.error = exc
+
+        self.thread = threading.Thread(target=target, daemon=True)
+        self.thread.start()
+
+    @property
+    def url(self) -> str:
+        for _ in range(600):
+            if self.urls:
+                return self.urls[0]
+            time.sleep(0.01)
+        raise AssertionError("the live view never announced its URL")
+
+    def get(self, path: str, headers: dict | None = None) -> tuple[int, bytes]:
+        req = urllib.request.Request(self.url + path, headers=headers or {})
+        try:
+            with urllib.request.urlopen(req, timeout=10) as r:
+                return r.status, r.read()
+        except urllib.error.HTTPError as err:
+            return err.code, err.read()
+
+    def post(self, body, kind: str = "application/json") -> tuple[int, str]:
+        data = body if isinstance(body, bytes) else json.dumps(body).encode()
+        req = urllib.request.Request(self.url + "set", data=data, headers={"Content-Type": kind})
+        try:
+            with urllib.request.urlopen(req, timeout=10) as r:
+                return r.status, r.read().decode()
+        except urllib.error.HTTPError as err:
+            return err.code, err.read().decode()
+
+    def state(self) -> dict:
+        return json.loads(self.get("state.json")[1])
+
+    def wait_for(self, ready, what: str) -> dict:
+        for _ in range(500):
+            s = self.state()
+            if ready(s):
+                return s
+            time.sleep(0.01)
+        raise AssertionError(f"the live view never showed {what}")
+
+    def end(self):
+        self.thread.join(30)
+        assert not self.thread.is_alive()
+        if self.error is not None:
+            raise self.error
+        return self.result
+
+
+def test_state_images_and_a_slider_change_reach_the_program(live_program):
+    run = Run(timeout=30)
+    s = run.wait_for(lambda s: s["displays"] and s["texts"], "displays and text")
+    assert s["program"] == "live.cpp" and s["frames"] == 40 and not s["finished"]
+    assert [d["name"] for d in s["displays"]] == ["image", "mask"]
+    assert s["items"] == [
+        {"name": "level: ", "kind": "slider", "min": 0, "max": 100, "value": 10},
+        {"name": "invert", "kind": "switch", "min": 0, "max": 1, "value": 0},
+    ]
+    assert s["texts"][0] == {
+        "frame": 0,
+        "text": "level 10 writeback 10 callback 10 (1 calls) invert 0",
+    }
+    status, png = run.get(s["displays"][1]["src"])
+    mask = np.asarray(Image.open(io.BytesIO(png)))
+    assert status == 200 and mask.shape == (64, 64)
+    assert (mask == 255).all()  # 100/2 - 64 > 10 - 64 everywhere
+    status, page = run.get("")
+    assert status == 200 and page.decode() == PAGE
+
+    # as --set takes it (no trailing ':'); a switch takes true
+    assert run.post({"name": "level", "value": 42}) == (200, '{"name": "level: ", "value": 42}')
+    assert run.post({"name": "invert", "value": True})[0] == 200
+    assert {i["name"]: i["value"] for i in run.state()["items"]} == {"level: ": 42, "invert": 1}
+    result = run.end()
+    changed = [t for t in result.texts if "level 42" in t]
+    assert changed and changed[-1] == "level 42 writeback 42 callback 42 (2 calls) invert 1"
+    assert result.texts[-1] == changed[-1]
+    logged = [t for _, t in result.session.host_log if t.startswith("live view")]
+    assert logged == [
+        "live view: slider 'level: ' set to 42",
+        "live view: switch 'invert' set to 1",
+    ]
+    assert result.session.gui_values == {"level: ": 42, "invert": 1}
+    with pytest.raises(urllib.error.URLError):  # the server stopped with the run
+        urllib.request.urlopen(run.url + "state.json", timeout=5)
+
+
+def test_bad_requests_are_refused_in_one_line(live_program):
+    run = Run(timeout=30)
+    run.wait_for(lambda s: s["items"], "the sliders")
+    bad = [
+        ({"name": "level", "value": 101}, "'level: '=101 is outside the slider's range [0, 100]"),
+        ({"name": "level", "value": "7"}, "'level: ' takes an integer, not '7'"),
+        ({"name": "level", "value": 1.5}, "'level: ' takes an integer, not 1.5"),
+        ({"name": "level", "value": True}, "'level: ' takes an integer, not True"),
+        (
+            {"name": "gain", "value": 1},
+            "'gain' is not a slider or switch of live.cpp (it has: 'level: ', 'invert')",
+        ),
+        ({"name": "level"}, 'POST /set takes {"name": TEXT, "value": INT} exactly'),
+        (b"level=3", "POST /set: the body is not JSON"),
+    ]
+    for body, message in bad:
+        assert run.post(body) == (400, message + "\n"), body
+    assert run.post({"name": "level", "value": 3}, kind="text/plain")[0] == 400
+    for path in ("etc/passwd", "../../etc/passwd", "display/9.png", "state.json/x", "%2e%2e/"):
+        status, body = run.get(path)
+        assert status == 404 and body.count(b"\n") == 1, path
+    status, body = run.get("state.json", headers={"Host": "evil.example:80"})
+    assert status == 403 and b"loopback" in body
+    conn = http.client.HTTPConnection(run.url.split("/")[2], timeout=10)
+    conn.request("POST", "/state.json", body=b"{}", headers={"Content-Type": "application/json"})
+    assert conn.getresponse().status == 404
+    conn.close()
+    assert run.end().session.gui_values == {"level: ": 10, "invert": 0}
+
+
+def test_a_hang_still_ends_the_run_and_the_server(cxx, tmp_path):
+    compile_program(PROGRAMS / "faults.cpp")
+    run = Run(PROGRAMS / "faults.cpp", FRAMES[:1], settings={"fault": 1}, timeout=2)
+    assert run.state()["program"] == "faults.cpp"
+    with pytest.raises(PpalocError, match=r"did not finish within 2 s \(stopped in frame 0\)"):
+        run.end()
+    with pytest.raises(urllib.error.URLError):
+        urllib.request.urlopen(run.url, timeout=5)
+
+
+def test_bad_views_are_refused():
+    for kwargs, message in [
+        ({"port": 70000}, r"--port 70000 must be in \[0, 65535\]"),
+        ({"port": True}, r"--port True must be"),
+        ({"host": "a b"}, r"--host 'a b' must be a host name"),
+        ({"fps": 0}, r"fps=0 must be"),
+    ]:
+        with pytest.raises(LiveError, match=message):
+            LiveView(**kwargs)
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed")
+def test_chromium_shows_the_displays_and_sets_a_slider(live_program):
+    run = Run(frames=FRAMES * 2, fps=25, timeout=60)
+    run.wait_for(lambda s: s["items"], "the sliders")
+    with tempfile.TemporaryDirectory() as profile:
+        out = subprocess.run(
+            [
+                CHROMIUM,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--no-first-run",
+                f"--user-data-dir={profile}",
+                "--virtual-time-budget=3000",
+                "--dump-dom",
+                run.url + "?set=level=42",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+    result = run.end()
+    dom = out.stdout
+    assert dom.count('data-loaded="1"') == 2, out.stderr[-2000:]
+    assert 'data-set="ok"' in dom and '<h1 id="title">live.cpp</h1>' in dom
+    assert "level 42 writeback 42 callback 42 (2 calls)" in result.texts[-1]
