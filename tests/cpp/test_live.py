@@ -183,6 +183,26 @@ def test_bad_views_are_refused():
             LiveView(**kwargs)
 
 
+def test_a_port_in_use_is_one_line_and_a_view_serves_one_run():
+    from ppaloc.cpp.server import Session
+    from ppaloc.sim import Scamp5
+
+    session = Session(Scamp5(4, 4), [], program="p.cpp")
+    first = LiveView()
+    first.open(session)
+    try:
+        with pytest.raises(LiveError, match=r"one run: make a new one"):
+            first.open(session)
+        with pytest.raises(
+            LiveError,
+            match=rf"^live view cannot listen on 127\.0\.0\.1:{first.port}: .*\(give another "
+            r"--port, or 0 for a free one\)$",
+        ):
+            LiveView(port=first.port).open(session)
+    finally:
+        first.close(session)
+
+
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 

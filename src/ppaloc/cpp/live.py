@@ -22,6 +22,7 @@ from __future__ import annotations
 import io
 import json
 import re
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -122,13 +123,17 @@ class LiveView:
 
     def open(self, session: Session) -> None:
         """Listen, serve in a background thread, and attach to ``session``."""
+        if self._thread is not None:
+            raise LiveError("a LiveView serves one run: make a new one for the next run")
         self._program = session.program
         self._frames = len(session.frames)
         handler = type("Handler", (_Handler,), {"view": self})
+        server_cls = ThreadingHTTPServer
+        if ":" in self.host:  # an IPv6 address
+            server_cls = type(
+                "Server6", (ThreadingHTTPServer,), {"address_family": socket.AF_INET6}
+            )
         try:
-            server_cls = ThreadingHTTPServer
-            if ":" in self.host:
-                server_cls = type("Server6", (ThreadingHTTPServer,), {"address_family": 10})
             self._httpd = server_cls((self.host, self.port), handler)
         except OSError as exc:
             raise LiveError(
