@@ -366,6 +366,7 @@ figcaption { font-size: .9em; color: #444; }
 #items { margin: 1em 0; display: grid; grid-template-columns: max-content 20em 4em; gap: .3em 1em;
          align-items: center; }
 #items output { font-variant-numeric: tabular-nums; }
+#items input[type=checkbox] { justify-self: start; }
 #error { color: #b00; min-height: 1.2em; }
 pre { background: #fff; border: 1px solid #ddd; padding: .5em; max-height: 16em; overflow: auto; }
 </style></head>
@@ -446,7 +447,9 @@ function show(s) {
     s.frame + " of " + s.frames + " frame(s)";
   showDisplays(s.displays);
   showItems(s.items);
-  $("texts").textContent = s.texts.map(t => "frame " + t.frame + ": " + t.text).join("\\n");
+  const pre = $("texts"), atEnd = pre.scrollTop + pre.clientHeight >= pre.scrollHeight - 4;
+  pre.textContent = s.texts.map(t => "frame " + t.frame + ": " + t.text).join("\\n");
+  if (atEnd) pre.scrollTop = pre.scrollHeight;  // follow the newest unless scrolled back
   document.body.dataset.frame = s.frame;
   if (!applied && s.items.length) { applied = true; applyQuery(); }
 }
