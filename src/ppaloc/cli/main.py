@@ -903,9 +903,27 @@ def cpp() -> None:
     epilog="""\b
 Examples:
   ppaloc cpp run edges.cpp --image scene.png --set threshold=30 --out edges-run
+  ppaloc cpp run main.cpp extra.cpp -I inc -D THRESHOLD=30 --out run
   ppaloc cpp run tracker.cpp --dataset 'synthetic:?places=20' --frames 5 --out run""",
 )
-@click.argument("program", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("program", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option(
+    "-I",
+    "--include",
+    "include_dirs",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    metavar="DIR",
+    help="A folder of the program's headers (repeatable), as the compiler's -I.",
+)
+@click.option(
+    "-D",
+    "--define",
+    "defines",
+    multiple=True,
+    metavar="NAME[=VALUE]",
+    help="A macro for the program (repeatable), as the compiler's -D: -D NAME=1, -DNAME.",
+)
 @click.option("--image", type=click.Path(dir_okay=False, path_type=Path), help="Frame image.")
 @click.option("--dataset", help="Dataset spec whose query frames are the exposures.")
 @click.option("--frames", type=int, help="Frames to run [default: 1 image, 10 of a dataset].")
@@ -952,7 +970,9 @@ Examples:
 )
 @_QUIET
 def cpp_run(
-    program: Path,
+    program: tuple[Path, ...],
+    include_dirs: tuple[Path, ...],
+    defines: tuple[str, ...],
     image: Path | None,
     dataset: str | None,
     frames: int | None,
@@ -966,7 +986,8 @@ def cpp_run(
     port: int,
     quiet: bool | None,
 ) -> None:
-    """Compile PROGRAM against the SCAMP-5d shim and run it on the simulator."""
+    """Compile PROGRAM (one or more C++ sources) against the SCAMP-5d shim and run it on
+    the simulator."""
     from ppaloc.cpp.command import run_cpp
     from ppaloc.cpp.live import LiveView
 
@@ -984,6 +1005,8 @@ def cpp_run(
     run_cpp(
         program,
         out,
+        include_dirs=include_dirs,
+        defines=defines,
         image=image,
         dataset=dataset,
         frames=frames,

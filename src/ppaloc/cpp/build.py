@@ -1,10 +1,11 @@
-"""Compiling a SCAMP-5d program against the shim, once per source (a cache by content hash).
+"""Compiling a SCAMP-5d program against the shim, once per content (a cache by hash).
 
-:func:`check_source` names every API call the simulator does not model, with its line,
-before anything is compiled; :func:`compile_program` runs the system C++ compiler (``g++``,
-or ``$CXX``) with AddressSanitizer, so an out-of-bounds write stops the program at once,
-and keeps the executable under a hash of everything that went into it (the file's name,
-not its folder: the same program compiled from a temporary copy hits the cache).
+:func:`check_project` names every API call the simulator does not model, with its file and
+line, in every source and included project header, before anything is compiled;
+:func:`compile_program` runs the system C++ compiler (``g++``, or ``$CXX``) with
+AddressSanitizer, so an out-of-bounds write stops the program at once, and keeps the
+executable under a hash of everything that went into it (sources, headers, defines; files
+by name, not folder: the same program compiled from a temporary copy hits the cache).
 """
 
 from __future__ import annotations
@@ -15,10 +16,12 @@ import re
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Sequence
 from functools import cache
 from importlib import resources
 from pathlib import Path
 
+from ppaloc.cpp.project import HEADER_SUFFIXES, Project, make_project, project_headers
 from ppaloc.cpp.shimgen import constants_header, kernel_macros, macros_header
 from ppaloc.errors import PpalocError
 from ppaloc.fileio import user_cache
@@ -27,6 +30,7 @@ __all__ = [
     "CompileError",
     "UnmodelledCallError",
     "cache_dir",
+    "check_project",
     "check_source",
     "compile_program",
     "compiler",
@@ -103,7 +107,7 @@ def _defined_here(code: str) -> set[str]:
     return set(re.findall(pattern, code))
 
 
-def check_source(text: str, name: str) -> None:
+def check_source(text: str, name: str, defined: frozenset[str] = frozenset()) -> None:
     """Refuse a program that calls SCAMP-5d functions the simulator does not model.
 
     Raises
@@ -114,9 +118,11 @@ def check_source(text: str, name: str) -> None:
         model; ...``, several on one line while they fit in :data:`ONE_LINE` characters
         (``prog.cpp: 2 SCAMP-5d functions the simulator does not model: aout (line 9),
         vs_foo (lines 3, 7); ...``), else one a line.
+
+    ``defined`` adds names the program's other files define (:func:`check_project`).
     """
     code = _strip(text)
-    known = known_names() | _defined_here(code)
+    known = known_names() | _defined_here(code) | defined
     found: list[tuple[int, str]] = []
     for m in re.finditer(r"\b((?:scamp5|vs)_\w+)\b(?=\s*\()", code):
         if m.group(1) not in known:
@@ -175,25 +181,54 @@ def _compiler_message(output: str, limit: int = 12) -> str:
     return "\n".join(shown)
 
 
-def compile_program(source: str | os.PathLike[str]) -> Path:
-    """Compile ``source`` against the shim; the executable's path (cached by content).
+def check_project(project: Project) -> list[Path]:
+    """Scan every source and every project header it includes (:func:`check_source`);
+    the headers, for the cache key.
+
+    A name one file defines (a helper ``vs_blend`` in ``extra.cpp``) is known in all.
+    """
+    headers = project_headers(project)
+    texts: list[tuple[Path, str]] = []
+    for path in [*project.sources, *headers]:
+        try:
+            texts.append((path, path.read_text(errors="replace")))
+        except OSError as exc:
+            raise PpalocError(f"cannot read {path}: {exc.strerror}") from None
+    defined = frozenset().union(*(_defined_here(_strip(t)) for _, t in texts))
+    for path, text in texts:
+        check_source(text, str(path), defined)
+    return headers
+
+
+def compile_program(
+    source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | Project,
+    include_dirs: Sequence[str | os.PathLike[str]] = (),
+    defines: Sequence[str] = (),
+) -> Path:
+    """Compile a program against the shim; the executable's path (cached by content).
+
+    Parameters
+    ----------
+    source : path, sequence of paths or Project
+        The program's C++ source file(s), compiled and linked together.
+    include_dirs : sequence of paths
+        Header folders (``-I``), searched after the shim's own.
+    defines : sequence of str
+        Macros (``-D``): ``NAME`` or ``NAME=VALUE``.
 
     Raises
     ------
     PpalocError
-        If the file is missing or there is no C++ compiler.
+        If a file is missing, a source is a folder, an include folder is not one, a define
+        is malformed, or there is no C++ compiler.
     UnmodelledCallError
-        If it calls SCAMP-5d functions the simulator does not model (all named, before
-        compiling).
+        If a source or an included project header calls SCAMP-5d functions the simulator
+        does not model (all named, with that file's name and lines, before compiling).
     CompileError
         With the compiler's own messages (file, line, column) when it does not compile.
     """
-    path = Path(source)
-    try:
-        text = path.read_text(errors="replace")
-    except OSError as exc:
-        raise PpalocError(f"cannot read the program {path}: {exc.strerror}") from None
-    check_source(text, str(path))
+    project = source if isinstance(source, Project) else make_project(source, include_dirs, defines)
+    headers = check_project(project)
     cxx = compiler()
     if cxx is None:
         raise PpalocError("no C++ compiler found (g++); install Debian's g++ package or set $CXX")
@@ -211,21 +246,26 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
     version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
     key = hashlib.sha256(
         "\0".join(
-            [text, _shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(),
+            [_shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(),
              (gen / "ppaloc_gen_consts.hpp").read_text(), " ".join(FLAGS), version,
-             path.name, _local_headers(path)]
+             _inputs(project, headers)]
         ).encode()
     ).hexdigest()[:24]  # fmt: skip
     exe = root / f"prog-{key}"
     if exe.exists():
         return exe
     tmp = root / f".prog-{key}-{os.getpid()}"
-    cmd = [cxx, *FLAGS, f"-I{include}", f"-I{gen}", str(path), "-o", str(tmp)]
+    cmd = [cxx, *FLAGS, f"-I{include}", f"-I{gen}"]
+    cmd += [f"-I{d}" for d in project.include_dirs]
+    cmd += [f"-D{d}" for d in project.defines]
+    cmd += [*map(str, project.sources), "-o", str(tmp)]
     try:
         done = subprocess.run(cmd, capture_output=True, text=True)
         if done.returncode != 0:
+            names = ", ".join(map(str, project.sources))
             raise CompileError(
-                f"{path} does not compile:\n{_compiler_message(done.stderr + done.stdout)}"
+                f"{names} {'does' if len(project.sources) == 1 else 'do'} not compile:\n"
+                f"{_compiler_message(done.stderr + done.stdout)}"
             )
         os.replace(tmp, exe)
     finally:
@@ -234,16 +274,26 @@ def compile_program(source: str | os.PathLike[str]) -> Path:
     return exe
 
 
-def _local_headers(path: Path) -> str:
-    """The headers beside the program (``#include "x.hpp"``), for the cache key: a changed
-    local header builds the program again."""
-    parts = []
-    for header in sorted(path.parent.glob("*")):
-        if header.suffix in {".h", ".hh", ".hpp", ".hxx", ".inc"} and header.is_file():
-            try:
-                parts.append(f"{header.name}\0{header.read_text(errors='replace')}")
-            except OSError:
-                continue
+def _inputs(project: Project, headers: Sequence[Path]) -> str:
+    """Everything of the program that goes into its build, for the cache key: each source
+    in order, the defines, the headers the sources include and every header beside a
+    source (so a changed header builds the program again); files by name and text, not
+    folder (the same program compiled from a temporary copy hits the cache)."""
+    parts = ["sources"]
+    for path in project.sources:
+        parts += [path.name, path.read_text(errors="replace")]
+    parts += ["defines", *project.defines, "headers"]
+    beside = {
+        h
+        for folder in {p.parent for p in project.sources}
+        for h in folder.glob("*")
+        if h.suffix in HEADER_SUFFIXES and h.is_file()
+    }
+    for header in [*headers, *sorted(beside - set(headers))]:
+        try:
+            parts += [header.name, header.read_text(errors="replace")]
+        except OSError:
+            continue
     return "\0".join(parts)
 
 

@@ -67,9 +67,11 @@ def load_frames(
 
 
 def run_cpp(
-    program: Path,
+    program: Path | Sequence[Path],
     out: Path,
     *,
+    include_dirs: Sequence[Path] = (),
+    defines: Sequence[str] = (),
     image: Path | None = None,
     dataset: str | None = None,
     frames: int | None = None,
@@ -89,6 +91,8 @@ def run_cpp(
     result = run_program(
         program,
         load_frames(image, dataset, frames),
+        include_dirs=include_dirs,
+        defines=defines,
         settings=parse_settings(settings),
         timeout=timeout,
         out=out,

@@ -16,6 +16,12 @@ Program -> simulator, one message each::
   controller, output, GUI or loop call, served by name. Only calls with ``wants_reply``
   (readouts, sliders, the frame loop, the stopwatch) are answered.
 - ``EXIT``: empty; the program is ending.
+- ``FILE``: ``u32 id, u8 name length, name``: the source file (its name, not its folder)
+  that locations with this ``id`` were written in; sent once per file before its first use.
+
+A ``line`` on the wire is a location: the file's ``id`` in the top 12 bits
+(:data:`LINE_BITS` up), the line in the low 20, so a call in a second source file or an
+included header is reported with that file's name and line.
 
 An argument is ``u8 tag, i32 value``; a string (tag ``STR``) is followed by its bytes
 (``value`` = length), a list (tag ``LIST``, e.g. the destinations of ``bus({a, b}, {x})``)
@@ -40,6 +46,8 @@ the buffer is full, or at exit: a replayed kernel costs 9 bytes and no round tri
 from __future__ import annotations
 
 __all__ = [
+    "LINE_BITS",
+    "LINE_MASK",
     "OPS",
     "REGISTER_NAMES",
     "TAGS",
@@ -50,7 +58,12 @@ __all__ = [
 VERSION = 4
 
 #: Message opcodes.
-OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5}
+OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5, "FILE": 6}
+
+#: Bits of a wire location that hold the line (the rest hold the file's id).
+LINE_BITS = 20
+#: The line of a wire location: ``code & LINE_MASK``; its file: ``code >> LINE_BITS``.
+LINE_MASK = (1 << LINE_BITS) - 1
 
 #: Argument tags.
 TAGS: dict[str, int] = {"INT": 0, "AREG": 1, "DREG": 2, "DIR": 3, "STR": 4, "LIST": 5, "BYTES": 6}

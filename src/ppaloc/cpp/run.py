@@ -27,6 +27,7 @@ import numpy as np
 
 from ppaloc.cpp.build import compile_program
 from ppaloc.cpp.displays import fit_plane
+from ppaloc.cpp.project import make_project
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
 from ppaloc.cpp.server import ProgramError, Session, serve
 from ppaloc.errors import PpalocError
@@ -229,9 +230,11 @@ MAX_TIMEOUT = 86_400
 
 
 def run_program(
-    program: str | os.PathLike[str],
+    program: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     frames: Sequence[np.ndarray] | None = None,
     *,
+    include_dirs: Sequence[str | os.PathLike[str]] = (),
+    defines: Sequence[str] = (),
     settings: Mapping[str, object] | None = None,
     timeout: float = 60.0,
     out: str | os.PathLike[str] | None = None,
@@ -243,11 +246,16 @@ def run_program(
 
     Parameters
     ----------
-    program : path
-        A SCAMP-5d device program (C++).
+    program : path or sequence of paths
+        A SCAMP-5d device program (C++): its source file, or its files (compiled and
+        linked together; the first names the program in messages).
     frames : sequence of uint8 arrays, optional
         The exposures, all of one square shape (the array size); default one
         synthetic scene of 256 x 256 (``ppaloc.sim.demo.synthetic_scene``).
+    include_dirs : sequence of paths
+        The program's header folders (``-I``).
+    defines : sequence of str
+        Its macros (``-D``): ``NAME`` or ``NAME=VALUE``.
     settings : mapping, optional
         Slider and switch values by their GUI text (as ``--set``): strings (``"on"``),
         integers, bools or integral floats (:func:`check_settings`).
@@ -268,7 +276,6 @@ def run_program(
         Compile errors, unmodelled calls, a bad ``--set``, a misused call (with its line),
         a timeout, a crash; no output folder is left behind.
     """
-    name = Path(program).name
     if out is not None:
         check_output_folder(out)
     if frames is None:
@@ -286,7 +293,9 @@ def run_program(
     if not (isinstance(timeout, int | float) and 0 < timeout <= MAX_TIMEOUT):
         raise PpalocError(f"timeout={timeout!r} must be a number of seconds in (0, {MAX_TIMEOUT}]")
     values = check_settings(settings)
-    exe = compile_program(program)
+    project = make_project(program, include_dirs, defines)
+    name = project.name
+    exe = compile_program(project)
     sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
     session = Session(sim, frames, values, program=name)
     if live is not None:

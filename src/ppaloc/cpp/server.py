@@ -26,7 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ppaloc.cpp.displays import box_outlines, byte_image, event_marks, subsample
-from ppaloc.cpp.protocol import OPS, REGISTER_NAMES, TAGS, VERSION
+from ppaloc.cpp.protocol import LINE_BITS, LINE_MASK, OPS, REGISTER_NAMES, TAGS, VERSION
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
@@ -46,7 +46,9 @@ __all__ = [
 ]
 
 _REGS: tuple[Register, ...] = tuple(register_by_name(n) for n in REGISTER_NAMES)
-_HELLO, _DEF, _RUN, _CALL, _EXIT = (OPS[k] for k in ("HELLO", "DEF", "RUN", "CALL", "EXIT"))
+_HELLO, _DEF, _RUN, _CALL, _EXIT, _FILE = (
+    OPS[k] for k in ("HELLO", "DEF", "RUN", "CALL", "EXIT", "FILE")
+)
 _INT, _AREG, _DREG, _DIR, _STR, _LIST, _BYTES = (
     TAGS[k] for k in ("INT", "AREG", "DREG", "DIR", "STR", "LIST", "BYTES")
 )
@@ -70,12 +72,14 @@ class KernelStats:
     dynamic: bool = False
     runs: int = 0
     modelled_us: float = 0.0
+    file: str = "program"
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready summary."""
         k = self.kernel
         return {
             "id": self.id,
+            "file": self.file,
             "line": self.line,
             "calls": self.calls,
             "icws": 0 if k is None else len(k),
@@ -178,6 +182,7 @@ class Session:
     post_channel: int = 0
     gui_items: dict[str, GuiItem] = field(default_factory=dict)
     live: LiveHook | None = None
+    files: dict[int, str] = field(default_factory=dict)
     _bitstack: list | None = None
     _frame_start_us: float = 0.0
     _loop_us: float = 0.0
@@ -189,6 +194,17 @@ class Session:
         self.unused = set(self.settings)
         self._matched: dict[str, list[str]] = {}
 
+    # -------------------------------------------------------------- places
+    def file_of(self, code: int) -> str:
+        """The name of the source file of a wire location ``code`` (the program's name for
+        a file the shim did not name)."""
+        return self.files.get(code >> LINE_BITS, self.program)
+
+    def at(self, code: int) -> str:
+        """A wire location as messages give it: ``"file.cpp:LINE"``, the file where the
+        call was written (the program's own, a second source or an included header)."""
+        return f"{self.file_of(code)}:{code & LINE_MASK}"
+
     # -------------------------------------------------------------- frames
     @property
     def frame(self) -> int:
@@ -198,8 +214,7 @@ class Session:
     def _output(self, handle: int, plane: np.ndarray, line: int) -> None:
         if handle not in self.displays:
             raise ProgramError(
-                f"{self.program}:{line}: display handle {handle} was not created by "
-                "vs_gui_add_display"
+                f"{self.at(line)}: display handle {handle} was not created by vs_gui_add_display"
             )
         while len(self.outputs) <= self.frame:
             self.outputs.append({})
@@ -214,8 +229,7 @@ class Session:
         """The name of display ``handle``; a one-line error if no display has it."""
         if handle not in self.displays:
             raise ProgramError(
-                f"{self.program}:{line}: display handle {handle} was not created by "
-                "vs_gui_add_display"
+                f"{self.at(line)}: display handle {handle} was not created by vs_gui_add_display"
             )
         return self.displays[handle]
 
@@ -281,6 +295,10 @@ class Session:
                     "rebuild it (delete the build cache)"
                 )
             return struct.pack("<HH", self.sim.rows, self.sim.cols)
+        if op == _FILE:
+            fid, size = struct.unpack_from("<IB", payload)
+            self.files[fid] = bytes(payload[5 : 5 + size]).decode("utf-8", "replace")
+            return None
         if op == _EXIT:
             return None
         raise ProgramError(f"{self.program}: unknown message {op} from the shim")
@@ -322,7 +340,9 @@ class Session:
             args, at = self._args(payload, at + 5, nargs)
             body.append((name, call_line, args))
         calls = [f"{b[0]}({', '.join(map(_show, b[2]))})" for b in body]
-        self.kernels[kid] = KernelStats(kid, line, calls, body, dynamic=bool(dynamic))
+        self.kernels[kid] = KernelStats(
+            kid, line & LINE_MASK, calls, body, dynamic=bool(dynamic), file=self.file_of(line)
+        )
 
     def _run(self, kid: int) -> None:
         stats = self.kernels.get(kid)
@@ -342,21 +362,21 @@ class Session:
                             getattr(k, name)(*_directions(name, args))
                         except (PpalocError, TypeError) as exc:
                             call = f"{name}({', '.join(map(_show, args))})"
-                            raise ProgramError(f"{self.program}:{line}: {call}: {exc}") from None
+                            raise ProgramError(f"{self.at(line)}: {call}: {exc}") from None
             except ProgramError:
                 raise
             except PpalocError as exc:  # the kernel as a whole (e.g. too many ICWs)
                 raise ProgramError(
-                    f"{self.program}:{stats.line}: the kernel begun here: {exc}"
+                    f"{stats.file}:{stats.line}: the kernel begun here: {exc}"
                 ) from None
             stats.kernel = kernel
             for w in caught:  # the stack's own warning is worded for C++ below
                 if not issubclass(w.category, IcwStackWarning):
-                    self.warnings.append(f"{self.program}:{stats.line}: {w.message}")
+                    self.warnings.append(f"{stats.file}:{stats.line}: {w.message}")
             dropped = getattr(kernel, "dropped", 0)
             if dropped:
                 self.warnings.append(
-                    f"{self.program}:{stats.line}: the kernel begun here lost {dropped} of its "
+                    f"{stats.file}:{stats.line}: the kernel begun here lost {dropped} of its "
                     "ICWs: the 1024-ICW stack that static kernels share is full (free some, "
                     "use dynamic kernels or move_to_heap(true))"
                 )
@@ -374,7 +394,7 @@ class Session:
         args, _ = self._args(payload, at + 5, nargs)
         handler = HANDLERS.get(name)
         if handler is None:
-            raise ProgramError(f"{self.program}:{line}: {name} is not served by this simulator")
+            raise ProgramError(f"{self.at(line)}: {name} is not served by this simulator")
         self.calls[name] += 1
         try:
             result = handler(self, args, line)
@@ -382,7 +402,7 @@ class Session:
             raise
         except PpalocError as exc:
             call = f"{name}({', '.join(map(_show, args))})"
-            raise ProgramError(f"{self.program}:{line}: {call}: {exc}") from None
+            raise ProgramError(f"{self.at(line)}: {call}: {exc}") from None
         if not want:
             return None
         return b"" if result is None else result
@@ -436,7 +456,7 @@ class Session:
             if not lo <= value <= hi:
                 raise ProgramError(
                     f"--set {name}={value} is outside the {kind}'s range [{lo}, {hi}] "
-                    f"({self.program}:{line})"
+                    f"({self.at(line)})"
                 )
         else:
             value = init
@@ -588,7 +608,7 @@ def _bitstack_begin(s: Session, a: list, line: int) -> None:
     n_bits = int(a[1])
     if not 1 <= n_bits <= MAX_BITSTACK:
         raise ProgramError(
-            f"{s.program}:{line}: scamp5_output_bitstack_begin with {n_bits} bits: use 1 to "
+            f"{s.at(line)}: scamp5_output_bitstack_begin with {n_bits} bits: use 1 to "
             f"{MAX_BITSTACK}"
         )
     s._bitstack = [a[0], n_bits, []]
@@ -596,9 +616,7 @@ def _bitstack_begin(s: Session, a: list, line: int) -> None:
 
 def _bitstack_bit(s: Session, a: list, line: int) -> None:
     if s._bitstack is None:
-        raise ProgramError(
-            f"{s.program}:{line}: a bit-stack bit before scamp5_output_bitstack_begin"
-        )
+        raise ProgramError(f"{s.at(line)}: a bit-stack bit before scamp5_output_bitstack_begin")
     s.host("scan_dreg", s.sim.rows)
     s.host("usb_output", s.sim.rows * s.sim.cols // 8)
     s._bitstack[2].append(s.sim.read(a[0]))
@@ -606,12 +624,12 @@ def _bitstack_bit(s: Session, a: list, line: int) -> None:
 
 def _bitstack_end(s: Session, a: list, line: int) -> None:
     if s._bitstack is None:
-        raise ProgramError(f"{s.program}:{line}: scamp5_output_bitstack_end without a begin")
+        raise ProgramError(f"{s.at(line)}: scamp5_output_bitstack_end without a begin")
     handle, n_bits, bits = s._bitstack
     s._bitstack = None
     if len(bits) != n_bits:
         raise ProgramError(
-            f"{s.program}:{line}: the bit-stack was begun with {n_bits} bits but got {len(bits)}"
+            f"{s.at(line)}: the bit-stack was begun with {n_bits} bits but got {len(bits)}"
         )
     value = np.zeros((s.sim.rows, s.sim.cols), np.int64)
     for plane in bits:  # most significant bit first
@@ -712,7 +730,7 @@ def _display_image_patch(s: Session, a: list, line: int) -> None:
     rows, cols = (s.sim.rows, s.sim.cols)
     if r0 + h > rows or c0 + w > cols:
         raise ProgramError(
-            f"{s.program}:{line}: a {w} x {h} patch at row {r0}, column {c0} runs off the "
+            f"{s.at(line)}: a {w} x {h} patch at row {r0}, column {c0} runs off the "
             f"{cols} x {rows} display; place it within it"
         )
     patch = byte_image(data, w, h)
@@ -752,7 +770,7 @@ def _graph(kind: str) -> Handler:
         name = s.display(handle, line)
         if lo >= hi:
             raise ProgramError(
-                f"{s.program}:{line}: vs_gui_set_{kind}({name!r}, {lo}, {hi}, ...): the "
+                f"{s.at(line)}: vs_gui_set_{kind}({name!r}, {lo}, {hi}, ...): the "
                 "minimum must be below the maximum"
             )
         s.note(f"vs_gui_set_{kind}: {name!r} shows posted values in [{lo}, {hi}], {n} wide")
@@ -777,7 +795,7 @@ def _post(name: str) -> Handler:
     def handler(s: Session, a: list, line: int) -> None:
         data, rows, cols = a
         if rows < 0 or cols < 0 or rows * cols * dtype.itemsize > len(data):
-            raise ProgramError(f"{s.program}:{line}: {name} of {rows} x {cols}: a bad size")
+            raise ProgramError(f"{s.at(line)}: {name} of {rows} x {cols}: a bad size")
         values = np.frombuffer(data, dtype, rows * cols).reshape(rows, cols)
         s.host("usb_output", len(data))
         s.posts.append(
@@ -804,7 +822,7 @@ def _accepted(name: str, check: Callable[[list], str | None] | None = None) -> H
         call = f"{name}({', '.join(map(_show, a))})"
         problem = check(a) if check else None
         if problem:
-            raise ProgramError(f"{s.program}:{line}: {call}: {problem}")
+            raise ProgramError(f"{s.at(line)}: {call}: {problem}")
         s.note(call)
 
     return handler

@@ -12,7 +12,15 @@ from __future__ import annotations
 
 import inspect
 
-from ppaloc.cpp.protocol import OPS, REGISTER_NAMES, SERVER_EXIT, SHIM_EXIT, TAGS, VERSION
+from ppaloc.cpp.protocol import (
+    LINE_BITS,
+    OPS,
+    REGISTER_NAMES,
+    SERVER_EXIT,
+    SHIM_EXIT,
+    TAGS,
+    VERSION,
+)
 from ppaloc.sim.kernel import Kernel
 from ppaloc.sim.macros import ProgramAPI
 
@@ -59,6 +67,7 @@ def constants_header() -> str:
     lines.append(f"constexpr uint32_t PROTOCOL_VERSION = {VERSION};")
     lines += [f"constexpr uint8_t OP_{k} = {v};" for k, v in OPS.items()]
     lines += [f"constexpr uint8_t TAG_{k} = {v};" for k, v in TAGS.items()]
+    lines.append(f"constexpr int LINE_BITS = {LINE_BITS};")
     lines.append(f"constexpr int SHIM_EXIT = {SHIM_EXIT};")
     lines.append(f"constexpr int SERVER_EXIT = {SERVER_EXIT};")
     lines.append("}  // namespace ppa")

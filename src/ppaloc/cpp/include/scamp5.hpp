@@ -198,14 +198,48 @@ class Client {
     }
 };
 
+// A location as the wire carries it: the file's id (named once by a FILE message) in the
+// top bits, the line in the low LINE_BITS, so the simulator's messages name the file where
+// the call was written (a second source, an included header), not the program's.
+// Call it before a message is begun: it may send the FILE message itself.
+inline uint32_t wire(const char* file, unsigned line) {
+    static std::map<const char*, uint32_t> by_pointer;  // __builtin_FILE's strings
+    static std::map<std::string, uint32_t> by_name;
+    auto hit = by_pointer.find(file);
+    uint32_t id;
+    if (hit != by_pointer.end()) {
+        id = hit->second;
+    } else {
+        const char* slash = std::strrchr(file, '/');
+        std::string name(slash ? slash + 1 : file);
+        if (name.size() > 255) name.resize(255);
+        auto known = by_name.find(name);
+        if (known != by_name.end()) {
+            id = known->second;
+        } else {
+            id = uint32_t(by_name.size());
+            by_name[name] = id;
+            Client& c = Client::get();
+            size_t at = c.begin(OP_FILE);
+            c.u32(id);
+            c.name(name.c_str());
+            c.end(at);
+        }
+        by_pointer[file] = id;
+    }
+    return (id << LINE_BITS) | (line & ((1u << LINE_BITS) - 1));
+}
+inline uint32_t wire(const Loc& loc) { return wire(loc.file, loc.line); }
+
 // A controller call by name; with `want`, its answer.
 inline std::vector<uint8_t> call(const char* fn, bool want, std::initializer_list<Arg> args,
                                  const Loc& loc) {
+    uint32_t where = wire(loc);
     Client& c = Client::get();
     size_t at = c.begin(OP_CALL);
     c.u8(want ? 1 : 0);
     c.name(fn);
-    c.u32(loc.line);
+    c.u32(where);
     c.u8(uint8_t(args.size()));
     for (const Arg& a : args) c.arg(a);
     c.end(at);
@@ -278,10 +312,11 @@ class scamp5_kernel {
         }
         id = uint32_t(known.size() + 1);
         known[key] = id;
+        uint32_t where = ppa::wire(file, line);
         ppa::Client& c = ppa::Client::get();
         size_t at = c.begin(ppa::OP_DEF);
         c.u32(id);
-        c.u32(line);
+        c.u32(where);
         c.u8(dynamic ? 1 : 0);
         c.u16(calls);
         c.bytes(body.data(), body.size());
@@ -308,7 +343,8 @@ inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, in
     size_t len = std::strlen(fn);
     b.push_back(uint8_t(len));
     b.insert(b.end(), fn, fn + len);
-    for (int s = 0; s < 4; ++s) b.push_back((loc.line >> (8 * s)) & 0xFF);
+    const uint32_t where = ppa::wire(loc);
+    for (int s = 0; s < 4; ++s) b.push_back((where >> (8 * s)) & 0xFF);
     b.push_back(uint8_t(n));
     for (int i = 0; i < n; ++i) {
         b.push_back(args[i]->tag);
@@ -332,7 +368,8 @@ inline void bus(std::initializer_list<ppa::Arg> dst, std::initializer_list<ppa::
     };
     b.push_back(3);
     b.insert(b.end(), {'b', 'u', 's'});
-    for (int s = 0; s < 4; ++s) b.push_back((loc.line >> (8 * s)) & 0xFF);
+    const uint32_t where = ppa::wire(loc);
+    for (int s = 0; s < 4; ++s) b.push_back((where >> (8 * s)) & 0xFF);
     b.push_back(2);
     for (auto* list : {&dst, &src}) {
         put(ppa::TAG_LIST, uint32_t(list->size()));
@@ -357,7 +394,8 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
     };
     b.push_back(3);
     b.insert(b.end(), {'i', 'c', 'w'});
-    for (int s = 0; s < 4; ++s) b.push_back((loc.line >> (8 * s)) & 0xFF);
+    const uint32_t where = ppa::wire(loc);
+    for (int s = 0; s < 4; ++s) b.push_back((where >> (8 * s)) & 0xFF);
     b.push_back(2);
     put(ppa::TAG_INT, clock);
     put(ppa::TAG_LIST, uint32_t(bits.size()));
