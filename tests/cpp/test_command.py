@@ -66,7 +66,7 @@ def test_frames_from_a_dataset_and_defaults():
     assert len(frames) == 2 and frames[1].shape == (256, 256)
     assert load_frames(None, None, None) is None  # run_program's default scene
     assert len(load_frames(None, None, 2)) == 2
-    with pytest.raises(PpalocError, match="not both"):
+    with pytest.raises(PpalocError, match=r"^give one of --image, --dataset and --stream, not "):
         load_frames("a.png", "synthetic:", None)
     with pytest.raises(PpalocError, match=r"--frames 0 must be in \[1, 2000\]"):
         load_frames(None, None, 0)

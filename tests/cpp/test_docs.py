@@ -5,6 +5,8 @@ from __future__ import annotations
 import contextlib
 import io
 import re
+import shlex
+from pathlib import Path
 
 import numpy as np
 
@@ -61,3 +63,40 @@ def test_the_trace_export_example():
     tracer, loc = namespace["tracer"], namespace["loc"]
     assert [t.sim for t in tracer.traces] == [loc.pipeline.sim]  # not the mapping sensor
     assert namespace["source"].startswith("// a ppaloc program\n")
+
+
+def test_the_frame_source_examples(cxx, tmp_path, monkeypatch):
+    import shutil
+
+    import av
+    from PIL import Image
+
+    from ppaloc.cli.main import cli
+
+    from .test_frame_sources import _write_video
+
+    (block,) = _blocks("sh")
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(PROGRAMS / "means.cpp", "means.cpp")
+    Path("frames").mkdir()
+    for i in range(3):
+        Image.fromarray(np.full((24, 32), 40 * i, np.uint8)).save(f"frames/f{i}.png")
+    _write_video(Path("clip.mkv"), [10, 50, 90, 130])
+    try:
+        av.open("testsrc", format="lavfi").close()
+        lavfi = True
+    except Exception:  # FFmpeg built without lavfi: its line is skipped
+        lavfi = False
+    ran = {}
+    for line in block.strip().splitlines():
+        args = shlex.split(line)
+        assert args[:3] == ["ppaloc", "cpp", "run"]
+        if "lavfi" in args and not lavfi:
+            continue
+        cli.main(args[1:], standalone_mode=False)
+        out = args[args.index("--out") + 1]
+        ran[out] = Path(out, "text.txt").read_text().splitlines()
+    assert ran["run-folder"] == ["frame 0: mean 0.0", "frame 1: mean 40.0", "frame 2: mean 80.0"]
+    assert len(ran["run-video"]) == 2  # ?step=2 of 4
+    if lavfi:
+        assert len(ran["run-stream"]) == 3

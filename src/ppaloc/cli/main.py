@@ -904,6 +904,8 @@ def cpp() -> None:
 Examples:
   ppaloc cpp run edges.cpp --image scene.png --set threshold=30 --out edges-run
   ppaloc cpp run main.cpp extra.cpp -I inc -D THRESHOLD=30 --out run
+  ppaloc cpp run tracker.cpp --dataset video:clip.mp4 --out run
+  ppaloc cpp run tracker.cpp --stream /dev/video0 --stream-format v4l2 --frames 100 --out run
   ppaloc cpp run tracker.cpp --dataset 'synthetic:?places=20' --frames 5 --out run""",
 )
 @click.argument("program", nargs=-1, required=True, type=click.Path(path_type=Path))
@@ -925,8 +927,27 @@ Examples:
     help="A macro for the program (repeatable), as the compiler's -D: -D NAME=1, -DNAME.",
 )
 @click.option("--image", type=click.Path(dir_okay=False, path_type=Path), help="Frame image.")
-@click.option("--dataset", help="Dataset spec whose query frames are the exposures.")
-@click.option("--frames", type=int, help="Frames to run [default: 1 image, 10 of a dataset].")
+@click.option(
+    "--dataset",
+    help="Dataset spec whose query frames are the exposures, or a folder of images or a video "
+    "alone: folder:DIR, video:FILE.mp4.",
+)
+@click.option(
+    "--stream",
+    metavar="INPUT",
+    help="A live stream or camera PyAV opens (FFmpeg's -i: /dev/video0, rtsp://..., a lavfi "
+    "graph); --frames bounds it.",
+)
+@click.option(
+    "--stream-format",
+    metavar="FMT",
+    help="The stream's FFmpeg input format (FFmpeg's -f: v4l2, lavfi, ...).",
+)
+@click.option(
+    "--frames",
+    type=int,
+    help="Frames to run [default: 1 image, all of a folder or video, 10 of a dataset or stream].",
+)
 @click.option(
     "--set",
     "settings",
@@ -975,6 +996,8 @@ def cpp_run(
     defines: tuple[str, ...],
     image: Path | None,
     dataset: str | None,
+    stream: str | None,
+    stream_format: str | None,
     frames: int | None,
     settings: tuple[str, ...],
     timeout: float,
@@ -1010,6 +1033,8 @@ def cpp_run(
         image=image,
         dataset=dataset,
         frames=frames,
+        stream=stream,
+        stream_format=stream_format,
         settings=settings,
         timeout=timeout,
         noise=noise,

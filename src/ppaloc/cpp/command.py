@@ -1,4 +1,5 @@
-"""``ppaloc cpp run``: frames from an image or a dataset, ``--set`` values, the printed summary.
+"""``ppaloc cpp run``: frames from an image, a dataset, a folder, a video or a stream, ``--set``
+values, the printed summary.
 
 The click parser (``ppaloc.cli.main``) only parses flags; this module turns them into a
 :func:`ppaloc.cpp.run.run_program` call.
@@ -37,28 +38,61 @@ MAX_FRAMES = 2000
 
 
 def load_frames(
-    image: Path | None, dataset: str | None, frames: int | None
+    image: Path | None,
+    dataset: str | None,
+    frames: int | None,
+    stream: str | None = None,
+    stream_format: str | None = None,
 ) -> list[np.ndarray] | None:
-    """The run's sensor frames: ``image`` repeated, or a dataset's query traversal."""
+    """The run's sensor frames (256 x 256 grey, :func:`ppaloc.frontend.to_sensor`).
+
+    ``image`` repeated; a dataset's query traversal, or the one traversal of a frame
+    source given alone (``folder:DIR``, ``video:FILE.mp4``, docs/datasets.md: all its
+    frames unless ``frames`` bounds them); the first ``frames`` (default
+    :data:`DATASET_FRAMES`) of a live ``stream`` or camera PyAV opens (``stream_format``
+    as FFmpeg's ``-f``: ``v4l2``, ``lavfi``, ...); or ``frames`` synthetic scenes.
+    """
     from ppaloc.frontend import to_sensor
 
     if frames is not None and not 1 <= frames <= MAX_FRAMES:
         raise PpalocError(
             f"--frames {frames} must be in [1, {MAX_FRAMES}] (the frames are held in memory)"
         )
-    if image is not None and dataset is not None:
-        raise PpalocError("give --image or --dataset, not both")
+    given = [n for n, v in (("--image", image), ("--dataset", dataset), ("--stream", stream)) if v]
+    if len(given) > 1:
+        raise PpalocError(f"give one of --image, --dataset and --stream, not {' and '.join(given)}")
+    if stream_format is not None and stream is None:
+        raise PpalocError(
+            f"--stream-format {stream_format} needs --stream INPUT (e.g. --stream /dev/video0 "
+            "--stream-format v4l2)"
+        )
     if image is not None:
         from ppaloc.datasets.images import read_grey
 
         frame = to_sensor(read_grey(Path(image)))
         return [frame] * (frames or 1)
     if dataset is not None:
-        from ppaloc.datasets.registry import load_dataset
+        from ppaloc.datasets.registry import (
+            REFERENCE_ALONE,
+            load_reference,
+            parse_reference_spec,
+        )
 
-        query = load_dataset(dataset).query
-        n = min(len(query), frames or DATASET_FRAMES)
+        query = load_reference(dataset).query
+        spec = parse_reference_spec(dataset)
+        alone = spec.kind in REFERENCE_ALONE and len(spec.paths) == 1
+        if alone and frames is None and len(query) > MAX_FRAMES:
+            raise PpalocError(
+                f"--dataset {dataset} has {len(query)} frames, more than {MAX_FRAMES} (they "
+                f"are held in memory): take the first ones with --frames, or every k-th with "
+                "?step=k"
+            )
+        n = min(len(query), frames or (len(query) if alone else DATASET_FRAMES))
         return [to_sensor(query[i]) for i in range(n)]
+    if stream is not None:
+        from ppaloc.datasets.loaders.video import read_stream
+
+        return [to_sensor(f) for f in read_stream(stream, frames or DATASET_FRAMES, stream_format)]
     if frames is not None:
         from ppaloc.sim.demo import synthetic_scene
 
@@ -75,6 +109,8 @@ def run_cpp(
     image: Path | None = None,
     dataset: str | None = None,
     frames: int | None = None,
+    stream: str | None = None,
+    stream_format: str | None = None,
     settings: Sequence[str] = (),
     timeout: float = 60.0,
     noise: str = "ideal",
@@ -90,7 +126,7 @@ def run_cpp(
         raise PpalocError(f"--seed {seed} must be 0 or more")
     result = run_program(
         program,
-        load_frames(image, dataset, frames),
+        load_frames(image, dataset, frames, stream, stream_format),
         include_dirs=include_dirs,
         defines=defines,
         settings=parse_settings(settings),

@@ -15,7 +15,9 @@ hard and soft matrices (:mod:`ppaloc.datasets.loaders.owntruth`).
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -27,7 +29,7 @@ from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.errors import DataError
 from ppaloc.frontend import to_grey
 
-__all__ = ["SCHEMA", "VideoFrames", "load"]
+__all__ = ["SCHEMA", "VideoFrames", "load", "open_video", "read_stream"]
 
 SCHEMA = KindSchema(
     n_paths=(2,),
@@ -44,6 +46,84 @@ SCHEMA = KindSchema(
 )
 
 
+def open_video(
+    target: str, what: str, format: str | None = None, options: dict[str, str] | None = None
+) -> tuple[Any, Iterator[Any]]:
+    """Open a video file, device or stream with PyAV: its container and decoded frames.
+
+    ``target`` and ``format`` are what FFmpeg's ``-i`` and ``-f`` take (a file; a device
+    such as ``/dev/video0`` with ``format="v4l2"``; a filter graph such as
+    ``testsrc=size=320x240`` with ``format="lavfi"``; a URL); ``what`` names it in
+    messages.
+
+    Raises
+    ------
+    DataError
+        If it cannot be opened, holds no video stream, or claims frames of more than
+        :data:`~ppaloc.datasets.images.MAX_IMAGE_PIXELS` pixels.
+    """
+    import av
+
+    container = None
+    try:
+        container = av.open(target, format=format, options=options or {})
+        if not container.streams.video:
+            raise DataError(
+                f"{what} holds no video stream (not a video, or cut short); give a complete video"
+            )
+        context = container.streams.video[0].codec_context
+        w, h = int(context.width or 0), int(context.height or 0)
+        if w * h > MAX_IMAGE_PIXELS:
+            raise DataError(
+                f"{what} claims {w} x {h} pixels a frame, more than {MAX_IMAGE_PIXELS}; give "
+                "a smaller video"
+            )
+        return container, container.decode(video=0)
+    except DataError:
+        if container is not None:
+            container.close()
+        raise
+    except Exception as exc:  # PyAV raises many types on a bad file
+        if container is not None:
+            container.close()
+        raise DataError(f"cannot read {what}: {exc}") from None
+
+
+def _grey(frame: Any) -> np.ndarray:
+    """A decoded frame as grey ``uint8`` (ITU-R 601, as images)."""
+    return to_grey(frame.to_ndarray(format="rgb24"))
+
+
+def read_stream(
+    target: str, n: int, format: str | None = None, options: dict[str, str] | None = None
+) -> list[np.ndarray]:
+    """The first ``n`` frames, grey, of a live stream or camera (or any input PyAV opens).
+
+    A stream has no end to count to, so ``n`` bounds it; one that ends sooner gives the
+    frames it had. See :func:`open_video` for ``target``, ``format`` and ``options``.
+
+    Raises
+    ------
+    DataError
+        If it cannot be opened or decoded, or gives no frame.
+    """
+    what = f"stream {target}" + (f" (format {format})" if format else "")
+    container, frames = open_video(target, what, format, options)
+    out: list[np.ndarray] = []
+    try:
+        for frame in frames:
+            out.append(_grey(frame))
+            if len(out) >= n:
+                break
+    except Exception as exc:
+        raise DataError(f"cannot decode frame {len(out)} of {what}: {exc}") from None
+    finally:
+        container.close()
+    if not out:
+        raise DataError(f"{what} gave no frames")
+    return out
+
+
 class _Decoder:
     """A sequential decoder over one file that can restart; shared by all slices."""
 
@@ -58,30 +138,8 @@ class _Decoder:
             self.close()
 
     def open(self) -> None:
-        import av
-
         self.close()
-        try:
-            self.container = av.open(str(self.path))
-            if not self.container.streams.video:
-                raise DataError(
-                    f"{self.path} holds no video stream (not a video, or cut short); give a "
-                    "complete video file"
-                )
-            context = self.container.streams.video[0].codec_context
-            w, h = int(context.width or 0), int(context.height or 0)
-            if w * h > MAX_IMAGE_PIXELS:
-                raise DataError(
-                    f"video {self.path} claims {w} x {h} pixels a frame, more than "
-                    f"{MAX_IMAGE_PIXELS}; give a smaller video"
-                )
-            self.frames = self.container.decode(video=0)
-        except DataError:
-            self.close()
-            raise
-        except Exception as exc:  # PyAV raises many types on a bad file
-            self.close()
-            raise DataError(f"cannot read video {self.path}: {exc}") from None
+        self.container, self.frames = open_video(str(self.path), f"video {self.path}")
         self.next_index = 0
 
     def count(self) -> int:
@@ -100,7 +158,7 @@ class _Decoder:
                 frame = next(self.frames)
                 self.next_index += 1
                 if self.next_index - 1 == i:
-                    return to_grey(frame.to_ndarray(format="rgb24"))
+                    return _grey(frame)
         except StopIteration:
             raise DataError(f"video {self.path} ends before frame {i}") from None
         except Exception as exc:
