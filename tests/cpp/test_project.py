@@ -148,3 +148,20 @@ def test_parse_define():
     for bad in ("", "=1", "A-B=1", "A=1\n2", "A B"):
         with pytest.raises(PpalocError, match=r"^-D .* must be NAME or NAME=VALUE"):
             parse_define(bad)
+
+
+def test_a_bad_access_in_the_second_file_is_placed_there(cxx, tmp_path):
+    extra = EXTRA.replace(
+        "    return v * GAIN;", "    volatile int buf[4];\n    buf[v + 1] = 1;\n    return buf[0];"
+    )
+    main, extra_cpp, inc = _project(tmp_path, extra=extra)
+    with pytest.raises(PpalocError, match=r"stack-buffer-overflow .* at extra\.cpp:5$"):
+        run_program([main, extra_cpp], FRAME, include_dirs=[inc])
+
+
+def test_the_vendor_header_in_an_include_folder_is_not_scanned(tmp_path):
+    main, extra, inc = _project(tmp_path)
+    (inc / "scamp5.hpp").write_text("void vs_vendor_only() { scamp5_vendor(); }\n")
+    project = make_project([main, extra], [inc])
+    check_project(project)  # <scamp5.hpp> is the shim's, searched first
+    assert project_headers(project) == [inc / "scamp5.hpp", inc / "scale.hpp"]  # unshadowed

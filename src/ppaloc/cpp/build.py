@@ -27,6 +27,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.fileio import user_cache
 
 __all__ = [
+    "SHIM_HEADERS",
     "CompileError",
     "UnmodelledCallError",
     "cache_dir",
@@ -70,6 +71,14 @@ def cache_dir() -> Path:
     """Where compiled programs are kept (``$PPALOC_CPP_CACHE``, else the user cache; a
     private folder under the system's temp where that cannot be written)."""
     return user_cache("cpp", "PPALOC_CPP_CACHE")
+
+
+#: The headers the shim provides (its own and the generated ones): ``<scamp5.hpp>`` is
+#: the shim's, whatever a ``-I`` folder holds.
+SHIM_HEADERS = frozenset(
+    {h.name for h in resources.files("ppaloc.cpp").joinpath("include").iterdir()}
+    | {"ppaloc_gen_consts.hpp", "ppaloc_gen_macros.hpp"}
+)
 
 
 def _shim_text() -> str:
@@ -187,7 +196,7 @@ def check_project(project: Project) -> list[Path]:
 
     A name one file defines (a helper ``vs_blend`` in ``extra.cpp``) is known in all.
     """
-    headers = project_headers(project)
+    headers = project_headers(project, SHIM_HEADERS)
     texts: list[tuple[Path, str]] = []
     for path in [*project.sources, *headers]:
         try:

@@ -110,9 +110,14 @@ def _resolve(name: str, quoted: bool, here: Path, folders: Sequence[Path]) -> Pa
     return None
 
 
-def project_headers(project: Project) -> list[Path]:
+def project_headers(project: Project, shadowed: frozenset[str] = frozenset()) -> list[Path]:
     """The project's own headers, in the order first included: what the sources include
     from their own folders or the ``-I`` folders, followed through those headers.
+
+    ``<name>`` of a name in ``shadowed`` (the shim's headers, searched before the ``-I``
+    folders) is the shim's, even where a project folder holds a file of that name (the
+    vendor's ``scamp5.hpp`` in a copied SDK folder); ``"name"`` still finds a copy beside
+    the including file first, as the compiler does.
 
     A header the compiler reaches only through a macro (``#include HEADER``) is not seen:
     the build cache also keys on every header beside a source (:data:`HEADER_SUFFIXES`).
@@ -128,6 +133,8 @@ def project_headers(project: Project) -> list[Path]:
             continue
         for m in _INCLUDE.finditer(text):
             name, quoted = (m.group(1), True) if m.group(1) else (m.group(2), False)
+            if not quoted and name in shadowed:
+                continue
             header = _resolve(name, quoted, path.parent, project.include_dirs)
             if header is None or header.resolve() in seen:
                 continue

@@ -25,9 +25,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ppaloc.cpp.build import compile_program
+from ppaloc.cpp.build import SHIM_HEADERS, compile_program
 from ppaloc.cpp.displays import fit_plane
-from ppaloc.cpp.project import make_project
+from ppaloc.cpp.project import make_project, project_headers
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
 from ppaloc.cpp.server import ProgramError, Session, serve
 from ppaloc.errors import PpalocError
@@ -140,7 +140,29 @@ def write_outputs(result: RunResult, folder: Path) -> None:
     (folder / "stdout.txt").write_text(result.stdout)
 
 
-def _crash_message(program: str, code: int, stderr: str, session: Session) -> str:
+def _bad_access_place(lines: Sequence[str], files: frozenset[str]) -> str:
+    """Where AddressSanitizer's first stack trace enters the program's own code: its
+    innermost frame in one of ``files`` (the names of the sources and project headers),
+    else its frame in ``main``; ``" at extra.cpp:4"``, or ``""``."""
+    start = next(i for i, ln in enumerate(lines) if "ERROR: AddressSanitizer" in ln)
+    trace: list[str] = []
+    for ln in lines[start + 1 :]:
+        if re.match(r"#\d+ ", ln):
+            trace.append(ln)
+        elif trace:
+            break
+    places = [re.search(r"(\S+:\d+)(?::\d+)?\s*$", ln) for ln in trace]
+    own = [m.group(1) for m in places if m and Path(m.group(1).rsplit(":", 1)[0]).name in files]
+    if not own:
+        frame = next((ln for ln in lines if re.match(r"#\d+ .* in main ", ln)), "")
+        at = re.search(r"(\S+:\d+)(?::\d+)?\s*$", frame)
+        own = [at.group(1)] if at else []
+    return f" at {Path(own[0]).name}" if own else ""
+
+
+def _crash_message(
+    program: str, code: int, stderr: str, session: Session, files: frozenset[str] = frozenset()
+) -> str:
     where = f"in frame {session.frame}" if session.loops else "before the frame loop"
     lines = [ln.strip() for ln in stderr.splitlines() if ln.strip()]
     if code == SHIM_EXIT:
@@ -150,9 +172,7 @@ def _crash_message(program: str, code: int, stderr: str, session: Session) -> st
     asan = [ln for ln in lines if "ERROR: AddressSanitizer" in ln]
     if asan:
         kind = asan[0].split("AddressSanitizer:", 1)[1].split(" on ")[0].strip()
-        frame = next((ln for ln in lines if re.match(r"#\d+ .* in main ", ln)), "")
-        at = re.search(r"(\S+:\d+)(?::\d+)?\s*$", frame)
-        place = f" at {Path(at.group(1)).name}" if at else ""
+        place = _bad_access_place(lines, files)
         return f"{program} crashed {where}: {kind} (a bad memory access){place}"
     if code < 0:
         try:
@@ -296,12 +316,13 @@ def run_program(
     project = make_project(program, include_dirs, defines)
     name = project.name
     exe = compile_program(project)
+    files = frozenset(p.name for p in (*project.sources, *project_headers(project, SHIM_HEADERS)))
     sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
     session = Session(sim, frames, values, program=name)
     if live is not None:
         live.open(session)
     try:
-        result = _serve(exe, session, name, timeout, live)
+        result = _serve(exe, session, name, timeout, live, files)
     finally:
         if live is not None:
             live.close(session)
@@ -314,7 +335,12 @@ def run_program(
 
 
 def _serve(
-    exe: Path, session: Session, name: str, timeout: float, live: LiveView | None = None
+    exe: Path,
+    session: Session,
+    name: str,
+    timeout: float,
+    live: LiveView | None = None,
+    files: frozenset[str] = frozenset(),
 ) -> RunResult:
     to_sim_r, to_sim_w = os.pipe()
     to_prog_r, to_prog_w = os.pipe()
@@ -390,5 +416,5 @@ def _serve(
     if error is not None:
         raise error
     if code != 0 and code != SERVER_EXIT:
-        raise PpalocError(_crash_message(name, code, stderr, session))
+        raise PpalocError(_crash_message(name, code, stderr, session, files))
     return RunResult(session, stdout, wall)
