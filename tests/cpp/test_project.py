@@ -165,3 +165,19 @@ def test_the_vendor_header_in_an_include_folder_is_not_scanned(tmp_path):
     project = make_project([main, extra], [inc])
     check_project(project)  # <scamp5.hpp> is the shim's, searched first
     assert project_headers(project) == [inc / "scamp5.hpp", inc / "scale.hpp"]  # unshadowed
+
+
+def test_the_cli_refuses_bad_inputs_in_one_line(tmp_path, capsys):
+    from ppaloc.cli.main import main
+
+    source, _, inc = _project(tmp_path)
+    out = str(tmp_path / "run")
+    for args, message in [
+        ([str(inc)], f"{inc} is a folder, not a C++ source"),
+        ([str(source), "-I", str(source)], "the include folder is a file"),
+        ([str(source), "-D", "A B"], "-D 'A B' must be NAME or NAME=VALUE"),
+        ([str(source), "--stream-format", "v4l2"], "--stream-format v4l2 needs --stream INPUT"),
+    ]:
+        assert main(["cpp", "run", *args, "--out", out]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err

@@ -51,6 +51,27 @@ def load_frames(
     frames unless ``frames`` bounds them); the first ``frames`` (default
     :data:`DATASET_FRAMES`) of a live ``stream`` or camera PyAV opens (``stream_format``
     as FFmpeg's ``-f``: ``v4l2``, ``lavfi``, ...); or ``frames`` synthetic scenes.
+
+    Parameters
+    ----------
+    image, dataset, stream : at most one of them
+        ``--image``, ``--dataset`` and ``--stream``.
+    frames : int or None
+        ``--frames``: in [1, :data:`MAX_FRAMES`].
+    stream_format : str or None
+        ``--stream-format``; only with ``stream``.
+
+    Returns
+    -------
+    list of (256, 256) uint8 arrays, or None
+        None when no source and no ``frames`` are given (the run's default scene).
+
+    Raises
+    ------
+    PpalocError
+        Two sources, a format without a stream, ``frames`` out of range, a folder or video
+        of more than :data:`MAX_FRAMES` frames unbounded, or a source that cannot be read
+        (one line naming it).
     """
     from ppaloc.frontend import to_sensor
 
