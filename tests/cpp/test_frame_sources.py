@@ -117,3 +117,16 @@ def test_bad_frame_sources_are_one_line(tmp_path):
         with pytest.raises(PpalocError, match=re.escape(message)) as err:
             load_frames(*args)
         assert "\n" not in str(err.value)
+
+
+def test_stream_options_reach_ffmpeg(cxx, tmp_path, capsys):
+    raw = tmp_path / "frames.gray"  # raw 8 x 4 grey frames: FFmpeg needs their size and format
+    raw.write_bytes(np.repeat(np.array([10, 200, 90], np.uint8), 32).tobytes())
+    args = ["--stream", str(raw), "--stream-format", "rawvideo", "--frames", "5"]
+    options = ["--stream-option", "video_size=8x4", "--stream-option", "pixel_format=gray"]
+    means = _run_cli(capsys, *args, *options, "--out", str(tmp_path / "run"))
+    assert means == [10.0, 200.0, 90.0]  # the stream ended after 3 of the 5 frames asked
+    with pytest.raises(PpalocError, match=r"^--stream-option 'video_size' must be NAME=VALUE"):
+        load_frames(None, None, 1, str(raw), "rawvideo", ["video_size"])
+    with pytest.raises(PpalocError, match=r"^--stream-option needs --stream INPUT"):
+        load_frames(None, None, 1, None, None, ["video_size=8x4"])

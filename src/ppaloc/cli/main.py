@@ -944,6 +944,13 @@ Examples:
     help="The stream's FFmpeg input format (FFmpeg's -f: v4l2, lavfi, ...).",
 )
 @click.option(
+    "--stream-option",
+    "stream_options",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="An FFmpeg input option of the stream (repeatable): video_size=640x480, framerate=30.",
+)
+@click.option(
     "--frames",
     type=int,
     help="Frames to run [default: 1 image, all of a folder or video, 10 of a dataset or stream].",
@@ -998,6 +1005,7 @@ def cpp_run(
     dataset: str | None,
     stream: str | None,
     stream_format: str | None,
+    stream_options: tuple[str, ...],
     frames: int | None,
     settings: tuple[str, ...],
     timeout: float,
@@ -1035,6 +1043,7 @@ def cpp_run(
         frames=frames,
         stream=stream,
         stream_format=stream_format,
+        stream_options=stream_options,
         settings=settings,
         timeout=timeout,
         noise=noise,

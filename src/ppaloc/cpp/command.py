@@ -16,7 +16,7 @@ from ppaloc.cpp.live import LiveView
 from ppaloc.cpp.run import RunResult, run_program
 from ppaloc.errors import PpalocError
 
-__all__ = ["load_frames", "parse_settings", "run_cpp"]
+__all__ = ["load_frames", "parse_settings", "parse_stream_options", "run_cpp"]
 
 #: Frames taken from a dataset when --frames is not given.
 DATASET_FRAMES = 10
@@ -37,12 +37,27 @@ MAX_FRAMES = 2000
 """Most frames one run takes: every exposure is held in memory (64 KB each at 256 x 256)."""
 
 
+def parse_stream_options(items: Sequence[str]) -> dict[str, str]:
+    """``["video_size=640x480"]`` -> ``{"video_size": "640x480"}`` (FFmpeg input options)."""
+    out: dict[str, str] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip() or not value.strip():
+            raise PpalocError(
+                f"--stream-option {item!r} must be NAME=VALUE, an FFmpeg input option, e.g. "
+                "--stream-option video_size=640x480"
+            )
+        out[name.strip()] = value.strip()
+    return out
+
+
 def load_frames(
     image: Path | None,
     dataset: str | None,
     frames: int | None,
     stream: str | None = None,
     stream_format: str | None = None,
+    stream_options: Sequence[str] = (),
 ) -> list[np.ndarray] | None:
     """The run's sensor frames (256 x 256 grey, :func:`ppaloc.frontend.to_sensor`).
 
@@ -60,6 +75,9 @@ def load_frames(
         ``--frames``: in [1, :data:`MAX_FRAMES`].
     stream_format : str or None
         ``--stream-format``; only with ``stream``.
+    stream_options : sequence of str
+        ``--stream-option NAME=VALUE``: FFmpeg's input options (``video_size=640x480``,
+        ``framerate=30``, ``pixel_format=gray``); only with ``stream``.
 
     Returns
     -------
@@ -82,10 +100,11 @@ def load_frames(
     given = [n for n, v in (("--image", image), ("--dataset", dataset), ("--stream", stream)) if v]
     if len(given) > 1:
         raise PpalocError(f"give one of --image, --dataset and --stream, not {' and '.join(given)}")
-    if stream_format is not None and stream is None:
+    options = parse_stream_options(stream_options)
+    if stream is None and (stream_format is not None or options):
+        given = f"--stream-format {stream_format}" if stream_format else "--stream-option"
         raise PpalocError(
-            f"--stream-format {stream_format} needs --stream INPUT (e.g. --stream /dev/video0 "
-            "--stream-format v4l2)"
+            f"{given} needs --stream INPUT (e.g. --stream /dev/video0 --stream-format v4l2)"
         )
     if image is not None:
         from ppaloc.datasets.images import read_grey
@@ -113,7 +132,8 @@ def load_frames(
     if stream is not None:
         from ppaloc.datasets.loaders.video import read_stream
 
-        return [to_sensor(f) for f in read_stream(stream, frames or DATASET_FRAMES, stream_format)]
+        grey = read_stream(stream, frames or DATASET_FRAMES, stream_format, options)
+        return [to_sensor(f) for f in grey]
     if frames is not None:
         from ppaloc.sim.demo import synthetic_scene
 
@@ -132,6 +152,7 @@ def run_cpp(
     frames: int | None = None,
     stream: str | None = None,
     stream_format: str | None = None,
+    stream_options: Sequence[str] = (),
     settings: Sequence[str] = (),
     timeout: float = 60.0,
     noise: str = "ideal",
@@ -147,7 +168,7 @@ def run_cpp(
         raise PpalocError(f"--seed {seed} must be 0 or more")
     result = run_program(
         program,
-        load_frames(image, dataset, frames, stream, stream_format),
+        load_frames(image, dataset, frames, stream, stream_format, stream_options),
         include_dirs=include_dirs,
         defines=defines,
         settings=parse_settings(settings),
