@@ -130,3 +130,17 @@ def test_stream_options_reach_ffmpeg(cxx, tmp_path, capsys):
         load_frames(None, None, 1, str(raw), "rawvideo", ["video_size"])
     with pytest.raises(PpalocError, match=r"^--stream-option needs --stream INPUT"):
         load_frames(None, None, 1, None, None, ["video_size=8x4"])
+
+
+def test_the_program_is_checked_before_any_frame_is_read(tmp_path, monkeypatch):
+    import ppaloc.datasets.loaders.video as video
+    from ppaloc.cpp.command import run_cpp
+
+    def never(*args, **kwargs):
+        raise AssertionError("a frame was read")
+
+    monkeypatch.setattr(video, "read_stream", never)
+    with pytest.raises(PpalocError, match="does not exist"):
+        run_cpp(tmp_path / "gone.cpp", tmp_path / "run", stream="testsrc", stream_format="lavfi")
+    with pytest.raises(PpalocError, match="must be NAME=VALUE"):
+        run_cpp(MEANS, tmp_path / "run", stream="testsrc", settings=["x"])

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from ppaloc.cpp.live import LiveView
-from ppaloc.cpp.run import RunResult, run_program
+from ppaloc.cpp.project import make_project
+from ppaloc.cpp.run import RunResult, check_output_folder, check_timeout, run_program
 from ppaloc.errors import PpalocError
 
 __all__ = ["load_frames", "parse_settings", "parse_stream_options", "run_cpp"]
@@ -35,6 +36,13 @@ def parse_settings(items: Sequence[str]) -> dict[str, str]:
 
 MAX_FRAMES = 2000
 """Most frames one run takes: every exposure is held in memory (64 KB each at 256 x 256)."""
+
+
+def _check_frames(frames: int | None) -> None:
+    if frames is not None and not 1 <= frames <= MAX_FRAMES:
+        raise PpalocError(
+            f"--frames {frames} must be in [1, {MAX_FRAMES}] (the frames are held in memory)"
+        )
 
 
 def parse_stream_options(items: Sequence[str]) -> dict[str, str]:
@@ -93,10 +101,7 @@ def load_frames(
     """
     from ppaloc.frontend import to_sensor
 
-    if frames is not None and not 1 <= frames <= MAX_FRAMES:
-        raise PpalocError(
-            f"--frames {frames} must be in [1, {MAX_FRAMES}] (the frames are held in memory)"
-        )
+    _check_frames(frames)
     given = [n for n, v in (("--image", image), ("--dataset", dataset), ("--stream", stream)) if v]
     if len(given) > 1:
         raise PpalocError(f"give one of --image, --dataset and --stream, not {' and '.join(given)}")
@@ -166,12 +171,19 @@ def run_cpp(
     """
     if seed < 0:
         raise PpalocError(f"--seed {seed} must be 0 or more")
+    # Every value, then the program's files and the output folder, are checked before any
+    # frame is read: a stream or a long video takes time to read.
+    _check_frames(frames)
+    check_timeout(timeout)
+    values = parse_settings(settings)
+    make_project(program, include_dirs, defines)
+    check_output_folder(out)
     result = run_program(
         program,
         load_frames(image, dataset, frames, stream, stream_format, stream_options),
         include_dirs=include_dirs,
         defines=defines,
-        settings=parse_settings(settings),
+        settings=values,
         timeout=timeout,
         out=out,
         noise=noise,

@@ -38,7 +38,7 @@ from ppaloc.sim.render import plane_to_image, render_montage, save_png
 if TYPE_CHECKING:
     from ppaloc.cpp.live import LiveView
 
-__all__ = ["RunResult", "check_settings", "run_program", "write_outputs"]
+__all__ = ["RunResult", "check_settings", "check_timeout", "run_program", "write_outputs"]
 
 #: Frames of the montage (the first ones; every frame has its own PNGs).
 MONTAGE_FRAMES = 8
@@ -249,6 +249,12 @@ MAX_TIMEOUT = 86_400
 """The longest ``timeout`` a run takes, seconds (one day; also keeps ``select`` in range)."""
 
 
+def check_timeout(timeout: object) -> None:
+    """Refuse a ``timeout`` that is not a number of seconds in (0, :data:`MAX_TIMEOUT`]."""
+    if not (isinstance(timeout, int | float) and 0 < timeout <= MAX_TIMEOUT):
+        raise PpalocError(f"timeout={timeout!r} must be a number of seconds in (0, {MAX_TIMEOUT}]")
+
+
 def run_program(
     program: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     frames: Sequence[np.ndarray] | None = None,
@@ -310,8 +316,7 @@ def run_program(
         raise PpalocError(
             "frames must be uint8 images of one shape: convert them with ppaloc.frontend.to_sensor"
         )
-    if not (isinstance(timeout, int | float) and 0 < timeout <= MAX_TIMEOUT):
-        raise PpalocError(f"timeout={timeout!r} must be a number of seconds in (0, {MAX_TIMEOUT}]")
+    check_timeout(timeout)
     values = check_settings(settings)
     project = make_project(program, include_dirs, defines)
     name = project.name
