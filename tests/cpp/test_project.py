@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -54,8 +55,12 @@ def test_two_sources_an_include_folder_and_a_define(cxx, tmp_path):
     plain = run_program([main, extra], FRAME, include_dirs=[inc])
     assert plain.texts == ["scaled 3"]
     assert plain.session.program == "main.cpp"
-    defined = run_program([main, extra], FRAME, include_dirs=[inc], defines=["GAIN=5"])
+    out = tmp_path / "run"
+    defined = run_program([main, extra], FRAME, include_dirs=[inc], defines=["GAIN=5"], out=out)
     assert defined.texts == ["scaled 15"]  # a define is part of the build's key
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["sources"] == [str(main), str(extra)]
+    assert (summary["include_dirs"], summary["defines"]) == ([str(inc)], ["GAIN=5"])
 
 
 @pytest.mark.parametrize("flags", [["-D", "GAIN=7"], ["-DGAIN=7"], ["--define", "GAIN=7"]])

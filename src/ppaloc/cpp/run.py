@@ -27,7 +27,7 @@ import numpy as np
 
 from ppaloc.cpp.build import SHIM_HEADERS, compile_program
 from ppaloc.cpp.displays import fit_plane
-from ppaloc.cpp.project import make_project, project_headers
+from ppaloc.cpp.project import Project, make_project, project_headers
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
 from ppaloc.cpp.server import ProgramError, Session, serve
 from ppaloc.errors import PpalocError
@@ -59,12 +59,15 @@ class RunResult:
         Wall time of the run (compilation excluded).
     out : pathlib.Path or None
         The output folder, when one was written.
+    project : Project or None
+        The program's source files, include folders and defines.
     """
 
     session: Session
     stdout: str
     wall_s: float
     out: Path | None = None
+    project: Project | None = None
 
     @property
     def texts(self) -> list[str]:
@@ -74,8 +77,12 @@ class RunResult:
     def summary(self) -> dict[str, Any]:
         """What ran, JSON-ready (``summary.json``)."""
         s = self.session
+        p = self.project
         return {
             "program": s.program,
+            "sources": [str(f) for f in p.sources] if p else [s.program],
+            "include_dirs": [str(d) for d in p.include_dirs] if p else [],
+            "defines": list(p.defines) if p else [],
             "array": [s.sim.rows, s.sim.cols],
             "frames": len(s.frame_us) if s.finished else s.frame + (1 if s.loops else 0),
             "kernels": len(s.kernels),
@@ -331,6 +338,7 @@ def run_program(
     finally:
         if live is not None:
             live.close(session)
+    result.project = project
     session.check_settings()
     if out is not None:
         with new_folder(out) as stage:
