@@ -762,8 +762,12 @@ def _gui_display_text(s: Session, a: list, line: int) -> None:
     s.note(f"vs_gui_display_text: {name!r} at row {r}, column {c}, RGBA ({colour}): {text!r}")
 
 
+#: ``vs_gui_set_lineplot``'s data directions (its ``format``).
+LINEPLOT_FORMATS = ("auto", "row series", "column series")
+
+
 def _graph(kind: str) -> Handler:
-    """``vs_gui_set_scope`` / ``vs_gui_set_barplot``: a display drawn as a graph."""
+    """``vs_gui_set_scope`` / ``_barplot`` / ``_lineplot``: a display drawn as a graph."""
 
     def handler(s: Session, a: list, line: int) -> bytes:
         handle, lo, hi, n, _opt = a
@@ -773,7 +777,13 @@ def _graph(kind: str) -> Handler:
                 f"{s.at(line)}: vs_gui_set_{kind}({name!r}, {lo}, {hi}, ...): the "
                 "minimum must be below the maximum"
             )
-        s.note(f"vs_gui_set_{kind}: {name!r} shows posted values in [{lo}, {hi}], {n} wide")
+        if kind == "lineplot" and not 0 <= n < len(LINEPLOT_FORMATS):
+            raise ProgramError(
+                f"{s.at(line)}: vs_gui_set_lineplot({name!r}, {lo}, {hi}, {n}): format "
+                "is 0 (auto), 1 (row series) or 2 (column series)"
+            )
+        shape = f"as {LINEPLOT_FORMATS[n]}" if kind == "lineplot" else f"{n} wide"
+        s.note(f"vs_gui_set_{kind}: {name!r} shows posted values in [{lo}, {hi}], {shape}")
         return _i32(handle)
 
     return handler
@@ -924,6 +934,7 @@ HANDLERS.update(
         "vs_gui_display_text": _gui_display_text,
         "vs_gui_set_scope": _graph("scope"),
         "vs_gui_set_barplot": _graph("barplot"),
+        "vs_gui_set_lineplot": _graph("lineplot"),
         "vs_post_set_channel": _post_channel,
         **{name: _post(name) for name in _POST_TYPES},
         "vs_led_on": _accepted("vs_led_on", _led),
@@ -939,6 +950,19 @@ HANDLERS.update(
         "scamp5_bind_io_agent": _accepted("scamp5_bind_io_agent"),
         "scamp5_kernel::print_debug_info": _accepted("scamp5_kernel::print_debug_info"),
         "allow_highspeed": _accepted("allow_highspeed"),
+        **{
+            fn: _accepted(fn)
+            for fn in (
+                "scamp5_kernel_begin_print",
+                "vs_gui_set_slider_range",
+                "vs_on_gui_start_recording",
+                "vs_on_gui_stop_recording",
+                "vs_on_user_value",
+                "vs_wait_io_agent",
+                "vs_vision_chip_rest",
+                "vs_scamp5_rest",
+            )
+        },
         "vs_host_event": _host_event,
         **{
             f"vs_sim::{fn}": _accepted(f"vs_sim::{fn}")

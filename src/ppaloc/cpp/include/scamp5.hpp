@@ -416,6 +416,17 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
     }                            \
     scamp5_launch_kernel(__ppa_sk); \
     }
+// A static kernel whose compiled ICWs the device prints to the host: recorded once in
+// host.txt (the kernels' ICWs are in timing.json); it ends with scamp5_kernel_end().
+#define scamp5_kernel_begin_print()                                                 \
+    {                                                                               \
+        using namespace SCAMP5_ICW_BITS;                                            \
+        using namespace scamp5_kernel_api;                                          \
+        static scamp5_kernel __ppa_sk;                                              \
+        if (__ppa_sk.null()) {                                                      \
+            ppa::call("scamp5_kernel_begin_print", false, {int(__LINE__)},          \
+                      ppa::Loc{__FILE__, __LINE__});                                \
+            __ppa_sk.recording_start(__FILE__, __LINE__)
 #define scamp5_dynamic_kernel_begin()      \
     {                                      \
         using namespace SCAMP5_ICW_BITS;   \
@@ -702,13 +713,13 @@ inline void end_of_run() {
 }  // namespace ppa
 
 inline void vs_init(ppa::Loc loc = PPA_HERE) {
-    (void)loc;
     ppa::Client::get().connect();
     static bool once = false;
     if (once) return;
     once = true;
     ppa::hooks();  // built before the exit handler, so alive when it runs
     ppa::gui();
+    ppa::wire(loc);  // its file maps too: the exit handler's calls use them
     std::atexit([] { ppa::end_of_run(); });
 }
 namespace ppa {
@@ -743,6 +754,23 @@ inline void vs_on_host_disconnect(std::function<void(void)> f) {
     ppa::hooks().disconnect.push_back(f);
 }
 inline void vs_on_shutdown(std::function<void(void)> f) { ppa::hooks().shutdown.push_back(f); }
+// The device's own names of the two above (vs_on_host_connect is its alias of these).
+inline void vs_on_gui_connect(std::function<void(void)> f) { vs_on_host_connect(f); }
+inline void vs_on_gui_disconnect(std::function<void(void)> f) { vs_on_host_disconnect(f); }
+// The host never records a run nor sends a user value here: accepted and recorded
+// (host.txt), never called, as a button is never pressed.
+inline void vs_on_gui_start_recording(std::function<void(void)> f, ppa::Loc loc = PPA_HERE) {
+    (void)f;
+    ppa::call("vs_on_gui_start_recording", false, {}, loc);
+}
+inline void vs_on_gui_stop_recording(std::function<void(void)> f, ppa::Loc loc = PPA_HERE) {
+    (void)f;
+    ppa::call("vs_on_gui_stop_recording", false, {}, loc);
+}
+inline void vs_on_user_value(std::function<void(uint8_t, int32_t)> f, ppa::Loc loc = PPA_HERE) {
+    (void)f;
+    ppa::call("vs_on_user_value", false, {}, loc);
+}
 inline void vs_wait_frame_trigger() {}
 inline void vs_wait(uint32_t usec) { (void)usec; }
 inline void vs_loop_counter_inc() { ppa::loop_counter()++; }
@@ -821,6 +849,18 @@ inline void vs_gui_move_slider(vs_handle h, int32_t value, bool feedback = true,
     vs_gui_set_slider(h, value, loc);
     ppa::Gui& g = ppa::gui();
     if (feedback && g.callbacks.count(h)) g.callbacks[h](value);
+}
+// A slider's new range: checked (a slider's handle, min <= max) and recorded; its value
+// is left as it is (the headers do not say the host moves it into the range).
+inline void vs_gui_set_slider_range(vs_handle h, int32_t min, int32_t max,
+                                    ppa::Loc loc = PPA_HERE) {
+    ppa::gui_value("vs_gui_set_slider_range", h, loc);
+    if (min > max) {
+        ppa::fail(loc, "vs_gui_set_slider_range(" + std::to_string(h) + ", " +
+                           std::to_string(min) + ", " + std::to_string(max) +
+                           "): the minimum is above the maximum");
+    }
+    PPA_CALL("vs_gui_set_slider_range", false, h, min, max);
 }
 inline void vs_on_gui_update(vs_handle item, std::function<void(int32_t)> f) {
     ppa::Gui& g = ppa::gui();
@@ -925,6 +965,16 @@ inline void vs_post_bind_io_agent(vs_io_agent_api* u, ppa::Loc loc = PPA_HERE) {
 inline void scamp5_bind_io_agent(vs_io_agent_api* p, ppa::Loc loc = PPA_HERE) {
     ppa::bind_agent("scamp5_bind_io_agent", p, loc);
 }
+// Waiting for an io agent to finish sending: output reaches the run's folder at once, so
+// there is nothing to wait for (checked and recorded).
+inline void vs_wait_io_agent(vs_io_agent_api* p, ppa::Loc loc = PPA_HERE) {
+    ppa::bind_agent("vs_wait_io_agent", p, loc);
+}
+// Resting the chip (or its ADC) during a long wait on the M0: no meaning here (recorded).
+inline void vs_vision_chip_rest(ppa::Loc loc = PPA_HERE) {
+    ppa::call("vs_vision_chip_rest", false, {}, loc);
+}
+inline void vs_scamp5_rest(ppa::Loc loc = PPA_HERE) { ppa::call("vs_scamp5_rest", false, {}, loc); }
 
 // Data posted to the host: kept with the frame and the channel (posts.json).
 inline void vs_post_set_channel(uint32_t ch, ppa::Loc loc = PPA_HERE) {
@@ -960,6 +1010,11 @@ inline vs_handle vs_gui_set_scope(vs_handle h, int32_t min, int32_t max, uint16_
 inline vs_handle vs_gui_set_barplot(vs_handle h, int32_t min, int32_t max, uint16_t width,
                                     uint16_t opt = 0, ppa::Loc loc = PPA_HERE) {
     return ppa::as_int(PPA_CALL("vs_gui_set_barplot", true, h, min, max, int(width), int(opt)));
+}
+inline vs_handle vs_gui_set_lineplot(vs_handle h, int32_t min, int32_t max, uint16_t format = 0,
+                                     uint16_t opt = 0, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(
+        PPA_CALL("vs_gui_set_lineplot", true, h, min, max, int(format), int(opt)));
 }
 inline void vs_gui_save_image(vs_handle h, const char* filepath, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("vs_gui_save_image", false, h, ppa::Arg(filepath));

@@ -1,0 +1,68 @@
+"""Device API names beyond the tutorials' (programs/more_api.cpp, one case per ``mode``):
+the GUI connect callbacks under their device names, callbacks the host never triggers, a
+slider's range, a line plot, a printed kernel and the host-only rests and waits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.cpp import compile_program, run_program
+from ppaloc.errors import PpalocError
+
+from .conftest import PROGRAMS
+
+SOURCE = PROGRAMS / "more_api.cpp"
+N = 16
+
+
+@pytest.fixture(scope="module")
+def frames(cxx) -> list[np.ndarray]:
+    compile_program(SOURCE)  # once for the module
+    rng = np.random.default_rng(5)
+    return [rng.integers(0, 256, (N, N), dtype=np.uint8) for _ in range(2)]
+
+
+def run(frames, mode: int, **kwargs):
+    return run_program(SOURCE, frames, settings={"mode": str(mode)}, timeout=60, **kwargs)
+
+
+def test_device_names_run_and_are_recorded(frames, tmp_path):
+    result = run(frames, 0, out=tmp_path / "run")
+    # vs_on_gui_connect/_disconnect are vs_on_host_connect/_disconnect; the recording and
+    # user-value callbacks never run; the slider keeps its value in its new range
+    assert result.texts == ["gui connected", "level 5", "level 5", "gui disconnected"]
+    for frame, out in zip(frames, result.session.outputs, strict=True):
+        # mov(C, A) goes through the bus twice (C = -(-A)): -128 saturates to 127 on the
+        # way, so comes back as -127
+        expected = np.maximum(frame.astype(np.float32) - 128, -127)
+        np.testing.assert_array_equal(out[1], expected)
+    host = (tmp_path / "run" / "host.txt").read_text()
+    for line in (
+        "frame 0: vs_on_gui_start_recording()",
+        "frame 0: vs_on_gui_stop_recording()",
+        "frame 0: vs_on_user_value()",
+        "frame 0: vs_gui_set_slider_range(4, -5, 20)",  # displays 1, 2, sliders 3, 4
+        "frame 0: vs_gui_set_lineplot: 'plot' shows posted values in [0, 100], as row series",
+        "frame 0: vs_wait_io_agent('vs_usb')",
+        "frame 0: vs_vision_chip_rest()",
+        "frame 1: vs_scamp5_rest()",
+    ):
+        assert line in host.splitlines()
+    # the printed kernel is recorded once, when it is built, and runs every frame
+    assert host.count("scamp5_kernel_begin_print(") == 1
+
+
+@pytest.mark.parametrize(
+    ("mode", "message"),
+    [
+        (1, r"more_api.cpp:\d+: vs_gui_set_slider_range\(\d+, 20, -5\): the minimum is above"),
+        (2, r"vs_gui_set_slider_range\(\d+, \.\.\.\): no slider, switch or button has this"),
+        (3, r"vs_gui_set_lineplot\('plot', 0, 100, 3\): format is 0 \(auto\), 1 \(row series\)"),
+        (4, r"more_api.cpp:\d+: vs_wait_io_agent\(NULL\): give an io agent: vs_usb, vs_spi"),
+    ],
+)  # fmt: skip
+def test_misuse_is_one_line_with_its_line(frames, tmp_path, mode, message):
+    with pytest.raises(PpalocError, match=message) as err:
+        run(frames, mode, out=tmp_path / "run")
+    assert "\n" not in str(err.value)
