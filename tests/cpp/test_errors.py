@@ -88,6 +88,14 @@ def test_null_pointer_crash(faults, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_division_by_zero_is_named_as_such(faults, tmp_path):
+    fault(7, index=4)  # 100 / 4: fine
+    message = r"crashed in frame 0: FPE \(an arithmetic error: an integer division by zero\)"
+    with pytest.raises(PpalocError, match=message + r" at faults.cpp:\d+$"):
+        fault(7, tmp_path)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_register_misuse_names_the_line(faults):
     with pytest.raises(PpalocError, match=r"faults.cpp:25: sub\(A, B, A\): .*lists A twice"):
         fault(3)

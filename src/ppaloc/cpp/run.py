@@ -167,6 +167,14 @@ def _bad_access_place(lines: Sequence[str], files: frozenset[str]) -> str:
     return f" at {Path(own[0]).name}" if own else ""
 
 
+# AddressSanitizer's reports that are not a memory access (it reports every fatal
+# signal): what each means in the program.
+_ASAN_KINDS = {
+    "FPE": "an arithmetic error: an integer division by zero",
+    "ILL": "an illegal instruction",
+}
+
+
 def _crash_message(
     program: str, code: int, stderr: str, session: Session, files: frozenset[str] = frozenset()
 ) -> str:
@@ -180,7 +188,8 @@ def _crash_message(
     if asan:
         kind = asan[0].split("AddressSanitizer:", 1)[1].split(" on ")[0].strip()
         place = _bad_access_place(lines, files)
-        return f"{program} crashed {where}: {kind} (a bad memory access){place}"
+        what = _ASAN_KINDS.get(kind, "a bad memory access")
+        return f"{program} crashed {where}: {kind} ({what}){place}"
     if code < 0:
         try:
             sig = signal.Signals(-code).name

@@ -32,6 +32,9 @@ int main() {
         } else if (fault == 6) {
             volatile int* p = nullptr;
             *p = 1;
+        } else if (fault == 7) {
+            volatile int zero = index;
+            vs_post_text("%d", 100 / zero);  // an integer division by zero for index 0
         }
     }
 }

@@ -1,6 +1,7 @@
 // Device API names beyond the tutorials' (docs/cpp.md "The shim"): the GUI's connect
 // callbacks under their device names, the callbacks the host never triggers here, a
-// slider's range, a line plot, a printed kernel and the host-only rests and waits.
+// slider's range, a line plot, a printed kernel, kernels begun without a ';' and the
+// host-only rests and waits.
 // One "mode" slider value per case (tests/cpp/test_more_api.py).
 #include <scamp5.hpp>
 using namespace SCAMP5_PE;
@@ -28,6 +29,12 @@ int main() {
                 mov(C, A);
             scamp5_kernel_end();
             scamp5_output_image(C, d0);
+            scamp5_kernel_begin()  // no ';': the device's macros end in one
+                mov(D, A);
+            scamp5_kernel_end();
+            scamp5_dynamic_kernel_begin()
+                mov(E, A);
+            scamp5_dynamic_kernel_end();
             vs_wait_io_agent(vs_usb);
             vs_vision_chip_rest();
             vs_scamp5_rest();

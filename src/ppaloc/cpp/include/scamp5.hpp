@@ -410,7 +410,7 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
         using namespace scamp5_kernel_api;      \
         static scamp5_kernel __ppa_sk;          \
         if (__ppa_sk.null()) {                  \
-            __ppa_sk.recording_start(__FILE__, __LINE__)
+            __ppa_sk.recording_start(__FILE__, __LINE__);
 #define scamp5_kernel_end()      \
     __ppa_sk.recording_stop();   \
     }                            \
@@ -426,13 +426,13 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
         if (__ppa_sk.null()) {                                                      \
             ppa::call("scamp5_kernel_begin_print", false, {int(__LINE__)},          \
                       ppa::Loc{__FILE__, __LINE__});                                \
-            __ppa_sk.recording_start(__FILE__, __LINE__)
+            __ppa_sk.recording_start(__FILE__, __LINE__);
 #define scamp5_dynamic_kernel_begin()      \
     {                                      \
         using namespace SCAMP5_ICW_BITS;   \
         using namespace scamp5_kernel_api; \
         scamp5_kernel __ppa_sk;            \
-        __ppa_sk.recording_start(__FILE__, __LINE__, true)
+        __ppa_sk.recording_start(__FILE__, __LINE__, true);
 #define scamp5_dynamic_kernel_end() \
     __ppa_sk.recording_stop();      \
     scamp5_launch_kernel(__ppa_sk); \
