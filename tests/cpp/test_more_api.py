@@ -46,6 +46,7 @@ def test_device_names_run_and_are_recorded(frames, tmp_path):
         "frame 0: vs_gui_set_lineplot: 'plot' shows posted values in [0, 100], as row series",
         "frame 0: vs_wait_io_agent('vs_usb')",
         "frame 0: vs_vision_chip_rest()",
+        "frame 1: vs_gui_save_snapshots()",
         "frame 1: vs_scamp5_rest()",
     ):
         assert line in host.splitlines()

@@ -954,6 +954,7 @@ HANDLERS.update(
             fn: _accepted(fn)
             for fn in (
                 "scamp5_kernel_begin_print",
+                "vs_gui_save_snapshots",
                 "vs_gui_set_slider_range",
                 "vs_on_gui_start_recording",
                 "vs_on_gui_stop_recording",

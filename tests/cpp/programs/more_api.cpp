@@ -37,6 +37,7 @@ int main() {
             scamp5_dynamic_kernel_end();
             vs_wait_io_agent(vs_usb);
             vs_vision_chip_rest();
+            vs_gui_save_snapshots();
             vs_scamp5_rest();
             vs_post_text("level %d", vs_gui_read_slider(level));
         } else if (mode == 1) {

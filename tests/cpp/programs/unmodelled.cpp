@@ -3,9 +3,9 @@ using namespace SCAMP5_PE;
 
 int main() {
     vs_init();
-    // vs_gui_save_snapshots(); in a comment is fine
+    // vs_gui_request_done(); in a comment is fine
     while (1) {
         vs_frame_loop_control();
-        vs_gui_save_snapshots();
+        vs_gui_request_done();
     }
 }

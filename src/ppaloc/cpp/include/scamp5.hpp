@@ -1016,6 +1016,11 @@ inline vs_handle vs_gui_set_lineplot(vs_handle h, int32_t min, int32_t max, uint
     return ppa::as_int(
         PPA_CALL("vs_gui_set_lineplot", true, h, min, max, int(format), int(opt)));
 }
+// The host saving every display's data for one loop iteration: the run's folder keeps
+// every frame's already (recorded).
+inline void vs_gui_save_snapshots(ppa::Loc loc = PPA_HERE) {
+    ppa::call("vs_gui_save_snapshots", false, {}, loc);
+}
 inline void vs_gui_save_image(vs_handle h, const char* filepath, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("vs_gui_save_image", false, h, ppa::Arg(filepath));
 }
