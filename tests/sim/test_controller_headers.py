@@ -250,34 +250,13 @@ def test_line_and_circle_geometry() -> None:
     assert circle_points(1, 1, 0)[0].tolist() == [1]
 
 
-@pytest.mark.parametrize(
-    ("corners", "message"),
-    [
-        ((3, 1, 2, 2), r"^draw_rect\(r0=3, c0=1, r1=2, c1=2\): r1 < r0; \(r0, c0\) is the first"),
-        ((1, 2, 2, 1), r"^draw_rect\(r0=1, c0=2, r1=2, c1=1\): c1 < c0; .*: swap them$"),
-    ],
-)
-def test_draw_rect_refuses_swapped_corners(corners, message) -> None:
-    sim = Scamp5(4, 4)
-    sim.draw_begin(R5)
-    for scamp_addr in (False, True):  # in the coordinates given
-        with pytest.raises(SimulatorError, match=message):
-            sim.draw_rect(*corners, scamp_addr=scamp_addr)
-    assert not sim.read(R5).any()
-    sim.draw_rect(1, 1, 1, 1)  # one element: r0 == r1, c0 == c1
-    sim.draw_rect(0, 0, 0, 1, scamp_addr=True)  # hardware columns 0-1: the east edge
-    want = np.zeros((4, 4), bool)
-    want[1, 1] = want[0, 2] = want[0, 3] = True
-    np.testing.assert_array_equal(sim.read(R5), want)
-
-
 def test_draw_calls_or_into_the_target() -> None:
     sim = Scamp5(4, 4)
     sim.write(R5, np.eye(4, dtype=bool))
     sim.draw_begin(R5)
     sim.draw_pixel(0, 5)  # wraps round: column 1
     assert sim.draw_point(3, 0) and not sim.draw_point(4, 0)
-    sim.draw_rect(2, 2, 3, 3)
+    sim.draw_rect(2, 3, 3, 2)
     got = sim.read(R5)
     want = np.eye(4, dtype=bool)
     want[0, 1] = want[3, 0] = True

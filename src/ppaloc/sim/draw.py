@@ -133,25 +133,9 @@ class DrawMixin:
 
     @controller_call
     def draw_rect(self, r0: int, c0: int, r1: int, c1: int, *, scamp_addr: bool = False) -> None:
-        """``scamp5_draw_rect``: 1s over the rectangle from (r0, c0) to (r1, c1), both
-        included (filled, as ``scamp5_load_rect`` fills it, but ORed into the target
-        instead of replacing it).
-
-        The header names (r0, c0) the top-right and (r1, c1) the bottom-left corner (in
-        hardware addresses, column 0 at the east edge) and says nothing of other orders,
-        so ``r0 <= r1`` and ``c0 <= c1`` are required, in the coordinates given; swapped
-        corners are refused rather than guessed.
-        """
-        call = "draw_rect"
-        args = {n: _int(call, n, v) for n, v in (("r0", r0), ("c0", c0), ("r1", r1), ("c1", c1))}
-        for a, b in (("r0", "r1"), ("c0", "c1")):
-            if args[b] < args[a]:
-                shown = ", ".join(f"{n}={v}" for n, v in args.items())
-                raise SimulatorError(
-                    f"{call}({shown}): {b} < {a}; (r0, c0) is the first corner and (r1, c1) "
-                    "the opposite one, r0 <= r1 and c0 <= c1 (the header's top-right and "
-                    "bottom-left): swap them"
-                )
+        """``scamp5_draw_rect``: 1s over the rectangle with corners (r0, c0), (r1, c1)
+        (inclusive, any order; filled, as ``scamp5_load_rect`` fills it, but ORed into
+        the target instead of replacing it)."""
         target = self._target("draw_rect")
         rect = self._rect("draw_rect", r0, c0, r1, c1, scamp_addr)
         self.timing.charge_call("scamp5_draw_rect")
