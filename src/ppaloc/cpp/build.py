@@ -36,6 +36,7 @@ __all__ = [
     "compile_program",
     "compiler",
     "known_names",
+    "strip_code",
 ]
 
 #: Compiler flags: C++17, debug lines for messages, AddressSanitizer for bad memory access.
@@ -97,7 +98,7 @@ def known_names() -> frozenset[str]:
     return frozenset(names | set(kernel_macros()))
 
 
-def _strip(text: str) -> str:
+def strip_code(text: str) -> str:
     """Comments and string literals blanked out, newlines kept (so lines still count)."""
 
     def blank(m: re.Match) -> str:
@@ -130,7 +131,7 @@ def check_source(text: str, name: str, defined: frozenset[str] = frozenset()) ->
 
     ``defined`` adds names the program's other files define (:func:`check_project`).
     """
-    code = _strip(text)
+    code = strip_code(text)
     known = known_names() | _defined_here(code) | defined
     found: list[tuple[int, str]] = []
     for m in re.finditer(r"\b((?:scamp5|vs)_\w+)\b(?=\s*\()", code):
@@ -203,7 +204,7 @@ def check_project(project: Project) -> list[Path]:
             texts.append((path, path.read_text(errors="replace")))
         except OSError as exc:
             raise PpalocError(f"cannot read {path}: {exc.strerror}") from None
-    defined = frozenset().union(*(_defined_here(_strip(t)) for _, t in texts))
+    defined = frozenset().union(*(_defined_here(strip_code(t)) for _, t in texts))
     for path, text in texts:
         check_source(text, str(path), defined)
     return headers

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-from ppaloc.cpp.build import _strip
+from ppaloc.cpp.build import strip_code
 from ppaloc.cpp.project import HEADER_SUFFIXES
 from ppaloc.cpp.shimgen import constants_header, kernel_macros, macros_header
 from ppaloc.errors import PpalocError
@@ -123,7 +123,7 @@ def declared_names(folders: list[Path]) -> dict[str, str]:
     """
     out: dict[str, str] = {}
     for f in _reached(folders):
-        for name in sorted(_declared(_strip(f.read_text(errors="replace")))):
+        for name in sorted(_declared(strip_code(f.read_text(errors="replace")))):
             out.setdefault(name, f.name)
     return out
 
@@ -134,7 +134,7 @@ def shim_names() -> frozenset[str]:
     include = resources.files("ppaloc.cpp").joinpath("include")
     texts = [h.read_text() for h in include.iterdir() if h.name.endswith(".hpp")]
     texts += [constants_header(), macros_header()]
-    code = "\n".join(_strip(t) for t in texts)
+    code = "\n".join(strip_code(t) for t in texts)
     return frozenset(set(_NAME.findall(code)) | set(kernel_macros()))
 
 
