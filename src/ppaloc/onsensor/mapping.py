@@ -48,11 +48,7 @@ def row_runs(plane: np.ndarray) -> list[tuple[int, int, int, int]]:
 
 
 def _mask_from_runs(sensor: Sensor, target: Register, runs) -> None:
-    sim, dr = sensor.sim, sensor.roles.d
-    sensor.run(_clr, target)
-    for _, r, c0, c1 in runs:
-        sim.load_rect(dr.tmp_a, r, c0, r, c1)
-        sensor.run(_or, target, dr.tmp_a)
+    sensor.rect_mask(target, [(r, c0, r, c1) for _, r, c0, c1 in runs])
 
 
 def _write_values(sensor: Sensor, db: Register, values: np.ndarray, skip: int | None) -> None:
@@ -100,14 +96,6 @@ def upload_map(pipe: SensorExecutor, topomap: TopoMap, runs: bool = True) -> Non
                 found = [run for run in row_runs(plane.astype(np.int64)) if run[0]]
                 _mask_from_runs(sensor, db[t], found)
     plan_runs(sensor, topomap.places if runs else None)
-
-
-def _clr(k: Kernel, r: Register) -> None:
-    k.CLR(r)
-
-
-def _or(k: Kernel, r: Register, x: Register) -> None:
-    k.OR(r, x)
 
 
 def _res(k: Kernel, r: Register) -> None:

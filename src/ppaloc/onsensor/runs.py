@@ -107,30 +107,19 @@ def plan_runs(sensor: Sensor, places: np.ndarray | None) -> None:
     sensor.run_steps, sensor.run_rects = 0, {}
     if places is None or longest_run(places) < 2:
         return
-    layout = sensor.layout
     nodes = np.flatnonzero(continues(places))
-    tile, brow, bcol = layout.node_to_block(nodes)
-    rects: dict[int, list[tuple[int, int, int, int]]] = {}
+    tile, brow, bcol = sensor.layout.node_to_block(nodes)
     # consecutive nodes of one block row sit in adjacent blocks: one rectangle for each
     # stretch of them (along a row the snake's block column moves by one per node)
-    start = 0
-    for i in range(1, len(nodes) + 1):
-        if (
-            i < len(nodes)
-            and nodes[i] == nodes[i - 1] + 1
-            and (tile[i], brow[i])
-            == (
-                tile[start],
-                brow[start],
-            )
-        ):
-            continue
-        c0, c1 = sorted((int(bcol[start]), int(bcol[i - 1])))
-        row = int(brow[start]) * sensor.bh
-        rects.setdefault(int(tile[start]), []).append(
+    breaks = (np.diff(nodes) != 1) | (np.diff(tile) != 0) | (np.diff(brow) != 0)
+    rects: dict[int, list[tuple[int, int, int, int]]] = {}
+    for group in np.split(np.arange(len(nodes)), np.flatnonzero(breaks) + 1):
+        first, last = group[0], group[-1]
+        c0, c1 = sorted((int(bcol[first]), int(bcol[last])))
+        row = int(brow[first]) * sensor.bh
+        rects.setdefault(int(tile[first]), []).append(
             (row, c0 * sensor.bw, row, c1 * sensor.bw + sensor.bw - 1)
         )
-        start = i
     sensor.run_steps, sensor.run_rects = longest_run(places) - 1, rects
 
 
@@ -154,29 +143,9 @@ def running_max(sensor: Sensor) -> None:
 def _run_mask(sensor: Sensor) -> None:
     """``d.u`` := NOT the roots of the nodes that continue their predecessor's place
     (working registers only: the motion stage's ``u`` and ``d`` are free after it)."""
-    sim, dr = sensor.sim, sensor.roles.d
-    sensor.run(_clr, dr.u)
-    for t, rects in sorted(sensor.run_rects.items()):
-        sensor.run(_clr, dr.tmp_b)
-        for rect in rects:
-            sim.load_rect(dr.tmp_a, *rect)
-            sensor.run(_or, dr.tmp_b, dr.tmp_a)
-        sensor.root_pattern(dr.tmp_a, t)
-        sensor.run(_and_or, dr.u, dr.tmp_a, dr.tmp_b)
+    dr = sensor.roles.d
+    sensor.roots_in(dr.u, dr.tmp_b, sorted(sensor.run_rects.items()))
     sensor.run(_not, dr.u)
-
-
-def _clr(k: Kernel, r: Register) -> None:
-    k.CLR(r)
-
-
-def _or(k: Kernel, r: Register, x: Register) -> None:
-    k.OR(r, x)  # r := r OR x
-
-
-def _and_or(k: Kernel, y: Register, a: Register, b: Register) -> None:
-    k.AND(a, a, b)
-    k.OR(y, a)  # y := y OR (a AND b)
 
 
 def _not(k: Kernel, r: Register) -> None:

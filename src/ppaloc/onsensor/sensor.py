@@ -14,7 +14,7 @@ object; :class:`ppaloc.onsensor.executor.SensorExecutor` runs them in a schedule
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import AbstractContextManager
 from typing import Any
 
@@ -209,18 +209,41 @@ class Sensor:
             self.run(_and, dr.tmp_a, dr.tmp_a, dr.tmp_b)
             self.run(_or, dr.valid, dr.tmp_a)
 
+    def rect_mask(self, target: Register, rects: Iterable[tuple[int, int, int, int]]) -> None:
+        """``target`` := the OR of the rectangles ``(r0, c0, r1, c1)`` (one ``load_rect``
+        into ``tmp_a`` and one OR each)."""
+        self.run(_clr, target)
+        for rect in rects:
+            self.sim.load_rect(self.roles.d.tmp_a, *rect)
+            self.run(_or, target, self.roles.d.tmp_a)
+
+    def roots_in(
+        self,
+        target: Register,
+        scratch: Register,
+        rects: Iterable[tuple[int, Sequence[tuple[int, int, int, int]]]],
+    ) -> None:
+        """``target`` := for each ``(tile, rectangles)``, the node roots of that tile inside
+        the rectangles (built in ``scratch``, then ANDed with the tile's root pattern)."""
+        dr = self.roles.d
+        self.run(_clr, target)
+        for t, tile_rects in rects:
+            self.rect_mask(scratch, tile_rects)
+            self.root_pattern(dr.tmp_a, t)
+            self.run(_and, dr.tmp_a, dr.tmp_a, scratch)
+            self.run(_or, target, dr.tmp_a)
+
     def window(self, a: int, b: int) -> None:
         """``tmp_b`` := the roots of nodes ``a..b`` (clipped to the map), via rectangles."""
-        sim, dr = self.sim, self.roles.d
+        dr = self.roles.d
         a, b = max(a, 0), min(b, self.n_nodes - 1)
-        self.run(_clr, dr.tmp_b)
         cap = self.layout.capacity
         cols = self.layout.grid_shape[1]
+        per_tile = []
         for t in range(self.tiles):
             la, lb = max(a - t * cap, 0), min(b - t * cap, cap - 1)
             if la > lb:
                 continue
-            self.run(_clr, dr.pattern)
             ra, rb = la // cols, lb // cols
             spans = []
             for r in sorted({ra, rb}):
@@ -229,22 +252,22 @@ class Sensor:
                 spans.append((r, r, p0, p1))
             if rb - ra > 1:
                 spans.append((ra + 1, rb - 1, 0, cols - 1))
+            rects = []
             for r0, r1, p0, p1 in spans:
                 if r0 == r1 and r0 % 2 == 0:
                     c0, c1 = cols - 1 - p1, cols - 1 - p0
                 else:
                     c0, c1 = p0, p1
-                sim.load_rect(
-                    dr.tmp_a,
-                    r0 * self.bh,
-                    c0 * self.bw,
-                    r1 * self.bh + self.bh - 1,
-                    c1 * self.bw + self.bw - 1,
+                rects.append(
+                    (
+                        r0 * self.bh,
+                        c0 * self.bw,
+                        r1 * self.bh + self.bh - 1,
+                        c1 * self.bw + self.bw - 1,
+                    )
                 )
-                self.run(_or, dr.pattern, dr.tmp_a)
-            self.root_pattern(dr.tmp_a, t)
-            self.run(_and, dr.tmp_a, dr.tmp_a, dr.pattern)
-            self.run(_or, dr.tmp_b, dr.tmp_a)
+            per_tile.append((t, rects))
+        self.roots_in(dr.tmp_b, dr.pattern, per_tile)
 
     def allow(self, outside_window: bool) -> None:
         """``tmp_a`` := NOT allowed; allowed = valid (AND NOT the window in ``tmp_b``)."""
