@@ -60,6 +60,7 @@ __all__ = [
     "ORACLE_NEED",
     "REPRESENTATIONS",
     "WeightedNodeLocaliser",
+    "check_map",
     "choose_candidate",
     "keyframe_test",
     "place_test",
@@ -116,6 +117,19 @@ def place_test(params: FilterParams):
         return None
     motion = ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
     return motion.step
+
+
+def check_map(topomap: TopoMap, representation: str) -> None:
+    """A one-line error unless ``topomap`` holds at least one node of ``representation``
+    (the host and the sensor localisers alike)."""
+    if topomap.kind != representation:
+        raise PpalocError(
+            f"the map holds {topomap.kind!r} nodes but this localiser uses "
+            f"{representation!r} nodes; localise it with representation="
+            f"{topomap.kind!r}, or build a map with representation={representation!r}"
+        )
+    if len(topomap) == 0:
+        raise PpalocError("the map has no nodes")
 
 
 def check_representation(representation: str) -> str:
@@ -268,14 +282,7 @@ class WeightedNodeLocaliser:
 
     def use_map(self, topomap: TopoMap) -> None:
         """Localise against ``topomap`` (e.g. one loaded from a file) from now on."""
-        if topomap.kind != self.representation:
-            raise PpalocError(
-                f"the map holds {topomap.kind!r} nodes but this localiser uses "
-                f"{self.representation!r} nodes; localise it with representation="
-                f"{topomap.kind!r}, or build a map with representation={self.representation!r}"
-            )
-        if len(topomap) == 0:
-            raise PpalocError("the map has no nodes")
+        check_map(topomap, self.representation)
         self.schedule.use_map(topomap)
         self.executor.use_map(topomap)
         self.topomap = topomap

@@ -96,6 +96,9 @@ class SensorBank:
     places : ndarray of int, optional
         The map's places (``TopoMap.places``) where it has runs: the cuts between sensors
         then fall between places (:func:`ppaloc.onsensor.runs.bank_offsets`).
+    least : int
+        Nodes every sensor but the last must hold: the most a frame may advance into the
+        next sensor (the schedule's ``max_advance``).
 
     Attributes
     ----------
@@ -113,6 +116,7 @@ class SensorBank:
         make: Callable[[int, int], SensorExecutor],
         per_sensor: int | None = None,
         places: np.ndarray | None = None,
+        least: int = 1,
     ) -> None:
         if not first.plan.bank:
             raise PpalocError(
@@ -127,7 +131,6 @@ class SensorBank:
         self.representation = first.representation
         self.store = first.store
         self.n_nodes = int(n_nodes)
-        least = max(first.params.max_advance or 1, 1)  # type: ignore[operator]
         self.offsets = bank_offsets(places, self.n_nodes, per, least)
         sizes = np.diff([*self.offsets, self.n_nodes]).tolist()
         first.set_nodes(sizes[0])

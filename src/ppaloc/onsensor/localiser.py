@@ -23,6 +23,7 @@ from ppaloc.localise.params import FilterParams, check_int, filter_method_params
 from ppaloc.localise.schedule import Schedule, make_schedule
 from ppaloc.localise.weighted import (
     MAX_RANKING,
+    check_map,
     check_representation,
     oracle_needs,
     place_test,
@@ -278,14 +279,7 @@ class OnSensorLocaliser:
         return topomap.places if self.schedule.runs and topomap.has_runs else None
 
     def _check_map(self, topomap: TopoMap) -> None:
-        if topomap.kind != self.representation:
-            raise PpalocError(
-                f"the map holds {topomap.kind!r} nodes but this localiser uses "
-                f"{self.representation!r} nodes; localise it with representation="
-                f"{topomap.kind!r}, or build a map with representation={self.representation!r}"
-            )
-        if len(topomap) == 0:
-            raise PpalocError("the map has no nodes")
+        check_map(topomap, self.representation)
 
     def _noise_name(self) -> str:
         return self.noise if isinstance(self.noise, str) else "custom"
@@ -319,7 +313,7 @@ class OnSensorLocaliser:
                 f"sensor_nodes={per} is too small for a bank: each sensor must hold at least "
                 f"the {carry} node(s) a frame may advance into the next sensor"
             )
-        return SensorBank(first, n_nodes, self._new_pipeline, per, places)
+        return SensorBank(first, n_nodes, self._new_pipeline, per, places, carry)
 
     def _install(self, topomap: TopoMap, pipe: SensorExecutor | SensorBank) -> None:
         self._check_map(topomap)
