@@ -612,14 +612,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     if indptr.ndim != 1 or len(indptr) < 1 or indptr.dtype.kind not in "iu":
         raise DataError(f"{ds_path}: gt_indptr has shape {indptr.shape}, expected (M + 1,)")
     n_queries = len(indptr) - 1
-    _check_array(indices, f"{ds_path}: gt_indices", length=len(indices))
-    if indptr[0] != 0 or np.any(np.diff(indptr) < 0) or indptr[-1] != len(indices):
-        raise DataError(
-            f"{ds_path}: gt_indptr is not a CSR index (0 first, non-decreasing, "
-            f"{len(indices)} last); {_again(folder)}"
-        )
-    if n_ref:
-        _check_array(indices, f"{ds_path}: gt_indices", length=len(indices), bounds=(0, n_ref))
+    _check_csr(indptr, indices, f"{ds_path}: gt", n_ref, folder)
     if _count(summary, "n_queries", path, n_queries) != n_queries:
         raise DataError(
             f"{folder} is not whole: results.json has {summary['n_queries']} queries, "
@@ -756,13 +749,20 @@ def _soft_sets(
         raise DataError(
             f"{ds_path}: gt_soft_indptr has shape {indptr.shape}, expected ({n_queries + 1},)"
         )
-    _check_array(indices, f"{ds_path}: gt_soft_indices", length=len(indices))
+    _check_csr(indptr, indices, f"{ds_path}: gt_soft", n_ref, folder)
+    return PackedSets(indices, indptr)
+
+
+def _check_csr(
+    indptr: np.ndarray, indices: np.ndarray, where: str, n_ref: int, folder: Path
+) -> None:
+    """``where``'s ``_indices`` are reference indices (within ``n_ref`` where known) and
+    its ``_indptr`` a CSR index over them: the hard and the soft ground truth alike."""
+    _check_array(indices, f"{where}_indices", length=len(indices))
     if indptr[0] != 0 or np.any(np.diff(indptr) < 0) or indptr[-1] != len(indices):
         raise DataError(
-            f"{ds_path}: gt_soft_indptr is not a CSR index (0 first, non-decreasing, "
+            f"{where}_indptr is not a CSR index (0 first, non-decreasing, "
             f"{len(indices)} last); {_again(folder)}"
         )
     if n_ref:
-        bounds = (0, n_ref)
-        _check_array(indices, f"{ds_path}: gt_soft_indices", length=len(indices), bounds=bounds)
-    return PackedSets(indices, indptr)
+        _check_array(indices, f"{where}_indices", length=len(indices), bounds=(0, n_ref))
