@@ -66,3 +66,42 @@ def nordland_dir(shared_data: Path) -> Path:
 def gardens_point_dir(shared_data: Path) -> Path:
     """``../shared/data/gardens-point``; skips where absent."""
     return _dataset_dir(shared_data, "gardens-point")
+
+
+@pytest.fixture(scope="session")
+def dump_dom():
+    """``dump_dom(url, budget_ms)``: the page's DOM after headless Chromium has run it for
+    ``budget_ms`` of virtual time (``subprocess.CompletedProcess``: the DOM on stdout);
+    skips where Chromium is not installed (``make test`` installs it)."""
+    import shutil
+    import subprocess
+    import tempfile
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("chromium is not installed")
+
+    def run(url: str, budget_ms: int) -> subprocess.CompletedProcess:
+        with tempfile.TemporaryDirectory() as profile:
+            return subprocess.run(
+                [
+                    chromium,
+                    "--headless",
+                    "--no-sandbox",
+                    "--disable-gpu",
+                    "--disable-background-networking",
+                    "--disable-component-update",
+                    "--disable-sync",
+                    "--no-first-run",
+                    f"--user-data-dir={profile}",
+                    f"--virtual-time-budget={budget_ms}",
+                    "--dump-dom",
+                    url,
+                ],
+                capture_output=True,
+                text=True,
+                timeout=60,
+                check=False,
+            )
+
+    return run

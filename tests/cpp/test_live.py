@@ -5,9 +5,6 @@ from __future__ import annotations
 import http.client
 import io
 import json
-import shutil
-import subprocess
-import tempfile
 import threading
 import time
 import urllib.error
@@ -203,35 +200,11 @@ def test_a_port_in_use_is_one_line_and_a_view_serves_one_run():
         first.close(session)
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
-
 @pytest.mark.slow
-@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed")
-def test_chromium_shows_the_displays_and_sets_a_slider(live_program):
+def test_chromium_shows_the_displays_and_sets_a_slider(live_program, dump_dom):
     run = Run(frames=FRAMES * 2, fps=25, timeout=60)
     run.wait_for(lambda s: s["items"], "the sliders")
-    with tempfile.TemporaryDirectory() as profile:
-        out = subprocess.run(
-            [
-                CHROMIUM,
-                "--headless",
-                "--no-sandbox",
-                "--disable-gpu",
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                "--no-first-run",
-                f"--user-data-dir={profile}",
-                "--virtual-time-budget=3000",
-                "--dump-dom",
-                run.url + "?set=level=42",
-            ],
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
+    out = dump_dom(run.url + "?set=level=42", 3000)
     result = run.end()
     dom = out.stdout
     assert dom.count('data-loaded="1"') == 2, out.stderr[-2000:]

@@ -7,8 +7,6 @@ import io
 import json
 import re
 import shutil
-import subprocess
-import tempfile
 
 import numpy as np
 import pytest
@@ -91,8 +89,6 @@ def test_report_from_files_only(results_dir, tmp_path):
     assert {"node", "score", "moved", "ranking", "latency_ms", "ref_index"} <= set(z.files)
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
 _CHECK = """
 <script>
 window.addEventListener('load', () => {
@@ -105,31 +101,10 @@ window.addEventListener('load', () => {
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed")
-def test_chromium_loads_every_figure(results_dir, tmp_path):
+def test_chromium_loads_every_figure(results_dir, tmp_path, dump_dom):
     page = write_report(results_dir).read_text()
     probe = tmp_path / "probe.html"
     probe.write_text(page.replace("</body>", _CHECK + "</body>"))
     n = len(IMG.findall(page))
-    with tempfile.TemporaryDirectory() as profile:
-        out = subprocess.run(
-            [
-                CHROMIUM,
-                "--headless",
-                "--no-sandbox",
-                "--disable-gpu",
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                "--no-first-run",
-                f"--user-data-dir={profile}",
-                "--virtual-time-budget=5000",
-                "--dump-dom",
-                probe.as_uri(),
-            ],
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
+    out = dump_dom(probe.as_uri(), 5000)
     assert f'data-images="{n}/{n}"' in out.stdout, out.stderr[-2000:]
