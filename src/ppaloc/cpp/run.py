@@ -117,17 +117,34 @@ def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "display"
 
 
+def display_folders(displays: dict[int, str]) -> dict[int, str]:
+    """The folder of each display under ``displays/``: its name made safe for a path
+    (``display`` when empty), followed by ``_HANDLE`` when displays share it, so every
+    display keeps its own images.
+
+    Examples
+    --------
+    >>> display_folders({1: "edges", 2: "", 3: "", 4: "a b"})
+    {1: 'edges', 2: 'display_2', 3: 'display_3', 4: 'a_b'}
+    """
+    slugs = {h: _slug(n) for h, n in displays.items()}
+    shared = {n for n in slugs.values() if list(slugs.values()).count(n) > 1}
+    return {h: f"{n}_{h}" if n in shared else n for h, n in slugs.items()}
+
+
 def write_outputs(result: RunResult, folder: Path) -> None:
     """Write a run's files into ``folder`` (see docs/cpp.md, "Outputs")."""
     s = result.session
-    names = {h: _slug(n) for h, n in s.displays.items()}
+    names = display_folders(s.displays)
     for frame, outputs in enumerate(s.outputs):
         for h, plane in outputs.items():
             d = folder / "displays" / names[h]
             d.mkdir(parents=True, exist_ok=True)
             save_png(plane_to_image(plane), d / f"frame_{frame:04d}.png")
     tiles = {
-        f"{s.displays[h]} #{frame}": fit_plane(plane, s.sim.rows, s.sim.cols)
+        f"{s.displays[h] if names[h] == _slug(s.displays[h]) else names[h]} #{frame}": fit_plane(
+            plane, s.sim.rows, s.sim.cols
+        )
         for frame, outputs in enumerate(s.outputs[:MONTAGE_FRAMES])
         for h, plane in sorted(outputs.items())
     }
