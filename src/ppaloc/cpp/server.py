@@ -21,6 +21,7 @@ import warnings
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import PurePath
 from typing import Any, Protocol
 
 import numpy as np
@@ -174,6 +175,8 @@ class Session:
     calls: Counter = field(default_factory=Counter)
     gui_values: dict[str, int] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    # place -> [first frame, count, index in warnings]
+    divisions_by_zero: dict[str, list[int]] = field(default_factory=dict)
     loops: int = 0
     finished: bool = False
     frame_loop_us: list[float] = field(default_factory=list)
@@ -860,6 +863,22 @@ def _host_event(s: Session, a: list, line: int) -> None:
     s.note(f"host: {a[0]}")
 
 
+def _division_by_zero(s: Session, a: list, line: int) -> None:
+    """An integer division by zero the shim gave the device's result (0) and went on from:
+    one warning per place (``file.cpp:LINE``), with its first frame and its count."""
+    path, _, number = str(a[0]).rpartition(":")
+    place = f"{PurePath(path).name}:{number}" if path else "an unknown place"
+    if place not in s.divisions_by_zero:
+        s.divisions_by_zero[place] = [s.frame, 0, len(s.warnings)]
+        s.warnings.append("")
+    seen = s.divisions_by_zero[place]
+    seen[1] += 1
+    s.warnings[seen[2]] = (
+        f"{place}: an integer division by zero (first in frame {seen[0]}, {seen[1]} in all) "
+        "gave 0, as the device's run-time library does, and the program went on"
+    )
+
+
 #: Every call the shim sends, by name: ``handler(session, args, line) -> answer or None``.
 HANDLERS: dict[str, Handler] = {
     "scamp5_get_image": _sim("scamp5_get_image"),
@@ -916,6 +935,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_gui_add_switch": _slider("switch"),
     "vs_post_text": _post_text,
     "vs_frame_loop_control": lambda s, a, line: s.loop_answer(),
+    "vs_wait_frame_trigger": lambda s, a, line: s.loop_answer(),
     "vs_stopwatch_now": _stopwatch,
 }
 
@@ -965,6 +985,37 @@ HANDLERS.update(
             )
         },
         "vs_host_event": _host_event,
+        "ppaloc_division_by_zero": _division_by_zero,
+        "vs_scamp5_set_dac": _sim("load_dac"),
+        **{
+            fn: _accepted(fn)
+            for fn in (
+                "vs_scamp5_calibrate_dac",
+                "vs_scamp5_calibrate_mid",
+                "vs_scamp5_calibrate_global_sum",
+                "vs_scamp5_configure_clock",
+                "vs_gui_request_file",
+                "vs_gui_request_image",
+            )
+        },
+        **{
+            f"vs_gui_graphics_api::{fn}": _accepted(f"vs_gui_graphics_api::{fn}")
+            for fn in (
+                "m_push",
+                "m_pop",
+                "m_translate",
+                "m_rotate",
+                "m_rotate_atan2",
+                "m_scale",
+                "set_color",
+                "set_linewidth",
+                "set_pointsize",
+                "draw_point",
+                "draw_line",
+                "draw_rect",
+                "draw_circle",
+            )
+        },
         **{
             f"vs_sim::{fn}": _accepted(f"vs_sim::{fn}")
             for fn in (

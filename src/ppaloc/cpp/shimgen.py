@@ -24,7 +24,11 @@ from ppaloc.cpp.protocol import (
 from ppaloc.sim.kernel import Kernel
 from ppaloc.sim.macros import ProgramAPI
 
-__all__ = ["constants_header", "kernel_macros", "macros_header"]
+__all__ = ["READOUT_CLOCKS", "constants_header", "kernel_macros", "macros_header"]
+
+#: The device's ICW clocks of the event (AER), digital readout (DOUT) and fast paths
+#: (``SCAMP5_CLOCK_*`` values), which the simulator does not model.
+READOUT_CLOCKS = {"AER": 4, "DOUT": 5, "FAST": 6}
 
 # Extra arguments a starred parameter (``bus(a, *srcs)``, ``OR(d, *srcs)``) may take.
 _STAR_MAX = 4
@@ -72,8 +76,12 @@ def constants_header() -> str:
     lines.append(f"constexpr int SERVER_EXIT = {SERVER_EXIT};")
     lines.append("}  // namespace ppa")
     lines += ["", "namespace SCAMP5_PE {"]
+    from ppaloc.sim import registers
+    from ppaloc.sim.bits import register_fields  # the device's ICW encoding of each
+
     for code, name in enumerate(REGISTER_NAMES):
-        lines.append(f"constexpr {_register_type(name)} {name}{{{code}}};")
+        fields = ", ".join(map(str, register_fields(getattr(registers, name)).values()))
+        lines.append(f"constexpr {_register_type(name)} {name}{{{fields}, {code}}};")
     aliases = {
         "RS": "R1", "RW": "R2", "RN": "R3", "RE": "R4", "S0": "R5", "S1": "R6", "S2": "R7",
         "S3": "R8", "S4": "R9", "S5": "R10", "S6": "R11", "RP": "R12", "RF": "R0",
@@ -83,6 +91,8 @@ def constants_header() -> str:
     from ppaloc.sim.bits import CLOCKS  # the raw word's clock field values
 
     lines += [f"#define SCAMP5_CLOCK_{k.upper()} {v}" for k, v in CLOCKS.items()]
+    # The readout clocks the device also has: a raw word on one is refused by the decoder.
+    lines += [f"#define SCAMP5_CLOCK_{k} {v}" for k, v in READOUT_CLOCKS.items()]
     lines.append("")
     from ppaloc.sim.controller import PARAMETERS  # vs_scamp5_get_parameter's numbers
 

@@ -37,7 +37,7 @@ from ppaloc.sim.registers import (
     Register,
 )
 
-__all__ = ["CLOCKS", "decode", "encode"]
+__all__ = ["CLOCKS", "decode", "encode", "register_fields"]
 
 #: The header's clock field values (``SCAMP5_CLOCK_*``).
 CLOCKS = {"analog": 0, "digital": 1, "dnews": 2, "prop": 3}
@@ -78,6 +78,44 @@ def _asel(r: Register) -> set[int]:
 
 def _awrite(r: Register) -> set[int]:
     return {_W[NEWS] if r.role in ("news", "neighbour") else _W[r], *_asel(r)}
+
+
+# The bit the device's register constants give where a register has no write (PIX, IN)
+# or no latch (FLAG, SELECT, RECT): bit 8, which no instruction uses.
+_UNUSED = 8
+
+
+def _masks(positions: Iterable[int]) -> dict[int, int]:
+    """Bit positions as 16-bit words of the ICW: ``{word index: mask}``."""
+    out: dict[int, int] = {}
+    for b in positions:
+        out[b // 16] = out.get(b // 16, 0) | 1 << (b % 16)
+    return out
+
+
+def register_fields(r: Register) -> dict[str, int]:
+    """The fields of the device's register constant for ``r`` (``scamp5_icw.hpp``).
+
+    An analogue register is ``{W_bits, sel_bits}``: 32-bit masks over the ICW's first two
+    16-bit words, its write and its select bits. A digital one is ``{RR_index, RR_bits,
+    LR_index, LR_bits}``: the word and the mask of its read (``RR``) and write (``LR``)
+    bits. Programs compare registers by these fields, and raw ICWs are built from them.
+
+    Examples
+    --------
+    >>> register_fields(A)
+    {'W_bits': 8192, 'sel_bits': 2097152}
+    >>> register_fields(R0)
+    {'RR_index': 3, 'RR_bits': 512, 'LR_index': 3, 'LR_bits': 256}
+    """
+    if r.kind == "analog":
+        writable = r in _W or r.role in ("news", "neighbour")
+        w = sum(1 << b for b in _awrite(r) - _asel(r)) if writable else 1 << _UNUSED
+        return {"W_bits": w, "sel_bits": sum(1 << b for b in _asel(r))}
+    ((rr_index, rr_bits),) = _masks(_rr(r)).items()
+    latch = _UNUSED if r in (FLAG, SELECT, RECT) else _lr(r)
+    ((lr_index, lr_bits),) = _masks([latch]).items()
+    return {"RR_index": rr_index, "RR_bits": rr_bits, "LR_index": lr_index, "LR_bits": lr_bits}
 
 
 _DIGITAL_FLAGS = {

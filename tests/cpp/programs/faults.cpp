@@ -34,7 +34,7 @@ int main() {
             *p = 1;
         } else if (fault == 7) {
             volatile int zero = index;
-            vs_post_text("%d", 100 / zero);  // an integer division by zero for index 0
+            vs_post_text("%d %d", 100 / zero, 100 % zero);  // by zero for index 0
         }
     }
 }

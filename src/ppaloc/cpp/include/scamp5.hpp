@@ -10,6 +10,10 @@
 #pragma once
 
 #include <unistd.h>
+#if defined(__x86_64__) && defined(__linux__)
+#include <csignal>
+#include <ucontext.h>
+#endif
 
 #include <cstdarg>
 #include <cstdint>
@@ -23,15 +27,34 @@
 #include <vector>
 
 // ------------------------------------------------------------------ register types
-struct aref_t { uint8_t code; };
-struct areg_t {
+// Each register carries the device's fields (its ICW encoding: the write and select bits
+// of an analogue register, the word and bits of a digital one's read and write), with the
+// device's values, then the simulator's register code.
+struct aref_t {
+    uint32_t W_bits;
+    uint32_t sel_bits;
     uint8_t code;
-    constexpr operator aref_t() const { return aref_t{code}; }
 };
-struct dref_t { uint8_t code; };
-struct dreg_t {
+struct areg_t {
+    uint32_t W_bits;
+    uint32_t sel_bits;
     uint8_t code;
-    constexpr operator dref_t() const { return dref_t{code}; }
+    constexpr operator aref_t() const { return aref_t{W_bits, sel_bits, code}; }
+};
+struct dref_t {
+    uint16_t RR_index;
+    uint16_t RR_bits;
+    uint16_t LR_index;
+    uint16_t LR_bits;
+    uint8_t code;
+};
+struct dreg_t {
+    uint16_t RR_index;
+    uint16_t RR_bits;
+    uint16_t LR_index;
+    uint16_t LR_bits;
+    uint8_t code;
+    constexpr operator dref_t() const { return dref_t{RR_index, RR_bits, LR_index, LR_bits, code}; }
 };
 enum news_t { east = 1, west = 2, north = 4, south = 8, alldir = 15 };
 constexpr news_t operator|(news_t a, news_t b) { return news_t(int(a) | int(b)); }
@@ -45,6 +68,11 @@ typedef int vs_handle;
 
 #include "ppaloc_gen_consts.hpp"
 #include "vs_random.hpp"
+#include "vs_vec.hpp"
+
+// The registers the library's macros use as their temporaries (the simulator's too).
+#define SCAMP5_MACRO_T_AREG SCAMP5_PE::NEWS
+#define SCAMP5_MACRO_T_DREG SCAMP5_PE::R0
 
 // ------------------------------------------------------------------ the client
 namespace ppa {
@@ -255,6 +283,71 @@ inline int32_t as_int(const std::vector<uint8_t>& r) {
 
 }  // namespace ppa
 
+// An integer division by zero. The device's Cortex-M0 has no divide instruction: its
+// run-time library's division helper returns 0 for a zero divisor, and the program goes on.
+// An x86-64 host traps instead (SIGFPE); the trap is caught here and the division given the
+// device's result: quotient 0 (the remainder is the dividend, so a == q * b + r still holds),
+// and the program goes on. Each one is reported with its file and line (a warning of the run).
+// Other hosts (aarch64) give 0 without a trap, as the device does.
+#if defined(__x86_64__) && defined(__linux__)
+extern "C" void __sanitizer_symbolize_pc(void* pc, const char* fmt, char* out, size_t n)
+    __attribute__((weak));
+namespace ppa {
+// The length of the DIV/IDIV instruction at p (its prefixes, F6/F7 and operand), 0 if p
+// holds another instruction.
+inline size_t division_length(const uint8_t* p) {
+    size_t n = 0;
+    while (p[n] == 0x66 || p[n] == 0x67 || p[n] == 0xF2 || p[n] == 0xF3) ++n;
+    if ((p[n] & 0xF0) == 0x40) ++n;  // REX, the last prefix
+    if (p[n] != 0xF6 && p[n] != 0xF7) return 0;
+    bool bytewise = p[n] == 0xF6;
+    ++n;
+    const uint8_t modrm = p[n++];
+    const uint8_t mod = modrm >> 6, reg = (modrm >> 3) & 7, rm = modrm & 7;
+    if (reg != 6 && reg != 7) return 0;  // not DIV, IDIV
+    if (mod != 3 && rm == 4) {
+        const uint8_t sib = p[n++];
+        if (mod == 0 && (sib & 7) == 5) n += 4;
+    }
+    if (mod == 0 && rm == 5) n += 4;
+    if (mod == 1) n += 1;
+    if (mod == 2) n += 4;
+    return bytewise ? n | (size_t(1) << 16) : n;
+}
+inline void on_division_by_zero(int, siginfo_t*, void* context) {
+    ucontext_t* uc = static_cast<ucontext_t*>(context);
+    greg_t* g = uc->uc_mcontext.gregs;
+    uint8_t* pc = reinterpret_cast<uint8_t*>(g[REG_RIP]);
+    const size_t found = division_length(pc);
+    const size_t n = found & 0xFFFF;
+    if (!n) {  // not a division: the default action (the run reports the signal)
+        std::signal(SIGFPE, SIG_DFL);
+        return;
+    }
+    char where[512] = "";
+    if (__sanitizer_symbolize_pc) __sanitizer_symbolize_pc(pc, "%s:%l", where, sizeof where);
+    call("ppaloc_division_by_zero", false, {Arg(where)}, Loc{"", 0});
+    if (found >> 16) {  // AL := 0, AH := the dividend's low byte
+        const greg_t ax = g[REG_RAX];
+        g[REG_RAX] = (ax & ~greg_t(0xFFFF)) | ((ax & 0xFF) << 8);
+    } else {
+        g[REG_RDX] = g[REG_RAX];
+        g[REG_RAX] = 0;
+    }
+    g[REG_RIP] += greg_t(n);
+}
+inline bool catch_division_by_zero() {
+    struct sigaction sa;
+    std::memset(&sa, 0, sizeof sa);
+    sa.sa_sigaction = on_division_by_zero;
+    sa.sa_flags = SA_SIGINFO | SA_NODEFER;
+    return sigaction(SIGFPE, &sa, nullptr) == 0;
+}
+inline const bool division_by_zero_caught = catch_division_by_zero();
+}  // namespace ppa
+#endif
+
+
 // ------------------------------------------------------------------ kernels
 class scamp5_kernel;
 namespace ppa {
@@ -383,10 +476,11 @@ inline void allow_highspeed(bool k, ppa::Loc loc = PPA_HERE) {
     if (!ppa::active()) ppa::fail(loc, "allow_highspeed() is a kernel function: call it inside a kernel");
     ppa::call("allow_highspeed", false, {int(k)}, loc);
 }
-// The raw word: icw(clock, {bit positions of SCAMP5_ICW_BITS}), decoded by the simulator.
-inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc = PPA_HERE) {
-    scamp5_kernel* k = ppa::active();
-    if (!k) ppa::fail(loc, "icw() is a kernel function: call it inside a kernel");
+}  // namespace scamp5_kernel_api
+namespace ppa {
+// A raw word into the kernel being recorded: its clock and its set bit positions.
+inline void emit_icw(scamp5_kernel* k, uint8_t clock, const uint8_t* bits, size_t n,
+                     const Loc& loc) {
     std::vector<uint8_t>& b = k->body;
     auto put = [&b](uint8_t tag, uint32_t v) {
         b.push_back(tag);
@@ -398,9 +492,17 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
     for (int s = 0; s < 4; ++s) b.push_back((where >> (8 * s)) & 0xFF);
     b.push_back(2);
     put(ppa::TAG_INT, clock);
-    put(ppa::TAG_LIST, uint32_t(bits.size()));
-    for (uint8_t bit : bits) put(ppa::TAG_INT, bit);
+    put(ppa::TAG_LIST, uint32_t(n));
+    for (size_t i = 0; i < n; ++i) put(ppa::TAG_INT, bits[i]);
     k->calls++;
+}
+}  // namespace ppa
+namespace scamp5_kernel_api {
+// The raw word: icw(clock, {bit positions of SCAMP5_ICW_BITS}), decoded by the simulator.
+inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc = PPA_HERE) {
+    scamp5_kernel* k = ppa::active();
+    if (!k) ppa::fail(loc, "icw() is a kernel function: call it inside a kernel");
+    ppa::emit_icw(k, clock, bits.begin(), bits.size(), loc);
 }
 }  // namespace scamp5_kernel_api
 
@@ -416,17 +518,31 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
     }                            \
     scamp5_launch_kernel(__ppa_sk); \
     }
-// A static kernel whose compiled ICWs the device prints to the host: recorded once in
-// host.txt (the kernels' ICWs are in timing.json); it ends with scamp5_kernel_end().
-#define scamp5_kernel_begin_print()                                                 \
-    {                                                                               \
-        using namespace SCAMP5_ICW_BITS;                                            \
-        using namespace scamp5_kernel_api;                                          \
-        static scamp5_kernel __ppa_sk;                                              \
-        if (__ppa_sk.null()) {                                                      \
-            ppa::call("scamp5_kernel_begin_print", false, {int(__LINE__)},          \
-                      ppa::Loc{__FILE__, __LINE__});                                \
-            __ppa_sk.recording_start(__FILE__, __LINE__);
+// A static kernel whose compiled ICWs the device prints to the host when its recording
+// stops: the printing is recorded once in host.txt (the kernels' ICWs are in timing.json).
+class scamp5_kernel_printable : public scamp5_kernel {
+   public:
+    scamp5_kernel_printable(const char* f, int l) {
+        file = f;
+        line = unsigned(l);
+    }
+    void print_const_kernel_source() {
+        ppa::call("scamp5_kernel_begin_print", false, {int(line)}, ppa::Loc{file, line});
+    }
+    void recording_start() { scamp5_kernel::recording_start(file, line); }
+    void recording_stop() {
+        scamp5_kernel::recording_stop();
+        print_const_kernel_source();
+    }
+};
+// It ends with scamp5_kernel_end(), as on the device.
+#define scamp5_kernel_begin_print()                                         \
+    {                                                                       \
+        using namespace SCAMP5_ICW_BITS;                                    \
+        using namespace scamp5_kernel_api;                                  \
+        static scamp5_kernel_printable __ppa_sk(__FILE__, __LINE__);        \
+        if (__ppa_sk.null()) {                                              \
+            __ppa_sk.recording_start();
 #define scamp5_dynamic_kernel_begin()      \
     {                                      \
         using namespace SCAMP5_ICW_BITS;   \
@@ -686,6 +802,7 @@ struct Hooks {
     std::vector<std::function<void(void)>> connect, disconnect, shutdown;
     size_t connected = 0;  // connect callbacks already run
     bool ended = false;
+    std::function<void(void)> request;  // a host request's answer, due at the next processing
 };
 inline Hooks& hooks() {
     static Hooks h;
@@ -699,6 +816,11 @@ inline void process_messages() {
     if (h.connected < h.connect.size()) {
         host_event("connected (vs_on_host_connect)");
         while (h.connected < h.connect.size()) h.connect[h.connected++]();
+    }
+    if (h.request) {
+        std::function<void(void)> answer = std::move(h.request);
+        h.request = nullptr;
+        answer();
     }
 }
 inline void end_of_run() {
@@ -738,14 +860,22 @@ inline void gui_changes(const std::vector<uint8_t>& r) {
     }
 }
 }  // namespace ppa
-inline int vs_frame_loop_control_impl(ppa::Loc loc) {
-    ppa::loop_counter()++;
-    std::vector<uint8_t> r = PPA_CALL("vs_frame_loop_control", true, 0);
-    ppa::gui_changes(r);
-    return ppa::as_int(r);
+// The frame trigger is the frame boundary: each wait for it starts the next frame (after the
+// last, the program ends). vs_frame_loop_control is the loop counter's increment, that wait
+// and the message processing at once, as on the device; a program may write the three itself.
+namespace ppa {
+inline void next_frame(const char* fn, const Loc& loc) {
+    std::vector<uint8_t> r = call(fn, true, {0}, loc);
+    gui_changes(r);
+    if (!as_int(r)) std::exit(0);
+}
+}  // namespace ppa
+inline void vs_wait_frame_trigger(ppa::Loc loc = PPA_HERE) {
+    ppa::next_frame("vs_wait_frame_trigger", loc);
 }
 inline void vs_frame_loop_control(ppa::Loc loc = PPA_HERE) {
-    if (!vs_frame_loop_control_impl(loc)) std::exit(0);
+    ppa::loop_counter()++;
+    ppa::next_frame("vs_frame_loop_control", loc);
     ppa::process_messages();
 }
 inline void vs_process_message() { ppa::process_messages(); }
@@ -771,7 +901,6 @@ inline void vs_on_user_value(std::function<void(uint8_t, int32_t)> f, ppa::Loc l
     (void)f;
     ppa::call("vs_on_user_value", false, {}, loc);
 }
-inline void vs_wait_frame_trigger() {}
 inline void vs_wait(uint32_t usec) { (void)usec; }
 inline void vs_loop_counter_inc() { ppa::loop_counter()++; }
 inline void vs_loop_counter_reset() { ppa::loop_counter() = 0; }
@@ -891,6 +1020,24 @@ class vs_stopwatch {
     "Simulation (ppaloc): " __FILE__ "\n" \
     "Compile Time: " __TIME__ " " __DATE__ "\n"
 
+// The device's error flags. None of these failures happens here: the simulator stops the run
+// with a message instead (an overflow of the 1024-ICW stack is a warning in summary.json).
+struct vs_device_error_bits_t {
+    uint32_t booting_failed : 1;
+    uint32_t shutdown_failed : 1;
+    uint32_t watchdog_timeout : 1;
+    uint32_t coroutine_timeout : 1;
+    uint32_t bank0_malloc_failed : 1;
+    uint32_t bank1_malloc_failed : 1;
+    uint32_t shared_malloc_failed : 1;
+    uint32_t icw_stack_overflow : 1;
+    uint32_t calibration_failed : 1;
+};
+namespace ppa {
+inline vs_device_error_bits_t device_errors{};
+}
+inline vs_device_error_bits_t* vs_device_error_bits = &ppa::device_errors;
+
 // The host's GUI items, readable with vs_gui_read_slider and vs_on_gui_update.
 #define VS_GUI_HOST_STATUS ppa::GUI_HOST_STATUS
 #define VS_GUI_FRAME_RATE ppa::GUI_FRAME_RATE
@@ -975,6 +1122,103 @@ inline void vs_vision_chip_rest(ppa::Loc loc = PPA_HERE) {
     ppa::call("vs_vision_chip_rest", false, {}, loc);
 }
 inline void vs_scamp5_rest(ppa::Loc loc = PPA_HERE) { ppa::call("vs_scamp5_rest", false, {}, loc); }
+// The exposure accumulated so far is reset: PIX is reset (the rpix instruction).
+inline void vs_vision_chip_reset_exposure(ppa::Loc loc = PPA_HERE) {
+    if (ppa::active()) ppa::fail(loc, "vs_vision_chip_reset_exposure() is called inside a kernel");
+    scamp5_kernel k;
+    k.recording_start(loc.file, loc.line, true);
+    const ppa::Arg* none[] = {nullptr};
+    ppa::emit("rpix", loc, none, 0);
+    k.recording_stop();
+    k();
+}
+
+// The chip's DAC, clocks and calibration. The DAC: vs_scamp5_set_dac drives IN with the level
+// of a 12-bit code, as scamp5_load_dac(code). The simulator's DAC, mid-point voltages and
+// global sums are calibrated by construction and its clock is the timing model's:
+// calibrating and clock settings are accepted and recorded (host.txt).
+inline void vs_scamp5_set_dac(uint16_t dac12, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_scamp5_set_dac", false, int(dac12));
+}
+inline void vs_scamp5_calibrate_dac(int print_result = 0, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_scamp5_calibrate_dac", false, print_result);
+}
+inline void vs_scamp5_calibrate_mid(int print_result = 0, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_scamp5_calibrate_mid", false, print_result);
+}
+inline void vs_scamp5_calibrate_global_sum(ppa::Loc loc = PPA_HERE) {
+    ppa::call("vs_scamp5_calibrate_global_sum", false, {}, loc);
+}
+inline void vs_scamp5_configure_clock(const uint8_t (*clock_setting)[8], ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_scamp5_configure_clock", false,
+             ppa::Arg(clock_setting ? "a clock table" : "NULL: the default clocks"));
+}
+
+// An ICW, the chip's machine code: five 16-bit words of bits (SCAMP5_ICW_BITS positions
+// 0-79), each in the low half of a port word that also holds its index (bits 16-18) and,
+// in the first, the clock (bits 19-21). Built from bit positions or from the registers'
+// fields, run with vs_scamp5_execute_icw.
+class scamp5_icw {
+   public:
+    uint32_t port_data[5];
+
+    scamp5_icw() { clear_bits(); }
+    scamp5_icw(uint8_t clock, const std::initializer_list<uint8_t>& bits) {
+        clear_bits();
+        set_bits(clock, bits);
+    }
+    scamp5_icw& clear_bits() {
+        for (uint32_t k = 0; k < 5; ++k) port_data[k] = k << 16;
+        return *this;
+    }
+    scamp5_icw& set_bits(uint8_t clock, const std::initializer_list<uint8_t>& bits) {
+        port_data[0] = (port_data[0] & ~(7u << 19)) | (uint32_t(clock & 7) << 19);
+        for (uint8_t b : bits) port_data[(b / 16) % 5] |= 1u << (b % 16);
+        return *this;
+    }
+    scamp5_icw& set_sel(const aref_t& r) { return low32(r.sel_bits); }
+    scamp5_icw& set_sel(const areg_t& r) { return low32(r.sel_bits); }
+    scamp5_icw& set_W(const areg_t& r) { return low32(r.W_bits); }
+    scamp5_icw& set_RR(const dref_t& r) { return word(r.RR_index, r.RR_bits); }
+    scamp5_icw& set_RR(const dreg_t& r) { return word(r.RR_index, r.RR_bits); }
+    scamp5_icw& set_LR(const dreg_t& r) { return word(r.LR_index, r.LR_bits); }
+    scamp5_icw& nop() { return clear_bits(); }
+    uint8_t clock() const { return uint8_t((port_data[0] >> 19) & 7); }
+
+   private:
+    scamp5_icw& low32(uint32_t bits) {
+        port_data[0] |= bits & 0xFFFFu;
+        port_data[1] |= bits >> 16;
+        return *this;
+    }
+    scamp5_icw& word(uint16_t index, uint16_t bits) {
+        port_data[index % 5] |= bits;
+        return *this;
+    }
+};
+
+// Run a sequence of ICWs: one kernel of their raw words (each decoded by the simulator, so
+// a word that matches no modelled instruction stops the run in one line). highspeed is
+// recorded, as allow_highspeed is.
+inline void vs_scamp5_execute_icw(const void* icw_addr, uint32_t icw_count, bool highspeed = false,
+                                  ppa::Loc loc = PPA_HERE) {
+    if (ppa::active()) ppa::fail(loc, "vs_scamp5_execute_icw() is called inside a kernel");
+    if (!icw_addr && icw_count) ppa::fail(loc, "vs_scamp5_execute_icw: the ICW address is NULL");
+    if (!icw_count) return;
+    const scamp5_icw* words = static_cast<const scamp5_icw*>(icw_addr);
+    scamp5_kernel k;
+    k.recording_start(loc.file, loc.line, true);
+    if (highspeed) ppa::call("allow_highspeed", false, {1}, loc);
+    for (uint32_t i = 0; i < icw_count; ++i) {
+        uint8_t bits[80];
+        size_t n = 0;
+        for (uint8_t b = 0; b < 80; ++b)
+            if (words[i].port_data[b / 16] & (1u << (b % 16))) bits[n++] = b;
+        ppa::emit_icw(&k, words[i].clock(), bits, n, loc);
+    }
+    k.recording_stop();
+    k();
+}
 
 // Data posted to the host: kept with the frame and the channel (posts.json).
 inline void vs_post_set_channel(uint32_t ch, ppa::Loc loc = PPA_HERE) {
@@ -1048,11 +1292,139 @@ inline void vs_gui_display_text(vs_handle display, int16_t c, int16_t r, const c
     int rgba = color[0] | color[1] << 8 | color[2] << 16 | int(uint32_t(color[3]) << 24);
     PPA_CALL("vs_gui_display_text", false, display, int(c), int(r), ppa::Arg(str), rgba);
 }
-// The drawing callback runs at once (its display_* calls are served as they come).
+// The drawing callback runs at once (its display_* calls are served as they come); the
+// vs_gui_graphics_api calls inside it are checked and recorded (host.txt), as texts over a
+// display are.
+namespace ppa {
+inline bool& in_graphics() {
+    static bool on = false;
+    return on;
+}
+}  // namespace ppa
 inline void vs_gui_display_graphics(vs_handle display, std::function<void(void)> f) {
     (void)display;
+    ppa::in_graphics() = true;
     if (f) f();
+    ppa::in_graphics() = false;
 }
+namespace ppa {
+inline void draw(const char* fn, std::initializer_list<Arg> args, const Loc& loc) {
+    if (!in_graphics()) {
+        fail(loc, std::string("vs_gui_graphics_api::") + fn +
+                      " draws over a display: call it inside the callback of "
+                      "vs_gui_display_graphics");
+    }
+    call((std::string("vs_gui_graphics_api::") + fn).c_str(), false, args, loc);
+}
+}  // namespace ppa
+namespace vs_gui_graphics_api {
+inline void m_push(ppa::Loc loc = PPA_HERE) { ppa::draw("m_push", {}, loc); }
+inline void m_pop(ppa::Loc loc = PPA_HERE) { ppa::draw("m_pop", {}, loc); }
+inline void m_translate(int16_t x, int16_t y, ppa::Loc loc = PPA_HERE) {
+    ppa::draw("m_translate", {int(x), int(y)}, loc);
+}
+inline void m_rotate(int16_t deg, ppa::Loc loc = PPA_HERE) { ppa::draw("m_rotate", {int(deg)}, loc); }
+inline void m_rotate_atan2(int16_t y, int16_t x, ppa::Loc loc = PPA_HERE) {
+    ppa::draw("m_rotate_atan2", {int(y), int(x)}, loc);
+}
+inline void m_scale(int16_t x, int16_t y, int16_t den, ppa::Loc loc = PPA_HERE) {
+    if (den == 0) ppa::fail(loc, "vs_gui_graphics_api::m_scale: the denominator is 0");
+    ppa::draw("m_scale", {int(x), int(y), int(den)}, loc);
+}
+inline void m_scale(float x, float y, ppa::Loc loc = PPA_HERE) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%g, %g", double(x), double(y));
+    ppa::draw("m_scale", {ppa::Arg(text)}, loc);
+}
+inline void set_color(uint8_t r, uint8_t g, uint8_t b, uint8_t a = 255, ppa::Loc loc = PPA_HERE) {
+    ppa::draw("set_color", {int(r), int(g), int(b), int(a)}, loc);
+}
+inline void set_color(const std::array<uint8_t, 4>& rgba, ppa::Loc loc = PPA_HERE) {
+    set_color(rgba[0], rgba[1], rgba[2], rgba[3], loc);
+}
+inline void set_linewidth(int16_t w, int16_t den = 1, ppa::Loc loc = PPA_HERE) {
+    if (den == 0) ppa::fail(loc, "vs_gui_graphics_api::set_linewidth: the denominator is 0");
+    ppa::draw("set_linewidth", {int(w), int(den)}, loc);
+}
+inline void set_pointsize(int16_t w, int16_t den = 1, ppa::Loc loc = PPA_HERE) {
+    if (den == 0) ppa::fail(loc, "vs_gui_graphics_api::set_pointsize: the denominator is 0");
+    ppa::draw("set_pointsize", {int(w), int(den)}, loc);
+}
+inline void draw_point(int16_t x0, int16_t y0, ppa::Loc loc = PPA_HERE) {
+    ppa::draw("draw_point", {int(x0), int(y0)}, loc);
+}
+inline void draw_line(int16_t x0, int16_t y0, int16_t x1, int16_t y1, ppa::Loc loc = PPA_HERE) {
+    ppa::draw("draw_line", {int(x0), int(y0), int(x1), int(y1)}, loc);
+}
+inline void draw_rect(int16_t x0, int16_t y0, int16_t x1, int16_t y1, ppa::Loc loc = PPA_HERE) {
+    ppa::draw("draw_rect", {int(x0), int(y0), int(x1), int(y1)}, loc);
+}
+inline void draw_circle(int16_t x0, int16_t y0, int16_t radius, int16_t n_segments = 24,
+                        ppa::Loc loc = PPA_HERE) {
+    ppa::draw("draw_circle", {int(x0), int(y0), int(radius), int(n_segments)}, loc);
+}
+}  // namespace vs_gui_graphics_api
+
+// A dot-matrix image (1 bit a pixel, rows of w/8 bytes) on a buffer the program binds.
+class vs_dotmat {
+   public:
+    static size_t get_buffer_size(uint16_t w, uint16_t h) { return size_t(w) * h / 8; }
+    void bind_buffer(void* mem, uint16_t w, uint16_t h) {
+        dotmap_ = static_cast<uint8_t*>(mem);
+        w_ = w;
+        h_ = h;
+    }
+    void* get_buffer(size_t* size = NULL) const {
+        if (size) *size = get_buffer_size(w_, h_);
+        return dotmap_;
+    }
+    uint16_t get_width() const { return w_; }
+    uint16_t get_height() const { return h_; }
+
+   private:
+    uint8_t* dotmap_ = nullptr;
+    uint16_t w_ = 0, h_ = 0;
+};
+
+// Requests to the host for a file or an image. The host here holds no files for the
+// program: a request is recorded (host.txt) and, at the next vs_frame_loop_control or
+// vs_process_message, ends as a request that timed out: an image request's callback gets
+// an empty image and a negative status (the device's "not received in time"); a file
+// request's callback is not called (no chunk arrives). One request at a time, as on the
+// device: another while one is under way returns non-zero.
+namespace ppa {
+inline bool& request_pending() {
+    static bool on = false;
+    return on;
+}
+inline int request(const char* fn, const char* filepath, int extra, uint32_t timeout,
+                   std::function<void(void)> answer, const Loc& loc) {
+    if (!filepath) fail(loc, std::string(fn) + ": the file path is NULL");
+    if (request_pending()) return 1;
+    call(fn, false, {Arg(filepath), extra, int(timeout)}, loc);
+    request_pending() = true;
+    hooks().request = [answer] {
+        request_pending() = false;
+        if (answer) answer();
+    };
+    return 0;
+}
+}  // namespace ppa
+inline int vs_gui_request_file(const char* filepath,
+                               std::function<void(const uint8_t*, size_t, size_t)> cb,
+                               uint32_t timeout_msec = 1000, ppa::Loc loc = PPA_HERE) {
+    (void)cb;
+    return ppa::request("vs_gui_request_file", filepath, 0, timeout_msec, nullptr, loc);
+}
+inline int vs_gui_request_image(const char* filepath, int bits,
+                                std::function<void(vs_dotmat const&, int)> cb,
+                                uint32_t timeout_msec = 1000, ppa::Loc loc = PPA_HERE) {
+    if (bits < 1 || bits > 8) ppa::fail(loc, "vs_gui_request_image: bits per pixel must be 1 to 8");
+    return ppa::request("vs_gui_request_image", filepath, bits, timeout_msec, [cb] {
+        if (cb) cb(vs_dotmat(), -1);
+    }, loc);
+}
+inline bool vs_gui_request_done() { return !ppa::request_pending(); }
 
 // Outputs of a register other than its whole image, drawn on a display.
 inline void scamp5_output_areg(ASRC areg, vs_handle display, int s = 1, int r0 = 0, int c0 = 0,
