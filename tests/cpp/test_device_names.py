@@ -49,7 +49,7 @@ def test_device_names_work_as_on_the_device(frames, tmp_path):
     a = frames[0].astype(np.float32) - 128
     out = result.session.outputs[0]  # by display handle: 1, 2, 3
     moved, negated, dac = out[1], out[2], out[3]
-    np.testing.assert_array_equal(moved, a > 0)  # MOV(R6, R5) as a raw word
+    np.testing.assert_array_equal(moved, a <= 0)  # MOV(R6, R5), then NOT(R7, R6): raw words
     np.testing.assert_array_equal(negated, np.minimum(-a, 127))  # bus(B, A) as a raw word
     np.testing.assert_array_equal(dac, np.full((N, N), 127.0))  # DAC code 4095: the top
     host = (tmp_path / "run" / "host.txt").read_text().splitlines()

@@ -26,7 +26,7 @@ int main() {
             areg_t n = SCAMP5_MACRO_T_AREG;
             vs_post_text("temporaries %d %d", t.LR_bits == R0.LR_bits && t.RR_bits == R0.RR_bits,
                          n.sel_bits == NEWS.sel_bits);
-            // raw ICWs: R5 := A > 0 by kernel, then MOV(R6, R5) and bus(B, A) as raw words
+            // raw ICWs: R5 := A > 0 by kernel, then MOV(R6, R5), bus(B, A), NOT(R7, R6)
             scamp5_kernel_begin();
                 where(A);
                     MOV(R5, FLAG);
@@ -35,13 +35,14 @@ int main() {
             scamp5_kernel_end();
             {
                 using namespace SCAMP5_ICW_BITS;
-                scamp5_icw words[2];
+                scamp5_icw words[3];
                 words[0].set_bits(SCAMP5_CLOCK_DIGITAL, {s_in, plrb, bit, bitmode});
                 words[0].set_LR(R6).set_RR(R5);
                 words[1] = scamp5_icw(SCAMP5_CLOCK_ANALOG, {}).set_W(B).set_sel(B).set_sel(A);
-                vs_scamp5_execute_icw(words, 2);
+                words[2] = scamp5_icw().NOT(R7, R6);  // the class's own instruction
+                vs_scamp5_execute_icw(words, 3);
             }
-            scamp5_output_image(R6, d0);
+            scamp5_output_image(R7, d0);
             scamp5_output_image(B, d1);
             // the DAC's highest code drives IN to the top of the range
             vs_scamp5_set_dac(4095);

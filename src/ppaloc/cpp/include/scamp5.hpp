@@ -1158,6 +1158,8 @@ inline void vs_scamp5_configure_clock(const uint8_t (*clock_setting)[8], ppa::Lo
 // 0-79), each in the low half of a port word that also holds its index (bits 16-18) and,
 // in the first, the clock (bits 19-21). Built from bit positions or from the registers'
 // fields, run with vs_scamp5_execute_icw.
+namespace ppa::icw_bits {
+using namespace SCAMP5_ICW_BITS;  // the bit names, for the instructions below
 class scamp5_icw {
    public:
     uint32_t port_data[5];
@@ -1185,7 +1187,103 @@ class scamp5_icw {
     scamp5_icw& nop() { return clear_bits(); }
     uint8_t clock() const { return uint8_t((port_data[0] >> 19) & 7); }
 
+    // The instructions, each adding its bits to the word (start from a cleared one:
+    // scamp5_icw().MOV(R6, R5)). Analogue: the bus and its variants.
+    scamp5_icw& rpix() { return on({rstpix, selpix}); }
+    scamp5_icw& aout(const aref_t& a) { return set_sel(a).on({ana}); }
+    template <class... S>
+    scamp5_icw& bus(const areg_t& a, const S&... srcs) {
+        set_sel(a).set_W(a);
+        (set_sel(aref_t(srcs)), ...);
+        return *this;
+    }
+    scamp5_icw& bus(std::initializer_list<areg_t> dst, std::initializer_list<aref_t> src) {
+        for (const areg_t& a : dst) set_sel(a).set_W(a);
+        for (const aref_t& a : src) set_sel(a);
+        return *this;
+    }
+    template <class... S>
+    scamp5_icw& bus2(const areg_t& a, const areg_t& b, const S&... srcs) {
+        set_sel(a).set_sel(b).set_W(a).set_W(b);
+        (set_sel(aref_t(srcs)), ...);
+        return *this;
+    }
+    scamp5_icw& bus3(const areg_t& a, const areg_t& b, const areg_t& c, const aref_t& a0) {
+        return set_sel(a).set_sel(b).set_sel(c).set_W(a).set_W(b).set_W(c).set_sel(a0);
+    }
+    scamp5_icw& blurset() { return clk(SCAMP5_CLOCK_DIGITAL).set_RR(SCAMP5_PE::R1).set_RR(SCAMP5_PE::R2); }
+    scamp5_icw& blur(const areg_t& a, const aref_t& a0) { return diffuse(a, a0).on({seldiffe, seldiffs}); }
+    scamp5_icw& blurh(const areg_t& a, const aref_t& a0) { return diffuse(a, a0).on({seldiffe}); }
+    scamp5_icw& blurv(const areg_t& a, const aref_t& a0) { return diffuse(a, a0).on({seldiffs}); }
+    scamp5_icw& sq(const aref_t& a0, const aref_t& a1) {
+        return set_sel(SCAMP5_PE::NEWS).set_W(SCAMP5_PE::NEWS).set_sel(a0).set_sel(a1).on({selsq});
+    }
+    template <class... S>
+    scamp5_icw& where(const S&... srcs) {
+        on({wrf});
+        (set_sel(aref_t(srcs)), ...);
+        return *this;
+    }
+    // Digital: the latch operations on the R registers and FLAG.
+    template <class... S>
+    scamp5_icw& WHERE(const S&... srcs) {
+        clk(SCAMP5_CLOCK_DIGITAL).on({wrf, plrb, rid});
+        (set_RR(dref_t(srcs)), ...);
+        return *this;
+    }
+    scamp5_icw& all() { return on({setf, plrb, rid}); }
+    template <class... D>
+    scamp5_icw& SET(const D&... d) {
+        clk(SCAMP5_CLOCK_DIGITAL).on({s_in, plwb});
+        (set_LR(d), ...);
+        return *this;
+    }
+    template <class... D>
+    scamp5_icw& CLR(const D&... d) {
+        latch();
+        (set_LR(d), ...);
+        return *this;
+    }
+    scamp5_icw& MOV(const dreg_t& d, const dref_t& d0) { return latch().set_LR(d).set_RR(d0); }
+    template <class... S>
+    scamp5_icw& OR(const dreg_t& d, const S&... srcs) {
+        latch().set_LR(d);
+        (set_RR(dref_t(srcs)), ...);
+        return *this;
+    }
+    scamp5_icw& NOT(const dreg_t& d, const dref_t& d0) { return inverted().set_LR(d).set_RR(d0); }
+    template <class... S>
+    scamp5_icw& NOR(const dreg_t& d, const S&... srcs) {
+        inverted().set_LR(d);
+        (set_RR(dref_t(srcs)), ...);
+        return *this;
+    }
+    scamp5_icw& REFRESH_R(const dreg_t& d) { return latch().set_RR(d); }
+    scamp5_icw& REFRESH_L(const dreg_t& d) {
+        return clk(SCAMP5_CLOCK_DIGITAL).on({s_in, bit, bitmode}).set_LR(d);
+    }
+    scamp5_icw& DNEWS0(const dreg_t& d, const dref_t& d0) { return dnews(d, d0); }
+    scamp5_icw& DNEWS1(const dreg_t& d, const dref_t& d0) { return dnews(d, d0).on({pupd}); }
+    scamp5_icw& PROP_R() { return on({s_in, RR12, plrb, bit, bitmode}); }
+    scamp5_icw& PROP_0() { return clk(SCAMP5_CLOCK_PROP).on({s_in, RR12, LR12, fbus, rid, nb}); }
+    scamp5_icw& PROP_1() { return PROP_0().on({pupd}); }
+
    private:
+    scamp5_icw& on(std::initializer_list<uint8_t> bits) {
+        for (uint8_t b : bits) port_data[(b / 16) % 5] |= 1u << (b % 16);
+        return *this;
+    }
+    scamp5_icw& clk(uint8_t clock) {
+        port_data[0] = (port_data[0] & ~(7u << 19)) | (uint32_t(clock & 7) << 19);
+        return *this;
+    }
+    scamp5_icw& diffuse(const areg_t& a, const aref_t& a0) { return set_sel(a0).set_W(a).set_sel(a); }
+    scamp5_icw& latch() { return clk(SCAMP5_CLOCK_DIGITAL).on({s_in, plrb, bit, bitmode}); }
+    scamp5_icw& inverted() { return clk(SCAMP5_CLOCK_DIGITAL).on({s_in, plwb, plrb, nbit, bitmode}); }
+    scamp5_icw& dnews(const dreg_t& d, const dref_t& d0) {
+        return clk(SCAMP5_CLOCK_DNEWS).on({s_in, rid, nb, plrb, bit, fbus}).set_LR(d).set_RR(d0);
+    }
+
     scamp5_icw& low32(uint32_t bits) {
         port_data[0] |= bits & 0xFFFFu;
         port_data[1] |= bits >> 16;
@@ -1196,6 +1294,8 @@ class scamp5_icw {
         return *this;
     }
 };
+}  // namespace ppa::icw_bits
+using ppa::icw_bits::scamp5_icw;
 
 // Run a sequence of ICWs: one kernel of their raw words (each decoded by the simulator, so
 // a word that matches no modelled instruction stops the run in one line). highspeed is
