@@ -89,3 +89,10 @@ def test_the_frame_trigger_starts_each_frame(frames):
     low, high = (int(t.split(": ")[1]) for t in result.texts)
     assert low < high  # each trigger brought the next frame's image
     assert result.session.loops == 4
+
+
+def test_an_overflow_of_the_icw_stack_sets_the_devices_flag(frames):
+    result = run_program(SOURCE, frames * 3, settings={"mode": "4"}, timeout=60)
+    # set from the frame loop's answer after the overflowing kernel first ran
+    assert result.texts == ["overflow 0", "overflow 1", "overflow 1"]
+    assert any("lost" in w for w in result.session.warnings)

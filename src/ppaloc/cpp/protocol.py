@@ -38,6 +38,8 @@ end) followed by ``i32 handle, i32 value`` pairs: the sliders and switches a liv
 (:mod:`ppaloc.cpp.live`) changed since the last frame, which the shim applies as the device
 applies the host's GUI messages (value, writeback variable, ``vs_on_gui_update`` callback).
 A slider's or switch's ``CALL`` carries the handle the shim gave it after its initial value.
+The handle :data:`DEVICE_ERRORS` (no GUI item has it) carries the device's error flags
+instead, as ``vs_device_error_bits`` holds them (bit 7: the ICW stack overflowed).
 
 The program buffers messages (64 KiB) and writes them only when it needs an answer, when
 the buffer is full, or at exit: a replayed kernel costs 9 bytes and no round trip.
@@ -46,6 +48,8 @@ the buffer is full, or at exit: a replayed kernel costs 9 bytes and no round tri
 from __future__ import annotations
 
 __all__ = [
+    "DEVICE_ERRORS",
+    "ICW_STACK_OVERFLOW",
     "LINE_BITS",
     "LINE_MASK",
     "OPS",
@@ -59,6 +63,11 @@ VERSION = 4
 
 #: Message opcodes.
 OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5, "FILE": 6}
+
+#: The handle of the device's error flags in the frame loop's answer, and the flag of an
+#: overflow of the ICW stack (``vs_device_error_bits_t::icw_stack_overflow``, bit 7).
+DEVICE_ERRORS = -1
+ICW_STACK_OVERFLOW = 1 << 7
 
 #: Bits of a wire location that hold the line (the rest hold the file's id).
 LINE_BITS = 20

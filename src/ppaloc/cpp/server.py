@@ -27,7 +27,16 @@ from typing import Any, Protocol
 import numpy as np
 
 from ppaloc.cpp.displays import box_outlines, byte_image, event_marks, subsample
-from ppaloc.cpp.protocol import LINE_BITS, LINE_MASK, OPS, REGISTER_NAMES, TAGS, VERSION
+from ppaloc.cpp.protocol import (
+    DEVICE_ERRORS,
+    ICW_STACK_OVERFLOW,
+    LINE_BITS,
+    LINE_MASK,
+    OPS,
+    REGISTER_NAMES,
+    TAGS,
+    VERSION,
+)
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
@@ -177,6 +186,7 @@ class Session:
     warnings: list[str] = field(default_factory=list)
     # place -> [first frame, count, index in warnings]
     divisions_by_zero: dict[str, list[int]] = field(default_factory=dict)
+    device_errors: int = 0  # vs_device_error_bits, as the frame loop's answer carries them
     loops: int = 0
     finished: bool = False
     frame_loop_us: list[float] = field(default_factory=list)
@@ -277,7 +287,9 @@ class Session:
         and values of the sliders and switches a live view changed (:mod:`ppaloc.cpp.protocol`).
         """
         go = self.loop()
-        return _i32(go) + b"".join(struct.pack("<ii", h, v) for h, v in self._changes)
+        errors = [(DEVICE_ERRORS, self.device_errors)] if self.device_errors else []
+        pairs = self._changes + errors
+        return _i32(go) + b"".join(struct.pack("<ii", h, v) for h, v in pairs)
 
     # -------------------------------------------------------------- messages
     def handle(self, op: int, payload: memoryview) -> bytes | None:
@@ -378,6 +390,7 @@ class Session:
                     self.warnings.append(f"{stats.file}:{stats.line}: {w.message}")
             dropped = getattr(kernel, "dropped", 0)
             if dropped:
+                self.device_errors |= ICW_STACK_OVERFLOW
                 self.warnings.append(
                     f"{stats.file}:{stats.line}: the kernel begun here lost {dropped} of its "
                     "ICWs: the 1024-ICW stack that static kernels share is full (free some, "

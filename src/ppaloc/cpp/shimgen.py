@@ -13,6 +13,8 @@ from __future__ import annotations
 import inspect
 
 from ppaloc.cpp.protocol import (
+    DEVICE_ERRORS,
+    ICW_STACK_OVERFLOW,
     LINE_BITS,
     OPS,
     REGISTER_NAMES,
@@ -72,6 +74,8 @@ def constants_header() -> str:
     lines += [f"constexpr uint8_t OP_{k} = {v};" for k, v in OPS.items()]
     lines += [f"constexpr uint8_t TAG_{k} = {v};" for k, v in TAGS.items()]
     lines.append(f"constexpr int LINE_BITS = {LINE_BITS};")
+    lines.append(f"constexpr int DEVICE_ERRORS = {DEVICE_ERRORS};")
+    lines.append(f"constexpr uint32_t ICW_STACK_OVERFLOW = {ICW_STACK_OVERFLOW};")
     lines.append(f"constexpr int SHIM_EXIT = {SHIM_EXIT};")
     lines.append(f"constexpr int SERVER_EXIT = {SERVER_EXIT};")
     lines.append("}  // namespace ppa")

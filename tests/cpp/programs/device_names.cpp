@@ -90,6 +90,15 @@ int main() {
             vs_scamp5_execute_icw(&w, 1);
         } else if (mode == 2) {
             vs_gui_graphics_api::draw_point(1, 2);
+        } else if (mode == 4) {
+            // two static kernels of 600 ICWs each overflow the 1024-ICW stack they share
+            vs_post_text("overflow %d", int(vs_device_error_bits->icw_stack_overflow));
+            scamp5_kernel_begin();
+                for (int i = 0; i < 600; ++i) bus(A, B);
+            scamp5_kernel_end();
+            scamp5_kernel_begin();
+                for (int i = 0; i < 600; ++i) bus(C, B);
+            scamp5_kernel_end();
         } else if (mode == 3) {
             // a loop that writes the parts of vs_frame_loop_control itself: the trigger
             // starts each frame, and after the last the program ends

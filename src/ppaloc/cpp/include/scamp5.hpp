@@ -844,6 +844,25 @@ inline void vs_init(ppa::Loc loc = PPA_HERE) {
     ppa::wire(loc);  // its file maps too: the exit handler's calls use them
     std::atexit([] { ppa::end_of_run(); });
 }
+// The device's error flags. The simulator stops the run with a message where the device
+// would fail to boot, allocate or calibrate; an overflow of the 1024-ICW stack that static
+// kernels share is its one flag here (also a warning in summary.json), set from the frame
+// loop's answer after the kernel that overflowed it was first run.
+struct vs_device_error_bits_t {
+    uint32_t booting_failed : 1;
+    uint32_t shutdown_failed : 1;
+    uint32_t watchdog_timeout : 1;
+    uint32_t coroutine_timeout : 1;
+    uint32_t bank0_malloc_failed : 1;
+    uint32_t bank1_malloc_failed : 1;
+    uint32_t shared_malloc_failed : 1;
+    uint32_t icw_stack_overflow : 1;
+    uint32_t calibration_failed : 1;
+};
+namespace ppa {
+inline vs_device_error_bits_t device_errors{};
+}
+inline vs_device_error_bits_t* vs_device_error_bits = &ppa::device_errors;
 namespace ppa {
 // Slider and switch values the host changed while the program runs (a live view): the
 // frame loop's answer carries (handle, value) pairs after its own value, applied here as the
@@ -853,6 +872,10 @@ inline void gui_changes(const std::vector<uint8_t>& r) {
     for (size_t at = 4; at + 8 <= r.size(); at += 8) {
         vs_handle h = vs_handle(as_int(std::vector<uint8_t>(r.begin() + at, r.begin() + at + 4)));
         int32_t v = as_int(std::vector<uint8_t>(r.begin() + at + 4, r.begin() + at + 8));
+        if (h == DEVICE_ERRORS) {
+            device_errors.icw_stack_overflow = (uint32_t(v) & ICW_STACK_OVERFLOW) ? 1 : 0;
+            continue;
+        }
         if (!g.values.count(h)) continue;
         g.values[h] = v;
         if (g.writeback.count(h)) *g.writeback[h] = v;
@@ -1020,23 +1043,6 @@ class vs_stopwatch {
     "Simulation (ppaloc): " __FILE__ "\n" \
     "Compile Time: " __TIME__ " " __DATE__ "\n"
 
-// The device's error flags. None of these failures happens here: the simulator stops the run
-// with a message instead (an overflow of the 1024-ICW stack is a warning in summary.json).
-struct vs_device_error_bits_t {
-    uint32_t booting_failed : 1;
-    uint32_t shutdown_failed : 1;
-    uint32_t watchdog_timeout : 1;
-    uint32_t coroutine_timeout : 1;
-    uint32_t bank0_malloc_failed : 1;
-    uint32_t bank1_malloc_failed : 1;
-    uint32_t shared_malloc_failed : 1;
-    uint32_t icw_stack_overflow : 1;
-    uint32_t calibration_failed : 1;
-};
-namespace ppa {
-inline vs_device_error_bits_t device_errors{};
-}
-inline vs_device_error_bits_t* vs_device_error_bits = &ppa::device_errors;
 
 // The host's GUI items, readable with vs_gui_read_slider and vs_on_gui_update.
 #define VS_GUI_HOST_STATUS ppa::GUI_HOST_STATUS
