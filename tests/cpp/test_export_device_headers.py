@@ -1,17 +1,15 @@
 """Exported programs compile against the public SCAMP-5d device headers, not only the shim.
 
 The headers are never kept in this repository: ``PPALOC_SCAMP5_HEADERS`` names their
-``include`` folder (the one holding ``s5d_m0/``), or a local bare copy of
-luozhongrui/scamp5_algorithms is read; without either the tests skip, saying so.
+``include`` folder (the one holding ``s5d_m0/``, as in luozhongrui/scamp5_algorithms);
+without it the tests skip, saying so.
 docs/cpp.md ("Export") gives the flags and the stand-in for the ARM CMSIS header.
 """
 
 from __future__ import annotations
 
-import io
 import os
 import subprocess
-import tarfile
 from pathlib import Path
 
 import numpy as np
@@ -21,9 +19,6 @@ from ppaloc.cpp import Tracer, to_cpp
 from ppaloc.cpp.export import kernel_to_cpp
 from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.sim import NEWS, R5, R6, R7, A, B, C, Scamp5, east
-
-# Local bare copies of the repository that publishes the headers, tried in order.
-MIRRORS = [Path("/work/.mirror/luozhongrui+scamp5_algorithms/repo")]
 
 # The ARM CMSIS instruction intrinsics the device configuration includes
 # (core_cmInstr.h, from ARM's toolchain): empty stand-ins for a syntax check.
@@ -35,35 +30,22 @@ DEVICE = ["-D__LPC43XX__", "-DCORE_M0"]  # the M0 core of the LPC43xx: the devic
 
 
 @pytest.fixture(scope="module")
-def headers(cxx, tmp_path_factory) -> Path:
-    """The device headers' include folder, with the CMSIS stand-in beside it in ``cmsis``."""
-    root = tmp_path_factory.mktemp("device")
+def headers(cxx, tmp_path_factory) -> tuple[Path, Path]:
+    """The device headers' include folder, and a folder with the CMSIS stand-in."""
     given = os.environ.get("PPALOC_SCAMP5_HEADERS")
-    if given:
-        include = Path(given)
-        if not (include / "s5d_m0" / "scamp5.hpp").is_file():
-            pytest.fail(f"PPALOC_SCAMP5_HEADERS={given} holds no s5d_m0/scamp5.hpp")
-    else:
-        mirror = next((m for m in MIRRORS if m.is_dir()), None)
-        if mirror is None:
-            pytest.skip(
-                "no SCAMP-5d device headers: set PPALOC_SCAMP5_HEADERS to their include folder"
-            )
-        archive = subprocess.run(
-            ["git", f"--git-dir={mirror}", "archive", "HEAD", "include"],
-            capture_output=True, check=True,
-        ).stdout  # fmt: skip
-        with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
-            tar.extractall(root, filter="data")
-        include = root / "include"
-    (root / "cmsis").mkdir()
-    (root / "cmsis" / "core_cmInstr.h").write_text(CMSIS_STANDIN)
-    return include
+    if not given:
+        pytest.skip("no SCAMP-5d device headers: set PPALOC_SCAMP5_HEADERS to their include folder")
+    include = Path(given)
+    if not (include / "s5d_m0" / "scamp5.hpp").is_file():
+        pytest.fail(f"PPALOC_SCAMP5_HEADERS={given} holds no s5d_m0/scamp5.hpp")
+    cmsis = tmp_path_factory.mktemp("cmsis")
+    (cmsis / "core_cmInstr.h").write_text(CMSIS_STANDIN)
+    return include, cmsis
 
 
-def syntax(cxx: str, include: Path, source: Path, defines: list[str]) -> str:
+def syntax(cxx: str, headers: tuple[Path, Path], source: Path, defines: list[str]) -> str:
     """The compiler's errors for ``source`` against the device headers ('' when none)."""
-    cmsis = include.parent / "cmsis" if (include.parent / "cmsis").is_dir() else include
+    include, cmsis = headers
     args = [cxx, "-std=c++11", "-fsyntax-only", *defines, f"-I{include / 's5d_m0'}",
             f"-I{include}", f"-I{cmsis}", str(source)]  # fmt: skip
     done = subprocess.run(args, capture_output=True, text=True)
