@@ -39,6 +39,7 @@ GRID: dict[str, tuple[int, ...]] = {
     "skip_cost": (1, 2, 4, 8, 16),
     "max_advance": (1, 2, 3),
     "contrast": (0, 16, 24, 32, 48, 64, 96, 127),
+    "contrast_patch": (2, 4, 8),
     "motion_margin": (2, 3, 4, 5, 6, 8),
 }
 """Each parameter's values: at least a 4x range around the default."""

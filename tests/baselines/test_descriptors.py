@@ -15,6 +15,7 @@ from hypothesis.extra.numpy import arrays
 from ppaloc.baselines import ABLEM, ParticleFilter, SeqSLAM, SingleFrame
 from ppaloc.baselines._descriptors import (
     LOWRES_CONTRAST,
+    LOWRES_PATCH,
     lbp_distances,
     lbp_place,
     lowres_distances,
@@ -34,10 +35,10 @@ def blocks(means: np.ndarray) -> np.ndarray:
     return np.kron(np.asarray(means, np.uint8), np.ones((32, 32), np.uint8))
 
 
-def halves(west: int, east: int) -> np.ndarray:
-    """Block means ``west`` in columns 0-3 and ``east`` in columns 4-7."""
-    m = np.full((8, 8), west)
-    m[:, 4:] = east
+def column(col: int, value: int) -> np.ndarray:
+    """Block means ``value`` in block column ``col``, 0 elsewhere."""
+    m = np.zeros((8, 8))
+    m[:, col] = value
     return blocks(m)
 
 
@@ -59,13 +60,19 @@ TOP_RIGHT = bright_centres((2, 5))  # 0xFF00FFFF
 
 
 def test_lowres_place_golden_and_contrast_invariance() -> None:
-    # West 0, east 100: mean 50 -> 128, mad 50 -> gain x1 (nearest 48/50): 78 | 178.
-    a = lowres_place(halves(0, 100))
+    # Block column 1 at 100, the rest 0: the 2x2 tiles over columns 0-1 have mean 50 ->
+    # 128 and mad 50 -> gain x1 (nearest 48/50): 78 | 178; every other tile is flat: 128.
+    a = lowres_place(column(1, 100))
     assert a.dtype == np.uint8 and a.shape == (8, 8)
-    assert a[0].tolist() == [78] * 4 + [178] * 4 and (a == a[0]).all()
-    # West 0, east 200: mean 100, mad 100 -> gain x1/2 (nearest 0.48): the same place.
-    np.testing.assert_array_equal(lowres_place(halves(0, 200)), a)
-    assert LOWRES_CONTRAST == 48
+    assert a[0].tolist() == [78, 178] + [128] * 6 and (a == a[0]).all()
+    # Column 1 at 200 and column 6 at 50 (mean 100, mad 100 -> gain x1/2; a tile of its
+    # own: mean 25, mad 25 -> gain x2): each tile on its own gives the same place.
+    m = np.zeros((8, 8))
+    m[:, 1], m[:, 6] = 200, 50
+    b = lowres_place(blocks(m))
+    np.testing.assert_array_equal(b[:, :2], a[:, :2])
+    assert b[0, 6:].tolist() == [178, 78]
+    assert (LOWRES_CONTRAST, LOWRES_PATCH) == (48, 2)
 
 
 def test_lbp_place_golden() -> None:
@@ -90,10 +97,11 @@ def test_nodes_are_exactly_the_weighted_node_filters_places(cls) -> None:
     rng = np.random.default_rng(3)
     frames = rng.integers(0, 256, (5, 256, 256), dtype=np.uint8)
     low = cls(descriptor="lowres").build_map(frames)
-    expected = normalise_contrast(lowres_image(frames), 48)
+    expected = normalise_contrast(lowres_image(frames), 48, 2)
     assert low.descriptors.dtype == np.uint8
     np.testing.assert_array_equal(low.descriptors, expected)
     assert low.params["descriptor"] == "lowres" and low.params["contrast"] == 48
+    assert low.params["contrast_patch"] == 2
     lbp = cls(descriptor="lbp").build_map(frames)
     assert lbp.descriptors.dtype == np.uint32 and lbp.descriptors.shape == (5,)
     np.testing.assert_array_equal(lbp.descriptors, lbp_descriptor(frames))
@@ -104,10 +112,10 @@ def test_nodes_are_exactly_the_weighted_node_filters_places(cls) -> None:
 @pytest.mark.parametrize("cls", IMAGE)
 def test_difference_columns_golden(cls) -> None:
     low = cls(descriptor="lowres")
-    low.build_map([halves(0, 100), halves(0, 200), halves(100, 0)])
+    low.build_map([column(1, 100), column(1, 200), column(0, 100)])
     # The first two are one place under another contrast; the third differs by 100 on
-    # every cell (78 <-> 178).
-    assert low.difference_column(halves(0, 100)).tolist() == [0.0, 0.0, 100.0]
+    # the 16 cells of block columns 0 and 1 (78 <-> 178), a mean of 25 per cell.
+    assert low.difference_column(column(1, 100)).tolist() == [0.0, 0.0, 25.0]
     lbp = cls(descriptor="lbp")
     lbp.build_map([FLAT, TOP_LEFT, ALL_FOUR])
     assert lbp.difference_column(TOP_RIGHT).tolist() == [8.0, 16.0, 24.0]
@@ -244,9 +252,14 @@ def test_maps_of_another_descriptor_are_refused(cls, toy_route) -> None:
     other = TopoMap(cls.kind, low.descriptors, params={**low.params, "contrast": 32})
     with pytest.raises(
         PpalocError,
-        match=f"^{cls.name}: the map's lowres nodes were normalised to contrast=32, this "
-        "version normalises them to contrast=48; build the map again$",
+        match=f"^{cls.name}: the map's lowres nodes were normalised with contrast=32, this "
+        "version normalises them with contrast=48; build the map again$",
     ):
+        cls(descriptor="lowres").use_map(other)
+    # a map saved before tiles were normalised on their own
+    before = {k: v for k, v in low.params.items() if k != "contrast_patch"}
+    other = TopoMap(cls.kind, low.descriptors, params=before)
+    with pytest.raises(PpalocError, match=r"with contrast_patch=None, .* contrast_patch=2; build"):
         cls(descriptor="lowres").use_map(other)
     # A map saved before descriptors existed holds the method's own image.
     old = cls().build_map(ref[:3])

@@ -52,5 +52,11 @@ def test_contrast_normalised_lowres_compares_the_normalised_images():
     assert exact(frame).tolist() == [1024 * int(w) for w in want]
     assert want[0] < 64 * 2  # within a grey level or two per cell (rounding, the gain step)
     np.testing.assert_array_equal(exact.live(frame), live)
+    # each 2x2 tile of blocks on its own (the robust preset's default tile)
+    tiles = NodeDistances("lowres", nodes, exact=True, contrast=48, patch=2)
+    live2 = normalise_contrast(dim, 48, 2).astype(np.int64)
+    want2 = np.abs(live2[None] - normalise_contrast(nodes, 48, 2).astype(np.int64)).sum(axis=(1, 2))
+    assert exact(frame).tolist() != tiles(frame).tolist() == [1024 * int(w) for w in want2]
+    np.testing.assert_array_equal(tiles.live(frame), live2)
     # the paper preset's path (contrast None) sees the raw images: far apart
     assert NodeDistances("lowres", nodes, exact=False)(frame)[0] > 64 * 40

@@ -26,7 +26,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     """docs/ppa8.md, "Robust preset", written out literally for low-res maps."""
     n = len(nodes)
     # every image, live or node, contrast-normalised (docs/ppa8.md, "Robust preset")
-    q = normalise_contrast(nodes, p.contrast).astype(float).reshape(n, 64)
+    q = normalise_contrast(nodes, p.contrast, p.contrast_patch).astype(float).reshape(n, 64)
     w = np.zeros(n)
     out, prev = [], None
     for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
@@ -38,7 +38,8 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
                 cand.append(src - cost)
             w = np.clip(np.max(cand, axis=0), -127, 127)
         if t == 1 or moved:
-            f = normalise_contrast(lowres_image(frame), p.contrast).reshape(64) / 2 - 64
+            f = normalise_contrast(lowres_image(frame), p.contrast, p.contrast_patch)
+            f = f.reshape(64) / 2 - 64
             mu = np.minimum(np.abs(f - (q / 2 - 64)), 127).mean(axis=1)
             code = np.floor(128.5 - mu / 2)
             r = 2 * (128 - code)
@@ -66,9 +67,10 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     costs=st.tuples(st.integers(0, 64), st.integers(0, 64), st.integers(0, 64)),
     max_advance=st.integers(1, 3),
     contrast=st.sampled_from([0, 1, 16, 48, 127]),
+    patch=st.sampled_from([2, 4, 8]),
 )
 def test_ppa8_equals_the_robust_contract_written_out(
-    seed, n, gain, memory, costs, max_advance, contrast
+    seed, n, gain, memory, costs, max_advance, contrast, patch
 ):
     rng = np.random.default_rng(seed)
     nodes = rng.integers(0, 256, (n, 8, 8), dtype=np.uint8)
@@ -82,6 +84,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         skip_cost=costs[2],
         max_advance=max_advance,
         contrast=contrast,
+        contrast_patch=patch,
     )
     loc = WeightedNodeLocaliser(
         "lowres",

@@ -198,10 +198,10 @@ def test_scale_readout_and_update_follow_the_frame_statistics(rep, n, gain):
     pipe.add_scaled(s, alpha)
     f = _frame_means(frame)
     if rep == "lowres":  # live and nodes contrast-normalised (docs/ppa8.md, robust)
-        c = pipe.params.contrast
+        c, tile = pipe.params.contrast, pipe.params.contrast_patch
         q = np.floor(2 * (f + 64)).astype(np.int64)  # floor of the block means of p
-        f = normalise_contrast(q, c).astype(np.float64) / 2 - 64
-        stored = normalise_contrast(nodes, c).astype(np.float64)
+        f = normalise_contrast(q, c, tile).astype(np.float64) / 2 - 64
+        stored = normalise_contrast(nodes, c, tile).astype(np.float64)
         diff = np.abs(f[None] - (stored / 2 - 64))
         mu = np.minimum(diff, 127).mean(axis=(1, 2))
         r = 2 * (128 - np.floor(128.5 - mu / 2)).astype(np.int64)
@@ -245,7 +245,7 @@ def test_robust_live_image_takes_one_write_instead_of_summing_the_write_noise(si
             # the noisy readout (write noise and offsets of the reduce tree, the spread
             # and the readout; its transfer gain shrinks the means by a few percent, which
             # can move the normalisation to the next gain) gives the same picture
-            ideal = normalise_contrast(q, 48).reshape(-1)
+            ideal = normalise_contrast(q, 48, pipe.params.contrast_patch).reshape(-1)
             assert np.corrcoef(pipe.places.live_image.reshape(-1), ideal)[0, 1] > 0.98
             want = pipe.places.live_image / 2.0 - 64
         else:

@@ -78,11 +78,12 @@ def test_a_new_preset_runs_on_every_executor_and_they_agree(advance, frames, rep
     assert nodes["sensor"] == nodes["ppa8"] == nodes["float"]
     for a, b in zip(runs["ppa8"], runs["sensor"], strict=True):
         np.testing.assert_allclose(a.weights, b.weights, atol=1e-4)
-    # it is its own preset: it advances one node every frame, even while the query
-    # stands still (the motion test says so), which the robust preset would not
+    # it is its own preset: it advances one node every frame, even while the camera
+    # stands still (the motion test says so), which the robust preset would not; the
+    # map's own frames make the start unambiguous
     still = WeightedNodeLocaliser("lowres", arithmetic="ppa8", **kw)
     still.build_map(ref)
-    held = still.localise([query[0]] * 3 + query[3:8])
+    held = still.localise([ref[0]] * 3 + ref[3:8])
     assert [e.moved for e in held[1:3]] == [False, False]
     assert [e.node for e in held] == list(range(8))
 

@@ -177,7 +177,8 @@ def test_replicate_tiles_the_grid_into_every_node_block(preset):
     grid = _means(frame)  # paper: the exact block means
     if preset == "robust":  # the block means' floors, contrast-normalised (levels q'/2 - 64)
         q = np.floor(2 * (grid + 64)).astype(np.int64)
-        grid = normalise_contrast(q, pipe.params.contrast).astype(np.float64) / 2 - 64
+        c, tile = pipe.params.contrast, pipe.params.contrast_patch
+        grid = normalise_contrast(q, c, tile).astype(np.float64) / 2 - 64
     np.testing.assert_array_equal(got, np.tile(grid, (SIZE // 8, SIZE // 8)))
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from ppaloc.baselines._descriptors import (
     LOWRES_CONTRAST,
+    LOWRES_PATCH,
     lbp_distances,
     lbp_place,
     lowres_distances,
@@ -207,13 +208,14 @@ class MapLocaliser:
                     f"compares descriptor={self.descriptor!r}; give descriptor={got!r} or "
                     "build the map again"
                 )
-            want = self.descriptor_params().get("contrast")
-            if want is not None and params.get("contrast") != want:
-                raise PpalocError(
-                    f"{self.name}: the map's {got} nodes were normalised to "
-                    f"contrast={params.get('contrast')!r}, this version normalises them to "
-                    f"contrast={want!r}; build the map again"
-                )
+            for key in ("contrast", "contrast_patch"):
+                want = self.descriptor_params().get(key)
+                if want is not None and params.get(key) != want:
+                    raise PpalocError(
+                        f"{self.name}: the map's {got} nodes were normalised with "
+                        f"{key}={params.get(key)!r}, this version normalises them with "
+                        f"{key}={want!r}; build the map again"
+                    )
         self.map = check_map(topomap, self.kind, self.descriptor_shape, self.name)
         self.reset()
         return self.map
@@ -247,10 +249,14 @@ class ImageLocaliser(MapLocaliser):
 
     def descriptor_params(self) -> dict:
         """What the node descriptor is: ``"descriptor"``, with ``size`` and ``patch`` for
-        ``"patch"`` and ``contrast`` (the target of the normalisation, checked by
-        :meth:`use_map`) for ``"lowres"``."""
+        ``"patch"`` and ``contrast`` and ``contrast_patch`` (the target and the tile of
+        the normalisation, checked by :meth:`use_map`) for ``"lowres"``."""
         if self.descriptor == "lowres":
-            return {"descriptor": "lowres", "contrast": LOWRES_CONTRAST}
+            return {
+                "descriptor": "lowres",
+                "contrast": LOWRES_CONTRAST,
+                "contrast_patch": LOWRES_PATCH,
+            }
         if self.descriptor == "lbp":
             return {"descriptor": "lbp"}
         return {"descriptor": "patch", "size": list(self.size), "patch": self.patch}

@@ -28,12 +28,13 @@ import numpy as np
 
 from ppaloc.baselines._image import check_frame
 from ppaloc.errors import PpalocError
-from ppaloc.localise.params import DEFAULT_CONTRAST
+from ppaloc.localise.params import DEFAULT_CONTRAST, DEFAULT_CONTRAST_PATCH
 from ppaloc.place import hamming, lbp_descriptor, lowres_image, normalise_contrast, sad
 
 __all__ = [
     "DESCRIPTORS",
     "LOWRES_CONTRAST",
+    "LOWRES_PATCH",
     "check_descriptor",
     "lbp_distances",
     "lbp_place",
@@ -47,6 +48,10 @@ DESCRIPTORS = ("patch", "lowres", "lbp")
 LOWRES_CONTRAST = DEFAULT_CONTRAST
 """Mean absolute deviation (grey levels) the ``"lowres"`` place is normalised to: the
 robust weighted-node filter's default ``contrast`` (48)."""
+
+LOWRES_PATCH = DEFAULT_CONTRAST_PATCH
+"""Side (blocks) of the tiles the ``"lowres"`` place normalises each on its own: the
+robust weighted-node filter's default ``contrast_patch`` (2)."""
 
 _WHAT = {
     "patch": "its own 64x32 patch-normalised image",
@@ -66,17 +71,18 @@ def lowres_place(frame: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of uint8, shape (8, 8)
-        ``normalise_contrast(lowres_image(frame), LOWRES_CONTRAST)``: the floored 8x8 block
-        means, offset to 128 and scaled to a mean absolute deviation near 48 grey levels.
+        ``normalise_contrast(lowres_image(frame), LOWRES_CONTRAST, LOWRES_PATCH)``: the
+        floored 8x8 block means, each 2x2 tile of blocks offset to 128 and scaled to a
+        mean absolute deviation near 48 grey levels.
 
     Examples
     --------
     >>> frame = np.zeros((256, 256), np.uint8)
-    >>> frame[:, 128:] = 100  # block means 0 (west half) and 100 (east half): mad 50
-    >>> lowres_place(frame)[0].tolist()  # mean 50 -> 128; gain x1 (48 / 50 is nearest 1)
-    [78, 78, 78, 78, 178, 178, 178, 178]
+    >>> frame[:, 32:64] = 100  # block column 1 is 100, the rest 0
+    >>> lowres_place(frame)[0].tolist()  # tile (0, 1): mean 50 -> 128, gain x1; flat: 128
+    [78, 178, 128, 128, 128, 128, 128, 128]
     """
-    return normalise_contrast(lowres_image(check_frame(frame)), LOWRES_CONTRAST)
+    return normalise_contrast(lowres_image(check_frame(frame)), LOWRES_CONTRAST, LOWRES_PATCH)
 
 
 def lbp_place(frame: np.ndarray) -> np.ndarray:

@@ -158,6 +158,7 @@ class HostExecutor:
             topomap.descriptors,
             exact=self.exact,
             contrast=self.params.contrast if self.representation == "lowres" else None,
+            patch=self.params.contrast_patch,
         )
         self._w = np.zeros(n, self._dtype)
         # a map's runs (nodes of one place): the places lifted 256 apart, so one running

@@ -15,7 +15,8 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
   half a register unit of the exact value.
 - ``"lowres"`` with ``contrast`` (the robust preset): the live image quantised like a
   node, then both it and every node normalised by
-  :func:`ppaloc.place.normalise_contrast`, and the uint8 SAD; ``arithmetic="ppa8"`` gives
+  :func:`ppaloc.place.normalise_contrast` (each 2x2 tile of blocks on its own by
+  default, ``patch``), and the uint8 SAD; ``arithmetic="ppa8"`` gives
   it in the units above, ``T_i = 1024 * SAD_i`` (the register's cap of 254 grey levels
   per cell never binds: the normalised levels run 1..255). On the sensor the controller
   reads the live image's 64 codes, normalises them and loads them through the DAC
@@ -75,21 +76,31 @@ class NodeDistances:
         (:func:`ppaloc.place.normalise_contrast` with this target; 0 compares the
         quantised images as they are). None (the paper preset): no normalisation, and
         ``exact`` compares the unquantised live frame.
+    patch : int, optional
+        Low-res with ``contrast``: normalise each ``patch`` x ``patch`` tile of blocks
+        on its own (None: the whole image).
     """
 
     def __init__(
-        self, kind: str, descriptors: np.ndarray, *, exact: bool, contrast: int | None = None
+        self,
+        kind: str,
+        descriptors: np.ndarray,
+        *,
+        exact: bool,
+        contrast: int | None = None,
+        patch: int | None = None,
     ) -> None:
         self.kind = kind
         self.exact = exact
         self.contrast = contrast
+        self.patch = patch
         if kind == "lbp":
             self._nodes = np.ascontiguousarray(descriptors, dtype=np.uint32)
             self.out = np.empty(len(self._nodes), np.uint8)
         else:
             nodes = np.asarray(descriptors, np.uint8)
             if contrast is not None:
-                nodes = normalise_contrast(nodes, contrast)
+                nodes = normalise_contrast(nodes, contrast, patch)
             self._index = LowresIndex(nodes)
             self.out = np.empty(len(self._index), np.uint16)
 
@@ -97,7 +108,9 @@ class NodeDistances:
         """Low-res: the live image as the comparison sees it, (8, 8) uint8 (normalised
         with ``contrast``; without it the quantised image, which ``exact`` does not use)."""
         image = lowres_image(frame)
-        return image if self.contrast is None else normalise_contrast(image, self.contrast)
+        if self.contrast is None:
+            return image
+        return normalise_contrast(image, self.contrast, self.patch)
 
     def __call__(self, frame: np.ndarray) -> np.ndarray:
         """Return the raw distances (shape (N,); reused buffer except for exact low-res)."""

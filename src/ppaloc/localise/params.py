@@ -41,7 +41,9 @@ from ppaloc.localise.motion import MARGIN, PAPER_MARGIN
 from ppaloc.place.normalise import MAX_CONTRAST
 
 __all__ = [
+    "CONTRAST_PATCHES",
     "DEFAULT_CONTRAST",
+    "DEFAULT_CONTRAST_PATCH",
     "DEFAULT_SHIFT",
     "DETECT_BITS",
     "FILTER_KEYS",
@@ -89,6 +91,13 @@ DEFAULT_CONTRAST = 48
 """Robust preset: the mean absolute deviation (grey levels) low-res images are normalised
 to (the middle of the plateau of docs/localise.md's sensitivity table, 32-96)."""
 
+DEFAULT_CONTRAST_PATCH = 2
+"""Robust preset: the side (blocks) of the tiles of a low-res image normalised each on its
+own: 2, sixteen 2x2 tiles of 64x64 pixels (docs/localise.md, "Local contrast")."""
+
+CONTRAST_PATCHES = (2, 4, 8)
+"""The tile sides that divide the 8x8 image; 8 normalises the whole image at once."""
+
 DEFAULT_SHIFT = {"lowres": 2, "lbp": 1}
 """Paper preset: the default likelihood shift per representation. One frame's term spans
 0-32 units in both (low-res ``mu`` is in [0, 127], LBP ``mu`` in [0, 64])."""
@@ -113,7 +122,7 @@ class Param:
     group : {"robust", "paper"} or None
         The parameter group of the presets that read it (None: every preset); giving it
         to a preset of the other group is an error.
-    kind : {"int", "bool", "motion", "gamma", "alpha", "advance"}
+    kind : {"int", "bool", "motion", "gamma", "alpha", "advance", "patch"}
         How a value is checked.
     default : Any
         The value when none (or None) is given; a callable ``default(representation,
@@ -198,6 +207,14 @@ class FilterParams:
         changes (dusk, night, snow) do not decide the match; 0 compares the images as
         they are. Range [0, 127]; default 48. LBP codes need none (they are invariant
         to any increasing change of intensity).
+    contrast_patch : int
+        Robust, low-res images: the side, in blocks, of the square tiles that
+        ``contrast`` normalises each on its own (one of :data:`CONTRAST_PATCHES`;
+        default 2, sixteen tiles of 2x2 blocks; 8 is the whole image). Local
+        normalisation takes out light that varies across the image (a bright sky over a
+        dark road, street lights at night), which one offset and gain per image leave
+        in. The controller applies it to the 64 codes it reads, so the sensor's
+        time does not change.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -223,6 +240,10 @@ class FilterParams:
     contrast: int | None = field(
         default=DEFAULT_CONTRAST,
         metadata=_param("robust", "int", DEFAULT_CONTRAST, 0, MAX_CONTRAST),
+    )
+    contrast_patch: int | None = field(
+        default=DEFAULT_CONTRAST_PATCH,
+        metadata=_param("robust", "patch", DEFAULT_CONTRAST_PATCH),
     )
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
@@ -334,6 +355,11 @@ def _check(key: str, value: Any, spec: Param, arithmetic: str) -> Any:
         if value not in MOTIONS:
             raise PpalocError(f"{key}={value!r} is not one of {', '.join(MOTIONS)}")
         return value
+    if spec.kind == "patch":
+        if isinstance(value, bool) or value not in CONTRAST_PATCHES:
+            sides = ", ".join(map(str, CONTRAST_PATCHES))
+            raise PpalocError(f"{key}={value!r} must be one of {sides} (blocks of the 8x8 image)")
+        return int(value)
     if spec.kind == "gamma":
         if value not in GAMMAS:
             raise PpalocError(

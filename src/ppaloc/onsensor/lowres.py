@@ -213,14 +213,17 @@ class LowresPlaces(Places):
     def node_blocks(self, topomap: TopoMap) -> np.ndarray:
         """The nodes' images, contrast-normalised where the live one will be."""
         blocks = super().node_blocks(topomap)
-        return normalise_contrast(blocks, self.params.contrast) if self.normalised else blocks
+        if not self.normalised:
+            return blocks
+        return normalise_contrast(blocks, self.params.contrast, self.params.contrast_patch)
 
     def load_live(self) -> None:
         """``F := -f'``, PE (r, c) holding the normalised live cell (r%8, c%8).
 
         The controller reads the live grid as the mapping run reads a node
         (:meth:`describe`: ``q = floor(S / 1024)`` per block, exact in ideal mode),
-        normalises it (:func:`ppaloc.place.normalise_contrast`, ``params.contrast``) and
+        normalises it (:func:`ppaloc.place.normalise_contrast`, ``params.contrast`` per
+        ``params.contrast_patch`` tile) and
         writes each of the 64 cells into every node block, as the public precursor loads
         an image (``load_analog_image``): one periodic ``load_pattern`` (row and column
         residues mod 8), one ``load_in(q' - 128)`` and one kernel ``WHERE; bus(F, IN);
@@ -232,7 +235,9 @@ class LowresPlaces(Places):
         sensor = self.sensor
         sim, dr = sensor.sim, self.roles.d
         with sim.stage("replicate"):
-            live = normalise_contrast(self.describe(), self.params.contrast)
+            live = normalise_contrast(
+                self.describe(), self.params.contrast, self.params.contrast_patch
+            )
             self.live_image = live
             free = self.CLASS_DONT_CARE
             for (i, j), q in np.ndenumerate(live):

@@ -96,7 +96,7 @@ def _offset_quarters(v: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray
     return offset, quarters
 
 
-def normalise_contrast(images: np.ndarray, target: int) -> np.ndarray:
+def normalise_contrast(images: np.ndarray, target: int, patch: int | None = None) -> np.ndarray:
     """Images with their offset removed and their contrast brought near ``target``.
 
     Parameters
@@ -106,6 +106,12 @@ def normalise_contrast(images: np.ndarray, target: int) -> np.ndarray:
     target : int
         Wanted mean absolute deviation in grey levels (1 .. :data:`MAX_CONTRAST`); 0
         returns the images unchanged but for the lowest level.
+    patch : int, optional
+        Normalise each ``patch`` x ``patch`` tile of the image on its own (its own offset
+        and gain), which takes out light that changes across the image (a lit sky over a
+        dark road, headlights): local contrast normalisation, as OpenSeqSLAM's patch
+        normalisation but in integers. ``patch`` must divide ``H`` and ``W``. None: the
+        whole image is one tile.
 
     Returns
     -------
@@ -123,11 +129,33 @@ def normalise_contrast(images: np.ndarray, target: int) -> np.ndarray:
     >>> bright = dark * 4 + 100  # the same place under more light and contrast
     >>> np.array_equal(normalise_contrast(bright, 8), normalise_contrast(dark, 8))
     True
+    >>> img = np.array([[10, 14, 200, 208], [10, 14, 200, 208]])  # a dark and a bright half
+    >>> normalise_contrast(img, 8, patch=2)  # each 2x2 tile brought to mean 128 on its own
+    array([[120, 136, 120, 136],
+           [120, 136, 120, 136]], dtype=uint8)
     """
     a = np.asarray(images)
+    if patch is not None:
+        return _per_patch(a, target, patch)
     v = _as_values(a)
     if int(target) == 0:
         return np.maximum(v, 1).reshape(a.shape).astype(np.uint8)
     offset, quarters = _offset_quarters(v, target)
     out = (512 + (v - offset[..., None]) * quarters[..., None] + 2) >> 2
     return np.clip(out, 1, 255).astype(np.uint8).reshape(a.shape)
+
+
+def _per_patch(a: np.ndarray, target: int, patch: int) -> np.ndarray:
+    """:func:`normalise_contrast` of every ``patch`` x ``patch`` tile of ``a`` on its own."""
+    if a.ndim < 2:
+        raise ValueError(f"images must have shape (..., H, W), got {a.shape}")
+    h, w = a.shape[-2:]
+    if isinstance(patch, bool) or not isinstance(patch, int | np.integer) or patch < 1:
+        raise ValueError(f"patch={patch!r} must be a positive integer")
+    if h % patch or w % patch:
+        raise ValueError(f"patch={patch} must divide the image's sides, got {h}x{w}")
+    lead = a.shape[:-2]
+    tiles = a.reshape(*lead, h // patch, patch, w // patch, patch)
+    tiles = np.moveaxis(tiles, -3, -2)  # (..., rows, cols, patch, patch)
+    out = normalise_contrast(tiles, target)
+    return np.moveaxis(out, -2, -3).reshape(a.shape)
