@@ -25,6 +25,10 @@ N(0, sd) samples; two writes share samples only at a shifted position (element i
 write meets element i + k of another), so one element's noise across writes is
 independent unless two offsets coincide (probability 1/max(3N, 65536) per pair, N =
 rows * cols). The test suite checks mean, variance and lag-1 correlation per element.
+
+Every random value is drawn by index (:mod:`ppaloc.sim.draws`): the bank, the offsets and
+draw ``j``'s window start and gain are functions of the seed and their index alone
+(:meth:`NoiseModel.draw`); only digital decay draws from a sequential generator.
 """
 
 from __future__ import annotations
@@ -35,7 +39,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from ppaloc.errors import SimulatorError
-from ppaloc.sim import hostloops
+from ppaloc.sim import draws, hostloops
 
 try:  # the ufunc behind np.clip, without the wrapper's per-call overhead
     from numpy._core.umath import clip as fast_clip
@@ -152,7 +156,9 @@ def resolve_noise(noise: str | NoiseParams) -> NoiseParams | None:
 
 _BANK_FACTOR = 4  # bank length / plane size ...
 _MIN_STARTS = 1 << 16  # ... but at least this many window starts, for small arrays
-_DRAWS = 4096  # per-ICW draws (offsets, gains) made at once
+_DRAWS = 4096  # per-ICW draws (window starts, gains) made at once
+# the streams of ppaloc.sim.draws the model draws from (keys of (seed, stream))
+_OFFSETS, _PIXEL, _BANK, _STARTS, _GAINS = 1, 2, 3, 4, 5
 
 
 class NoiseModel:
@@ -183,35 +189,54 @@ class NoiseModel:
         self.params = resolve_noise(noise)
         self.ideal = self.params is None
         self.shape = shape
-        self.rng = np.random.default_rng([seed, 0x5CA45])
+        self.rng = np.random.default_rng([seed, 0x5CA45])  # digital decay's draws
         size = shape[0] * shape[1]
         self._size = size
-        bank_len = max(size * _BANK_FACTOR, size + _MIN_STARTS)
         p = self.params or NoiseParams()
-        self.offsets = (self.rng.standard_normal((n_analog, *shape)) * p.fixed_offset_sd).astype(
-            np.float32
-        )
-        self.pixel_offset = (self.rng.standard_normal(shape) * p.pixel_offset_sd).astype(np.float32)
-        self._bank = (
-            self.rng.standard_normal(bank_len) * p.temporal_sd if not self.ideal else np.zeros(0)
-        ).astype(np.float32)
-        div_sd = math.hypot(p.temporal_sd, p.division_sd)
-        self._bank_div = (
-            self._bank * np.float32(div_sd / p.temporal_sd)
-            if p.temporal_sd > 0
-            else (self.rng.standard_normal(bank_len) * div_sd).astype(np.float32)
-        )
+        if self.ideal:  # zeros whose signs PIX takes from rpix: as drawn since the start
+            self.offsets = (self.rng.standard_normal((n_analog, *shape)) * 0.0).astype(np.float32)
+            self.pixel_offset = (self.rng.standard_normal(shape) * 0.0).astype(np.float32)
+            self._bank = self._bank_div = np.zeros(0, np.float32)
+        else:  # every sample a pure function of (seed, stream, index): ppaloc.sim.draws
+            n_off = n_analog * size
+            self.offsets = draws.normal(
+                draws.key(seed, _OFFSETS), 0, n_off, p.fixed_offset_sd
+            ).reshape(n_analog, *shape)
+            self.pixel_offset = draws.normal(
+                draws.key(seed, _PIXEL), 0, size, p.pixel_offset_sd
+            ).reshape(shape)
+            bank_len = max(size * _BANK_FACTOR, size + _MIN_STARTS)
+            z = draws.normal(draws.key(seed, _BANK), 0, bank_len)
+            self._bank = z * np.float32(p.temporal_sd)
+            self._bank_div = z * np.float32(math.hypot(p.temporal_sd, p.division_sd))
+        self._key_starts = draws.key(seed, _STARTS)
+        self._key_gains = draws.key(seed, _GAINS)
+        self._batch = -1  # the batch of _DRAWS draws in _starts and _gains
         self._k = _DRAWS
-        self._starts = np.zeros(0, dtype=np.int64)
-        self._gains = np.zeros(0)
+        self._starts: list[int] = []  # the batch as lists (window: one element, fast)
+        self._gains: list[float] = []
+        self._starts_a = np.zeros(0, dtype=np.int64)  # and as arrays (take: views)
+        self._gains_a = np.zeros(0, dtype=np.float64)
+
+    @property
+    def draws_taken(self) -> int:
+        """How many draws (window starts, with their gains) were taken so far."""
+        return self._batch * _DRAWS + self._k
+
+    def draw(self, first: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """Draws ``first .. first + m - 1`` by index: (window starts (m,) int64, negated
+        gains ``-(1 + g)`` (m,) float64); the same whichever draws were taken before."""
+        idx = np.arange(first, first + m, dtype=np.uint64)
+        span = len(self._bank) - self._size
+        starts = draws.index_below(self._key_starts, idx, span + 1)
+        p = self.params or NoiseParams()
+        z = draws.normal_of_bits(draws.bits(self._key_gains, idx)).astype(np.float64)
+        return starts, -(1.0 + p.transfer_gain + p.transfer_gain_sd * z)
 
     def _refill(self) -> None:
-        p = self.params or NoiseParams()
-        span = len(self._bank) - self._size
-        self._starts = self.rng.integers(0, span + 1, _DRAWS).tolist()
-        self._gains = (
-            -(1.0 + p.transfer_gain + p.transfer_gain_sd * self.rng.standard_normal(_DRAWS))
-        ).tolist()
+        self._batch += 1
+        self._starts_a, self._gains_a = self.draw(self._batch * _DRAWS, _DRAWS)
+        self._starts, self._gains = self._starts_a.tolist(), self._gains_a.tolist()
         self._k = 0
 
     def window(self, divided: bool = False) -> np.ndarray:
@@ -237,6 +262,12 @@ class NoiseModel:
         takes a whole kernel's draws up front leaves the same bytes as one that draws
         ICW by ICW.
         """
+        if self._k >= _DRAWS:
+            self._refill()
+        k = self._k
+        if k + m <= _DRAWS:  # inside the batch (nearly always): views, no copy
+            self._k = k + m
+            return self._starts_a[k : k + m], self._gains_a[k : k + m]
         starts = np.empty(m, dtype=np.int64)
         gains = np.empty(m, dtype=np.float64)
         done = 0
@@ -244,8 +275,8 @@ class NoiseModel:
             if self._k >= _DRAWS:
                 self._refill()
             n = min(m - done, _DRAWS - self._k)
-            starts[done : done + n] = self._starts[self._k : self._k + n]
-            gains[done : done + n] = self._gains[self._k : self._k + n]
+            starts[done : done + n] = self._starts_a[self._k : self._k + n]
+            gains[done : done + n] = self._gains_a[self._k : self._k + n]
             self._k += n
             done += n
         return starts, gains
