@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 import ppaloc.sim as s
 from ppaloc.errors import RegisterMisuseError, SimulatorError
 from ppaloc.sim import OPS, NoiseParams, Scamp5
+from ppaloc.sim import engine as engine_module
 from ppaloc.sim.engines import ENGINES, available_engines, default_engine
 from ppaloc.sim.isa import make
 from ppaloc.sim.registers import ANALOG_PLANES, DIGITAL_PLANES
@@ -281,3 +282,61 @@ def test_each_fast_path_is_the_reference(ins: tuple, mode: str, flag_all: bool) 
                 k.icw(*ins)
             sims.append(sim)
         same_bytes(*sims)
+
+
+def aged_run(program: list, seed: int, flag_all: bool, skip: bool) -> Scamp5:
+    """``program`` under fast droop, each kernel run twice after idle time; ``skip=False``
+    droops every plane a kernel touches (no plane counted as overwritten first)."""
+    with pytest.MonkeyPatch.context() as mp:
+        if not skip:
+            mp.setattr(engine_module, "overwritten_first", lambda ins: frozenset())
+        sim = Scamp5(ROWS, COLS, noise=MODES["aged"], seed=seed % 7)
+        start_state(sim, seed)
+        if flag_all:
+            sim.write(s.FLAG, np.ones((ROWS, COLS), bool))
+        with sim.kernel() as idle:  # modelled time passes; no plane is touched
+            for _ in range(100):
+                idle.nop()
+        for kernel in program:
+            idle.run()
+            with sim.kernel() as k:
+                for op, dsts, srcs in kernel:
+                    k.icw(op, dsts, srcs)
+            k.run()  # again: the first run followed a host write, this one a kernel
+    return sim
+
+
+@pytest.mark.parametrize("flag_all", [True, False], ids=["flag-all", "flag-some"])
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@given(program=programs, seed=st.integers(0, 2**16))
+def test_skipping_the_droop_of_overwritten_planes_changes_no_byte(
+    flag_all: bool, program: list, seed: int
+) -> None:
+    """A plane a kernel overwrites whole before reading it is not drooped first; the bytes
+    are those of droop applied to every plane the kernel touches."""
+    same_bytes(aged_run(program, 0, flag_all, True), aged_run(program, 0, flag_all, False))
+
+
+@pytest.mark.parametrize(
+    "kernel",
+    [
+        [("where", (), (s.C,)), ("bus", (s.A,), (s.B,))],  # A kept where FLAG is now 0
+        [("all", (), ()), ("bus", (s.A,), (s.B,))],
+        [("bus", (s.B,), (s.A,)), ("bus", (s.A,), (s.C,))],  # A read before it is written
+        [("bus", (s.A,), (s.B,)), ("bus", (s.C,), (s.A,))],  # A written first: skipped
+    ],
+    ids=["where-first", "all-first", "read-first", "written-first"],
+)
+def test_droop_is_skipped_only_where_no_old_value_is_seen(kernel: list) -> None:
+    # FLAG set everywhere at the start, A drooping since the host wrote it
+    same_bytes(aged_run([kernel], 3, True, True), aged_run([kernel], 3, True, False))
+
+
+def test_overwritten_first_names_the_planes_written_before_read() -> None:
+    icw = make
+    first = engine_module.overwritten_first
+    assert first([icw("bus", (s.A,), (s.B,))]) == {s.A.index}
+    assert first([icw("bus", (s.B,), (s.A,)), icw("bus", (s.A,), (s.C,))]) == {s.B.index}
+    assert first([icw("where", (), (s.C,)), icw("bus", (s.A,), (s.B,))]) == frozenset()
+    assert first([icw("bus", (s.XE,), (s.B,))]) == frozenset()  # a push: not counted
+    assert first([icw("bus2", (s.A, s.C), (s.B,))]) == {s.A.index, s.C.index}

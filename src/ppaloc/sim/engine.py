@@ -97,6 +97,37 @@ def _edge_slices(dr: int, dc: int, rows: int, cols: int) -> list[tuple[slice, sl
     return out
 
 
+_BUS_OPS = frozenset({"bus", "bus2", "bus3", "busn"})
+_FLAG_OPS = frozenset({"where", "WHERE", "all"})
+
+
+def overwritten_first(instructions: Iterable[Instruction]) -> frozenset[int]:
+    """Decaying analogue planes a kernel overwrites whole before anything reads them, if
+    FLAG is set everywhere when it starts.
+
+    A plane counts when its first use is as a destination of a bus transfer (``bus``,
+    ``bus2``, ``bus3``, ``busn``; not a neighbour's ``NEWS`` by a push) that does not
+    also read it, and no ICW before that one changes FLAG (``where``, ``WHERE``, ``all``
+    or a digital write of FLAG): with FLAG set everywhere that transfer writes every
+    element, so the plane's pending droop would change nothing that is read again.
+    """
+    seen: set[int] = set()
+    fresh: set[int] = set()
+    flag_kept = True
+    for ins in instructions:
+        reads = {r.index for r in ins.srcs if r.kind == "analog"}
+        if flag_kept and ins.op in _BUS_OPS:
+            for d in ins.dsts:
+                i = d.index
+                if d.role != "neighbour" and i < len(_DECAYING) and i not in seen | reads:
+                    fresh.add(i)
+        seen |= reads
+        seen |= {r.index for r in ins.dsts if r.kind == "analog"}
+        if ins.op in _FLAG_OPS or any(r.index == _FLAG_I and r.kind == "digital" for r in ins.dsts):
+            flag_kept = False
+    return frozenset(fresh)
+
+
 class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
     """A simulated SCAMP-5 pixel processor array.
 
@@ -441,13 +472,31 @@ class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
             )
         )
         pending = self._droop_us
+        fresh = overwritten_first(instructions)
+        if not fresh:
 
-        def run_aged() -> None:
+            def run_aged() -> None:
+                if pending.any():
+                    self._flush_droop(touched)
+                run()
+
+            return run_aged
+        rest = tuple(i for i in touched if i not in fresh)
+        fresh_idx = np.array(sorted(fresh), dtype=np.int64)
+
+        def run_aged_fresh() -> None:
+            # planes the kernel overwrites whole before reading (FLAG set everywhere when
+            # it starts) need not droop first: their old values are never seen again
             if pending.any():
-                self._flush_droop(touched)
+                if self._flag_masked is False:
+                    pending[fresh_idx] = 0.0
+                    if rest:
+                        self._flush_droop(rest)
+                else:
+                    self._flush_droop(touched)
             run()
 
-        return run_aged
+        return run_aged_fresh
 
     def _run_ops(
         self, run: Op, counts: dict[str, int] | tuple[tuple[str, int], ...], dwritten: np.ndarray
