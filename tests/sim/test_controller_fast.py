@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from ppaloc.sim import FLAG, IN, NEWS, R5, A, B, Scamp5, hostloops
+from ppaloc.sim.noise import NoiseModel, NoiseParams
 from ppaloc.sim.timing import TimingModel, evaluate_us
 
 SHAPES = st.tuples(st.integers(1, 12), st.integers(1, 12))
@@ -205,6 +206,38 @@ def test_droop_equals_the_clip_and_subtract(case, step):
     hostloops.numpy_loops().droop(want, np.float32(step))
     hostloops.droop(got, step)
     assert np.array_equal(_bits(got), _bits(want))
+
+
+@needs_numba
+@settings(max_examples=60, deadline=None)
+@given(
+    planes(n_extra=3),
+    st.lists(st.sampled_from([0.0, 0.5, 7.0, 1234.5]), min_size=4, max_size=4),
+    st.sets(st.integers(0, 3)),
+    st.sets(st.integers(0, 3)),
+    st.floats(0.001, 5000),
+)
+def test_droop_pending_equals_a_droop_per_plane(case, pending, which, dropped, decay):
+    """One call that drops the pending time of some planes and droops others by theirs, as
+    the numpy loops and as ``NoiseModel.droop_step`` rounds each plane's step."""
+    out, _, extra = case
+    stack = np.stack([out, *extra])
+    which = np.array(sorted(which - dropped), dtype=np.int64)
+    dropped = np.array(sorted(dropped), dtype=np.int64)
+    want, got = stack.copy(), stack.copy()
+    want_us, got_us = np.array(pending), np.array(pending)
+    hostloops.numpy_loops().droop_pending(want, want_us, which, decay, dropped)
+    hostloops.droop_pending(got, got_us, which, decay, dropped)
+    assert np.array_equal(_bits(got), _bits(want))
+    assert np.array_equal(got_us, want_us)
+    model = NoiseModel(NoiseParams(decay_per_ms=decay), stack.shape[1:], 7)
+    by_plane = stack.copy()
+    for i in which:
+        step = model.droop_step(pending[i])
+        if step is not None:
+            hostloops.numpy_loops().droop(by_plane[i], step)
+    assert np.array_equal(_bits(got), _bits(by_plane))
+    assert not got_us[which].any() and not got_us[dropped].any()
 
 
 @needs_numba

@@ -472,28 +472,28 @@ class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
             )
         )
         pending = self._droop_us
+        planes, decay = self._a, self.noise.params.decay_per_ms
         fresh = overwritten_first(instructions)
-        if not fresh:
-
-            def run_aged() -> None:
-                if pending.any():
-                    self._flush_droop(touched)
-                run()
-
-            return run_aged
-        rest = tuple(i for i in touched if i not in fresh)
+        every = np.array(touched, dtype=np.int64)
+        rest = np.array([i for i in touched if i not in fresh], dtype=np.int64)
         fresh_idx = np.array(sorted(fresh), dtype=np.int64)
+        none = fresh_idx[:0]
+        droop_pending = hostloops.droop_pending
+
+        def run_aged() -> None:
+            droop_pending(planes, pending, every, decay, none)
+            run()
+
+        if not fresh:
+            return run_aged
 
         def run_aged_fresh() -> None:
             # planes the kernel overwrites whole before reading (FLAG set everywhere when
             # it starts) need not droop first: their old values are never seen again
-            if pending.any():
-                if self._flag_masked is False:
-                    pending[fresh_idx] = 0.0
-                    if rest:
-                        self._flush_droop(rest)
-                else:
-                    self._flush_droop(touched)
+            if self._flag_masked is False:
+                droop_pending(planes, pending, rest, decay, fresh_idx)
+            else:
+                droop_pending(planes, pending, every, decay, none)
             run()
 
         return run_aged_fresh

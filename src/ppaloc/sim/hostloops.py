@@ -26,6 +26,7 @@ __all__ = [
     "any_set",
     "droop",
     "droop_each",
+    "droop_pending",
     "fill",
     "fill_where",
     "grid",
@@ -133,6 +134,23 @@ def droop(planes: np.ndarray, step: float) -> None:
     _loops().droop(planes, np.float32(step))
 
 
+def droop_pending(
+    planes: np.ndarray,
+    pending_us: np.ndarray,
+    which: np.ndarray,
+    decay_per_ms: float,
+    dropped: np.ndarray,
+) -> None:
+    """Apply and clear the droop pending on ``planes[which[k]]``; clear it unapplied on
+    ``planes[dropped[k]]`` (planes about to be overwritten whole), in one call.
+
+    ``pending_us`` (float64, one per plane) is the modelled time each plane has not been
+    drooped for; a plane's step is ``float32(decay_per_ms * us / 1000)``, as
+    :meth:`ppaloc.sim.noise.NoiseModel.droop_step` rounds it.
+    """
+    _loops().droop_pending(planes, pending_us, which, float(decay_per_ms), dropped)
+
+
 def droop_each(planes: np.ndarray, which: np.ndarray, steps: np.ndarray, n: int) -> None:
     """:func:`droop` of ``planes[which[k]]`` by ``steps[k]`` for ``k < n``, in one call."""
     _loops().droop_each(planes, which, steps, n)
@@ -223,6 +241,14 @@ def numpy_loops() -> SimpleNamespace:
         for k in range(n):
             droop_np(planes[which[k]], steps[k])
 
+    def droop_pending_np(planes, pending, which, decay, dropped) -> None:
+        pending[dropped] = 0.0
+        for i in which:
+            us = pending[i]
+            if us > 0:
+                pending[i] = 0.0
+                droop_np(planes[i], np.float32(decay * us / 1000.0))
+
     lo, hi = np.float32(-128.0), np.float32(127.0)
 
     def noisy_np(out, values, offset, window, flag, everywhere) -> None:
@@ -254,6 +280,7 @@ def numpy_loops() -> SimpleNamespace:
         droop_each=droop_each_np,
         noisy_level=noisy_level_np,
         noisy_write=noisy_np,
+        droop_pending=droop_pending_np,
     )
 
 
@@ -517,6 +544,17 @@ def _numba_loops() -> SimpleNamespace:
             droop_nb(planes[which[k]], steps[k])
 
     @jit
+    def droop_pending_nb(planes, pending, which, decay, dropped):  # pragma: no cover
+        for k in range(dropped.size):
+            pending[dropped[k]] = 0.0
+        for k in range(which.size):
+            i = which[k]
+            us = pending[i]
+            if us > 0:
+                pending[i] = 0.0
+                droop_nb(planes[i], np.float32(decay * us / 1000.0))
+
+    @jit
     def noisy_nb(out, values, offset, window, flag, everywhere):  # pragma: no cover - compiled
         n = out.size
         o = out.reshape(n)
@@ -565,4 +603,5 @@ def _numba_loops() -> SimpleNamespace:
         droop_each=droop_each_nb,
         noisy_level=level_nb,
         noisy_write=noisy_nb,
+        droop_pending=droop_pending_nb,
     )
