@@ -95,3 +95,5 @@ def test_the_noise_models_draws_are_by_index() -> None:
     assert a.offsets.tobytes() == b.offsets.tobytes()
     assert a._bank.tobytes() == b._bank.tobytes()
     assert 0 <= starts.min() and starts.max() <= len(a._bank) - 256
+    with pytest.raises(SimulatorError, match=r"NoiseModel.draw: an ideal model draws no noise"):
+        Scamp5(4, 4).noise.draw(0, 1)

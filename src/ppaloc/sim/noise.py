@@ -225,7 +225,17 @@ class NoiseModel:
 
     def draw(self, first: int, m: int) -> tuple[np.ndarray, np.ndarray]:
         """Draws ``first .. first + m - 1`` by index: (window starts (m,) int64, negated
-        gains ``-(1 + g)`` (m,) float64); the same whichever draws were taken before."""
+        gains ``-(1 + g)`` (m,) float64); the same whichever draws were taken before.
+
+        Raises
+        ------
+        SimulatorError
+            If the model is ideal (it draws nothing).
+        """
+        if self.ideal:
+            raise SimulatorError(
+                "NoiseModel.draw: an ideal model draws no noise; use a noise preset or NoiseParams"
+            )
         idx = np.arange(first, first + m, dtype=np.uint64)
         span = len(self._bank) - self._size
         starts = draws.index_below(self._key_starts, idx, span + 1)
