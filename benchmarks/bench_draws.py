@@ -9,7 +9,8 @@
 - *bank window*: what an ICW's temporal noise costs the engines, an add that reads a
   window of the seeded bank (``NoiseModel._bank``) into a plane;
 - *counter normal*: ``ppaloc.sim.draws.normal`` (SplitMix64 at each index, the float32
-  inverse-CDF transform, one compiled loop), and its numpy version;
+  inverse-CDF transform, one compiled loop), and its numpy version; *counter bits*: the
+  SplitMix64 words alone, their top 32 bits stored (what the transform adds to the hash);
 - *PCG64*: numpy's ``standard_normal`` (float32, ziggurat) and its raw 64-bit words;
 - *model bank*: the noise bank, offsets and pixel offsets of one 256 x 256 ``typical``
   model, drawn by the counter streams (``NoiseModel``) and, for comparison, by PCG64 as
@@ -52,6 +53,23 @@ def pcg_model(seed: int = 1) -> None:
     _ = bank * np.float32(math.hypot(p.temporal_sd, p.division_sd) / p.temporal_sd)
 
 
+def bits_filler() -> Callable[[np.ndarray, np.uint64], None] | None:
+    """A compiled loop storing the top 32 bits of each SplitMix64 word (None without numba)."""
+    loops = draws._loops()
+    if loops is None:
+        return None
+    import numba
+
+    draw = loops.draw
+
+    @numba.njit(error_model="numpy", boundscheck=False)
+    def fill_bits(out, k):  # pragma: no cover - compiled
+        for i in range(out.size):
+            out[i] = np.uint32(draw(k, np.uint64(i)) >> np.uint64(32))
+
+    return fill_bits
+
+
 def main(rounds: int = 9) -> None:
     out = np.empty(N, np.float32)
     src = np.ones(N, np.float32)
@@ -59,12 +77,19 @@ def main(rounds: int = 9) -> None:
     bank = model._bank
     k = draws.key(1, 9)
     rng = np.random.default_rng(0)
+    words = np.empty(N, np.uint32)
+    fill_bits = bits_filler()
     per_value = {
         "write floor (4 B)": _timer(lambda: hostloops.fill(out, 1.0), 200),
         "copy floor (4 B in, 4 B out)": _timer(lambda: np.copyto(out, src), 200),
         "bank window + add": _timer(lambda: np.add(src, bank[12_345 : 12_345 + N], out=out), 200),
         "counter normal (compiled)": _timer(lambda: draws.normal(k, 77, N, 0.25), 50),
         "counter normal (numpy)": _timer(lambda: draws.normal_numpy(k, 77, N, 0.25), 5),
+        **(
+            {"counter bits (compiled)": _timer(lambda: fill_bits(words, k), 200)}
+            if fill_bits
+            else {}
+        ),
         "PCG64 standard_normal f32": _timer(
             lambda: rng.standard_normal(N, np.float32, out=out), 20
         ),
