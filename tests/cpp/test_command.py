@@ -56,16 +56,16 @@ def test_two_names_of_one_gui_item_are_refused():
 def test_frames_from_an_image(tmp_path):
     path = tmp_path / "scene.png"
     Image.fromarray(np.full((40, 60), 200, np.uint8)).save(path)
-    frames = load_frames(path, None, 3)
+    frames = list(load_frames(path, None, 3))
     assert len(frames) == 3 and frames[0].shape == (256, 256) and frames[0].dtype == np.uint8
     assert int(frames[0][100, 100]) == 200
 
 
 def test_frames_from_a_dataset_and_defaults():
-    frames = load_frames(None, "synthetic:?places=12&seed=2", 2)
+    frames = list(load_frames(None, "synthetic:?places=12&seed=2", 2))
     assert len(frames) == 2 and frames[1].shape == (256, 256)
     assert load_frames(None, None, None) is None  # run_program's default scene
-    assert len(load_frames(None, None, 2)) == 2
+    assert len(list(load_frames(None, None, 2))) == 2
     with pytest.raises(PpalocError, match=r"^give one of --image, --dataset and --stream, not "):
         load_frames("a.png", "synthetic:", None)
     with pytest.raises(PpalocError, match=r"--frames 0 must be in \[1, 2000\]"):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+import json
 import re
 from pathlib import Path
 
@@ -69,7 +71,7 @@ def _write_video(path: Path, levels: list[int]) -> None:
 def test_a_video_file_gives_its_frames(cxx, tmp_path, capsys):
     levels = [30, 90, 160, 230]
     _write_video(tmp_path / "clip.mkv", levels)
-    frames = load_frames(None, f"video:{tmp_path / 'clip.mkv'}", None)
+    frames = list(load_frames(None, f"video:{tmp_path / 'clip.mkv'}", None))
     assert len(frames) == 4 and frames[0].shape == (256, 256)
     result = run_program(MEANS, frames)
     np.testing.assert_allclose(_means(result.texts), levels, atol=2.0)
@@ -101,7 +103,7 @@ def test_a_live_stream_is_bounded_by_frames(cxx, lavfi, tmp_path, capsys):
         decoded = container.decode(video=0)
         want = [to_sensor(next(decoded).to_ndarray(format="rgb24")).mean() for _ in range(3)]
     np.testing.assert_allclose(means, want, atol=1.0)
-    assert len(load_frames(None, None, None, "color=c=white:size=8x8", "lavfi")) == 10  # default
+    assert len(list(load_frames(None, None, None, "color=c=white:size=8x8", "lavfi"))) == 10
 
 
 def test_bad_frame_sources_are_one_line(tmp_path):
@@ -139,8 +141,110 @@ def test_the_program_is_checked_before_any_frame_is_read(tmp_path, monkeypatch):
     def never(*args, **kwargs):
         raise AssertionError("a frame was read")
 
-    monkeypatch.setattr(video, "read_stream", never)
+    monkeypatch.setattr(video, "stream_frames", never)
     with pytest.raises(PpalocError, match="does not exist"):
         run_cpp(tmp_path / "gone.cpp", tmp_path / "run", stream="testsrc", stream_format="lavfi")
     with pytest.raises(PpalocError, match="must be NAME=VALUE"):
         run_cpp(MEANS, tmp_path / "run", stream="testsrc", settings=["x"])
+
+
+class _Recorded:
+    """Wraps ``video.stream_frames``: per frame decoded, the texts the program had posted
+    (-1 before the run's session exists), and whether the input was closed."""
+
+    def __init__(self, monkeypatch) -> None:
+        import ppaloc.cpp.run as run
+        import ppaloc.datasets.loaders.video as video
+
+        self.posted_when_decoded: list[int] = []
+        self.closed = False
+        self.sessions: list = []
+        opened, recorder = video.stream_frames, self
+
+        class Stream:
+            def __init__(self, *args, **kwargs) -> None:
+                self.frames = opened(*args, **kwargs)
+
+            def __iter__(self):
+                return self
+
+            def __next__(self):
+                posted = len(recorder.sessions[0].texts) if recorder.sessions else -1
+                frame = next(self.frames)
+                recorder.posted_when_decoded.append(posted)
+                return frame
+
+            def close(self) -> None:
+                recorder.closed = True
+                self.frames.close()
+
+        class Session(run.Session):
+            def __post_init__(self) -> None:
+                recorder.sessions.append(self)
+                super().__post_init__()
+
+        monkeypatch.setattr(video, "stream_frames", Stream)
+        monkeypatch.setattr(run, "Session", Session)
+
+
+def test_a_stream_feeds_the_program_as_it_is_decoded(cxx, lavfi, tmp_path, monkeypatch):
+    from ppaloc.cpp.command import run_cpp
+
+    rec = _Recorded(monkeypatch)
+    result = run_cpp(MEANS, tmp_path / "run", stream="testsrc=size=32x24:rate=30",
+                     stream_format="lavfi", frames=4, quiet=True)  # fmt: skip
+    # Frame 0 is decoded before the session starts (it sizes the array); frame k >= 1 is
+    # decoded only once the program has posted the means of frames 0 .. k-1.
+    assert rec.posted_when_decoded == [-1, 1, 2, 3]
+    # --frames bounds the endless test pattern: no frame beyond it is decoded, and the input
+    # is closed once the last is taken.
+    assert len(result.texts) == 4 and rec.closed
+    assert result.summary()["frames"] == 4 and result.session.warnings == []
+
+
+def test_frames_bound_an_endless_iterator_from_python(cxx):
+    from ppaloc.cpp.frames import FrameSource
+
+    taken: list[int] = []
+
+    def endless():
+        for k in itertools.count():
+            taken.append(k)
+            yield np.full((16, 16), 10 * k, np.uint8)
+
+    result = run_program(MEANS, FrameSource(endless(), limit=3), timeout=20)
+    np.testing.assert_allclose(_means(result.texts), [0, 10, 20], atol=1.0)
+    assert taken == [0, 1, 2]
+
+
+def test_a_frame_that_fails_mid_stream_keeps_the_frames_before(cxx, lavfi, tmp_path, monkeypatch):
+    import ppaloc.datasets.loaders.video as video
+    from ppaloc.cpp.command import run_cpp
+    from ppaloc.cpp.run import FramesFailedError
+
+    grey, calls = video._grey, []
+
+    def broken(frame):  # the third frame's data is corrupt
+        calls.append(1)
+        if len(calls) == 3:
+            raise ValueError("corrupt frame data")
+        return grey(frame)
+
+    monkeypatch.setattr(video, "_grey", broken)
+    out = tmp_path / "run"
+    with pytest.raises(FramesFailedError) as err:
+        run_cpp(MEANS, out, stream="testsrc=size=32x24:rate=30", stream_format="lavfi",
+                frames=5, quiet=True)  # fmt: skip
+    assert str(err.value) == (
+        "means.cpp stopped after 2 frame(s): cannot decode frame 2 of stream "
+        f"testsrc=size=32x24:rate=30 (format lavfi): corrupt frame data; their outputs are in {out}"
+    )
+    assert (out / "text.txt").read_text().splitlines()[1].startswith("frame 1: mean ")
+    assert len((out / "text.txt").read_text().splitlines()) == 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["frames"] == 2 and summary["warnings"] == [
+        "the frames ended early: cannot decode frame 2 of stream testsrc=size=32x24:rate=30 "
+        "(format lavfi): corrupt frame data"
+    ]
+    assert len(err.value.result.texts) == 2  # the run of the frames before, for Python
+    assert len(calls) == 3  # nothing read after the failure

@@ -936,7 +936,7 @@ Examples:
     "--stream",
     metavar="INPUT",
     help="A live stream or camera PyAV opens (FFmpeg's -i: /dev/video0, rtsp://..., a lavfi "
-    "graph); --frames bounds it.",
+    "graph), each frame decoded as the program asks for it; --frames bounds it.",
 )
 @click.option(
     "--stream-format",

@@ -9,10 +9,13 @@
 
 from ppaloc.cpp.build import CompileError, UnmodelledCallError, compile_program, compiler
 from ppaloc.cpp.export import Trace, Tracer, kernel_to_cpp, to_cpp
-from ppaloc.cpp.run import RunResult, run_program
+from ppaloc.cpp.frames import FrameSource
+from ppaloc.cpp.run import FramesFailedError, RunResult, run_program
 
 __all__ = [
     "CompileError",
+    "FrameSource",
+    "FramesFailedError",
     "RunResult",
     "Trace",
     "Tracer",

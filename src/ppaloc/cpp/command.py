@@ -10,8 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
+from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.live import LiveView
 from ppaloc.cpp.project import make_project
 from ppaloc.cpp.run import RunResult, check_output_folder, check_timeout, run_program
@@ -35,13 +34,15 @@ def parse_settings(items: Sequence[str]) -> dict[str, str]:
 
 
 MAX_FRAMES = 2000
-"""Most frames one run takes: every exposure is held in memory (64 KB each at 256 x 256)."""
+"""Most frames one run takes: every frame's displays are held in memory (64 KB or more
+each at 256 x 256) until the run's folder is written."""
 
 
 def _check_frames(frames: int | None) -> None:
     if frames is not None and not 1 <= frames <= MAX_FRAMES:
         raise PpalocError(
-            f"--frames {frames} must be in [1, {MAX_FRAMES}] (the frames are held in memory)"
+            f"--frames {frames} must be in [1, {MAX_FRAMES}] (every frame's displays are held "
+            "in memory)"
         )
 
 
@@ -66,14 +67,17 @@ def load_frames(
     stream: str | None = None,
     stream_format: str | None = None,
     stream_options: Sequence[str] = (),
-) -> list[np.ndarray] | None:
-    """The run's sensor frames (256 x 256 grey, :func:`ppaloc.frontend.to_sensor`).
+) -> FrameSource | None:
+    """The run's sensor frames (256 x 256 grey, :func:`ppaloc.frontend.to_sensor`), each
+    read and converted when the run takes it.
 
     ``image`` repeated; a dataset's query traversal, or the one traversal of a frame
     source given alone (``folder:DIR``, ``video:FILE.mp4``, docs/datasets.md: all its
     frames unless ``frames`` bounds them); the first ``frames`` (default
     :data:`DATASET_FRAMES`) of a live ``stream`` or camera PyAV opens (``stream_format``
-    as FFmpeg's ``-f``: ``v4l2``, ``lavfi``, ...); or ``frames`` synthetic scenes.
+    as FFmpeg's ``-f``: ``v4l2``, ``lavfi``, ...), decoded as the program asks for them;
+    or ``frames`` synthetic scenes. The source is opened now (a dataset's files listed, a
+    stream's input opened), so what cannot be opened is refused before the run.
 
     Parameters
     ----------
@@ -89,14 +93,15 @@ def load_frames(
 
     Returns
     -------
-    list of (256, 256) uint8 arrays, or None
-        None when no source and no ``frames`` are given (the run's default scene).
+    FrameSource of (256, 256) uint8 arrays, or None
+        None when no source and no ``frames`` are given (the run's default scene). A frame
+        that cannot be read ends it (:attr:`FrameSource.error`, the frame named).
 
     Raises
     ------
     PpalocError
         Two sources, a format without a stream, ``frames`` out of range, a folder or video
-        of more than :data:`MAX_FRAMES` frames unbounded, or a source that cannot be read
+        of more than :data:`MAX_FRAMES` frames unbounded, or a source that cannot be opened
         (one line naming it).
     """
     from ppaloc.frontend import to_sensor
@@ -115,7 +120,7 @@ def load_frames(
         from ppaloc.datasets.images import read_grey
 
         frame = to_sensor(read_grey(Path(image)))
-        return [frame] * (frames or 1)
+        return FrameSource([frame] * (frames or 1))
     if dataset is not None:
         from ppaloc.datasets.registry import (
             REFERENCE_ALONE,
@@ -133,16 +138,16 @@ def load_frames(
                 "?step=k"
             )
         n = min(len(query), frames or (len(query) if alone else DATASET_FRAMES))
-        return [to_sensor(query[i]) for i in range(n)]
+        return FrameSource((to_sensor(query[i]) for i in range(n)), n)
     if stream is not None:
-        from ppaloc.datasets.loaders.video import read_stream
+        from ppaloc.datasets.loaders.video import stream_frames
 
-        grey = read_stream(stream, frames or DATASET_FRAMES, stream_format, options)
-        return [to_sensor(f) for f in grey]
+        grey = stream_frames(stream, stream_format, options)
+        return FrameSource(grey, frames or DATASET_FRAMES, convert=to_sensor)
     if frames is not None:
         from ppaloc.sim.demo import synthetic_scene
 
-        return [synthetic_scene(seed=i) for i in range(frames)]
+        return FrameSource((synthetic_scene(seed=i) for i in range(frames)), frames)
     return None
 
 

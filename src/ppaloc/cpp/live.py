@@ -126,7 +126,7 @@ class LiveView:
         if self._thread is not None:
             raise LiveError("a LiveView serves one run: make a new one for the next run")
         self._program = session.program
-        self._frames = len(session.frames)
+        self._frames = session.source.bound  # the most: a stream may end sooner
         handler = type("Handler", (_Handler,), {"view": self})
         server_cls = ThreadingHTTPServer
         if ":" in self.host:  # an IPv6 address
@@ -193,8 +193,10 @@ class LiveView:
                     "max": item.hi,
                     "value": session.gui_values.get(text, item.lo),
                 }
-            self._done = min(session.loops, self._frames)  # passes begun, all ended here
+            self._done = min(session.loops, session.source.taken)  # passes begun, ended here
             self._finished = finished
+            if finished and session.finished:  # a stream that ended sooner: what it gave
+                self._frames = session.source.taken
 
     # ------------------------------------------------------------ the browser's side
     def state(self) -> dict[str, Any]:
@@ -444,7 +446,7 @@ function show(s) {
   document.title = s.program + " - ppaloc live view";
   $("title").textContent = s.program;
   $("status").textContent = (s.finished ? "finished: " : "running: ") +
-    s.frame + " of " + s.frames + " frame(s)";
+    s.frame + (s.frames === null ? "" : " of " + s.frames) + " frame(s)";
   showDisplays(s.displays);
   showItems(s.items);
   const pre = $("texts"), atEnd = pre.scrollTop + pre.clientHeight >= pre.scrollHeight - 4;

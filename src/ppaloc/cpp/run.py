@@ -18,7 +18,7 @@ import signal
 import subprocess
 import tempfile
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -27,10 +27,11 @@ import numpy as np
 
 from ppaloc.cpp.build import SHIM_HEADERS, compile_program
 from ppaloc.cpp.displays import fit_plane
+from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.project import Project, make_project, project_headers
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
 from ppaloc.cpp.server import ProgramError, Session, serve
-from ppaloc.errors import PpalocError
+from ppaloc.errors import DataError, PpalocError
 from ppaloc.fileio import check_replaceable_folder, new_folder
 from ppaloc.sim import NoiseParams, Scamp5
 from ppaloc.sim.render import plane_to_image, render_montage, save_png
@@ -38,7 +39,14 @@ from ppaloc.sim.render import plane_to_image, render_montage, save_png
 if TYPE_CHECKING:
     from ppaloc.cpp.live import LiveView
 
-__all__ = ["RunResult", "check_settings", "check_timeout", "run_program", "write_outputs"]
+__all__ = [
+    "FramesFailedError",
+    "RunResult",
+    "check_settings",
+    "check_timeout",
+    "run_program",
+    "write_outputs",
+]
 
 #: Frames of the montage (the first ones; every frame has its own PNGs).
 MONTAGE_FRAMES = 8
@@ -113,6 +121,18 @@ class RunResult:
         }
 
 
+class FramesFailedError(DataError):
+    """A frame could not be read mid-run: the run ended there.
+
+    ``result`` is the run of the frames before it (written to its folder, when one was
+    asked for), as a run whose frames ended there would be.
+    """
+
+    def __init__(self, message: str, result: RunResult) -> None:
+        super().__init__(message)
+        self.result = result
+
+
 def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "display"
 
@@ -153,7 +173,7 @@ def write_outputs(result: RunResult, folder: Path) -> None:
         render_montage(tiles, folder / "montage.png", columns=columns)
     (folder / "text.txt").write_text("".join(f"frame {f}: {t}\n" for f, t in s.texts))
     if s.host_log:  # host-side calls: "after the run" for the end-of-run callbacks
-        ran = len(s.frames)
+        ran = s.source.taken if s.finished else s.frame + 1  # a program that returned: all ran
         (folder / "host.txt").write_text(
             "".join(f"{f'frame {f}' if f < ran else 'after the run'}: {t}\n" for f, t in s.host_log)
         )
@@ -290,7 +310,7 @@ def check_timeout(timeout: object) -> None:
 
 def run_program(
     program: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
-    frames: Sequence[np.ndarray] | None = None,
+    frames: FrameSource | Iterable[np.ndarray] | None = None,
     *,
     include_dirs: Sequence[str | os.PathLike[str]] = (),
     defines: Sequence[str] = (),
@@ -308,9 +328,14 @@ def run_program(
     program : path or sequence of paths
         A SCAMP-5d device program (C++): its source file, or its files (compiled and
         linked together; the first names the program in messages).
-    frames : sequence of uint8 arrays, optional
-        The exposures, all of one square shape (the array size); default one
-        synthetic scene of 256 x 256 (``ppaloc.sim.demo.synthetic_scene``).
+    frames : FrameSource or iterable of uint8 arrays, optional
+        The exposures, all of one shape (the array size); default one synthetic scene of
+        256 x 256 (``ppaloc.sim.demo.synthetic_scene``). A list is checked whole before
+        the build; an iterator or a :class:`~ppaloc.cpp.frames.FrameSource` (a stream, as
+        ``ppaloc cpp run --stream`` gives) is read one frame at a time as the program asks
+        for the next, its first frame before the build. A frame that cannot be read, or is
+        not like the first, ends the run there: the outputs of the frames before it are
+        written, then its one-line error is raised.
     include_dirs : sequence of paths
         The program's header folders (``-I``).
     defines : sequence of str
@@ -334,6 +359,9 @@ def run_program(
     PpalocError
         Compile errors, unmodelled calls, a bad ``--set``, a misused call (with its line),
         a timeout, a crash; no output folder is left behind.
+    FramesFailedError
+        A frame that could not be read, or not like the first, after the first: the
+        outputs of the frames before it are written, and the error holds their ``result``.
     """
     if out is not None:
         check_output_folder(out)
@@ -341,35 +369,46 @@ def run_program(
         from ppaloc.sim.demo import synthetic_scene
 
         frames = [synthetic_scene(seed=0)]
-    frames = [np.asarray(f) for f in frames]
-    if not frames:
-        raise PpalocError("no frames to run on: give at least one image or --frames 1 or more")
-    shape = frames[0].shape
-    if any(f.shape != shape or f.dtype != np.uint8 for f in frames) or len(shape) != 2:
-        raise PpalocError(
-            "frames must be uint8 images of one shape: convert them with ppaloc.frontend.to_sensor"
-        )
-    check_timeout(timeout)
-    values = check_settings(settings)
-    project = make_project(program, include_dirs, defines)
-    name = project.name
-    exe = compile_program(project)
-    files = frozenset(p.name for p in (*project.sources, *project_headers(project, SHIM_HEADERS)))
-    sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
-    session = Session(sim, frames, values, program=name)
-    if live is not None:
-        live.open(session)
+    if isinstance(frames, Sequence):  # held already: every frame is checked now
+        list(FrameSource(frames))
+    source = frames if isinstance(frames, FrameSource) else FrameSource(frames)
     try:
-        result = _serve(exe, session, name, timeout, live, files)
-    finally:
+        check_timeout(timeout)
+        values = check_settings(settings)
+        project = make_project(program, include_dirs, defines)
+        name = project.name
+        first = source.peek()  # a stream's first frame: it sets the array's size
+        if first is None:
+            raise PpalocError(
+                source.error or "no frames to run on: give at least one image or --frames 1 or more"
+            )
+        shape = first.shape
+        exe = compile_program(project)
+        files = frozenset(
+            p.name for p in (*project.sources, *project_headers(project, SHIM_HEADERS))
+        )
+        sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
+        session = Session(sim, source, values, program=name)
         if live is not None:
-            live.close(session)
-    result.project = project
-    session.check_settings()
-    if out is not None:
-        with new_folder(out) as stage:
-            write_outputs(result, stage)
-        result.out = Path(out)
+            live.open(session)
+        try:
+            result = _serve(exe, session, name, timeout, live, files)
+        finally:
+            if live is not None:
+                live.close(session)
+        result.project = project
+        session.check_settings()
+        if out is not None:
+            with new_folder(out) as stage:
+                write_outputs(result, stage)
+            result.out = Path(out)
+    finally:
+        source.close()
+    if source.error is not None:  # the frames before it ran: their outputs are kept
+        kept = f"; their outputs are in {out}" if out is not None else ""
+        raise FramesFailedError(
+            f"{name} stopped after {source.taken} frame(s): {source.error}{kept}", result
+        )
     return result
 
 
@@ -409,8 +448,9 @@ def _serve(
         deadline = start + timeout
         error: PpalocError | None = None
 
-        def read_deadline() -> float:  # a live view's frame pacing is not the program's time
-            return deadline + (live.waited_s if live is not None else 0.0)
+        def read_deadline() -> float:  # nor are a live view's pacing and reading the frames
+            paced = live.waited_s if live is not None else 0.0
+            return deadline + paced + session.source.waited_s
 
         def read() -> bytes:
             left = read_deadline() - time.perf_counter()

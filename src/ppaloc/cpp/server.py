@@ -27,6 +27,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ppaloc.cpp.displays import box_outlines, byte_image, event_marks, subsample
+from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.protocol import (
     DEVICE_ERRORS,
     ICW_STACK_OVERFLOW,
@@ -163,9 +164,12 @@ class Session:
     ----------
     sim : Scamp5
         The simulator every call runs on.
-    frames : sequence of ndarray
+    frames : FrameSource or sequence of ndarray
         The exposures: frame ``k`` is what PIX sees during the ``k``-th pass of the frame
-        loop (frame 0 also before it).
+        loop (frame 0 also before it). Each is taken from the source when its pass starts
+        (:attr:`source`), so a stream's frames reach the program as they are decoded; the
+        frames end when the source does, or early when it fails (:attr:`FrameSource.error`,
+        also in :attr:`warnings`).
     settings : dict
         Slider and switch values by their GUI text (``--set NAME=VALUE``).
     program : str
@@ -173,7 +177,7 @@ class Session:
     """
 
     sim: Scamp5
-    frames: Sequence[np.ndarray]
+    frames: FrameSource | Sequence[np.ndarray]
     settings: dict[str, str] = field(default_factory=dict)
     program: str = "program"
     kernels: dict[int, KernelStats] = field(default_factory=dict)
@@ -202,8 +206,12 @@ class Session:
     _changes: list[tuple[int, int]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        if len(self.frames):
-            self.sim.set_image(self.frames[0])
+        self.source = (
+            self.frames if isinstance(self.frames, FrameSource) else FrameSource(self.frames)
+        )
+        first = self.source.peek()
+        if first is not None:
+            self.sim.set_image(first)
         self.unused = set(self.settings)
         self._matched: dict[str, list[str]] = {}
 
@@ -270,10 +278,13 @@ class Session:
         self._loop_us = 0.0
         self.host("vs_frame_loop_control")
         self.loops += 1
-        if self.loops > len(self.frames):
+        frame = self.source.take()
+        if frame is None:
             self.finished = True
+            if self.source.error is not None:
+                self.warnings.append(f"the frames ended early: {self.source.error}")
             return 0
-        self.sim.set_image(self.frames[self.loops - 1])
+        self.sim.set_image(frame)
         for text, value in changes:
             item = self.gui_items[text]
             self.gui_values[text] = value

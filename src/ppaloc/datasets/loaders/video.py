@@ -15,6 +15,7 @@ hard and soft matrices (:mod:`ppaloc.datasets.loaders.owntruth`).
 from __future__ import annotations
 
 import contextlib
+import itertools
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -29,7 +30,7 @@ from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.errors import DataError
 from ppaloc.frontend import to_grey
 
-__all__ = ["SCHEMA", "VideoFrames", "load", "open_video", "read_stream"]
+__all__ = ["SCHEMA", "VideoFrames", "load", "open_video", "read_stream", "stream_frames"]
 
 SCHEMA = KindSchema(
     n_paths=(2,),
@@ -94,34 +95,84 @@ def _grey(frame: Any) -> np.ndarray:
     return to_grey(frame.to_ndarray(format="rgb24"))
 
 
+def stream_frames(
+    target: str, format: str | None = None, options: dict[str, str] | None = None
+) -> Iterator[np.ndarray]:
+    """A live stream's or camera's frames, grey, each decoded when it is asked for.
+
+    The input is opened now (so a bad one is refused at once, in one line); each frame is
+    then decoded only when the iterator is advanced, so a consumer gets the first frame
+    before the second is decoded. The iterator ends with the stream (never, for a camera)
+    and closes the input when it ends, fails or is closed. See :func:`open_video` for
+    ``target``, ``format`` and ``options``.
+
+    Raises
+    ------
+    DataError
+        If it cannot be opened (now); while iterating, if frame ``k`` cannot be decoded
+        (``cannot decode frame k of stream ...``) or no frame comes (``... gave no frames``).
+    """
+    what = f"stream {target}" + (f" (format {format})" if format else "")
+    return _StreamFrames(*open_video(target, what, format, options), what)
+
+
+class _StreamFrames:
+    """An open input's grey frames, decoded one per ``next``; closes it at the end."""
+
+    def __init__(self, container: Any, frames: Iterator[Any], what: str) -> None:
+        self._container, self._frames, self.what = container, frames, what
+        self.decoded = 0
+
+    def __iter__(self) -> _StreamFrames:
+        return self
+
+    def __next__(self) -> np.ndarray:
+        if self._container is None:
+            raise StopIteration
+        try:
+            frame = next(self._frames, None)
+            grey = None if frame is None else _grey(frame)
+        except Exception as exc:  # PyAV raises many types on a broken stream
+            self.close()
+            raise DataError(f"cannot decode frame {self.decoded} of {self.what}: {exc}") from None
+        if grey is None:
+            self.close()
+            if not self.decoded:
+                raise DataError(f"{self.what} gave no frames")
+            raise StopIteration
+        self.decoded += 1
+        return grey
+
+    def close(self) -> None:
+        """Close the input (idempotent); the iterator then ends."""
+        if self._container is not None:
+            self._container.close()
+        self._container = None
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):  # at interpreter exit av may be gone already
+            self.close()
+
+
 def read_stream(
     target: str, n: int, format: str | None = None, options: dict[str, str] | None = None
 ) -> list[np.ndarray]:
     """The first ``n`` frames, grey, of a live stream or camera (or any input PyAV opens).
 
     A stream has no end to count to, so ``n`` bounds it; one that ends sooner gives the
-    frames it had. See :func:`open_video` for ``target``, ``format`` and ``options``.
+    frames it had. :func:`stream_frames` gives them one at a time instead. See
+    :func:`open_video` for ``target``, ``format`` and ``options``.
 
     Raises
     ------
     DataError
         If it cannot be opened or decoded, or gives no frame.
     """
-    what = f"stream {target}" + (f" (format {format})" if format else "")
-    container, frames = open_video(target, what, format, options)
-    out: list[np.ndarray] = []
+    frames = stream_frames(target, format, options)
     try:
-        for frame in frames:
-            out.append(_grey(frame))
-            if len(out) >= n:
-                break
-    except Exception as exc:
-        raise DataError(f"cannot decode frame {len(out)} of {what}: {exc}") from None
+        return list(itertools.islice(frames, n))
     finally:
-        container.close()
-    if not out:
-        raise DataError(f"{what} gave no frames")
-    return out
+        frames.close()
 
 
 class _Decoder:
