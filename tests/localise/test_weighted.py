@@ -291,6 +291,9 @@ def test_suggest_alpha_is_an_integer_and_used(route):
         ({"skip_cost": "x"}, r"skip_cost='x' must be an integer"),
         ({"max_advance": 4}, r"max_advance=4 must be in \[1, 3\]"),
         ({"keyframes": "yes"}, r"keyframes='yes' must be True or False"),
+        ({"contrast_patch": 3}, r"^contrast_patch=3 must be one of 2, 4, 8 \(blocks of the"),
+        ({"contrast_patch": True}, r"^contrast_patch=True must be one of 2, 4, 8"),
+        ({"preset": "paper", "contrast_patch": 2}, r"contrast_patch=2 is a parameter of preset"),
     ],
 )
 def test_user_errors(kwargs, message):
