@@ -314,7 +314,7 @@ def test_skipping_the_droop_of_overwritten_planes_changes_no_byte(
 ) -> None:
     """A plane a kernel overwrites whole before reading it is not drooped first; the bytes
     are those of droop applied to every plane the kernel touches."""
-    same_bytes(aged_run(program, 0, flag_all, True), aged_run(program, 0, flag_all, False))
+    same_bytes(aged_run(program, seed, flag_all, True), aged_run(program, seed, flag_all, False))
 
 
 @pytest.mark.parametrize(

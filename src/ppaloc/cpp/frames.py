@@ -3,7 +3,8 @@
 A :class:`FrameSource` wraps any iterable of exposures: a list, or a generator that
 decodes a camera or a stream as it goes. The session takes frame ``k`` when the program
 starts its ``k``-th frame-loop pass, so a live stream's first frame reaches the program
-before the next one is decoded, and a long ``--frames`` count costs no wait up front.
+before the next one is decoded, and a long ``--frames`` count of a stream costs no wait
+up front.
 """
 
 from __future__ import annotations
@@ -86,6 +87,8 @@ class FrameSource:
         self._next = None
         if frame is not None:
             self.taken += 1
+            if self.bound is not None and self.taken >= self.bound:
+                self.close()  # a camera stops capturing as soon as its last frame is taken
         return frame
 
     def __iter__(self) -> Iterator[np.ndarray]:

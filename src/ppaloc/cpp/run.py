@@ -146,10 +146,16 @@ def display_folders(displays: dict[int, str]) -> dict[int, str]:
     --------
     >>> display_folders({1: "edges", 2: "", 3: "", 4: "a b"})
     {1: 'edges', 2: 'display_2', 3: 'display_3', 4: 'a_b'}
+    >>> display_folders({1: "", 2: "", 3: "display_2"})  # a name equal to a suffixed one
+    {1: 'display_1', 2: 'display_2_2', 3: 'display_2_3'}
     """
-    slugs = {h: _slug(n) for h, n in displays.items()}
-    shared = {n for n in slugs.values() if list(slugs.values()).count(n) > 1}
-    return {h: f"{n}_{h}" if n in shared else n for h, n in slugs.items()}
+    names = {h: _slug(n) for h, n in displays.items()}
+    while True:
+        values = list(names.values())
+        shared = {n for n in values if values.count(n) > 1}
+        if not shared:
+            return names
+        names = {h: f"{n}_{h}" if n in shared else n for h, n in names.items()}
 
 
 def write_outputs(result: RunResult, folder: Path) -> None:

@@ -3,8 +3,8 @@
 Both start from the exact 8x8 block means of a (256, 256) uint8 sensor frame
 (docs/ppa8.md). Low-res nodes are compared by the sum of absolute differences (:func:`sad`),
 LBP descriptors by Hamming distance (:func:`hamming`); the robust filter compares low-res
-images after a per-image contrast normalisation (:func:`normalise_contrast`). Everything
-is vectorised over leading axes (frames) or N nodes and exact.
+images after a contrast normalisation of each tile of blocks (:func:`normalise_contrast`).
+Everything is vectorised over leading axes (frames) or N nodes and exact.
 """
 
 from ppaloc.place.grid import SENSOR_SIZE, block_means, block_sums, lowres_image

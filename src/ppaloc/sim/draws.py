@@ -11,10 +11,11 @@ order, in chunks or one by one, gets the same bytes by construction.
   stream that starts at ``key``. Two 64-bit multiplies per value, vectorised.
 - **Normal.** The top 32 bits: one for the sign, 31 for the two-sided tail probability
   ``v = (k + 1/2) / 2**31``, and ``|z| = sqrt(2) * erfinv(1 - v)`` by Giles' single-precision
-  approximation ("Approximating the erfinv function", GPU Computing Gems, 2011; relative
-  error below 2e-6 for ``|z| < 5.04``, that is all but 5e-7 of the draws, and below 4e-4
-  beyond) with ``log`` computed from the float's exponent and an
-  atanh series (no library call, so the loop vectorises and numpy gives the same bytes).
+  approximation ("Approximating the erfinv function", GPU Computing Gems, 2011; absolute
+  error at most about 1.1e-6 for ``|z| < 5.04``, that is all but 5e-7 of the draws, which
+  is a relative error below 2e-6 for ``|z| > 0.1``, and below 4e-4 beyond 5.04) with
+  ``log`` computed from the float's exponent and an atanh series (no library call, so the
+  loop vectorises and numpy gives the same bytes).
   The smallest ``v`` is 2**-32: the largest ``|z|`` is 6.336 (a true normal exceeds it
   with probability 2.3e-10 per draw). Every operation is float32 in a fixed order;
   :func:`normal_numpy` is the same arithmetic on numpy arrays, used without numba and
