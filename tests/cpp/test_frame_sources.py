@@ -248,3 +248,24 @@ def test_a_frame_that_fails_mid_stream_keeps_the_frames_before(cxx, lavfi, tmp_p
     ]
     assert len(err.value.result.texts) == 2  # the run of the frames before, for Python
     assert len(calls) == 3  # nothing read after the failure
+
+
+def test_a_source_is_closed_when_the_run_is_refused_before_it_starts(tmp_path):
+    """A caller's open input (a camera) is released even when the output folder is refused."""
+    from ppaloc.cpp.frames import FrameSource
+
+    class Camera:
+        closed = False
+
+        def __iter__(self):
+            return itertools.repeat(np.zeros((8, 8), np.uint8))
+
+        def close(self):
+            Camera.closed = True
+
+    (tmp_path / "out").write_text("a user's file")
+    with pytest.raises(PpalocError, match="out"):
+        run_program(
+            PROGRAMS / "means.cpp", frames=FrameSource(Camera(), limit=2), out=tmp_path / "out"
+        )
+    assert Camera.closed

@@ -369,16 +369,16 @@ def run_program(
         A frame that could not be read, or not like the first, after the first: the
         outputs of the frames before it are written, and the error holds their ``result``.
     """
-    if out is not None:
-        check_output_folder(out)
     if frames is None:
         from ppaloc.sim.demo import synthetic_scene
 
         frames = [synthetic_scene(seed=0)]
-    if isinstance(frames, Sequence):  # held already: every frame is checked now
-        list(FrameSource(frames))
     source = frames if isinstance(frames, FrameSource) else FrameSource(frames)
-    try:
+    try:  # from here on, the source is closed however the run ends
+        if out is not None:
+            check_output_folder(out)
+        if isinstance(frames, Sequence):  # held already: every frame is checked now
+            list(FrameSource(frames))
         check_timeout(timeout)
         values = check_settings(settings)
         project = make_project(program, include_dirs, defines)
@@ -453,10 +453,11 @@ def _serve(
         os.close(to_prog_r)
         deadline = start + timeout
         error: PpalocError | None = None
+        read_before = session.source.waited_s  # the first frame, read before the build
 
         def read_deadline() -> float:  # nor are a live view's pacing and reading the frames
             paced = live.waited_s if live is not None else 0.0
-            return deadline + paced + session.source.waited_s
+            return deadline + paced + session.source.waited_s - read_before
 
         def read() -> bytes:
             left = read_deadline() - time.perf_counter()
