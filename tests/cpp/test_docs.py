@@ -42,8 +42,24 @@ def test_the_example_program(cxx, tmp_path):
     assert (tmp_path / "run" / "displays" / "mask" / "frame_0002.png").exists()
 
 
-def test_the_kernel_export_example():
+def test_the_live_view_python_example():
     code = _blocks("python")[0]
+    assert "with LiveView(" in code
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        exec(
+            compile(code.replace("announce=print", "fps=1000, announce=print"), "cpp.md", "exec"),
+            ns := {},
+        )
+    assert re.fullmatch(r"http://127\.0\.0\.1:\d+/\n", printed.getvalue())
+    state = ns["view"].state()
+    assert state["finished"] and state["frame"] == 10
+    assert [d["name"] for d in state["displays"]] == ["frame", "mask"]
+    assert state["texts"][-1]["text"].startswith("threshold 128: ")
+
+
+def test_the_kernel_export_example():
+    code = _blocks("python")[1]
     shown = DOC.read_text().split(code, 1)[1].split("```", 1)[1].split("\n\n", 2)[1]
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
@@ -53,7 +69,7 @@ def test_the_kernel_export_example():
 
 
 def test_the_trace_export_example():
-    code = _blocks("python")[1]
+    code = _blocks("python")[2]
     namespace: dict = {}
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):

@@ -1,13 +1,21 @@
-"""A live view of a running SCAMP-5d program: displays, sliders, switches and text in a browser.
+"""A live view of a running program: displays, sliders, switches and text in a browser.
 
 :class:`LiveView` serves one self-contained page (no external assets) over HTTP
-(:class:`http.server.ThreadingHTTPServer`, standard library only) while
-:func:`ppaloc.cpp.run.run_program` runs the program. At each frame loop control the session
-(:class:`ppaloc.cpp.server.Session`) hands the view what the frame produced; the page polls
-``state.json`` (every 100 ms) and loads each display's newest image as a PNG. A slider or
-switch moved on the page is POSTed to ``set``, checked against the item's range, and
-reaches the program at its next frame loop control, as the device applies the host's GUI
-messages there (value, writeback variable, ``vs_on_gui_update`` callback).
+(:class:`http.server.ThreadingHTTPServer`, standard library only) showing a
+:class:`~ppaloc.cpp.livestate.LiveState`: displays by name with their newest image and the
+frame it came from, sliders and switches with their ranges and values, posted text, and
+frames done of total. The page polls ``state.json`` (every 100 ms) and loads each display's
+newest image as a PNG. A slider or switch moved on the page is POSTed to ``set``, checked
+against the item's range, and reaches the program at its next frame boundary.
+
+Two kinds of producer fill the state. A C++ run: :func:`ppaloc.cpp.run.run_program` opens
+the view on its session (:class:`ppaloc.cpp.server.Session`), which hands it what each
+frame produced at the frame loop control, where the device applies the host's GUI messages
+(value, writeback variable, ``vs_on_gui_update`` callback). Any Python program: used as a
+context manager, the view is fed through :meth:`LiveView.display`, :meth:`LiveView.text`,
+:meth:`LiveView.slider`, :meth:`LiveView.switch` and :meth:`LiveView.frame_done`, which
+applies the page's changes between frames the same way (``ppaloc localise --live`` shows
+the on-sensor localiser so).
 
 The server answers only ``/`` (the page), ``/state.json``, ``/display/HANDLE.png`` and a
 POST to ``/set``; everything else is a 404. It listens on 127.0.0.1 unless another host is
@@ -19,7 +27,6 @@ Frames are paced to at most ``fps`` per second so a person can watch and steer t
 
 from __future__ import annotations
 
-import io
 import json
 import re
 import socket
@@ -27,34 +34,59 @@ import threading
 import time
 from collections.abc import Callable
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from types import TracebackType
 from typing import Any
 
 import numpy as np
-from PIL import Image
 
+from ppaloc.cpp.livestate import TEXT_LINES, LiveState
+from ppaloc.cpp.livestate import Refused as _Refused
 from ppaloc.cpp.server import Session, gui_name
 from ppaloc.errors import PpalocError
 from ppaloc.sim.render import plane_to_image
 
-__all__ = ["PAGE", "LiveError", "LiveView"]
+__all__ = ["PAGE", "TEXT_LINES", "LiveError", "LiveView", "image_8bit"]
 
-#: Posted text lines the state keeps (the newest).
-TEXT_LINES = 200
 #: Largest POST body taken, bytes.
 MAX_BODY = 4096
 _LOOPBACK = frozenset({"127.0.0.1", "localhost", "::1"})
+_SLIDER_LIMIT = 2**31 - 1
 
 
 class LiveError(PpalocError):
-    """A live view that cannot start (a bad host or port, an address in use)."""
+    """A live view that cannot start (a bad host or port, an address in use) or a bad
+    display, slider or switch given by the program feeding it."""
 
 
-class _Refused(Exception):
-    """A request refused with a status and a one-line message."""
+def image_8bit(array: np.ndarray) -> np.ndarray:
+    """An image a Python program displays, as 8-bit grey: how :meth:`LiveView.display`
+    draws it.
 
-    def __init__(self, status: int, message: str) -> None:
-        super().__init__(message)
-        self.status = status
+    ``uint8`` is shown as it is, ``bool`` as 0/255, any other number scaled so its
+    smallest value is black and its largest white (a constant image is mid-grey); NaN is
+    black.
+
+    Examples
+    --------
+    >>> image_8bit(np.array([[0.0, 0.5, 1.0]])).tolist()
+    [[0, 128, 255]]
+    >>> image_8bit(np.array([[True, False]])).tolist()
+    [[255, 0]]
+    """
+    arr = np.asarray(array)
+    if arr.dtype == np.uint8:
+        return arr
+    if arr.dtype == bool:
+        return np.where(arr, 255, 0).astype(np.uint8)
+    a = arr.astype(np.float64)
+    finite = np.isfinite(a)
+    if not finite.any():
+        return np.zeros(a.shape, np.uint8)
+    lo, hi = float(a[finite].min()), float(a[finite].max())
+    if hi == lo:
+        return np.where(finite, 128, 0).astype(np.uint8)
+    scaled = np.floor((np.where(finite, a, lo) - lo) / (hi - lo) * 255 + 0.5)
+    return scaled.astype(np.uint8)
 
 
 class LiveView:
@@ -70,12 +102,35 @@ class LiveView:
         Most frames per second the run is let through, so it can be watched; > 0.
     announce : callable, optional
         Called with the page's URL once the server listens (the CLI prints it on stderr).
+    program : str
+        The page's title for a Python program (a C++ run shows its source's name).
+    frames : int, optional
+        Frames a Python program will run, for the page's "N of M" (None: not known).
 
     Notes
     -----
-    The view is a :class:`ppaloc.cpp.server.LiveHook`: :func:`ppaloc.cpp.run.run_program`
-    opens it after compiling, sets it on the session and closes it when the run ends,
-    however it ends. Time spent pacing frames does not count against the run's timeout.
+    For a C++ run the view is a :class:`ppaloc.cpp.server.LiveHook`:
+    :func:`ppaloc.cpp.run.run_program` opens it after compiling, sets it on the session
+    and closes it when the run ends, however it ends. Time spent pacing frames does not
+    count against the run's timeout.
+
+    A Python program opens it with ``with`` (or :meth:`start` and :meth:`close`) and, per
+    frame, reads its sliders and switches, shows images and text, and ends the frame with
+    :meth:`frame_done`, which paces the frames and applies the values set on the page
+    since the last frame: a slider moved on the page changes what :meth:`slider` returns
+    from the next frame on.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> with LiveView(program="demo", frames=2, fps=1000) as view:
+    ...     for k in range(2):
+    ...         level = view.slider("level", 0, 255, 40)
+    ...         view.display("mask", np.arange(16).reshape(4, 4) > level // 16)
+    ...         view.text(f"level {level}")
+    ...         changes = view.frame_done()  # the page's changes, applied
+    >>> view.live_state.state()["frame"], view.live_state.state()["finished"]
+    (2, True)
     """
 
     def __init__(
@@ -85,6 +140,8 @@ class LiveView:
         *,
         fps: float = 30.0,
         announce: Callable[[str], None] | None = None,
+        program: str = "python",
+        frames: int | None = None,
     ) -> None:
         if not isinstance(host, str) or not re.fullmatch(r"[A-Za-z0-9.:\-\[\]]+", host):
             raise LiveError(f"--host {host!r} must be a host name or address, e.g. 127.0.0.1")
@@ -92,24 +149,20 @@ class LiveView:
             raise LiveError(f"--port {port!r} must be in [0, 65535] (0 picks a free port)")
         if not (isinstance(fps, int | float) and 0 < fps <= 10_000):
             raise LiveError(f"fps={fps!r} must be a number of frames per second in (0, 10000]")
+        if not isinstance(program, str) or not program:
+            raise LiveError(f"program={program!r} must be a non-empty name for the page")
+        if frames is not None and (
+            isinstance(frames, bool) or not isinstance(frames, int) or frames < 0
+        ):
+            raise LiveError(f"frames={frames!r} must be a count >= 0, or None when not known")
         self.host = host.strip("[]")
         self.port = port
         self.fps = float(fps)
         self.announce = announce
         self.waited_s = 0.0
-        self._lock = threading.Lock()
-        self._program = "program"
-        self._frames = 0
-        self._done = 0  # frames completed
-        self._finished = False
-        self._names: dict[int, str] = {}
-        self._planes: dict[int, tuple[int, int, np.ndarray]] = {}  # handle: (serial, frame, plane)
-        self._png: dict[int, tuple[int, bytes]] = {}
-        self._serial = 0
-        self._items: dict[str, dict[str, Any]] = {}
-        self._pending: dict[str, int] = {}
-        self._texts: list[tuple[int, str]] = []
+        self.live_state = LiveState(program, frames)
         self._seen_texts = 0
+        self._handles: dict[str, int] = {}  # a Python program's displays by name
         self._last = 0.0
         self._httpd: ThreadingHTTPServer | None = None
         self._thread: threading.Thread | None = None
@@ -117,16 +170,27 @@ class LiveView:
     # ------------------------------------------------------------ lifetime
     @property
     def url(self) -> str:
-        """The page's address (after :meth:`open`)."""
+        """The page's address (after :meth:`open` or :meth:`start`)."""
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"http://{host}:{self.port}/"
 
     def open(self, session: Session) -> None:
-        """Listen, serve in a background thread, and attach to ``session``."""
+        """Listen, serve in a background thread, and attach to ``session`` (a C++ run)."""
         if self._thread is not None:
             raise LiveError("a LiveView serves one run: make a new one for the next run")
-        self._program = session.program
-        self._frames = session.source.bound  # the most: a stream may end sooner
+        self.live_state.program = session.program
+        self.live_state.frames = session.source.bound  # the most: a stream may end sooner
+        self._serve()
+        session.live = self
+
+    def start(self) -> LiveView:
+        """Listen and serve in a background thread, for a Python program to feed."""
+        if self._thread is not None:
+            raise LiveError("a LiveView serves one run: make a new one for the next run")
+        self._serve()
+        return self
+
+    def _serve(self) -> None:
         handler = type("Handler", (_Handler,), {"view": self})
         server_cls = ThreadingHTTPServer
         if ":" in self.host:  # an IPv6 address
@@ -146,98 +210,150 @@ class LiveView:
             target=self._httpd.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True
         )
         self._thread.start()
-        session.live = self
         self._last = time.perf_counter()
         if self.announce is not None:
             self.announce(self.url)
 
     def close(self, session: Session | None = None) -> None:
-        """Take the run's last outputs (when ``session`` is given) and stop the server."""
+        """Take the run's last outputs (a C++ run's ``session``; a Python program's run is
+        marked finished) and stop the server."""
         if session is not None:
             self._take(session, finished=True)
+        else:
+            state = self.live_state
+            state.progress(state.done, finished=True)
         if self._httpd is not None:
             self._httpd.shutdown()
             self._httpd.server_close()
             self._httpd = None
 
-    # ------------------------------------------------------------ the session's side
-    def frame_done(self, session: Session) -> list[tuple[str, int]]:
-        """Take the frame just ended, wait out the frame pacing, and give the changes."""
-        self._take(session, finished=False)
+    def __enter__(self) -> LiveView:
+        return self.start()
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # ------------------------------------------------------------ the frame boundary
+    def frame_done(self, session: Session | None = None) -> list[tuple[str, int]]:
+        """End a frame: take what it produced (a C++ run's ``session``), wait out the
+        frame pacing, and give the item changes set on the page since the last frame,
+        ``(name, value)``, already checked against the items' ranges.
+
+        A Python program calls it without arguments at the end of each frame; the changes
+        are applied to its sliders and switches before it returns.
+        """
+        if session is not None:
+            self._take(session, finished=False)
         wait = 1.0 / self.fps - (time.perf_counter() - self._last)
         if wait > 0:
             time.sleep(wait)
             self.waited_s += wait
         self._last = time.perf_counter()
-        with self._lock:
-            changes = list(self._pending.items())
-            self._pending.clear()
+        state = self.live_state
+        with state.batch():
+            changes = state.take_changes()
+            if session is None:
+                for name, value in changes:
+                    item = state.item(name)
+                    assert item is not None  # set() takes only declared items
+                    state.put_item(name, item["kind"], item["min"], item["max"], value)
+                state.progress(state.done + 1, finished=False)
         return changes
 
     def _take(self, session: Session, *, finished: bool) -> None:
         frame = session.frame
         outputs = session.outputs[frame] if len(session.outputs) > frame else {}
         texts = session.texts[self._seen_texts :]
-        with self._lock:
-            self._seen_texts += len(texts)
-            self._names = dict(session.displays)
+        self._seen_texts += len(texts)
+        state = self.live_state
+        with state.batch():
+            state.name_displays(session.displays)
             for handle, plane in outputs.items():
-                self._serial += 1
-                self._planes[handle] = (self._serial, frame, plane)
-            self._texts = (self._texts + list(texts))[-TEXT_LINES:]
+                state.put_display(handle, plane, frame, plane_to_image)
+            state.put_texts(texts)
             for text, item in session.gui_items.items():
-                self._items[text] = {
-                    "name": text,
-                    "kind": item.kind,
-                    "min": item.lo,
-                    "max": item.hi,
-                    "value": session.gui_values.get(text, item.lo),
-                }
-            self._done = min(session.loops, session.source.taken)  # passes begun, ended here
-            self._finished = finished
-            if finished and session.finished:  # a stream that ended sooner: what it gave
-                self._frames = session.source.taken
+                value = session.gui_values.get(text, item.lo)
+                state.put_item(text, item.kind, item.lo, item.hi, value)
+            state.progress(
+                min(session.loops, session.source.taken),  # passes begun, ended here
+                finished=finished,
+                # a stream that ended sooner: what it gave
+                frames=session.source.taken if finished and session.finished else None,
+            )
+
+    # ------------------------------------------------------------ a Python program's side
+    def display(self, name: str, image: np.ndarray, frame: int | None = None) -> None:
+        """Show ``image`` ((rows, cols): uint8 as it is, bool 0/255, other numbers scaled
+        from their smallest to their largest; :func:`image_8bit`) as display ``name``,
+        from ``frame`` (default: the current frame, the count of :meth:`frame_done` calls).
+        """
+        if not isinstance(name, str) or not name:
+            raise LiveError(f"display name {name!r} must be a non-empty string")
+        arr = np.asarray(image)
+        if arr.ndim != 2 or 0 in arr.shape or not (arr.dtype == bool or arr.dtype.kind in "uif"):
+            raise LiveError(
+                f"display {name!r}: an image is a 2-D array of numbers (rows, cols); got "
+                f"shape {arr.shape} of {arr.dtype}"
+            )
+        state = self.live_state
+        with state.batch():
+            handle = self._handles.setdefault(name, len(self._handles))
+            at = state.done if frame is None else int(frame)
+            state.put_display(handle, arr.copy(), at, image_8bit, name=name)
+
+    def text(self, line: str, frame: int | None = None) -> None:
+        """Post a line of text from ``frame`` (default: the current frame)."""
+        state = self.live_state
+        with state.batch():
+            state.put_texts([(state.done if frame is None else int(frame), str(line))])
+
+    def slider(self, name: str, lo: int, hi: int, value: int) -> int:
+        """A slider's value: declared with range [lo, hi] and starting ``value`` at the
+        first call, then as the page last set it (applied at :meth:`frame_done`)."""
+        return self._item(name, "slider", lo, hi, value)
+
+    def switch(self, name: str, value: bool = False) -> bool:
+        """A switch's state: ``value`` at the first call, then as the page last set it."""
+        return bool(self._item(name, "switch", 0, 1, int(bool(value))))
+
+    def _item(self, name: str, kind: str, lo: int, hi: int, value: int) -> int:
+        if not isinstance(name, str) or not name:
+            raise LiveError(f"a {kind}'s name {name!r} must be a non-empty string")
+        for what, v in (("lo", lo), ("hi", hi), ("value", value)):
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise LiveError(f"{kind} {name!r}: {what}={v!r} must be an integer")
+        lo, hi, value = int(lo), int(hi), int(value)
+        if not -_SLIDER_LIMIT <= lo <= value <= hi <= _SLIDER_LIMIT:
+            raise LiveError(
+                f"{kind} {name!r}: give lo <= value <= hi (32-bit integers); got "
+                f"lo={lo}, value={value}, hi={hi}"
+            )
+        state = self.live_state
+        with state.batch():
+            item = state.item(name)
+            if item is None:
+                state.put_item(name, kind, lo, hi, value)
+                return value
+            if (item["kind"], item["min"], item["max"]) != (kind, lo, hi):
+                raise LiveError(
+                    f"{kind} {name!r} [{lo}, {hi}] was declared as {item['kind']} "
+                    f"[{item['min']}, {item['max']}]: give one name one kind and range"
+                )
+            return int(item["value"])
 
     # ------------------------------------------------------------ the browser's side
     def state(self) -> dict[str, Any]:
-        """What the page shows, JSON-ready."""
-        with self._lock:
-            return {
-                "program": self._program,
-                "frame": self._done,
-                "frames": self._frames,
-                "finished": self._finished,
-                "displays": [
-                    {
-                        "id": h,
-                        "name": self._names.get(h, f"display {h}"),
-                        "frame": frame,
-                        "src": f"display/{h}.png?v={serial}",
-                    }
-                    for h, (serial, frame, _) in sorted(self._planes.items())
-                ],
-                "items": [
-                    {**item, "value": self._pending.get(text, item["value"])}
-                    for text, item in self._items.items()
-                ],
-                "texts": [{"frame": f, "text": t} for f, t in self._texts],
-            }
+        """What the page shows, JSON-ready (:meth:`LiveState.state`)."""
+        return self.live_state.state()
 
     def png(self, handle: int) -> bytes:
         """Display ``handle``'s newest image as PNG bytes (encoded once per update)."""
-        with self._lock:
-            if handle not in self._planes:
-                raise _Refused(404, f"no display {handle} has an image yet")
-            serial, _, plane = self._planes[handle]
-            cached = self._png.get(handle)
-        if cached is not None and cached[0] == serial:
-            return cached[1]
-        buf = io.BytesIO()
-        Image.fromarray(plane_to_image(plane)).save(buf, "PNG", compress_level=1)
-        data = buf.getvalue()
-        with self._lock:
-            self._png[handle] = (serial, data)
-        return data
+        return self.live_state.png(handle)
 
     def set(self, name: object, value: object) -> tuple[str, int]:
         """Queue a slider's or switch's new value for the next frame; refuse a bad one.
@@ -246,31 +362,7 @@ class LiveView:
         ``--set`` takes it); ``value`` an integer in the item's range (a switch also takes
         ``true``/``false``).
         """
-        with self._lock:
-            if not isinstance(name, str):
-                raise _Refused(400, f"name {name!r} must be a slider's or switch's text")
-            texts = [name] if name in self._items else [
-                t for t in self._items if gui_name(t) == gui_name(name)
-            ]  # fmt: skip
-            if len(texts) != 1:
-                known = ", ".join(repr(t) for t in self._items) or "none"
-                what = "names more than one item" if texts else "is not a slider or switch"
-                raise _Refused(400, f"{name!r} {what} of {self._program} (it has: {known})")
-            item = self._items[texts[0]]
-            if isinstance(value, bool) and item["kind"] == "switch":
-                value = int(value)
-            if isinstance(value, bool) or not isinstance(value, int):
-                raise _Refused(400, f"{texts[0]!r} takes an integer, not {value!r}")
-            if not item["min"] <= value <= item["max"]:
-                raise _Refused(
-                    400,
-                    f"{texts[0]!r}={value} is outside the {item['kind']}'s range "
-                    f"[{item['min']}, {item['max']}]",
-                )
-            if self._finished:
-                raise _Refused(400, f"{self._program} has finished: nothing more to set")
-            self._pending[texts[0]] = value
-            return texts[0], value
+        return self.live_state.set(name, value, match=gui_name)
 
 
 class _Handler(BaseHTTPRequestHandler):
