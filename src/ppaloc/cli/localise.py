@@ -241,6 +241,56 @@ def _sensor_frames(sources: Sequence[FrameInput]) -> Any:
     return FrameSequence(read, range(len(at)))
 
 
+def _check_live(loc: Any, name: str) -> None:
+    """``--live`` shows the sensor: refuse a method that runs on the host."""
+    from ppaloc.onsensor.localiser import OnSensorLocaliser
+
+    if not isinstance(loc, OnSensorLocaliser):
+        raise PpalocError(
+            f"--live shows the on-sensor localiser, and method {name!r} runs on the host: "
+            "give --method onsensor-lowres or onsensor-lbp (with a map of their kind), or "
+            "leave out --live"
+        )
+    loc.record_weights = True  # untimed register reads: the estimates do not change
+
+
+def weights_grid(weights: np.ndarray) -> np.ndarray:
+    """Node weights in node order as a near-square image, row by row.
+
+    Node ``n`` is pixel ``(n // cols, n % cols)`` with ``cols = ceil(sqrt(N))``; the
+    pixels after the last node hold the smallest weight.
+
+    Examples
+    --------
+    >>> weights_grid(np.array([3.0, 1.0, 2.0])).tolist()
+    [[3.0, 1.0], [2.0, 1.0]]
+    """
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    cols = max(1, int(np.ceil(np.sqrt(w.size))))
+    rows = max(1, -(-w.size // cols))
+    grid = np.full(rows * cols, w.min() if w.size else 0.0)
+    grid[: w.size] = w
+    return grid.reshape(rows, cols)
+
+
+def show_frame(
+    live: Any, loc: Any, frame: np.ndarray, est: Any, i: int, label: str, reference: int
+) -> None:
+    """Show frame ``i`` of an on-sensor run on ``live``: the sensor frame, the node weights
+    and the estimate, then end the frame (paced to the view's frames per second)."""
+    live.display("sensor frame", frame, frame=i)
+    weights = est.weights if est.weights is not None else loc.pipeline.weights()
+    name = f"weights of the {len(weights)} nodes, in node order by rows"
+    live.display(name, weights_grid(weights), frame=i)
+    moved = "unknown" if est.moved is None else ("yes" if est.moved else "no")
+    live.text(
+        f"{label}: node {est.node} (reference frame {reference}), score {est.score:.6g}, "
+        f"moved {moved}",
+        frame=i,
+    )
+    live.frame_done()
+
+
 def run_localise(
     map_path: Path,
     frames: Sequence[Path],
@@ -249,6 +299,7 @@ def run_localise(
     method: str | None = None,
     params: dict[str, Any] | None = None,
     keep_order: bool = False,
+    live: Any = None,
 ) -> int:
     """Localise frames against a saved map, one CSV line per frame as it is processed.
 
@@ -258,6 +309,9 @@ def run_localise(
     for a video frame), the map node, its reference frame index, the score, the motion
     decision (1, 0 or empty), the time of ``step`` in ms, and the reference frame's name
     where the map records it (empty otherwise).
+
+    With ``live`` (a :class:`ppaloc.cpp.live.LiveView`, ``--live``) an on-sensor method's
+    run is shown in a browser as it goes (:func:`show_frame`); a host method is refused.
 
     Returns
     -------
@@ -285,6 +339,8 @@ def run_localise(
     if use is None:
         raise PpalocError(f"method {name!r} cannot load a saved map (it has no use_map)")
     _check_map_kind(topomap, loc, name, map_path)
+    if live is not None:
+        _check_live(loc, name)
     names = _reference_names(topomap, map_path)
     sources = frame_inputs(frames, keep_order=keep_order)
     # every file read, symlinked frames too
@@ -301,9 +357,13 @@ def run_localise(
             raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
         out.parent.mkdir(parents=True, exist_ok=True)
     # The bar only when the CSV goes to a file: on stdout it would interleave with the lines.
+    if live is not None:
+        live.live_state.program = f"ppaloc localise {map_path.name} ({name})"
+        live.live_state.frames = total
     with (
         atomic_write(out, "w") if out is not None else nullcontext(sys.stdout) as stream,
         ProgressBar(out is not None) as bar,
+        live if live is not None else nullcontext(),
     ):
         bar.add("frames", total, label="frames")
         stream.write(CSV_HEADER + "\n")
@@ -321,6 +381,8 @@ def run_localise(
                     f"{est.score:.6g},{moved},{ms:.4f},{ref_name}\n"
                 )
                 stream.flush()
+                if live is not None:
+                    show_frame(live, loc, frame, est, i, label, int(frame_index[est.node]))
                 i += 1
                 bar("frames", i)
     return i

@@ -824,6 +824,32 @@ or VIDEO#INDEX, where the map records it)""",
     is_flag=True,
     help="Localise image files in the order given even where it is not natural order.",
 )
+@click.option(
+    "--live",
+    is_flag=True,
+    help="Show each frame's sensor image, node weights and estimate in a browser as it runs "
+    "(on-sensor methods; the URL is printed on stderr; frames paced to 30 per second).",
+)
+@click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address the --live page listens on (the default: this machine only).",
+)
+@click.option(
+    "--port",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Port of the --live page (0: a free one).",
+)
+@click.option(
+    "--fps",
+    type=float,
+    default=30.0,
+    show_default=True,
+    help="Most frames per second the --live page lets through, so they can be watched.",
+)
 @_CONFIG
 def localise(
     map_path: Path,
@@ -832,12 +858,17 @@ def localise(
     method: str | None,
     params: tuple[str, ...],
     keep_order: bool,
+    live: bool,
+    host: str,
+    port: int,
+    fps: float,
     config_file: Path | None,
 ) -> None:
     """Localise FRAMES (image files, folders of images or videos, in order) against a
     saved MAP."""
     from ppaloc.cli.commands import run_localise
 
+    view = _live_view(live, host, port, fps)
     values = _merge(
         _file_values(config_file, "localise"),
         {"out": out, "method": method, "params": _parse_method_params(params)},
@@ -852,6 +883,7 @@ def localise(
         method=values.get("method"),
         params=dict(values.get("params", {})),
         keep_order=keep_order,
+        live=view,
     )
 
 
@@ -1020,18 +1052,8 @@ def cpp_run(
     """Compile PROGRAM (one or more C++ sources) against the SCAMP-5d shim and run it on
     the simulator."""
     from ppaloc.cpp.command import run_cpp
-    from ppaloc.cpp.live import LiveView
 
-    ctx = click.get_current_context()
-    if not live:
-        for flag in ("host", "port"):
-            if ctx.get_parameter_source(flag) is not click.core.ParameterSource.DEFAULT:
-                raise PpalocError(f"--{flag} is for the live view: give --live with it")
-    view = (
-        LiveView(host, port, announce=lambda url: click.echo(f"live view: {url}", err=True))
-        if live
-        else None
-    )
+    view = _live_view(live, host, port)
 
     run_cpp(
         program,
@@ -1050,6 +1072,27 @@ def cpp_run(
         seed=seed,
         quiet=bool(quiet),
         live=view,
+    )
+
+
+def _live_view(live: bool, host: str, port: int, fps: float | None = None) -> Any:
+    """The ``--live`` view of a command (None without ``--live``; ``--host``, ``--port``
+    or ``--fps`` without it are refused)."""
+    from ppaloc.cpp.live import LiveError, LiveView
+
+    if not live:
+        ctx = click.get_current_context()
+        for flag in ("host", "port") if fps is None else ("host", "port", "fps"):
+            if ctx.get_parameter_source(flag) is not click.core.ParameterSource.DEFAULT:
+                raise PpalocError(f"--{flag} is for the live view: give --live with it")
+        return None
+    if fps is not None and not 0 < fps <= 10_000:
+        raise LiveError(f"--fps {fps:g} must be a number of frames per second in (0, 10000]")
+    return LiveView(
+        host,
+        port,
+        fps=30.0 if fps is None else fps,
+        announce=lambda url: click.echo(f"live view: {url}", err=True),
     )
 
 
