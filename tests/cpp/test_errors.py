@@ -95,23 +95,57 @@ def test_division_by_zero_gives_the_devices_zero_and_is_reported(faults, tmp_pat
     assert result.texts == ["0 100"] * len(FRAMES)
     if platform.machine() == "x86_64":  # the host traps: caught, given 0, reported
         assert result.session.warnings == [
-            f"faults.cpp:37: an integer division by zero (first in frame 0, {2 * len(FRAMES)}"
+            f"faults.cpp:40: an integer division by zero (first in frame 0, {2 * len(FRAMES)}"
             " in all) gave 0, as the device's run-time library does, and the program went on"
         ]
 
 
+def test_int_min_by_minus_one_wraps_as_on_the_device_without_a_report(faults):
+    result = fault(8)  # INT_MIN / -1, INT_MIN % -1, LLONG_MIN / -1, LLONG_MIN % -1
+    assert result.texts == ["-2147483648 0 -9223372036854775808 0"] * len(FRAMES)
+    assert result.session.warnings == []
+    assert fault(8, index=4).texts == ["-715827882 -2 -3074457345618258602 -2"] * len(FRAMES)
+
+
+DIVIDED = [  # fault 9: "RAX RDX" after each x86-64 division form (faults.cpp says which)
+    "1111222233338000 aaaabbbbcccc0000",  # 16-bit INT16_MIN / -1: only AX, DX written
+    "1111222233330000 aaaabbbbcccc0064",  # 16-bit 100 / 0: only AX, DX written
+    "0000000080000000 0000000000000000",  # INT_MIN / -1, a stack operand: zero-extended
+    "0000000080000000 0000000000000000",  # INT_MIN / -1, [r13 + r12 * 4 - 4]
+    "8000000000000000 0000000000000000",  # LLONG_MIN / -1 in r15
+    "0000000080000000 0000000000000000",  # INT_MIN / -1, RIP-relative
+    "0000000080000000 0000000000000000",  # INT_MIN / -1, FS-relative (thread-local)
+    "1111222233330080 0000000000000005",  # -128 / -1 by CH: AL -128, AH 0
+    "1111222233336400 0000000000000100",  # 100 / 0 by SIL (DH is 1): AL 0, AH 100
+    "0000000000000000 0000000000000064",  # unsigned 100 / 0, a stack operand
+    "0000000000000003 00000000ffffffff",  # -(2^33 + 7) / -2: 2^32 + 3's low bits, rem. -1
+    "0000000000000001 0000000000000007",  # unsigned: 0x100000001's low bits, remainder 7
+]
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64", reason="x86-64 division instructions")
+def test_every_x86_64_division_form_gives_the_devices_result(faults):
+    result = fault(9)
+    assert result.texts == DIVIDED * len(FRAMES)
+    assert result.session.warnings == [  # the divisions by zero, not the overflows
+        f"faults.cpp:{line}: an integer division by zero (first in frame 0, {len(FRAMES)} in all)"
+        " gave 0, as the device's run-time library does, and the program went on"
+        for line in (74, 87, 89)
+    ]
+
+
 def test_register_misuse_names_the_line(faults):
-    with pytest.raises(PpalocError, match=r"faults.cpp:25: sub\(A, B, A\): .*lists A twice"):
+    with pytest.raises(PpalocError, match=r"faults.cpp:28: sub\(A, B, A\): .*lists A twice"):
         fault(3)
 
 
 def test_kernel_function_outside_a_kernel(faults):
-    with pytest.raises(PpalocError, match=r"faults.cpp:29: mov\(\) is a kernel function"):
+    with pytest.raises(PpalocError, match=r"faults.cpp:32: mov\(\) is a kernel function"):
         fault(4)
 
 
 def test_bad_controller_value_names_the_line(faults):
-    with pytest.raises(PpalocError, match=r"faults.cpp:31: scamp5_load_point\(R5, 200, 3\)"):
+    with pytest.raises(PpalocError, match=r"faults.cpp:34: scamp5_load_point\(R5, 200, 3\)"):
         fault(5)
 
 
@@ -152,7 +186,7 @@ def test_cli_exit_codes(faults, tmp_path, capsys):
     code = main(["cpp", "run", str(FAULTS), "--out", str(tmp_path / "bad"), "--set", "fault=3"])
     assert code == 1
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "faults.cpp:25" in err
+    assert err.count("\n") == 1 and "faults.cpp:28" in err
 
 
 def test_an_output_folder_of_other_files_is_refused_before_the_run(tmp_path):

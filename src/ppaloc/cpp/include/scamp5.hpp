@@ -11,8 +11,11 @@
 
 #include <unistd.h>
 #if defined(__x86_64__) && defined(__linux__)
-#include <csignal>
+#include <asm/prctl.h>
+#include <sys/syscall.h>
 #include <ucontext.h>
+
+#include <csignal>
 #endif
 
 #include <cstdarg>
@@ -288,62 +291,157 @@ inline int32_t as_int(const std::vector<uint8_t>& r) {
 // An x86-64 host traps instead (SIGFPE); the trap is caught here and the division given the
 // device's result: quotient 0 (the remainder is the dividend, so a == q * b + r still holds),
 // and the program goes on. Each one is reported with its file and line (a warning of the run).
-// Other hosts (aarch64) give 0 without a trap, as the device does.
+// x86-64 also traps when the quotient does not fit, which C code meets only as INT_MIN / -1
+// (LLONG_MIN / -1, ...): the device's software division wraps there, giving INT_MIN and a
+// remainder 0, so the handler reads the divisor and, when it is not 0, gives the wrapped
+// quotient (its low bits) and the exact remainder, with no report (as for INT_MAX + 1).
+// Other hosts (aarch64) give these results without a trap, as the device does.
 #if defined(__x86_64__) && defined(__linux__)
 extern "C" void __sanitizer_symbolize_pc(void* pc, const char* fmt, char* out, size_t n)
     __attribute__((weak));
 namespace ppa {
-// The length of the DIV/IDIV instruction at p (its prefixes, F6/F7 and operand), 0 if p
-// holds another instruction.
-inline size_t division_length(const uint8_t* p) {
+// General register number r (0 RAX ... 7 RDI, 8 R8 ... 15 R15, as ModRM/SIB/REX number them).
+inline greg_t& general_register(greg_t* g, unsigned r) {
+    static const int order[16] = {REG_RAX, REG_RCX, REG_RDX, REG_RBX, REG_RSP, REG_RBP,
+                                  REG_RSI, REG_RDI, REG_R8,  REG_R9,  REG_R10, REG_R11,
+                                  REG_R12, REG_R13, REG_R14, REG_R15};
+    return g[order[r & 15]];
+}
+// A DIV/IDIV instruction: its length (0 if another instruction), its operand size in bytes
+// (1 F6; 8 REX.W; 2 the 0x66 prefix; else 4), whether it is IDIV, and its divisor (the
+// register or the memory operand, read as the CPU read it, zero-extended).
+struct Division {
+    size_t length = 0;
+    unsigned bytes = 0;
+    bool is_signed = false;
+    uint64_t divisor = 0;
+};
+inline int32_t displacement32(const uint8_t* p) {
+    int32_t v;
+    std::memcpy(&v, p, 4);
+    return v;
+}
+inline Division decode_division(const uint8_t* p, greg_t* g) {
+    Division d;
     size_t n = 0;
-    while (p[n] == 0x66 || p[n] == 0x67 || p[n] == 0xF2 || p[n] == 0xF3) ++n;
-    if ((p[n] & 0xF0) == 0x40) ++n;  // REX, the last prefix
-    if (p[n] != 0xF6 && p[n] != 0xF7) return 0;
-    bool bytewise = p[n] == 0xF6;
-    ++n;
+    bool operand16 = false, address32 = false;
+    uint8_t segment = 0;
+    for (;; ++n) {
+        const uint8_t b = p[n];
+        if (b == 0x66) {
+            operand16 = true;
+        } else if (b == 0x67) {
+            address32 = true;
+        } else if (b == 0x64 || b == 0x65) {  // FS, GS: thread-local data
+            segment = b;
+        } else if (!(b == 0x26 || b == 0x2E || b == 0x36 || b == 0x3E || b == 0xF2 ||
+                     b == 0xF3)) {  // other segments, REP: no effect here
+            break;
+        }
+    }
+    uint8_t rex = 0;
+    if ((p[n] & 0xF0) == 0x40) rex = p[n++];  // REX, the last prefix
+    if (p[n] != 0xF6 && p[n] != 0xF7) return d;
+    const bool bytewise = p[n++] == 0xF6;
     const uint8_t modrm = p[n++];
     const uint8_t mod = modrm >> 6, reg = (modrm >> 3) & 7, rm = modrm & 7;
-    if (reg != 6 && reg != 7) return 0;  // not DIV, IDIV
-    if (mod != 3 && rm == 4) {
-        const uint8_t sib = p[n++];
-        if (mod == 0 && (sib & 7) == 5) n += 4;
+    if (reg != 6 && reg != 7) return d;  // not DIV, IDIV
+    d.is_signed = reg == 7;
+    d.bytes = bytewise ? 1 : (rex & 8) ? 8 : operand16 ? 2 : 4;
+    uint64_t value = 0;
+    if (mod == 3) {
+        value = uint64_t(general_register(g, rm | ((rex & 1u) << 3)));
+        // Bytewise without REX, rm 4-7 are AH, CH, DH, BH (with REX: SPL, BPL, SIL, DIL).
+        if (bytewise && !rex && rm >= 4) value = uint64_t(general_register(g, rm - 4)) >> 8;
+    } else {
+        uint64_t address = 0;
+        bool rip_relative = false;
+        if (rm == 4) {  // SIB: base + index << scale
+            const uint8_t sib = p[n++];
+            const unsigned index = ((sib >> 3) & 7) | ((rex & 2u) << 2);
+            if (index != 4) address += uint64_t(general_register(g, index)) << (sib >> 6);
+            if (mod == 0 && (sib & 7) == 5) {  // no base: disp32
+                address += uint64_t(int64_t(displacement32(p + n)));
+                n += 4;
+            } else {
+                address += uint64_t(general_register(g, (sib & 7) | ((rex & 1u) << 3)));
+            }
+        } else if (mod == 0 && rm == 5) {  // RIP + disp32
+            address += uint64_t(int64_t(displacement32(p + n)));
+            n += 4;
+            rip_relative = true;
+        } else {
+            address += uint64_t(general_register(g, rm | ((rex & 1u) << 3)));
+        }
+        if (mod == 1) address += uint64_t(int64_t(int8_t(p[n++])));
+        if (mod == 2) {
+            address += uint64_t(int64_t(displacement32(p + n)));
+            n += 4;
+        }
+        if (rip_relative) address += uint64_t(reinterpret_cast<uintptr_t>(p + n));  // the next
+        if (address32) address = uint32_t(address);
+        if (segment) {
+            unsigned long base = 0;
+            syscall(SYS_arch_prctl, segment == 0x64 ? ARCH_GET_FS : ARCH_GET_GS, &base);
+            address += base;
+        }
+        std::memcpy(&value, reinterpret_cast<const void*>(uintptr_t(address)), d.bytes);
     }
-    if (mod == 0 && rm == 5) n += 4;
-    if (mod == 1) n += 1;
-    if (mod == 2) n += 4;
-    return bytewise ? n | (size_t(1) << 16) : n;
+    d.divisor = d.bytes == 8 ? value : value & ((uint64_t(1) << (8 * d.bytes)) - 1);
+    d.length = n;
+    return d;
 }
-inline void on_division_by_zero(int, siginfo_t*, void* context) {
+inline void on_division_trap(int, siginfo_t*, void* context) {
     ucontext_t* uc = static_cast<ucontext_t*>(context);
     greg_t* g = uc->uc_mcontext.gregs;
     uint8_t* pc = reinterpret_cast<uint8_t*>(g[REG_RIP]);
-    const size_t found = division_length(pc);
-    const size_t n = found & 0xFFFF;
-    if (!n) {  // not a division: the default action (the run reports the signal)
+    const Division d = decode_division(pc, g);
+    if (!d.length) {  // not a division: the default action (the run reports the signal)
         std::signal(SIGFPE, SIG_DFL);
         return;
     }
-    char where[512] = "";
-    if (__sanitizer_symbolize_pc) __sanitizer_symbolize_pc(pc, "%s:%l", where, sizeof where);
-    call("ppaloc_division_by_zero", false, {Arg(where)}, Loc{"", 0});
-    if (found >> 16) {  // AL := 0, AH := the dividend's low byte
-        const greg_t ax = g[REG_RAX];
-        g[REG_RAX] = (ax & ~greg_t(0xFFFF)) | ((ax & 0xFF) << 8);
-    } else {
-        g[REG_RDX] = g[REG_RAX];
-        g[REG_RAX] = 0;
+    typedef unsigned __int128 u128;
+    const unsigned bits = 8 * d.bytes;
+    const uint64_t mask = d.bytes == 8 ? ~uint64_t(0) : (uint64_t(1) << bits) - 1;
+    const uint64_t rax = uint64_t(g[REG_RAX]), rdx = uint64_t(g[REG_RDX]);
+    // The dividend: AX (bytewise), else DX:AX, EDX:EAX or RDX:RAX, 2 * bits wide.
+    const u128 dividend =
+        d.bytes == 1 ? u128(rax & 0xFFFF) : (u128(rdx & mask) << bits) | (rax & mask);
+    uint64_t quotient = 0, remainder = 0;
+    if (d.divisor == 0) {  // the device's 0; the remainder is the dividend (its low part)
+        char where[512] = "";
+        if (__sanitizer_symbolize_pc) __sanitizer_symbolize_pc(pc, "%s:%l", where, sizeof where);
+        call("ppaloc_division_by_zero", false, {Arg(where)}, Loc{"", 0});
+        remainder = uint64_t(dividend) & mask;
+    } else {  // the quotient does not fit: its low bits (INT_MIN / -1: INT_MIN), exact remainder
+        const u128 wide_mask = bits == 64 ? ~u128(0) : (u128(1) << (2 * bits)) - 1;
+        const bool a_negative = d.is_signed && ((dividend >> (2 * bits - 1)) & 1);
+        const bool b_negative = d.is_signed && ((d.divisor >> (bits - 1)) & 1);
+        const u128 a = a_negative ? (-dividend) & wide_mask : dividend;  // magnitudes: no trap
+        const u128 b = b_negative ? u128((-d.divisor) & mask) : u128(d.divisor);
+        const u128 q = a / b, r = a % b;
+        quotient = uint64_t(a_negative != b_negative ? -q : q) & mask;
+        remainder = uint64_t(a_negative ? -r : r) & mask;
     }
-    g[REG_RIP] += greg_t(n);
+    if (d.bytes == 1) {  // AL := quotient, AH := remainder
+        g[REG_RAX] = greg_t((rax & ~uint64_t(0xFFFF)) | (remainder << 8) | quotient);
+    } else if (d.bytes == 2) {  // AX, DX: the rest of RAX, RDX is kept
+        g[REG_RAX] = greg_t((rax & ~uint64_t(0xFFFF)) | quotient);
+        g[REG_RDX] = greg_t((rdx & ~uint64_t(0xFFFF)) | remainder);
+    } else {  // EAX, EDX zero-extended into RAX, RDX (as the CPU writes them); or RAX, RDX
+        g[REG_RAX] = greg_t(quotient);
+        g[REG_RDX] = greg_t(remainder);
+    }
+    g[REG_RIP] += greg_t(d.length);
 }
-inline bool catch_division_by_zero() {
+inline bool catch_division_traps() {
     struct sigaction sa;
     std::memset(&sa, 0, sizeof sa);
-    sa.sa_sigaction = on_division_by_zero;
+    sa.sa_sigaction = on_division_trap;
     sa.sa_flags = SA_SIGINFO | SA_NODEFER;
     return sigaction(SIGFPE, &sa, nullptr) == 0;
 }
-inline const bool division_by_zero_caught = catch_division_by_zero();
+inline const bool division_traps_caught = catch_division_traps();
 }  // namespace ppa
 #endif
 
