@@ -269,3 +269,27 @@ def test_a_source_is_closed_when_the_run_is_refused_before_it_starts(tmp_path):
             PROGRAMS / "means.cpp", frames=FrameSource(Camera(), limit=2), out=tmp_path / "out"
         )
     assert Camera.closed
+
+
+def test_a_failed_runs_other_warnings_are_printed_before_its_error(tmp_path, monkeypatch, capsys):
+    """The warnings of the frames that ran (a division by zero) are printed, the cause once."""
+    from types import SimpleNamespace
+
+    import ppaloc.cpp.command as command
+    from ppaloc.cpp.run import FramesFailedError
+
+    cause = "cannot decode frame 2 of stream s: bad data"
+    session = SimpleNamespace(
+        source=SimpleNamespace(error=cause),
+        warnings=["means.cpp:9: an integer division by zero gave 0", f"frames ended: {cause}"],
+    )
+
+    def failing(*args, **kwargs):
+        raise FramesFailedError(
+            "means.cpp stopped after 2 frame(s)", SimpleNamespace(session=session)
+        )
+
+    monkeypatch.setattr(command, "run_program", failing)
+    with pytest.raises(FramesFailedError):
+        command.run_cpp(MEANS, tmp_path / "run", image=None, frames=2)
+    assert capsys.readouterr().out == "  warning: means.cpp:9: an integer division by zero gave 0\n"

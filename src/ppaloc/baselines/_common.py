@@ -211,10 +211,11 @@ class MapLocaliser:
             for key in ("contrast", "contrast_patch"):
                 want = self.descriptor_params().get(key)
                 if want is not None and params.get(key) != want:
+                    had = f"{key}={params[key]!r}" if key in params else f"no {key}"
                     raise PpalocError(
-                        f"{self.name}: the map's {got} nodes were normalised with "
-                        f"{key}={params.get(key)!r}, this version normalises them with "
-                        f"{key}={want!r}; build the map again"
+                        f"{self.name}: the map's {got} nodes were normalised with {had}, "
+                        f"this version normalises them with {key}={want!r}; build the map "
+                        "again"
                     )
         self.map = check_map(topomap, self.kind, self.descriptor_shape, self.name)
         self.reset()

@@ -13,7 +13,13 @@ from pathlib import Path
 from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.live import LiveView
 from ppaloc.cpp.project import make_project
-from ppaloc.cpp.run import RunResult, check_output_folder, check_timeout, run_program
+from ppaloc.cpp.run import (
+    FramesFailedError,
+    RunResult,
+    check_output_folder,
+    check_timeout,
+    run_program,
+)
 from ppaloc.errors import PpalocError
 
 __all__ = ["load_frames", "parse_settings", "parse_stream_options", "run_cpp"]
@@ -183,18 +189,26 @@ def run_cpp(
     values = parse_settings(settings)
     make_project(program, include_dirs, defines)
     check_output_folder(out)
-    result = run_program(
-        program,
-        load_frames(image, dataset, frames, stream, stream_format, stream_options),
-        include_dirs=include_dirs,
-        defines=defines,
-        settings=values,
-        timeout=timeout,
-        out=out,
-        noise=noise,
-        seed=seed,
-        live=live,
-    )
+    try:
+        result = run_program(
+            program,
+            load_frames(image, dataset, frames, stream, stream_format, stream_options),
+            include_dirs=include_dirs,
+            defines=defines,
+            settings=values,
+            timeout=timeout,
+            out=out,
+            noise=noise,
+            seed=seed,
+            live=live,
+        )
+    except FramesFailedError as exc:  # the frames that ran: their warnings, then the error
+        if not quiet:  # the cause itself is the error's line
+            cause = exc.result.session.source.error or ""
+            for warning in exc.result.session.warnings:
+                if cause not in warning:
+                    print(f"  warning: {warning}")
+        raise
     if not quiet:
         s = result.summary()
         print(
