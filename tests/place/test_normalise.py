@@ -88,3 +88,32 @@ def test_bad_input_names_the_cause() -> None:
         normalise_contrast(np.full((8, 8), 256), 48)
     with pytest.raises(ValueError, match="integer"):
         normalise_contrast(np.zeros((8, 8)), 48)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    img=arrays(np.int64, (2, 8, 8), elements=st.integers(0, 255)),
+    patch=st.sampled_from([1, 2, 4, 8]),
+    target=st.integers(0, 127),
+)
+def test_each_tile_is_normalised_on_its_own(img, patch, target) -> None:
+    out = normalise_contrast(img, target, patch)
+    assert out.shape == img.shape and out.dtype == np.uint8
+    for r in range(0, 8, patch):
+        for c in range(0, 8, patch):
+            tile = img[:, r : r + patch, c : c + patch]
+            np.testing.assert_array_equal(
+                out[:, r : r + patch, c : c + patch], normalise_contrast(tile, target)
+            )
+    if patch == 8:
+        np.testing.assert_array_equal(out, normalise_contrast(img, target))
+
+
+def test_a_bad_tile_names_the_cause() -> None:
+    img = np.zeros((8, 8), np.int64)
+    with pytest.raises(ValueError, match=r"^patch=3 must divide the image's sides, got 8x8$"):
+        normalise_contrast(img, 48, 3)
+    with pytest.raises(ValueError, match=r"^patch=0 must be a positive integer$"):
+        normalise_contrast(img, 48, 0)
+    with pytest.raises(ValueError, match=r"^patch=True must be a positive integer$"):
+        normalise_contrast(img, 48, True)

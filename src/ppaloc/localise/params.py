@@ -89,7 +89,7 @@ MAX_WINDOW = 1_000_000
 
 DEFAULT_CONTRAST = 48
 """Robust preset: the mean absolute deviation (grey levels) low-res images are normalised
-to (the middle of the plateau of docs/localise.md's sensitivity table, 32-96)."""
+to (the middle of the plateau of docs/localise.md's sensitivity table, 32-127)."""
 
 DEFAULT_CONTRAST_PATCH = 2
 """Robust preset: the side (blocks) of the tiles of a low-res image normalised each on its

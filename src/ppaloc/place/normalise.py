@@ -18,6 +18,11 @@ Only integer sums, comparisons of integer products and one shift: the sensor's
 controller applies it to the 64 codes it reads from the array (docs/onsensor.md), and
 the host applies the same function to its images, so both see the same integers.
 ``target=0`` leaves images as they are (but for that lowest level).
+
+With ``patch``, each ``patch`` x ``patch`` tile of the image is one "image" of the rule
+above, with its own offset and gain: light that changes across the image (a lit road
+under a dark sky) is taken out tile by tile. The robust filter normalises the sixteen
+2x2 tiles of its 8x8 images (docs/localise.md, "Local contrast").
 """
 
 from __future__ import annotations
