@@ -254,6 +254,19 @@ _QUIET = click.option(
     "--quiet", "-q", is_flag=True, default=None, help="No table, no progress bar."
 )
 
+_LIVE_HOST = click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address the --live page listens on (the default: this machine only).",
+)
+_LIVE_PORT = click.option(
+    "--port",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Port of the --live page (0: a free one).",
+)
 _RECALL = click.option(
     "--recall",
     type=click.Choice(["A", "B", "C"], case_sensitive=False),
@@ -830,19 +843,8 @@ or VIDEO#INDEX, where the map records it)""",
     help="Show each frame's sensor image, node weights and estimate in a browser as it runs "
     "(on-sensor methods; the URL is printed on stderr; frames paced to 30 per second).",
 )
-@click.option(
-    "--host",
-    default="127.0.0.1",
-    show_default=True,
-    help="Address the --live page listens on (the default: this machine only).",
-)
-@click.option(
-    "--port",
-    type=int,
-    default=0,
-    show_default=True,
-    help="Port of the --live page (0: a free one).",
-)
+@_LIVE_HOST
+@_LIVE_PORT
 @click.option(
     "--fps",
     type=float,
@@ -1015,19 +1017,8 @@ Examples:
     help="Show the displays, sliders, switches and text in a browser as the program runs "
     "(the URL is printed on stderr; frames paced to 30 per second).",
 )
-@click.option(
-    "--host",
-    default="127.0.0.1",
-    show_default=True,
-    help="Address the --live page listens on (the default: this machine only).",
-)
-@click.option(
-    "--port",
-    type=int,
-    default=0,
-    show_default=True,
-    help="Port of the --live page (0: a free one).",
-)
+@_LIVE_HOST
+@_LIVE_PORT
 @_QUIET
 def cpp_run(
     program: tuple[Path, ...],
