@@ -18,7 +18,7 @@ from ppaloc.cpp import compile_program, run_program
 from ppaloc.cpp.live import PAGE, LiveError, LiveView
 from ppaloc.errors import PpalocError
 
-from .conftest import PROGRAMS
+from .conftest import PROGRAMS, LiveClient
 
 LIVE = PROGRAMS / "live.cpp"
 FRAMES = [np.full((64, 64), 100, np.uint8)] * 40
@@ -29,7 +29,7 @@ def live_program(cxx):
     return compile_program(LIVE)
 
 
-class Run:
+class Run(LiveClient):
     """``run_program`` with a live view in a thread; the test talks to it over HTTP."""
 
     def __init__(self, program=LIVE, frames=FRAMES, fps: float = 50.0, **kwargs) -> None:
@@ -47,14 +47,6 @@ class Run:
         self.thread = threading.Thread(target=target, daemon=True)
         self.thread.start()
 
-    @property
-    def url(self) -> str:
-        for _ in range(600):
-            if self.urls:
-                return self.urls[0]
-            time.sleep(0.01)
-        raise AssertionError("the live view never announced its URL")
-
     def get(self, path: str, headers: dict | None = None) -> tuple[int, bytes]:
         req = urllib.request.Request(self.url + path, headers=headers or {})
         try:
@@ -62,15 +54,6 @@ class Run:
                 return r.status, r.read()
         except urllib.error.HTTPError as err:
             return err.code, err.read()
-
-    def post(self, body, kind: str = "application/json") -> tuple[int, str]:
-        data = body if isinstance(body, bytes) else json.dumps(body).encode()
-        req = urllib.request.Request(self.url + "set", data=data, headers={"Content-Type": kind})
-        try:
-            with urllib.request.urlopen(req, timeout=10) as r:
-                return r.status, r.read().decode()
-        except urllib.error.HTTPError as err:
-            return err.code, err.read().decode()
 
     def state(self) -> dict:
         return json.loads(self.get("state.json")[1])

@@ -16,10 +16,12 @@ from PIL import Image
 from ppaloc.cpp.live import LiveError, LiveView, image_8bit
 from ppaloc.cpp.livestate import Refused
 
+from .conftest import LiveClient
+
 RAMP = np.arange(12, dtype=np.float64).reshape(3, 4)  # 0 .. 11: scaled to 0 .. 255
 
 
-class Loop:
+class Loop(LiveClient):
     """A Python program in a thread: per frame it reads a slider and a switch, shows an
     image and a line of text, until it reads level 42 (or 300 frames)."""
 
@@ -47,29 +49,9 @@ class Loop:
         except Exception as exc:  # handed to the test
             self.error = exc
 
-    @property
-    def url(self) -> str:
-        for _ in range(600):
-            if self.urls:
-                return self.urls[0]
-            time.sleep(0.01)
-        raise AssertionError("the live view never announced its URL")
-
     def get(self, path: str) -> bytes:
         with urllib.request.urlopen(self.url + path, timeout=10) as r:
             return r.read()
-
-    def post(self, body: dict) -> tuple[int, str]:
-        req = urllib.request.Request(
-            self.url + "set",
-            data=json.dumps(body).encode(),
-            headers={"Content-Type": "application/json"},
-        )
-        try:
-            with urllib.request.urlopen(req, timeout=10) as r:
-                return r.status, r.read().decode()
-        except urllib.error.HTTPError as err:
-            return err.code, err.read().decode()
 
     def end(self) -> None:
         self.thread.join(30)
