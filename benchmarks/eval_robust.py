@@ -73,6 +73,7 @@ SOURCES = (
 DEFAULT_METHODS = (
     "weighted-node-lbp",
     "weighted-node-lowres",
+    "weighted-node-lowres16",
     "weighted-node-paper-lbp",
     "weighted-node-paper-lowres",
     "particle-filter",
@@ -82,6 +83,7 @@ DEFAULT_METHODS = (
 )
 REPRESENTATION_METHODS = (
     "weighted-node-lowres",
+    "weighted-node-lowres16",
     "weighted-node-lbp",
     "particle-filter",
     "seqslam",
@@ -89,7 +91,7 @@ REPRESENTATION_METHODS = (
     "able-m",
 )
 """The methods of ``--representations`` (each baseline expanded by :func:`descriptor_columns`)."""
-WN_BEST = ("weighted-node-lbp", "weighted-node-lowres")
+WN_BEST = ("weighted-node-lbp", "weighted-node-lowres", "weighted-node-lowres16")
 """The weighted-node methods the ``best WN - best baseline`` column takes the better of."""
 SEEDS = (1, 2, 3, 4, 5)
 SPEED_VARS = (0.2, 0.65)
@@ -179,8 +181,8 @@ def descriptor_columns(name: str, user: dict[str, Any]) -> list[tuple[str, str, 
 
     Examples
     --------
-    >>> [c for c, _, _ in descriptor_columns("particle-filter", {})]
-    ['particle-filter/lowres', 'particle-filter/lbp', 'particle-filter/patch']
+    >>> [c.split("/")[1] for c, _, _ in descriptor_columns("particle-filter", {})]
+    ['lowres', 'lowres16', 'lbp', 'patch']
     >>> [c for c, _, p in descriptor_columns("able-m", {"length": 20})]
     ['able-m/lbp', 'able-m/ldb']
     >>> descriptor_columns("weighted-node-lbp", {})

@@ -74,6 +74,11 @@ METHODS: dict[str, MethodSpec] = {
         {"representation": "lbp"},
         "the robust weighted-node filter on the host, 32-bit LBP descriptors + Hamming",
     ),
+    "weighted-node-lowres16": MethodSpec(
+        "ppaloc.localise.weighted:WeightedNodeLocaliser",
+        {"representation": "lowres16"},
+        "the robust weighted-node filter on the host, 16x16 images + SAD (host only)",
+    ),
     "weighted-node-paper-lowres": MethodSpec(
         "ppaloc.localise.weighted:WeightedNodeLocaliser",
         {"representation": "lowres", "preset": "paper"},

@@ -110,6 +110,27 @@ def test_nodes_are_exactly_the_weighted_node_filters_places(cls) -> None:
 
 
 @pytest.mark.parametrize("cls", IMAGE)
+def test_lowres16_nodes_are_the_filters_16x16_places(cls) -> None:
+    rng = np.random.default_rng(4)
+    frames = rng.integers(0, 256, (4, 256, 256), dtype=np.uint8)
+    loc = cls(descriptor="lowres16")
+    m = loc.build_map(frames)
+    # the 16x16 image's 4x4 tiles are the 8x8 image's 2x2 ones: the same 64x64 pixels
+    np.testing.assert_array_equal(
+        m.descriptors, normalise_contrast(lowres_image(frames, 16), 48, 4)
+    )
+    assert m.descriptors.shape == (4, 16, 16) and m.params["descriptor"] == "lowres16"
+    assert m.params["contrast_patch"] == 2
+    np.testing.assert_array_equal(lowres_place(frames[1], "lowres16"), m.descriptors[1])
+    column = loc.difference_column(frames[2])
+    assert column[2] == 0 and (column[[0, 1, 3]] > 10).all()
+    want = np.abs(m.descriptors[0].astype(int) - m.descriptors[2]).sum() / 256
+    assert column[0] == want
+    with pytest.raises(PpalocError, match="descriptor='lowres16' but this localiser compares"):
+        cls(descriptor="lowres").use_map(m)
+
+
+@pytest.mark.parametrize("cls", IMAGE)
 def test_difference_columns_golden(cls) -> None:
     low = cls(descriptor="lowres")
     low.build_map([column(1, 100), column(1, 200), column(0, 100)])
@@ -154,7 +175,8 @@ def test_seqslam_step_equals_batch_on_each_descriptor(toy_route, descriptor, mod
 
 
 @pytest.mark.parametrize(
-    ("cls", "descriptor"), [(c, d) for c in IMAGE for d in ("lowres", "lbp")] + [(ABLEM, "lbp")]
+    ("cls", "descriptor"),
+    [(c, d) for c in IMAGE for d in ("lowres", "lowres16", "lbp")] + [(ABLEM, "lbp")],
 )
 def test_each_method_locks_on_with_the_filters_place(toy_route, cls, descriptor) -> None:
     ref, query = toy_route
@@ -216,7 +238,7 @@ def test_image_parameters_with_another_descriptor_are_refused() -> None:
 
 
 def test_ablem_refuses_images() -> None:
-    for image in ("lowres", "patch"):
+    for image in ("lowres", "lowres16", "patch"):
         with pytest.raises(
             PpalocError,
             match=f"^ABLE-M descriptor='{image}' is an image, and ABLE-M matches binary codes "
@@ -231,7 +253,7 @@ def test_registry_checks_the_descriptor() -> None:
     with pytest.raises(
         PpalocError,
         match=r"^method 'particle-filter': descriptor='sift' must be one of 'patch', 'lowres', "
-        r"'lbp'$",
+        r"'lowres16', 'lbp'$",
     ):
         make_localiser("particle-filter", descriptor="sift")
     assert make_localiser("seqslam-centred", descriptor="lbp").descriptor == "lbp"

@@ -1,5 +1,7 @@
 import numpy as np
+import pytest
 
+from ppaloc.errors import PpalocError
 from ppaloc.localise.likelihood import NodeDistances, distance_scale
 from ppaloc.place import lowres_image, normalise_contrast
 
@@ -60,3 +62,32 @@ def test_contrast_normalised_lowres_compares_the_normalised_images():
     np.testing.assert_array_equal(tiles.live(frame), live2)
     # the paper preset's path (contrast None) sees the raw images: far apart
     assert NodeDistances("lowres", nodes, exact=False)(frame)[0] > 64 * 40
+
+
+def test_lowres16_compares_16x16_images_normalised_in_tiles_of_the_same_pixels():
+    """``lowres16``: the live frame's 16x16 image and the nodes, each 4x4 tile of cells
+    (64x64 pixels, as a 2x2 tile of the 8x8 grid) normalised on its own; mu is the mean
+    per cell in both arithmetics, and ppa8's T is 256 (pixels a block) times the SAD."""
+    rng = np.random.default_rng(5)
+    scene = rng.integers(40, 216, (16, 16))
+    dim = (scene - 40) // 2 + 10
+    nodes = np.stack([scene, np.full((16, 16), 200), rng.integers(0, 256, (16, 16))])
+    nodes = nodes.astype(np.uint8)
+    frame = np.kron(dim.astype(np.uint8), np.ones((16, 16), np.uint8))
+    quant = NodeDistances("lowres16", nodes, exact=False, contrast=48, patch=2)
+    exact = NodeDistances("lowres16", nodes, exact=True, contrast=48, patch=2)
+    live = normalise_contrast(dim, 48, 4).astype(np.int64)
+    want = np.abs(live[None] - normalise_contrast(nodes, 48, 4).astype(np.int64)).sum(axis=(1, 2))
+    np.testing.assert_array_equal(quant.live(frame), live)
+    np.testing.assert_array_equal(quant(frame), want)
+    assert exact(frame).tolist() == [256 * int(w) for w in want]
+    for d, is_exact in ((quant, False), (exact, True)):
+        mu = d(frame).astype(np.float64) * distance_scale("lowres16", 0, is_exact)
+        np.testing.assert_allclose(mu, want / 512)  # mean over 256 cells of |f - n| = d / 2
+    assert want[0] < 256 * 2  # the dim copy of node 0's scene is within rounding
+
+
+def test_lowres16_needs_the_contrast_normalisation():
+    nodes = np.zeros((2, 16, 16), np.uint8)
+    with pytest.raises(PpalocError, match="contrast-normalised"):
+        NodeDistances("lowres16", nodes, exact=True)

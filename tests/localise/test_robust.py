@@ -23,10 +23,13 @@ from .conftest import blocky
 
 
 def naive_robust(nodes, frames, moves, p: FilterParams):
-    """docs/ppa8.md, "Robust preset", written out literally for low-res maps."""
-    n = len(nodes)
+    """docs/ppa8.md, "Robust preset", written out literally for low-res maps (8x8 or
+    16x16 nodes; a tile of ``contrast_patch`` 32-pixel blocks is twice as many 16-pixel
+    ones)."""
+    n, grid = len(nodes), nodes.shape[-1]
+    cells, patch = grid * grid, p.contrast_patch * grid // 8
     # every image, live or node, contrast-normalised (docs/ppa8.md, "Robust preset")
-    q = normalise_contrast(nodes, p.contrast, p.contrast_patch).astype(float).reshape(n, 64)
+    q = normalise_contrast(nodes, p.contrast, patch).astype(float).reshape(n, cells)
     w = np.zeros(n)
     out, prev = [], None
     for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
@@ -38,8 +41,8 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
                 cand.append(src - cost)
             w = np.clip(np.max(cand, axis=0), -127, 127)
         if t == 1 or moved:
-            f = normalise_contrast(lowres_image(frame), p.contrast, p.contrast_patch)
-            f = f.reshape(64) / 2 - 64
+            f = normalise_contrast(lowres_image(frame, grid), p.contrast, patch)
+            f = f.reshape(cells) / 2 - 64
             mu = np.minimum(np.abs(f - (q / 2 - 64)), 127).mean(axis=1)
             code = np.floor(128.5 - mu / 2)
             r = 2 * (128 - code)
@@ -68,12 +71,14 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     max_advance=st.integers(1, 3),
     contrast=st.sampled_from([0, 1, 16, 48, 127]),
     patch=st.sampled_from([2, 4, 8]),
+    kind=st.sampled_from(["lowres", "lowres16"]),
 )
 def test_ppa8_equals_the_robust_contract_written_out(
-    seed, n, gain, memory, costs, max_advance, contrast, patch
+    seed, n, gain, memory, costs, max_advance, contrast, patch, kind
 ):
     rng = np.random.default_rng(seed)
-    nodes = rng.integers(0, 256, (n, 8, 8), dtype=np.uint8)
+    grid = 16 if kind == "lowres16" else 8
+    nodes = rng.integers(0, 256, (n, grid, grid), dtype=np.uint8)
     frames = rng.integers(0, 256, (6, 256, 256), dtype=np.uint8)
     moves = rng.random(6) < 0.6
     kw = dict(
@@ -87,14 +92,14 @@ def test_ppa8_equals_the_robust_contract_written_out(
         contrast_patch=patch,
     )
     loc = WeightedNodeLocaliser(
-        "lowres",
+        kind,
         arithmetic="ppa8",
         motion="oracle",
         oracle_moves=moves,
         record_weights=True,
         **kw,
     )
-    loc.use_map(TopoMap("lowres", nodes))
+    loc.use_map(TopoMap(kind, nodes))
     want = naive_robust(nodes, frames, moves, loc.params)
     for est, (node, w) in zip(loc.localise(frames), want, strict=True):
         assert est.node == node

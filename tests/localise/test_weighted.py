@@ -45,7 +45,7 @@ def test_is_a_localiser():
 
 
 @pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
-@pytest.mark.parametrize("representation", ["lowres", "lbp"])
+@pytest.mark.parametrize("representation", ["lowres", "lowres16", "lbp"])
 def test_perfect_match_locks_on(route, representation, arithmetic):
     loc = WeightedNodeLocaliser(representation, motion="always_forward", arithmetic=arithmetic)
     loc.build_map(route)
@@ -271,7 +271,7 @@ def test_suggest_alpha_is_an_integer_and_used(route):
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"representation": "rgb"}, r"representation='rgb' is not one of lowres, lbp"),
+        ({"representation": "rgb"}, r"representation='rgb' is not one of lowres, lowres16, lbp"),
         ({"preset": "paper", "arithmetic": "ppa8", "alpha": 2.5}, r"alpha=2.5 must be an integer"),
         (
             {"preset": "paper", "gamma": 0.3},
@@ -294,6 +294,10 @@ def test_suggest_alpha_is_an_integer_and_used(route):
         ({"contrast_patch": 3}, r"^contrast_patch=3 must be one of 2, 4, 8 \(blocks of the"),
         ({"contrast_patch": True}, r"^contrast_patch=True must be one of 2, 4, 8"),
         ({"preset": "paper", "contrast_patch": 2}, r"contrast_patch=2 is a parameter of preset"),
+        (
+            {"representation": "lowres16", "preset": "paper"},
+            r"^preset='paper' does not run on the lowres16 place, which compares contrast-",
+        ),
     ],
 )
 def test_user_errors(kwargs, message):

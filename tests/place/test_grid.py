@@ -73,3 +73,19 @@ def test_lowres_image_floors_the_block_mean() -> None:
 def test_lbp_grid_is_the_central_six_by_six() -> None:
     values = np.arange(64).reshape(8, 8)
     np.testing.assert_array_equal(lbp_grid(blocky(values)), values[1:7, 1:7])
+
+
+def test_lowres16_image_floors_the_means_of_16_pixel_blocks() -> None:
+    frame = np.kron(np.arange(256).reshape(16, 16).astype(np.uint8), np.ones((16, 16), np.uint8))
+    frame[0, 0] = 255  # block (0, 0): sum 255 over 256 pixels -> floor(0.996) = 0
+    frame[16, 17] = 0  # block (1, 1) of value 17: mean 17 - 17/256 -> 16
+    q = lowres_image(frame, 16)
+    assert q.dtype == np.uint8 and q.shape == (16, 16)
+    want = np.arange(256).reshape(16, 16)
+    want[1, 1] = 16
+    np.testing.assert_array_equal(q, want)
+    # the 8x8 image of the same frame is the floor of the mean of each 2x2 group
+    sums = block_sums(frame, 16).reshape(8, 2, 8, 2).sum(axis=(1, 3))
+    np.testing.assert_array_equal(lowres_image(frame), sums >> 10)
+    with pytest.raises(ValueError, match="not a low-res grid"):
+        lowres_image(frame, 4)

@@ -46,7 +46,9 @@ def test_paper_layouts_and_nordland_fit() -> None:
     np.testing.assert_array_equal(rects[0], [0, 0, 248, 8, 256])  # top-right block
     np.testing.assert_array_equal(rects[1023], [0, 248, 248, 256, 256])  # ends bottom-right
     np.testing.assert_array_equal(rects[1024], [1, 0, 248, 8, 256])  # tile 1 starts again
-    with pytest.raises(ValueError, match="no PE layout for kind 'hog'; known kinds: lowres, lbp"):
+    with pytest.raises(
+        ValueError, match="no PE layout for kind 'hog'; known kinds: lowres, lowres16, lbp"
+    ):
         layout_for("hog")
 
 

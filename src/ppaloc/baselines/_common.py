@@ -25,6 +25,7 @@ from ppaloc.baselines._descriptors import (
 from ppaloc.baselines._image import mean_abs_diff, preprocess
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import MethodParam, signature_parameters
+from ppaloc.place import LOWRES_GRIDS
 from ppaloc.topomap import TopoMap
 
 __all__ = [
@@ -232,7 +233,7 @@ class ImageLocaliser(MapLocaliser):
     OpenSeqSLAM's quantised form, ``quantise`` (the last three shape ``"patch"`` only).
     """
 
-    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("patch", "lowres", "lbp")
+    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("patch", "lowres", "lowres16", "lbp")
     descriptor: str = "patch"
     size: tuple[int, int]
     patch: int
@@ -240,10 +241,11 @@ class ImageLocaliser(MapLocaliser):
 
     @property
     def descriptor_shape(self) -> tuple[int, ...]:
-        """``size`` (one downsampled image per node), ``(8, 8)`` for ``"lowres"``, ``()``
-        (one uint32 code) for ``"lbp"``."""
-        if self.descriptor == "lowres":
-            return (8, 8)
+        """``size`` (one downsampled image per node), ``(8, 8)`` for ``"lowres"``,
+        ``(16, 16)`` for ``"lowres16"``, ``()`` (one uint32 code) for ``"lbp"``."""
+        if self.descriptor in LOWRES_GRIDS:
+            grid = LOWRES_GRIDS[self.descriptor]
+            return (grid, grid)
         if self.descriptor == "lbp":
             return ()
         return self.size
@@ -252,9 +254,9 @@ class ImageLocaliser(MapLocaliser):
         """What the node descriptor is: ``"descriptor"``, with ``size`` and ``patch`` for
         ``"patch"`` and ``contrast`` and ``contrast_patch`` (the target and the tile of
         the normalisation, checked by :meth:`use_map`) for ``"lowres"``."""
-        if self.descriptor == "lowres":
+        if self.descriptor in LOWRES_GRIDS:
             return {
-                "descriptor": "lowres",
+                "descriptor": self.descriptor,
                 "contrast": LOWRES_CONTRAST,
                 "contrast_patch": LOWRES_PATCH,
             }
@@ -266,8 +268,8 @@ class ImageLocaliser(MapLocaliser):
         """The node descriptor of one sensor frame: the patch-normalised downsampled image
         (float32, shape ``size``), the low-res place (uint8, (8, 8)) or the LBP code
         (uint32, ())."""
-        if self.descriptor == "lowres":
-            return lowres_place(frame)
+        if self.descriptor in LOWRES_GRIDS:
+            return lowres_place(frame, self.descriptor)
         if self.descriptor == "lbp":
             return lbp_place(frame)
         return preprocess(frame, self.size, self.patch, quantise=self.quantise)
@@ -281,7 +283,7 @@ class ImageLocaliser(MapLocaliser):
             The mean absolute difference per pixel (``"patch"``) or per cell
             (``"lowres"``), or the Hamming distance in bits (``"lbp"``).
         """
-        if self.descriptor == "lowres":
+        if self.descriptor in LOWRES_GRIDS:
             return lowres_distances(described, nodes)
         if self.descriptor == "lbp":
             return lbp_distances(described, nodes)

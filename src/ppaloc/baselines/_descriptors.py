@@ -13,6 +13,9 @@ weighted-node filter stores (``descriptor=``):
     (:func:`ppaloc.place.lowres_image`) contrast-normalised as its robust preset does
     (:func:`ppaloc.place.normalise_contrast` with :data:`LOWRES_CONTRAST`), 64 ``uint8``
     values, compared by the mean absolute difference per cell (the filter's SAD / 64);
+``"lowres16"``
+    the same on the 16x16 grid (16x16-pixel blocks, tiles of the same 64x64 pixels), 256
+    ``uint8`` values, the filter's ``lowres16`` place;
 ``"lbp"``
     the weighted-node filter's 32-bit LBP code (:func:`ppaloc.place.lbp_descriptor`),
     compared by the Hamming distance (0 .. 32 bits).
@@ -29,7 +32,14 @@ import numpy as np
 from ppaloc.baselines._image import check_frame
 from ppaloc.errors import PpalocError
 from ppaloc.localise.params import DEFAULT_CONTRAST, DEFAULT_CONTRAST_PATCH
-from ppaloc.place import hamming, lbp_descriptor, lowres_image, normalise_contrast, sad
+from ppaloc.place import (
+    LOWRES_GRIDS,
+    hamming,
+    lbp_descriptor,
+    lowres_image,
+    normalise_contrast,
+    sad,
+)
 
 __all__ = [
     "DESCRIPTORS",
@@ -42,7 +52,7 @@ __all__ = [
     "lowres_place",
 ]
 
-DESCRIPTORS = ("patch", "lowres", "lbp")
+DESCRIPTORS = ("patch", "lowres", "lowres16", "lbp")
 """The values of an image baseline's ``descriptor`` parameter, the default first."""
 
 LOWRES_CONTRAST = DEFAULT_CONTRAST
@@ -56,24 +66,28 @@ robust weighted-node filter's default ``contrast_patch`` (2)."""
 _WHAT = {
     "patch": "its own 64x32 patch-normalised image",
     "lowres": "the weighted-node filter's contrast-normalised 8x8 image",
+    "lowres16": "the weighted-node filter's contrast-normalised 16x16 image",
     "lbp": "the weighted-node filter's 32-bit LBP code",
     "ldb": "its own LDB code",
 }
 
 
-def lowres_place(frame: np.ndarray) -> np.ndarray:
+def lowres_place(frame: np.ndarray, kind: str = "lowres") -> np.ndarray:
     """The weighted-node filter's low-res place of one sensor frame.
 
     Parameters
     ----------
     frame : ndarray of uint8, shape (256, 256)
+    kind : {"lowres", "lowres16"}
+        The 8x8 or the 16x16 grid (:data:`ppaloc.place.LOWRES_GRIDS`).
 
     Returns
     -------
-    ndarray of uint8, shape (8, 8)
+    ndarray of uint8, shape (grid, grid)
         ``normalise_contrast(lowres_image(frame), LOWRES_CONTRAST, LOWRES_PATCH)``: the
         floored 8x8 block means, each 2x2 tile of blocks offset to 128 and scaled to a
-        mean absolute deviation near 48 grey levels.
+        mean absolute deviation near 48 grey levels (on the 16x16 grid each 4x4 tile, the
+        same pixels).
 
     Examples
     --------
@@ -82,7 +96,9 @@ def lowres_place(frame: np.ndarray) -> np.ndarray:
     >>> lowres_place(frame)[0].tolist()  # tile (0, 1): mean 50 -> 128, gain x1; flat: 128
     [78, 178, 128, 128, 128, 128, 128, 128]
     """
-    return normalise_contrast(lowres_image(check_frame(frame)), LOWRES_CONTRAST, LOWRES_PATCH)
+    grid = LOWRES_GRIDS[kind]
+    image = lowres_image(check_frame(frame), grid)
+    return normalise_contrast(image, LOWRES_CONTRAST, LOWRES_PATCH * grid // 8)
 
 
 def lbp_place(frame: np.ndarray) -> np.ndarray:
@@ -101,13 +117,13 @@ def lowres_distances(query: np.ndarray, nodes: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    query : ndarray of uint8, shape (8, 8)
-    nodes : ndarray of uint8, shape (N, 8, 8)
+    query : ndarray of uint8, shape (H, W)
+    nodes : ndarray of uint8, shape (N, H, W)
 
     Returns
     -------
     ndarray of float64, shape (N,)
-        ``sad(query, nodes) / 64``, exactly (a SAD is an integer).
+        ``sad(query, nodes) / (H W)``, exactly (a SAD is an integer).
 
     Examples
     --------

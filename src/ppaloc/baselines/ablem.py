@@ -142,7 +142,7 @@ class ABLEM(MapLocaliser):
             )
         if top_k < 1 or rwindow < 0:
             raise PpalocError(f"ABLE-M needs top_k >= 1 and rwindow >= 0, got {top_k}, {rwindow}")
-        if descriptor in ("lowres", "patch"):
+        if descriptor in ("lowres", "lowres16", "patch"):
             raise PpalocError(
                 f"ABLE-M descriptor={descriptor!r} is an image, and ABLE-M matches binary "
                 "codes by Hamming distance; choose 'ldb' (its own LDB code) or 'lbp' (the "

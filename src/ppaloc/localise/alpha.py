@@ -15,7 +15,7 @@ from ppaloc.topomap import TopoMap
 
 __all__ = ["ALPHA_CAP", "ALPHA_FACTOR", "suggest_alpha"]
 
-_REPRESENTATIONS = ("lowres", "lbp")
+_REPRESENTATIONS = ("lowres", "lowres16", "lbp")
 
 
 def _far_mu(topomap: TopoMap, shift: int) -> np.ndarray:
@@ -28,7 +28,8 @@ def _far_mu(topomap: TopoMap, shift: int) -> np.ndarray:
         raw = np.bitwise_count(x ^ x[far]).astype(np.float64)
     else:
         x = np.asarray(d, np.int64).reshape(n, -1)
-        raw = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * 1024
+        pixels = 65536 // x.shape[1]  # per block: T = P * SAD (likelihood module doc)
+        raw = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * pixels
     return raw * distance_scale(topomap.kind, shift, exact=True)
 
 

@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.likelihood import NodeDistances, distance_scale
+from ppaloc.localise.likelihood import NodeDistances, distance_scale, float_divisor
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
 from ppaloc.localise.params import FilterParams, choose_candidate, refined_minimum
 from ppaloc.topomap import TopoMap
@@ -82,14 +82,14 @@ def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
 
     LBP: ``mu = 2h``, exact. Low-res ``ppa8``: the ADC code of ``-mu/2`` (the halving
     tree's result, ``code = floor(128.5 - mu/2)``) read back as ``2 (128 - code)``.
-    Low-res ``float``: ``mu`` itself.
+    Low-res ``float``: ``mu`` itself (the SAD over :func:`float_divisor`).
     """
     if kind == "lbp":
         return raw.astype(np.int64) * 2
     if exact:  # raw = T, mu = T / 2**17, mu / 2 = T / 2**18
         code = (257 * 2**17 - raw.astype(np.int64)) >> 18
         return 2 * (128 - code)
-    return raw.astype(np.float64) / 128.0
+    return raw.astype(np.float64) / float(float_divisor(kind))
 
 
 def motion_model(params: FilterParams) -> MotionModel | None:
@@ -107,7 +107,7 @@ class HostExecutor:
 
     Parameters
     ----------
-    representation : {"lowres", "lbp"}
+    representation : {"lowres", "lowres16", "lbp"}
     params : FilterParams
     arithmetic : {"float", "ppa8"}
     ranking_k : int
@@ -157,7 +157,7 @@ class HostExecutor:
             self.representation,
             topomap.descriptors,
             exact=self.exact,
-            contrast=self.params.contrast if self.representation == "lowres" else None,
+            contrast=self.params.contrast if self.representation != "lbp" else None,
             patch=self.params.contrast_patch,
         )
         self._w = np.zeros(n, self._dtype)
@@ -240,8 +240,8 @@ class HostExecutor:
         """The frame's best distance: the least value (float); in register arithmetic the
         LBP readout's least value (exact), the low-res one refined from the exact
         distances as the sensor refines it on the array (:func:`refined_minimum`)."""
-        if self.exact and self.representation == "lowres":
-            raw = self._raw_distances()  # T = 1024 SAD: mu = T / 2**17
+        if self.exact and self.representation != "lbp":
+            raw = self._raw_distances()  # T = P SAD (P pixels a block): mu = T / 2**17
             return refined_minimum(int(raw.min()) / 2.0**17)
         return float(values.min()) if not self.exact else int(values.min())
 

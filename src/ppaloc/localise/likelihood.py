@@ -21,6 +21,12 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
   per cell never binds: the normalised levels run 1..255). On the sensor the controller
   reads the live image's 64 codes, normalises them and loads them through the DAC
   (docs/ppa8.md).
+- ``"lowres16"`` (contrast only): as ``"lowres"`` with contrast on the 16x16 grid, each
+  tile of ``2 patch`` x ``2 patch`` blocks normalised on its own (the same pixels as the
+  8x8 grid's tile of ``patch`` x ``patch``). ``mu_i`` is again the mean over the cells of
+  ``|f - n_i|``: ``SAD_i / 512`` in float; in ppa8 ``T_i = 256 * SAD_i`` (the pixels per
+  block times the SAD, as for 8x8), so ``mu_i = T_i / 2**17`` in both (cells x pixels per
+  block = 65,536 either way).
 - ``"lbp"``: ``h_i = popcount(x XOR d_i)`` in [0, 32]. On the PPA each differing bit of a
   node's 4x8-PE block loads the DAC constant 2 and an adding tree over the 32 PEs leaves
   their sum, so ``mu_i = 2 * h_i`` in [0, 64] register units.
@@ -32,19 +38,31 @@ from __future__ import annotations
 
 import numpy as np
 
+from ppaloc.errors import PpalocError
 from ppaloc.place import (
+    SENSOR_SIZE,
     LowresIndex,
     block_sums,
     hamming,
     lbp_descriptor,
+    lowres_grid,
     lowres_image,
     normalise_contrast,
 )
 
-__all__ = ["LOWRES_CAP", "NodeDistances", "distance_scale"]
+__all__ = ["LOWRES_CAP", "NodeDistances", "distance_scale", "float_divisor"]
 
 LOWRES_CAP = 254
 """Per-cell cap of ``|m - q|`` in grey levels: a register difference of 127."""
+
+
+def float_divisor(representation: str) -> int:
+    """Low-res in float: ``mu = SAD / divisor``, twice the cells (``|f - n|`` is half a
+    grey-level difference, and ``mu`` its mean over the cells): 128 for 8x8, 512 for 16x16."""
+    grid = lowres_grid(representation)
+    if grid is None:
+        raise ValueError(f"{representation!r} is not a low-res representation")
+    return 2 * grid * grid
 
 
 def distance_scale(representation: str, shift: int, exact: bool) -> float:
@@ -54,10 +72,14 @@ def distance_scale(representation: str, shift: int, exact: bool) -> float:
     --------
     >>> distance_scale("lbp", 2, True), distance_scale("lowres", 0, False)
     (0.5, 0.0078125)
+    >>> distance_scale("lowres16", 0, False), distance_scale("lowres16", 0, True) * 2**17
+    (0.001953125, 1.0)
     """
     if representation == "lbp":
         return 2.0 ** (1 - shift)
-    return 2.0 ** -(17 + shift) if exact else 2.0 ** -(7 + shift)
+    if exact:
+        return 2.0 ** -(17 + shift)
+    return 2.0**-shift / float_divisor(representation)
 
 
 class NodeDistances:
@@ -65,9 +87,9 @@ class NodeDistances:
 
     Parameters
     ----------
-    kind : {"lowres", "lbp"}
+    kind : {"lowres", "lowres16", "lbp"}
     descriptors : ndarray
-        The map's nodes: uint8 (N, 8, 8) or uint32 (N,).
+        The map's nodes: uint8 (N, 8, 8) or (N, 16, 16), or uint32 (N,).
     exact : bool
         Low-res only: the register's distance (ppa8): to the unquantised live frame, or
         with ``contrast`` capped per cell; else the uint8 SAD to the quantised frame.
@@ -77,8 +99,9 @@ class NodeDistances:
         quantised images as they are). None (the paper preset): no normalisation, and
         ``exact`` compares the unquantised live frame.
     patch : int, optional
-        Low-res with ``contrast``: normalise each ``patch`` x ``patch`` tile of blocks
-        on its own (None: the whole image).
+        Low-res with ``contrast``: normalise each ``patch`` x ``patch`` tile of 32x32-pixel
+        blocks on its own (on the 16x16 grid the same pixels, ``2 patch`` cells a side;
+        None: the whole image).
     """
 
     def __init__(
@@ -93,21 +116,27 @@ class NodeDistances:
         self.kind = kind
         self.exact = exact
         self.contrast = contrast
-        self.patch = patch
+        self.grid = lowres_grid(kind) or 8
+        scale = self.grid // 8  # cells per 32x32-pixel block side
+        self.patch = None if patch is None else patch * scale
+        # pixels per block: T = P * SAD is the register's sum (module doc)
+        self._pixels_bits = ((SENSOR_SIZE // self.grid) ** 2).bit_length() - 1
+        if kind == "lowres16" and contrast is None:
+            raise PpalocError("the lowres16 place compares contrast-normalised images only")
         if kind == "lbp":
             self._nodes = np.ascontiguousarray(descriptors, dtype=np.uint32)
             self.out = np.empty(len(self._nodes), np.uint8)
         else:
             nodes = np.asarray(descriptors, np.uint8)
             if contrast is not None:
-                nodes = normalise_contrast(nodes, contrast, patch)
+                nodes = normalise_contrast(nodes, contrast, self.patch)
             self._index = LowresIndex(nodes)
             self.out = np.empty(len(self._index), np.uint16)
 
     def live(self, frame: np.ndarray) -> np.ndarray:
-        """Low-res: the live image as the comparison sees it, (8, 8) uint8 (normalised
+        """Low-res: the live image as the comparison sees it, (grid, grid) uint8 (normalised
         with ``contrast``; without it the quantised image, which ``exact`` does not use)."""
-        image = lowres_image(frame)
+        image = lowres_image(frame, self.grid)
         if self.contrast is None:
             return image
         return normalise_contrast(image, self.contrast, self.patch)
@@ -120,5 +149,6 @@ class NodeDistances:
             if self.contrast is None:
                 return self._index.sad_to_sums(block_sums(frame, 8), cap=LOWRES_CAP)
             # levels 1..255: no cell reaches the cap, so T = 1024 SAD exactly
-            return self._index.sad(self.live(frame), out=self.out).astype(np.int64) << 10
+            sad = self._index.sad(self.live(frame), out=self.out).astype(np.int64)
+            return sad << self._pixels_bits
         return self._index.sad(self.live(frame), out=self.out)

@@ -208,9 +208,10 @@ class FilterParams:
         they are. Range [0, 127]; default 48. LBP codes need none (they are invariant
         to any increasing change of intensity).
     contrast_patch : int
-        Robust, low-res images: the side, in blocks, of the square tiles that
-        ``contrast`` normalises each on its own (one of :data:`CONTRAST_PATCHES`;
-        default 2, sixteen tiles of 2x2 blocks; 8 is the whole image). Local
+        Robust, low-res images: the side, in 32x32-pixel blocks, of the square tiles
+        that ``contrast`` normalises each on its own (one of :data:`CONTRAST_PATCHES`;
+        default 2, sixteen tiles of 2x2 blocks, 64x64 pixels; 8 is the whole image). On
+        the 16x16 grid of ``lowres16`` a tile covers the same pixels, 4x4 cells. Local
         normalisation takes out light that varies across the image (a bright sky over a
         dark road, street lights at night), which one offset and gain per image leave
         in. The controller applies it to the 64 codes it reads, so the sensor's
@@ -266,8 +267,9 @@ class FilterParams:
 
         Parameters
         ----------
-        representation : {"lowres", "lbp"}
-            Sets the paper preset's default likelihood shift.
+        representation : {"lowres", "lowres16", "lbp"}
+            Sets the paper preset's default likelihood shift (lowres16 runs the robust
+            group only).
         preset : str
             A registered schedule's name (:data:`PRESETS`: ``"robust"``, ``"paper"``).
         arithmetic : {"float", "ppa8"}
@@ -284,6 +286,11 @@ class FilterParams:
         1
         """
         group = preset_group(preset)
+        if representation == "lowres16" and group != "robust":
+            raise PpalocError(
+                f"preset={preset!r} does not run on the lowres16 place, which compares "
+                "contrast-normalised images only; use a robust preset, or lowres or lbp"
+            )
         params = {f.name: f.metadata["param"] for f in dataclasses.fields(cls) if f.metadata}
         unknown = sorted(set(values) - set(params))
         if unknown:

@@ -67,7 +67,7 @@ __all__ = [
     "suggest_alpha",
 ]
 
-REPRESENTATIONS = ("lowres", "lbp")
+REPRESENTATIONS = ("lowres", "lowres16", "lbp")
 """Place representations of the weighted-node filter (docs/ppa8.md)."""
 
 MAX_RANKING = 10_000
@@ -146,7 +146,7 @@ class WeightedNodeLocaliser:
 
     Parameters
     ----------
-    representation : {"lowres", "lbp"}
+    representation : {"lowres", "lowres16", "lbp"}
         Node kind: 8x8 low-res images compared by mean absolute difference, or 32-bit LBP
         descriptors compared by Hamming distance.
     arithmetic : {"float", "ppa8"}
@@ -220,7 +220,7 @@ class WeightedNodeLocaliser:
         """Every keyword this localiser takes (:class:`~ppaloc.localise.base.MethodParam`):
         its own options, then the filter's parameters (:class:`FilterParams`)."""
         return (
-            MethodParam("representation", Literal["lowres", "lbp"], "lowres"),
+            MethodParam("representation", Literal["lowres", "lowres16", "lbp"], "lowres"),
             MethodParam("arithmetic", Literal["float", "ppa8"], "float"),
             MethodParam("ranking_k", int, 10, 0, MAX_RANKING, "nodes each estimate ranks"),
             MethodParam("record_weights", bool, False, doc="keep every frame's weights"),

@@ -38,9 +38,13 @@ from ppaloc.sim.observe import SimObserver, check_observers
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
 from ppaloc.topomap import TopoMap, layout_for
 
-__all__ = ["NOISE_PRESETS", "OnSensorLocaliser"]
+__all__ = ["NOISE_PRESETS", "SENSOR_REPRESENTATIONS", "OnSensorLocaliser"]
 
 NOISE_PRESETS = ("ideal", "low", "typical", "high")
+
+SENSOR_REPRESENTATIONS = ("lowres", "lbp")
+"""The representations the sensor's programs run (the host runs every one of
+:data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
 
 class OnSensorLocaliser:
@@ -130,6 +134,12 @@ class OnSensorLocaliser:
         **filter_params: Any,
     ) -> None:
         check_representation(representation)
+        if representation not in SENSOR_REPRESENTATIONS:
+            raise PpalocError(
+                f"representation={representation!r} runs on the host only so far "
+                f"(weighted-node-{representation}); the sensor runs "
+                f"{' and '.join(SENSOR_REPRESENTATIONS)} (docs/onsensor.md)"
+            )
         if timing_structure not in STRUCTURES:
             raise PpalocError(
                 f"timing_structure={timing_structure!r} is not one of {', '.join(STRUCTURES)}"

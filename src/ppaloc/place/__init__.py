@@ -7,7 +7,14 @@ images after a contrast normalisation of each tile of blocks (:func:`normalise_c
 Everything is vectorised over leading axes (frames) or N nodes and exact.
 """
 
-from ppaloc.place.grid import SENSOR_SIZE, block_means, block_sums, lowres_image
+from ppaloc.place.grid import (
+    LOWRES_GRIDS,
+    SENSOR_SIZE,
+    block_means,
+    block_sums,
+    lowres_grid,
+    lowres_image,
+)
 from ppaloc.place.index import LowresIndex
 from ppaloc.place.lbp import (
     LBP_BITS,
@@ -24,6 +31,7 @@ from ppaloc.place.sad import sad
 __all__ = [
     "CONTRAST_SCALES",
     "LBP_BITS",
+    "LOWRES_GRIDS",
     "SENSOR_SIZE",
     "LowresIndex",
     "block_means",
@@ -33,6 +41,7 @@ __all__ = [
     "lbp_descriptor",
     "lbp_from_grid",
     "lbp_grid",
+    "lowres_grid",
     "lowres_image",
     "normalise_contrast",
     "pack_bits",

@@ -4,10 +4,22 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SENSOR_SIZE", "block_means", "block_sums", "lowres_image"]
+__all__ = [
+    "LOWRES_GRIDS",
+    "SENSOR_SIZE",
+    "block_means",
+    "block_sums",
+    "lowres_grid",
+    "lowres_image",
+]
 
 SENSOR_SIZE = 256
 """Rows (= columns) of a sensor frame, the SCAMP-5 pixel array."""
+
+LOWRES_GRIDS: dict[str, int] = {"lowres": 8, "lowres16": 16}
+"""The low-res place representations and the blocks per side of their images: the paper's
+8x8 grid of 32x32-pixel blocks (``"lowres"``, 64 values a place) and a 16x16 grid of
+16x16-pixel blocks (``"lowres16"``, 256 values a place)."""
 
 
 def _check_frames(frames: np.ndarray) -> np.ndarray:
@@ -78,19 +90,28 @@ def block_means(frames: np.ndarray, grid: int = 8) -> np.ndarray:
     return sums / float(b * b)
 
 
-def lowres_image(frames: np.ndarray) -> np.ndarray:
-    """Return the low-resolution node image: ``floor(block sum / 1024)`` on the 8x8 grid.
+def lowres_grid(kind: str) -> int | None:
+    """Blocks per side of a low-res representation's image (:data:`LOWRES_GRIDS`), None
+    for any other kind (``"lbp"``)."""
+    return LOWRES_GRIDS.get(kind)
+
+
+def lowres_image(frames: np.ndarray, grid: int = 8) -> np.ndarray:
+    """Return the low-resolution node image: the block means rounded down.
 
     This is the node held in a map of kind ``"lowres"`` (docs/ppa8.md): the 8x8 block
-    means rounded down to integers, so a node fits one uint8 per block.
+    means ``floor(block sum / 1024)``, so a node fits one uint8 per block. ``grid=16``
+    gives the ``"lowres16"`` node, ``floor(block sum / 256)`` over 16x16-pixel blocks.
 
     Parameters
     ----------
     frames : ndarray of uint8, shape (..., 256, 256)
+    grid : {8, 16}
+        Blocks per side (:data:`LOWRES_GRIDS`).
 
     Returns
     -------
-    ndarray of uint8, shape (..., 8, 8)
+    ndarray of uint8, shape (..., grid, grid)
 
     Examples
     --------
@@ -101,4 +122,7 @@ def lowres_image(frames: np.ndarray) -> np.ndarray:
     >>> lowres_image(frame)[0, :2]
     array([199,   0], dtype=uint8)
     """
-    return (block_sums(frames, 8) >> 10).astype(np.uint8)
+    if grid not in LOWRES_GRIDS.values():
+        raise ValueError(f"grid={grid!r} is not a low-res grid; use 8 or 16")
+    pixels = (SENSOR_SIZE // grid) ** 2  # a power of two: the floor is a shift
+    return (block_sums(frames, grid) >> (pixels.bit_length() - 1)).astype(np.uint8)

@@ -8,19 +8,21 @@ from typing import Any
 import numpy as np
 
 from ppaloc.frontend import to_sensor
-from ppaloc.place import hamming, lbp_descriptor, lowres_image, sad
+from ppaloc.place import LOWRES_GRIDS, hamming, lbp_descriptor, lowres_image, sad
 from ppaloc.topomap.map import KIND_SPECS, TopoMap
 
 __all__ = ["KEYFRAME_UNITS", "build_topomap", "describe"]
 
 KEYFRAME_UNITS = {
     "lowres": "mean absolute difference per 8x8 cell, grey levels (SAD / 64)",
+    "lowres16": "mean absolute difference per 16x16 cell, grey levels (SAD / 256)",
     "lbp": "Hamming distance, bits",
 }
 """What ``keyframe_threshold`` measures for each kind."""
 
 _DESCRIBE: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "lowres": lowres_image,
+    "lowres16": lambda frame: lowres_image(frame, 16),
     "lbp": lbp_descriptor,
 }
 
@@ -36,12 +38,12 @@ def describe(frame: np.ndarray, kind: str) -> np.ndarray:
 
 def _describer(kind: str) -> Callable[[np.ndarray], np.ndarray]:
     if kind not in _DESCRIBE:
-        raise ValueError(f"kind={kind!r} has no place representation; use 'lowres' or 'lbp'")
+        raise ValueError(f"kind={kind!r} has no place representation; use {', '.join(_DESCRIBE)}")
     return _DESCRIBE[kind]
 
 
 def _change(kind: str, descriptor: np.ndarray, last: np.ndarray) -> float:
-    if kind == "lowres":
+    if kind in LOWRES_GRIDS:
         return float(sad(descriptor, last[None])[0]) / descriptor.size
     return float(hamming(descriptor, last.reshape(1))[0])
 
@@ -90,15 +92,15 @@ def build_topomap(
         The reference traversal in route order; (256, 256) uint8 sensor frames, or any
         frame :func:`~ppaloc.frontend.to_sensor` accepts. Read once, in order,
         so a lazy sequence is never held in memory whole.
-    kind : {"lowres", "lbp"}
+    kind : {"lowres", "lowres16", "lbp"}
         The place representation (:mod:`ppaloc.place`).
     keyframe_threshold : float, optional
         None (default, the paper): every frame becomes a node. Otherwise the first frame
         becomes a node, and each later frame becomes a node only when its change from the
         *last node* (not the last frame, so slow drift accumulates) is strictly above the
         threshold: for ``"lowres"`` the mean absolute difference per cell in grey levels
-        (SAD / 64), for ``"lbp"`` the Hamming distance in bits. 0 drops only exact repeats
-        (e.g. a vehicle standing still in a static scene).
+        (SAD / 64; ``"lowres16"`` SAD / 256), for ``"lbp"`` the Hamming distance in bits.
+        0 drops only exact repeats (e.g. a vehicle standing still in a static scene).
     keep : callable, optional
         Another keyframe rule: ``keep(sensor_frame)`` is called on every frame in order
         and a frame after the first becomes a node only when it returns True (the

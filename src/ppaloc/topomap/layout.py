@@ -18,10 +18,15 @@ import numpy as np
 
 __all__ = ["KIND_BLOCK_SHAPES", "Direction", "SnakeLayout", "layout_for"]
 
-KIND_BLOCK_SHAPES: dict[str, tuple[int, int]] = {"lowres": (8, 8), "lbp": (4, 8)}
+KIND_BLOCK_SHAPES: dict[str, tuple[int, int]] = {
+    "lowres": (8, 8),
+    "lowres16": (16, 16),
+    "lbp": (4, 8),
+}
 """PE block (rows, cols) per node for each place representation.
 
-``"lowres"``: 8x8 PEs, one per grid cell (cell (r, c) at block PE (r, c)).
+``"lowres"``: 8x8 PEs, one per grid cell (cell (r, c) at block PE (r, c)); ``"lowres16"``
+likewise with 16x16 PEs (256 nodes per tile).
 ``"lbp"``: 4 rows x 8 columns = 32 PEs, one per descriptor bit; row k holds the 8-bit
 code of cell k (top-left, top-right, bottom-left, bottom-right), MSB in column 0, so bit
 ``31 - b`` of the uint32 is at block PE ``(b // 8, b % 8)``.
@@ -269,12 +274,12 @@ class SnakeLayout:
 
 
 def layout_for(kind: str, array_shape: tuple[int, int] = (256, 256)) -> SnakeLayout:
-    """Return the snake layout of a place representation (``"lowres"`` or ``"lbp"``).
+    """Return the snake layout of a place representation (:data:`KIND_BLOCK_SHAPES`).
 
     Examples
     --------
-    >>> layout_for("lbp").capacity, layout_for("lowres").capacity
-    (2048, 1024)
+    >>> [layout_for(kind).capacity for kind in ("lbp", "lowres", "lowres16")]
+    [2048, 1024, 256]
     """
     try:
         block = KIND_BLOCK_SHAPES[kind]

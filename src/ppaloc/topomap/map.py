@@ -16,6 +16,7 @@ __all__ = ["KIND_SPECS", "TopoMap"]
 
 KIND_SPECS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     "lowres": (np.dtype(np.uint8), (8, 8)),
+    "lowres16": (np.dtype(np.uint8), (16, 16)),
     "lbp": (np.dtype(np.uint32), ()),
 }
 """Descriptor dtype and per-node shape of the place representations of ``ppaloc.place``.
@@ -187,14 +188,17 @@ class TopoMap:
     def node_blocks(self) -> np.ndarray:
         """Return each node's values on the PEs of its block, shape (N, block_rows, block_cols).
 
-        ``"lowres"``: the uint8 (8, 8) image itself. ``"lbp"``: the 32 bits as uint8 0/1 in a
-        4x8 block, row k = cell k's code, MSB in column 0 (see ``KIND_BLOCK_SHAPES``).
+        ``"lowres"``, ``"lowres16"``: the uint8 (8, 8) or (16, 16) image itself. ``"lbp"``:
+        the 32 bits as uint8 0/1 in a 4x8 block, row k = cell k's code, MSB in column 0
+        (see ``KIND_BLOCK_SHAPES``).
         """
-        if self.kind == "lowres":
+        if self.kind in ("lowres", "lowres16"):
             return self.descriptors
         if self.kind == "lbp":
             return unpack_bits(self.descriptors).reshape(len(self), *KIND_BLOCK_SHAPES["lbp"])
-        raise ValueError(f"a {self.kind!r} map has no PE layout; only 'lowres' and 'lbp' do")
+        raise ValueError(
+            f"a {self.kind!r} map has no PE layout; only {', '.join(KIND_BLOCK_SHAPES)} do"
+        )
 
     def planes(self, *, fill: int = 0) -> np.ndarray:
         """Return the map as PE planes, shape (n_tiles, 256, 256), in the snake layout.
