@@ -1,18 +1,18 @@
 """Sensitivity of the robust weighted-node filter: max F1 against each of its parameters.
 
 Not collected by pytest. Every parameter of the robust preset is varied alone, over a
-range of at least 4x around its default, with the others at their defaults, for both
-representations (``weighted-node-lbp`` and ``weighted-node-lowres``) on every route of
-``benchmarks/eval_robust.py``. Each route goes through the sensor front-end once; every
-cell runs as ``ppaloc evaluate`` runs it::
+range of at least 4x around its default, with the others at their defaults, for every
+representation (``weighted-node-lbp``, ``weighted-node-lowres`` and
+``weighted-node-lowres16``) on every route of ``benchmarks/eval_robust.py``. Each route
+goes through the sensor front-end once; every cell runs as ``ppaloc evaluate`` runs it::
 
-    .venv/bin/python benchmarks/sensitivity_robust.py              # about 10 min, 2 jobs
+    .venv/bin/python benchmarks/sensitivity_robust.py              # about 15 min, 2 jobs
     .venv/bin/python benchmarks/sensitivity_robust.py --routes "seed=1" --json s.json
     .venv/bin/python benchmarks/sensitivity_robust.py --from s.json   # re-print a table
 
 Output: one Markdown row per parameter value: the mean max F1 over the routes for each
-representation, the mean of the better of the two per route, the same on Nordland
-summer -> winter, and the minimum over routes of the better of the two. A broad plateau
+representation, the mean of the best of them per route, the same on Nordland summer ->
+winter, and the minimum over routes of the best. A broad plateau
 around the default (bold) is what a robust default looks like; a peak would be a tuned one.
 """
 
@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_robust import CACHE_DIR, DATA, routes, run_all
 from ppaloc.localise.params import FilterParams
 
-METHODS = ("weighted-node-lbp", "weighted-node-lowres")
+METHODS = ("weighted-node-lbp", "weighted-node-lowres", "weighted-node-lowres16")
 GRID: dict[str, tuple[int, ...]] = {
     "gain": (1, 2, 4, 8, 16),
     "memory": (32, 48, 64, 96, 127),
@@ -61,9 +61,9 @@ def table(records: list[dict]) -> str:
     """The compact sensitivity table from route records of :func:`run_all`."""
     defaults = FilterParams.create("lbp")
     lines = [
-        "| parameter | value | LBP mean | low-res mean | better of the two, mean "
-        "| Nordland S->W (better) | better of the two, min |",
-        "|---|---|---|---|---|---|---|",
+        "| parameter | value | LBP mean | low-res mean | 16x16 low-res mean | best, mean "
+        "| Nordland S->W (best) | best, min |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for key, values in GRID.items():
         for v in values:
@@ -82,8 +82,7 @@ def table(records: list[dict]) -> str:
                 continue
             mark = "**" if v == getattr(defaults, key) else ""
             cells = [
-                f"{np.mean(per[METHODS[0]]):.3f}",
-                f"{np.mean(per[METHODS[1]]):.3f}",
+                *(f"{np.mean(per[m]):.3f}" for m in METHODS),
                 f"{np.mean(best):.3f}",
                 "-" if nord is None else f"{nord:.3f}",
                 f"{np.min(best):.3f}",
