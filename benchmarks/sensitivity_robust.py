@@ -6,7 +6,7 @@ representation (``weighted-node-lbp``, ``weighted-node-lowres`` and
 ``weighted-node-lowres16``) on every route of ``benchmarks/eval_robust.py``. Each route
 goes through the sensor front-end once; every cell runs as ``ppaloc evaluate`` runs it::
 
-    .venv/bin/python benchmarks/sensitivity_robust.py              # about 15 min, 2 jobs
+    .venv/bin/python benchmarks/sensitivity_robust.py              # about 20 min, 2 jobs
     .venv/bin/python benchmarks/sensitivity_robust.py --routes "seed=1" --json s.json
     .venv/bin/python benchmarks/sensitivity_robust.py --from s.json   # re-print a table
 

@@ -293,3 +293,42 @@ def test_a_sweep_reads_a_format_1_cell_under_todays_names(folder):
     (folder / "results.json").write_text(json.dumps(summary))
     status, results = cell_status(folder.parent, cell)
     assert results is None and "results format 7, newer than this ppaloc" in status
+
+
+def test_each_place_has_its_column_and_a_baseline_is_shown_on_its_descriptor():
+    def entry(kind: str, f1: float, **params) -> dict:
+        keys = ("precision_at_f1", "recall_at_f1", "auc", "recall_at_100p", "precision_at_100r")
+        more = dict.fromkeys((*keys, "latency_ms_p95", "energy_mj"))
+        return {"map_kind": kind, "params": params, "f1_max": f1, "latency_ms_median": 1.0, **more}
+
+    summary = {
+        "methods": {
+            "weighted-node-lowres": entry("lowres", 0.7),
+            "weighted-node-lowres16": entry("lowres16", 0.8),
+            "weighted-node-lbp": entry("lbp", 0.6),
+            "particle-filter": entry("particle-filter", 0.5, descriptor="lowres16"),
+            "seqslam": entry("seqslam", 0.4),
+        }
+    }
+    header, rows = paper_table(summary)
+    assert header[1::2] == [
+        "F1 (8x8 image)",
+        "F1 (16x16 image)",
+        "F1 (32-bit LBP)",
+        "F1 (method's own)",
+    ]
+    table = {row[0]: row[1::2] for row in rows}
+    assert table == {
+        "weighted-node": ["0.700", "0.800", "0.600", ""],
+        "particle-filter": ["", "0.500", "", ""],
+        "seqslam": ["", "", "", "0.400"],
+    }
+    assert all(column_of(h) is not None for h in header)
+    reps = [row[1] for row in comparison_table(summary)[1]]
+    assert reps == [
+        "8x8 image, SAD",
+        "16x16 image, SAD",
+        "32-bit LBP, Hamming",
+        "16x16 image, SAD",
+        "patch-normalised image, SAD",
+    ]

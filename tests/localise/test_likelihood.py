@@ -91,3 +91,30 @@ def test_lowres16_needs_the_contrast_normalisation():
     nodes = np.zeros((2, 16, 16), np.uint8)
     with pytest.raises(PpalocError, match="contrast-normalised"):
         NodeDistances("lowres16", nodes, exact=True)
+
+
+def test_float_values_are_mu_and_the_ppa8_readout_is_within_its_step():
+    """The controller's values: float ``mu`` itself (SAD / 512 for 16x16, / 128 for 8x8);
+    ppa8 the ADC code of ``-mu/2`` read back, within 2 units (one code) of ``mu``."""
+    from ppaloc.localise.host import read_values
+
+    rng = np.random.default_rng(8)
+    for kind, grid in (("lowres", 8), ("lowres16", 16)):
+        nodes = rng.integers(0, 256, (40, grid, grid), dtype=np.uint8)
+        frame = rng.integers(0, 256, (256, 256), dtype=np.uint8)
+        quant = NodeDistances(kind, nodes, exact=False, contrast=48, patch=2)
+        exact = NodeDistances(kind, nodes, exact=True, contrast=48, patch=2)
+        sad = quant(frame).astype(np.float64)
+        mu = read_values(kind, quant(frame), False)
+        np.testing.assert_array_equal(mu, sad / (2 * grid * grid))
+        r = read_values(kind, exact(frame), True)
+        assert np.all(np.abs(r - mu) <= 2) and np.all(r % 2 == 0)
+
+
+def test_alpha_is_not_suggested_for_the_16x16_place():
+    from ppaloc.localise.alpha import suggest_alpha
+    from ppaloc.topomap import TopoMap
+
+    m = TopoMap("lowres16", np.zeros((4, 16, 16), np.uint8))
+    with pytest.raises(PpalocError, match="cannot suggest alpha for a map of kind 'lowres16'"):
+        suggest_alpha(m, shift=0)

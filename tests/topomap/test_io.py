@@ -188,3 +188,12 @@ def test_a_map_with_places_round_trips_as_version_2(tmp_path: Path) -> None:
     save_map(plain, tmp_path / "plain.npz")
     assert read_header(tmp_path / "plain.npz")["format_version"] == 1
     assert load_map(tmp_path / "plain.npz").places is None
+
+
+def test_round_trip_of_a_16x16_map_and_its_shape_checked(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2)
+    m = TopoMap("lowres16", rng.integers(0, 256, (5, 16, 16), dtype=np.uint8))
+    loaded = load_map(save_map(m, tmp_path / "l16.npz"))
+    assert loaded.equals(m) and loaded.kind == "lowres16"
+    with pytest.raises(ValueError, match="lowres16"):
+        TopoMap("lowres16", np.zeros((5, 8, 8), np.uint8))

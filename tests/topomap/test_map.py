@@ -131,3 +131,18 @@ def test_a_map_of_every_frame_records_the_places_new_place_gives() -> None:
     assert m.params["places"] == "motion test"
     with pytest.raises(ValueError, match="no keyframe rule"):
         build_topomap(frames, "lowres", new_place=new_place, keyframe_threshold=1)
+
+
+def test_a_16x16_map_its_keyframes_and_its_planes(traversal: list[np.ndarray]) -> None:
+    m = build_topomap(traversal, "lowres16")
+    np.testing.assert_array_equal(m.descriptors, lowres_image(np.stack(traversal), 16))
+    # the same mean change per cell as on 8x8 (every pixel moves alike): 0, 1, 2, 40, 0
+    keyed = build_topomap(traversal, "lowres16", keyframe_threshold=1.5)
+    assert keyed.frame_index.tolist() == [0, 3, 4]
+    assert keyed.params["keyframe_units"].startswith("mean absolute difference per 16x16")
+    assert m.layout.capacity == 256 and m.node_blocks().shape == (6, 16, 16)
+    planes = m.planes()
+    assert planes.shape == (1, 256, 256)
+    # node 0 is the top-right 16x16 block, node 1 the block west of it
+    np.testing.assert_array_equal(planes[0, :16, 240:], m.descriptors[0])
+    np.testing.assert_array_equal(planes[0, :16, 224:240], m.descriptors[1])

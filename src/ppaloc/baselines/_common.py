@@ -226,7 +226,7 @@ class MapLocaliser:
 class ImageLocaliser(MapLocaliser):
     """A :class:`MapLocaliser` whose node descriptor is SeqSLAM's patch-normalised image
     (``descriptor="patch"``), or the weighted-node filter's place: its contrast-normalised
-    8x8 image (``"lowres"``) or its 32-bit LBP code (``"lbp"``;
+    8x8 or 16x16 image (``"lowres"``, ``"lowres16"``) or its 32-bit LBP code (``"lbp"``;
     :mod:`ppaloc.baselines._descriptors`).
 
     A subclass sets ``descriptor``, ``size`` (rows, cols), ``patch`` and, if it stores
@@ -266,8 +266,8 @@ class ImageLocaliser(MapLocaliser):
 
     def describe(self, frame: np.ndarray) -> np.ndarray:
         """The node descriptor of one sensor frame: the patch-normalised downsampled image
-        (float32, shape ``size``), the low-res place (uint8, (8, 8)) or the LBP code
-        (uint32, ())."""
+        (float32, shape ``size``), the low-res place (uint8, (8, 8) or (16, 16)) or the
+        LBP code (uint32, ())."""
         if self.descriptor in LOWRES_GRIDS:
             return lowres_place(frame, self.descriptor)
         if self.descriptor == "lbp":
@@ -281,7 +281,7 @@ class ImageLocaliser(MapLocaliser):
         -------
         ndarray of float64, shape (N,)
             The mean absolute difference per pixel (``"patch"``) or per cell
-            (``"lowres"``), or the Hamming distance in bits (``"lbp"``).
+            (``"lowres"``, ``"lowres16"``), or the Hamming distance in bits (``"lbp"``).
         """
         if self.descriptor in LOWRES_GRIDS:
             return lowres_distances(described, nodes)

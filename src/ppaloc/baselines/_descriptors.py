@@ -39,6 +39,7 @@ from ppaloc.place import (
     lowres_image,
     normalise_contrast,
     sad,
+    tile_cells,
 )
 
 __all__ = [
@@ -98,7 +99,7 @@ def lowres_place(frame: np.ndarray, kind: str = "lowres") -> np.ndarray:
     """
     grid = LOWRES_GRIDS[kind]
     image = lowres_image(check_frame(frame), grid)
-    return normalise_contrast(image, LOWRES_CONTRAST, LOWRES_PATCH * grid // 8)
+    return normalise_contrast(image, LOWRES_CONTRAST, tile_cells(grid, LOWRES_PATCH))
 
 
 def lbp_place(frame: np.ndarray) -> np.ndarray:

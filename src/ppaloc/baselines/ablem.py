@@ -38,7 +38,7 @@ from ppaloc.baselines._image import downsample
 from ppaloc.baselines.ldb import comparison_count, hamming_distances, ldb_comparisons, selected_bits
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
-from ppaloc.place import LBP_BITS
+from ppaloc.place import LBP_BITS, LOWRES_GRIDS
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ABLEM", "sequence_distances"]
@@ -142,7 +142,7 @@ class ABLEM(MapLocaliser):
             )
         if top_k < 1 or rwindow < 0:
             raise PpalocError(f"ABLE-M needs top_k >= 1 and rwindow >= 0, got {top_k}, {rwindow}")
-        if descriptor in ("lowres", "lowres16", "patch"):
+        if descriptor in ("patch", *LOWRES_GRIDS):
             raise PpalocError(
                 f"ABLE-M descriptor={descriptor!r} is an image, and ABLE-M matches binary "
                 "codes by Hamming distance; choose 'ldb' (its own LDB code) or 'lbp' (the "

@@ -108,7 +108,7 @@ class ParticleFilter(ImageLocaliser):
     descriptor : {"patch", "lowres", "lowres16", "lbp"}
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
-        contrast-normalised 8x8 image by the mean absolute difference per cell, or its
+        contrast-normalised 8x8 or 16x16 image by the mean absolute difference per cell, or its
         32-bit LBP code by the Hamming distance (:mod:`ppaloc.baselines._descriptors`).
         The filter is the same on each.
     seed : int

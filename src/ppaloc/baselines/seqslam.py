@@ -206,7 +206,7 @@ class SeqSLAM(ImageLocaliser):
     descriptor : {"patch", "lowres", "lowres16", "lbp"}
         What a node holds and how the difference column compares it: OpenSeqSLAM's
         patch-normalised image by the mean absolute difference per pixel (default), the
-        weighted-node filter's contrast-normalised 8x8 image by the mean absolute
+        weighted-node filter's contrast-normalised 8x8 or 16x16 image by the mean absolute
         difference per cell, or its 32-bit LBP code by the Hamming distance
         (:mod:`ppaloc.baselines._descriptors`). Enhancement and line search are the same.
     ds : int

@@ -37,7 +37,7 @@ class SingleFrame(ImageLocaliser):
     descriptor : {"patch", "lowres", "lowres16", "lbp"}
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
-        contrast-normalised 8x8 image by the mean absolute difference per cell, or its
+        contrast-normalised 8x8 or 16x16 image by the mean absolute difference per cell, or its
         32-bit LBP code by the Hamming distance (:mod:`ppaloc.baselines._descriptors`).
     radius : int
         The competitor of the confidence is the closest node outside ``best +- radius``

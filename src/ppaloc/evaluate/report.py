@@ -43,13 +43,18 @@ log = logging.getLogger(__name__)
 
 REPRESENTATIONS = {
     "lowres": "8x8 image, SAD",
+    "lowres16": "16x16 image, SAD",
     "lbp": "32-bit LBP, Hamming",
     "seqslam": "patch-normalised image, SAD",
     "single-frame": "patch-normalised image, SAD",
     "particle-filter": "patch-normalised image",
     "able-m": "LDB binary code, Hamming",
 }
-"""Map kind -> how the report names the place representation."""
+"""Map kind (or an image baseline's ``descriptor``) -> how the report names the place
+representation."""
+
+#: The weighted-node filter's places, in the order tables show them.
+_PLACES = ("lowres", "lowres16", "lbp")
 
 
 @dataclass(frozen=True)
@@ -102,7 +107,14 @@ _SHORT_HEADER = [
     "loop ms",
     "mJ",
 ]
-_SHORT_REPR = {"lowres": "8x8 img", "lbp": "LBP"}
+_SHORT_REPR = {"lowres": "8x8 img", "lowres16": "16x16 img", "lbp": "LBP"}
+
+
+def _place(m: dict[str, Any]) -> str:
+    """The place a method compared: its map kind, or a baseline's ``descriptor`` when it
+    ran on one of the weighted-node filter's places (``descriptor="lowres16"``)."""
+    descriptor = (m.get("params") or {}).get("descriptor")
+    return descriptor if descriptor in _PLACES else m.get("map_kind", "")
 
 
 def method_label(name: str, entry: dict[str, Any], *, short: bool = False) -> str:
@@ -178,7 +190,7 @@ def comparison_table(
     ]
     rows = []
     for name, m in summary["methods"].items():
-        kind = m.get("map_kind", "")
+        kind = _place(m)
         rep = _SHORT_REPR.get(kind, "own") if short else REPRESENTATIONS.get(kind, kind or "-")
         rows.append(
             [
@@ -214,8 +226,13 @@ def has_turning_split(summary: dict[str, Any]) -> bool:
     return any(m.get("f1_max_turning") is not None for m in summary["methods"].values())
 
 
-_SUFFIXES = {"-lowres": "lowres", "-lbp": "lbp"}
-_COLUMNS = (("lowres", "8x8 image"), ("lbp", "32-bit LBP"), ("own", "method's own"))
+_SUFFIXES = {f"-{place}": place for place in _PLACES}
+_COLUMNS = (
+    ("lowres", "8x8 image"),
+    ("lowres16", "16x16 image"),
+    ("lbp", "32-bit LBP"),
+    ("own", "method's own"),
+)
 
 
 def _family(name: str, kind: str) -> tuple[str, str]:
@@ -224,7 +241,7 @@ def _family(name: str, kind: str) -> tuple[str, str]:
     for suffix, rep in _SUFFIXES.items():
         if name.endswith(suffix):
             return name[: -len(suffix)], rep
-    return name, kind if kind in ("lowres", "lbp") else "own"
+    return name, kind if kind in _PLACES else "own"
 
 
 def paper_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
@@ -245,7 +262,7 @@ def paper_table(summary: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     summary = upgrade_summary(summary)
     cells: dict[str, dict[str, dict[str, Any]]] = {}
     for name, m in summary["methods"].items():
-        family, rep = _family(name, m.get("map_kind", ""))
+        family, rep = _family(name, _place(m))
         cells.setdefault(family, {})[rep] = m
     used = [(rep, label) for rep, label in _COLUMNS if any(rep in c for c in cells.values())]
     header = ["Method"]

@@ -15,7 +15,8 @@ from ppaloc.topomap import TopoMap
 
 __all__ = ["ALPHA_CAP", "ALPHA_FACTOR", "suggest_alpha"]
 
-_REPRESENTATIONS = ("lowres", "lowres16", "lbp")
+_REPRESENTATIONS = ("lowres", "lbp")
+"""The places the paper preset runs on (not ``"lowres16"``, which it does not compare)."""
 
 
 def _far_mu(topomap: TopoMap, shift: int) -> np.ndarray:
@@ -28,8 +29,7 @@ def _far_mu(topomap: TopoMap, shift: int) -> np.ndarray:
         raw = np.bitwise_count(x ^ x[far]).astype(np.float64)
     else:
         x = np.asarray(d, np.int64).reshape(n, -1)
-        pixels = 65536 // x.shape[1]  # per block: T = P * SAD (likelihood module doc)
-        raw = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * pixels
+        raw = np.abs(x - x[far]).sum(axis=1).astype(np.float64) * 1024
     return raw * distance_scale(topomap.kind, shift, exact=True)
 
 

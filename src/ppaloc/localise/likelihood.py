@@ -48,6 +48,7 @@ from ppaloc.place import (
     lowres_grid,
     lowres_image,
     normalise_contrast,
+    tile_cells,
 )
 
 __all__ = ["LOWRES_CAP", "NodeDistances", "distance_scale", "float_divisor"]
@@ -117,12 +118,13 @@ class NodeDistances:
         self.exact = exact
         self.contrast = contrast
         self.grid = lowres_grid(kind) or 8
-        scale = self.grid // 8  # cells per 32x32-pixel block side
-        self.patch = None if patch is None else patch * scale
+        self.patch = tile_cells(self.grid, patch)
         # pixels per block: T = P * SAD is the register's sum (module doc)
         self._pixels_bits = ((SENSOR_SIZE // self.grid) ** 2).bit_length() - 1
-        if kind == "lowres16" and contrast is None:
-            raise PpalocError("the lowres16 place compares contrast-normalised images only")
+        if self.grid != 8 and contrast is None:  # the paper preset's path is the 8x8 one
+            raise PpalocError(
+                f"the {kind} place compares contrast-normalised images only: give contrast="
+            )
         if kind == "lbp":
             self._nodes = np.ascontiguousarray(descriptors, dtype=np.uint32)
             self.out = np.empty(len(self._nodes), np.uint8)
@@ -148,7 +150,7 @@ class NodeDistances:
         if self.exact:
             if self.contrast is None:
                 return self._index.sad_to_sums(block_sums(frame, 8), cap=LOWRES_CAP)
-            # levels 1..255: no cell reaches the cap, so T = 1024 SAD exactly
+            # levels 1..255: no cell reaches the cap, so T = P SAD exactly
             sad = self._index.sad(self.live(frame), out=self.out).astype(np.int64)
             return sad << self._pixels_bits
         return self._index.sad(self.live(frame), out=self.out)

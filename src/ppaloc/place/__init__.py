@@ -14,6 +14,7 @@ from ppaloc.place.grid import (
     block_sums,
     lowres_grid,
     lowres_image,
+    tile_cells,
 )
 from ppaloc.place.index import LowresIndex
 from ppaloc.place.lbp import (
@@ -46,5 +47,6 @@ __all__ = [
     "normalise_contrast",
     "pack_bits",
     "sad",
+    "tile_cells",
     "unpack_bits",
 ]

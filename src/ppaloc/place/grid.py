@@ -11,6 +11,7 @@ __all__ = [
     "block_sums",
     "lowres_grid",
     "lowres_image",
+    "tile_cells",
 ]
 
 SENSOR_SIZE = 256
@@ -91,9 +92,29 @@ def block_means(frames: np.ndarray, grid: int = 8) -> np.ndarray:
 
 
 def lowres_grid(kind: str) -> int | None:
-    """Blocks per side of a low-res representation's image (:data:`LOWRES_GRIDS`), None
-    for any other kind (``"lbp"``)."""
+    """Blocks per side of a low-res representation's image, None for any other kind.
+
+    Examples
+    --------
+    >>> lowres_grid("lowres16"), lowres_grid("lbp")
+    (16, None)
+    """
     return LOWRES_GRIDS.get(kind)
+
+
+def tile_cells(grid: int, patch: int | None) -> int | None:
+    """Cells a side of a contrast tile on a ``grid`` x ``grid`` image.
+
+    ``patch`` counts 32x32-pixel blocks (the paper's grid, ``FilterParams.contrast_patch``),
+    so a tile covers the same pixels on every grid: ``patch`` cells on the 8x8 grid,
+    ``2 patch`` on the 16x16 one. None (the whole image) stays None.
+
+    Examples
+    --------
+    >>> tile_cells(8, 2), tile_cells(16, 2), tile_cells(16, None)
+    (2, 4, None)
+    """
+    return None if patch is None else patch * grid // 8
 
 
 def lowres_image(frames: np.ndarray, grid: int = 8) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -21,14 +22,14 @@ KEYFRAME_UNITS = {
 """What ``keyframe_threshold`` measures for each kind."""
 
 _DESCRIBE: dict[str, Callable[[np.ndarray], np.ndarray]] = {
-    "lowres": lowres_image,
-    "lowres16": lambda frame: lowres_image(frame, 16),
+    **{kind: partial(lowres_image, grid=g) for kind, g in LOWRES_GRIDS.items()},
     "lbp": lbp_descriptor,
 }
 
 
 def describe(frame: np.ndarray, kind: str) -> np.ndarray:
-    """Return the node descriptor of one frame: uint8 (8, 8) or a uint32 scalar array.
+    """Return the node descriptor of one frame: uint8 (8, 8) or (16, 16), or a uint32
+    scalar array.
 
     Any frame is first shown to the sensor (:func:`ppaloc.frontend.to_sensor`,
     the identity for a (256, 256) uint8 frame).

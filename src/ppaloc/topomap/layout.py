@@ -16,11 +16,12 @@ from enum import IntEnum
 
 import numpy as np
 
+from ppaloc.place import LOWRES_GRIDS
+
 __all__ = ["KIND_BLOCK_SHAPES", "Direction", "SnakeLayout", "layout_for"]
 
 KIND_BLOCK_SHAPES: dict[str, tuple[int, int]] = {
-    "lowres": (8, 8),
-    "lowres16": (16, 16),
+    **{kind: (g, g) for kind, g in LOWRES_GRIDS.items()},
     "lbp": (4, 8),
 }
 """PE block (rows, cols) per node for each place representation.

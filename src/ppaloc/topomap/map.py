@@ -9,14 +9,13 @@ from typing import Any
 
 import numpy as np
 
-from ppaloc.place import unpack_bits
+from ppaloc.place import LOWRES_GRIDS, unpack_bits
 from ppaloc.topomap.layout import KIND_BLOCK_SHAPES, SnakeLayout, layout_for
 
 __all__ = ["KIND_SPECS", "TopoMap"]
 
 KIND_SPECS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
-    "lowres": (np.dtype(np.uint8), (8, 8)),
-    "lowres16": (np.dtype(np.uint8), (16, 16)),
+    **{kind: (np.dtype(np.uint8), (g, g)) for kind, g in LOWRES_GRIDS.items()},
     "lbp": (np.dtype(np.uint32), ()),
 }
 """Descriptor dtype and per-node shape of the place representations of ``ppaloc.place``.
@@ -192,7 +191,7 @@ class TopoMap:
         the 32 bits as uint8 0/1 in a 4x8 block, row k = cell k's code, MSB in column 0
         (see ``KIND_BLOCK_SHAPES``).
         """
-        if self.kind in ("lowres", "lowres16"):
+        if self.kind in LOWRES_GRIDS:
             return self.descriptors
         if self.kind == "lbp":
             return unpack_bits(self.descriptors).reshape(len(self), *KIND_BLOCK_SHAPES["lbp"])
