@@ -37,6 +37,12 @@ presets given, default both):
   writes amounts to (no other noise).
 - ``figures``: the database, weights and difference registers (PNG) into ``--figures``
   (the paper preset's files as before, the robust preset's with ``_robust``).
+
+``--rep`` picks the representations of ``agreement``, ``timing`` and ``noise`` (default
+``lowres lbp``; ``lowres16`` runs the robust preset only, and its timing is set beside
+the paper's 8x8 figure at 1024 nodes); ``--motion`` the Nordland agreement's motion models
+and maps. A map on a bank is timed as the bank counts it: per phase its slowest sensor
+plus one exchange per synchronisation point (docs/onsensor.md, "Sensor banks").
 """
 
 from __future__ import annotations
@@ -71,8 +77,12 @@ NOISE_ROUTES = {
     "gardens-night": ("gardens day_r->night_r", GARDENS_NIGHT),
 }
 SYNTHETIC = "synthetic:?places=300&query=winter&seed=1"
-PAPER_MS = {"lowres": 2.59, "lbp": 3.17}
-PAPER_NODES = {"lowres": 1024, "lbp": 2048}
+#: The paper's SCAMP-5d frame times and map sizes; lowres16 is compared with the paper's
+#: 8x8 images on a map of as many nodes.
+PAPER_MS = {"lowres": 2.59, "lowres16": 2.59, "lbp": 3.17}
+PAPER_NODES = {"lowres": 1024, "lowres16": 1024, "lbp": 2048}
+#: The representations each part runs by default (``--rep`` picks others).
+REPRESENTATIONS = ("lowres", "lbp")
 NORDLAND_NODES = 1788
 FILTER_PRESETS = ("robust", "paper")
 #: The "typical" preset without analogue droop: separates the droop of the stored database
@@ -85,16 +95,25 @@ def load(spec: str):
     return [to_sensor(f) for f in ds.reference], [to_sensor(f) for f in ds.query], ds
 
 
+def _runs(rep: str, presets: tuple[str, ...]) -> list[str]:
+    """The presets ``rep`` runs in (lowres16: the robust presets only)."""
+    return [p for p in presets if rep != "lowres16" or p != "paper"]
+
+
 def agreement(
-    name: str, spec: str, motions: tuple[str, ...], presets: tuple[str, ...] = FILTER_PRESETS
+    name: str,
+    spec: str,
+    motions: tuple[str, ...],
+    presets: tuple[str, ...] = FILTER_PRESETS,
+    reps: tuple[str, ...] = REPRESENTATIONS,
 ) -> None:
     """Host ppa8 against the sensor, each mapping the reference itself. A motion
     ``"image, every frame"`` maps every frame (``keyframes=false``): the robust preset
     keeps the reference's stops as runs of one place (docs/onsensor.md, "Runs of one
     place")."""
     ref, query, _ = load(spec)
-    for rep in ("lowres", "lbp"):
-        for preset in presets:
+    for rep in reps:
+        for preset in _runs(rep, presets):
             for variant in motions:
                 motion, _, every = variant.partition(", ")
                 kw = {"preset": preset, "motion": motion, "record_weights": True}
@@ -144,10 +163,15 @@ def _random_map(rep: str, n: int) -> TopoMap:
     rng = np.random.default_rng(1)
     if rep == "lbp":
         return TopoMap("lbp", rng.integers(0, 2**32, n, dtype=np.uint32))
-    return TopoMap("lowres", rng.integers(0, 256, (n, 8, 8), dtype=np.uint8))
+    side = 16 if rep == "lowres16" else 8
+    return TopoMap(rep, rng.integers(0, 256, (n, side, side), dtype=np.uint8))
 
 
-def timing(n_frames: int = 24, presets: tuple[str, ...] = FILTER_PRESETS) -> None:
+def timing(
+    n_frames: int = 24,
+    presets: tuple[str, ...] = FILTER_PRESETS,
+    reps: tuple[str, ...] = REPRESENTATIONS,
+) -> None:
     """Per-stage modelled time per frame at the paper's and Nordland's map sizes.
 
     The frames are blocky random images moving by one pixel per frame, so the image
@@ -155,10 +179,10 @@ def timing(n_frames: int = 24, presets: tuple[str, ...] = FILTER_PRESETS) -> Non
     robust *stay* frame skips the scale readout, the replication/descriptor and the
     comparison (the "stay frame" line).
     """
-    for rep in ("lowres", "lbp"):
+    for rep in reps:
         for n in (PAPER_NODES[rep], NORDLAND_NODES):
             topomap = _random_map(rep, n)
-            for preset in presets:
+            for preset in _runs(rep, presets):
                 for motion in ("image", "always_forward"):
                     kw = {"alpha": 8} if preset == "paper" else {}
                     loc = OnSensorLocaliser(rep, preset=preset, motion=motion, **kw)
@@ -182,7 +206,8 @@ def _time_frames(loc, rep: str, n: int, preset: str, motion: str, n_frames: int)
         energy.append(est.energy_mj)
     ms = statistics.median(totals)
     print(
-        f"\ntiming {rep} ({n} nodes, {loc.pipeline.tiles} tile(s)), preset={preset}, "
+        f"\ntiming {rep} ({n} nodes, {loc.pipeline.tiles} tile(s)"
+        f"{_sensors(loc)}), preset={preset}, "
         f"motion={motion}: {ms:.3f} ms per frame (median), {ms / PAPER_MS[rep]:.2f} x the "
         f"paper's {PAPER_MS[rep]} ms; energy {statistics.median(energy):.3f} mJ per frame"
     )
@@ -195,6 +220,13 @@ def _time_frames(loc, rep: str, n: int, preset: str, motion: str, n_frames: int)
         live = ("scale", "replicate", "lbp", "compare")
         stay = sum(v for k, v in means.items() if k not in live) / 1000.0
         print(f"  {'stay frame':12s} {stay * 1000:8.1f} us (robust: no likelihood on stay)")
+
+
+def _sensors(loc: OnSensorLocaliser) -> str:
+    """``", a bank of k sensors"`` where the map is on a bank (its time: the slowest
+    sensor of each phase plus one exchange per synchronisation point)."""
+    sensors = getattr(loc.pipeline, "sensors", None)
+    return "" if sensors is None else f" on a bank of {len(sensors)} sensors"
 
 
 def _max_f1(loc: OnSensorLocaliser, query, truth) -> float:
@@ -244,12 +276,13 @@ def noise(
     routes: tuple[str, ...] = tuple(NOISE_ROUTES),
     stores: tuple[str, ...] = ("default",),
     levels: tuple[str, ...] = ("typical", "typical-no-droop"),
+    reps: tuple[str, ...] = REPRESENTATIONS,
 ) -> None:
     """Max F1 ideal and under each noisy ``levels`` (over ``seeds``), per map store."""
     rows = []
     for name, spec in (NOISE_ROUTES[r] for r in routes):
-        for rep in ("lowres", "lbp"):
-            for preset in presets:
+        for rep in reps:
+            for preset in _runs(rep, presets):
                 for store in _stores(rep, preset, stores):
                     t = time.perf_counter()
                     jobs = [(spec, rep, preset, "ideal", 0, n_query, (), store)]
@@ -680,6 +713,21 @@ def main() -> None:
         help="filter presets to run (default both)",
     )
     parser.add_argument(
+        "--rep",
+        nargs="*",
+        default=list(REPRESENTATIONS),
+        choices=list(PLACES),
+        help="representations of the agreement, timing and noise parts (default lowres "
+        "lbp; lowres16 runs the robust preset only)",
+    )
+    parser.add_argument(
+        "--motion",
+        nargs="*",
+        default=["image", "image, every frame", "always_forward"],
+        choices=["image", "image, every frame", "always_forward"],
+        help="agreement part: the Nordland route's motion models and maps (default all)",
+    )
+    parser.add_argument(
         "--route",
         nargs="*",
         default=["synthetic", "nordland"],
@@ -687,15 +735,15 @@ def main() -> None:
         help="routes of the agreement part (default both)",
     )
     args = parser.parse_args()
-    presets = tuple(args.preset)
+    presets, reps = tuple(args.preset), tuple(args.rep)
     if "timing" in args.part:
-        timing(presets=presets)
+        timing(presets=presets, reps=reps)
     if "agreement" in args.part:
         if "synthetic" in args.route:
-            agreement("synthetic (300 places)", SYNTHETIC, ("image",), presets)
+            agreement("synthetic (300 places)", SYNTHETIC, ("image",), presets, reps)
         if "nordland" in args.route:
-            motions = ("image", "image, every frame", "always_forward")
-            agreement("nordland summer->winter", NORDLAND, motions, presets)
+            motions = tuple(args.motion)
+            agreement("nordland summer->winter", NORDLAND, motions, presets, reps)
     if "noise" in args.part:
         noise(
             args.max_query,
@@ -705,6 +753,7 @@ def main() -> None:
             tuple(args.noise_route),
             tuple(args.store),
             tuple(args.noise_levels),
+            reps,
         )
     if "stages" in args.part:
         stages_table(
