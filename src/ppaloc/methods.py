@@ -77,7 +77,7 @@ METHODS: dict[str, MethodSpec] = {
     "weighted-node-lowres16": MethodSpec(
         "ppaloc.localise.weighted:WeightedNodeLocaliser",
         {"representation": "lowres16"},
-        "the robust weighted-node filter on the host, 16x16 images + SAD (host only)",
+        "the robust weighted-node filter on the host, 16x16 images + SAD",
     ),
     "weighted-node-paper-lowres": MethodSpec(
         "ppaloc.localise.weighted:WeightedNodeLocaliser",
@@ -98,6 +98,12 @@ METHODS: dict[str, MethodSpec] = {
         "ppaloc.onsensor.localiser:OnSensorLocaliser",
         {"representation": "lbp"},
         "the robust weighted-node filter as PPA programs on the simulator, LBP descriptors",
+    ),
+    "onsensor-lowres16": MethodSpec(
+        "ppaloc.onsensor.localiser:OnSensorLocaliser",
+        {"representation": "lowres16"},
+        "the robust weighted-node filter as PPA programs on the simulator, 16x16 images "
+        "(256 nodes a sensor, longer maps on a bank)",
     ),
     "onsensor-paper-lowres": MethodSpec(
         "ppaloc.onsensor.localiser:OnSensorLocaliser",

@@ -87,15 +87,6 @@ def test_bad_parameters_name_the_value(kwargs, message):
         OnSensorLocaliser("lowres", **kwargs)
 
 
-def test_a_host_only_representation_is_refused_in_one_line():
-    with pytest.raises(
-        PpalocError,
-        match=r"^representation='lowres16' runs on the host only so far \(weighted-node-"
-        r"lowres16\); the sensor runs lowres and lbp \(docs/onsensor.md\)$",
-    ):
-        OnSensorLocaliser("lowres16")
-
-
 def test_step_needs_a_map_and_a_sensor_frame(blocky_route):
     loc = OnSensorLocaliser("lbp")
     with pytest.raises(PpalocError, match="no map"):

@@ -5,7 +5,9 @@ Stages ``"capture"`` and ``"reduce"``. :func:`capture` reads the image into the
 leaves minus every grid block's exact mean at its top-left PE by a halving tree and, when
 asked, spreads it over the block into ``means`` (``F := -m``): by masked copies from the
 roots (:func:`spread_copies`, a few writes per PE) or by the paper's doubling tree over a
-zero background.
+zero background. For a finer live grid (``lowres16``) the tree stops at that grid's
+blocks first and the controller reads their codes (:func:`read_grid`), then it goes on
+to the 8x8 grid's blocks, which the image motion test compares with.
 """
 
 from __future__ import annotations
@@ -13,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 
 from ppaloc.onsensor.program import add_level, halve_level, pull_shift
-from ppaloc.onsensor.sensor import Sensor, mask_bits
-from ppaloc.sim import Kernel, Register, east, north, south, west
+from ppaloc.onsensor.sensor import GRID, Sensor, mask_bits
+from ppaloc.sim import IN, NEWS, Kernel, Register, east, north, south, west
 
-__all__ = ["block_means", "capture", "spread_copies"]
+__all__ = ["block_means", "capture", "read_grid", "spread_copies"]
 
 
 def capture(sensor: Sensor, frame: np.ndarray) -> None:
@@ -44,22 +46,80 @@ def _levels(sensor: Sensor) -> tuple[int, ...]:
     return tuple(levels)
 
 
-def block_means(sensor: Sensor, spread: str | None) -> None:
+def block_means(sensor: Sensor, spread: str | None, grid: int = GRID) -> np.ndarray | None:
     """``means := -m``: every PE holds minus the exact mean of its grid block of ``v``.
 
     A halving tree leaves each block's mean at its top-left PE (``spare``; also ``+m`` in
     ``root_means`` where the representation has one). ``spread``: ``"copies"``
     (:func:`spread_copies`), ``"tree"`` (the paper's doubling tree over a zero
     background) or None (the roots only).
+
+    ``grid``: the live grid's cells per side. Finer than the 8x8 blocks (16), the tree
+    first stops at its blocks, whose codes :func:`read_grid` reads, and then goes on
+    (the 8x8 means are the means of the finer ones, exact); the codes are returned,
+    ``(grid, grid)`` uint8. None for the 8x8 grid, whose codes are read where needed.
     """
     r = sensor.roles
     levels = _levels(sensor)
     with sensor.stage("reduce"):
-        sensor.run(_reduce, r.spare, r.frame, r.means, r.root_means, levels)
+        if grid == GRID:
+            codes = None
+            sensor.run(_reduce, r.spare, r.frame, r.means, r.root_means, levels)
+        else:
+            fine = sensor.size // grid  # PEs per side of a block of the finer grid
+            if grid < GRID or fine * grid != sensor.size:
+                raise AssertionError(f"grid {grid} does not refine the 8x8 blocks")
+            split = levels.index(fine)
+            sensor.run(_reduce, r.spare, r.frame, r.means, None, levels[:split])
+            codes = read_grid(sensor, fine)
+            sensor.run(_halve_on, r.spare, r.means, r.root_means, levels[split:])
         if spread == "copies":
             spread_copies(sensor)
         elif spread == "tree":
             sensor.run(_spread_tree, r.means, r.spare, r.d.root32, levels)
+    return codes
+
+
+def read_grid(sensor: Sensor, block: int) -> np.ndarray:
+    """The codes ``q = floor(S / block**2)`` of every ``block`` x ``block`` block (``S``
+    its pixel sum), from ``-m`` at the blocks' top-left PEs in ``spare``.
+
+    One kernel puts ``2m - 1/2`` into ``means`` at the roots (the constant 1/2 halved
+    from the DAC's -1; four writes, exact), and ``scan_areg`` at the blocks' stride reads
+    ``floor(2m + 128)`` (the ADC rounds ``x + 128``): with ``v = p/2 - 64``, ``2m + 128``
+    is the block's mean pixel ``S / block**2``, so for 16x16-pixel blocks the codes are
+    the host's :func:`ppaloc.place.lowres_image` exactly in ideal mode (the one
+    saturation, at -128, gives the right code 0). ``spare`` is kept; returns
+    ``(size / block, size / block)`` uint8.
+    """
+    sim, r = sensor.sim, sensor.roles
+    sim.load_in(-1)
+    sensor.run(_twice_mean, r.means, r.spare)
+    last = sensor.size - 1
+    return sim.scan_areg(r.means, 0, 0, last, last, block, block)
+
+
+def _twice_mean(k: Kernel, out: Register, roots: Register) -> None:
+    """``out := 2m - 1/2`` from ``roots = -m`` and ``IN = -1`` (``roots`` kept)."""
+    k.bus2(out, NEWS, IN)  # 1/2
+    k.bus(out, roots, NEWS)  # m - 1/2
+    k.bus(NEWS, out)  # 1/2 - m
+    k.bus(out, roots, NEWS)  # 2m - 1/2
+
+
+def _halve_on(
+    k: Kernel,
+    roots: Register,
+    scratch: Register,
+    root_means: Register | None,
+    levels: tuple[int, ...],
+) -> None:
+    """The halving tree's remaining ``levels`` from the finer blocks' means at their roots."""
+    for direction in (east, south):
+        for step in levels:
+            halve_level(k, roots, scratch, direction, step)
+    if root_means is not None:
+        k.bus(root_means, roots)
 
 
 def _reduce(

@@ -26,7 +26,7 @@ from ppaloc.onsensor import detect, gain, likelihood
 from ppaloc.onsensor.capture import block_means, capture
 from ppaloc.onsensor.carry import carry_in, carry_out
 from ppaloc.onsensor.lbp import LbpPlaces
-from ppaloc.onsensor.lowres import LowresPlaces
+from ppaloc.onsensor.lowres import Lowres16Places, LowresPlaces
 from ppaloc.onsensor.motion import MotionPlanes, image_motion
 from ppaloc.onsensor.places import Places
 from ppaloc.onsensor.sensor import Sensor
@@ -40,7 +40,11 @@ from ppaloc.topomap import SnakeLayout, TopoMap
 __all__ = ["PLACES", "SensorExecutor"]
 
 #: The representation of each place kind on the sensor.
-PLACES: dict[str, type[Places]] = {"lowres": LowresPlaces, "lbp": LbpPlaces}
+PLACES: dict[str, type[Places]] = {
+    "lowres": LowresPlaces,
+    "lowres16": Lowres16Places,
+    "lbp": LbpPlaces,
+}
 
 
 class SensorExecutor:
@@ -48,7 +52,7 @@ class SensorExecutor:
 
     Parameters
     ----------
-    representation : {"lowres", "lbp"}
+    representation : {"lowres", "lowres16", "lbp"}
     n_nodes : int
         Nodes of the map (tiles follow from the layout's capacity).
     params : FilterParams
@@ -199,7 +203,14 @@ class SensorExecutor:
         the image motion test needs them), without counting a frame."""
         capture(self.sensor, frame)
         image = self.params.motion == "image"
-        block_means(self.sensor, self.plan.spread if self.places.spread_means or image else None)
+        self._block_means(self.plan.spread if self.places.spread_means or image else None)
+
+    def _block_means(self, spread: str | None) -> None:
+        """The block means (spread as asked), and a finer live grid's codes read out
+        (:func:`ppaloc.onsensor.capture.block_means`) where the representation has one."""
+        codes = block_means(self.sensor, spread, self.places.grid)
+        if codes is not None:
+            self.places.grid_codes = codes
 
     def motion(self, decided: bool | None) -> bool:
         """``decided`` when given (the controller's), else the sensor's own test: the
@@ -325,7 +336,7 @@ class SensorExecutor:
     def _block_means_for_mapping(self, spread: bool | None) -> None:
         if spread is None:
             spread = self.places.spread_means or self.params.motion == "image"
-        block_means(self.sensor, self.plan.spread if spread else None)
+        self._block_means(self.plan.spread if spread else None)
 
     def map_keyframes(self, frames: Sequence[np.ndarray]) -> tuple[list[Any], list[int]]:
         """The keyframe mapping run: ``(nodes, kept)`` over a reference traversal.

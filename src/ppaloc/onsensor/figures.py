@@ -121,7 +121,7 @@ def difference_figure(
                 pipe.capture(frame)
                 places.prepare_live()
             pipe.sensor.run(_difference, places.levels, db)
-            planes["replicated 8x8 grid (-F)"] = -sim.read(F)
+            planes[f"replicated {places.grid}x{places.grid} grid (-F)"] = -sim.read(F)
             name = "n = A/2 + B/32" if places.levels else db.name
             planes[f"database ({name})"] = places.map_plane(0)
             planes["difference |f - n| (E)"] = sim.read(E)

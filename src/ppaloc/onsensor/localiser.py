@@ -32,7 +32,12 @@ from ppaloc.onsensor.bank import SensorBank
 from ppaloc.onsensor.executor import PLACES, SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import make_pipeline
-from ppaloc.onsensor.precursor import STRUCTURES, loop_counts, structure_counts
+from ppaloc.onsensor.precursor import (
+    REPLACED_STAGES,
+    STRUCTURES,
+    loop_counts,
+    structure_counts,
+)
 from ppaloc.sim import NoiseParams
 from ppaloc.sim.observe import SimObserver, check_observers
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
@@ -42,7 +47,7 @@ __all__ = ["NOISE_PRESETS", "SENSOR_REPRESENTATIONS", "OnSensorLocaliser"]
 
 NOISE_PRESETS = ("ideal", "low", "typical", "high")
 
-SENSOR_REPRESENTATIONS = ("lowres", "lbp")
+SENSOR_REPRESENTATIONS = ("lowres", "lowres16", "lbp")
 """The representations the sensor's programs run (the host runs every one of
 :data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
@@ -56,9 +61,11 @@ class OnSensorLocaliser:
 
     Parameters
     ----------
-    representation : {"lowres", "lbp"}
-        8x8 images in an analogue register (8x8 PEs per node, 1024 per tile) or 32-bit
-        LBP descriptors in a digital register (4x8 PEs per node, 2048 per tile).
+    representation : {"lowres", "lowres16", "lbp"}
+        8x8 images in an analogue register (8x8 PEs per node, 1024 per tile), 16x16
+        images (16x16 PEs per node, 256 per tile; robust preset only, a longer map on a
+        bank) or 32-bit LBP descriptors in a digital register (4x8 PEs per node, 2048
+        per tile).
     noise : {"ideal", "low", "typical", "high"} or NoiseParams
         The simulator's noise preset, or custom parameters (e.g. a preset without the
         analogue droop, to separate its effect).
@@ -138,11 +145,17 @@ class OnSensorLocaliser:
             raise PpalocError(
                 f"representation={representation!r} runs on the host only so far "
                 f"(weighted-node-{representation}); the sensor runs "
-                f"{' and '.join(SENSOR_REPRESENTATIONS)} (docs/onsensor.md)"
+                f"{', '.join(SENSOR_REPRESENTATIONS)} (docs/onsensor.md)"
             )
         if timing_structure not in STRUCTURES:
             raise PpalocError(
                 f"timing_structure={timing_structure!r} is not one of {', '.join(STRUCTURES)}"
+            )
+        if timing_structure == "precursor" and representation not in REPLACED_STAGES:
+            raise PpalocError(
+                f"timing_structure='precursor' has no structure for {representation!r} (the "
+                f"precursor's code compares {' and '.join(REPLACED_STAGES)}); use "
+                "timing_structure='ppaloc'"
             )
         if not isinstance(noise, NoiseParams) and noise not in NOISE_PRESETS:
             raise PpalocError(

@@ -1,7 +1,10 @@
 """Low-res place images on the sensor: map tiles in analogue registers, SAD comparison.
 
-Every node is an 8x8 image in an 8x8 PE block (1024 nodes per tile on a 256 array), held
-in one of two map stores (docs/onsensor.md, "Map store"):
+Every node is a ``grid`` x ``grid`` image in a block of as many PEs (``grid`` from
+:data:`ppaloc.place.LOWRES_GRIDS`): ``"lowres"``, 8x8 images, 1024 nodes per tile on a
+256 array (:class:`LowresPlaces`); ``"lowres16"``, 16x16 images, 256 nodes per tile
+(:class:`Lowres16Places`, contrast-normalised images only). A tile is held in one of two
+map stores (docs/onsensor.md, "Map store"):
 
 - ``"analogue"`` (the paper preset's default): ``n = q/2 - 64`` in one analogue database
   register per tile (``A``, ``B``: two tiles per sensor); it droops over a long query.
@@ -11,13 +14,16 @@ in one of two map stores (docs/onsensor.md, "Map store"):
   15 comparisons rewrites each register with exact DAC levels (:meth:`LowresPlaces.refresh`),
   and the comparison rebuilds ``n = H/2 + L/32`` exactly (ideal mode) before its tree.
 
-Each frame the live 8x8 grid of block means is replicated over every node block and
-compared by the clipped absolute difference, summed by a halving tree per block. Where
-the filter compares contrast-normalised images (``FilterParams.contrast``, the robust
-preset) the controller reads the grid's 64 codes, normalises them
+Each frame the live grid of block means is put over every node block and compared by
+the clipped absolute difference, summed by a halving tree per block. Where the filter
+compares contrast-normalised images (``FilterParams.contrast``, the robust preset) the
+controller reads the grid's codes (64 or 256), normalises them
 (:func:`ppaloc.place.normalise_contrast`, as its map's nodes were before upload) and
-loads them through the DAC (:meth:`LowresPlaces.load_live`); otherwise the exact means
-are replicated by shifts (:meth:`LowresPlaces.replicate`).
+loads them through the DAC (:meth:`LowresPlaces.load_live`); otherwise the exact 8x8
+means are replicated by shifts (:meth:`LowresPlaces.replicate`, the paper preset's).
+The 16x16 grid's codes are read by the reduce stage
+(:func:`ppaloc.onsensor.capture.block_means`), before the image motion test takes the
+captured frame's register.
 """
 
 from __future__ import annotations
@@ -31,8 +37,8 @@ from ppaloc.onsensor.minimum import refine_minimum
 from ppaloc.onsensor.places import Places, Tree
 from ppaloc.onsensor.program import halve_level, pull_shift
 from ppaloc.onsensor.roles import DRegs, Roles
-from ppaloc.onsensor.sensor import GRID
-from ppaloc.place import normalise_contrast
+from ppaloc.onsensor.sensor import GRID, mask_bits
+from ppaloc.place import LOWRES_GRIDS, normalise_contrast, tile_cells
 from ppaloc.sim import (
     IN,
     NEWS,
@@ -58,7 +64,14 @@ from ppaloc.sim import (
 )
 from ppaloc.topomap import TopoMap
 
-__all__ = ["LOWRES_DREGS", "LOWRES_ROLES", "ROOTS", "LowresPlaces"]
+__all__ = [
+    "LOWRES16_ROLES",
+    "LOWRES_DREGS",
+    "LOWRES_ROLES",
+    "ROOTS",
+    "Lowres16Places",
+    "LowresPlaces",
+]
 
 #: R3 holds two roles in turn: ``root32`` (the 32x32 block roots, loaded at every capture
 #: and read by the spread of the block means) and ``pattern`` (node roots of one tile in
@@ -77,6 +90,15 @@ LOWRES_ROLES = Roles(
     static=(R1, R2, R4),
     in_turn=(("d.pattern", "d.root32"),),
 )
+#: The 16x16 low-res pipeline's roles: those of :data:`LOWRES_ROLES` without the
+#: replication's class masks (its images are always normalised and loaded through the
+#: DAC), so ``R1`` and ``R2`` are free.
+LOWRES16_ROLES = Roles(
+    db=(A, B),
+    d=LOWRES_DREGS,
+    static=(R4,),
+    in_turn=(("d.pattern", "d.root32"),),
+)
 
 
 class LowresPlaces(Places):
@@ -84,6 +106,7 @@ class LowresPlaces(Places):
 
     representation = "lowres"
     roles = LOWRES_ROLES
+    grid = LOWRES_GRIDS["lowres"]
     stores: ClassVar[dict[str, int]] = {"levels": 1, "analogue": 2}
     spread_means = True
     #: Levels store: the level of 0 in ``A`` (high halves) and ``B`` (low halves); levels
@@ -93,13 +116,14 @@ class LowresPlaces(Places):
     #: Levels store: frames between refreshes (droop <= 0.05 units/ms x 4 frames x ~1.2 ms
     #: = 0.25 of the margin of 8; an error of at most 0.12 in ``n``).
     REFRESH_EVERY = 4
-    #: Replication class masks: rows, columns whose residue mod 8 is their block's index.
-    class_masks: tuple[Register, Register] = (R1, R2)
+    #: Replication class masks: rows, columns whose residue mod 8 is their block's index
+    #: (none where the live grid is always loaded through the DAC).
+    class_masks: tuple[Register, ...] = (R1, R2)
     #: The tree leaves ``-mu / 2`` at each node root.
     value_scale = (-1, 1)
     #: Address-pattern "don't care" bits of :meth:`load_live`'s classes: every PE whose
     #: row and column residues mod 8 are the grid cell's.
-    CLASS_DONT_CARE = 0xFF & ~(GRID - 1)
+    CLASS_DONT_CARE = mask_bits(grid)
 
     def reset(self) -> None:
         #: The live grid as :meth:`load_live` last loaded it (normalised; inspection).
@@ -107,6 +131,9 @@ class LowresPlaces(Places):
         #: Whether ``F`` still holds the live frame :meth:`prepare_live` put there (the
         #: refinement of the frame's best distance uses it as a working plane).
         self.live_kept = False
+        #: A grid finer than 8x8: its codes as the reduce stage last read them
+        #: (:meth:`describe` gives them).
+        self.grid_codes: np.ndarray | None = None
 
     @classmethod
     def max_tiles(cls, plan: SensorPlan, store: str) -> int:
@@ -175,7 +202,10 @@ class LowresPlaces(Places):
 
     def setup_masks(self) -> None:
         """Class masks ``R1`` (rows), ``R2`` (columns): the residue mod 8 of the row
-        (column) is its grid block's index."""
+        (column) is its grid block's index (for :meth:`replicate`; none without
+        :attr:`class_masks`)."""
+        if not self.class_masks:
+            return
         sensor = self.sensor
         sim, dr = sensor.sim, self.roles.d
         free = (sensor.block - 1) & ~(GRID - 1) & 0xFF
@@ -215,7 +245,14 @@ class LowresPlaces(Places):
         blocks = super().node_blocks(topomap)
         if not self.normalised:
             return blocks
-        return normalise_contrast(blocks, self.params.contrast, self.params.contrast_patch)
+        return normalise_contrast(blocks, self.params.contrast, self.patch)
+
+    @property
+    def patch(self) -> int | None:
+        """The side, in cells, of the tiles ``contrast`` normalises each on its own: the
+        same pixels on every grid (``contrast_patch`` counts 32x32-pixel blocks; None
+        without it)."""
+        return tile_cells(self.grid, self.params.contrast_patch)
 
     def load_live(self) -> None:
         """``F := -f'``, PE (r, c) holding the normalised live cell (r%8, c%8).
@@ -235,9 +272,7 @@ class LowresPlaces(Places):
         sensor = self.sensor
         sim, dr = sensor.sim, self.roles.d
         with sim.stage("replicate"):
-            live = normalise_contrast(
-                self.describe(), self.params.contrast, self.params.contrast_patch
-            )
+            live = normalise_contrast(self.describe(), self.params.contrast, self.patch)
             self.live_image = live
             free = self.CLASS_DONT_CARE
             for (i, j), q in np.ndenumerate(live):
@@ -287,7 +322,7 @@ class LowresPlaces(Places):
     def tree(self, tile: int, halving: bool) -> Tree:
         """``D = -(mu / 2)`` at each node root, ``mu`` the mean of ``min(|f - n|, 127)``
         (a halving tree over ``D`` and ``E``; the same for both presets)."""
-        return (_tree, (self.levels, self.roles.db[tile]))
+        return (_tree, (self.levels, self.roles.db[tile], tree_steps(self.grid)))
 
     def values(self, codes: np.ndarray) -> np.ndarray:
         """``r = 2 (128 - code)``: the ADC code of ``-mu/2`` read back (docs/ppa8.md)."""
@@ -304,7 +339,38 @@ class LowresPlaces(Places):
     def live_planes(self) -> dict[str, np.ndarray]:
         if not self.live_kept:
             return {}
-        return {"F: live 8x8 grid, replicated (negated)": self.sensor.sim.read(F)}
+        label = f"F: live {self.grid}x{self.grid} grid, replicated (negated)"
+        return {label: self.sensor.sim.read(F)}
+
+
+class Lowres16Places(LowresPlaces):
+    """Low-res 16x16 place images on the sensor: 16x16 PEs a node, 256 nodes a tile.
+
+    As :class:`LowresPlaces` with the grid of ``"lowres16"``: the reduce stage reads the
+    live frame's 16x16 block means (:func:`ppaloc.onsensor.capture.block_means`, exact
+    codes ``floor(S / 256)``), the controller normalises them tile by tile (the same
+    64x64 pixels as the 8x8 grid's tiles) and :meth:`load_live` writes the 256 cells into
+    every node block; the tree halves over 16x16 PEs (steps 1, 2, 4, 8 east, then south),
+    leaving ``-mu/2`` at each root as for 8x8. Contrast-normalised images only (the robust
+    preset), so there is no replication by shifts and no class masks.
+    """
+
+    representation = "lowres16"
+    roles = LOWRES16_ROLES
+    grid = LOWRES_GRIDS["lowres16"]
+    spread_means = False  # only the image motion test reads the 8x8 means spread
+    class_masks = ()
+    CLASS_DONT_CARE = mask_bits(grid)
+
+    def describe(self) -> np.ndarray:
+        """The node's uint8 16x16 image: the codes the reduce stage read (exact in ideal
+        mode, :func:`ppaloc.onsensor.capture.read_grid`)."""
+        if self.grid_codes is None:
+            raise AssertionError("describe before the reduce stage read the 16x16 grid")
+        return self.grid_codes.copy()
+
+    def replicate(self) -> None:
+        raise AssertionError("lowres16 compares contrast-normalised images only (load_live)")
 
 
 # Kernel builders (pure functions of their arguments, cached by what they are).
@@ -385,7 +451,18 @@ def levels_difference(k: Kernel) -> None:
     k.bus(D, NEWS, F)  # -(n - f)
 
 
-def _tree(k: Kernel, levels: bool, db: Register) -> None:
+def tree_steps(grid: int) -> tuple[int, ...]:
+    """The halving tree's steps over a ``grid`` x ``grid`` node block: 1, 2, 4, ... grid/2.
+
+    Examples
+    --------
+    >>> tree_steps(8), tree_steps(16)
+    ((1, 2, 4), (1, 2, 4, 8))
+    """
+    return tuple(1 << i for i in range(grid.bit_length() - 1))
+
+
+def _tree(k: Kernel, levels: bool, db: Register, steps: tuple[int, ...]) -> None:
     if levels:
         levels_difference(k)
     else:
@@ -393,5 +470,5 @@ def _tree(k: Kernel, levels: bool, db: Register) -> None:
     k.abs(E, D)  # min(|f - n|, 127)
     k.bus2(D, NEWS, E)  # D = -|f - n| / 2
     for direction in (east, south):
-        for step in (1, 2, 4):
+        for step in steps:
             halve_level(k, D, E, direction, step)

@@ -81,11 +81,12 @@ def upload_map(pipe: SensorExecutor, topomap: TopoMap, runs: bool = True) -> Non
     sensor = pipe.sensor
     db = sensor.roles.db
     with sensor.stage("mapping"):
-        if pipe.representation == "lowres" and pipe.store == "levels":
+        lowres = isinstance(pipe.places, LowresPlaces)
+        if lowres and pipe.store == "levels":
             (plane,) = sensor.layout.to_planes(blocks, fill=0)
             for reg, values in zip(db, LowresPlaces.level_planes(plane), strict=True):
                 _write_values(sensor, reg, values, skip=None)
-        elif pipe.representation == "lowres":
+        elif lowres:
             planes = sensor.layout.to_planes(blocks, fill=128)
             for t, plane in enumerate(planes):
                 _write_values(sensor, db[t], plane.astype(np.int64) - 128, skip=0)

@@ -18,7 +18,8 @@
 :mod:`ppaloc.onsensor.carry`           a bank's exact carry between sensors
 :mod:`ppaloc.onsensor.weights`         what the controller still owes the weights
 :mod:`ppaloc.onsensor.lowres`          :class:`LowresPlaces`: 8x8 images, map stores,
-                                       replication, SAD trees
+                                       replication, SAD trees; :class:`Lowres16Places`:
+                                       16x16 images (the grid read by the reduce stage)
 :mod:`ppaloc.onsensor.lbp`             :class:`LbpPlaces`: descriptor on the array,
                                        descriptor load, Hamming trees
 :mod:`ppaloc.onsensor.executor`        :class:`SensorExecutor`: the schedule's steps
@@ -56,7 +57,7 @@ from ppaloc.localise.params import FilterParams
 from ppaloc.localise.schedule import SCHEDULES, SensorPlan
 from ppaloc.onsensor.executor import PLACES, SensorExecutor
 from ppaloc.onsensor.lbp import LbpPlaces
-from ppaloc.onsensor.lowres import LowresPlaces
+from ppaloc.onsensor.lowres import Lowres16Places, LowresPlaces
 from ppaloc.onsensor.roles import DRegs, Roles
 from ppaloc.sim import NoiseParams
 from ppaloc.sim.observe import SimObserver
@@ -65,6 +66,7 @@ __all__ = [
     "PLACES",
     "DRegs",
     "LbpPlaces",
+    "Lowres16Places",
     "LowresPlaces",
     "Roles",
     "SensorExecutor",
@@ -84,11 +86,11 @@ def make_pipeline(
     store: str | None = None,
     observers: Sequence[SimObserver] = (),
 ) -> SensorExecutor:
-    """Build the sensor executor of ``representation`` (``"lowres"`` or ``"lbp"``).
+    """Build the sensor executor of ``representation`` (a key of :data:`PLACES`).
 
     Parameters
     ----------
-    representation : {"lowres", "lbp"}
+    representation : {"lowres", "lowres16", "lbp"}
     n_nodes : int
         Nodes of the map.
     params : FilterParams

@@ -19,7 +19,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.params import FilterParams
 from ppaloc.localise.schedule import SensorPlan
 from ppaloc.onsensor.roles import Roles
-from ppaloc.onsensor.sensor import Sensor
+from ppaloc.onsensor.sensor import GRID, Sensor
 from ppaloc.topomap import TopoMap
 
 __all__ = ["Places", "Tree"]
@@ -51,6 +51,12 @@ class Places:
         only the image motion test does).
     value_scale : (int, int)
         ``(sign, e)``: a tile's tree leaves ``sign * mu * 2**-e`` at every node root.
+    grid : int
+        Cells per side of the live grid the reduce stage reads out where it is finer than
+        the 8x8 block means (:func:`ppaloc.onsensor.capture.block_means`); 8: none read
+        there.
+    grid_codes : ndarray of uint8 or None
+        The finer grid's codes as the reduce stage last read them.
     """
 
     representation: ClassVar[str]
@@ -58,6 +64,8 @@ class Places:
     stores: ClassVar[dict[str, int]]
     spread_means: ClassVar[bool] = True
     value_scale: ClassVar[tuple[int, int]]
+    grid: ClassVar[int] = GRID
+    grid_codes: np.ndarray | None = None
 
     def __init__(self, sensor: Sensor, params: FilterParams) -> None:
         self.sensor = sensor

@@ -23,14 +23,17 @@ import numpy as np
 from ppaloc.errors import PpalocError
 from ppaloc.onsensor.program import KernelCache
 from ppaloc.onsensor.roles import Roles
+from ppaloc.place import LOWRES_GRIDS
 from ppaloc.sim import Kernel, NoiseParams, Register, Scamp5, TimingModel
 from ppaloc.sim.observe import SimObserver
 from ppaloc.topomap import SnakeLayout, layout_for
 
 __all__ = ["GRID", "Sensor", "mask_bits"]
 
-#: Grid cells per side of the live frame's reduction (docs/ppa8.md: 8x8 block means).
-GRID = 8
+#: Grid cells per side of the live frame's reduction (docs/ppa8.md: 8x8 block means), the
+#: blocks of the image motion test and of the ``"lowres"`` place; finer places
+#: (:data:`ppaloc.place.LOWRES_GRIDS`) refine these blocks.
+GRID = LOWRES_GRIDS["lowres"]
 
 
 def mask_bits(n: int) -> int:
@@ -43,8 +46,8 @@ class Sensor:
 
     Parameters
     ----------
-    representation : {"lowres", "lbp"}
-        Picks the snake layout (8x8 PEs per node, or 4x8).
+    representation : {"lowres", "lowres16", "lbp"}
+        Picks the snake layout (8x8 PEs per node, 16x16, or 4x8).
     roles : Roles
         The register roles (checked).
     n_nodes : int
