@@ -4,7 +4,7 @@ The compiled engine moves a stretch of ICWs run often to generated, fused loops,
 once per machine (about 0.1 s an ICW) by a background process while its first tier runs,
 and stopped with the command that asked for it (:mod:`ppaloc.sim.engines.fused`). So a
 short command may end before the fast code is there. :func:`warm_up` runs every on-sensor
-pipeline (both representations, both presets, ideal and ``typical`` noise) long enough
+pipeline (every representation in each preset it runs, ideal and ``typical`` noise) long enough
 for each hot stretch to ask for its compile, then compiles them all and waits: later runs
 find them in the cache folder (``ppaloc warm-up``).
 """
@@ -13,18 +13,20 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ppaloc.onsensor.localiser import OnSensorLocaliser
+from ppaloc.onsensor.localiser import SENSOR_REPRESENTATIONS, OnSensorLocaliser
 from ppaloc.sim.demo import synthetic_scene
 from ppaloc.sim.engines import finish_compiles
 from ppaloc.sim.engines.compiled import FUSE_AFTER
 
 __all__ = ["CONFIGS", "warm_up"]
 
-#: ``(representation, preset, noise)`` of every pipeline :func:`warm_up` runs.
+#: ``(representation, preset, noise)`` of every pipeline :func:`warm_up` runs (the 16x16
+#: images in the robust preset only, the one that runs on them).
 CONFIGS = tuple(
     (rep, preset, noise)
-    for rep in ("lowres", "lbp")
+    for rep in SENSOR_REPRESENTATIONS
     for preset in ("robust", "paper")
+    if rep != "lowres16" or preset == "robust"
     for noise in ("ideal", "typical")
 )
 
