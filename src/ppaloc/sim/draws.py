@@ -214,6 +214,14 @@ def _numba_loops() -> SimpleNamespace:
         return z ^ (z >> np.uint64(31))
 
     @numba.njit(inline="always", **opts)
+    def horner9(x, c0, c1, c2, c3, c4, c5, c6, c7, c8):  # pragma: no cover - compiled
+        """``c0 x**8 + ... + c8`` in Horner's order, as :func:`normal_of_bits` sums it."""
+        p = c1 + c0 * x
+        for c in (c2, c3, c4, c5, c6, c7, c8):
+            p = c + p * x
+        return p
+
+    @numba.njit(inline="always", **opts)
     def normal32(h):  # pragma: no cover - compiled
         top = h >> np.uint64(32)
         k = np.int32(top & np.uint64(0x7FFFFFFF))
@@ -231,24 +239,8 @@ def _numba_loops() -> SimpleNamespace:
         log_m = two * s * (one + s2 * (t3 + s2 * (t5 + s2 * (t7 + s2 * t9))))
         ef = np.float32(e)
         w = -((ef * ln2_hi) + (log_m + ef * ln2_lo))
-        wa = w - w0
-        pa = a1 + a0 * wa
-        pa = a2 + pa * wa
-        pa = a3 + pa * wa
-        pa = a4 + pa * wa
-        pa = a5 + pa * wa
-        pa = a6 + pa * wa
-        pa = a7 + pa * wa
-        pa = a8 + pa * wa
-        wb = sqrt32(w) - three
-        pb = b1 + b0 * wb
-        pb = b2 + pb * wb
-        pb = b3 + pb * wb
-        pb = b4 + pb * wb
-        pb = b5 + pb * wb
-        pb = b6 + pb * wb
-        pb = b7 + pb * wb
-        pb = b8 + pb * wb
+        pa = horner9(w - w0, a0, a1, a2, a3, a4, a5, a6, a7, a8)
+        pb = horner9(sqrt32(w) - three, b0, b1, b2, b3, b4, b5, b6, b7, b8)
         p = pa if w < five else pb
         r = sqrt2 * (p * (one - v))
         return -r if (top & np.uint64(0x80000000)) != np.uint64(0) else r
