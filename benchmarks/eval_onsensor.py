@@ -60,6 +60,7 @@ import numpy as np
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.evaluate.metrics import is_correct, max_f1, pr_curve
+from ppaloc.localise.params import runs_on
 from ppaloc.localise.schedule import SCHEDULES
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor import OnSensorLocaliser
@@ -97,7 +98,7 @@ def load(spec: str):
 
 def _runs(rep: str, presets: tuple[str, ...]) -> list[str]:
     """The presets ``rep`` runs in (lowres16: the robust presets only)."""
-    return [p for p in presets if rep != "lowres16" or p != "paper"]
+    return [p for p in presets if runs_on(rep, p)]
 
 
 def agreement(

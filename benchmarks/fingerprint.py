@@ -44,13 +44,15 @@ ROUTES = {
 
 def cases(quick: bool) -> list[tuple[str, str, dict[str, Any]]]:
     """``(route, method, params)`` of every case."""
+    from ppaloc.localise.params import runs_on
+
     out: list[tuple[str, str, dict[str, Any]]] = []
     routes = ["synthetic-sync", "synthetic-speed"]
     if not quick:
         routes += ["nordland", "gardens-point"]
     for route in routes:
         for rep in ("lowres", "lbp", "lowres16"):
-            for preset in ("",) if rep == "lowres16" else ("", "paper-"):
+            for preset in ("", "paper-") if runs_on(rep, "paper") else ("",):
                 for arithmetic in ("float", "ppa8"):
                     out.append((route, f"weighted-node-{preset}{rep}", {"arithmetic": arithmetic}))
                 for noise in ("ideal", "typical"):

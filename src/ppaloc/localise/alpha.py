@@ -11,11 +11,12 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.likelihood import distance_scale
+from ppaloc.localise.params import DEFAULT_SHIFT
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ALPHA_CAP", "ALPHA_FACTOR", "suggest_alpha"]
 
-_REPRESENTATIONS = ("lowres", "lbp")
+_REPRESENTATIONS = tuple(DEFAULT_SHIFT)
 """The places the paper preset runs on (not ``"lowres16"``, which it does not compare)."""
 
 

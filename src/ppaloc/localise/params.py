@@ -64,6 +64,7 @@ __all__ = [
     "likelihood_shift",
     "preset_group",
     "refined_minimum",
+    "runs_on",
     "transition_costs",
 ]
 
@@ -100,7 +101,21 @@ CONTRAST_PATCHES = (2, 4, 8)
 
 DEFAULT_SHIFT = {"lowres": 2, "lbp": 1}
 """Paper preset: the default likelihood shift per representation. One frame's term spans
-0-32 units in both (low-res ``mu`` is in [0, 127], LBP ``mu`` in [0, 64])."""
+0-32 units in both (low-res ``mu`` is in [0, 127], LBP ``mu`` in [0, 64]). Its keys are
+the representations the paper preset runs on (:func:`runs_on`)."""
+
+
+def runs_on(representation: str, preset: str) -> bool:
+    """Whether ``preset`` runs on ``representation``: a robust preset on every one, the
+    paper's on those of :data:`DEFAULT_SHIFT` (not ``"lowres16"``, whose images it would
+    compare unnormalised).
+
+    Examples
+    --------
+    >>> runs_on("lowres16", "robust"), runs_on("lowres16", "paper"), runs_on("lbp", "paper")
+    (True, False, True)
+    """
+    return preset_group(preset) == "robust" or representation in DEFAULT_SHIFT
 
 
 def check_int(name: str, value: Any, low: int, high: int | None = None) -> int:
@@ -286,7 +301,7 @@ class FilterParams:
         1
         """
         group = preset_group(preset)
-        if representation == "lowres16" and group != "robust":
+        if not runs_on(representation, preset):
             raise PpalocError(
                 f"preset={preset!r} does not run on the lowres16 place, which compares "
                 "contrast-normalised images only; use a robust preset, or lowres or lbp"

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from ppaloc.localise.params import runs_on
 from ppaloc.onsensor.localiser import SENSOR_REPRESENTATIONS, OnSensorLocaliser
 from ppaloc.sim.demo import synthetic_scene
 from ppaloc.sim.engines import finish_compiles
@@ -26,7 +27,7 @@ CONFIGS = tuple(
     (rep, preset, noise)
     for rep in SENSOR_REPRESENTATIONS
     for preset in ("robust", "paper")
-    if rep != "lowres16" or preset == "robust"
+    if runs_on(rep, preset)
     for noise in ("ideal", "typical")
 )
 
