@@ -105,6 +105,12 @@ METHODS: dict[str, MethodSpec] = {
         "the robust weighted-node filter as PPA programs on the simulator, 16x16 images "
         "(256 nodes a sensor, longer maps on a bank)",
     ),
+    "onsensor-auto": MethodSpec(
+        "ppaloc.onsensor.localiser:OnSensorLocaliser",
+        {"representation": "auto"},
+        "the robust weighted-node filter as PPA programs on the simulator, the richest "
+        "place the map's length leaves room for on `sensors` sensors (default 1)",
+    ),
     "onsensor-paper-lowres": MethodSpec(
         "ppaloc.onsensor.localiser:OnSensorLocaliser",
         {"representation": "lowres", "preset": "paper"},

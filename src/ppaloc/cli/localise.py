@@ -249,8 +249,7 @@ def _check_live(loc: Any, name: str) -> None:
         raise PpalocError(
             f"--live shows the on-sensor localiser, and method {name!r} runs on the host: "
             "give --method onsensor-lowres, onsensor-lowres16 or onsensor-lbp (with a map of "
-            "their kind), or "
-            "leave out --live"
+            "their kind) or onsensor-auto (any map), or leave out --live"
         )
     loc.record_weights = True  # untimed register reads: the estimates do not change
 

@@ -1,0 +1,117 @@
+"""Which place a map gets on the sensor: the richest one its length leaves room for.
+
+A SCAMP-5 array holds a fixed number of PEs, so the information a place may carry falls
+as the map grows: 16x16 images take 16x16 PEs a node (256 nodes a tile), 8x8 images 8x8
+PEs (1024), 32-bit LBP descriptors 4x8 PEs of a digital register (2048). How many tiles
+one sensor holds depends on the registers the preset's working set leaves free (the
+robust preset's low-res maps one tile beside the best-distance refinement, LBP two
+digital tiles; :meth:`ppaloc.onsensor.places.Places.max_tiles`). ``representation="auto"``
+(:class:`~ppaloc.onsensor.localiser.OnSensorLocaliser`, the method ``onsensor-auto``)
+takes the first place of :data:`RICHEST_FIRST` the preset runs on whose map fits the
+sensors given (``sensors``, default one: the device on a desk), and the place that needs
+the fewest sensors when none fits (a bank of them, docs/onsensor.md, "Sensor banks").
+
+Richer is better on average, not on every route: over the 65 routes of
+``benchmarks/eval_robust.py`` the robust filter's mean max F1 is 0.753 with 16x16
+images, 0.701 with 8x8 and 0.560 with LBP (docs/localise.md, "More values a place").
+
+Examples
+--------
+>>> from ppaloc.localise.schedule import RobustSchedule
+>>> [(n, choose_place(n, 1, RobustSchedule.sensor)) for n in (200, 256, 257, 1500, 5000)]
+[(200, 'lowres16'), (256, 'lowres16'), (257, 'lowres'), (1500, 'lbp'), (5000, 'lbp')]
+>>> choose_place(1500, 2, RobustSchedule.sensor)
+'lowres'
+"""
+
+from __future__ import annotations
+
+import math
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.schedule import SensorPlan
+from ppaloc.onsensor.executor import PLACES
+from ppaloc.topomap import layout_for
+
+__all__ = ["RICHEST_FIRST", "choose_place", "place_table", "sensor_capacity"]
+
+RICHEST_FIRST = ("lowres16", "lowres", "lbp")
+"""The sensor's places, most information a place first: 256 values, 64 values, 32 bits."""
+
+
+def sensor_capacity(
+    representation: str, plan: SensorPlan, store: str | None = None, size: int = 256
+) -> int:
+    """Nodes one sensor holds of ``representation`` under a schedule's ``plan``: the tiles
+    its store leaves room for times the nodes of a tile (an array of ``size`` PEs a side).
+
+    Examples
+    --------
+    >>> from ppaloc.localise.schedule import PaperSchedule, RobustSchedule
+    >>> [sensor_capacity(r, RobustSchedule.sensor) for r in RICHEST_FIRST]
+    [256, 1024, 4096]
+    >>> sensor_capacity("lowres", PaperSchedule.sensor)
+    2048
+    """
+    places = PLACES[representation]
+    store = places.choose_store(plan, store)
+    return places.max_tiles(plan, store) * layout_for(representation, (size, size)).capacity
+
+
+def _sensors_needed(n_nodes: int, representation: str, plan: SensorPlan, size: int) -> int:
+    return math.ceil(n_nodes / sensor_capacity(representation, plan, size=size))
+
+
+def choose_place(
+    n_nodes: int,
+    sensors: int,
+    plan: SensorPlan,
+    *,
+    runs_on: tuple[str, ...] = RICHEST_FIRST,
+    size: int = 256,
+) -> str:
+    """The place a map of ``n_nodes`` nodes gets on ``sensors`` sensors.
+
+    The first of ``runs_on`` (in the order of :data:`RICHEST_FIRST`: the places the
+    preset runs on) whose map fits; when none fits, the one that needs the fewest sensors
+    (the richest of those on a tie). A map of one sensor's preset (``plan.bank`` False)
+    counts one sensor whatever ``sensors`` says.
+    """
+    if n_nodes < 1:
+        raise PpalocError(f"a map of {n_nodes} nodes has no place to choose: it needs a node")
+    if isinstance(sensors, bool) or not isinstance(sensors, int) or sensors < 1:
+        raise PpalocError(f"sensors={sensors!r} must be a positive integer")
+    candidates = [r for r in RICHEST_FIRST if r in runs_on]
+    if not candidates:
+        raise PpalocError(f"no sensor place among {', '.join(runs_on) or 'none'}")
+    budget = sensors if plan.bank else 1
+    need = {r: _sensors_needed(n_nodes, r, plan, size) for r in candidates}
+    fitting = [r for r in candidates if need[r] <= budget]
+    if fitting:
+        return fitting[0]
+    return min(candidates, key=lambda r: need[r])  # min keeps the richest on a tie
+
+
+def place_table(
+    plan: SensorPlan, sensors: int = 1, *, runs_on: tuple[str, ...] = RICHEST_FIRST
+) -> list[tuple[int, str]]:
+    """``[(most nodes, place), ...]``: the longest map each place is chosen for on
+    ``sensors`` sensors, in order (the table of docs/onsensor.md).
+
+    Examples
+    --------
+    >>> from ppaloc.localise.schedule import RobustSchedule
+    >>> place_table(RobustSchedule.sensor)
+    [(256, 'lowres16'), (1024, 'lowres'), (4096, 'lbp')]
+    >>> place_table(RobustSchedule.sensor, 4)
+    [(1024, 'lowres16'), (4096, 'lowres'), (16384, 'lbp')]
+    """
+    budget = sensors if plan.bank else 1
+    out: list[tuple[int, str]] = []
+    for r in RICHEST_FIRST:
+        if r not in runs_on:
+            continue
+        most = budget * sensor_capacity(r, plan)
+        if not out or most > out[-1][0]:
+            out.append((most, r))
+    return out
