@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.schedule import PaperSchedule, RobustSchedule
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.methods import make_localiser
-from ppaloc.onsensor import OnSensorLocaliser
+from ppaloc.onsensor import OnSensorLocaliser, choose
 from ppaloc.onsensor.choose import choose_place, place_table, sensor_capacity
 
 ROBUST, PAPER = RobustSchedule.sensor, PaperSchedule.sensor
@@ -61,8 +60,8 @@ def test_the_table_lists_each_place_up_to_its_longest_map():
     ("args", "message"),
     [
         ((0, 1), "a map of 0 nodes"),
-        ((10, 0), "sensors=0 must be a positive integer"),
-        ((10, True), "sensors=True must be a positive integer"),
+        ((10, 0), r"sensors=0 must be in \[1, 65536\]"),
+        ((10, True), "sensors=True must be an integer"),
     ],
 )
 def test_bad_choices_are_refused_in_one_line(args, message):
@@ -95,15 +94,20 @@ def test_auto_follows_the_arrays_capacity(blocky_route):
     assert one.store == "levels" and two.params.contrast == 48
 
 
-def test_auto_counts_places_not_frames(blocky_route):
+def test_auto_counts_places_not_frames(blocky_route, monkeypatch):
     """With keyframes a stop of the reference is one node: the choice counts the places
-    the map will have (those of the host's keyframe map)."""
+    the map will have (those of the host's keyframe map); without, every frame."""
     places, _ = blocky_route(6, 5)
     ref = [places[i] for i in (0, 1, 2, 2, 2, 2, 3, 4, 5)]  # a stop at place 2
-    auto = OnSensorLocaliser("auto")
+    counted = []
+    real = choose.choose_place
+    monkeypatch.setattr(
+        choose, "choose_place", lambda n, *a, **k: counted.append(n) or real(n, *a, **k)
+    )
     host = WeightedNodeLocaliser("lowres16").build_map(ref)
-    assert auto._count_places([np.asarray(f) for f in ref]) == len(host) == 6
-    assert len(auto.build_map(ref)) == 6
+    assert len(OnSensorLocaliser("auto").build_map(ref)) == len(host) == 6
+    OnSensorLocaliser("auto", keyframes=False, motion="always_forward").build_map(ref)
+    assert counted == [6, 9]
 
 
 def test_auto_with_the_paper_preset_and_a_loaded_map(blocky_route):

@@ -27,13 +27,33 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.schedule import SensorPlan
+from ppaloc.localise.params import FilterParams, check_int, runs_on
+from ppaloc.localise.schedule import SCHEDULES, Schedule, SensorPlan, make_schedule
+from ppaloc.localise.weighted import keyframe_test
 from ppaloc.onsensor.executor import PLACES
+from ppaloc.onsensor.precursor import REPLACED_STAGES
+from ppaloc.place import SENSOR_SIZE
 from ppaloc.topomap import layout_for
 
-__all__ = ["RICHEST_FIRST", "choose_place", "place_table", "sensor_capacity"]
+__all__ = [
+    "AUTO",
+    "MAX_SENSORS",
+    "RICHEST_FIRST",
+    "AutoPlace",
+    "choose_place",
+    "place_table",
+    "sensor_capacity",
+]
+
+MAX_SENSORS = 2**16
+"""The most sensors ``sensors=`` may name."""
 
 RICHEST_FIRST = ("lowres16", "lowres", "lbp")
 """The sensor's places, most information a place first: 256 values, 64 values, 32 bits."""
@@ -79,8 +99,7 @@ def choose_place(
     """
     if n_nodes < 1:
         raise PpalocError(f"a map of {n_nodes} nodes has no place to choose: it needs a node")
-    if isinstance(sensors, bool) or not isinstance(sensors, int) or sensors < 1:
-        raise PpalocError(f"sensors={sensors!r} must be a positive integer")
+    check_int("sensors", sensors, 1, MAX_SENSORS)
     candidates = [r for r in RICHEST_FIRST if r in runs_on]
     if not candidates:
         raise PpalocError(f"no sensor place among {', '.join(runs_on) or 'none'}")
@@ -115,3 +134,99 @@ def place_table(
         if not out or most > out[-1][0]:
             out.append((most, r))
     return out
+
+
+AUTO = "auto"
+"""``representation="auto"``: the richest place the map's length leaves room for."""
+
+
+@dataclass(frozen=True)
+class AutoPlace:
+    """``representation="auto"`` of :class:`~ppaloc.onsensor.localiser.OnSensorLocaliser`:
+    what its choice reads, checked when the localiser is made (:meth:`create`).
+
+    Attributes
+    ----------
+    filter_params : dict
+        The filter's parameters as given (resolved again for the chosen place).
+    sensors : int
+        How many sensors the map may fill.
+    timing_structure : str
+        The precursor's structure has only 8x8 images and LBP.
+    size : int
+        The array's side (a smaller one is a test's).
+    oracle_moves : Any
+        The controller's moves for ``motion="oracle"``.
+    """
+
+    filter_params: Mapping[str, Any]
+    sensors: int = 1
+    timing_structure: str = "ppaloc"
+    size: int = SENSOR_SIZE
+    oracle_moves: Any = None
+
+    @classmethod
+    def create(
+        cls, representation: str, sensors: int | None, store: str | None, **kw: Any
+    ) -> AutoPlace | None:
+        """The choice for ``representation`` (None unless it is ``"auto"``), every
+        candidate's parameters checked; a one-line error for ``sensors`` without
+        ``"auto"`` or a ``store`` with it."""
+        if representation != AUTO:
+            if sensors is not None:
+                raise PpalocError(
+                    f"sensors={sensors!r} is for representation='auto' (how many sensors "
+                    f"its choice may fill); representation={representation!r} takes a bank "
+                    "of as many sensors as its map needs"
+                )
+            return None
+        if store is not None:
+            raise PpalocError(
+                f"store={store!r}: representation='auto' takes each place's default store; "
+                "give the representation to choose its store"
+            )
+        n = 1 if sensors is None else check_int("sensors", sensors, 1, MAX_SENSORS)
+        auto = cls(sensors=n, **kw)
+        for candidate in auto.candidates:
+            FilterParams.create(candidate, arithmetic="ppa8", **auto.filter_params)
+        return auto
+
+    @property
+    def candidates(self) -> tuple[str, ...]:
+        """The places to choose among, richest first: those the preset runs on (and the
+        precursor's timing structure has, when it is asked for)."""
+        preset = self.filter_params.get("preset") or "robust"
+        if preset not in SCHEDULES:
+            FilterParams.create(RICHEST_FIRST[-1], preset=preset)  # its one-line error
+        precursor = self.timing_structure == "precursor"
+        return tuple(
+            r
+            for r in RICHEST_FIRST
+            if runs_on(r, preset) and not (precursor and r not in REPLACED_STAGES)
+        )
+
+    def for_frames(self, frames: Sequence[np.ndarray], plan: SensorPlan) -> str:
+        """The place of a map of ``frames``: its length the places the host's motion
+        test keeps with ``keyframes`` (the sensor's own test keeps the same in ideal
+        mode), else its frames (also on a test's array, whose frames the host's test
+        does not read)."""
+        keep = keyframe_test(FilterParams.create(self.candidates[0], **self.filter_params))
+        n = len(frames)
+        if keep is not None and self.size == SENSOR_SIZE:
+            n = sum(1 for i, f in enumerate(frames) if keep(f) or i == 0)
+        return choose_place(n, self.sensors, plan, runs_on=self.candidates, size=self.size)
+
+    def for_kind(self, kind: str) -> str:
+        """A loaded map's own place, if it is one of :attr:`candidates`."""
+        if kind not in self.candidates:
+            raise PpalocError(
+                f"the map holds {kind!r} nodes, which representation='auto' does not run "
+                f"with this preset; it chooses among {', '.join(self.candidates)}"
+            )
+        return kind
+
+    def resolve(self, kind: str) -> tuple[FilterParams, Schedule, str]:
+        """``(params, schedule, store)`` of the localiser running ``kind``."""
+        params = FilterParams.create(kind, arithmetic="ppa8", **self.filter_params)
+        schedule = make_schedule(params, self.oracle_moves)
+        return params, schedule, PLACES[kind].choose_store(schedule.sensor, None)

@@ -19,18 +19,17 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import DatasetNeed, Estimate, MethodParam
-from ppaloc.localise.params import FilterParams, check_int, filter_method_params, runs_on
-from ppaloc.localise.schedule import SCHEDULES, Schedule, make_schedule
+from ppaloc.localise.params import FilterParams, check_int, filter_method_params
+from ppaloc.localise.schedule import Schedule, make_schedule
 from ppaloc.localise.weighted import (
     MAX_RANKING,
     check_map,
     check_representation,
-    keyframe_test,
     oracle_needs,
     place_test,
 )
 from ppaloc.onsensor.bank import SensorBank
-from ppaloc.onsensor.choose import RICHEST_FIRST, choose_place
+from ppaloc.onsensor.choose import AUTO, MAX_SENSORS, AutoPlace
 from ppaloc.onsensor.executor import PLACES, SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import make_pipeline
@@ -40,7 +39,6 @@ from ppaloc.onsensor.precursor import (
     loop_counts,
     structure_counts,
 )
-from ppaloc.place import SENSOR_SIZE
 from ppaloc.sim import NoiseParams
 from ppaloc.sim.observe import SimObserver, check_observers
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
@@ -54,9 +52,35 @@ SENSOR_REPRESENTATIONS = ("lowres", "lowres16", "lbp")
 """The representations the sensor's programs run (the host runs every one of
 :data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
-AUTO = "auto"
-"""``representation="auto"``: the richest place the map's length leaves room for on the
-sensors given (:mod:`ppaloc.onsensor.choose`)."""
+
+def _check_options(representation: str, noise: Any, arithmetic: str, timing_structure: str) -> None:
+    """A one-line error for an option the sensor does not run, before any work."""
+    check_representation(representation)
+    if representation not in SENSOR_REPRESENTATIONS:
+        raise PpalocError(
+            f"representation={representation!r} runs on the host only so far "
+            f"(weighted-node-{representation}); the sensor runs "
+            f"{', '.join(SENSOR_REPRESENTATIONS)} (docs/onsensor.md)"
+        )
+    if timing_structure not in STRUCTURES:
+        raise PpalocError(
+            f"timing_structure={timing_structure!r} is not one of {', '.join(STRUCTURES)}"
+        )
+    if timing_structure == "precursor" and representation not in REPLACED_STAGES:
+        raise PpalocError(
+            f"timing_structure='precursor' has no structure for {representation!r} (the "
+            f"precursor's code compares {' and '.join(REPLACED_STAGES)}); use "
+            "timing_structure='ppaloc'"
+        )
+    if not isinstance(noise, NoiseParams) and noise not in NOISE_PRESETS:
+        raise PpalocError(
+            f"noise={noise!r} is not one of {', '.join(NOISE_PRESETS)} or a ppaloc.sim.NoiseParams"
+        )
+    if arithmetic != "ppa8":
+        raise PpalocError(
+            f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "
+            "use arithmetic='ppa8' (or the host WeightedNodeLocaliser for 'float')"
+        )
 
 
 class OnSensorLocaliser:
@@ -72,13 +96,10 @@ class OnSensorLocaliser:
         8x8 images in an analogue register (8x8 PEs per node, 1024 per tile), 16x16
         images (16x16 PEs per node, 256 per tile; robust preset only, a longer map on a
         bank) or 32-bit LBP descriptors in a digital register (4x8 PEs per node, 2048
-        per tile). ``"auto"``: chosen when the map is known, the richest place whose map
-        fits ``sensors`` sensors (:func:`ppaloc.onsensor.choose.choose_place`; from the
-        number of places the host's motion test finds in the reference, or a loaded
-        map's own kind); :attr:`representation` is then the chosen one.
+        per tile). ``"auto"``: the richest whose map fits ``sensors`` sensors, chosen
+        with the map (:class:`~ppaloc.onsensor.choose.AutoPlace`).
     sensors : int, optional
-        With ``representation="auto"``: how many sensors the map may fill (default 1,
-        one device). A fixed representation takes a bank of as many as its map needs.
+        ``"auto"``: how many sensors the map may fill (default 1).
     noise : {"ideal", "low", "typical", "high"} or NoiseParams
         The simulator's noise preset, or custom parameters (e.g. a preset without the
         analogue droop, to separate its effect).
@@ -120,8 +141,7 @@ class OnSensorLocaliser:
     Attributes
     ----------
     params : FilterParams
-        The resolved parameters, the host's object: the executor reads the same one
-        (with ``"auto"``, resolved again for the chosen place when a map is built).
+        The resolved parameters, the host's object: the executor reads the same one.
     schedule : Schedule
         The preset's frame (:mod:`ppaloc.localise.schedule`), the host's own.
     preset : {"robust", "paper"}
@@ -155,53 +175,13 @@ class OnSensorLocaliser:
         sensors: int | None = None,
         **filter_params: Any,
     ) -> None:
-        self.auto = representation == AUTO
-        if sensors is not None and not self.auto:
-            raise PpalocError(
-                f"sensors={sensors!r} is for representation='auto' (how many sensors its "
-                f"choice may fill); representation={representation!r} takes a bank of as "
-                "many sensors as its map needs"
-            )
-        self.sensors = 1 if sensors is None else check_int("sensors", sensors, 1, 2**16)
-        self._oracle_moves = oracle_moves
-        self._filter_params = dict(filter_params)
-        if self.auto:
-            if store is not None:
-                raise PpalocError(
-                    f"store={store!r}: representation='auto' takes each place's default "
-                    "store; give the representation to choose its store"
-                )
-            representation = self._candidates(filter_params, timing_structure)[0]
-        check_representation(representation)
-        if representation not in SENSOR_REPRESENTATIONS:
-            raise PpalocError(
-                f"representation={representation!r} runs on the host only so far "
-                f"(weighted-node-{representation}); the sensor runs "
-                f"{', '.join(SENSOR_REPRESENTATIONS)} (docs/onsensor.md)"
-            )
-        if timing_structure not in STRUCTURES:
-            raise PpalocError(
-                f"timing_structure={timing_structure!r} is not one of {', '.join(STRUCTURES)}"
-            )
-        if timing_structure == "precursor" and representation not in REPLACED_STAGES:
-            raise PpalocError(
-                f"timing_structure='precursor' has no structure for {representation!r} (the "
-                f"precursor's code compares {' and '.join(REPLACED_STAGES)}); use "
-                "timing_structure='ppaloc'"
-            )
-        if not isinstance(noise, NoiseParams) and noise not in NOISE_PRESETS:
-            raise PpalocError(
-                f"noise={noise!r} is not one of {', '.join(NOISE_PRESETS)} or a "
-                "ppaloc.sim.NoiseParams"
-            )
-        if arithmetic != "ppa8":
-            raise PpalocError(
-                f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "
-                "use arithmetic='ppa8' (or the host WeightedNodeLocaliser for 'float')"
-            )
-        if self.auto:  # every candidate's parameters checked now, before any work
-            for candidate in self._candidates(filter_params, timing_structure):
-                FilterParams.create(candidate, arithmetic="ppa8", **filter_params)
+        self._auto = AutoPlace.create(
+            representation, sensors, store, filter_params=dict(filter_params),
+            timing_structure=timing_structure, size=int(size), oracle_moves=oracle_moves,
+        )  # fmt: skip
+        if self._auto is not None:
+            representation = self._auto.candidates[0]
+        _check_options(representation, noise, arithmetic, timing_structure)
         self.params: FilterParams = FilterParams.create(
             representation, arithmetic="ppa8", **filter_params
         )
@@ -229,7 +209,7 @@ class OnSensorLocaliser:
         self.timing_structure = timing_structure
         self.frame_times: list[tuple[Interval, Interval]] = []
         self.motion = p.motion
-        self.name = f"onsensor-{AUTO if self.auto else representation}"
+        self.name = f"onsensor-{AUTO if self._auto else representation}"
         self.topomap: TopoMap | None = None
         self.pipeline: SensorExecutor | SensorBank | None = None
         self._last_counts: tuple[Any, int, dict] | None = None
@@ -250,57 +230,14 @@ class OnSensorLocaliser:
             MethodParam("sensor_nodes", int | None, None, doc="at most this many nodes a sensor"),
             MethodParam("ranking_k", int, 10, 0, MAX_RANKING, "accepted; the sensor ranks none"),
             MethodParam("oracle_moves", Any, None),
-            MethodParam(
-                "sensors", int | None, None, 1, 2**16, "sensors representation='auto' may fill"
-            ),
+            MethodParam("sensors", int | None, None, 1, MAX_SENSORS, "for representation='auto'"),
             *filter_method_params(),
         )
 
-    @staticmethod
-    def _candidates(filter_params: Mapping[str, Any], timing_structure: str) -> list[str]:
-        """The places ``"auto"`` chooses among, richest first: those the preset runs on
-        (and the precursor's timing structure has, when it is asked for)."""
-        preset = filter_params.get("preset") or "robust"
-        if preset not in SCHEDULES:
-            FilterParams.create(RICHEST_FIRST[-1], preset=preset)  # the one-line error
-        out = [
-            r
-            for r in RICHEST_FIRST
-            if runs_on(r, preset) and (timing_structure != "precursor" or r in REPLACED_STAGES)
-        ]
-        return out
-
-    def _choose(self, n_nodes: int | None = None, kind: str | None = None) -> None:
-        """``"auto"``: take the place for a map of ``n_nodes`` nodes (or a loaded map's
-        ``kind``) and resolve the parameters, the schedule and the store for it."""
-        candidates = self._candidates(self._filter_params, self.timing_structure)
-        if kind is None:
-            kind = choose_place(
-                int(n_nodes),  # type: ignore[arg-type]
-                self.sensors,
-                self.schedule.sensor,
-                runs_on=tuple(candidates),
-                size=self.size,
-            )
-        elif kind not in candidates:
-            raise PpalocError(
-                f"the map holds {kind!r} nodes, which representation='auto' does not run "
-                f"with this preset; it chooses among {', '.join(candidates)}"
-            )
-        self.params = FilterParams.create(kind, arithmetic="ppa8", **self._filter_params)
-        self.schedule = make_schedule(self.params, self._oracle_moves)
-        self.store = PLACES[kind].choose_store(self.schedule.sensor, None)
+    def _use(self, kind: str) -> None:
+        """``"auto"``: run ``kind`` (the parameters, schedule and store resolved for it)."""
+        self.params, self.schedule, self.store = self._auto.resolve(kind)  # type: ignore[union-attr]
         self.representation = kind
-
-    def _count_places(self, frames: Sequence[np.ndarray]) -> int:
-        """The nodes the map of ``frames`` will have: the places the host's motion test
-        keeps with ``keyframes`` (the sensor's own test keeps the same in ideal mode),
-        else one a frame (and on an array smaller than SCAMP-5's, whose frames the
-        host's test does not read: a test's array)."""
-        keep = keyframe_test(self.params)
-        if keep is None or self.size != SENSOR_SIZE:
-            return len(frames)
-        return sum(1 for i, f in enumerate(frames) if keep(f) or i == 0)
 
     @classmethod
     def dataset_needs(cls, params: Mapping[str, Any]) -> dict[str, DatasetNeed]:
@@ -341,8 +278,8 @@ class OnSensorLocaliser:
         for frame in frames:
             self._check_frame(frame)
         frames = [np.asarray(f) for f in frames]
-        if self.auto:
-            self._choose(n_nodes=self._count_places(frames))
+        if self._auto is not None:
+            self._use(self._auto.for_frames(frames, self.schedule.sensor))
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
         mapper = self._new_pipeline(min(len(frames), capacity))
         places: list[int] | None = None
@@ -379,8 +316,8 @@ class OnSensorLocaliser:
     def use_map(self, topomap: TopoMap) -> None:
         """Write ``topomap`` (e.g. loaded from a file) into a fresh simulated sensor
         (``"auto"`` takes the map's own place)."""
-        if self.auto:
-            self._choose(kind=topomap.kind)
+        if self._auto is not None:
+            self._use(self._auto.for_kind(topomap.kind))
         self._check_map(topomap)
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
         pipe = self._new_pipeline(capacity)
