@@ -28,6 +28,7 @@ import numpy as np
 
 from ppaloc.errors import KernelError, SimulatorError
 from ppaloc.sim import hostloops
+from ppaloc.sim.cells import CellLoadMixin
 from ppaloc.sim.controller import ControllerMixin
 from ppaloc.sim.engines import make_engine
 from ppaloc.sim.isa import CLOCK_CLASSES, Instruction
@@ -128,7 +129,7 @@ def overwritten_first(instructions: Iterable[Instruction]) -> frozenset[int]:
     return frozenset(fresh)
 
 
-class Scamp5(ObservableMixin, ControllerMixin, ProgramAPI):
+class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
     """A simulated SCAMP-5 pixel processor array.
 
     Parameters

@@ -1,0 +1,223 @@
+"""A host routine: load a small image into every period of a register, cell by cell.
+
+SCAMP-5 has no call that writes an arbitrary image into a register; a host program loads
+one through the DAC a cell at a time (the public precursor's ``load_analog_image``): per
+cell an address pattern selects the PEs that take the cell's value, the DAC drives
+``IN`` with it, and a kernel copies ``IN`` into the register where the pattern is set.
+:meth:`CellLoadMixin.load_in_cells` is that routine, defined once: a ``p x q`` grid of
+DAC values tiled over the array with period ``(p, q)``, made of the simulator's own
+calls and one kernel, so it is timed, observed and noisy exactly as those calls are.
+
+It is a host routine, not a SCAMP-5 library call: observers receive its calls and
+kernel runs one by one (``load_pattern``, ``load_in``, a ``KernelRun``, per cell), as
+the program written out call by call would make them. In ideal mode, with no observer
+attached, the simulator writes the register's cells in one pass and makes only the last
+cell's calls, charging the timing model every other cell's calls and kernel run in order
+(:meth:`~ppaloc.sim.timing.TimingModel.charge_rounds`): the same bytes in every register
+and the same modelled time and energy as the cell-by-cell path, which every other case
+takes (under noise each write draws its own noise by index and droops with time, so the
+writes run one by one).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ppaloc.errors import SimulatorError
+from ppaloc.sim.registers import IN, Register
+
+if TYPE_CHECKING:
+    from ppaloc.sim.kernel import Kernel
+    from ppaloc.sim.timing import TimingModel
+
+__all__ = ["CellLoadMixin", "period_mask"]
+
+
+def period_mask(n: int) -> int:
+    """``rx``/``cx`` of ``load_pattern`` that matches addresses modulo ``n`` (a power of 2).
+
+    Examples
+    --------
+    >>> bin(period_mask(8)), period_mask(1)
+    ('0b11111000', 255)
+    """
+    return 0xFF & ~(n - 1)
+
+
+class CellLoadMixin:
+    """:meth:`load_in_cells`, mixed into :class:`ppaloc.sim.engine.Scamp5`."""
+
+    rows: int
+    cols: int
+    timing: TimingModel
+    noise: Any
+    _observers: tuple
+    _call_frame: Any
+    _retention: bool
+    #: The kernel ``WHERE(dreg); bus(areg, IN); all`` by ``(areg, dreg)`` (recorded at
+    #: the first cell ever loaded so).
+    _cell_kernels: dict[tuple[Register, Register], Kernel] | None = None
+    #: Per period ``(p, q)``: the cell whose value each row, column takes last (-1: none),
+    #: and whether they are simply ``r % p``, ``c % q`` (the grid tiles the plane).
+    _cell_index: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, bool]] | None = None
+
+    if TYPE_CHECKING:
+
+        def _areg(self, call: str, reg: Any, *, source: bool = False) -> Register: ...
+        def _dreg(self, call: str, reg: Any, *, source: bool = False) -> Register: ...
+        def _aplane(self, reg: Register) -> np.ndarray: ...
+        def _pattern(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> Any: ...
+        def kernel(self) -> Kernel: ...
+        def load_pattern(self, dreg: Register, r: int, c: int, rx: int, cx: int) -> None: ...
+        def load_in(self, areg_or_value: Register | int) -> None: ...
+
+    def load_in_cells(self, areg: Register, values: np.ndarray, dreg: Register) -> None:
+        """``areg := -values`` tiled with period ``values.shape``, one DAC load per cell.
+
+        For each cell ``(i, j)`` of the ``p x q`` grid ``values``, in row-major order:
+        ``load_pattern(dreg, i, j, period_mask(p), period_mask(q))`` (every PE whose row
+        is ``i`` and column ``j`` modulo the period), ``load_in(values[i, j])`` and the
+        kernel ``WHERE(dreg); bus(areg, IN); all`` (one transfer: it negates, as any
+        ``bus``). Afterwards ``areg`` holds ``-values[r % p, c % q]`` at PE ``(r, c)``
+        (saturated at 127: ``-(-128)``), ``dreg`` the last cell's pattern, ``IN`` the last
+        value and FLAG is set everywhere. On a 256 x 256 array a 16 x 16 grid is 256 cells:
+        768 controller calls and kernel runs, as the chip runs them.
+
+        Parameters
+        ----------
+        areg : Register
+            Destination, one of A-F or NEWS.
+        values : numpy.ndarray of int, shape (p, q)
+            DAC values in [-128, 127]; ``p``, ``q`` powers of two, at most 256 (the
+            period of an 8-bit address pattern).
+        dreg : Register
+            The pattern's register (one of R0-R12), left holding the last cell's.
+
+        Raises
+        ------
+        SimulatorError
+            If ``values`` is not a 2-D integer array of such a shape and range, or the
+            routine is called inside an open ``with sim.kernel()`` block.
+        RegisterMisuseError
+            If ``areg`` or ``dreg`` is not a register the calls take.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ppaloc.sim import Scamp5, A, R5
+        >>> sim = Scamp5(4, 4)
+        >>> sim.load_in_cells(A, np.array([[1, -2], [3, 4]]), R5)
+        >>> sim.read(A).astype(int)
+        array([[-1,  2, -1,  2],
+               [-3, -4, -3, -4],
+               [-1,  2, -1,  2],
+               [-3, -4, -3, -4]])
+        >>> sim.timing.report().stages[0].calls
+        {'load_pattern': 4, 'load_in': 4}
+        """
+        call = "load_in_cells"
+        self._areg(call, areg)
+        self._dreg(call, dreg)
+        grid = _checked_values(call, values)
+        from ppaloc.sim.kernel import recording
+
+        if recording(self):
+            raise SimulatorError(
+                f"{call} inside an open `with sim.kernel()` block: it runs kernels of its "
+                "own; call it between kernels"
+            )
+        p, q = grid.shape
+        rx, cx = period_mask(p), period_mask(q)
+        cells = np.ndindex(p, q)
+        kernels = self._cell_kernels
+        if kernels is None:
+            kernels = self._cell_kernels = {}
+        kernel = kernels.get((areg, dreg))
+        if kernel is not None and grid.size > 1 and self._batched(kernel):
+            self._write_cells(areg, grid)
+            self.timing.charge_rounds(("load_pattern", "load_in", kernel._counts), grid.size - 1)
+            cells = [(p - 1, q - 1)]  # its calls leave dreg, IN and FLAG as they were
+        for i, j in cells:
+            self.load_pattern(dreg, i, j, rx, cx)
+            self.load_in(int(grid[i, j]))
+            if kernel is None:  # recorded (and run) at the first cell
+                with self.kernel() as kernel:
+                    kernel.WHERE(dreg)  # type: ignore[attr-defined]
+                    kernel.bus(areg, IN)  # type: ignore[attr-defined]
+                    kernel.all()  # type: ignore[attr-defined]
+                kernels[(areg, dreg)] = kernel
+            else:
+                kernel.run()
+
+    def _batched(self, kernel: Kernel) -> bool:
+        """Whether the cells may be written at once: ideal mode (each write exact, nothing
+        drawn, nothing droops or decays), no observer and no call around this one (both
+        receive every call), the kernel whole (no ICW dropped from a full stack) and run
+        before (compiled, its counts known)."""
+        return (
+            self.noise.ideal
+            and not self._retention
+            and not self._observers
+            and self._call_frame is None
+            and not kernel.dropped
+            and kernel._counts is not None
+        )
+
+    def _write_cells(self, areg: Register, grid: np.ndarray) -> None:
+        """Every cell's value into ``areg`` as the kernels write it in ideal mode:
+        ``clip(-v, -128, 127)`` in float32 (``-0.0`` for 0, as the negation gives), at the
+        PEs the cell's pattern selects, the last cell's where two select one PE."""
+        p, q = grid.shape
+        index = self._cell_index
+        if index is None:
+            index = self._cell_index = {}
+        cached = index.get((p, q))
+        if cached is None:
+            row_cell = np.full(self.rows, -1, np.int64)
+            col_cell = np.full(self.cols, -1, np.int64)
+            for i in range(p):  # later cells win, as their writes come later
+                row_cell[self._pattern(i, 0, period_mask(p), 0xFF, False).row_ok] = i
+            for j in range(q):
+                col_cell[self._pattern(0, j, 0xFF, period_mask(q), False).col_ok] = j
+            tiled = (  # every row r in cell r % p, every column c in cell c % q
+                self.rows % p == 0
+                and self.cols % q == 0
+                and np.array_equal(row_cell, np.arange(self.rows) % p)
+                and np.array_equal(col_cell, np.arange(self.cols) % q)
+            )
+            cached = index[(p, q)] = (row_cell, col_cell, tiled)
+        row_cell, col_cell, tiled = cached
+        value = np.negative(grid.astype(np.float32))
+        np.clip(value, np.float32(-128), np.float32(127), out=value)
+        plane = self._aplane(areg)
+        rows, cols = row_cell >= 0, col_cell >= 0
+        if tiled:  # p whole rows of the grid repeated, written down the plane (a 3-D view)
+            band = np.tile(value, (1, self.cols // q))
+            plane.reshape(self.rows // p, p, self.cols)[...] = band[None]
+        elif rows.all() and cols.all():
+            plane[...] = value[row_cell][:, col_cell]
+        else:
+            sel = np.ix_(np.flatnonzero(rows), np.flatnonzero(cols))
+            plane[sel] = value[row_cell[rows]][:, col_cell[cols]]
+
+
+def _checked_values(call: str, values: Any) -> np.ndarray:
+    """``values`` as a 2-D int64 array of DAC values with a power-of-two shape."""
+    grid = np.asarray(values)
+    if grid.ndim != 2 or grid.dtype.kind not in "iu" or grid.size == 0:
+        raise SimulatorError(
+            f"{call}: values of shape {grid.shape} and dtype {grid.dtype} are invalid; "
+            "use a 2-D integer array (p, q)"
+        )
+    for n in grid.shape:
+        if n > 256 or n & (n - 1):
+            raise SimulatorError(
+                f"{call}: a period of {n} cells is invalid; use a power of two up to 256"
+            )
+    lo, hi = int(grid.min()), int(grid.max())
+    if lo < -128 or hi > 127:
+        bad = lo if lo < -128 else hi
+        raise SimulatorError(f"{call}: value {bad} is out of range; use [-128, 127]")
+    return grid.astype(np.int64)

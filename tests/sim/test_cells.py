@@ -1,0 +1,215 @@
+"""``Scamp5.load_in_cells`` against the same program written out call by call.
+
+In ideal mode without observers the routine writes the cells in one pass and charges the
+calls it does not make (``TimingModel.charge_rounds``); in every other case it makes the
+calls one by one. Either way every plane, the modelled time and energy, the stage
+report, the observers' events and whatever the simulator does next must be those of the
+program that makes each ``load_pattern``, ``load_in`` and kernel run itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import RegisterMisuseError, SimulatorError
+from ppaloc.sim import IN, NEWS, PRESETS, R2, R5, A, B, C, F, Scamp5, east
+from ppaloc.sim.cells import period_mask
+from ppaloc.sim.engines import available_engines
+from ppaloc.sim.observe import ControllerCall, KernelRun
+from ppaloc.sim.timing import TimingModel
+
+#: Ideal, every preset, and one with noise but no digital retention (so that the noise alone
+#: keeps the routine on its cell-by-cell path).
+NOISES = {
+    "ideal": "ideal",
+    **PRESETS,
+    "typical-no-retention": replace(PRESETS["typical"], digital_retention_ms=None),
+}
+ENGINES = available_engines()
+
+
+def _grid(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
+    """DAC values with the edge cases: 0 (whose negation is -0.0) and -128 (saturates)."""
+    values = rng.integers(-128, 128, shape)
+    values.flat[0], values.flat[-1] = 0, -128
+    return values
+
+
+def _by_calls(sim: Scamp5, areg, values: np.ndarray, dreg, kernels: dict) -> None:
+    """The routine's program, written out: a pattern, a DAC load and a kernel per cell."""
+    p, q = values.shape
+    for (i, j), v in np.ndenumerate(values):
+        sim.load_pattern(dreg, i, j, period_mask(p), period_mask(q))
+        sim.load_in(int(v))
+        kernel = kernels.get((areg, dreg))
+        if kernel is None:
+            with sim.kernel() as kernel:
+                kernel.WHERE(dreg)
+                kernel.bus(areg, IN)
+                kernel.all()
+            kernels[(areg, dreg)] = kernel
+        else:
+            kernel.run()
+
+
+def _state(sim: Scamp5) -> tuple:
+    """Every plane's bytes, the clock, the energy and the stage report."""
+    report = sim.timing.report()
+    return (
+        sim._a.tobytes(),
+        sim._d.tobytes(),
+        sim.timing.now_us,
+        sim.timing.energy_uj,
+        sim.timing.charges,
+        [(s.name, s.icws, s.kernels, s.calls, s.us, s.chip_uj, s.units) for s in report.stages],
+    )
+
+
+def _run(noise: str, engine: str, rows: int, cols: int, shapes, routine: bool, observer=None):
+    """A seeded program around two or three loads (the first records the kernel), then a
+    noisy kernel and a readout after them; the state after each step."""
+    sim = Scamp5(rows, cols, noise=NOISES[noise], seed=3, engine=engine)
+    if observer is not None:
+        sim.observe(observer)
+    rng = np.random.default_rng(7)
+    for reg in (A, B, C, F):
+        sim.write(reg, rng.uniform(-128, 127, (rows, cols)))
+    kernels: dict = {}
+    states = []
+    with sim.stage("load"):
+        for n, shape in enumerate(shapes):
+            values = _grid(rng, shape)
+            dreg = R2 if n == 2 else R5  # a second kernel, recorded among the first's runs
+            if routine:
+                sim.load_in_cells(F, values, dreg)
+            else:
+                _by_calls(sim, F, values, dreg, kernels)
+            states.append(_state(sim))
+    with sim.kernel() as k:  # what follows reads F, IN and FLAG as the loads left them
+        k.add(A, F, IN)
+        k.movx(B, F, east)
+    states.append(_state(sim))
+    states.append(sim.scan_areg_8x8(A).tobytes() if rows >= 8 and cols >= 8 else None)
+    return states
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("noise", NOISES)
+def test_the_same_bytes_time_and_energy_as_the_calls(noise, engine):
+    shapes = [(4, 4), (4, 4), (2, 2), (2, 4)]
+    assert _run(noise, engine, 8, 8, shapes, True) == _run(noise, engine, 8, 8, shapes, False)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_cells_on_an_array_the_periods_do_not_tile(engine):
+    """Rows beyond 256 match no 8-bit pattern, and 6 rows take period 4 once and a half:
+    the rows and columns no cell selects keep their values."""
+    for rows, cols, shapes in ((260, 4, [(2, 2), (2, 2)]), (6, 5, [(4, 2), (4, 2)])):
+        got = _run("ideal", engine, rows, cols, shapes, True)
+        assert got == _run("ideal", engine, rows, cols, shapes, False)
+
+
+def test_ideal_loads_are_written_at_once_and_noisy_ones_call_by_call():
+    """The fast path is taken where it is exact (ideal, unobserved) and only there."""
+    for noise, calls in (("ideal", 1), ("typical", 16)):
+        sim = Scamp5(8, 8, noise=noise)
+        seen = []
+        original = sim.load_in
+
+        def counted(*args, _original=original, _seen=seen, **kwargs):
+            _seen.append(args)
+            return _original(*args, **kwargs)
+
+        sim.load_in = counted
+        sim.load_in_cells(F, np.arange(16).reshape(4, 4), R5)  # records the kernel
+        seen.clear()
+        sim.load_in_cells(F, np.arange(16).reshape(4, 4), R5)
+        assert len(seen) == calls
+        assert sim.timing.report().stages[0].calls == {"load_pattern": 32, "load_in": 32}
+
+
+@pytest.mark.parametrize("noise", ["ideal", "typical"])
+def test_observers_receive_every_call_and_kernel_run_in_order(noise):
+    def events(routine: bool) -> list:
+        seen: list = []
+
+        def observer(sim, event):
+            if isinstance(event, ControllerCall):
+                seen.append((event.name, event.args, event.kwargs, event.writes))
+            elif isinstance(event, KernelRun):
+                seen.append(("kernel", event.instructions, event.writes))
+
+        states = _run(noise, "numpy", 8, 8, [(2, 2), (2, 2)], routine, observer)
+        return [seen, states]
+
+    got, want = events(True), events(False)
+    assert got == want
+    assert [e[0] for e in got[0][:3]] == ["load_pattern", "load_in", "kernel"]
+    assert len(got[0]) == 2 * 4 * 3 + 1 + 1  # two loads of 4 cells, a kernel, a readout
+
+
+def test_the_values_negated_and_tiled():
+    sim = Scamp5(4, 8)
+    values = np.array([[0, -128, 5, 127], [1, 2, 3, 4]])
+    sim.load_in_cells(A, values, R5)
+    sim.load_in_cells(A, values, R5)  # the fast path
+    want = np.tile(np.minimum(-values, 127), (2, 2)).astype(np.float32)
+    got = sim.read(A)
+    assert np.array_equal(got, want)
+    plane = sim._a[A.index]  # the plane itself (sim.read gives +0.0)
+    assert np.signbit(plane[0, 0]) and np.signbit(plane[2, 4])  # -0.0: the bus negates 0
+    assert sim.read(R5).astype(int).tolist() == [[0] * 8, [0, 0, 0, 1] * 2] * 2
+    assert sim.read(IN)[0, 0] == 4
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        (np.zeros((3, 4), int), "a period of 3 cells is invalid; use a power of two up to 256"),
+        (np.zeros((512, 1), int), "a period of 512 cells is invalid"),
+        (np.zeros(4, int), "values of shape (4,) and dtype int64 are invalid"),
+        (np.zeros((2, 2)), "values of shape (2, 2) and dtype float64 are invalid"),
+        (np.full((2, 2), 128), "value 128 is out of range; use [-128, 127]"),
+        (np.full((2, 2), -129), "value -129 is out of range; use [-128, 127]"),
+    ],
+)
+def test_bad_values_are_refused_before_any_call(values, message):
+    sim = Scamp5(4, 4)
+    with pytest.raises(SimulatorError) as err:
+        sim.load_in_cells(A, values, R5)
+    assert message in str(err.value)
+    assert sim.timing.now_us == 0.0
+
+
+def test_bad_registers_and_a_call_inside_a_kernel_are_refused():
+    sim = Scamp5(4, 4)
+    with pytest.raises(RegisterMisuseError, match=r"^load_in_cells: R5 is not one of A-F or NEWS$"):
+        sim.load_in_cells(R5, np.zeros((2, 2), int), R5)
+    with pytest.raises(RegisterMisuseError, match=r"^load_in_cells: A is not one of R0-R12$"):
+        sim.load_in_cells(A, np.zeros((2, 2), int), A)
+    with (
+        pytest.raises(SimulatorError, match=r"inside an open `with sim\.kernel\(\)` block"),
+        sim.kernel() as k,
+    ):
+        k.mov(A, B)
+        sim.load_in_cells(NEWS, np.zeros((2, 2), int), R5)
+
+
+def test_charge_rounds_is_the_charges_one_by_one():
+    a, b = TimingModel(), TimingModel()
+    kernel = (("analog", 3), ("digital", 2), ("dnews", 0))
+    for t in (a, b):
+        t.charge_call("scan_events", 7)
+    with a.stage("s"):
+        for _ in range(37):
+            a.charge_call("load_pattern")
+            a.charge_call("shift_areg")  # a call with ICWs: chip energy per call
+            a.charge_kernel(kernel)
+    with b.stage("s"):
+        b.charge_rounds(("load_pattern", "shift_areg", kernel), 37)
+    assert (a.now_us, a.energy_uj, a.charges) == (b.now_us, b.energy_uj, b.charges)
+    assert a.report().stages == b.report().stages
+    assert a.report().stage("s").chip_uj > 0
