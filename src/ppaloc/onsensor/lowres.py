@@ -122,7 +122,8 @@ class LowresPlaces(Places):
     #: The tree leaves ``-mu / 2`` at each node root.
     value_scale = (-1, 1)
     #: Address-pattern "don't care" bits of :meth:`load_live`'s classes: every PE whose
-    #: row and column residues mod 8 are the grid cell's.
+    #: row and column residues mod 8 are the grid cell's (``load_in_cells``'s
+    #: ``period_mask(grid)``).
     CLASS_DONT_CARE = mask_bits(grid)
 
     def reset(self) -> None:
@@ -261,24 +262,22 @@ class LowresPlaces(Places):
         (:meth:`describe`: ``q = floor(S / 1024)`` per block, exact in ideal mode),
         normalises it (:func:`ppaloc.place.normalise_contrast`, ``params.contrast`` per
         ``params.contrast_patch`` tile) and
-        writes each of the 64 cells into every node block, as the public precursor loads
-        an image (``load_analog_image``): one periodic ``load_pattern`` (row and column
-        residues mod 8), one ``load_in(q' - 128)`` and one kernel ``WHERE; bus(F, IN);
-        all`` per cell (``F = 128 - q' = -2 f'``, one write; ``q' >= 1``, so it never
-        negates -128), then one halving over the plane, ``D = -F/2 = f'``, ``F := -D``.
-        The cells partition the array, so every PE of ``F`` is written once before the
-        halving. The normalised image is kept in :attr:`live_image` (inspection).
+        writes each of the 64 cells (256 on the 16x16 grid) into every node block, as the
+        public precursor loads an image (``load_analog_image``), through the simulator's
+        routine for it (:meth:`ppaloc.sim.Scamp5.load_in_cells`): per cell one periodic
+        ``load_pattern`` into ``tmp_a`` (row and column residues mod the grid), one
+        ``load_in(q' - 128)`` and one kernel ``WHERE; bus(F, IN); all`` (``F = 128 - q' =
+        -2 f'``, one write; ``q' >= 1``, so it never negates -128), then one halving over
+        the plane, ``D = -F/2 = f'``, ``F := -D``. The cells partition the array, so every
+        PE of ``F`` is written once before the halving. The normalised image is kept in
+        :attr:`live_image` (inspection).
         """
         sensor = self.sensor
         sim, dr = sensor.sim, self.roles.d
         with sim.stage("replicate"):
             live = normalise_contrast(self.describe(), self.params.contrast, self.patch)
             self.live_image = live
-            free = self.CLASS_DONT_CARE
-            for (i, j), q in np.ndenumerate(live):
-                sim.load_pattern(dr.tmp_a, i, j, free, free)
-                sim.load_in(int(q) - 128)
-                sensor.run(_load_cell, dr.tmp_a)
+            sim.load_in_cells(F, live.astype(np.int64) - 128, dr.tmp_a)
             sensor.run(_halve_live)
 
     def replicate(self) -> None:
@@ -399,12 +398,6 @@ def _sense(k: Kernel) -> None:
     k.bus2(D, NEWS, E)  # D = 0.5
     k.mov(E, F)  # E = -m
     k.bus(NEWS, F, E, D)  # NEWS = 2m - 0.5
-
-
-def _load_cell(k: Kernel, mask: Register) -> None:  # recorded at the first cell
-    k.WHERE(mask)
-    k.bus(F, IN)
-    k.all()
 
 
 def _halve_live(k: Kernel) -> None:
