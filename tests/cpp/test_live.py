@@ -97,7 +97,9 @@ def test_state_images_and_a_slider_change_reach_the_program(live_program):
     # as --set takes it (no trailing ':'); a switch takes true
     assert run.post({"name": "level", "value": 42}) == (200, '{"name": "level: ", "value": 42}')
     assert run.post({"name": "invert", "value": True})[0] == 200
-    assert {i["name"]: i["value"] for i in run.state()["items"]} == {"level: ": 42, "invert": 1}
+    # the state shows the values once the program has taken them, between two frames
+    wanted = {"level: ": 42, "invert": 1}
+    run.wait_for(lambda s: {i["name"]: i["value"] for i in s["items"]} == wanted, "the changes")
     result = run.end()
     changed = [t for t in result.texts if "level 42" in t]
     assert changed and changed[-1] == "level 42 writeback 42 callback 42 (2 calls) invert 1"
