@@ -256,10 +256,12 @@ class LowresPlaces(Places):
         return tile_cells(self.grid, self.params.contrast_patch)
 
     def load_live(self) -> None:
-        """``F := -f'``, PE (r, c) holding the normalised live cell (r%8, c%8).
+        """``F := -f'``, PE (r, c) holding the normalised live cell (r % g, c % g) of the
+        place's ``g x g`` grid (:attr:`grid`: 8, or 16 for ``lowres16``).
 
         The controller reads the live grid as the mapping run reads a node
-        (:meth:`describe`: ``q = floor(S / 1024)`` per block, exact in ideal mode),
+        (:meth:`describe`: ``q = floor(S / P)`` per block of ``P`` pixels, exact in ideal
+        mode),
         normalises it (:func:`ppaloc.place.normalise_contrast`, ``params.contrast`` per
         ``params.contrast_patch`` tile) and
         writes each of the 64 cells (256 on the 16x16 grid) into every node block, as the
