@@ -8,8 +8,8 @@ presets given, default both):
   ``WeightedNodeLocaliser(arithmetic="ppa8")`` with the same parameters, each mapping the
   reference itself (robust with image motion: keyframes, so the kept frames are compared
   too): the fraction of frames with the same node, the same motion decision and the
-  same score (robust: the sensor's integer ``T - T_out`` equals ``floor(best) -
-  floor(outside)`` of the host; paper: the two scores within 1), and the largest weight
+  same score (robust: equal, both the refined threshold minus the outside maximum, each
+  to 1/16; paper: the two scores within 1), and the largest weight
   difference, on the synthetic route (image motion) and on Nordland summer -> winter
   (image motion with a keyframe map and with a map of every frame, whose stops the robust
   preset keeps as runs; always forward), for both representations, with the median
@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import statistics
 import time
 from collections import defaultdict
@@ -134,8 +133,8 @@ def agreement(
                 pairs = list(zip(a, b, strict=True))
                 node = np.mean([x.node == y.node for x, y in pairs])
                 moved = np.mean([x.moved == y.moved for x, y in pairs])
-                if preset == "robust":  # after the normalisation the host's w[node] = best - T
-                    score = [y.score == math.ceil(x.score - x.weights[x.node]) for x, y in pairs]
+                if preset == "robust":  # both refined to 2**-DETECT_BITS: equal
+                    score = [y.score == x.score for x, y in pairs]
                 else:
                     score = [abs(y.score - x.score) < 1 for x, y in pairs]
                 werr = max(float(np.abs(x.weights - y.weights).max()) for x, y in pairs)

@@ -339,6 +339,10 @@ def test_confidence_is_the_threshold_gap_outside_the_window():
     node, top = pipe.detect(None)
     assert (node, top) == (60, 40)
     assert pipe.confidence(node, top, (node - 10, node + 10)) == 40 - 10
+    # refined to 1/16: T = 40.5 (the detection's fraction), outside 10.2 -> 10.1875
+    node, top = pipe.detect(None, 4)
+    assert (node, top, pipe.state.top_fraction) == (60, 40, 8)
+    assert pipe.confidence(node, top, (node - 10, node + 10), 4) == 40.5 - 10.1875
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])

@@ -299,12 +299,19 @@ class HostExecutor:
             return int(candidates[0]), threshold
         return choose_candidate(np.sort(candidates), prev), threshold
 
-    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
+    def confidence(self, node: int, top: float, window: tuple[int, int], bits: int = 0) -> float:
         """Best weight minus the best weight outside the nodes ``window`` (0 when none is
-        outside)."""
-        best = float(self._w[(node + self._offset) % len(self._w)])
+        outside). In ppa8 with ``bits``: ``floor(2**bits max W) / 2**bits`` (the
+        detection's refined threshold) minus the outside maximum floored to the same
+        ``2**-bits``, as the sensor's threshold searches find them."""
         outside = self._max_outside(*window)
-        return 0.0 if outside is None else best - outside
+        if outside is None:
+            return 0.0
+        if self.exact and bits:
+            step = 2**bits
+            top_b = math.floor(float(self._w.max()) * step) / step
+            return top_b - math.floor(outside * step) / step
+        return float(self._w[(node + self._offset) % len(self._w)]) - outside
 
     def rank(self, node: int) -> None:
         """:attr:`ranking`: the ``ranking_k`` best nodes, best first, the estimate first."""

@@ -113,9 +113,11 @@ class Executor(Protocol):
         integer)."""
         ...
 
-    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
+    def confidence(self, node: int, top: float, window: tuple[int, int], bits: int = 0) -> float:
         """The best weight minus the best outside the nodes ``window = (a, b)``
-        (inclusive; 0 when no node is outside)."""
+        (inclusive; 0 when no node is outside). Exact with ``bits``: the detection's
+        refined threshold ``floor(2**bits max W) / 2**bits`` minus the outside maximum
+        floored the same way (what a sensor's threshold searches find)."""
         ...
 
     def rank(self, node: int) -> None:
@@ -256,7 +258,7 @@ class Schedule:
         """The end of every preset's frame: detection, confidence and ranking, then
         :meth:`end_frame` (the normalisation or the adjustment)."""
         node, top = ex.detect(self.prev, self.detect_bits)
-        score = ex.confidence(node, top, self.window(node))
+        score = ex.confidence(node, top, self.window(node), self.detect_bits)
         ex.rank(node)
         self.end_frame(ex, top)
         self.prev = node

@@ -153,6 +153,7 @@ class SensorBank:
         """Zero every sensor's weights, forget the previous frame and estimate."""
         for s in self.sensors:
             s.reset()
+        self.top_fraction = 0
 
     @property
     def sim(self) -> Scamp5:
@@ -249,12 +250,14 @@ class SensorBank:
                 frac, fracs = 0, [0] * len(sensors)
             else:
                 top -= 1
+        self.top_fraction = frac
         if not found:
             return (0 if prev is None else prev), top
         return choose_candidate(np.array(sorted(found)), prev), top
 
-    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
-        """``T`` minus the largest of the sensors' maxima outside the nodes ``window``."""
+    def confidence(self, node: int, top: float, window: tuple[int, int], bits: int = 0) -> float:
+        """The refined ``T`` minus the largest of the sensors' maxima outside the nodes
+        ``window``, refined to ``2**-bits`` by the sensors that reach it."""
         a, b = window
         if a <= 0 and b >= self.n_nodes - 1:
             return 0.0
@@ -264,7 +267,16 @@ class SensorBank:
                 outs.append(s.outside_max(a - off, b - off, int(top)))
         self.timing.sync()
         found = [o for o in outs if o is not None]
-        return 0.0 if not found else float(top - max(found))
+        if not found:
+            return 0.0
+        out, frac = max(found), 0
+        if bits:
+            for s, own in zip(self.sensors, outs, strict=True):
+                if own == out:
+                    with s.sim.stage("confidence"):
+                        frac = max(frac, s.outside_fraction(out, bits))
+            self.timing.sync()
+        return float(top - out) + (self.top_fraction - frac) / 2**bits
 
     def rank(self, node: int) -> None:
         """A bank reports no ranking."""

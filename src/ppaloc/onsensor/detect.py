@@ -8,8 +8,9 @@ binary search of ``global_or`` over thresholds loaded through the DAC
 the fraction a plane built by halvings of a DAC integer (:func:`max_fraction`). The
 candidates are then all of them from one event readout, or the one nearest the previous
 estimate by a window search (:func:`nearest`); the host's
-:func:`~ppaloc.localise.params.choose_candidate` breaks the tie. The confidence is ``T``
-minus the integer threshold outside ``node +- R``.
+:func:`~ppaloc.localise.params.choose_candidate` breaks the tie. The confidence is that
+threshold minus the largest threshold met outside ``node +- R``, found the same way (an
+integer search, then with ``bits`` the fraction's steps).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ __all__ = [
     "max_fraction",
     "max_threshold",
     "nearest",
+    "outside_fraction",
     "outside_max",
 ]
 
@@ -123,10 +125,13 @@ def max_fraction(sensor: Sensor, state: WeightState, top: int, bits: int) -> int
 
 def detect(sensor: Sensor, state: WeightState, prev: int | None, bits: int = 0) -> tuple[int, int]:
     """``(node, T)``: the candidate nearest ``prev`` among ``w >= floor(2**bits max W) /
-    2**bits``, and ``T = floor(max W)``."""
+    2**bits``, and ``T = floor(max W)``; the fraction found is left in
+    ``state.top_fraction`` (the confidence's)."""
+    state.top_fraction = 0
     with sensor.stage("detect"):
         top = local_top(sensor, state)
         frac = max_fraction(sensor, state, top, bits) if bits else 0
+        state.top_fraction = frac
         found = candidates(sensor, state, top, prev, frac, bits)
         if found is None and frac:
             found = candidates(sensor, state, top, prev)  # only with noise, as below
@@ -209,13 +214,21 @@ def _and(k: Kernel, cand: Register, window: Register) -> None:
     k.AND(cand, cand, window)
 
 
-def confidence(sensor: Sensor, state: WeightState, top: int, a: int, b: int) -> float:
-    """``T`` minus the integer maximum outside nodes ``a .. b`` (0 when none is outside)."""
+def confidence(
+    sensor: Sensor, state: WeightState, top: int, a: int, b: int, bits: int = 0
+) -> float:
+    """``T`` minus the integer maximum outside nodes ``a .. b`` (0 when none is outside);
+    with ``bits``, each refined to ``2**-bits``: ``T`` by the detection's fraction
+    (``state.top_fraction``), the outside maximum by as many steps of a fraction search
+    over the same nodes (:func:`outside_fraction`)."""
     if a <= 0 and b >= sensor.n_nodes - 1:
         return 0.0
     with sensor.stage("confidence"):
         out = outside_max(sensor, state, a, b, top)
-    return 0.0 if out is None else float(top - out)
+        if out is None:
+            return 0.0
+        frac = outside_fraction(sensor, state, out, bits)
+    return float(top - out) + (state.top_fraction - frac) / 2**bits
 
 
 def outside_max(sensor: Sensor, state: WeightState, a: int, b: int, top: int) -> int | None:
@@ -223,3 +236,10 @@ def outside_max(sensor: Sensor, state: WeightState, a: int, b: int, top: int) ->
     sensor.window(a, b)
     sensor.allow(True)
     return max_threshold(sensor, state, -127, top)
+
+
+def outside_fraction(sensor: Sensor, state: WeightState, out: int, bits: int) -> int:
+    """After :func:`outside_max` found ``out`` (its mask of the outside nodes still in
+    ``tmp_a``): the largest ``j < 2**bits`` with an outside node at ``w >= out + j
+    2**-bits`` (0 without ``bits``)."""
+    return max_fraction(sensor, state, out, bits) if bits else 0

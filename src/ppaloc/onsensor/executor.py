@@ -270,9 +270,10 @@ class SensorExecutor:
         self._normalised()
         return detect.detect(self.sensor, self.state, prev, bits)
 
-    def confidence(self, node: int, top: float, window: tuple[int, int]) -> float:
-        """``T`` minus the integer maximum outside the nodes ``window``."""
-        return detect.confidence(self.sensor, self.state, int(top), *window)
+    def confidence(self, node: int, top: float, window: tuple[int, int], bits: int = 0) -> float:
+        """The refined ``T`` minus the maximum outside the nodes ``window``, each to
+        ``2**-bits`` (:func:`ppaloc.onsensor.detect.confidence`)."""
+        return detect.confidence(self.sensor, self.state, int(top), *window, bits)
 
     def rank(self, node: int) -> None:
         """The sensor reports no ranking."""
@@ -304,6 +305,12 @@ class SensorExecutor:
     def local_top(self) -> int:
         """``floor(max W)`` over this sensor's nodes."""
         return detect.local_top(self.sensor, self.state)
+
+    def outside_fraction(self, out: int, bits: int) -> int:
+        """After :meth:`outside_max` found ``out``: the largest ``j < 2**bits`` with a node
+        outside its window at ``w >= out + j 2**-bits``
+        (:func:`ppaloc.onsensor.detect.outside_fraction`)."""
+        return detect.outside_fraction(self.sensor, self.state, out, bits)
 
     def local_fraction(self, top: int, bits: int) -> int:
         """The largest ``j < 2**bits`` with a node of this sensor at ``w >= top + j

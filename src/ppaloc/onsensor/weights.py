@@ -39,6 +39,9 @@ class WeightState:
     last_shift, last_alpha : int or None
         Robust: the likelihood shift ``s`` and offset ``alpha_t`` of the last frame that
         added a likelihood (None before one).
+    top_fraction : int
+        The fraction ``j`` of the last detection's refined threshold ``T + j 2**-bits``
+        (0 without fraction bits), which the confidence starts from.
     """
 
     scale: gain.WeightScale
@@ -47,6 +50,7 @@ class WeightState:
     pending_offset: int = 0
     last_shift: int | None = None
     last_alpha: int | None = None
+    top_fraction: int = 0
 
     def reset(self) -> None:
         """New weights (all zero): nothing pending, the scale exact."""
@@ -56,6 +60,7 @@ class WeightState:
         self.pending_offset = 0
         self.last_shift = None
         self.last_alpha = None
+        self.top_fraction = 0
 
 
 def read_weights(sensor: Sensor, state: WeightState, memory: int | None) -> np.ndarray:
