@@ -905,17 +905,7 @@ class TimingModel:
         >>> (a.now_us, a.energy_uj, a.report().stages) == (b.now_us, b.energy_uj, b.report().stages)
         True
         """
-        if times < 0:
-            raise TimingError(f"negative rounds {times!r}")
-        plan = []  # (us, chip, call name or None, kernel ICWs)
-        for step in steps:
-            if isinstance(step, str):
-                base, per_unit, icws_per_unit = self._call_costs.get(step) or self._call_cost(step)
-                chip = icws_per_unit * self._pe_count * self._constants.energy_pj_per_pe_icw
-                plan.append((base + 1.0 * per_unit, chip * 1e-6, step, ()))
-            else:
-                cost = self._kernel_costs.get(step) or self._kernel_cost(step)
-                plan.append((cost[0], cost[1], None, cost[2]))
+        plan = self._rounds_plan(steps, times)
         if not times or not plan:
             return
         row = self._row or self._stage_row()
@@ -942,6 +932,47 @@ class TimingModel:
             else:
                 row.calls[name] = row.calls.get(name, 0) + times
         self._charges += times * len(plan)
+
+    def _rounds_plan(
+        self, steps: Sequence[str | tuple[tuple[str, int], ...]], times: int
+    ) -> list[tuple[float, float, str | None, tuple[tuple[str, int], ...]]]:
+        """(time, chip energy, call name or None, kernel ICWs) per step of a round."""
+        if times < 0:
+            raise TimingError(f"negative rounds {times!r}")
+        plan = []
+        for step in steps:
+            if isinstance(step, str):
+                base, per_unit, icws_per_unit = self._call_costs.get(step) or self._call_cost(step)
+                chip = icws_per_unit * self._pe_count * self._constants.energy_pj_per_pe_icw
+                plan.append((base + 1.0 * per_unit, chip * 1e-6, step, ()))
+            else:
+                cost = self._kernel_costs.get(step) or self._kernel_cost(step)
+                plan.append((cost[0], cost[1], None, cost[2]))
+        return plan
+
+    def rounds_clock(
+        self, steps: Sequence[str | tuple[tuple[str, int], ...]], times: int
+    ) -> np.ndarray:
+        """The clock :meth:`charge_rounds` of the same arguments would pass through,
+        without charging anything: ``now_us`` after each of its ``times * len(steps)``
+        charges, in order (float64, microseconds; the same floats as the charges one by
+        one leave, each an addition to the one before).
+
+        A caller that replays what happens between the charges (droop accounted per
+        elapsed interval, as :class:`~ppaloc.sim.engine.Scamp5` does) reads the instants
+        here, then charges the rounds.
+
+        Examples
+        --------
+        >>> t = TimingModel()
+        >>> clock = t.rounds_clock(("load_in",), 2)
+        >>> t.charge_call("load_in")
+        >>> bool(clock[0] == t.now_us), len(clock)
+        (True, 2)
+        """
+        plan = self._rounds_plan(steps, times)
+        us = np.tile([step[0] for step in plan], times)
+        return np.add.accumulate(np.concatenate(([self._total_us], us)))[1:]
 
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
