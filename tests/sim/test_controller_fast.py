@@ -251,6 +251,46 @@ def test_noisy_write_equals_add_add_clip_and_masked_copy(case, everywhere):
     assert np.array_equal(_bits(got), _bits(want))
 
 
+@settings(max_examples=60, deadline=None)
+@given(
+    planes(n_extra=1),
+    st.integers(1, 5),
+    st.data(),
+    st.lists(st.sampled_from([0.0, 1e-4, 0.37, 3.0, 300.0]), min_size=5, max_size=5),
+    st.booleans(),
+)
+def test_cell_writes_equal_a_droop_and_a_noisy_write_per_cell(case, m, data, steps, droops):
+    """Each element's cell write, then the later cells' droop steps, against the plane
+    passes they stand for: per cell a droop of the whole plane, then the noisy write of
+    its elements (``noisy_write`` where the cell's group is); group -1 only droops, the
+    elements of cell m (written after these) are left alone."""
+    out, _, (offset,) = case
+    size = out.size
+    group = np.array(data.draw(st.lists(st.integers(-1, m), min_size=size, max_size=size)))
+    bank = np.random.default_rng(m).normal(0, 40, size * 3).astype(np.float32)
+    starts = np.array(data.draw(st.lists(st.integers(0, 2 * size), min_size=m, max_size=m)))
+    values = np.array(data.draw(st.lists(VALUES, min_size=m, max_size=m)), np.float32)
+    steps = np.array(steps[:m], np.float32)
+    order = np.argsort(group + 1, kind="stable").astype(np.int64)
+    counts = np.bincount(group + 1, minlength=m + 2)
+    bounds = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    buf = np.empty(max(counts.max(), 1), np.float32)
+    want = out.copy()
+    loops = hostloops.numpy_loops()
+    for k in range(m):
+        if droops and steps[k]:  # a step of 0: no droop at that cell
+            loops.droop(want, steps[k])
+        window = bank[starts[k] : starts[k] + size].reshape(out.shape)
+        cell = (group == k).reshape(out.shape)
+        loops.noisy_write(want, np.full(out.shape, values[k]), offset, window, cell, False)
+    keep = (group == m).reshape(out.shape)
+    want[keep] = out[keep]
+    for cell_writes in (loops.cell_writes, hostloops.cell_writes):
+        got = out.copy()
+        cell_writes(got, order, bounds, values, offset, bank, starts, steps, droops, buf)
+        assert np.array_equal(_bits(got), _bits(want))
+
+
 def _plain_shift(old: np.ndarray, h: int, v: int) -> np.ndarray:
     """``new[r, c] = old[r + v, c - h]``, 0 from beyond the edge, index by index."""
     rows, cols = old.shape

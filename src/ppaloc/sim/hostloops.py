@@ -24,6 +24,7 @@ __all__ = [
     "all_set",
     "any_in_grid",
     "any_set",
+    "cell_writes",
     "droop",
     "droop_each",
     "droop_pending",
@@ -178,6 +179,35 @@ def noisy_level(
     _loops().noisy_level(out, float(value), window, flag, everywhere)
 
 
+def cell_writes(
+    plane: np.ndarray,
+    order: np.ndarray,
+    bounds: np.ndarray,
+    values: np.ndarray,
+    offset: np.ndarray,
+    bank: np.ndarray,
+    starts: np.ndarray,
+    steps: np.ndarray,
+    droops: bool,
+    buf: np.ndarray,
+) -> None:
+    """Noisy cell writes into ``plane``, each followed by the droop of the cells after it.
+
+    The elements are grouped by the cell that writes them: ``order[bounds[g]:bounds[g +
+    1]]`` are the flat indices of group ``g``, group 0 the elements no cell writes and
+    group ``k + 1`` those of cell ``k`` (``k < m = values.size``; the elements of later
+    cells are left alone). Cell ``k`` writes ``clip((values[k] + offset) + bank[starts[k]
+    + e], -128, 127)`` at its elements ``e`` (float32, :func:`noisy_write`'s order with
+    the window that starts at ``starts[k]``); then, if ``droops``, the droop steps
+    ``steps[k + 1:]`` apply one after the other, as :func:`droop` before each later
+    cell's write (group 0: every step; a step of 0: no droop). ``buf`` is float32
+    scratch of the largest group's length. The same bytes as the writes and droops one
+    plane pass at a time; each group's steps run over its elements in a buffer (a loop
+    that vectorises), not over the plane.
+    """
+    _loops().cell_writes(plane, order, bounds, values, offset, bank, starts, steps, droops, buf)
+
+
 def numpy_loops() -> SimpleNamespace:
     """The plain numpy versions (used without numba; the tests' reference)."""
 
@@ -249,6 +279,25 @@ def numpy_loops() -> SimpleNamespace:
                 pending[i] = 0.0
                 droop_np(planes[i], np.float32(decay * us / 1000.0))
 
+    def cell_writes_np(plane, order, bounds, values, offset, bank, starts, steps, droops, buf):
+        flat, off = plane.reshape(-1), offset.reshape(-1)
+        m = values.size
+        for g in range(m + 1):
+            idx = order[bounds[g] : bounds[g + 1]]
+            if idx.size == 0 or (g == 0 and not droops):
+                continue
+            if g == 0:
+                v = flat[idx]
+            else:  # noisy_np's operations on the cell's elements
+                v = values[g - 1] + off[idx]
+                np.add(v, bank[starts[g - 1] + idx], out=v)
+                np.clip(v, np.float32(-128.0), np.float32(127.0), out=v)
+            if droops:
+                for j in range(g, m):
+                    if steps[j]:
+                        droop_np(v, steps[j])
+            flat[idx] = v
+
     lo, hi = np.float32(-128.0), np.float32(127.0)
 
     def noisy_np(out, values, offset, window, flag, everywhere) -> None:
@@ -281,6 +330,7 @@ def numpy_loops() -> SimpleNamespace:
         noisy_level=noisy_level_np,
         noisy_write=noisy_np,
         droop_pending=droop_pending_np,
+        cell_writes=cell_writes_np,
     )
 
 
@@ -588,6 +638,39 @@ def _numba_loops() -> SimpleNamespace:
             y = o[i]
             o[i] = x if everywhere or f[i] else y
 
+    @jit
+    def cell_writes_nb(plane, order, bounds, values, offset, bank, starts, steps, droops, buf):
+        # pragma: no cover - compiled
+        flat = plane.reshape(plane.size)
+        off = offset.reshape(offset.size)
+        m = values.size
+        for g in range(m + 1):  # group 0: the elements no cell writes; g: cell g - 1
+            lo, n = bounds[g], bounds[g + 1] - bounds[g]
+            if n == 0 or (g == 0 and not droops):
+                continue
+            if g == 0:
+                for e in range(n):
+                    buf[e] = flat[order[lo + e]]
+            else:
+                x = values[g - 1]
+                s0 = starts[g - 1]
+                for e in range(n):
+                    i = order[lo + e]
+                    buf[e] = _noisy_value(x, off[i], bank[s0 + i])
+            if droops:  # the later cells' steps, one after the other (vectorised over e)
+                for j in range(g, m):
+                    step = steps[j]
+                    if step == 0:  # no droop at that cell
+                        continue
+                    low = -step
+                    for e in range(n):
+                        y = buf[e]
+                        t = y if y > low else low  # numpy's clip: max, then min
+                        t = t if t < step else step
+                        buf[e] = y - t
+            for e in range(n):
+                flat[order[lo + e]] = buf[e]
+
     return SimpleNamespace(
         select=select_nb,
         fill=fill_all_nb,
@@ -604,4 +687,5 @@ def _numba_loops() -> SimpleNamespace:
         noisy_level=level_nb,
         noisy_write=noisy_nb,
         droop_pending=droop_pending_nb,
+        cell_writes=cell_writes_nb,
     )
