@@ -1,8 +1,10 @@
 """``Scamp5.load_in_cells`` against the same program written out call by call.
 
-In ideal mode without observers the routine writes the cells in one pass and charges the
-calls it does not make (``TimingModel.charge_rounds``); in every other case it makes the
-calls one by one. Either way every plane, the modelled time and energy, the stage
+Without observers the routine writes all but the last cell at once (in ideal mode one
+pass; under noise each cell's draw, write and the droop of the cells after it) and
+charges the calls it does not make (``TimingModel.charge_rounds``); observed, or where a
+digital register could decay meanwhile, it makes the calls one by one. Either way every
+plane, the pending droop, the draws taken, the modelled time and energy, the stage
 report, the observers' events and whatever the simulator does next must be those of the
 program that makes each ``load_pattern``, ``load_in`` and kernel run itself.
 """
@@ -15,19 +17,25 @@ import numpy as np
 import pytest
 
 from ppaloc.errors import RegisterMisuseError, SimulatorError
-from ppaloc.sim import IN, NEWS, PRESETS, R2, R5, A, B, C, F, Scamp5, east
+from ppaloc.sim import IN, NEWS, PRESETS, R2, R3, R5, A, B, C, F, Scamp5, east
 from ppaloc.sim.cells import period_mask
 from ppaloc.sim.engines import available_engines
 from ppaloc.sim.observe import ControllerCall, KernelRun
 from ppaloc.sim.timing import TimingModel
 
-#: Ideal, every preset, and one with noise but no digital retention (so that the noise alone
-#: keeps the routine on its cell-by-cell path).
+#: Ideal, every preset, one with noise but no digital retention, one without droop, and one
+#: whose registers pass their retention time within microseconds (digital decay draws
+#: while the cells load: the routine makes its calls one by one).
 NOISES = {
     "ideal": "ideal",
     **PRESETS,
     "typical-no-retention": replace(PRESETS["typical"], digital_retention_ms=None),
+    "typical-no-droop": replace(PRESETS["typical"], decay_per_ms=0.0),
+    "typical-decaying": replace(
+        PRESETS["typical"], digital_retention_ms=0.002, digital_flip_per_ms=0.5
+    ),
 }
+CALL_BY_CALL = {"typical-decaying"}
 ENGINES = available_engines()
 
 
@@ -56,11 +64,19 @@ def _by_calls(sim: Scamp5, areg, values: np.ndarray, dreg, kernels: dict) -> Non
 
 
 def _state(sim: Scamp5) -> tuple:
-    """Every plane's bytes, the clock, the energy and the stage report."""
+    """Every plane's bytes, the droop and retention bookkeeping, the draws taken, the
+    clock, the energy and the stage report."""
     report = sim.timing.report()
     return (
         sim._a.tobytes(),
         sim._d.tobytes(),
+        sim._droop_us.tobytes(),
+        sim._last_us,
+        sim._dtouch_us.tobytes(),
+        sim._dtouch_low,
+        sim._in_level,
+        sim.noise.draws_taken,
+        sim.noise.rng.bit_generator.state["state"],
         sim.timing.now_us,
         sim.timing.energy_uj,
         sim.timing.charges,
@@ -68,12 +84,39 @@ def _state(sim: Scamp5) -> tuple:
     )
 
 
-def _run(noise: str, engine: str, rows: int, cols: int, shapes, routine: bool, observer=None):
+def _counting(sim: Scamp5) -> list:
+    """The arguments of every ``load_in`` the simulator makes from now on."""
+    seen: list = []
+    original = sim.load_in
+
+    def counted(*args, **kwargs):
+        seen.append(args)
+        return original(*args, **kwargs)
+
+    sim.load_in = counted
+    return seen
+
+
+def _run(
+    noise: str,
+    engine: str,
+    rows: int,
+    cols: int,
+    shapes,
+    routine: bool,
+    observer=None,
+    calls: list | None = None,
+):
     """A seeded program around two or three loads (the first records the kernel), then a
-    noisy kernel and a readout after them; the state after each step."""
+    noisy kernel and a readout after them; the state after each step (and, in ``calls``,
+    how many ``load_in`` each load made)."""
     sim = Scamp5(rows, cols, noise=NOISES[noise], seed=3, engine=engine)
     if observer is not None:
         sim.observe(observer)
+    seen = _counting(sim)
+    per_event = sim.timing.call_us("scan_events", 2) - sim.timing.call_us("scan_events", 1)
+    sim.timing.charge_call("scan_events", 123_457.3 / per_event)  # a clock past 0.1 s: its
+    # intervals are differences of large floats (rounded), which add up in their order
     rng = np.random.default_rng(7)
     for reg in (A, B, C, F):
         sim.write(reg, rng.uniform(-128, 127, (rows, cols)))
@@ -83,11 +126,15 @@ def _run(noise: str, engine: str, rows: int, cols: int, shapes, routine: bool, o
         for n, shape in enumerate(shapes):
             values = _grid(rng, shape)
             dreg = R2 if n == 2 else R5  # a second kernel, recorded among the first's runs
+            sim.load_pattern(R3, n, 0, 0, 0)  # time passes: F has droop pending at the start
             if routine:
                 sim.load_in_cells(F, values, dreg)
             else:
                 _by_calls(sim, F, values, dreg, kernels)
             states.append(_state(sim))
+            if calls is not None:
+                calls.append(len(seen))
+            seen.clear()
     with sim.kernel() as k:  # what follows reads F, IN and FLAG as the loads left them
         k.add(A, F, IN)
         k.movx(B, F, east)
@@ -100,35 +147,68 @@ def _run(noise: str, engine: str, rows: int, cols: int, shapes, routine: bool, o
 @pytest.mark.parametrize("noise", NOISES)
 def test_the_same_bytes_time_and_energy_as_the_calls(noise, engine):
     shapes = [(4, 4), (4, 4), (2, 2), (2, 4)]
-    assert _run(noise, engine, 8, 8, shapes, True) == _run(noise, engine, 8, 8, shapes, False)
+    calls: list = []
+    got = _run(noise, engine, 8, 8, shapes, True, calls=calls)
+    assert got == _run(noise, engine, 8, 8, shapes, False)
+    # the first load of each kernel records it (every call made); the others are written
+    # at once but for the last cell's calls, unless a register may decay meanwhile
+    assert calls == ([16, 16, 4, 8] if noise in CALL_BY_CALL else [16, 1, 4, 1])
 
 
 @pytest.mark.parametrize("engine", ENGINES)
-def test_cells_on_an_array_the_periods_do_not_tile(engine):
+@pytest.mark.parametrize("noise", ["typical", "high"])
+def test_many_cells_droop_and_draw_as_the_calls(noise, engine):
+    """256 and 64 cells (the 16 x 16 and 8 x 8 places): each cell's value droops by the
+    steps of every later cell's kernel, and the draws cross a batch of the noise model's
+    draws (4096) on the way."""
+    shapes = [(16, 16)] + [(16, 16), (8, 8)] * 14  # 4736 draws
+    calls: list = []
+    got = _run(noise, engine, 32, 32, shapes, True, calls=calls)
+    assert got == _run(noise, engine, 32, 32, shapes, False)
+    assert calls == [256, 1, 64] + [1] * 26
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("noise", ["ideal", "typical"])
+def test_cells_on_an_array_the_periods_do_not_tile(noise, engine):
     """Rows beyond 256 match no 8-bit pattern, and 6 rows take period 4 once and a half:
-    the rows and columns no cell selects keep their values."""
+    the rows and columns no cell selects keep their values (drooping, under noise)."""
     for rows, cols, shapes in ((260, 4, [(2, 2), (2, 2)]), (6, 5, [(4, 2), (4, 2)])):
-        got = _run("ideal", engine, rows, cols, shapes, True)
-        assert got == _run("ideal", engine, rows, cols, shapes, False)
+        calls: list = []
+        got = _run(noise, engine, rows, cols, shapes, True, calls=calls)
+        assert got == _run(noise, engine, rows, cols, shapes, False)
+        assert calls[1] == 1
 
 
-def test_ideal_loads_are_written_at_once_and_noisy_ones_call_by_call():
-    """The fast path is taken where it is exact (ideal, unobserved) and only there."""
-    for noise, calls in (("ideal", 1), ("typical", 16)):
-        sim = Scamp5(8, 8, noise=noise)
-        seen = []
-        original = sim.load_in
+@pytest.mark.parametrize("noise", ["ideal", "typical", "typical-decaying"])
+def test_loads_are_written_at_once_unless_a_register_may_decay(noise):
+    """The fast path is taken where it is exact (unobserved, no digital decay possible
+    before the last cell) and only there; the stage report counts every call either way."""
+    sim = Scamp5(8, 8, noise=NOISES[noise])
+    seen = _counting(sim)
+    sim.load_in_cells(F, np.arange(16).reshape(4, 4), R5)  # records the kernel
+    seen.clear()
+    sim.load_in_cells(F, np.arange(16).reshape(4, 4), R5)
+    assert len(seen) == (16 if noise in CALL_BY_CALL else 1)
+    assert sim.timing.report().stages[0].calls == {"load_pattern": 32, "load_in": 32}
 
-        def counted(*args, _original=original, _seen=seen, **kwargs):
-            _seen.append(args)
-            return _original(*args, **kwargs)
 
-        sim.load_in = counted
-        sim.load_in_cells(F, np.arange(16).reshape(4, 4), R5)  # records the kernel
-        seen.clear()
-        sim.load_in_cells(F, np.arange(16).reshape(4, 4), R5)
-        assert len(seen) == calls
-        assert sim.timing.report().stages[0].calls == {"load_pattern": 32, "load_in": 32}
+def test_a_register_past_retention_later_sends_the_loads_call_by_call():
+    """Typical retention (1.5 s): loads take the fast path while every register of R0-R12
+    was written within it, and go call by call once the clock passes it (a register never
+    written decays from then on, drawing every time the clock moves)."""
+    sim = Scamp5(8, 8, noise="typical")
+    seen = _counting(sim)
+    values = np.arange(16).reshape(4, 4)
+    sim.load_in_cells(F, values, R5)
+    seen.clear()
+    sim.load_in_cells(F, values, R5)
+    assert len(seen) == 1
+    per_event = sim.timing.call_us("scan_events", 2) - sim.timing.call_us("scan_events", 1)
+    sim.timing.charge_call("scan_events", 1.6e6 / per_event)  # modelled time passes
+    seen.clear()
+    sim.load_in_cells(F, values, R5)
+    assert sim.timing.now_us > 1.5e6 and len(seen) == 16
 
 
 @pytest.mark.parametrize("noise", ["ideal", "typical"])
@@ -147,8 +227,9 @@ def test_observers_receive_every_call_and_kernel_run_in_order(noise):
 
     got, want = events(True), events(False)
     assert got == want
-    assert [e[0] for e in got[0][:3]] == ["load_pattern", "load_in", "kernel"]
-    assert len(got[0]) == 2 * 4 * 3 + 1 + 1  # two loads of 4 cells, a kernel, a readout
+    assert [e[0] for e in got[0][1:4]] == ["load_pattern", "load_in", "kernel"]
+    # two loads of 4 cells after a pattern each, a kernel, a readout
+    assert len(got[0]) == 2 * (1 + 4 * 3) + 1 + 1
 
 
 def test_the_values_negated_and_tiled():
@@ -213,3 +294,22 @@ def test_charge_rounds_is_the_charges_one_by_one():
     assert (a.now_us, a.energy_uj, a.charges) == (b.now_us, b.energy_uj, b.charges)
     assert a.report().stages == b.report().stages
     assert a.report().stage("s").chip_uj > 0
+
+
+def test_rounds_clock_is_the_clock_after_each_charge_one_by_one():
+    a, b = TimingModel(), TimingModel()
+    kernel = (("analog", 1), ("digital", 2))
+    for t in (a, b):
+        t.charge_call("scan_events", 123.4)  # a clock whose sums round
+    clock = b.rounds_clock(("load_pattern", "load_in", kernel), 50)
+    assert b.now_us == a.now_us and b.charges == a.charges  # nothing charged
+    seen = []
+    for _ in range(50):
+        for step in ("load_pattern", "load_in"):
+            a.charge_call(step)
+            seen.append(a.now_us)
+        a.charge_kernel(kernel)
+        seen.append(a.now_us)
+    assert clock.tolist() == seen
+    b.charge_rounds(("load_pattern", "load_in", kernel), 50)
+    assert b.now_us == clock[-1] == a.now_us

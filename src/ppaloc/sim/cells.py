@@ -10,13 +10,16 @@ calls and one kernel, so it is timed, observed and noisy exactly as those calls 
 
 It is a host routine, not a SCAMP-5 library call: observers receive its calls and
 kernel runs one by one (``load_pattern``, ``load_in``, a ``KernelRun``, per cell), as
-the program written out call by call would make them. In ideal mode, with no observer
-attached, the simulator writes the register's cells in one pass and makes only the last
-cell's calls, charging the timing model every other cell's calls and kernel run in order
-(:meth:`~ppaloc.sim.timing.TimingModel.charge_rounds`): the same bytes in every register
-and the same modelled time and energy as the cell-by-cell path, which every other case
-takes (under noise each write draws its own noise by index and droops with time, so the
-writes run one by one).
+the program written out call by call would make them. With no observer attached, the
+simulator replays all but the last cell at once and makes only the last cell's calls,
+charging the timing model every other cell's calls and kernel run in order
+(:meth:`~ppaloc.sim.timing.TimingModel.charge_rounds`): in ideal mode one pass writes the
+cells; under noise each cell's draw (taken by index), write and the droop of the time to
+each later cell's kernel run are replayed with the same float32 operations
+(:func:`~ppaloc.sim.hostloops.cell_writes`). The same bytes in every register, the same
+draws taken and the same modelled time and energy as the cell-by-cell path, which the
+routine takes where a digital register could decay meanwhile (its draws come from a
+sequential generator) and when observed.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ppaloc.errors import SimulatorError
+from ppaloc.sim import hostloops
 from ppaloc.sim.registers import IN, Register
 
 if TYPE_CHECKING:
@@ -56,12 +60,18 @@ class CellLoadMixin:
     _observers: tuple
     _call_frame: Any
     _retention: bool
+    _a: np.ndarray
+    _droop_us: np.ndarray
+    _last_us: float
+    _dtouch_low: float
     #: The kernel ``WHERE(dreg); bus(areg, IN); all`` by ``(areg, dreg)`` (recorded at
     #: the first cell ever loaded so).
     _cell_kernels: dict[tuple[Register, Register], Kernel] | None = None
     #: Per period ``(p, q)``: the cell whose value each row, column takes last (-1: none),
     #: and whether they are simply ``r % p``, ``c % q`` (the grid tiles the plane).
     _cell_index: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, bool]] | None = None
+    #: Per period: :meth:`_cell_groups`' flat indices, bounds and scratch.
+    _cell_groups_cache: dict[tuple[int, int], tuple] | None = None
 
     if TYPE_CHECKING:
 
@@ -136,9 +146,17 @@ class CellLoadMixin:
             kernels = self._cell_kernels = {}
         kernel = kernels.get((areg, dreg))
         if kernel is not None and grid.size > 1 and self._batched(kernel):
-            self._write_cells(areg, grid)
-            self.timing.charge_rounds(("load_pattern", "load_in", kernel._counts), grid.size - 1)
-            cells = [(p - 1, q - 1)]  # its calls leave dreg, IN and FLAG as they were
+            steps = ("load_pattern", "load_in", kernel._counts)
+            if self.noise.ideal:
+                self._write_cells(areg, grid)
+                self.timing.charge_rounds(steps, grid.size - 1)
+                cells = [(p - 1, q - 1)]  # its calls leave dreg, IN and FLAG as they were
+            else:
+                clock = self.timing.rounds_clock(steps, grid.size - 1)
+                if self._undecayed(float(clock.max())):
+                    self._write_cells_noisy(areg, grid, clock)
+                    self.timing.charge_rounds(steps, grid.size - 1)
+                    cells = [(p - 1, q - 1)]
         for i, j in cells:
             self.load_pattern(dreg, i, j, rx, cx)
             self.load_in(int(grid[i, j]))
@@ -152,24 +170,29 @@ class CellLoadMixin:
                 kernel.run()
 
     def _batched(self, kernel: Kernel) -> bool:
-        """Whether the cells may be written at once: ideal mode (each write exact, nothing
-        drawn, nothing droops or decays), no observer and no call around this one (both
-        receive every call), the kernel whole (no ICW dropped from a full stack) and run
-        before (compiled, its counts known)."""
+        """Whether the cells may be written at once: no observer and no call around this
+        one (both receive every call), the kernel whole (no ICW dropped from a full stack)
+        and run before (compiled, its counts known)."""
         return (
-            self.noise.ideal
-            and not self._retention
-            and not self._observers
+            not self._observers
             and self._call_frame is None
             and not kernel.dropped
             and kernel._counts is not None
         )
 
-    def _write_cells(self, areg: Register, grid: np.ndarray) -> None:
-        """Every cell's value into ``areg`` as the kernels write it in ideal mode:
-        ``clip(-v, -128, 127)`` in float32 (``-0.0`` for 0, as the negation gives), at the
-        PEs the cell's pattern selects, the last cell's where two select one PE."""
-        p, q = grid.shape
+    def _undecayed(self, until_us: float) -> bool:
+        """Whether no digital register can decay before the clock reaches ``until_us``: no
+        retention modelled, or every register of R0-R12 written or refreshed within the
+        retention time of it (:meth:`~ppaloc.sim.engine.Scamp5._elapse` then draws and
+        changes nothing digital, so the cells' writes may be replayed without it)."""
+        params = self.noise.params
+        if not self._retention or not params.digital_flip_per_ms:
+            return True
+        return until_us - self._dtouch_low <= params.digital_retention_ms * 1e3
+
+    def _cells_of(self, p: int, q: int) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Per row, per column the cell of period ``(p, q)`` that writes it last (-1:
+        none), and whether they are ``r % p``, ``c % q`` (worked out once per period)."""
         index = self._cell_index
         if index is None:
             index = self._cell_index = {}
@@ -188,7 +211,14 @@ class CellLoadMixin:
                 and np.array_equal(col_cell, np.arange(self.cols) % q)
             )
             cached = index[(p, q)] = (row_cell, col_cell, tiled)
-        row_cell, col_cell, tiled = cached
+        return cached
+
+    def _write_cells(self, areg: Register, grid: np.ndarray) -> None:
+        """Every cell's value into ``areg`` as the kernels write it in ideal mode:
+        ``clip(-v, -128, 127)`` in float32 (``-0.0`` for 0, as the negation gives), at the
+        PEs the cell's pattern selects, the last cell's where two select one PE."""
+        p, q = grid.shape
+        row_cell, col_cell, tiled = self._cells_of(p, q)
         value = np.negative(grid.astype(np.float32))
         np.clip(value, np.float32(-128), np.float32(127), out=value)
         plane = self._aplane(areg)
@@ -201,6 +231,83 @@ class CellLoadMixin:
         else:
             sel = np.ix_(np.flatnonzero(rows), np.flatnonzero(cols))
             plane[sel] = value[row_cell[rows]][:, col_cell[cols]]
+
+    def _cell_groups(self, p: int, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The array's flat indices grouped by the cell of period ``(p, q)`` that writes
+        them last (first those no cell writes, then cell 0, 1, ... in row-major order),
+        the groups' bounds in it (``p * q + 2``) and a float32 scratch of the largest
+        group's length: :func:`~ppaloc.sim.hostloops.cell_writes`' arguments, made once."""
+        groups = self._cell_groups_cache
+        if groups is None:
+            groups = self._cell_groups_cache = {}
+        cached = groups.get((p, q))
+        if cached is None:
+            row_cell, col_cell, _ = self._cells_of(p, q)
+            cell = row_cell[:, None] * q + col_cell[None, :]
+            cell[(row_cell < 0)[:, None] | (col_cell < 0)[None, :]] = -1
+            group = cell.reshape(-1) + 1
+            order = np.argsort(group, kind="stable").astype(np.int64)
+            counts = np.bincount(group, minlength=p * q + 1)
+            bounds = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+            cached = groups[(p, q)] = (order, bounds, np.empty(counts.max(), np.float32))
+        return cached
+
+    def _write_cells_noisy(self, areg: Register, grid: np.ndarray, clock: np.ndarray) -> None:
+        """All but the last cell of ``grid`` as their calls and kernel runs leave the
+        simulator under noise, the clock not yet charged (``clock``: ``now_us`` after each
+        of those charges, :meth:`~ppaloc.sim.timing.TimingModel.rounds_clock`).
+
+        Per cell ``k`` the calls and the run would: account the droop of the time elapsed
+        at ``load_pattern`` and at the kernel's start (the analogue planes' pending droop,
+        float64 sums in that order), droop ``areg`` by the step of its pending time
+        (``float32(decay_per_ms * us / 1000)``), take one draw ``j`` (window start, gain)
+        and write ``clip((float32(v) * float32(-(1 + g_j)) + offset) + window_j)`` where
+        the pattern selects. Here the draws are taken at once, each element gets its
+        cell's write and then the droop steps of the cells after it (the steps before
+        its write change nothing that is read again), and the pending droop and the last
+        elapse instant are set as those calls leave them. The caller has checked that no
+        digital register decays meanwhile (:meth:`_undecayed`); FLAG, ``dreg`` and
+        ``IN`` are left to the last cell's calls, which set them whole.
+        """
+        p, q = grid.shape
+        m = grid.size - 1
+        noise = self.noise
+        params = noise.params
+        starts, gains = noise.take(m)
+        values = grid.reshape(-1)[:m].astype(np.float32) * gains.astype(np.float32)
+        # each cell's elapse instants: after load_pattern, after load_in (its kernel's)
+        at = clock.reshape(m, 3)[:, :2].reshape(-1)
+        elapsed = at - np.concatenate(([self._last_us], at[:-1]))
+        elapsed[elapsed <= 0] = 0.0  # an interval of no time adds nothing
+        decay = params.decay_per_ms
+        pending = self._droop_us
+        i = areg.index
+        if decay:
+            both = elapsed.reshape(m, 2)
+            start = np.zeros(m)
+            start[0] = pending[i]
+            us = (start + both[:, 0]) + both[:, 1]  # pending += elapsed, twice per cell
+            steps = np.where(us > 0, decay * us / 1000.0, 0.0).astype(np.float32)
+            for r in range(len(pending)):  # the other planes sum every interval in turn
+                if r != i:
+                    pending[r] = np.add.accumulate(np.concatenate(([pending[r]], elapsed)))[-1]
+            pending[i] = 0.0
+        else:
+            steps = np.zeros(m, np.float32)
+        order, bounds, buf = self._cell_groups(p, q)
+        hostloops.cell_writes(
+            self._a[i],
+            order,
+            bounds,
+            values,
+            noise.offsets[i],
+            noise._bank,
+            starts,
+            steps,
+            bool(decay),
+            buf,
+        )
+        self._last_us = float(at[-1])
 
 
 def _checked_values(call: str, values: Any) -> np.ndarray:
