@@ -151,10 +151,11 @@ class OnSensorLocaliser:
 
     Notes
     -----
-    ``score`` is the integer detection threshold ``T = floor(max W)`` minus the same
-    threshold outside nodes ``node - R .. node + R``, both found by ``global_or`` searches
-    (the host reports the unrounded difference). ``weights`` (with ``record_weights``)
-    are read from the weight register as an untimed inspection.
+    ``score`` is the detection threshold minus the same threshold outside nodes ``node -
+    R .. node + R``, both found by ``global_or`` searches: with the robust preset each to
+    1/16, equal to the host's ppa8 score; with the paper's the integer ``T = floor(max
+    W)`` (the host reports the unrounded difference). ``weights`` (with
+    ``record_weights``) are read from the weight register as an untimed inspection.
     """
 
     def __init__(
