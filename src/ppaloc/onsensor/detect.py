@@ -134,7 +134,8 @@ def detect(sensor: Sensor, state: WeightState, prev: int | None, bits: int = 0) 
         state.top_fraction = frac
         found = candidates(sensor, state, top, prev, frac, bits)
         if found is None and frac:
-            found = candidates(sensor, state, top, prev)  # only with noise, as below
+            state.top_fraction = 0  # only with noise, as below: the threshold falls to T
+            found = candidates(sensor, state, top, prev)
         while found is None and top > -127:
             # only with noise: the comparator's noise hid every candidate this time
             top -= 1
