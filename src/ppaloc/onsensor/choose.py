@@ -60,7 +60,7 @@ RICHEST_FIRST = ("lowres16", "lowres", "lbp")
 
 
 def sensor_capacity(
-    representation: str, plan: SensorPlan, store: str | None = None, size: int = 256
+    representation: str, plan: SensorPlan, store: str | None = None, size: int = SENSOR_SIZE
 ) -> int:
     """Nodes one sensor holds of ``representation`` under a schedule's ``plan``: the tiles
     its store leaves room for times the nodes of a tile (an array of ``size`` PEs a side).
@@ -88,7 +88,7 @@ def choose_place(
     plan: SensorPlan,
     *,
     runs_on: tuple[str, ...] = RICHEST_FIRST,
-    size: int = 256,
+    size: int = SENSOR_SIZE,
 ) -> str:
     """The place a map of ``n_nodes`` nodes gets on ``sensors`` sensors.
 
