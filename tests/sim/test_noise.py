@@ -38,6 +38,10 @@ def test_ideal_is_exact_and_presets_exist() -> None:
         Scamp5(4, 4, noise="loud")
     with pytest.raises(SimulatorError, match=r"NoiseParams.temporal_sd=-1.0 is invalid"):
         NoiseParams(temporal_sd=-1.0)
+    # a probability per millisecond: above 1 the decay's arithmetic has no meaning
+    with pytest.raises(SimulatorError, match=r"digital_flip_per_ms=1.5 is invalid: it is a"):
+        NoiseParams(digital_retention_ms=1.0, digital_flip_per_ms=1.5)
+    assert NoiseParams(digital_retention_ms=1.0, digital_flip_per_ms=1.0).digital_flip_per_ms == 1
 
 
 def test_temporal_noise_magnitude_and_independence() -> None:

@@ -74,7 +74,8 @@ class NoiseParams:
         Time a 1 in a digital register survives without a write or ``REFRESH``; None
         disables digital decay.
     digital_flip_per_ms : float
-        After the retention time, the probability per millisecond that a 1 decays to 0.
+        After the retention time, the probability per millisecond that a 1 decays to 0
+        (in [0, 1]).
     """
 
     transfer_gain: float = 0.0
@@ -102,6 +103,11 @@ class NoiseParams:
                     f"NoiseParams.{f.name}={v!r} is invalid: use a finite value "
                     "(non-negative except transfer_gain)"
                 )
+        if self.digital_flip_per_ms > 1:
+            raise SimulatorError(
+                f"NoiseParams.digital_flip_per_ms={self.digital_flip_per_ms!r} is invalid: it "
+                "is a probability per millisecond, in [0, 1]"
+            )
 
 
 #: Named presets. "typical" takes the retention time from the SCAMP-5 headers and
