@@ -662,12 +662,9 @@ def _numba_loops() -> SimpleNamespace:
                     step = steps[j]
                     if step == 0:  # no droop at that cell
                         continue
-                    low = -step
                     for e in range(n):
                         y = buf[e]
-                        t = y if y > low else low  # numpy's clip: max, then min
-                        t = t if t < step else step
-                        buf[e] = y - t
+                        buf[e] = y - _droop_of(y, step)
             for e in range(n):
                 flat[order[lo + e]] = buf[e]
 
