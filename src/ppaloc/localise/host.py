@@ -309,7 +309,8 @@ class HostExecutor:
             return 0.0
         if self.exact and bits:
             step = 2**bits
-            top_b = math.floor(float(self._w.max()) * step) / step
+            top_w = float(self._w.max()) if self._top is None else self._top  # as detect's
+            top_b = math.floor(top_w * step) / step
             return top_b - math.floor(outside * step) / step
         return float(self._w[(node + self._offset) % len(self._w)]) - outside
 
