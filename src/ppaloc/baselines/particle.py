@@ -39,9 +39,9 @@ import numpy as np
 
 from ppaloc.baselines._common import ImageLocaliser, top_k
 from ppaloc.baselines._descriptors import check_descriptor
-from ppaloc.baselines.seqslam import contrast_enhance
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
+from ppaloc.localise.enhance import contrast_enhance
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ParticleFilter", "systematic_resample"]

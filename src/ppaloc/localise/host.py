@@ -24,6 +24,7 @@ import math
 import numpy as np
 
 from ppaloc.errors import PpalocError
+from ppaloc.localise.enhance import ENHANCE_UNITS, contrast_enhance
 from ppaloc.localise.likelihood import NodeDistances, distance_scale, float_divisor
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
 from ppaloc.localise.params import FilterParams, choose_candidate, refined_minimum
@@ -85,11 +86,20 @@ def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
     Low-res ``float``: ``mu`` itself (the SAD over :func:`float_divisor`).
     """
     if kind == "lbp":
-        return raw.astype(np.int64) * 2
+        return raw.astype(np.int64) * 2 if raw.dtype.kind in "iu" else raw * 2.0
     if exact:  # raw = T, mu = T / 2**17, mu / 2 = T / 2**18
         code = (257 * 2**17 - raw.astype(np.int64)) >> 18
         return 2 * (128 - code)
     return raw.astype(np.float64) / float(float_divisor(kind))
+
+
+def enhanced(kind: str, raw: np.ndarray, window: int) -> np.ndarray:
+    """``raw`` distances contrast-enhanced along the map (``enhance``, float only), in
+    raw units such that :func:`read_values` reads :data:`ENHANCE_UNITS` a deviation."""
+    z = contrast_enhance(raw, window)
+    if kind == "lbp":
+        return z * (ENHANCE_UNITS / 2.0)
+    return z * float(ENHANCE_UNITS * float_divisor(kind))
 
 
 def motion_model(params: FilterParams) -> MotionModel | None:
@@ -207,7 +217,10 @@ class HostExecutor:
         if self._distances is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
         if self._raw is None:
-            self._raw = self._distances(self._frame)  # type: ignore[arg-type]
+            raw = self._distances(self._frame)  # type: ignore[arg-type]
+            if self.params.enhance:  # robust, float: FilterParams refuses it in ppa8
+                raw = enhanced(self.representation, raw, self.params.enhance)
+            self._raw = raw
         return self._raw
 
     def transition(self, costs: tuple[int, ...]) -> None:

@@ -137,7 +137,7 @@ class Param:
     group : {"robust", "paper"} or None
         The parameter group of the presets that read it (None: every preset); giving it
         to a preset of the other group is an error.
-    kind : {"int", "bool", "motion", "gamma", "alpha", "advance", "patch"}
+    kind : {"int", "window", "bool", "motion", "gamma", "alpha", "advance", "patch"}
         How a value is checked.
     default : Any
         The value when none (or None) is given; a callable ``default(representation,
@@ -231,6 +231,14 @@ class FilterParams:
         dark road, street lights at night), which one offset and gain per image leave
         in. The controller applies it to the 64 codes it reads, so the sensor's
         time does not change.
+    enhance : int
+        Robust, host in float arithmetic only: SeqSLAM's local contrast enhancement of
+        each frame's distances along the map (:func:`ppaloc.localise.enhance.
+        contrast_enhance`, window ``enhance`` nodes, SeqSLAM's and the particle filter's
+        ``R`` = 10), the likelihood then read from the z-scores; 0 (the default) reads
+        the distances as they are. Not part of the ppa8 contract: the sensor cannot
+        divide each node's distance by its neighbours' deviation, so ``ppa8`` and the
+        sensor refuse it (docs/localise.md, "Local contrast of the distances").
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -261,6 +269,7 @@ class FilterParams:
         default=DEFAULT_CONTRAST_PATCH,
         metadata=_param("robust", "patch", DEFAULT_CONTRAST_PATCH),
     )
+    enhance: int | None = field(default=0, metadata=_param("robust", "window", 0, 0, MAX_WINDOW))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -334,6 +343,12 @@ class FilterParams:
                     out[key] = value
                     continue
             out[key] = _check(key, value, spec, arithmetic)
+        if out.get("enhance") and arithmetic != "float":
+            raise PpalocError(
+                f"enhance={out['enhance']} runs on the host in float arithmetic only (the "
+                "sensor cannot divide a node's distance by its neighbours' deviation); "
+                "use arithmetic='float' or enhance=0"
+            )
         return cls(**out)
 
     @property
@@ -369,6 +384,11 @@ def _check(key: str, value: Any, spec: Param, arithmetic: str) -> Any:
     """``value`` checked against ``spec`` (a one-line error naming ``key`` otherwise)."""
     if spec.kind == "int":
         return check_int(key, value, spec.low, spec.high)  # type: ignore[arg-type]
+    if spec.kind == "window":
+        window = check_int(key, value, spec.low, spec.high)  # type: ignore[arg-type]
+        if window == 1:
+            raise PpalocError(f"{key}=1 must be 0 (off) or at least 2 nodes")
+        return window
     if spec.kind == "bool":
         if not isinstance(value, bool | np.bool_):
             raise PpalocError(f"{key}={value!r} must be True or False")

@@ -1,0 +1,100 @@
+"""``enhance``: SeqSLAM's local contrast of the distances, in the host's float filter only."""
+
+import numpy as np
+import pytest
+
+from ppaloc.baselines import seqslam
+from ppaloc.errors import PpalocError
+from ppaloc.localise import enhance
+from ppaloc.localise.enhance import ENHANCE_UNITS, contrast_enhance
+from ppaloc.localise.params import FilterParams, frame_scale
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+
+from .conftest import blocky
+
+
+@pytest.fixture
+def hubbed() -> np.ndarray:
+    """30 random 8x8 places, each drawn to the grey level of its neighbours' mean in half
+    its cells: neighbouring places share structure, as on a densely sampled route."""
+    rng = np.random.default_rng(11)
+    base = rng.integers(0, 256, (30, 8, 8)).astype(float)
+    smooth = (base + np.roll(base, 1, 0) + np.roll(base, -1, 0)) / 3
+    return np.stack([blocky(np.clip(s, 0, 255).astype(np.uint8)) for s in smooth])
+
+
+def test_seqslam_and_the_filter_share_one_function() -> None:
+    assert seqslam.contrast_enhance is enhance.contrast_enhance
+
+
+@pytest.mark.parametrize("kind", ["lowres", "lowres16", "lbp"])
+@pytest.mark.parametrize("window", [4, 10])
+def test_the_values_read_are_the_z_scores_of_the_plain_ones(hubbed, kind, window) -> None:
+    plain = WeightedNodeLocaliser(kind, keyframes=False)
+    enhanced = WeightedNodeLocaliser(kind, keyframes=False, enhance=window)
+    for loc in (plain, enhanced):
+        loc.build_map(hubbed)
+        loc.executor.begin(hubbed[7])
+    expected = ENHANCE_UNITS * contrast_enhance(plain.executor.node_values(), window)
+    np.testing.assert_allclose(enhanced.executor.node_values(), expected, rtol=1e-9)
+
+
+def test_the_first_frame_weighs_every_node_by_its_enhanced_value(hubbed) -> None:
+    loc = WeightedNodeLocaliser("lowres", keyframes=False, enhance=10)
+    loc.build_map(hubbed)
+    loc.executor.begin(hubbed[12])
+    mu = loc.executor.node_values()
+    shift, _ = frame_scale(mu, float(mu.min()), loc.params.gain, exact=False)
+    loc.reset()
+    loc.step(hubbed[12])
+    expected = np.maximum(-(mu - mu.min()) * 2.0**-shift, -loc.params.memory)
+    np.testing.assert_allclose(loc.executor.weights(), expected, atol=1e-4)
+
+
+def test_off_by_default_and_the_same_filter_at_zero(hubbed) -> None:
+    assert FilterParams.create("lowres").enhance == 0
+    a = WeightedNodeLocaliser("lowres16", keyframes=False)
+    b = WeightedNodeLocaliser("lowres16", keyframes=False, enhance=0)
+    for loc in (a, b):
+        loc.build_map(hubbed)
+    for frame in hubbed[::-1]:
+        ea, eb = a.step(frame), b.step(frame)
+        assert (ea.node, ea.score) == (eb.node, eb.score)
+
+
+def test_the_estimates_follow_the_enhanced_likelihood(hubbed) -> None:
+    a = WeightedNodeLocaliser("lowres", keyframes=False, motion="always_forward")
+    b = WeightedNodeLocaliser("lowres", keyframes=False, motion="always_forward", enhance=4)
+    scores = []
+    for loc in (a, b):
+        loc.build_map(hubbed)
+        scores.append([loc.step(f).score for f in hubbed])
+    assert scores[0] != scores[1]
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (
+            lambda: FilterParams.create("lowres", arithmetic="ppa8", enhance=10),
+            "float arithmetic only",
+        ),
+        (
+            lambda: WeightedNodeLocaliser("lbp", arithmetic="ppa8", enhance=10),
+            "float arithmetic only",
+        ),
+        (lambda: FilterParams.create("lbp", preset="paper", enhance=10), "preset 'robust'"),
+        (lambda: FilterParams.create("lbp", enhance=1), "at least 2"),
+        (lambda: FilterParams.create("lbp", enhance=-3), "enhance=-3"),
+    ],
+)
+def test_refusals_name_the_cause(make, message) -> None:
+    with pytest.raises(PpalocError, match=message):
+        make()
+
+
+def test_the_sensor_refuses_it() -> None:
+    from ppaloc.onsensor import OnSensorLocaliser
+
+    with pytest.raises(PpalocError, match="float arithmetic only"):
+        OnSensorLocaliser("lowres", enhance=10)
