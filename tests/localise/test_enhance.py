@@ -1,12 +1,15 @@
-"""``enhance``: SeqSLAM's local contrast of the distances, in the host's float filter only."""
+"""``enhance`` and ``local_gain``: local contrast of the distances, in the host's float
+filter only."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ppaloc.baselines import seqslam
 from ppaloc.errors import PpalocError
 from ppaloc.localise import enhance
-from ppaloc.localise.enhance import ENHANCE_UNITS, contrast_enhance
+from ppaloc.localise.enhance import ENHANCE_UNITS, closer_share, contrast_enhance
 from ppaloc.localise.params import FilterParams, frame_scale
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
@@ -98,3 +101,64 @@ def test_the_sensor_refuses_it() -> None:
 
     with pytest.raises(PpalocError, match="float arithmetic only"):
         OnSensorLocaliser("lowres", enhance=10)
+
+
+# -- local_gain: the share of closer neighbours ----------------------------------------
+
+
+def test_closer_share_golden() -> None:
+    d = np.array([4.0, 1.0, 3.0, 3.0, 0.0, 9.0])
+    # window 2: node 0 (4.0) has 1.0 and 3.0 closer (two places past the start never are);
+    # node 2 (3.0) has 1.0 and 0.0 among 4.0, 1.0, 3.0, 0.0 (a tie is not closer)
+    np.testing.assert_allclose(closer_share(d, 2), [0.5, 0.0, 0.5, 0.5, 0.0, 0.5])
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.integers(0, 50), min_size=1, max_size=40),
+    st.integers(1, 6),
+)
+def test_closer_share_is_a_share_and_the_best_pays_nothing(values, window) -> None:
+    d = np.array(values, dtype=float)
+    share = closer_share(d, window)
+    assert ((share >= 0) & (share <= 1)).all()
+    assert share[int(np.argmin(d))] == 0.0  # nothing is strictly closer than the minimum
+    # the exact count, written out
+    for i in range(len(d)):
+        near = [d[j] for j in range(i - window, i + window + 1) if j != i and 0 <= j < len(d)]
+        assert share[i] == sum(x < d[i] for x in near) / (2 * window)
+
+
+@pytest.mark.parametrize("kind", ["lowres", "lbp"])
+def test_the_local_term_is_added_to_the_first_frames_weights(hubbed, kind) -> None:
+    plain = WeightedNodeLocaliser(kind, keyframes=False)
+    local = WeightedNodeLocaliser(kind, keyframes=False, local_gain=3, local_window=2)
+    for loc in (plain, local):
+        loc.build_map(hubbed)
+        loc.step(hubbed[9])
+    raw = local.executor._raw_distances()
+    expected = plain.executor.weights() - 3 * closer_share(raw, 2)
+    expected = np.maximum(expected - expected.max(), -local.params.memory)
+    np.testing.assert_allclose(local.executor.weights(), expected, atol=1e-4)
+    assert not np.allclose(local.executor.weights(), plain.executor.weights())
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: FilterParams.create("lowres", arithmetic="ppa8", local_gain=2), "no stage"),
+        (lambda: FilterParams.create("lbp", preset="paper", local_gain=2), "preset 'robust'"),
+        (lambda: FilterParams.create("lbp", local_gain=33), "local_gain=33"),
+        (lambda: FilterParams.create("lbp", local_window=0), "local_window=0"),
+    ],
+)
+def test_local_refusals_name_the_cause(make, message) -> None:
+    with pytest.raises(PpalocError, match=message):
+        make()
+
+
+def test_the_sensor_refuses_the_local_term() -> None:
+    from ppaloc.onsensor import OnSensorLocaliser
+
+    with pytest.raises(PpalocError, match="no stage for it yet"):
+        OnSensorLocaliser("lbp", local_gain=2)

@@ -5,13 +5,15 @@ closer to the live frame than the places around it stands out, whatever the leve
 whole column. SeqSLAM and the particle filter enhance their difference columns so
 (:mod:`ppaloc.baselines.seqslam`); the host's weighted-node filter may too (``enhance``,
 docs/localise.md, "Local contrast of the distances"). One function serves all three.
+:func:`closer_share` is the local contrast a PPA could compute, by comparisons alone (the
+filter's ``local_gain``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ENHANCE_UNITS", "contrast_enhance"]
+__all__ = ["ENHANCE_UNITS", "closer_share", "contrast_enhance"]
 
 ENHANCE_UNITS = 16
 """Register units per standard deviation of an enhanced distance (the weighted-node filter's
@@ -72,3 +74,28 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
     m = 2 * half + 1
     out += (m - 1) / np.sqrt(m)
     return out[:, 0] if squeeze else out
+
+
+def closer_share(column: np.ndarray, window: int) -> np.ndarray:
+    """For each node, the share of the ``2 window`` nodes within ``+-window`` along the map
+    whose distance is strictly smaller: 0 for a node no neighbour beats (the local best),
+    1 for the local worst. Nodes past either end of the map count as not smaller.
+
+    It needs only comparisons of a distance with its neighbours' (on a PPA, shifted
+    copies along the snake and a comparison each), where :func:`contrast_enhance` divides.
+
+    Examples
+    --------
+    >>> closer_share(np.array([3.0, 1.0, 2.0, 5.0]), 1).tolist()
+    [0.5, 0.0, 0.5, 0.5]
+    """
+    d = np.asarray(column, dtype=np.float64)
+    n, w = len(d), int(window)
+    if w < 1:
+        raise ValueError(f"window={window} must be at least 1")
+    padded = np.concatenate((np.full(w, np.inf), d, np.full(w, np.inf)))
+    count = np.zeros(n)
+    for k in range(-w, w + 1):
+        if k:
+            count += padded[w + k : w + k + n] < d
+    return count / (2 * w)

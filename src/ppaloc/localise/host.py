@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.enhance import ENHANCE_UNITS, contrast_enhance
+from ppaloc.localise.enhance import ENHANCE_UNITS, closer_share, contrast_enhance
 from ppaloc.localise.likelihood import NodeDistances, distance_scale, float_divisor
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
 from ppaloc.localise.params import FilterParams, choose_candidate, refined_minimum
@@ -259,9 +259,21 @@ class HostExecutor:
         return float(values.min()) if not self.exact else int(values.min())
 
     def add_scaled(self, shift: int, alpha: float) -> None:
-        """Robust: ``w += alpha_t - mu 2**-s`` (the term clipped to a register in ppa8)."""
+        """Robust: ``w += alpha_t - mu 2**-s`` (the term clipped to a register in ppa8),
+        then the local term of ``local_gain`` (float only)."""
         self.last_shift = shift
         self._add_term(shift, alpha)
+        if self.params.local_gain:  # float only: FilterParams refuses it in ppa8
+            self._add_local(int(self.params.local_gain), int(self.params.local_window))  # type: ignore[arg-type]
+
+    def _add_local(self, gain: int, window: int) -> None:
+        """``w -= gain * closer_share(distances, window)`` (``local_gain``)."""
+        term = self._dtype(-gain) * closer_share(self._raw_distances(), window).astype(self._dtype)
+        w, off = self._w, self._offset
+        n = len(w)
+        w[off:] += term[: n - off]
+        w[:off] += term[n - off :]
+        self._top = _clip(w, _W_MIN, _W_MAX)
 
     def shift(self) -> None:
         """Paper: ``w_i := max(w_{i-d} for d in advance)``; indices below 0 read the

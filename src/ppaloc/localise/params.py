@@ -239,6 +239,13 @@ class FilterParams:
         the distances as they are. Not part of the ppa8 contract: the sensor cannot
         divide each node's distance by its neighbours' deviation, so ``ppa8`` and the
         sensor refuse it (docs/localise.md, "Local contrast of the distances").
+    local_gain, local_window : int
+        Robust, host in float arithmetic only (the sensor has no stage for it yet): on
+        each frame that adds evidence, every node also loses ``local_gain`` units times
+        the share of the ``2 local_window`` nodes around it that are closer to the frame
+        (:func:`ppaloc.localise.enhance.closer_share`): contrast between neighbouring
+        places, which the transition needs to follow a varying speed, beside the raw
+        likelihood's evidence. Ranges [0, 32] (default 0, off) and [1, 16] (default 2).
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -270,6 +277,8 @@ class FilterParams:
         metadata=_param("robust", "patch", DEFAULT_CONTRAST_PATCH),
     )
     enhance: int | None = field(default=0, metadata=_param("robust", "window", 0, 0, MAX_WINDOW))
+    local_gain: int | None = field(default=0, metadata=_param("robust", "int", 0, 0, 32))
+    local_window: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 16))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -348,6 +357,11 @@ class FilterParams:
                 f"enhance={out['enhance']} runs on the host in float arithmetic only (the "
                 "sensor cannot divide a node's distance by its neighbours' deviation); "
                 "use arithmetic='float' or enhance=0"
+            )
+        if out.get("local_gain") and arithmetic != "float":
+            raise PpalocError(
+                f"local_gain={out['local_gain']} runs on the host in float arithmetic only "
+                "(the sensor has no stage for it yet); use arithmetic='float' or local_gain=0"
             )
         return cls(**out)
 
