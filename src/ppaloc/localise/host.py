@@ -83,7 +83,8 @@ def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
 
     LBP: ``mu = 2h``, exact. Low-res ``ppa8``: the ADC code of ``-mu/2`` (the halving
     tree's result, ``code = floor(128.5 - mu/2)``) read back as ``2 (128 - code)``.
-    Low-res ``float``: ``mu`` itself (the SAD over :func:`float_divisor`).
+    Low-res ``float``: ``mu`` itself (the SAD over :func:`float_divisor`). Distances
+    ``enhance`` has made floats (float arithmetic only) are read by the same factors.
     """
     if kind == "lbp":
         return raw.astype(np.int64) * 2 if raw.dtype.kind in "iu" else raw * 2.0
@@ -93,7 +94,7 @@ def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
     return raw.astype(np.float64) / float(float_divisor(kind))
 
 
-def enhanced(kind: str, raw: np.ndarray, window: int) -> np.ndarray:
+def _enhanced(kind: str, raw: np.ndarray, window: int) -> np.ndarray:
     """``raw`` distances contrast-enhanced along the map (``enhance``, float only), in
     raw units such that :func:`read_values` reads :data:`ENHANCE_UNITS` a deviation."""
     z = contrast_enhance(raw, window)
@@ -219,7 +220,7 @@ class HostExecutor:
         if self._raw is None:
             raw = self._distances(self._frame)  # type: ignore[arg-type]
             if self.params.enhance:  # robust, float: FilterParams refuses it in ppa8
-                raw = enhanced(self.representation, raw, self.params.enhance)
+                raw = _enhanced(self.representation, raw, self.params.enhance)
             self._raw = raw
         return self._raw
 
