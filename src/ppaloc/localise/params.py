@@ -356,12 +356,13 @@ class FilterParams:
             raise PpalocError(
                 f"enhance={out['enhance']} runs on the host in float arithmetic only (the "
                 "sensor cannot divide a node's distance by its neighbours' deviation); "
-                "use arithmetic='float' or enhance=0"
+                "use a weighted-node-* method with arithmetic='float', or enhance=0"
             )
         if out.get("local_gain") and arithmetic != "float":
             raise PpalocError(
                 f"local_gain={out['local_gain']} runs on the host in float arithmetic only "
-                "(the sensor has no stage for it yet); use arithmetic='float' or local_gain=0"
+                "(the sensor has no stage for it yet); use a weighted-node-* method with "
+                "arithmetic='float', or local_gain=0"
             )
         return cls(**out)
 
