@@ -89,6 +89,10 @@ def test_the_estimates_follow_the_enhanced_likelihood(hubbed) -> None:
         (lambda: FilterParams.create("lbp", preset="paper", enhance=10), "preset 'robust'"),
         (lambda: FilterParams.create("lbp", enhance=1), "at least 2"),
         (lambda: FilterParams.create("lbp", enhance=-3), "enhance=-3"),
+        (lambda: FilterParams.create("lowres", arithmetic="ppa8", local_gain=2), "no stage"),
+        (lambda: FilterParams.create("lbp", preset="paper", local_gain=2), "preset 'robust'"),
+        (lambda: FilterParams.create("lbp", local_gain=33), "local_gain=33"),
+        (lambda: FilterParams.create("lbp", local_window=0), "local_window=0"),
     ],
 )
 def test_refusals_name_the_cause(make, message) -> None:
@@ -96,11 +100,15 @@ def test_refusals_name_the_cause(make, message) -> None:
         make()
 
 
-def test_the_sensor_refuses_it() -> None:
+@pytest.mark.parametrize(
+    ("kind", "option", "message"),
+    [("lowres", {"enhance": 10}, "float arithmetic only"), ("lbp", {"local_gain": 2}, "no stage")],
+)
+def test_the_sensor_refuses_them(kind, option, message) -> None:
     from ppaloc.onsensor import OnSensorLocaliser
 
-    with pytest.raises(PpalocError, match="float arithmetic only"):
-        OnSensorLocaliser("lowres", enhance=10)
+    with pytest.raises(PpalocError, match=message):
+        OnSensorLocaliser(kind, **option)
 
 
 # -- local_gain: the share of closer neighbours ----------------------------------------
@@ -141,24 +149,3 @@ def test_the_local_term_is_added_to_the_first_frames_weights(hubbed, kind) -> No
     expected = np.maximum(expected - expected.max(), -local.params.memory)
     np.testing.assert_allclose(local.executor.weights(), expected, atol=1e-4)
     assert not np.allclose(local.executor.weights(), plain.executor.weights())
-
-
-@pytest.mark.parametrize(
-    ("make", "message"),
-    [
-        (lambda: FilterParams.create("lowres", arithmetic="ppa8", local_gain=2), "no stage"),
-        (lambda: FilterParams.create("lbp", preset="paper", local_gain=2), "preset 'robust'"),
-        (lambda: FilterParams.create("lbp", local_gain=33), "local_gain=33"),
-        (lambda: FilterParams.create("lbp", local_window=0), "local_window=0"),
-    ],
-)
-def test_local_refusals_name_the_cause(make, message) -> None:
-    with pytest.raises(PpalocError, match=message):
-        make()
-
-
-def test_the_sensor_refuses_the_local_term() -> None:
-    from ppaloc.onsensor import OnSensorLocaliser
-
-    with pytest.raises(PpalocError, match="no stage for it yet"):
-        OnSensorLocaliser("lbp", local_gain=2)

@@ -270,11 +270,7 @@ class HostExecutor:
     def _add_local(self, gain: int, window: int) -> None:
         """``w -= gain * closer_share(distances, window)`` (``local_gain``)."""
         term = self._dtype(-gain) * closer_share(self._raw_distances(), window).astype(self._dtype)
-        w, off = self._w, self._offset
-        n = len(w)
-        w[off:] += term[: n - off]
-        w[:off] += term[n - off :]
-        self._top = _clip(w, _W_MIN, _W_MAX)
+        self._add_to_weights(term)
 
     def shift(self) -> None:
         """Paper: ``w_i := max(w_{i-d} for d in advance)``; indices below 0 read the
@@ -304,6 +300,10 @@ class HostExecutor:
         term += self._dtype(alpha)
         if self.exact:
             _clip(term, _T_MIN, _T_MAX)
+        self._add_to_weights(term)
+
+    def _add_to_weights(self, term: np.ndarray) -> None:
+        """``w := clip(w + term)``, ``term`` in map order (the weights may be offset)."""
         w, off = self._w, self._offset
         n = len(w)
         w[off:] += term[: n - off]

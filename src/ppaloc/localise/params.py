@@ -157,6 +157,13 @@ def _param(group: str | None, kind: str, default: Any, low=None, high=None) -> d
     return {"param": Param(group, kind, default, low, high)}
 
 
+FLOAT_ONLY = {
+    "enhance": "the sensor cannot divide a node's distance by its neighbours' deviation",
+    "local_gain": "the sensor has no stage for it yet",
+}
+"""Options the host's float filter runs and ``ppa8`` and the sensor refuse, with why."""
+
+
 def _margin_default(representation: str, group: str, values: Mapping[str, Any]) -> int:
     return MARGIN if group == "robust" else PAPER_MARGIN
 
@@ -352,18 +359,12 @@ class FilterParams:
                     out[key] = value
                     continue
             out[key] = _check(key, value, spec, arithmetic)
-        if out.get("enhance") and arithmetic != "float":
-            raise PpalocError(
-                f"enhance={out['enhance']} runs on the host in float arithmetic only (the "
-                "sensor cannot divide a node's distance by its neighbours' deviation); "
-                "use a weighted-node-* method with arithmetic='float', or enhance=0"
-            )
-        if out.get("local_gain") and arithmetic != "float":
-            raise PpalocError(
-                f"local_gain={out['local_gain']} runs on the host in float arithmetic only "
-                "(the sensor has no stage for it yet); use a weighted-node-* method with "
-                "arithmetic='float', or local_gain=0"
-            )
+        for key, why in FLOAT_ONLY.items():
+            if out.get(key) and arithmetic != "float":
+                raise PpalocError(
+                    f"{key}={out[key]} runs on the host in float arithmetic only ({why}); "
+                    f"use a weighted-node-* method with arithmetic='float', or {key}=0"
+                )
         return cls(**out)
 
     @property
