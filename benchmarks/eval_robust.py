@@ -74,6 +74,7 @@ DEFAULT_METHODS = (
     "weighted-node-lbp",
     "weighted-node-lowres",
     "weighted-node-lowres16",
+    "weighted-node-haar",
     "weighted-node-paper-lbp",
     "weighted-node-paper-lowres",
     "particle-filter",
@@ -85,13 +86,19 @@ REPRESENTATION_METHODS = (
     "weighted-node-lowres",
     "weighted-node-lowres16",
     "weighted-node-lbp",
+    "weighted-node-haar",
     "particle-filter",
     "seqslam",
     "single-frame",
     "able-m",
 )
 """The methods of ``--representations`` (each baseline expanded by :func:`descriptor_columns`)."""
-WN_BEST = ("weighted-node-lbp", "weighted-node-lowres", "weighted-node-lowres16")
+WN_BEST = (
+    "weighted-node-lbp",
+    "weighted-node-lowres",
+    "weighted-node-lowres16",
+    "weighted-node-haar",
+)
 """The weighted-node methods the ``best WN - best baseline`` column takes the better of."""
 SEEDS = (1, 2, 3, 4, 5)
 SPEED_VARS = (0.2, 0.65)
@@ -182,7 +189,7 @@ def descriptor_columns(name: str, user: dict[str, Any]) -> list[tuple[str, str, 
     Examples
     --------
     >>> [c.split("/")[1] for c, _, _ in descriptor_columns("particle-filter", {})]
-    ['lowres', 'lowres16', 'lbp', 'patch']
+    ['lowres', 'lowres16', 'lbp', 'haar', 'patch']
     >>> [c for c, _, p in descriptor_columns("able-m", {"length": 20})]
     ['able-m/lbp', 'able-m/ldb']
     >>> descriptor_columns("weighted-node-lbp", {})

@@ -79,6 +79,11 @@ METHODS: dict[str, MethodSpec] = {
         {"representation": "lowres16"},
         "the robust weighted-node filter on the host, 16x16 images + SAD",
     ),
+    "weighted-node-haar": MethodSpec(
+        "ppaloc.localise.weighted:WeightedNodeLocaliser",
+        {"representation": "haar"},
+        "the robust weighted-node filter on the host, 192 Haar signs + Hamming",
+    ),
     "weighted-node-paper-lowres": MethodSpec(
         "ppaloc.localise.weighted:WeightedNodeLocaliser",
         {"representation": "lowres", "preset": "paper"},

@@ -253,7 +253,7 @@ def test_registry_checks_the_descriptor() -> None:
     with pytest.raises(
         PpalocError,
         match=r"^method 'particle-filter': descriptor='sift' must be one of 'patch', 'lowres', "
-        r"'lowres16', 'lbp'$",
+        r"'lowres16', 'lbp', 'haar'$",
     ):
         make_localiser("particle-filter", descriptor="sift")
     assert make_localiser("seqslam-centred", descriptor="lbp").descriptor == "lbp"

@@ -118,3 +118,36 @@ def test_alpha_is_not_suggested_for_the_16x16_place():
     m = TopoMap("lowres16", np.zeros((4, 16, 16), np.uint8))
     with pytest.raises(PpalocError, match="cannot suggest alpha for a map of kind 'lowres16'"):
         suggest_alpha(m, shift=0)
+
+
+def test_haar_distances_count_differing_signs_and_read_as_quarters():
+    """Haar signs: ``mu = h / 4`` register units in the update (both arithmetics) and the
+    ppa8 readout of the root's ADC code ``floor(h / 4 + 1/2)`` (round half up)."""
+    from ppaloc.localise.host import read_values
+    from ppaloc.place import haar_descriptor, hamming_words, pack_plane
+
+    rng = np.random.default_rng(11)
+    planes = rng.integers(0, 2, (30, 16, 16), dtype=np.uint8)
+    planes[:, 1::2, 1::2] = 0
+    nodes = pack_plane(planes)
+    frame = rng.integers(0, 256, (256, 256), dtype=np.uint8)
+    h = NodeDistances("haar", nodes, exact=True)(frame)
+    assert h.dtype == np.uint16
+    np.testing.assert_array_equal(h, hamming_words(haar_descriptor(frame), nodes))
+    assert distance_scale("haar", 0, True) == distance_scale("haar", 0, False) == 0.25
+    np.testing.assert_array_equal(read_values("haar", h, False), h / 4.0)
+    raw = np.arange(0, 193, dtype=np.uint16)
+    read = read_values("haar", raw, True)
+    np.testing.assert_array_equal(read, np.floor(raw / 4.0 + 0.5).astype(np.int64))
+    assert read[[1, 2, 5, 6]].tolist() == [0, 1, 1, 2]  # 1/4 -> 0, 1/2 -> 1 (half up)
+
+
+def test_haar_is_refused_by_the_paper_preset():
+    from ppaloc.localise.params import FilterParams
+
+    with pytest.raises(
+        PpalocError,
+        match=r"^preset='paper' does not run on the haar place, which the paper does not "
+        r"describe; use a robust preset, or lowres or lbp$",
+    ):
+        FilterParams.create("haar", preset="paper")

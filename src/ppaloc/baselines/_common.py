@@ -17,6 +17,8 @@ import numpy as np
 from ppaloc.baselines._descriptors import (
     LOWRES_CONTRAST,
     LOWRES_PATCH,
+    haar_distances,
+    haar_place,
     lbp_distances,
     lbp_place,
     lowres_distances,
@@ -25,7 +27,7 @@ from ppaloc.baselines._descriptors import (
 from ppaloc.baselines._image import mean_abs_diff, preprocess
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import MethodParam, signature_parameters
-from ppaloc.place import LOWRES_GRIDS
+from ppaloc.place import HAAR_WORDS, LOWRES_GRIDS
 from ppaloc.topomap import TopoMap
 
 __all__ = [
@@ -226,14 +228,15 @@ class MapLocaliser:
 class ImageLocaliser(MapLocaliser):
     """A :class:`MapLocaliser` whose node descriptor is SeqSLAM's patch-normalised image
     (``descriptor="patch"``), or the weighted-node filter's place: its contrast-normalised
-    8x8 or 16x16 image (``"lowres"``, ``"lowres16"``) or its 32-bit LBP code (``"lbp"``;
+    8x8 or 16x16 image (``"lowres"``, ``"lowres16"``), its 32-bit LBP code (``"lbp"``) or its
+    192 Haar signs (``"haar"``;
     :mod:`ppaloc.baselines._descriptors`).
 
     A subclass sets ``descriptor``, ``size`` (rows, cols), ``patch`` and, if it stores
     OpenSeqSLAM's quantised form, ``quantise`` (the last three shape ``"patch"`` only).
     """
 
-    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("patch", "lowres", "lowres16", "lbp")
+    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("patch", "lowres", "lowres16", "lbp", "haar")
     descriptor: str = "patch"
     size: tuple[int, int]
     patch: int
@@ -242,12 +245,15 @@ class ImageLocaliser(MapLocaliser):
     @property
     def descriptor_shape(self) -> tuple[int, ...]:
         """``size`` (one downsampled image per node), ``(8, 8)`` for ``"lowres"``,
-        ``(16, 16)`` for ``"lowres16"``, ``()`` (one uint32 code) for ``"lbp"``."""
+        ``(16, 16)`` for ``"lowres16"``, ``()`` (one uint32 code) for ``"lbp"``, ``(8,)``
+        (8 uint32 words) for ``"haar"``."""
         if self.descriptor in LOWRES_GRIDS:
             grid = LOWRES_GRIDS[self.descriptor]
             return (grid, grid)
         if self.descriptor == "lbp":
             return ()
+        if self.descriptor == "haar":
+            return (HAAR_WORDS,)
         return self.size
 
     def descriptor_params(self) -> dict:
@@ -260,8 +266,8 @@ class ImageLocaliser(MapLocaliser):
                 "contrast": LOWRES_CONTRAST,
                 "contrast_patch": LOWRES_PATCH,
             }
-        if self.descriptor == "lbp":
-            return {"descriptor": "lbp"}
+        if self.descriptor in ("lbp", "haar"):
+            return {"descriptor": self.descriptor}
         return {"descriptor": "patch", "size": list(self.size), "patch": self.patch}
 
     def describe(self, frame: np.ndarray) -> np.ndarray:
@@ -272,6 +278,8 @@ class ImageLocaliser(MapLocaliser):
             return lowres_place(frame, self.descriptor)
         if self.descriptor == "lbp":
             return lbp_place(frame)
+        if self.descriptor == "haar":
+            return haar_place(frame)
         return preprocess(frame, self.size, self.patch, quantise=self.quantise)
 
     def distances(self, described: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -281,12 +289,15 @@ class ImageLocaliser(MapLocaliser):
         -------
         ndarray of float64, shape (N,)
             The mean absolute difference per pixel (``"patch"``) or per cell
-            (``"lowres"``, ``"lowres16"``), or the Hamming distance in bits (``"lbp"``).
+            (``"lowres"``, ``"lowres16"``), or the Hamming distance in bits (``"lbp"``,
+            ``"haar"``).
         """
         if self.descriptor in LOWRES_GRIDS:
             return lowres_distances(described, nodes)
         if self.descriptor == "lbp":
             return lbp_distances(described, nodes)
+        if self.descriptor == "haar":
+            return haar_distances(described, nodes)
         return mean_abs_diff(described, nodes)
 
     def difference_column(self, frame: np.ndarray) -> np.ndarray:

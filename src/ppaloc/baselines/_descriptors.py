@@ -18,7 +18,10 @@ weighted-node filter stores (``descriptor=``):
     ``uint8`` values, the filter's ``lowres16`` place;
 ``"lbp"``
     the weighted-node filter's 32-bit LBP code (:func:`ppaloc.place.lbp_descriptor`),
-    compared by the Hamming distance (0 .. 32 bits).
+    compared by the Hamming distance (0 .. 32 bits);
+``"haar"``
+    the weighted-node filter's 192 Haar signs (:func:`ppaloc.place.haar_descriptor`),
+    compared by the Hamming distance (0 .. 192 bits).
 
 The functions of :mod:`ppaloc.place` compute both, so a baseline and the filter see the
 same integers. Everything else a method does (contrast enhancement of the difference
@@ -34,7 +37,9 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.params import DEFAULT_CONTRAST, DEFAULT_CONTRAST_PATCH
 from ppaloc.place import (
     LOWRES_GRIDS,
+    haar_descriptor,
     hamming,
+    hamming_words,
     lbp_descriptor,
     lowres_image,
     normalise_contrast,
@@ -47,13 +52,15 @@ __all__ = [
     "LOWRES_CONTRAST",
     "LOWRES_PATCH",
     "check_descriptor",
+    "haar_distances",
+    "haar_place",
     "lbp_distances",
     "lbp_place",
     "lowres_distances",
     "lowres_place",
 ]
 
-DESCRIPTORS = ("patch", "lowres", "lowres16", "lbp")
+DESCRIPTORS = ("patch", "lowres", "lowres16", "lbp", "haar")
 """The values of an image baseline's ``descriptor`` parameter, the default first."""
 
 LOWRES_CONTRAST = DEFAULT_CONTRAST
@@ -69,6 +76,7 @@ _WHAT = {
     "lowres": "the weighted-node filter's contrast-normalised 8x8 image",
     "lowres16": "the weighted-node filter's contrast-normalised 16x16 image",
     "lbp": "the weighted-node filter's 32-bit LBP code",
+    "haar": "the weighted-node filter's 192 Haar signs",
     "ldb": "its own LDB code",
 }
 
@@ -155,6 +163,24 @@ def lbp_distances(query: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     [3.0, 0.0, 29.0]
     """
     return hamming(query, nodes).astype(np.float64)
+
+
+def haar_place(frame: np.ndarray) -> np.ndarray:
+    """The weighted-node filter's Haar-sign place of one sensor frame: uint32, shape (8,)
+    (:func:`ppaloc.place.haar_descriptor`)."""
+    return haar_descriptor(check_frame(frame))
+
+
+def haar_distances(query: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """Hamming distance between one Haar-sign place and every node's, in bits (0 .. 192).
+
+    Examples
+    --------
+    >>> q = np.zeros(8, np.uint32)
+    >>> haar_distances(q, np.array([q, q + 3], np.uint32)).tolist()
+    [0.0, 16.0]
+    """
+    return hamming_words(np.asarray(query, np.uint32), nodes).astype(np.float64)
 
 
 def check_descriptor(

@@ -149,7 +149,7 @@ class SeqSLAM(ImageLocaliser):
         Store patch-normalised images as OpenSeqSLAM does (``127 + round(z)``); default
         False keeps the float z-scores (see docs/baselines.md); ``descriptor="patch"``
         only.
-    descriptor : {"patch", "lowres", "lowres16", "lbp"}
+    descriptor : {"patch", "lowres", "lowres16", "lbp", "haar"}
         What a node holds and how the difference column compares it: OpenSeqSLAM's
         patch-normalised image by the mean absolute difference per pixel (default), the
         weighted-node filter's contrast-normalised 8x8 or 16x16 image by the mean absolute
@@ -216,7 +216,7 @@ class SeqSLAM(ImageLocaliser):
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
         quantise: bool = False,
-        descriptor: Literal["patch", "lowres", "lowres16", "lbp"] = "patch",
+        descriptor: Literal["patch", "lowres", "lowres16", "lbp", "haar"] = "patch",
         ds: int = 10,
         vmin: float = 0.8,
         vmax: float = 1.2,

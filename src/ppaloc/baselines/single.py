@@ -34,7 +34,7 @@ class SingleFrame(ImageLocaliser):
         Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
     patch : int
         Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
-    descriptor : {"patch", "lowres", "lowres16", "lbp"}
+    descriptor : {"patch", "lowres", "lowres16", "lbp", "haar"}
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
         contrast-normalised 8x8 or 16x16 image by the mean absolute difference per cell, or its
@@ -65,7 +65,7 @@ class SingleFrame(ImageLocaliser):
         *,
         size: tuple[int, int] = (32, 64),
         patch: int = 8,
-        descriptor: Literal["patch", "lowres", "lowres16", "lbp"] = "patch",
+        descriptor: Literal["patch", "lowres", "lowres16", "lbp", "haar"] = "patch",
         radius: int = 5,
         top_k: int = 10,
         record_weights: bool = False,

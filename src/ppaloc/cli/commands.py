@@ -550,6 +550,8 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
         if topomap.kind == "lbp":  # bit 31 - b of a code at block PE (b // 8, b % 8): digital
             bits = np.unpackbits(d.astype(">u4").view(np.uint8).reshape(len(d), 4), axis=1)
             planes = layout.to_planes(bits.reshape(len(d), *layout.block_shape).astype(bool))
+        elif topomap.kind == "haar":  # one sign per PE of a 16x16 block: digital
+            planes = topomap.planes().astype(bool)
         else:  # grey levels as analogue register units (0..255 -> -128..127)
             planes = layout.to_planes(d.astype(np.uint8), fill=128).astype(np.float32) - 128
         labels = {f"{topomap.kind} tile {i}": p for i, p in enumerate(planes)}

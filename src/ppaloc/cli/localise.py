@@ -170,7 +170,12 @@ def _check_natural_order(files: Sequence[Path]) -> None:
         last[folder] = p
 
 
-_KIND_METHOD = {"lowres": "weighted-node-lowres", "lbp": "weighted-node-lbp"}
+_KIND_METHOD = {
+    "lowres": "weighted-node-lowres",
+    "lowres16": "weighted-node-lowres16",
+    "lbp": "weighted-node-lbp",
+    "haar": "weighted-node-haar",
+}
 """The method that reads a map of each kind, for a map that does not name its own."""
 
 

@@ -45,6 +45,7 @@ REPRESENTATIONS = {
     "lowres": "8x8 image, SAD",
     "lowres16": "16x16 image, SAD",
     "lbp": "32-bit LBP, Hamming",
+    "haar": "192 Haar signs, Hamming",
     "seqslam": "patch-normalised image, SAD",
     "single-frame": "patch-normalised image, SAD",
     "particle-filter": "patch-normalised image",
@@ -54,7 +55,7 @@ REPRESENTATIONS = {
 representation."""
 
 #: The weighted-node filter's places, in the order tables show them.
-_PLACES = ("lowres", "lowres16", "lbp")
+_PLACES = ("lowres", "lowres16", "lbp", "haar")
 
 
 @dataclass(frozen=True)
@@ -107,7 +108,7 @@ _SHORT_HEADER = [
     "loop ms",
     "mJ",
 ]
-_SHORT_REPR = {"lowres": "8x8 img", "lowres16": "16x16 img", "lbp": "LBP"}
+_SHORT_REPR = {"lowres": "8x8 img", "lowres16": "16x16 img", "lbp": "LBP", "haar": "Haar"}
 
 
 def _place(m: dict[str, Any]) -> str:
@@ -231,6 +232,7 @@ _COLUMNS = (
     ("lowres", "8x8 image"),
     ("lowres16", "16x16 image"),
     ("lbp", "32-bit LBP"),
+    ("haar", "192 Haar signs"),
     ("own", "method's own"),
 )
 

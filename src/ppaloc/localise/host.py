@@ -25,7 +25,13 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.enhance import ENHANCE_UNITS, closer_share, contrast_enhance
-from ppaloc.localise.likelihood import NodeDistances, distance_scale, float_divisor
+from ppaloc.localise.likelihood import (
+    BINARY_PLACES,
+    HAAR_EXPONENT,
+    NodeDistances,
+    distance_scale,
+    float_divisor,
+)
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
 from ppaloc.localise.params import FilterParams, choose_candidate, refined_minimum
 from ppaloc.topomap import TopoMap
@@ -81,13 +87,19 @@ def top_k(w: np.ndarray, k: int) -> np.ndarray:
 def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
     """The per-node values the controller reads to scale the likelihood (docs/ppa8.md).
 
-    LBP: ``mu = 2h``, exact. Low-res ``ppa8``: the ADC code of ``-mu/2`` (the halving
-    tree's result, ``code = floor(128.5 - mu/2)``) read back as ``2 (128 - code)``.
+    LBP: ``mu = 2h``, exact. Haar signs: ``mu = h/4``; in ``ppa8`` the ADC code of the
+    halving tree's root ``+h/4`` (``code = floor(128.5 + h/4)``) read back as
+    ``code - 128 = floor((h + 2) / 4)``. Low-res ``ppa8``: the ADC code of ``-mu/2`` (the
+    halving tree's result, ``code = floor(128.5 - mu/2)``) read back as ``2 (128 - code)``.
     Low-res ``float``: ``mu`` itself (the SAD over :func:`float_divisor`). Distances
     ``enhance`` has made floats (float arithmetic only) are read by the same factors.
     """
     if kind == "lbp":
         return raw.astype(np.int64) * 2 if raw.dtype.kind in "iu" else raw * 2.0
+    if kind == "haar":
+        if exact:  # round half up: + 2**(e - 1), then the shift
+            return (raw.astype(np.int64) + (1 << HAAR_EXPONENT - 1)) >> HAAR_EXPONENT
+        return raw.astype(np.float64) / float(1 << HAAR_EXPONENT)
     if exact:  # raw = T, mu = T / 2**17, mu / 2 = T / 2**18
         code = (257 * 2**17 - raw.astype(np.int64)) >> 18
         return 2 * (128 - code)
@@ -100,6 +112,8 @@ def _enhanced(kind: str, raw: np.ndarray, window: int) -> np.ndarray:
     z = contrast_enhance(raw, window)
     if kind == "lbp":
         return z * (ENHANCE_UNITS / 2.0)
+    if kind == "haar":
+        return z * float(ENHANCE_UNITS << HAAR_EXPONENT)
     return z * float(ENHANCE_UNITS * float_divisor(kind))
 
 
@@ -118,7 +132,7 @@ class HostExecutor:
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp"}
+    representation : {"lowres", "lowres16", "lbp", "haar"}
     params : FilterParams
     arithmetic : {"float", "ppa8"}
     ranking_k : int
@@ -168,7 +182,7 @@ class HostExecutor:
             self.representation,
             topomap.descriptors,
             exact=self.exact,
-            contrast=self.params.contrast if self.representation != "lbp" else None,
+            contrast=None if self.representation in BINARY_PLACES else self.params.contrast,
             patch=self.params.contrast_patch,
         )
         self._w = np.zeros(n, self._dtype)
@@ -253,8 +267,9 @@ class HostExecutor:
     def minimum(self, values: np.ndarray) -> float:
         """The frame's best distance: the least value (float); in register arithmetic the
         LBP readout's least value (exact), the low-res one refined from the exact
-        distances as the sensor refines it on the array (:func:`refined_minimum`)."""
-        if self.exact and self.representation != "lbp":
+        distances as the sensor refines it on the array (:func:`refined_minimum`); the
+        Haar-sign readout's least value as read (the sensor reads no finer)."""
+        if self.exact and self.representation not in BINARY_PLACES:
             raw = self._raw_distances()  # T = P SAD (P pixels a block): mu = T / 2**17
             return refined_minimum(int(raw.min()) / 2.0**17)
         return float(values.min()) if not self.exact else int(values.min())

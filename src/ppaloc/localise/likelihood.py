@@ -30,6 +30,11 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
 - ``"lbp"``: ``h_i = popcount(x XOR d_i)`` in [0, 32]. On the PPA each differing bit of a
   node's 4x8-PE block loads the DAC constant 2 and an adding tree over the 32 PEs leaves
   their sum, so ``mu_i = 2 * h_i`` in [0, 64] register units.
+- ``"haar"``: ``h_i`` = the differing bits of the 192-bit Haar-sign places
+  (:func:`ppaloc.place.hamming_words`). On the PPA each differing bit of a node's 16x16-PE
+  block loads 64 and a halving tree averages the 256 PEs, so ``mu_i = h_i / 4`` in
+  [0, 48] register units, exactly in the update; the controller reads it rounded,
+  ``floor(h_i / 4 + 1/2)`` (the ADC code of the root, :data:`HAAR_EXPONENT`).
 
 Every case then scales by ``2**-shift``.
 """
@@ -43,7 +48,9 @@ from ppaloc.place import (
     SENSOR_SIZE,
     LowresIndex,
     block_sums,
+    haar_descriptor,
     hamming,
+    hamming_words,
     lbp_descriptor,
     lowres_grid,
     lowres_image,
@@ -51,10 +58,24 @@ from ppaloc.place import (
     tile_cells,
 )
 
-__all__ = ["LOWRES_CAP", "NodeDistances", "distance_scale", "float_divisor"]
+__all__ = [
+    "BINARY_PLACES",
+    "HAAR_EXPONENT",
+    "LOWRES_CAP",
+    "NodeDistances",
+    "distance_scale",
+    "float_divisor",
+]
 
 LOWRES_CAP = 254
 """Per-cell cap of ``|m - q|`` in grey levels: a register difference of 127."""
+
+BINARY_PLACES = ("lbp", "haar")
+"""The places compared by Hamming distance: exact integer distances, no contrast."""
+
+HAAR_EXPONENT = 2
+"""Haar signs: ``mu = h * 2**-HAAR_EXPONENT`` register units (64 per differing bit averaged
+over a 256-PE block)."""
 
 
 def float_divisor(representation: str) -> int:
@@ -73,11 +94,15 @@ def distance_scale(representation: str, shift: int, exact: bool) -> float:
     --------
     >>> distance_scale("lbp", 2, True), distance_scale("lowres", 0, False)
     (0.5, 0.0078125)
+    >>> distance_scale("haar", 1, True), distance_scale("haar", 1, False)
+    (0.125, 0.125)
     >>> distance_scale("lowres16", 0, False), distance_scale("lowres16", 0, True) * 2**17
     (0.001953125, 1.0)
     """
     if representation == "lbp":
         return 2.0 ** (1 - shift)
+    if representation == "haar":
+        return 2.0 ** -(HAAR_EXPONENT + shift)
     if exact:
         return 2.0 ** -(17 + shift)
     return 2.0**-shift / float_divisor(representation)
@@ -88,9 +113,10 @@ class NodeDistances:
 
     Parameters
     ----------
-    kind : {"lowres", "lowres16", "lbp"}
+    kind : {"lowres", "lowres16", "lbp", "haar"}
     descriptors : ndarray
-        The map's nodes: uint8 (N, 8, 8) or (N, 16, 16), or uint32 (N,).
+        The map's nodes: uint8 (N, 8, 8) or (N, 16, 16), uint32 (N,) (LBP) or (N, 8)
+        (Haar signs).
     exact : bool
         Low-res only: the register's distance (ppa8): to the unquantised live frame, or
         with ``contrast`` capped per cell; else the uint8 SAD to the quantised frame.
@@ -125,9 +151,9 @@ class NodeDistances:
             raise PpalocError(
                 f"the {kind} place compares contrast-normalised images only: give contrast="
             )
-        if kind == "lbp":
+        if kind in BINARY_PLACES:
             self._nodes = np.ascontiguousarray(descriptors, dtype=np.uint32)
-            self.out = np.empty(len(self._nodes), np.uint8)
+            self.out = np.empty(len(self._nodes), np.uint8 if kind == "lbp" else np.uint16)
         else:
             nodes = np.asarray(descriptors, np.uint8)
             if contrast is not None:
@@ -147,6 +173,8 @@ class NodeDistances:
         """Return the raw distances (shape (N,); reused buffer except for exact low-res)."""
         if self.kind == "lbp":
             return hamming(lbp_descriptor(frame), self._nodes, out=self.out)
+        if self.kind == "haar":
+            return hamming_words(haar_descriptor(frame), self._nodes, out=self.out)
         if self.exact:
             if self.contrast is None:
                 return self._index.sad_to_sums(block_sums(frame, 8), cap=LOWRES_CAP)

@@ -307,9 +307,9 @@ class FilterParams:
 
         Parameters
         ----------
-        representation : {"lowres", "lowres16", "lbp"}
-            Sets the paper preset's default likelihood shift (lowres16 runs the robust
-            group only).
+        representation : {"lowres", "lowres16", "lbp", "haar"}
+            Sets the paper preset's default likelihood shift (lowres16 and haar run the
+            robust group only).
         preset : str
             A registered schedule's name (:data:`PRESETS`: ``"robust"``, ``"paper"``).
         arithmetic : {"float", "ppa8"}
@@ -327,9 +327,13 @@ class FilterParams:
         """
         group = preset_group(preset)
         if not runs_on(representation, preset):
+            why = {
+                "lowres16": ", which compares contrast-normalised images only",
+                "haar": ", which the paper does not describe",
+            }.get(representation, "")
             raise PpalocError(
-                f"preset={preset!r} does not run on the lowres16 place, which compares "
-                "contrast-normalised images only; use a robust preset, or lowres or lbp"
+                f"preset={preset!r} does not run on the {representation} place{why}; use a "
+                f"robust preset, or {' or '.join(DEFAULT_SHIFT)}"
             )
         params = {f.name: f.metadata["param"] for f in dataclasses.fields(cls) if f.metadata}
         unknown = sorted(set(values) - set(params))

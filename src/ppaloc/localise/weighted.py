@@ -67,7 +67,7 @@ __all__ = [
     "suggest_alpha",
 ]
 
-REPRESENTATIONS = ("lowres", "lowres16", "lbp")
+REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar")
 """Place representations of the weighted-node filter (docs/ppa8.md)."""
 
 MAX_RANKING = 10_000
@@ -146,7 +146,7 @@ class WeightedNodeLocaliser:
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp"}
+    representation : {"lowres", "lowres16", "lbp", "haar"}
         Node kind: 8x8 or 16x16 low-res images compared by mean absolute difference (the
         16x16 ones with the robust preset only), or 32-bit LBP descriptors compared by
         Hamming distance.
@@ -221,7 +221,7 @@ class WeightedNodeLocaliser:
         """Every keyword this localiser takes (:class:`~ppaloc.localise.base.MethodParam`):
         its own options, then the filter's parameters (:class:`FilterParams`)."""
         return (
-            MethodParam("representation", Literal["lowres", "lowres16", "lbp"], "lowres"),
+            MethodParam("representation", Literal["lowres", "lowres16", "lbp", "haar"], "lowres"),
             MethodParam("arithmetic", Literal["float", "ppa8"], "float"),
             MethodParam("ranking_k", int, 10, 0, MAX_RANKING, "nodes each estimate ranks"),
             MethodParam("record_weights", bool, False, doc="keep every frame's weights"),

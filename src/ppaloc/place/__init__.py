@@ -1,10 +1,12 @@
-"""Place representations on the host: 8x8 low-resolution images and 32-bit LBP descriptors.
+"""Place representations on the host: low-resolution images and binary descriptors.
 
-Both start from the exact 8x8 block means of a (256, 256) uint8 sensor frame
-(docs/ppa8.md). Low-res nodes are compared by the sum of absolute differences (:func:`sad`),
-LBP descriptors by Hamming distance (:func:`hamming`); the robust filter compares low-res
-images after a contrast normalisation of each tile of blocks (:func:`normalise_contrast`).
-Everything is vectorised over leading axes (frames) or N nodes and exact.
+Every place starts from the exact block means of a (256, 256) uint8 sensor frame
+(docs/ppa8.md): 8x8 or 16x16 low-res images, compared by the sum of absolute differences
+(:func:`sad`; the robust filter normalises the contrast of each tile of blocks first,
+:func:`normalise_contrast`), the 32-bit LBP code of the 8x8 grid (:func:`hamming`) and the
+192-bit Haar signs of its blocks (:func:`haar_descriptor`, :func:`hamming_words`), both
+compared by Hamming distance. Everything is vectorised over leading axes (frames) or N
+nodes and exact.
 """
 
 from ppaloc.place.grid import (
@@ -15,6 +17,16 @@ from ppaloc.place.grid import (
     lowres_grid,
     lowres_image,
     tile_cells,
+)
+from ppaloc.place.haar import (
+    HAAR_BITS,
+    HAAR_GRID,
+    HAAR_WORDS,
+    haar_descriptor,
+    haar_plane,
+    hamming_words,
+    pack_plane,
+    unpack_plane,
 )
 from ppaloc.place.index import LowresIndex
 from ppaloc.place.lbp import (
@@ -31,6 +43,9 @@ from ppaloc.place.sad import sad
 
 __all__ = [
     "CONTRAST_SCALES",
+    "HAAR_BITS",
+    "HAAR_GRID",
+    "HAAR_WORDS",
     "LBP_BITS",
     "LOWRES_GRIDS",
     "SENSOR_SIZE",
@@ -38,7 +53,10 @@ __all__ = [
     "block_means",
     "block_sums",
     "contrast_scale",
+    "haar_descriptor",
+    "haar_plane",
     "hamming",
+    "hamming_words",
     "lbp_descriptor",
     "lbp_from_grid",
     "lbp_grid",
@@ -46,7 +64,9 @@ __all__ = [
     "lowres_image",
     "normalise_contrast",
     "pack_bits",
+    "pack_plane",
     "sad",
     "tile_cells",
     "unpack_bits",
+    "unpack_plane",
 ]

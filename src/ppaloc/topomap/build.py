@@ -9,7 +9,15 @@ from typing import Any
 import numpy as np
 
 from ppaloc.frontend import to_sensor
-from ppaloc.place import LOWRES_GRIDS, hamming, lbp_descriptor, lowres_image, sad
+from ppaloc.place import (
+    LOWRES_GRIDS,
+    haar_descriptor,
+    hamming,
+    hamming_words,
+    lbp_descriptor,
+    lowres_image,
+    sad,
+)
 from ppaloc.topomap.map import KIND_SPECS, TopoMap
 
 __all__ = ["KEYFRAME_UNITS", "build_topomap", "describe"]
@@ -18,18 +26,20 @@ KEYFRAME_UNITS = {
     "lowres": "mean absolute difference per 8x8 cell, grey levels (SAD / 64)",
     "lowres16": "mean absolute difference per 16x16 cell, grey levels (SAD / 256)",
     "lbp": "Hamming distance, bits",
+    "haar": "Hamming distance, bits",
 }
 """What ``keyframe_threshold`` measures for each kind."""
 
 _DESCRIBE: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     **{kind: partial(lowres_image, grid=g) for kind, g in LOWRES_GRIDS.items()},
     "lbp": lbp_descriptor,
+    "haar": haar_descriptor,
 }
 
 
 def describe(frame: np.ndarray, kind: str) -> np.ndarray:
-    """Return the node descriptor of one frame: uint8 (8, 8) or (16, 16), or a uint32
-    scalar array.
+    """Return the node descriptor of one frame: uint8 (8, 8) or (16, 16), a uint32
+    scalar array (LBP) or 8 uint32 words (Haar signs).
 
     Any frame is first shown to the sensor (:func:`ppaloc.frontend.to_sensor`,
     the identity for a (256, 256) uint8 frame).
@@ -46,6 +56,8 @@ def _describer(kind: str) -> Callable[[np.ndarray], np.ndarray]:
 def _change(kind: str, descriptor: np.ndarray, last: np.ndarray) -> float:
     if kind in LOWRES_GRIDS:
         return float(sad(descriptor, last[None])[0]) / descriptor.size
+    if kind == "haar":
+        return float(hamming_words(descriptor, last[None])[0])
     return float(hamming(descriptor, last.reshape(1))[0])
 
 
@@ -93,14 +105,15 @@ def build_topomap(
         The reference traversal in route order; (256, 256) uint8 sensor frames, or any
         frame :func:`~ppaloc.frontend.to_sensor` accepts. Read once, in order,
         so a lazy sequence is never held in memory whole.
-    kind : {"lowres", "lowres16", "lbp"}
+    kind : {"lowres", "lowres16", "lbp", "haar"}
         The place representation (:mod:`ppaloc.place`).
     keyframe_threshold : float, optional
         None (default, the paper): every frame becomes a node. Otherwise the first frame
         becomes a node, and each later frame becomes a node only when its change from the
         *last node* (not the last frame, so slow drift accumulates) is strictly above the
         threshold: for ``"lowres"`` the mean absolute difference per cell in grey levels
-        (SAD / 64; ``"lowres16"`` SAD / 256), for ``"lbp"`` the Hamming distance in bits.
+        (SAD / 64; ``"lowres16"`` SAD / 256), for ``"lbp"`` and ``"haar"`` the Hamming
+        distance in bits.
         0 drops only exact repeats (e.g. a vehicle standing still in a static scene).
     keep : callable, optional
         Another keyframe rule: ``keep(sensor_frame)`` is called on every frame in order

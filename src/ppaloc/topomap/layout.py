@@ -23,6 +23,7 @@ __all__ = ["KIND_BLOCK_SHAPES", "Direction", "SnakeLayout", "layout_for"]
 KIND_BLOCK_SHAPES: dict[str, tuple[int, int]] = {
     **{kind: (g, g) for kind, g in LOWRES_GRIDS.items()},
     "lbp": (4, 8),
+    "haar": (16, 16),
 }
 """PE block (rows, cols) per node for each place representation.
 
@@ -31,6 +32,8 @@ likewise with 16x16 PEs (256 nodes per tile).
 ``"lbp"``: 4 rows x 8 columns = 32 PEs, one per descriptor bit; row k holds the 8-bit
 code of cell k (top-left, top-right, bottom-left, bottom-right), MSB in column 0, so bit
 ``31 - b`` of the uint32 is at block PE ``(b // 8, b % 8)``.
+``"haar"``: 16x16 PEs, one per cell of the Haar-sign plane (:func:`ppaloc.place.haar_plane`;
+256 nodes per tile).
 """
 
 
@@ -279,8 +282,8 @@ def layout_for(kind: str, array_shape: tuple[int, int] = (256, 256)) -> SnakeLay
 
     Examples
     --------
-    >>> [layout_for(kind).capacity for kind in ("lbp", "lowres", "lowres16")]
-    [2048, 1024, 256]
+    >>> [layout_for(kind).capacity for kind in ("lbp", "lowres", "lowres16", "haar")]
+    [2048, 1024, 256, 256]
     """
     try:
         block = KIND_BLOCK_SHAPES[kind]

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ppaloc.place import LOWRES_GRIDS, unpack_bits
+from ppaloc.place import HAAR_WORDS, LOWRES_GRIDS, unpack_bits, unpack_plane
 from ppaloc.topomap.layout import KIND_BLOCK_SHAPES, SnakeLayout, layout_for
 
 __all__ = ["KIND_SPECS", "TopoMap"]
@@ -17,6 +17,7 @@ __all__ = ["KIND_SPECS", "TopoMap"]
 KIND_SPECS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     **{kind: (np.dtype(np.uint8), (g, g)) for kind, g in LOWRES_GRIDS.items()},
     "lbp": (np.dtype(np.uint32), ()),
+    "haar": (np.dtype(np.uint32), (HAAR_WORDS,)),
 }
 """Descriptor dtype and per-node shape of the place representations of ``ppaloc.place``.
 
@@ -189,12 +190,14 @@ class TopoMap:
 
         ``"lowres"``, ``"lowres16"``: the uint8 (8, 8) or (16, 16) image itself. ``"lbp"``:
         the 32 bits as uint8 0/1 in a 4x8 block, row k = cell k's code, MSB in column 0
-        (see ``KIND_BLOCK_SHAPES``).
+        (see ``KIND_BLOCK_SHAPES``). ``"haar"``: the 16x16 plane of 0/1 Haar signs.
         """
         if self.kind in LOWRES_GRIDS:
             return self.descriptors
         if self.kind == "lbp":
             return unpack_bits(self.descriptors).reshape(len(self), *KIND_BLOCK_SHAPES["lbp"])
+        if self.kind == "haar":
+            return unpack_plane(self.descriptors)
         raise ValueError(
             f"a {self.kind!r} map has no PE layout; only {', '.join(KIND_BLOCK_SHAPES)} do"
         )
