@@ -39,9 +39,9 @@ presets given, default both):
   (the paper preset's files as before, the robust preset's with ``_robust``).
 
 ``--rep`` picks the representations of ``agreement``, ``timing`` and ``noise`` (default
-``lowres lbp``; ``lowres16`` runs the robust preset only, and its timing is set beside
-the paper's 8x8 figure at 1024 nodes); ``--motion`` the Nordland agreement's motion models
-and maps. A map on a bank is timed as the bank counts it: per phase its slowest sensor
+``lowres lbp``; ``lowres16`` and ``haar`` run the robust preset only, and their timing is
+set beside the paper's 8x8 figure at 1024 nodes); ``--motion`` the Nordland agreement's
+motion models and maps. A map on a bank is timed as the bank counts it: per phase its slowest sensor
 plus one exchange per synchronisation point (docs/onsensor.md, "Sensor banks").
 """
 
@@ -64,6 +64,7 @@ from ppaloc.localise.schedule import SCHEDULES
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.onsensor.executor import PLACES
+from ppaloc.place import haar_plane, pack_plane
 from ppaloc.sim import PRESETS
 from ppaloc.topomap import TopoMap
 
@@ -77,10 +78,10 @@ NOISE_ROUTES = {
     "gardens-night": ("gardens day_r->night_r", GARDENS_NIGHT),
 }
 SYNTHETIC = "synthetic:?places=300&query=winter&seed=1"
-#: The paper's SCAMP-5d frame times and map sizes; lowres16 is compared with the paper's
-#: 8x8 images on a map of as many nodes.
-PAPER_MS = {"lowres": 2.59, "lowres16": 2.59, "lbp": 3.17}
-PAPER_NODES = {"lowres": 1024, "lowres16": 1024, "lbp": 2048}
+#: The paper's SCAMP-5d frame times and map sizes; lowres16 and haar are compared with the
+#: paper's 8x8 images on a map of as many nodes.
+PAPER_MS = {"lowres": 2.59, "lowres16": 2.59, "haar": 2.59, "lbp": 3.17}
+PAPER_NODES = {"lowres": 1024, "lowres16": 1024, "haar": 1024, "lbp": 2048}
 #: The representations each part runs by default (``--rep`` picks others).
 REPRESENTATIONS = ("lowres", "lbp")
 NORDLAND_NODES = 1788
@@ -96,7 +97,7 @@ def load(spec: str):
 
 
 def _runs(rep: str, presets: tuple[str, ...]) -> list[str]:
-    """The presets ``rep`` runs in (lowres16: the robust presets only)."""
+    """The presets ``rep`` runs in (lowres16, haar: the robust presets only)."""
     return [p for p in presets if runs_on(rep, p)]
 
 
@@ -163,6 +164,8 @@ def _random_map(rep: str, n: int) -> TopoMap:
     rng = np.random.default_rng(1)
     if rep == "lbp":
         return TopoMap("lbp", rng.integers(0, 2**32, n, dtype=np.uint32))
+    if rep == "haar":  # the signs of random 16x16 images (the unused cells 0)
+        return TopoMap(rep, pack_plane(haar_plane(rng.integers(0, 256, (n, 16, 16)))))
     side = 16 if rep == "lowres16" else 8
     return TopoMap(rep, rng.integers(0, 256, (n, side, side), dtype=np.uint8))
 

@@ -110,6 +110,12 @@ METHODS: dict[str, MethodSpec] = {
         "the robust weighted-node filter as PPA programs on the simulator, 16x16 images "
         "(256 nodes a sensor, longer maps on a bank)",
     ),
+    "onsensor-haar": MethodSpec(
+        "ppaloc.onsensor.localiser:OnSensorLocaliser",
+        {"representation": "haar"},
+        "the robust weighted-node filter as PPA programs on the simulator, 192 Haar signs "
+        "(512 nodes a sensor, longer maps on a bank)",
+    ),
     "onsensor-auto": MethodSpec(
         "ppaloc.onsensor.localiser:OnSensorLocaliser",
         {"representation": "auto"},

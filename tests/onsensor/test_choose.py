@@ -16,8 +16,9 @@ ROBUST, PAPER = RobustSchedule.sensor, PaperSchedule.sensor
 
 def test_capacities_come_from_the_layouts_and_the_stores():
     """A tile's nodes (the PE block of each place) times the tiles one sensor holds."""
-    assert [sensor_capacity(r, ROBUST) for r in ("lowres16", "lowres", "lbp")] == [
+    assert [sensor_capacity(r, ROBUST) for r in ("lowres16", "haar", "lowres", "lbp")] == [
         256,
+        512,
         1024,
         4096,
     ]
@@ -32,12 +33,15 @@ def test_capacities_come_from_the_layouts_and_the_stores():
     [
         (1, 1, "lowres16"),
         (256, 1, "lowres16"),
-        (257, 1, "lowres"),
+        (257, 1, "haar"),
+        (512, 1, "haar"),
+        (513, 1, "lowres"),
         (1024, 1, "lowres"),
         (1025, 1, "lbp"),
         (4096, 1, "lbp"),
         (1788, 7, "lowres16"),  # Nordland's frames on seven sensors
         (1788, 2, "lowres"),
+        (1788, 4, "haar"),
         (9000, 2, "lbp"),  # fits nowhere: the place needing the fewest sensors
         (300, 2, "lowres16"),
     ],
@@ -53,7 +57,12 @@ def test_the_paper_preset_chooses_among_its_places_on_one_sensor():
 
 
 def test_the_table_lists_each_place_up_to_its_longest_map():
-    assert place_table(ROBUST, 2) == [(512, "lowres16"), (2048, "lowres"), (8192, "lbp")]
+    assert place_table(ROBUST, 2) == [
+        (512, "lowres16"),
+        (1024, "haar"),
+        (2048, "lowres"),
+        (8192, "lbp"),
+    ]
 
 
 @pytest.mark.parametrize(
@@ -82,16 +91,17 @@ def test_auto_maps_the_richest_place_and_runs_it_as_the_fixed_localiser(blocky_r
 
 
 def test_auto_follows_the_arrays_capacity(blocky_route):
-    """On a 64x64 test array a tile holds 16 nodes of 16x16 PEs and 64 of 8x8: a map of
-    20 frames gets 8x8 images, unless two sensors may hold it."""
-    ref, _ = blocky_route(20, 4)
+    """On a 64x64 test array a tile holds 16 nodes of 16x16 PEs (two digital tiles of Haar
+    signs a sensor) and 64 of 8x8: a map of 40 frames gets 8x8 images, unless two
+    sensors may hold its Haar signs."""
+    ref, _ = blocky_route(40, 4)
     small = [f[::4, ::4] for f in ref]
     one = OnSensorLocaliser("auto", size=64, motion="always_forward")
     one.build_map(small)
     two = OnSensorLocaliser("auto", size=64, sensors=2, motion="always_forward")
     two.build_map(small)
-    assert (one.representation, two.representation) == ("lowres", "lowres16")
-    assert one.store == "levels" and two.params.contrast == 48
+    assert (one.representation, two.representation) == ("lowres", "haar")
+    assert one.store == "levels" and two.store == "digital"
 
 
 def test_auto_counts_places_not_frames(blocky_route, monkeypatch):

@@ -1,11 +1,12 @@
 """Which place a map gets on the sensor: the richest one its length leaves room for.
 
 A SCAMP-5 array holds a fixed number of PEs, so the information a place may carry falls
-as the map grows: 16x16 images take 16x16 PEs a node (256 nodes a tile), 8x8 images 8x8
-PEs (1024), 32-bit LBP descriptors 4x8 PEs of a digital register (2048). How many tiles
-one sensor holds depends on the registers the preset's working set leaves free (the
-robust preset's low-res maps one tile beside the best-distance refinement, LBP two
-digital tiles; :meth:`ppaloc.onsensor.places.Places.max_tiles`). ``representation="auto"``
+as the map grows: 16x16 images take 16x16 PEs a node (256 nodes a tile), the 192 Haar
+signs 16x16 PEs of a digital register (256), 8x8 images 8x8 PEs (1024), 32-bit LBP
+descriptors 4x8 PEs of a digital register (2048). How many tiles one sensor holds
+depends on the registers the preset's working set leaves free (the robust preset's
+low-res maps one tile beside the best-distance refinement, the binary places two digital
+tiles; :meth:`ppaloc.onsensor.places.Places.max_tiles`). ``representation="auto"``
 (:class:`~ppaloc.onsensor.localiser.OnSensorLocaliser`, the method ``onsensor-auto``)
 takes the first place of :data:`RICHEST_FIRST` the preset runs on whose map fits the
 sensors given (``sensors``, default one: the device on a desk), and the place that needs
@@ -13,13 +14,14 @@ the fewest sensors when none fits (a bank of them, docs/onsensor.md, "Sensor ban
 
 Richer is better on average, not on every route: over the 65 routes of
 ``benchmarks/eval_robust.py`` the robust filter's mean max F1 is 0.753 with 16x16
-images, 0.701 with 8x8 and 0.560 with LBP (docs/localise.md, "More values a place").
+images, 0.712 with the Haar signs, 0.701 with 8x8 images and 0.560 with LBP; on the five
+real routes 0.843, 0.801, 0.721 and 0.659 (docs/localise.md, "More values a place").
 
 Examples
 --------
 >>> from ppaloc.localise.schedule import RobustSchedule
 >>> [(n, choose_place(n, 1, RobustSchedule.sensor)) for n in (200, 256, 257, 1500, 5000)]
-[(200, 'lowres16'), (256, 'lowres16'), (257, 'lowres'), (1500, 'lbp'), (5000, 'lbp')]
+[(200, 'lowres16'), (256, 'lowres16'), (257, 'haar'), (1500, 'lbp'), (5000, 'lbp')]
 >>> choose_place(1500, 2, RobustSchedule.sensor)
 'lowres'
 """
@@ -55,8 +57,9 @@ __all__ = [
 MAX_SENSORS = 2**16
 """The most sensors ``sensors=`` may name."""
 
-RICHEST_FIRST = ("lowres16", "lowres", "lbp")
-"""The sensor's places, most information a place first: 256 values, 64 values, 32 bits."""
+RICHEST_FIRST = ("lowres16", "haar", "lowres", "lbp")
+"""The sensor's places, best first by the robust filter's mean max F1 (module doc): 256
+values, 192 signs, 64 values, 32 bits."""
 
 
 def sensor_capacity(
@@ -69,7 +72,7 @@ def sensor_capacity(
     --------
     >>> from ppaloc.localise.schedule import PaperSchedule, RobustSchedule
     >>> [sensor_capacity(r, RobustSchedule.sensor) for r in RICHEST_FIRST]
-    [256, 1024, 4096]
+    [256, 512, 1024, 4096]
     >>> sensor_capacity("lowres", PaperSchedule.sensor)
     2048
     """
@@ -121,9 +124,9 @@ def place_table(
     --------
     >>> from ppaloc.localise.schedule import RobustSchedule
     >>> place_table(RobustSchedule.sensor)
-    [(256, 'lowres16'), (1024, 'lowres'), (4096, 'lbp')]
+    [(256, 'lowres16'), (512, 'haar'), (1024, 'lowres'), (4096, 'lbp')]
     >>> place_table(RobustSchedule.sensor, 4)
-    [(1024, 'lowres16'), (4096, 'lowres'), (16384, 'lbp')]
+    [(1024, 'lowres16'), (2048, 'haar'), (4096, 'lowres'), (16384, 'lbp')]
     """
     budget = sensors if plan.bank else 1
     out: list[tuple[int, str]] = []

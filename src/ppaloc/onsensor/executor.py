@@ -25,6 +25,7 @@ from ppaloc.localise.schedule import SensorPlan
 from ppaloc.onsensor import detect, gain, likelihood
 from ppaloc.onsensor.capture import block_means, capture
 from ppaloc.onsensor.carry import carry_in, carry_out
+from ppaloc.onsensor.haar import HaarPlaces
 from ppaloc.onsensor.lbp import LbpPlaces
 from ppaloc.onsensor.lowres import Lowres16Places, LowresPlaces
 from ppaloc.onsensor.motion import MotionPlanes, image_motion
@@ -44,6 +45,7 @@ PLACES: dict[str, type[Places]] = {
     "lowres": LowresPlaces,
     "lowres16": Lowres16Places,
     "lbp": LbpPlaces,
+    "haar": HaarPlaces,
 }
 
 
@@ -52,7 +54,7 @@ class SensorExecutor:
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp"}
+    representation : {"lowres", "lowres16", "lbp", "haar"}
     n_nodes : int
         Nodes of the map (tiles follow from the layout's capacity).
     params : FilterParams

@@ -42,13 +42,13 @@ from ppaloc.onsensor.precursor import (
 from ppaloc.sim import NoiseParams
 from ppaloc.sim.observe import SimObserver, check_observers
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
-from ppaloc.topomap import TopoMap, layout_for
+from ppaloc.topomap import KIND_SPECS, TopoMap, layout_for
 
 __all__ = ["NOISE_PRESETS", "SENSOR_REPRESENTATIONS", "OnSensorLocaliser"]
 
 NOISE_PRESETS = ("ideal", "low", "typical", "high")
 
-SENSOR_REPRESENTATIONS = ("lowres", "lowres16", "lbp")
+SENSOR_REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar")
 """The representations the sensor's programs run (the host runs every one of
 :data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
@@ -92,7 +92,7 @@ class OnSensorLocaliser:
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp", "auto"}
+    representation : {"lowres", "lowres16", "lbp", "haar", "auto"}
         8x8 images in an analogue register (8x8 PEs per node, 1024 per tile), 16x16
         images (16x16 PEs per node, 256 per tile; robust preset only, a longer map on a
         bank) or 32-bit LBP descriptors in a digital register (4x8 PEs per node, 2048
@@ -292,7 +292,7 @@ class OnSensorLocaliser:
         else:
             nodes = [mapper.sense_node(f) for f in frames]
             kept = list(range(len(frames)))
-        dtype = np.uint32 if self.representation == "lbp" else np.uint8
+        dtype = KIND_SPECS[self.representation][0]
         params = {
             "kind": self.representation,
             "keyframe_threshold": None,

@@ -90,7 +90,7 @@ def make_pipeline(
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp"}
+    representation : {"lowres", "lowres16", "lbp", "haar"}
     n_nodes : int
         Nodes of the map.
     params : FilterParams

@@ -46,7 +46,7 @@ class Sensor:
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp"}
+    representation : {"lowres", "lowres16", "lbp", "haar"}
         Picks the snake layout (8x8 PEs per node, 16x16, or 4x8).
     roles : Roles
         The register roles (checked).
