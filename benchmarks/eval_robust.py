@@ -27,16 +27,16 @@ spec, the method, its parameters and a hash of the sources that decide them
 ``ppaloc/evaluate/metrics.py``); ``--no-cache`` ignores it.
 
 Output: a Markdown table (route x method, max F1, and ``best WN - best baseline``: the
-better of weighted-node-lbp / weighted-node-lowres minus the best baseline) and a summary
+best of the weighted-node places (:data:`WN_BEST`) minus the best baseline) and a summary
 line; with ``--sweep METHOD.key=v1,v2,...`` a table route x value with the mean and the
 minimum over routes instead.
 
 ``--representations`` gives every filter the same information: each baseline that takes a
 ``descriptor`` (:func:`descriptor_columns`) runs once per descriptor, the weighted-node
-filter's two places first and the method's own last (``particle-filter/lowres``,
-``particle-filter/lbp``, ``particle-filter/patch``; ABLE-M, binary only, on ``lbp`` and its
-own ``ldb``), next to ``weighted-node-lowres`` and ``weighted-node-lbp``
-(:data:`REPRESENTATION_METHODS` unless ``--methods`` names others). After the route table
+filter's places first and the method's own last (``particle-filter/lowres``, ``/lowres16``,
+``/lbp``, ``/haar``, ``/patch``; ABLE-M, binary only, on ``lbp`` and its own ``ldb``), next
+to the weighted-node filter on each place (:data:`REPRESENTATION_METHODS` unless
+``--methods`` names others). After the route table
 comes a table of route groups (:func:`route_group`: each real route, each generated
 condition over its seeds) with the means over the real, the generated and all routes.
 """

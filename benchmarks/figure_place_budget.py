@@ -13,8 +13,8 @@ means) marked::
         --out docs/img/place-budget.png
 
 Two panels: the 5 real routes, and all 65. A place's size is what it holds, whatever the
-type of a value: 32 bits (LBP), 64 block means (low-res), 256 block means (the 16x16
-low-res place), 1384 bits (ABLE-M's LDB code),
+type of a value: 32 bits (LBP), 64 block means (low-res), 192 bits (the Haar signs),
+256 block means (the 16x16 low-res place), 1384 bits (ABLE-M's LDB code),
 2048 patch-normalised values (the 64x32 image of the particle filter, SeqSLAM and
 single-frame matching).
 """
@@ -27,15 +27,15 @@ from pathlib import Path
 
 import numpy as np
 
-SIZES = {"lbp": 32, "lowres": 64, "lowres16": 256, "ldb": 1384, "patch": 2048}
+SIZES = {"lbp": 32, "lowres": 64, "haar": 192, "lowres16": 256, "ldb": 1384, "patch": 2048}
 """Values (or bits) per place of each descriptor."""
 
-IMAGES = ("lbp", "lowres", "lowres16", "patch")
+IMAGES = ("lbp", "lowres", "haar", "lowres16", "patch")
 """The descriptors of the image baselines, smallest first."""
 
 SERIES = {
     "weighted-node filter (robust)": {
-        d: f"weighted-node-{d}" for d in ("lbp", "lowres", "lowres16")
+        d: f"weighted-node-{d}" for d in ("lbp", "lowres", "haar", "lowres16")
     },
     "particle filter": {d: f"particle-filter/{d}" for d in IMAGES},
     "SeqSLAM": {d: f"seqslam/{d}" for d in IMAGES},

@@ -12,9 +12,9 @@ query frame once (the localiser directly, no evaluation), then hashes the map (i
 descriptors and each node's frame) and, per query, the estimate's node, score, motion
 decision, recorded weights, modelled latency and energy. The cases cover the host filter
 (float and ppa8 register arithmetic, both presets, every representation; the 16x16
-images in the robust preset only, the one that runs on them), the simulated sensor (the
-same presets and representations, ideal and ``typical`` noise) and a bank of sensors (a
-map split over three simulated sensors). The last line hashes every case
+images and the Haar signs in the robust preset only, the one that runs on them), the
+simulated sensor (the same presets and representations, ideal and ``typical`` noise) and a
+bank of sensors (a map split over three simulated sensors). The last line hashes every case
 together: equal before and after a refactoring means the same bytes everywhere.
 Routes from ``../shared/data`` are used when present (a note says when they are not).
 """
@@ -51,7 +51,7 @@ def cases(quick: bool) -> list[tuple[str, str, dict[str, Any]]]:
     if not quick:
         routes += ["nordland", "gardens-point"]
     for route in routes:
-        for rep in ("lowres", "lbp", "lowres16"):
+        for rep in ("lowres", "lbp", "lowres16", "haar"):
             for preset in ("", "paper-") if runs_on(rep, "paper") else ("",):
                 for arithmetic in ("float", "ppa8"):
                     out.append((route, f"weighted-node-{preset}{rep}", {"arithmetic": arithmetic}))

@@ -148,8 +148,8 @@ class WeightedNodeLocaliser:
     ----------
     representation : {"lowres", "lowres16", "lbp", "haar"}
         Node kind: 8x8 or 16x16 low-res images compared by mean absolute difference (the
-        16x16 ones with the robust preset only), or 32-bit LBP descriptors compared by
-        Hamming distance.
+        16x16 ones with the robust preset only), 32-bit LBP descriptors or the 192 Haar
+        signs (robust only) compared by Hamming distance.
     arithmetic : {"float", "ppa8"}
         ``"float"``: float32 weights clipped to [-127, 127], ties only between equal
         weights, the live low-res image quantised like a node (uint8 SAD, the fast path).

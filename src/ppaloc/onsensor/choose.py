@@ -15,7 +15,8 @@ the fewest sensors when none fits (a bank of them, docs/onsensor.md, "Sensor ban
 Richer is better on average, not on every route: over the 65 routes of
 ``benchmarks/eval_robust.py`` the robust filter's mean max F1 is 0.753 with 16x16
 images, 0.712 with the Haar signs, 0.701 with 8x8 images and 0.560 with LBP; on the five
-real routes 0.843, 0.801, 0.721 and 0.659 (docs/localise.md, "More values a place").
+real routes 0.843, 0.801, 0.721 and 0.659 (docs/localise.md, "More values a place" and
+"Signs instead of values").
 
 Examples
 --------
