@@ -253,8 +253,8 @@ def _check_live(loc: Any, name: str) -> None:
     if not isinstance(loc, OnSensorLocaliser):
         raise PpalocError(
             f"--live shows the on-sensor localiser, and method {name!r} runs on the host: "
-            "give --method onsensor-lowres, onsensor-lowres16 or onsensor-lbp (with a map of "
-            "their kind) or onsensor-auto (any map), or leave out --live"
+            "give --method onsensor-lowres, onsensor-lowres16, onsensor-lbp or onsensor-haar "
+            "(with a map of their kind) or onsensor-auto (any map), or leave out --live"
         )
     loc.record_weights = True  # untimed register reads: the estimates do not change
 
