@@ -721,7 +721,7 @@ def main() -> None:
         default=list(REPRESENTATIONS),
         choices=list(PLACES),
         help="representations of the agreement, timing and noise parts (default lowres "
-        "lbp; lowres16 runs the robust preset only)",
+        "lbp; lowres16 and haar run the robust preset only)",
     )
     parser.add_argument(
         "--motion",

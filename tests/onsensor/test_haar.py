@@ -44,15 +44,28 @@ def _same(a: list, b: list) -> None:
         np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)
 
 
-def test_the_live_signs_are_the_hosts_in_every_node_block(blocky_route):
+def test_the_live_signs_are_the_hosts_in_every_node_block(blocky_route, monkeypatch):
+    """A textured frame (about half the signs set), a black one (all 192 tie to 1: every
+        sign's cell set, none cleared) and one lit from the top-left (only the diagonals tie to
+    1): the plane is
+        the host's, with at most 98 patterns a frame."""
     ref, _ = blocky_route(1, 3)
+    x = np.arange(256)
+    ramp = (255 - (x[None, :] + x[:, None]) // 2).astype(np.uint8)  # lit from the top-left
     params = FilterParams.create("haar", arithmetic="ppa8", motion="always_forward")
     pipe = make_pipeline("haar", 4, params)
-    pipe.capture(ref[0])
-    pipe.places.prepare_live()
-    want = haar_plane(lowres_image(ref[0], 16))
-    np.testing.assert_array_equal(pipe.places.last_code, haar_descriptor(ref[0]))
-    np.testing.assert_array_equal(pipe.sim.read(DESCRIPTOR), np.tile(want, (16, 16)) == 1)
+    patterns = []
+    real = pipe.sim.load_pattern
+    monkeypatch.setattr(pipe.sim, "load_pattern", lambda *a: patterns.append(a) or real(*a))
+    for frame, set_signs in ((ref[0], None), (np.zeros((256, 256), np.uint8), 192), (ramp, 64)):
+        patterns.clear()
+        pipe.capture(frame)
+        pipe.places.prepare_live()
+        want = haar_plane(lowres_image(frame, 16))
+        assert set_signs is None or int(want.sum()) == set_signs
+        np.testing.assert_array_equal(pipe.places.last_code, haar_descriptor(frame))
+        np.testing.assert_array_equal(pipe.sim.read(DESCRIPTOR), np.tile(want, (16, 16)) == 1)
+        assert len(patterns) <= 98
 
 
 def test_the_tree_leaves_a_quarter_unit_per_differing_sign_and_reads_it_rounded():
@@ -60,7 +73,7 @@ def test_the_tree_leaves_a_quarter_unit_per_differing_sign_and_reads_it_rounded(
     rng = np.random.default_rng(4)
     frame = rng.integers(0, 256, (256, 256), dtype=np.uint8)
     live = haar_plane(lowres_image(frame, 16))
-    used = np.flatnonzero(np.ones((16, 16), bool) & ~_unused())
+    used = np.flatnonzero(~_unused())
     nodes = np.repeat(live[None], 193, axis=0).reshape(193, -1)
     for h in range(193):  # node h differs from the live place in its first h signs
         nodes[h, used[:h]] ^= 1

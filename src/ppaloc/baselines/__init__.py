@@ -9,8 +9,8 @@
 - :class:`~ppaloc.baselines.single.SingleFrame`: the best single-frame match.
 
 SeqSLAM, the particle filter and single-frame matching compare SeqSLAM's patch-normalised
-image by default, or the weighted-node filter's own place (``descriptor="lowres"`` or
-``"lbp"``); ABLE-M its LDB code or the filter's LBP code. See docs/baselines.md for every
+image by default, or the weighted-node filter's own place (``descriptor="lowres"``,
+``"lowres16"``, ``"lbp"`` or ``"haar"``); ABLE-M its LDB code or the filter's LBP code. See docs/baselines.md for every
 parameter and each deviation from the original.
 """
 

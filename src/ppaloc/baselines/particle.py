@@ -9,7 +9,8 @@ Particles live on map nodes. Per query frame:
    the last node is re-drawn uniformly too (clamping it there would pile particles up at
    the end of the map). The first frame of a query has no motion step (particles start uniform).
 2. *weighting*: the query is compared with every node on SeqSLAM's patch-normalised 64x32
-   image (mean absolute difference per pixel; ``descriptor="lowres"`` or ``"lbp"``: the
+   image (mean absolute difference per pixel; ``descriptor="lowres"``, ``"lbp"`` and the
+   others: the
    weighted-node filter's place, :mod:`ppaloc.baselines._descriptors`), and by default
    the column of distances is
    contrast-enhanced as in SeqSLAM (the filter replaces SeqSLAM's exhaustive trajectory
@@ -109,7 +110,8 @@ class ParticleFilter(ImageLocaliser):
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
         contrast-normalised 8x8 or 16x16 image by the mean absolute difference per cell, or its
-        32-bit LBP code by the Hamming distance (:mod:`ppaloc.baselines._descriptors`).
+        32-bit LBP code or 192 Haar signs by the Hamming distance
+        (:mod:`ppaloc.baselines._descriptors`).
         The filter is the same on each.
     seed : int
         Seed of every random draw.

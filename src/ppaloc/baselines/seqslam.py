@@ -5,8 +5,9 @@ The pipeline and its defaults follow OpenSeqSLAM (Sünderhauf et al., 2013):
 1. each frame is reduced to a 64x32 grey image and patch normalised (8x8 tiles);
 2. a *difference column*: the mean absolute difference per pixel between the query image
    and every map node (one column of OpenSeqSLAM's difference matrix D, map along rows);
-   ``descriptor="lowres"`` or ``"lbp"`` replaces steps 1 and 2 by the weighted-node
-   filter's place and its distance (:mod:`ppaloc.baselines._descriptors`);
+   ``descriptor="lowres"`` (or another of the filter's places) replaces steps 1 and 2 by
+   the weighted-node filter's place and its distance
+   (:mod:`ppaloc.baselines._descriptors`);
 3. *local contrast enhancement* of that column along the map axis: each entry minus the
    mean, over the standard deviation, of the entries within +-Rwindow/2 nodes;
 4. a search over straight-line trajectories through the last ``ds + 1`` enhanced columns,

@@ -3,8 +3,8 @@
 Each query frame is reduced exactly as SeqSLAM reduces it (64x32, 8x8 patch normalisation)
 and compared with every node by the mean absolute difference per pixel; the estimate is the
 closest node. The confidence is the uniqueness of the best distance against the best
-distance outside ``+- radius`` nodes: ``1 - d_best / d_second``. ``descriptor="lowres"``
-or ``"lbp"`` matches the weighted-node filter's place instead
+distance outside ``+- radius`` nodes: ``1 - d_best / d_second``. ``descriptor="lowres"``,
+``"lowres16"``, ``"lbp"`` or ``"haar"`` matches the weighted-node filter's place instead
 (:mod:`ppaloc.baselines._descriptors`).
 """
 

@@ -217,7 +217,9 @@ COLUMNS: tuple[Column, ...] = (
 """Every column of the report's tables, in the order the definitions list them."""
 
 _BY_HEADER = {c.header: c for c in COLUMNS}
-_REPRESENTATION = re.compile(r"^(.*) \(([^()]+)\)$")
+_REPRESENTATION = re.compile(
+    r"^(.*) \((8x8 image|16x16 image|32-bit LBP|192 Haar signs|method's own)\)$"
+)
 """A Table I header: a field and the representation column it is shown in."""
 
 

@@ -98,7 +98,7 @@ def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
         return raw.astype(np.int64) * 2 if raw.dtype.kind in "iu" else raw * 2.0
     if kind == "haar":
         if exact:  # round half up: + 2**(e - 1), then the shift
-            return (raw.astype(np.int64) + (1 << HAAR_EXPONENT - 1)) >> HAAR_EXPONENT
+            return (raw.astype(np.int64) + (1 << (HAAR_EXPONENT - 1))) >> HAAR_EXPONENT
         return raw.astype(np.float64) / float(1 << HAAR_EXPONENT)
     if exact:  # raw = T, mu = T / 2**17, mu / 2 = T / 2**18
         code = (257 * 2**17 - raw.astype(np.int64)) >> 18

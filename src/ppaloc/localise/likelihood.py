@@ -1,6 +1,6 @@
 """Per-frame distances from the live frame to every map node, and their register scale.
 
-Both representations give an integer distance per node, which the filter turns into the
+Every representation gives an integer distance per node, which the filter turns into the
 scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/ppa8.md,
 "Likelihood"):
 

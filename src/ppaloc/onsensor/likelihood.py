@@ -1,6 +1,7 @@
 """Adding every node's likelihood on the sensor: the robust scaled term and the paper's.
 
-The representation (:mod:`~ppaloc.onsensor.lowres`, :mod:`~ppaloc.onsensor.lbp`) gives
+The representation (:mod:`~ppaloc.onsensor.lowres`, :mod:`~ppaloc.onsensor.lbp`,
+:mod:`~ppaloc.onsensor.haar`) gives
 each tile's distance tree, which leaves ``value_scale = (sign, e)``: ``sign * mu *
 2**-e`` at every node root; this module reads and scales it.
 

@@ -95,9 +95,11 @@ class OnSensorLocaliser:
     representation : {"lowres", "lowres16", "lbp", "haar", "auto"}
         8x8 images in an analogue register (8x8 PEs per node, 1024 per tile), 16x16
         images (16x16 PEs per node, 256 per tile; robust preset only, a longer map on a
-        bank) or 32-bit LBP descriptors in a digital register (4x8 PEs per node, 2048
-        per tile). ``"auto"``: the richest whose map fits ``sensors`` sensors, chosen
-        with the map (:class:`~ppaloc.onsensor.choose.AutoPlace`).
+        bank), 32-bit LBP descriptors in a digital register (4x8 PEs per node, 2048
+        per tile) or the 192 Haar signs in one (16x16 PEs per node, 256 per tile, two
+        tiles a sensor; robust preset only). ``"auto"``: the best whose map fits
+        ``sensors`` sensors, chosen with the map
+        (:class:`~ppaloc.onsensor.choose.AutoPlace`).
     sensors : int, optional
         ``"auto"``: how many sensors the map may fill (default 1).
     noise : {"ideal", "low", "typical", "high"} or NoiseParams

@@ -22,6 +22,8 @@
                                        16x16 images (the grid read by the reduce stage)
 :mod:`ppaloc.onsensor.lbp`             :class:`LbpPlaces`: descriptor on the array,
                                        descriptor load, Hamming trees
+:mod:`ppaloc.onsensor.haar`            :class:`HaarPlaces`: the 192 Haar signs from the
+                                       16x16 codes, their load, Hamming trees
 :mod:`ppaloc.onsensor.executor`        :class:`SensorExecutor`: the schedule's steps
 :mod:`ppaloc.onsensor.bank`            :class:`SensorBank`: the same steps on a bank
 =====================================  ==================================================

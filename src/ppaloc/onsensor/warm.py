@@ -22,7 +22,7 @@ from ppaloc.sim.engines.compiled import FUSE_AFTER
 __all__ = ["CONFIGS", "warm_up"]
 
 #: ``(representation, preset, noise)`` of every pipeline :func:`warm_up` runs (the 16x16
-#: images in the robust preset only, the one that runs on them).
+#: images and the Haar signs in the robust preset only, the one that runs on them).
 CONFIGS = tuple(
     (rep, preset, noise)
     for rep in SENSOR_REPRESENTATIONS

@@ -10,9 +10,9 @@ wavelets:
 - vertical: ``c + d >= a + b`` (the bottom half at least as bright as the top);
 - diagonal: ``a + d >= b + c``.
 
-Signs of local differences survive any monotonic change of brightness within a block,
-which is what a change from day to night or summer to winter mostly is, and the three of
-them keep a block's coarse structure where an LBP code keeps one comparison per block pair.
+A sign is unchanged by a gain and an offset of its block's brightness, much of what a
+change from day to night or summer to winter is, and the three of them keep a block's
+coarse structure where an LBP code keeps one comparison per pair of blocks.
 A place is 64 blocks x 3 = 192 bits, laid out on the 16x16 grid itself (:func:`haar_plane`:
 the bits of block ``(i, j)`` at cells ``(2i, 2j)``, ``(2i, 2j + 1)`` and ``(2i + 1, 2j)``;
 cell ``(2i + 1, 2j + 1)`` is always 0), so on the sensor a node is a 16x16 block of PEs,
