@@ -119,7 +119,7 @@ METHODS: dict[str, MethodSpec] = {
     "onsensor-auto": MethodSpec(
         "ppaloc.onsensor.localiser:OnSensorLocaliser",
         {"representation": "auto"},
-        "the robust weighted-node filter as PPA programs on the simulator, the richest "
+        "the robust weighted-node filter as PPA programs on the simulator, the best "
         "place the map's length leaves room for on `sensors` sensors (default 1)",
     ),
     "onsensor-paper-lowres": MethodSpec(

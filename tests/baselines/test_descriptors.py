@@ -24,7 +24,13 @@ from ppaloc.baselines._descriptors import (
 from ppaloc.baselines.seqslam import contrast_enhance
 from ppaloc.errors import PpalocError
 from ppaloc.methods import make_localiser
-from ppaloc.place import lbp_descriptor, lowres_image, normalise_contrast
+from ppaloc.place import (
+    haar_descriptor,
+    lbp_descriptor,
+    lowres_image,
+    normalise_contrast,
+    unpack_plane,
+)
 from ppaloc.topomap import TopoMap
 
 IMAGE = [SeqSLAM, ParticleFilter, SingleFrame]
@@ -131,6 +137,25 @@ def test_lowres16_nodes_are_the_filters_16x16_places(cls) -> None:
 
 
 @pytest.mark.parametrize("cls", IMAGE)
+def test_haar_nodes_are_the_filters_signs_and_compared_in_bits(cls) -> None:
+    rng = np.random.default_rng(5)
+    frames = rng.integers(0, 256, (4, 256, 256), dtype=np.uint8)
+    loc = cls(descriptor="haar")
+    m = loc.build_map(frames)
+    assert m.descriptors.dtype == np.uint32 and m.descriptors.shape == (4, 8)
+    np.testing.assert_array_equal(m.descriptors, haar_descriptor(frames))
+    assert m.params["descriptor"] == "haar" and "contrast" not in m.params
+    column = loc.difference_column(frames[2])
+    want = [
+        np.count_nonzero(unpack_plane(m.descriptors[i]) != unpack_plane(m.descriptors[2]))
+        for i in range(4)
+    ]
+    assert column.tolist() == want and column[2] == 0
+    with pytest.raises(PpalocError, match="descriptor='haar' but this localiser compares"):
+        cls(descriptor="lbp").use_map(m)
+
+
+@pytest.mark.parametrize("cls", IMAGE)
 def test_difference_columns_golden(cls) -> None:
     low = cls(descriptor="lowres")
     low.build_map([column(1, 100), column(1, 200), column(0, 100)])
@@ -176,7 +201,7 @@ def test_seqslam_step_equals_batch_on_each_descriptor(toy_route, descriptor, mod
 
 @pytest.mark.parametrize(
     ("cls", "descriptor"),
-    [(c, d) for c in IMAGE for d in ("lowres", "lowres16", "lbp")] + [(ABLEM, "lbp")],
+    [(c, d) for c in IMAGE for d in ("lowres", "lowres16", "lbp", "haar")] + [(ABLEM, "lbp")],
 )
 def test_each_method_locks_on_with_the_filters_place(toy_route, cls, descriptor) -> None:
     ref, query = toy_route

@@ -283,14 +283,13 @@ def test_map_then_localise_streams_csv(mean_match, tmp_path, capsys):
     assert len(out.splitlines()) == 7
 
 
-def test_map_and_localise_with_a_real_method(tiny_spec, tmp_path, capsys):
+@pytest.mark.parametrize("method", ["weighted-node-lbp", "weighted-node-haar"])
+def test_map_and_localise_with_a_real_method(method, tiny_spec, tmp_path, capsys):
     from ppaloc.methods import available_methods
 
-    if "weighted-node-lbp" not in available_methods():
-        pytest.skip("weighted-node-lbp is not available")
-    code, _, err = run(
-        capsys, "map", tiny_spec, "-m", "weighted-node-lbp", "--out", tmp_path / "m.npz", "-q"
-    )
+    if method not in available_methods():
+        pytest.skip(f"{method} is not available")
+    code, _, err = run(capsys, "map", tiny_spec, "-m", method, "--out", tmp_path / "m.npz", "-q")
     assert code == 0, err
     frames = _frames(tmp_path / "q", 3)
     code, out, err = run(capsys, "localise", tmp_path / "m.npz", *frames)

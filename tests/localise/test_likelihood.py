@@ -134,6 +134,11 @@ def test_haar_distances_count_differing_signs_and_read_as_quarters():
     h = NodeDistances("haar", nodes, exact=True)(frame)
     assert h.dtype == np.uint16
     np.testing.assert_array_equal(h, hamming_words(haar_descriptor(frame), nodes))
+    # float compares the same integers; a second frame reuses the buffer from zero
+    fl = NodeDistances("haar", nodes, exact=False)
+    other = rng.integers(0, 256, (256, 256), dtype=np.uint8)
+    np.testing.assert_array_equal(fl(frame).copy(), h)
+    np.testing.assert_array_equal(fl(other), hamming_words(haar_descriptor(other), nodes))
     assert distance_scale("haar", 0, True) == distance_scale("haar", 0, False) == 0.25
     np.testing.assert_array_equal(read_values("haar", h, False), h / 4.0)
     raw = np.arange(0, 193, dtype=np.uint16)

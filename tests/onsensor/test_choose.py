@@ -102,6 +102,7 @@ def test_auto_follows_the_arrays_capacity(blocky_route):
     two.build_map(small)
     assert (one.representation, two.representation) == ("lowres", "haar")
     assert one.store == "levels" and two.store == "digital"
+    assert choose_place(40, 3, ROBUST, size=64) == "lowres16"  # 3 x 16 16x16 images
 
 
 def test_auto_counts_places_not_frames(blocky_route, monkeypatch):

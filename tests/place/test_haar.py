@@ -83,3 +83,11 @@ def test_bad_shapes_are_refused_in_one_line():
         hamming_words(np.zeros(8, np.int64), np.zeros((2, 8), np.uint32))
     with pytest.raises(ValueError, match="cannot be compared"):
         hamming_words(np.zeros(4, np.uint32), np.zeros((2, 8), np.uint32))
+
+
+def test_descriptor_of_a_frame_lit_in_one_quarter_of_every_block_golden():
+    """Every 32x32 block's top-left quarter at 200, the rest at 50: right < left (0),
+    bottom < top (0), a + d > b + c (1), so each row pair packs to 0x0000AAAA."""
+    x = np.arange(256) % 32 < 16
+    frame = np.where(x[:, None] & x[None, :], 200, 50).astype(np.uint8)
+    assert [hex(int(w)) for w in haar_descriptor(frame)] == ["0xaaaa"] * 8

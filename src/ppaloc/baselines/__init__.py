@@ -10,8 +10,8 @@
 
 SeqSLAM, the particle filter and single-frame matching compare SeqSLAM's patch-normalised
 image by default, or the weighted-node filter's own place (``descriptor="lowres"``,
-``"lowres16"``, ``"lbp"`` or ``"haar"``); ABLE-M its LDB code or the filter's LBP code. See docs/baselines.md for every
-parameter and each deviation from the original.
+``"lowres16"``, ``"lbp"`` or ``"haar"``); ABLE-M its LDB code or the filter's LBP code.
+See docs/baselines.md for every parameter and each deviation from the original.
 """
 
 from ppaloc.baselines.ablem import ABLEM

@@ -1,4 +1,4 @@
-"""Which place a map gets on the sensor: the richest one its length leaves room for.
+"""Which place a map gets on the sensor: the best one its length leaves room for.
 
 A SCAMP-5 array holds a fixed number of PEs, so the information a place may carry falls
 as the map grows: 16x16 images take 16x16 PEs a node (256 nodes a tile), the 192 Haar
@@ -8,11 +8,11 @@ depends on the registers the preset's working set leaves free (the robust preset
 low-res maps one tile beside the best-distance refinement, the binary places two digital
 tiles; :meth:`ppaloc.onsensor.places.Places.max_tiles`). ``representation="auto"``
 (:class:`~ppaloc.onsensor.localiser.OnSensorLocaliser`, the method ``onsensor-auto``)
-takes the first place of :data:`RICHEST_FIRST` the preset runs on whose map fits the
+takes the first place of :data:`BEST_FIRST` the preset runs on whose map fits the
 sensors given (``sensors``, default one: the device on a desk), and the place that needs
 the fewest sensors when none fits (a bank of them, docs/onsensor.md, "Sensor banks").
 
-Richer is better on average, not on every route: over the 65 routes of
+The order is the mean, not every route: over the 65 routes of
 ``benchmarks/eval_robust.py`` the robust filter's mean max F1 is 0.753 with 16x16
 images, 0.712 with the Haar signs, 0.701 with 8x8 images and 0.560 with LBP; on the five
 real routes 0.843, 0.801, 0.721 and 0.659 (docs/localise.md, "More values a place" and
@@ -47,8 +47,8 @@ from ppaloc.topomap import layout_for
 
 __all__ = [
     "AUTO",
+    "BEST_FIRST",
     "MAX_SENSORS",
-    "RICHEST_FIRST",
     "AutoPlace",
     "choose_place",
     "place_table",
@@ -58,7 +58,7 @@ __all__ = [
 MAX_SENSORS = 2**16
 """The most sensors ``sensors=`` may name."""
 
-RICHEST_FIRST = ("lowres16", "haar", "lowres", "lbp")
+BEST_FIRST = ("lowres16", "haar", "lowres", "lbp")
 """The sensor's places, best first by the robust filter's mean max F1 (module doc): 256
 values, 192 signs, 64 values, 32 bits."""
 
@@ -72,7 +72,7 @@ def sensor_capacity(
     Examples
     --------
     >>> from ppaloc.localise.schedule import PaperSchedule, RobustSchedule
-    >>> [sensor_capacity(r, RobustSchedule.sensor) for r in RICHEST_FIRST]
+    >>> [sensor_capacity(r, RobustSchedule.sensor) for r in BEST_FIRST]
     [256, 512, 1024, 4096]
     >>> sensor_capacity("lowres", PaperSchedule.sensor)
     2048
@@ -91,20 +91,20 @@ def choose_place(
     sensors: int,
     plan: SensorPlan,
     *,
-    runs_on: tuple[str, ...] = RICHEST_FIRST,
+    runs_on: tuple[str, ...] = BEST_FIRST,
     size: int = SENSOR_SIZE,
 ) -> str:
     """The place a map of ``n_nodes`` nodes gets on ``sensors`` sensors.
 
-    The first of ``runs_on`` (in the order of :data:`RICHEST_FIRST`: the places the
+    The first of ``runs_on`` (in the order of :data:`BEST_FIRST`: the places the
     preset runs on) whose map fits; when none fits, the one that needs the fewest sensors
-    (the richest of those on a tie). A map of one sensor's preset (``plan.bank`` False)
+    (the best of those on a tie). A map of one sensor's preset (``plan.bank`` False)
     counts one sensor whatever ``sensors`` says.
     """
     if n_nodes < 1:
         raise PpalocError(f"a map of {n_nodes} nodes has no place to choose: it needs a node")
     check_int("sensors", sensors, 1, MAX_SENSORS)
-    candidates = [r for r in RICHEST_FIRST if r in runs_on]
+    candidates = [r for r in BEST_FIRST if r in runs_on]
     if not candidates:
         raise PpalocError(f"no sensor place among {', '.join(runs_on) or 'none'}")
     budget = sensors if plan.bank else 1
@@ -112,11 +112,11 @@ def choose_place(
     fitting = [r for r in candidates if need[r] <= budget]
     if fitting:
         return fitting[0]
-    return min(candidates, key=lambda r: need[r])  # min keeps the richest on a tie
+    return min(candidates, key=lambda r: need[r])  # min keeps the best on a tie
 
 
 def place_table(
-    plan: SensorPlan, sensors: int = 1, *, runs_on: tuple[str, ...] = RICHEST_FIRST
+    plan: SensorPlan, sensors: int = 1, *, runs_on: tuple[str, ...] = BEST_FIRST
 ) -> list[tuple[int, str]]:
     """``[(most nodes, place), ...]``: the longest map each place is chosen for on
     ``sensors`` sensors, in order (the table of docs/onsensor.md).
@@ -131,7 +131,7 @@ def place_table(
     """
     budget = sensors if plan.bank else 1
     out: list[tuple[int, str]] = []
-    for r in RICHEST_FIRST:
+    for r in BEST_FIRST:
         if r not in runs_on:
             continue
         most = budget * sensor_capacity(r, plan)
@@ -141,7 +141,7 @@ def place_table(
 
 
 AUTO = "auto"
-"""``representation="auto"``: the richest place the map's length leaves room for."""
+"""``representation="auto"``: the best place the map's length leaves room for."""
 
 
 @dataclass(frozen=True)
@@ -197,15 +197,15 @@ class AutoPlace:
 
     @property
     def candidates(self) -> tuple[str, ...]:
-        """The places to choose among, richest first: those the preset runs on (and the
+        """The places to choose among, best first: those the preset runs on (and the
         precursor's timing structure has, when it is asked for)."""
         preset = self.filter_params.get("preset") or "robust"
         if preset not in SCHEDULES:
-            FilterParams.create(RICHEST_FIRST[-1], preset=preset)  # its one-line error
+            FilterParams.create(BEST_FIRST[-1], preset=preset)  # its one-line error
         precursor = self.timing_structure == "precursor"
         return tuple(
             r
-            for r in RICHEST_FIRST
+            for r in BEST_FIRST
             if runs_on(r, preset) and not (precursor and r not in REPLACED_STAGES)
         )
 

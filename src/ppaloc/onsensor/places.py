@@ -1,11 +1,12 @@
 """What a place representation gives the on-sensor pipeline: its registers and stages.
 
 A representation (:class:`ppaloc.onsensor.lowres.LowresPlaces`,
-:class:`ppaloc.onsensor.lbp.LbpPlaces`, :class:`ppaloc.onsensor.haar.HaarPlaces`) declares its register roles and map stores, and
-does the stages that depend on what a node is: the static masks, the description of a
-reference frame, the live frame put where the comparison reads it, each tile's distance
-tree, and the readout of its values. Everything else (capture, motion, transition,
-detection) is the same for all and lives in the stage modules.
+:class:`ppaloc.onsensor.lbp.LbpPlaces`, :class:`ppaloc.onsensor.haar.HaarPlaces`)
+declares its register roles and map stores, and does the stages that depend on what a
+node is: the static masks, the description of a reference frame, the live frame put where
+the comparison reads it, each tile's distance tree, and the readout of its values.
+Everything else (capture, motion, transition, detection) is the same for all and lives in
+the stage modules.
 """
 
 from __future__ import annotations
