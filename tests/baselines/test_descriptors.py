@@ -201,7 +201,8 @@ def test_seqslam_step_equals_batch_on_each_descriptor(toy_route, descriptor, mod
 
 @pytest.mark.parametrize(
     ("cls", "descriptor"),
-    [(c, d) for c in IMAGE for d in ("lowres", "lowres16", "lbp", "haar")] + [(ABLEM, "lbp")],
+    [(c, d) for c in IMAGE for d in ("lowres", "lowres16", "lbp", "haar")]
+    + [(ABLEM, "lbp"), (ABLEM, "haar")],
 )
 def test_each_method_locks_on_with_the_filters_place(toy_route, cls, descriptor) -> None:
     ref, query = toy_route
@@ -260,6 +261,19 @@ def test_image_parameters_with_another_descriptor_are_refused() -> None:
     with pytest.raises(PpalocError, match=r"^ABLE-M n_bits=256 shapes descriptor='ldb' only"):
         ABLEM(descriptor="lbp", n_bits=256)
     SeqSLAM(descriptor="lbp", size=[32, 64], patch=8)  # the defaults, spelt out, are fine
+
+
+def test_ablem_on_haar_signs_counts_the_differing_signs() -> None:
+    rng = np.random.default_rng(7)
+    frames = rng.integers(0, 256, (4, 256, 256), dtype=np.uint8)
+    a = ABLEM(descriptor="haar", length=1, record_weights=True)
+    m = a.build_map(frames)
+    assert m.descriptors.shape == (4, 32) and m.params["n_bits"] == 192
+    words = haar_descriptor(frames)
+    np.testing.assert_array_equal(m.descriptors, words.astype(">u4").view(np.uint8))
+    est = a.step(frames[1])
+    want = [np.count_nonzero(unpack_plane(words[i]) != unpack_plane(words[1])) for i in range(4)]
+    assert est.node == 1 and (-est.weights).tolist() == want
 
 
 def test_ablem_refuses_images() -> None:

@@ -3,7 +3,9 @@
 Each frame is described by one global LDB-style binary code of the whole downsampled image
 (:mod:`ppaloc.baselines.ldb`), or with ``descriptor="lbp"`` by the weighted-node filter's
 32-bit LBP code (:func:`ppaloc.place.lbp_descriptor`, packed into 4 bytes most significant
-first). ABLE-M is binary by construction: it takes either code, never an image (the
+first), or with ``"haar"`` by its 192 Haar signs (:func:`ppaloc.place.haar_descriptor`,
+its 8 words in 32 bytes). ABLE-M is binary by construction: it takes these codes, never an
+image (the
 weighted-node filter's low-res image or SeqSLAM's patch-normalised one). The code of a
 *place* is the concatenation of the codes of the last ``L`` frames; a query sequence is
 compared with the map sequence ending at every node, ``e - L + 1 .. e``, by Hamming
@@ -33,12 +35,12 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from ppaloc.baselines._common import MapLocaliser, require_map, top_k, uniqueness_ratio
-from ppaloc.baselines._descriptors import check_descriptor, lbp_place
+from ppaloc.baselines._descriptors import check_descriptor, haar_place, lbp_place
 from ppaloc.baselines._image import downsample
 from ppaloc.baselines.ldb import comparison_count, hamming_distances, ldb_comparisons, selected_bits
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
-from ppaloc.place import LBP_BITS, LOWRES_GRIDS
+from ppaloc.place import HAAR_BITS, HAAR_WORDS, LBP_BITS, LOWRES_GRIDS
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ABLEM", "sequence_distances"]
@@ -78,9 +80,10 @@ class ABLEM(MapLocaliser):
     ----------
     length : int
         Frames per sequence ``L`` (see docs/baselines.md for the choice of default).
-    descriptor : {"ldb", "lbp"}
+    descriptor : {"ldb", "lbp", "haar"}
         The binary code of a frame: its own global LDB code (default), or the weighted-node
-        filter's 32-bit LBP code (4 bytes). Only binary codes: an image (``"lowres"``,
+        filter's 32-bit LBP code (4 bytes) or its 192 Haar signs (32 bytes, 64 bits always
+        0). Only binary codes: an image (``"lowres"``,
         ``"patch"``) is refused.
     side : int
         Side of the square image the descriptor is computed on (OpenABLE ``Patch_size``: 64);
@@ -106,7 +109,7 @@ class ABLEM(MapLocaliser):
 
     name = "able-m"
     kind = KIND
-    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("ldb", "lbp")
+    DESCRIPTORS: ClassVar[tuple[str, ...]] = ("ldb", "lbp", "haar")
 
     #: Accepted range of each numeric parameter, where a value drives memory or time or
     #: leaves the method's meaning; the published defaults lie inside.
@@ -124,7 +127,7 @@ class ABLEM(MapLocaliser):
         self,
         *,
         length: int = 10,
-        descriptor: Literal["ldb", "lbp"] = "ldb",
+        descriptor: Literal["ldb", "lbp", "haar"] = "ldb",
         side: int = 64,
         levels: tuple[int, ...] = (2, 3, 4, 5),
         n_bits: int | None = 1384,
@@ -145,8 +148,8 @@ class ABLEM(MapLocaliser):
         if descriptor in ("patch", *LOWRES_GRIDS):
             raise PpalocError(
                 f"ABLE-M descriptor={descriptor!r} is an image, and ABLE-M matches binary "
-                "codes by Hamming distance; choose 'ldb' (its own LDB code) or 'lbp' (the "
-                "weighted-node filter's 32-bit LBP code)"
+                "codes by Hamming distance; choose 'ldb' (its own LDB code), 'lbp' (the "
+                "weighted-node filter's 32-bit LBP code) or 'haar' (its 192 Haar signs)"
             )
         self.length = int(length)
         self.side = int(side)
@@ -160,6 +163,8 @@ class ABLEM(MapLocaliser):
         self.descriptor = check_descriptor("ABLE-M", descriptor, own, allowed=self.DESCRIPTORS)
         if self.descriptor == "lbp":
             self._bits = np.arange(LBP_BITS)
+        elif self.descriptor == "haar":
+            self._bits = np.arange(HAAR_BITS)  # the bits that can differ
         else:
             self._bits = selected_bits(comparison_count(self.levels), n_bits, bit_seed)
         self.n_bits = len(self._bits)
@@ -168,7 +173,7 @@ class ABLEM(MapLocaliser):
         self.rwindow = int(rwindow)
         self.top_k = int(top_k)
         self.record_weights = bool(record_weights)
-        self.n_bytes = (self.n_bits + 7) // 8
+        self.n_bytes = 4 * HAAR_WORDS if self.descriptor == "haar" else (self.n_bits + 7) // 8
         self.fill = self.n_bits / 2.0
         self.map: TopoMap | None = None
         self.reset()
@@ -181,8 +186,8 @@ class ABLEM(MapLocaliser):
 
     def params(self) -> dict:
         """The parameters that shape the map (JSON-serialisable)."""
-        if self.descriptor == "lbp":
-            return {"descriptor": "lbp", "n_bits": self.n_bits, "length": self.length}
+        if self.descriptor in ("lbp", "haar"):
+            return {"descriptor": self.descriptor, "n_bits": self.n_bits, "length": self.length}
         return {
             "descriptor": "ldb",
             "side": self.side,
@@ -193,10 +198,12 @@ class ABLEM(MapLocaliser):
         }
 
     def describe(self, frame: np.ndarray) -> np.ndarray:
-        """The packed binary code of one sensor frame, shape (ceil(n_bits / 8),) uint8 (the
-        LBP code: its 4 bytes, most significant first)."""
+        """The packed binary code of one sensor frame, shape (n_bytes,) uint8 (the LBP code:
+        its 4 bytes, most significant first; the Haar signs: their 8 words so)."""
         if self.descriptor == "lbp":
             return np.asarray(lbp_place(frame), dtype=">u4").reshape(1).view(np.uint8)
+        if self.descriptor == "haar":
+            return np.asarray(haar_place(frame), dtype=">u4").view(np.uint8)
         image = downsample(frame, (self.side, self.side))
         bits = ldb_comparisons(image, self.levels)[self._bits]
         return np.packbits(bits)
