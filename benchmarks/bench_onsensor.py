@@ -6,8 +6,9 @@ per-frame latency, for both pipelines and both filter presets (``"robust"``, ``"
 in ideal mode and under the ``"typical"`` noise preset, at the paper's map sizes (1024
 low-res images, 2048 LBP descriptors; one full register each), and the 16x16 place
 (``lowres16``, 256 images, one full register; the robust preset, the one that runs on
-it). The motion model is ``"image"`` and the frames move, so every stage of either
-preset runs.
+it) and the Haar signs (``haar``, 512 places, both digital tiles of one sensor; robust).
+The motion model is ``"image"`` and the frames move, so every stage of either preset
+runs.
 
 Targets on one core of this machine, the 8x8 low-res pipeline (robust preset) on the
 compiled engine: >= 50 simulated frames per second in ideal mode (met), and issue 12's
@@ -41,12 +42,12 @@ import pytest
 
 from ppaloc.localise.params import runs_on
 from ppaloc.onsensor import OnSensorLocaliser
-from ppaloc.place import LOWRES_GRIDS
+from ppaloc.place import LOWRES_GRIDS, haar_plane, pack_plane
 from ppaloc.topomap import TopoMap
 
-MAP_SIZES = {"lowres": 1024, "lowres16": 256, "lbp": 2048}
+MAP_SIZES = {"lowres": 1024, "lowres16": 256, "lbp": 2048, "haar": 512}
 #: The pipelines measured, in the order printed.
-REPRESENTATIONS = ("lowres", "lowres16", "lbp")
+REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar")
 FRAMES = 12
 
 
@@ -68,6 +69,8 @@ def topomap(representation: str) -> TopoMap:
     n = MAP_SIZES[representation]
     if representation == "lbp":
         return TopoMap("lbp", rng.integers(0, 2**32, n, dtype=np.uint32))
+    if representation == "haar":  # the signs of random 16x16 images
+        return TopoMap("haar", pack_plane(haar_plane(rng.integers(0, 256, (n, 16, 16)))))
     side = LOWRES_GRIDS[representation]
     return TopoMap(representation, rng.integers(0, 256, (n, side, side), dtype=np.uint8))
 

@@ -191,7 +191,7 @@ def descriptor_columns(name: str, user: dict[str, Any]) -> list[tuple[str, str, 
     >>> [c.split("/")[1] for c, _, _ in descriptor_columns("particle-filter", {})]
     ['lowres', 'lowres16', 'lbp', 'haar', 'patch']
     >>> [c for c, _, p in descriptor_columns("able-m", {"length": 20})]
-    ['able-m/lbp', 'able-m/ldb']
+    ['able-m/lbp', 'able-m/haar', 'able-m/ldb']
     >>> descriptor_columns("weighted-node-lbp", {})
     [('weighted-node-lbp', 'weighted-node-lbp', {})]
     """
