@@ -40,7 +40,7 @@ SERIES = {
     "particle filter": {d: f"particle-filter/{d}" for d in IMAGES},
     "SeqSLAM": {d: f"seqslam/{d}" for d in IMAGES},
     "single-frame": {d: f"single-frame/{d}" for d in IMAGES},
-    "ABLE-M": {"lbp": "able-m/lbp", "ldb": "able-m/ldb"},
+    "ABLE-M": {"lbp": "able-m/lbp", "haar": "able-m/haar", "ldb": "able-m/ldb"},
 }
 """Each line of the figure: descriptor -> the column of the ``--representations`` run."""
 
