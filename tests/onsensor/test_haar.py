@@ -149,3 +149,18 @@ def test_the_paper_preset_is_refused_in_one_line():
         PpalocError, match=r"^preset='paper' does not run on the haar place, which the paper"
     ):
         OnSensorLocaliser("haar", preset="paper")
+
+
+def test_under_typical_noise_the_signs_are_seeded_and_still_localise(blocky_route):
+    """A noisy sensor maps and localises with the same bytes for the same seed, and the
+    signs, read from codes whose noise is a fraction of a grey level, still find the
+    places of a query that starts in the middle of the route."""
+    order = [3, 4, 5, 6, 7]
+    ref, query = blocky_route(8, 15, order)
+    runs = []
+    for _ in range(2):
+        loc = OnSensorLocaliser("haar", noise="typical", seed=3, motion="always_forward")
+        loc.build_map(ref)
+        runs.append([(e.node, e.score) for e in loc.localise(query)])
+    assert runs[0] == runs[1]
+    assert sum(node == want for want, (node, _) in zip(order, runs[0], strict=True)) >= 4
