@@ -5,8 +5,7 @@ Each frame is described by one global LDB-style binary code of the whole downsam
 32-bit LBP code (:func:`ppaloc.place.lbp_descriptor`, packed into 4 bytes most significant
 first), or with ``"haar"`` by its 192 Haar signs (:func:`ppaloc.place.haar_descriptor`,
 its 8 words in 32 bytes). ABLE-M is binary by construction: it takes these codes, never an
-image (the
-weighted-node filter's low-res image or SeqSLAM's patch-normalised one). The code of a
+image (the weighted-node filter's low-res image or SeqSLAM's patch-normalised one). The code of a
 *place* is the concatenation of the codes of the last ``L`` frames; a query sequence is
 compared with the map sequence ending at every node, ``e - L + 1 .. e``, by Hamming
 distance. As the Hamming distance of concatenations is

@@ -10,11 +10,10 @@ Particles live on map nodes. Per query frame:
    the end of the map). The first frame of a query has no motion step (particles start uniform).
 2. *weighting*: the query is compared with every node on SeqSLAM's patch-normalised 64x32
    image (mean absolute difference per pixel; ``descriptor="lowres"``, ``"lbp"`` and the
-   others: the
-   weighted-node filter's place, :mod:`ppaloc.baselines._descriptors`), and by default
-   the column of distances is
-   contrast-enhanced as in SeqSLAM (the filter replaces SeqSLAM's exhaustive trajectory
-   search, not its difference matrix), giving ``d``; a particle on node ``i`` gets weight
+   others: the weighted-node filter's place, :mod:`ppaloc.baselines._descriptors`), and by
+   default the column of distances is contrast-enhanced as in SeqSLAM (the filter
+   replaces SeqSLAM's exhaustive trajectory search, not its difference matrix), giving
+   ``d``; a particle on node ``i`` gets weight
    ``exp(-(d_i - d_min) / sigma)`` with ``sigma = sigma_rel x (median(d) - d_min)``, so
    the likelihood does not depend on the overall scale of ``d``.
 3. *estimate*: the weighted particle histogram over nodes, smoothed over +-1 node; the
