@@ -10,7 +10,7 @@ wavelets:
 - vertical: ``c + d >= a + b`` (the bottom half at least as bright as the top);
 - diagonal: ``a + d >= b + c``.
 
-A sign is unchanged by a gain and an offset of its block's brightness, much of what a
+A sign is unchanged by a positive gain and an offset of its block's brightness, much of what a
 change from day to night or summer to winter is, and the three of them keep a block's
 coarse structure where an LBP code keeps one comparison per pair of blocks.
 A place is 64 blocks x 3 = 192 bits, laid out on the 16x16 grid itself (:func:`haar_plane`:
