@@ -1,4 +1,5 @@
-"""Helpers for the on-sensor tests: generated routes of blocky random places."""
+"""Helpers for the on-sensor tests: generated routes of blocky random places, and the
+host's ppa8 filter against the sensor on one of them."""
 
 from __future__ import annotations
 
@@ -8,6 +9,9 @@ import numpy as np
 import pytest
 
 Route = tuple[list[np.ndarray], list[np.ndarray]]
+
+#: A query over 8 places with a stop at place 2 and a skip of place 5.
+STOP_AND_SKIP = [0, 1, 2, 2, 2, 3, 4, 6, 7]
 
 
 def make_route(n: int, seed: int, order: Sequence[int] | None = None) -> Route:
@@ -27,3 +31,31 @@ def make_route(n: int, seed: int, order: Sequence[int] | None = None) -> Route:
 def blocky_route() -> Callable[..., Route]:
     """:func:`make_route`, for tests that build their own routes."""
     return make_route
+
+
+def agree(
+    rep: str, route: Route, n_nodes: int, sensor_kw: dict | None = None, **kw
+) -> tuple[list, list, object]:
+    """The host's ppa8 filter and the sensor's on ``route``, each mapping it: the same map
+    of ``n_nodes`` nodes, then both estimate lists and the sensor's localiser."""
+    from ppaloc.localise.weighted import WeightedNodeLocaliser
+    from ppaloc.onsensor import OnSensorLocaliser
+
+    ref, query = route
+    kw |= {"record_weights": True}
+    host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
+    sensor = OnSensorLocaliser(rep, **kw, **(sensor_kw or {}))
+    want, got = host.build_map(ref), sensor.build_map(ref)
+    np.testing.assert_array_equal(got.descriptors, want.descriptors)
+    np.testing.assert_array_equal(got.frame_index, want.frame_index)
+    assert len(got) == n_nodes
+    return host.localise(query), sensor.localise(query), sensor
+
+
+def assert_same_estimates(a: list, b: list) -> None:
+    """The same nodes, motion decisions and scores; the weights to 1e-4."""
+    assert [e.node for e in b] == [e.node for e in a]
+    assert [e.moved for e in b] == [e.moved for e in a]
+    for x, y in zip(a, b, strict=True):
+        assert y.score == x.score
+        np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)

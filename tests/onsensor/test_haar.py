@@ -19,29 +19,7 @@ from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.place import haar_descriptor, haar_plane, hamming_words, lowres_image, pack_plane
 from ppaloc.topomap import TopoMap, build_topomap
 
-#: A query over 8 places with a stop at place 2 and a skip of place 5.
-_ORDER = [0, 1, 2, 2, 2, 3, 4, 6, 7]
-
-
-def _agree(route, n_nodes: int, sensor_kw=None, **kw) -> tuple[list, list, OnSensorLocaliser]:
-    """The host's ppa8 filter and the sensor's on the same route, each mapping it."""
-    ref, query = route
-    kw |= {"record_weights": True}
-    host = WeightedNodeLocaliser("haar", arithmetic="ppa8", **kw)
-    sensor = OnSensorLocaliser("haar", **kw, **(sensor_kw or {}))
-    want, got = host.build_map(ref), sensor.build_map(ref)
-    np.testing.assert_array_equal(got.descriptors, want.descriptors)
-    np.testing.assert_array_equal(got.frame_index, want.frame_index)
-    assert len(got) == n_nodes
-    return host.localise(query), sensor.localise(query), sensor
-
-
-def _same(a: list, b: list) -> None:
-    assert [e.node for e in b] == [e.node for e in a]
-    assert [e.moved for e in b] == [e.moved for e in a]
-    for x, y in zip(a, b, strict=True):
-        assert y.score == x.score
-        np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)
+from .conftest import STOP_AND_SKIP, agree, assert_same_estimates
 
 
 def test_the_live_signs_are_the_hosts_in_every_node_block(blocky_route, monkeypatch):
@@ -111,8 +89,8 @@ def test_mapping_on_the_sensor_gives_the_host_nodes(blocky_route):
 
 
 def test_estimates_equal_the_host_ppa8_filter_with_image_motion(blocky_route):
-    a, b, sensor = _agree(blocky_route(8, 11, _ORDER), 8, motion="image")
-    _same(a, b)
+    a, b, sensor = agree("haar", blocky_route(8, 11, STOP_AND_SKIP), 8, motion="image")
+    assert_same_estimates(a, b)
     assert not all(e.moved for e in b[1:])  # the stop was seen
     assert sensor.pipeline.tiles == 1 and sensor.pipeline.store == "digital"
 
@@ -129,7 +107,7 @@ def test_two_tiles_and_a_bank_of_sensors_equal_the_host(blocky_route):
     for sensor_kw, tiles in (({}, 2), ({"sensor_nodes": 100}, None)):
         sensor = OnSensorLocaliser("haar", **kw, **sensor_kw)
         sensor.use_map(topomap)
-        _same(want, sensor.localise(query))
+        assert_same_estimates(want, sensor.localise(query))
         if tiles:
             assert sensor.pipeline.tiles == tiles
         else:

@@ -7,7 +7,6 @@ import pytest
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.params import FilterParams
-from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.methods import make_localiser
 from ppaloc.onsensor import OnSensorLocaliser, localiser
 from ppaloc.onsensor.bank import SensorBank
@@ -18,30 +17,7 @@ from ppaloc.place import block_sums, lowres_image, normalise_contrast
 from ppaloc.sim import R1, R2, D
 from ppaloc.topomap import build_topomap
 
-#: A query over 8 places with a stop at place 2 and a skip of place 5.
-_ORDER = [0, 1, 2, 2, 2, 3, 4, 6, 7]
-
-
-def _agree(route, n_nodes: int, sensor_kw=None, **kw) -> tuple[list, list, OnSensorLocaliser]:
-    """The host's ppa8 filter and the sensor's on the same route, each mapping it."""
-    ref, query = route
-    kw |= {"record_weights": True}
-    host = WeightedNodeLocaliser("lowres16", arithmetic="ppa8", **kw)
-    sensor = OnSensorLocaliser("lowres16", **kw, **(sensor_kw or {}))
-    want, got = host.build_map(ref), sensor.build_map(ref)
-    np.testing.assert_array_equal(got.descriptors, want.descriptors)
-    np.testing.assert_array_equal(got.frame_index, want.frame_index)
-    assert len(got) == n_nodes
-    return host.localise(query), sensor.localise(query), sensor
-
-
-def _same(a: list, b: list) -> None:
-    assert [e.node for e in b] == [e.node for e in a]
-    assert [e.moved for e in b] == [e.moved for e in a]
-    for x, y in zip(a, b, strict=True):
-        # after the normalisation the host's weight at its estimate is best - T
-        assert y.score == x.score
-        np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)
+from .conftest import STOP_AND_SKIP, agree, assert_same_estimates
 
 
 def test_the_reduce_stage_reads_the_hosts_16x16_image_exactly(blocky_route):
@@ -92,27 +68,35 @@ def test_mapping_on_the_sensor_gives_the_host_nodes(blocky_route):
 
 
 def test_estimates_equal_the_host_ppa8_filter_with_image_motion(blocky_route):
-    a, b, sensor = _agree(blocky_route(8, 11, _ORDER), 8, motion="image")
-    _same(a, b)
+    a, b, sensor = agree("lowres16", blocky_route(8, 11, STOP_AND_SKIP), 8, motion="image")
+    assert_same_estimates(a, b)
     assert not all(e.moved for e in b[1:])  # the stop was seen
     assert sensor.pipeline.tiles == 1 and sensor.pipeline.store == "levels"
     assert b[1].modelled_latency_ms > b[3].modelled_latency_ms > 0  # a stay frame is cheaper
 
 
 def test_a_bank_of_sensors_equals_the_host(blocky_route):
-    a, b, sensor = _agree(
-        blocky_route(8, 12, _ORDER), 8, {"sensor_nodes": 3}, motion="always_forward"
+    a, b, sensor = agree(
+        "lowres16",
+        blocky_route(8, 12, STOP_AND_SKIP),
+        8,
+        {"sensor_nodes": 3},
+        motion="always_forward",
     )
-    _same(a, b)
+    assert_same_estimates(a, b)
     assert isinstance(sensor.pipeline, SensorBank) and sensor.pipeline.offsets == [0, 3, 6]
     assert {e.node for e in b} & {2, 3, 5, 6}  # the estimate crossed sensor boundaries
 
 
 def test_the_analogue_store_agrees_too(blocky_route):
-    a, b, sensor = _agree(
-        blocky_route(5, 13, [0, 1, 1, 2, 4]), 5, {"store": "analogue"}, motion="always_forward"
+    a, b, sensor = agree(
+        "lowres16",
+        blocky_route(5, 13, [0, 1, 1, 2, 4]),
+        5,
+        {"store": "analogue"},
+        motion="always_forward",
     )
-    _same(a, b)
+    assert_same_estimates(a, b)
     assert sensor.pipeline.store == "analogue"
 
 
