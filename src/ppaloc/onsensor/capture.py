@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ppaloc.onsensor.program import add_level, halve_level, pull_shift
+from ppaloc.onsensor.program import add_level, halve_level, pull_shift, tree_levels
 from ppaloc.onsensor.sensor import GRID, Sensor, mask_bits
-from ppaloc.sim import IN, NEWS, Kernel, Register, east, north, south, west
+from ppaloc.sim import IN, NEWS, Kernel, Register, north, west
 
 __all__ = ["block_means", "capture", "read_grid", "spread_copies"]
 
@@ -115,9 +115,7 @@ def _halve_on(
     levels: tuple[int, ...],
 ) -> None:
     """The halving tree's remaining ``levels`` from the finer blocks' means at their roots."""
-    for direction in (east, south):
-        for step in levels:
-            halve_level(k, roots, scratch, direction, step)
+    tree_levels(k, halve_level, roots, scratch, levels, levels)
     if root_means is not None:
         k.bus(root_means, roots)
 
@@ -131,9 +129,7 @@ def _reduce(
     levels: tuple[int, ...],
 ) -> None:
     k.bus(roots, frame)  # -v
-    for direction in (east, south):
-        for step in levels:
-            halve_level(k, roots, scratch, direction, step)
+    tree_levels(k, halve_level, roots, scratch, levels, levels)
     if root_means is not None:
         k.bus(root_means, roots)  # +m at the block roots (e.g. for the descriptor)
 

@@ -22,13 +22,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from ppaloc.onsensor.lbp import DESCRIPTOR, DESCRIPTOR_TMP, LbpPlaces
+from ppaloc.onsensor.lbp import DESCRIPTOR, DESCRIPTOR_TMP, LbpPlaces, hamming_tree
 from ppaloc.onsensor.lowres import tree_steps
 from ppaloc.onsensor.places import Tree
-from ppaloc.onsensor.program import halve_level
 from ppaloc.onsensor.sensor import mask_bits
 from ppaloc.place import HAAR_GRID, HAAR_WORDS, haar_plane, pack_plane, unpack_plane
-from ppaloc.sim import D, E, Kernel, Register, east, south
+from ppaloc.sim import Kernel, Register
 
 __all__ = ["HAAR_BIT_VALUE", "HaarPlaces"]
 
@@ -115,7 +114,8 @@ class HaarPlaces(LbpPlaces):
         scaled readout; the paper preset does not run this place)."""
         if not halving:
             raise AssertionError("the Haar-sign place has the robust preset's halving tree only")
-        return (_tree, (self.roles.d.cand, self.roles.db[tile], tree_steps(HAAR_GRID)))
+        steps = tree_steps(HAAR_GRID)
+        return (hamming_tree, (self.roles.d.cand, self.roles.db[tile], True, (steps, steps)))
 
 
 def _clr(k: Kernel, reg: Register) -> None:
@@ -128,14 +128,3 @@ def _or(k: Kernel, reg: Register, x: Register) -> None:
 
 def _clear_where(k: Kernel, reg: Register, x: Register) -> None:
     k.NIMP(reg, x, reg)  # reg := NOT x AND reg
-
-
-def _tree(k: Kernel, cand: Register, db: Register, steps: tuple[int, ...]) -> None:
-    k.XOR(cand, DESCRIPTOR, db)
-    k.res(D)
-    k.WHERE(cand)
-    k.mov(D, E)
-    k.all()
-    for direction in (east, south):
-        for step in steps:
-            halve_level(k, D, E, direction, step)

@@ -14,10 +14,10 @@ from typing import ClassVar
 import numpy as np
 
 from ppaloc.onsensor.places import Places, Tree
-from ppaloc.onsensor.program import add_level, halve_level
+from ppaloc.onsensor.program import add_level, halve_level, tree_levels
 from ppaloc.onsensor.roles import DRegs, Roles
 from ppaloc.onsensor.sensor import mask_bits
-from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, A, B, D, E, Kernel, Register, east, south
+from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, A, B, D, E, Kernel, Register
 
 __all__ = [
     "DESCRIPTOR",
@@ -26,8 +26,10 @@ __all__ = [
     "LBP_DREGS",
     "LBP_NEIGHBOURS",
     "LBP_ROLES",
+    "LBP_TREE",
     "ROOTS",
     "LbpPlaces",
+    "hamming_tree",
 ]
 
 #: Neighbour offsets of an LBP code, MSB first: clockwise from the top-left (docs/ppa8.md).
@@ -60,6 +62,10 @@ LBP_ROLES = Roles(
     root_means=B,
     in_turn=(("d.pattern", "d.root32"),),
 )
+
+
+#: The tree's steps over a 4x8-PE node block: east 1, 2, 4, then south 1, 2.
+LBP_TREE = ((1, 2, 4), (1, 2))
 
 
 class LbpPlaces(Places):
@@ -101,7 +107,7 @@ class LbpPlaces(Places):
         exact), which halves the write noise of the levels below at every level where the
         adding tree sums it: under the typical preset about 1 unit of ``mu`` instead of 6.6.
         """
-        return (_tree, (self.roles.d.cand, self.roles.db[tile], halving))
+        return (hamming_tree, (self.roles.d.cand, self.roles.db[tile], halving, LBP_TREE))
 
     def values(self, codes: np.ndarray) -> np.ndarray:
         """``r = code - 128 = mu = 2h`` (exact: ``mu`` is an integer)."""
@@ -161,14 +167,19 @@ def _or(k: Kernel, reg: Register, x: Register) -> None:
     k.OR(reg, x)
 
 
-def _tree(k: Kernel, cand: Register, db: Register, halving: bool) -> None:
+def hamming_tree(
+    k: Kernel,
+    cand: Register,
+    db: Register,
+    halving: bool,
+    steps: tuple[tuple[int, ...], tuple[int, ...]],
+) -> None:
+    """A binary place's distance tree: ``cand := DESCRIPTOR XOR db``, ``D := E`` (the
+    DAC's value of one differing bit) where they differ, then a halving or adding tree
+    over the node block, ``steps`` east and south (:func:`ppaloc.onsensor.program.tree_levels`)."""
     k.XOR(cand, DESCRIPTOR, db)
     k.res(D)
     k.WHERE(cand)
     k.mov(D, E)
     k.all()
-    level = halve_level if halving else add_level
-    for step in (1, 2, 4):
-        level(k, D, E, east, step)
-    for step in (1, 2):
-        level(k, D, E, south, step)
+    tree_levels(k, halve_level if halving else add_level, D, E, *steps)

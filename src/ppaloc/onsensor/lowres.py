@@ -35,7 +35,7 @@ import numpy as np
 from ppaloc.localise.schedule import SensorPlan
 from ppaloc.onsensor.minimum import refine_minimum
 from ppaloc.onsensor.places import Places, Tree
-from ppaloc.onsensor.program import halve_level, pull_shift
+from ppaloc.onsensor.program import halve_level, pull_shift, tree_levels
 from ppaloc.onsensor.roles import DRegs, Roles
 from ppaloc.onsensor.sensor import GRID, mask_bits
 from ppaloc.place import LOWRES_GRIDS, normalise_contrast, tile_cells
@@ -464,6 +464,4 @@ def _tree(k: Kernel, levels: bool, db: Register, steps: tuple[int, ...]) -> None
         k.add(D, F, db)  # n - f
     k.abs(E, D)  # min(|f - n|, 127)
     k.bus2(D, NEWS, E)  # D = -|f - n| / 2
-    for direction in (east, south):
-        for step in steps:
-            halve_level(k, D, E, direction, step)
+    tree_levels(k, halve_level, D, E, steps, steps)

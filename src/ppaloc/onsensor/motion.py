@@ -16,10 +16,10 @@ import numpy as np
 
 from ppaloc.localise.motion import forward_decision
 from ppaloc.localise.params import FilterParams
-from ppaloc.onsensor.program import add_level, pull
+from ppaloc.onsensor.program import add_level, pull, tree_levels
 from ppaloc.onsensor.roles import DRegs
 from ppaloc.onsensor.sensor import Sensor
-from ppaloc.sim import FLAG, NEWS, Kernel, Register, east, south
+from ppaloc.sim import FLAG, NEWS, Kernel, Register, east
 
 __all__ = ["MotionPlanes", "count", "image_motion"]
 
@@ -119,8 +119,6 @@ def _count(k: Kernel, dreg: Register, acc: Register, one: Register) -> None:
     k.WHERE(dreg)
     k.mov(acc, one)
     k.all()
-    for direction in (east, south):
-        for step in (1, 2, 4):
-            add_level(k, acc, one, direction, step)
+    tree_levels(k, add_level, acc, one, (1, 2, 4), (1, 2, 4))
     pull(k, one, acc, east, 8)
     k.bus(NEWS, acc, one)

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.sim import NEWS, Direction, Kernel, Register, Scamp5
+from ppaloc.sim import NEWS, Direction, Kernel, Register, Scamp5, east, south
 from ppaloc.sim.isa import Instruction
 from ppaloc.sim.macros import ProgramAPI
 
@@ -40,6 +40,7 @@ __all__ = [
     "pull",
     "pull_shift",
     "scale_negated",
+    "tree_levels",
 ]
 
 CHECK_KERNELS = "PPALOC_CHECK_KERNELS"
@@ -247,6 +248,22 @@ def add_level(k: Kernel, x: Register, y: Register, direction: Direction, d: int)
     """One level of an adding tree: ``x := x + x'`` with ``x'`` ``d`` steps away (``y`` scratch)."""
     pull(k, y, x, direction, d)
     k.add(x, x, y)
+
+
+def tree_levels(
+    k: Kernel,
+    level: Callable[..., None],
+    x: Register,
+    y: Register,
+    east_steps: tuple[int, ...],
+    south_steps: tuple[int, ...],
+) -> None:
+    """A tree over blocks to their top-left PEs: ``level`` (:func:`halve_level` or
+    :func:`add_level`) at each of ``east_steps``, then each of ``south_steps``."""
+    for step in east_steps:
+        level(k, x, y, east, step)
+    for step in south_steps:
+        level(k, x, y, south, step)
 
 
 def scale_negated(k: Kernel, x: Register, sign: int, exponent: int, y: Register) -> Register:
