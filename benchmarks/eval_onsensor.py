@@ -48,6 +48,7 @@ plus one exchange per synchronisation point (docs/onsensor.md, "Sensor banks").
 from __future__ import annotations
 
 import argparse
+import ast
 import dataclasses
 import statistics
 import time
@@ -107,8 +108,10 @@ def agreement(
     motions: tuple[str, ...],
     presets: tuple[str, ...] = FILTER_PRESETS,
     reps: tuple[str, ...] = REPRESENTATIONS,
+    params: dict | None = None,
 ) -> None:
-    """Host ppa8 against the sensor, each mapping the reference itself. A motion
+    """Host ppa8 against the sensor, each mapping the reference itself (``params``: the
+    robust preset's filter parameters for both). A motion
     ``"image, every frame"`` maps every frame (``keyframes=false``): the robust preset
     keeps the reference's stops as runs of one place (docs/onsensor.md, "Runs of one
     place")."""
@@ -118,6 +121,8 @@ def agreement(
             for variant in motions:
                 motion, _, every = variant.partition(", ")
                 kw = {"preset": preset, "motion": motion, "record_weights": True}
+                if preset == "robust":
+                    kw |= params or {}
                 if every:
                     kw["keyframes"] = False
                 host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
@@ -174,6 +179,7 @@ def timing(
     n_frames: int = 24,
     presets: tuple[str, ...] = FILTER_PRESETS,
     reps: tuple[str, ...] = REPRESENTATIONS,
+    params: dict | None = None,
 ) -> None:
     """Per-stage modelled time per frame at the paper's and Nordland's map sizes.
 
@@ -187,7 +193,7 @@ def timing(
             topomap = _random_map(rep, n)
             for preset in _runs(rep, presets):
                 for motion in ("image", "always_forward"):
-                    kw = {"alpha": 8} if preset == "paper" else {}
+                    kw = {"alpha": 8} if preset == "paper" else dict(params or {})
                     loc = OnSensorLocaliser(rep, preset=preset, motion=motion, **kw)
                     loc.use_map(topomap)
                     _time_frames(loc, rep, n, preset, motion, n_frames)
@@ -737,16 +743,28 @@ def main() -> None:
         choices=["synthetic", "nordland"],
         help="routes of the agreement part (default both)",
     )
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="agreement and timing parts: a robust filter parameter for host and sensor "
+        "alike (e.g. local_gain=2), repeatable",
+    )
     args = parser.parse_args()
     presets, reps = tuple(args.preset), tuple(args.rep)
+    params = {}
+    for item in args.param:
+        key, _, value = item.partition("=")
+        params[key] = ast.literal_eval(value)
     if "timing" in args.part:
-        timing(presets=presets, reps=reps)
+        timing(presets=presets, reps=reps, params=params)
     if "agreement" in args.part:
         if "synthetic" in args.route:
-            agreement("synthetic (300 places)", SYNTHETIC, ("image",), presets, reps)
+            agreement("synthetic (300 places)", SYNTHETIC, ("image",), presets, reps, params)
         if "nordland" in args.route:
             motions = tuple(args.motion)
-            agreement("nordland summer->winter", NORDLAND, motions, presets, reps)
+            agreement("nordland summer->winter", NORDLAND, motions, presets, reps, params)
     if "noise" in args.part:
         noise(
             args.max_query,

@@ -1,5 +1,6 @@
-"""``enhance`` and ``local_gain``: local contrast of the distances, in the host's float
-filter only."""
+"""``enhance`` and ``local_gain``: local contrast of the distances in the host's filter
+(``enhance`` in float only; ``local_gain`` in ppa8 too, whose sensor stage
+tests/onsensor/test_local.py checks)."""
 
 import numpy as np
 import pytest
@@ -89,7 +90,10 @@ def test_the_estimates_follow_the_enhanced_likelihood(hubbed) -> None:
         (lambda: FilterParams.create("lbp", preset="paper", enhance=10), "preset 'robust'"),
         (lambda: FilterParams.create("lbp", enhance=1), "at least 2"),
         (lambda: FilterParams.create("lbp", enhance=-3), "enhance=-3"),
-        (lambda: FilterParams.create("lowres", arithmetic="ppa8", local_gain=2), "no stage"),
+        (
+            lambda: FilterParams.create("lowres", arithmetic="ppa8", local_gain=2),
+            r"^local_gain=2 with local_window=2: in ppa8 arithmetic .* a multiple of 4",
+        ),
         (lambda: FilterParams.create("lbp", preset="paper", local_gain=2), "preset 'robust'"),
         (lambda: FilterParams.create("lbp", local_gain=33), "local_gain=33"),
         (lambda: FilterParams.create("lbp", local_window=0), "local_window=0"),
@@ -102,9 +106,12 @@ def test_refusals_name_the_cause(make, message) -> None:
 
 @pytest.mark.parametrize(
     ("kind", "option", "message"),
-    [("lowres", {"enhance": 10}, "float arithmetic only"), ("lbp", {"local_gain": 2}, "no stage")],
+    [
+        ("lowres", {"enhance": 10}, "float arithmetic only"),
+        ("lbp", {"local_gain": 3, "local_window": 1}, "a multiple of 2"),
+    ],
 )
-def test_the_sensor_refuses_them(kind, option, message) -> None:
+def test_the_sensor_refuses_what_it_cannot_run(kind, option, message) -> None:
     from ppaloc.onsensor import OnSensorLocaliser
 
     with pytest.raises(PpalocError, match=message):
@@ -137,15 +144,20 @@ def test_closer_share_is_a_share_and_the_best_pays_nothing(values, window) -> No
         assert share[i] == sum(x < d[i] for x in near) / (2 * window)
 
 
-@pytest.mark.parametrize("kind", ["lowres", "lbp"])
-def test_the_local_term_is_added_to_the_first_frames_weights(hubbed, kind) -> None:
-    plain = WeightedNodeLocaliser(kind, keyframes=False)
-    local = WeightedNodeLocaliser(kind, keyframes=False, local_gain=3, local_window=2)
+@pytest.mark.parametrize(
+    ("kind", "arithmetic", "gain"),
+    [("lowres", "float", 3), ("lbp", "float", 3), ("lowres", "ppa8", 4)],
+)
+def test_the_local_term_is_added_to_the_first_frames_weights(hubbed, kind, arithmetic, gain):
+    kw = {"keyframes": False, "arithmetic": arithmetic}
+    plain = WeightedNodeLocaliser(kind, **kw)
+    local = WeightedNodeLocaliser(kind, **kw, local_gain=gain, local_window=2)
     for loc in (plain, local):
         loc.build_map(hubbed)
         loc.step(hubbed[9])
     raw = local.executor._raw_distances()
-    expected = plain.executor.weights() - 3 * closer_share(raw, 2)
-    expected = np.maximum(expected - expected.max(), -local.params.memory)
+    expected = plain.executor.weights() - gain * closer_share(raw, 2)
+    top = np.floor(expected.max()) if arithmetic == "ppa8" else expected.max()  # T in ppa8
+    expected = np.maximum(expected - top, -local.params.memory)
     np.testing.assert_allclose(local.executor.weights(), expected, atol=1e-4)
     assert not np.allclose(local.executor.weights(), plain.executor.weights())

@@ -275,15 +275,15 @@ class HostExecutor:
         return float(values.min()) if not self.exact else int(values.min())
 
     def add_scaled(self, shift: int, alpha: float) -> None:
-        """Robust: ``w += alpha_t - mu 2**-s`` (the term clipped to a register in ppa8),
-        then the local term of ``local_gain`` (float only)."""
+        """Robust: ``w += alpha_t - mu 2**-s`` (the term clipped to a register in ppa8)."""
         self.last_shift = shift
         self._add_term(shift, alpha)
-        if self.params.local_gain:  # float only: FilterParams refuses it in ppa8
-            self._add_local(int(self.params.local_gain), int(self.params.local_window))  # type: ignore[arg-type]
 
-    def _add_local(self, gain: int, window: int) -> None:
-        """``w -= gain * closer_share(distances, window)`` (``local_gain``)."""
+    def add_local(self, gain: int, window: int) -> None:
+        """``w := clip(w - gain * closer_share(distances, window))`` (``local_gain``). In
+        ppa8 ``gain / (2 window)`` is an integer (``FilterParams`` checks it), so the
+        term is exact; the sensor subtracts it once per closer neighbour, and the lower
+        clip makes that the same."""
         term = self._dtype(-gain) * closer_share(self._raw_distances(), window).astype(self._dtype)
         self._add_to_weights(term)
 

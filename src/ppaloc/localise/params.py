@@ -62,6 +62,7 @@ __all__ = [
     "filter_method_params",
     "frame_scale",
     "likelihood_shift",
+    "local_step",
     "preset_group",
     "refined_minimum",
     "runs_on",
@@ -159,9 +160,16 @@ def _param(group: str | None, kind: str, default: Any, low=None, high=None) -> d
 
 FLOAT_ONLY = {
     "enhance": "the sensor cannot divide a node's distance by its neighbours' deviation",
-    "local_gain": "the sensor has no stage for it yet",
 }
 """Options the host's float filter runs and ``ppa8`` and the sensor refuse, with why."""
+
+
+def local_step(gain: int, window: int) -> int | None:
+    """Register units a node loses per strictly closer neighbour (``local_gain``):
+    ``gain / (2 window)`` when it is an integer (a DAC constant, what ``ppa8`` and the
+    sensor subtract per comparison), else None (float arithmetic only)."""
+    step, rest = divmod(int(gain), 2 * int(window))
+    return None if rest else step
 
 
 def _margin_default(representation: str, group: str, values: Mapping[str, Any]) -> int:
@@ -247,12 +255,14 @@ class FilterParams:
         divide each node's distance by its neighbours' deviation, so ``ppa8`` and the
         sensor refuse it (docs/localise.md, "Local contrast of the distances").
     local_gain, local_window : int
-        Robust, host in float arithmetic only (the sensor has no stage for it yet): on
-        each frame that adds evidence, every node also loses ``local_gain`` units times
-        the share of the ``2 local_window`` nodes around it that are closer to the frame
-        (:func:`ppaloc.localise.enhance.closer_share`): contrast between neighbouring
-        places, which the transition needs to follow a varying speed, beside the raw
-        likelihood's evidence. Ranges [0, 32] (default 0, off) and [1, 16] (default 2).
+        Robust: on each frame that adds evidence, every node also loses ``local_gain``
+        units times the share of the ``2 local_window`` nodes around it that are closer
+        to the frame (:func:`ppaloc.localise.enhance.closer_share`): contrast between
+        neighbouring places, which the transition needs to follow a varying speed, beside
+        the raw likelihood's evidence. Ranges [0, 32] (default 0, off) and [1, 16]
+        (default 2). In ``ppa8`` and on the sensor a closer neighbour costs
+        ``local_gain / (2 local_window)`` units, which must be an integer (a DAC
+        constant, :func:`local_step`; ``onsensor.local``).
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -369,6 +379,13 @@ class FilterParams:
                     f"{key}={out[key]} runs on the host in float arithmetic only ({why}); "
                     f"use a weighted-node-* method with arithmetic='float', or {key}=0"
                 )
+        gain, window = out.get("local_gain"), out.get("local_window")
+        if gain and arithmetic != "float" and local_step(gain, window) is None:
+            raise PpalocError(
+                f"local_gain={gain} with local_window={window}: in {arithmetic} arithmetic "
+                f"and on the sensor a closer neighbour costs local_gain / (2 local_window) "
+                f"units, a DAC integer; use a multiple of {2 * window}, or arithmetic='float'"
+            )
         return cls(**out)
 
     @property

@@ -100,6 +100,10 @@ class Executor(Protocol):
     def add_scaled(self, shift: int, alpha: float) -> None:
         """Robust: ``w_i += alpha - mu_i 2**-shift`` from the values just read."""
 
+    def add_local(self, gain: int, window: int) -> None:
+        """Robust, ``local_gain``: ``w_i -= gain * closer_share(distances, window)_i``
+        (:func:`~ppaloc.localise.enhance.closer_share`) from the distances just compared."""
+
     def shift(self) -> None:
         """Paper: every weight one node along the map (``advance`` nodes on the host)."""
 
@@ -275,7 +279,8 @@ class RobustSchedule(Schedule):
     decision sets (from the second frame); on the first frame and on frames the motion
     test calls forward, every node's value read, the frame's best distance, this frame's
     scale chosen from them (:func:`~ppaloc.localise.params.frame_scale`) and the
-    likelihood added (a still frame repeats the last one: no new evidence); detection
+    likelihood added, then the local term of ``local_gain`` (a still frame repeats the
+    last one: no new evidence); detection
     (in register arithmetic at :data:`~ppaloc.localise.params.DETECT_BITS` fraction
     bits), confidence; normalisation.
     """
@@ -302,6 +307,8 @@ class RobustSchedule(Schedule):
             best = ex.minimum(values)
             shift, alpha = frame_scale(values, best, int(p.gain), exact=ex.exact)  # type: ignore[arg-type]
             ex.add_scaled(shift, alpha)
+            if p.local_gain:
+                ex.add_local(int(p.local_gain), int(p.local_window))  # type: ignore[arg-type]
         return self.finish(ex, moved)
 
     def end_frame(self, ex: Executor, top: float) -> None:

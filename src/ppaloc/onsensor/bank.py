@@ -15,7 +15,9 @@ points of the frame (docs/onsensor.md, "Sensor banks"):
    digits) and the next sensor writes them where its snake start reads them, instead of
    the array edge (:meth:`SensorExecutor.carry_in`);
 3. the likelihood scale: the schedule's ``frame_scale`` over every sensor's readout,
-   then each sensor adds the terms with the common ``s`` and ``alpha_t``;
+   then each sensor adds the terms with the common ``s`` and ``alpha_t``; with
+   ``local_gain``, the exact values of each sensor's end nodes for the local term's
+   pairs across the cuts (:mod:`ppaloc.onsensor.local`);
 4. detection: ``T`` is the largest of the sensors' thresholds, the candidates the union
    of theirs at ``T`` (each gives all, or its one nearest the previous estimate);
 5. confidence: the largest of the sensors' maxima outside the window; every sensor's
@@ -213,6 +215,20 @@ class SensorBank:
         """Every sensor adds its terms with the common ``s`` and ``alpha_t``."""
         for s in self.sensors:
             s.add_scaled(shift, alpha)
+
+    def add_local(self, gain: int, window: int) -> None:
+        """The local term on every sensor, then the pairs across the cuts from the exact
+        end values the sensors exchange (:mod:`ppaloc.onsensor.local`)."""
+        ends = [s.local_term(gain, window, ends=True) for s in self.sensors]
+        self.timing.sync()
+        for i, (s, off) in enumerate(zip(self.sensors, self.offsets, strict=True)):
+            others = {
+                other + node - off: value
+                for j, (part, other) in enumerate(zip(ends, self.offsets, strict=True))
+                if j != i
+                for node, value in part.items()
+            }
+            s.local_edges(gain, window, ends[i], others)
 
     def detect(self, prev: int | None, bits: int = 0) -> tuple[int, float]:
         """``T``: the largest of the sensors' thresholds; with ``bits``, the candidates'

@@ -12,7 +12,7 @@ from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.weights import WeightState
 from ppaloc.sim import IN, NEWS, D, E, Kernel, Register
 
-__all__ = ["CARRY_DIGITS", "carry_in", "carry_out", "write_value"]
+__all__ = ["CARRY_DIGITS", "carry_in", "carry_out", "read_exact", "write_value"]
 
 #: Base-128 digits of a carried value: the integer part and four of seven bits, 28
 #: fractional bits (a weight's own resolution is at most 2**-23, docs/ppa8.md).
@@ -29,26 +29,40 @@ def carry_out(sensor: Sensor, state: WeightState, memory: int, steps: int) -> li
     node ``n - 1 - j``, raised to ``T - memory`` (the pending normalisation's floor: a
     value below it loses anyway) and kept in the weights' range [-127, 127].
     """
-    sim, r = sensor.sim, sensor.roles
+    r = sensor.roles
     lowest = (state.pending_top or 0) - int(memory)
-    scale = 128 ** (CARRY_DIGITS - 1)
     out = []
-    with sim.stage("carry"):
+    with sensor.sim.stage("carry"):
         for j in range(steps):
             row, col = sensor.root_of(sensor.n_nodes - 1 - j)
-            total, src = 0, (r.negated if state.negated else r.weights)
-            for i in range(CARRY_DIGITS):
-                x = int(sim.read_areg(src, row, col)) - 128
-                total = total * 128 + x
-                if i == CARRY_DIGITS - 1:
-                    break
-                sim.load_in(x)
-                sensor.run(_next_digit, src)
-                src = D
+            src = r.negated if state.negated else r.weights
+            total = read_exact(sensor, src, row, col)  # type: ignore[arg-type]
             total = -total if state.negated else total
             # with noise a read can leave the register's range: clip to it
-            out.append(min(max(total / scale, lowest, -127.0), 127.0))
+            out.append(min(max(total, lowest, -127.0), 127.0))
     return out
+
+
+def read_exact(
+    sensor: Sensor, src: Register, row: int, col: int, x: Register = D, y: Register = E
+) -> float:
+    """``src`` at PE ``(row, col)`` to ``2**-28``, in :data:`CARRY_DIGITS` ADC passes.
+
+    The code gives the nearest integer ``d``, then ``x := 128 (x - d)`` (one ``sub`` with
+    ``d`` in ``IN``, seven doublings with ``y`` as scratch; ``x`` starts as ``src``) brings
+    the next digit into range. ``src`` itself is not written.
+    """
+    sim = sensor.sim
+    total = 0
+    for i in range(CARRY_DIGITS):
+        d = int(sim.read_areg(src, row, col)) - 128
+        total = total * 128 + d
+        if i == CARRY_DIGITS - 1:
+            break
+        sim.load_in(d)
+        sensor.run(_next_digit, src, x, y)
+        src = x
+    return total / 128 ** (CARRY_DIGITS - 1)
 
 
 def carry_in(sensor: Sensor, state: WeightState, values: list[float]) -> None:
@@ -110,10 +124,10 @@ def _join_digit(k: Kernel) -> None:
     k.bus(D, cur, IN)
 
 
-def _next_digit(k: Kernel, src: Register) -> None:
-    """``D := 128 (src - IN)`` (one ``sub``, seven doublings; ``E`` scratch)."""
-    k.sub(D, src, IN)
+def _next_digit(k: Kernel, src: Register, x: Register, y: Register) -> None:
+    """``x := 128 (src - IN)`` (one ``sub``, seven doublings; ``y`` scratch)."""
+    k.sub(x, src, IN)
     for _ in range(7):
-        k.mov(E, D)
-        k.bus(NEWS, D, E)  # -2D
-        k.bus(D, NEWS)
+        k.mov(y, x)
+        k.bus(NEWS, x, y)  # -2x
+        k.bus(x, NEWS)

@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.params import FilterParams
+from ppaloc.localise.params import FilterParams, local_step
 from ppaloc.localise.schedule import SensorPlan
-from ppaloc.onsensor import detect, gain, likelihood
+from ppaloc.onsensor import detect, gain, likelihood, local
 from ppaloc.onsensor.capture import block_means, capture
 from ppaloc.onsensor.carry import carry_in, carry_out
 from ppaloc.onsensor.haar import HaarPlaces
@@ -254,7 +254,30 @@ class SensorExecutor:
     def add_scaled(self, shift: int, alpha: float) -> None:
         """Robust: ``w += alpha_t - mu 2**-s`` (:func:`ppaloc.onsensor.likelihood.add_scaled`)."""
         self._normalised()
+        if self.params.local_gain and self.sensor.tiles == 1:
+            local.keep_values(self.sensor)  # the local term reads them after the update
         likelihood.add_scaled(self.sensor, self.places, self.state, shift, int(alpha))
+
+    def add_local(self, gain: int, window: int) -> None:
+        """Robust, ``local_gain``: each node loses ``gain / (2 window)`` per strictly
+        closer neighbour within ``window`` (:func:`ppaloc.onsensor.local.local_term`)."""
+        self.local_term(gain, window, ends=False)
+
+    def local_term(self, gain: int, window: int, ends: bool) -> dict[int, float]:
+        """The local term within this sensor; with ``ends``, the exact values of its
+        first and last ``window`` nodes for a bank's neighbours."""
+        step = local_step(gain, window)
+        assert step is not None, "FilterParams refuses a fractional step in ppa8"
+        return local.local_term(self.sensor, self.places, self.state, step, window, ends)
+
+    def local_edges(
+        self, gain: int, window: int, own: dict[int, float], others: dict[int, float]
+    ) -> None:
+        """The local term's pairs across a bank's cuts
+        (:func:`ppaloc.onsensor.local.local_edges`)."""
+        step = local_step(gain, window)
+        assert step is not None
+        local.local_edges(self.sensor, self.places, self.state, step, window, own, others)
 
     def shift(self) -> None:
         """Paper: every weight one node along the snake (``advance = (1, 1)`` only)."""
@@ -423,8 +446,9 @@ class SensorExecutor:
             planes[f"{r.negated.name}: minus the weights"] = sim.read(r.negated)  # type: ignore[union-attr]
         planes[f"{r.weights.name}: weights"] = sim.read(r.weights)  # before a pending step
         planes.update(self.places.live_planes())
-        planes[f"{r.d.u.name}: motion, above block mean"] = sim.read(r.d.u)
-        planes[f"{r.d.d.name}: motion, below block mean"] = sim.read(r.d.d)
+        # the kept copies: the local term works in u and d after the motion stage
+        planes[f"{r.d.u_prev.name}: motion, above block mean"] = sim.read(r.d.u_prev)
+        planes[f"{r.d.d_prev.name}: motion, below block mean"] = sim.read(r.d.d_prev)
         planes[f"{r.d.cand.name}: detection candidates"] = sim.read(r.d.cand)
         return planes
 

@@ -1,0 +1,79 @@
+"""The local term (``local_gain``) on the sensor equals the host's ppa8 filter."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.params import FilterParams, local_step
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.onsensor import OnSensorLocaliser
+from ppaloc.onsensor.bank import SensorBank
+from ppaloc.topomap import build_topomap
+
+from .conftest import STOP_AND_SKIP, agree, assert_same_estimates
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lowres16", "lbp", "haar"])
+@pytest.mark.parametrize("gain, window", [(2, 1), (8, 2)])
+def test_one_sensor_equals_the_host_ppa8_filter(blocky_route, rep, gain, window):
+    kw = {"motion": "image", "local_gain": gain, "local_window": window}
+    a, b, _ = agree(rep, blocky_route(8, 11, STOP_AND_SKIP), 8, **kw)
+    assert_same_estimates(a, b)
+    # the term is there: without it the weights differ
+    plain, _, _ = agree(rep, blocky_route(8, 11, STOP_AND_SKIP), 8, motion="image")
+    pairs = zip(a, plain, strict=True)
+    assert max(float(np.abs(x.weights - y.weights).max()) for x, y in pairs) > 1
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_a_bank_equals_the_host(blocky_route, rep):
+    kw = {"motion": "always_forward", "local_gain": 4, "local_window": 2}
+    a, b, sensor = agree(rep, blocky_route(8, 12, STOP_AND_SKIP), 8, {"sensor_nodes": 3}, **kw)
+    assert_same_estimates(a, b)
+    assert isinstance(sensor.pipeline, SensorBank) and sensor.pipeline.offsets == [0, 3, 6]
+
+
+def test_two_tiles_and_a_bank_of_small_parts_equal_the_host(blocky_route):
+    """260 Haar-sign nodes take both tiles of one sensor; a bank of parts of 2 nodes,
+    fewer than the window of 3, has pairs across two cuts."""
+    ref, query = blocky_route(260, 12, [248, 249, 250, 250, 252, 253, 254, 255, 256, 258])
+    topomap = build_topomap(ref, "haar")
+    kw = {"motion": "always_forward", "record_weights": True, "local_gain": 6}
+    for window, sensor_kw in ((1, {}), (3, {}), (3, {"sensor_nodes": 2})):
+        if sensor_kw:  # a bank of 130 small sensors is slow: the last 12 nodes
+            topomap = build_topomap(ref[248:], "haar")
+            query = [query[i] for i in range(len(query))]
+        host = WeightedNodeLocaliser("haar", arithmetic="ppa8", local_window=window, **kw)
+        host.use_map(topomap)
+        want = host.localise(query)
+        sensor = OnSensorLocaliser("haar", local_window=window, **kw, **sensor_kw)
+        sensor.use_map(topomap)
+        assert_same_estimates(want, sensor.localise(query))
+        if not sensor_kw:
+            assert sensor.pipeline.tiles == 2
+            assert {e.node for e in want} & {255, 256}  # the estimate crossed the tiles
+
+
+def test_the_stage_is_timed():
+    ref = [np.full((256, 256), 40 * i, np.uint8) for i in range(5)]
+    loc = OnSensorLocaliser("lbp", motion="always_forward", local_gain=2, local_window=1)
+    loc.build_map(ref)
+    loc.localise(ref)
+    assert loc.pipeline.timing.counts_by_stage().get("local")
+
+
+@pytest.mark.parametrize(
+    "gain, window, step", [(2, 1, 1), (4, 1, 2), (4, 2, 1), (8, 2, 2), (3, 1, None), (2, 2, None)]
+)
+def test_the_step_is_an_integer_or_none(gain, window, step):
+    assert local_step(gain, window) == step
+
+
+def test_a_fractional_step_is_refused_in_register_arithmetic():
+    with pytest.raises(PpalocError, match=r"^local_gain=3 with local_window=1: in ppa8"):
+        FilterParams.create("lbp", arithmetic="ppa8", local_gain=3, local_window=1)
+    with pytest.raises(PpalocError, match=r"local_gain / \(2 local_window\)"):
+        OnSensorLocaliser("lowres", local_gain=2, local_window=2)
+    assert FilterParams.create("lbp", local_gain=3, local_window=1).local_gain == 3
