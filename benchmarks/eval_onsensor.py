@@ -744,7 +744,7 @@ def main() -> None:
         help="routes of the agreement part (default both)",
     )
     parser.add_argument(
-        "--param",
+        "--filter",
         action="append",
         default=[],
         metavar="KEY=VALUE",
@@ -754,7 +754,7 @@ def main() -> None:
     args = parser.parse_args()
     presets, reps = tuple(args.preset), tuple(args.rep)
     params = {}
-    for item in args.param:
+    for item in args.filter:
         key, _, value = item.partition("=")
         params[key] = ast.literal_eval(value)
     if "timing" in args.part:
