@@ -245,14 +245,20 @@ def _max_f1(loc: OnSensorLocaliser, query, truth) -> float:
     return max_f1(pr_curve([e.score for e in est], correct, has_match, recall="A"))[0]
 
 
+#: Robust filter parameters the noise part's sensors take (``--filter``; inherited by the
+#: worker processes).
+FILTER: dict = {}
+
+
 def _noisy_f1(args) -> float:
     spec, rep, preset, level, seed, n_query, exact, store = (*args, None)[:8]
     ref, query, ds = load(spec)
     query = query[:n_query]
     truth = list(ds.ground_truth)[: len(query)]
     setting = NO_DROOP if level == "typical-no-droop" else level
+    kw = FILTER if preset == "robust" else {}
     loc = OnSensorLocaliser(
-        rep, noise=setting, seed=seed, preset=preset, motion="always_forward", store=store
+        rep, noise=setting, seed=seed, preset=preset, motion="always_forward", store=store, **kw
     )
     loc.build_map(ref)  # mapped by the same (noisy) sensor
     if exact:
@@ -748,8 +754,8 @@ def main() -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="agreement and timing parts: a robust filter parameter for host and sensor "
-        "alike (e.g. local_gain=2), repeatable",
+        help="agreement, timing and noise parts: a robust filter parameter (for host and "
+        "sensor alike; e.g. local_gain=2), repeatable",
     )
     args = parser.parse_args()
     presets, reps = tuple(args.preset), tuple(args.rep)
@@ -757,6 +763,7 @@ def main() -> None:
     for item in args.filter:
         key, _, value = item.partition("=")
         params[key] = ast.literal_eval(value)
+    FILTER.update(params)
     if "timing" in args.part:
         timing(presets=presets, reps=reps, params=params)
     if "agreement" in args.part:
