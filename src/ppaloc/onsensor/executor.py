@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.params import FilterParams, local_step
+from ppaloc.localise.params import FilterParams
 from ppaloc.localise.schedule import SensorPlan
 from ppaloc.onsensor import detect, gain, likelihood, local
 from ppaloc.onsensor.capture import block_means, capture
@@ -259,25 +259,16 @@ class SensorExecutor:
         likelihood.add_scaled(self.sensor, self.places, self.state, shift, int(alpha))
 
     def add_local(self, gain: int, window: int) -> None:
-        """Robust, ``local_gain``: each node loses ``gain / (2 window)`` per strictly
-        closer neighbour within ``window`` (:func:`ppaloc.onsensor.local.local_term`)."""
+        """Robust, ``local_gain`` (:func:`ppaloc.onsensor.local.local_term`)."""
         self.local_term(gain, window, ends=False)
 
     def local_term(self, gain: int, window: int, ends: bool) -> dict[int, float]:
-        """The local term within this sensor; with ``ends``, the exact values of its
-        first and last ``window`` nodes for a bank's neighbours."""
-        step = local_step(gain, window)
-        assert step is not None, "FilterParams refuses a fractional step in ppa8"
-        return local.local_term(self.sensor, self.places, self.state, step, window, ends)
+        """The local term within this sensor (``ends``: returns its end values)."""
+        return local.local_term(self.sensor, self.places, self.state, gain, window, ends)
 
-    def local_edges(
-        self, gain: int, window: int, own: dict[int, float], others: dict[int, float]
-    ) -> None:
-        """The local term's pairs across a bank's cuts
-        (:func:`ppaloc.onsensor.local.local_edges`)."""
-        step = local_step(gain, window)
-        assert step is not None
-        local.local_edges(self.sensor, self.places, self.state, step, window, own, others)
+    def local_edges(self, gain: int, window: int, own: dict, others: dict) -> None:
+        """The local term across a bank's cuts (:func:`~ppaloc.onsensor.local.local_edges`)."""
+        local.local_edges(self.sensor, self.places, self.state, gain, window, own, others)
 
     def shift(self) -> None:
         """Paper: every weight one node along the snake (``advance = (1, 1)`` only)."""

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ppaloc.localise.params import local_step
 from ppaloc.onsensor.carry import read_exact
 from ppaloc.onsensor.program import pull_shift
 from ppaloc.onsensor.sensor import Sensor, mask_bits
@@ -53,11 +54,12 @@ def keep_values(sensor: Sensor) -> None:
 
 
 def local_term(
-    sensor: Sensor, places: Any, state: WeightState, step: int, window: int, ends: bool
+    sensor: Sensor, places: Any, state: WeightState, gain: int, window: int, ends: bool
 ) -> dict[int, float]:
     """Stages 1-4 of the module docstring within this sensor; returns the exact values
     of its first and last ``window`` nodes (with ``ends``, for a bank's neighbours:
     :func:`local_edges`; else nothing)."""
+    step = _step_of(gain, window)
     sim, r = sensor.sim, sensor.roles
     n, cap = sensor.n_nodes, sensor.layout.capacity
     spans = [(t * cap, min(n, (t + 1) * cap) - 1) for t in range(sensor.tiles)]
@@ -91,7 +93,7 @@ def local_edges(
     sensor: Sensor,
     places: Any,
     state: WeightState,
-    step: int,
+    gain: int,
     window: int,
     own: dict[int, float],
     others: dict[int, float],
@@ -99,10 +101,20 @@ def local_edges(
     """Stage 4 across a bank's cuts: this sensor's end nodes (``own``, from
     :func:`local_term`) against the other sensors' (``others``, keyed by node in this
     sensor's numbering: negative before it, ``n_nodes`` and more after it)."""
+    step = _step_of(gain, window)
     with sensor.sim.stage("local"):
         _penalise(
             sensor, state, step, _closer_counts(places, own, others, window, lambda a, b: True)
         )
+
+
+def _step_of(gain: int, window: int) -> int:
+    """Units a strictly closer neighbour costs (``FilterParams`` has checked that it is
+    an integer)."""
+    step = local_step(gain, window)
+    if step is None:
+        raise AssertionError(f"local_gain={gain}, local_window={window}: a fractional step")
+    return step
 
 
 def _values(sensor: Sensor, places: Any) -> None:
