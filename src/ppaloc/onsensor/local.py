@@ -37,10 +37,10 @@ from typing import Any
 
 from ppaloc.localise.params import local_step
 from ppaloc.onsensor.carry import read_exact
-from ppaloc.onsensor.program import pull_shift
-from ppaloc.onsensor.sensor import Sensor, mask_bits
+from ppaloc.onsensor.sensor import Sensor
+from ppaloc.onsensor.snake import tile_masks, tile_step
 from ppaloc.onsensor.weights import WeightState
-from ppaloc.sim import FLAG, IN, NEWS, XE, Kernel, Register, east, north, south, west
+from ppaloc.sim import FLAG, IN, NEWS, XE, Kernel, Register
 
 __all__ = ["keep_values", "local_edges", "local_term"]
 
@@ -186,7 +186,7 @@ def _compare_along(
     allowed, hit = dr.u, dr.d
     sensor.root_pattern(dr.pattern, tile)
     sensor.run(_and, allowed, dr.pattern, dr.valid)
-    _snake_masks(sensor, tile, backward)
+    tile_masks(sensor, tile, backward)
     sensor.run(_neg_copy, moved, v)
     target, sign = (r.negated, 1) if state.negated else (r.weights, -1)
     for k in range(1, window + 1):
@@ -195,41 +195,9 @@ def _compare_along(
         if first <= edge <= last:
             sim.load_point(dr.pattern, *sensor.root_of(edge))
             sensor.run(_clear_where, allowed, dr.pattern)
-        _step(sensor, moved, scratch, backward)
+        tile_step(sensor, moved, scratch, backward)
         sim.load_in(sign * step)
         sensor.run(_flag_closer, places.value_scale[0], v, moved, allowed, hit, target)
-
-
-def _snake_masks(sensor: Sensor, tile: int, backward: bool) -> None:
-    """``tmp_b`` := the roots of tile ``tile`` that take their value from the block row
-    above (forwards: the row starts) or below (backwards: the row ends); ``cand`` /
-    ``tmp_a`` := its other roots of the even / odd block rows."""
-    sim, dr = sensor.sim, sensor.roles.d
-    bh, bw, n = sensor.bh, sensor.bw, sensor.size
-    rx = mask_bits(2 * bh)
-    east_end, west_end = n - bw + tile, tile
-    even, odd = (west_end, east_end) if backward else (east_end, west_end)
-    sim.load_pattern(dr.tmp_a, 0, even, rx, 0)
-    sim.load_pattern(dr.cand, bh, odd, rx, 0)
-    sensor.run(_or3, dr.tmp_b, dr.cand, dr.tmp_a)
-    sensor.root_pattern(dr.cand, tile, row_mod=1)
-    sensor.root_pattern(dr.tmp_a, tile, row_mod=2)
-    sensor.run(_not_ends, dr.cand, dr.tmp_a, dr.tmp_b)
-
-
-def _step(sensor: Sensor, reg: Register, scratch: Register, backward: bool) -> None:
-    """``reg_i := reg_{i-1}`` (forwards) or ``reg_{i+1}`` (backwards) at the tile's roots
-    (after :func:`_snake_masks`); what enters the tile's ends is left out by the mask."""
-    sim, dr = sensor.sim, sensor.roles.d
-    bh, bw = sensor.bh, sensor.bw
-    sensor.run(_neg_copy, scratch, reg)
-    even, odd = (west, east) if backward else (east, west)
-    for mask, pull_from in ((dr.cand, even), (dr.tmp_a, odd)):
-        sensor.run(_where, mask)
-        pull_shift(sim, reg, pull_from, bw)
-    sensor.run(_all)
-    pull_shift(sim, scratch, south if backward else north, bh)
-    sensor.run(_take_negated, dr.tmp_b, reg, scratch)
 
 
 def _east_merge(k: Kernel, v: Register, kept: Register, tile0: Register) -> None:
@@ -246,36 +214,12 @@ def _and(k: Kernel, y: Register, a: Register, b: Register) -> None:
     k.AND(y, a, b)
 
 
-def _or3(k: Kernel, y: Register, a: Register, b: Register) -> None:
-    k.OR(y, a, b)
-
-
-def _not_ends(k: Kernel, a: Register, b: Register, ends: Register) -> None:
-    k.CLR_IF(a, ends)
-    k.CLR_IF(b, ends)
-
-
 def _clear_where(k: Kernel, y: Register, mask: Register) -> None:
     k.CLR_IF(y, mask)
 
 
 def _neg_copy(k: Kernel, y: Register, x: Register) -> None:
     k.bus(y, x)
-
-
-def _where(k: Kernel, mask: Register) -> None:
-    k.WHERE(mask)
-
-
-def _all(k: Kernel) -> None:
-    k.all()
-
-
-def _take_negated(k: Kernel, mask: Register, y: Register, neg: Register) -> None:
-    """``y := -neg`` where ``mask`` is set."""
-    k.WHERE(mask)
-    k.bus(y, neg)
-    k.all()
 
 
 def _flag_closer(

@@ -16,7 +16,7 @@ from ppaloc.onsensor.roles import DRegs
 from ppaloc.onsensor.sensor import Sensor, mask_bits
 from ppaloc.sim import Kernel, Register, east, north, south, west
 
-__all__ = ["park", "shift_weights", "snake_masks", "snake_step"]
+__all__ = ["park", "shift_weights", "snake_masks", "snake_step", "tile_masks", "tile_step"]
 
 
 def shift_weights(sensor: Sensor) -> None:
@@ -127,6 +127,40 @@ def snake_step(sensor: Sensor, reg: Register, scratch: Register, step: int) -> N
     sensor.run(_all)
     pull_shift(sim, scratch, north, bh)  # scratch[r, c] = -reg[r - bh, c]
     sensor.run(_starts, dr, reg, scratch, (step - 1) * bw)
+
+
+def tile_masks(sensor: Sensor, tile: int, backward: bool) -> None:
+    """Masks of one tile's snake for :func:`tile_step`: ``tmp_b`` := the roots of tile
+    ``tile`` that take their value from the block row above (forwards: the row starts)
+    or below (backwards: the row ends); ``cand`` / ``tmp_a`` := its other roots of the
+    even / odd block rows."""
+    sim, dr = sensor.sim, sensor.roles.d
+    bh, bw, n = sensor.bh, sensor.bw, sensor.size
+    rx = mask_bits(2 * bh)
+    east_end, west_end = n - bw + tile, tile
+    even, odd = (west_end, east_end) if backward else (east_end, west_end)
+    sim.load_pattern(dr.tmp_a, 0, even, rx, 0)
+    sim.load_pattern(dr.cand, bh, odd, rx, 0)
+    sensor.run(_or3, dr.tmp_b, dr.cand, dr.tmp_a)
+    sensor.root_pattern(dr.cand, tile, row_mod=1)
+    sensor.root_pattern(dr.tmp_a, tile, row_mod=2)
+    sensor.run(_not_starts, dr)
+
+
+def tile_step(sensor: Sensor, reg: Register, scratch: Register, backward: bool) -> None:
+    """``reg_i := reg_{i-1}`` (forwards) or ``reg_{i+1}`` (backwards) at the roots of one
+    tile (after :func:`tile_masks`), as :func:`snake_step` moves them; what enters the
+    tile's ends is not defined (its first node forwards, its last backwards)."""
+    sim, dr = sensor.sim, sensor.roles.d
+    bh, bw = sensor.bh, sensor.bw
+    sensor.run(_neg_copy, scratch, reg)
+    even, odd = (west, east) if backward else (east, west)
+    for mask, pull_from in ((dr.cand, even), (dr.tmp_a, odd)):
+        sensor.run(_where, mask)
+        pull_shift(sim, reg, pull_from, bw)
+    sensor.run(_all)
+    pull_shift(sim, scratch, south if backward else north, bh)
+    sensor.run(_masked_copy, dr.tmp_b, reg, scratch)
 
 
 def _copies(k: Kernel, w: Register, copies: tuple[Register, ...]) -> None:
