@@ -762,7 +762,10 @@ def main() -> None:
     params = {}
     for item in args.filter:
         key, _, value = item.partition("=")
-        params[key] = ast.literal_eval(value)
+        try:
+            params[key] = ast.literal_eval(value)
+        except (ValueError, SyntaxError):  # a bare word: the string itself
+            params[key] = value
     FILTER.update(params)
     if "timing" in args.part:
         timing(presets=presets, reps=reps, params=params)

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from ppaloc.baselines import seqslam
 from ppaloc.errors import PpalocError
 from ppaloc.localise import enhance
-from ppaloc.localise.enhance import ENHANCE_UNITS, closer_share, contrast_enhance
+from ppaloc.localise.enhance import ENHANCE_UNITS, closer_count, closer_share, contrast_enhance
 from ppaloc.localise.params import FilterParams, frame_scale
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
@@ -161,3 +161,21 @@ def test_the_local_term_is_added_to_the_first_frames_weights(hubbed, kind, arith
     expected = np.maximum(expected - top, -local.params.memory)
     np.testing.assert_allclose(local.executor.weights(), expected, atol=1e-4)
     assert not np.allclose(local.executor.weights(), plain.executor.weights())
+
+
+def test_the_ppa8_term_is_whole_steps() -> None:
+    """In ppa8 a node loses ``gain / (2 window)`` whole units per closer neighbour, as the
+    sensor subtracts them: ``22 * (15 / 22)`` is ``14.999999999999998`` in float64."""
+    from ppaloc.localise.host import HostExecutor
+    from ppaloc.topomap import TopoMap
+
+    params = FilterParams.create("lowres", arithmetic="ppa8", local_gain=22, local_window=11)
+    ex = HostExecutor("lowres", params, arithmetic="ppa8")
+    ex.use_map(TopoMap("lowres", np.zeros((23, 8, 8), np.uint8)))
+    column = np.arange(23, dtype=np.float64)
+    column[11] = 15.5  # 15 of its 22 neighbours are closer
+    ex.begin(np.zeros((256, 256), np.uint8))
+    ex._raw = column
+    ex.add_local(22, 11)
+    assert ex.weights()[11] == -15.0
+    np.testing.assert_array_equal(ex.weights(), -closer_count(column, 11))

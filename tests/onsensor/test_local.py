@@ -35,25 +35,50 @@ def test_a_bank_equals_the_host(blocky_route, rep):
     assert isinstance(sensor.pipeline, SensorBank) and sensor.pipeline.offsets == [0, 3, 6]
 
 
-def test_two_tiles_and_a_bank_of_small_parts_equal_the_host(blocky_route):
-    """260 Haar-sign nodes take both tiles of one sensor; a bank of parts of 2 nodes,
-    fewer than the window of 3, has pairs across two cuts."""
+def test_two_tiles_and_banks_equal_the_host(blocky_route):
+    """260 Haar-sign nodes take both tiles of one sensor (windows 1 and 3); a bank of
+    two such sensors has a tile cut and a sensor cut; a bank of parts of 2 nodes, fewer
+    than the window of 3, has pairs across two cuts."""
     ref, query = blocky_route(260, 12, [248, 249, 250, 250, 252, 253, 254, 255, 256, 258])
     topomap = build_topomap(ref, "haar")
+    short = build_topomap(ref[248:], "haar")  # a bank of 130 small sensors is slow
     kw = {"motion": "always_forward", "record_weights": True, "local_gain": 6}
-    for window, sensor_kw in ((1, {}), (3, {}), (3, {"sensor_nodes": 2})):
-        if sensor_kw:  # a bank of 130 small sensors is slow: the last 12 nodes
-            topomap = build_topomap(ref[248:], "haar")
-            query = [query[i] for i in range(len(query))]
+    cases = (
+        (1, topomap, {}, [0]),
+        (3, topomap, {}, [0]),
+        (3, topomap, {"sensor_nodes": 258}, [0, 258]),
+        (3, short, {"sensor_nodes": 2}, list(range(0, 12, 2))),
+    )
+    for window, tmap, sensor_kw, offsets in cases:
         host = WeightedNodeLocaliser("haar", arithmetic="ppa8", local_window=window, **kw)
-        host.use_map(topomap)
+        host.use_map(tmap)
         want = host.localise(query)
         sensor = OnSensorLocaliser("haar", local_window=window, **kw, **sensor_kw)
-        sensor.use_map(topomap)
+        sensor.use_map(tmap)
         assert_same_estimates(want, sensor.localise(query))
-        if not sensor_kw:
+        if sensor_kw:
+            assert isinstance(sensor.pipeline, SensorBank)
+            assert sensor.pipeline.offsets == offsets
+        else:
             assert sensor.pipeline.tiles == 2
             assert {e.node for e in want} & {255, 256}  # the estimate crossed the tiles
+
+
+def test_the_noisy_sensor_runs_the_term(blocky_route):
+    """Under the typical preset the stage runs on noisy values (exact reads, the moved
+    copies) and changes the weights, as in ideal mode."""
+    ref, query = blocky_route(12, 14, list(range(12)))
+    weights = []
+    for gain in (0, 2):
+        loc = OnSensorLocaliser(
+            "lowres", noise="typical", motion="always_forward", record_weights=True,
+            sensor_nodes=6, local_gain=gain, local_window=1,
+        )  # fmt: skip
+        loc.build_map(ref)
+        est = loc.localise(query)
+        assert [e.node for e in est] == list(range(12))
+        weights.append(est[-1].weights)
+    assert np.abs(weights[1] - weights[0]).max() > 0.5
 
 
 def test_the_stage_is_timed():

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ENHANCE_UNITS", "closer_share", "contrast_enhance"]
+__all__ = ["ENHANCE_UNITS", "closer_count", "closer_share", "contrast_enhance"]
 
 ENHANCE_UNITS = 16
 """Register units per standard deviation of an enhanced distance (the weighted-node filter's
@@ -76,26 +76,38 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
     return out[:, 0] if squeeze else out
 
 
-def closer_share(column: np.ndarray, window: int) -> np.ndarray:
-    """For each node, the share of the ``2 window`` nodes within ``+-window`` along the map
-    whose distance is strictly smaller: 0 for a node no neighbour beats (the local best),
-    1 for the local worst. Nodes past either end of the map count as not smaller.
+def closer_count(column: np.ndarray, window: int) -> np.ndarray:
+    """For each node, how many of the ``2 window`` nodes within ``+-window`` along the
+    map have a strictly smaller distance (int64). Nodes past either end of the map count
+    as not smaller.
 
     It needs only comparisons of a distance with its neighbours' (on a PPA, shifted
     copies along the snake and a comparison each), where :func:`contrast_enhance` divides.
 
     Examples
     --------
-    >>> closer_share(np.array([3.0, 1.0, 2.0, 5.0]), 1).tolist()
-    [0.5, 0.0, 0.5, 0.5]
+    >>> closer_count(np.array([3.0, 1.0, 2.0, 5.0]), 1).tolist()
+    [1, 0, 1, 1]
     """
     d = np.asarray(column, dtype=np.float64)
     n, w = len(d), int(window)
     if w < 1:
         raise ValueError(f"window={window} must be at least 1")
     padded = np.concatenate((np.full(w, np.inf), d, np.full(w, np.inf)))
-    count = np.zeros(n)
+    count = np.zeros(n, np.int64)
     for k in range(-w, w + 1):
         if k:
             count += padded[w + k : w + k + n] < d
-    return count / (2 * w)
+    return count
+
+
+def closer_share(column: np.ndarray, window: int) -> np.ndarray:
+    """:func:`closer_count` as a share of the ``2 window`` neighbours: 0 for a node no
+    neighbour beats (the local best), 1 for the local worst.
+
+    Examples
+    --------
+    >>> closer_share(np.array([3.0, 1.0, 2.0, 5.0]), 1).tolist()
+    [0.5, 0.0, 0.5, 0.5]
+    """
+    return closer_count(column, window) / (2 * int(window))

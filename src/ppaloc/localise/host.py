@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.enhance import ENHANCE_UNITS, closer_share, contrast_enhance
+from ppaloc.localise.enhance import ENHANCE_UNITS, closer_count, closer_share, contrast_enhance
 from ppaloc.localise.likelihood import (
     BINARY_PLACES,
     HAAR_EXPONENT,
@@ -33,7 +33,7 @@ from ppaloc.localise.likelihood import (
     float_divisor,
 )
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
-from ppaloc.localise.params import FilterParams, choose_candidate, refined_minimum
+from ppaloc.localise.params import FilterParams, choose_candidate, local_step, refined_minimum
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ARITHMETICS", "HostExecutor", "motion_model", "read_values", "top_k"]
@@ -281,10 +281,17 @@ class HostExecutor:
 
     def add_local(self, gain: int, window: int) -> None:
         """``w := clip(w - gain * closer_share(distances, window))`` (``local_gain``). In
-        ppa8 ``gain / (2 window)`` is an integer (``FilterParams`` checks it), so the
+        ppa8 each closer neighbour costs the integer ``gain / (2 window)``
+        (:func:`~ppaloc.localise.params.local_step`; ``FilterParams`` checks it), so the
         term is exact; the sensor subtracts it once per closer neighbour, and the lower
         clip makes that the same."""
-        term = self._dtype(-gain) * closer_share(self._raw_distances(), window).astype(self._dtype)
+        raw = self._raw_distances()
+        if self.exact:
+            step = local_step(gain, window)
+            assert step is not None, "FilterParams refuses a fractional step in ppa8"
+            term = (-step * closer_count(raw, window)).astype(self._dtype)
+        else:
+            term = self._dtype(-gain) * closer_share(raw, window).astype(self._dtype)
         self._add_to_weights(term)
 
     def shift(self) -> None:

@@ -6,8 +6,9 @@ schedule refines the frame's best distance, as the robust preset does). A
 :class:`SensorBank` cuts a longer snake into consecutive parts, one sensor per part, all
 seeing the same frame. It is an executor of the schedules
 (:class:`ppaloc.localise.schedule.Executor`): each of its steps runs the sensor
-executor's stages on every part, and the controllers exchange only integers at five
-points of the frame (docs/onsensor.md, "Sensor banks"):
+executor's stages on every part, and the controllers exchange only numbers (integers,
+and values read exactly from the array) at five points of the frame, six with the local
+term (docs/onsensor.md, "Sensor banks"):
 
 1. the motion decision of sensor 0 (the others skip the motion stage);
 2. the transition's carry: before any transition, each sensor reads the weights of its
@@ -219,7 +220,8 @@ class SensorBank:
     def add_local(self, gain: int, window: int) -> None:
         """The local term on every sensor, then the pairs across the cuts from the exact
         end values the sensors exchange (:mod:`ppaloc.onsensor.local`)."""
-        ends = [s.local_term(gain, window, ends=True) for s in self.sensors]
+        last = len(self.sensors) - 1
+        ends = [s.local_term(gain, window, (i > 0, i < last)) for i, s in enumerate(self.sensors)]
         self.timing.sync()
         for i, (s, off) in enumerate(zip(self.sensors, self.offsets, strict=True)):
             others = {

@@ -260,10 +260,13 @@ class SensorExecutor:
 
     def add_local(self, gain: int, window: int) -> None:
         """Robust, ``local_gain`` (:func:`ppaloc.onsensor.local.local_term`)."""
-        self.local_term(gain, window, ends=False)
+        self.local_term(gain, window)
 
-    def local_term(self, gain: int, window: int, ends: bool) -> dict[int, float]:
-        """The local term within this sensor (``ends``: returns its end values)."""
+    def local_term(
+        self, gain: int, window: int, ends: tuple[bool, bool] = (False, False)
+    ) -> dict[int, float]:
+        """The local term within this sensor (``ends``: a bank's sensor before and after
+        it, whose end values it returns)."""
         return local.local_term(self.sensor, self.places, self.state, gain, window, ends)
 
     def local_edges(self, gain: int, window: int, own: dict, others: dict) -> None:

@@ -15,15 +15,20 @@ frame's update:
    the nodes within ``window`` of a tile's end where the neighbour is in another tile
    or, on a bank, on another sensor;
 3. per tile, a copy ``-v`` moves one node along the tile's snake per step, forwards
-   ``window`` times, then backwards ``window`` times (FLAG-masked ``scamp5_shift``
-   inside the block rows, the row ends from a copy shifted one block row, as
-   :func:`ppaloc.onsensor.snake.snake_step`); after step ``k`` one ``where`` flags the
+   ``window`` times, then backwards ``window`` times
+   (:func:`ppaloc.onsensor.snake.tile_step`: FLAG-masked ``scamp5_shift`` inside the
+   block rows, the row starts, or the row ends going backwards, from a copy shifted one
+   block row); after step ``k`` one ``where`` flags the
    roots whose neighbour ``k`` away is strictly closer (``sign (v_i - v_j) > 0``) and one
    masked ``add`` takes ``step`` from their weights. A node whose neighbour ``k`` away
    is outside the tile is cleared from the mask (one point load a step);
 4. the controller compares those pairs on the values it read and takes ``count *
    step`` from each such node (one point load and one masked ``add``); on a bank, after
    the sensors have exchanged their end values (:func:`local_edges`).
+
+Under noise each moved copy carries the fixed offsets of the PEs it was written in, the
+same on every frame, so a comparison of two nearly equal distances goes the same way on
+every frame (docs/localise.md, "Local contrast of the distances").
 
 In ideal mode every value is exact (a dyadic fraction), so the flags are the host's
 strict comparisons of the exact distances and the weights equal the host's ``ppa8``
@@ -54,11 +59,16 @@ def keep_values(sensor: Sensor) -> None:
 
 
 def local_term(
-    sensor: Sensor, places: Any, state: WeightState, gain: int, window: int, ends: bool
+    sensor: Sensor,
+    places: Any,
+    state: WeightState,
+    gain: int,
+    window: int,
+    ends: tuple[bool, bool] = (False, False),
 ) -> dict[int, float]:
     """Stages 1-4 of the module docstring within this sensor; returns the exact values
-    of its first and last ``window`` nodes (with ``ends``, for a bank's neighbours:
-    :func:`local_edges`; else nothing)."""
+    of its first ``window`` nodes where a bank has a sensor before it and of its last
+    where it has one after it (``ends``; for :func:`local_edges`)."""
     step = _step_of(gain, window)
     sim, r = sensor.sim, sensor.roles
     n, cap = sensor.n_nodes, sensor.layout.capacity
@@ -66,10 +76,11 @@ def local_term(
     with sim.stage("local"):
         _values(sensor, places)
         wanted = set()
+        before, after = ends
         for t, (first, last) in enumerate(spans):
-            if t or ends:
+            if t or before:
                 wanted.update(range(first, min(first + window, last + 1)))
-            if t < sensor.tiles - 1 or ends:
+            if t < sensor.tiles - 1 or after:
                 wanted.update(range(max(last - window + 1, first), last + 1))
         values = {
             node: read_exact(sensor, r.spare, *sensor.root_of(node), r.frame, r.means)
@@ -85,7 +96,7 @@ def local_term(
             step,
             _closer_counts(places, values, values, window, lambda a, b: tile[a] != tile[b]),
         )
-    near_end = set(range(window)) | set(range(n - window, n))
+    near_end = set(range(window) if before else ()) | set(range(n - window, n) if after else ())
     return {node: v for node, v in values.items() if node in near_end}
 
 
@@ -154,17 +165,13 @@ def _closer_counts(
 
 def _penalise(sensor: Sensor, state: WeightState, step: int, counts: dict[int, int]) -> None:
     """``w := clip(w - count * step)`` at each node's root (a point load and a masked
-    ``add`` per 127 units)."""
+    ``add``; ``count * step`` is at most ``local_gain``, within the DAC's range)."""
     sim, r = sensor.sim, sensor.roles
     target, sign = (r.negated, 1) if state.negated else (r.weights, -1)
     for node, count in sorted(counts.items()):
         sim.load_point(r.d.pattern, *sensor.root_of(node))
-        amount = count * step
-        while amount:
-            part = min(amount, 127)
-            sim.load_in(sign * part)
-            sensor.run(_masked_add, r.d.pattern, target)
-            amount -= part
+        sim.load_in(sign * count * step)
+        sensor.run(_masked_add, r.d.pattern, target)
 
 
 def _compare_along(
