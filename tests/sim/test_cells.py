@@ -313,3 +313,76 @@ def test_rounds_clock_is_the_clock_after_each_charge_one_by_one():
     assert clock.tolist() == seen
     b.charge_rounds(("load_pattern", "load_in", kernel), 50)
     assert b.now_us == clock[-1] == a.now_us
+
+
+# -- pattern_cells: a digital image into every period ----------------------------------
+
+
+def _patterns(noise: str, engine: str, routine: bool, rows: int = 8, cols: int = 8) -> list:
+    """Two clears and ORs of random cell grids (the first of each records its kernel),
+    either by the routine or written out call by call; the state after each, the
+    ``load_pattern`` calls each made, and what a later kernel reads."""
+    sim = Scamp5(rows, cols, noise=NOISES[noise], seed=5, engine=engine)
+    rng = np.random.default_rng(9)
+    sim.write(A, rng.uniform(-100, 100, (rows, cols)))  # droop pending under noise
+    seen: list = []
+    original = sim.load_pattern
+
+    def counted(*args, **kwargs):
+        seen.append(args)
+        return original(*args, **kwargs)
+
+    sim.load_pattern = counted
+    kernels: dict = {}
+    states = []
+    for clear, shape in ((False, (4, 4)), (False, (4, 4)), (True, (2, 4)), (True, (2, 4))):
+        cells = rng.random(shape) < 0.5
+        cells.flat[-1] = True
+        seen.clear()
+        if routine:
+            sim.pattern_cells(R5, cells, R3, clear=clear)
+        else:
+            p, q = shape
+            for i, j in np.argwhere(cells):
+                sim.load_pattern(R3, int(i), int(j), period_mask(p), period_mask(q))
+                kernel = kernels.get(clear)
+                if kernel is None:
+                    with sim.kernel() as kernel:
+                        kernel.CLR_IF(R5, R3) if clear else kernel.OR(R5, R3)
+                    kernels[clear] = kernel
+                else:
+                    kernel.run()
+        states.append((_state(sim), len(seen), int(cells.sum())))
+    with sim.kernel() as k:  # reads what the loads left: R5, and the droop of A
+        k.WHERE(R5)
+        k.mov(B, A)
+        k.all()
+    states.append(_state(sim))
+    return states
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("noise", NOISES)
+def test_pattern_cells_are_the_calls(noise, engine):
+    got, want = _patterns(noise, engine, True), _patterns(noise, engine, False)
+    assert [s[0] for s in got[:-1]] == [s[0] for s in want[:-1]]
+    assert got[-1] == want[-1]
+    # ideal: the second load of each kernel makes only its last cell's calls
+    made = [(n, cells) for _, n, cells in got[:-1]]
+    if noise == "ideal":
+        assert made[1][0] == 1 and made[3][0] == 1
+    assert all(n == cells for n, cells in (made[0], made[2]))
+
+
+def test_pattern_cells_on_an_array_the_periods_do_not_tile():
+    got, want = (_patterns("ideal", "numpy", routine, 6, 5) for routine in (True, False))
+    assert [s[0] for s in got[:-1]] == [s[0] for s in want[:-1]]
+    assert got[-1] == want[-1]
+
+
+def test_pattern_cells_refuses_bad_grids():
+    sim = Scamp5(8, 8)
+    with pytest.raises(SimulatorError, match="pattern_cells: cells of shape"):
+        sim.pattern_cells(R5, np.ones((3, 4), bool), R3)
+    with pytest.raises(RegisterMisuseError):
+        sim.pattern_cells(A, np.ones((2, 2), bool), R3)

@@ -25,7 +25,6 @@ import numpy as np
 from ppaloc.onsensor.lbp import DESCRIPTOR, DESCRIPTOR_TMP, LbpPlaces, hamming_tree
 from ppaloc.onsensor.lowres import tree_steps
 from ppaloc.onsensor.places import Tree
-from ppaloc.onsensor.sensor import mask_bits
 from ppaloc.place import HAAR_GRID, HAAR_WORDS, haar_plane, pack_plane, unpack_plane
 from ppaloc.sim import Kernel, Register
 
@@ -79,23 +78,18 @@ class HaarPlaces(LbpPlaces):
         sensor = self.sensor
         sim = sensor.sim
         plane = unpack_plane(code)
-        bits = mask_bits(HAAR_GRID)
-        ones = np.argwhere(plane == 1)
-        zeros = np.argwhere(_SIGNED & (plane == 0))
+        ones = plane == 1
+        zeros = _SIGNED & (plane == 0)
         with sim.stage("haar"):
-            if len(ones) <= len(zeros) + len(_SIGN_CELLS):
+            if ones.sum() <= zeros.sum() + len(_SIGN_CELLS):
                 sensor.run(_clr, DESCRIPTOR)
-                for r, c in ones:
-                    sim.load_pattern(DESCRIPTOR_TMP, int(r), int(c), bits, bits)
-                    sensor.run(_or, DESCRIPTOR, DESCRIPTOR_TMP)
+                sim.pattern_cells(DESCRIPTOR, ones, DESCRIPTOR_TMP)
                 return
             (r0, c0, rx0, cx0), (r1, c1, rx1, cx1) = _SIGN_CELLS
             sim.load_pattern(DESCRIPTOR, r0, c0, rx0, cx0)
             sim.load_pattern(DESCRIPTOR_TMP, r1, c1, rx1, cx1)
             sensor.run(_or, DESCRIPTOR, DESCRIPTOR_TMP)
-            for r, c in zeros:
-                sim.load_pattern(DESCRIPTOR_TMP, int(r), int(c), bits, bits)
-                sensor.run(_clear_where, DESCRIPTOR, DESCRIPTOR_TMP)
+            sim.pattern_cells(DESCRIPTOR, zeros, DESCRIPTOR_TMP, clear=True)
 
     def tree_calls(self, tile: int, halving: bool) -> None:
         """``E :=`` :data:`HAAR_BIT_VALUE` through the DAC (the halving tree only)."""
@@ -124,7 +118,3 @@ def _clr(k: Kernel, reg: Register) -> None:
 
 def _or(k: Kernel, reg: Register, x: Register) -> None:
     k.OR(reg, x)
-
-
-def _clear_where(k: Kernel, reg: Register, x: Register) -> None:
-    k.NIMP(reg, x, reg)  # reg := NOT x AND reg

@@ -16,7 +16,6 @@ import numpy as np
 from ppaloc.onsensor.places import Places, Tree
 from ppaloc.onsensor.program import add_level, halve_level, tree_levels
 from ppaloc.onsensor.roles import DRegs, Roles
-from ppaloc.onsensor.sensor import mask_bits
 from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, A, B, D, E, Kernel, Register
 
 __all__ = [
@@ -140,13 +139,11 @@ class LbpPlaces(Places):
         """Replicate a 32-bit code into every 4x8 block of :data:`DESCRIPTOR` (R3)."""
         sensor = self.sensor
         sim = sensor.sim
+        bits = np.array([code >> (31 - b) & 1 for b in range(32)], bool)
         with sim.stage("lbp"):
             sensor.run(_clr, DESCRIPTOR)
-            for b in range(32):
-                if code >> (31 - b) & 1:
-                    bits_r, bits_c = mask_bits(sensor.bh), mask_bits(sensor.bw)
-                    sim.load_pattern(DESCRIPTOR_TMP, b // 8, b % 8, bits_r, bits_c)
-                    sensor.run(_or, DESCRIPTOR, DESCRIPTOR_TMP)
+            # bit b is cell (b // 8, b % 8) of the 4x8 block: one pattern and OR a set bit
+            sim.pattern_cells(DESCRIPTOR, bits.reshape(sensor.bh, sensor.bw), DESCRIPTOR_TMP)
 
 
 def _neg_copy(k: Kernel, y: Register, x: Register) -> None:
@@ -161,10 +158,6 @@ def _compare(k: Kernel, means: Register, cand: Register) -> None:
 
 def _clr(k: Kernel, reg: Register) -> None:
     k.CLR(reg)
-
-
-def _or(k: Kernel, reg: Register, x: Register) -> None:
-    k.OR(reg, x)
 
 
 def hamming_tree(

@@ -51,7 +51,8 @@ def period_mask(n: int) -> int:
 
 
 class CellLoadMixin:
-    """:meth:`load_in_cells`, mixed into :class:`ppaloc.sim.engine.Scamp5`."""
+    """:meth:`load_in_cells` and :meth:`pattern_cells`, mixed into
+    :class:`ppaloc.sim.engine.Scamp5`."""
 
     rows: int
     cols: int
@@ -72,6 +73,8 @@ class CellLoadMixin:
     _cell_index: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, bool]] | None = None
     #: Per period: :meth:`_cell_groups`' flat indices, bounds and scratch.
     _cell_groups_cache: dict[tuple[int, int], tuple] | None = None
+    #: The kernel ``OR(dreg, tmp)`` or ``CLR_IF(dreg, tmp)`` by ``(dreg, tmp, clear)``.
+    _pattern_kernels: dict[tuple[Register, Register, bool], Kernel] | None = None
 
     if TYPE_CHECKING:
 
@@ -79,6 +82,7 @@ class CellLoadMixin:
         def _dreg(self, call: str, reg: Any, *, source: bool = False) -> Register: ...
         def _aplane(self, reg: Register) -> np.ndarray: ...
         def _pattern(self, r: int, c: int, rx: int, cx: int, scamp_addr: bool) -> Any: ...
+        def _dplane(self, reg: Register) -> np.ndarray: ...
         def kernel(self) -> Kernel: ...
         def load_pattern(self, dreg: Register, r: int, c: int, rx: int, cx: int) -> None: ...
         def load_in(self, areg_or_value: Register | int) -> None: ...
@@ -166,6 +170,86 @@ class CellLoadMixin:
                     kernel.bus(areg, IN)  # type: ignore[attr-defined]
                     kernel.all()  # type: ignore[attr-defined]
                 kernels[(areg, dreg)] = kernel
+            else:
+                kernel.run()
+
+    def pattern_cells(
+        self, dreg: Register, cells: np.ndarray, tmp: Register, clear: bool = False
+    ) -> None:
+        """``dreg |= `` (``clear``: ``&= NOT``) the set cells of ``cells`` tiled with
+        period ``cells.shape``, one address pattern and one kernel per set cell.
+
+        For each set cell ``(i, j)`` of the ``p x q`` grid, in row-major order:
+        ``load_pattern(tmp, i, j, period_mask(p), period_mask(q))`` and the kernel
+        ``OR(dreg, tmp)`` (``clear``: ``CLR_IF(dreg, tmp)``, which leaves ``R0 = NOT
+        dreg``). Afterwards ``tmp`` holds the last set cell's pattern. A host routine as
+        :meth:`load_in_cells` is: a digital image written into every period of a
+        register (a descriptor replicated into every node block). Observed, or under
+        noise, the calls run one by one; otherwise, in ideal mode, all but the last set
+        cell are written at once and their calls and kernel runs charged in order.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ppaloc.sim import Scamp5, R5, R6
+        >>> sim = Scamp5(4, 4)
+        >>> sim.pattern_cells(R5, np.array([[1, 0], [0, 1]], bool), R6)
+        >>> sim.read(R5).astype(int)
+        array([[1, 0, 1, 0],
+               [0, 1, 0, 1],
+               [1, 0, 1, 0],
+               [0, 1, 0, 1]])
+        """
+        call = "pattern_cells"
+        self._dreg(call, dreg)
+        self._dreg(call, tmp)
+        grid = np.asarray(cells)
+        if (
+            grid.ndim != 2
+            or grid.dtype.kind not in "biu"
+            or any(n > 256 or n & (n - 1) for n in grid.shape)
+        ):
+            raise SimulatorError(
+                f"{call}: cells of shape {grid.shape} are invalid; use a 2-D bool array "
+                "whose sides are powers of two up to 256"
+            )
+        from ppaloc.sim.kernel import recording
+
+        if recording(self):
+            raise SimulatorError(
+                f"{call} inside an open `with sim.kernel()` block: it runs kernels of its "
+                "own; call it between kernels"
+            )
+        p, q = grid.shape
+        rx, cx = period_mask(p), period_mask(q)
+        order = np.flatnonzero(grid.reshape(-1).astype(bool))
+        kernels = self._pattern_kernels
+        if kernels is None:
+            kernels = self._pattern_kernels = {}
+        kernel = kernels.get((dreg, tmp, clear))
+        if kernel is not None and len(order) > 1 and self.noise.ideal and self._batched(kernel):
+            written = np.zeros(p * q, bool)
+            written[order[:-1]] = True
+            row_cell, col_cell, _ = self._cells_of(p, q)
+            cell = row_cell[:, None] * q + col_cell[None, :]
+            mask = written[cell] & (row_cell >= 0)[:, None] & (col_cell >= 0)[None, :]
+            plane = self._dplane(dreg)
+            if clear:
+                plane &= ~mask
+            else:
+                plane |= mask
+            self.timing.charge_rounds(("load_pattern", kernel._counts), len(order) - 1)
+            order = order[-1:]
+        for flat in order:
+            i, j = divmod(int(flat), q)
+            self.load_pattern(tmp, i, j, rx, cx)
+            if kernel is None:  # recorded (and run) at the first set cell
+                with self.kernel() as kernel:
+                    if clear:
+                        kernel.CLR_IF(dreg, tmp)  # type: ignore[attr-defined]
+                    else:
+                        kernel.OR(dreg, tmp)  # type: ignore[attr-defined]
+                kernels[(dreg, tmp, clear)] = kernel
             else:
                 kernel.run()
 
