@@ -189,6 +189,12 @@ def test_a_worker_killed_mid_sweep_loses_no_cell(tmp_path, make_cluster):
 
 
 @pytest.mark.slow
+def _finished_cells(out: Path) -> list[Path]:
+    """Cell folders with a results file, not the hidden staging folder a cell is written
+    in before it replaces its target (``fileio.new_folder``): a cell there is not done."""
+    return [p for p in out.glob("cells/*/results.json") if not p.parent.name.startswith(".")]
+
+
 def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(tmp_path, cluster2):
     import psutil
 
@@ -220,7 +226,7 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(tmp_path, c
     )
     try:
         deadline = time.monotonic() + 60
-        while not list(out.glob("cells/*/results.json")) and time.monotonic() < deadline:
+        while not _finished_cells(out) and time.monotonic() < deadline:
             assert proc.poll() is None, proc.communicate()
             time.sleep(0.05)
         children = psutil.Process(proc.pid).children(recursive=True)
