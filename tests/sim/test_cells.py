@@ -386,3 +386,5 @@ def test_pattern_cells_refuses_bad_grids():
         sim.pattern_cells(R5, np.ones((3, 4), bool), R3)
     with pytest.raises(RegisterMisuseError):
         sim.pattern_cells(A, np.ones((2, 2), bool), R3)
+    with pytest.raises(SimulatorError, match="pattern_cells inside an open"), sim.kernel():
+        sim.pattern_cells(R5, np.ones((2, 2), bool), R3)

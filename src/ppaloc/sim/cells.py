@@ -135,13 +135,7 @@ class CellLoadMixin:
         self._areg(call, areg)
         self._dreg(call, dreg)
         grid = _checked_values(call, values)
-        from ppaloc.sim.kernel import recording
-
-        if recording(self):
-            raise SimulatorError(
-                f"{call} inside an open `with sim.kernel()` block: it runs kernels of its "
-                "own; call it between kernels"
-            )
+        self._between_kernels(call)
         p, q = grid.shape
         rx, cx = period_mask(p), period_mask(q)
         cells = np.ndindex(p, q)
@@ -213,13 +207,7 @@ class CellLoadMixin:
                 f"{call}: cells of shape {grid.shape} are invalid; use a 2-D bool array "
                 "whose sides are powers of two up to 256"
             )
-        from ppaloc.sim.kernel import recording
-
-        if recording(self):
-            raise SimulatorError(
-                f"{call} inside an open `with sim.kernel()` block: it runs kernels of its "
-                "own; call it between kernels"
-            )
+        self._between_kernels(call)
         p, q = grid.shape
         rx, cx = period_mask(p), period_mask(q)
         order = np.flatnonzero(grid.reshape(-1).astype(bool))
@@ -252,6 +240,16 @@ class CellLoadMixin:
                 kernels[(dreg, tmp, clear)] = kernel
             else:
                 kernel.run()
+
+    def _between_kernels(self, call: str) -> None:
+        """Refuse a routine that runs kernels of its own inside an open kernel block."""
+        from ppaloc.sim.kernel import recording
+
+        if recording(self):
+            raise SimulatorError(
+                f"{call} inside an open `with sim.kernel()` block: it runs kernels of its "
+                "own; call it between kernels"
+            )
 
     def _batched(self, kernel: Kernel) -> bool:
         """Whether the cells may be written at once: no observer and no call around this
