@@ -323,6 +323,9 @@ def _patterns(noise: str, engine: str, routine: bool, rows: int = 8, cols: int =
     either by the routine or written out call by call; the state after each, the
     ``load_pattern`` calls each made, and what a later kernel reads."""
     sim = Scamp5(rows, cols, noise=NOISES[noise], seed=5, engine=engine)
+    per_event = sim.timing.call_us("scan_events", 2) - sim.timing.call_us("scan_events", 1)
+    sim.timing.charge_call("scan_events", 123_457.3 / per_event)  # a clock past 0.1 s: its
+    # intervals are rounded differences of large floats, which add up in their order
     rng = np.random.default_rng(9)
     sim.write(A, rng.uniform(-100, 100, (rows, cols)))  # droop pending under noise
     seen: list = []
@@ -335,7 +338,7 @@ def _patterns(noise: str, engine: str, routine: bool, rows: int = 8, cols: int =
     sim.load_pattern = counted
     kernels: dict = {}
     states = []
-    for clear, shape in ((False, (4, 4)), (False, (4, 4)), (True, (2, 4)), (True, (2, 4))):
+    for clear, shape in ((False, (4, 4)), (False, (16, 16)), (True, (2, 4)), (True, (8, 8))):
         cells = rng.random(shape) < 0.5
         cells.flat[-1] = True
         seen.clear()
@@ -367,9 +370,12 @@ def test_pattern_cells_are_the_calls(noise, engine):
     got, want = _patterns(noise, engine, True), _patterns(noise, engine, False)
     assert [s[0] for s in got[:-1]] == [s[0] for s in want[:-1]]
     assert got[-1] == want[-1]
-    # ideal: the second load of each kernel makes only its last cell's calls
+    # the second load of each kernel makes only its last cell's calls, unless a register
+    # may decay meanwhile
     made = [(n, cells) for _, n, cells in got[:-1]]
-    if noise == "ideal":
+    if noise in CALL_BY_CALL:
+        assert made[1][0] == made[1][1] and made[3][0] == made[3][1]
+    else:
         assert made[1][0] == 1 and made[3][0] == 1
     assert all(n == cells for n, cells in (made[0], made[2]))
 

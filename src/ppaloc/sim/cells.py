@@ -178,9 +178,10 @@ class CellLoadMixin:
         ``OR(dreg, tmp)`` (``clear``: ``CLR_IF(dreg, tmp)``, which leaves ``R0 = NOT
         dreg``). Afterwards ``tmp`` holds the last set cell's pattern. A host routine as
         :meth:`load_in_cells` is: a digital image written into every period of a
-        register (a descriptor replicated into every node block). Observed, or under
-        noise, the calls run one by one; otherwise, in ideal mode, all but the last set
-        cell are written at once and their calls and kernel runs charged in order.
+        register (a descriptor replicated into every node block). Observed, or where a
+        digital register could decay meanwhile, the calls run one by one; otherwise all
+        but the last set cell are written at once, their calls and kernel runs charged in
+        order and, under noise, the droop time they let pass accounted as they would.
 
         Examples
         --------
@@ -215,19 +216,28 @@ class CellLoadMixin:
         if kernels is None:
             kernels = self._pattern_kernels = {}
         kernel = kernels.get((dreg, tmp, clear))
-        if kernel is not None and len(order) > 1 and self.noise.ideal and self._batched(kernel):
-            written = np.zeros(p * q, bool)
-            written[order[:-1]] = True
-            row_cell, col_cell, _ = self._cells_of(p, q)
-            cell = row_cell[:, None] * q + col_cell[None, :]
-            mask = written[cell] & (row_cell >= 0)[:, None] & (col_cell >= 0)[None, :]
-            plane = self._dplane(dreg)
-            if clear:
-                plane &= ~mask
-            else:
-                plane |= mask
-            self.timing.charge_rounds(("load_pattern", kernel._counts), len(order) - 1)
-            order = order[-1:]
+        if kernel is not None and len(order) > 1 and self._batched(kernel):
+            steps = ("load_pattern", kernel._counts)
+            m = len(order) - 1
+            replay = True
+            if not self.noise.ideal:
+                clock = self.timing.rounds_clock(steps, m)
+                replay = self._undecayed(float(clock.max()))
+                if replay:
+                    self._elapse_rounds(clock[0::2])
+            if replay:
+                written = np.zeros(p * q, bool)
+                written[order[:-1]] = True
+                row_cell, col_cell, _ = self._cells_of(p, q)
+                cell = row_cell[:, None] * q + col_cell[None, :]
+                mask = written[cell] & (row_cell >= 0)[:, None] & (col_cell >= 0)[None, :]
+                plane = self._dplane(dreg)
+                if clear:
+                    plane &= ~mask
+                else:
+                    plane |= mask
+                self.timing.charge_rounds(steps, m)
+                order = order[-1:]
         for flat in order:
             i, j = divmod(int(flat), q)
             self.load_pattern(tmp, i, j, rx, cx)
@@ -240,6 +250,21 @@ class CellLoadMixin:
                 kernels[(dreg, tmp, clear)] = kernel
             else:
                 kernel.run()
+
+    def _elapse_rounds(self, at: np.ndarray) -> None:
+        """The droop bookkeeping of elapse instants ``at`` (the clock after each cell's
+        ``load_pattern``, where its kernel starts too): every analogue plane's pending
+        droop time grows by each interval in turn (float64 sums in that order, as
+        :meth:`~ppaloc.sim.engine.Scamp5._elapse` adds them), and the last instant is
+        kept. Digital writes draw nothing; the caller has checked that no register can
+        decay meanwhile (:meth:`_undecayed`)."""
+        elapsed = np.diff(np.concatenate(([self._last_us], at)))
+        elapsed[elapsed <= 0] = 0.0  # an interval of no time adds nothing
+        if self.noise.params.decay_per_ms:
+            pending = self._droop_us
+            for r in range(len(pending)):
+                pending[r] = np.add.accumulate(np.concatenate(([pending[r]], elapsed)))[-1]
+        self._last_us = float(at[-1])
 
     def _between_kernels(self, call: str) -> None:
         """Refuse a routine that runs kernels of its own inside an open kernel block."""
