@@ -251,20 +251,22 @@ class CellLoadMixin:
             else:
                 kernel.run()
 
-    def _elapse_rounds(self, at: np.ndarray) -> None:
-        """The droop bookkeeping of elapse instants ``at`` (the clock after each cell's
-        ``load_pattern``, where its kernel starts too): every analogue plane's pending
-        droop time grows by each interval in turn (float64 sums in that order, as
+    def _elapse_rounds(self, at: np.ndarray, skip: int = -1) -> np.ndarray:
+        """The droop bookkeeping of elapse instants ``at`` that the routine's calls would
+        make: every analogue plane but ``skip`` has its pending droop time grow by each
+        interval in turn (float64 sums in that order, as
         :meth:`~ppaloc.sim.engine.Scamp5._elapse` adds them), and the last instant is
-        kept. Digital writes draw nothing; the caller has checked that no register can
-        decay meanwhile (:meth:`_undecayed`)."""
+        kept. Returns the intervals (0 where no time passed). The caller has checked
+        that no register can decay meanwhile (:meth:`_undecayed`)."""
         elapsed = np.diff(np.concatenate(([self._last_us], at)))
         elapsed[elapsed <= 0] = 0.0  # an interval of no time adds nothing
         if self.noise.params.decay_per_ms:
             pending = self._droop_us
             for r in range(len(pending)):
-                pending[r] = np.add.accumulate(np.concatenate(([pending[r]], elapsed)))[-1]
+                if r != skip:
+                    pending[r] = np.add.accumulate(np.concatenate(([pending[r]], elapsed)))[-1]
         self._last_us = float(at[-1])
+        return elapsed
 
     def _between_kernels(self, call: str) -> None:
         """Refuse a routine that runs kernels of its own inside an open kernel block."""
@@ -384,20 +386,16 @@ class CellLoadMixin:
         values = grid.reshape(-1)[:m].astype(np.float32) * gains.astype(np.float32)
         # each cell's elapse instants: after load_pattern, after load_in (its kernel's)
         at = clock.reshape(m, 3)[:, :2].reshape(-1)
-        elapsed = at - np.concatenate(([self._last_us], at[:-1]))
-        elapsed[elapsed <= 0] = 0.0  # an interval of no time adds nothing
+        i = areg.index
+        elapsed = self._elapse_rounds(at, skip=i)  # the other planes sum every interval
         decay = params.decay_per_ms
         pending = self._droop_us
-        i = areg.index
         if decay:
             both = elapsed.reshape(m, 2)
             start = np.zeros(m)
             start[0] = pending[i]
             us = (start + both[:, 0]) + both[:, 1]  # pending += elapsed, twice per cell
             steps = np.where(us > 0, decay * us / 1000.0, 0.0).astype(np.float32)
-            for r in range(len(pending)):  # the other planes sum every interval in turn
-                if r != i:
-                    pending[r] = np.add.accumulate(np.concatenate(([pending[r]], elapsed)))[-1]
             pending[i] = 0.0
         else:
             steps = np.zeros(m, np.float32)
@@ -414,7 +412,6 @@ class CellLoadMixin:
             bool(decay),
             buf,
         )
-        self._last_us = float(at[-1])
 
 
 def _checked_values(call: str, values: Any) -> np.ndarray:
