@@ -59,3 +59,17 @@ def assert_same_estimates(a: list, b: list) -> None:
     for x, y in zip(a, b, strict=True):
         assert y.score == x.score
         np.testing.assert_allclose(y.weights, x.weights, rtol=0, atol=1e-4)
+
+
+def assert_maps_as_the_host(rep: str, shape: tuple[int, ...]) -> None:
+    """The sensor's mapping run of ``rep`` gives the host's nodes (``shape``) on textured,
+    black, white and random frames."""
+    from ppaloc.onsensor import OnSensorLocaliser
+    from ppaloc.topomap import build_topomap
+
+    ref, _ = make_route(3, 6)
+    ref += [np.zeros((256, 256), np.uint8), np.full((256, 256), 255, np.uint8)]
+    ref.append(np.random.default_rng(6).integers(0, 256, (256, 256), dtype=np.uint8))
+    got = OnSensorLocaliser(rep, motion="always_forward").build_map(ref)
+    np.testing.assert_array_equal(got.descriptors, build_topomap(ref, rep).descriptors)
+    assert got.kind == rep and got.descriptors.shape == shape

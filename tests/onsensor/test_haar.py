@@ -19,7 +19,7 @@ from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.place import haar_descriptor, haar_plane, hamming_words, lowres_image, pack_plane
 from ppaloc.topomap import TopoMap, build_topomap
 
-from .conftest import STOP_AND_SKIP, agree, assert_same_estimates
+from .conftest import STOP_AND_SKIP, agree, assert_maps_as_the_host, assert_same_estimates
 
 
 def test_the_live_signs_are_the_hosts_in_every_node_block(blocky_route, monkeypatch):
@@ -78,14 +78,8 @@ def _unused() -> np.ndarray:
     return mask
 
 
-def test_mapping_on_the_sensor_gives_the_host_nodes(blocky_route):
-    ref, _ = blocky_route(3, 6)
-    ref += [np.zeros((256, 256), np.uint8), np.full((256, 256), 255, np.uint8)]
-    ref.append(np.random.default_rng(6).integers(0, 256, (256, 256), dtype=np.uint8))
-    sensor = OnSensorLocaliser("haar", motion="always_forward")
-    got = sensor.build_map(ref)
-    np.testing.assert_array_equal(got.descriptors, build_topomap(ref, "haar").descriptors)
-    assert got.kind == "haar" and got.descriptors.shape == (6, 8)
+def test_mapping_on_the_sensor_gives_the_host_nodes():
+    assert_maps_as_the_host("haar", (6, 8))
 
 
 def test_estimates_equal_the_host_ppa8_filter_with_image_motion(blocky_route):
