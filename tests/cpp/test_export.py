@@ -196,8 +196,8 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
 def test_a_tracer_reaches_every_sensor_of_a_bank():
     rng = np.random.default_rng(5)
     tracer = Tracer()
-    loc = OnSensorLocaliser("lbp", size=SIZE, sensor_nodes=2, observers=[tracer])
-    loc.use_map(TopoMap("lbp", rng.integers(0, 2**32, 4, dtype=np.uint32)))
+    loc = OnSensorLocaliser("lbp", size=SIZE, sensor_nodes=3, observers=[tracer])
+    loc.use_map(TopoMap("lbp", rng.integers(0, 2**32, 6, dtype=np.uint32)))
     loc.step(rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
     sensors = [s.sim for s in loc.pipeline.sensors]
     assert len(sensors) == 2

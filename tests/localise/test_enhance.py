@@ -44,7 +44,7 @@ def test_the_values_read_are_the_z_scores_of_the_plain_ones(hubbed, kind, window
 
 
 def test_the_first_frame_weighs_every_node_by_its_enhanced_value(hubbed) -> None:
-    loc = WeightedNodeLocaliser("lowres", keyframes=False, enhance=10)
+    loc = WeightedNodeLocaliser("lowres", keyframes=False, enhance=10, local_gain=0)
     loc.build_map(hubbed)
     loc.executor.begin(hubbed[12])
     mu = loc.executor.node_values()
@@ -91,7 +91,7 @@ def test_the_estimates_follow_the_enhanced_likelihood(hubbed) -> None:
         (lambda: FilterParams.create("lbp", enhance=1), "at least 2"),
         (lambda: FilterParams.create("lbp", enhance=-3), "enhance=-3"),
         (
-            lambda: FilterParams.create("lowres", arithmetic="ppa8", local_gain=2),
+            lambda: FilterParams.create("lowres", arithmetic="ppa8", local_window=2),
             r"^local_gain=2 with local_window=2: in ppa8 arithmetic .* a multiple of 4",
         ),
         (lambda: FilterParams.create("lbp", preset="paper", local_gain=2), "preset 'robust'"),
@@ -150,7 +150,7 @@ def test_closer_share_is_a_share_and_the_best_pays_nothing(values, window) -> No
 )
 def test_the_local_term_is_added_to_the_first_frames_weights(hubbed, kind, arithmetic, gain):
     kw = {"keyframes": False, "arithmetic": arithmetic}
-    plain = WeightedNodeLocaliser(kind, **kw)
+    plain = WeightedNodeLocaliser(kind, **kw, local_gain=0)
     local = WeightedNodeLocaliser(kind, **kw, local_gain=gain, local_window=2)
     for loc in (plain, local):
         loc.build_map(hubbed)

@@ -52,6 +52,13 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
                 s += 1
             term = np.clip(math.floor(b * 2.0**-s) - mu * 2.0**-s, -128, 127)
             w = np.clip(w + term, -127, 127)
+            if p.local_gain:  # item 3's local term: q units a strictly closer neighbour
+                step, window = p.local_gain // (2 * p.local_window), p.local_window
+                closer = [
+                    sum(mu[j] < mu[i] for j in range(max(0, i - window), min(n, i + window + 1)))
+                    for i in range(n)
+                ]
+                w = np.clip(w - step * np.array(closer), -127, 127)
         top = math.floor(w.max())
         cands = np.flatnonzero(w >= math.floor(16 * w.max()) / 16)
         node = cands[0] if prev is None else cands[np.argmin(np.abs(cands - prev))]
@@ -72,9 +79,10 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     contrast=st.sampled_from([0, 1, 16, 48, 127]),
     patch=st.sampled_from([2, 4, 8]),
     kind=st.sampled_from(["lowres", "lowres16"]),
+    local=st.sampled_from([(0, 1), (2, 1), (8, 2), (6, 3)]),
 )
 def test_ppa8_equals_the_robust_contract_written_out(
-    seed, n, gain, memory, costs, max_advance, contrast, patch, kind
+    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -90,6 +98,8 @@ def test_ppa8_equals_the_robust_contract_written_out(
         max_advance=max_advance,
         contrast=contrast,
         contrast_patch=patch,
+        local_gain=local[0],
+        local_window=local[1],
     )
     loc = WeightedNodeLocaliser(
         kind,
@@ -109,8 +119,8 @@ def test_ppa8_equals_the_robust_contract_written_out(
 
 def test_transition_golden():
     # one node per frame, weights [0, -10, -20, -127]; forward: stay costs 4, +2 costs 4
-    p = FilterParams.create("lbp", memory=100)
-    loc = WeightedNodeLocaliser("lbp", memory=100, arithmetic="ppa8")
+    p = FilterParams.create("lbp", memory=100, max_advance=2)
+    loc = WeightedNodeLocaliser("lbp", memory=100, max_advance=2, arithmetic="ppa8")
     loc.use_map(TopoMap("lbp", np.zeros(4, np.uint32)))
     ex = loc.executor
     ex.set_weights([0, -10, -20, -127])

@@ -229,7 +229,9 @@ class FilterParams:
         Robust: the extra cost of each node advanced beyond one. Range [0, 64];
         default 4.
     max_advance : int
-        Robust: the most nodes one frame may advance. Range [1, 3]; default 2.
+        Robust: the most nodes one frame may advance. Range [1, 3]; default 3 (a query
+        up to three places a frame ahead of the map; each node beyond one still costs
+        ``skip_cost``).
     contrast : int
         Robust, low-res images: the mean absolute deviation (grey levels) every image,
         live or node, is brought near by :func:`ppaloc.place.normalise_contrast` (offset
@@ -259,8 +261,9 @@ class FilterParams:
         units times the share of the ``2 local_window`` nodes around it that are closer
         to the frame (:func:`ppaloc.localise.enhance.closer_share`): contrast between
         neighbouring places, which the transition needs to follow a varying speed, beside
-        the raw likelihood's evidence. Ranges [0, 32] (default 0, off) and [1, 16]
-        (default 2). In ``ppa8`` and on the sensor a closer neighbour costs
+        the raw likelihood's evidence. Ranges [0, 32] (default 2, half the raw term's
+        span ``gain``; 0 is off) and [1, 16] (default 1: the two neighbours, one unit
+        each). In ``ppa8`` and on the sensor a closer neighbour costs
         ``local_gain / (2 local_window)`` units, which must be an integer (a DAC
         constant, :func:`local_step`; ``onsensor.local``).
     alpha, gamma, k, shift, advance
@@ -284,7 +287,7 @@ class FilterParams:
     stay_cost: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, 64))
     move_cost: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, 64))
     skip_cost: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, 64))
-    max_advance: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 3))
+    max_advance: int | None = field(default=3, metadata=_param("robust", "int", 3, 1, 3))
     contrast: int | None = field(
         default=DEFAULT_CONTRAST,
         metadata=_param("robust", "int", DEFAULT_CONTRAST, 0, MAX_CONTRAST),
@@ -294,8 +297,8 @@ class FilterParams:
         metadata=_param("robust", "patch", DEFAULT_CONTRAST_PATCH),
     )
     enhance: int | None = field(default=0, metadata=_param("robust", "window", 0, 0, MAX_WINDOW))
-    local_gain: int | None = field(default=0, metadata=_param("robust", "int", 0, 0, 32))
-    local_window: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 16))
+    local_gain: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 32))
+    local_window: int | None = field(default=1, metadata=_param("robust", "int", 1, 1, 16))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -331,7 +334,7 @@ class FilterParams:
         Examples
         --------
         >>> FilterParams.create("lbp").transition_defaults()
-        (4, 4, 4, 2)
+        (4, 4, 4, 3)
         >>> FilterParams.create("lbp", preset="paper").shift
         1
         """

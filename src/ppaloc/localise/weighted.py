@@ -15,7 +15,9 @@ cannot drift apart.
 2. likelihood scaled per frame (low-res images contrast-normalised first,
    :func:`ppaloc.place.normalise_contrast`): ``mu_s = mu * 2**-s_t`` with ``s_t`` chosen from the
    frame's own best and mean distance (:func:`~ppaloc.localise.params.frame_scale`);
-3. update ``w_i += alpha_t - mu_s_i`` with ``alpha_t = best * 2**-s_t``;
+3. update ``w_i += alpha_t - mu_s_i`` with ``alpha_t = best * 2**-s_t``, then the local
+   term: ``local_gain / (2 local_window)`` units less for each of the ``2 local_window``
+   neighbours whose distance is strictly smaller (:func:`~ppaloc.localise.enhance.closer_count`);
 4. detection: the highest weight, ties to the candidate nearest the previous estimate;
 5. normalisation ``w_i := max(w_i - max(W), -memory)``.
 
