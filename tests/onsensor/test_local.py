@@ -42,18 +42,19 @@ def test_two_tiles_and_banks_equal_the_host(blocky_route):
     ref, query = blocky_route(260, 12, [248, 249, 250, 250, 252, 253, 254, 255, 256, 258])
     topomap = build_topomap(ref, "haar")
     short = build_topomap(ref[248:], "haar")  # a bank of 130 small sensors is slow
-    kw = {"motion": "always_forward", "record_weights": True, "local_gain": 6, "max_advance": 2}
-    cases = (
-        (1, topomap, {}, [0]),
-        (3, topomap, {}, [0]),
-        (3, topomap, {"sensor_nodes": 258}, [0, 258]),
-        (3, short, {"sensor_nodes": 2}, list(range(0, 12, 2))),
+    kw = {"motion": "always_forward", "record_weights": True, "local_gain": 6}
+    cases = (  # parts of 2 nodes take max_advance=2: a part holds what a frame may advance
+        (1, topomap, {}, [0], 3),
+        (3, topomap, {}, [0], 3),
+        (3, topomap, {"sensor_nodes": 258}, [0, 258], 3),
+        (3, short, {"sensor_nodes": 2}, list(range(0, 12, 2)), 2),
     )
-    for window, tmap, sensor_kw, offsets in cases:
-        host = WeightedNodeLocaliser("haar", arithmetic="ppa8", local_window=window, **kw)
+    for window, tmap, sensor_kw, offsets, advance in cases:
+        both = {**kw, "local_window": window, "max_advance": advance}
+        host = WeightedNodeLocaliser("haar", arithmetic="ppa8", **both)
         host.use_map(tmap)
         want = host.localise(query)
-        sensor = OnSensorLocaliser("haar", local_window=window, **kw, **sensor_kw)
+        sensor = OnSensorLocaliser("haar", **both, **sensor_kw)
         sensor.use_map(tmap)
         assert_same_estimates(want, sensor.localise(query))
         if sensor_kw:

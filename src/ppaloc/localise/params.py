@@ -5,7 +5,7 @@ of its two presets:
 
 - ``"robust"`` (the default): a max-product Bayes filter over the nodes in the log domain
   (docs/localise.md, "The robust filter"). Each node's weight comes from the best of its
-  plausible predecessors (stay, +1, +2 nodes), each charged a transition cost that the
+  plausible predecessors (stay, +1, +2, +3 nodes), each charged a transition cost that the
   image motion test sets (evidence, not a switch); the likelihood is scaled per frame
   from the frame's own distances to all nodes; the weights are normalised by their
   maximum every frame and floored ``memory`` units below it, and the array edge brings

@@ -275,7 +275,7 @@ class Schedule:
 class RobustSchedule(Schedule):
     """The robust filter (docs/localise.md, "The robust filter"; docs/ppa8.md).
 
-    Per frame: motion; the transition over stay/+1/+2 nodes at the costs the motion
+    Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs the motion
     decision sets (from the second frame); on the first frame and on frames the motion
     test calls forward, every node's value read, the frame's best distance, this frame's
     scale chosen from them (:func:`~ppaloc.localise.params.frame_scale`) and the

@@ -87,7 +87,7 @@ class OnSensorLocaliser:
     """The weighted-node filter on a simulated SCAMP-5: map in registers, PPA programs.
 
     Both presets of the host filter run on the sensor: ``preset="robust"`` (the default:
-    transition over stay/+1/+2 nodes with motion-evidence costs, per-frame likelihood
+    transition over stay/+1/+2/+3 nodes with motion-evidence costs, per-frame likelihood
     scale, normalisation and floor, keyframe maps) and ``preset="paper"`` (Algorithm 1).
 
     Parameters
