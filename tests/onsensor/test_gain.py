@@ -37,6 +37,16 @@ def test_calibration_sees_through_the_other_noise_terms(seed):
     assert pipe.state.scale.log_gain == pytest.approx(math.log1p(typical.transfer_gain), rel=0.15)
 
 
+def test_the_calibration_chain_leaves_the_icw_stack_to_the_frames_kernels():
+    from ppaloc.sim.kernel import icw_stack
+
+    pipe = _pipe()
+    chain = pipe.sensor.run(gain._chain)  # the cached start-up kernel, run again
+    assert len(chain) == gain.CALIBRATION_WRITES and chain.on_heap
+    # what the stack holds is every other cached kernel, the 128-ICW chain not among them
+    assert icw_stack(pipe.sensor.sim).used == pipe.sensor.kernels.icws
+
+
 def test_ideal_sensor_measures_no_gain_and_never_restores():
     pipe = _pipe()
     assert pipe.state.scale.log_gain == 0.0

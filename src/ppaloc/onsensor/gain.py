@@ -93,6 +93,9 @@ def _all(k: Kernel) -> None:
 
 
 def _chain(k: Kernel) -> None:
+    # a start-up kernel of 128 ICWs: kept off the shared 1024-ICW stack, which the
+    # frame's kernels need (a map of every frame in Haar signs on a bank fills it)
+    k.move_to_heap(True)
     for _ in range(CALIBRATION_WRITES // 2):
         k.bus(E, D)
         k.bus(D, E)

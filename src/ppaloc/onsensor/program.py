@@ -128,9 +128,14 @@ class _Recorder(ProgramAPI):
 
     def __init__(self) -> None:
         self.recorded: list[Instruction] = []
+        self.heap = False
 
     def _emit(self, instructions: tuple[Instruction, ...]) -> None:
         self.recorded.extend(instructions)
+
+    def move_to_heap(self, flag: bool = True) -> None:
+        """As :meth:`ppaloc.sim.Kernel.move_to_heap`: where the body is kept, not what it is."""
+        self.heap = bool(flag)
 
 
 class KernelCache:
@@ -185,7 +190,7 @@ class KernelCache:
         if self.check:
             again = _Recorder()
             build(again, *args)
-            if tuple(again.recorded) != kernel.instructions:
+            if tuple(again.recorded) != kernel.instructions or again.heap != kernel.on_heap:
                 raise AssertionError(
                     f"kernel {build.__qualname__}{args!r} records a different body under "
                     "the same key: it reads a value its key does not hold"
@@ -200,8 +205,9 @@ class KernelCache:
 
     @property
     def icws(self) -> int:
-        """ICWs of every distinct recorded body (what they hold of the ICW stack)."""
-        return sum(len(k) for k in self._by_body.values())
+        """ICWs of every distinct recorded body that stays on the ICW stack (what they
+        hold of it; a kernel moved to the heap holds nothing)."""
+        return sum(len(k) for k in self._by_body.values() if not k.on_heap)
 
 
 def pull(k: Kernel, y: Register, x: Register, direction: Direction, d: int) -> None:

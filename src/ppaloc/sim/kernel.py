@@ -161,6 +161,12 @@ class Kernel(ProgramAPI):
             raise KernelError("move_to_heap is called inside the kernel's `with` block")
         self._heap = bool(flag)
 
+    @property
+    def on_heap(self) -> bool:
+        """Whether the kernel left the shared ICW stack at the end of its recording
+        (:meth:`move_to_heap`)."""
+        return self._heap
+
     def _check_not_failed(self) -> None:
         if self._failed:
             raise KernelError(
