@@ -193,6 +193,23 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     assert loop == pytest.approx(timing.call_us("vs_frame_loop_control") * (len(query) + 1) + posts)
 
 
+def test_a_kernel_its_program_moved_to_the_heap_is_written_so():
+    sim = Scamp5(8, 8)
+    with sim.kernel() as k:
+        k.move_to_heap(True)
+        k.add(A, A, B)
+    assert "move_to_heap(true);" in to_cpp(k)
+    # in a trace written without the heap for every kernel, the robust preset's start-up
+    # calibration chain (moved there by its program) still starts with it
+    tracer = Tracer()
+    loc = OnSensorLocaliser("lbp", size=SIZE, observers=[tracer])
+    rng = np.random.default_rng(1)
+    loc.use_map(TopoMap("lbp", rng.integers(0, 2**32, 4, dtype=np.uint32)))
+    loc.step(rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
+    text = to_cpp(tracer.traces[0], heap=False)
+    assert text.count("move_to_heap(true);") == 1
+
+
 def test_a_tracer_reaches_every_sensor_of_a_bank():
     rng = np.random.default_rng(5)
     tracer = Tracer()

@@ -125,6 +125,24 @@ def test_kernel_cache_keys_hold_every_value_the_body_reads():
         cache.run(cache.run, B)
 
 
+def _acc_on_heap(k, x):
+    k.move_to_heap(True)
+    _acc(k, x)
+
+
+def test_kernel_cache_shares_a_body_only_where_it_is_kept():
+    """The same ICWs on the stack and on the heap are two kernels: neither builder's
+    kernel takes the other's place, and only the stack one holds the stack."""
+    from ppaloc.sim.kernel import icw_stack
+
+    sim = Scamp5(2, 2)
+    cache = KernelCache(sim, check=True)
+    on_stack, on_heap = cache.run(_acc, B), cache.run(_acc_on_heap, B)
+    cache.run(_acc, B), cache.run(_acc_on_heap, B)  # replayed, each checked again
+    assert not on_stack.on_heap and on_heap.on_heap and on_stack is not on_heap
+    assert cache.kernels == 2 and cache.icws == 2 == icw_stack(sim).used
+
+
 def test_kernel_cache_check_mode_finds_a_body_its_key_does_not_hold():
     sim = Scamp5(2, 2)
     cache = KernelCache(sim, check=True)

@@ -302,7 +302,8 @@ class _Program:
             if sig in self.direct:
                 return self.direct[sig]
         name = f"k{len(self.kernels) + len(self.direct)}"
-        text = kernel_to_cpp(instructions, name, heap=self.heap)
+        on_heap = isinstance(key, Kernel) and key.on_heap  # moved there by its program
+        text = kernel_to_cpp(instructions, name, heap=self.heap or on_heap)
         if ref is not None:
             self.kernels[ref] = (name, text)
         else:
@@ -539,8 +540,9 @@ def to_cpp(
         A trace's first comment line.
     heap : bool
         A trace's kernels start with ``move_to_heap(true)``, so a long pipeline does not
-        overflow the 1024-ICW stack that static kernels share.
+        overflow the 1024-ICW stack that static kernels share. A kernel its program moved
+        to the heap (:attr:`ppaloc.sim.Kernel.on_heap`) starts with it either way.
     """
     if isinstance(source, Trace):
         return _trace_to_cpp(source, estimates, title, heap)
-    return kernel_to_cpp(source, name)
+    return kernel_to_cpp(source, name, heap=isinstance(source, Kernel) and source.on_heap)

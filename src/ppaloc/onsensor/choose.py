@@ -12,14 +12,12 @@ takes the first place of :data:`BEST_FIRST` the preset runs on whose map fits th
 sensors given (``sensors``, default one: the device on a desk), and the place that needs
 the fewest sensors when none fits (a bank of them, docs/onsensor.md, "Sensor banks").
 
-The order is the means, not every route: over the 65 routes of
-``benchmarks/eval_robust.py`` the robust filter's mean max F1 is 0.838 with 16x16
-images, 0.761 with the Haar signs, 0.770 with 8x8 images and 0.592 with LBP; on the five
-real routes 0.788, 0.783, 0.677 and 0.624. The signs and the 8x8 images are level over
-the 65 routes; the signs come first for the real routes and for the noisy sensor, where
-they keep 0.948 of 0.963 on Nordland under ``typical`` against the 8x8 images' 0.740 of
-0.991 (docs/localise.md, "More values a place" and "Signs instead of values";
-docs/onsensor.md, "Results").
+The order is the robust filter's mean max F1 on the five real routes of
+``benchmarks/eval_robust.py``, not every route: 0.788 with 16x16 images, 0.783 with the
+Haar signs, 0.677 with 8x8 images and 0.624 with LBP. Over all 65 routes the 8x8 images
+lead the signs by 0.009 (0.770 against 0.761; 16x16 0.838, LBP 0.592), on the generated
+routes whose speed swings; before the local term both orders were this one (docs/localise.md,
+"More values a place" and "Signs instead of values").
 
 Examples
 --------

@@ -145,8 +145,9 @@ class KernelCache:
     (:func:`kernel_key`: the builder's code, the plain values of its closure and defaults,
     and ``args``) is seen, which runs it once, and replays the recording afterwards. So a
     body can only depend on values its key holds: a closure over an object whose state
-    may change is refused. Keys whose recordings are the same ICWs share one kernel (the
-    first recorded), so every distinct body holds the ICW stack once.
+    may change is refused. Keys whose recordings are the same ICWs, kept in the same place
+    (the ICW stack, or the heap after ``move_to_heap``), share one kernel (the first
+    recorded), so every distinct body holds the ICW stack once.
 
     Parameters
     ----------
@@ -161,7 +162,7 @@ class KernelCache:
         self.sim = sim
         self.check = os.environ.get(CHECK_KERNELS) == "1" if check is None else bool(check)
         self._by_key: dict[tuple, Kernel] = {}
-        self._by_body: dict[tuple[Instruction, ...], Kernel] = {}
+        self._by_body: dict[tuple[tuple[Instruction, ...], bool], Kernel] = {}
         # (builder, args, their types) -> kernel, for builders that live as long as their
         # module (no closure, no defaults): the key of a call seen before, without
         # walking its values again
@@ -180,7 +181,7 @@ class KernelCache:
             if kernel is None:
                 with self.sim.kernel() as kernel:
                     build(kernel, *args)
-                body = kernel.instructions
+                body = (kernel.instructions, kernel.on_heap)  # the same ICWs, kept alike
                 kernel = self._by_key[key] = self._by_body.setdefault(body, kernel)
                 if seen is not None and _lasting(build):
                     self._seen[seen] = kernel
@@ -190,7 +191,12 @@ class KernelCache:
         if self.check:
             again = _Recorder()
             build(again, *args)
-            if tuple(again.recorded) != kernel.instructions or again.heap != kernel.on_heap:
+            if again.heap != kernel.on_heap:
+                raise AssertionError(
+                    f"kernel {build.__qualname__}{args!r} moves itself to the heap on one "
+                    "recording and not on another"
+                )
+            if tuple(again.recorded) != kernel.instructions:
                 raise AssertionError(
                     f"kernel {build.__qualname__}{args!r} records a different body under "
                     "the same key: it reads a value its key does not hold"
