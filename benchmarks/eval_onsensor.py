@@ -52,6 +52,7 @@ import ast
 import dataclasses
 import statistics
 import time
+import warnings
 from collections import defaultdict
 from pathlib import Path
 
@@ -67,6 +68,7 @@ from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.onsensor.executor import PLACES
 from ppaloc.place import haar_plane, pack_plane
 from ppaloc.sim import PRESETS
+from ppaloc.sim.kernel import IcwStackWarning
 from ppaloc.topomap import TopoMap
 
 DATA = "../shared/data"
@@ -128,14 +130,18 @@ def agreement(
                 host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
                 sensor = OnSensorLocaliser(rep, **kw)
                 t = time.perf_counter()
-                want, got = host.build_map(ref), sensor.build_map(ref)
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always", IcwStackWarning)
+                    want, got = host.build_map(ref), sensor.build_map(ref)
+                    a, b = host.localise(query), sensor.localise(query)
                 same_map = (
                     np.array_equal(want.frame_index, got.frame_index)
                     and np.array_equal(want.descriptors, got.descriptors)
                     and (want.places is None) == (got.places is None)
                     and (want.places is None or np.array_equal(want.places, got.places))
                 )
-                a, b = host.localise(query), sensor.localise(query)
+                # a kernel cut short by a full ICW stack is a wrong program: name it
+                lost = sum(issubclass(w.category, IcwStackWarning) for w in caught)
                 pairs = list(zip(a, b, strict=True))
                 node = np.mean([x.node == y.node for x, y in pairs])
                 moved = np.mean([x.moved == y.moved for x, y in pairs])
@@ -150,7 +156,8 @@ def agreement(
                     f"nodes={len(got)} same map={same_map} node {node * 100:7.2f}% "
                     f"moved {moved * 100:7.2f}% score {np.mean(score) * 100:7.2f}% "
                     f"max |dw|={werr:.1e} of {len(query)} frames, chip {chip:.2f} ms "
-                    f"({len(query) / (time.perf_counter() - t):.1f} frames/s host+sensor)",
+                    f"({len(query) / (time.perf_counter() - t):.1f} frames/s host+sensor)"
+                    + (f"; ICW STACK FULL: {lost} kernel(s) lost ICWs" if lost else ""),
                     flush=True,
                 )
 
