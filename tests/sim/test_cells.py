@@ -84,16 +84,16 @@ def _state(sim: Scamp5) -> tuple:
     )
 
 
-def _counting(sim: Scamp5) -> list:
-    """The arguments of every ``load_in`` the simulator makes from now on."""
+def _counting(sim: Scamp5, call: str = "load_in") -> list:
+    """The arguments of every ``call`` (a controller call) the simulator makes from now on."""
     seen: list = []
-    original = sim.load_in
+    original = getattr(sim, call)
 
     def counted(*args, **kwargs):
         seen.append(args)
         return original(*args, **kwargs)
 
-    sim.load_in = counted
+    setattr(sim, call, counted)
     return seen
 
 
@@ -328,14 +328,7 @@ def _patterns(noise: str, engine: str, routine: bool, rows: int = 8, cols: int =
     # intervals are rounded differences of large floats, which add up in their order
     rng = np.random.default_rng(9)
     sim.write(A, rng.uniform(-100, 100, (rows, cols)))  # droop pending under noise
-    seen: list = []
-    original = sim.load_pattern
-
-    def counted(*args, **kwargs):
-        seen.append(args)
-        return original(*args, **kwargs)
-
-    sim.load_pattern = counted
+    seen = _counting(sim, "load_pattern")
     kernels: dict = {}
     states = []
     for clear, shape in ((False, (4, 4)), (False, (16, 16)), (True, (2, 4)), (True, (8, 8))):
