@@ -14,7 +14,7 @@ from typing import ClassVar
 import numpy as np
 
 from ppaloc.onsensor.places import Places, Tree
-from ppaloc.onsensor.program import add_level, halve_level, tree_levels
+from ppaloc.onsensor.program import add_level, halve_level, neg_copy, tree_levels
 from ppaloc.onsensor.roles import DRegs, Roles
 from ppaloc.sim import FLAG, R1, R2, R3, R4, R9, R10, R11, A, B, D, E, Kernel, Register
 
@@ -126,7 +126,7 @@ class LbpPlaces(Places):
         code = 0
         with sim.stage("lbp"):
             for j, (drow, dcol) in enumerate(LBP_NEIGHBOURS):
-                sensor.run(_neg_copy, E, means)  # E = -m
+                sensor.run(neg_copy, E, means)  # E = -m
                 # E[x] := -m of the neighbour block: the picture moves by minus the offset
                 sim.shift(E, -dcol * sensor.block, drow * sensor.block)
                 sensor.run(_compare, means, dr.cand)
@@ -144,10 +144,6 @@ class LbpPlaces(Places):
             sensor.run(_clr, DESCRIPTOR)
             # bit b is cell (b // 8, b % 8) of the 4x8 block: one pattern and OR a set bit
             sim.pattern_cells(DESCRIPTOR, bits.reshape(sensor.bh, sensor.bw), DESCRIPTOR_TMP)
-
-
-def _neg_copy(k: Kernel, y: Register, x: Register) -> None:
-    k.bus(y, x)
 
 
 def _compare(k: Kernel, means: Register, cand: Register) -> None:

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ppaloc.onsensor.program import pull, scale_negated
+from ppaloc.onsensor.program import neg_copy, pull, scale_negated
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.transition import settle
 from ppaloc.onsensor.weights import WeightState
@@ -66,7 +66,7 @@ def add_scaled(sensor: Sensor, places: Any, state: WeightState, s: int, alpha: i
     w, neg = r.weights, r.negated
     state.last_shift, state.last_alpha = s, alpha
     if state.negated:  # no transition since the last update: the weights back first
-        sensor.run(_neg_copy, w, neg)
+        sensor.run(neg_copy, w, neg)
         state.negated = False
     if not -128 <= alpha - state.pending_offset <= 127:
         settle(sensor, state)
@@ -155,10 +155,6 @@ def scaled_sources(
         return (other, cur)  # the last two halvings: -cur / 2 ... + cur = need |mu_s|
     k.bus(other, cur)
     return (other,)
-
-
-def _neg_copy(k: Kernel, y: Register, x: Register) -> None:
-    k.bus(y, x)
 
 
 def _tree_update(

@@ -42,6 +42,7 @@ from typing import Any
 
 from ppaloc.localise.params import local_step
 from ppaloc.onsensor.carry import read_exact
+from ppaloc.onsensor.program import and_planes, neg_copy
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.snake import tile_masks, tile_step
 from ppaloc.onsensor.weights import WeightState
@@ -55,7 +56,7 @@ def keep_values(sensor: Sensor) -> None:
     scale's readout left in ``spare``, which the update's halvings overwrite)."""
     r = sensor.roles
     with sensor.stage("local"):
-        sensor.run(_neg_copy, r.means, r.spare)
+        sensor.run(neg_copy, r.means, r.spare)
 
 
 def local_term(
@@ -132,14 +133,14 @@ def _values(sensor: Sensor, places: Any) -> None:
     """``spare := v`` at every node root (stage 1)."""
     r = sensor.roles
     if sensor.tiles == 1:
-        sensor.run(_neg_copy, r.spare, r.means)  # kept by keep_values
+        sensor.run(neg_copy, r.spare, r.means)  # kept by keep_values
         return
     for t in range(sensor.tiles):
         places.tree_calls(t, halving=True)
         build, args = places.tree(t, halving=True)
         sensor.run(build, *args)
         if t == 0:
-            sensor.run(_neg_copy, r.means, r.spare)
+            sensor.run(neg_copy, r.means, r.spare)
         else:
             sensor.root_pattern(r.d.pattern, 0)
             sensor.run(_east_merge, r.spare, r.means, r.d.pattern)
@@ -192,9 +193,9 @@ def _compare_along(
     v, moved, scratch = r.spare, r.frame, r.means
     allowed, hit = dr.u, dr.d
     sensor.root_pattern(dr.pattern, tile)
-    sensor.run(_and, allowed, dr.pattern, dr.valid)
+    sensor.run(and_planes, allowed, dr.pattern, dr.valid)
     tile_masks(sensor, tile, backward)
-    sensor.run(_neg_copy, moved, v)
+    sensor.run(neg_copy, moved, v)
     target, sign = (r.negated, 1) if state.negated else (r.weights, -1)
     for k in range(1, window + 1):
         # the node whose neighbour k away is outside the tile: the controller's pair
@@ -217,16 +218,8 @@ def _east_merge(k: Kernel, v: Register, kept: Register, tile0: Register) -> None
     k.all()
 
 
-def _and(k: Kernel, y: Register, a: Register, b: Register) -> None:
-    k.AND(y, a, b)
-
-
 def _clear_where(k: Kernel, y: Register, mask: Register) -> None:
     k.CLR_IF(y, mask)
-
-
-def _neg_copy(k: Kernel, y: Register, x: Register) -> None:
-    k.bus(y, x)
 
 
 def _flag_closer(

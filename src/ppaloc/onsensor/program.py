@@ -216,6 +216,16 @@ class KernelCache:
         return sum(len(k) for k in self._by_body.values() if not k.on_heap)
 
 
+def neg_copy(k: Kernel, y: Register, x: Register) -> None:
+    """``y := -x`` (one ``bus``: a bus transfer negates)."""
+    k.bus(y, x)
+
+
+def and_planes(k: Kernel, y: Register, a: Register, b: Register) -> None:
+    """``y := a AND b`` (digital)."""
+    k.AND(y, a, b)
+
+
 def pull(k: Kernel, y: Register, x: Register, direction: Direction, d: int) -> None:
     """``y := x`` of the element ``d`` steps away in ``direction`` (``d`` analogue ICWs, >= 2).
 

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.onsensor.program import KernelCache
+from ppaloc.onsensor.program import KernelCache, and_planes
 from ppaloc.onsensor.roles import Roles
 from ppaloc.place import LOWRES_GRIDS
 from ppaloc.sim import Kernel, NoiseParams, Register, Scamp5, TimingModel
@@ -209,7 +209,7 @@ class Sensor:
                 sim.load_rect(dr.tmp_a, r0, c0, r0 + self.bh - 1, c1)
                 self.run(_or, dr.tmp_b, dr.tmp_a)
             self.root_pattern(dr.tmp_a, t)
-            self.run(_and, dr.tmp_a, dr.tmp_a, dr.tmp_b)
+            self.run(and_planes, dr.tmp_a, dr.tmp_a, dr.tmp_b)
             self.run(_or, dr.valid, dr.tmp_a)
 
     def rect_mask(self, target: Register, rects: Iterable[tuple[int, int, int, int]]) -> None:
@@ -233,7 +233,7 @@ class Sensor:
         for t, tile_rects in rects:
             self.rect_mask(scratch, tile_rects)
             self.root_pattern(dr.tmp_a, t)
-            self.run(_and, dr.tmp_a, dr.tmp_a, scratch)
+            self.run(and_planes, dr.tmp_a, dr.tmp_a, scratch)
             self.run(_or, target, dr.tmp_a)
 
     def window(self, a: int, b: int) -> None:
@@ -288,10 +288,6 @@ def _clr(k: Kernel, r: Register) -> None:
 
 def _or(k: Kernel, r: Register, x: Register) -> None:
     k.OR(r, x)
-
-
-def _and(k: Kernel, r: Register, x: Register, y: Register) -> None:
-    k.AND(r, x, y)
 
 
 def _not(k: Kernel, r: Register, x: Register) -> None:

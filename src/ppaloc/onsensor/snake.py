@@ -11,7 +11,7 @@ row south.
 
 from __future__ import annotations
 
-from ppaloc.onsensor.program import pull, pull_shift
+from ppaloc.onsensor.program import neg_copy, pull, pull_shift
 from ppaloc.onsensor.roles import DRegs
 from ppaloc.onsensor.sensor import Sensor, mask_bits
 from ppaloc.sim import Kernel, Register, east, north, south, west
@@ -90,7 +90,7 @@ def park(
     n, bh = sensor.size, sensor.bh
     assert (n // bh) % 2 == 0  # the last block row runs east: tile 0 ends bottom right
     if sensor.tiles > 1:
-        sensor.run(_neg_copy, scratch, reg)
+        sensor.run(neg_copy, scratch, reg)
         # scratch[1, c] = -reg[n - bh, c - 1]: tile 0's last block row, one column east
         sim.shift(scratch, 1, n - bh - 1)
         if carried:  # row 1, tile-1 columns (tile 0's hold the carry)
@@ -120,7 +120,7 @@ def snake_step(sensor: Sensor, reg: Register, scratch: Register, step: int) -> N
     """
     sim, dr = sensor.sim, sensor.roles.d
     bh, bw = sensor.bh, sensor.bw
-    sensor.run(_neg_copy, scratch, reg)
+    sensor.run(neg_copy, scratch, reg)
     for mask, pull_from in ((dr.cand, east), (dr.tmp_a, west)):
         sensor.run(_where, mask)
         pull_shift(sim, reg, pull_from, bw)
@@ -153,7 +153,7 @@ def tile_step(sensor: Sensor, reg: Register, scratch: Register, backward: bool) 
     tile's ends is not defined (its first node forwards, its last backwards)."""
     sim, dr = sensor.sim, sensor.roles.d
     bh, bw = sensor.bh, sensor.bw
-    sensor.run(_neg_copy, scratch, reg)
+    sensor.run(neg_copy, scratch, reg)
     even, odd = (west, east) if backward else (east, west)
     for mask, pull_from in ((dr.cand, even), (dr.tmp_a, odd)):
         sensor.run(_where, mask)
@@ -187,10 +187,6 @@ def _masked_copy(k: Kernel, mask: Register, y: Register, neg: Register) -> None:
     k.WHERE(mask)
     k.bus(y, neg)
     k.all()
-
-
-def _neg_copy(k: Kernel, y: Register, x: Register) -> None:
-    k.bus(y, x)
 
 
 def _where(k: Kernel, mask: Register) -> None:
