@@ -6,9 +6,10 @@ representation (``weighted-node-lbp``, ``weighted-node-lowres`` and
 ``weighted-node-lowres16``) on every route of ``benchmarks/eval_robust.py``. Each route
 goes through the sensor front-end once; every cell runs as ``ppaloc evaluate`` runs it::
 
-    .venv/bin/python benchmarks/sensitivity_robust.py              # about 20 min, 2 jobs
+    .venv/bin/python benchmarks/sensitivity_robust.py              # about 35 min, 2 jobs
     .venv/bin/python benchmarks/sensitivity_robust.py --routes "seed=1" --json s.json
     .venv/bin/python benchmarks/sensitivity_robust.py --from s.json   # re-print a table
+    .venv/bin/python benchmarks/sensitivity_robust.py --only speed_window,speed_confidence
 
 Output: one Markdown row per parameter value: the mean max F1 over the routes for each
 representation, the mean of the best of them per route, the same on Nordland summer ->
@@ -43,16 +44,19 @@ GRID: dict[str, tuple[int, ...]] = {
     "motion_margin": (2, 3, 4, 5, 6, 8),
     "local_gain": (0, 1, 2, 4, 8),
     "local_window": (1, 2, 4),
+    "speed_window": (0, 6, 8, 12, 24),
+    "speed_confidence": (0, 16, 32, 48, 64),
 }
 """Each parameter's values: at least a 4x range around the default."""
 
 NORDLAND = "nordland summer->winter"
 
 
-def jobs() -> list[tuple[str, str, dict]]:
-    """``(column, method, params)`` for every parameter value and representation."""
+def jobs(keys: tuple[str, ...] = tuple(GRID)) -> list[tuple[str, str, dict]]:
+    """``(column, method, params)`` for every value of ``keys`` and representation."""
     out = []
-    for key, values in GRID.items():
+    for key in keys:
+        values = GRID[key]
         for v in values:
             for m in METHODS:
                 out.append((f"{m}|{key}={v}", m, {key: v}))
@@ -102,6 +106,9 @@ def main() -> None:
     parser.add_argument("--places", type=int, default=200)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument(
+        "--only", default=None, metavar="KEY,KEY", help="only these parameters' rows"
+    )
     parser.add_argument("--json", type=Path, default=None, help="write the route records here")
     parser.add_argument("--from", dest="source", type=Path, default=None, help="re-print a --json")
     args = parser.parse_args()
@@ -114,7 +121,11 @@ def main() -> None:
         selected = [(label, spec) for label, spec in selected if args.routes in label]
     if not selected:
         raise SystemExit(f"error: no route label contains {args.routes!r}")
-    records = run_all(selected, jobs(), workers=args.jobs, cache_dir=CACHE_DIR)
+    keys = tuple(GRID) if not args.only else tuple(args.only.split(","))
+    unknown = sorted(set(keys) - set(GRID))
+    if unknown:
+        raise SystemExit(f"error: --only {unknown[0]!r} is not one of {', '.join(GRID)}")
+    records = run_all(selected, jobs(keys), workers=args.jobs, cache_dir=CACHE_DIR)
     print(table(records))
     wall = time.perf_counter() - t0
     print(f"\n{len(records)} routes, wall time {wall:.0f} s, {args.jobs} jobs", file=sys.stderr)

@@ -11,6 +11,17 @@ def blocky(image: np.ndarray) -> np.ndarray:
     return np.kron(np.asarray(image, np.uint8), np.ones((32, 32), np.uint8))
 
 
+def stepped(route: np.ndarray, pattern: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Query frames at the route positions given by repeating ``pattern`` steps, and
+    those positions."""
+    idx, pos, i = [], 0, 0
+    while pos < len(route):
+        idx.append(pos)
+        pos += pattern[i % len(pattern)]
+        i += 1
+    return route[idx], np.asarray(idx)
+
+
 @pytest.fixture
 def route() -> np.ndarray:
     """20 seeded random blocky frames: a toy route whose places all look different."""

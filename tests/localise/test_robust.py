@@ -19,7 +19,7 @@ from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.place import block_sums, lowres_image, normalise_contrast
 from ppaloc.topomap import TopoMap
 
-from .conftest import blocky
+from .conftest import blocky, stepped
 
 
 def naive_robust(nodes, frames, moves, p: FilterParams):
@@ -31,10 +31,23 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     # every image, live or node, contrast-normalised (docs/ppa8.md, "Robust preset")
     q = normalise_contrast(nodes, p.contrast, patch).astype(float).reshape(n, cells)
     w = np.zeros(n)
-    out, prev = [], None
+    out, prev, path = [], None, []  # path: (node, confidence) of each forward frame
     for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
         if t > 1:
             c = transition_costs(moved, p)
+            recent = path[-1 - p.speed_window :]
+            steps = np.diff([node for node, _ in recent])
+            if (
+                moved
+                and p.speed_window
+                and len(recent) == p.speed_window + 1
+                and all(0 <= d <= p.max_advance for d in steps)
+                and all(score >= p.speed_confidence for _, score in recent)
+            ):  # the transition centred on the path's speed v, 1/2 to 2 nodes a frame
+                v = min(max(steps.sum() / p.speed_window, 0.5), 2.0)
+                slope = [p.stay_cost if d < v else p.skip_cost for d in range(len(c))]
+                c = [math.floor(slope[d] * abs(d - v) + 0.5) for d in range(len(c))]
+                c = [x - min(c) for x in c]
             cand = []
             for d, cost in enumerate(c):
                 src = np.concatenate((np.full(d, -p.memory), w))[:n] if d else w
@@ -63,8 +76,15 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
         cands = np.flatnonzero(w >= math.floor(16 * w.max()) / 16)
         node = cands[0] if prev is None else cands[np.argmin(np.abs(cands - prev))]
         prev = node
+        r = p.confidence_radius
+        outside = np.concatenate((w[: max(node - r, 0)], w[node + r + 1 :]))
+        score = 0.0  # the refined threshold minus the outside maximum, each to 1/16
+        if len(outside):
+            score = math.floor(16 * w.max()) / 16 - math.floor(16 * outside.max()) / 16
+        if moved and t > 1:
+            path.append((int(node), score))
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
-        out.append((int(node), w.copy()))
+        out.append((int(node), w.copy(), score))
     return out
 
 
@@ -80,15 +100,16 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     patch=st.sampled_from([2, 4, 8]),
     kind=st.sampled_from(["lowres", "lowres16"]),
     local=st.sampled_from([(0, 1), (2, 1), (8, 2), (6, 3)]),
+    speed=st.sampled_from([(0, 0), (2, 0), (2, 4), (3, 1)]),
 )
 def test_ppa8_equals_the_robust_contract_written_out(
-    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local
+    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local, speed
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
     nodes = rng.integers(0, 256, (n, grid, grid), dtype=np.uint8)
-    frames = rng.integers(0, 256, (6, 256, 256), dtype=np.uint8)
-    moves = rng.random(6) < 0.6
+    frames = rng.integers(0, 256, (9, 256, 256), dtype=np.uint8)
+    moves = rng.random(9) < 0.7
     kw = dict(
         gain=gain,
         memory=memory,
@@ -100,6 +121,9 @@ def test_ppa8_equals_the_robust_contract_written_out(
         contrast_patch=patch,
         local_gain=local[0],
         local_window=local[1],
+        speed_window=speed[0],
+        speed_confidence=speed[1],
+        confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(
         kind,
@@ -111,8 +135,8 @@ def test_ppa8_equals_the_robust_contract_written_out(
     )
     loc.use_map(TopoMap(kind, nodes))
     want = naive_robust(nodes, frames, moves, loc.params)
-    for est, (node, w) in zip(loc.localise(frames), want, strict=True):
-        assert est.node == node
+    for est, (node, w, score) in zip(loc.localise(frames), want, strict=True):
+        assert est.node == node and est.score == score
         np.testing.assert_array_equal(est.weights, w)
         assert est.weights.max() < 1 and est.weights.min() >= -memory
 
@@ -132,16 +156,6 @@ def test_transition_golden():
     np.testing.assert_array_equal(ex.weights(), [-4, 0, -4, -8])
 
 
-def _stepped(route, pattern):
-    """Query frames at the route positions given by repeating ``pattern`` steps."""
-    idx, pos, i = [], 0, 0
-    while pos < len(route):
-        idx.append(pos)
-        pos += pattern[i % len(pattern)]
-        i += 1
-    return route[idx], np.asarray(idx)
-
-
 @pytest.mark.parametrize("pattern", [(1,), (2,), (1, 2), (0, 1, 1)])
 def test_follows_a_query_at_another_speed(route, pattern):
     """A query at 0.67-2 places per frame: the robust filter follows it; the paper's
@@ -151,7 +165,7 @@ def test_follows_a_query_at_another_speed(route, pattern):
     about ``gain`` units of evidence (3/4 to 3/2 of it, by the power-of-two scale), so
     the margin is thin by design: the images stay as they are (``contrast=0``), whose
     scale lands the evidence above the cost; normalised, this toy route's lands below."""
-    frames, truth = _stepped(route, pattern)
+    frames, truth = stepped(route, pattern)
     loc = WeightedNodeLocaliser("lowres", motion="always_forward", contrast=0)
     loc.build_map(route)
     got = np.array([e.node for e in loc.localise(frames)])

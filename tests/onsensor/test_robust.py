@@ -470,6 +470,8 @@ def test_keyframe_map_on_the_sensor_drops_the_reference_stops(rep):
         {"contrast": 0},
         {"contrast": 1, "gain": 8},
         {"contrast": 127},
+        {"speed_window": 2, "speed_confidence": 0},
+        {"speed_window": 4, "speed_confidence": 8, "stay_cost": 3, "skip_cost": 5},
         {"preset": "paper", "keyframes": True, "k": 2},
     ],
 )

@@ -6,7 +6,8 @@ of its two presets:
 - ``"robust"`` (the default): a max-product Bayes filter over the nodes in the log domain
   (docs/localise.md, "The robust filter"). Each node's weight comes from the best of its
   plausible predecessors (stay, +1, +2, +3 nodes), each charged a transition cost that the
-  image motion test sets (evidence, not a switch); the likelihood is scaled per frame
+  image motion test sets (evidence, not a switch), centred on the speed the estimate's
+  own path shows where the filter was sure of it; the likelihood is scaled per frame
   from the frame's own distances to all nodes; the weights are normalised by their
   maximum every frame and floored ``memory`` units below it, and the array edge brings
   in "no hypothesis" (the floor) instead of 0. The map gets one node per distinct place
@@ -18,8 +19,8 @@ of its two presets:
 Each preset's per-frame steps are a schedule (:mod:`ppaloc.localise.schedule`), which
 every executor (the host in float or ppa8 arithmetic, the simulated sensor, a bank of
 sensors) runs; the schedules call the decision functions here
-(:func:`transition_costs`, :func:`frame_scale` with :func:`likelihood_shift` and
-:func:`refined_minimum`, :func:`adjustment`) and
+(:func:`transition_costs` with :func:`path_speed`, :func:`frame_scale` with
+:func:`likelihood_shift` and :func:`refined_minimum`, :func:`adjustment`) and
 :func:`ppaloc.localise.motion.forward_decision`, so the contract of docs/ppa8.md lives
 in one place. Every value is a small integer a PPA controller loads through its DAC or
 compares in its integer unit.
@@ -29,9 +30,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -56,6 +57,7 @@ __all__ = [
     "MOTIONS",
     "FilterParams",
     "Param",
+    "PathSpeed",
     "adjustment",
     "check_int",
     "choose_candidate",
@@ -63,6 +65,7 @@ __all__ = [
     "frame_scale",
     "likelihood_shift",
     "local_step",
+    "path_speed",
     "preset_group",
     "refined_minimum",
     "runs_on",
@@ -266,6 +269,14 @@ class FilterParams:
         each). In ``ppa8`` and on the sensor a closer neighbour costs
         ``local_gain / (2 local_window)`` units, which must be an integer (a DAC
         constant, :func:`local_step`; ``onsensor.local``).
+    speed_window, speed_confidence : int
+        Robust: the speed of the estimate's own path over its last ``speed_window``
+        forward frames (:func:`path_speed`) centres a forward frame's transition costs
+        (:func:`transition_costs`), where the estimates at both ends and between them
+        (``speed_window + 1``) had a confidence of at least ``speed_confidence`` units
+        and the path only advanced, at most ``max_advance`` places a frame. Ranges
+        [0, 64] (default 8; 0 is off: the costs of one node a frame) and [0, 127]
+        (default 32). Controller integers only: the sensor runs it unchanged.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -299,6 +310,8 @@ class FilterParams:
     enhance: int | None = field(default=0, metadata=_param("robust", "window", 0, 0, MAX_WINDOW))
     local_gain: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 32))
     local_window: int | None = field(default=1, metadata=_param("robust", "int", 1, 1, 16))
+    speed_window: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 64))
+    speed_confidence: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -473,22 +486,89 @@ FILTER_KEYS = tuple(f.name for f in dataclasses.fields(FilterParams))
 """Every parameter name of the filter contract."""
 
 
-def transition_costs(moved: bool, params: FilterParams) -> tuple[int, ...]:
+class PathSpeed(NamedTuple):
+    """A speed as the controller holds it: ``places`` advanced over ``frames`` forward
+    frames (two integers, so ``v = places / frames`` needs no division)."""
+
+    places: int
+    frames: int
+
+
+def transition_costs(
+    moved: bool, params: FilterParams, speed: PathSpeed | None = None
+) -> tuple[int, ...]:
     """Cost of advancing ``d = 0 .. max_advance`` nodes, given the motion test's decision.
 
     The motion test is evidence: on *forward* staying costs ``stay_cost`` and one node is
     free; on *stay* staying is free and one node costs ``move_cost``. Each node beyond
     the first adds ``skip_cost``.
 
+    ``speed`` (:func:`path_speed`) centres a forward frame's costs on ``v = places /
+    frames`` instead of one node: ``d`` costs ``stay_cost (v - d)`` below ``v`` and
+    ``skip_cost (d - v)`` above it, rounded half up (``floor(x + 1/2)``, in integers:
+    ``(2 k |d frames - places| + frames) // (2 frames)``), less the least of them. No
+    speed, or ``v = 1``, gives the costs above.
+
     Examples
     --------
     >>> p = FilterParams.create("lbp", stay_cost=5, move_cost=3, skip_cost=2, max_advance=3)
     >>> transition_costs(True, p), transition_costs(False, p)
     ((5, 0, 2, 4), (0, 3, 5, 7))
+    >>> q = FilterParams.create("lbp")
+    >>> transition_costs(True, q, PathSpeed(3, 2)), transition_costs(True, q, PathSpeed(2, 3))
+    ((4, 0, 0, 4), (2, 0, 4, 8))
     """
     stay, move, skip, most = params.transition_defaults()
-    one = 0 if moved else move
-    return (stay if moved else 0, *(one + skip * (d - 1) for d in range(1, most + 1)))
+    if not moved:
+        return (0, *(move + skip * (d - 1) for d in range(1, most + 1)))
+    a, f = speed or (1, 1)
+    costs = [
+        ((stay if d * f < a else skip) * abs(d * f - a) * 2 + f) // (2 * f) for d in range(most + 1)
+    ]
+    least = min(costs)
+    return tuple(c - least for c in costs)
+
+
+def path_speed(
+    places: Sequence[int], scores: Sequence[float], params: FilterParams
+) -> PathSpeed | None:
+    """The speed the estimate's own path shows, or None where it shows none.
+
+    ``places`` and ``scores`` are the estimate's place and confidence on the forward
+    frames so far (oldest first). Over the last ``speed_window`` of them (``W``), the
+    path advanced ``a = places[-1] - places[-1-W]`` places: the speed is ``(a, W)``,
+    clipped to 1/2 .. 2 places a frame. None (the costs of one node a frame) while fewer
+    than ``W + 1`` estimates are known, where ``speed_window`` is 0, and where the path
+    is not one the transition could have taken with confidence: a step back or beyond
+    ``max_advance`` (a re-localisation), or a confidence below ``speed_confidence`` at
+    any of the ``W + 1`` estimates (a path locked on wrong places would set a wrong
+    speed). Integers and comparisons only: the controller's arithmetic.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp", speed_window=4, speed_confidence=16)
+    >>> path_speed([3, 5, 6, 8, 9, 11], [40] * 6, p)  # 6 places in 4 frames
+    PathSpeed(places=6, frames=4)
+    >>> path_speed([3, 5, 6, 8, 9, 11], [40, 40, 40, 8, 40, 40], p) is None
+    True
+    >>> path_speed([0, 0, 0, 0, 1], [40] * 5, p)  # 1/4 a frame: clipped
+    PathSpeed(places=1, frames=2)
+    """
+    w = int(params.speed_window or 0)
+    if w == 0 or len(places) <= w:
+        return None
+    path = np.asarray(places[-1 - w :], dtype=np.int64)
+    steps = np.diff(path)
+    if steps.min() < 0 or steps.max() > int(params.max_advance):  # type: ignore[arg-type]
+        return None
+    if min(scores[-1 - w :]) < params.speed_confidence:  # type: ignore[operator]
+        return None
+    a = int(path[-1] - path[0])
+    if 2 * a < w:
+        return PathSpeed(1, 2)
+    if a > 2 * w:
+        return PathSpeed(2, 1)
+    return PathSpeed(a, w)
 
 
 def likelihood_shift(spread: int, gain: int) -> int:

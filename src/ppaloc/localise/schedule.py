@@ -47,6 +47,7 @@ from ppaloc.localise.params import (
     FilterParams,
     adjustment,
     frame_scale,
+    path_speed,
     transition_costs,
 )
 
@@ -243,6 +244,11 @@ class Schedule:
             return self.topomap.place_window(node, radius)
         return node - radius, node + radius
 
+    def place(self, node: int) -> int:
+        """The place of ``node``: its run's on a map with runs, else the node itself."""
+        places = self.topomap.places if self.runs and self.topomap is not None else None
+        return node if places is None else int(places[node])
+
     def reset(self) -> None:
         """A new query: no frame, no previous estimate, the oracle from its first move."""
         self.frames = 0
@@ -275,10 +281,12 @@ class Schedule:
 class RobustSchedule(Schedule):
     """The robust filter (docs/localise.md, "The robust filter"; docs/ppa8.md).
 
-    Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs the motion
-    decision sets (from the second frame); on the first frame and on frames the motion
-    test calls forward, every node's value read, the frame's best distance, this frame's
-    scale chosen from them (:func:`~ppaloc.localise.params.frame_scale`) and the
+    Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs
+    the motion decision sets (from the second frame), a forward frame's centred on the
+    speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`); on
+    the first frame and on frames the motion test calls forward, every node's value
+    read, the frame's best distance, this frame's scale chosen from them
+    (:func:`~ppaloc.localise.params.frame_scale`) and the
     likelihood added, then the local term of ``local_gain`` (a still frame repeats the
     last one: no new evidence); detection
     (in register arithmetic at :data:`~ppaloc.localise.params.DETECT_BITS` fraction
@@ -301,7 +309,8 @@ class RobustSchedule(Schedule):
         ex.begin(frame)
         moved = bool(ex.motion(self.decided()))
         if not first:
-            ex.transition(transition_costs(moved, p))
+            speed = path_speed(self._path_places, self._path_scores, p) if moved else None
+            ex.transition(transition_costs(moved, p, speed))
         if first or moved:
             values = ex.node_values()
             best = ex.minimum(values)
@@ -309,7 +318,27 @@ class RobustSchedule(Schedule):
             ex.add_scaled(shift, alpha)
             if p.local_gain:
                 ex.add_local(int(p.local_gain), int(p.local_window))  # type: ignore[arg-type]
-        return self.finish(ex, moved)
+        result = self.finish(ex, moved)
+        if moved and not first and p.speed_window:
+            self._path_places.append(self.place(result.node))
+            self._path_scores.append(result.score)
+            if len(self._path_places) > p.speed_window + 1:  # the window's two ends
+                self._path_places.pop(0)
+                self._path_scores.pop(0)
+        return result
+
+    @property
+    def path(self) -> tuple[tuple[int, float], ...]:
+        """The ``(place, confidence)`` of the estimate on the last ``speed_window + 1``
+        forward frames (after the first frame), oldest first: what
+        :func:`~ppaloc.localise.params.path_speed` reads."""
+        return tuple(zip(self._path_places, self._path_scores, strict=True))
+
+    def reset(self) -> None:
+        """A new query: the schedule's state and the path's record cleared."""
+        super().reset()
+        self._path_places: list[int] = []
+        self._path_scores: list[float] = []
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """The normalisation ``w := max(clip(w - T), -memory)``."""

@@ -1,0 +1,163 @@
+"""The robust filter's speed from its own path (``speed_window``, ``speed_confidence``)."""
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from ppaloc.errors import PpalocError
+from ppaloc.localise.params import FilterParams, PathSpeed, path_speed, transition_costs
+from ppaloc.localise.schedule import RobustSchedule
+from ppaloc.localise.weighted import WeightedNodeLocaliser
+from ppaloc.topomap import TopoMap
+
+from .conftest import stepped
+
+
+@given(
+    a=st.integers(1, 64),
+    f=st.integers(1, 32),
+    stay=st.integers(0, 64),
+    skip=st.integers(0, 64),
+    most=st.integers(1, 3),
+)
+def test_the_costs_are_a_valley_at_the_speed(a, f, stay, skip, most):
+    """Each cost is ``k |d - v|`` rounded half up, less the least: falling up to ``v =
+    a / f`` and rising after it; the costs of one node a frame at ``v = 1``; a still
+    frame's costs ignore the speed."""
+    p = FilterParams.create("lbp", stay_cost=stay, skip_cost=skip, max_advance=most)
+    costs = transition_costs(True, p, PathSpeed(a, f))
+    v = Fraction(a, f)
+    exact = [int((stay if d < v else skip) * abs(d - v) + Fraction(1, 2)) for d in range(most + 1)]
+    assert list(costs) == [c - min(exact) for c in exact]
+    below = [c for d, c in enumerate(costs) if d <= v]
+    above = [c for d, c in enumerate(costs) if d >= v]
+    assert below == sorted(below, reverse=True) and above == sorted(above)
+    assert transition_costs(True, p, PathSpeed(f, f)) == transition_costs(True, p)
+    assert transition_costs(False, p, PathSpeed(a, f)) == transition_costs(False, p)
+
+
+def test_the_costs_round_half_a_unit_up():
+    p = FilterParams.create("lbp", stay_cost=3, skip_cost=5)
+    # v = 3/2: stay 3 x 1.5 = 4.5 -> 5, +1 3 x 0.5 = 1.5 -> 2, +2 5 x 0.5 = 2.5 -> 3,
+    # +3 5 x 1.5 = 7.5 -> 8; less the least, 2 (rounding halves to even would give 2, 0, 0, 6)
+    assert transition_costs(True, p, PathSpeed(3, 2)) == (3, 0, 1, 6)
+
+
+@pytest.mark.parametrize(
+    ("places", "scores", "want"),
+    [
+        ([0, 1, 2, 3], [40] * 4, None),  # three forward frames: not yet a window of 4
+        ([0, 1, 2, 3, 5], [40] * 5, (5, 4)),
+        ([9, 0, 1, 2, 3, 5], [40] * 6, (5, 4)),  # only the last four steps count
+        ([9, 0, 1, 2, 3, 5], [0, 40, 40, 40, 40, 40], (5, 4)),  # and their five estimates
+        ([0, 1, 2, 1, 3], [40] * 5, None),  # a step back: a re-localisation
+        ([0, 1, 5, 6, 7], [40] * 5, None),  # four places in a frame: beyond max_advance
+        ([0, 1, 2, 3, 5], [40, 40, 31, 40, 40], None),  # one estimate below the gate
+        ([0, 1, 2, 3, 5], [31, 40, 40, 40, 40], None),  # the window's first end counts too
+        ([0, 1, 2, 3, 5], [40, 40, 32, 40, 40], (5, 4)),  # at the gate passes
+        ([0, 3, 6, 9, 12], [40] * 5, (2, 1)),  # 3 a frame: clipped to 2
+        ([0, 0, 0, 0, 0], [40] * 5, (1, 2)),  # 0: clipped to 1/2
+    ],
+)
+def test_the_path_speed_is_read_only_from_a_path_the_filter_could_take(places, scores, want):
+    p = FilterParams.create("lbp", speed_window=4, speed_confidence=32)
+    assert path_speed(places, scores, p) == want
+
+
+def test_no_window_no_speed():
+    p = FilterParams.create("lbp", speed_window=0)
+    assert path_speed(list(range(100)), [99] * 100, p) is None
+
+
+@pytest.mark.parametrize(
+    "bad", [{"speed_window": -1}, {"speed_window": 65}, {"speed_confidence": 128}]
+)
+def test_out_of_range_is_a_clear_error(bad):
+    with pytest.raises(PpalocError, match=next(iter(bad))):
+        FilterParams.create("lbp", **bad)
+
+
+def test_a_map_with_runs_counts_places():
+    p = FilterParams.create("lbp")
+    sched = RobustSchedule(p)
+    sched.use_map(TopoMap("lbp", np.zeros(6, np.uint32), places=[0, 1, 1, 1, 2, 3]))
+    assert [sched.place(i) for i in range(6)] == [0, 1, 1, 1, 2, 3]
+    sched.use_map(TopoMap("lbp", np.zeros(6, np.uint32)))
+    assert [sched.place(i) for i in range(6)] == list(range(6))
+
+
+def _recording(loc: WeightedNodeLocaliser) -> list[tuple[int, ...]]:
+    """The costs of every transition ``loc`` runs from now on."""
+    seen: list[tuple[int, ...]] = []
+    transition = loc.executor.transition
+    loc.executor.transition = lambda costs: (seen.append(tuple(costs)), transition(costs))[1]
+    return seen
+
+
+def test_a_query_at_twice_the_speed_centres_the_costs_on_two_nodes(route):
+    """Once the estimate has advanced two places a frame over ``speed_window`` forward
+    frames, a forward frame's costs are centred on two (free), and the filter still
+    follows the query."""
+    reference = np.concatenate([route, route[::-1]])
+    frames, truth = stepped(reference, (2,))
+    loc = WeightedNodeLocaliser(
+        "lowres", motion="always_forward", contrast=0, speed_window=4, speed_confidence=0
+    )
+    loc.build_map(reference)
+    seen = _recording(loc)
+    got = np.array([e.node for e in loc.localise(frames)])
+    assert np.abs(got - truth)[3:].max() <= 1
+    one_a_frame = transition_costs(True, loc.params)
+    # frames 2-6 know fewer than 4 + 1 forward estimates after the first frame
+    assert seen[:5] == [one_a_frame] * 5
+    assert seen[5] == seen[-1] == (8, 4, 0, 4)
+
+
+def test_the_gate_waits_for_a_sure_path(route):
+    """With a gate, the same query's costs stay those of one node a frame until the
+    estimate's confidence has reached it at both ends of the window and between them
+    (this toy route's confidence grows from 0 to about 20 units over ten frames)."""
+    reference = np.concatenate([route, route[::-1]])
+    frames, _ = stepped(reference, (2,))
+    loc = WeightedNodeLocaliser(
+        "lowres", motion="always_forward", contrast=0, speed_window=4, speed_confidence=8
+    )
+    loc.build_map(reference)
+    seen = _recording(loc)
+    scores = [e.score for e in loc.localise(frames)]
+    one_a_frame = transition_costs(True, loc.params)
+    # the first window of five estimates (after the first frame's) all at the gate
+    first = next(i for i in range(5, len(scores)) if min(scores[i - 4 : i + 1]) >= 8)
+    assert first > 5  # later than without the gate (test above)
+    # seen[k] is the transition of frame k + 2, which reads the estimates up to frame k + 1
+    assert seen[:first] == [one_a_frame] * first
+    assert seen[first] != one_a_frame and seen[-1] == (8, 4, 0, 4)
+
+
+def test_the_path_is_cleared_with_the_query(route):
+    loc = WeightedNodeLocaliser("lowres", motion="always_forward", speed_window=2)
+    loc.build_map(route)
+    first = [e.node for e in loc.localise(route[::2])]
+    assert loc.schedule.path
+    loc.reset()
+    assert loc.schedule.path == ()
+    assert [e.node for e in loc.localise(route[::2])] == first
+
+
+def test_on_a_map_with_runs_the_path_is_counted_in_places(route):
+    """A stop of the reference is a run of nodes of one place, which the estimate may
+    cross in one frame: the path's speed counts places, not nodes."""
+    reference = np.concatenate([route[:5], np.repeat(route[5:6], 6, axis=0), route[6:]])
+    places = np.concatenate([np.arange(5), np.full(6, 5), np.arange(6, len(route))])
+    loc = WeightedNodeLocaliser(
+        "lowres", keyframes=False, motion="always_forward", speed_window=8, speed_confidence=0
+    )
+    m = loc.build_map(reference)
+    loc.use_map(TopoMap(m.kind, m.descriptors, m.frame_index, places=places, params=m.params))
+    ests = loc.localise(route)
+    forward = [(int(places[e.node]), e.score) for e in ests[1:] if e.moved]
+    assert loc.schedule.path == tuple(forward[-9:])
+    assert [p for p, _ in loc.schedule.path] != [e.node for e in ests[1:] if e.moved][-9:]
