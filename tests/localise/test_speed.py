@@ -97,17 +97,27 @@ def _recording(loc: WeightedNodeLocaliser) -> list[tuple[int, ...]]:
     return seen
 
 
+def _twice_the_speed(route, speed_confidence: int):
+    """The toy route there and back as a map, a query at two places a frame, and a
+    filter (window 4) that records its transitions' costs."""
+    reference = np.concatenate([route, route[::-1]])
+    frames, truth = stepped(reference, (2,))
+    loc = WeightedNodeLocaliser(
+        "lowres",
+        motion="always_forward",
+        contrast=0,
+        speed_window=4,
+        speed_confidence=speed_confidence,
+    )
+    loc.build_map(reference)
+    return loc, _recording(loc), frames, truth
+
+
 def test_a_query_at_twice_the_speed_centres_the_costs_on_two_nodes(route):
     """Once the estimate has advanced two places a frame over ``speed_window`` forward
     frames, a forward frame's costs are centred on two (free), and the filter still
     follows the query."""
-    reference = np.concatenate([route, route[::-1]])
-    frames, truth = stepped(reference, (2,))
-    loc = WeightedNodeLocaliser(
-        "lowres", motion="always_forward", contrast=0, speed_window=4, speed_confidence=0
-    )
-    loc.build_map(reference)
-    seen = _recording(loc)
+    loc, seen, frames, truth = _twice_the_speed(route, speed_confidence=0)
     got = np.array([e.node for e in loc.localise(frames)])
     assert np.abs(got - truth)[3:].max() <= 1
     one_a_frame = transition_costs(True, loc.params)
@@ -120,13 +130,7 @@ def test_the_gate_waits_for_a_sure_path(route):
     """With a gate, the same query's costs stay those of one node a frame until the
     estimate's confidence has reached it at both ends of the window and between them
     (this toy route's confidence grows from 0 to about 20 units over ten frames)."""
-    reference = np.concatenate([route, route[::-1]])
-    frames, _ = stepped(reference, (2,))
-    loc = WeightedNodeLocaliser(
-        "lowres", motion="always_forward", contrast=0, speed_window=4, speed_confidence=8
-    )
-    loc.build_map(reference)
-    seen = _recording(loc)
+    loc, seen, frames, _ = _twice_the_speed(route, speed_confidence=8)
     scores = [e.score for e in loc.localise(frames)]
     one_a_frame = transition_costs(True, loc.params)
     # the first window of five estimates (after the first frame's) all at the gate
