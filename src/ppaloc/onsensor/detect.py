@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ppaloc.localise.params import choose_candidate
+from ppaloc.onsensor.program import and_planes
 from ppaloc.onsensor.roles import DRegs
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.transition import settle
@@ -207,12 +208,8 @@ def _candidate_in(
     sensor.allow(False)
     at_least(sensor, state, *level)
     sensor.window(a, b)
-    sensor.run(_and, dr.cand, dr.tmp_b)
+    sensor.run(and_planes, dr.cand, dr.cand, dr.tmp_b)  # cand := cand AND window
     return bool(sensor.sim.global_or(dr.cand))
-
-
-def _and(k: Kernel, cand: Register, window: Register) -> None:
-    k.AND(cand, cand, window)
 
 
 def confidence(

@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ppaloc.errors import PpalocError
+from ppaloc.onsensor.program import neg_copy
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.snake import park, snake_masks, snake_step
 from ppaloc.sim import FLAG, Kernel, Register
@@ -134,7 +135,7 @@ def running_max(sensor: Sensor) -> None:
         _run_mask(sensor)  # d.u := NOT (the roots that continue their predecessor's place)
         snake_masks(sensor)
         for _ in range(sensor.run_steps):
-            sensor.run(_negate, s, w)  # S := -W
+            sensor.run(neg_copy, s, w)  # S := -W
             park(sensor, s, x, 127, 1)  # node 0 starts a run: its edge is never taken
             snake_step(sensor, s, x, 1)  # S_i := -W_{i-1}
             sensor.run(_take_run, w, s, dr.d, dr.u)
@@ -150,10 +151,6 @@ def _run_mask(sensor: Sensor) -> None:
 
 def _not(k: Kernel, r: Register) -> None:
     k.NOT(r)  # r := NOT r
-
-
-def _negate(k: Kernel, y: Register, x: Register) -> None:
-    k.bus(y, x)
 
 
 def _take_run(k: Kernel, w: Register, neg: Register, tmp: Register, outside: Register) -> None:
