@@ -10,7 +10,13 @@ from hypothesis import strategies as st
 from ppaloc.baselines import seqslam
 from ppaloc.errors import PpalocError
 from ppaloc.localise import enhance
-from ppaloc.localise.enhance import ENHANCE_UNITS, closer_count, closer_share, contrast_enhance
+from ppaloc.localise.enhance import (
+    ENHANCE_UNITS,
+    closer_count,
+    closer_share,
+    contrast_enhance,
+    place_neighbours,
+)
 from ppaloc.localise.params import FilterParams, frame_scale
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
@@ -179,3 +185,54 @@ def test_the_ppa8_term_is_whole_steps() -> None:
     ex.add_local(22, 11)
     assert ex.weights()[11] == -15.0
     np.testing.assert_array_equal(ex.weights(), -closer_count(column, 11))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.booleans(), min_size=1, max_size=40),
+    st.integers(1, 4),
+    st.integers(0, 2**32 - 1),
+)
+def test_place_neighbours_are_the_nodes_next_to_a_run(same, window, seed):
+    """Each node's neighbour ``k`` places back is the last node of the place ``k``
+    before its own (forward: the first of the place ``k`` after), -1 past the map; on a
+    map of one node a place they are the nodes ``i -+ k``, and ``closer_count`` is the
+    nodes' count."""
+    same[0] = False
+    places = np.cumsum(~np.asarray(same)) - 1
+    n = len(places)
+    near = place_neighbours(places, window)
+    for i in range(n):
+        for k in range(1, window + 1):
+            before = np.flatnonzero(places == places[i] - k)
+            after = np.flatnonzero(places == places[i] + k)
+            assert near[0, k - 1, i] == (before[-1] if len(before) else -1)
+            assert near[1, k - 1, i] == (after[0] if len(after) else -1)
+    nodes = np.arange(n)
+    plain = place_neighbours(nodes, window)
+    for k in range(1, window + 1):
+        np.testing.assert_array_equal(plain[0, k - 1], np.where(nodes - k >= 0, nodes - k, -1))
+        np.testing.assert_array_equal(plain[1, k - 1], np.where(nodes + k < n, nodes + k, -1))
+    d = np.random.default_rng(seed).integers(0, 5, n).astype(float)
+    np.testing.assert_array_equal(closer_count(d, window, nodes), closer_count(d, window))
+
+
+@pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
+def test_the_host_compares_a_run_with_the_nodes_next_to_it(arithmetic) -> None:
+    """On a map with runs (``TopoMap.places``) the host's term counts the nodes next to
+    a run: the nodes of a run that grow closer along it are not penalised by one
+    another."""
+    from ppaloc.localise.host import HostExecutor
+    from ppaloc.topomap import TopoMap
+
+    d = np.array([3.0, 2.0, 1.0, 0.5, 5.0])
+    places = np.array([0, 1, 1, 1, 2])
+    assert closer_count(d, 1).tolist() == [1, 1, 1, 0, 1]
+    assert closer_count(d, 1, places).tolist() == [1, 0, 0, 0, 1]
+    params = FilterParams.create("lowres", arithmetic=arithmetic, local_gain=4, local_window=1)
+    ex = HostExecutor("lowres", params, arithmetic=arithmetic)
+    ex.use_map(TopoMap("lowres", np.zeros((5, 8, 8), np.uint8), places=places))
+    ex.begin(np.zeros((256, 256), np.uint8))
+    ex._raw = d
+    ex.add_local(4, 1)
+    assert ex.weights().tolist() == [-2.0, 0.0, 0.0, 0.0, -2.0]

@@ -73,3 +73,16 @@ def assert_maps_as_the_host(rep: str, shape: tuple[int, ...]) -> None:
     got = OnSensorLocaliser(rep, motion="always_forward").build_map(ref)
     np.testing.assert_array_equal(got.descriptors, build_topomap(ref, rep).descriptors)
     assert got.kind == rep and got.descriptors.shape == shape
+
+
+def places_with_runs(n: int, seed: int, runs: tuple[tuple[int, int], ...]) -> np.ndarray:
+    """Places of ``n`` nodes: random runs, and the runs ``(first, last)`` given."""
+    rng = np.random.default_rng(seed)
+    same = rng.random(n) < 0.3
+    for first, last in runs:
+        same[first] = False
+        same[first + 1 : last + 1] = True
+        if last + 1 < n:
+            same[last + 1] = False
+    same[0] = False
+    return np.cumsum(~same) - 1

@@ -12,7 +12,7 @@ from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.onsensor.bank import SensorBank
 from ppaloc.topomap import build_topomap
 
-from .conftest import STOP_AND_SKIP, agree, assert_same_estimates
+from .conftest import STOP_AND_SKIP, agree, assert_same_estimates, places_with_runs
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lowres16", "lbp", "haar"])
@@ -103,3 +103,47 @@ def test_a_fractional_step_is_refused_in_register_arithmetic():
     with pytest.raises(PpalocError, match=r"local_gain / \(2 local_window\)"):
         OnSensorLocaliser("lowres", local_gain=2, local_window=2)
     assert FilterParams.create("lbp", local_gain=3, local_window=1).local_gain == 3
+
+
+@pytest.mark.parametrize(
+    "window, sensor_nodes, offsets",
+    [(1, None, None), (2, None, None), (2, 7, [0, 4, 11, 17, 24, 30, 37, 43])],
+)
+def test_a_run_of_one_place_compares_with_the_nodes_next_to_it(
+    blocky_route, window, sensor_nodes, offsets
+):
+    """On a map with runs (a stop of the reference, ``keyframes=false``) every node of a
+    run is compared with the nodes next to its run, on the array along the snake and by
+    the controller across tiles and sensors: the sensor equals the host's ppa8 filter
+    with a run over the tiles' boundary (Haar signs: 256 nodes a tile) and runs over a
+    bank's cuts, and the term is not the one that compares neighbouring nodes."""
+    from ppaloc.localise.enhance import closer_count
+    from ppaloc.topomap import TopoMap
+
+    ref, query = blocky_route(284, 14, [250, 251, 252, 252, 254, 255, 256, 258, 259, 262, 265])
+    full = build_topomap(ref, "haar")
+    places = places_with_runs(284, 3, ((240, 244), (253, 259), (262, 263)))
+    if sensor_nodes is None:
+        tmap = TopoMap("haar", full.descriptors, places=places)
+    else:  # a bank of small sensors, cut between places
+        part = places[236:] - places[236]
+        tmap = TopoMap("haar", full.descriptors[236:], places=part)
+        query = [ref[i] for i in (240, 241, 242, 244, 246, 248, 250, 252, 253, 256, 259, 262)]
+    kw = {"motion": "always_forward", "record_weights": True, "local_gain": 2 * window}
+    kw |= {"local_window": window, "max_advance": 2}
+    host = WeightedNodeLocaliser("haar", arithmetic="ppa8", **kw)
+    host.use_map(tmap)
+    want = host.localise(query)
+    sensor = OnSensorLocaliser(
+        "haar", **kw, **({"sensor_nodes": sensor_nodes} if sensor_nodes else {})
+    )
+    sensor.use_map(tmap)
+    assert_same_estimates(want, sensor.localise(query))
+    if sensor_nodes is None:
+        assert sensor.pipeline.tiles == 2 and tmap.places[255] == tmap.places[256]
+    else:
+        assert isinstance(sensor.pipeline, SensorBank) and sensor.pipeline.offsets == offsets
+        assert tmap.places[17] == tmap.places[23]  # a part that is one run
+    # the places' neighbours are not the nodes': some frame's counts differ
+    raw = [host.executor._distances(q) for q in query]
+    assert any((closer_count(d, window, tmap.places) != closer_count(d, window)).any() for d in raw)

@@ -33,6 +33,8 @@ from ppaloc.place import lbp_from_grid, normalise_contrast
 from ppaloc.sim import A, B, C, D, F
 from ppaloc.topomap import TopoMap
 
+from .conftest import places_with_runs
+
 SIZE = 64
 SYNTHETIC = "synthetic:?places=60&query=winter&seed=2"
 WITH_STOPS = "synthetic:?places=60&query=winter&seed=2&stops=2"
@@ -371,17 +373,6 @@ def _run_reference(w: np.ndarray, places: np.ndarray) -> np.ndarray:
     return out
 
 
-def _places_with_runs(n: int, seed: int, crossing: tuple[int, ...]) -> np.ndarray:
-    """Places of ``n`` nodes with random runs, and a run over each node boundary of
-    ``crossing`` (a tile's end, a block row's end)."""
-    rng = np.random.default_rng(seed)
-    same = rng.random(n) < 0.3
-    for i in crossing:
-        same[i - 2 : i + 3] = True  # nodes i-2 .. i+2 continue their predecessors
-    same[0] = False
-    return np.cumsum(~same) - 1
-
-
 @pytest.mark.parametrize(("rep", "n"), [("lowres", 40), ("lowres", 100), ("lbp", 90), ("lbp", 200)])
 def test_the_transition_lets_weights_flow_along_runs(rep, n):
     """On a map with runs the sensor's transition ends with the running maximum within
@@ -391,7 +382,7 @@ def test_the_transition_lets_weights_flow_along_runs(rep, n):
 
     pipe = _pipe(rep, n, memory=40)
     cap = pipe.layout.capacity
-    places = _places_with_runs(n, n, tuple(i for i in (8, 23, cap) if i < n - 3))
+    places = places_with_runs(n, n, tuple((i - 3, i + 2) for i in (8, 23, cap) if i < n - 3))
     plan_runs(pipe.sensor, places)
     assert pipe.sensor.run_steps == longest_run(places) - 1 >= 4
     assert pipe.sensor.tiles == (2 if n > cap else 1)

@@ -13,7 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ENHANCE_UNITS", "closer_count", "closer_share", "contrast_enhance"]
+__all__ = [
+    "ENHANCE_UNITS",
+    "closer_count",
+    "closer_share",
+    "contrast_enhance",
+    "place_neighbours",
+]
 
 ENHANCE_UNITS = 16
 """Register units per standard deviation of an enhanced distance (the weighted-node filter's
@@ -76,10 +82,49 @@ def contrast_enhance(column: np.ndarray, window: int = 10) -> np.ndarray:
     return out[:, 0] if squeeze else out
 
 
-def closer_count(column: np.ndarray, window: int) -> np.ndarray:
-    """For each node, how many of the ``2 window`` nodes within ``+-window`` along the
-    map have a strictly smaller distance (int64). Nodes past either end of the map count
-    as not smaller.
+def place_neighbours(places: np.ndarray, window: int) -> np.ndarray:
+    """The nodes a node's distance is compared with: ``out[0, k - 1, i]`` is the last
+    node of the place ``k`` before node ``i``'s, ``out[1, k - 1, i]`` the first node of
+    the place ``k`` after it (-1 past either end of the map), for ``k`` = 1 ..
+    ``window``.
+
+    ``places`` is each node's place (non-decreasing, one step at a time:
+    ``TopoMap.places``). On a map of one node per place these are the nodes ``i -+ k``.
+    On a map with runs (a stop of the reference as a run of nodes of one place) a run's
+    nodes are one place: none is compared with another of its run, and each is compared
+    with the nodes next to its run, which on the keyframe map would be its node's
+    neighbours.
+
+    Examples
+    --------
+    >>> place_neighbours(np.array([0, 1, 1, 2]), 1).tolist()
+    [[[-1, 0, 0, 2]], [[1, 3, 3, -1]]]
+    """
+    places = np.asarray(places, dtype=np.int64)
+    w = int(window)
+    if w < 1:
+        raise ValueError(f"window={window} must be at least 1")
+    n = len(places)
+    if n == 0:
+        return np.zeros((2, w, 0), np.int64)
+    first_place = int(places[0])
+    count = int(places[-1]) - first_place + 1
+    index = places - first_place
+    starts = np.searchsorted(index, np.arange(count), side="left")
+    ends = np.searchsorted(index, np.arange(count), side="right") - 1
+    out = np.full((2, w, n), -1, np.int64)
+    for k in range(1, w + 1):
+        before, after = index - k, index + k
+        out[0, k - 1] = np.where(before >= 0, ends[np.clip(before, 0, count - 1)], -1)
+        out[1, k - 1] = np.where(after < count, starts[np.clip(after, 0, count - 1)], -1)
+    return out
+
+
+def closer_count(column: np.ndarray, window: int, places: np.ndarray | None = None) -> np.ndarray:
+    """For each node, how many of its ``2 window`` neighbours along the map have a
+    strictly smaller distance (int64): the nodes within ``+-window``, or on a map with
+    runs (``places``, :func:`place_neighbours`) the nodes next to its run's ``window``
+    places each way. Nodes past either end of the map count as not smaller.
 
     It needs only comparisons of a distance with its neighbours' (on a PPA, shifted
     copies along the snake and a comparison each), where :func:`contrast_enhance` divides.
@@ -88,20 +133,30 @@ def closer_count(column: np.ndarray, window: int) -> np.ndarray:
     --------
     >>> closer_count(np.array([3.0, 1.0, 2.0, 5.0]), 1).tolist()
     [1, 0, 1, 1]
+    >>> closer_count(np.array([3.0, 1.0, 2.0, 5.0]), 1, np.array([0, 1, 1, 2])).tolist()
+    [1, 0, 1, 1]
+    >>> closer_count(np.array([3.0, 2.0, 1.0, 5.0]), 1, np.array([0, 1, 1, 2])).tolist()
+    [1, 0, 0, 1]
     """
     d = np.asarray(column, dtype=np.float64)
     n, w = len(d), int(window)
     if w < 1:
         raise ValueError(f"window={window} must be at least 1")
-    padded = np.concatenate((np.full(w, np.inf), d, np.full(w, np.inf)))
     count = np.zeros(n, np.int64)
+    if places is not None:
+        padded = np.append(d, np.inf)  # index -1: past an end of the map
+        for side in place_neighbours(places, w):
+            for nodes in side:
+                count += padded[nodes] < d
+        return count
+    padded = np.concatenate((np.full(w, np.inf), d, np.full(w, np.inf)))
     for k in range(-w, w + 1):
         if k:
             count += padded[w + k : w + k + n] < d
     return count
 
 
-def closer_share(column: np.ndarray, window: int) -> np.ndarray:
+def closer_share(column: np.ndarray, window: int, places: np.ndarray | None = None) -> np.ndarray:
     """:func:`closer_count` as a share of the ``2 window`` neighbours: 0 for a node no
     neighbour beats (the local best), 1 for the local worst.
 
@@ -110,4 +165,4 @@ def closer_share(column: np.ndarray, window: int) -> np.ndarray:
     >>> closer_share(np.array([3.0, 1.0, 2.0, 5.0]), 1).tolist()
     [0.5, 0.0, 0.5, 0.5]
     """
-    return closer_count(column, window) / (2 * int(window))
+    return closer_count(column, window, places) / (2 * int(window))

@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.enhance import ENHANCE_UNITS, closer_count, closer_share, contrast_enhance
+from ppaloc.localise.enhance import ENHANCE_UNITS, closer_count, contrast_enhance
 from ppaloc.localise.likelihood import (
     BINARY_PLACES,
     HAAR_EXPONENT,
@@ -170,6 +170,7 @@ class HostExecutor:
         self._distances: NodeDistances | None = None
         self._w = np.zeros(0, self._dtype)
         self._lift: np.ndarray | None = None
+        self._places: np.ndarray | None = None
         self.ranking: np.ndarray | None = None
         self.last_shift: int | None = None
         self.reset()
@@ -189,6 +190,7 @@ class HostExecutor:
         # a map's runs (nodes of one place): the places lifted 256 apart, so one running
         # maximum over ``w + lift`` is a maximum within each run (|w| <= 127)
         self._lift = 256.0 * topomap.places if topomap.has_runs else None  # type: ignore[operator]
+        self._places = topomap.places if topomap.has_runs else None
         self._term = np.empty(n, self._dtype)
         self._pred = np.empty(n, self._dtype)
         self._shifted = np.empty(n, self._dtype)
@@ -280,18 +282,21 @@ class HostExecutor:
         self._add_term(shift, alpha)
 
     def add_local(self, gain: int, window: int) -> None:
-        """``w := clip(w - gain * closer_share(distances, window))`` (``local_gain``). In
-        ppa8 each closer neighbour costs the integer ``gain / (2 window)``
+        """``w := clip(w - gain * closer_share(distances, window))`` (``local_gain``); on
+        a map with runs a node's neighbours are the nodes next to its run
+        (:func:`~ppaloc.localise.enhance.place_neighbours`). In ppa8 each closer
+        neighbour costs the integer ``gain / (2 window)``
         (:func:`~ppaloc.localise.params.local_step`; ``FilterParams`` checks it), so the
         term is exact; the sensor subtracts it once per closer neighbour, and the lower
         clip makes that the same."""
         raw = self._raw_distances()
+        count = closer_count(raw, window, self._places)
         if self.exact:
             step = local_step(gain, window)
             assert step is not None, "FilterParams refuses a fractional step in ppa8"
-            term = (-step * closer_count(raw, window)).astype(self._dtype)
+            term = (-step * count).astype(self._dtype)
         else:
-            term = self._dtype(-gain) * closer_share(raw, window).astype(self._dtype)
+            term = self._dtype(-gain) * (count / (2 * int(window))).astype(self._dtype)
         self._add_to_weights(term)
 
     def shift(self) -> None:

@@ -36,6 +36,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ppaloc.errors import PpalocError
+from ppaloc.localise.enhance import place_neighbours
 from ppaloc.localise.params import FilterParams, choose_candidate
 from ppaloc.onsensor.executor import SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
@@ -140,6 +141,7 @@ class SensorBank:
         self.sensors = [first] + [make(n, i) for i, n in enumerate(sizes[1:], start=1)]
         self.tiles = sum(s.tiles for s in self.sensors)
         self.timing = BankTiming(self.sensors)
+        self._places: np.ndarray | None = None  # the map's places where it has runs
         self.reset()
 
     # ------------------------------------------------------------------ map and state
@@ -147,6 +149,7 @@ class SensorBank:
         """Write each sensor's part of ``topomap`` into its registers (stage "mapping"),
         with its part of the map's runs (``runs``; :func:`ppaloc.onsensor.mapping.upload_map`)."""
         desc, places = np.asarray(topomap.descriptors), topomap.places
+        self._places = places if runs and topomap.has_runs else None
         for s, off in zip(self.sensors, self.offsets, strict=True):
             part = None if places is None else places[off : off + s.n_nodes] - places[off]
             upload_map(s, TopoMap(topomap.kind, desc[off : off + s.n_nodes], places=part), runs)
@@ -219,18 +222,29 @@ class SensorBank:
 
     def add_local(self, gain: int, window: int) -> None:
         """The local term on every sensor, then the pairs across the cuts from the exact
-        end values the sensors exchange (:mod:`ppaloc.onsensor.local`)."""
-        last = len(self.sensors) - 1
-        ends = [s.local_term(gain, window, (i > 0, i < last)) for i, s in enumerate(self.sensors)]
+        values the sensors exchange (:mod:`ppaloc.onsensor.local`)."""
+        n = sum(s.n_nodes for s in self.sensors)
+        places = self._places if self._places is not None else np.arange(n)
+        near = place_neighbours(places, window)
+        offsets = np.asarray(self.offsets)
+        owner = np.searchsorted(offsets, np.arange(n), side="right") - 1
+        node = np.broadcast_to(np.arange(n), near.shape)
+        cross = (near >= 0) & (owner[np.maximum(near, 0)] != owner[node])
+        pairs = sorted(zip(node[cross].tolist(), near[cross].tolist(), strict=True))
+        wanted: list[set[int]] = [set() for _ in self.sensors]
+        for a, b in pairs:
+            wanted[owner[a]].add(a - int(offsets[owner[a]]))
+            wanted[owner[b]].add(b - int(offsets[owner[b]]))
+        values = [s.local_term(gain, window, wanted[i]) for i, s in enumerate(self.sensors)]
         self.timing.sync()
-        for i, (s, off) in enumerate(zip(self.sensors, self.offsets, strict=True)):
-            others = {
-                other + node - off: value
-                for j, (part, other) in enumerate(zip(ends, self.offsets, strict=True))
-                if j != i
-                for node, value in part.items()
-            }
-            s.local_edges(gain, window, ends[i], others)
+        for i, s in enumerate(self.sensors):
+            off = int(offsets[i])
+            others = [
+                (a - off, values[owner[b]][b - int(offsets[owner[b]])])
+                for a, b in pairs
+                if owner[a] == i
+            ]
+            s.local_edges(gain, window, values[i], others)
 
     def detect(self, prev: int | None, bits: int = 0) -> tuple[int, float]:
         """``T``: the largest of the sensors' thresholds; with ``bits``, the candidates'

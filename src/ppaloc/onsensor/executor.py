@@ -14,7 +14,7 @@ arithmetic frame for frame (docs/ppa8.md).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
@@ -262,14 +262,14 @@ class SensorExecutor:
         """Robust, ``local_gain`` (:func:`ppaloc.onsensor.local.local_term`)."""
         self.local_term(gain, window)
 
-    def local_term(
-        self, gain: int, window: int, ends: tuple[bool, bool] = (False, False)
-    ) -> dict[int, float]:
-        """The local term within this sensor (``ends``: a bank's sensor before and after
-        it, whose end values it returns)."""
-        return local.local_term(self.sensor, self.places, self.state, gain, window, ends)
+    def local_term(self, gain: int, window: int, wanted: Collection[int] = ()) -> dict[int, float]:
+        """The local term within this sensor; the exact values of the nodes ``wanted``
+        (a bank's pairs across its cuts)."""
+        return local.local_term(self.sensor, self.places, self.state, gain, window, wanted)
 
-    def local_edges(self, gain: int, window: int, own: dict, others: dict) -> None:
+    def local_edges(
+        self, gain: int, window: int, own: dict[int, float], others: Sequence[tuple[int, float]]
+    ) -> None:
         """The local term across a bank's cuts (:func:`~ppaloc.onsensor.local.local_edges`)."""
         local.local_edges(self.sensor, self.places, self.state, gain, window, own, others)
 

@@ -1,30 +1,36 @@
 """The local term of ``local_gain`` on the sensor: each node loses a constant for every
-neighbour along the snake that is strictly closer to the live frame (stage ``"local"``).
+neighbour along the map that is strictly closer to the live frame (stage ``"local"``).
 
 The host's :meth:`ppaloc.localise.host.HostExecutor.add_local` subtracts ``gain *
-closer_share(distances, window)``: a node loses ``step = gain / (2 window)`` units
-(:func:`ppaloc.localise.params.local_step`, a DAC integer) for each of the ``2 window``
-nodes within ``+-window`` whose distance is strictly smaller. On the sensor, after the
-frame's update:
+closer_share(distances, window, places)``: a node loses ``step = gain / (2 window)``
+units (:func:`ppaloc.localise.params.local_step`, a DAC integer) for each of its ``2
+window`` neighbours whose distance is strictly smaller: the nodes within ``+-window``,
+or on a map with runs the nodes next to its run's ``window`` places each way
+(:func:`~ppaloc.localise.enhance.place_neighbours`, :func:`neighbours`). On the sensor,
+after the frame's update:
 
 1. every node's tree value ``v = sign * mu * 2**-e`` at its root in ``spare``: on a
    sensor of one tile the values the update read, kept in ``means`` meanwhile
    (:func:`keep_values`); on two tiles each tile's distance tree again, tile 1's values
    moved one PE east, where its weights are;
 2. the controller reads exactly (:func:`ppaloc.onsensor.carry.read_exact`) the values of
-   the nodes within ``window`` of a tile's end where the neighbour is in another tile
-   or, on a bank, on another sensor;
+   the nodes whose neighbour is in another tile, both ends of each such pair, and, on a
+   bank, those its pairs across the cuts need;
 3. per tile, a copy ``-v`` moves one node along the tile's snake per step, forwards
    ``window`` times, then backwards ``window`` times
    (:func:`ppaloc.onsensor.snake.tile_step`: FLAG-masked ``scamp5_shift`` inside the
    block rows, the row starts, or the row ends going backwards, from a copy shifted one
-   block row); after step ``k`` one ``where`` flags the
-   roots whose neighbour ``k`` away is strictly closer (``sign (v_i - v_j) > 0``) and one
-   masked ``add`` takes ``step`` from their weights. A node whose neighbour ``k`` away
-   is outside the tile is cleared from the mask (one point load a step);
+   block row); on a map with runs each step then moves the copy on along the runs, at
+   the roots that continue their run only (the snake masks ANDed with the controller's
+   rectangles, ``Sensor.run_chains``), as many times as the tile's longest stretch of
+   them, so every node of a run holds the value next to its run. After step ``k`` one
+   ``where`` flags the roots whose neighbour ``k`` places away is strictly closer
+   (``sign (v_i - v_j) > 0``) and one masked ``add`` takes ``step`` from their weights.
+   The nodes whose neighbour ``k`` away is outside the tile are cleared from the mask
+   (a point load, or a window of rectangles for a run);
 4. the controller compares those pairs on the values it read and takes ``count *
    step`` from each such node (one point load and one masked ``add``); on a bank, after
-   the sensors have exchanged their end values (:func:`local_edges`).
+   the sensors have exchanged their values (:func:`local_edges`).
 
 Under noise each moved copy carries the fixed offsets of the PEs it was written in, the
 same on every frame, so a comparison of two nearly equal distances goes the same way on
@@ -38,17 +44,22 @@ local best, whose path the scale follows (:mod:`ppaloc.onsensor.gain`).
 
 from __future__ import annotations
 
+from collections.abc import Collection, Sequence
 from typing import Any
 
+import numpy as np
+
+from ppaloc.localise.enhance import place_neighbours
 from ppaloc.localise.params import local_step
 from ppaloc.onsensor.carry import read_exact
 from ppaloc.onsensor.program import and_planes, neg_copy
+from ppaloc.onsensor.roles import DRegs
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.snake import tile_masks, tile_step
 from ppaloc.onsensor.weights import WeightState
 from ppaloc.sim import FLAG, IN, NEWS, XE, Kernel, Register
 
-__all__ = ["keep_values", "local_edges", "local_term"]
+__all__ = ["keep_values", "local_edges", "local_term", "neighbours"]
 
 
 def keep_values(sensor: Sensor) -> None:
@@ -59,46 +70,49 @@ def keep_values(sensor: Sensor) -> None:
         sensor.run(neg_copy, r.means, r.spare)
 
 
+def neighbours(sensor: Sensor, window: int) -> np.ndarray:
+    """The nodes of this sensor each node is compared with
+    (:func:`~ppaloc.localise.enhance.place_neighbours`: on a map with runs the nodes next
+    to its run, else ``i -+ k``), -1 past the sensor's ends."""
+    places = sensor.run_places if sensor.run_places is not None else np.arange(sensor.n_nodes)
+    return place_neighbours(places, window)
+
+
 def local_term(
     sensor: Sensor,
     places: Any,
     state: WeightState,
     gain: int,
     window: int,
-    ends: tuple[bool, bool] = (False, False),
+    wanted: Collection[int] = (),
 ) -> dict[int, float]:
     """Stages 1-4 of the module docstring within this sensor; returns the exact values
-    of its first ``window`` nodes where a bank has a sensor before it and of its last
-    where it has one after it (``ends``; for :func:`local_edges`)."""
+    of the nodes ``wanted`` (a bank's pairs across its cuts, :func:`local_edges`)."""
     step = _step_of(gain, window)
     sim, r = sensor.sim, sensor.roles
     n, cap = sensor.n_nodes, sensor.layout.capacity
     spans = [(t * cap, min(n, (t + 1) * cap) - 1) for t in range(sensor.tiles)]
+    near = neighbours(sensor, window)
+    pairs = _across_tiles(near, cap)
     with sim.stage("local"):
         _values(sensor, places)
-        wanted = set()
-        before, after = ends
-        for t, (first, last) in enumerate(spans):
-            if t or before:
-                wanted.update(range(first, min(first + window, last + 1)))
-            if t < sensor.tiles - 1 or after:
-                wanted.update(range(max(last - window + 1, first), last + 1))
+        read = {a for a, _ in pairs} | {b for _, b in pairs} | set(wanted)
         values = {
             node: read_exact(sensor, r.spare, *sensor.root_of(node), r.frame, r.means)
-            for node in sorted(wanted)
+            for node in sorted(read)
         }
         for t, (first, last) in enumerate(spans):
             for backward in (False, True):
-                _compare_along(sensor, places, state, t, first, last, step, window, backward)
-        tile = {node: node // cap for node in values}
-        _penalise(
-            sensor,
-            state,
-            step,
-            _closer_counts(places, values, values, window, lambda a, b: tile[a] != tile[b]),
-        )
-    near_end = set(range(window) if before else ()) | set(range(n - window, n) if after else ())
-    return {node: v for node, v in values.items() if node in near_end}
+                _compare_along(
+                    sensor, places, state, t, (first, last), step, near[int(backward)], backward
+                )
+        sign = places.value_scale[0]
+        counts: dict[int, int] = {}
+        for a, b in pairs:
+            if sign * (values[a] - values[b]) > 0:
+                counts[a] = counts.get(a, 0) + 1
+        _penalise(sensor, state, step, counts)
+    return {node: values[node] for node in wanted}
 
 
 def local_edges(
@@ -108,16 +122,29 @@ def local_edges(
     gain: int,
     window: int,
     own: dict[int, float],
-    others: dict[int, float],
+    others: Sequence[tuple[int, float]],
 ) -> None:
-    """Stage 4 across a bank's cuts: this sensor's end nodes (``own``, from
-    :func:`local_term`) against the other sensors' (``others``, keyed by node in this
-    sensor's numbering: negative before it, ``n_nodes`` and more after it)."""
+    """Stage 4 across a bank's cuts: each ``(node, value)`` of ``others`` is a
+    neighbour of this sensor's ``node`` on another sensor, ``own`` this sensor's exact
+    values (from :func:`local_term`)."""
     step = _step_of(gain, window)
+    sign = places.value_scale[0]
+    counts: dict[int, int] = {}
+    for node, value in others:
+        if sign * (own[node] - value) > 0:
+            counts[node] = counts.get(node, 0) + 1
     with sensor.sim.stage("local"):
-        _penalise(
-            sensor, state, step, _closer_counts(places, own, others, window, lambda a, b: True)
-        )
+        _penalise(sensor, state, step, counts)
+
+
+def _across_tiles(near: np.ndarray, cap: int) -> list[tuple[int, int]]:
+    """The pairs ``(node, neighbour)`` in different tiles of one sensor (the
+    controller compares them on values it reads), in order of node."""
+    n = near.shape[-1]
+    node = np.broadcast_to(np.arange(n), near.shape)
+    cross = (near >= 0) & (near // cap != node // cap)
+    order = np.argsort(node[cross], kind="stable")
+    return [(int(a), int(b)) for a, b in zip(node[cross][order], near[cross][order], strict=True)]
 
 
 def _step_of(gain: int, window: int) -> int:
@@ -146,24 +173,6 @@ def _values(sensor: Sensor, places: Any) -> None:
             sensor.run(_east_merge, r.spare, r.means, r.d.pattern)
 
 
-def _closer_counts(
-    places: Any,
-    mine: dict[int, float],
-    others: dict[int, float],
-    window: int,
-    pair: Any,
-) -> dict[int, int]:
-    """For each node of ``mine``: how many nodes of ``others`` within ``window`` (and
-    ``pair(a, b)``: not compared on the array) are strictly closer to the frame."""
-    sign = places.value_scale[0]
-    counts: dict[int, int] = {}
-    for a, va in mine.items():
-        for b, vb in others.items():
-            if 0 < abs(a - b) <= window and pair(a, b) and sign * (va - vb) > 0:
-                counts[a] = counts.get(a, 0) + 1
-    return counts
-
-
 def _penalise(sensor: Sensor, state: WeightState, step: int, counts: dict[int, int]) -> None:
     """``w := clip(w - count * step)`` at each node's root (a point load and a masked
     ``add``; ``count * step`` is at most ``local_gain``, within the DAC's range)."""
@@ -180,32 +189,65 @@ def _compare_along(
     places: Any,
     state: WeightState,
     tile: int,
-    first: int,
-    last: int,
+    span: tuple[int, int],
     step: int,
-    window: int,
+    near: np.ndarray,
     backward: bool,
 ) -> None:
-    """Stage 3 in one direction: ``window`` steps of ``-v`` along tile ``tile``'s snake,
-    a comparison and a masked ``add`` after each."""
+    """Stage 3 in one direction: ``window`` steps of ``-v`` along tile ``tile``'s snake
+    (``near[k - 1]``: each node's neighbour ``k`` places away), a comparison and a
+    masked ``add`` after each. On a map with runs each step is one node along the snake
+    and then one node more at the roots that continue their run (backwards: whose run
+    continues), as many times as the tile's longest stretch of them
+    (``Sensor.run_chains``), so that every node of a run reads the node next to it."""
     sim, r = sensor.sim, sensor.roles
     dr = r.d
+    first, last = span
     v, moved, scratch = r.spare, r.frame, r.means
     allowed, hit = dr.u, dr.d
     sensor.root_pattern(dr.pattern, tile)
     sensor.run(and_planes, allowed, dr.pattern, dr.valid)
     tile_masks(sensor, tile, backward)
+    fresh = True  # the tile's snake masks are loaded
     sensor.run(neg_copy, moved, v)
     target, sign = (r.negated, 1) if state.negated else (r.weights, -1)
-    for k in range(1, window + 1):
-        # the node whose neighbour k away is outside the tile: the controller's pair
-        edge = last - (k - 1) if backward else first + (k - 1)
-        if first <= edge <= last:
-            sim.load_point(dr.pattern, *sensor.root_of(edge))
+    chain = sensor.run_chains.get((tile, backward))
+    nodes = np.arange(first, last + 1)
+    cleared = 0
+    for k in range(1, len(near) + 1):
+        # the nodes whose neighbour k away is outside the tile: the controller's pairs
+        ahead = near[k - 1, first : last + 1]
+        outside = nodes[(ahead < first) | (ahead > last)]
+        new = outside[cleared:] if not backward else outside[: len(outside) - cleared]
+        cleared = len(outside)
+        if len(new) == 1:
+            sim.load_point(dr.pattern, *sensor.root_of(int(new[0])))
             sensor.run(_clear_where, allowed, dr.pattern)
+        elif len(new) > 1:
+            sensor.window(int(new[0]), int(new[-1]))
+            sensor.run(_clear_where, allowed, dr.tmp_b)
+            fresh = False
+        if chain is not None:
+            sensor.roots_in(hit, dr.pattern, [(tile, chain[0])])
+            fresh = False
+        if not fresh:
+            tile_masks(sensor, tile, backward)
+            fresh = True
         tile_step(sensor, moved, scratch, backward)
+        if chain is not None:  # along the runs: only the roots that continue them move
+            sensor.run(_and_masks, dr, hit)
+            fresh = False
+            for _ in range(chain[1]):
+                tile_step(sensor, moved, scratch, backward)
         sim.load_in(sign * step)
         sensor.run(_flag_closer, places.value_scale[0], v, moved, allowed, hit, target)
+
+
+def _and_masks(k: Kernel, dr: DRegs, keep: Register) -> None:
+    """The snake masks of :func:`~ppaloc.onsensor.snake.tile_masks` kept at ``keep``."""
+    k.AND(dr.cand, dr.cand, keep)
+    k.AND(dr.tmp_a, dr.tmp_a, keep)
+    k.AND(dr.tmp_b, dr.tmp_b, keep)
 
 
 def _east_merge(k: Kernel, v: Register, kept: Register, tile0: Register) -> None:

@@ -34,7 +34,14 @@ from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.snake import park, snake_masks, snake_step
 from ppaloc.sim import FLAG, Kernel, Register
 
-__all__ = ["bank_offsets", "continues", "longest_run", "plan_runs", "running_max"]
+__all__ = [
+    "bank_offsets",
+    "continues",
+    "longest_run",
+    "node_rects",
+    "plan_runs",
+    "running_max",
+]
 
 
 def continues(places: np.ndarray) -> np.ndarray:
@@ -101,17 +108,42 @@ def bank_offsets(places: np.ndarray | None, n_nodes: int, per: int, least: int =
 
 
 def plan_runs(sensor: Sensor, places: np.ndarray | None) -> None:
-    """Keep the controller's table of the map's runs on ``sensor``: ``run_steps`` (the
-    longest run less one) and ``run_rects`` (per tile, the root rows of consecutive
-    blocks whose nodes continue their predecessor's place). None, or a map without
-    runs: nothing to do at the transition."""
-    sensor.run_steps, sensor.run_rects = 0, {}
+    """Keep the controller's table of the map's runs on ``sensor``: ``run_places`` (each
+    node's place, or None for a map without runs), ``run_steps`` (the longest run less
+    one), ``run_rects`` (per tile, the root rows of consecutive blocks whose nodes
+    continue their predecessor's place) and ``run_chains`` (per tile and direction of
+    the local term, :mod:`ppaloc.onsensor.local`: the rectangles of the tile's nodes that
+    take their predecessor's value, backwards their successor's, along a run, and the
+    longest stretch of them). None, or a map without runs: nothing to do at the
+    transition."""
+    sensor.run_steps, sensor.run_rects, sensor.run_places = 0, {}, None
+    sensor.run_chains = {}
     if places is None or longest_run(places) < 2:
         return
-    nodes = np.flatnonzero(continues(places))
+    places = np.asarray(places, dtype=np.int64)
+    sensor.run_places = places
+    sensor.run_steps = longest_run(places) - 1
+    sensor.run_rects = node_rects(sensor, np.flatnonzero(continues(places)))
+    cap = sensor.layout.capacity
+    for t in range(sensor.tiles):
+        part = places[t * cap : min(len(places), (t + 1) * cap)]
+        same = part[1:] == part[:-1]  # node i + 1 of the tile continues node i's place
+        for backward in (False, True):
+            chain = np.flatnonzero(same) + (0 if backward else 1) + t * cap
+            if len(chain):
+                # the longest stretch of consecutive nodes that take their neighbour's value
+                stretch = np.split(chain, np.flatnonzero(np.diff(chain) != 1) + 1)
+                steps = max(len(c) for c in stretch)
+                sensor.run_chains[(t, backward)] = (node_rects(sensor, chain)[t], steps)
+
+
+def node_rects(sensor: Sensor, nodes: np.ndarray) -> dict[int, list[tuple[int, int, int, int]]]:
+    """Per tile, the root rows of the blocks of ``nodes`` (ascending) as rectangles: one
+    for each stretch of consecutive nodes in one block row (along a row the snake's
+    block column moves by one per node)."""
+    if not len(nodes):
+        return {}
     tile, brow, bcol = sensor.layout.node_to_block(nodes)
-    # consecutive nodes of one block row sit in adjacent blocks: one rectangle for each
-    # stretch of them (along a row the snake's block column moves by one per node)
     breaks = (np.diff(nodes) != 1) | (np.diff(tile) != 0) | (np.diff(brow) != 0)
     rects: dict[int, list[tuple[int, int, int, int]]] = {}
     for group in np.split(np.arange(len(nodes)), np.flatnonzero(breaks) + 1):
@@ -121,7 +153,7 @@ def plan_runs(sensor: Sensor, places: np.ndarray | None) -> None:
         rects.setdefault(int(tile[first]), []).append(
             (row, c0 * sensor.bw, row, c1 * sensor.bw + sensor.bw - 1)
         )
-    sensor.run_steps, sensor.run_rects = longest_run(places) - 1, rects
+    return rects
 
 
 def running_max(sensor: Sensor) -> None:

@@ -76,10 +76,12 @@ class Sensor:
         Pixels per side of a grid block (32 on a 256 array).
     tiles : int
         Tiles the map takes.
-    run_steps, run_rects
+    run_steps, run_rects, run_places, run_chains
         The controller's table of the map's runs of one place (:mod:`ppaloc.onsensor.runs`):
-        the longest run less one (0: no runs) and, per tile, the rectangles that hold the
-        roots of the nodes continuing their predecessor's place.
+        the longest run less one (0: no runs), per tile the rectangles that hold the
+        roots of the nodes continuing their predecessor's place, each node's place
+        (None: no runs), and the local term's chains along the runs
+        (:func:`~ppaloc.onsensor.runs.plan_runs`).
     """
 
     def __init__(
@@ -110,6 +112,8 @@ class Sensor:
         self.tiles = self.tiles_for(self.n_nodes)
         self.run_steps = 0
         self.run_rects: dict[int, list[tuple[int, int, int, int]]] = {}
+        self.run_places: np.ndarray | None = None
+        self.run_chains: dict[tuple[int, bool], tuple[list[tuple[int, int, int, int]], int]] = {}
         self.sim = Scamp5(size, size, noise=noise, seed=seed, observers=observers)
         self.kernels = KernelCache(self.sim)
         self.node_grid()
