@@ -134,8 +134,6 @@ def closer_count(column: np.ndarray, window: int, places: np.ndarray | None = No
     >>> closer_count(np.array([3.0, 1.0, 2.0, 5.0]), 1).tolist()
     [1, 0, 1, 1]
     >>> closer_count(np.array([3.0, 1.0, 2.0, 5.0]), 1, np.array([0, 1, 1, 2])).tolist()
-    [1, 0, 1, 1]
-    >>> closer_count(np.array([3.0, 2.0, 1.0, 5.0]), 1, np.array([0, 1, 1, 2])).tolist()
     [1, 0, 0, 1]
     """
     d = np.asarray(column, dtype=np.float64)
