@@ -236,3 +236,10 @@ def test_the_host_compares_a_run_with_the_nodes_next_to_it(arithmetic) -> None:
     ex._raw = d
     ex.add_local(4, 1)
     assert ex.weights().tolist() == [-2.0, 0.0, 0.0, 0.0, -2.0]
+
+
+def test_place_neighbours_refuse_places_that_skip_or_fall() -> None:
+    with pytest.raises(ValueError, match="rise by 0 or 1"):
+        place_neighbours(np.array([0, 2, 3]), 1)
+    with pytest.raises(ValueError, match="rise by 0 or 1"):
+        place_neighbours(np.array([0, 1, 0]), 1)

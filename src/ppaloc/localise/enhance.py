@@ -107,6 +107,9 @@ def place_neighbours(places: np.ndarray, window: int) -> np.ndarray:
     n = len(places)
     if n == 0:
         return np.zeros((2, w, 0), np.int64)
+    steps = np.diff(places)
+    if len(steps) and (steps.min() < 0 or steps.max() > 1):
+        raise ValueError("places must rise by 0 or 1 from one node to the next")
     first_place = int(places[0])
     count = int(places[-1]) - first_place + 1
     index = places - first_place
@@ -155,8 +158,9 @@ def closer_count(column: np.ndarray, window: int, places: np.ndarray | None = No
 
 
 def closer_share(column: np.ndarray, window: int, places: np.ndarray | None = None) -> np.ndarray:
-    """:func:`closer_count` as a share of the ``2 window`` neighbours: 0 for a node no
-    neighbour beats (the local best), 1 for the local worst.
+    """:func:`closer_count` as a share of the ``2 window`` neighbours (on a map with runs,
+    ``places``, the nodes next to a node's run): 0 for a node no neighbour beats (the
+    local best), 1 for the local worst.
 
     Examples
     --------

@@ -262,11 +262,12 @@ class FilterParams:
     local_gain, local_window : int
         Robust: on each frame that adds evidence, every node also loses ``local_gain``
         units times the share of the ``2 local_window`` nodes around it that are closer
-        to the frame (:func:`ppaloc.localise.enhance.closer_share`): contrast between
-        neighbouring places, which the transition needs to follow a varying speed, beside
-        the raw likelihood's evidence. Ranges [0, 32] (default 2, half the raw term's
-        span ``gain``; 0 is off) and [1, 16] (default 1: the two neighbours, one unit
-        each). In ``ppa8`` and on the sensor a closer neighbour costs
+        to the frame (:func:`ppaloc.localise.enhance.closer_share`; on a map with runs
+        the nodes next to its run, :func:`~ppaloc.localise.enhance.place_neighbours`):
+        contrast between neighbouring places, which the transition needs to follow a
+        varying speed, beside the raw likelihood's evidence. Ranges [0, 32] (default 2,
+        half the raw term's span ``gain``; 0 is off) and [1, 16] (default 1: the two
+        neighbours, one unit each). In ``ppa8`` and on the sensor a closer neighbour costs
         ``local_gain / (2 local_window)`` units, which must be an integer (a DAC
         constant, :func:`local_step`; ``onsensor.local``).
     speed_window, speed_confidence : int

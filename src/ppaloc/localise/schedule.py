@@ -102,8 +102,9 @@ class Executor(Protocol):
         """Robust: ``w_i += alpha - mu_i 2**-shift`` from the values just read."""
 
     def add_local(self, gain: int, window: int) -> None:
-        """Robust, ``local_gain``: ``w_i -= gain * closer_share(distances, window)_i``
-        (:func:`~ppaloc.localise.enhance.closer_share`) from the distances just compared."""
+        """Robust, ``local_gain``: ``w_i -= gain * closer_share(distances, window,
+        places)_i`` (:func:`~ppaloc.localise.enhance.closer_share`; on a map with runs the
+        neighbours are the nodes next to a run) from the distances just compared."""
 
     def shift(self) -> None:
         """Paper: every weight one node along the map (``advance`` nodes on the host)."""

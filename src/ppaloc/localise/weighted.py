@@ -18,7 +18,8 @@ cannot drift apart.
    frame's own best and mean distance (:func:`~ppaloc.localise.params.frame_scale`);
 3. update ``w_i += alpha_t - mu_s_i`` with ``alpha_t = best * 2**-s_t``, then the local
    term: ``local_gain / (2 local_window)`` units less for each of the ``2 local_window``
-   neighbours whose distance is strictly smaller (:func:`~ppaloc.localise.enhance.closer_count`);
+   neighbours whose distance is strictly smaller (:func:`~ppaloc.localise.enhance.closer_count`;
+   on a map with runs the nodes next to a run, :func:`~ppaloc.localise.enhance.place_neighbours`);
 4. detection: the highest weight, ties to the candidate nearest the previous estimate;
 5. normalisation ``w_i := max(w_i - max(W), -memory)``.
 

@@ -39,6 +39,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.enhance import place_neighbours
 from ppaloc.localise.params import FilterParams, choose_candidate
 from ppaloc.onsensor.executor import SensorExecutor
+from ppaloc.onsensor.local import cross_pairs
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.runs import bank_offsets
 from ppaloc.sim import Scamp5
@@ -142,6 +143,7 @@ class SensorBank:
         self.tiles = sum(s.tiles for s in self.sensors)
         self.timing = BankTiming(self.sensors)
         self._places: np.ndarray | None = None  # the map's places where it has runs
+        self._local_plans: dict[int, tuple[list[tuple[int, int, int, int]], list[set[int]]]] = {}
         self.reset()
 
     # ------------------------------------------------------------------ map and state
@@ -150,6 +152,7 @@ class SensorBank:
         with its part of the map's runs (``runs``; :func:`ppaloc.onsensor.mapping.upload_map`)."""
         desc, places = np.asarray(topomap.descriptors), topomap.places
         self._places = places if runs and topomap.has_runs else None
+        self._local_plans: dict[int, tuple[list[tuple[int, int, int, int]], list[set[int]]]] = {}
         for s, off in zip(self.sensors, self.offsets, strict=True):
             part = None if places is None else places[off : off + s.n_nodes] - places[off]
             upload_map(s, TopoMap(topomap.kind, desc[off : off + s.n_nodes], places=part), runs)
@@ -223,28 +226,32 @@ class SensorBank:
     def add_local(self, gain: int, window: int) -> None:
         """The local term on every sensor, then the pairs across the cuts from the exact
         values the sensors exchange (:mod:`ppaloc.onsensor.local`)."""
-        n = sum(s.n_nodes for s in self.sensors)
-        places = self._places if self._places is not None else np.arange(n)
-        near = place_neighbours(places, window)
-        offsets = np.asarray(self.offsets)
-        owner = np.searchsorted(offsets, np.arange(n), side="right") - 1
-        node = np.broadcast_to(np.arange(n), near.shape)
-        cross = (near >= 0) & (owner[np.maximum(near, 0)] != owner[node])
-        pairs = sorted(zip(node[cross].tolist(), near[cross].tolist(), strict=True))
-        wanted: list[set[int]] = [set() for _ in self.sensors]
-        for a, b in pairs:
-            wanted[owner[a]].add(a - int(offsets[owner[a]]))
-            wanted[owner[b]].add(b - int(offsets[owner[b]]))
+        pairs, wanted = self._local_plan(window)
         values = [s.local_term(gain, window, wanted[i]) for i, s in enumerate(self.sensors)]
         self.timing.sync()
         for i, s in enumerate(self.sensors):
-            off = int(offsets[i])
-            others = [
-                (a - off, values[owner[b]][b - int(offsets[owner[b]])])
-                for a, b in pairs
-                if owner[a] == i
-            ]
+            others = [(a, values[j][b]) for k, a, j, b in pairs if k == i]
             s.local_edges(gain, window, values[i], others)
+
+    def _local_plan(self, window: int) -> tuple[list[tuple[int, int, int, int]], list[set[int]]]:
+        """The local term's pairs across the cuts, once per map and window: ``(sensor,
+        node, its neighbour's sensor, the neighbour)``, nodes numbered within their
+        sensor, and the nodes each sensor reads for them."""
+        if window not in self._local_plans:
+            n = sum(s.n_nodes for s in self.sensors)
+            places = self._places if self._places is not None else np.arange(n)
+            owner = np.searchsorted(self.offsets, np.arange(n), side="right") - 1
+            first = np.asarray(self.offsets)[owner]
+            pairs = [
+                (int(owner[a]), int(a - first[a]), int(owner[b]), int(b - first[b]))
+                for a, b in cross_pairs(place_neighbours(places, window), owner)
+            ]
+            wanted: list[set[int]] = [set() for _ in self.sensors]
+            for i, a, j, b in pairs:
+                wanted[i].add(a)
+                wanted[j].add(b)
+            self._local_plans[window] = (pairs, wanted)
+        return self._local_plans[window]
 
     def detect(self, prev: int | None, bits: int = 0) -> tuple[int, float]:
         """``T``: the largest of the sensors' thresholds; with ``bits``, the candidates'

@@ -180,6 +180,7 @@ class SensorExecutor:
         sensor = self.sensor
         sensor.tiles = sensor.tiles_for(int(n_nodes))
         sensor.n_nodes = int(n_nodes)
+        sensor.local_plans = {}  # the local term's table was of the old size
         with sensor.stage("setup"):
             sensor.valid_roots()
         sensor.node_grid()

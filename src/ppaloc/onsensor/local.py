@@ -78,6 +78,25 @@ def neighbours(sensor: Sensor, window: int) -> np.ndarray:
     return place_neighbours(places, window)
 
 
+def cross_pairs(near: np.ndarray, owner: np.ndarray) -> list[tuple[int, int]]:
+    """The pairs ``(node, neighbour)`` of ``near`` (:func:`neighbours`) whose ``owner``
+    (a tile, a bank's sensor) differs: the pairs the controller compares on values it
+    reads. Sorted."""
+    node = np.broadcast_to(np.arange(near.shape[-1]), near.shape)
+    cross = (near >= 0) & (owner[np.maximum(near, 0)] != owner[node])
+    return sorted(zip(node[cross].tolist(), near[cross].tolist(), strict=True))
+
+
+def _plan(sensor: Sensor, window: int) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """:func:`neighbours` and the pairs across this sensor's tiles, once per map and
+    window (the controller's table)."""
+    if window not in sensor.local_plans:
+        near = neighbours(sensor, window)
+        tile = np.arange(sensor.n_nodes) // sensor.layout.capacity
+        sensor.local_plans[window] = (near, cross_pairs(near, tile))
+    return sensor.local_plans[window]
+
+
 def local_term(
     sensor: Sensor,
     places: Any,
@@ -92,8 +111,7 @@ def local_term(
     sim, r = sensor.sim, sensor.roles
     n, cap = sensor.n_nodes, sensor.layout.capacity
     spans = [(t * cap, min(n, (t + 1) * cap) - 1) for t in range(sensor.tiles)]
-    near = neighbours(sensor, window)
-    pairs = _across_tiles(near, cap)
+    near, pairs = _plan(sensor, window)
     with sim.stage("local"):
         _values(sensor, places)
         read = {a for a, _ in pairs} | {b for _, b in pairs} | set(wanted)
@@ -106,12 +124,8 @@ def local_term(
                 _compare_along(
                     sensor, places, state, t, (first, last), step, near[int(backward)], backward
                 )
-        sign = places.value_scale[0]
-        counts: dict[int, int] = {}
-        for a, b in pairs:
-            if sign * (values[a] - values[b]) > 0:
-                counts[a] = counts.get(a, 0) + 1
-        _penalise(sensor, state, step, counts)
+        mine = [(a, values[a], values[b]) for a, b in pairs]
+        _penalise(sensor, state, step, _closer(places.value_scale[0], mine))
     return {node: values[node] for node in wanted}
 
 
@@ -128,23 +142,19 @@ def local_edges(
     neighbour of this sensor's ``node`` on another sensor, ``own`` this sensor's exact
     values (from :func:`local_term`)."""
     step = _step_of(gain, window)
-    sign = places.value_scale[0]
-    counts: dict[int, int] = {}
-    for node, value in others:
-        if sign * (own[node] - value) > 0:
-            counts[node] = counts.get(node, 0) + 1
+    mine = [(node, own[node], value) for node, value in others]
     with sensor.sim.stage("local"):
-        _penalise(sensor, state, step, counts)
+        _penalise(sensor, state, step, _closer(places.value_scale[0], mine))
 
 
-def _across_tiles(near: np.ndarray, cap: int) -> list[tuple[int, int]]:
-    """The pairs ``(node, neighbour)`` in different tiles of one sensor (the
-    controller compares them on values it reads), in order of node."""
-    n = near.shape[-1]
-    node = np.broadcast_to(np.arange(n), near.shape)
-    cross = (near >= 0) & (near // cap != node // cap)
-    order = np.argsort(node[cross], kind="stable")
-    return [(int(a), int(b)) for a, b in zip(node[cross][order], near[cross][order], strict=True)]
+def _closer(sign: int, pairs: Sequence[tuple[int, float, float]]) -> dict[int, int]:
+    """For each ``(node, its value, a neighbour's value)``: how many of the node's
+    neighbours are strictly closer to the frame (``sign (v_i - v_j) > 0``)."""
+    counts: dict[int, int] = {}
+    for node, mine, other in pairs:
+        if sign * (mine - other) > 0:
+            counts[node] = counts.get(node, 0) + 1
+    return counts
 
 
 def _step_of(gain: int, window: int) -> int:
@@ -220,6 +230,7 @@ def _compare_along(
         outside = nodes[(ahead < first) | (ahead > last)]
         new = outside[cleared:] if not backward else outside[: len(outside) - cleared]
         cleared = len(outside)
+        assert len(new) == 0 or new[-1] - new[0] == len(new) - 1, "a prefix or suffix"
         if len(new) == 1:
             sim.load_point(dr.pattern, *sensor.root_of(int(new[0])))
             sensor.run(_clear_where, allowed, dr.pattern)

@@ -117,7 +117,7 @@ def plan_runs(sensor: Sensor, places: np.ndarray | None) -> None:
     longest stretch of them). None, or a map without runs: nothing to do at the
     transition."""
     sensor.run_steps, sensor.run_rects, sensor.run_places = 0, {}, None
-    sensor.run_chains = {}
+    sensor.run_chains, sensor.local_plans = {}, {}
     if places is None or longest_run(places) < 2:
         return
     places = np.asarray(places, dtype=np.int64)

@@ -114,6 +114,8 @@ class Sensor:
         self.run_rects: dict[int, list[tuple[int, int, int, int]]] = {}
         self.run_places: np.ndarray | None = None
         self.run_chains: dict[tuple[int, bool], tuple[list[tuple[int, int, int, int]], int]] = {}
+        #: The local term's neighbours and pairs across tiles, per window (onsensor.local).
+        self.local_plans: dict[int, tuple[np.ndarray, list[tuple[int, int]]]] = {}
         self.sim = Scamp5(size, size, noise=noise, seed=seed, observers=observers)
         self.kernels = KernelCache(self.sim)
         self.node_grid()
