@@ -127,14 +127,13 @@ def plan_runs(sensor: Sensor, places: np.ndarray | None) -> None:
     cap = sensor.layout.capacity
     for t in range(sensor.tiles):
         part = places[t * cap : min(len(places), (t + 1) * cap)]
-        same = part[1:] == part[:-1]  # node i + 1 of the tile continues node i's place
+        steps = longest_run(part) - 1  # the longest stretch of a chain within the tile
+        if steps < 1:
+            continue
+        same = np.flatnonzero(part[1:] == part[:-1])  # node i + 1 continues node i's place
         for backward in (False, True):
-            chain = np.flatnonzero(same) + (0 if backward else 1) + t * cap
-            if len(chain):
-                # the longest stretch of consecutive nodes that take their neighbour's value
-                stretch = np.split(chain, np.flatnonzero(np.diff(chain) != 1) + 1)
-                steps = max(len(c) for c in stretch)
-                sensor.run_chains[(t, backward)] = (node_rects(sensor, chain)[t], steps)
+            chain = same + (0 if backward else 1) + t * cap
+            sensor.run_chains[(t, backward)] = (node_rects(sensor, chain)[t], steps)
 
 
 def node_rects(sensor: Sensor, nodes: np.ndarray) -> dict[int, list[tuple[int, int, int, int]]]:
