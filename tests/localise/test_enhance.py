@@ -17,6 +17,7 @@ from ppaloc.localise.enhance import (
     contrast_enhance,
     place_neighbours,
 )
+from ppaloc.localise.host import read_values
 from ppaloc.localise.params import FilterParams, frame_scale
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
@@ -45,7 +46,9 @@ def test_the_values_read_are_the_z_scores_of_the_plain_ones(hubbed, kind, window
     for loc in (plain, enhanced):
         loc.build_map(hubbed)
         loc.executor.begin(hubbed[7])
-    expected = ENHANCE_UNITS * contrast_enhance(plain.executor.node_values(), window)
+    # the plain distances in register units, unrounded (the readout rounds them)
+    mu = read_values(kind, plain.executor._raw_distances(), exact=False)
+    expected = ENHANCE_UNITS * contrast_enhance(mu, window)
     np.testing.assert_allclose(enhanced.executor.node_values(), expected, rtol=1e-9)
 
 

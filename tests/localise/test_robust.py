@@ -239,6 +239,32 @@ def test_the_scale_in_integers_is_the_scale_of_the_exact_mean(values, best32, ga
     assert alpha == math.floor(best * 2.0**-s)
 
 
+@settings(max_examples=30, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.integers(1, 40),
+    kind=st.sampled_from(["lowres", "lowres16", "lbp", "haar"]),
+    gain=st.integers(1, 32),
+)
+def test_float_and_ppa8_decide_the_scale_on_the_same_readout(seed, n, kind, gain):
+    """The frame's scale depends on the frame and the map only, and both arithmetics
+    take it from the controller's readout: the same values, best distance, shift and
+    ``alpha_t`` on any frame (docs/ppa8.md, "Register arithmetic against float")."""
+    rng = np.random.default_rng(seed)
+    cells = rng.integers(0, 256, (n + 1, 16, 16))  # 16-pixel cells: every place differs
+    frames = np.kron(cells, np.ones((16, 16))).astype(np.uint8)
+    frames += rng.integers(0, 8, frames.shape, dtype=np.uint8)  # texture within a cell
+    scales = []
+    for arithmetic in ("float", "ppa8"):
+        loc = WeightedNodeLocaliser(kind, arithmetic=arithmetic, keyframes=False, gain=gain)
+        loc.build_map(frames[:n])
+        loc.executor.begin(frames[n])
+        values = loc.executor.node_values()
+        best = loc.executor.minimum(values)
+        scales.append((values.tolist(), best, frame_scale(values, best, gain, exact=True)))
+    assert scales[0] == scales[1]
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     seed=st.integers(0, 2**31),

@@ -142,6 +142,9 @@ class HostExecutor:
     ----------
     exact : bool
         Register arithmetic (``"ppa8"``).
+    integer_readout : bool
+        The frame's scale is decided on the register readout's integers (in either
+        arithmetic; not on distances ``enhance`` has made floats).
     ranking : ndarray of int or None
         The last frame's best nodes, best first (the estimate first), taken before the
         normalisation or adjustment.
@@ -164,6 +167,9 @@ class HostExecutor:
         self.representation = representation
         self.params = params
         self.exact = arithmetic == "ppa8"
+        # the frame's scale is decided on the readout's integers, except on distances
+        # ``enhance`` (float only) has made floats
+        self.integer_readout = not params.enhance
         self.ranking_k = ranking_k
         self.motion_model = motion_model(params)
         self._dtype = np.float64 if self.exact else np.float32
@@ -263,18 +269,30 @@ class HostExecutor:
         self._top = None
 
     def node_values(self) -> np.ndarray:
-        """Robust: each node's value as the controller reads it (:func:`read_values`)."""
-        return read_values(self.representation, self._raw_distances(), self.exact)
+        """Robust: each node's value as the controller reads it (:func:`read_values`), in
+        either arithmetic: the frame's scale is decided on the readout, so float and
+        ``ppa8`` decide it alike (docs/ppa8.md, "Register arithmetic against float").
+        Distances ``enhance`` has made floats, which no register holds, are read as
+        they are."""
+        raw = self._raw_distances()
+        if not self.integer_readout:
+            return read_values(self.representation, raw, False)
+        assert self._distances is not None  # _raw_distances refuses a missing map
+        return read_values(self.representation, self._distances.registers(raw), True)
 
-    def minimum(self, values: np.ndarray) -> float:
-        """The frame's best distance: the least value (float); in register arithmetic the
-        LBP readout's least value (exact), the low-res one refined from the exact
-        distances as the sensor refines it on the array (:func:`refined_minimum`); the
-        Haar-sign readout's least value as read (the sensor reads no finer)."""
-        if self.exact and self.representation not in BINARY_PLACES:
-            raw = self._raw_distances()  # T = P SAD (P pixels a block): mu = T / 2**17
-            return refined_minimum(int(raw.min()) / 2.0**17)
-        return float(values.min()) if not self.exact else int(values.min())
+    def minimum(self, values: np.ndarray) -> int | float:
+        """The frame's best distance as the controller has it: the LBP readout's least
+        value (exact), the low-res one refined from the register's distances as the sensor
+        refines it on the array (:func:`refined_minimum`), the Haar-sign readout's least
+        value as read (the sensor reads no finer); the least value where the distances
+        are ``enhance``'s floats."""
+        if not self.integer_readout:
+            return float(values.min())
+        if self.representation not in BINARY_PLACES:
+            assert self._distances is not None
+            t = self._distances.registers(self._raw_distances())  # mu = T / 2**17
+            return refined_minimum(int(t.min()) / 2.0**17)
+        return int(values.min())
 
     def add_scaled(self, shift: int, alpha: float) -> None:
         """Robust: ``w += alpha_t - mu 2**-s`` (the term clipped to a register in ppa8)."""

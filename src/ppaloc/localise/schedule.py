@@ -73,10 +73,14 @@ class Executor(Protocol):
     An executor need not offer every step: a schedule calls only its own (the robust
     schedule never shifts, the paper's never transitions). Values are in register units
     (docs/ppa8.md); ``exact`` executors compute in register arithmetic (integer
-    thresholds and DAC constants), the others in float.
+    thresholds and DAC constants), the others in float. ``integer_readout`` executors
+    read each node's value as the controller's readout integer, from which the robust
+    schedule decides the frame's scale in integers (every executor but the host's on
+    distances ``enhance`` has made floats).
     """
 
     exact: bool
+    integer_readout: bool
 
     def begin(self, frame: np.ndarray) -> None:
         """Take the frame (on a sensor: refresh, capture, block means)."""
@@ -315,7 +319,12 @@ class RobustSchedule(Schedule):
         if first or moved:
             values = ex.node_values()
             best = ex.minimum(values)
-            shift, alpha = frame_scale(values, best, int(p.gain), exact=ex.exact)  # type: ignore[arg-type]
+            shift, alpha = frame_scale(
+                values,
+                best,
+                int(p.gain),  # type: ignore[arg-type]
+                exact=ex.integer_readout,
+            )
             ex.add_scaled(shift, alpha)
             if p.local_gain:
                 ex.add_local(int(p.local_gain), int(p.local_window))  # type: ignore[arg-type]

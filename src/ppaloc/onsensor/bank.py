@@ -113,6 +113,7 @@ class SensorBank:
     """
 
     exact = True
+    integer_readout = True
 
     def __init__(
         self,

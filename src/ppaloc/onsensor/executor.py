@@ -86,6 +86,7 @@ class SensorExecutor:
     """
 
     exact = True
+    integer_readout = True
 
     def __init__(
         self,
