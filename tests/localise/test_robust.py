@@ -83,6 +83,9 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
             score = math.floor(16 * w.max()) / 16 - math.floor(16 * outside.max()) / 16
         if moved and t > 1:
             path.append((int(node), score))
+            lost = p.lost_window
+            if lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1:
+                score = min(score, 0.0)  # the path stood still while the query moved
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
         out.append((int(node), w.copy(), score))
     return out
@@ -101,9 +104,10 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     kind=st.sampled_from(["lowres", "lowres16"]),
     local=st.sampled_from([(0, 1), (2, 1), (8, 2), (6, 3)]),
     speed=st.sampled_from([(0, 0), (2, 0), (2, 4), (3, 1)]),
+    lost=st.sampled_from([0, 2, 4]),
 )
 def test_ppa8_equals_the_robust_contract_written_out(
-    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local, speed
+    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local, speed, lost
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -123,6 +127,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         local_window=local[1],
         speed_window=speed[0],
         speed_confidence=speed[1],
+        lost_window=lost,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(
@@ -175,6 +180,29 @@ def test_follows_a_query_at_another_speed(route, pattern):
         paper.build_map(route)
         lag = np.array([e.node for e in paper.localise(frames)]) - truth
         assert np.abs(lag).max() > 2
+
+
+@pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
+def test_a_query_that_leaves_the_map_is_reported_lost(route, arithmetic):
+    """The query drives on past the map's last node: the estimate stays on it while the
+    motion test sees the frames move, so once it has held that place over its last
+    ``lost_window`` (8) forward frames the confidence is 0 (frames 17-19); before, it
+    is positive, and the estimates are the same with the rule off."""
+    kw = dict(arithmetic=arithmetic, motion="always_forward", confidence_radius=1)
+    loc = WeightedNodeLocaliser("lowres", **kw)
+    off = WeightedNodeLocaliser("lowres", lost_window=0, **kw)
+    for each in (loc, off):
+        each.build_map(route[:10])
+    got, plain = loc.localise(route), off.localise(route)
+    nodes, scores = [e.node for e in got], [e.score for e in got]
+    assert nodes == [e.node for e in plain]
+    assert nodes[3:] == [*range(3, 10), *[9] * 10]  # held on the last node
+    # every frame after the first is a forward one: frame i's window reaches frame i - 8
+    stalled = [i for i in range(9, 20) if len(set(nodes[i - 8 : i + 1])) == 1]
+    assert stalled == [17, 18, 19]
+    assert all(scores[i] == 0 for i in stalled)
+    assert all(scores[i] > 0 for i in range(3, 17))
+    assert all(plain[i].score > 0 for i in stalled)
 
 
 def test_keyframes_merge_a_stop_into_one_node_that_predicts_its_own_frame():

@@ -347,6 +347,21 @@ def test_the_sensor_equals_the_host_on_a_synthetic_route(routes, rep, preset, mo
         assert "adjust" not in stages and "shift" not in stages
 
 
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_the_sensor_reports_a_query_that_leaves_the_map_lost_as_the_host_does(rep):
+    """The map is a route's first 10 places and the query drives on through 10 more:
+    the estimate holds the last node while the frames move, so the score falls to 0
+    (``lost_window``), on the sensor as on the host's ppa8 filter."""
+    rng = np.random.default_rng(7)
+    cells = rng.integers(0, 256, (20, 8, 8)).astype(np.uint8)
+    frames = [np.kron(c, np.ones((32, 32), np.uint8)) for c in cells]
+    kw = dict(motion="always_forward", confidence_radius=1)
+    _, sensor = _agree(rep, frames[:10], frames, **kw)
+    est = sensor.localise(frames)
+    assert [e.node for e in est][10:] == [9] * 10
+    assert est[-1].score == 0 and min(e.score for e in est[3:10]) > 0
+
+
 def _stop_route(seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Blocky random places; the reference stops twice (repeated frames), the query once."""
     rng = np.random.default_rng(seed)

@@ -66,6 +66,7 @@ __all__ = [
     "likelihood_shift",
     "local_step",
     "path_speed",
+    "path_stalled",
     "preset_group",
     "refined_minimum",
     "runs_on",
@@ -278,6 +279,13 @@ class FilterParams:
         and the path only advanced, at most ``max_advance`` places a frame. Ranges
         [0, 64] (default 8; 0 is off: the costs of one node a frame) and [0, 127]
         (default 32). Controller integers only: the sensor runs it unchanged.
+    lost_window : int
+        Robust: the reported confidence is 0 on a forward frame where the estimate has
+        held one place over its last ``lost_window`` forward frames
+        (:func:`path_stalled`): a path that stands still while the motion test sees the
+        query move does not explain the frames (the query left the map, or a node that
+        matches everything holds the estimate). Range [0, 64] (default 8; 0 is off).
+        The estimates and the speed's gate are unchanged; controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -313,6 +321,7 @@ class FilterParams:
     local_window: int | None = field(default=1, metadata=_param("robust", "int", 1, 1, 16))
     speed_window: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 64))
     speed_confidence: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
+    lost_window: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 64))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -570,6 +579,31 @@ def path_speed(
     if a > 2 * w:
         return PathSpeed(2, 1)
     return PathSpeed(a, w)
+
+
+def path_stalled(places: Sequence[int], params: FilterParams) -> bool:
+    """Whether the estimate's own path stood still while the query moved: it held one
+    place on each of its last ``lost_window`` forward frames and the one before them
+    (``places`` oldest first, as :func:`path_speed` reads them). A query at the
+    slowest speed the transition follows (1/2 a frame) moves on within two frames, so
+    a path held for ``lost_window`` of them does not explain the frames the motion test
+    saw move: the query left the map, or a node that matches everything holds the
+    estimate. False while fewer than ``lost_window + 1`` estimates are known and where
+    ``lost_window`` is 0. Comparisons of integers only: the controller's arithmetic.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp", lost_window=4)
+    >>> path_stalled([39, 40, 40, 40, 40, 40], p), path_stalled([40, 40, 40, 40, 41], p)
+    (True, False)
+    >>> path_stalled([40, 40, 40, 40], p)  # the window is not full yet
+    False
+    """
+    w = int(params.lost_window or 0)
+    if w == 0 or len(places) <= w:
+        return False
+    tail = places[-1 - w :]
+    return min(tail) == max(tail)
 
 
 def likelihood_shift(spread: int, gain: int) -> int:

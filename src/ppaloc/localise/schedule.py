@@ -35,7 +35,7 @@ A preset that never moves (every frame adds its likelihood to the node it is on)
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
@@ -48,6 +48,7 @@ from ppaloc.localise.params import (
     adjustment,
     frame_scale,
     path_speed,
+    path_stalled,
     transition_costs,
 )
 
@@ -295,7 +296,8 @@ class RobustSchedule(Schedule):
     likelihood added, then the local term of ``local_gain`` (a still frame repeats the
     last one: no new evidence); detection
     (in register arithmetic at :data:`~ppaloc.localise.params.DETECT_BITS` fraction
-    bits), confidence; normalisation.
+    bits), confidence (0 where the estimate's path stood still while the query moved,
+    :func:`~ppaloc.localise.params.path_stalled`); normalisation.
     """
 
     uses = "robust"
@@ -329,19 +331,24 @@ class RobustSchedule(Schedule):
             if p.local_gain:
                 ex.add_local(int(p.local_gain), int(p.local_window))  # type: ignore[arg-type]
         result = self.finish(ex, moved)
-        if moved and not first and p.speed_window:
+        keep = max(int(p.speed_window or 0), int(p.lost_window or 0))
+        if moved and not first and keep:
             self._path_places.append(self.place(result.node))
             self._path_scores.append(result.score)
-            if len(self._path_places) > p.speed_window + 1:  # the window's two ends
+            if len(self._path_places) > keep + 1:  # the longer window's two ends
                 self._path_places.pop(0)
                 self._path_scores.pop(0)
+            if path_stalled(self._path_places, p):  # the path does not explain the frames
+                result = replace(result, score=min(result.score, 0.0))
         return result
 
     @property
     def path(self) -> tuple[tuple[int, float], ...]:
         """The ``(place, confidence)`` of the estimate on the last ``speed_window + 1``
-        forward frames (after the first frame), oldest first: what
-        :func:`~ppaloc.localise.params.path_speed` reads."""
+        forward frames, or ``lost_window + 1`` if longer (after the first frame), oldest
+        first: what :func:`~ppaloc.localise.params.path_speed` and
+        :func:`~ppaloc.localise.params.path_stalled` read. The confidences are the
+        weights' own, before the stalled path's 0."""
         return tuple(zip(self._path_places, self._path_scores, strict=True))
 
     def reset(self) -> None:

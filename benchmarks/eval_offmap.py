@@ -1,0 +1,146 @@
+"""Max F1 where the query leaves the map: does a method know when no place explains it?
+
+Not collected by pytest. Each route's reference is cut after its first ``--share`` (2/3)
+of frames and mapped; every query frame is localised. The query frames whose accepted
+references all lie past the cut have no true match, so an estimate there counts only
+against a method, by its confidence: a method that knows it is lost gives them low
+scores and keeps its max F1 and recall at 100% precision. Every method gets the same
+reference, query and ground truth (the dataset's, cut at the same frame)::
+
+    .venv/bin/python benchmarks/eval_offmap.py                     # about 10 min, 2 cores
+    .venv/bin/python benchmarks/eval_offmap.py --methods weighted-node-lowres16,particle-filter
+    .venv/bin/python benchmarks/eval_offmap.py --param weighted-node-lowres16.lost_window=0
+
+Routes: Nordland summer -> winter and Gardens Point day_right -> night_right and
+day_left -> day_right (``../shared/data``, skipped with a note when absent), and two
+generated routes. Columns: max F1 and, in brackets, recall at 100% precision, and
+``off-map >= right``: the share of the off-map frames scored at least the median score
+of the right estimates on the map (lower is better).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from eval_robust import DATA, parse_param, parse_value
+from ppaloc.datasets import to_sensor
+from ppaloc.datasets.registry import load_dataset
+from ppaloc.evaluate.run import run_method
+
+METHODS = (
+    "weighted-node-lowres16",
+    "weighted-node-lowres",
+    "weighted-node-haar",
+    "weighted-node-lbp",
+    "particle-filter",
+    "seqslam",
+    "able-m",
+    "single-frame",
+)
+"""The default methods; ``particle-filter`` also runs on the 16x16 place (``/lowres16``)."""
+
+
+def offmap_routes(data_dir: Path | None = DATA) -> list[tuple[str, str]]:
+    """``(label, spec)`` of every route, real data first (those missing are skipped)."""
+    out = []
+    if data_dir is not None and (data_dir / "nordland-64x32").is_dir():
+        spec = f"nordland:{data_dir / 'nordland-64x32'}?ref=summer&query=winter&tolerance=2"
+        out.append(("nordland summer->winter", spec))
+    else:
+        print("note: the Nordland route is skipped (no data)", file=sys.stderr)
+    if data_dir is not None and (data_dir / "gardens-point").is_dir():
+        for ref, query in (("day_right", "night_right"), ("day_left", "day_right")):
+            spec = f"gardens-point:{data_dir / 'gardens-point'}?ref={ref}&query={query}&tolerance=2"
+            out.append((f"gp {ref}->{query}", spec))
+    else:
+        print("note: the Gardens Point routes are skipped (no data)", file=sys.stderr)
+    for seed, query in ((1, "winter"), (2, "autumn")):
+        spec = f"synthetic:?places=300&query={query}&seed={seed}&speed_var=0.2"
+        out.append((f"synthetic seed={seed} {query}", spec))
+    return out
+
+
+def cut_route(spec: str, share: float) -> tuple[list, list, list[np.ndarray], np.ndarray]:
+    """The reference's first ``share`` of frames, every query frame, the ground truth cut
+    at the same reference frame, and which queries are off the map (no accepted frame)."""
+    ds = load_dataset(spec)
+    keep = max(1, round(share * len(ds.reference)))
+    reference = [to_sensor(f) for f in itertools.islice(ds.reference, keep)]
+    query = [to_sensor(f) for f in ds.query]
+    truth = [np.asarray([r for r in g if r < keep], dtype=np.int64) for g in ds.ground_truth]
+    off = np.array([len(g) == 0 for g in truth]) & np.array([len(g) > 0 for g in ds.ground_truth])
+    return reference, query, truth, off
+
+
+def score_route(
+    spec: str, columns: Sequence[tuple[str, str, dict[str, Any]]], share: float
+) -> dict[str, dict[str, float]]:
+    """Max F1, recall at 100% precision and the off-map share above the right median."""
+    reference, query, truth, off = cut_route(spec, share)
+    out = {}
+    for column, method, params in columns:
+        run = run_method(method, reference, query, truth, params=params)
+        score = np.asarray(run.score, dtype=np.float64)
+        right = np.array([run.ref_index[i] in truth[i] for i in range(len(query))])
+        median = np.median(score[right]) if right.any() else np.inf
+        out[column] = {
+            "f1_max": float(run.metrics.f1_max),
+            "recall_at_100p": float(run.metrics.recall_at_100p),
+            "off_above": float(np.mean(score[off] >= median)) if off.any() else float("nan"),
+            "off_frames": int(off.sum()),
+        }
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--param", action="append", default=[], metavar="METHOD.key=value")
+    parser.add_argument("--share", type=float, default=2 / 3, help="the reference kept")
+    parser.add_argument("--routes", default=None, metavar="SUBSTR")
+    parser.add_argument("--data", type=Path, default=DATA)
+    args = parser.parse_args(argv)
+    if not 0 < args.share < 1:
+        parser.error(f"--share {args.share} must lie between 0 and 1")
+    user: dict[str, dict[str, Any]] = {}
+    for item in args.param:
+        method, key, value = parse_param(item)
+        user.setdefault(method, {})[key] = parse_value(value)
+    columns = []
+    for name in args.methods.split(","):
+        if name == "particle-filter":
+            columns.append(("particle-filter", name, dict(user.get(name, {}))))
+            pf = dict(user.get(name, {}), descriptor="lowres16")
+            columns.append(("particle-filter/lowres16", name, pf))
+        else:  # every other method on its own default descriptor
+            columns.append((name, name, dict(user.get(name, {}))))
+    routes = [r for r in offmap_routes(args.data) if not args.routes or args.routes in r[0]]
+    if not routes:
+        parser.error("no route to run")
+    rows = []
+    for label, spec in routes:
+        start = time.perf_counter()
+        rows.append((label, score_route(spec, columns, args.share)))
+        print(f"{label}: {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
+    names = [c for c, _, _ in columns]
+    print(f"| route (off-map frames) | {' | '.join(names)} |")
+    print("|---|" + "---|" * len(names))
+    for label, res in rows:
+        cells = [
+            f"{res[c]['f1_max']:.3f} ({res[c]['recall_at_100p']:.2f}) {res[c]['off_above']:.2f}"
+            for c in names
+        ]
+        print(f"| {label} ({res[names[0]]['off_frames']}) | {' | '.join(cells)} |")
+
+
+if __name__ == "__main__":
+    main()
