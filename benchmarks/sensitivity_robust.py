@@ -46,6 +46,7 @@ GRID: dict[str, tuple[int, ...]] = {
     "local_window": (1, 2, 4),
     "speed_window": (0, 6, 8, 12, 24),
     "speed_confidence": (0, 16, 32, 48, 64),
+    "lost_window": (0, 4, 8, 16, 32),
 }
 """Each parameter's values: at least a 4x range around the default."""
 
