@@ -41,7 +41,7 @@ class AlwaysAdvance(Schedule):
             ex.transition((64, 0, 64))
         values = ex.node_values()
         best = ex.minimum(values)
-        shift, alpha = frame_scale(values, best, int(self.params.gain), exact=ex.exact)
+        shift, alpha = frame_scale(values, best, int(self.params.gain), exact=ex.integer_readout)
         ex.add_scaled(shift, alpha)
         return self.finish(ex, moved)
 

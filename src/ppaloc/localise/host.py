@@ -85,7 +85,8 @@ def top_k(w: np.ndarray, k: int) -> np.ndarray:
 
 
 def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
-    """The per-node values the controller reads to scale the likelihood (docs/ppa8.md).
+    """The per-node values the controller reads to scale the likelihood (docs/ppa8.md);
+    ``exact``: the readout's integers, which every executor's robust schedule reads.
 
     LBP: ``mu = 2h``, exact. Haar signs: ``mu = h/4``; in ``ppa8`` the ADC code of the
     halving tree's root ``+h/4`` (``code = floor(128.5 + h/4)``) read back as
@@ -167,9 +168,11 @@ class HostExecutor:
         self.representation = representation
         self.params = params
         self.exact = arithmetic == "ppa8"
-        # the frame's scale is decided on the readout's integers, except on distances
-        # ``enhance`` (float only) has made floats
-        self.integer_readout = not params.enhance
+        # the frame's scale is decided on the readout's integers (the robust preset's
+        # distances), not on distances ``enhance`` (float only) has made floats
+        self.integer_readout = not params.enhance and (
+            representation in BINARY_PLACES or params.contrast is not None
+        )
         self.ranking_k = ranking_k
         self.motion_model = motion_model(params)
         self._dtype = np.float64 if self.exact else np.float32
@@ -272,8 +275,8 @@ class HostExecutor:
         """Robust: each node's value as the controller reads it (:func:`read_values`), in
         either arithmetic: the frame's scale is decided on the readout, so float and
         ``ppa8`` decide it alike (docs/ppa8.md, "Register arithmetic against float").
-        Distances ``enhance`` has made floats, which no register holds, are read as
-        they are."""
+        Distances ``enhance`` has made floats, which no register holds, are read by
+        the float factors of :func:`read_values`."""
         raw = self._raw_distances()
         if not self.integer_readout:
             return read_values(self.representation, raw, False)
@@ -289,9 +292,9 @@ class HostExecutor:
         if not self.integer_readout:
             return float(values.min())
         if self.representation not in BINARY_PLACES:
-            assert self._distances is not None
-            t = self._distances.registers(self._raw_distances())  # mu = T / 2**17
-            return refined_minimum(int(t.min()) / 2.0**17)
+            assert self._distances is not None  # the least T is the least SAD's
+            t = self._distances.registers(self._raw_distances().min(keepdims=True))
+            return refined_minimum(int(t[0]) / 2.0**17)  # mu = T / 2**17
         return int(values.min())
 
     def add_scaled(self, shift: int, alpha: float) -> None:

@@ -184,10 +184,12 @@ class NodeDistances:
         return self._index.sad(self.live(frame), out=self.out)
 
     def registers(self, raw: np.ndarray) -> np.ndarray:
-        """``raw`` (from :meth:`__call__`) as the register holds it: low-res the integer
-        ``T = P SAD`` (``P`` pixels a block; what ``exact`` returns already), the binary
-        places their Hamming distance as it is. The robust preset's readout reads these
-        in either arithmetic (:func:`ppaloc.localise.host.read_values`)."""
+        """``raw`` (from :meth:`__call__`) as the register holds it: low-res with
+        ``contrast`` (the robust preset) the integer ``T = P SAD`` (``P`` pixels a block;
+        what ``exact`` returns already), the binary places their Hamming distance as it
+        is. The robust preset's readout reads these in either arithmetic
+        (:func:`ppaloc.localise.host.read_values`). Without ``contrast`` a float map
+        compares the quantised frame, not the register's unquantised sums."""
         if self.kind in BINARY_PLACES or self.exact:
             return raw
         return raw.astype(np.int64) << self._pixels_bits

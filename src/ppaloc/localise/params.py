@@ -654,11 +654,12 @@ def frame_scale(values: np.ndarray, best: float, gain: int, *, exact: bool) -> t
     preset, item 3).
 
     ``s`` is the smallest in ``[0, MAX_SHIFT]`` with ``2 (mean - best) <= 3 gain 2**s``
-    (:func:`likelihood_shift`). ``exact`` (register arithmetic: the sensor and ppa8):
-    ``values`` are the readout's integers and ``best`` a multiple of ``2**-5``; the
-    comparison is made in integers on the sum, ``2 (32 sum - 32 N best) <= 96 gain 2**s
-    N`` (no rounding of the mean), and ``alpha_t = floor(best 2**-s)``, a DAC integer.
-    Otherwise (float) the mean as a float and ``alpha_t = best 2**-s``.
+    (:func:`likelihood_shift`). ``exact`` (the readout's integers, which the sensor,
+    ppa8 and float all read): ``best`` is a multiple of ``2**-5``; the comparison is
+    made in integers on the sum, ``2 (32 sum - 32 N best) <= 96 gain 2**s N`` (no
+    rounding of the mean), and ``alpha_t = floor(best 2**-s)``, a DAC integer.
+    Otherwise (float distances ``enhance`` made) the mean as a float and ``alpha_t =
+    best 2**-s``.
 
     Examples
     --------

@@ -76,8 +76,8 @@ class Executor(Protocol):
     (docs/ppa8.md); ``exact`` executors compute in register arithmetic (integer
     thresholds and DAC constants), the others in float. ``integer_readout`` executors
     read each node's value as the controller's readout integer, from which the robust
-    schedule decides the frame's scale in integers (every executor but the host's on
-    distances ``enhance`` has made floats).
+    schedule decides the frame's scale in integers: True everywhere but the host on
+    distances ``enhance`` has made floats.
     """
 
     exact: bool
@@ -99,8 +99,9 @@ class Executor(Protocol):
         ...
 
     def minimum(self, values: np.ndarray) -> float:
-        """Robust: the frame's best distance (refined beyond the readout's resolution in
-        register arithmetic, :func:`~ppaloc.localise.params.refined_minimum`)."""
+        """Robust: the frame's best distance (on an integer readout refined beyond its
+        resolution where the sensor refines it,
+        :func:`~ppaloc.localise.params.refined_minimum`)."""
         ...
 
     def add_scaled(self, shift: int, alpha: float) -> None:

@@ -13,9 +13,9 @@ sensors given (``sensors``, default one: the device on a desk), and the place th
 the fewest sensors when none fits (a bank of them, docs/onsensor.md, "Sensor banks").
 
 The order is the robust filter's mean max F1 on the five real routes of
-``benchmarks/eval_robust.py``, not every route: 0.786 with 16x16 images, 0.782 with the
-Haar signs, 0.671 with 8x8 images and 0.620 with LBP. Over all 65 routes the 8x8 images
-lead the signs by 0.014 (0.785 against 0.771; 16x16 0.858, LBP 0.595), on the generated
+``benchmarks/eval_robust.py``, not every route: 0.783 with 16x16 images, 0.780 with the
+Haar signs, 0.665 with 8x8 images and 0.620 with LBP. Over all 65 routes the 8x8 images
+lead the signs by 0.012 (0.784 against 0.772; 16x16 0.858, LBP 0.595), on the generated
 routes whose speed swings; before the local term both orders were this one (docs/localise.md,
 "More values a place" and "Signs instead of values").
 
