@@ -34,7 +34,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_robust import DATA, parse_param, parse_value
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
+from ppaloc.errors import PpalocError
 from ppaloc.evaluate.run import run_method
+from ppaloc.methods import check_method
 
 METHODS = (
     "weighted-node-lowres16",
@@ -115,14 +117,22 @@ def main(argv: Sequence[str] | None = None) -> None:
     for item in args.param:
         method, key, value = parse_param(item)
         user.setdefault(method, {})[key] = parse_value(value)
+    names = [n.strip() for n in args.methods.split(",")]
+    for method in set(user) - set(names):
+        parser.error(f"--param {method}.*: {method} is not one of --methods")
     columns = []
-    for name in args.methods.split(","):
+    for name in names:
         if name == "particle-filter":
             columns.append(("particle-filter", name, dict(user.get(name, {}))))
             pf = dict(user.get(name, {}), descriptor="lowres16")
             columns.append(("particle-filter/lowres16", name, pf))
         else:  # every other method on its own default descriptor
             columns.append((name, name, dict(user.get(name, {}))))
+    for column, method, params in columns:  # every name and parameter, before any data
+        try:
+            check_method(method, params)
+        except PpalocError as exc:
+            parser.error(f"{column}: {exc}")
     routes = [r for r in offmap_routes(args.data) if not args.routes or args.routes in r[0]]
     if not routes:
         parser.error("no route to run")
