@@ -205,6 +205,21 @@ def test_a_query_that_leaves_the_map_is_reported_lost(route, arithmetic):
     assert all(plain[i].score > 0 for i in stalled)
 
 
+def test_a_path_held_in_a_run_of_one_place_is_a_path_held(route):
+    """On a map with runs the stall is counted in places: past a map whose last place is
+    a run of 5 nodes, the estimate flows along the run (nodes 9-13) and holds its last
+    node, and the score falls to 0 once place 9 has held over 8 forward frames (frames
+    17-19), where counting nodes would not yet see a stall."""
+    ref = np.concatenate((route[:10], np.repeat(route[9:10], 4, axis=0)))
+    places = np.array([*range(10), 9, 9, 9, 9])
+    m = TopoMap("lowres", lowres_image(ref, 8), np.arange(14), places=places)
+    loc = WeightedNodeLocaliser("lowres", motion="always_forward", confidence_radius=1)
+    loc.use_map(m)
+    est = loc.localise(route)
+    assert [e.node for e in est][9:] == [9, 10, 11, 12, *[13] * 7]
+    assert [e.score == 0 for e in est[9:]] == [False] * 8 + [True] * 3
+
+
 def test_keyframes_merge_a_stop_into_one_node_that_predicts_its_own_frame():
     """A reference that stands still for 4 frames maps to one node; that node predicts its
     own frame, whatever the ground truth (which frames show one place is the dataset's)."""
