@@ -31,10 +31,11 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import DATA, parse_param, parse_value
+from eval_robust import DATA, parse_param, parse_value, routes
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.errors import PpalocError
+from ppaloc.evaluate.metrics import is_correct
 from ppaloc.evaluate.run import run_method
 from ppaloc.methods import check_method
 
@@ -51,20 +52,15 @@ METHODS = (
 """The default methods; ``particle-filter`` also runs on the 16x16 place (``/lowres16``)."""
 
 
+REAL_ROUTES = ("nordland summer->winter", "gp day_right->night_right", "gp day_left->day_right")
+"""The real routes, as :func:`eval_robust.routes` names and specifies them."""
+
+
 def offmap_routes(data_dir: Path | None = DATA) -> list[tuple[str, str]]:
-    """``(label, spec)`` of every route, real data first (those missing are skipped)."""
-    out = []
-    if data_dir is not None and (data_dir / "nordland-64x32").is_dir():
-        spec = f"nordland:{data_dir / 'nordland-64x32'}?ref=summer&query=winter&tolerance=2"
-        out.append(("nordland summer->winter", spec))
-    else:
-        print("note: the Nordland route is skipped (no data)", file=sys.stderr)
-    if data_dir is not None and (data_dir / "gardens-point").is_dir():
-        for ref, query in (("day_right", "night_right"), ("day_left", "day_right")):
-            spec = f"gardens-point:{data_dir / 'gardens-point'}?ref={ref}&query={query}&tolerance=2"
-            out.append((f"gp {ref}->{query}", spec))
-    else:
-        print("note: the Gardens Point routes are skipped (no data)", file=sys.stderr)
+    """``(label, spec)`` of every route, real data first (those missing are skipped, with
+    :func:`eval_robust.routes`' note)."""
+    real = dict(routes(data_dir))
+    out = [(label, real[label]) for label in REAL_ROUTES if label in real]
     for seed, query in ((1, "winter"), (2, "autumn")):
         spec = f"synthetic:?places=300&query={query}&seed={seed}&speed_var=0.2"
         out.append((f"synthetic seed={seed} {query}", spec))
@@ -92,7 +88,7 @@ def score_route(
     for column, method, params in columns:
         run = run_method(method, reference, query, truth, params=params)
         score = np.asarray(run.score, dtype=np.float64)
-        right = np.array([run.ref_index[i] in truth[i] for i in range(len(query))])
+        right = is_correct(run.ref_index, truth)
         median = np.median(score[right]) if right.any() else np.inf
         out[column] = {
             "f1_max": float(run.metrics.f1_max),
@@ -133,11 +129,11 @@ def main(argv: Sequence[str] | None = None) -> None:
             check_method(method, params)
         except PpalocError as exc:
             parser.error(f"{column}: {exc}")
-    routes = [r for r in offmap_routes(args.data) if not args.routes or args.routes in r[0]]
-    if not routes:
+    chosen = [r for r in offmap_routes(args.data) if not args.routes or args.routes in r[0]]
+    if not chosen:
         parser.error("no route to run")
     rows = []
-    for label, spec in routes:
+    for label, spec in chosen:
         start = time.perf_counter()
         rows.append((label, score_route(spec, columns, args.share)))
         print(f"{label}: {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
