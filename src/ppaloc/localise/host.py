@@ -24,7 +24,13 @@ import math
 import numpy as np
 
 from ppaloc.errors import PpalocError
-from ppaloc.localise.enhance import ENHANCE_UNITS, closer_count, contrast_enhance
+from ppaloc.localise.enhance import (
+    ENHANCE_UNITS,
+    closer_count,
+    contrast_enhance,
+    count_closer,
+    place_neighbours,
+)
 from ppaloc.localise.likelihood import (
     BINARY_PLACES,
     HAAR_EXPONENT,
@@ -180,6 +186,7 @@ class HostExecutor:
         self._w = np.zeros(0, self._dtype)
         self._lift: np.ndarray | None = None
         self._places: np.ndarray | None = None
+        self._neighbours: dict[int, np.ndarray] = {}  # place_neighbours per window
         self.ranking: np.ndarray | None = None
         self.last_shift: int | None = None
         self.reset()
@@ -200,6 +207,7 @@ class HostExecutor:
         # maximum over ``w + lift`` is a maximum within each run (|w| <= 127)
         self._lift = 256.0 * topomap.places if topomap.has_runs else None  # type: ignore[operator]
         self._places = topomap.places if topomap.has_runs else None
+        self._neighbours = {}
         self._term = np.empty(n, self._dtype)
         self._pred = np.empty(n, self._dtype)
         self._shifted = np.empty(n, self._dtype)
@@ -311,7 +319,12 @@ class HostExecutor:
         term is exact; the sensor subtracts it once per closer neighbour, and the lower
         clip makes that the same."""
         raw = self._raw_distances()
-        count = closer_count(raw, window, self._places)
+        if self._places is None:
+            count = closer_count(raw, window)
+        else:  # the map's neighbour table, once per map and window
+            if window not in self._neighbours:
+                self._neighbours[window] = place_neighbours(self._places, window)
+            count = count_closer(raw, self._neighbours[window])
         if self.exact:
             step = local_step(gain, window)
             assert step is not None, "FilterParams refuses a fractional step in ppa8"
