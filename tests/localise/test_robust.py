@@ -83,9 +83,9 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
             score = math.floor(16 * w.max()) / 16 - math.floor(16 * outside.max()) / 16
         if moved and t > 1:
             path.append((int(node), score))
-            lost = p.lost_window
-            if lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1:
-                score = min(score, 0.0)  # the path stood still while the query moved
+        lost = p.lost_window  # the record of forward frames held one place: on any frame
+        if lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1:
+            score = min(score, 0.0)  # the path stood still while the query moved
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
         out.append((int(node), w.copy(), score))
     return out
@@ -203,6 +203,27 @@ def test_a_query_that_leaves_the_map_is_reported_lost(route, arithmetic):
     assert all(scores[i] == 0 for i in stalled)
     assert all(scores[i] > 0 for i in range(3, 17))
     assert all(plain[i].score > 0 for i in stalled)
+
+
+@pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
+def test_a_query_that_stops_after_leaving_the_map_stays_lost(route, arithmetic):
+    """A still frame keeps the last forward frame's record: the query drives past the
+    map's last node (reported lost from frame 17) and then stands (frames 20-24, still
+    by the motion test), so those frames are lost too, though their weights' margin is
+    as high as before; a query that stops on the map keeps its confidence."""
+    moves = [True] * 20 + [False] * 5
+    frames = np.concatenate((route, np.repeat(route[-1:], 5, axis=0)))
+    kw = dict(arithmetic=arithmetic, motion="oracle", oracle_moves=moves, confidence_radius=1)
+    loc, off = (WeightedNodeLocaliser("lowres", lost_window=w, **kw) for w in (8, 0))
+    for each in (loc, off):
+        each.build_map(route[:10])
+    got, plain = loc.localise(frames), off.localise(frames)
+    assert [e.node for e in got] == [e.node for e in plain]
+    assert [e.score == 0 for e in got[3:]] == [False] * 14 + [True] * 8
+    assert all(e.score > 0 for e in plain[17:])
+    on = WeightedNodeLocaliser("lowres", **kw)  # the same query stops on a longer map
+    on.build_map(route)
+    assert all(e.score > 0 for e in on.localise(frames)[3:])
 
 
 def test_a_path_held_in_a_run_of_one_place_is_a_path_held(route):

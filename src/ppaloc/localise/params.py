@@ -280,11 +280,11 @@ class FilterParams:
         [0, 64] (default 8; 0 is off: the costs of one node a frame) and [0, 127]
         (default 32). Controller integers only: the sensor runs it unchanged.
     lost_window : int
-        Robust: the reported confidence is 0 on a forward frame where the estimate has
-        held one place over its last ``lost_window`` forward frames
-        (:func:`path_stalled`): a path that stands still while the motion test sees the
-        query move does not explain the frames (the query left the map, or a node that
-        matches everything holds the estimate). Range [0, 64] (default 8; 0 is off).
+        Robust: the reported confidence is 0 while the estimate has held one place
+        over its last ``lost_window`` forward frames, and on the still frames after
+        them (:func:`path_stalled`): a path that stands still while the motion test
+        sees the query move does not explain the frames (the query left the map, or a
+        node that matches everything holds the estimate). Range [0, 64] (default 8; 0 is off).
         The estimates and the speed's gate are unchanged; controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
@@ -589,7 +589,9 @@ def path_stalled(places: Sequence[int], params: FilterParams) -> bool:
     a path held for ``lost_window`` of them does not explain the frames the motion test
     saw move: the query left the map, or a node that matches everything holds the
     estimate. False while fewer than ``lost_window + 1`` estimates are known and where
-    ``lost_window`` is 0. Comparisons of integers only: the controller's arithmetic.
+    ``lost_window`` is 0. A still frame reads the record its last forward frame left
+    (the query stopped where the path had stalled). Comparisons of integers only: the
+    controller's arithmetic.
 
     Examples
     --------

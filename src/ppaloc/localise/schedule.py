@@ -339,8 +339,10 @@ class RobustSchedule(Schedule):
             if len(self._path_places) > keep + 1:  # the longer window's two ends
                 self._path_places.pop(0)
                 self._path_scores.pop(0)
-            if path_stalled(self._path_places, p):  # the path does not explain the frames
-                result = replace(result, score=min(result.score, 0.0))
+        # the path does not explain the frames; a still frame keeps the last forward
+        # frame's record (the query stopped where the path had already stalled)
+        if path_stalled(self._path_places, p):
+            result = replace(result, score=min(result.score, 0.0))
         return result
 
     @property

@@ -156,10 +156,11 @@ class OnSensorLocaliser:
     ``score`` is the detection threshold minus the same threshold outside nodes ``node -
     R .. node + R``, both found by ``global_or`` searches: with the robust preset each to
     1/16, equal to the host's ppa8 score; with the paper's the integer ``T = floor(max
-    W)`` (the host reports the unrounded difference). The robust schedule reports 0 on a
-    forward frame where the estimate held one place over its last ``lost_window``
-    forward frames (:func:`~ppaloc.localise.params.path_stalled`). ``weights`` (with
-    ``record_weights``) are read from the weight register as an untimed inspection.
+    W)`` (the host reports the unrounded difference). The robust schedule reports 0
+    while the estimate has held one place over its last ``lost_window`` forward frames,
+    still frames after them included (:func:`~ppaloc.localise.params.path_stalled`).
+    ``weights`` (with ``record_weights``) are read from the weight register as an
+    untimed inspection.
     """
 
     def __init__(
