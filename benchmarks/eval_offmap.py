@@ -5,11 +5,15 @@ of frames and mapped; every query frame is localised. The query frames whose acc
 references all lie past the cut have no true match, so an estimate there counts only
 against a method, by its confidence: a method that knows it is lost gives them low
 scores and keeps its max F1 and recall at 100% precision. Every method gets the same
-reference, query and ground truth (the dataset's, cut at the same frame)::
+reference, query and ground truth (the dataset's, cut at the same frames). With
+``--gap A B`` a stretch in the middle is left out instead (the reference frames from
+the share ``A`` to ``B`` of the route): the query drives through places the map lacks
+(a detour, a new road) and back onto the map::
 
     .venv/bin/python benchmarks/eval_offmap.py                     # about 10 min, 2 cores
     .venv/bin/python benchmarks/eval_offmap.py --methods weighted-node-lowres16,particle-filter
     .venv/bin/python benchmarks/eval_offmap.py --param weighted-node-lowres16.lost_window=0
+    .venv/bin/python benchmarks/eval_offmap.py --gap 0.4 0.55
 
 Routes: Nordland summer -> winter and Gardens Point day_right -> night_right and
 day_left -> day_right (``../shared/data``, skipped with a note when absent), and two
@@ -21,7 +25,6 @@ of the right estimates on the map (lower is better).
 from __future__ import annotations
 
 import argparse
-import itertools
 import sys
 import time
 from collections.abc import Sequence
@@ -67,23 +70,36 @@ def offmap_routes(data_dir: Path | None = DATA) -> list[tuple[str, str]]:
     return out
 
 
-def cut_route(spec: str, share: float) -> tuple[list, list, list[np.ndarray], np.ndarray]:
-    """The reference's first ``share`` of frames, every query frame, the ground truth cut
-    at the same reference frame, and which queries are off the map (no accepted frame)."""
+def cut_route(
+    spec: str, share: float, gap: tuple[float, float] | None = None
+) -> tuple[list, list, list[np.ndarray], np.ndarray]:
+    """The reference's first ``share`` of frames (or all but the frames from the share
+    ``gap[0]`` to ``gap[1]`` of them), every query frame, the ground truth cut the same
+    way (its frames numbered as the cut reference's), and which queries are off the map
+    (no accepted frame left)."""
     ds = load_dataset(spec)
-    keep = max(1, round(share * len(ds.reference)))
-    reference = [to_sensor(f) for f in itertools.islice(ds.reference, keep)]
+    n = len(ds.reference)
+    kept = np.ones(n, dtype=bool)
+    if gap is None:
+        kept[max(1, round(share * n)) :] = False
+    else:
+        kept[round(gap[0] * n) : round(gap[1] * n)] = False
+    number = np.cumsum(kept) - 1  # a kept frame's index in the cut reference
+    reference = [to_sensor(f) for f, k in zip(ds.reference, kept, strict=True) if k]
     query = [to_sensor(f) for f in ds.query]
-    truth = [np.asarray([r for r in g if r < keep], dtype=np.int64) for g in ds.ground_truth]
+    truth = [np.asarray([number[r] for r in g if kept[r]], dtype=np.int64) for g in ds.ground_truth]
     off = np.array([len(g) == 0 for g in truth]) & np.array([len(g) > 0 for g in ds.ground_truth])
     return reference, query, truth, off
 
 
 def score_route(
-    spec: str, columns: Sequence[tuple[str, str, dict[str, Any]]], share: float
+    spec: str,
+    columns: Sequence[tuple[str, str, dict[str, Any]]],
+    share: float,
+    gap: tuple[float, float] | None = None,
 ) -> dict[str, dict[str, float]]:
     """Max F1, recall at 100% precision and the off-map share above the right median."""
-    reference, query, truth, off = cut_route(spec, share)
+    reference, query, truth, off = cut_route(spec, share, gap)
     out = {}
     for column, method, params in columns:
         run = run_method(method, reference, query, truth, params=params)
@@ -104,11 +120,21 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--methods", default=",".join(METHODS))
     parser.add_argument("--param", action="append", default=[], metavar="METHOD.key=value")
     parser.add_argument("--share", type=float, default=2 / 3, help="the reference kept")
+    parser.add_argument(
+        "--gap",
+        type=float,
+        nargs=2,
+        default=None,
+        metavar=("A", "B"),
+        help="leave out the reference frames from the share A to B of the route instead",
+    )
     parser.add_argument("--routes", default=None, metavar="SUBSTR")
     parser.add_argument("--data", type=Path, default=DATA)
     args = parser.parse_args(argv)
     if not 0 < args.share < 1:
         parser.error(f"--share {args.share} must lie between 0 and 1")
+    if args.gap is not None and not 0 < args.gap[0] < args.gap[1] < 1:
+        parser.error(f"--gap {args.gap[0]} {args.gap[1]}: want 0 < A < B < 1")
     user: dict[str, dict[str, Any]] = {}
     for item in args.param:
         method, key, value = parse_param(item)
@@ -135,7 +161,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     rows = []
     for label, spec in chosen:
         start = time.perf_counter()
-        rows.append((label, score_route(spec, columns, args.share)))
+        rows.append((label, score_route(spec, columns, args.share, args.gap)))
         print(f"{label}: {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
     names = [c for c, _, _ in columns]
     print(f"| route (off-map frames) | {' | '.join(names)} |")
