@@ -83,9 +83,12 @@ def cut_route(
     if gap is None:
         kept[max(1, round(share * n)) :] = False
     else:
-        kept[round(gap[0] * n) : round(gap[1] * n)] = False
+        a, b = round(gap[0] * n), round(gap[1] * n)
+        if not 0 < a < b < n:
+            raise PpalocError(f"--gap {gap[0]} {gap[1]} leaves no stretch inside {n} frames")
+        kept[a:b] = False
     number = np.cumsum(kept) - 1  # a kept frame's index in the cut reference
-    reference = [to_sensor(f) for f, k in zip(ds.reference, kept, strict=True) if k]
+    reference = [to_sensor(f) for f in ds.reference[np.flatnonzero(kept).tolist()]]
     query = [to_sensor(f) for f in ds.query]
     truth = [np.asarray([number[r] for r in g if kept[r]], dtype=np.int64) for g in ds.ground_truth]
     off = np.array([len(g) == 0 for g in truth]) & np.array([len(g) > 0 for g in ds.ground_truth])
@@ -126,7 +129,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         nargs=2,
         default=None,
         metavar=("A", "B"),
-        help="leave out the reference frames from the share A to B of the route instead",
+        help="leave out the reference frames from the share A to B of the route instead "
+        "of cutting its end (--share is then not used)",
     )
     parser.add_argument("--routes", default=None, metavar="SUBSTR")
     parser.add_argument("--data", type=Path, default=DATA)
@@ -161,7 +165,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     rows = []
     for label, spec in chosen:
         start = time.perf_counter()
-        rows.append((label, score_route(spec, columns, args.share, args.gap)))
+        try:
+            rows.append((label, score_route(spec, columns, args.share, args.gap)))
+        except PpalocError as exc:
+            parser.error(f"{label}: {exc}")
         print(f"{label}: {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
     names = [c for c, _, _ in columns]
     print(f"| route (off-map frames) | {' | '.join(names)} |")

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from ppaloc.datasets.frames import FrameSequence
 from ppaloc.datasets.registry import load_dataset
+from ppaloc.errors import PpalocError
 
 BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 SPEC = "synthetic:?places=30&seed=3&speed_var=0.2"
@@ -46,3 +49,19 @@ def test_a_cut_reference_keeps_every_true_match_it_still_holds(offmap, gap):
         assert sorted(original[cut].tolist()) == sorted(r for r in g if kept[r])
         assert is_off == (len(g) > 0 and not kept[list(g)].any())
     assert off.any() and not off.all()
+
+
+def test_a_query_with_no_match_anywhere_is_not_off_the_map(offmap, monkeypatch):
+    """Only a query that had a match, all of it cut, is off the map: one with none at
+    all (the dataset's own unmatched frames) is not counted as leaving it."""
+    frames = FrameSequence(lambda i: np.full((32, 64), 10 * i, np.uint8), range(10))
+    truth = [np.array([i]) for i in range(10)]
+    truth[3] = truth[7] = np.array([], np.int64)
+    fake = SimpleNamespace(reference=frames, query=frames, ground_truth=truth)
+    monkeypatch.setattr(offmap, "load_dataset", lambda spec: fake)
+    reference, _, cut, off = offmap.cut_route("fake", 2 / 3, (0.4, 0.6))
+    assert len(reference) == 8
+    assert np.flatnonzero(off).tolist() == [4, 5]  # 3 and 7 never had a match
+    assert [c.tolist() for c in cut[6:9]] == [[4], [], [6]]
+    with pytest.raises(PpalocError, match="no stretch"):
+        offmap.cut_route("fake", 2 / 3, (0.41, 0.44))

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from ppaloc.evaluate.run import predicted_frames
@@ -105,6 +105,20 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     local=st.sampled_from([(0, 1), (2, 1), (8, 2), (6, 3)]),
     speed=st.sampled_from([(0, 0), (2, 0), (2, 4), (3, 1)]),
     lost=st.sampled_from([0, 2, 4]),
+)
+@example(  # a still frame after a stalled path: its score is 0, its margin positive
+    seed=1,
+    n=4,
+    gain=4,
+    memory=127,
+    costs=(4, 4, 4),
+    max_advance=1,
+    contrast=48,
+    patch=2,
+    kind="lowres",
+    local=(2, 1),
+    speed=(0, 0),
+    lost=2,
 )
 def test_ppa8_equals_the_robust_contract_written_out(
     seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local, speed, lost

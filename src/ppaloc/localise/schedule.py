@@ -298,7 +298,8 @@ class RobustSchedule(Schedule):
     last one: no new evidence); detection
     (in register arithmetic at :data:`~ppaloc.localise.params.DETECT_BITS` fraction
     bits), confidence (0 where the estimate's path stood still while the query moved,
-    :func:`~ppaloc.localise.params.path_stalled`); normalisation.
+    and on the still frames after it, :func:`~ppaloc.localise.params.path_stalled`);
+    normalisation.
     """
 
     uses = "robust"
