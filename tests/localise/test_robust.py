@@ -222,9 +222,10 @@ def test_a_query_that_leaves_the_map_is_reported_lost(route, arithmetic):
 @pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
 def test_a_query_that_stops_after_leaving_the_map_stays_lost(route, arithmetic):
     """A still frame keeps the last forward frame's record: the query drives past the
-    map's last node (reported lost from frame 17) and then stands (frames 20-24, still
-    by the motion test), so those frames are lost too, though their weights' margin is
-    as high as before; a query that stops on the map keeps its confidence."""
+    map's last node (reported lost from frame 17) and then stands (frames 20-24, called
+    still by the controller's decision, the oracle's here), so those frames are lost
+    too, though their weights' margin is as high as before; a query that stops on the
+    map keeps its confidence."""
     moves = [True] * 20 + [False] * 5
     frames = np.concatenate((route, np.repeat(route[-1:], 5, axis=0)))
     kw = dict(arithmetic=arithmetic, motion="oracle", oracle_moves=moves, confidence_radius=1)
