@@ -153,7 +153,7 @@ class SensorBank:
         with its part of the map's runs (``runs``; :func:`ppaloc.onsensor.mapping.upload_map`)."""
         desc, places = np.asarray(topomap.descriptors), topomap.places
         self._places = places if runs and topomap.has_runs else None
-        self._local_plans: dict[int, tuple[list[tuple[int, int, int, int]], list[set[int]]]] = {}
+        self._local_plans = {}  # the local term's plans were the old map's
         for s, off in zip(self.sensors, self.offsets, strict=True):
             part = None if places is None else places[off : off + s.n_nodes] - places[off]
             upload_map(s, TopoMap(topomap.kind, desc[off : off + s.n_nodes], places=part), runs)
