@@ -32,6 +32,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     q = normalise_contrast(nodes, p.contrast, patch).astype(float).reshape(n, cells)
     w = np.zeros(n)
     out, prev, path = [], None, []  # path: (node, confidence) of each forward frame
+    offs = []  # each speed the gate passed: off one node a frame by 3/8 or more
     for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
         if t > 1:
             c = transition_costs(moved, p)
@@ -48,6 +49,11 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
                 slope = [p.stay_cost if d < v else p.skip_cost for d in range(len(c))]
                 c = [math.floor(slope[d] * abs(d - v) + 0.5) for d in range(len(c))]
                 c = [x - min(c) for x in c]
+                offs.append(abs(v - 1) >= 3 / 8)
+            elif moved and p.speed_vary and sum(offs[-16:]) >= p.speed_vary:
+                # no speed, but the speed varies: one node a frame at half the costs
+                stay, skip = p.stay_cost // 2, p.skip_cost // 2
+                c = [stay if d == 0 else skip * (d - 1) for d in range(len(c))]
             cand = []
             for d, cost in enumerate(c):
                 src = np.concatenate((np.full(d, -p.memory), w))[:n] if d else w
@@ -105,6 +111,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     local=st.sampled_from([(0, 1), (2, 1), (8, 2), (6, 3)]),
     speed=st.sampled_from([(0, 0), (2, 0), (2, 4), (3, 1)]),
     lost=st.sampled_from([0, 2, 4]),
+    vary=st.sampled_from([0, 1, 2]),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     seed=1,
@@ -119,9 +126,25 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     local=(2, 1),
     speed=(0, 0),
     lost=2,
+    vary=0,
+)
+@example(  # speeds off one node a frame, then a forward frame the gate fails: half costs
+    seed=0,
+    n=4,
+    gain=4,
+    memory=127,
+    costs=(6, 4, 6),
+    max_advance=3,
+    contrast=48,
+    patch=2,
+    kind="lowres",
+    local=(0, 1),
+    speed=(2, 0),
+    lost=0,
+    vary=1,
 )
 def test_ppa8_equals_the_robust_contract_written_out(
-    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local, speed, lost
+    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local, speed, lost, vary
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -142,6 +165,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         speed_window=speed[0],
         speed_confidence=speed[1],
         lost_window=lost,
+        speed_vary=vary,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(

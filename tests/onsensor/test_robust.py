@@ -364,6 +364,26 @@ def test_the_sensor_reports_a_query_that_leaves_the_map_lost_as_the_host_does(re
     assert min(e.score for e in est[3:10]) > 0
 
 
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_the_sensor_widens_the_transition_where_the_speed_varies_as_the_host_does(rep):
+    """The query crosses 15 places at half a place a frame, then skips 10 places and goes
+    on at one a frame: the path's gate passes speeds of 1/2 before the skip and fails
+    for a window after the estimate's jump, where the speed is known to vary
+    (``speed_vary``) and the transition's costs are halved, on the sensor as on the
+    host's ppa8 filter (a gate of 0 units: these places' margins are small)."""
+    rng = np.random.default_rng(11)
+    cells = rng.integers(0, 256, (40, 8, 8)).astype(np.uint8)
+    frames = [np.kron(c, np.ones((32, 32), np.uint8)) for c in cells]
+    query = [frames[i] for i in [i // 2 for i in range(30)] + list(range(25, 40))]
+    kw = dict(motion="always_forward", confidence_radius=1, speed_confidence=0, memory=16)
+    host, _ = _agree(rep, frames, query, **kw)
+    fixed = WeightedNodeLocaliser(rep, arithmetic="ppa8", record_weights=True, speed_vary=0, **kw)
+    fixed.build_map(frames)
+    a, b = host.localise(query), fixed.localise(query)
+    changed = [not np.array_equal(x.weights, y.weights) for x, y in zip(a, b, strict=True)]
+    assert not any(changed[:30]) and any(changed[30:])  # only after the skip
+
+
 def _stop_route(seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Blocky random places; the reference stops twice (repeated frames), the query once."""
     rng = np.random.default_rng(seed)

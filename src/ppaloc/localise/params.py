@@ -55,6 +55,8 @@ __all__ = [
     "MAX_WINDOW",
     "MINIMUM_BITS",
     "MOTIONS",
+    "VARY_BAND",
+    "VARY_RECORD",
     "FilterParams",
     "Param",
     "PathSpeed",
@@ -70,6 +72,8 @@ __all__ = [
     "preset_group",
     "refined_minimum",
     "runs_on",
+    "speed_off",
+    "speed_varies",
     "transition_costs",
 ]
 
@@ -92,6 +96,14 @@ MAX_PERIOD = 1_000_000
 
 MAX_WINDOW = 1_000_000
 """Largest ``advance`` bound and ``confidence_radius`` (nodes)."""
+
+VARY_RECORD = 16
+"""Robust preset: how many of the last speeds the path's gate passed (:func:`path_speed`)
+:func:`speed_varies` reads."""
+
+VARY_BAND = 3
+"""Robust preset: a speed the gate passed is *off* one place a frame when it differs from
+it by at least ``VARY_BAND / 8`` place a frame (:func:`speed_off`)."""
 
 DEFAULT_CONTRAST = 48
 """Robust preset: the mean absolute deviation (grey levels) low-res images are normalised
@@ -286,6 +298,13 @@ class FilterParams:
         sees the query move does not explain the frames (the query left the map, or a
         node that matches everything holds the estimate). Range [0, 64] (default 8; 0 is off).
         The estimates and the speed's gate are unchanged; controller integers only.
+    speed_vary : int
+        Robust: where at least ``speed_vary`` of the last :data:`VARY_RECORD` speeds the
+        path's gate passed were off one place a frame (:func:`speed_varies`), the query's
+        speed is known to vary, and a forward frame whose path shows no speed gets the
+        transition costs at half scale (:func:`transition_costs`): the speed is unknown
+        there, so staying and skipping cost less. Range [0, 16] (default 4; 0 is off).
+        Controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -322,6 +341,7 @@ class FilterParams:
     speed_window: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 64))
     speed_confidence: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
     lost_window: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 64))
+    speed_vary: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, VARY_RECORD))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -505,7 +525,7 @@ class PathSpeed(NamedTuple):
 
 
 def transition_costs(
-    moved: bool, params: FilterParams, speed: PathSpeed | None = None
+    moved: bool, params: FilterParams, speed: PathSpeed | None = None, varies: bool = False
 ) -> tuple[int, ...]:
     """Cost of advancing ``d = 0 .. max_advance`` nodes, given the motion test's decision.
 
@@ -517,7 +537,10 @@ def transition_costs(
     frames`` instead of one node: ``d`` costs ``stay_cost (v - d)`` below ``v`` and
     ``skip_cost (d - v)`` above it, rounded half up (``floor(x + 1/2)``, in integers:
     ``(2 k |d frames - places| + frames) // (2 frames)``), less the least of them. No
-    speed, or ``v = 1``, gives the costs above.
+    speed, or ``v = 1``, gives the costs above. With no speed where the query's speed
+    ``varies`` (:func:`speed_varies`), a forward frame's costs are those of one node a
+    frame at half scale: ``stay_cost // 2`` and ``skip_cost // 2`` (the speed is unknown
+    and known to change, so a pause or a skip is no longer unlikely).
 
     Examples
     --------
@@ -527,10 +550,14 @@ def transition_costs(
     >>> q = FilterParams.create("lbp")
     >>> transition_costs(True, q, PathSpeed(3, 2)), transition_costs(True, q, PathSpeed(2, 3))
     ((4, 0, 0, 4), (2, 0, 4, 8))
+    >>> transition_costs(True, q, varies=True), transition_costs(False, q, varies=True)
+    ((2, 0, 2, 4), (0, 4, 8, 12))
     """
     stay, move, skip, most = params.transition_defaults()
     if not moved:
         return (0, *(move + skip * (d - 1) for d in range(1, most + 1)))
+    if speed is None and varies:
+        stay, skip = stay // 2, skip // 2
     a, f = speed or (1, 1)
     costs = [
         ((stay if d * f < a else skip) * abs(d * f - a) * 2 + f) // (2 * f) for d in range(most + 1)
@@ -579,6 +606,43 @@ def path_speed(
     if a > 2 * w:
         return PathSpeed(2, 1)
     return PathSpeed(a, w)
+
+
+def speed_off(speed: PathSpeed) -> bool:
+    """Whether a speed the path's gate passed is off one place a frame by at least
+    :data:`VARY_BAND` / 8 place a frame: ``8 |places - frames| >= VARY_BAND frames``
+    (integers: the controller's arithmetic).
+
+    Examples
+    --------
+    >>> [speed_off(PathSpeed(a, 8)) for a in (5, 6, 8, 10, 11)]
+    [True, False, False, False, True]
+    >>> speed_off(PathSpeed(1, 2)), speed_off(PathSpeed(2, 1))  # the clip's ends
+    (True, True)
+    """
+    return 8 * abs(speed.places - speed.frames) >= VARY_BAND * speed.frames
+
+
+def speed_varies(offs: Sequence[bool], params: FilterParams) -> bool:
+    """Whether the query's speed is known to vary: at least ``speed_vary`` of the last
+    :data:`VARY_RECORD` speeds the path's gate passed (``offs``, oldest first, each
+    :func:`speed_off`) were off one place a frame. False where ``speed_vary`` is 0.
+
+    A route driven at the map's pace shows speeds near one place a frame wherever the
+    filter is sure of its path, so it keeps item 1's costs where the filter is unsure; a
+    query whose speed swings shows it on the frames the filter was sure of, and the
+    frames it is unsure of are those whose speed it does not know.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp", speed_vary=2)
+    >>> speed_varies([True, False, False], p), speed_varies([True, False, True], p)
+    (False, True)
+    >>> speed_varies([True] * 2 + [False] * 16, p)  # older than the record
+    False
+    """
+    k = int(params.speed_vary or 0)
+    return k > 0 and sum(map(bool, offs[-VARY_RECORD:])) >= k
 
 
 def path_stalled(places: Sequence[int], params: FilterParams) -> bool:

@@ -44,11 +44,14 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.motion import OracleMotion, check_moves
 from ppaloc.localise.params import (
     DETECT_BITS,
+    VARY_RECORD,
     FilterParams,
     adjustment,
     frame_scale,
     path_speed,
     path_stalled,
+    speed_off,
+    speed_varies,
     transition_costs,
 )
 
@@ -290,7 +293,9 @@ class RobustSchedule(Schedule):
 
     Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs
     the motion decision sets (from the second frame), a forward frame's centred on the
-    speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`); on
+    speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`), or,
+    where it shows none and the speeds it showed lately varied, at half scale
+    (:func:`~ppaloc.localise.params.speed_varies`); on
     the first frame and on frames the motion test calls forward, every node's value
     read, the frame's best distance, this frame's scale chosen from them
     (:func:`~ppaloc.localise.params.frame_scale`) and the
@@ -319,7 +324,11 @@ class RobustSchedule(Schedule):
         moved = bool(ex.motion(self.decided()))
         if not first:
             speed = path_speed(self._path_places, self._path_scores, p) if moved else None
-            ex.transition(transition_costs(moved, p, speed))
+            if speed is not None and p.speed_vary:  # the record of the speeds the gate passed
+                self._speeds_off.append(speed_off(speed))
+                del self._speeds_off[:-VARY_RECORD]
+            varies = speed_varies(self._speeds_off, p)
+            ex.transition(transition_costs(moved, p, speed, varies))
         if first or moved:
             values = ex.node_values()
             best = ex.minimum(values)
@@ -360,6 +369,7 @@ class RobustSchedule(Schedule):
         super().reset()
         self._path_places: list[int] = []
         self._path_scores: list[float] = []
+        self._speeds_off: list[bool] = []
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """The normalisation ``w := max(clip(w - T), -memory)``."""

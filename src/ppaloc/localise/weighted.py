@@ -12,7 +12,9 @@ cannot drift apart.
 1. transition: ``w_i := max over d of (w_{i-d} - c_d)``, ``d = 0 .. max_advance``, with
    the costs ``c_d`` set by the motion test (:func:`ppaloc.localise.params.transition_costs`),
    a forward frame's centred on the speed of the estimate's own path
-   (:func:`~ppaloc.localise.params.path_speed`); nodes before node 0 read the floor;
+   (:func:`~ppaloc.localise.params.path_speed`), or at half scale where the path shows
+   none and its speeds varied lately (:func:`~ppaloc.localise.params.speed_varies`);
+   nodes before node 0 read the floor;
 2. likelihood scaled per frame (low-res images contrast-normalised first,
    :func:`ppaloc.place.normalise_contrast`): ``mu_s = mu * 2**-s_t`` with ``s_t`` chosen from the
    frame's own best and mean distance (:func:`~ppaloc.localise.params.frame_scale`);
