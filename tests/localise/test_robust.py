@@ -49,8 +49,12 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
                 slope = [p.stay_cost if d < v else p.skip_cost for d in range(len(c))]
                 c = [math.floor(slope[d] * abs(d - v) + 0.5) for d in range(len(c))]
                 c = [x - min(c) for x in c]
-                offs.append(abs(v - 1) >= 3 / 8)
-            elif moved and p.speed_vary and sum(offs[-16:]) >= p.speed_vary:
+                offs.append((len(path) + 1, abs(v - 1) >= 3 / 8))
+            elif (  # of the last 16 such speeds, those of the last 64 forward frames
+                moved
+                and p.speed_vary
+                and sum(off for f, off in offs[-16:] if len(path) + 1 - f < 64) >= p.speed_vary
+            ):
                 # no speed, but the speed varies: one node a frame at half the costs
                 stay, skip = p.stay_cost // 2, p.skip_cost // 2
                 c = [stay if d == 0 else skip * (d - 1) for d in range(len(c))]
@@ -446,3 +450,22 @@ def test_the_confidence_leaves_out_places_not_nodes():
     assert schedule.window(12) == (10, 14)
     schedule.use_map(TopoMap("lbp", np.zeros(len(places), np.uint32)))
     assert schedule.window(5) == (3, 7)
+
+
+def test_the_record_of_speeds_that_varied_ages_out():
+    """Four gated speeds off one place a frame make the speed vary; a forward frame 63
+    forward frames later still reads them, the 64th no longer (``VARY_AGE``), and
+    still frames do not age them."""
+    from ppaloc.localise.params import VARY_AGE, PathSpeed
+    from ppaloc.localise.schedule import make_schedule
+
+    s = make_schedule(FilterParams.create("lbp"))
+    s.reset()
+    assert [s.note_speed(True, PathSpeed(1, 2)) for _ in range(4)] == [False] * 3 + [True]
+    assert s.note_speed(False, None)  # a still frame: no forward frame counted
+    assert all(s.note_speed(True, None) for _ in range(VARY_AGE - 4))
+    assert s.note_speed(False, None)
+    assert not s.note_speed(True, None)  # the first of the four is 64 forward frames old
+    off = make_schedule(FilterParams.create("lbp", speed_vary=0))
+    off.reset()
+    assert not any(off.note_speed(True, PathSpeed(1, 2)) for _ in range(8))

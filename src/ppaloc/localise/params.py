@@ -55,6 +55,7 @@ __all__ = [
     "MAX_WINDOW",
     "MINIMUM_BITS",
     "MOTIONS",
+    "VARY_AGE",
     "VARY_BAND",
     "VARY_RECORD",
     "FilterParams",
@@ -100,6 +101,11 @@ MAX_WINDOW = 1_000_000
 VARY_RECORD = 16
 """Robust preset: how many of the last speeds the path's gate passed (:func:`path_speed`)
 :func:`speed_varies` reads."""
+
+VARY_AGE = 64
+"""Robust preset: a speed the gate passed counts in :func:`speed_varies` for this many
+forward frames (from the one it was passed on): a record the gate has not renewed
+lately says nothing of the speed now."""
 
 VARY_BAND = 3
 """Robust preset: a speed the gate passed is *off* one place a frame when it differs from
@@ -300,7 +306,8 @@ class FilterParams:
         The estimates and the speed's gate are unchanged; controller integers only.
     speed_vary : int
         Robust: where at least ``speed_vary`` of the last :data:`VARY_RECORD` speeds the
-        path's gate passed were off one place a frame (:func:`speed_varies`), the query's
+        path's gate passed, within the last :data:`VARY_AGE` forward frames, were off one
+        place a frame (:func:`speed_varies`), the query's
         speed is known to vary, and a forward frame whose path shows no speed gets the
         transition costs at half scale (:func:`transition_costs`): the speed is unknown
         there, so staying and skipping cost less. Range [0, 16] (default 4; 0 is off).
@@ -626,7 +633,8 @@ def speed_off(speed: PathSpeed) -> bool:
 def speed_varies(offs: Sequence[bool], params: FilterParams) -> bool:
     """Whether the query's speed is known to vary: at least ``speed_vary`` of the last
     :data:`VARY_RECORD` speeds the path's gate passed (``offs``, oldest first, each
-    :func:`speed_off`) were off one place a frame. False where ``speed_vary`` is 0.
+    :func:`speed_off`; the schedule passes those of the last :data:`VARY_AGE` forward
+    frames) were off one place a frame. False where ``speed_vary`` is 0.
 
     A route driven at the map's pace shows speeds near one place a frame wherever the
     filter is sure of its path, so it keeps item 1's costs where the filter is unsure; a

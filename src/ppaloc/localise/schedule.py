@@ -44,8 +44,10 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.motion import OracleMotion, check_moves
 from ppaloc.localise.params import (
     DETECT_BITS,
+    VARY_AGE,
     VARY_RECORD,
     FilterParams,
+    PathSpeed,
     adjustment,
     frame_scale,
     path_speed,
@@ -324,10 +326,7 @@ class RobustSchedule(Schedule):
         moved = bool(ex.motion(self.decided()))
         if not first:
             speed = path_speed(self._path_places, self._path_scores, p) if moved else None
-            if speed is not None and p.speed_vary:  # the record of the speeds the gate passed
-                self._speeds_off.append(speed_off(speed))
-                del self._speeds_off[:-VARY_RECORD]
-            varies = speed_varies(self._speeds_off, p)
+            varies = self.note_speed(moved, speed)
             ex.transition(transition_costs(moved, p, speed, varies))
         if first or moved:
             values = ex.node_values()
@@ -355,6 +354,18 @@ class RobustSchedule(Schedule):
             result = replace(result, score=min(result.score, 0.0))
         return result
 
+    def note_speed(self, moved: bool, speed: PathSpeed | None) -> bool:
+        """Count a frame after the first into the record of the speeds the path's gate
+        passed (``speed``, None where it passed none) and say whether the query's speed
+        varies (:func:`~ppaloc.localise.params.speed_varies`, over the speeds of the last
+        :data:`~ppaloc.localise.params.VARY_AGE` forward frames)."""
+        self._forward += bool(moved)
+        if speed is not None and self.params.speed_vary:
+            self._speeds_off.append((self._forward, speed_off(speed)))
+            del self._speeds_off[:-VARY_RECORD]
+        recent = [off for f, off in self._speeds_off if self._forward - f < VARY_AGE]
+        return speed_varies(recent, self.params)
+
     @property
     def path(self) -> tuple[tuple[int, float], ...]:
         """The ``(place, confidence)`` of the estimate on the last ``speed_window + 1``
@@ -369,7 +380,8 @@ class RobustSchedule(Schedule):
         super().reset()
         self._path_places: list[int] = []
         self._path_scores: list[float] = []
-        self._speeds_off: list[bool] = []
+        self._speeds_off: list[tuple[int, bool]] = []
+        self._forward = 0
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """The normalisation ``w := max(clip(w - T), -memory)``."""
