@@ -9,12 +9,15 @@ from hypothesis import strategies as st
 
 from ppaloc.evaluate.run import predicted_frames
 from ppaloc.localise.params import (
+    VARY_AGE,
     FilterParams,
+    PathSpeed,
     frame_scale,
     likelihood_shift,
     refined_minimum,
     transition_costs,
 )
+from ppaloc.localise.schedule import make_schedule
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.place import block_sums, lowres_image, normalise_contrast
 from ppaloc.topomap import TopoMap
@@ -440,8 +443,6 @@ def test_a_map_of_every_frame_follows_the_stops_of_the_reference():
 
 
 def test_the_confidence_leaves_out_places_not_nodes():
-    from ppaloc.localise.schedule import make_schedule
-
     places = np.array([0, 1, 1, 1, 1, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13])
     topomap = TopoMap("lbp", np.zeros(len(places), np.uint32), places=places)
     schedule = make_schedule(FilterParams.create("lbp", confidence_radius=2))
@@ -456,9 +457,6 @@ def test_the_record_of_speeds_that_varied_ages_out():
     """Four gated speeds off one place a frame make the speed vary; a forward frame 63
     forward frames later still reads them, the 64th no longer (``VARY_AGE``), and
     still frames do not age them."""
-    from ppaloc.localise.params import VARY_AGE, PathSpeed
-    from ppaloc.localise.schedule import make_schedule
-
     s = make_schedule(FilterParams.create("lbp"))
     s.reset()
     assert [s.note_speed(True, PathSpeed(1, 2)) for _ in range(4)] == [False] * 3 + [True]
