@@ -48,6 +48,7 @@ GRID: dict[str, tuple[int, ...]] = {
     "speed_confidence": (0, 16, 32, 48, 64),
     "lost_window": (0, 4, 8, 16, 32),
     "speed_vary": (0, 1, 2, 4, 8, 16),
+    "still_decay": (0, 4, 8, 16, 32, 64, 127),
 }
 """Each parameter's values: at least a 4x range around the default."""
 

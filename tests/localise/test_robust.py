@@ -25,16 +25,19 @@ from ppaloc.topomap import TopoMap
 from .conftest import blocky, stepped
 
 
-def naive_robust(nodes, frames, moves, p: FilterParams):
+def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None):
     """docs/ppa8.md, "Robust preset", written out literally for low-res maps (8x8 or
     16x16 nodes; a tile of ``contrast_patch`` 32-pixel blocks is twice as many 16-pixel
-    ones)."""
+    ones), the map's nodes made from reference frames ``frame_index`` (default one each)."""
     n, grid = len(nodes), nodes.shape[-1]
+    first = np.arange(n) if frame_index is None else np.asarray(frame_index)
+    stood = np.append(np.diff(first), 1) > 1  # the map stood still there: several frames
     cells, patch = grid * grid, p.contrast_patch * grid // 8
     # every image, live or node, contrast-normalised (docs/ppa8.md, "Robust preset")
     q = normalise_contrast(nodes, p.contrast, patch).astype(float).reshape(n, cells)
     w = np.zeros(n)
     out, prev, path = [], None, []  # path: (node, confidence) of each forward frame
+    still = 0  # frames since the last forward decision
     offs = []  # each speed the gate passed: off one node a frame by 3/8 or more
     for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
         if t > 1:
@@ -94,6 +97,9 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
         score = 0.0  # the refined threshold minus the outside maximum, each to 1/16
         if len(outside):
             score = math.floor(16 * w.max()) / 16 - math.floor(16 * outside.max()) / 16
+        still = 0 if moved else still + 1
+        if still and not stood[node]:  # a still frame where the map kept moving
+            score = min(score, max(0.0, score - p.still_decay * still))
         if moved and t > 1:
             path.append((int(node), score))
         lost = p.lost_window  # the record of forward frames held one place: on any frame
@@ -119,6 +125,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     speed=st.sampled_from([(0, 0), (2, 0), (2, 4), (3, 1)]),
     lost=st.sampled_from([0, 2, 4]),
     vary=st.sampled_from([0, 1, 2]),
+    decay=st.sampled_from([0, 4, 16]),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     seed=1,
@@ -134,6 +141,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     speed=(0, 0),
     lost=2,
     vary=0,
+    decay=0,
 )
 @example(  # speeds off one node a frame, then a forward frame the gate fails: half costs
     seed=0,
@@ -149,15 +157,46 @@ def naive_robust(nodes, frames, moves, p: FilterParams):
     speed=(2, 0),
     lost=0,
     vary=1,
+    decay=0,
+)
+@example(  # still frames on a map that stood still at some nodes and not at others
+    seed=3,
+    n=6,
+    gain=4,
+    memory=127,
+    costs=(4, 4, 4),
+    max_advance=3,
+    contrast=48,
+    patch=2,
+    kind="lowres",
+    local=(2, 1),
+    speed=(0, 0),
+    lost=0,
+    vary=0,
+    decay=4,
 )
 def test_ppa8_equals_the_robust_contract_written_out(
-    seed, n, gain, memory, costs, max_advance, contrast, patch, kind, local, speed, lost, vary
+    seed,
+    n,
+    gain,
+    memory,
+    costs,
+    max_advance,
+    contrast,
+    patch,
+    kind,
+    local,
+    speed,
+    lost,
+    vary,
+    decay,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
     nodes = rng.integers(0, 256, (n, grid, grid), dtype=np.uint8)
     frames = rng.integers(0, 256, (9, 256, 256), dtype=np.uint8)
     moves = rng.random(9) < 0.7
+    frame_index = np.cumsum(rng.integers(1, 3, n)) - 1  # some nodes stand for two frames
     kw = dict(
         gain=gain,
         memory=memory,
@@ -173,6 +212,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         speed_confidence=speed[1],
         lost_window=lost,
         speed_vary=vary,
+        still_decay=decay,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(
@@ -183,8 +223,8 @@ def test_ppa8_equals_the_robust_contract_written_out(
         record_weights=True,
         **kw,
     )
-    loc.use_map(TopoMap(kind, nodes))
-    want = naive_robust(nodes, frames, moves, loc.params)
+    loc.use_map(TopoMap(kind, nodes, frame_index=frame_index))
+    want = naive_robust(nodes, frames, moves, loc.params, frame_index)
     for est, (node, w, score) in zip(loc.localise(frames), want, strict=True):
         assert est.node == node and est.score == score
         np.testing.assert_array_equal(est.weights, w)
@@ -256,10 +296,16 @@ def test_a_query_that_stops_after_leaving_the_map_stays_lost(route, arithmetic):
     map's last node (reported lost from frame 17) and then stands (frames 20-24, called
     still by the controller's decision, the oracle's here), so those frames are lost
     too, though their weights' margin is as high as before; a query that stops on the
-    map keeps its confidence."""
+    map keeps its confidence (``still_decay`` off: its own test is below)."""
     moves = [True] * 20 + [False] * 5
     frames = np.concatenate((route, np.repeat(route[-1:], 5, axis=0)))
-    kw = dict(arithmetic=arithmetic, motion="oracle", oracle_moves=moves, confidence_radius=1)
+    kw = dict(
+        arithmetic=arithmetic,
+        motion="oracle",
+        oracle_moves=moves,
+        confidence_radius=1,
+        still_decay=0,
+    )
     loc, off = (WeightedNodeLocaliser("lowres", lost_window=w, **kw) for w in (8, 0))
     for each in (loc, off):
         each.build_map(route[:10])
@@ -270,6 +316,39 @@ def test_a_query_that_stops_after_leaving_the_map_stays_lost(route, arithmetic):
     on = WeightedNodeLocaliser("lowres", **kw)  # the same query stops on a longer map
     on.build_map(route)
     assert all(e.score > 0 for e in on.localise(frames)[3:])
+
+
+@pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
+@pytest.mark.parametrize("runs", [False, True])
+def test_the_confidence_falls_on_still_frames_where_the_map_kept_moving(route, arithmetic, runs):
+    """A query stands 4 frames at place 5 and 4 at place 12; the map stood still at
+    place 12 (a keyframe node of 6 reference frames, or a run of 6 nodes of one place
+    on a map of every frame) and not at place 5. On the still frames at place 5 the
+    confidence falls by ``still_decay`` (4 here) units a frame to 0 at the least; at place
+    12 it is the weights' margin, as on every frame with the rule off. The estimates
+    are the same either way."""
+    order = [*range(6), 5, 5, 5, 5, *range(6, 13), 12, 12, 12, 12, *range(13, 20)]
+    moves = [True] * 6 + [False] * 4 + [True] * 7 + [False] * 4 + [True] * 7
+    if runs:  # place 12 is nodes 12-17 of one place
+        ref = np.concatenate((route[:13], np.repeat(route[12:13], 5, axis=0), route[13:]))
+        places = np.array([*range(13), *[12] * 5, *range(13, 20)])
+        m = TopoMap("lowres", lowres_image(ref, 8), np.arange(25), places=places)
+    else:  # node 12 stands for reference frames 12-17
+        m = TopoMap("lowres", lowres_image(route, 8), [*range(13), *range(18, 25)])
+    kw = dict(arithmetic=arithmetic, motion="oracle", oracle_moves=moves, confidence_radius=1)
+    got, plain = [], []
+    for decay, out in ((4, got), (0, plain)):
+        loc = WeightedNodeLocaliser("lowres", still_decay=decay, **kw)
+        loc.use_map(m)
+        out += loc.localise(route[order])
+    assert [e.node for e in got] == [e.node for e in plain]
+    at5, at12 = slice(6, 10), slice(17, 21)
+    fell = [e.score for e in got[at5]]
+    assert fell == [max(e.score - 4 * k, 0.0) for k, e in enumerate(plain[at5], start=1)]
+    assert fell[0] > 0 and fell[-1] == 0  # a fall, down to the floor
+    assert all(e.score > 0 for e in plain[at12])
+    assert [e.score for e in got[at12]] == [e.score for e in plain[at12]]
+    assert [e.score for e in got[21:]] == [e.score for e in plain[21:]]
 
 
 def test_a_path_held_in_a_run_of_one_place_is_a_path_held(route):

@@ -533,3 +533,19 @@ def test_the_sensor_equals_the_host_on_a_nordland_slice(nordland_dir, rep):
     query = [to_sensor(f) for f in ds.query]
     _, sensor = _agree(rep, ref, query)
     assert len(sensor.topomap) < len(ref)  # Nordland's stops became single nodes
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_the_sensor_lowers_the_confidence_on_still_frames_as_the_host_does(rep):
+    """The query stands at a place where the reference did not stop: on its still frames
+    the confidence falls by ``still_decay`` a frame, on the sensor as on the host's ppa8
+    filter (``_agree`` compares every score); the estimates are those of the rule off."""
+    ref, query = _stop_route(3)
+    kw = dict(confidence_radius=1, still_decay=4)
+    host, _ = _agree(rep, ref, query, **kw)
+    off = WeightedNodeLocaliser(rep, arithmetic="ppa8", confidence_radius=1, still_decay=0)
+    off.build_map(ref)
+    a, b = host.localise(query), off.localise(query)
+    assert [e.node for e in a] == [e.node for e in b]
+    lowered = [i for i, (x, y) in enumerate(zip(a, b, strict=True)) if x.score != y.score]
+    assert lowered and all(not a[i].moved and a[i].score < b[i].score for i in lowered)

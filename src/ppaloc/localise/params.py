@@ -75,6 +75,7 @@ __all__ = [
     "runs_on",
     "speed_off",
     "speed_varies",
+    "still_score",
     "transition_costs",
 ]
 
@@ -312,6 +313,15 @@ class FilterParams:
         transition costs at half scale (:func:`transition_costs`): the speed is unknown
         there, so staying and skipping cost less. Range [0, 16] (default 4; 0 is off).
         Controller integers only.
+    still_decay : int
+        Robust: on a still frame the reported confidence falls by ``still_decay`` units
+        for each frame since the last forward decision, to 0 at the least, unless the
+        estimate's place stands for several reference frames (the map stood still there
+        too, :meth:`~ppaloc.topomap.TopoMap.place_frames`; :func:`still_score`): a
+        still frame adds no evidence, so the estimate is the one the query stopped
+        with, and a query that stops where the map kept moving may have stopped a
+        place or two from it. Range [0, 127] (default 16; 0 is off). The estimates and
+        the speed's gate are unchanged; controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -349,6 +359,7 @@ class FilterParams:
     speed_confidence: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
     lost_window: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 64))
     speed_vary: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, VARY_RECORD))
+    still_decay: int | None = field(default=16, metadata=_param("robust", "int", 16, 0, 127))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -678,6 +689,36 @@ def path_stalled(places: Sequence[int], params: FilterParams) -> bool:
         return False
     tail = places[-1 - w :]
     return min(tail) == max(tail)
+
+
+def still_score(score: float, still: int, stood: bool, params: FilterParams) -> float:
+    """The reported confidence of a frame ``still`` frames after the last forward
+    decision (0 on a forward frame): ``score`` less ``still_decay`` units a frame, to 0
+    at the least, unless the estimate's place stands for several reference frames
+    (``stood``: the map stood still there too).
+
+    A still frame adds no evidence (derivation item 5), so the estimate is the one the
+    query stopped with. The motion test calls a slowing query still a frame or two
+    before it halts, and a starting one forward a frame or two after it leaves, so the
+    filter stops a place short of where the query stands, or stays behind when it
+    leaves. Where the map stood still too (a run of reference frames at one place),
+    that place is where a vehicle stops, and the estimate is as sure as when it
+    stopped. Integers only: the controller's arithmetic.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp", still_decay=16)
+    >>> still_score(40.0, 0, False, p), still_score(40.0, 2, False, p)
+    (40.0, 8.0)
+    >>> still_score(40.0, 3, False, p), still_score(40.0, 3, True, p)
+    (0.0, 40.0)
+    >>> still_score(40.0, 3, False, FilterParams.create("lbp", still_decay=0))
+    40.0
+    """
+    c = int(params.still_decay or 0)
+    if not c or not still or stood:
+        return score
+    return min(score, max(0.0, score - c * still))
 
 
 def likelihood_shift(spread: int, gain: int) -> int:

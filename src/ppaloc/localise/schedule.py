@@ -54,6 +54,7 @@ from ppaloc.localise.params import (
     path_stalled,
     speed_off,
     speed_varies,
+    still_score,
     transition_costs,
 )
 
@@ -305,14 +306,17 @@ class RobustSchedule(Schedule):
     last one: no new evidence); detection
     (in register arithmetic at :data:`~ppaloc.localise.params.DETECT_BITS` fraction
     bits), confidence (0 where the estimate's path stood still while the query moved,
-    and on the still frames after it, :func:`~ppaloc.localise.params.path_stalled`);
-    normalisation.
+    and on the still frames after it, :func:`~ppaloc.localise.params.path_stalled`;
+    on still frames less ``still_decay`` a frame where the map did not stand still,
+    :func:`~ppaloc.localise.params.still_score`); normalisation.
     """
 
     uses = "robust"
     sensor = SensorPlan(stores=("levels", "digital"), spread="copies", keep_scale=True, bank=True)
     detect_bits = DETECT_BITS
     runs = True
+    #: Per node: whether its place stands for several reference frames (:meth:`use_map`).
+    _stood_at: np.ndarray | None = None
 
     @property
     def max_advance(self) -> int:
@@ -341,6 +345,10 @@ class RobustSchedule(Schedule):
             if p.local_gain:
                 ex.add_local(int(p.local_gain), int(p.local_window))  # type: ignore[arg-type]
         result = self.finish(ex, moved)
+        self._still = 0 if moved else self._still + 1
+        if self._still:
+            score = still_score(result.score, self._still, self._stood(result.node), p)
+            result = replace(result, score=score)
         keep = max(int(p.speed_window or 0), int(p.lost_window or 0))
         if moved and not first and keep:
             self._path_places.append(self.place(result.node))
@@ -366,6 +374,16 @@ class RobustSchedule(Schedule):
         recent = [off for f, off in self._speeds_off if self._forward - f < VARY_AGE]
         return speed_varies(recent, self.params)
 
+    def use_map(self, topomap: TopoMap) -> None:
+        """The map, and which of its nodes' places stand for several reference frames."""
+        super().use_map(topomap)
+        self._stood_at = topomap.place_frames() > 1
+
+    def _stood(self, node: int) -> bool:
+        """Whether the map stood still at ``node``'s place (several reference frames)."""
+        stood = self._stood_at
+        return stood is not None and 0 <= node < len(stood) and bool(stood[node])
+
     @property
     def path(self) -> tuple[tuple[int, float], ...]:
         """The ``(place, confidence)`` of the estimate on the last ``speed_window + 1``
@@ -382,6 +400,7 @@ class RobustSchedule(Schedule):
         self._path_scores: list[float] = []
         self._speeds_off: list[tuple[int, bool]] = []
         self._forward = 0
+        self._still = 0  # frames since the last forward decision
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """The normalisation ``w := max(clip(w - T), -memory)``."""

@@ -23,6 +23,9 @@ cannot drift apart.
    neighbours whose distance is strictly smaller (:func:`~ppaloc.localise.enhance.closer_count`;
    on a map with runs the nodes next to a run, :func:`~ppaloc.localise.enhance.place_neighbours`);
 4. detection: the highest weight, ties to the candidate nearest the previous estimate;
+   its confidence 0 where the estimate's path stood still while the query moved
+   (:func:`~ppaloc.localise.params.path_stalled`) and lower on still frames where the
+   map kept moving (:func:`~ppaloc.localise.params.still_score`);
 5. normalisation ``w_i := max(w_i - max(W), -memory)``.
 
 ``preset="paper"``, Algorithm 1, per frame in this order:

@@ -158,7 +158,9 @@ class OnSensorLocaliser:
     1/16, equal to the host's ppa8 score; with the paper's the integer ``T = floor(max
     W)`` (the host reports the unrounded difference). The robust schedule reports 0
     while the estimate has held one place over its last ``lost_window`` forward frames,
-    still frames after them included (:func:`~ppaloc.localise.params.path_stalled`).
+    still frames after them included (:func:`~ppaloc.localise.params.path_stalled`),
+    and lowers it on still frames where the map kept moving
+    (:func:`~ppaloc.localise.params.still_score`).
     ``weights`` (with ``record_weights``) are read from the weight register as an
     untimed inspection.
     """

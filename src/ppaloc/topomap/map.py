@@ -174,6 +174,28 @@ class TopoMap:
         np.maximum(end, first + 1, out=end)  # a map whose frames are not increasing
         return first.copy(), end
 
+    def place_frames(self) -> np.ndarray:
+        """How many reference frames each node's place stands for: its frame span
+        (:meth:`frame_spans`) summed over the nodes of its place (:attr:`places`). More
+        than one where the reference stood still (or hardly moved): a stop kept as one
+        node of a keyframe map, or as a run of nodes of a map of every frame.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> nodes = np.zeros(4, np.uint32)
+        >>> TopoMap("lbp", nodes, frame_index=[0, 1, 5, 6], params={"n_frames": 7}).place_frames()
+        array([1, 4, 1, 1])
+        >>> TopoMap("lbp", nodes, places=[0, 1, 1, 2]).place_frames()
+        array([1, 2, 2, 1])
+        """
+        first, end = self.frame_spans()
+        spans = end - first
+        if self.places is None or not len(spans):
+            return spans
+        per_place = np.bincount(self.places, weights=spans).astype(np.int64)
+        return per_place[self.places]
+
     @property
     def layout(self) -> SnakeLayout | None:
         """The snake layout of this kind on a 256x256 array (None for kinds without one)."""
