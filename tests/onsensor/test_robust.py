@@ -536,15 +536,24 @@ def test_the_sensor_equals_the_host_on_a_nordland_slice(nordland_dir, rep):
 
 
 @pytest.mark.parametrize("rep", ["lowres", "lbp"])
-def test_the_sensor_lowers_the_confidence_on_still_frames_as_the_host_does(rep):
+@pytest.mark.parametrize("sensor_nodes", [None, 6])
+def test_the_sensor_lowers_the_confidence_on_still_frames_as_the_host_does(rep, sensor_nodes):
     """The query stands at a place where the reference did not stop: on its still frames
-    the confidence falls by ``still_decay`` a frame, on the sensor as on the host's ppa8
-    filter (``_agree`` compares every score); the estimates are those of the rule off."""
+    the confidence falls by ``still_decay`` a frame, on the sensor (one, or a bank of
+    6-node sensors on the host's map of every frame) as on the host's ppa8 filter, every
+    score the same; the estimates are those of the rule off."""
     ref, query = _stop_route(3)
     kw = dict(confidence_radius=1, still_decay=4)
-    host, _ = _agree(rep, ref, query, **kw)
-    off = WeightedNodeLocaliser(rep, arithmetic="ppa8", confidence_radius=1, still_decay=0)
-    off.build_map(ref)
+    if sensor_nodes is None:
+        host, _ = _agree(rep, ref, query, **kw)  # compares every score
+    else:
+        kw["keyframes"] = False
+        host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
+        bank = OnSensorLocaliser(rep, sensor_nodes=sensor_nodes, **kw)
+        bank.use_map(host.build_map(ref))
+        assert [e.score for e in bank.localise(query)] == [e.score for e in host.localise(query)]
+    off = WeightedNodeLocaliser(rep, arithmetic="ppa8", **{**kw, "still_decay": 0})
+    off.use_map(host.topomap)
     a, b = host.localise(query), off.localise(query)
     assert [e.node for e in a] == [e.node for e in b]
     lowered = [i for i, (x, y) in enumerate(zip(a, b, strict=True)) if x.score != y.score]
