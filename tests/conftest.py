@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -105,3 +106,35 @@ def dump_dom():
             )
 
     return run
+
+
+#: ``ppaloc`` as a command started from a shell: no signal blocked and SIGINT raising
+#: KeyboardInterrupt, whatever the test process has inherited or been left with (a
+#: blocked or ignored SIGINT passes to a child and would keep a Ctrl-C test's child from
+#: ever seeing the signal).
+PPALOC_AS_FROM_A_SHELL = (
+    "import signal, sys; signal.pthread_sigmask(signal.SIG_SETMASK, ()); "
+    "signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "from ppaloc.cli import main; sys.exit(main())"
+)
+
+
+@pytest.fixture(scope="session")
+def ppaloc_command() -> list[str]:
+    """The command that runs ``ppaloc`` in a child process with a shell's signal state."""
+    return [sys.executable, "-c", PPALOC_AS_FROM_A_SHELL]
+
+
+def _signal_state(pid: int) -> str:
+    """A process's blocked and ignored signal masks (Linux), for a Ctrl-C test's message."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return "(no signal state)"
+    return " ".join(line for line in status.splitlines() if line.startswith(("SigBlk", "SigIgn")))
+
+
+@pytest.fixture(scope="session")
+def signal_state():
+    """``signal_state(pid)``: the process's blocked and ignored signals, as a string."""
+    return _signal_state

@@ -273,18 +273,18 @@ def test_loading_a_synthetic_route_renders_no_frame(monkeypatch):
 
 
 @pytest.mark.slow
-def test_sigint_stops_a_long_evaluation_within_a_second(tmp_path):
+def test_sigint_stops_a_long_evaluation_within_a_second(tmp_path, ppaloc_command, signal_state):
     """A real Ctrl-C (SIGINT) while the map is built: one line, exit 130, nothing written."""
     import signal
     import subprocess
-    import sys
     import time
 
     out = tmp_path / "run"
-    exe = Path(sys.executable).with_name("ppaloc")
     spec = "synthetic:?places=3000&seed=1"
-    args = [str(exe), "-v", "evaluate", "-d", spec, "-m", "weighted-node-lbp", "--out", str(out)]
-    proc = subprocess.Popen(args, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    args = ["-v", "evaluate", "-d", spec, "-m", "weighted-node-lbp", "--out", str(out)]
+    proc = subprocess.Popen(
+        [*ppaloc_command, *args], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True
+    )
     try:
         lines = []
         for line in proc.stderr:  # wait until the frames are being read
@@ -292,6 +292,7 @@ def test_sigint_stops_a_long_evaluation_within_a_second(tmp_path):
             if "mapping 3000 reference frames" in line:
                 break
         time.sleep(0.5)
+        lines.append(f"[signals of the child: {signal_state(proc.pid)}]\n")
         proc.send_signal(signal.SIGINT)
         t0 = time.perf_counter()
         for line in proc.stderr:  # the message comes as soon as the current frame is done

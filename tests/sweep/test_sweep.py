@@ -8,7 +8,6 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -195,7 +194,9 @@ def _finished_cells(out: Path) -> list[Path]:
     return [p for p in out.glob("cells/*/results.json") if not p.parent.name.startswith(".")]
 
 
-def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(tmp_path, cluster2):
+def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(
+    tmp_path, cluster2, ppaloc_command, signal_state
+):
     import psutil
 
     out = tmp_path / "sweep"
@@ -214,10 +215,9 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(tmp_path, c
         "[sweep.params.weighted-node-paper-lbp]\n"
         "gamma = [0.0, 0.125, 0.25, 0.5, 1]\n"
     )
-    command = [sys.executable, "-c", "import sys; from ppaloc.cli import main; sys.exit(main())"]
     args = ["sweep", "--config", str(toml), "--out", str(out), "--workers", "2"]
     proc = subprocess.Popen(
-        [*command, *args],
+        [*ppaloc_command, *args],
         cwd=tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -230,13 +230,14 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(tmp_path, c
             assert proc.poll() is None, proc.communicate()
             time.sleep(0.05)
         children = psutil.Process(proc.pid).children(recursive=True)
+        state = signal_state(proc.pid)  # for the message, should the signal not arrive
         os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does: the whole foreground group
         _, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
-    assert proc.returncode == 130, err
+    assert proc.returncode == 130, f"[signals of the child: {state}]\n{err}"
     assert err.strip().splitlines()[-1] == "ppaloc: interrupted"
     assert "Traceback" not in err
     _, alive = psutil.wait_procs(children, timeout=10)
