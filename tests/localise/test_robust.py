@@ -97,7 +97,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None):
         score = 0.0  # the refined threshold minus the outside maximum, each to 1/16
         if len(outside):
             score = math.floor(16 * w.max()) / 16 - math.floor(16 * outside.max()) / 16
-        still = 0 if moved else still + 1
+        still = 0 if moved else still + 1  # frames since the last forward decision
         if still and not stood[node]:  # a still frame where the map kept moving
             score = min(score, max(0.0, score - p.still_decay * still))
         if moved and t > 1:

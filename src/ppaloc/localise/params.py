@@ -703,7 +703,7 @@ def still_score(score: float, still: int, stood: bool, params: FilterParams) -> 
     filter stops a place short of where the query stands, or stays behind when it
     leaves. Where the map stood still too (a run of reference frames at one place),
     that place is where a vehicle stops, and the estimate is as sure as when it
-    stopped. Integers only: the controller's arithmetic.
+    stopped. The controller's arithmetic on the score it reports: no array time.
 
     Examples
     --------

@@ -345,7 +345,7 @@ class RobustSchedule(Schedule):
             if p.local_gain:
                 ex.add_local(int(p.local_gain), int(p.local_window))  # type: ignore[arg-type]
         result = self.finish(ex, moved)
-        self._still = 0 if moved else self._still + 1
+        self._still = 0 if moved else self._still + 1  # since the last forward decision
         if self._still:
             score = still_score(result.score, self._still, self._stood(result.node), p)
             result = replace(result, score=score)
