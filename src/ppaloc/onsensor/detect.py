@@ -15,6 +15,8 @@ integer search, then with ``bits`` the fraction's steps).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ppaloc.localise.params import choose_candidate
@@ -31,6 +33,7 @@ __all__ = [
     "candidates",
     "confidence",
     "detect",
+    "largest_met",
     "local_top",
     "max_fraction",
     "max_threshold",
@@ -98,17 +101,71 @@ def _at_least_fraction(
     k.all()
 
 
-def max_threshold(sensor: Sensor, state: WeightState, lo: int, hi: int) -> int | None:
-    """Largest integer ``T`` in [lo, hi] with a set PE of ``cand``; None if none."""
-    if not at_least(sensor, state, lo):
-        return None
+def largest_met(
+    test: Callable[[int], bool], lo: int, hi: int, guess: int | None = None
+) -> int | None:
+    """The largest ``t`` in ``[lo, hi]`` with ``test(t)``, for a test that holds up to a
+    value and fails above it; None when ``test(lo)`` fails.
+
+    Without ``guess``: ``test(lo)``, then bisection (``1 + ceil(log2(hi - lo + 1))``
+    tests). With one (the controller's expectation, e.g. last frame's answer), the search
+    gallops from it, steps of 1, 2, 4, ... up while the test holds or down while it
+    fails, then bisects the bracket: 2 tests when the answer is the guess or one below,
+    about ``2 log2(|answer - guess|)`` otherwise. For such a test both find the same
+    value.
+
+    Examples
+    --------
+    >>> calls = []
+    >>> def test(t):
+    ...     calls.append(t)
+    ...     return t <= 5
+    >>> largest_met(test, -127, 127), len(calls)
+    (5, 9)
+    >>> calls.clear(); largest_met(test, -127, 127, guess=5), calls
+    (5, [5, 6])
+    >>> largest_met(lambda t: False, -127, 127, guess=0), largest_met(test, 6, 9, guess=7)
+    (None, None)
+    """
+    if guess is None:
+        if not test(lo):
+            return None
+    else:
+        guess = min(max(int(guess), lo), hi)
+        step = 1
+        if test(guess):
+            lo = guess
+            while lo < hi:
+                probe = min(guess + step, hi)
+                if not test(probe):
+                    hi = probe - 1
+                    break
+                lo, step = probe, 2 * step
+        else:
+            hi = guess - 1
+            while True:
+                if hi < lo:
+                    return None
+                probe = max(guess - step, lo)
+                if test(probe):
+                    lo = probe
+                    break
+                hi, step = probe - 1, 2 * step
     while lo < hi:
         mid = (lo + hi + 1) // 2
-        if at_least(sensor, state, mid):
+        if test(mid):
             lo = mid
         else:
             hi = mid - 1
     return lo
+
+
+def max_threshold(
+    sensor: Sensor, state: WeightState, lo: int, hi: int, guess: int | None = None
+) -> int | None:
+    """Largest integer ``T`` in [lo, hi] with a set PE of ``cand``; None if none. The
+    search starts from ``guess`` where the controller has one (:func:`largest_met`)."""
+    return largest_met(lambda t: at_least(sensor, state, t), lo, hi, guess)
 
 
 def max_fraction(sensor: Sensor, state: WeightState, top: int, bits: int) -> int:
@@ -150,8 +207,9 @@ def local_top(sensor: Sensor, state: WeightState) -> int:
     """``floor(max W)`` over this sensor's nodes (a ``global_or`` threshold search)."""
     settle(sensor, state)
     sensor.allow(False)
-    top = max_threshold(sensor, state, -127, 127)
+    top = max_threshold(sensor, state, -127, 127, state.last_top)
     assert top is not None
+    state.last_top = top
     return top
 
 
@@ -233,7 +291,10 @@ def outside_max(sensor: Sensor, state: WeightState, a: int, b: int, top: int) ->
     """Largest integer threshold in [-127, ``top``] met by a node outside ``a..b``."""
     sensor.window(a, b)
     sensor.allow(True)
-    return max_threshold(sensor, state, -127, top)
+    gap = state.last_gap
+    out = max_threshold(sensor, state, -127, top, None if gap is None else top - gap)
+    state.last_gap = None if out is None else top - out
+    return out
 
 
 def outside_fraction(sensor: Sensor, state: WeightState, out: int, bits: int) -> int:

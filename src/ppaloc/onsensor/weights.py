@@ -42,6 +42,12 @@ class WeightState:
     top_fraction : int
         The fraction ``j`` of the last detection's refined threshold ``T + j 2**-bits``
         (0 without fraction bits), which the confidence starts from.
+    last_top, last_gap : int or None
+        The last detection's ``T`` and the last confidence's ``T`` minus the outside
+        maximum (None before one): where the next frame's threshold searches start
+        (:func:`ppaloc.onsensor.detect.largest_met`). Consecutive frames' values are
+        close, so a search from them takes a few ``global_or`` tests instead of a
+        bisection of the whole range; the values found are the same.
     """
 
     scale: gain.WeightScale
@@ -51,6 +57,8 @@ class WeightState:
     last_shift: int | None = None
     last_alpha: int | None = None
     top_fraction: int = 0
+    last_top: int | None = None
+    last_gap: int | None = None
 
     def reset(self) -> None:
         """New weights (all zero): nothing pending, the scale exact."""
@@ -61,6 +69,8 @@ class WeightState:
         self.last_shift = None
         self.last_alpha = None
         self.top_fraction = 0
+        self.last_top = None
+        self.last_gap = None
 
 
 def read_weights(sensor: Sensor, state: WeightState, memory: int | None) -> np.ndarray:
