@@ -1,16 +1,18 @@
 """Detection and confidence on the sensor (docs/ppa8.md, items 4).
 
 Stages ``"detect"`` and ``"confidence"``. The controller finds ``T = floor(max W)`` by a
-binary search of ``global_or`` over thresholds loaded through the DAC
-(:func:`max_threshold`); with ``bits`` fraction bits (the robust preset,
-:data:`~ppaloc.localise.params.DETECT_BITS`) it refines the candidates' threshold to
-``floor(2**bits max W) / 2**bits`` by a search of as many steps over ``T + j 2**-bits``,
+search of ``global_or`` over thresholds loaded through the DAC (:func:`max_threshold`),
+started from the last frame's ``T`` (:func:`largest_met`); with ``bits`` fraction bits
+(the robust preset, :data:`~ppaloc.localise.params.DETECT_BITS`) it refines the
+candidates' threshold to ``floor(2**bits max W) / 2**bits`` by a search of as many steps
+over ``T + j 2**-bits``,
 the fraction a plane built by halvings of a DAC integer (:func:`max_fraction`). The
 candidates are then all of them from one event readout, or the one nearest the previous
 estimate by a window search (:func:`nearest`); the host's
 :func:`~ppaloc.localise.params.choose_candidate` breaks the tie. The confidence is that
 threshold minus the largest threshold met outside ``node +- R``, found the same way (an
-integer search, then with ``bits`` the fraction's steps).
+integer search started from ``T`` less the last frame's gap, then with ``bits`` the
+fraction's steps).
 """
 
 from __future__ import annotations
