@@ -5,10 +5,9 @@ search of ``global_or`` over thresholds loaded through the DAC (:func:`max_thres
 started from the last frame's ``T`` (:func:`largest_met`); with ``bits`` fraction bits
 (the robust preset, :data:`~ppaloc.localise.params.DETECT_BITS`) it refines the
 candidates' threshold to ``floor(2**bits max W) / 2**bits`` by a search of as many steps
-over ``T + j 2**-bits``,
-the fraction a plane built by halvings of a DAC integer (:func:`max_fraction`). The
-candidates are then all of them from one event readout, or the one nearest the previous
-estimate by a window search (:func:`nearest`); the host's
+over ``T + j 2**-bits``, the fraction a plane built by halvings of a DAC integer
+(:func:`max_fraction`). The candidates are then all of them from one event readout, or
+the one nearest the previous estimate by a window search (:func:`nearest`); the host's
 :func:`~ppaloc.localise.params.choose_candidate` breaks the tie. The confidence is that
 threshold minus the largest threshold met outside ``node +- R``, found the same way (an
 integer search started from ``T`` less the last frame's gap, then with ``bits`` the
