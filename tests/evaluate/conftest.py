@@ -1,8 +1,11 @@
-"""Fixtures of the evaluate tests: a stand-in method and a tiny dataset (see _standin.py)."""
+"""Fixtures of the evaluate tests: a stand-in method and a tiny dataset (see _standin.py), and
+the scripts of benchmarks/ as modules."""
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
@@ -15,6 +18,24 @@ def load_standin():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+def benchmark_module(name: str):
+    """A script of ``benchmarks/`` imported as a module (it imports its siblings)."""
+    sys.path.insert(0, str(BENCHMARKS))
+    try:
+        return importlib.import_module(name)
+    finally:
+        sys.path.remove(str(BENCHMARKS))
+
+
+@pytest.fixture(scope="session")
+def bench_script():
+    """:func:`benchmark_module`: ``bench_script("eval_offmap")`` is that script's module."""
+    return benchmark_module
 
 
 @pytest.fixture(scope="session")

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -13,18 +11,12 @@ from ppaloc.datasets.frames import FrameSequence
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.errors import PpalocError
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 SPEC = "synthetic:?places=30&seed=3&speed_var=0.2"
 
 
 @pytest.fixture(scope="module")
-def offmap():
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        import eval_offmap
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return eval_offmap
+def offmap(bench_script):
+    return bench_script("eval_offmap")
 
 
 @pytest.mark.parametrize("gap", [None, (0.4, 0.55)])

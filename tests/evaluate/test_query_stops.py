@@ -2,25 +2,15 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from ppaloc.datasets.groundtruth import PackedSets
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-
 
 @pytest.fixture(scope="module")
-def query_stops():
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        import eval_query_stops
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return eval_query_stops
+def query_stops(bench_script):
+    return bench_script("eval_query_stops")
 
 
 def test_a_query_stop_accepts_what_any_of_its_frames_accepts(query_stops):
