@@ -12,6 +12,7 @@ method is run once and judged both ways::
 
     .venv/bin/python benchmarks/eval_query_stops.py            # Nordland, about 5 min
     .venv/bin/python benchmarks/eval_query_stops.py --methods weighted-node-lowres16
+    .venv/bin/python benchmarks/eval_query_stops.py --param weighted-node-lowres16.still_decay=0
 
 The dataset's ground truth is the one every other figure uses; this only measures how
 much of a method's score the query's stops decide.
@@ -26,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import DATA, routes
+from eval_robust import DATA, parse_param, parse_value, routes
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.datasets.registry import load_dataset
@@ -61,7 +62,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--methods", default=",".join(METHODS))
     parser.add_argument("--route", default="nordland summer->winter")
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="METHOD.key=value",
+        help="a method's parameter (repeatable), e.g. weighted-node-lowres16.still_decay=0",
+    )
     args = parser.parse_args()
+    user: dict[str, dict] = {}
+    for item in args.param:
+        method, key, value = parse_param(item)
+        user.setdefault(method, {})[key] = parse_value(value)
     specs = dict(routes())
     if args.route not in specs:
         raise SystemExit(f"error: no route {args.route!r}; routes: {', '.join(specs)}")
@@ -81,7 +93,7 @@ def main() -> None:
     print(f"{'method':26s} {'max F1':>15s} {'R@100P':>15s} {'accuracy':>15s}")
     for column in args.methods.split(","):
         name, _, descriptor = column.strip().partition("/")
-        params = {"descriptor": descriptor} if descriptor else {}
+        params = {**user.get(name, {}), **({"descriptor": descriptor} if descriptor else {})}
         run = run_method(name, reference, query, ds.ground_truth, params=params)
         score = np.asarray(run.score, float)
         cells = []
