@@ -152,6 +152,12 @@ def largest_met(
                     lo = probe
                     break
                 hi, step = probe - 1, 2 * step
+    return _bisect(test, lo, hi)
+
+
+def _bisect(test: Callable[[int], bool], lo: int, hi: int) -> int:
+    """The largest ``t`` in ``[lo, hi]`` with ``test(t)``, ``test(lo)`` known to hold
+    (``ceil(log2(hi - lo + 1))`` tests)."""
     while lo < hi:
         mid = (lo + hi + 1) // 2
         if test(mid):
@@ -172,14 +178,7 @@ def max_threshold(
 def max_fraction(sensor: Sensor, state: WeightState, top: int, bits: int) -> int:
     """Largest ``j`` in ``[0, 2**bits)`` with a node at ``w >= top + j 2**-bits``, after
     :func:`local_top` found ``top`` (``bits`` steps; ``j = 0`` is known to hold)."""
-    lo, hi = 0, 2**bits - 1
-    while lo < hi:
-        mid = (lo + hi + 1) // 2
-        if at_least(sensor, state, top, mid, bits):
-            lo = mid
-        else:
-            hi = mid - 1
-    return lo
+    return _bisect(lambda j: at_least(sensor, state, top, j, bits), 0, 2**bits - 1)
 
 
 def detect(sensor: Sensor, state: WeightState, prev: int | None, bits: int = 0) -> tuple[int, int]:
