@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import DATA, parse_param, parse_value, routes
+from eval_robust import DATA, parse_params, routes
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.errors import PpalocError
@@ -139,10 +139,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         parser.error(f"--share {args.share} must lie between 0 and 1")
     if args.gap is not None and not 0 < args.gap[0] < args.gap[1] < 1:
         parser.error(f"--gap {args.gap[0]} {args.gap[1]}: want 0 < A < B < 1")
-    user: dict[str, dict[str, Any]] = {}
-    for item in args.param:
-        method, key, value = parse_param(item)
-        user.setdefault(method, {})[key] = parse_value(value)
+    user = parse_params(args.param)
     names = [n.strip() for n in args.methods.split(",")]
     for method in set(user) - set(names):
         parser.error(f"--param {method}.*: {method} is not one of --methods")

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import DATA, parse_param, parse_value, routes
+from eval_robust import DATA, parse_params, routes
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.datasets.registry import load_dataset
@@ -70,10 +70,7 @@ def main() -> None:
         help="a method's parameter (repeatable), e.g. weighted-node-lowres16.still_decay=0",
     )
     args = parser.parse_args()
-    user: dict[str, dict] = {}
-    for item in args.param:
-        method, key, value = parse_param(item)
-        user.setdefault(method, {})[key] = parse_value(value)
+    user = parse_params(args.param)
     specs = dict(routes())
     if args.route not in specs:
         raise SystemExit(f"error: no route {args.route!r}; routes: {', '.join(specs)}")

@@ -178,6 +178,21 @@ def parse_param(item: str) -> tuple[str, str, str]:
     return method.strip(), name.strip(), value
 
 
+def parse_params(items: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """``--param`` items (``METHOD.key=value``) as each method's parameters.
+
+    Examples
+    --------
+    >>> parse_params(["weighted-node-lbp.gain=8", "weighted-node-lbp.contrast=off"])
+    {'weighted-node-lbp': {'gain': 8, 'contrast': 'off'}}
+    """
+    params: dict[str, dict[str, Any]] = {}
+    for item in items:
+        method, key, value = parse_param(item)
+        params.setdefault(method, {})[key] = parse_value(value)
+    return params
+
+
 def descriptor_columns(name: str, user: dict[str, Any]) -> list[tuple[str, str, dict[str, Any]]]:
     """The ``(column, method, params)`` jobs of method ``name`` under ``--representations``.
 
@@ -572,10 +587,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     from ppaloc.methods import METHODS, available_methods, make_localiser
 
     t0 = time.perf_counter()
-    params: dict[str, dict[str, Any]] = {}
-    for item in args.param:
-        method, key, value = parse_param(item)
-        params.setdefault(method, {})[key] = parse_value(value)
+    params = parse_params(args.param)
     available = set(available_methods())
     notes: list[str] = []
 
