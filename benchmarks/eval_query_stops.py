@@ -1,21 +1,18 @@
 """What the ground truth's reading of the query's own stops changes, for every method.
 
 Not collected by pytest. A frame-synchronised dataset's ground truth accepts for query
-frame ``i`` the reference frames ``i +- tolerance``, closed over the reference's stops
-(the ``still-frames`` groups of ``ppaloc.datasets.sameplace``). Where the query stands
-longer than the reference did, the frames it still stands in are judged by their index,
-past the reference's stop. This prints each method's max F1, recall at 100% precision
-and accuracy (precision at 100% recall) with the dataset's ground truth and with it also
-closed over the query's own stops: the same ``still-frames`` rule run on the query
-frames, every frame of a query group accepting what any frame of the group accepts. Every
-method is run once and judged both ways::
+frame ``i`` the reference frames ``i +- tolerance``, closed over the same-place groups of
+both traversals (the ``still-frames`` rule of ``ppaloc.datasets.sameplace``): a query
+frame of a reference stop accepts the whole stop, and every frame of a query stop accepts
+what any frame of it accepts, so the frames where the query stands longer than the
+reference did are not judged by their index, past the reference's stop. This prints each
+method's max F1, recall at 100% precision and accuracy (precision at 100% recall) with
+the truth closed over the reference's stops only (the rule before the query's were read)
+and with the dataset's. Every method is run once and judged both ways::
 
     .venv/bin/python benchmarks/eval_query_stops.py            # Nordland, about 5 min
     .venv/bin/python benchmarks/eval_query_stops.py --methods weighted-node-lowres16
     .venv/bin/python benchmarks/eval_query_stops.py --param weighted-node-lowres16.still_decay=0
-
-The dataset's ground truth is the one every other figure uses; this only measures how
-much of a method's score the query's stops decide.
 """
 
 from __future__ import annotations
@@ -29,9 +26,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_robust import DATA, parse_params, routes
 from ppaloc.datasets import to_sensor
-from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.datasets.registry import load_dataset
-from ppaloc.datasets.sameplace import still_groups, thumbnails
+from ppaloc.datasets.sameplace import close_over_groups
 from ppaloc.evaluate.run import method_metrics, run_method
 
 METHODS = (
@@ -47,15 +43,6 @@ METHODS = (
     "single-frame",
 )
 """The default methods; ``NAME/DESCRIPTOR`` runs ``NAME`` on that descriptor."""
-
-
-def close_over_query_groups(truth: PackedSets, groups: np.ndarray) -> PackedSets:
-    """Every query frame of a group ``[first, end)`` accepts the union of the group's sets."""
-    sets = [np.asarray(truth[i]) for i in range(len(truth))]
-    for first, end in groups:
-        union = np.unique(np.concatenate(sets[first:end]))
-        sets[first:end] = [union] * (end - first)
-    return PackedSets.from_sets(sets)
 
 
 def main() -> None:
@@ -77,13 +64,18 @@ def main() -> None:
     if not DATA.is_dir():
         print(f"skipped: {DATA} is absent")
         return
-    ds = load_dataset(specs[args.route])
-    groups = still_groups(thumbnails(ds.query))
-    closed = close_over_query_groups(ds.ground_truth, groups)
-    grew = sum(len(closed[i]) != len(ds.ground_truth[i]) for i in range(len(closed)))
+    spec = specs[args.route]
+    ds = load_dataset(spec)
+    unclosed = load_dataset(spec + ("&" if "?" in spec else "?") + "same_place=off")
+    groups = ds.query_groups
+    if groups is None:
+        raise SystemExit(f"error: {args.route!r} has no query groups (its rule reads no images)")
+    before = close_over_groups(unclosed.ground_truth, ds.reference_groups, len(ds.reference))
+    grew = int(np.count_nonzero(before.lengths != ds.ground_truth.lengths))
     print(
         f"{args.route}: {len(groups)} query stops, {int(np.sum(groups[:, 1] - groups[:, 0]))} "
-        f"frames in them; {grew} of {len(closed)} query frames accept more"
+        f"frames in them; {grew} of {len(before)} query frames accept more than with the "
+        "reference's stops alone"
     )
     reference = [to_sensor(f) for f in ds.reference]
     query = [to_sensor(f) for f in ds.query]
@@ -94,7 +86,7 @@ def main() -> None:
         run = run_method(name, reference, query, ds.ground_truth, params=params)
         score = np.asarray(run.score, float)
         cells = []
-        for truth in (ds.ground_truth, closed):
+        for truth in (before, ds.ground_truth):
             m = method_metrics(run.ref_index, score, truth, run.ranking, recall="A")
             cells.append((m.f1_max, m.recall_at_100p, m.precision_at_100r))
         (f0, r0, a0), (f1, r1, a1) = cells

@@ -53,9 +53,16 @@ def test_nordland_summer_stops_are_closed_and_tunnels_are_not(nordland_dir):
     # the blank start and the dark frames (a tunnel at 187-201, 1191-1202) are in none
     for frame in (0, 10, 190, 195, 1195):
         assert not any(g0 <= frame < g1 for g0, g1 in groups)
-    assert ds.ground_truth[150].tolist() == list(range(128, 179))
+    # the winter train stood there too (a query group, 128-177): each of its frames
+    # accepts what any of them accepts
+    assert ds.ground_truth[150].tolist() == list(range(127, 179))
     assert ds.ground_truth[100].tolist() == [99, 100, 101]
-    assert rule["queries_changed"] == 260
+    assert (rule["query_groups"], rule["query_grouped_frames"]) == (15, 249)
+    assert rule["queries_changed"] == 283
+    # it stands at the station of reference frames 505-542 until query frame 545, past the
+    # reference's stop: its last still frames accept the station
+    assert [505, 546] in ds.query_groups.tolist()  # [first, end)
+    assert ds.ground_truth[545].tolist() == list(range(504, 547))
 
 
 def test_gardens_point_walks_have_no_stops(gardens_point_dir):

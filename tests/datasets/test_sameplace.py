@@ -17,6 +17,7 @@ from ppaloc.datasets.route import RawRoute, assemble
 from ppaloc.datasets.sameplace import (
     STILL_FRAMES,
     close_over_groups,
+    close_over_query_groups,
     group_labels,
     position_groups,
     still_groups,
@@ -168,12 +169,49 @@ def test_closure_matches_a_slow_reference(data):
     assert [r.tolist() for r in again] == [r.tolist() for r in closed]
 
 
-def _route(frames, *, places=None, accepted=None, truth=None) -> RawRoute:
+def _groups_from(cuts: list[int]) -> np.ndarray:
+    pairs = [[a, b] for a, b in zip(cuts[::2], cuts[1::2], strict=False) if b - a >= 2]
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.data())
+def test_query_closure_matches_a_slow_reference(data):
+    m = data.draw(st.integers(1, 12))
+    groups = _groups_from(sorted(data.draw(st.sets(st.integers(0, m), max_size=6))))
+    hard = data.draw(st.lists(st.sets(st.integers(0, 9), max_size=4), min_size=m, max_size=m))
+    extra = data.draw(st.lists(st.sets(st.integers(0, 9), max_size=2), min_size=m, max_size=m))
+    soft = [h | e for h, e in zip(hard, extra, strict=True)]
+    sets = PackedSets.from_sets([sorted(h) for h in hard]).with_soft([sorted(x) for x in soft])
+    closed = close_over_query_groups(sets, groups)
+    for got, rows in ((closed, hard), (closed.soft, soft)):
+        want = [set(r) for r in rows]
+        for a, b in groups:
+            union = set().union(*rows[a:b])
+            want[a:b] = [union] * (b - a)
+        assert [r.tolist() for r in got] == [sorted(w) for w in want]
+    for h, x in zip(closed, closed.soft, strict=True):  # a soft set still holds its hard set
+        assert set(h.tolist()) <= set(x.tolist())
+
+
+def test_the_query_closure_is_bounded(monkeypatch):
+    from ppaloc.datasets import sameplace
+
+    monkeypatch.setattr(sameplace, "MAX_GROUND_TRUTH_ITEMS", 8)
+    sets = PackedSets.from_sets([[0], [1, 2], [3], [4]])
+    assert close_over_query_groups(sets, np.array([[0, 2]])).indices.size == 8
+    with pytest.raises(DataError, match=r"query's same-place groups would accept 13 \(query, "
+                       r"reference\) pairs, more than 8; .* \(same_place=off\)"):  # fmt: skip
+        close_over_query_groups(sets, np.array([[0, 3]]))
+
+
+def _route(frames, *, places=None, accepted=None, truth=None, query=None) -> RawRoute:
     n = len(frames)
+    query = frames if query is None else query
     return RawRoute(
         name="t",
         reference=RenderedFrames(lambda i: frames[i], n),
-        query=RenderedFrames(lambda i: frames[i], n if places is None else len(places)),
+        query=RenderedFrames(lambda i: query[i], len(query) if places is None else len(places)),
         default_tolerance=0,
         query_place=None if places is None else np.asarray(places, float),
         accepted=accepted,
@@ -204,11 +242,39 @@ def test_assemble_closes_positional_truth_and_records_the_rule():
             },
             "groups": 1,
             "grouped_frames": 3,
+            "query_groups": 1,
+            "query_grouped_frames": 3,
             "queries_changed": 3,
         },
     }  # fmt: skip
+    assert ds.query_groups.tolist() == [[1, 4]]
     again = assemble(_route(FRAMES, places=range(8)), {"tolerance": 0})
     assert json.dumps(again.meta["ground_truth_rule"]) == json.dumps(rule)
+
+
+def test_a_query_standing_longer_than_the_reference_accepts_the_place_it_stands_at():
+    # the reference stands at B for frames 1-2 and moves on to C; the query stands at B
+    # for frames 1-3: by index its frame 3 is at C, but it still shows B
+    E = _scene(4)
+    ref, query = [A, B, B, C, E, A], [A, B, B, B, C, E]
+    ds = assemble(_route(ref, places=range(6), query=query), {"tolerance": 0})
+    assert ds.reference_groups.tolist() == [[1, 3]] and ds.query_groups.tolist() == [[1, 4]]
+    assert [g.tolist() for g in ds.ground_truth] == [
+        [0], [1, 2, 3], [1, 2, 3], [1, 2, 3], [4], [5]
+    ]  # fmt: skip
+    assert ds.meta["ground_truth_rule"]["same_place"]["queries_changed"] == 3
+    off = assemble(_route(ref, places=range(6), query=query), {"same_place": "off"})
+    assert off.query_groups is None and off.ground_truth[3].tolist() == [3]
+
+
+def test_the_positions_rule_leaves_the_query_to_its_positions():
+    E = _scene(4)
+    ref, query = [A, B, B, C, E, A], [A, B, B, B, C, E]
+    raw = _route(ref, places=range(6), query=query)
+    raw.reference_positions = np.array([[0, 0], [5, 0], [5, 0], [10, 0], [15, 0], [20, 0]], float)
+    ds = assemble(raw, {"tolerance": 0, "same_place": "positions"})
+    assert ds.query_groups is None and ds.ground_truth[3].tolist() == [3]
+    assert ds.ground_truth[1].tolist() == [1, 2]
 
 
 def test_tolerance_then_closure_and_the_switch():

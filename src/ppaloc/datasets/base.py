@@ -42,6 +42,10 @@ class RouteDataset:
     reference_groups : ndarray of int, shape (G, 2), optional
         ``[first, end)`` of each same-place group of reference frames the ground truth was
         closed over (:mod:`ppaloc.datasets.sameplace`); None when no rule ran.
+    query_groups : ndarray of int, shape (G, 2), optional
+        ``[first, end)`` of each same-place group of query frames the ground truth was
+        closed over (the ``still-frames`` rule reads both traversals); None when no rule
+        read the query.
     tolerance_m : float, optional
         The tolerance in metres, where the ground truth comes from positions.
     """
@@ -56,6 +60,7 @@ class RouteDataset:
     query_moved: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
     reference_groups: np.ndarray | None = None
+    query_groups: np.ndarray | None = None
     tolerance_m: float | None = None
 
     def __post_init__(self) -> None:

@@ -41,6 +41,7 @@ from ppaloc.datasets.positions import from_metres
 from ppaloc.datasets.sameplace import (
     STILL_FRAMES,
     close_over_groups,
+    close_over_query_groups,
     position_groups,
     still_groups,
     thumbnails,
@@ -172,7 +173,9 @@ def assemble(raw: RawRoute, options: Mapping[str, Any]) -> RouteDataset:
         )
     if soft is not None:
         truth = truth.with_soft(soft)
-    truth, groups, rule["same_place"] = _same_place(raw, options, truth, ref_idx)
+    truth, groups, query_groups, rule["same_place"] = _same_place(
+        raw, options, truth, ref_idx, q_idx
+    )
     meta["ground_truth_rule"] = rule
     if start is not None or stop is not None or step != 1:
         meta["selection"] = {"start": start, "stop": stop, "step": step}
@@ -198,6 +201,7 @@ def assemble(raw: RawRoute, options: Mapping[str, Any]) -> RouteDataset:
         query_moved=moved,
         meta=meta,
         reference_groups=groups,
+        query_groups=query_groups,
         tolerance_m=rule["tolerance"] if raw.metres else None,
     )
 
@@ -285,18 +289,30 @@ def _remap(
 
 
 def _same_place(
-    raw: RawRoute, options: Mapping[str, Any], truth: PackedSets, ref_idx: np.ndarray
-) -> tuple[PackedSets, np.ndarray | None, dict[str, Any]]:
-    """The truth closed over the kept reference's same-place groups, the groups, and the
-    rule's entry of ``ground_truth_rule``."""
+    raw: RawRoute,
+    options: Mapping[str, Any],
+    truth: PackedSets,
+    ref_idx: np.ndarray,
+    q_idx: np.ndarray,
+) -> tuple[PackedSets, np.ndarray | None, np.ndarray | None, dict[str, Any]]:
+    """The truth closed over the kept frames' same-place groups, the reference's and the
+    query's groups, and the rule's entry of ``ground_truth_rule``.
+
+    The ``still-frames`` rule reads both traversals: the reference's groups widen every
+    set that touches them, and the query's make each frame of a group accept what any
+    frame of it accepts. The ``positions`` rule groups the reference only: the query's
+    positions already say where it stood.
+    """
     asked = options.get("same_place") or "auto"
     default = raw.same_place or {"frames": "images", "metres": "positions"}.get(raw.kind, "off")
     mode = default if asked == "auto" else asked
     if mode == "off":
         why = "same_place=off" if asked == "off" else "explicit ground truth: the file's word"
-        return truth, None, {"rule": "off", "reason": why}
+        return truth, None, None, {"rule": "off", "reason": why}
     if mode == "none":
-        return truth, None, {"rule": "none", "reason": raw.truth.get("same_place_reason", "")}
+        reason = raw.truth.get("same_place_reason", "")
+        return truth, None, None, {"rule": "none", "reason": reason}
+    query_groups = None
     if mode == "positions":
         if raw.reference_positions is None:
             raise DataError(
@@ -309,14 +325,19 @@ def _same_place(
         entry: dict[str, Any] = {"rule": "positions", "params": {"radius_m": radius}}
     else:
         groups = still_groups(thumbnails(raw.reference.select(ref_idx)), STILL_FRAMES)
+        query_groups = still_groups(thumbnails(raw.query.select(q_idx)), STILL_FRAMES)
         entry = STILL_FRAMES.to_dict()
     closed = close_over_groups(truth, groups, ref_idx.size)
-    entry.update(
-        groups=len(groups),
-        grouped_frames=int((groups[:, 1] - groups[:, 0]).sum()),
-        queries_changed=int(np.count_nonzero(closed.lengths != truth.lengths)),
-    )
-    return closed, groups, entry
+    entry.update(groups=len(groups), grouped_frames=_frames_in(groups))
+    if query_groups is not None:
+        closed = close_over_query_groups(closed, query_groups)
+        entry.update(query_groups=len(query_groups), query_grouped_frames=_frames_in(query_groups))
+    entry["queries_changed"] = int(np.count_nonzero(closed.lengths != truth.lengths))
+    return closed, groups, query_groups, entry
+
+
+def _frames_in(groups: np.ndarray) -> int:
+    return int((groups[:, 1] - groups[:, 0]).sum())
 
 
 def _take(a: np.ndarray | None, idx: np.ndarray) -> np.ndarray | None:

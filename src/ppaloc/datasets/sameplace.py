@@ -1,10 +1,13 @@
-"""Same-place groups of reference frames, and the closure of accepted sets over them.
+"""Same-place groups of frames, and the closure of accepted sets over them.
 
-A reference traversal often shows one place in several consecutive frames: a train
-standing at a station, a car at a traffic light. Which frames those are is the dataset's
-to say, the same for every method, so the ground truth is *closed* over them: when a
-query's accepted set holds any frame of a group, it holds the whole group
-(:func:`close_over_groups`). Two rules find the groups (docs/datasets.md, "Same-place
+A traversal often shows one place in several consecutive frames: a train standing at a
+station, a car at a traffic light. Which frames those are is the dataset's to say, the
+same for every method, so the ground truth is *closed* over them. Over a reference group:
+when a query's accepted set holds any frame of the group, it holds the whole group
+(:func:`close_over_groups`). Over a query group, where the ground truth is by frame index
+and the query stood longer than the reference did: every frame of the group accepts what
+any frame of it accepts (:func:`close_over_query_groups`), since one image cannot be at
+two places. Two rules find the groups (docs/datasets.md, "Same-place
 groups", has the measurements behind the figures):
 
 - ``still-frames`` (:data:`STILL_FRAMES`), from the reference frames themselves, for
@@ -17,9 +20,10 @@ groups", has the measurements behind the figures):
   their normalised thumbnails is at most 0.05 and every frame of the group stays within
   0.15 of the group's first frame (so a slow creep cannot chain frames into one "place").
 - ``positions`` (:func:`position_groups`), where the dataset has reference positions in
-  metres: consecutive frames within ``radius_m`` of the group's first frame.
+  metres: consecutive frames within ``radius_m`` of the group's first frame. The query's
+  own positions then say where it stood, so its groups are not needed.
 
-Both read each reference frame once, keep two thumbnails (or positions) at a time and
+Both read each frame once, keep two thumbnails (or positions) at a time and
 return the groups as an ``(G, 2)`` array of ``[first, end)`` frame ranges.
 """
 
@@ -39,6 +43,7 @@ __all__ = [
     "STILL_FRAMES",
     "SamePlaceRule",
     "close_over_groups",
+    "close_over_query_groups",
     "group_labels",
     "position_groups",
     "still_groups",
@@ -303,4 +308,63 @@ def close_over_groups(sets: Sequence[np.ndarray], groups: np.ndarray, n_ref: int
     indptr = np.zeros(len(packed) + 1, dtype=np.int64)
     np.cumsum(np.bincount(out_rows, minlength=len(packed)), out=indptr[1:])
     closed = PackedSets(out_refs, indptr)
+    return closed.with_soft(soft) if soft is not None else closed
+
+
+def close_over_query_groups(sets: PackedSets, groups: np.ndarray) -> PackedSets:
+    """Every query frame of a group accepting the union of the group's accepted sets.
+
+    A soft set carried by ``sets`` is closed the same way. Run after
+    :func:`close_over_groups`, the result stays closed over the reference's groups (a union
+    of closed sets is closed).
+
+    Parameters
+    ----------
+    sets : PackedSets
+        Accepted reference indices per query.
+    groups : ndarray of int, shape (G, 2)
+        ``[first, end)`` of each same-place group of query frames, sorted and disjoint
+        (as :func:`still_groups` returns them).
+
+    Returns
+    -------
+    PackedSets
+
+    Raises
+    ------
+    DataError
+        When the closed sets would hold more than
+        :data:`~ppaloc.datasets.groundtruth.MAX_GROUND_TRUTH_ITEMS` pairs in all.
+
+    Examples
+    --------
+    >>> g = close_over_query_groups(PackedSets.from_sets([[0], [3], [4], [], [6]]),
+    ...                             np.array([[1, 4]]))
+    >>> [r.tolist() for r in g]
+    [[0], [3, 4], [3, 4], [3, 4], [6]]
+    """
+    groups = np.asarray(groups, dtype=np.int64).reshape(-1, 2)
+    soft = None if sets.soft is None else close_over_query_groups(sets.soft, groups)
+    if not len(groups):
+        return sets
+    indices, indptr = sets.indices, sets.indptr
+    lengths = sets.lengths.copy()
+    pieces, done = [], 0
+    for first, end in groups:
+        union = np.unique(indices[indptr[first] : indptr[end]])
+        lengths[first:end] = union.size
+        pieces += [indices[indptr[done] : indptr[first]], np.tile(union, end - first)]
+        done = end
+    pieces.append(indices[indptr[done] :])
+    total = int(lengths.sum())
+    if total > MAX_GROUND_TRUTH_ITEMS:
+        raise DataError(
+            f"closing the accepted sets over the query's same-place groups would accept "
+            f"{total} (query, reference) pairs, more than {MAX_GROUND_TRUTH_ITEMS}; a query "
+            "that stands still this long is better cut (start=, stop=) or left unclosed "
+            "(same_place=off)"
+        )
+    out_ptr = np.zeros(len(sets) + 1, dtype=np.int64)
+    np.cumsum(lengths, out=out_ptr[1:])
+    closed = PackedSets(np.concatenate(pieces), out_ptr)
     return closed.with_soft(soft) if soft is not None else closed
