@@ -93,3 +93,29 @@ def test_old_folders_without_roles_or_soft_still_load(mean_match, tiny, tmp_path
     (tmp_path / "results.json").write_text(json.dumps(summary))
     with pytest.raises(DataError, match=r"'roles' is \{'database': 3\}, expected"):
         load_results(tmp_path)
+
+
+def test_the_report_says_what_the_same_place_closure_did(mean_match, tiny, tmp_path):
+    rule = {
+        "kind": "frames",
+        "same_place": {
+            "rule": "still-frames",
+            "groups": 2,
+            "grouped_frames": 5,
+            "query_groups": 1,
+            "query_grouped_frames": 3,
+            "queries_changed": 4,
+        },
+    }
+    tiny.meta["ground_truth_rule"] = rule
+    result = run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny, progress=False)
+    save_results(result, tmp_path)
+    said = (
+        "Accepted sets closed over the same-place groups (still-frames): 2 in the reference "
+        "(5 frames), 1 in the query (3 frames); 4 queries changed."
+    )
+    assert said in write_report(tmp_path).read_text()
+    assert said in (tmp_path / "report.md").read_text()
+    tiny.meta["ground_truth_rule"] = {"kind": "frames", "same_place": {"rule": "off"}}
+    save_results(run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=tiny), tmp_path)
+    assert "closed over" not in write_report(tmp_path).read_text()

@@ -545,6 +545,31 @@ def _definitions(
     return list(TERMS), rows
 
 
+def closure_sentence(rule: dict[str, Any]) -> str:
+    """What the same-place closure of the ground truth did, for the report's header line
+    (empty where no rule ran): how many stops of each traversal, and queries changed.
+
+    Examples
+    --------
+    >>> rule = {"rule": "still-frames", "groups": 17, "grouped_frames": 235,
+    ...         "query_groups": 15, "query_grouped_frames": 249, "queries_changed": 283}
+    >>> print(closure_sentence(rule).strip())  # doctest: +NORMALIZE_WHITESPACE
+    Accepted sets closed over the same-place groups (still-frames): 17 in the reference
+    (235 frames), 15 in the query (249 frames); 283 queries changed.
+    >>> closure_sentence({"rule": "off", "reason": "same_place=off"})
+    ''
+    """
+    if rule.get("rule") not in ("still-frames", "positions") or "groups" not in rule:
+        return ""
+    where = [f"{rule['groups']} in the reference ({rule['grouped_frames']} frames)"]
+    if "query_groups" in rule:
+        where.append(f"{rule['query_groups']} in the query ({rule['query_grouped_frames']} frames)")
+    return (
+        f" Accepted sets closed over the same-place groups ({rule['rule']}): "
+        f"{', '.join(where)}; {rule['queries_changed']} queries changed."
+    )
+
+
 def write_report(folder: str | Path, *, bench_path: str | Path | None = None) -> Path:
     """Write ``report.html``, ``report.md`` and ``figures/`` into a results folder, from its
     files only, as one transaction (:func:`ppaloc.fileio.update_folder`): a kill leaves the
@@ -607,6 +632,7 @@ def write_report_files(folder: str | Path, *, bench_path: str | Path | None = No
         f"frames ({n_match} with a true match), {tolerance}. "
         f"ppaloc {result.ppaloc_version}{', ' + result.created if result.created else ''}."
     )
+    meta += closure_sentence(truth.get("same_place") or {})
     if result.roles:  # one line: what the map was built from and what was localised
         meta += f" Database: {result.roles['database']}; query: {result.roles['query']}."
     meta_html = html.escape(meta).replace("`", "<code>", 1).replace("`", "</code>", 1)
