@@ -13,12 +13,17 @@ and with the dataset's. Every method is run once and judged both ways::
     .venv/bin/python benchmarks/eval_query_stops.py            # Nordland, about 5 min
     .venv/bin/python benchmarks/eval_query_stops.py --methods weighted-node-lowres16
     .venv/bin/python benchmarks/eval_query_stops.py --param weighted-node-lowres16.still_decay=0
+    .venv/bin/python benchmarks/eval_query_stops.py --methods weighted-node-lowres16 --wrong 12
+
+``--wrong N`` also lists each method's ``N`` surest wrong estimates by the dataset's
+ground truth: what a confidence that ranks as it should would put last.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +50,20 @@ METHODS = (
 """The default methods; ``NAME/DESCRIPTOR`` runs ``NAME`` on that descriptor."""
 
 
+def surest_wrong(
+    predicted: np.ndarray, score: np.ndarray, truth: Sequence[np.ndarray], n: int
+) -> list[tuple[int, int, np.ndarray, float]]:
+    """The ``n`` wrong estimates of highest score: ``(query, predicted reference frame,
+    accepted set, score)``, the surest first (ties in query order)."""
+    wrong = [q for q in range(len(truth)) if int(predicted[q]) not in set(truth[q].tolist())]
+    wrong.sort(key=lambda q: -float(score[q]))
+    return [(q, int(predicted[q]), np.asarray(truth[q]), float(score[q])) for q in wrong[:n]]
+
+
+def _accepts(refs: np.ndarray) -> str:
+    return "none" if refs.size == 0 else f"{refs.min()}-{refs.max()}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--methods", default=",".join(METHODS))
@@ -55,6 +74,9 @@ def main() -> None:
         default=[],
         metavar="METHOD.key=value",
         help="a method's parameter (repeatable), e.g. weighted-node-lowres16.still_decay=0",
+    )
+    parser.add_argument(
+        "--wrong", type=int, default=0, metavar="N", help="list each method's N surest wrong"
     )
     args = parser.parse_args()
     user = parse_params(args.param)
@@ -95,6 +117,8 @@ def main() -> None:
             f"{a0:6.3f} -> {a1:5.3f}",
             flush=True,
         )
+        for q, ref, accepted, sc in surest_wrong(run.ref_index, score, ds.ground_truth, args.wrong):
+            print(f"    query {q}: reference {ref}, accepts {_accepts(accepted)}, score {sc:.2f}")
 
 
 if __name__ == "__main__":

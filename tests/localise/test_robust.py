@@ -32,6 +32,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None):
     n, grid = len(nodes), nodes.shape[-1]
     first = np.arange(n) if frame_index is None else np.asarray(frame_index)
     stood = np.append(np.diff(first), 1) > 1  # the map stood still there: several frames
+    stood[:-1] |= stood[1:].copy()  # ... or at the next node (a query stops a place short)
     cells, patch = grid * grid, p.contrast_patch * grid // 8
     # every image, live or node, contrast-normalised (docs/ppa8.md, "Robust preset")
     q = normalise_contrast(nodes, p.contrast, patch).astype(float).reshape(n, cells)
@@ -301,20 +302,24 @@ def test_a_query_that_stops_after_leaving_the_map_stays_lost(route, arithmetic):
 @pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
 @pytest.mark.parametrize("runs", [False, True])
 def test_the_confidence_falls_on_still_frames_where_the_map_kept_moving(route, arithmetic, runs):
-    """A query stands 4 frames at place 5 and 4 at place 12; the map stood still at
-    place 12 (a keyframe node of 6 reference frames, or a run of 6 nodes of one place
-    on a map of every frame) and not at place 5. On the still frames at place 5 the
-    confidence falls by ``still_decay`` (4 here) units a frame to 0 at the least; at place
-    12 it is the weights' margin, as on every frame with the rule off. The estimates
-    are the same either way."""
-    order = [*range(6), 5, 5, 5, 5, *range(6, 13), 12, 12, 12, 12, *range(13, 20)]
-    moves = [True] * 6 + [False] * 4 + [True] * 7 + [False] * 4 + [True] * 7
-    if runs:  # place 12 is nodes 12-17 of one place
-        ref = np.concatenate((route[:13], np.repeat(route[12:13], 5, axis=0), route[13:]))
-        places = np.array([*range(13), *[12] * 5, *range(13, 20)])
-        m = TopoMap("lowres", lowres_image(ref, 8), np.arange(25), places=places)
-    else:  # node 12 stands for reference frames 12-17
-        m = TopoMap("lowres", lowres_image(route, 8), [*range(13), *range(18, 25)])
+    """A query stands 4 frames at place 5, 4 at place 12 and 4 at place 15; the map
+    stood still at places 12 and 16 (keyframe nodes of 6 and 2 reference frames, or runs
+    of nodes of one place on a map of every frame) and not at 5 or 15. On the still
+    frames at place 5 the confidence falls by ``still_decay`` (4 here) units a frame to
+    0 at the least; at place 12, and at place 15 a place short of the map's stop at 16,
+    it is the weights' margin, as on every frame with the rule off. The estimates are
+    the same either way."""
+    order = [*range(6), *[5] * 4, *range(6, 13), *[12] * 4, *range(13, 16), *[15] * 4, 16]
+    moves = [True] * 6 + [False] * 4 + [True] * 7 + [False] * 4 + [True] * 3 + [False] * 4
+    moves.append(True)
+    if runs:  # place 12 is nodes 12-17 of one place, place 16 nodes 21-22
+        ref = np.concatenate(
+            (route[:13], np.repeat(route[12:13], 5, axis=0), route[13:17], route[16:])
+        )
+        places = np.array([*range(13), *[12] * 5, *range(13, 17), *range(16, 20)])
+        m = TopoMap("lowres", lowres_image(ref, 8), np.arange(26), places=places)
+    else:  # node 12 stands for reference frames 12-17, node 16 for 21-22
+        m = TopoMap("lowres", lowres_image(route, 8), [*range(13), *range(18, 22), *range(23, 26)])
     kw = dict(arithmetic=arithmetic, motion="oracle", oracle_moves=moves, confidence_radius=1)
     got, plain = [], []
     for decay, out in ((4, got), (0, plain)):
@@ -326,7 +331,8 @@ def test_the_confidence_falls_on_still_frames_where_the_map_kept_moving(route, a
     fell = [e.score for e in got[at5]]
     assert fell == [max(e.score - 4 * k, 0.0) for k, e in enumerate(plain[at5], start=1)]
     assert fell[0] > 0 and fell[-1] == 0  # a fall, down to the floor
-    assert all(e.score > 0 for e in plain[at12])
+    at15 = slice(24, 28)
+    assert all(e.score > 0 for e in plain[at12]) and all(e.score > 0 for e in plain[at15])
     assert [e.score for e in got[at12]] == [e.score for e in plain[at12]]
     assert [e.score for e in got[21:]] == [e.score for e in plain[21:]]
 

@@ -76,6 +76,7 @@ __all__ = [
     "speed_off",
     "speed_varies",
     "still_score",
+    "stood_at_or_next",
     "transition_costs",
 ]
 
@@ -316,8 +317,9 @@ class FilterParams:
     still_decay : int
         Robust: on a still frame the reported confidence falls by ``still_decay`` units
         for each frame since the last forward decision, to 0 at the least, unless the
-        estimate's place stands for several reference frames (the map stood still there
-        too, :meth:`~ppaloc.topomap.TopoMap.place_frames`; :func:`still_score`): a
+        estimate's place or the next stands for several reference frames (the map stood
+        still there too, :meth:`~ppaloc.topomap.TopoMap.place_frames`;
+        :func:`stood_at_or_next`, :func:`still_score`): a
         still frame adds no evidence, so the estimate is the one the query stopped
         with, and a query that stops where the map kept moving may have stopped a
         place or two from it. Range [0, 127] (default 16; 0 is off). The estimates and
@@ -691,19 +693,37 @@ def path_stalled(places: Sequence[int], params: FilterParams) -> bool:
     return min(tail) == max(tail)
 
 
+def stood_at_or_next(place_frames: np.ndarray) -> np.ndarray:
+    """Per node: whether the map stood still at its place or at the next node's (each
+    standing for several reference frames), the ``stood`` of :func:`still_score`.
+
+    The motion test calls a query slowing into a stop still a frame or two before it
+    halts, so the filter stops a place short of the map's stop: that estimate is where a
+    vehicle stops too.
+
+    Examples
+    --------
+    >>> stood_at_or_next(np.array([1, 1, 4, 1, 2])).tolist()
+    [False, True, True, True, True]
+    """
+    stood = np.asarray(place_frames) > 1
+    return stood | np.append(stood[1:], False)
+
+
 def still_score(score: float, still: int, stood: bool, params: FilterParams) -> float:
     """The reported confidence of a frame ``still`` frames after the last forward
     decision (0 on a forward frame): ``score`` less ``still_decay`` units a frame, to 0
-    at the least, unless the estimate's place stands for several reference frames
-    (``stood``: the map stood still there too).
+    at the least, unless the estimate's place or the next stands for several reference
+    frames (``stood``: the map stood still there too, :func:`stood_at_or_next`).
 
     A still frame adds no evidence (derivation item 5), so the estimate is the one the
     query stopped with. The motion test calls a slowing query still a frame or two
     before it halts, and a starting one forward a frame or two after it leaves, so the
     filter stops a place short of where the query stands, or stays behind when it
-    leaves. Where the map stood still too (a run of reference frames at one place),
-    that place is where a vehicle stops, and the estimate is as sure as when it
-    stopped. The controller's arithmetic on the score it reports: no array time.
+    leaves. Where the map stood still too (a run of reference frames at the estimate's
+    place, or at the next one, where a query stopping a place short stands), that place
+    is where a vehicle stops, and the estimate is as sure as when it stopped. The
+    controller's arithmetic on the score it reports: no array time.
 
     Examples
     --------

@@ -55,6 +55,7 @@ from ppaloc.localise.params import (
     speed_off,
     speed_varies,
     still_score,
+    stood_at_or_next,
     transition_costs,
 )
 
@@ -375,12 +376,14 @@ class RobustSchedule(Schedule):
         return speed_varies(recent, self.params)
 
     def use_map(self, topomap: TopoMap) -> None:
-        """The map, and which of its nodes' places stand for several reference frames."""
+        """The map, and which of its nodes' places, or the places next after them, stand
+        for several reference frames."""
         super().use_map(topomap)
-        self._stood_at = topomap.place_frames() > 1
+        self._stood_at = stood_at_or_next(topomap.place_frames())
 
     def _stood(self, node: int) -> bool:
-        """Whether the map stood still at ``node``'s place (several reference frames)."""
+        """Whether the map stood still at ``node``'s place or the next (several reference
+        frames): :func:`~ppaloc.localise.params.stood_at_or_next`."""
         stood = self._stood_at
         return stood is not None and 0 <= node < len(stood) and bool(stood[node])
 
