@@ -32,7 +32,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_robust import DATA, parse_params, routes
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
-from ppaloc.datasets.sameplace import close_over_groups
 from ppaloc.evaluate.run import method_metrics, run_method
 
 METHODS = (
@@ -88,11 +87,11 @@ def main() -> None:
         return
     spec = specs[args.route]
     ds = load_dataset(spec)
-    unclosed = load_dataset(spec + ("&" if "?" in spec else "?") + "same_place=off")
     groups = ds.query_groups
     if groups is None:
         raise SystemExit(f"error: {args.route!r} has no query groups (its rule reads no images)")
-    before = close_over_groups(unclosed.ground_truth, ds.reference_groups, len(ds.reference))
+    sep = "&" if "?" in spec else "?"
+    before = load_dataset(f"{spec}{sep}same_place=reference-images").ground_truth
     grew = int(np.count_nonzero(before.lengths != ds.ground_truth.lengths))
     print(
         f"{args.route}: {len(groups)} query stops, {int(np.sum(groups[:, 1] - groups[:, 0]))} "

@@ -265,6 +265,16 @@ def test_a_query_standing_longer_than_the_reference_accepts_the_place_it_stands_
     assert ds.meta["ground_truth_rule"]["same_place"]["queries_changed"] == 3
     off = assemble(_route(ref, places=range(6), query=query), {"same_place": "off"})
     assert off.query_groups is None and off.ground_truth[3].tolist() == [3]
+    # the rule before the query's stops were read: the reference's groups alone
+    alone = assemble(
+        _route(ref, places=range(6), query=query),
+        {"tolerance": 0, "same_place": "reference-images"},
+    )
+    assert alone.query_groups is None and alone.reference_groups.tolist() == [[1, 3]]
+    assert [g.tolist() for g in alone.ground_truth] == [[0], [1, 2], [1, 2], [3], [4], [5]]
+    rule = alone.meta["ground_truth_rule"]["same_place"]
+    assert (rule["traversals"], rule["queries_changed"]) == ("reference", 2)
+    assert "query_groups" not in rule
 
 
 def test_the_positions_rule_leaves_the_query_to_its_positions():

@@ -300,8 +300,9 @@ def _same_place(
 
     The ``still-frames`` rule reads both traversals: the reference's groups widen every
     set that touches them, and the query's make each frame of a group accept what any
-    frame of it accepts. The ``positions`` rule groups the reference only: the query's
-    positions already say where it stood.
+    frame of it accepts (``same_place=reference-images`` reads the reference only, the
+    rule before the query's stops were read). The ``positions`` rule groups the
+    reference only: the query's positions already say where it stood.
     """
     asked = options.get("same_place") or "auto"
     default = raw.same_place or {"frames": "images", "metres": "positions"}.get(raw.kind, "off")
@@ -325,8 +326,11 @@ def _same_place(
         entry: dict[str, Any] = {"rule": "positions", "params": {"radius_m": radius}}
     else:
         groups = still_groups(thumbnails(raw.reference.select(ref_idx)), STILL_FRAMES)
-        query_groups = still_groups(thumbnails(raw.query.select(q_idx)), STILL_FRAMES)
+        if mode != "reference-images":  # the rule before the query's stops were read
+            query_groups = still_groups(thumbnails(raw.query.select(q_idx)), STILL_FRAMES)
         entry = STILL_FRAMES.to_dict()
+        if mode == "reference-images":
+            entry["traversals"] = "reference"
     closed = close_over_groups(truth, groups, ref_idx.size)
     entry.update(groups=len(groups), grouped_frames=_frames_in(groups))
     if query_groups is not None:

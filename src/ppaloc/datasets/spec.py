@@ -190,9 +190,10 @@ COMMON_KEYS: dict[str, Key] = {
     "same_place": Key(
         "choice",
         "auto",
-        "close the accepted sets over the reference's same-place groups: auto (the "
-        "kind's rule), images, positions, off",
-        choices=("auto", "images", "positions", "off"),
+        "close the accepted sets over the same-place groups: auto (the kind's rule), "
+        "images (still frames of both traversals), reference-images (of the reference "
+        "only), positions, off",
+        choices=("auto", "images", "reference-images", "positions", "off"),
     ),
     "start": Key("int", None, "first frame (or place) kept", 0),
     "stop": Key("int", None, "frame (or place) where the selection stops (exclusive)", 1),
