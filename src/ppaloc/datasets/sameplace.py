@@ -10,8 +10,9 @@ any frame of it accepts (:func:`close_over_query_groups`), since one image canno
 two places. Two rules find the groups (docs/datasets.md, "Same-place
 groups", has the measurements behind the figures):
 
-- ``still-frames`` (:data:`STILL_FRAMES`), from the reference frames themselves, for
-  frame-synchronised sets without positions: each frame is reduced to a 16x16 thumbnail
+- ``still-frames`` (:data:`STILL_FRAMES`), from the frames themselves (of the
+  reference, and of the query where the truth is by index), for frame-synchronised sets
+  without positions: each frame is reduced to a 16x16 thumbnail
   (Pillow's anti-aliased bilinear filter, aspect not kept, so the rule reads the same on a
   64x32 or a 960x540 frame), normalised to zero mean and unit deviation. A frame is *seen*
   when its thumbnail's mean grey is at least 40 and its deviation at least 8 grey levels
