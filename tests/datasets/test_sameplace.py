@@ -200,6 +200,11 @@ def test_the_query_closure_is_bounded(monkeypatch):
     monkeypatch.setattr(sameplace, "MAX_GROUND_TRUTH_ITEMS", 8)
     sets = PackedSets.from_sets([[0], [1, 2], [3], [4]])
     assert close_over_query_groups(sets, np.array([[0, 2]])).indices.size == 8
+
+    def no_large_arrays(*args, **kwargs):
+        raise AssertionError("the closed sets were built before the bound was checked")
+
+    monkeypatch.setattr(sameplace.np, "tile", no_large_arrays)
     with pytest.raises(DataError, match=r"query's same-place groups would accept 13 \(query, "
                        r"reference\) pairs, more than 8; .* \(same_place=off\)"):  # fmt: skip
         close_over_query_groups(sets, np.array([[0, 3]]))

@@ -350,21 +350,22 @@ def close_over_query_groups(sets: PackedSets, groups: np.ndarray) -> PackedSets:
         return sets
     indices, indptr = sets.indices, sets.indptr
     lengths = sets.lengths.copy()
-    pieces, done = [], 0
-    for first, end in groups:
-        union = np.unique(indices[indptr[first] : indptr[end]])
+    unions = [np.unique(indices[indptr[first] : indptr[end]]) for first, end in groups]
+    for (first, end), union in zip(groups, unions, strict=True):
         lengths[first:end] = union.size
-        pieces += [indices[indptr[done] : indptr[first]], np.tile(union, end - first)]
-        done = end
-    pieces.append(indices[indptr[done] :])
     total = int(lengths.sum())
-    if total > MAX_GROUND_TRUTH_ITEMS:
+    if total > MAX_GROUND_TRUTH_ITEMS:  # checked before anything that large is built
         raise DataError(
             f"closing the accepted sets over the query's same-place groups would accept "
             f"{total} (query, reference) pairs, more than {MAX_GROUND_TRUTH_ITEMS}; a query "
             "that stands still this long is better cut (start=, stop=) or left unclosed "
             "(same_place=off)"
         )
+    pieces, done = [], 0
+    for (first, end), union in zip(groups, unions, strict=True):
+        pieces += [indices[indptr[done] : indptr[first]], np.tile(union, end - first)]
+        done = end
+    pieces.append(indices[indptr[done] :])
     out_ptr = np.zeros(len(sets) + 1, dtype=np.int64)
     np.cumsum(lengths, out=out_ptr[1:])
     closed = PackedSets(np.concatenate(pieces), out_ptr)
