@@ -32,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_robust import DATA, parse_params, routes
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
+from ppaloc.evaluate.metrics import is_correct
 from ppaloc.evaluate.run import method_metrics, run_method
 
 METHODS = (
@@ -54,7 +55,7 @@ def surest_wrong(
 ) -> list[tuple[int, int, np.ndarray, float]]:
     """The ``n`` wrong estimates of highest score: ``(query, predicted reference frame,
     accepted set, score)``, the surest first (ties in query order)."""
-    wrong = [q for q in range(len(truth)) if int(predicted[q]) not in set(truth[q].tolist())]
+    wrong = np.flatnonzero(~is_correct(predicted, truth)).tolist()
     wrong.sort(key=lambda q: -float(score[q]))
     return [(q, int(predicted[q]), np.asarray(truth[q]), float(score[q])) for q in wrong[:n]]
 
