@@ -326,11 +326,11 @@ def _same_place(
         entry: dict[str, Any] = {"rule": "positions", "params": {"radius_m": radius}}
     else:
         groups = still_groups(thumbnails(raw.reference.select(ref_idx)), STILL_FRAMES)
-        if mode != "reference-images":  # the rule before the query's stops were read
-            query_groups = still_groups(thumbnails(raw.query.select(q_idx)), STILL_FRAMES)
         entry = STILL_FRAMES.to_dict()
-        if mode == "reference-images":
+        if mode == "reference-images":  # the rule before the query's stops were read
             entry["traversals"] = "reference"
+        else:
+            query_groups = still_groups(thumbnails(raw.query.select(q_idx)), STILL_FRAMES)
     closed = close_over_groups(truth, groups, ref_idx.size)
     entry.update(groups=len(groups), grouped_frames=_frames_in(groups))
     if query_groups is not None:
