@@ -8,7 +8,10 @@ Not collected by pytest. Run from the project root::
     .venv/bin/python benchmarks/eval_baselines.py --dip  # SeqSLAM's enhancement, diagnosed
 
 Frames go through the sensor front-end (``to_sensor``) once per traversal and are shared by
-every method. Scores are the methods' own confidences; max F1 uses recall definition A
+every method, and every method runs through the evaluation's own runner
+(:func:`ppaloc.evaluate.run.run_method`, what ``ppaloc evaluate`` runs): a node is read as
+the reference frame it predicts, and every method is judged by the dataset's accepted
+sets. Scores are the methods' own confidences; max F1 uses recall definition A
 (correct accepted / queries with a true match) over every distinct score, tolerance +-2.
 SeqSLAM is also run in OpenSeqSLAM's centred (offline) mode for reference.
 
@@ -22,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import numpy as np
@@ -32,9 +34,10 @@ from ppaloc.baselines import SeqSLAM
 from ppaloc.baselines._common import uniqueness_ratio
 from ppaloc.baselines._image import mean_abs_diff, patch_normalise
 from ppaloc.baselines.seqslam import contrast_enhance
-from ppaloc.datasets import load_dataset, to_grey, to_sensor
+from ppaloc.datasets import RouteDataset, load_dataset, to_grey, to_sensor
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.metrics import evaluate_estimates
+from ppaloc.evaluate.run import MethodRun, run_method
 from ppaloc.methods import make_localiser
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
@@ -63,27 +66,24 @@ METHODS: dict[str, tuple[str, dict]] = {
     # The earlier defaults (1% re-initialisation), chosen on the real pairs: for comparison.
     "particle-filter-reinit1": ("particle-filter", {"p_jump": 0.24}),
     "weighted-node-lowres": ("weighted-node-lowres", {}),
+    "weighted-node-lowres16": ("weighted-node-lowres16", {}),
+    "weighted-node-haar": ("weighted-node-haar", {}),
     "weighted-node-lbp": ("weighted-node-lbp", {}),
 }
 
 
 def run(
-    label: str, ref: list[np.ndarray], query: list[np.ndarray], pf_seed: int = 0
-) -> tuple[list, float]:
-    """Estimates of one method for every query frame (an offline method, centred SeqSLAM,
-    is handed the whole query first, as ``ppaloc evaluate`` does), and the localisation
-    time per query frame in ms (map building excluded)."""
+    label: str, ds: RouteDataset, ref: list[np.ndarray], query: list[np.ndarray], pf_seed: int = 0
+) -> MethodRun:
+    """One method over the whole query through the evaluation's own runner
+    (:func:`~ppaloc.evaluate.run.run_method`, as ``ppaloc evaluate`` runs it): each
+    estimate's node is read as the reference frame it predicts (a keyframe node's own
+    frame), an offline method (centred SeqSLAM) is handed the query first, and every
+    method is judged by the same accepted sets."""
     name, params = METHODS[label]
     if name == "particle-filter":
         params = {**params, "seed": pf_seed}
-    loc = make_localiser(name, **params)
-    loc.build_map(ref)
-    loc.reset()
-    t0 = time.perf_counter()
-    if getattr(loc, "reads_future", False):
-        loc.read_ahead(query)
-    est = [loc.step(f) for f in query]
-    return est, (time.perf_counter() - t0) / len(query) * 1e3
+    return run_method(name, ref, query, ds.ground_truth, params=params)
 
 
 TUNING_ROUTES = [
@@ -215,16 +215,12 @@ def main() -> None:
         query = [to_sensor(f) for f in ds.query]
         for method in args.methods:
             try:
-                est, dt = run(method, ref, query, args.pf_seed)
+                result = run(method, ds, ref, query, args.pf_seed)
             except PpalocError as exc:  # a method not available in this tree
                 print(f"{name:28s} {method:22s} unavailable: {exc}")
                 continue
-            m = evaluate_estimates(
-                [e.node for e in est],
-                [e.score for e in est],
-                ds.ground_truth,
-                rankings=[e.ranking for e in est],
-            )
+            m = result.metrics
+            dt = float(np.nanmean(result.latency_ms))
             row = {
                 "dataset": name,
                 "method": method,
