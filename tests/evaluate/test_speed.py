@@ -129,3 +129,25 @@ def test_an_evaluation_at_twice_the_speed_warns_and_records_it(fast_route, tmp_p
     out.write_text(json.dumps(summary))
     with pytest.raises(DataError, match=r"methods.seqslam.speed_check is \{'warning': 3\}"):
         load_results(tmp_path / "out")
+
+
+def test_the_weighted_node_filters_declare_the_speeds_they_follow() -> None:
+    """Host and sensor take the range from the one filter contract; it follows the costs."""
+    from ppaloc.methods import make_localiser
+
+    for name in ("weighted-node-lowres16", "weighted-node-lbp", "onsensor-lowres"):
+        assert make_localiser(name).speed_range == (0.5, 1.5)
+    stiff = make_localiser("weighted-node-lowres", stay_cost=8, skip_cost=8)
+    assert stiff.speed_range == (0.75, 1.25)
+    assert make_localiser("weighted-node-lowres", skip_cost=1).speed_range == (0.5, 3.0)
+    assert make_localiser("weighted-node-lbp", preset="paper").speed_range == (1.0, 1.0)
+
+
+def test_a_weighted_node_filter_at_twice_the_speed_is_warned(fast_route, caplog) -> None:
+    cfg = EvaluateConfig(methods=("weighted-node-lowres",), record_weights=False)
+    with caplog.at_level(logging.WARNING):
+        result = run_evaluation(cfg, dataset=fast_route, progress=False)
+    check = result.runs["weighted-node-lowres"].speed_check
+    assert check["range"] == [0.5, 1.5] and check["share_outside"] > 0.5
+    warned = [r.getMessage() for r in caplog.records if r.name == "ppaloc.evaluate.speed"]
+    assert len(warned) == 1 and warned[0].startswith("weighted-node-lowres searches query")

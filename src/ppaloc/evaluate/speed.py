@@ -3,10 +3,11 @@
 A sequence method assumes a range of query speeds, in reference frames (map nodes) per
 query frame: SeqSLAM searches straight lines of ``vmin .. vmax``, ABLE-M compares one
 reference frame per query frame, a particle filter's motion prior moves its particles at
-about one node per frame. A query driven at twice the mapping speed is outside all of
-them, and such a method then fails for a reason that has nothing to do with recognising
-places. This module measures the query's speed from the dataset's ground truth and says so,
-once per method:
+about one node per frame, the weighted-node filter's transition costs assume one place a
+frame where it does not know the speed. A query driven at twice the mapping speed is
+outside all of them, and such a method then fails for a reason that has nothing to do
+with recognising places. This module measures the query's speed from the dataset's
+ground truth and says so, once per method:
 
 - :func:`match_centres`: the reference frame each query sits at (the median of its accepted
   reference frames; NaN for a query without a true match, which is skipped);
@@ -195,8 +196,8 @@ def speed_checks(
     Parameters
     ----------
     localisers : mapping of str to Localiser
-        By method name; one without a ``speed_range`` attribute (single-frame matching, the
-        weighted-node filters) is left out.
+        By method name; one without a ``speed_range`` attribute (single-frame matching) is
+        left out.
     ground_truth : sequence of ndarray of int
         Accepted reference frames per query.
     window : int

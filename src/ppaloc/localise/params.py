@@ -62,6 +62,7 @@ __all__ = [
     "Param",
     "PathSpeed",
     "adjustment",
+    "assumed_speeds",
     "check_int",
     "choose_candidate",
     "filter_method_params",
@@ -584,6 +585,43 @@ def transition_costs(
     ]
     least = min(costs)
     return tuple(c - least for c in costs)
+
+
+def assumed_speeds(params: FilterParams) -> tuple[float, float]:
+    """The query speeds, in places a query frame, the filter follows without knowing the
+    speed: its ``speed_range``, checked against the query by ``ppaloc evaluate`` as every
+    sequence method's is (:mod:`ppaloc.evaluate.speed`).
+
+    Robust preset: a forward frame's costs assume one place a frame (item 1), so a path
+    at a steady ``v`` pays ``stay_cost (1 - v)`` units a frame below it and ``skip_cost
+    (v - 1)`` above it, against a frame's evidence of about ``gain`` units between the
+    best and the mean node. The range is where that is at most half the evidence,
+    ``1 - gain / (2 stay_cost)`` to ``1 + gain / (2 skip_cost)``, within ``0 ..
+    max_advance``: 0.5 to 1.5 at the defaults, the speeds of a generated route the
+    filter follows at about its one-place-a-frame figure (docs/localise.md, "A query
+    faster or slower than the map"). The speed of its own path (item 9) can take it to
+    2 places a frame, but only where it is already sure of that path. Paper preset: the
+    nodes one forward frame shifts the weights, ``advance`` (one).
+
+    Examples
+    --------
+    >>> assumed_speeds(FilterParams.create("lbp"))
+    (0.5, 1.5)
+    >>> assumed_speeds(FilterParams.create("lbp", stay_cost=8, skip_cost=2))
+    (0.75, 2.0)
+    >>> assumed_speeds(FilterParams.create("lbp", skip_cost=0))
+    (0.5, 3.0)
+    >>> assumed_speeds(FilterParams.create("lbp", preset="paper"))
+    (1.0, 1.0)
+    """
+    if params.preset == "paper":
+        lo, hi = params.advance or (1, 1)
+        return (float(lo), float(hi))
+    gain, stay, skip = int(params.gain), int(params.stay_cost), int(params.skip_cost)  # type: ignore[arg-type]
+    most = float(params.max_advance)  # type: ignore[arg-type]
+    lo = 0.0 if stay == 0 else max(0.0, 1.0 - gain / (2 * stay))
+    hi = most if skip == 0 else min(most, 1.0 + gain / (2 * skip))
+    return (lo, hi)
 
 
 def path_speed(

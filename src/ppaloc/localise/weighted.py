@@ -53,6 +53,7 @@ from ppaloc.localise.params import (
     DEFAULT_SHIFT,
     GAMMAS,
     FilterParams,
+    assumed_speeds,
     check_int,
     choose_candidate,
     filter_method_params,
@@ -243,6 +244,14 @@ class WeightedNodeLocaliser:
         """What the localiser reads from its dataset with ``params``: the true moves for
         ``motion="oracle"`` (:func:`oracle_needs`)."""
         return oracle_needs(params)
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """The query speeds, in places a query frame, the filter follows without knowing
+        the speed (:func:`~ppaloc.localise.params.assumed_speeds`; 0.5 to 1.5 at the
+        robust defaults): what ``ppaloc evaluate`` checks the query's speed against, as
+        for every sequence method."""
+        return assumed_speeds(self.params)
 
     @property
     def alpha(self) -> float | None:

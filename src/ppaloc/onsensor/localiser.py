@@ -19,7 +19,12 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import DatasetNeed, Estimate, MethodParam
-from ppaloc.localise.params import FilterParams, check_int, filter_method_params
+from ppaloc.localise.params import (
+    FilterParams,
+    assumed_speeds,
+    check_int,
+    filter_method_params,
+)
 from ppaloc.localise.schedule import Schedule, make_schedule
 from ppaloc.localise.weighted import (
     MAX_RANKING,
@@ -251,6 +256,14 @@ class OnSensorLocaliser:
     def dataset_needs(cls, params: Mapping[str, Any]) -> dict[str, DatasetNeed]:
         """The true moves for ``motion="oracle"`` (the controller's input)."""
         return oracle_needs(params)
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """The query speeds, in places a query frame, the filter follows without knowing
+        the speed (:func:`~ppaloc.localise.params.assumed_speeds`; 0.5 to 1.5 at the
+        robust defaults): what ``ppaloc evaluate`` checks the query's speed against, as
+        for every sequence method."""
+        return assumed_speeds(self.params)
 
     @property
     def alpha(self) -> float | None:

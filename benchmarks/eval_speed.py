@@ -1,0 +1,100 @@
+"""Max F1 of each method on one generated route driven at a constant multiple of the
+mapping speed.
+
+Not collected by pytest. Run from the project root::
+
+    .venv/bin/python benchmarks/eval_speed.py                       # autumn and winter
+    .venv/bin/python benchmarks/eval_speed.py --queries autumn --speeds 0.5,1,2
+
+The route is ``synthetic:?places=200&query=Q&seed=S&speed=V`` for each speed ``V`` (the
+query crosses ``V`` places a frame, with the generator's stops; docs/datasets.md), so
+the figures separate a method's speed assumption from its place recognition, which the
+65 routes of ``benchmarks/eval_robust.py`` do not: there every query keeps the mapping
+speed on average. Each method runs through the evaluation's runner
+(:func:`ppaloc.evaluate.run.run_method`) with its defaults; each table's last row gives
+the speeds the method declares (``speed_range``, the range ``ppaloc evaluate`` warns
+outside: docs/baselines.md, "Query speed").
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from ppaloc.datasets import load_dataset, to_sensor
+from ppaloc.evaluate.run import run_method
+from ppaloc.methods import make_localiser
+
+METHODS = (
+    "weighted-node-lowres16",
+    "weighted-node-lowres",
+    "weighted-node-haar",
+    "weighted-node-lbp",
+    "particle-filter",
+    "seqslam",
+    "able-m",
+)
+SPEEDS = (0.35, 0.5, 0.7, 1.0, 1.5, 2.0, 2.5)
+QUERIES = ("autumn", "winter")
+
+
+def route(query: str, seed: int, speed: float, places: int = 200) -> str:
+    """The spec of the generated route at ``speed`` places a query frame."""
+    return f"synthetic:?places={places}&query={query}&seed={seed}&speed={speed:g}"
+
+
+def sweep(
+    query: str, seed: int, speeds: tuple[float, ...], methods: tuple[str, ...], places: int
+) -> dict[float, dict[str, float]]:
+    """Max F1 of every method at every speed (one route each)."""
+    out: dict[float, dict[str, float]] = {}
+    for speed in speeds:
+        ds = load_dataset(route(query, seed, speed, places))
+        ref = [to_sensor(f) for f in ds.reference]
+        frames = [to_sensor(f) for f in ds.query]
+        truth = ds.ground_truth
+        out[speed] = {m: run_method(m, ref, frames, truth).metrics.f1_max for m in methods}
+        row = " ".join(f"{m} {f:.3f}" for m, f in out[speed].items())
+        print(f"  {query} seed {seed} speed {speed:g} ({len(frames)} queries): {row}", flush=True)
+    return out
+
+
+def declared(method: str) -> str:
+    """The method's ``speed_range`` as ``lo-hi``, or ``-`` where it declares none."""
+    rng = getattr(make_localiser(method), "speed_range", None)
+    return "-" if rng is None else f"{rng[0]:.2g}-{rng[1]:.3g}"
+
+
+def table(figures: dict[float, dict[str, float]], methods: tuple[str, ...]) -> str:
+    """A markdown table: one row per speed, one column per method, the ranges last."""
+    head = "| speed | " + " | ".join(methods) + " |"
+    lines = [head, "|---" * (len(methods) + 1) + "|"]
+    for speed, row in figures.items():
+        lines.append(f"| {speed:g} | " + " | ".join(f"{row[m]:.3f}" for m in methods) + " |")
+    lines.append("| declared | " + " | ".join(declared(m) for m in methods) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--speeds", default=",".join(f"{s:g}" for s in SPEEDS))
+    parser.add_argument("--queries", default=",".join(QUERIES))
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--places", type=int, default=200)
+    parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--json", type=Path, default=None, help="write every figure here")
+    args = parser.parse_args(argv)
+    speeds = tuple(float(s) for s in args.speeds.split(","))
+    methods = tuple(args.methods.split(","))
+    figures = {}
+    for query in args.queries.split(","):
+        figures[query] = sweep(query, args.seed, speeds, methods, args.places)
+        print(f"\n{query}, seed {args.seed}:\n\n{table(figures[query], methods)}\n", flush=True)
+    if args.json:
+        data = {q: {f"{s:g}": row for s, row in f.items()} for q, f in figures.items()}
+        args.json.write_text(json.dumps(data, indent=1))
+
+
+if __name__ == "__main__":
+    main()
