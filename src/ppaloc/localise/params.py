@@ -601,7 +601,8 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     filter follows at about its one-place-a-frame figure (docs/localise.md, "A query
     faster or slower than the map"). The speed of its own path (item 9) can take it to
     2 places a frame, but only where it is already sure of that path. Paper preset: the
-    nodes one forward frame shifts the weights, ``advance`` (one).
+    nodes one forward frame shifts the weights, ``advance`` (one). The check reads the
+    query's speed in reference frames, which are places wherever the reference moves.
 
     Examples
     --------
