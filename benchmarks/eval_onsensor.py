@@ -61,6 +61,7 @@ import numpy as np
 from ppaloc.datasets import to_sensor
 from ppaloc.datasets.registry import load_dataset
 from ppaloc.evaluate.metrics import is_correct, max_f1, pr_curve
+from ppaloc.evaluate.run import predicted_frames
 from ppaloc.localise.params import runs_on
 from ppaloc.localise.schedule import SCHEDULES
 from ppaloc.localise.weighted import WeightedNodeLocaliser
@@ -246,9 +247,12 @@ def _sensors(loc: OnSensorLocaliser) -> str:
 
 
 def _max_f1(loc: OnSensorLocaliser, query, truth) -> float:
+    """Max F1 of the localiser over ``query``, each node read as the reference frame it
+    predicts (its own frame on a keyframe map), as the evaluation's runner reads it."""
     has_match = np.array([len(t) > 0 for t in truth])
     est = loc.localise(query)
-    correct = is_correct(np.array([e.node for e in est]), truth)
+    frames = predicted_frames(np.array([e.node for e in est]), loc.topomap.frame_index)
+    correct = is_correct(frames, truth)
     return max_f1(pr_curve([e.score for e in est], correct, has_match, recall="A"))[0]
 
 
