@@ -1,0 +1,30 @@
+"""``benchmarks/eval_speed.py``: one route per constant speed, every method's figure and
+its declared speeds."""
+
+from __future__ import annotations
+
+
+def test_the_route_and_the_table(bench_script):
+    eval_speed = bench_script("eval_speed")
+    assert eval_speed.route("winter", 3, 0.5) == (
+        "synthetic:?places=200&query=winter&seed=3&speed=0.5"
+    )
+    methods = ("weighted-node-lowres", "particle-filter", "single-frame")
+    figures = {
+        0.5: dict(zip(methods, (0.9, 0.8, 0.1), strict=True)),
+        2.0: dict(zip(methods, (0.2, 0.7, 0.1), strict=True)),
+    }
+    lines = eval_speed.table(figures, methods).splitlines()
+    assert lines[0] == "| speed | weighted-node-lowres | particle-filter | single-frame |"
+    assert lines[2:4] == ["| 0.5 | 0.900 | 0.800 | 0.100 |", "| 2 | 0.200 | 0.700 | 0.100 |"]
+    assert lines[4] == "| declared | 0.5-1.5 | 0.64-1.67 | - |"
+
+
+def test_a_sweep_runs_every_method_at_every_speed(bench_script, capsys):
+    eval_speed = bench_script("eval_speed")
+    got = eval_speed.sweep("autumn", 1, (1.0, 2.0), ("single-frame", "able-m"), places=24)
+    assert list(got) == [1.0, 2.0] and all(
+        set(row) == {"single-frame", "able-m"} for row in got.values()
+    )
+    assert all(0.0 <= f <= 1.0 for row in got.values() for f in row.values())
+    assert "autumn seed 1 speed 2" in capsys.readouterr().out
