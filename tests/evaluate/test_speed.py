@@ -151,3 +151,18 @@ def test_a_weighted_node_filter_at_twice_the_speed_is_warned(fast_route, caplog)
     assert check["range"] == [0.5, 1.5] and check["share_outside"] > 0.5
     warned = [r.getMessage() for r in caplog.records if r.name == "ppaloc.evaluate.speed"]
     assert len(warned) == 1 and warned[0].startswith("weighted-node-lowres searches query")
+    assert "lower skip_cost for a faster query (1: up to 3 places a frame)" in warned[0]
+    assert check["warning"] == warned[0]
+
+
+def test_a_warning_names_the_method_s_own_remedy() -> None:
+    fast = np.full(20, 2.5)
+    own = check_speed(fast, (0.5, 1.5), method="m", remedy="lower skip_cost")["warning"]
+    assert "place recognition; lower skip_cost (docs/baselines.md" in own
+    generic = check_speed(fast, (0.5, 1.5), method="m")["warning"]
+    assert "place recognition; widen its speed range or subsample the query (docs" in generic
+    from ppaloc.methods import make_localiser
+
+    assert make_localiser("onsensor-lbp").speed_remedy.startswith("lower skip_cost")
+    assert "robust preset" in make_localiser("weighted-node-lbp", preset="paper").speed_remedy
+    assert not hasattr(make_localiser("seqslam"), "speed_remedy")

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "DEFAULT_REMEDY",
     "FAR",
     "SHARE",
     "WINDOW",
@@ -123,6 +124,10 @@ def window_speeds(centres: np.ndarray, window: int = WINDOW) -> np.ndarray:
     return out
 
 
+#: What the warning asks for when a method names no remedy of its own.
+DEFAULT_REMEDY = "widen its speed range or subsample the query"
+
+
 def check_speed(
     speeds: np.ndarray,
     speed_range: tuple[float, float],
@@ -130,6 +135,7 @@ def check_speed(
     method: str = "this method",
     far: float = FAR,
     share: float = SHARE,
+    remedy: str | None = None,
 ) -> dict[str, Any]:
     """Whether a large share of the route is far outside a method's range of speeds.
 
@@ -143,6 +149,9 @@ def check_speed(
         Its name, for the warning.
     far, share : float
         See :data:`FAR` and :data:`SHARE`.
+    remedy : str, optional
+        What widens this method's range (its localiser's ``speed_remedy``), named in the
+        warning; by default "widen its speed range or subsample the query".
 
     Returns
     -------
@@ -181,8 +190,8 @@ def check_speed(
             f"{method} {searches} reference frames per query frame, but on {outside:.0%} of "
             f"this route the query moves at under {lo / (1 + far):.2g} or over "
             f"{hi * (1 + far):.2g} (median {median:.2f}): its figures here measure its speed "
-            "assumption, not its place recognition; widen its speed range or subsample the "
-            "query (docs/baselines.md, 'Query speed')"
+            f"assumption, not its place recognition; {remedy or DEFAULT_REMEDY} "
+            "(docs/baselines.md, 'Query speed')"
         )
     return out
 
@@ -209,7 +218,7 @@ def speed_checks(
         :func:`check_speed`'s result per method that declares a range.
     """
     declared = {
-        name: tuple(rng)
+        name: (tuple(rng), getattr(loc, "speed_remedy", None))
         for name, loc in localisers.items()
         if (rng := getattr(loc, "speed_range", None)) is not None
     }
@@ -217,8 +226,8 @@ def speed_checks(
         return {}
     speeds = window_speeds(match_centres(ground_truth), window)
     out = {}
-    for name, rng in declared.items():
-        out[name] = check_speed(speeds, (rng[0], rng[1]), method=name)
+    for name, (rng, remedy) in declared.items():
+        out[name] = check_speed(speeds, (rng[0], rng[1]), method=name, remedy=remedy)
         if out[name]["warning"]:
             log.warning("%s", out[name]["warning"])
     return out

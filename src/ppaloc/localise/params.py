@@ -75,6 +75,7 @@ __all__ = [
     "refined_minimum",
     "runs_on",
     "speed_off",
+    "speed_remedy",
     "speed_varies",
     "still_score",
     "stood_at_or_next",
@@ -623,6 +624,24 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     lo = 0.0 if stay == 0 else max(0.0, 1.0 - gain / (2 * stay))
     hi = most if skip == 0 else min(most, 1.0 + gain / (2 * skip))
     return (lo, hi)
+
+
+def speed_remedy(params: FilterParams) -> str:
+    """What widens the speeds the filter follows (:func:`assumed_speeds`), for the speed
+    check's warning: the robust preset's costs, the paper preset's preset.
+
+    Examples
+    --------
+    >>> speed_remedy(FilterParams.create("lbp"))[:44]
+    'lower skip_cost for a faster query (1: up to'
+    """
+    if params.preset == "paper":
+        return "use the robust preset (0.5 to 1.5 places a frame, wider with lower costs)"
+    hi = min(float(params.max_advance), 1.0 + int(params.gain) / 2)  # type: ignore[arg-type]
+    return (
+        f"lower skip_cost for a faster query (1: up to {hi:g} places a frame) or stay_cost for "
+        "a slower one, or subsample the query"
+    )
 
 
 def path_speed(

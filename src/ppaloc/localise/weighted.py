@@ -57,6 +57,7 @@ from ppaloc.localise.params import (
     check_int,
     choose_candidate,
     filter_method_params,
+    speed_remedy,
 )
 from ppaloc.localise.schedule import SCHEDULES, Schedule, make_schedule
 from ppaloc.topomap import TopoMap, build_topomap
@@ -252,6 +253,12 @@ class WeightedNodeLocaliser:
         robust defaults): what ``ppaloc evaluate`` checks the query's speed against, as
         for every sequence method."""
         return assumed_speeds(self.params)
+
+    @property
+    def speed_remedy(self) -> str:
+        """What widens :attr:`speed_range`, named by the speed check's warning
+        (:func:`~ppaloc.localise.params.speed_remedy`)."""
+        return speed_remedy(self.params)
 
     @property
     def alpha(self) -> float | None:

@@ -24,6 +24,7 @@ from ppaloc.localise.params import (
     assumed_speeds,
     check_int,
     filter_method_params,
+    speed_remedy,
 )
 from ppaloc.localise.schedule import Schedule, make_schedule
 from ppaloc.localise.weighted import (
@@ -264,6 +265,12 @@ class OnSensorLocaliser:
         robust defaults): what ``ppaloc evaluate`` checks the query's speed against, as
         for every sequence method."""
         return assumed_speeds(self.params)
+
+    @property
+    def speed_remedy(self) -> str:
+        """What widens :attr:`speed_range`, named by the speed check's warning
+        (:func:`~ppaloc.localise.params.speed_remedy`)."""
+        return speed_remedy(self.params)
 
     @property
     def alpha(self) -> float | None:
