@@ -58,6 +58,7 @@ __all__ = [
     "VARY_AGE",
     "VARY_BAND",
     "VARY_RECORD",
+    "DeclaredSpeeds",
     "FilterParams",
     "Param",
     "PathSpeed",
@@ -642,6 +643,26 @@ def speed_remedy(params: FilterParams) -> str:
         f"lower skip_cost for a faster query (1: up to {hi:g} places a frame) or stay_cost for "
         "a slower one, or subsample the query"
     )
+
+
+class DeclaredSpeeds:
+    """The speeds a weighted-node localiser declares, from its ``params`` (one contract for
+    the host filter and the sensor): what ``ppaloc evaluate`` checks the query against, as
+    for every sequence method (:mod:`ppaloc.evaluate.speed`)."""
+
+    params: FilterParams
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """The query speeds, in places a query frame, the filter follows without knowing
+        the speed (:func:`assumed_speeds`; 0.5 to 1.5 at the robust defaults)."""
+        return assumed_speeds(self.params)
+
+    @property
+    def speed_remedy(self) -> str:
+        """What widens :attr:`speed_range`, named by the speed check's warning
+        (:func:`speed_remedy`)."""
+        return speed_remedy(self.params)
 
 
 def path_speed(

@@ -52,12 +52,11 @@ from ppaloc.localise.motion import ImageMotion, MotionModel
 from ppaloc.localise.params import (
     DEFAULT_SHIFT,
     GAMMAS,
+    DeclaredSpeeds,
     FilterParams,
-    assumed_speeds,
     check_int,
     choose_candidate,
     filter_method_params,
-    speed_remedy,
 )
 from ppaloc.localise.schedule import SCHEDULES, Schedule, make_schedule
 from ppaloc.topomap import TopoMap, build_topomap
@@ -152,7 +151,7 @@ def check_representation(representation: str) -> str:
     return representation
 
 
-class WeightedNodeLocaliser:
+class WeightedNodeLocaliser(DeclaredSpeeds):
     """The weighted-node filter over a 1-D topological map: robust (default) or the paper's.
 
     Parameters
@@ -245,20 +244,6 @@ class WeightedNodeLocaliser:
         """What the localiser reads from its dataset with ``params``: the true moves for
         ``motion="oracle"`` (:func:`oracle_needs`)."""
         return oracle_needs(params)
-
-    @property
-    def speed_range(self) -> tuple[float, float]:
-        """The query speeds, in places a query frame, the filter follows without knowing
-        the speed (:func:`~ppaloc.localise.params.assumed_speeds`; 0.5 to 1.5 at the
-        robust defaults): what ``ppaloc evaluate`` checks the query's speed against, as
-        for every sequence method."""
-        return assumed_speeds(self.params)
-
-    @property
-    def speed_remedy(self) -> str:
-        """What widens :attr:`speed_range`, named by the speed check's warning
-        (:func:`~ppaloc.localise.params.speed_remedy`)."""
-        return speed_remedy(self.params)
 
     @property
     def alpha(self) -> float | None:

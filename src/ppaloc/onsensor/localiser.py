@@ -20,11 +20,10 @@ import numpy as np
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import DatasetNeed, Estimate, MethodParam
 from ppaloc.localise.params import (
+    DeclaredSpeeds,
     FilterParams,
-    assumed_speeds,
     check_int,
     filter_method_params,
-    speed_remedy,
 )
 from ppaloc.localise.schedule import Schedule, make_schedule
 from ppaloc.localise.weighted import (
@@ -89,7 +88,7 @@ def _check_options(representation: str, noise: Any, arithmetic: str, timing_stru
         )
 
 
-class OnSensorLocaliser:
+class OnSensorLocaliser(DeclaredSpeeds):
     """The weighted-node filter on a simulated SCAMP-5: map in registers, PPA programs.
 
     Both presets of the host filter run on the sensor: ``preset="robust"`` (the default:
@@ -257,20 +256,6 @@ class OnSensorLocaliser:
     def dataset_needs(cls, params: Mapping[str, Any]) -> dict[str, DatasetNeed]:
         """The true moves for ``motion="oracle"`` (the controller's input)."""
         return oracle_needs(params)
-
-    @property
-    def speed_range(self) -> tuple[float, float]:
-        """The query speeds, in places a query frame, the filter follows without knowing
-        the speed (:func:`~ppaloc.localise.params.assumed_speeds`; 0.5 to 1.5 at the
-        robust defaults): what ``ppaloc evaluate`` checks the query's speed against, as
-        for every sequence method."""
-        return assumed_speeds(self.params)
-
-    @property
-    def speed_remedy(self) -> str:
-        """What widens :attr:`speed_range`, named by the speed check's warning
-        (:func:`~ppaloc.localise.params.speed_remedy`)."""
-        return speed_remedy(self.params)
 
     @property
     def alpha(self) -> float | None:
