@@ -599,9 +599,10 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     (v - 1)`` above it, against a frame's evidence of about ``gain`` units between the
     best and the mean node. The range is where that is at most half the evidence,
     ``1 - gain / (2 stay_cost)`` to ``1 + gain / (2 skip_cost)``, within ``0 ..
-    max_advance``: 0.5 to 1.5 at the defaults, the speeds of a generated route the
-    filter follows at about its one-place-a-frame figure (docs/localise.md, "A query
-    faster or slower than the map"). The speed of its own path (item 9) can take it to
+    max_advance``: 0.5 to 1.5 at the defaults. On a generated route the filter keeps its
+    one-place-a-frame figure down to half a place a frame, loses part of it at 1.5 and
+    most at 2 (docs/localise.md, "A query faster or slower than the map"), and a lower
+    ``skip_cost`` follows a faster query. The speed of its own path (item 9) can take it to
     2 places a frame, but only where it is already sure of that path. Paper preset: the
     nodes one forward frame shifts the weights, ``advance`` (one). The check reads the
     query's speed in reference frames, which are places wherever the reference moves.
@@ -629,7 +630,7 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
 
 def speed_remedy(params: FilterParams) -> str:
     """What widens the speeds the filter follows (:func:`assumed_speeds`), for the speed
-    check's warning: the robust preset's costs, the paper preset's preset.
+    check's warning: the robust preset's costs; for the paper preset, the robust one.
 
     Examples
     --------
