@@ -639,7 +639,7 @@ def speed_remedy(params: FilterParams) -> str:
     """
     if params.preset == "paper":
         return "use the robust preset (0.5 to 1.5 places a frame, wider with lower costs)"
-    hi = min(float(params.max_advance), 1.0 + int(params.gain) / 2)  # type: ignore[arg-type]
+    hi = assumed_speeds(dataclasses.replace(params, skip_cost=1))[1]
     return (
         f"lower skip_cost for a faster query (1: up to {hi:g} places a frame) or stay_cost for "
         "a slower one, or subsample the query"
