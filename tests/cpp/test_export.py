@@ -167,7 +167,9 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     loc.use_map(topomap)
     estimates = [loc.step(f) for f in query]
     sim = loc.pipeline.sim
-    assert [t.sim for t in tracer.traces] == [sim]  # the one sensor holding the map
+    # the one sensor holding the map, and the robust preset's speed lane (a second sensor)
+    lanes = [loc.schedule.lane.sim] if preset == "robust" else []
+    assert [t.sim for t in tracer.traces] == [sim, *lanes]
     trace = tracer.trace_of(sim)
     assert trace.frames == len(query)
     source = to_cpp(
@@ -217,9 +219,10 @@ def test_a_tracer_reaches_every_sensor_of_a_bank():
     loc.use_map(TopoMap("lbp", rng.integers(0, 2**32, 6, dtype=np.uint32)))
     loc.step(rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
     sensors = [s.sim for s in loc.pipeline.sensors]
-    assert len(sensors) == 2
-    assert [t.sim for t in tracer.traces] == sensors
-    assert [t.frames for t in tracer.traces] == [1, 1]
+    lane = [s.sim for s in loc.schedule.lane.sensors]  # the speed lane's bank
+    assert len(sensors) == len(lane) == 2
+    assert [t.sim for t in tracer.traces] == sensors + lane
+    assert [t.frames for t in tracer.traces] == [1, 1, 1, 1]
 
 
 def test_a_localiser_checks_its_observers_before_any_work():
@@ -256,7 +259,7 @@ def test_tracing_replaces_nothing_in_the_simulator(route):
     loc.use_map(OnSensorLocaliser("lbp", size=SIZE).build_map(places))
     loc.step(query[0])
     assert "void ppaloc_frame_0()" in to_cpp(tracer.trace_of(loc.pipeline.sim))
-    assert len(checked) == len(tracer.trace_of(loc.pipeline.sim).events) > 100
+    assert len(checked) == sum(len(t.events) for t in tracer.traces) > 100
     for c in classes:
         assert vars(c) == before[c], c.__name__
     assert not _shadowed(loc.pipeline.sim)

@@ -17,7 +17,7 @@ def test_the_route_and_the_table(bench_script):
     lines = eval_speed.table(figures, methods).splitlines()
     assert lines[0] == "| speed | weighted-node-lowres | particle-filter | single-frame |"
     assert lines[2:4] == ["| 0.5 | 0.900 | 0.800 | 0.100 |", "| 2 | 0.200 | 0.700 | 0.100 |"]
-    assert lines[4] == "| declared | 0.5-1.5 | 0.64-1.67 | - |"
+    assert lines[4] == "| declared | 0.5-2 | 0.64-1.67 | - |"
 
 
 def test_a_sweep_runs_every_method_at_every_speed(bench_script, capsys):

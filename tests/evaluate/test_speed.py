@@ -136,19 +136,29 @@ def test_the_weighted_node_filters_declare_the_speeds_they_follow() -> None:
     from ppaloc.methods import make_localiser
 
     for name in ("weighted-node-lowres16", "weighted-node-lbp", "onsensor-lowres"):
-        assert make_localiser(name).speed_range == (0.5, 1.5)
-    stiff = make_localiser("weighted-node-lowres", stay_cost=8, skip_cost=8)
+        assert make_localiser(name).speed_range == (0.5, 2.0)  # the speed lane's top
+        assert make_localiser(name, lane_speed=0).speed_range == (0.5, 1.5)
+    stiff = make_localiser("weighted-node-lowres", stay_cost=8, skip_cost=8, lane_speed=0)
     assert stiff.speed_range == (0.75, 1.25)
+    assert make_localiser("weighted-node-lowres", lane_speed=3).speed_range == (0.5, 3.0)
     assert make_localiser("weighted-node-lowres", skip_cost=1).speed_range == (0.5, 3.0)
     assert make_localiser("weighted-node-lbp", preset="paper").speed_range == (1.0, 1.0)
 
 
 def test_a_weighted_node_filter_at_twice_the_speed_is_warned(fast_route, caplog) -> None:
-    cfg = EvaluateConfig(methods=("weighted-node-lowres",), record_weights=False)
+    """Without its speed lane the filter is warned at twice the speed; with it (the
+    default) the route is within its range."""
+    cfg = EvaluateConfig(
+        methods=("weighted-node-lowres", "weighted-node-lbp"),
+        params={"weighted-node-lowres": {"lane_speed": 0}},
+        record_weights=False,
+    )
     with caplog.at_level(logging.WARNING):
         result = run_evaluation(cfg, dataset=fast_route, progress=False)
     check = result.runs["weighted-node-lowres"].speed_check
     assert check["range"] == [0.5, 1.5] and check["share_outside"] > 0.5
+    laned = result.runs["weighted-node-lbp"].speed_check
+    assert laned["range"] == [0.5, 2.0] and laned["warning"] is None
     warned = [r.getMessage() for r in caplog.records if r.name == "ppaloc.evaluate.speed"]
     assert len(warned) == 1 and warned[0].startswith("weighted-node-lowres searches query")
     assert "lower skip_cost for a faster query (1: up to 3 places a frame)" in warned[0]

@@ -97,9 +97,10 @@ def _recording(loc: WeightedNodeLocaliser) -> list[tuple[int, ...]]:
     return seen
 
 
-def _twice_the_speed(route, speed_confidence: int):
+def _twice_the_speed(route, speed_confidence: int, lane_speed: int = 0):
     """The toy route there and back as a map, a query at two places a frame, and a
-    filter (window 4) that records its transitions' costs."""
+    filter (window 4, no speed lane: the path's own speed) that records its transitions'
+    costs."""
     reference = np.concatenate([route, route[::-1]])
     frames, truth = stepped(reference, (2,))
     loc = WeightedNodeLocaliser(
@@ -108,6 +109,7 @@ def _twice_the_speed(route, speed_confidence: int):
         contrast=0,
         speed_window=4,
         speed_confidence=speed_confidence,
+        lane_speed=lane_speed,
     )
     loc.build_map(reference)
     return loc, _recording(loc), frames, truth
@@ -165,3 +167,53 @@ def test_on_a_map_with_runs_the_path_is_counted_in_places(route):
     forward = [(int(places[e.node]), e.score) for e in ests[1:] if e.moved]
     assert loc.schedule.path == tuple(forward[-9:])
     assert [p for p, _ in loc.schedule.path] != [e.node for e in ests[1:] if e.moved][-9:]
+
+
+def test_the_lane_gives_its_speed_where_the_path_shows_none(route):
+    """The same query at two places a frame with a gate the lagging filter passes late
+    (16 units): without a lane its costs centre on two at frame 17, after the estimate
+    fell up to 3 places behind; the lane (costs at two from the start) passes the gate
+    first, and its speed centres the filter's costs from frame 6 on, the estimate never
+    off. Break ``lane_speed_taken`` (take nothing) and the two runs are the same."""
+    centred = transition_costs(True, FilterParams.create("lowres"), PathSpeed(2, 1))
+    runs = {}
+    for lane in (0, 2):
+        loc, seen, frames, truth = _twice_the_speed(route, 16, lane_speed=lane)
+        off = np.abs(np.array([e.node for e in loc.localise(frames)]) - truth)
+        runs[lane] = (off.max(), seen.index(centred), loc.schedule.lane_frames)
+    assert runs[0] == (3, 17, 0)
+    assert runs[2][0] == 0 and runs[2][1] < 10 and runs[2][2] > 0
+
+
+def test_at_the_maps_pace_the_lane_takes_nothing(route):
+    """At one place a frame the lane's path is never above the filter's own range: the
+    estimates and confidences equal those without a lane."""
+    out = []
+    for lane in (0, 2):
+        loc = WeightedNodeLocaliser("lowres", motion="always_forward", contrast=0, lane_speed=lane)
+        loc.build_map(route)
+        out.append([(e.node, e.score) for e in loc.localise(route)])
+        assert loc.schedule.lane_frames == 0
+    assert out[0] == out[1]
+
+
+def test_the_lane_is_checked_against_the_filter():
+    assert FilterParams.create("lbp").lane_speed == 2
+    assert FilterParams.create("lbp", max_advance=1).lane_speed == 0  # no room: off
+    assert FilterParams.create("lbp", preset="paper").lane_speed is None
+    with pytest.raises(PpalocError, match=r"^lane_speed=1 is the filter's own speed"):
+        FilterParams.create("lbp", lane_speed=1)
+    with pytest.raises(PpalocError, match=r"^lane_speed=3 is above max_advance=2"):
+        FilterParams.create("lbp", lane_speed=3, max_advance=2)
+    with pytest.raises(PpalocError, match="lane_speed"):
+        FilterParams.create("lbp", lane_speed=4)
+
+
+def test_a_schedule_without_its_lane_says_so(route):
+    """A robust schedule run on an executor with no lane handed over is an error naming
+    the remedy, never a filter that silently runs without it."""
+    loc = WeightedNodeLocaliser("lowres", motion="always_forward")
+    loc.build_map(route)
+    loc.schedule.use_lane(None)
+    with pytest.raises(PpalocError, match=r"use_lane\(\.\.\.\)"):
+        loc.localise(route)

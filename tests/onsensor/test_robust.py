@@ -27,6 +27,7 @@ from ppaloc.localise.params import (
 from ppaloc.localise.schedule import SCHEDULES, make_schedule
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.onsensor import OnSensorLocaliser
+from ppaloc.onsensor.executor import SensorExecutor
 from ppaloc.onsensor.mapping import upload_map
 from ppaloc.onsensor.pipeline import make_pipeline
 from ppaloc.place import lbp_from_grid, normalise_contrast
@@ -287,7 +288,8 @@ def test_robust_hamming_tree_halves_instead_of_summing_the_write_noise():
 def test_robust_frames_leave_the_free_register_alone(rep, free):
     # lowres: one tile of the analogue store, so B holds no map (the levels store's
     # low halves are in B)
-    pipe = _pipe(rep, 40, store="analogue" if rep == "lowres" else None)
+    # one sensor's registers: no speed lane (a second sensor)
+    pipe = _pipe(rep, 40, store="analogue" if rep == "lowres" else None, lane_speed=0)
     schedule = make_schedule(pipe.params)
     pipe.sim.write(free, np.full((SIZE, SIZE), 7.0, np.float32))
     rng = np.random.default_rng(0)
@@ -382,6 +384,34 @@ def test_the_sensor_widens_the_transition_where_the_speed_varies_as_the_host_doe
     a, b = host.localise(query), fixed.localise(query)
     changed = [not np.array_equal(x.weights, y.weights) for x, y in zip(a, b, strict=True)]
     assert not any(changed[:30]) and any(changed[30:])  # only after the skip
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_the_sensor_runs_the_speed_lane_as_the_host_does(rep):
+    """A query at two places a frame: the speed lane (a second sensor) passes its gate
+    and sets the filter's costs on the same frames as the host's lane, and the
+    estimates, confidences and weights agree; the frame's modelled energy is both
+    sensors'. Without the lane the estimates differ. (20 blocky places there and back;
+    a gate of 16 units over 4 frames, which the lagging filter passes late.)"""
+    rng = np.random.default_rng(7)
+    cells = rng.integers(0, 256, (20, 8, 8)).astype(np.uint8)
+    route = [np.kron(c, np.ones((32, 32), np.uint8)) for c in cells]
+    frames = route + route[::-1]
+    query = frames[::2]
+    kw = dict(motion="always_forward", speed_window=4, speed_confidence=16)
+    if rep == "lowres":
+        kw["contrast"] = 0
+    host, sensor = _agree(rep, frames, query, **kw)
+    assert sensor.schedule.lane_frames == host.schedule.lane_frames > 0
+    lane = sensor.schedule.lane
+    assert isinstance(lane, SensorExecutor) and lane.sim is not sensor.pipeline.sim
+    before = lane.timing.energy_uj + sensor.pipeline.timing.energy_uj
+    spent = sensor.step(query[0]).energy_mj
+    after = lane.timing.energy_uj + sensor.pipeline.timing.energy_uj
+    assert spent == pytest.approx((after - before) / 1000.0)
+    alone = WeightedNodeLocaliser(rep, arithmetic="ppa8", lane_speed=0, **kw)
+    alone.build_map(frames)
+    assert [e.node for e in alone.localise(query)] != [e.node for e in host.localise(query)]
 
 
 def _stop_route(seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:

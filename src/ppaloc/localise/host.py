@@ -189,12 +189,15 @@ class HostExecutor:
         self._neighbours: dict[int, np.ndarray] = {}  # place_neighbours per window
         self.ranking: np.ndarray | None = None
         self.last_shift: int | None = None
+        self._topomap: TopoMap | None = None
+        self._source: HostExecutor | None = None  # a twin's: whose frame distances it reads
         self.reset()
 
     # -- map and state -----------------------------------------------------------------
     def use_map(self, topomap: TopoMap) -> None:
         """Compare frames with ``topomap``'s nodes from now on (weights zeroed)."""
         n = len(topomap)
+        self._topomap = topomap
         self._distances = NodeDistances(
             self.representation,
             topomap.descriptors,
@@ -212,6 +215,18 @@ class HostExecutor:
         self._pred = np.empty(n, self._dtype)
         self._shifted = np.empty(n, self._dtype)
         self.reset()
+
+    def twin(self) -> HostExecutor:
+        """A second set of weights on this executor's map in the same arithmetic, reading
+        this executor's distances of the frame both take (the robust schedule's speed
+        lane: the distances are computed once a frame)."""
+        if self._topomap is None:
+            raise PpalocError("no map: call use_map(topomap) before twin()")
+        arithmetic = "ppa8" if self.exact else "float"
+        twin = HostExecutor(self.representation, self.params, arithmetic=arithmetic, ranking_k=0)
+        twin.use_map(self._topomap)
+        twin._source = self
+        return twin
 
     def reset(self) -> None:
         """Zero weights, no frame, the motion test's previous frame forgotten."""
@@ -250,6 +265,9 @@ class HostExecutor:
     def _raw_distances(self) -> np.ndarray:
         if self._distances is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
+        source = self._source
+        if self._raw is None and source is not None and source._frame is self._frame:
+            self._raw = source._raw_distances()
         if self._raw is None:
             raw = self._distances(self._frame)  # type: ignore[arg-type]
             if self.params.enhance:  # robust, float: FilterParams refuses it in ppa8

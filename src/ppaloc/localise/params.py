@@ -68,6 +68,7 @@ __all__ = [
     "choose_candidate",
     "filter_method_params",
     "frame_scale",
+    "lane_speed_taken",
     "likelihood_shift",
     "local_step",
     "path_speed",
@@ -327,6 +328,16 @@ class FilterParams:
         with, and a query that stops where the map kept moving may have stopped a
         place or two from it. Range [0, 127] (default 16; 0 is off). The estimates and
         the speed's gate are unchanged; controller integers only.
+    lane_speed : int
+        Robust: a second set of weights, the *lane*, runs the same frame with a forward
+        frame's costs centred on ``lane_speed`` places a frame; where the filter's own
+        path shows no speed and the lane's path shows one (its gate, :func:`path_speed`)
+        above the speeds the filter follows on its own costs, the filter's costs centre
+        on the lane's speed (:func:`lane_speed_taken`): a query faster than the map is
+        followed without a setting for it. Range [0, 3] (default 2; 0 is off, 1 is the
+        filter's own speed and refused); at most ``max_advance``. On the sensor the lane
+        is a second sensor that takes the same frames (docs/onsensor.md, "The speed
+        lane"). Controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -365,6 +376,7 @@ class FilterParams:
     lost_window: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 64))
     speed_vary: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, VARY_RECORD))
     still_decay: int | None = field(default=16, metadata=_param("robust", "int", 16, 0, 127))
+    lane_speed: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 3))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -448,6 +460,18 @@ class FilterParams:
                     f"{key}={out[key]} runs on the host in float arithmetic only ({why}); "
                     f"use a weighted-node-* method with arithmetic='float', or {key}=0"
                 )
+        lane, most = out.get("lane_speed"), out.get("max_advance")
+        if lane == 1:
+            raise PpalocError(
+                "lane_speed=1 is the filter's own speed: use 0 (no lane) or 2 .. max_advance"
+            )
+        if lane and lane > most:
+            if values.get("lane_speed") is not None:
+                raise PpalocError(
+                    f"lane_speed={lane} is above max_advance={most}: the lane advances at "
+                    f"most max_advance places a frame; use 0 (no lane) or 2 .. {most}"
+                )
+            out["lane_speed"] = 0  # the default lane needs room the given max_advance leaves out
         gain, window = out.get("local_gain"), out.get("local_window")
         if gain and arithmetic != "float" and local_step(gain, window) is None:
             raise PpalocError(
@@ -597,19 +621,21 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     Robust preset: a forward frame's costs assume one place a frame (item 1), so a path
     at a steady ``v`` pays ``stay_cost (1 - v)`` units a frame below it and ``skip_cost
     (v - 1)`` above it, against a frame's evidence of about ``gain`` units between the
-    best and the mean node. The range is where that is at most half the evidence,
-    ``1 - gain / (2 stay_cost)`` to ``1 + gain / (2 skip_cost)``, within ``0 ..
-    max_advance``: 0.5 to 1.5 at the defaults. On a generated route the filter keeps its
-    one-place-a-frame figure down to half a place a frame, loses part of it at 1.5 and
-    most at 2 (docs/localise.md, "A query faster or slower than the map"), and a lower
-    ``skip_cost`` follows a faster query. The speed of its own path (item 9) can take it to
-    2 places a frame, but only where it is already sure of that path. Paper preset: the
-    nodes one forward frame shifts the weights, ``advance`` (one). The check reads the
-    query's speed in reference frames, which are places wherever the reference moves.
+    best and the mean node. The filter's own range is where that is at most half the
+    evidence, ``1 - gain / (2 stay_cost)`` to ``1 + gain / (2 skip_cost)``, within ``0 ..
+    max_advance``: 0.5 to 1.5 at the defaults. Above it the speed lane (``lane_speed``,
+    :func:`lane_speed_taken`) follows the query up to its own speed, 2 at the defaults:
+    on a generated route the filter keeps its one-place-a-frame figure from half a
+    place a frame to 1.5 and loses part of it at 2 (docs/localise.md, "A query faster
+    or slower than the map"). Paper preset: the nodes one forward frame shifts the
+    weights, ``advance`` (one). The check reads the query's speed in reference frames,
+    which are places wherever the reference moves.
 
     Examples
     --------
     >>> assumed_speeds(FilterParams.create("lbp"))
+    (0.5, 2.0)
+    >>> assumed_speeds(FilterParams.create("lbp", lane_speed=0))
     (0.5, 1.5)
     >>> assumed_speeds(FilterParams.create("lbp", stay_cost=8, skip_cost=2))
     (0.75, 2.0)
@@ -625,7 +651,35 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     most = float(params.max_advance)  # type: ignore[arg-type]
     lo = 0.0 if stay == 0 else max(0.0, 1.0 - gain / (2 * stay))
     hi = most if skip == 0 else min(most, 1.0 + gain / (2 * skip))
-    return (lo, hi)
+    return (lo, max(hi, float(params.lane_speed or 0)))
+
+
+def lane_speed_taken(lane_path: PathSpeed | None, params: FilterParams) -> PathSpeed | None:
+    """The speed of the lane's path (``lane_speed``) where the filter takes it, or None.
+
+    ``lane_path`` is :func:`path_speed` of the lane's own estimates (the same gate: a
+    path the lane was sure of over ``speed_window`` forward frames). The filter takes it
+    where it is above what the filter's own costs follow (:func:`assumed_speeds`
+    without the lane: ``1 + gain / (2 skip_cost)``, within ``max_advance``), the speeds
+    at which a path pays more than half a frame's evidence a frame; slower speeds are
+    the filter's own. In integers: ``2 skip places >= (2 skip + gain) frames`` or
+    ``places >= max_advance frames``.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp")
+    >>> lane_speed_taken(PathSpeed(14, 8), p), lane_speed_taken(PathSpeed(11, 8), p)
+    (PathSpeed(places=14, frames=8), None)
+    >>> lane_speed_taken(PathSpeed(12, 8), p)  # 3/2: the top of the filter's own
+    PathSpeed(places=12, frames=8)
+    """
+    if lane_path is None or not params.lane_speed:
+        return None
+    gain, skip = int(params.gain), int(params.skip_cost)  # type: ignore[arg-type]
+    most = int(params.max_advance)  # type: ignore[arg-type]
+    a, f = lane_path
+    above = (skip > 0 and 2 * skip * a >= (2 * skip + gain) * f) or a >= most * f
+    return lane_path if above else None
 
 
 def speed_remedy(params: FilterParams) -> str:
@@ -638,7 +692,7 @@ def speed_remedy(params: FilterParams) -> str:
     'lower skip_cost for a faster query (1: up to'
     """
     if params.preset == "paper":
-        return "use the robust preset (0.5 to 1.5 places a frame, wider with lower costs)"
+        return "use the robust preset (0.5 to 2 places a frame, wider with lower costs)"
     hi = assumed_speeds(dataclasses.replace(params, skip_cost=1))[1]
     return (
         f"lower skip_cost for a faster query (1: up to {hi:g} places a frame) or stay_cost for "
@@ -656,7 +710,7 @@ class DeclaredSpeeds:
     @property
     def speed_range(self) -> tuple[float, float]:
         """The query speeds, in places a query frame, the filter follows without knowing
-        the speed (:func:`assumed_speeds`; 0.5 to 1.5 at the robust defaults)."""
+        the speed (:func:`assumed_speeds`; 0.5 to 2 at the robust defaults)."""
         return assumed_speeds(self.params)
 
     @property

@@ -50,6 +50,7 @@ from ppaloc.localise.params import (
     PathSpeed,
     adjustment,
     frame_scale,
+    lane_speed_taken,
     path_speed,
     path_stalled,
     speed_off,
@@ -250,6 +251,19 @@ class Schedule:
         paper's ``alpha``)."""
         self.topomap = topomap
 
+    #: The executor of a speed lane (:class:`RobustSchedule`), None where none runs.
+    lane: Executor | None = None
+
+    @property
+    def wants_lane(self) -> bool:
+        """Whether the frame runs a speed lane, whose executor the localiser hands over
+        with :meth:`use_lane` (only the robust schedule's, with ``lane_speed``)."""
+        return False
+
+    def use_lane(self, ex: Executor | None) -> None:
+        """Run the speed lane on ``ex`` (only schedules that want one)."""
+        raise PpalocError(f"preset {self.params.preset!r} runs no speed lane")
+
     def window(self, node: int) -> tuple[int, int]:
         """The nodes the confidence leaves out around ``node``: ``node +-
         confidence_radius``, counted in places where the schedule uses the map's runs."""
@@ -319,18 +333,51 @@ class RobustSchedule(Schedule):
     #: Per node: whether its place stands for several reference frames (:meth:`use_map`).
     _stood_at: np.ndarray | None = None
 
+    def __init__(
+        self, params: FilterParams, oracle_moves: Any = None, *, centre: PathSpeed | None = None
+    ) -> None:
+        self.centre = centre
+        #: The speed lane's schedule (``lane_speed``; none in a lane itself).
+        self.lane_schedule: RobustSchedule | None = None
+        if centre is None and params.lane_speed:
+            # the lane takes its filter's motion decisions (``step(..., moved)``)
+            lane = replace(params, motion="always_forward")
+            self.lane_schedule = RobustSchedule(lane, centre=PathSpeed(int(params.lane_speed), 1))
+        self.lane = None  # its executor (:meth:`use_lane`)
+        #: Forward frames whose costs the lane's speed set since :meth:`reset`.
+        self.lane_frames = 0
+        super().__init__(params, oracle_moves)
+
     @property
     def max_advance(self) -> int:
         return int(self.params.max_advance)  # type: ignore[arg-type]
 
-    def step(self, ex: Executor, frame: np.ndarray) -> FrameResult:
+    @property
+    def wants_lane(self) -> bool:
+        return self.lane_schedule is not None
+
+    def use_lane(self, ex: Executor | None) -> None:
+        """Run the speed lane on ``ex``: a second set of weights on the same map that takes
+        the same frames (the host's :meth:`~ppaloc.localise.host.HostExecutor.twin`, a
+        second sensor). The caller resets it with the filter's."""
+        self.lane = ex
+
+    def step(self, ex: Executor, frame: np.ndarray, moved: bool | None = None) -> FrameResult:
+        """Run one frame on ``ex``; ``moved`` is the motion decision where the caller has
+        made it (a lane takes its filter's)."""
         p = self.params
         self.frames += 1
         first = self.frames == 1
         ex.begin(frame)
-        moved = bool(ex.motion(self.decided()))
+        moved = bool(ex.motion(self.decided() if moved is None else moved))
+        lane_speed = self.run_lane(frame, moved)
         if not first:
             speed = path_speed(self._path_places, self._path_scores, p) if moved else None
+            if moved and self.centre is not None:
+                speed = self.centre
+            elif speed is None and lane_speed is not None and moved:
+                speed = lane_speed
+                self.lane_frames += 1
             varies = self.note_speed(moved, speed)
             ex.transition(transition_costs(moved, p, speed, varies))
         if first or moved:
@@ -363,6 +410,23 @@ class RobustSchedule(Schedule):
             result = replace(result, score=min(result.score, 0.0))
         return result
 
+    def run_lane(self, frame: np.ndarray, moved: bool) -> PathSpeed | None:
+        """The lane's frame on its executor (with this frame's motion decision), and the
+        speed of its path where the filter takes it (:func:`~ppaloc.localise.params.
+        lane_speed_taken`); None without a lane."""
+        lane = self.lane_schedule
+        if lane is None:
+            return None
+        if self.lane is None:
+            raise PpalocError(
+                f"lane_speed={self.params.lane_speed} runs a speed lane: hand its executor to "
+                "the schedule with use_lane(...) (the localisers do), or pass lane_speed=0"
+            )
+        lane.step(self.lane, frame, moved)
+        return lane_speed_taken(
+            path_speed(lane._path_places, lane._path_scores, self.params), self.params
+        )
+
     def note_speed(self, moved: bool, speed: PathSpeed | None) -> bool:
         """Count a frame after the first into the record of the speeds the path's gate
         passed (``speed``, None where it passed none) and say whether the query's speed
@@ -380,6 +444,8 @@ class RobustSchedule(Schedule):
         for several reference frames."""
         super().use_map(topomap)
         self._stood_at = stood_at_or_next(topomap.place_frames())
+        if self.lane_schedule is not None:
+            self.lane_schedule.use_map(topomap)
 
     def _stood(self, node: int) -> bool:
         """Whether the map stood still at ``node``'s place or the next (several reference
@@ -399,6 +465,9 @@ class RobustSchedule(Schedule):
     def reset(self) -> None:
         """A new query: the schedule's state and the path's record cleared."""
         super().reset()
+        if self.lane_schedule is not None:
+            self.lane_schedule.reset()
+        self.lane_frames = 0
         self._path_places: list[int] = []
         self._path_scores: list[float] = []
         self._speeds_off: list[tuple[int, bool]] = []

@@ -54,6 +54,10 @@ __all__ = ["NOISE_PRESETS", "SENSOR_REPRESENTATIONS", "OnSensorLocaliser"]
 NOISE_PRESETS = ("ideal", "low", "typical", "high")
 
 SENSOR_REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar")
+
+LANE_INDEX = 1000
+"""The speed lane's sensors are numbered from here (``lane_speed``): sensor ``i`` of a
+localiser has the noise seed ``seed + 7919 i``, so the lane's differ from the bank's."""
 """The representations the sensor's programs run (the host runs every one of
 :data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
@@ -289,7 +293,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
         if not frames:
             raise PpalocError("the reference traversal is empty: a map needs at least one frame")
         for frame in frames:
-            self._check_frame(frame)
+            check_frame(frame, self.size)
         frames = [np.asarray(f) for f in frames]
         if self._auto is not None:
             self._use(self._auto.for_frames(frames, self.schedule.sensor))
@@ -361,10 +365,15 @@ class OnSensorLocaliser(DeclaredSpeeds):
         )
 
     def _place(
-        self, n_nodes: int, first: SensorExecutor, places: np.ndarray | None = None
+        self,
+        n_nodes: int,
+        first: SensorExecutor,
+        places: np.ndarray | None = None,
+        index: int = 0,
     ) -> SensorExecutor | SensorBank:
         """``first`` holding ``n_nodes`` nodes, or a bank starting with it if they don't fit
-        (cut between ``places`` where the map's runs are run)."""
+        (cut between ``places`` where the map's runs are run; the bank's sensors numbered
+        from ``index``, which sets their noise seeds)."""
         per = first.capacity if self.sensor_nodes is None else self.sensor_nodes
         if n_nodes <= min(per, first.capacity):
             first.set_nodes(n_nodes)
@@ -375,33 +384,39 @@ class OnSensorLocaliser(DeclaredSpeeds):
                 f"sensor_nodes={per} is too small for a bank: each sensor must hold at least "
                 f"the {carry} node(s) a frame may advance into the next sensor"
             )
-        return SensorBank(first, n_nodes, self._new_pipeline, per, places, carry)
+
+        def make(n: int, i: int) -> SensorExecutor:
+            return self._new_pipeline(n, index + i)
+
+        return SensorBank(first, n_nodes, make, per, places, carry)
+
+    def _lane_pipeline(self, topomap: TopoMap) -> SensorExecutor | SensorBank:
+        """The speed lane's sensor (or bank) holding ``topomap``: the same pipeline as the
+        filter's, its sensors numbered from :data:`LANE_INDEX` (their own noise seeds)."""
+        n = len(topomap)
+        capacity = layout_for(self.representation, (self.size, self.size)).capacity
+        first = self._new_pipeline(min(n, capacity), LANE_INDEX)
+        lane = self._place(n, first, self._runs_of(topomap), LANE_INDEX)
+        upload(lane, topomap, self.schedule.runs)
+        return lane
 
     def _install(self, topomap: TopoMap, pipe: SensorExecutor | SensorBank) -> None:
         self._check_map(topomap)
         self.schedule.use_map(topomap)  # the paper's alpha, chosen from the map
-        runs = self.schedule.runs
-        if isinstance(pipe, SensorBank):
-            pipe.upload(topomap, runs)
-        else:
-            upload_map(pipe, topomap, runs)
+        upload(pipe, topomap, self.schedule.runs)
         self.pipeline = pipe
+        if self.schedule.wants_lane:
+            self.schedule.use_lane(self._lane_pipeline(topomap))
         self.topomap = topomap
         self.reset()
-
-    def _check_frame(self, frame: np.ndarray) -> None:
-        frame = np.asarray(frame)
-        if frame.dtype != np.uint8 or frame.shape != (self.size, self.size):
-            raise PpalocError(
-                f"a sensor frame must be uint8 of shape ({self.size}, {self.size}), got "
-                f"{frame.dtype} {frame.shape}: convert frames with ppaloc.datasets.to_sensor"
-            )
 
     # -- per query ---------------------------------------------------------------------
     def reset(self) -> None:
         """Zero the weight register and forget the previous frame (the map stays)."""
         if self.pipeline is not None:
             self.pipeline.reset()
+        if self.schedule.lane is not None:
+            self.schedule.lane.reset()
         self.schedule.reset()
         self.frame_times = []
 
@@ -411,9 +426,11 @@ class OnSensorLocaliser(DeclaredSpeeds):
         if pipe is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
         frame = np.asarray(frame)
-        self._check_frame(frame)
-        timing = pipe.timing  # a bank's: the slowest sensor per phase plus the exchanges
-        t0, e0 = timing.now_us, timing.energy_uj
+        check_frame(frame, self.size)
+        # the filter's sensor (a bank's timing: the slowest per phase plus the exchanges)
+        # and its speed lane's
+        sensors = (pipe, self.schedule.lane)
+        marks = [(p.timing, p.timing.now_us, p.timing.energy_uj) for p in sensors if p is not None]
         counts = pipe.sim.timing  # a bank's chip and loop intervals are sensor 0's
         last = self._last_counts  # the last frame's end, if nothing was charged since
         if last is not None and last[0] is counts and last[1] == counts.charges:
@@ -425,14 +442,15 @@ class OnSensorLocaliser(DeclaredSpeeds):
         self._last_counts = (counts, counts.charges, after)
         self._time_frame(frame, diff_counts(after, before), bool(r.moved))
         weights = pipe.weights() if self.record_weights else None
+        latency, energy = frame_cost(marks)
         return Estimate(
             node=int(r.node),
             score=float(r.score),
             moved=r.moved,
             ranking=None,
             weights=weights,
-            modelled_latency_ms=(timing.now_us - t0) / 1000.0,
-            energy_mj=(timing.energy_uj - e0) / 1000.0,
+            modelled_latency_ms=latency / 1000.0,
+            energy_mj=energy / 1000.0,
         )
 
     def _time_frame(self, frame: np.ndarray, stages: dict, moved: bool) -> None:
@@ -458,14 +476,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
         frame injection, the frame-loop control and the estimate sent back. With the
         default ``timing_structure``, ``chip.mid`` is the median ``modelled_latency_ms``.
         """
-        if not self.frame_times:
-            return None
-        out = {}
-        for i, boundary in enumerate(("chip", "loop")):
-            values = np.array([t[i].as_list() for t in self.frame_times]) / 1000.0
-            med = np.median(values, axis=0)
-            out[boundary] = {"low": float(med[0]), "mid": float(med[1]), "high": float(med[2])}
-        return out
+        return median_times(self.frame_times)
 
     def register_planes(self) -> dict[str, np.ndarray]:
         """The sensor's registers worth a picture after the last frame, by label.
@@ -479,3 +490,43 @@ class OnSensorLocaliser(DeclaredSpeeds):
         """``reset()``, then ``step`` every frame in order."""
         self.reset()
         return [self.step(f) for f in frames]
+
+
+def check_frame(frame: np.ndarray, size: int) -> None:
+    """A one-line error unless ``frame`` is a sensor frame: uint8 of shape (size, size)."""
+    frame = np.asarray(frame)
+    if frame.dtype != np.uint8 or frame.shape != (size, size):
+        raise PpalocError(
+            f"a sensor frame must be uint8 of shape ({size}, {size}), got "
+            f"{frame.dtype} {frame.shape}: convert frames with ppaloc.datasets.to_sensor"
+        )
+
+
+def upload(pipe: SensorExecutor | SensorBank, topomap: TopoMap, runs: bool) -> None:
+    """Write ``topomap`` into a sensor's registers, or each part into a bank's sensor."""
+    if isinstance(pipe, SensorBank):
+        pipe.upload(topomap, runs)
+    else:
+        upload_map(pipe, topomap, runs)
+
+
+def median_times(
+    frame_times: list[tuple[Interval, Interval]],
+) -> dict[str, dict[str, float]] | None:
+    """The median ``chip`` and ``loop`` intervals of the frames, ms (None without frames)."""
+    if not frame_times:
+        return None
+    out = {}
+    for i, boundary in enumerate(("chip", "loop")):
+        values = np.array([t[i].as_list() for t in frame_times]) / 1000.0
+        med = np.median(values, axis=0)
+        out[boundary] = {"low": float(med[0]), "mid": float(med[1]), "high": float(med[2])}
+    return out
+
+
+def frame_cost(marks: list[tuple[Any, float, float]]) -> tuple[float, float]:
+    """A frame's modelled latency and energy (us, uJ) from each sensor's ``(timing,
+    time, energy)`` at its start: the filter's and its speed lane's sensors work side by
+    side, so the slower sets the latency, and the energy is both."""
+    spent = [(t.now_us - t0, t.energy_uj - e0) for t, t0, e0 in marks]
+    return max(s[0] for s in spent), sum(s[1] for s in spent)
