@@ -8,7 +8,9 @@ low-res images, 2048 LBP descriptors; one full register each), and the 16x16 pla
 (``lowres16``, 256 images, one full register; the robust preset, the one that runs on
 it) and the Haar signs (``haar``, 512 places, both digital tiles of one sensor; robust).
 The motion model is ``"image"`` and the frames move, so every stage of either preset
-runs.
+runs. Each row is one sensor's frame: the robust preset's speed lane, a second sensor
+(docs/onsensor.md, "The speed lane"), is off (``lane_speed=0``); with it a frame
+simulates both sensors.
 
 Targets on one core of this machine, the pipelines of both representations (robust
 preset, the compiled engine): the chip's own rates, 386 simulated frames per second for
@@ -82,7 +84,8 @@ def topomap(representation: str) -> TopoMap:
 
 
 def localiser(representation: str, noise: str, preset: str = "robust") -> OnSensorLocaliser:
-    kw = {"alpha": 8} if preset == "paper" else {}
+    """One sensor's pipeline (the speed lane off) with the benchmark's map, warmed up."""
+    kw = {"alpha": 8} if preset == "paper" else {"lane_speed": 0}
     loc = OnSensorLocaliser(representation, noise=noise, preset=preset, motion="image", **kw)
     loc.use_map(topomap(representation))
     for f in frames()[:3]:  # records every kernel once

@@ -5,6 +5,7 @@ Not collected by pytest. Run from the project root::
 
     .venv/bin/python benchmarks/eval_speed.py                       # autumn and winter
     .venv/bin/python benchmarks/eval_speed.py --queries autumn --speeds 0.5,1,2
+    .venv/bin/python benchmarks/eval_speed.py --param weighted-node-lowres16.lane_speed=0
 
 The route is ``synthetic:?places=200&query=Q&seed=S&speed=V`` for each speed ``V`` (the
 query crosses ``V`` places a frame, with the generator's stops; docs/datasets.md), so
@@ -20,11 +21,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
+from typing import Any
 
 from ppaloc.datasets import load_dataset, to_sensor
 from ppaloc.evaluate.run import run_method
 from ppaloc.methods import make_localiser
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from eval_robust import parse_params
 
 METHODS = (
     "weighted-node-lowres16",
@@ -45,34 +51,50 @@ def route(query: str, seed: int, speed: float, places: int = 200) -> str:
 
 
 def sweep(
-    query: str, seed: int, speeds: tuple[float, ...], methods: tuple[str, ...], places: int
+    query: str,
+    seed: int,
+    speeds: tuple[float, ...],
+    methods: tuple[str, ...],
+    places: int,
+    params: dict[str, dict[str, Any]] | None = None,
 ) -> dict[float, dict[str, float]]:
-    """Max F1 of every method at every speed (one route each)."""
+    """Max F1 of every method at every speed (one route each), each method with its
+    ``params`` (``--param``) over its defaults."""
+    params = params or {}
     out: dict[float, dict[str, float]] = {}
     for speed in speeds:
         ds = load_dataset(route(query, seed, speed, places))
         ref = [to_sensor(f) for f in ds.reference]
         frames = [to_sensor(f) for f in ds.query]
         truth = ds.ground_truth
-        out[speed] = {m: run_method(m, ref, frames, truth).metrics.f1_max for m in methods}
+        out[speed] = {
+            m: run_method(m, ref, frames, truth, params=params.get(m)).metrics.f1_max
+            for m in methods
+        }
         row = " ".join(f"{m} {f:.3f}" for m, f in out[speed].items())
         print(f"  {query} seed {seed} speed {speed:g} ({len(frames)} queries): {row}", flush=True)
     return out
 
 
-def declared(method: str) -> str:
-    """The method's ``speed_range`` as ``lo-hi``, or ``-`` where it declares none."""
-    rng = getattr(make_localiser(method), "speed_range", None)
+def declared(method: str, params: dict[str, Any] | None = None) -> str:
+    """The method's ``speed_range`` (with ``params``) as ``lo-hi``, or ``-`` where it
+    declares none."""
+    rng = getattr(make_localiser(method, **(params or {})), "speed_range", None)
     return "-" if rng is None else f"{rng[0]:.2g}-{rng[1]:.3g}"
 
 
-def table(figures: dict[float, dict[str, float]], methods: tuple[str, ...]) -> str:
+def table(
+    figures: dict[float, dict[str, float]],
+    methods: tuple[str, ...],
+    params: dict[str, dict[str, Any]] | None = None,
+) -> str:
     """A markdown table: one row per speed, one column per method, the ranges last."""
+    params = params or {}
     head = "| speed | " + " | ".join(methods) + " |"
     lines = [head, "|---" * (len(methods) + 1) + "|"]
     for speed, row in figures.items():
         lines.append(f"| {speed:g} | " + " | ".join(f"{row[m]:.3f}" for m in methods) + " |")
-    lines.append("| declared | " + " | ".join(declared(m) for m in methods) + " |")
+    lines.append("| declared | " + " | ".join(declared(m, params.get(m)) for m in methods) + " |")
     return "\n".join(lines)
 
 
@@ -83,14 +105,25 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--places", type=int, default=200)
     parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="METHOD.key=value",
+        help="a method parameter (repeatable; values parsed as Python literals)",
+    )
     parser.add_argument("--json", type=Path, default=None, help="write every figure here")
     args = parser.parse_args(argv)
+    params = parse_params(args.param)
     speeds = tuple(float(s) for s in args.speeds.split(","))
     methods = tuple(args.methods.split(","))
     figures = {}
     for query in args.queries.split(","):
-        figures[query] = sweep(query, args.seed, speeds, methods, args.places)
-        print(f"\n{query}, seed {args.seed}:\n\n{table(figures[query], methods)}\n", flush=True)
+        figures[query] = sweep(query, args.seed, speeds, methods, args.places, params)
+        print(
+            f"\n{query}, seed {args.seed}:\n\n{table(figures[query], methods, params)}\n",
+            flush=True,
+        )
     if args.json:
         data = {q: {f"{s:g}": row for s, row in f.items()} for q, f in figures.items()}
         args.json.write_text(json.dumps(data, indent=1))

@@ -6,6 +6,7 @@ Not collected by pytest. Run from anywhere (paths resolve from this file)::
     .venv/bin/python benchmarks/fingerprint.py            # every case, one line each
     .venv/bin/python benchmarks/fingerprint.py --quick    # the generated routes only
     .venv/bin/python benchmarks/fingerprint.py --json fp.json
+    .venv/bin/python benchmarks/fingerprint.py --estimates   # without latency and energy
 
 Each case builds a method's map from a short route's reference frames and steps every
 query frame once (the localiser directly, no evaluation), then hashes the map (its
@@ -16,6 +17,8 @@ images and the Haar signs in the robust preset only, the one that runs on them),
 simulated sensor (the same presets and representations, ideal and ``typical`` noise) and a
 bank of sensors (a map split over three simulated sensors). The last line hashes every case
 together: equal before and after a refactoring means the same bytes everywhere.
+``--estimates`` leaves the modelled latency and energy out, to show that a change of
+what the sensor costs (a second sensor, a timing model) changes no estimate.
 Routes from ``../shared/data`` are used when present (a note says when they are not).
 """
 
@@ -73,8 +76,11 @@ def _digest(parts: list[np.ndarray | bytes | str]) -> str:
     return h.hexdigest()
 
 
-def run_case(route: str, method: str, params: dict[str, Any], frames: dict) -> str:
-    """The fingerprint of one case."""
+def run_case(
+    route: str, method: str, params: dict[str, Any], frames: dict, cost: bool = True
+) -> str:
+    """The fingerprint of one case (``cost``: with each frame's modelled latency and
+    energy)."""
     from ppaloc.methods import make_localiser
 
     reference, query = frames[route]
@@ -93,8 +99,10 @@ def run_case(route: str, method: str, params: dict[str, Any], frames: dict) -> s
                     est.node,
                     est.score,
                     -1 if est.moved is None else int(est.moved),
-                    np.nan if est.modelled_latency_ms is None else est.modelled_latency_ms,
-                    np.nan if est.energy_mj is None else est.energy_mj,
+                    np.nan
+                    if not cost or est.modelled_latency_ms is None
+                    else est.modelled_latency_ms,
+                    np.nan if not cost or est.energy_mj is None else est.energy_mj,
                 ],
                 np.float64,
             )
@@ -122,6 +130,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="the generated routes only")
     parser.add_argument("--json", type=Path, help="also write every fingerprint here")
+    parser.add_argument(
+        "--estimates", action="store_true", help="leave the modelled latency and energy out"
+    )
     args = parser.parse_args(argv)
     todo = cases(args.quick)
     frames = load_frames({route for route, _, _ in todo})
@@ -131,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
         if route not in frames:
             continue
         label = f"{route} {method} " + " ".join(f"{k}={v}" for k, v in sorted(params.items()))
-        results[label] = run_case(route, method, params, frames)
+        results[label] = run_case(route, method, params, frames, cost=not args.estimates)
         print(f"{results[label][:16]}  {label}", flush=True)
     total = _digest(sorted(f"{k}={v}" for k, v in results.items()))
     print(f"{total[:16]}  all {len(results)} cases ({time.perf_counter() - t0:.0f} s)")

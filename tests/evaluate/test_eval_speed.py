@@ -3,6 +3,10 @@ its declared speeds."""
 
 from __future__ import annotations
 
+import pytest
+
+from ppaloc.errors import PpalocError
+
 
 def test_the_route_and_the_table(bench_script):
     eval_speed = bench_script("eval_speed")
@@ -28,3 +32,15 @@ def test_a_sweep_runs_every_method_at_every_speed(bench_script, capsys):
     )
     assert all(0.0 <= f <= 1.0 for row in got.values() for f in row.values())
     assert "autumn seed 1 speed 2" in capsys.readouterr().out
+
+
+def test_a_method_s_parameters_reach_its_runs_and_its_range(bench_script):
+    """``--param`` sets a method's parameters in the runs and in its declared range."""
+    eval_speed = bench_script("eval_speed")
+    params = {"weighted-node-lowres": {"lane_speed": 0}}
+    figures = {1.0: {"weighted-node-lowres": 0.5}}
+    assert eval_speed.table(figures, ("weighted-node-lowres",), params).endswith(
+        "| declared | 0.5-1.5 |"
+    )
+    with pytest.raises(PpalocError, match="unknown parameter 'window'"):
+        eval_speed.sweep("autumn", 1, (2.0,), ("able-m",), 24, {"able-m": {"window": 3}})

@@ -311,8 +311,12 @@ class RobustSchedule(Schedule):
 
     Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs
     the motion decision sets (from the second frame), a forward frame's centred on the
-    speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`), or,
-    where it shows none and the speeds it showed lately varied, at half scale
+    speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`), or
+    where it shows none on the speed of the speed lane's path (``lane_speed``: a second
+    set of weights whose forward costs centre on ``lane_speed``, run on its own
+    executor, :meth:`use_lane`, with the same frame and motion decision;
+    :func:`~ppaloc.localise.params.lane_speed_taken`), or, where neither shows one and
+    the speeds the path showed lately varied, at half scale
     (:func:`~ppaloc.localise.params.speed_varies`); on
     the first frame and on frames the motion test calls forward, every node's value
     read, the frame's best distance, this frame's scale chosen from them
