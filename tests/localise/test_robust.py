@@ -1,6 +1,7 @@
 """The robust preset: its ppa8 contract written out literally, and what it is for."""
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -25,10 +26,37 @@ from ppaloc.topomap import TopoMap
 from .conftest import blocky, stepped
 
 
-def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None):
+def _gate(path, p: FilterParams) -> Fraction | None:
+    """The speed of a path of ``(node, confidence)`` forward estimates over its last
+    ``speed_window`` frames, 1/2 to 2 nodes a frame, where its estimates were sure and
+    only advanced, at most ``max_advance`` a frame; else None."""
+    recent = path[-1 - p.speed_window :]
+    steps = np.diff([node for node, _ in recent])
+    if (
+        p.speed_window
+        and len(recent) == p.speed_window + 1
+        and all(0 <= d <= p.max_advance for d in steps)
+        and all(score >= p.speed_confidence for _, score in recent)
+    ):
+        return min(max(Fraction(int(steps.sum()), p.speed_window), Fraction(1, 2)), Fraction(2))
+    return None
+
+
+def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre=None):
     """docs/ppa8.md, "Robust preset", written out literally for low-res maps (8x8 or
     16x16 nodes; a tile of ``contrast_patch`` 32-pixel blocks is twice as many 16-pixel
-    ones), the map's nodes made from reference frames ``frame_index`` (default one each)."""
+    ones), the map's nodes made from reference frames ``frame_index`` (default one each).
+    With ``lane_speed`` the speed lane first: the same filter with every forward frame's
+    costs centred on ``centre`` (the lane's speed), its path's speed after each frame
+    taken where it is at least ``1 + gain / (2 skip_cost)`` (or ``max_advance``) and the
+    filter's own path shows none."""
+    lane = [None] * (len(frames) + 1)
+    if centre is None and p.lane_speed:
+        _, lane = naive_robust(nodes, frames, moves, p, frame_index, Fraction(p.lane_speed))
+        fast = Fraction(p.max_advance)  # above the filter's own speeds
+        if p.skip_cost:
+            fast = min(fast, 1 + Fraction(p.gain, 2 * p.skip_cost))
+        lane = [v if v is not None and v >= fast else None for v in lane]
     n, grid = len(nodes), nodes.shape[-1]
     first = np.arange(n) if frame_index is None else np.asarray(frame_index)
     stood = np.append(np.diff(first), 1) > 1  # the map stood still there: several frames
@@ -40,19 +68,17 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None):
     out, prev, path = [], None, []  # path: (node, confidence) of each forward frame
     still = 0  # frames since the last forward decision
     offs = []  # each speed the gate passed: off one node a frame by 3/8 or more
+    speeds = [None]  # the path's speed after each frame (its gate's)
     for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
         if t > 1:
             c = transition_costs(moved, p)
-            recent = path[-1 - p.speed_window :]
-            steps = np.diff([node for node, _ in recent])
-            if (
-                moved
-                and p.speed_window
-                and len(recent) == p.speed_window + 1
-                and all(0 <= d <= p.max_advance for d in steps)
-                and all(score >= p.speed_confidence for _, score in recent)
-            ):  # the transition centred on the path's speed v, 1/2 to 2 nodes a frame
-                v = min(max(steps.sum() / p.speed_window, 0.5), 2.0)
+            v = _gate(path, p)
+            if moved and centre is not None:  # a lane: centred on its own speed
+                v = centre
+            elif v is None:  # the lane's speed where the path shows none
+                v = lane[t]
+            if moved and v is not None:
+                # the transition centred on the speed v, 1/2 to 2 nodes a frame
                 slope = [p.stay_cost if d < v else p.skip_cost for d in range(len(c))]
                 c = [math.floor(slope[d] * abs(d - v) + 0.5) for d in range(len(c))]
                 c = [x - min(c) for x in c]
@@ -108,7 +134,8 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None):
             score = min(score, 0.0)  # the path stood still while the query moved
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
         out.append((int(node), w.copy(), score))
-    return out
+        speeds.append(_gate(path, p))
+    return out, speeds
 
 
 #: The contract's explicit cases below differ from this one only where they say.
@@ -155,6 +182,10 @@ _CASE = dict(
 )
 @example(  # still frames on a map that stood still at some nodes and not at others
     **{**_CASE, "seed": 3, "n": 6, "decay": 4}
+)
+@example(  # the speed lane's path sets the costs where the filter's own shows no speed
+    **{**_CASE, "seed": 2, "n": 8, "gain": 1, "memory": 8, "costs": (2, 0, 0)}
+    | {"max_advance": 2, "contrast": 0, "local": (0, 1), "speed": (2, 0)}
 )
 def test_ppa8_equals_the_robust_contract_written_out(
     seed,
@@ -205,7 +236,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         **kw,
     )
     loc.use_map(TopoMap(kind, nodes, frame_index=frame_index))
-    want = naive_robust(nodes, frames, moves, loc.params, frame_index)
+    want, _ = naive_robust(nodes, frames, moves, loc.params, frame_index)
     for est, (node, w, score) in zip(loc.localise(frames), want, strict=True):
         assert est.node == node and est.score == score
         np.testing.assert_array_equal(est.weights, w)
