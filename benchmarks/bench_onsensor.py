@@ -163,7 +163,8 @@ def bank(n_nodes: int = 35_768, n_frames: int = 200, rep: str = "lbp") -> None:
     ds = load_dataset("nordland:../shared/data/nordland-64x32?ref=summer&query=winter")
     ref = [to_sensor(f) for f in ds.reference]
     query = [to_sensor(f) for f in list(ds.query)[:n_frames]]
-    kw = {"motion": "always_forward", "record_weights": True}
+    # one bank, as the rows above are one sensor: the speed lane (a second bank) off
+    kw = {"motion": "always_forward", "record_weights": True, "lane_speed": 0}
     host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
     base = host.build_map(ref).descriptors
     copies = -(-n_nodes // len(base))
