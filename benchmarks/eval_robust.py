@@ -178,6 +178,17 @@ def parse_param(item: str) -> tuple[str, str, str]:
     return method.strip(), name.strip(), value
 
 
+def add_param_option(parser: argparse.ArgumentParser) -> None:
+    """``--param METHOD.key=value``, repeatable, read by :func:`parse_params`."""
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="METHOD.key=value",
+        help="a method parameter (repeatable; values parsed as Python literals)",
+    )
+
+
 def parse_params(items: Sequence[str]) -> dict[str, dict[str, Any]]:
     """``--param`` items (``METHOD.key=value``) as each method's parameters.
 
@@ -557,13 +568,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         help="run every baseline on each descriptor it takes (the weighted-node filter's "
         "lowres and lbp places and its own) and add a table of route groups",
     )
-    parser.add_argument(
-        "--param",
-        action="append",
-        default=[],
-        metavar="METHOD.key=value",
-        help="a method parameter (repeatable; values parsed as Python literals)",
-    )
+    add_param_option(parser)
     parser.add_argument(
         "--routes", default=None, metavar="SUBSTR", help="only routes whose label contains this"
     )

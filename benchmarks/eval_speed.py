@@ -30,7 +30,7 @@ from ppaloc.evaluate.run import run_method
 from ppaloc.methods import make_localiser
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import parse_params
+from eval_robust import add_param_option, parse_params
 
 METHODS = (
     "weighted-node-lowres16",
@@ -105,13 +105,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--places", type=int, default=200)
     parser.add_argument("--methods", default=",".join(METHODS))
-    parser.add_argument(
-        "--param",
-        action="append",
-        default=[],
-        metavar="METHOD.key=value",
-        help="a method parameter (repeatable; values parsed as Python literals)",
-    )
+    add_param_option(parser)
     parser.add_argument("--json", type=Path, default=None, help="write every figure here")
     args = parser.parse_args(argv)
     params = parse_params(args.param)
