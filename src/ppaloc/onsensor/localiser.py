@@ -54,12 +54,12 @@ __all__ = ["NOISE_PRESETS", "SENSOR_REPRESENTATIONS", "OnSensorLocaliser"]
 NOISE_PRESETS = ("ideal", "low", "typical", "high")
 
 SENSOR_REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar")
+"""The representations the sensor's programs run (the host runs every one of
+:data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
 LANE_INDEX = 1000
 """The speed lane's sensors are numbered from here (``lane_speed``): sensor ``i`` of a
 localiser has the noise seed ``seed + 7919 i``, so the lane's differ from the bank's."""
-"""The representations the sensor's programs run (the host runs every one of
-:data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
 
 def _check_options(representation: str, noise: Any, arithmetic: str, timing_structure: str) -> None:
@@ -474,7 +474,9 @@ class OnSensorLocaliser(DeclaredSpeeds):
         ``{"chip": {"low", "mid", "high"}, "loop": {...}}`` (None before any frame):
         ``chip`` is the frame's kernels and controller calls, ``loop`` adds the host's
         frame injection, the frame-loop control and the estimate sent back. With the
-        default ``timing_structure``, ``chip.mid`` is the median ``modelled_latency_ms``.
+        default ``timing_structure``, ``chip.mid`` is the median ``modelled_latency_ms``
+        wherever the filter's sensor is the slower of it and the speed lane's (which skips
+        the motion stage: in ideal mode always).
         """
         return median_times(self.frame_times)
 
