@@ -111,6 +111,8 @@ def main(argv: list[str] | None = None) -> None:
     params = parse_params(args.param)
     speeds = tuple(float(s) for s in args.speeds.split(","))
     methods = tuple(args.methods.split(","))
+    for name in sorted(set(params) - set(methods)):
+        print(f"note: --param for {name!r}, which is not run, is ignored", file=sys.stderr)
     figures = {}
     for query in args.queries.split(","):
         figures[query] = sweep(query, args.seed, speeds, methods, args.places, params)
