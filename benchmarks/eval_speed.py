@@ -15,6 +15,12 @@ speed on average. Each method runs through the evaluation's runner
 (:func:`ppaloc.evaluate.run.run_method`) with its defaults; each table's last row gives
 the speeds the method declares (``speed_range``, the range ``ppaloc evaluate`` warns
 outside: docs/baselines.md, "Query speed").
+
+``--queries nordland`` runs the real Nordland summer -> winter route of ``../shared/data``
+instead, the winter query subsampled to each speed (:func:`faster`: frame ``round(i v)``
+for ``i = 0, 1, ...``; speeds of at least 1, as a subsampled query cannot be slower)::
+
+    .venv/bin/python benchmarks/eval_speed.py --queries nordland --speeds 1,1.5,2
 """
 
 from __future__ import annotations
@@ -22,15 +28,18 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from functools import cache
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from ppaloc.datasets import load_dataset, to_sensor
 from ppaloc.evaluate.run import run_method
 from ppaloc.methods import make_localiser
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import add_param_option, parse_params
+from eval_robust import DATA, add_param_option, parse_params
 
 METHODS = (
     "weighted-node-lowres16",
@@ -50,6 +59,47 @@ def route(query: str, seed: int, speed: float, places: int = 200) -> str:
     return f"synthetic:?places={places}&query={query}&seed={seed}&speed={speed:g}"
 
 
+NORDLAND = "nordland:{data}/nordland-64x32?ref=summer&query=winter"
+
+
+def faster(n: int, speed: float) -> np.ndarray:
+    """The query frames of a traversal of ``n`` frames driven ``speed`` times as fast:
+    ``round(i speed)`` (half up) for ``i = 0, 1, ...`` below ``n``.
+
+    >>> faster(7, 2).tolist(), faster(7, 1.5).tolist()
+    ([0, 2, 4, 6], [0, 2, 3, 5, 6])
+    """
+    if speed < 1:
+        raise SystemExit(f"error: speed {speed:g}: a subsampled query runs at 1 or faster")
+    idx = np.unique(np.floor(np.arange(0, n, speed) + 0.5).astype(np.int64))
+    return idx[idx < n]
+
+
+@cache
+def _nordland() -> tuple[list, list, list]:
+    """The shared Nordland route's sensor frames and ground truth, loaded once."""
+    if not DATA.is_dir():
+        raise SystemExit(f"error: {DATA} not found: the nordland route needs the shared data")
+    ds = load_dataset(NORDLAND.format(data=DATA))
+    return (
+        [to_sensor(f) for f in ds.reference],
+        [to_sensor(f) for f in ds.query],
+        list(ds.ground_truth),
+    )
+
+
+def frames_at(query: str, seed: int, speed: float, places: int) -> tuple[list, list, list]:
+    """``(reference, query, truth)`` of the route at ``speed``: generated, or Nordland's
+    winter query subsampled (``query="nordland"``)."""
+    if query == "nordland":
+        ref, frames, truth = _nordland()
+        idx = faster(len(frames), speed)
+        return ref, [frames[i] for i in idx], [truth[i] for i in idx]
+    ds = load_dataset(route(query, seed, speed, places))
+    ref = [to_sensor(f) for f in ds.reference]
+    return ref, [to_sensor(f) for f in ds.query], list(ds.ground_truth)
+
+
 def sweep(
     query: str,
     seed: int,
@@ -63,10 +113,7 @@ def sweep(
     params = params or {}
     out: dict[float, dict[str, float]] = {}
     for speed in speeds:
-        ds = load_dataset(route(query, seed, speed, places))
-        ref = [to_sensor(f) for f in ds.reference]
-        frames = [to_sensor(f) for f in ds.query]
-        truth = ds.ground_truth
+        ref, frames, truth = frames_at(query, seed, speed, places)
         out[speed] = {
             m: run_method(m, ref, frames, truth, params=params.get(m)).metrics.f1_max
             for m in methods

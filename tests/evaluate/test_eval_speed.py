@@ -44,3 +44,14 @@ def test_a_method_s_parameters_reach_its_runs_and_its_range(bench_script):
     )
     with pytest.raises(PpalocError, match="unknown parameter 'window'"):
         eval_speed.sweep("autumn", 1, (2.0,), ("able-m",), 24, {"able-m": {"window": 3}})
+
+
+def test_a_faster_query_keeps_every_v_th_frame(bench_script):
+    """Nordland's query driven faster: frame ``round(i v)``, half up, below ``n``; never
+    slower than the traversal."""
+    eval_speed = bench_script("eval_speed")
+    assert eval_speed.faster(9, 2).tolist() == [0, 2, 4, 6, 8]
+    assert eval_speed.faster(7, 1.5).tolist() == [0, 2, 3, 5, 6]
+    assert eval_speed.faster(4, 1).tolist() == [0, 1, 2, 3]
+    with pytest.raises(SystemExit, match="1 or faster"):
+        eval_speed.faster(4, 0.5)
