@@ -50,6 +50,7 @@ GRID: dict[str, tuple[int, ...]] = {
     "speed_vary": (0, 1, 2, 4, 8, 16),
     "still_decay": (0, 4, 8, 16, 32, 64, 127),
     "lane_speed": (0, 2, 3),
+    "lanes": (1, 2, 4),
 }
 """Each parameter's values: at least a 4x range around the default (``lane_speed``: off
 and every speed a lane can have, above one place a frame and at most ``max_advance``)."""

@@ -77,8 +77,9 @@ def test_the_trace_export_example():
     claim = next(ln for ln in code.splitlines() if ln.startswith("print")).split("# ")[1]
     assert printed.getvalue().strip() == claim
     tracer, loc = namespace["tracer"], namespace["loc"]
-    # not the mapping sensor; the filter's and its speed lane's (a second sensor)
-    assert [t.sim for t in tracer.traces] == [loc.pipeline.sim, loc.schedule.lane.sim]
+    # not the mapping sensor; the filter's and its speed lanes' (a sensor each)
+    lanes = [lane.sim for lane in loc.schedule.lanes]
+    assert [t.sim for t in tracer.traces] == [loc.pipeline.sim, *lanes]
     assert namespace["source"].startswith("// a ppaloc program\n")
 
 

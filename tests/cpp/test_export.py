@@ -167,8 +167,9 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     loc.use_map(topomap)
     estimates = [loc.step(f) for f in query]
     sim = loc.pipeline.sim
-    # the one sensor holding the map, and the robust preset's speed lane (a second sensor)
-    lanes = [loc.schedule.lane.sim] if preset == "robust" else []
+    # the one sensor holding the map, and the robust preset's speed lanes (a sensor each)
+    lanes = [lane.sim for lane in loc.schedule.lanes]
+    assert len(lanes) == (2 if preset == "robust" else 0)
     assert [t.sim for t in tracer.traces] == [sim, *lanes]
     trace = tracer.trace_of(sim)
     assert trace.frames == len(query)
@@ -219,10 +220,11 @@ def test_a_tracer_reaches_every_sensor_of_a_bank():
     loc.use_map(TopoMap("lbp", rng.integers(0, 2**32, 6, dtype=np.uint32)))
     loc.step(rng.integers(0, 256, (SIZE, SIZE), dtype=np.uint8))
     sensors = [s.sim for s in loc.pipeline.sensors]
-    lane = [s.sim for s in loc.schedule.lane.sensors]  # the speed lane's bank
-    assert len(sensors) == len(lane) == 2
-    assert [t.sim for t in tracer.traces] == sensors + lane
-    assert [t.frames for t in tracer.traces] == [1, 1, 1, 1]
+    # the speed lanes' banks, fastest first
+    lanes = [s.sim for lane in loc.schedule.lanes for s in lane.sensors]
+    assert len(sensors) == 2 and len(lanes) == 4
+    assert [t.sim for t in tracer.traces] == sensors + lanes
+    assert [t.frames for t in tracer.traces] == [1] * 6
 
 
 def test_a_localiser_checks_its_observers_before_any_work():

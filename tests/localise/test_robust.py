@@ -46,17 +46,23 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     """docs/ppa8.md, "Robust preset", written out literally for low-res maps (8x8 or
     16x16 nodes; a tile of ``contrast_patch`` 32-pixel blocks is twice as many 16-pixel
     ones), the map's nodes made from reference frames ``frame_index`` (default one each).
-    With ``lane_speed`` the speed lane first: the same filter with every forward frame's
-    costs centred on ``centre`` (the lane's speed), its path's speed after each frame
-    taken where it is at least ``1 + gain / (2 skip_cost)`` (or ``max_advance``) and the
+    With ``lane_speed`` the speed lanes first, at ``1 + k (lane_speed - 1) / lanes`` for
+    ``k = lanes .. 1``: the same filter with every forward frame's costs centred on
+    ``centre`` (the lane's speed); after each frame the fastest lane's path speed that
+    is at least ``1 + gain / (2 skip_cost)`` (or ``max_advance``) is taken where the
     filter's own path shows none."""
     lane = [None] * (len(frames) + 1)
     if centre is None and p.lane_speed:
-        _, lane = naive_robust(nodes, frames, moves, p, frame_index, Fraction(p.lane_speed))
         fast = Fraction(p.max_advance)  # above the filter's own speeds
         if p.skip_cost:
             fast = min(fast, 1 + Fraction(p.gain, 2 * p.skip_cost))
-        lane = [v if v is not None and v >= fast else None for v in lane]
+        for k in range(p.lanes, 0, -1):
+            v = 1 + Fraction(k * (p.lane_speed - 1), p.lanes)
+            _, seen = naive_robust(nodes, frames, moves, p, frame_index, v)
+            lane = [
+                a if a is not None else b if b is not None and b >= fast else None
+                for a, b in zip(lane, seen, strict=True)
+            ]
     n, grid = len(nodes), nodes.shape[-1]
     first = np.arange(n) if frame_index is None else np.asarray(frame_index)
     stood = np.append(np.diff(first), 1) > 1  # the map stood still there: several frames
@@ -154,6 +160,7 @@ _CASE = dict(
     lost=0,
     vary=0,
     decay=0,
+    lanes=1,
 )
 
 
@@ -173,6 +180,7 @@ _CASE = dict(
     lost=st.sampled_from([0, 2, 4]),
     vary=st.sampled_from([0, 1, 2]),
     decay=st.sampled_from([0, 4, 16]),
+    lanes=st.integers(1, 3),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     **{**_CASE, "seed": 1, "max_advance": 1, "lost": 2}
@@ -186,6 +194,10 @@ _CASE = dict(
 @example(  # the speed lane's path sets the costs where the filter's own shows no speed
     **{**_CASE, "seed": 2, "n": 8, "gain": 1, "memory": 8, "costs": (2, 0, 0)}
     | {"max_advance": 2, "contrast": 0, "local": (0, 1), "speed": (2, 0)}
+)
+@example(  # the slower lane's path sets the costs where the faster lane's shows none
+    **{**_CASE, "seed": 132, "n": 8, "memory": 8, "costs": (2, 0, 4), "max_advance": 2}
+    | {"contrast": 0, "local": (0, 1), "speed": (2, 0), "lanes": 2}
 )
 def test_ppa8_equals_the_robust_contract_written_out(
     seed,
@@ -202,6 +214,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     lost,
     vary,
     decay,
+    lanes,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -225,6 +238,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         lost_window=lost,
         speed_vary=vary,
         still_decay=decay,
+        lanes=lanes,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(

@@ -209,11 +209,37 @@ def test_the_lane_is_checked_against_the_filter():
         FilterParams.create("lbp", lane_speed=4)
 
 
-def test_a_schedule_without_its_lane_says_so(route):
-    """A robust schedule run on an executor with no lane handed over is an error naming
-    the remedy, never a filter that silently runs without it."""
+def test_a_schedule_without_its_lanes_says_so(route):
+    """A robust schedule run on an executor with no lanes handed over is an error naming
+    the remedy, never a filter that silently runs without them; so is a wrong count."""
     loc = WeightedNodeLocaliser("lowres", motion="always_forward")
     loc.build_map(route)
-    loc.schedule.use_lane(None)
-    with pytest.raises(PpalocError, match=r"use_lane\(\.\.\.\)"):
-        loc.localise(route)
+    with pytest.raises(PpalocError, match=r"^lanes=2 speed lanes run on as many executors"):
+        loc.schedule.use_lanes(loc.schedule.lanes[:1])
+    schedule = RobustSchedule(loc.params)
+    schedule.use_map(loc.topomap)
+    with pytest.raises(PpalocError, match=r"runs 2 speed lane\(s\).*use_lanes\(\.\.\.\)"):
+        schedule.step(loc.executor, route[0])
+
+
+def test_the_fastest_sure_lane_gives_the_speed():
+    """Lanes at 2 and 3/2 (the defaults): the filter takes the faster lane's path speed
+    where it passes the gate and is above the filter's own range, else the slower's."""
+    schedule = RobustSchedule(FilterParams.create("lowres"))
+    fast, slow = schedule.lane_schedules
+    assert (fast.centre, slow.centre) == (PathSpeed(2, 1), PathSpeed(3, 2))
+
+    def record(lane, speed, score):  # a path at ``speed`` over speed_window = 8 frames
+        places = [int(speed * i) for i in range(9)]
+        lane._path_places, lane._path_scores = places, [score] * 9
+
+    record(fast, 2, 10)  # not sure (below speed_confidence 32)
+    record(slow, 1.5, 40)  # 12 places over 8 frames: 3/2, the top of the filter's own
+    assert schedule.lane_speed() == PathSpeed(12, 8)
+    record(fast, 2, 40)
+    assert schedule.lane_speed() == PathSpeed(16, 8)
+    record(fast, 1, 40)  # sure, but at one place a frame: the filter's own speed
+    assert schedule.lane_speed() == PathSpeed(12, 8)
+    record(slow, 1.25, 40)
+    assert schedule.lane_speed() is None
+

@@ -403,11 +403,12 @@ def test_the_sensor_runs_the_speed_lane_as_the_host_does(rep):
         kw["contrast"] = 0
     host, sensor = _agree(rep, frames, query, **kw)
     assert sensor.schedule.lane_frames == host.schedule.lane_frames > 0
-    lane = sensor.schedule.lane
-    assert isinstance(lane, SensorExecutor) and lane.sim is not sensor.pipeline.sim
-    before = lane.timing.energy_uj + sensor.pipeline.timing.energy_uj
+    pipes = (sensor.pipeline, *sensor.schedule.lanes)
+    assert all(isinstance(p, SensorExecutor) for p in pipes)
+    assert len({id(p.sim) for p in pipes}) == 3  # the filter's sensor and one per lane
+    before = sum(p.timing.energy_uj for p in pipes)
     spent = sensor.step(query[0]).energy_mj
-    after = lane.timing.energy_uj + sensor.pipeline.timing.energy_uj
+    after = sum(p.timing.energy_uj for p in pipes)
     assert spent == pytest.approx((after - before) / 1000.0)
     alone = WeightedNodeLocaliser(rep, arithmetic="ppa8", lane_speed=0, **kw)
     alone.build_map(frames)

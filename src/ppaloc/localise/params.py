@@ -69,6 +69,7 @@ __all__ = [
     "filter_method_params",
     "frame_scale",
     "lane_speed_taken",
+    "lane_speeds",
     "likelihood_shift",
     "local_step",
     "path_speed",
@@ -328,16 +329,18 @@ class FilterParams:
         with, and a query that stops where the map kept moving may have stopped a
         place or two from it. Range [0, 127] (default 16; 0 is off). The estimates and
         the speed's gate are unchanged; controller integers only.
-    lane_speed : int
-        Robust: a second set of weights, the *lane*, runs the same frame with a forward
-        frame's costs centred on ``lane_speed`` places a frame; where the filter's own
-        path shows no speed and the lane's path shows one (its gate, :func:`path_speed`)
-        above the speeds the filter follows on its own costs, the filter's costs centre
-        on the lane's speed (:func:`lane_speed_taken`): a query faster than the map is
-        followed without a setting for it. Range [0, 3] (default 2; 0 is off, 1 is the
-        filter's own speed and refused); at most ``max_advance``. On the sensor the lane
-        is a second sensor that takes the same frames (docs/onsensor.md, "The speed
-        lane"). Controller integers only.
+    lane_speed, lanes : int
+        Robust: further sets of weights, the *speed lanes*, run the same frame, each with
+        a forward frame's costs centred on its own speed: ``lanes`` speeds evenly spaced
+        above one place a frame up to ``lane_speed`` (:func:`lane_speeds`; 3/2 and 2 at
+        the defaults). Where the filter's own path shows no speed and a lane's path
+        shows one (its gate, :func:`path_speed`) above the speeds the filter follows on
+        its own costs, the filter's costs centre on that lane's speed, the fastest such
+        lane's (:func:`lane_speed_taken`): a query faster than the map is followed
+        without a setting for it. Ranges [0, 3] (default 2; 0 is off, 1 is the filter's
+        own speed and refused; at most ``max_advance``) and [1, 4] (default 2). On the
+        sensor each lane is a further sensor that takes the same frames
+        (docs/onsensor.md, "The speed lanes"). Controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -377,6 +380,7 @@ class FilterParams:
     speed_vary: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, VARY_RECORD))
     still_decay: int | None = field(default=16, metadata=_param("robust", "int", 16, 0, 127))
     lane_speed: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 3))
+    lanes: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 4))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -623,8 +627,9 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     (v - 1)`` above it, against a frame's evidence of about ``gain`` units between the
     best and the mean node. The filter's own range is where that is at most half the
     evidence, ``1 - gain / (2 stay_cost)`` to ``1 + gain / (2 skip_cost)``, within ``0 ..
-    max_advance``: 0.5 to 1.5 at the defaults. Above it the speed lane (``lane_speed``,
-    :func:`lane_speed_taken`) follows the query up to its own speed, 2 at the defaults:
+    max_advance``: 0.5 to 1.5 at the defaults. Above it the speed lanes
+    (:func:`lane_speeds`, :func:`lane_speed_taken`) follow the query up to the fastest
+    lane's speed, ``lane_speed``, 2 at the defaults:
     on a generated route the filter keeps its one-place-a-frame figure from half a
     place a frame to 1.5 and loses part of it at 2 (docs/localise.md, "A query faster
     or slower than the map"). Paper preset: the nodes one forward frame shifts the
@@ -654,8 +659,41 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     return (lo, max(hi, float(params.lane_speed or 0)))
 
 
+def lane_speeds(params: FilterParams) -> tuple[PathSpeed, ...]:
+    """The speeds of the filter's speed lanes, fastest first: ``lanes`` speeds evenly
+    spaced above one place a frame up to ``lane_speed``, ``1 + k (lane_speed - 1) /
+    lanes`` for ``k = lanes .. 1``, as reduced fractions (none without a lane).
+
+    The filter's own costs follow a query up to ``1 + gain / (2 skip_cost)`` places a
+    frame (3/2 at the defaults, :func:`assumed_speeds`), and a lane's costs follow it
+    about as far either side of the lane's speed; lanes at 3/2 and 2 cover the speeds
+    between the filter's own and twice the map's pace with room to spare.
+
+    Examples
+    --------
+    >>> lane_speeds(FilterParams.create("lbp"))
+    (PathSpeed(places=2, frames=1), PathSpeed(places=3, frames=2))
+    >>> lane_speeds(FilterParams.create("lbp", lanes=1))
+    (PathSpeed(places=2, frames=1),)
+    >>> lane_speeds(FilterParams.create("lbp", lane_speed=0))
+    ()
+    >>> [a / f for a, f in lane_speeds(FilterParams.create("lbp", lane_speed=3, lanes=4))]
+    [3.0, 2.5, 2.0, 1.5]
+    """
+    top, n = int(params.lane_speed or 0), int(params.lanes or 0)
+    if not top:
+        return ()
+    out = []
+    for k in range(n, 0, -1):
+        a, f = n + k * (top - 1), n
+        g = math.gcd(a, f)
+        out.append(PathSpeed(a // g, f // g))
+    return tuple(out)
+
+
 def lane_speed_taken(lane_path: PathSpeed | None, params: FilterParams) -> PathSpeed | None:
-    """The speed of the lane's path (``lane_speed``) where the filter takes it, or None.
+    """The speed of a speed lane's path (:func:`lane_speeds`) where the filter takes it,
+    or None.
 
     ``lane_path`` is :func:`path_speed` of the lane's own estimates (the same gate: a
     path the lane was sure of over ``speed_window`` forward frames). The filter takes it

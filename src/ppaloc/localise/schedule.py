@@ -51,6 +51,7 @@ from ppaloc.localise.params import (
     adjustment,
     frame_scale,
     lane_speed_taken,
+    lane_speeds,
     path_speed,
     path_stalled,
     speed_off,
@@ -251,18 +252,19 @@ class Schedule:
         paper's ``alpha``)."""
         self.topomap = topomap
 
-    #: The executor of a speed lane (:class:`RobustSchedule`), None where none runs.
-    lane: Executor | None = None
+    #: The executors of the speed lanes (:class:`RobustSchedule`), fastest first.
+    lanes: tuple[Executor, ...] = ()
 
     @property
-    def wants_lane(self) -> bool:
-        """Whether the frame runs a speed lane, whose executor the localiser hands over
-        with :meth:`use_lane` (only the robust schedule's, with ``lane_speed``)."""
-        return False
+    def wants_lanes(self) -> int:
+        """How many speed lanes the frame runs, whose executors the localiser hands over
+        with :meth:`use_lanes` (only the robust schedule's, with ``lane_speed``)."""
+        return 0
 
-    def use_lane(self, ex: Executor | None) -> None:
-        """Run the speed lane on ``ex`` (only schedules that want one)."""
-        raise PpalocError(f"preset {self.params.preset!r} runs no speed lane")
+    def use_lanes(self, executors: Sequence[Executor]) -> None:
+        """Run the speed lanes on ``executors`` (only schedules that want them)."""
+        if tuple(executors):
+            raise PpalocError(f"preset {self.params.preset!r} runs no speed lane")
 
     def window(self, node: int) -> tuple[int, int]:
         """The nodes the confidence leaves out around ``node``: ``node +-
@@ -312,10 +314,11 @@ class RobustSchedule(Schedule):
     Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs
     the motion decision sets (from the second frame), a forward frame's centred on the
     speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`), or
-    where it shows none on the speed of the speed lane's path (``lane_speed``: a second
-    set of weights whose forward costs centre on ``lane_speed``, run on its own
-    executor, :meth:`use_lane`, with the same frame and motion decision;
-    :func:`~ppaloc.localise.params.lane_speed_taken`), or, where neither shows one and
+    where it shows none on the speed of the fastest speed lane's path that shows one
+    (further sets of weights whose forward costs centre on the lanes' speeds,
+    :func:`~ppaloc.localise.params.lane_speeds`, each run on its own executor,
+    :meth:`use_lanes`, with the same frame and motion decision;
+    :func:`~ppaloc.localise.params.lane_speed_taken`), or, where none shows one and
     the speeds the path showed lately varied, at half scale
     (:func:`~ppaloc.localise.params.speed_varies`); on
     the first frame and on frames the motion test calls forward, every node's value
@@ -341,14 +344,16 @@ class RobustSchedule(Schedule):
         self, params: FilterParams, oracle_moves: Any = None, *, centre: PathSpeed | None = None
     ) -> None:
         self.centre = centre
-        #: The speed lane's schedule (``lane_speed``; none in a lane itself).
-        self.lane_schedule: RobustSchedule | None = None
-        if centre is None and params.lane_speed:
-            # the lane takes its filter's motion decisions (``step(..., moved)``)
+        #: The speed lanes' schedules, fastest first (:func:`~ppaloc.localise.params.
+        #: lane_speeds`; none in a lane itself).
+        self.lane_schedules: tuple[RobustSchedule, ...] = ()
+        if centre is None:
+            # a lane takes its filter's motion decisions (``step(..., moved)``)
             lane = replace(params, motion="always_forward")
-            self.lane_schedule = RobustSchedule(lane, centre=PathSpeed(int(params.lane_speed), 1))
-        self.lane = None  # its executor (:meth:`use_lane`)
-        #: Forward frames whose costs the lane's speed set since :meth:`reset`.
+            speeds = lane_speeds(params)
+            self.lane_schedules = tuple(RobustSchedule(lane, centre=v) for v in speeds)
+        self.lanes = ()  # their executors (:meth:`use_lanes`)
+        #: Forward frames whose costs a lane's speed set since :meth:`reset`.
         self.lane_frames = 0
         super().__init__(params, oracle_moves)
 
@@ -357,14 +362,21 @@ class RobustSchedule(Schedule):
         return int(self.params.max_advance)  # type: ignore[arg-type]
 
     @property
-    def wants_lane(self) -> bool:
-        return self.lane_schedule is not None
+    def wants_lanes(self) -> int:
+        return len(self.lane_schedules)
 
-    def use_lane(self, ex: Executor | None) -> None:
-        """Run the speed lane on ``ex``: a second set of weights on the same map that takes
-        the same frames (the host's :meth:`~ppaloc.localise.host.HostExecutor.twin`, a
-        second sensor). The caller resets it with the filter's."""
-        self.lane = ex
+    def use_lanes(self, executors: Sequence[Executor]) -> None:
+        """Run the speed lanes on ``executors``, fastest first: further sets of weights on
+        the same map that take the same frames (the host's
+        :meth:`~ppaloc.localise.host.HostExecutor.twin`, further sensors). The caller
+        resets them with the filter's."""
+        executors = tuple(executors)
+        if len(executors) != len(self.lane_schedules):
+            raise PpalocError(
+                f"lanes={len(self.lane_schedules)} speed lanes run on as many executors; "
+                f"got {len(executors)}"
+            )
+        self.lanes = executors
 
     def step(self, ex: Executor, frame: np.ndarray, moved: bool | None = None) -> FrameResult:
         """Run one frame on ``ex``; ``moved`` is the motion decision where the caller has
@@ -374,9 +386,9 @@ class RobustSchedule(Schedule):
         first = self.frames == 1
         ex.begin(frame)
         moved = bool(ex.motion(self.decided() if moved is None else moved))
-        lane_speed = self.run_lane(frame, moved)
+        lane_speed = self.run_lanes(frame, moved)
         if not first:
-            speed = path_speed(self._path_places, self._path_scores, p) if moved else None
+            speed = self.path_speed() if moved else None
             if moved and self.centre is not None:
                 speed = self.centre
             elif speed is None and lane_speed is not None and moved:
@@ -414,22 +426,35 @@ class RobustSchedule(Schedule):
             result = replace(result, score=min(result.score, 0.0))
         return result
 
-    def run_lane(self, frame: np.ndarray, moved: bool) -> PathSpeed | None:
-        """The lane's frame on its executor (with this frame's motion decision), and the
-        speed of its path where the filter takes it (:func:`~ppaloc.localise.params.
-        lane_speed_taken`); None without a lane."""
-        lane = self.lane_schedule
-        if lane is None:
+    def run_lanes(self, frame: np.ndarray, moved: bool) -> PathSpeed | None:
+        """Each speed lane's frame on its executor (with this frame's motion decision), and
+        the speed of the fastest lane's path the filter takes (:func:`~ppaloc.localise.
+        params.lane_speed_taken`); None without one."""
+        if not self.lane_schedules:
             return None
-        if self.lane is None:
+        if len(self.lanes) != len(self.lane_schedules):
             raise PpalocError(
-                f"lane_speed={self.params.lane_speed} runs a speed lane: hand its executor to "
-                "the schedule with use_lane(...) (the localisers do), or pass lane_speed=0"
+                f"lane_speed={self.params.lane_speed} runs {len(self.lane_schedules)} speed "
+                "lane(s): hand their executors to the schedule with use_lanes(...) (the "
+                "localisers do), or pass lane_speed=0"
             )
-        lane.step(self.lane, frame, moved)
-        return lane_speed_taken(
-            path_speed(lane._path_places, lane._path_scores, self.params), self.params
-        )
+        for lane, ex in zip(self.lane_schedules, self.lanes, strict=True):
+            lane.step(ex, frame, moved)
+        return self.lane_speed()
+
+    def lane_speed(self) -> PathSpeed | None:
+        """The path speed of the fastest speed lane whose path the filter takes
+        (:func:`~ppaloc.localise.params.lane_speed_taken`), or None."""
+        for lane in self.lane_schedules:
+            taken = lane_speed_taken(lane.path_speed(), self.params)
+            if taken is not None:
+                return taken
+        return None
+
+    def path_speed(self) -> PathSpeed | None:
+        """The speed of the estimate's own path (:func:`~ppaloc.localise.params.
+        path_speed`), or None where its gate passes none."""
+        return path_speed(self._path_places, self._path_scores, self.params)
 
     def note_speed(self, moved: bool, speed: PathSpeed | None) -> bool:
         """Count a frame after the first into the record of the speeds the path's gate
@@ -448,8 +473,8 @@ class RobustSchedule(Schedule):
         for several reference frames."""
         super().use_map(topomap)
         self._stood_at = stood_at_or_next(topomap.place_frames())
-        if self.lane_schedule is not None:
-            self.lane_schedule.use_map(topomap)
+        for lane in self.lane_schedules:
+            lane.use_map(topomap)
 
     def _stood(self, node: int) -> bool:
         """Whether the map stood still at ``node``'s place or the next (several reference
@@ -469,8 +494,8 @@ class RobustSchedule(Schedule):
     def reset(self) -> None:
         """A new query: the schedule's state and the path's record cleared."""
         super().reset()
-        if self.lane_schedule is not None:
-            self.lane_schedule.reset()
+        for lane in self.lane_schedules:
+            lane.reset()
         self.lane_frames = 0
         self._path_places: list[int] = []
         self._path_scores: list[float] = []

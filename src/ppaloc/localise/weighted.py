@@ -296,8 +296,8 @@ class WeightedNodeLocaliser(DeclaredSpeeds):
         check_map(topomap, self.representation)
         self.schedule.use_map(topomap)
         self.executor.use_map(topomap)
-        if self.schedule.wants_lane:  # the speed lane's weights, on the same distances
-            self.schedule.use_lane(self.executor.twin())
+        # the speed lanes' weights, on the same distances
+        self.schedule.use_lanes([self.executor.twin() for _ in range(self.schedule.wants_lanes)])
         self.topomap = topomap
         self.reset()
 
@@ -306,8 +306,8 @@ class WeightedNodeLocaliser(DeclaredSpeeds):
         """Forget the query: zero weights, no previous estimate or frame, frame count 0."""
         self.schedule.reset()
         self.executor.reset()
-        if self.schedule.lane is not None:
-            self.schedule.lane.reset()
+        for lane in self.schedule.lanes:
+            lane.reset()
 
     def step(self, frame: np.ndarray) -> Estimate:
         """Localise one new sensor frame ((256, 256) uint8) by the preset's schedule."""

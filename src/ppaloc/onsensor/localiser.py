@@ -58,8 +58,9 @@ SENSOR_REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar")
 :data:`ppaloc.localise.weighted.REPRESENTATIONS`)."""
 
 LANE_INDEX = 1000
-"""The speed lane's sensors are numbered from here (``lane_speed``): sensor ``i`` of a
-localiser has the noise seed ``seed + 7919 i``, so the lane's differ from the bank's."""
+"""Speed lane ``k``'s sensors (fastest first, :func:`ppaloc.localise.params.lane_speeds`)
+are numbered from ``(k + 1) LANE_INDEX``: sensor ``i`` of a localiser has the noise seed
+``seed + 7919 i``, so each lane's differ from the bank's and from the other lanes'."""
 
 
 def _check_options(representation: str, noise: Any, arithmetic: str, timing_structure: str) -> None:
@@ -390,13 +391,14 @@ class OnSensorLocaliser(DeclaredSpeeds):
 
         return SensorBank(first, n_nodes, make, per, places, carry)
 
-    def _lane_pipeline(self, topomap: TopoMap) -> SensorExecutor | SensorBank:
-        """The speed lane's sensor (or bank) holding ``topomap``: the same pipeline as the
-        filter's, its sensors numbered from :data:`LANE_INDEX` (their own noise seeds)."""
-        n = len(topomap)
+    def _lane_pipeline(self, topomap: TopoMap, k: int) -> SensorExecutor | SensorBank:
+        """Speed lane ``k``'s sensor (or bank) holding ``topomap``: the same pipeline as
+        the filter's, its sensors numbered from ``(k + 1)`` :data:`LANE_INDEX` (their own
+        noise seeds)."""
+        n, index = len(topomap), (k + 1) * LANE_INDEX
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
-        first = self._new_pipeline(min(n, capacity), LANE_INDEX)
-        lane = self._place(n, first, self._runs_of(topomap), LANE_INDEX)
+        first = self._new_pipeline(min(n, capacity), index)
+        lane = self._place(n, first, self._runs_of(topomap), index)
         upload(lane, topomap, self.schedule.runs)
         return lane
 
@@ -405,8 +407,8 @@ class OnSensorLocaliser(DeclaredSpeeds):
         self.schedule.use_map(topomap)  # the paper's alpha, chosen from the map
         upload(pipe, topomap, self.schedule.runs)
         self.pipeline = pipe
-        if self.schedule.wants_lane:
-            self.schedule.use_lane(self._lane_pipeline(topomap))
+        lanes = range(self.schedule.wants_lanes)
+        self.schedule.use_lanes([self._lane_pipeline(topomap, k) for k in lanes])
         self.topomap = topomap
         self.reset()
 
@@ -415,8 +417,8 @@ class OnSensorLocaliser(DeclaredSpeeds):
         """Zero the weight register and forget the previous frame (the map stays)."""
         if self.pipeline is not None:
             self.pipeline.reset()
-        if self.schedule.lane is not None:
-            self.schedule.lane.reset()
+        for lane in self.schedule.lanes:
+            lane.reset()
         self.schedule.reset()
         self.frame_times = []
 
@@ -428,9 +430,9 @@ class OnSensorLocaliser(DeclaredSpeeds):
         frame = np.asarray(frame)
         check_frame(frame, self.size)
         # the filter's sensor (a bank's timing: the slowest per phase plus the exchanges)
-        # and its speed lane's
-        sensors = (pipe, self.schedule.lane)
-        marks = [(p.timing, p.timing.now_us, p.timing.energy_uj) for p in sensors if p is not None]
+        # and its speed lanes'
+        sensors = (pipe, *self.schedule.lanes)
+        marks = [(p.timing, p.timing.now_us, p.timing.energy_uj) for p in sensors]
         counts = pipe.sim.timing  # a bank's chip and loop intervals are sensor 0's
         last = self._last_counts  # the last frame's end, if nothing was charged since
         if last is not None and last[0] is counts and last[1] == counts.charges:
@@ -475,7 +477,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
         ``chip`` is the frame's kernels and controller calls, ``loop`` adds the host's
         frame injection, the frame-loop control and the estimate sent back. With the
         default ``timing_structure``, ``chip.mid`` is the median ``modelled_latency_ms``
-        wherever the filter's sensor is the slower of it and the speed lane's (which skips
+        wherever the filter's sensor is the slowest of it and the speed lanes' (which skip
         the motion stage: in ideal mode always).
         """
         return median_times(self.frame_times)
@@ -528,7 +530,7 @@ def median_times(
 
 def frame_cost(marks: list[tuple[Any, float, float]]) -> tuple[float, float]:
     """A frame's modelled latency and energy (us, uJ) from each sensor's ``(timing,
-    time, energy)`` at its start: the filter's and its speed lane's sensors work side by
-    side, so the slower sets the latency, and the energy is both."""
+    time, energy)`` at its start: the filter's and its speed lanes' sensors work side by
+    side, so the slowest sets the latency, and the energy is all of theirs."""
     spent = [(t.now_us - t0, t.energy_uj - e0) for t, t0, e0 in marks]
     return max(s[0] for s in spent), sum(s[1] for s in spent)
