@@ -243,3 +243,17 @@ def test_the_fastest_sure_lane_gives_the_speed():
     record(slow, 1.25, 40)
     assert schedule.lane_speed() is None
 
+
+def test_the_lanes_share_the_frames_distance_work(route, monkeypatch):
+    """The speed lanes read the filter's distances, local term and likelihood term of
+    the frame: each is computed once a frame, whatever the number of lanes."""
+    import ppaloc.localise.host as host
+
+    calls = []
+    closer = host.closer_count
+    monkeypatch.setattr(host, "closer_count", lambda *a: (calls.append(1), closer(*a))[1])
+    loc = WeightedNodeLocaliser("lowres", motion="always_forward", lanes=2)
+    loc.build_map(route)
+    assert len(loc.schedule.lanes) == 2
+    loc.localise(route[:5])
+    assert len(calls) == 5

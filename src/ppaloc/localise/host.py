@@ -20,6 +20,8 @@ weight anyway).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -211,14 +213,13 @@ class HostExecutor:
         self._lift = 256.0 * topomap.places if topomap.has_runs else None  # type: ignore[operator]
         self._places = topomap.places if topomap.has_runs else None
         self._neighbours = {}
-        self._term = np.empty(n, self._dtype)
         self._pred = np.empty(n, self._dtype)
         self._shifted = np.empty(n, self._dtype)
         self.reset()
 
     def twin(self) -> HostExecutor:
         """A second set of weights on this executor's map in the same arithmetic, reading
-        this executor's distances of the frame both take (the robust schedule's speed
+        this executor's distances of the frame both take (a robust schedule's speed
         lane: the distances are computed once a frame)."""
         if self._topomap is None:
             raise PpalocError("no map: call use_map(topomap) before twin()")
@@ -234,6 +235,7 @@ class HostExecutor:
         self._offset = 0
         self._frame: np.ndarray | None = None
         self._raw: np.ndarray | None = None
+        self._memo: dict[Any, np.ndarray] = {}  # values of the frame's distances alone
         self._top: float | None = None
         self.ranking = None
         if self.motion_model is not None:
@@ -253,6 +255,7 @@ class HostExecutor:
         """Take the frame (its distances are computed when a likelihood step asks)."""
         self._frame = frame
         self._raw = None
+        self._memo = {}
         self._top = None
 
     def motion(self, decided: bool | None) -> bool:
@@ -261,6 +264,16 @@ class HostExecutor:
             return decided
         assert self.motion_model is not None, "the oracle's decisions come from the schedule"
         return self.motion_model.step(self._frame)  # type: ignore[arg-type]
+
+    def _of_frame(self, key: Any, make: Callable[[], np.ndarray]) -> np.ndarray:
+        """``make()``, a value of the frame's distances alone, computed once a frame: a
+        twin reading its source's frame takes the source's (so a speed lane adds only its
+        weights' work). Read-only to the caller."""
+        source = self._source
+        owner = source if source is not None and source._frame is self._frame else self
+        if key not in owner._memo:
+            owner._memo[key] = make()
+        return owner._memo[key]
 
     def _raw_distances(self) -> np.ndarray:
         if self._distances is None:
@@ -303,6 +316,9 @@ class HostExecutor:
         ``ppa8`` decide it alike (docs/ppa8.md, "Register arithmetic against float").
         Distances ``enhance`` has made floats, which no register holds, are read by
         the float factors of :func:`read_values`."""
+        return self._of_frame("values", self._read_values)
+
+    def _read_values(self) -> np.ndarray:
         raw = self._raw_distances()
         if not self.integer_readout:
             return read_values(self.representation, raw, False)
@@ -336,20 +352,26 @@ class HostExecutor:
         (:func:`~ppaloc.localise.params.local_step`; ``FilterParams`` checks it), so the
         term is exact; the sensor subtracts it once per closer neighbour, and the lower
         clip makes that the same."""
+        self._add_to_weights(
+            self._of_frame(("local", gain, window), lambda: self._local(gain, window))
+        )
+
+    def _local(self, gain: int, window: int) -> np.ndarray:
+        """The local term in map order: per node, ``-gain`` times the share of its ``2
+        window`` neighbours closer to the frame; on a map with runs the nodes next to its
+        run (the map's table, once per window)."""
         raw = self._raw_distances()
         if self._places is None:
             count = closer_count(raw, window)
-        else:  # the map's neighbour table, once per map and window
+        else:
             if window not in self._neighbours:
                 self._neighbours[window] = place_neighbours(self._places, window)
             count = count_closer(raw, self._neighbours[window])
         if self.exact:
             step = local_step(gain, window)
             assert step is not None, "FilterParams refuses a fractional step in ppa8"
-            term = (-step * count).astype(self._dtype)
-        else:
-            term = self._dtype(-gain) * (count / (2 * int(window))).astype(self._dtype)
-        self._add_to_weights(term)
+            return (-step * count).astype(self._dtype)
+        return self._dtype(-gain) * (count / (2 * int(window))).astype(self._dtype)
 
     def shift(self) -> None:
         """Paper: ``w_i := max(w_{i-d} for d in advance)``; indices below 0 read the
@@ -372,14 +394,22 @@ class HostExecutor:
         self._add_term(shift, alpha)
 
     def _add_term(self, shift: int, alpha: float) -> None:
-        raw, term = self._raw_distances(), self._term
+        self._add_to_weights(
+            self._of_frame(("term", shift, alpha), lambda: self._term_of(shift, alpha))
+        )
+
+    def _term_of(self, shift: int, alpha: float) -> np.ndarray:
+        """The frame's likelihood term ``alpha - mu 2**-shift`` in map order (clipped to a
+        register in ppa8)."""
+        raw = self._raw_distances()
+        term = np.empty(len(raw), self._dtype)
         np.multiply(
             raw, self._dtype(-distance_scale(self.representation, shift, self.exact)), out=term
         )
         term += self._dtype(alpha)
         if self.exact:
             _clip(term, _T_MIN, _T_MAX)
-        self._add_to_weights(term)
+        return term
 
     def _add_to_weights(self, term: np.ndarray) -> None:
         """``w := clip(w + term)``, ``term`` in map order (the weights may be offset)."""
