@@ -1,7 +1,10 @@
 """The weighted-node filter: per-frame latency against map size.
 
 ``make bench`` runs these with pytest-benchmark; ``python benchmarks/bench_localise.py``
-prints the same figures as a table of medians (milliseconds, one core), side by side.
+prints the same figures as a table of medians (milliseconds, one core), side by side;
+``--lanes`` prints the robust filter's frame without speed lanes, with the lane at 2
+alone and with the defaults' two (docs/localise.md, "A query faster or slower than the
+map").
 
 Targets on one core, per query frame at N = 10**6 nodes (float arithmetic, the host's
 fast path): <= 5 ms with 32-bit LBP descriptors, <= 20 ms with 8x8 low-res images. One
@@ -14,6 +17,7 @@ figure is the filter's; the image motion model adds a constant (``test_image_mot
 from __future__ import annotations
 
 import statistics
+import sys
 import time
 from functools import cache
 
@@ -42,9 +46,10 @@ def topomap(representation: str, n: int) -> TopoMap:
 
 
 def localiser(
-    representation: str, n: int, arithmetic: str, preset: str = "robust"
+    representation: str, n: int, arithmetic: str, preset: str = "robust", **extra: object
 ) -> WeightedNodeLocaliser:
-    extra = {"alpha": 8} if preset == "paper" else {}
+    if preset == "paper":
+        extra["alpha"] = 8
     loc = WeightedNodeLocaliser(
         representation, preset=preset, motion="always_forward", arithmetic=arithmetic, **extra
     )
@@ -98,7 +103,30 @@ def median_ms(step, repeats: int = 15) -> float:
     return 1e3 * statistics.median(times)
 
 
+LANES = (("no lanes", {"lane_speed": 0}), ("lane at 2", {"lanes": 1}), ("lanes 3/2, 2", {}))
+"""The robust filter's speed lanes (docs/localise.md, item 13): none, the lane at 2 alone,
+and the defaults' two."""
+
+
+def lanes_table(repeats: int = 5) -> None:
+    """Robust float per-frame medians with each set of speed lanes, side by side (the
+    rows interleaved ``repeats`` times, so a noisy machine loads them alike)."""
+    print(f"{'N':>9} {'place':>7} " + " ".join(f"{name:>13}" for name, _ in LANES))
+    for n in SIZES[2:]:
+        for rep in ("lbp", "lowres"):
+            locs = [localiser(rep, n, "float", **kw) for _, kw in LANES]
+            runs: list[list[float]] = [[] for _ in locs]
+            for _ in range(repeats):
+                for times, loc in zip(runs, locs, strict=True):
+                    times.append(median_ms(stepper(loc), 3))
+            cells = " ".join(f"{statistics.median(t):>13.2f}" for t in runs)
+            print(f"{n:>9} {rep:>7} {cells}")
+
+
 def main() -> None:
+    if "--lanes" in sys.argv[1:]:
+        lanes_table()
+        return
     head = f"{'preset':>7} {'N':>9} {'lbp float':>10} {'lbp ppa8':>10} {'lowres float':>13}"
     print(head + f" {'lowres ppa8':>12}")
     for n in SIZES:
