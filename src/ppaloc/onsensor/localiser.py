@@ -392,9 +392,8 @@ class OnSensorLocaliser(DeclaredSpeeds):
         return SensorBank(first, n_nodes, make, per, places, carry)
 
     def _lane_pipeline(self, topomap: TopoMap, k: int) -> SensorExecutor | SensorBank:
-        """Speed lane ``k``'s sensor (or bank) holding ``topomap``: the same pipeline as
-        the filter's, its sensors numbered from ``(k + 1)`` :data:`LANE_INDEX` (their own
-        noise seeds)."""
+        """Speed lane ``k``'s sensor (or bank) holding ``topomap``: the filter's pipeline,
+        its sensors numbered from ``(k + 1)`` :data:`LANE_INDEX` (own noise seeds)."""
         n, index = len(topomap), (k + 1) * LANE_INDEX
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
         first = self._new_pipeline(min(n, capacity), index)
