@@ -9,8 +9,8 @@ low-res images, 2048 LBP descriptors; one full register each), and the 16x16 pla
 it) and the Haar signs (``haar``, 512 places, both digital tiles of one sensor; robust).
 The motion model is ``"image"`` and the frames move, so every stage of either preset
 runs. Each row is one sensor's frame: the robust preset's speed lanes, a sensor each
-(docs/onsensor.md, "The speed lanes"), are off (``lane_speed=0``); with them a frame
-simulates three sensors.
+(docs/onsensor.md, "The speed lanes"), are off (``lane_speed=0, slow_lane=False``);
+with them a frame simulates four sensors.
 
 Targets on one core of this machine, the pipelines of both representations (robust
 preset, the compiled engine): the chip's own rates, 386 simulated frames per second for
@@ -85,7 +85,7 @@ def topomap(representation: str) -> TopoMap:
 
 def localiser(representation: str, noise: str, preset: str = "robust") -> OnSensorLocaliser:
     """One sensor's pipeline (the speed lanes off) with the benchmark's map, warmed up."""
-    kw = {"alpha": 8} if preset == "paper" else {"lane_speed": 0}
+    kw = {"alpha": 8} if preset == "paper" else {"lane_speed": 0, "slow_lane": False}
     loc = OnSensorLocaliser(representation, noise=noise, preset=preset, motion="image", **kw)
     loc.use_map(topomap(representation))
     for f in frames()[:3]:  # records every kernel once
@@ -164,7 +164,7 @@ def bank(n_nodes: int = 35_768, n_frames: int = 200, rep: str = "lbp") -> None:
     ref = [to_sensor(f) for f in ds.reference]
     query = [to_sensor(f) for f in list(ds.query)[:n_frames]]
     # one bank, as the rows above are one sensor: the speed lanes (a bank each) off
-    kw = {"motion": "always_forward", "record_weights": True, "lane_speed": 0}
+    kw = {"motion": "always_forward", "record_weights": True, "lane_speed": 0, "slow_lane": False}
     host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
     base = host.build_map(ref).descriptors
     copies = -(-n_nodes // len(base))

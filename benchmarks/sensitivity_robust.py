@@ -51,9 +51,11 @@ GRID: dict[str, tuple[int, ...]] = {
     "still_decay": (0, 4, 8, 16, 32, 64, 127),
     "lane_speed": (0, 2, 3),
     "lanes": (1, 2, 4),
+    "slow_lane": (False, True),
 }
 """Each parameter's values: at least a 4x range around the default (``lane_speed``: off
-and every speed a lane can have, above one place a frame and at most ``max_advance``)."""
+and every speed a lane can have, above one place a frame and at most ``max_advance``;
+``slow_lane``: off and on)."""
 
 NORDLAND = "nordland summer->winter"
 

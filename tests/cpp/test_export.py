@@ -169,7 +169,7 @@ def test_pipeline_round_trip(cxx, route, tmp_path, rep, preset):
     sim = loc.pipeline.sim
     # the one sensor holding the map, and the robust preset's speed lanes (a sensor each)
     lanes = [lane.sim for lane in loc.schedule.lanes]
-    assert len(lanes) == (2 if preset == "robust" else 0)
+    assert len(lanes) == (3 if preset == "robust" else 0)
     assert [t.sim for t in tracer.traces] == [sim, *lanes]
     trace = tracer.trace_of(sim)
     assert trace.frames == len(query)
@@ -222,9 +222,9 @@ def test_a_tracer_reaches_every_sensor_of_a_bank():
     sensors = [s.sim for s in loc.pipeline.sensors]
     # the speed lanes' banks, fastest first
     lanes = [s.sim for lane in loc.schedule.lanes for s in lane.sensors]
-    assert len(sensors) == 2 and len(lanes) == 4
+    assert len(sensors) == 2 and len(lanes) == 6
     assert [t.sim for t in tracer.traces] == sensors + lanes
-    assert [t.frames for t in tracer.traces] == [1] * 6
+    assert [t.frames for t in tracer.traces] == [1] * 8
 
 
 def test_a_localiser_checks_its_observers_before_any_work():

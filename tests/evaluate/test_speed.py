@@ -139,6 +139,10 @@ def test_the_weighted_node_filters_declare_the_speeds_they_follow() -> None:
         assert make_localiser(name).speed_range == (0.5, 2.0)  # the speed lane's top
         assert make_localiser(name, lane_speed=0).speed_range == (0.5, 1.5)
     stiff = make_localiser("weighted-node-lowres", stay_cost=8, skip_cost=8, lane_speed=0)
+    assert stiff.speed_range == (0.5, 1.25)  # the slow lane's 1/2
+    stiff = make_localiser(
+        "weighted-node-lowres", stay_cost=8, skip_cost=8, lane_speed=0, slow_lane=False
+    )
     assert stiff.speed_range == (0.75, 1.25)
     assert make_localiser("weighted-node-lowres", lane_speed=3).speed_range == (0.5, 3.0)
     assert make_localiser("weighted-node-lowres", skip_cost=1).speed_range == (0.5, 3.0)

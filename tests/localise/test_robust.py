@@ -46,21 +46,23 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     """docs/ppa8.md, "Robust preset", written out literally for low-res maps (8x8 or
     16x16 nodes; a tile of ``contrast_patch`` 32-pixel blocks is twice as many 16-pixel
     ones), the map's nodes made from reference frames ``frame_index`` (default one each).
-    With ``lane_speed`` the speed lanes first, at ``1 + k (lane_speed - 1) / lanes`` for
-    ``k = lanes .. 1``: the same filter with every forward frame's costs centred on
-    ``centre`` (the lane's speed); after each frame the fastest lane's path speed that
-    is at least ``1 + gain / (2 skip_cost)`` (or ``max_advance``) is taken where the
-    filter's own path shows none."""
+    The speed lanes first, at ``1 + k (lane_speed - 1) / lanes`` for ``k = lanes .. 1``
+    (with ``lane_speed``), then at 1/2 (with ``slow_lane``): the same filter with every
+    forward frame's costs centred on ``centre`` (the lane's speed); after each frame
+    the first lane's path speed that is at least ``1 + gain / (2 skip_cost)`` (or
+    ``max_advance``) or at most ``1 - gain / (2 stay_cost)``, from a path that did not
+    stall, is taken where the filter's own path shows none."""
     lane = [None] * (len(frames) + 1)
-    if centre is None and p.lane_speed:
+    if centre is None:
         fast = Fraction(p.max_advance)  # above the filter's own speeds
         if p.skip_cost:
             fast = min(fast, 1 + Fraction(p.gain, 2 * p.skip_cost))
-        for k in range(p.lanes, 0, -1):
-            v = 1 + Fraction(k * (p.lane_speed - 1), p.lanes)
+        slow = 1 - Fraction(p.gain, 2 * p.stay_cost) if p.stay_cost else Fraction(-1)
+        speeds = [1 + Fraction(k * (p.lane_speed - 1), p.lanes) for k in range(p.lanes, 0, -1)]
+        for v in (speeds if p.lane_speed else []) + ([Fraction(1, 2)] if p.slow_lane else []):
             _, seen = naive_robust(nodes, frames, moves, p, frame_index, v)
             lane = [
-                a if a is not None else b if b is not None and b >= fast else None
+                a if a is not None else b if b is not None and (b >= fast or b <= slow) else None
                 for a, b in zip(lane, seen, strict=True)
             ]
     n, grid = len(nodes), nodes.shape[-1]
@@ -140,7 +142,8 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
             score = min(score, 0.0)  # the path stood still while the query moved
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
         out.append((int(node), w.copy(), score))
-        speeds.append(_gate(path, p))
+        stalled = lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1
+        speeds.append(None if stalled else _gate(path, p))  # a stalled lane gives no speed
     return out, speeds
 
 
@@ -161,6 +164,7 @@ _CASE = dict(
     vary=0,
     decay=0,
     lanes=1,
+    slow=False,
 )
 
 
@@ -181,6 +185,7 @@ _CASE = dict(
     vary=st.sampled_from([0, 1, 2]),
     decay=st.sampled_from([0, 4, 16]),
     lanes=st.integers(1, 3),
+    slow=st.booleans(),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     **{**_CASE, "seed": 1, "max_advance": 1, "lost": 2}
@@ -199,6 +204,14 @@ _CASE = dict(
     **{**_CASE, "seed": 132, "n": 8, "memory": 8, "costs": (2, 0, 4), "max_advance": 2}
     | {"contrast": 0, "local": (0, 1), "speed": (2, 0), "lanes": 2}
 )
+@example(  # the slow lane's path sets the costs: at or below the filter's own range
+    **{**_CASE, "seed": 1, "n": 8, "memory": 8, "costs": (4, 0, 4), "max_advance": 2}
+    | {"contrast": 0, "local": (0, 1), "speed": (2, 0), "slow": True}
+)
+@example(  # ... and a lane whose path stalled gives no speed
+    **{**_CASE, "seed": 96, "n": 8, "memory": 8, "costs": (4, 0, 4), "max_advance": 2}
+    | {"contrast": 0, "local": (0, 1), "speed": (2, 0), "slow": True, "lost": 2}
+)
 def test_ppa8_equals_the_robust_contract_written_out(
     seed,
     n,
@@ -215,6 +228,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     vary,
     decay,
     lanes,
+    slow,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -239,6 +253,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         speed_vary=vary,
         still_decay=decay,
         lanes=lanes,
+        slow_lane=slow,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(

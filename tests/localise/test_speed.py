@@ -110,6 +110,7 @@ def _twice_the_speed(route, speed_confidence: int, lane_speed: int = 0):
         speed_window=4,
         speed_confidence=speed_confidence,
         lane_speed=lane_speed,
+        slow_lane=False,
     )
     loc.build_map(reference)
     return loc, _recording(loc), frames, truth
@@ -214,18 +215,18 @@ def test_a_schedule_without_its_lanes_says_so(route):
     the remedy, never a filter that silently runs without them; so is a wrong count."""
     loc = WeightedNodeLocaliser("lowres", motion="always_forward")
     loc.build_map(route)
-    with pytest.raises(PpalocError, match=r"^lanes=2 speed lanes run on as many executors"):
+    with pytest.raises(PpalocError, match=r"^3 speed lanes \(lane_speeds\) run on as many"):
         loc.schedule.use_lanes(loc.schedule.lanes[:1])
     schedule = RobustSchedule(loc.params)
     schedule.use_map(loc.topomap)
-    with pytest.raises(PpalocError, match=r"runs 2 speed lane\(s\).*use_lanes\(\.\.\.\)"):
+    with pytest.raises(PpalocError, match=r"runs 3 speed lane\(s\).*use_lanes\(\.\.\.\)"):
         schedule.step(loc.executor, route[0])
 
 
 def test_the_fastest_sure_lane_gives_the_speed():
     """Lanes at 2 and 3/2 (the defaults): the filter takes the faster lane's path speed
     where it passes the gate and is above the filter's own range, else the slower's."""
-    schedule = RobustSchedule(FilterParams.create("lowres"))
+    schedule = RobustSchedule(FilterParams.create("lowres", slow_lane=False))
     fast, slow = schedule.lane_schedules
     assert (fast.centre, slow.centre) == (PathSpeed(2, 1), PathSpeed(3, 2))
 
@@ -254,6 +255,48 @@ def test_the_lanes_share_the_frames_distance_work(route, monkeypatch):
     monkeypatch.setattr(host, "closer_count", lambda *a: (calls.append(1), closer(*a))[1])
     loc = WeightedNodeLocaliser("lowres", motion="always_forward", lanes=2)
     loc.build_map(route)
-    assert len(loc.schedule.lanes) == 2
+    assert len(loc.schedule.lanes) == 3
     loc.localise(route[:5])
     assert len(calls) == 5
+
+
+def test_the_slow_lane_gives_its_speed_unless_its_path_stalled():
+    """The lane at 1/2 (``slow_lane``): its path speed is taken where it is at or below
+    the bottom of the filter's own range (1/2), not where its path held one place over
+    ``lost_window`` forward frames (a stall, not a slow query)."""
+    schedule = RobustSchedule(FilterParams.create("lowres"))
+    assert [lane.centre for lane in schedule.lane_schedules][-1] == PathSpeed(1, 2)
+    slow = schedule.lane_schedules[-1]
+    slow._path_places, slow._path_scores = [i // 2 for i in range(2, 11)], [40] * 9
+    assert schedule.lane_speed() == PathSpeed(4, 8)  # 4 places over 8 frames
+    slow._path_places = [1, 2, 2, 2, 2, 3, 3, 3, 3]  # 2 over 8: slower, still moving
+    assert schedule.lane_speed() == PathSpeed(1, 2)
+    slow._path_places = [3] * 9  # stalled over lost_window = 8 forward frames
+    assert schedule.lane_speed() is None
+    slow._path_places = [0, 1, 1, 2, 3, 3, 4, 4, 5]  # 5/8: the filter's own range
+    assert schedule.lane_speed() is None
+
+
+def test_at_a_third_of_the_maps_pace_the_slow_lane_hands_its_speed_over(route):
+    """The toy route there and back, a query at one place every three frames and a gate
+    of 32 units: the slow lane's speed sets the costs of some forward frames where the
+    filter's own path shows none, and the estimate stays within a place of the truth
+    (as without the lane: this toy route is easy for the filter's own path)."""
+    reference = np.concatenate([route, route[::-1]])
+    idx = np.arange(0, len(reference) * 3) // 3
+    taken = {}
+    for slow in (False, True):
+        loc = WeightedNodeLocaliser(
+            "lowres",
+            motion="always_forward",
+            contrast=0,
+            speed_window=4,
+            speed_confidence=32,
+            lane_speed=0,
+            slow_lane=slow,
+        )
+        loc.build_map(reference)
+        nodes = np.array([e.node for e in loc.localise(reference[idx])])
+        assert np.abs(nodes - idx).max() <= 1
+        taken[slow] = loc.schedule.lane_frames
+    assert taken[False] == 0 and taken[True] > 0

@@ -289,7 +289,9 @@ def test_robust_frames_leave_the_free_register_alone(rep, free):
     # lowres: one tile of the analogue store, so B holds no map (the levels store's
     # low halves are in B)
     # one sensor's registers: no speed lane (a second sensor)
-    pipe = _pipe(rep, 40, store="analogue" if rep == "lowres" else None, lane_speed=0)
+    pipe = _pipe(
+        rep, 40, store="analogue" if rep == "lowres" else None, lane_speed=0, slow_lane=False
+    )
     schedule = make_schedule(pipe.params)
     pipe.sim.write(free, np.full((SIZE, SIZE), 7.0, np.float32))
     rng = np.random.default_rng(0)
@@ -390,9 +392,10 @@ def test_the_sensor_widens_the_transition_where_the_speed_varies_as_the_host_doe
 def test_the_sensor_runs_the_speed_lane_as_the_host_does(rep):
     """A query at two places a frame: the speed lane (a second sensor) passes its gate
     and sets the filter's costs on the same frames as the host's lane, and the
-    estimates, confidences and weights agree; the frame's modelled energy is both
-    sensors'. Without the lane the estimates differ. (20 blocky places there and back;
-    a gate of 16 units over 4 frames, which the lagging filter passes late.)"""
+    estimates, confidences and weights agree; the frame's modelled energy is all the
+    sensors' (the filter's and one per lane). Without the lanes the estimates differ.
+    (20 blocky places there and back; a gate of 16 units over 4 frames, which the
+    lagging filter passes late.)"""
     rng = np.random.default_rng(7)
     cells = rng.integers(0, 256, (20, 8, 8)).astype(np.uint8)
     route = [np.kron(c, np.ones((32, 32), np.uint8)) for c in cells]
@@ -405,12 +408,12 @@ def test_the_sensor_runs_the_speed_lane_as_the_host_does(rep):
     assert sensor.schedule.lane_frames == host.schedule.lane_frames > 0
     pipes = (sensor.pipeline, *sensor.schedule.lanes)
     assert all(isinstance(p, SensorExecutor) for p in pipes)
-    assert len({id(p.sim) for p in pipes}) == 3  # the filter's sensor and one per lane
+    assert len({id(p.sim) for p in pipes}) == 4  # the filter's sensor and one per lane
     before = sum(p.timing.energy_uj for p in pipes)
     spent = sensor.step(query[0]).energy_mj
     after = sum(p.timing.energy_uj for p in pipes)
     assert spent == pytest.approx((after - before) / 1000.0)
-    alone = WeightedNodeLocaliser(rep, arithmetic="ppa8", lane_speed=0, **kw)
+    alone = WeightedNodeLocaliser(rep, arithmetic="ppa8", lane_speed=0, slow_lane=False, **kw)
     alone.build_map(frames)
     assert [e.node for e in alone.localise(query)] != [e.node for e in host.localise(query)]
 

@@ -341,6 +341,12 @@ class FilterParams:
         own speed and refused; at most ``max_advance``) and [1, 4] (default 2). On the
         sensor each lane is a further sensor that takes the same frames
         (docs/onsensor.md, "The speed lanes"). Controller integers only.
+    slow_lane : bool
+        Robust: one more speed lane, at half a place a frame (the slowest speed
+        :func:`path_speed` shows), whose path's speed the filter takes where it is at or
+        below the bottom of the filter's own range (:func:`lane_speed_taken`): a query
+        slower than the map is followed as a faster one is. A lane whose path stalled
+        (:func:`path_stalled`) hands over no speed. Default True.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -381,6 +387,7 @@ class FilterParams:
     still_decay: int | None = field(default=16, metadata=_param("robust", "int", 16, 0, 127))
     lane_speed: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 3))
     lanes: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 4))
+    slow_lane: bool | None = field(default=True, metadata=_param("robust", "bool", True))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -629,10 +636,11 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     evidence, ``1 - gain / (2 stay_cost)`` to ``1 + gain / (2 skip_cost)``, within ``0 ..
     max_advance``: 0.5 to 1.5 at the defaults. Above it the speed lanes
     (:func:`lane_speeds`, :func:`lane_speed_taken`) follow the query up to the fastest
-    lane's speed, ``lane_speed``, 2 at the defaults:
-    on a generated route the filter keeps its one-place-a-frame figure from half a
-    place a frame to 1.5 and loses part of it at 2 (docs/localise.md, "A query faster
-    or slower than the map"). Paper preset: the nodes one forward frame shifts the
+    lane's speed, ``lane_speed``, 2 at the defaults, and below it down to the slow
+    lane's, 1/2 (``slow_lane``): on a generated route the filter keeps its
+    one-place-a-frame figure from half a place a frame to 1.5, loses part of it at 2
+    and keeps most of it at 0.35 (docs/localise.md, "A query faster or slower than the
+    map"). Paper preset: the nodes one forward frame shifts the
     weights, ``advance`` (one). The check reads the query's speed in reference frames,
     which are places wherever the reference moves.
 
@@ -643,6 +651,8 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     >>> assumed_speeds(FilterParams.create("lbp", lane_speed=0))
     (0.5, 1.5)
     >>> assumed_speeds(FilterParams.create("lbp", stay_cost=8, skip_cost=2))
+    (0.5, 2.0)
+    >>> assumed_speeds(FilterParams.create("lbp", stay_cost=8, slow_lane=False))
     (0.75, 2.0)
     >>> assumed_speeds(FilterParams.create("lbp", skip_cost=0))
     (0.5, 3.0)
@@ -656,38 +666,42 @@ def assumed_speeds(params: FilterParams) -> tuple[float, float]:
     most = float(params.max_advance)  # type: ignore[arg-type]
     lo = 0.0 if stay == 0 else max(0.0, 1.0 - gain / (2 * stay))
     hi = most if skip == 0 else min(most, 1.0 + gain / (2 * skip))
+    if params.slow_lane:
+        lo = min(lo, 0.5)
     return (lo, max(hi, float(params.lane_speed or 0)))
 
 
 def lane_speeds(params: FilterParams) -> tuple[PathSpeed, ...]:
     """The speeds of the filter's speed lanes, fastest first: ``lanes`` speeds evenly
     spaced above one place a frame up to ``lane_speed``, ``1 + k (lane_speed - 1) /
-    lanes`` for ``k = lanes .. 1``, as reduced fractions (none without a lane).
+    lanes`` for ``k = lanes .. 1``, as reduced fractions (none where ``lane_speed`` is
+    0), then with ``slow_lane`` half a place a frame.
 
-    The filter's own costs follow a query up to ``1 + gain / (2 skip_cost)`` places a
-    frame (3/2 at the defaults, :func:`assumed_speeds`), and a lane's costs follow it
-    about as far either side of the lane's speed; lanes at 3/2 and 2 cover the speeds
-    between the filter's own and twice the map's pace with room to spare.
+    The filter's own costs follow a query from ``1 - gain / (2 stay_cost)`` to ``1 +
+    gain / (2 skip_cost)`` places a frame (1/2 to 3/2 at the defaults,
+    :func:`assumed_speeds`), and a lane's costs follow it about as far either side of
+    the lane's speed: lanes at 3/2 and 2 cover the speeds between the filter's own and
+    twice the map's pace with room to spare, and a lane at 1/2 those below the filter's.
 
     Examples
     --------
     >>> lane_speeds(FilterParams.create("lbp"))
-    (PathSpeed(places=2, frames=1), PathSpeed(places=3, frames=2))
-    >>> lane_speeds(FilterParams.create("lbp", lanes=1))
+    (PathSpeed(places=2, frames=1), PathSpeed(places=3, frames=2), PathSpeed(places=1, frames=2))
+    >>> lane_speeds(FilterParams.create("lbp", lanes=1, slow_lane=False))
     (PathSpeed(places=2, frames=1),)
-    >>> lane_speeds(FilterParams.create("lbp", lane_speed=0))
+    >>> lane_speeds(FilterParams.create("lbp", lane_speed=0, slow_lane=False))
     ()
     >>> [a / f for a, f in lane_speeds(FilterParams.create("lbp", lane_speed=3, lanes=4))]
-    [3.0, 2.5, 2.0, 1.5]
+    [3.0, 2.5, 2.0, 1.5, 0.5]
     """
     top, n = int(params.lane_speed or 0), int(params.lanes or 0)
-    if not top:
-        return ()
     out = []
-    for k in range(n, 0, -1):
+    for k in range(n, 0, -1) if top else ():
         a, f = n + k * (top - 1), n
         g = math.gcd(a, f)
         out.append(PathSpeed(a // g, f // g))
+    if params.slow_lane:
+        out.append(PathSpeed(1, 2))
     return tuple(out)
 
 
@@ -697,11 +711,12 @@ def lane_speed_taken(lane_path: PathSpeed | None, params: FilterParams) -> PathS
 
     ``lane_path`` is :func:`path_speed` of the lane's own estimates (the same gate: a
     path the lane was sure of over ``speed_window`` forward frames). The filter takes it
-    where it is above what the filter's own costs follow (:func:`assumed_speeds`
-    without the lane: ``1 + gain / (2 skip_cost)``, within ``max_advance``), the speeds
-    at which a path pays more than half a frame's evidence a frame; slower speeds are
-    the filter's own. In integers: ``2 skip places >= (2 skip + gain) frames`` or
-    ``places >= max_advance frames``.
+    where it is outside what the filter's own costs follow (:func:`assumed_speeds`
+    without the lanes: ``1 - gain / (2 stay_cost)`` to ``1 + gain / (2 skip_cost)``,
+    within ``0 .. max_advance``), the speeds at which a path pays more than half a
+    frame's evidence a frame; the speeds between are the filter's own. In integers:
+    ``2 skip places >= (2 skip + gain) frames`` or ``places >= max_advance frames``
+    above, ``2 stay places <= (2 stay - gain) frames`` below.
 
     Examples
     --------
@@ -710,14 +725,17 @@ def lane_speed_taken(lane_path: PathSpeed | None, params: FilterParams) -> PathS
     (PathSpeed(places=14, frames=8), None)
     >>> lane_speed_taken(PathSpeed(12, 8), p)  # 3/2: the top of the filter's own
     PathSpeed(places=12, frames=8)
+    >>> lane_speed_taken(PathSpeed(4, 8), p), lane_speed_taken(PathSpeed(5, 8), p)
+    (PathSpeed(places=4, frames=8), None)
     """
-    if lane_path is None or not params.lane_speed:
+    if lane_path is None:
         return None
-    gain, skip = int(params.gain), int(params.skip_cost)  # type: ignore[arg-type]
+    gain, stay, skip = int(params.gain), int(params.stay_cost), int(params.skip_cost)  # type: ignore[arg-type]
     most = int(params.max_advance)  # type: ignore[arg-type]
     a, f = lane_path
     above = (skip > 0 and 2 * skip * a >= (2 * skip + gain) * f) or a >= most * f
-    return lane_path if above else None
+    below = stay > 0 and 2 * stay * a <= (2 * stay - gain) * f
+    return lane_path if above or below else None
 
 
 def speed_remedy(params: FilterParams) -> str:

@@ -373,8 +373,8 @@ class RobustSchedule(Schedule):
         executors = tuple(executors)
         if len(executors) != len(self.lane_schedules):
             raise PpalocError(
-                f"lanes={len(self.lane_schedules)} speed lanes run on as many executors; "
-                f"got {len(executors)}"
+                f"{len(self.lane_schedules)} speed lanes (lane_speeds) run on as many "
+                f"executors; got {len(executors)}"
             )
         self.lanes = executors
 
@@ -434,18 +434,22 @@ class RobustSchedule(Schedule):
             return None
         if len(self.lanes) != len(self.lane_schedules):
             raise PpalocError(
-                f"lane_speed={self.params.lane_speed} runs {len(self.lane_schedules)} speed "
-                "lane(s): hand their executors to the schedule with use_lanes(...) (the "
-                "localisers do), or pass lane_speed=0"
+                f"the filter runs {len(self.lane_schedules)} speed lane(s): hand their "
+                "executors to the schedule with use_lanes(...) (the localisers do), or pass "
+                "lane_speed=0 and slow_lane=False"
             )
         for lane, ex in zip(self.lane_schedules, self.lanes, strict=True):
             lane.step(ex, frame, moved)
         return self.lane_speed()
 
     def lane_speed(self) -> PathSpeed | None:
-        """The path speed of the fastest speed lane whose path the filter takes
-        (:func:`~ppaloc.localise.params.lane_speed_taken`), or None."""
+        """The path speed of the first speed lane, fastest first, whose path the filter
+        takes (:func:`~ppaloc.localise.params.lane_speed_taken`) and did not stall
+        (:func:`~ppaloc.localise.params.path_stalled`: a path that held one place while
+        the query moved shows no speed), or None."""
         for lane in self.lane_schedules:
+            if path_stalled(lane._path_places, self.params):
+                continue  # a lane whose path stood still while the query moved
             taken = lane_speed_taken(lane.path_speed(), self.params)
             if taken is not None:
                 return taken
