@@ -334,10 +334,10 @@ class FilterParams:
         a forward frame's costs centred on its own speed: ``lanes`` speeds evenly spaced
         above one place a frame up to ``lane_speed`` (:func:`lane_speeds`; 3/2 and 2 at
         the defaults). Where the filter's own path shows no speed and a lane's path
-        shows one (its gate, :func:`path_speed`) above the speeds the filter follows on
-        its own costs, the filter's costs centre on that lane's speed, the fastest such
-        lane's (:func:`lane_speed_taken`): a query faster than the map is followed
-        without a setting for it. Ranges [0, 3] (default 2; 0 is off, 1 is the filter's
+        shows one (its gate, :func:`path_speed`) outside the speeds the filter follows
+        on its own costs, the filter's costs centre on that lane's speed, the first such
+        lane's, fastest first (:func:`lane_speed_taken`): a query faster than the map
+        is followed without a setting for it. Ranges [0, 3] (default 2; 0 is off, 1 is the filter's
         own speed and refused; at most ``max_advance``) and [1, 4] (default 2). On the
         sensor each lane is a further sensor that takes the same frames
         (docs/onsensor.md, "The speed lanes"). Controller integers only.

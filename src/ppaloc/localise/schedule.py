@@ -258,7 +258,8 @@ class Schedule:
     @property
     def wants_lanes(self) -> int:
         """How many speed lanes the frame runs, whose executors the localiser hands over
-        with :meth:`use_lanes` (only the robust schedule's, with ``lane_speed``)."""
+        with :meth:`use_lanes` (only the robust schedule's, with ``lane_speed`` or
+        ``slow_lane``)."""
         return 0
 
     def use_lanes(self, executors: Sequence[Executor]) -> None:
@@ -314,8 +315,9 @@ class RobustSchedule(Schedule):
     Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs
     the motion decision sets (from the second frame), a forward frame's centred on the
     speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`), or
-    where it shows none on the speed of the fastest speed lane's path that shows one
-    (further sets of weights whose forward costs centre on the lanes' speeds,
+    where it shows none on the speed of the first speed lane's path, fastest first, that
+    shows one outside the filter's own range and did not stall (further sets of weights
+    whose forward costs centre on the lanes' speeds,
     :func:`~ppaloc.localise.params.lane_speeds`, each run on its own executor,
     :meth:`use_lanes`, with the same frame and motion decision;
     :func:`~ppaloc.localise.params.lane_speed_taken`), or, where none shows one and
