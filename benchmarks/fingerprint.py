@@ -18,7 +18,7 @@ simulated sensor (the same presets and representations, ideal and ``typical`` no
 bank of sensors (a map split over three simulated sensors). The last line hashes every case
 together: equal before and after a refactoring means the same bytes everywhere.
 ``--estimates`` leaves the modelled latency and energy out, to show that a change of
-what the sensor costs (a second sensor, a timing model) changes no estimate.
+what the sensor costs (a further sensor, a timing model) changes no estimate.
 Routes from ``../shared/data`` are used when present (a note says when they are not).
 """
 
