@@ -388,14 +388,13 @@ class RobustSchedule(Schedule):
         first = self.frames == 1
         ex.begin(frame)
         moved = bool(ex.motion(self.decided() if moved is None else moved))
-        lane_speed = self.run_lanes(frame, moved)
+        self.run_lanes(frame, moved)
         if not first:
-            speed = self.path_speed() if moved else None
-            if moved and self.centre is not None:
-                speed = self.centre
-            elif speed is None and lane_speed is not None and moved:
-                speed = lane_speed
-                self.lane_frames += 1
+            speed = None
+            if moved:  # a lane's fixed speed; else the path's; else the first sure lane's
+                speed = self.centre or self.path_speed()
+                if speed is None and (speed := self.lane_speed()) is not None:
+                    self.lane_frames += 1
             varies = self.note_speed(moved, speed)
             ex.transition(transition_costs(moved, p, speed, varies))
         if first or moved:
@@ -428,12 +427,11 @@ class RobustSchedule(Schedule):
             result = replace(result, score=min(result.score, 0.0))
         return result
 
-    def run_lanes(self, frame: np.ndarray, moved: bool) -> PathSpeed | None:
-        """Each speed lane's frame on its executor (with this frame's motion decision), and
-        the speed of the fastest lane's path the filter takes (:func:`~ppaloc.localise.
-        params.lane_speed_taken`); None without one."""
+    def run_lanes(self, frame: np.ndarray, moved: bool) -> None:
+        """Each speed lane's frame on its executor (with this frame's motion decision); the
+        filter reads their paths where its own shows no speed (:meth:`lane_speed`)."""
         if not self.lane_schedules:
-            return None
+            return
         if len(self.lanes) != len(self.lane_schedules):
             raise PpalocError(
                 f"the filter runs {len(self.lane_schedules)} speed lane(s): hand their "
@@ -442,7 +440,6 @@ class RobustSchedule(Schedule):
             )
         for lane, ex in zip(self.lane_schedules, self.lanes, strict=True):
             lane.step(ex, frame, moved)
-        return self.lane_speed()
 
     def lane_speed(self) -> PathSpeed | None:
         """The path speed of the first speed lane, fastest first, whose path the filter
