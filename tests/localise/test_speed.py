@@ -300,3 +300,14 @@ def test_at_a_third_of_the_maps_pace_the_slow_lane_hands_its_speed_over(route):
         assert np.abs(nodes - idx).max() <= 1
         taken[slow] = loc.schedule.lane_frames
     assert taken[False] == 0 and taken[True] > 0
+
+
+def test_the_lanes_share_the_maps_nodes(route):
+    """Each lane's executor holds the filter's map nodes, not a copy of them (a large
+    map is normalised and indexed once), with an output buffer of its own."""
+    loc = WeightedNodeLocaliser("lowres", motion="always_forward")
+    loc.build_map(route)
+    source = loc.executor._distances
+    for lane in loc.schedule.lanes:
+        assert lane._distances._index is source._index
+        assert lane._distances.out is not source.out

@@ -198,15 +198,19 @@ class HostExecutor:
     # -- map and state -----------------------------------------------------------------
     def use_map(self, topomap: TopoMap) -> None:
         """Compare frames with ``topomap``'s nodes from now on (weights zeroed)."""
-        n = len(topomap)
-        self._topomap = topomap
-        self._distances = NodeDistances(
+        distances = NodeDistances(
             self.representation,
             topomap.descriptors,
             exact=self.exact,
             contrast=None if self.representation in BINARY_PLACES else self.params.contrast,
             patch=self.params.contrast_patch,
         )
+        self._use_map(topomap, distances)
+
+    def _use_map(self, topomap: TopoMap, distances: NodeDistances) -> None:
+        n = len(topomap)
+        self._topomap = topomap
+        self._distances = distances
         self._w = np.zeros(n, self._dtype)
         # a map's runs (nodes of one place): the places lifted 256 apart, so one running
         # maximum over ``w + lift`` is a maximum within each run (|w| <= 127)
@@ -220,12 +224,12 @@ class HostExecutor:
     def twin(self) -> HostExecutor:
         """A second set of weights on this executor's map in the same arithmetic, reading
         this executor's distances of the frame both take (a robust schedule's speed
-        lane: the distances are computed once a frame)."""
+        lane: the distances are computed once a frame) and sharing its map's nodes."""
         if self._topomap is None:
             raise PpalocError("no map: call use_map(topomap) before twin()")
         arithmetic = "ppa8" if self.exact else "float"
         twin = HostExecutor(self.representation, self.params, arithmetic=arithmetic, ranking_k=0)
-        twin.use_map(self._topomap)
+        twin._use_map(self._topomap, self._distances.sharing())  # type: ignore[union-attr]
         twin._source = self
         return twin
 

@@ -41,6 +41,8 @@ Every case then scales by ``2**-shift``.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from ppaloc.errors import PpalocError
@@ -160,6 +162,13 @@ class NodeDistances:
                 nodes = normalise_contrast(nodes, contrast, self.patch)
             self._index = LowresIndex(nodes)
             self.out = np.empty(len(self._index), np.uint16)
+
+    def sharing(self) -> NodeDistances:
+        """The same distances on the same map, its nodes (read only) shared and its output
+        buffer its own: a second weight set of one map without a second copy of it."""
+        other = copy.copy(self)
+        other.out = np.empty_like(self.out)
+        return other
 
     def live(self, frame: np.ndarray) -> np.ndarray:
         """Low-res: the live image as the comparison sees it, (grid, grid) uint8 (normalised
