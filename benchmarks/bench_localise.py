@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 
 from ppaloc.localise.motion import ImageMotion
+from ppaloc.localise.params import NO_LANES
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.topomap import TopoMap
 
@@ -104,7 +105,7 @@ def median_ms(step, repeats: int = 15) -> float:
 
 
 LANES = (
-    ("no lanes", {"lane_speed": 0, "slow_lane": False}),
+    ("no lanes", NO_LANES),
     ("2", {"lanes": 1, "slow_lane": False}),
     ("3/2, 2", {"slow_lane": False}),
     ("3/2, 2, 1/2", {}),

@@ -46,7 +46,7 @@ from functools import cache
 import numpy as np
 import pytest
 
-from ppaloc.localise.params import runs_on
+from ppaloc.localise.params import NO_LANES, runs_on
 from ppaloc.onsensor import OnSensorLocaliser
 from ppaloc.place import LOWRES_GRIDS, haar_plane, pack_plane
 from ppaloc.topomap import TopoMap
@@ -85,7 +85,7 @@ def topomap(representation: str) -> TopoMap:
 
 def localiser(representation: str, noise: str, preset: str = "robust") -> OnSensorLocaliser:
     """One sensor's pipeline (the speed lanes off) with the benchmark's map, warmed up."""
-    kw = {"alpha": 8} if preset == "paper" else {"lane_speed": 0, "slow_lane": False}
+    kw = {"alpha": 8} if preset == "paper" else dict(NO_LANES)
     loc = OnSensorLocaliser(representation, noise=noise, preset=preset, motion="image", **kw)
     loc.use_map(topomap(representation))
     for f in frames()[:3]:  # records every kernel once
@@ -164,7 +164,7 @@ def bank(n_nodes: int = 35_768, n_frames: int = 200, rep: str = "lbp") -> None:
     ref = [to_sensor(f) for f in ds.reference]
     query = [to_sensor(f) for f in list(ds.query)[:n_frames]]
     # one bank, as the rows above are one sensor: the speed lanes (a bank each) off
-    kw = {"motion": "always_forward", "record_weights": True, "lane_speed": 0, "slow_lane": False}
+    kw = {"motion": "always_forward", "record_weights": True, **NO_LANES}
     host = WeightedNodeLocaliser(rep, arithmetic="ppa8", **kw)
     base = host.build_map(ref).descriptors
     copies = -(-n_nodes // len(base))

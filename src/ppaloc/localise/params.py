@@ -55,6 +55,7 @@ __all__ = [
     "MAX_WINDOW",
     "MINIMUM_BITS",
     "MOTIONS",
+    "NO_LANES",
     "VARY_AGE",
     "VARY_BAND",
     "VARY_RECORD",
@@ -93,6 +94,10 @@ MAX_SHIFT = 6
 
 MOTIONS = ("image", "always_forward", "oracle")
 """The motion models (:mod:`ppaloc.localise.motion`)."""
+
+NO_LANES = {"lane_speed": 0, "slow_lane": False}
+"""Robust parameters that turn every speed lane off (:func:`lane_speeds`): one weight set,
+on the sensor one sensor (or bank)."""
 
 
 MAX_ALPHA = 1e6
