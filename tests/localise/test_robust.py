@@ -51,8 +51,10 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     forward frame's costs centred on ``centre`` (the lane's speed); after each frame
     the first lane's path speed that is at least ``1 + gain / (2 skip_cost)`` (or
     ``max_advance``) or at most ``1 - gain / (2 stay_cost)``, from a path that did not
-    stall, is taken where the filter's own path shows none."""
+    stall, is taken where the filter's own path shows none; a frame reports the surest
+    lane's estimate and confidence where they lead its own by ``lane_lead``."""
     lane = [None] * (len(frames) + 1)
+    lane_outs = []  # each lane's (node, weights, confidence) per frame, fastest first
     if centre is None:
         fast = Fraction(p.max_advance)  # above the filter's own speeds
         if p.skip_cost:
@@ -60,7 +62,8 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         slow = 1 - Fraction(p.gain, 2 * p.stay_cost) if p.stay_cost else Fraction(-1)
         speeds = [1 + Fraction(k * (p.lane_speed - 1), p.lanes) for k in range(p.lanes, 0, -1)]
         for v in (speeds if p.lane_speed else []) + ([Fraction(1, 2)] if p.slow_lane else []):
-            _, seen = naive_robust(nodes, frames, moves, p, frame_index, v)
+            lane_out, seen = naive_robust(nodes, frames, moves, p, frame_index, v)
+            lane_outs.append(lane_out)
             lane = [
                 a if a is not None else b if b is not None and (b >= fast or b <= slow) else None
                 for a, b in zip(lane, seen, strict=True)
@@ -74,6 +77,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     q = normalise_contrast(nodes, p.contrast, patch).astype(float).reshape(n, cells)
     w = np.zeros(n)
     out, prev, path = [], None, []  # path: (node, confidence) of each forward frame
+    lost_at = []  # whether the filter's own path had stalled, per frame
     still = 0  # frames since the last forward decision
     offs = []  # each speed the gate passed: off one node a frame by 3/8 or more
     speeds = [None]  # the path's speed after each frame (its gate's)
@@ -144,6 +148,12 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         out.append((int(node), w.copy(), score))
         stalled = lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1
         speeds.append(None if stalled else _gate(path, p))  # a stalled lane gives no speed
+        lost_at.append(stalled)
+    for t, (_, w, score) in enumerate(out):  # a lane that leads: its estimate reported
+        lanes = [o[t] for o in lane_outs]
+        best = max(lanes, key=lambda o: o[2], default=None)  # the first of equals
+        if p.lane_lead and best is not None and best[2] >= score + p.lane_lead and not lost_at[t]:
+            out[t] = (best[0], w, best[2])
     return out, speeds
 
 
@@ -165,6 +175,7 @@ _CASE = dict(
     decay=0,
     lanes=1,
     slow=False,
+    lead=32,
 )
 
 
@@ -186,6 +197,7 @@ _CASE = dict(
     decay=st.sampled_from([0, 4, 16]),
     lanes=st.integers(1, 3),
     slow=st.booleans(),
+    lead=st.sampled_from([0, 8, 32]),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     **{**_CASE, "seed": 1, "max_advance": 1, "lost": 2}
@@ -212,6 +224,14 @@ _CASE = dict(
     **{**_CASE, "seed": 96, "n": 8, "memory": 8, "costs": (4, 0, 4), "max_advance": 2}
     | {"contrast": 0, "local": (0, 1), "speed": (2, 0), "slow": True, "lost": 2}
 )
+@example(  # a speed lane's confidence leads the filter's: its estimate is reported
+    **{**_CASE, "seed": 54, "n": 8, "gain": 16, "memory": 64, "costs": (4, 0, 4)}
+    | {"max_advance": 2, "contrast": 0, "local": (0, 1), "speed": (2, 0), "lead": 8}
+)
+@example(  # ... but not where the filter's own path stalled: it stays lost
+    **{**_CASE, "seed": 16, "n": 8, "gain": 16, "memory": 64, "costs": (4, 0, 4)}
+    | {"max_advance": 2, "contrast": 0, "local": (0, 1), "speed": (2, 0), "lead": 8, "lost": 2}
+)
 def test_ppa8_equals_the_robust_contract_written_out(
     seed,
     n,
@@ -229,6 +249,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     decay,
     lanes,
     slow,
+    lead,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -254,6 +275,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         still_decay=decay,
         lanes=lanes,
         slow_lane=slow,
+        lane_lead=lead,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(
@@ -295,9 +317,12 @@ def test_follows_a_query_at_another_speed(route, pattern):
     At speed 2 the true path pays ``skip_cost`` every frame and a path at speed 1 loses
     about ``gain`` units of evidence (3/4 to 3/2 of it, by the power-of-two scale), so
     the margin is thin by design: the images stay as they are (``contrast=0``), whose
-    scale lands the evidence above the cost; normalised, this toy route's lands below."""
+    scale lands the evidence above the cost; normalised, this toy route's lands below.
+    The confidence's window is two nodes (``confidence_radius``): the default ten would
+    leave no node of this 20-node map outside a middle estimate's window, its confidence
+    0 there, and a speed lane's estimate would be reported (``lane_lead``)."""
     frames, truth = stepped(route, pattern)
-    loc = WeightedNodeLocaliser("lowres", motion="always_forward", contrast=0)
+    loc = WeightedNodeLocaliser("lowres", motion="always_forward", contrast=0, confidence_radius=2)
     loc.build_map(route)
     got = np.array([e.node for e in loc.localise(frames)])
     assert np.abs(got - truth)[3:].max() <= 1

@@ -311,3 +311,35 @@ def test_the_lanes_share_the_maps_nodes(route):
     for lane in loc.schedule.lanes:
         assert lane._distances._index is source._index
         assert lane._distances.out is not source.out
+
+
+def test_a_lane_whose_confidence_leads_reports_its_estimate():
+    """Where a speed lane's confidence leads the filter's by ``lane_lead``, the frame
+    reports the lane's estimate and confidence, and the ranking starts with it; the
+    filter's own weights go on as they would (the same weights with the rule off)."""
+    rng = np.random.default_rng(54)  # a case the written-out contract keeps as an example
+    nodes = rng.integers(0, 256, (8, 8, 8), dtype=np.uint8)
+    frames = rng.integers(0, 256, (9, 256, 256), dtype=np.uint8)
+    moves = rng.random(9) < 0.7
+    frame_index = np.cumsum(rng.integers(1, 3, 8)) - 1
+    kw = dict(
+        arithmetic="ppa8", motion="oracle", oracle_moves=moves, record_weights=True,
+        gain=16, memory=64, stay_cost=4, move_cost=0, skip_cost=4, max_advance=2,
+        contrast=0, contrast_patch=2, local_gain=0, speed_window=2, speed_confidence=0,
+        lost_window=0, speed_vary=0, still_decay=0, lanes=1, slow_lane=False,
+        confidence_radius=1,
+    )  # fmt: skip
+    runs = {}
+    for lead in (0, 8):
+        loc = WeightedNodeLocaliser("lowres", lane_lead=lead, **kw)
+        loc.use_map(TopoMap("lowres", nodes, frame_index=frame_index))
+        runs[lead] = loc.localise(frames)
+    own, reported = runs[0], runs[8]
+    pairs = list(zip(own, reported, strict=True))
+    lanes = [t for t, (a, b) in enumerate(pairs) if (a.node, a.score) != (b.node, b.score)]
+    assert lanes  # the case reports a lane's estimate (here the same node, surer) on some frames
+    for a, b in zip(own, reported, strict=True):
+        np.testing.assert_array_equal(a.weights, b.weights)
+        assert b.ranking[0] == b.node
+        assert b.score == a.score or b.score >= a.score + 8
+    assert all(reported[t].score >= own[t].score + 8 for t in lanes)

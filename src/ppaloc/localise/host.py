@@ -503,10 +503,14 @@ class HostExecutor:
         return [(pa, n), (0, pb)]
 
     def _ranking(self, node: int) -> np.ndarray:
+        return self.ranking_for(node, self.ranking_k)
+
+    def ranking_for(self, node: int, k: int) -> np.ndarray:
+        """The ``k`` best nodes by these weights, best first, ``node`` (the reported
+        estimate) first: a speed lane's ranking where the filter reports its estimate."""
         w = self._w
-        k = min(self.ranking_k + 1, len(w))
-        top = top_k(w, k)
+        top = top_k(w, min(k + 1, len(w)))
         nodes = self._to_node(top)
         nodes = nodes[np.lexsort((nodes, -w[top]))]  # by weight, then node index
         nodes = nodes[nodes != node]
-        return np.concatenate(([node], nodes))[: self.ranking_k].astype(np.int64)
+        return np.concatenate(([node], nodes))[:k].astype(np.int64)

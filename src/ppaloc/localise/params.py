@@ -69,6 +69,7 @@ __all__ = [
     "choose_candidate",
     "filter_method_params",
     "frame_scale",
+    "lane_reported",
     "lane_speed_taken",
     "lane_speeds",
     "likelihood_shift",
@@ -352,6 +353,14 @@ class FilterParams:
         below the bottom of the filter's own range (:func:`lane_speed_taken`): a query
         slower than the map is followed as a faster one is. A lane whose path stalled
         (:func:`path_stalled`) hands over no speed. Default True.
+    lane_lead : int
+        Robust: the filter reports a speed lane's estimate and confidence instead of its
+        own where the lane's confidence leads its own by at least ``lane_lead`` units,
+        the surest such lane's, unless its own path stalled (:func:`lane_reported`):
+        where the filter has lost a query faster or slower than its costs follow and a
+        lane holds it. Range [0, 127]
+        (default 32; 0 is off). Controller integers only: the sensor reads every lane's
+        confidence already.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -393,6 +402,7 @@ class FilterParams:
     lane_speed: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 3))
     lanes: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 4))
     slow_lane: bool | None = field(default=True, metadata=_param("robust", "bool", True))
+    lane_lead: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -741,6 +751,42 @@ def lane_speed_taken(lane_path: PathSpeed | None, params: FilterParams) -> PathS
     above = (skip > 0 and 2 * skip * a >= (2 * skip + gain) * f) or a >= most * f
     below = stay > 0 and 2 * stay * a <= (2 * stay - gain) * f
     return lane_path if above or below else None
+
+
+def lane_reported(
+    score: float, lane_scores: Sequence[float], params: FilterParams, stalled: bool = False
+) -> int | None:
+    """The speed lane whose estimate the filter reports instead of its own, or None.
+
+    ``score`` is the filter's confidence of the frame and ``lane_scores`` the lanes',
+    fastest first (:func:`lane_speeds`; each after its own still-frame and stalled-path
+    rules). A lane's estimate is reported where its confidence leads the filter's by at
+    least ``lane_lead`` units: the surest such lane's, the first of equals. All weight
+    sets take the same likelihood, so their confidences are margins in the same units;
+    a lane that leads by as much as a path must hold to set a speed
+    (``speed_confidence``) explains the recent frames where the filter's own costs lost
+    them (a query at a speed the filter's costs do not follow). None where
+    ``lane_lead`` is 0, and where the filter's own path ``stalled``
+    (:func:`path_stalled`): a filter that reports itself lost (the query left the map)
+    stays lost. Comparisons only: the controller's arithmetic.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp")
+    >>> lane_reported(4.0, [40.0, 36.0, 0.0], p), lane_reported(10.0, [40.0, 41.5], p)
+    (0, None)
+    >>> lane_reported(0.0, [33.0, 40.0], p)  # the surest of those that lead
+    1
+    >>> lane_reported(0.0, [33.0, 40.0], p, stalled=True) is None
+    True
+    >>> lane_reported(0.0, [90.0], FilterParams.create("lbp", lane_lead=0)) is None
+    True
+    """
+    lead = int(params.lane_lead or 0)
+    if not lead or not lane_scores or stalled:
+        return None
+    best = max(range(len(lane_scores)), key=lambda k: (lane_scores[k], -k))
+    return best if lane_scores[best] >= score + lead else None
 
 
 def speed_remedy(params: FilterParams) -> str:

@@ -50,6 +50,7 @@ from ppaloc.localise.params import (
     PathSpeed,
     adjustment,
     frame_scale,
+    lane_reported,
     lane_speed_taken,
     lane_speeds,
     path_speed,
@@ -155,12 +156,15 @@ class Executor(Protocol):
 @dataclass(frozen=True)
 class FrameResult:
     """What a schedule's frame decided: the estimate, its confidence, the motion
-    decision and the detection threshold ``top`` (``T``)."""
+    decision and the detection threshold ``top`` (``T``); ``lane``: the speed lane whose
+    estimate and confidence these are (its index, fastest first), None for the filter's
+    own (:func:`~ppaloc.localise.params.lane_reported`)."""
 
     node: int
     score: float
     moved: bool
     top: float
+    lane: int | None = None
 
 
 @dataclass(frozen=True)
@@ -332,7 +336,9 @@ class RobustSchedule(Schedule):
     bits), confidence (0 where the estimate's path stood still while the query moved,
     and on the still frames after it, :func:`~ppaloc.localise.params.path_stalled`;
     on still frames less ``still_decay`` a frame where the map did not stand still,
-    :func:`~ppaloc.localise.params.still_score`); normalisation.
+    :func:`~ppaloc.localise.params.still_score`); normalisation. The frame reports a
+    speed lane's estimate and confidence instead where the lane's leads the filter's by
+    ``lane_lead`` (:func:`~ppaloc.localise.params.lane_reported`).
     """
 
     uses = "robust"
@@ -425,11 +431,18 @@ class RobustSchedule(Schedule):
         # frame's record (the query stopped where the path had already stalled)
         if path_stalled(self._path_places, p):
             result = replace(result, score=min(result.score, 0.0))
+        lanes = [r.score for r in self._lane_results]
+        k = lane_reported(result.score, lanes, p, path_stalled(self._path_places, p))
+        if k is not None:  # a lane holds the frames the filter's own costs lost
+            lane = self._lane_results[k]
+            result = replace(result, node=lane.node, score=lane.score, lane=k)
         return result
 
     def run_lanes(self, frame: np.ndarray, moved: bool) -> None:
         """Each speed lane's frame on its executor (with this frame's motion decision); the
-        filter reads their paths where its own shows no speed (:meth:`lane_speed`)."""
+        filter reads their paths where its own shows no speed (:meth:`lane_speed`) and
+        their results where one leads its own (:meth:`step`)."""
+        self._lane_results: list[FrameResult] = []
         if not self.lane_schedules:
             return
         if len(self.lanes) != len(self.lane_schedules):
@@ -439,7 +452,7 @@ class RobustSchedule(Schedule):
                 "lane_speed=0 and slow_lane=False"
             )
         for lane, ex in zip(self.lane_schedules, self.lanes, strict=True):
-            lane.step(ex, frame, moved)
+            self._lane_results.append(lane.step(ex, frame, moved))
 
     def lane_speed(self) -> PathSpeed | None:
         """The path speed of the first speed lane, fastest first, whose path the filter
@@ -500,6 +513,7 @@ class RobustSchedule(Schedule):
         for lane in self.lane_schedules:
             lane.reset()
         self.lane_frames = 0
+        self._lane_results = []
         self._path_places: list[int] = []
         self._path_scores: list[float] = []
         self._speeds_off: list[tuple[int, bool]] = []

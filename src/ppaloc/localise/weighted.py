@@ -314,11 +314,14 @@ class WeightedNodeLocaliser(DeclaredSpeeds):
         if self.topomap is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
         r = self.schedule.step(self.executor, frame)
+        ranking = self.executor.ranking
+        if r.lane is not None and ranking is not None:  # a speed lane's estimate
+            ranking = self.schedule.lanes[r.lane].ranking_for(r.node, self.ranking_k)  # type: ignore[attr-defined]
         return Estimate(
             node=r.node,
             score=r.score,
             moved=r.moved,
-            ranking=self.executor.ranking,
+            ranking=ranking,
             weights=self.executor.weights() if self.record_weights else None,
         )
 
