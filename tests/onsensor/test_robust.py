@@ -418,6 +418,23 @@ def test_the_sensor_runs_the_speed_lane_as_the_host_does(rep):
     assert [e.node for e in alone.localise(query)] != [e.node for e in host.localise(query)]
 
 
+def test_the_sensor_reports_a_leading_lane_as_the_host_does():
+    """A query at three places a frame, beyond the filter's own costs: where a speed
+    lane's confidence leads the filter's by ``lane_lead`` (8 units here) the sensor
+    reports the lane's sensor's estimate and confidence on the same frames as the host,
+    and the filter's own weights agree; without the reports the estimates differ."""
+    rng = np.random.default_rng(7)
+    cells = rng.integers(0, 256, (20, 8, 8)).astype(np.uint8)
+    route = [np.kron(c, np.ones((32, 32), np.uint8)) for c in cells]
+    frames = route + route[::-1]
+    query = frames[::3]
+    kw = dict(motion="always_forward", speed_window=4, speed_confidence=16, contrast=0)
+    host, _ = _agree("lowres", frames, query, lane_lead=8, **kw)
+    own = WeightedNodeLocaliser("lowres", arithmetic="ppa8", lane_lead=0, **kw)
+    own.build_map(frames)
+    assert [e.node for e in own.localise(query)] != [e.node for e in host.localise(query)]
+
+
 def _stop_route(seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Blocky random places; the reference stops twice (repeated frames), the query once."""
     rng = np.random.default_rng(seed)
