@@ -170,10 +170,9 @@ class OnSensorLocaliser(DeclaredSpeeds):
     while the estimate has held one place over its last ``lost_window`` forward frames,
     still frames after them included (:func:`~ppaloc.localise.params.path_stalled`),
     and lowers it on still frames where the map kept moving
-    (:func:`~ppaloc.localise.params.still_score`); where a speed lane's confidence
-    leads by ``lane_lead`` it reports the lane's sensor's estimate and confidence
-    (:func:`~ppaloc.localise.params.lane_reported`). ``weights`` (with
-    ``record_weights``) are read from the weight register as an untimed inspection.
+    (:func:`~ppaloc.localise.params.still_score`), or reports a leading speed lane's
+    (:func:`~ppaloc.localise.params.lane_reported`). ``weights`` (``record_weights``)
+    are untimed reads of the weight register.
     """
 
     def __init__(
