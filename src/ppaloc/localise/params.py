@@ -358,9 +358,8 @@ class FilterParams:
         own where the lane's confidence leads its own by at least ``lane_lead`` units,
         the surest such lane's, unless its own path stalled (:func:`lane_reported`):
         where the filter has lost a query faster or slower than its costs follow and a
-        lane holds it. Range [0, 127]
-        (default 32; 0 is off). Controller integers only: the sensor reads every lane's
-        confidence already.
+        lane holds it. Range [0, 127] (default 32; 0 is off). Controller integers only:
+        the sensor reads every lane's confidence already.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood

@@ -429,10 +429,10 @@ class RobustSchedule(Schedule):
                 self._path_scores.pop(0)
         # the path does not explain the frames; a still frame keeps the last forward
         # frame's record (the query stopped where the path had already stalled)
-        if path_stalled(self._path_places, p):
+        stalled = path_stalled(self._path_places, p)
+        if stalled:
             result = replace(result, score=min(result.score, 0.0))
-        lanes = [r.score for r in self._lane_results]
-        k = lane_reported(result.score, lanes, p, path_stalled(self._path_places, p))
+        k = lane_reported(result.score, [r.score for r in self._lane_results], p, stalled)
         if k is not None:  # a lane holds the frames the filter's own costs lost
             lane = self._lane_results[k]
             result = replace(result, node=lane.node, score=lane.score, lane=k)
