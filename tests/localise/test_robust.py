@@ -26,17 +26,19 @@ from ppaloc.topomap import TopoMap
 from .conftest import blocky, stepped
 
 
-def _gate(path, p: FilterParams) -> Fraction | None:
+def _gate(path, p: FilterParams, least: int | None = None) -> Fraction | None:
     """The speed of a path of ``(node, confidence)`` forward estimates over its last
-    ``speed_window`` frames, 1/2 to 2 nodes a frame, where its estimates were sure and
-    only advanced, at most ``max_advance`` a frame; else None."""
+    ``speed_window`` frames, 1/2 to 2 nodes a frame, where its estimates were sure (by
+    ``least``, default ``speed_confidence``) and only advanced, at most ``max_advance``
+    a frame; else None."""
+    least = p.speed_confidence if least is None else least
     recent = path[-1 - p.speed_window :]
     steps = np.diff([node for node, _ in recent])
     if (
         p.speed_window
         and len(recent) == p.speed_window + 1
         and all(0 <= d <= p.max_advance for d in steps)
-        and all(score >= p.speed_confidence for _, score in recent)
+        and all(score >= least for _, score in recent)
     ):
         return min(max(Fraction(int(steps.sum()), p.speed_window), Fraction(1, 2)), Fraction(2))
     return None
@@ -49,10 +51,11 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     The speed lanes first, at ``1 + k (lane_speed - 1) / lanes`` for ``k = lanes .. 1``
     (with ``lane_speed``), then at 1/2 (with ``slow_lane``): the same filter with every
     forward frame's costs centred on ``centre`` (the lane's speed); after each frame
-    the first lane's path speed that is at least ``1 + gain / (2 skip_cost)`` (or
-    ``max_advance``) or at most ``1 - gain / (2 stay_cost)``, from a path that did not
-    stall, is taken where the filter's own path shows none; a frame reports the surest
-    lane's estimate and confidence where they lead its own by ``lane_lead``."""
+    the first lane's path speed (its gate at ``lane_confidence``) that is at least ``1 +
+    gain / (2 skip_cost)`` (or ``max_advance``) or at most ``1 - gain / (2 stay_cost)``,
+    from a path that did not stall, is taken where the filter's own path shows none; a
+    frame reports the surest lane's estimate and confidence where they lead its own by
+    ``lane_lead``."""
     lane = [None] * (len(frames) + 1)
     lane_outs = []  # each lane's (node, weights, confidence) per frame, fastest first
     if centre is None:
@@ -147,7 +150,8 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
         out.append((int(node), w.copy(), score))
         stalled = lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1
-        speeds.append(None if stalled else _gate(path, p))  # a stalled lane gives no speed
+        gate = None if centre is None else p.lane_confidence  # a lane's path: its own gate
+        speeds.append(None if stalled else _gate(path, p, gate))  # a stalled lane: none
         lost_at.append(stalled)
     for t, (_, w, score) in enumerate(out):  # a lane that leads: its estimate reported
         lanes = [o[t] for o in lane_outs]
@@ -176,6 +180,7 @@ _CASE = dict(
     lanes=1,
     slow=False,
     lead=32,
+    lane_gate=0,
 )
 
 
@@ -198,6 +203,7 @@ _CASE = dict(
     lanes=st.integers(1, 3),
     slow=st.booleans(),
     lead=st.sampled_from([0, 8, 32]),
+    lane_gate=st.sampled_from([0, 4, 24]),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     **{**_CASE, "seed": 1, "max_advance": 1, "lost": 2}
@@ -211,6 +217,10 @@ _CASE = dict(
 @example(  # the speed lane's path sets the costs where the filter's own shows no speed
     **{**_CASE, "seed": 2, "n": 8, "gain": 1, "memory": 8, "costs": (2, 0, 0)}
     | {"max_advance": 2, "contrast": 0, "local": (0, 1), "speed": (2, 0)}
+)
+@example(  # a lane's path passes its own gate (0 units), below the filter's own (4)
+    **{**_CASE, "n": 8, "gain": 1, "memory": 8, "costs": (2, 0, 0), "max_advance": 2}
+    | {"contrast": 0, "local": (0, 1), "speed": (2, 4), "lead": 0, "lane_gate": 0}
 )
 @example(  # the slower lane's path sets the costs where the faster lane's shows none
     **{**_CASE, "seed": 132, "n": 8, "memory": 8, "costs": (2, 0, 4), "max_advance": 2}
@@ -250,6 +260,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     lanes,
     slow,
     lead,
+    lane_gate,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -276,6 +287,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         lanes=lanes,
         slow_lane=slow,
         lane_lead=lead,
+        lane_confidence=lane_gate,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(

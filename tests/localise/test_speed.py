@@ -245,6 +245,24 @@ def test_the_fastest_sure_lane_gives_the_speed():
     assert schedule.lane_speed() is None
 
 
+def test_a_lanes_path_passes_its_own_gate():
+    """A lane's path gives its speed where each of its estimates is sure by
+    ``lane_confidence`` (24), a lower bar than the filter's own ``speed_confidence``
+    (32), which the same path does not pass."""
+    params = FilterParams.create("lowres", slow_lane=False)
+    schedule = RobustSchedule(params)
+    fast = schedule.lane_schedules[0]
+    fast._path_places, fast._path_scores = [2 * i for i in range(9)], [28] * 9
+    assert schedule.lane_speed() == PathSpeed(16, 8)
+    assert fast.path_speed() is None  # the filter's own gate at 32
+    strict = RobustSchedule(FilterParams.create("lowres", slow_lane=False, lane_confidence=32))
+    lane = strict.lane_schedules[0]
+    lane._path_places, lane._path_scores = fast._path_places, fast._path_scores
+    assert strict.lane_speed() is None
+    fast._path_scores = [28] * 8 + [23]  # one estimate below the lane's gate
+    assert schedule.lane_speed() is None
+
+
 def test_the_lanes_share_the_frames_distance_work(route, monkeypatch):
     """The speed lanes read the filter's distances, local term and likelihood term of
     the frame: each is computed once a frame, whatever the number of lanes."""

@@ -360,6 +360,15 @@ class FilterParams:
         where the filter has lost a query faster or slower than its costs follow and a
         lane holds it. Range [0, 127] (default 32; 0 is off). Controller integers only:
         the sensor reads every lane's confidence already.
+    lane_confidence : int
+        Robust: the confidence a speed lane's path must hold at each of its
+        ``speed_window + 1`` estimates for the filter to take its speed
+        (:func:`path_speed`'s gate with this in place of ``speed_confidence``;
+        :func:`lane_speed_taken`). Lower than the filter's own gate: a lane's speed is
+        taken only where the filter's own path shows none and only outside the speeds its
+        own costs follow, and a lane that holds a query faster or slower than the map is
+        sure of it less often than a filter that follows one at its pace. Range [0, 127]
+        (default 24). Controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -402,6 +411,7 @@ class FilterParams:
     lanes: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 4))
     slow_lane: bool | None = field(default=True, metadata=_param("robust", "bool", True))
     lane_lead: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
+    lane_confidence: int | None = field(default=24, metadata=_param("robust", "int", 24, 0, 127))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -827,7 +837,10 @@ class DeclaredSpeeds:
 
 
 def path_speed(
-    places: Sequence[int], scores: Sequence[float], params: FilterParams
+    places: Sequence[int],
+    scores: Sequence[float],
+    params: FilterParams,
+    confidence: int | None = None,
 ) -> PathSpeed | None:
     """The speed the estimate's own path shows, or None where it shows none.
 
@@ -839,7 +852,8 @@ def path_speed(
     is not one the transition could have taken with confidence: a step back or beyond
     ``max_advance`` (a re-localisation), or a confidence below ``speed_confidence`` at
     any of the ``W + 1`` estimates (a path locked on wrong places would set a wrong
-    speed). Integers and comparisons only: the controller's arithmetic.
+    speed; ``confidence`` in its place where given: a speed lane's gate,
+    ``lane_confidence``). Integers and comparisons only: the controller's arithmetic.
 
     Examples
     --------
@@ -850,6 +864,8 @@ def path_speed(
     True
     >>> path_speed([0, 0, 0, 0, 1], [40] * 5, p)  # 1/4 a frame: clipped
     PathSpeed(places=1, frames=2)
+    >>> path_speed([3, 5, 6, 8, 9, 11], [40, 40, 40, 8, 40, 40], p, confidence=8)
+    PathSpeed(places=6, frames=4)
     """
     w = int(params.speed_window or 0)
     if w == 0 or len(places) <= w:
@@ -858,7 +874,8 @@ def path_speed(
     steps = np.diff(path)
     if steps.min() < 0 or steps.max() > int(params.max_advance):  # type: ignore[arg-type]
         return None
-    if min(scores[-1 - w :]) < params.speed_confidence:  # type: ignore[operator]
+    least = params.speed_confidence if confidence is None else confidence
+    if min(scores[-1 - w :]) < least:  # type: ignore[operator]
         return None
     a = int(path[-1] - path[0])
     if 2 * a < w:

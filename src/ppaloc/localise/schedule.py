@@ -456,16 +456,24 @@ class RobustSchedule(Schedule):
 
     def lane_speed(self) -> PathSpeed | None:
         """The path speed of the first speed lane, fastest first, whose path the filter
-        takes (:func:`~ppaloc.localise.params.lane_speed_taken`) and did not stall
+        takes (its gate at ``lane_confidence``, :meth:`lane_gate`;
+        :func:`~ppaloc.localise.params.lane_speed_taken`) and did not stall
         (:func:`~ppaloc.localise.params.path_stalled`: a path that held one place while
         the query moved shows no speed), or None."""
         for lane in self.lane_schedules:
             if path_stalled(lane._path_places, self.params):
                 continue  # a lane whose path stood still while the query moved
-            taken = lane_speed_taken(lane.path_speed(), self.params)
+            taken = lane_speed_taken(lane.lane_gate(self.params), self.params)
             if taken is not None:
                 return taken
         return None
+
+    def lane_gate(self, params: FilterParams) -> PathSpeed | None:
+        """The speed this lane's path shows through its filter's gate for a lane
+        (:func:`~ppaloc.localise.params.path_speed` at ``params.lane_confidence``), or
+        None."""
+        gate = int(params.lane_confidence or 0)
+        return path_speed(self._path_places, self._path_scores, params, confidence=gate)
 
     def path_speed(self) -> PathSpeed | None:
         """The speed of the estimate's own path (:func:`~ppaloc.localise.params.
