@@ -469,9 +469,9 @@ class RobustSchedule(Schedule):
         return None
 
     def lane_gate(self, params: FilterParams) -> PathSpeed | None:
-        """The speed this lane's path shows through its filter's gate for a lane
-        (:func:`~ppaloc.localise.params.path_speed` at ``params.lane_confidence``), or
-        None."""
+        """The speed this lane's path shows through the gate its filter sets for lanes
+        (:func:`~ppaloc.localise.params.path_speed` with ``params.lane_confidence`` in
+        place of ``speed_confidence``), or None."""
         gate = int(params.lane_confidence or 0)
         return path_speed(self._path_places, self._path_scores, params, confidence=gate)
 
