@@ -456,29 +456,24 @@ class RobustSchedule(Schedule):
 
     def lane_speed(self) -> PathSpeed | None:
         """The path speed of the first speed lane, fastest first, whose path the filter
-        takes (its gate at ``lane_confidence``, :meth:`lane_gate`;
+        takes (its path's gate at ``lane_confidence``;
         :func:`~ppaloc.localise.params.lane_speed_taken`) and did not stall
         (:func:`~ppaloc.localise.params.path_stalled`: a path that held one place while
         the query moved shows no speed), or None."""
         for lane in self.lane_schedules:
             if path_stalled(lane._path_places, self.params):
                 continue  # a lane whose path stood still while the query moved
-            taken = lane_speed_taken(lane.lane_gate(self.params), self.params)
+            gate = int(self.params.lane_confidence or 0)
+            taken = lane_speed_taken(lane.path_speed(gate), self.params)
             if taken is not None:
                 return taken
         return None
 
-    def lane_gate(self, params: FilterParams) -> PathSpeed | None:
-        """The speed this lane's path shows through the gate its filter sets for lanes
-        (:func:`~ppaloc.localise.params.path_speed` with ``params.lane_confidence`` in
-        place of ``speed_confidence``), or None."""
-        gate = int(params.lane_confidence or 0)
-        return path_speed(self._path_places, self._path_scores, params, confidence=gate)
-
-    def path_speed(self) -> PathSpeed | None:
+    def path_speed(self, confidence: int | None = None) -> PathSpeed | None:
         """The speed of the estimate's own path (:func:`~ppaloc.localise.params.
-        path_speed`), or None where its gate passes none."""
-        return path_speed(self._path_places, self._path_scores, self.params)
+        path_speed`), or None where its gate passes none; ``confidence`` in place of
+        ``speed_confidence`` where given (a lane's path read by its filter)."""
+        return path_speed(self._path_places, self._path_scores, self.params, confidence)
 
     def note_speed(self, moved: bool, speed: PathSpeed | None) -> bool:
         """Count a frame after the first into the record of the speeds the path's gate
