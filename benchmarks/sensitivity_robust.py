@@ -54,11 +54,12 @@ GRID: dict[str, tuple[int, ...]] = {
     "slow_lane": (False, True),
     "lane_lead": (0, 16, 24, 32, 64, 127),
     "lane_confidence": (0, 8, 16, 24, 32, 48),
+    "lane_speed_lead": (0, 4, 8, 16, 32, 64),
 }
 """Each parameter's values: at least a 4x range around the default (``lane_speed``: off
 and every speed a lane can have, above one place a frame and at most ``max_advance``;
 ``slow_lane``: off and on; ``lane_lead``: off, then 16 to 127; ``lane_confidence``: no
-gate, then 8 to 48)."""
+gate, then 8 to 48; ``lane_speed_lead``: off, then 4 to 64)."""
 
 NORDLAND = "nordland summer->winter"
 

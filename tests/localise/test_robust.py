@@ -53,11 +53,18 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     forward frame's costs centred on ``centre`` (the lane's speed); after each frame
     the first lane's path speed (its gate at ``lane_confidence``) that is at least ``1 +
     gain / (2 skip_cost)`` (or ``max_advance``) or at most ``1 - gain / (2 stay_cost)``,
-    from a path that did not stall, is taken where the filter's own path shows none; a
-    frame reports the surest lane's estimate and confidence where they lead its own by
-    ``lane_lead``."""
+    from a path that did not stall, is taken where the filter's own path shows none;
+    where none is, that of the surest lane above one node a frame (the first of equals)
+    where its confidence reaches ``lane_confidence`` and leads the filter's last forward
+    frame's by ``lane_speed_lead``, its node at most ``confidence_radius`` ahead of the
+    filter's last: its path's speed with no confidence asked, in the same range, from a
+    path that did not stall; a frame reports the surest lane's estimate
+    and confidence where they lead its own by ``lane_lead``."""
     lane = [None] * (len(frames) + 1)
     lane_outs = []  # each lane's (node, weights, confidence) per frame, fastest first
+    lane_any = []  # each lane's path speed after each frame, no confidence asked
+    lane_v = []  # each lane's speed
+    fast, slow = Fraction(0), Fraction(-1)
     if centre is None:
         fast = Fraction(p.max_advance)  # above the filter's own speeds
         if p.skip_cost:
@@ -65,8 +72,10 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         slow = 1 - Fraction(p.gain, 2 * p.stay_cost) if p.stay_cost else Fraction(-1)
         speeds = [1 + Fraction(k * (p.lane_speed - 1), p.lanes) for k in range(p.lanes, 0, -1)]
         for v in (speeds if p.lane_speed else []) + ([Fraction(1, 2)] if p.slow_lane else []):
-            lane_out, seen = naive_robust(nodes, frames, moves, p, frame_index, v)
+            lane_out, seen, anyway = naive_robust(nodes, frames, moves, p, frame_index, v)
             lane_outs.append(lane_out)
+            lane_any.append(anyway)
+            lane_v.append(v)
             lane = [
                 a if a is not None else b if b is not None and (b >= fast or b <= slow) else None
                 for a, b in zip(lane, seen, strict=True)
@@ -84,6 +93,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     still = 0  # frames since the last forward decision
     offs = []  # each speed the gate passed: off one node a frame by 3/8 or more
     speeds = [None]  # the path's speed after each frame (its gate's)
+    anyway = [None]  # ... and with no confidence asked
     for t, (frame, moved) in enumerate(zip(frames, moves, strict=True), start=1):
         if t > 1:
             c = transition_costs(moved, p)
@@ -92,6 +102,17 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
                 v = centre
             elif v is None:  # the lane's speed where the path shows none
                 v = lane[t]
+            faster = [k for k, u in enumerate(lane_v) if u > 1]  # the lanes above 1
+            if v is None and faster and path and p.lane_speed_lead:  # the surest's
+                k = max(faster, key=lambda k: (lane_outs[k][t - 1][2], -k))  # first of equals
+                node, score = lane_outs[k][t - 1][0], lane_outs[k][t - 1][2]
+                if (
+                    score >= p.lane_confidence
+                    and score >= path[-1][1] + p.lane_speed_lead
+                    and 0 <= node - path[-1][0] <= p.confidence_radius  # where its speed took it
+                ):
+                    b = lane_any[k][t]
+                    v = b if b is not None and (b >= fast or b <= slow) else None
             if moved and v is not None:
                 # the transition centred on the speed v, 1/2 to 2 nodes a frame
                 slope = [p.stay_cost if d < v else p.skip_cost for d in range(len(c))]
@@ -152,13 +173,14 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         stalled = lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1
         gate = None if centre is None else p.lane_confidence  # a lane's path: its own gate
         speeds.append(None if stalled else _gate(path, p, gate))  # a stalled lane: none
+        anyway.append(None if stalled else _gate(path, p, 0))
         lost_at.append(stalled)
     for t, (_, w, score) in enumerate(out):  # a lane that leads: its estimate reported
         lanes = [o[t] for o in lane_outs]
         best = max(lanes, key=lambda o: o[2], default=None)  # the first of equals
         if p.lane_lead and best is not None and best[2] >= score + p.lane_lead and not lost_at[t]:
             out[t] = (best[0], w, best[2])
-    return out, speeds
+    return out, speeds, anyway
 
 
 #: The contract's explicit cases below differ from this one only where they say.
@@ -181,6 +203,7 @@ _CASE = dict(
     slow=False,
     lead=32,
     lane_gate=0,
+    speed_lead=0,
 )
 
 
@@ -204,6 +227,7 @@ _CASE = dict(
     slow=st.booleans(),
     lead=st.sampled_from([0, 8, 32]),
     lane_gate=st.sampled_from([0, 4, 24]),
+    speed_lead=st.sampled_from([0, 4, 8, 24]),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     **{**_CASE, "seed": 1, "max_advance": 1, "lost": 2}
@@ -221,6 +245,22 @@ _CASE = dict(
 @example(  # a lane's path passes its own gate (0 units), below the filter's own (4)
     **{**_CASE, "n": 8, "gain": 1, "memory": 8, "costs": (2, 0, 0), "max_advance": 2}
     | {"contrast": 0, "local": (0, 1), "speed": (2, 4), "lead": 0, "lane_gate": 0}
+)
+@example(  # no path passes a gate; the surest lane leads on the frame: its path's speed
+    **{**_CASE, "n": 8, "max_advance": 2, "contrast": 0, "local": (0, 1), "speed": (2, 4)}
+    | {"lead": 0, "lane_gate": 4, "speed_lead": 4}
+)
+@example(  # ... but not where its confidence is below the lanes' gate (16), lead or not
+    **{**_CASE, "n": 8, "max_advance": 2, "contrast": 0, "local": (0, 1), "speed": (2, 4)}
+    | {"lead": 0, "lane_gate": 16, "speed_lead": 4}
+)
+@example(  # ... nor where the surest lane is beyond confidence_radius of the filter
+    **{**_CASE, "seed": 1, "n": 8, "max_advance": 2, "contrast": 0, "local": (0, 1)}
+    | {"speed": (2, 4), "lead": 0, "lane_gate": 4, "speed_lead": 4}
+)
+@example(  # the slow lane leads: it hands over no speed on its lead
+    **{**_CASE, "seed": 12, "n": 8, "max_advance": 2, "contrast": 0, "local": (0, 1)}
+    | {"speed": (2, 4), "lead": 0, "lane_gate": 4, "speed_lead": 4, "slow": True}
 )
 @example(  # the slower lane's path sets the costs where the faster lane's shows none
     **{**_CASE, "seed": 132, "n": 8, "memory": 8, "costs": (2, 0, 4), "max_advance": 2}
@@ -261,6 +301,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     slow,
     lead,
     lane_gate,
+    speed_lead,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -288,6 +329,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         slow_lane=slow,
         lane_lead=lead,
         lane_confidence=lane_gate,
+        lane_speed_lead=speed_lead,
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(
@@ -299,7 +341,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
         **kw,
     )
     loc.use_map(TopoMap(kind, nodes, frame_index=frame_index))
-    want, _ = naive_robust(nodes, frames, moves, loc.params, frame_index)
+    want, _, _ = naive_robust(nodes, frames, moves, loc.params, frame_index)
     for est, (node, w, score) in zip(loc.localise(frames), want, strict=True):
         assert est.node == node and est.score == score
         np.testing.assert_array_equal(est.weights, w)

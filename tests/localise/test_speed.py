@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.params import FilterParams, PathSpeed, path_speed, transition_costs
-from ppaloc.localise.schedule import RobustSchedule
+from ppaloc.localise.schedule import FrameResult, RobustSchedule
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.topomap import TopoMap
 
@@ -261,6 +261,57 @@ def test_a_lanes_path_passes_its_own_gate():
     assert strict.lane_speed() is None
     fast._path_scores = [28] * 8 + [23]  # one estimate below the lane's gate
     assert schedule.lane_speed() is None
+
+
+def test_the_surest_lane_hands_its_speed_over_on_its_lead():
+    """Where no path passes its gate, the surest of the lanes faster than the map gives
+    its path's speed (no confidence asked of the path) where its confidence reaches
+    ``lane_confidence`` (24), leads the filter's last by ``lane_speed_lead`` and its
+    place is at most ``confidence_radius`` (10) ahead of the filter's; not the slow
+    lane, nor where that lane's path stalled, nor from a lane whose path shows the
+    filter's own speed."""
+    params = FilterParams.create("lowres", lane_speed_lead=16)
+    schedule = RobustSchedule(params)
+    fast, mid, slow = schedule.lane_schedules  # at 2, 3/2 and 1/2
+
+    def frame(own, scores, places=(44, 43, 38)):  # the filter's last confidence at 40
+        schedule._path_places, schedule._path_scores = [40], [own]
+        schedule._lane_results = [
+            FrameResult(node, score, True, 0.0) for node, score in zip(places, scores)
+        ]
+
+    fast._path_places, fast._path_scores = [2 * i for i in range(9)], [10] * 9  # unsure
+    mid._path_places, mid._path_scores = [3 * i // 2 for i in range(9)], [10] * 9
+    slow._path_places, slow._path_scores = [i // 2 for i in range(2, 11)], [10] * 9
+    frame(4.0, (30.0, 12.0, 0.0))
+    assert schedule.lane_speed() == PathSpeed(16, 8)  # 30 >= 24 and 30 >= 4 + 16
+    frame(15.0, (30.0, 12.0, 0.0))
+    assert schedule.lane_speed() is None  # a lead of 15
+    frame(0.0, (23.5, 12.0, 0.0))
+    assert schedule.lane_speed() is None  # below lane_confidence
+    frame(0.0, (12.0, 30.0, 0.0))
+    assert schedule.lane_speed() == PathSpeed(12, 8)  # the surest: the lane at 3/2
+    frame(0.0, (30.0, 30.0, 0.0))
+    assert schedule.lane_speed() == PathSpeed(16, 8)  # the first of equals, fastest first
+    frame(0.0, (30.0, 12.0, 0.0), places=(51, 43, 38))
+    assert schedule.lane_speed() is None  # 11 places ahead: beyond the radius
+    frame(0.0, (30.0, 12.0, 0.0), places=(39, 43, 38))
+    assert schedule.lane_speed() is None  # a faster lane behind the filter
+    frame(0.0, (0.0, 12.0, 30.0))
+    assert schedule.lane_speed() is None  # the slow lane leads: its path's gate only
+    frame(0.0, (26.0, 12.0, 30.0))
+    assert schedule.lane_speed() == PathSpeed(16, 8)  # the surest of the faster lanes
+    fast._path_places = [8] * 9  # the surest lane's path stalled: no speed at all
+    frame(4.0, (30.0, 12.0, 0.0))
+    assert schedule.lane_speed() is None
+    fast._path_places = list(range(9))  # one place a frame: the filter's own speed
+    assert schedule.lane_speed() is None
+    off = RobustSchedule(FilterParams.create("lowres", lane_speed_lead=0))
+    off.lane_schedules[0]._path_places = [2 * i for i in range(9)]
+    off.lane_schedules[0]._path_scores = [10] * 9
+    off._path_places, off._path_scores = [40], [0.0]
+    off._lane_results = [FrameResult(44, 90.0, True, 0.0)] * 3
+    assert off.lane_speed() is None
 
 
 def test_the_lanes_share_the_frames_distance_work(route, monkeypatch):

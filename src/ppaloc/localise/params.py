@@ -70,6 +70,7 @@ __all__ = [
     "filter_method_params",
     "frame_scale",
     "lane_reported",
+    "lane_speed_led",
     "lane_speed_taken",
     "lane_speeds",
     "likelihood_shift",
@@ -369,6 +370,17 @@ class FilterParams:
         own costs follow, and a lane that holds a query faster or slower than the map is
         sure of it less often than a filter that follows one at its pace. Range [0, 127]
         (default 24). Controller integers only.
+    lane_speed_lead : int
+        Robust: where neither the filter's own path nor any lane's passes its gate, the
+        surest of the lanes faster than the map hands its path's speed over on the
+        frame's evidence alone, where its confidence is at least ``lane_confidence``,
+        leads the filter's own last one by at least ``lane_speed_lead`` units and its
+        place is at most ``confidence_radius`` places ahead of the filter's
+        (:func:`lane_speed_led`): its path's speed with no confidence asked of it, taken
+        as :func:`lane_speed_taken` takes a lane's. A lane that holds a query faster
+        than the map while the filter falls behind it is seldom sure of it nine frames
+        in a row, and is then the surest of the weight sets by a wide margin. Range [0,
+        127] (default 8; 0 is off). Controller integers only.
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -412,6 +424,7 @@ class FilterParams:
     slow_lane: bool | None = field(default=True, metadata=_param("robust", "bool", True))
     lane_lead: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
     lane_confidence: int | None = field(default=24, metadata=_param("robust", "int", 24, 0, 127))
+    lane_speed_lead: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 127))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -760,6 +773,58 @@ def lane_speed_taken(lane_path: PathSpeed | None, params: FilterParams) -> PathS
     above = (skip > 0 and 2 * skip * a >= (2 * skip + gain) * f) or a >= most * f
     below = stay > 0 and 2 * stay * a <= (2 * stay - gain) * f
     return lane_path if above or below else None
+
+
+def lane_speed_led(
+    own: tuple[int, float] | None, lanes: Sequence[tuple[int, float]], params: FilterParams
+) -> int | None:
+    """The speed lane whose path's speed the filter takes on this frame's lead alone, or
+    None.
+
+    ``own`` is the filter's ``(place, confidence)`` on its last forward frame (None
+    before the first) and ``lanes`` the lanes' on this one, fastest first
+    (:func:`lane_speeds`; each confidence after the lane's own still-frame and
+    stalled-path rules). Of the lanes faster than one place a frame, the surest (the
+    first of equals), where its confidence is at least ``lane_confidence``, leads the
+    filter's by at least ``lane_speed_lead`` units, and its place is where a query at
+    its speed leaves the filter's: at most ``confidence_radius`` places ahead of it.
+    None where ``lane_speed_lead`` is 0.
+
+    Asked only where neither the filter's own path nor a lane's passed its gate
+    (:func:`path_speed`): a lane that holds a query faster than the filter's costs
+    follow is the surest weight set by a wide margin on most frames as the filter falls
+    behind, seldom on nine in a row. A surest lane elsewhere on the map holds a place
+    that looks like the query's, which says nothing of its speed. The slow lane hands
+    over nothing here (its path's gate only): at the map's pace on Gardens Point it
+    leads a filter that is unsure near the filter's own place. Comparisons only: the
+    controller's arithmetic.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp")  # lanes at 2, 3/2 and 1/2; lane_speed_lead 8
+    >>> lane_speed_led((40, 6.0), [(44, 20.0), (43, 31.0), (40, 2.0)], p)
+    1
+    >>> lane_speed_led((40, 24.0), [(44, 20.0), (43, 31.0)], p) is None  # a lead of 7
+    True
+    >>> lane_speed_led((40, 0.0), [(44, 23.5), (43, 12.0)], p) is None  # below 24
+    True
+    >>> lane_speed_led((40, 6.0), [(90, 31.0), (43, 20.0)], p) is None  # 50 places on
+    True
+    >>> lane_speed_led((40, 6.0), [(44, 28.0), (43, 5.0), (37, 31.0)], p)  # not the slow
+    0
+    >>> lane_speed_led((40, 0.0), [(44, 90.0)], FilterParams.create("lbp", lane_speed_lead=0))
+    """
+    lead = int(params.lane_speed_lead or 0)
+    if not lead or own is None:
+        return None
+    faster = [k for k, (a, f) in enumerate(lane_speeds(params)) if a > f and k < len(lanes)]
+    if not faster:
+        return None
+    best = max(faster, key=lambda k: (lanes[k][1], -k))
+    place, score = lanes[best]
+    if score < int(params.lane_confidence or 0) or score < own[1] + lead:
+        return None
+    return best if 0 <= place - own[0] <= int(params.confidence_radius) else None
 
 
 def lane_reported(

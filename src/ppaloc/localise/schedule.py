@@ -51,6 +51,7 @@ from ppaloc.localise.params import (
     adjustment,
     frame_scale,
     lane_reported,
+    lane_speed_led,
     lane_speed_taken,
     lane_speeds,
     path_speed,
@@ -459,15 +460,24 @@ class RobustSchedule(Schedule):
         takes (its path's gate at ``lane_confidence``;
         :func:`~ppaloc.localise.params.lane_speed_taken`) and did not stall
         (:func:`~ppaloc.localise.params.path_stalled`: a path that held one place while
-        the query moved shows no speed), or None."""
+        the query moved shows no speed); else the path speed of the lane that leads on
+        this frame, near the filter's place (:func:`~ppaloc.localise.params.
+        lane_speed_led`; its path with no confidence asked, taken and not stalled as
+        above), or None."""
+        p = self.params
+        gate = int(p.lane_confidence or 0)
         for lane in self.lane_schedules:
-            if path_stalled(lane._path_places, self.params):
+            if path_stalled(lane._path_places, p):
                 continue  # a lane whose path stood still while the query moved
-            gate = int(self.params.lane_confidence or 0)
-            taken = lane_speed_taken(lane.path_speed(gate), self.params)
+            taken = lane_speed_taken(lane.path_speed(gate), p)
             if taken is not None:
                 return taken
-        return None
+        own = (self._path_places[-1], self._path_scores[-1]) if self._path_places else None
+        lanes = [(self.place(r.node), r.score) for r in self._lane_results]
+        k = lane_speed_led(own, lanes, p)
+        if k is None or path_stalled(self.lane_schedules[k]._path_places, p):
+            return None
+        return lane_speed_taken(self.lane_schedules[k].path_speed(0), p)
 
     def path_speed(self, confidence: int | None = None) -> PathSpeed | None:
         """The speed of the estimate's own path (:func:`~ppaloc.localise.params.
