@@ -205,3 +205,32 @@ def test_an_output_folder_of_other_files_is_refused_before_the_run(tmp_path):
     (mine / "summary.json").write_text("{}")
     check_output_folder(mine)  # an earlier run's folder
     check_output_folder(tmp_path / "new")
+
+
+ROM_TABLE = "static const uint32_t table[2][5] = {{0, 0, 0, 0, 0}, {0, 0, 0, 0, 0}};\n"
+ROM_LOOP = "    while (1) {\n        vs_frame_loop_control();\n        rom();\n    }\n}\n"
+ROM_IN_MAIN = "int main() {\n    vs_init();\n    scamp5_kernel rom(table, 2);\n"
+
+
+@pytest.mark.parametrize(
+    ("source", "line"),
+    [
+        (ROM_TABLE + ROM_IN_MAIN + ROM_LOOP, 5),
+        (ROM_TABLE + "static scamp5_kernel rom(table, 2);\nint main() {\n" + ROM_LOOP, 3),
+    ],
+    ids=["in-main", "file-scope"],
+)
+def test_a_rom_kernel_compiles_and_stops_where_it_is_built(cxx, tmp_path, source, line):
+    path = tmp_path / "rom.cpp"
+    path.write_text("#include <scamp5.hpp>\n" + source)
+    with pytest.raises(PpalocError) as err:
+        run_program(path, FRAMES, out=tmp_path / "out")
+    message = str(err.value)
+    assert message.startswith(
+        f"rom.cpp:{line}: scamp5_kernel(icw, n): ROM kernels (precompiled ICW words) are not "
+        "modelled; record the kernel with scamp5_kernel_begin()/scamp5_kernel_end() or from a "
+        "lambda"
+    )
+    assert message.endswith("or run raw ICW words with vs_scamp5_execute_icw")
+    assert "\n" not in message
+    assert not (tmp_path / "out").exists()

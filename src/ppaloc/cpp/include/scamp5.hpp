@@ -474,6 +474,17 @@ class scamp5_kernel {
         f();
         recording_stop();
     }
+    // A ROM kernel: ICW words compiled beforehand, in the device's own layout, which the
+    // public headers do not give; not modelled, so the program stops here in one line.
+    scamp5_kernel(const uint32_t (*icw)[5], size_t n, ppa::Loc loc = PPA_HERE) {
+        (void)icw;
+        (void)n;
+        ppa::fail(loc,
+                  "scamp5_kernel(icw, n): ROM kernels (precompiled ICW words) are not modelled; "
+                  "record the kernel with scamp5_kernel_begin()/scamp5_kernel_end() or from a "
+                  "lambda (scamp5_kernel k([] { ... })), or run raw ICW words with "
+                  "vs_scamp5_execute_icw");
+    }
     bool null() const { return id == 0; }
     // Accepted and recorded (host.txt): the kernels' ICWs are in timing.json.
     static void print_debug_info(ppa::Loc loc = PPA_HERE) {
