@@ -37,6 +37,22 @@ def test_compile_error_names_file_and_line(cxx):
     assert "undefined_name" in str(err.value)
 
 
+def test_link_errors_name_their_cause(cxx, tmp_path):
+    no_main = tmp_path / "nomain.cpp"
+    no_main.write_text("#include <scamp5.hpp>\nint foo() { return 1; }\n")
+    with pytest.raises(CompileError, match=r"undefined reference to `main'"):
+        compile_program(no_main)
+    twice = tmp_path / "twice.cpp"
+    twice.write_text("int foo() { return 2; }\n")
+    (tmp_path / "main.cpp").write_text("int foo() { return 1; }\nint main() { return foo(); }\n")
+    with pytest.raises(CompileError, match=r"multiple definition of `foo\(\)'"):
+        compile_program([tmp_path / "main.cpp", twice])
+    notes = tmp_path / "notes.txt"  # not a source: the linker reads it as a script
+    notes.write_text("hello world\n")
+    with pytest.raises(CompileError, match=r"notes.txt: file format not recognized"):
+        compile_program(notes)
+
+
 def test_unmodelled_call_named_before_the_run():
     with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: vs_gpio_output is a"):
         compile_program(PROGRAMS / "unmodelled.cpp")

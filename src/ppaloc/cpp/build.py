@@ -184,9 +184,19 @@ def _generated(root: Path) -> Path:
     return folder
 
 
+# The linker's lines that name a cause ("collect2: error: ld returned 1 exit status" alone
+# does not): a symbol missing (main, a function declared and never defined) or defined
+# twice, a file it cannot read (a non-source file given as a program).
+_LINKER_CAUSES = re.compile(
+    r"undefined reference|multiple definition|first defined here|undefined symbol|"
+    r"duplicate symbol|file format not recognized|file not recognized|cannot find|"
+    r"error adding symbols"
+)
+
+
 def _compiler_message(output: str, limit: int = 12) -> str:
     lines = [ln for ln in output.splitlines() if ln.strip()]
-    errors = [ln for ln in lines if "error" in ln]
+    errors = [ln for ln in lines if "error" in ln or _LINKER_CAUSES.search(ln)]
     shown = (errors or lines)[:limit]
     return "\n".join(shown)
 
