@@ -24,15 +24,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from PIL import Image
 
 from ppaloc.cpp.build import SHIM_HEADERS, compile_program
 from ppaloc.cpp.displays import fit_plane
 from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.project import Project, make_project, project_headers
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
-from ppaloc.cpp.server import ProgramError, Session, serve
+from ppaloc.cpp.server import SAVED_FOLDER, ProgramError, Session, serve
 from ppaloc.errors import DataError, PpalocError
-from ppaloc.fileio import check_replaceable_folder, new_folder
+from ppaloc.fileio import atomic_write, check_replaceable_folder, new_folder
 from ppaloc.sim import NoiseParams, Scamp5
 from ppaloc.sim.render import plane_to_image, render_montage, save_png
 
@@ -188,6 +189,11 @@ def write_outputs(result: RunResult, folder: Path) -> None:
     (folder / "timing.json").write_text(json.dumps(result.timing(), indent=1))
     (folder / "summary.json").write_text(json.dumps(result.summary(), indent=1))
     (folder / "stdout.txt").write_text(result.stdout)
+    for rel, image in s.saved_images.items():  # vs_sim::save_image, as 8-bit grey BMPs
+        path = folder / SAVED_FOLDER / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_write(path) as f:
+            Image.fromarray(image).save(f, format="BMP")
 
 
 def _bad_access_place(lines: Sequence[str], files: frozenset[str]) -> str:
@@ -246,7 +252,7 @@ def _crash_message(
 #: What a run writes at the top of its output folder.
 OUTPUT_NAMES = frozenset(
     {"displays", "montage.png", "text.txt", "timing.json", "summary.json", "stdout.txt",
-     "host.txt", "posts.json"}
+     "host.txt", "posts.json", SAVED_FOLDER}
 )  # fmt: skip
 
 
@@ -394,7 +400,9 @@ def run_program(
             p.name for p in (*project.sources, *project_headers(project, SHIM_HEADERS))
         )
         sim = Scamp5(shape[0], shape[1], noise=noise, seed=seed)
-        session = Session(sim, source, values, program=name)
+        session = Session(
+            sim, source, values, program=name, out_folder=None if out is None else Path(out)
+        )
         if live is not None:
             live.open(session)
         try:

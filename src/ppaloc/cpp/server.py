@@ -21,7 +21,7 @@ import warnings
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import PurePath
+from pathlib import PurePath, PureWindowsPath
 from typing import Any, Protocol
 
 import numpy as np
@@ -43,9 +43,11 @@ from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
 from ppaloc.sim.kernel import IcwStackWarning
 from ppaloc.sim.registers import register_by_name
+from ppaloc.sim.render import plane_to_image
 
 __all__ = [
     "HANDLERS",
+    "SAVED_FOLDER",
     "GuiItem",
     "KernelStats",
     "LiveHook",
@@ -54,6 +56,7 @@ __all__ = [
     "events_buffer",
     "gui_name",
     "pack_dreg_rows",
+    "saved_image_path",
 ]
 
 _REGS: tuple[Register, ...] = tuple(register_by_name(n) for n in REGISTER_NAMES)
@@ -174,6 +177,10 @@ class Session:
         Slider and switch values by their GUI text (``--set NAME=VALUE``).
     program : str
         The program's name for messages.
+    out_folder : path, optional
+        The run's output folder (``--out``), where ``vs_sim::save_image`` files go (under
+        ``saved/``, written with the rest of the folder); None: the run keeps no files, and
+        ``vs_sim::save_image`` stops the program in one line.
     """
 
     sim: Scamp5
@@ -200,6 +207,10 @@ class Session:
     gui_items: dict[str, GuiItem] = field(default_factory=dict)
     live: LiveHook | None = None
     files: dict[int, str] = field(default_factory=dict)
+    out_folder: PurePath | None = None
+    # vs_sim::save_image: 8-bit images by their path under the output folder's saved/
+    saved_images: dict[str, np.ndarray] = field(default_factory=dict)
+    _saved_folders: set[str] = field(default_factory=set)
     _bitstack: list | None = None
     _frame_start_us: float = 0.0
     _loop_us: float = 0.0
@@ -903,6 +914,64 @@ def _division_by_zero(s: Session, a: list, line: int) -> None:
     )
 
 
+#: Where ``vs_sim::save_image`` files go in the run's output folder.
+SAVED_FOLDER = "saved"
+
+
+def saved_image_path(path: str) -> tuple[str | None, str | None]:
+    """A ``vs_sim::save_image`` path as a path under the run's ``saved/`` folder:
+    ``(relative path, None)``, or ``(None, what is wrong)``. Either separator is taken
+    (the device's simulator runs on Windows); absolute paths, drives and ``..`` are refused,
+    so every file stays inside the run's folder.
+
+    >>> saved_image_path("./frames/edge.bmp")
+    ('frames/edge.bmp', None)
+    >>> saved_image_path("C:/edge.bmp")[0] is None
+    True
+    >>> saved_image_path("../edge.bmp")[1]
+    "'..' would leave the run's folder: give a path inside it, e.g. 'edge.bmp'"
+    """
+    parsed = PureWindowsPath(path)
+    if parsed.drive or parsed.root:
+        return None, (
+            "an absolute path: give one relative to the run's folder (written under "
+            f"--out/{SAVED_FOLDER}/), e.g. 'edge.bmp'"
+        )
+    if ".." in parsed.parts:
+        return None, "'..' would leave the run's folder: give a path inside it, e.g. 'edge.bmp'"
+    if not parsed.parts or path.endswith(("/", "\\")):
+        return None, "the path names no file: give a file name, e.g. 'edge.bmp'"
+    if any(len(part.encode()) > 255 for part in parsed.parts):
+        return None, "a name in the path is longer than 255 bytes"
+    return "/".join(parsed.parts), None
+
+
+def _save_image(s: Session, a: list, line: int) -> None:
+    """``vs_sim::save_image``: the register as the 8-bit image a readout gives (analogue: the
+    ADC's codes ``v + 128``, without readout noise; digital: 0/255), kept for the run's
+    folder (``saved/PATH``, a BMP). A simulator-only call: no modelled time."""
+    reg, path = a
+    call = f"vs_sim::save_image({_show(reg)}, {path!r})"
+    if s.out_folder is None:
+        raise ProgramError(
+            f"{s.at(line)}: {call}: this run has no output folder to save into: give one "
+            "(ppaloc cpp run --out DIR, run_program(..., out=DIR))"
+        )
+    rel, problem = saved_image_path(path)
+    if rel is None:
+        raise ProgramError(f"{s.at(line)}: {call}: {problem}")
+    parents = ["/".join(rel.split("/")[:k]) for k in range(1, rel.count("/") + 1)]
+    clash = next((p for p in parents if p in s.saved_images), None)
+    if clash is not None:
+        raise ProgramError(
+            f"{s.at(line)}: {call}: {clash!r} is a file this run saved, not a folder"
+        )
+    if rel in s._saved_folders:
+        raise ProgramError(f"{s.at(line)}: {call}: {rel!r} is a folder of files this run saved")
+    s.saved_images[rel] = plane_to_image(s.sim.read(reg))
+    s._saved_folders.update(parents)
+
+
 #: Every call the shim sends, by name: ``handler(session, args, line) -> answer or None``.
 HANDLERS: dict[str, Handler] = {
     "scamp5_get_image": _sim("scamp5_get_image"),
@@ -1010,6 +1079,7 @@ HANDLERS.update(
         },
         "vs_host_event": _host_event,
         "ppaloc_division_by_zero": _division_by_zero,
+        "vs_sim::save_image": _save_image,
         "vs_scamp5_set_dac": _sim("load_dac"),
         **{
             fn: _accepted(fn)
@@ -1047,7 +1117,6 @@ HANDLERS.update(
                 "enable_keyboard_control",
                 "reset_model",
                 "pix_integrate",
-                "save_image",
                 "reset_video",
                 "use_subpix",
             )
