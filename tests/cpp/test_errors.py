@@ -116,6 +116,53 @@ def test_division_by_zero_gives_the_devices_zero_and_is_reported(faults, tmp_pat
         ]
 
 
+HELPER_KERNELS = """#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+void moveDir(AREG y, AREG x, news_t dir) {
+    scamp5_kernel_begin();
+        movx(y, x, dir);
+    scamp5_kernel_end();
+}
+void copy(AREG y) {
+    scamp5_kernel_begin();
+        allow_highspeed(true);
+        mov(y, A);
+    scamp5_kernel_end();
+}
+int main() {
+    vs_init();
+    while (1) {
+        vs_frame_loop_control();
+        scamp5_get_image(A, B);
+        moveDir(B, A, north);
+        moveDir(C, A, south);
+        moveDir(D, A, east);
+        copy(E);
+        copy(E);
+    }
+}
+"""
+
+
+def test_a_static_kernel_begun_again_with_other_calls_is_reported_once(cxx, tmp_path):
+    path = tmp_path / "helper.cpp"
+    path.write_text(HELPER_KERNELS)
+    result = run_program(path, FRAMES * 3)
+    # the device's semantics: recorded once, the first call's registers replayed
+    assert [(k.calls, k.runs) for k in result.session.kernels.values()] == [
+        (["movx(B, A, north)"], 9),
+        (["mov(E, A)"], 6),
+    ]
+    assert result.session.warnings == [
+        "helper.cpp:4: the static kernel begun here was begun again in frame 0 with other "
+        "calls (movx(C, A, south) where it recorded movx(B, A, north)): it runs as first "
+        "recorded, as on the device (the device's simulator records it again at every pass); "
+        "use scamp5_dynamic_kernel_begin() for a kernel that changes"
+    ]
+    # a kernel whose passes agree: no warning, its host call recorded once as before
+    assert result.session.host_log == [(0, "allow_highspeed(1)")]
+
+
 def test_int_min_by_minus_one_wraps_as_on_the_device_without_a_report(faults):
     result = fault(8)  # INT_MIN / -1, INT_MIN % -1, LLONG_MIN / -1, LLONG_MIN % -1
     assert result.texts == ["-2147483648 0 -9223372036854775808 0"] * len(FRAMES)

@@ -147,6 +147,11 @@ def _directions(name: str, args: list) -> list:
     ]
 
 
+def _shown_call(call: tuple[str, int, list]) -> str:
+    """A kernel body's call as messages give it: ``movx(B, A, north)``."""
+    return f"{call[0]}({', '.join(map(_show, call[2]))})"
+
+
 def _show(arg: Any) -> str:
     if isinstance(arg, tuple):
         return "{" + ", ".join(map(_show, arg)) + "}"
@@ -365,18 +370,24 @@ class Session:
                 raise ProgramError(f"unknown argument tag {tag} from the shim")
         return out, at
 
-    def _define(self, payload: memoryview) -> None:
-        kid, line, dynamic, n = struct.unpack_from("<IIBH", payload)
-        at = 11
+    @staticmethod
+    def body(payload: memoryview | bytes, at: int, n: int) -> list[tuple[str, int, list]]:
+        """The ``n`` calls of a kernel body from ``at``: ``(name, line, args)`` each."""
+        payload = memoryview(payload)
         body = []
         for _ in range(n):
             size = payload[at]
             name = bytes(payload[at + 1 : at + 1 + size]).decode()
             at += 1 + size
             call_line, nargs = struct.unpack_from("<IB", payload, at)
-            args, at = self._args(payload, at + 5, nargs)
+            args, at = Session._args(payload, at + 5, nargs)
             body.append((name, call_line, args))
-        calls = [f"{b[0]}({', '.join(map(_show, b[2]))})" for b in body]
+        return body
+
+    def _define(self, payload: memoryview) -> None:
+        kid, line, dynamic, n = struct.unpack_from("<IIBH", payload)
+        body = self.body(payload, 11, n)
+        calls = [_shown_call(b) for b in body]
         self.kernels[kid] = KernelStats(
             kid, line & LINE_MASK, calls, body, dynamic=bool(dynamic), file=self.file_of(line)
         )
@@ -914,6 +925,26 @@ def _division_by_zero(s: Session, a: list, line: int) -> None:
     )
 
 
+def _static_kernel_changed(s: Session, a: list, line: int) -> None:
+    """A static kernel begun again whose body would now record other calls: it runs as
+    first recorded (as on the device), and the run warns once per place, naming the first
+    call that differs."""
+    kid, n, data = a
+    recorded = s.kernels[kid].calls if kid in s.kernels else []
+    now = [_shown_call(c) for c in Session.body(data, 0, n)]
+    k = next((i for i, (x, y) in enumerate(zip(now, recorded, strict=False)) if x != y), None)
+    if k is not None:
+        what = f"{now[k]} where it recorded {recorded[k]}"
+    else:
+        what = f"{len(now)} calls where it recorded {len(recorded)}"
+    s.warnings.append(
+        f"{s.at(line)}: the static kernel begun here was begun again in frame {s.frame} with "
+        f"other calls ({what}): it runs as first recorded, as on the device (the device's "
+        "simulator records it again at every pass); use scamp5_dynamic_kernel_begin() for a "
+        "kernel that changes"
+    )
+
+
 #: Where ``vs_sim::save_image`` files go in the run's output folder.
 SAVED_FOLDER = "saved"
 
@@ -1079,6 +1110,7 @@ HANDLERS.update(
         },
         "vs_host_event": _host_event,
         "ppaloc_division_by_zero": _division_by_zero,
+        "ppaloc_static_kernel_changed": _static_kernel_changed,
         "vs_sim::save_image": _save_image,
         "vs_scamp5_set_dac": _sim("load_dac"),
         **{

@@ -262,9 +262,18 @@ inline uint32_t wire(const char* file, unsigned line) {
 }
 inline uint32_t wire(const Loc& loc) { return wire(loc.file, loc.line); }
 
+// True while a static kernel's body runs again only to be compared with its recording
+// (scamp5_kernel::begin_static): calls that answer nothing are not sent then, as the
+// device, which replays the recording, does not run the body again.
+inline bool& comparing() {
+    static bool on = false;
+    return on;
+}
+
 // A controller call by name; with `want`, its answer.
 inline std::vector<uint8_t> call(const char* fn, bool want, std::initializer_list<Arg> args,
                                  const Loc& loc) {
+    if (!want && comparing()) return {};
     uint32_t where = wire(loc);
     Client& c = Client::get();
     size_t at = c.begin(OP_CALL);
@@ -493,6 +502,27 @@ class scamp5_kernel {
 
     bool dynamic = false;  // a dynamic kernel leaves the ICW stack after its launch
 
+    // scamp5_kernel_begin(): the first pass records the kernel; the device replays that
+    // recording at every later pass, and so does the shim, but a later pass runs the body
+    // again to compare what it would record (a kernel in a helper function called with
+    // other registers records the first call's): the first difference is reported once, a
+    // warning of the run, and then the body is no longer run. True: run the body.
+    bool begin_static(const char* f, unsigned l) {
+        if (null()) {
+            recording_start(f, l);
+            return true;
+        }
+        if (changed) return false;
+        if (ppa::active()) ppa::fail(ppa::Loc{f, l}, "a kernel begins inside another kernel");
+        recorded.swap(body);
+        body.clear();
+        recorded_calls = calls;
+        calls = 0;
+        ppa::comparing() = true;
+        ppa::active() = this;
+        return true;
+    }
+
     void recording_start(const char* f = "", unsigned l = 0, bool dyn = false) {
         if (ppa::active()) ppa::fail(ppa::Loc{f, l}, "a kernel begins inside another kernel");
         file = f;
@@ -504,6 +534,10 @@ class scamp5_kernel {
     }
     void recording_stop() {
         ppa::active() = nullptr;
+        if (ppa::comparing()) {
+            compare_stop();
+            return;
+        }
         std::string key(body.begin(), body.end());
         key.push_back(dynamic ? 'd' : 's');
         auto& known = ppa::known_bodies();
@@ -524,6 +558,20 @@ class scamp5_kernel {
         c.bytes(body.data(), body.size());
         c.end(at);
     }
+    // The end of a pass that only compared: the simulator is told of the first difference
+    // (the body this pass would have recorded, beside the id of the one that runs).
+    void compare_stop() {
+        ppa::comparing() = false;
+        if (body != recorded) {
+            changed = true;
+            ppa::call("ppaloc_static_kernel_changed", false,
+                      {int(id), int(calls), ppa::Arg(body.data(), body.size())},
+                      ppa::Loc{file, line});
+        }
+        body.swap(recorded);
+        calls = recorded_calls;
+        std::vector<uint8_t>().swap(recorded);
+    }
     void operator()() {
         if (null()) ppa::fail(ppa::Loc{file, line}, "a kernel is launched before it is recorded");
         ppa::Client& c = ppa::Client::get();
@@ -532,6 +580,11 @@ class scamp5_kernel {
         c.end(at);
     }
     friend void scamp5_launch_kernel(scamp5_kernel& k) { k(); }
+
+   private:
+    bool changed = false;           // a later pass's body differed: reported, not run again
+    std::vector<uint8_t> recorded;  // the recording, aside while a later pass compares
+    uint16_t recorded_calls = 0;
 };
 
 inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, int n) {
@@ -620,8 +673,7 @@ inline void icw(uint8_t clock, std::initializer_list<uint8_t> bits, ppa::Loc loc
         using namespace SCAMP5_ICW_BITS;        \
         using namespace scamp5_kernel_api;      \
         static scamp5_kernel __ppa_sk;          \
-        if (__ppa_sk.null()) {                  \
-            __ppa_sk.recording_start(__FILE__, __LINE__);
+        if (__ppa_sk.begin_static(__FILE__, __LINE__)) {
 #define scamp5_kernel_end()      \
     __ppa_sk.recording_stop();   \
     }                            \
@@ -640,8 +692,9 @@ class scamp5_kernel_printable : public scamp5_kernel {
     }
     void recording_start() { scamp5_kernel::recording_start(file, line); }
     void recording_stop() {
+        const bool recording = !ppa::comparing();
         scamp5_kernel::recording_stop();
-        print_const_kernel_source();
+        if (recording) print_const_kernel_source();
     }
 };
 // It ends with scamp5_kernel_end(), as on the device.
@@ -650,8 +703,7 @@ class scamp5_kernel_printable : public scamp5_kernel {
         using namespace SCAMP5_ICW_BITS;                                    \
         using namespace scamp5_kernel_api;                                  \
         static scamp5_kernel_printable __ppa_sk(__FILE__, __LINE__);        \
-        if (__ppa_sk.null()) {                                              \
-            __ppa_sk.recording_start();
+        if (__ppa_sk.begin_static(__FILE__, __LINE__)) {
 #define scamp5_dynamic_kernel_begin()      \
     {                                      \
         using namespace SCAMP5_ICW_BITS;   \
