@@ -277,7 +277,7 @@ def test_the_surest_lane_hands_its_speed_over_on_its_lead():
     def frame(own, scores, places=(44, 43, 38)):  # the filter's last confidence at 40
         schedule._path_places, schedule._path_scores = [40], [own]
         schedule._lane_results = [
-            FrameResult(node, score, True, 0.0) for node, score in zip(places, scores)
+            FrameResult(node, score, True, 0.0) for node, score in zip(places, scores, strict=True)
         ]
 
     fast._path_places, fast._path_scores = [2 * i for i in range(9)], [10] * 9  # unsure
