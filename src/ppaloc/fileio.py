@@ -297,6 +297,7 @@ def check_replaceable_folder(
     writer: str,
     kind: str,
     error: type[PpalocError] = PpalocError,
+    nested: bool = False,
 ) -> None:
     """Refuse an ``--out`` that a command replaces whole when a user's files may be in it.
 
@@ -305,6 +306,9 @@ def check_replaceable_folder(
     (:func:`recover_folder`); then an absent folder is fine; the current folder (or one
     holding it), a file, a folder holding a name ``owned(folder, name)`` rejects, or a
     non-empty folder without ``marked(folder)`` (not an earlier one) raise ``error``.
+    With ``nested``, every entry below an owned subfolder is asked too, as its path
+    relative to the folder (``owned(folder, "arrays/x.npz")``): a user's file inside
+    ``arrays/`` would go with the folder as surely as one at the top.
     ``markers`` names what marks an earlier folder, ``writer`` who writes these folders
     ("ppaloc", "a sweep") and ``kind`` what the folder is ("results folder"), for the
     one-line messages. Links are resolved before ``..`` (the folder the path names).
@@ -323,6 +327,8 @@ def check_replaceable_folder(
         raise error(f"--out {given} is a file; give a folder for the {kind}")
     names = os.listdir(real)
     foreign = sorted(n for n in names if not owned(real, n))
+    if nested and not foreign:
+        foreign = [rel for rel in _entries_below(real, sorted(names)) if not owned(real, rel)][:1]
     if foreign:
         raise error(
             f"--out {given} holds {foreign[0]!r}, which {writer} did not write, and a "
@@ -333,6 +339,22 @@ def check_replaceable_folder(
             f"--out {given} is not empty and holds no {markers}, so it is not an earlier "
             f"{kind}, and a {kind} is replaced whole; give a new folder"
         )
+
+
+def _entries_below(folder: Path, names: Iterable[str]) -> Iterator[str]:
+    """Every entry below the subfolders ``names`` of ``folder`` (links not followed), as a
+    path relative to ``folder`` with ``/``, parents before their contents, names sorted."""
+    for name in names:
+        sub = folder / name
+        if sub.is_symlink() or not sub.is_dir():
+            continue
+        try:
+            inside = sorted(os.listdir(sub))
+        except OSError:
+            continue
+        for entry in inside:
+            yield f"{name}/{entry}"
+        yield from _entries_below(folder, (f"{name}/{entry}" for entry in inside))
 
 
 def _link_tree(source: Path, dest: Path, keep: Callable[[str], bool]) -> None:

@@ -232,3 +232,57 @@ def test_stale_temporaries_of_other_forms_are_never_removed(tmp_path):
     fileio.write_bytes(target, b"data")
     assert all((tmp_path / n).exists() for n in others)
     assert not dead.exists()
+
+
+@pytest.fixture(scope="module")
+def _reported_template(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("reported") / "run"
+    assert main(_evaluate(out, {"onsensor-lbp", "single-frame"})) == 0
+    return out
+
+
+@pytest.mark.parametrize(
+    "mine",
+    [
+        ("arrays/mine.npz", "arrays/mine.npz"),
+        ("figures/notes.txt", "figures/notes.txt"),
+        ("figures/.pr-curves.png.mybackup.tmp", "figures/.pr-curves.png.mybackup.tmp"),
+        ("arrays/sub/notes.txt", "arrays/sub"),  # the first entry ppaloc did not write
+    ],
+)
+def test_a_users_file_inside_a_results_subfolder_is_refused(
+    _reported_template, tmp_path, capsys, mine
+):
+    mine, named = mine
+    run = tmp_path / "run"
+    shutil.copytree(_reported_template, run)
+    assert main(_evaluate(run, NEW)) == 0  # every file ppaloc wrote, figures included, is its own
+    (run / mine).parent.mkdir(parents=True, exist_ok=True)
+    (run / mine).write_text("keep me")
+    assert main(_evaluate(run, NEW)) == 1
+    err = capsys.readouterr().err
+    assert f"holds {named!r}, which ppaloc did not write" in err and len(err.splitlines()) == 1
+    assert (run / mine).read_text() == "keep me"
+
+
+def test_a_users_file_inside_a_matrix_runs_folder_is_refused(tmp_path, capsys):
+    out = tmp_path / "matrix"
+    args = ["evaluate", "-d", TINY, "-d", TINY + "&query=night", "-m", "single-frame"]
+    assert main([*args, "--out", str(out), "-q", "--no-report"]) == 0
+    (sub,) = [p for p in out.iterdir() if p.name.startswith("02-")]
+    (sub / "arrays" / "mine.npz").write_bytes(b"keep me")
+    assert main([*args, "--out", str(out), "-q", "--no-report"]) == 1
+    err = capsys.readouterr().err
+    assert f"holds '{sub.name}/arrays/mine.npz', which ppaloc did not write" in err
+    assert (sub / "arrays" / "mine.npz").read_bytes() == b"keep me"
+
+
+def test_show_keeps_a_users_file_in_figures(_reported_template, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(_reported_template, run)
+    assert main(["show", str(run), "-q"]) == 0  # the report's own figures are replaced
+    (run / "figures" / "notes.txt").write_text("keep me")
+    assert main(["show", str(run), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "holds 'figures/notes.txt', which ppaloc did not write" in err
+    assert len(err.splitlines()) == 1 and (run / "figures" / "notes.txt").read_text() == "keep me"

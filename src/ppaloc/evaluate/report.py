@@ -25,13 +25,15 @@ from ppaloc.evaluate.bench import load_bench
 from ppaloc.evaluate.columns import COLUMNS, TERMS, column_of
 from ppaloc.evaluate.difference import DIFFERENCE_SAMPLES, MEASURE
 from ppaloc.evaluate.metrics import RECALL_DEFINITIONS
-from ppaloc.evaluate.results import load_results, upgrade_summary
+from ppaloc.evaluate.results import check_report_figures, load_results, upgrade_summary
 from ppaloc.evaluate.run import RunResult
 from ppaloc.fileio import update_folder, write_bytes
 
 __all__ = [
+    "FIGURE_KEYS",
     "REPRESENTATIONS",
     "comparison_table",
+    "figure_files",
     "method_label",
     "method_notes",
     "paper_table",
@@ -56,6 +58,18 @@ representation."""
 
 #: The weighted-node filter's places, in the order tables show them.
 _PLACES = ("lowres", "lowres16", "lbp", "haar")
+
+
+FIGURE_KEYS = ("pr-curves", "difference", "position", "weights", "latency", "latency-vs-size")
+"""The report's figures (``figures/KEY.png``), besides one ``registers-METHOD`` per
+on-sensor method."""
+
+
+def figure_files(methods: list[str]) -> list[str]:
+    """Every figure file the report of a folder with ``methods`` may write, relative to the
+    folder (what replacing the folder may delete as ppaloc's own)."""
+    keys = [*FIGURE_KEYS, *(f"registers-{m}" for m in methods)]
+    return [f"figures/{key}.png" for key in keys]
 
 
 @dataclass(frozen=True)
@@ -590,6 +604,7 @@ def write_report(folder: str | Path, *, bench_path: str | Path | None = None) ->
     folder = Path(folder)
     if not folder.is_dir():
         load_results(folder)  # the one-line error for a missing folder; never create one
+    check_report_figures(folder)
     here = Path.cwd().resolve()
     if folder.resolve() == here or folder.resolve() in here.parents:
         # Swapping the folder a shell stands in would leave the shell in a deleted one:

@@ -36,8 +36,9 @@ import csv
 import hashlib
 import io
 import json
+import os
 import re
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +65,7 @@ __all__ = [
     "ROLE_COLUMNS",
     "array_file",
     "check_replaceable",
+    "check_report_figures",
     "load_results",
     "results_folder",
     "save_results",
@@ -154,13 +156,64 @@ _CARRIED = ("bench.json", "bench.csv")  # a separate `ppaloc bench --out` into t
 _MARKERS = ("results.json", "matrix.csv", "bench.json")
 
 
-def _ours(folder: Path, name: str) -> bool:
+def _temporary_of(name: str, owned: Iterable[str]) -> bool:
+    """Whether ``name`` is the temporary a killed write of one of ``owned`` left
+    (``.results.json.PID-xxxxxxxx.tmp``)."""
+    own = "|".join(re.escape(n) for n in owned)
+    return re.fullmatch(rf"\.({own})\.\d{{1,10}}-[0-9a-f]{{4,16}}\.tmp", name) is not None
+
+
+def _written_files(folder: Path) -> frozenset[str]:
+    """The files below ``folder`` that its ``results.json`` says ppaloc wrote: the checked
+    ``files``, each method's ``arrays`` and ``registers``, the difference matrix, the
+    dataset's arrays, and the report's figures (none where results.json is unreadable)."""
+    from ppaloc.evaluate.report import figure_files
+
+    try:
+        summary = json.loads((folder / "results.json").read_bytes())
+    except (OSError, ValueError):
+        return frozenset()
+    if not isinstance(summary, dict):
+        return frozenset()
+    named: list[Any] = ["arrays/_dataset.npz"]
+    files = summary.get("files")
+    named += list(files) if isinstance(files, dict) else []
+    methods = summary.get("methods")
+    methods = methods if isinstance(methods, dict) else {}
+    for entry in methods.values():
+        if isinstance(entry, dict):
+            named += [entry.get("arrays"), entry.get("registers")]
+    difference = summary.get("difference")
+    if isinstance(difference, dict):
+        named.append(difference.get("arrays"))
+    named += figure_files([str(m) for m in methods])
+    return frozenset(n for n in named if isinstance(n, str))
+
+
+def _ours(folder: Path, name: str, written: dict[Path, frozenset[str]] | None = None) -> bool:
     """A name ppaloc writes in a results folder: one of :data:`_OWN_NAMES`, a matrix run's
     ``NN-<spec>/`` (a folder holding a ``results.json``), or a temporary a killed write left
-    (``.results.json.PID-xxxxxxxx.tmp``)."""
+    (``.results.json.PID-xxxxxxxx.tmp``). A path below a subfolder (``arrays/x.npz``) is
+    ppaloc's where ``results.json`` names it (:func:`_written_files`; ``written`` caches
+    those per folder), or where it lies in a matrix run's folder that holds it as its own."""
+    head, sep, rest = name.partition("/")
+    if sep:
+        if not _ours(folder, head):
+            return False
+        if head not in _OWN_NAMES:  # a matrix run's results folder
+            return _ours(folder / head, rest, written)
+        if head not in ("arrays", "figures"):
+            return False
+        written = {} if written is None else written
+        if folder not in written:
+            written[folder] = _written_files(folder)
+        own = written[folder]
+        base, _, leaf = name.rpartition("/")
+        if name in own:
+            return True
+        return _temporary_of(leaf, [n.rpartition("/")[2] for n in own if n.startswith(base + "/")])
     if name.startswith(".") and name.endswith(".tmp"):
-        own = "|".join(re.escape(n) for n in _OWN_NAMES)
-        return re.fullmatch(rf"\.({own})\.\d{{1,10}}-[0-9a-f]{{4,16}}\.tmp", name) is not None
+        return _temporary_of(name, _OWN_NAMES)
     if re.fullmatch(r"\d{2,}-.*", name):
         sub = folder / name
         return sub.is_dir() and not sub.is_symlink() and (sub / "results.json").is_file()
@@ -168,17 +221,41 @@ def _ours(folder: Path, name: str) -> bool:
 
 
 def check_replaceable(out: str | Path) -> None:
-    """Refuse an ``out`` that is a file or a folder holding files ppaloc did not write
-    (a results folder is replaced whole; a user's own files must not go with it)."""
+    """Refuse an ``out`` that is a file or a folder holding files ppaloc did not write, at
+    its top or inside the subfolders ppaloc writes (``arrays/``, ``figures/``, a matrix
+    run's folders): a results folder is replaced whole; a user's own files must not go with
+    it."""
+    written: dict[Path, frozenset[str]] = {}
     check_replaceable_folder(
         out,
-        owned=_ours,
+        owned=lambda folder, name: _ours(folder, name, written),
         marked=lambda folder: any((folder / m).is_file() for m in _MARKERS),
         markers=" or ".join(_MARKERS),
         writer="ppaloc",
         kind="results folder",
         error=DataError,
+        nested=True,
     )
+
+
+def check_report_figures(folder: str | Path) -> None:
+    """Refuse to rebuild the report of ``folder`` where its ``figures/`` holds an entry
+    ppaloc did not write: the report's figures are replaced whole, and a user's file must
+    not go with them (``ppaloc show DIR``)."""
+    folder = Path(folder)
+    figures = folder / "figures"
+    if figures.is_symlink() or not figures.is_dir():
+        return
+    written: dict[Path, frozenset[str]] = {}
+    for root, dirs, files in os.walk(figures):
+        dirs.sort()
+        for name in sorted([*dirs, *files]):
+            rel = (Path(root) / name).relative_to(folder).as_posix()
+            if not _ours(folder, rel, written):
+                raise DataError(
+                    f"{folder} holds {rel!r}, which ppaloc did not write, and the report's "
+                    "figures are replaced whole; move it out of figures/ first"
+                )
 
 
 @contextlib.contextmanager
