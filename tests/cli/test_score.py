@@ -212,6 +212,11 @@ ERRORS = {
         "query,reference,score,latency_ms\n0,0,1,-2\n",
         "F line 2: latency_ms is -2; a time is >= 0 (or leave it empty)",
     ),
+    "a latency over a day": (
+        "query,reference,score,latency_ms\n0,0,1,1e308\n",
+        "F line 2: latency_ms is 1e+308, more than a day per query (at most 86400000); give "
+        "the time in milliseconds",
+    ),
     "a name column left empty": (
         "query_name,reference,score\n,0,1\n,1,1\n",
         "F: query_name is empty on every row; give each row its query frame's name, or "

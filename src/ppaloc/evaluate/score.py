@@ -58,6 +58,7 @@ from ppaloc.evaluate.config import check_limits, check_tolerance, with_tolerance
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics, scoring_protocol
 
 __all__ = [
+    "MAX_LATENCY_MS",
     "MAX_PREDICTIONS_BYTES",
     "MAX_RANK",
     "PREDICTION_FROM_FILE",
@@ -73,6 +74,10 @@ MAX_PREDICTIONS_BYTES = 256 << 20
 
 MAX_RANK = 100
 """Deepest ranking a file may give (``reference_2`` .. ``reference_100``)."""
+
+MAX_LATENCY_MS = 86_400_000.0
+"""Longest time per query a file may give: a day, in milliseconds (more is a unit mistake,
+and the sums of the report's statistics would overflow)."""
 
 MAX_LABEL = 64
 """Longest method label, in characters."""
@@ -486,6 +491,11 @@ def _latency(path: Path, line: int, cells: list[str], columns: Mapping[str, int]
     if value < 0:
         raise DataError(
             f"{path} line {line}: latency_ms is {value:g}; a time is >= 0 (or leave it empty)"
+        )
+    if value > MAX_LATENCY_MS:
+        raise DataError(
+            f"{path} line {line}: latency_ms is {value:g}, more than a day per query "
+            f"(at most {MAX_LATENCY_MS:.0f}); give the time in milliseconds"
         )
     return value
 
