@@ -217,6 +217,13 @@ ERRORS = {
         "F line 2: latency_ms is 1e+308, more than a day per query (at most 86400000); give "
         "the time in milliseconds",
     ),
+    "a rank with a leading zero": (
+        "query,reference,reference_02,score\n0,0,1,1\n",
+        "F line 1: unknown column 'reference_02'; the columns are query, query_name, "
+        "reference, reference_name, score, method, reference_2.., reference_name_2.., "
+        "latency_ms, moved (and localise's frame, path, node, reference_frame; see "
+        "docs/evaluate-cli.md, Predictions files)",
+    ),
     "a name column left empty": (
         "query_name,reference,score\n,0,1\n,1,1\n",
         "F: query_name is empty on every row; give each row its query frame's name, or "

@@ -94,7 +94,7 @@ _IGNORED = frozenset({"node"})
 """Columns read and not used (localise's map node: the reference frame is its own column)."""
 _SCALARS = ("query", "query_name", "reference", "reference_name", "score", "method")
 _OPTIONAL = ("latency_ms", "moved")
-_RANKED = re.compile(r"reference(_name)?_([0-9]{1,6})")
+_RANKED = re.compile(r"reference(_name)?_(0|[1-9][0-9]{0,5})")  # reference_02 is not rank 2
 _INDEX = re.compile(r"\s*\+?[0-9]{1,19}\s*")
 _DOCS = "see docs/evaluate-cli.md, Predictions files"
 
