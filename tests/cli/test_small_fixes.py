@@ -273,3 +273,14 @@ def test_show_draws_a_localise_csv(tmp_path, capsys, folder_map):
     assert len(frames) == 20
     code, _, err = run(capsys, "show", est, "--out", est)
     assert code == 1 and "would overwrite the input" in err
+
+
+def test_localise_writes_a_file_name_that_is_not_utf8_to_its_csv(tmp_path, capsys, folder_map):
+    q = tmp_path / "q"
+    (raw,) = _images(q, ["e.png"])
+    os.rename(raw, os.path.join(os.fsencode(q), b"e\xff.png"))  # a name of Latin-1 bytes
+    est = tmp_path / "est.csv"
+    code, _, err = run(capsys, "localise", folder_map, q, "--out", est)
+    assert code == 0, err
+    row = est.read_bytes().splitlines()[1]
+    assert row.split(b",")[:2] == [b"0", os.fsencode(q) + b"/e\xff.png"]  # its own bytes

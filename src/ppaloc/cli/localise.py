@@ -365,8 +365,14 @@ def run_localise(
     if live is not None:
         live.live_state.program = f"ppaloc localise {map_path.name} ({name})"
         live.live_state.frames = total
+    # a file name that is not UTF-8 is written back as its own bytes, as on stdout
+    csv_file = (
+        atomic_write(out, "w", encoding="utf-8", errors="surrogateescape")
+        if out is not None
+        else nullcontext(sys.stdout)
+    )
     with (
-        atomic_write(out, "w") if out is not None else nullcontext(sys.stdout) as stream,
+        csv_file as stream,
         ProgressBar(out is not None) as bar,
         live if live is not None else nullcontext(),
     ):
