@@ -284,3 +284,17 @@ def test_localise_writes_a_file_name_that_is_not_utf8_to_its_csv(tmp_path, capsy
     assert code == 0, err
     row = est.read_bytes().splitlines()[1]
     assert row.split(b",")[:2] == [b"0", os.fsencode(q) + b"/e\xff.png"]  # its own bytes
+
+
+def test_localise_does_not_create_the_folder_of_its_csv(tmp_path, capsys, folder_map):
+    _images(tmp_path / "q", ["q0.png"])
+    out = tmp_path / "missing" / "dir" / "est.csv"
+    code, _, err = run(capsys, "localise", folder_map, tmp_path / "q", "--out", out)
+    assert code == 1
+    assert err == (
+        f"ppaloc: error: cannot write the CSV to {out}: folder {out.parent} does not exist; "
+        "create it first\n"
+    )
+    assert not (tmp_path / "missing").exists()
+    code, _, err = run(capsys, "map", "synthetic:?places=4&size=32", "--out", out.parent / "m.npz")
+    assert code == 1 and "does not exist; create it first" in err  # as map says

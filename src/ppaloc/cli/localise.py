@@ -351,16 +351,20 @@ def run_localise(
     # every file read, symlinked frames too
     listed = [p for s in sources for p in s.images]
     refuse_input_as_out(out, [map_path, *frames, *listed])
+    if out is not None:
+        if out.is_dir():
+            raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
+        if not out.parent.is_dir():  # as ppaloc map: a mistyped folder is not created
+            raise DataError(
+                f"cannot write the CSV to {out}: folder {out.parent} does not exist; "
+                "create it first"
+            )
     use(topomap)
     loc.reset()
     # an offline method (seqslam-centred) reads every frame before its first step
     hand_query(loc, _sensor_frames(sources))
     frame_index = np.asarray(topomap.frame_index)
     total = sum(len(s) for s in sources)
-    if out is not None:
-        if out.is_dir():
-            raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
-        out.parent.mkdir(parents=True, exist_ok=True)
     # The bar only when the CSV goes to a file: on stdout it would interleave with the lines.
     if live is not None:
         live.live_state.program = f"ppaloc localise {map_path.name} ({name})"
