@@ -252,3 +252,31 @@ def test_param_on_map_and_localise_merges_key_by_key(tmp_path, monkeypatch, caps
     Image.new("L", (32, 32)).save("f.png")
     assert main(["localise", "m.npz", "f.png", "--param", "top_k=2", "--out", "e.csv"]) == 0
     assert Path("e.csv").read_text().count("\n") == 2
+
+
+@pytest.mark.parametrize(
+    ("argv", "named"),
+    [
+        (["map", "folder:loop", "--out", "m.npz"], "the dataset's input loop"),
+        (["map", "folder:loop/ref", "--out", "m.npz"], "the dataset's input loop/ref"),
+        ([*EV[:5], "-d", "folder:loop,loop", "--out", "r"], "the dataset's input loop"),
+        (["score", "p.csv", "-d", "folder:loop,loop", "--out", "r"], "the dataset's input loop"),
+        ([*MAP, "--out", "loop"], "--out loop"),
+        ([*MAP, "--out", "loop/m.npz"], "--out loop/m.npz"),
+        ([*EV, "--out", "loop"], "--out loop"),
+        (["evaluate", "--config", "loop"], "config file loop"),
+        (["localise", "m.npz", "loop"], "frame loop"),
+        (["show", "loop"], "the path loop"),
+    ],
+)
+def test_a_symlink_loop_is_named(tmp_path, monkeypatch, capsys, argv, named):
+    monkeypatch.chdir(tmp_path)
+    os.symlink("loop2", "loop")
+    os.symlink("loop", "loop2")
+    Path("p.csv").write_text("query,reference,score\n0,0,1\n")
+    assert main(["map", TINY, "-m", "single-frame", "-q", "--out", "m.npz"]) == 0
+    code = main(argv)
+    _, err = capsys.readouterr()
+    assert code == 1, err
+    assert err.startswith(f"ppaloc: error: {named} ") and err.count("\n") == 1, err
+    assert "symlink loop" in err

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.cli.localise import run_localise
-from ppaloc.cli.outputs import refuse_input_as_out
+from ppaloc.cli.outputs import refuse_input_as_out, refuse_link_loop
 from ppaloc.errors import DataError, PpalocError
 
 __all__ = [
@@ -492,6 +492,7 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     if path.is_dir():
         return _show_results(path, quiet=quiet)
     if not path.is_file():
+        refuse_link_loop(path, "the path")
         state = "is not a regular file" if path.exists() else "does not exist"
         raise DataError(f"{path} {state}; {what}")
     if path.suffix.lower() == ".csv":

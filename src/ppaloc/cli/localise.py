@@ -123,6 +123,7 @@ def frame_inputs(inputs: Sequence[Path], *, keep_order: bool = False) -> list[Fr
         An input that does not exist, a file that is neither an image nor a video, a
         folder without images, or image files of one folder out of natural order.
     """
+    from ppaloc.cli.outputs import refuse_link_loop
     from ppaloc.datasets.images import IMAGE_SUFFIXES, list_images
 
     out: list[FrameInput] = []
@@ -130,6 +131,7 @@ def frame_inputs(inputs: Sequence[Path], *, keep_order: bool = False) -> list[Fr
         if p.is_dir():
             out.append(FrameInput(p, list_images(p, "frame folder"), in_folder=True))
         elif not p.is_file():
+            refuse_link_loop(p, "frame")
             state = "is not a regular file" if p.exists() else "does not exist"
             raise DataError(f"frame {p} {state}; {_FILE_FIX.split(' (')[0]}")
         elif p.suffix.lower() in VIDEO_SUFFIXES:

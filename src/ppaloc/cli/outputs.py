@@ -10,6 +10,7 @@ for root and read-only mounts alike).
 
 from __future__ import annotations
 
+import errno
 import os
 import tempfile
 from collections.abc import Sequence
@@ -23,6 +24,8 @@ __all__ = [
     "check_output",
     "check_path_text",
     "refuse_input_as_out",
+    "refuse_link_loop",
+    "resolve",
 ]
 
 MAX_PATH = 4096
@@ -63,6 +66,39 @@ def check_path_text(text: str | os.PathLike[str], flag: str) -> Path:
     return Path(raw).expanduser()
 
 
+def refuse_link_loop(path: str | os.PathLike[str], what: str) -> None:
+    """Refuse a path that is (or lies under) a loop of symbolic links, which no command can
+    read or write, naming it: the system's own "not found" or "is a file" would mislead.
+
+    Raises
+    ------
+    DataError
+        Naming ``what`` (``--out``, ``the dataset's input``), the path and the fix.
+    """
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise DataError(
+                f"{what} {os.fspath(path)} leads into a symlink loop (links that lead back "
+                "to themselves); give a real file or folder, or fix the links"
+            ) from None
+    except ValueError:  # a NUL: refused with its own message where the path is checked
+        pass
+
+
+def resolve(path: str | os.PathLike[str], what: str) -> Path:
+    """``path`` made absolute with its links followed (:meth:`Path.resolve`), a loop of
+    symbolic links refused in one line (:func:`refuse_link_loop`) instead of the
+    ``RuntimeError`` (or, from Python 3.13, the unresolved path) that ``resolve`` gives."""
+    refuse_link_loop(path, what)
+    try:
+        return Path(path).resolve()
+    except RuntimeError:  # a loop made between the check and here
+        refuse_link_loop(path, what)
+        raise
+
+
 def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: bool) -> Path:
     """Check that ``text`` can become the output folder (``folder=True``) or file.
 
@@ -78,6 +114,7 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
         regular file, or its nearest existing folder cannot be written.
     """
     path = check_path_text(text, flag)
+    refuse_link_loop(path, flag)
     what = "folder" if folder else "file"
     if path.exists() or path.is_symlink():
         if path.exists() and not (path.is_dir() or path.is_file()):
@@ -136,14 +173,14 @@ def refuse_input_as_out(
     """
     if out is None:
         return
-    target = Path(out).resolve()
-    for given in inputs:
-        if target == Path(given).resolve():
+    target = resolve(out, "--out")
+    sources = [resolve(given, f"{what} input") for given in inputs]
+    for given, source in zip(inputs, sources, strict=True):
+        if target == source:
             raise DataError(
                 f"--out {out} would overwrite {what} input {given}; give another file name"
             )
-    for given in inputs:
-        source = Path(given).resolve()
+    for given, source in zip(inputs, sources, strict=True):
         if source.is_dir() and source in target.parents:
             raise DataError(
                 f"--out {out} lies inside {what} input folder {given}, which would then hold "

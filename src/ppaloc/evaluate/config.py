@@ -9,6 +9,7 @@ into every result file.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import math
 import os
 import re
@@ -345,7 +346,14 @@ def read_toml(path: str | Path) -> dict[str, Any]:
             raw = f.read(MAX_CONFIG_BYTES + 1)
     except FileNotFoundError:
         raise PpalocError(f"config file {path} does not exist") from None
-    except (OSError, ValueError) as exc:
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise PpalocError(
+                f"config file {path} is a symlink loop (its links lead back to themselves); "
+                "give a TOML file, or fix the links"
+            ) from None
+        raise PpalocError(f"cannot read config file {path}: {exc.__class__.__name__}") from None
+    except ValueError as exc:
         raise PpalocError(f"cannot read config file {path}: {exc.__class__.__name__}") from None
     if len(raw) > MAX_CONFIG_BYTES:
         raise PpalocError(
