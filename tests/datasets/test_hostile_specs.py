@@ -131,3 +131,21 @@ def test_any_spec_text_parses_or_is_one_dataset_spec_error(text: str) -> None:
         assert "\n" not in str(exc) and len(str(exc)) < 1000
     else:
         assert spec.kind in KINDS
+
+
+@pytest.mark.parametrize(
+    ("spec", "fragment"),
+    [
+        ("folder:REF?step=0", "key 'step' must be an integer >= 1, got '0'"),
+        ("folder:REF?stp=1", "unknown key 'stp' for kind 'folder'"),
+        ("folder:REF,REF,REF", "kind 'folder' takes 1 or 2 path(s), got 3"),
+        ("video:REF.mp4?start=-1", "key 'start'"),
+    ],
+)
+def test_a_bad_reference_alone_spec_names_its_own_mistake(spec: str, fragment: str, tmp_path):
+    """``folder:REF_DIR`` is valid for a map: its bad key is the error, not a missing path."""
+    from ppaloc.datasets.registry import load_reference
+
+    with pytest.raises(DataError) as info:
+        load_reference(spec.replace("REF", str(tmp_path)))
+    assert fragment in str(info.value) and "takes 2 path(s)" not in str(info.value)
