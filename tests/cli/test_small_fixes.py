@@ -298,3 +298,17 @@ def test_localise_does_not_create_the_folder_of_its_csv(tmp_path, capsys, folder
     assert not (tmp_path / "missing").exists()
     code, _, err = run(capsys, "map", "synthetic:?places=4&size=32", "--out", out.parent / "m.npz")
     assert code == 1 and "does not exist; create it first" in err  # as map says
+
+
+def test_localise_says_an_unknown_method_name_came_from_the_map(tmp_path, capsys, folder_map):
+    from ppaloc.topomap import load_map
+
+    topomap = load_map(folder_map)
+    topomap.provenance["method"] = "netvlad-of-mine"
+    topomap.save(folder_map)
+    code, _, err = run(capsys, "localise", folder_map, tmp_path / "ref")
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith(
+        f"ppaloc: error: map {folder_map} names method 'netvlad-of-mine' (its "
+        "provenance.method), which is unknown here; give --method, one of: "
+    )

@@ -181,14 +181,25 @@ _KIND_METHOD = {
 """The method that reads a map of each kind, for a map that does not name its own."""
 
 
-def _method_for_map(topomap: Any, method: str | None) -> str:
+def _method_for_map(topomap: Any, method: str | None, map_path: Path) -> str:
+    """The method to localise with: ``method`` if given, else the one the map names (its
+    provenance, or its node kind); a name from the map that this install does not offer is
+    refused as the map's, with the fix."""
+    from ppaloc.evaluate.run import resolve_methods
+    from ppaloc.methods import available_methods, registry
+
     if method:
-        return method
+        return resolve_methods([method])[0]
     named = topomap.provenance.get("method")
-    if named:
-        return str(named)
-    guess = _KIND_METHOD.get(topomap.kind, topomap.kind)
-    return guess
+    name = str(named) if named else _KIND_METHOD.get(topomap.kind, topomap.kind)
+    if name not in available_methods():
+        why = "is not available in this install" if name in registry() else "is unknown here"
+        source = "provenance.method" if named else f"node kind {topomap.kind!r}"
+        raise DataError(
+            f"map {map_path} names method {name!r} (its {source}), which {why}; give "
+            f"--method, one of: {', '.join(available_methods())}"
+        )
+    return name
 
 
 def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
@@ -327,13 +338,12 @@ def run_localise(
     """
     from ppaloc.cli.outputs import refuse_input_as_out
     from ppaloc.datasets import to_sensor
-    from ppaloc.evaluate.run import ProgressBar, hand_query, resolve_methods
+    from ppaloc.evaluate.run import ProgressBar, hand_query
     from ppaloc.methods import make_localiser
     from ppaloc.topomap import load_map
 
     topomap = load_map(map_path)
-    name = _method_for_map(topomap, method)
-    (name,) = resolve_methods([name])
+    name = _method_for_map(topomap, method, map_path)
     stored = topomap.provenance.get("method_params") or {} if not method else {}
     if not isinstance(stored, dict):
         raise DataError(f"map {map_path}: provenance.method_params is not a table of parameters")
