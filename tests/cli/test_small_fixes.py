@@ -312,3 +312,23 @@ def test_localise_says_an_unknown_method_name_came_from_the_map(tmp_path, capsys
         f"ppaloc: error: map {folder_map} names method 'netvlad-of-mine' (its "
         "provenance.method), which is unknown here; give --method, one of: "
     )
+
+
+def test_show_out_is_a_png_and_not_for_a_results_folder(tmp_path, capsys, folder_map):
+    for name in ("m.pdf", "m.svg", "m"):
+        code, _, err = run(capsys, "show", folder_map, "--out", tmp_path / name)
+        assert code == 1 and err == (
+            f"ppaloc: error: --out {tmp_path / name}: show draws PNG images; give a file name "
+            "ending in .png\n"
+        )
+        assert not (tmp_path / name).exists()
+    assert run(capsys, "show", folder_map, "--out", tmp_path / "m.PNG", "-q")[0] == 0
+    results = tmp_path / "run"
+    spec = "synthetic:?places=6&size=32&sync=1"
+    evaluate = ["evaluate", "-d", spec, "-m", "single-frame", "--no-report", "-q"]
+    code, _, err = run(capsys, *evaluate, "--out", results)
+    assert code == 0, err
+    code, _, err = run(capsys, "show", results, "--out", tmp_path / "r.png")
+    assert code == 1 and err.count("\n") == 1
+    assert "a results folder's report is rebuilt inside it" in err and "leave it out" in err
+    assert not (tmp_path / "r.png").exists() and not (results / "report.html").exists()

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.cli.localise import run_localise
-from ppaloc.cli.outputs import refuse_input_as_out, refuse_link_loop
+from ppaloc.cli.outputs import check_png, refuse_input_as_out, refuse_link_loop
 from ppaloc.errors import DataError, PpalocError
 
 __all__ = [
@@ -490,6 +490,12 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     what = "give a results folder, a map (.npz), register planes (.npz) or a localise CSV"
     recover_folder(path)  # a results folder whose replacement was killed half-way
     if path.is_dir():
+        if out is not None:
+            raise DataError(
+                f"--out {out}: a results folder's report is rebuilt inside it "
+                f"({path / 'report.html'}); --out names the PNG of a map, register planes "
+                "or a CSV: leave it out"
+            )
         return _show_results(path, quiet=quiet)
     if not path.is_file():
         refuse_link_loop(path, "the path")
@@ -543,6 +549,7 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
         raise DataError(f"{path} is a map of 0 nodes: there is nothing to draw")
     out = out or path.with_suffix(".png")
     refuse_input_as_out(out, [path])
+    check_png(out)
     layout = topomap.layout
     if layout is not None:
         from ppaloc.sim.render import render_montage
@@ -610,6 +617,7 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
             )
     out = out or path.with_suffix(".png")
     refuse_input_as_out(out, [path])
+    check_png(out)
     render_montage(planes, out, scale=1)
     if not quiet:
         print(f"{path}: {len(planes)} planes -> {out}")

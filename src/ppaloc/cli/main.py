@@ -901,7 +901,7 @@ Examples:
 @click.option(
     "--out",
     type=_SafePath(dir_okay=False, path_type=Path),
-    help="PNG to write (maps, planes, CSV).",
+    help="PNG to write (maps, planes, CSV; a name ending in .png).",
 )
 @_QUIET
 def show(path: Path, out: Path | None, quiet: bool | None) -> None:

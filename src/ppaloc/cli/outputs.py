@@ -23,6 +23,7 @@ __all__ = [
     "MAX_PATH",
     "check_output",
     "check_path_text",
+    "check_png",
     "refuse_input_as_out",
     "refuse_link_loop",
     "resolve",
@@ -148,6 +149,19 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
     os.close(fd)
     os.unlink(name)
     return path
+
+
+def check_png(out: Path) -> None:
+    """Refuse an ``--out`` of ``ppaloc show`` whose suffix names another format than the
+    PNG it writes (``x.pdf`` would hold PNG bytes).
+
+    Raises
+    ------
+    PpalocError
+        Naming the file and the fix.
+    """
+    if out.suffix.lower() != ".png":
+        raise PpalocError(f"--out {out}: show draws PNG images; give a file name ending in .png")
 
 
 def refuse_input_as_out(
