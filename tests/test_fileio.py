@@ -200,3 +200,42 @@ def test_user_cache_is_the_variable_else_under_xdg_else_home(monkeypatch, tmp_pa
     monkeypatch.delenv("XDG_CACHE_HOME")
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     assert user_cache("things", "X") == tmp_path / "home" / ".cache" / "ppaloc" / "things"
+
+
+def _interrupted_swap(monkeypatch) -> None:
+    """Ctrl-C lands right after the two names were exchanged, before the old contents go."""
+    real = fileio._exchange
+
+    def exchange(a, b):
+        done = real(a, b)
+        os.kill(os.getpid(), signal.SIGINT)
+        return done
+
+    monkeypatch.setattr(fileio, "_exchange", exchange)
+
+
+def test_ctrl_c_after_the_swap_finishes_the_transaction(tmp_path, monkeypatch):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    _interrupted_swap(monkeypatch)
+    try:
+        with fileio.new_folder(out) as stage:
+            (stage / "new.txt").write_text("new")
+    except KeyboardInterrupt:
+        pytest.fail("interrupted, though the new folder was in place")
+    assert os.listdir(tmp_path) == ["run"], "the old contents were left under a hidden name"
+    assert os.listdir(out) == ["new.txt"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_ctrl_c_after_a_nested_swap_stops_the_outer_transaction(tmp_path, monkeypatch):
+    out = tmp_path / "matrix"
+    (out / "01-a").mkdir(parents=True)
+    (out / "01-a" / "old.txt").write_text("old")
+    with pytest.raises(KeyboardInterrupt), fileio.update_folder(out) as stage:
+        _interrupted_swap(monkeypatch)
+        with fileio.new_folder(stage / "01-a") as inner:
+            (inner / "new.txt").write_text("new")
+        pytest.fail("the interrupt was lost")
+    assert os.listdir(tmp_path) == ["matrix"] and os.listdir(out / "01-a") == ["old.txt"]

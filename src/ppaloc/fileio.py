@@ -34,6 +34,8 @@ import os
 import re
 import secrets
 import shutil
+import signal
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
@@ -403,18 +405,47 @@ def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[P
             _link_tree(target, stage, keep)
         yield stage
         _fsync_dir(stage)
-        if not target.exists():
-            os.rename(stage, target)
-        elif _exchange(stage, target):
-            pass  # the stage name now holds the old contents, deleted below
-        else:
-            aside = target.parent / f".{target.name}.ppaloc-old-{token}"
-            os.rename(target, aside)
-            os.rename(stage, target)
-            stage = aside
-        _fsync_dir(target.parent)
+        # Ctrl-C is held from here: once the new folder is in, it is the command's result,
+        # and the old contents must not be left under a hidden name
+        with _sigint_held() as interrupted:
+            try:
+                if not target.exists():
+                    os.rename(stage, target)
+                elif _exchange(stage, target):
+                    pass  # the stage name now holds the old contents, deleted below
+                else:
+                    aside = target.parent / f".{target.name}.ppaloc-old-{token}"
+                    os.rename(target, aside)
+                    os.rename(stage, target)
+                    stage = aside
+                _fsync_dir(target.parent)
+            finally:
+                shutil.rmtree(stage, ignore_errors=True)
+        if interrupted and _in_stage(target):
+            raise KeyboardInterrupt  # a folder inside another's stage: that one is not done
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+def _in_stage(path: Path) -> bool:
+    """Whether ``path`` lies inside the staging folder of another transaction (a matrix
+    run's dataset folders inside the matrix's stage)."""
+    return any(".ppaloc-new-" in parent.name for parent in path.parents)
+
+
+@contextmanager
+def _sigint_held() -> Iterator[list[bool]]:
+    """Hold Ctrl-C (SIGINT) back during the block; the list yielded is non-empty once one
+    came. Only the main thread can set a handler; elsewhere the block runs as it is."""
+    came: list[bool] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield came
+        return
+    previous = signal.signal(signal.SIGINT, lambda *_: came.append(True))
+    try:
+        yield came
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler if previous is None else previous)
 
 
 def new_folder(
