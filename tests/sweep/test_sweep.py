@@ -8,6 +8,7 @@ import json
 import os
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -264,3 +265,38 @@ def test_the_report_is_rebuilt_from_the_summary_alone(tmp_path, cluster2, issue_
     page = write_sweep_report(out).read_text()
     assert page.count("<img src='data:image/png;base64,") == 2
     assert (out / "report.md").read_text().count("](figures/heatmap-") == 2
+
+
+#: ``ppaloc`` from a shell (tests/conftest.py), with Ctrl-C pressed while the local cluster
+#: starts: its workers run, their IgnoreSigint plugin is not registered yet.
+CTRL_C_AT_START = (
+    "import os, signal, sys; signal.pthread_sigmask(signal.SIG_SETMASK, ()); "
+    "signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "import distributed; real = distributed.Client.__init__\n"
+    "def init(self, *args, **kwargs):\n"
+    "    distributed.Client.__init__ = real\n"
+    "    os.killpg(0, signal.SIGINT)\n"
+    "    real(self, *args, **kwargs)\n"
+    "distributed.Client.__init__ = init\n"
+    "from ppaloc.cli import main; sys.exit(main())"
+)
+
+
+def test_ctrl_c_while_the_local_cluster_starts_is_one_line(tmp_path):
+    args = ["sweep", "-m", "seqslam", "-d", TINY[0], "--workers", "2", "--out", "s"]
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CTRL_C_AT_START, *args],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+    )
+    try:
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert err.strip() == "ppaloc: interrupted", err  # no worker's traceback, no atexit error

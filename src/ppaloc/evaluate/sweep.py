@@ -30,7 +30,9 @@ import dataclasses
 import hashlib
 import logging
 import os
+import signal
 import tempfile
+import threading
 import traceback
 import uuid
 from collections import Counter
@@ -209,27 +211,60 @@ def _client(scheduler: str | None, *, workers: int | None, connect_timeout: floa
         return
     n = workers or os.cpu_count() or 1
     quiet = _quiet_dask()  # the worker processes' logging
-    cluster = LocalCluster(
-        n_workers=n,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",  # a free port: never the "8787 is in use" warning
-        # A failed cell is recorded with its error; the worker's own "Compute Failed" log
-        # of it would only repeat it on stderr.
-        silence_logs=logging.CRITICAL if quiet else False,
-    )
+    cluster = client = None
     try:
-        client = Client(cluster, set_as_default=False)
-        try:
+        with _sigint_deferred():  # the start-up whole, then Ctrl-C (the cluster then closes)
+            cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",  # a free port: never the "8787 is in use" warning
+                # A failed cell is recorded with its error; the worker's own "Compute
+                # Failed" log of it would only repeat it on stderr.
+                silence_logs=logging.CRITICAL if quiet else False,
+            )
+            client = Client(cluster, set_as_default=False)
             from ppaloc.evaluate._sweep_plugin import IgnoreSigint
 
             client.register_plugin(IgnoreSigint(), name=IgnoreSigint.name)
-            _check_workers(client, "the local cluster", connect_timeout)
-            yield client
-        finally:
-            client.close()
+        _check_workers(client, "the local cluster", connect_timeout)
+        yield client
     finally:
-        cluster.close()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+@contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """Hold Ctrl-C back while a local cluster starts; raise it (KeyboardInterrupt) after.
+
+    SIGINT is blocked in this thread: the cluster's threads, and the worker processes they
+    spawn, inherit the mask, so a worker never sees Ctrl-C from its first instruction
+    (the IgnoreSigint plugin comes only once it runs) and none prints a traceback as it
+    dies. Here a Ctrl-C is recorded and raised once the cluster and its client are whole,
+    so that they close cleanly instead of half-made.
+    """
+    came: list[bool] = []
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, lambda *_: came.append(True)) if main else None
+    mask = None
+    if hasattr(signal, "pthread_sigmask"):
+        from multiprocessing import resource_tracker
+
+        # started first: starting it unblocks SIGINT in the thread that does (Python 3.11)
+        resource_tracker.ensure_running()
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        if mask is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        if main:
+            signal.signal(signal.SIGINT, previous or signal.default_int_handler)
+    if came:
+        raise KeyboardInterrupt
 
 
 def _check_workers(client: Any, where: str, timeout: float) -> None:
