@@ -13,7 +13,7 @@ from types import ModuleType
 
 from ppaloc.datasets.base import RouteDataset
 from ppaloc.datasets.route import assemble
-from ppaloc.datasets.spec import DatasetSpec, KindSchema, parse_spec
+from ppaloc.datasets.spec import DatasetSpec, DatasetSpecError, KindSchema, parse_spec
 
 __all__ = [
     "KINDS",
@@ -143,9 +143,13 @@ def load_reference(spec: str) -> RouteDataset:
     >>> len(ds.reference), ds.name.startswith("folder ")
     (2, True)
     """
-    # a mistake is named as the reference spec reads it: load_dataset would call a bad key
-    # of folder:REF_DIR a missing query path
-    parsed = parse_reference_spec(spec)
+    try:
+        parsed = parse_reference_spec(spec)
+    except DatasetSpecError:
+        kind = spec.strip().partition(":")[0].strip().lower() if isinstance(spec, str) else ""
+        if kind in REFERENCE_ALONE:  # load_dataset would call a bad key a missing query path
+            raise
+        return load_dataset(spec)  # the same mistake, named as load_dataset names it
     if len(parsed.paths) != 1 or parsed.kind not in REFERENCE_ALONE:
         return load_dataset(spec)
     (path,) = parsed.paths
