@@ -14,8 +14,8 @@ the fewest sensors when none fits (a bank of them, docs/onsensor.md, "Sensor ban
 
 The order is the robust filter's mean max F1 on the five real routes of
 ``benchmarks/eval_robust.py``, not every route: 0.788 with 16x16 images, 0.785 with the
-Haar signs, 0.667 with 8x8 images and 0.634 with LBP (2026-12-06). Over all 65 routes
-the 8x8 images lead the signs by 0.016 (0.802 against 0.786; 16x16 0.877, LBP 0.598),
+Haar signs, 0.672 with 8x8 images and 0.634 with LBP (2026-12-06). Over all 65 routes
+the 8x8 images lead the signs by 0.015 (0.804 against 0.789; 16x16 0.879, LBP 0.603),
 on the generated routes whose speed swings; before the local term both orders were this
 one (docs/localise.md, "More values a place" and "Signs instead of values").
 
