@@ -796,7 +796,7 @@ def lane_speed_led(
     behind, seldom on nine in a row. A surest lane elsewhere on the map holds a place
     that looks like the query's, which says nothing of its speed. The slow lane hands
     over nothing here (its path's gate only): at the map's pace on Gardens Point it
-    leads a filter that is unsure near the filter's own place. Comparisons only: the
+    leads an unsure filter close to the filter's own place. Comparisons only: the
     controller's arithmetic.
 
     Examples

@@ -461,9 +461,9 @@ class RobustSchedule(Schedule):
         :func:`~ppaloc.localise.params.lane_speed_taken`) and did not stall
         (:func:`~ppaloc.localise.params.path_stalled`: a path that held one place while
         the query moved shows no speed); else the path speed of the lane that leads on
-        this frame, near the filter's place (:func:`~ppaloc.localise.params.
-        lane_speed_led`; its path with no confidence asked, taken and not stalled as
-        above), or None."""
+        this frame near the filter's place
+        (:func:`~ppaloc.localise.params.lane_speed_led`; its path with no confidence
+        asked, taken and not stalled as above), or None."""
         p = self.params
         gate = int(p.lane_confidence or 0)
         for lane in self.lane_schedules:
