@@ -209,7 +209,7 @@ def test_sweep_refuses_a_folder_of_other_files(tmp_path):
 
     mine = tmp_path / "proj"
     (mine / "figures").mkdir(parents=True)
-    (mine / "figures" / "fig1.png").write_bytes(b"png")
+    (mine / "figures" / "heatmap-1.png").write_bytes(b"png")  # a name a sweep writes
     with pytest.raises(PpalocError, match="not an earlier sweep folder"):
         check_sweep_folder(mine)
     (mine / "notes.txt").write_text("keep me")

@@ -48,3 +48,15 @@ def test_the_python_example_runs(tmp_path):
     exec(compile(block, "docs/sweep.md python block", "exec"), namespace)
     assert (namespace["outcome"].n_run, namespace["outcome"].n_failed) == (3, 0)
     assert (tmp_path / "sweep" / "report.html").is_file()
+
+
+def test_the_refusal_shown_for_a_users_file_in_figures_is_the_real_one(tmp_path, monkeypatch):
+    from ppaloc.evaluate.sweep import check_sweep_folder
+
+    (tmp_path / "sweep1" / "cells").mkdir(parents=True)
+    (tmp_path / "sweep1" / "figures").mkdir()
+    (tmp_path / "sweep1" / "figures" / "notes.txt").write_text("keep me")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(PpalocError) as info:
+        check_sweep_folder(Path("sweep1"))
+    assert f"`{info.value}`" in " ".join(TEXT.split())

@@ -170,3 +170,17 @@ def test_a_folder_without_a_summary_is_refused(tmp_path):
     write_bytes(tmp_path / "summary.json", '{"format": "other"}')
     with pytest.raises(DataError, match="is not a ppaloc sweep summary"):
         load_summary(tmp_path)
+
+
+def test_a_users_file_in_figures_is_kept_and_the_report_refused(tmp_path):
+    write_bytes(tmp_path / "summary.json", json.dumps(summary()))
+    write_sweep_report(tmp_path)
+    write_sweep_report(tmp_path)  # the report's own figures are replaced
+    (tmp_path / "figures" / "notes.txt").write_text("keep me")
+    with pytest.raises(DataError) as err:
+        write_sweep_report(tmp_path)
+    assert str(err.value) == (
+        f"{tmp_path} holds 'figures/notes.txt', which a sweep did not write, and the report's "
+        "figures are replaced whole; move it out of figures/ first"
+    )
+    assert (tmp_path / "figures" / "notes.txt").read_text() == "keep me"

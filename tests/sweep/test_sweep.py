@@ -255,6 +255,25 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(
     assert {k: after[k] for k in before} == before
 
 
+def test_a_users_file_inside_figures_or_a_cell_is_refused(tmp_path, cluster2, capsys):
+    out = tmp_path / "sweep"
+    args = ["sweep", "-m", "seqslam", "-d", TINY[0], "-d", TINY[1], "--out", str(out)]
+    args += ["--scheduler", cluster2.scheduler.address]
+    assert main(args) == 0
+    assert main(args) == 0  # its own cells, summaries and figures: a re-run is accepted
+    capsys.readouterr()
+    cell = sorted(p.relative_to(out) for p in out.glob("cells/*"))[0].as_posix()
+    assert (out / "figures" / "heatmap-1.png").is_file() and (out / cell / "arrays").is_dir()
+    for mine in ("figures/notes.txt", f"{cell}/notes.txt", f"{cell}/arrays/mine.npz"):
+        (out / mine).write_text("keep me")
+        assert main(args) == 1
+        err = capsys.readouterr().err
+        assert f"holds {mine!r}, which a sweep did not write" in err, err
+        assert len(err.splitlines()) == 1 and (out / mine).read_text() == "keep me"
+        (out / mine).unlink()
+    assert main(args) == 0
+
+
 def test_the_report_is_rebuilt_from_the_summary_alone(tmp_path, cluster2, issue_config):
     out = tmp_path / "sweep"
     run_sweep(issue_config, out, client=cluster2)

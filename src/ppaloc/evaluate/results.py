@@ -71,6 +71,7 @@ __all__ = [
     "save_results",
     "upgrade_summary",
     "write_results",
+    "written_by_ppaloc",
 ]
 
 RESULTS_FORMAT = 2
@@ -218,6 +219,16 @@ def _ours(folder: Path, name: str, written: dict[Path, frozenset[str]] | None = 
         sub = folder / name
         return sub.is_dir() and not sub.is_symlink() and (sub / "results.json").is_file()
     return name in _OWN_NAMES
+
+
+def written_by_ppaloc(
+    folder: Path, name: str, written: dict[Path, frozenset[str]] | None = None
+) -> bool:
+    """Whether ``name``, a path relative to the results folder ``folder`` (``/`` between
+    its parts: ``arrays/x.npz``), is an entry ppaloc writes there: what
+    :func:`check_replaceable` accepts (``written`` caches what each folder's
+    ``results.json`` names). A sweep's cell folders are results folders."""
+    return _ours(folder, name, written)
 
 
 def check_replaceable(out: str | Path) -> None:

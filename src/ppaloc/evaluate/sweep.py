@@ -50,6 +50,7 @@ from ppaloc.evaluate.config import EvaluateConfig
 from ppaloc.evaluate.sweep_grid import (
     COMBINE,
     METRIC_COLUMNS,
+    SWEEP_NAMES,
     Cell,
     SweepConfig,
     axes,
@@ -58,6 +59,7 @@ from ppaloc.evaluate.sweep_grid import (
     expand,
     one_line_error,
     sweep_config_from_mapping,
+    sweep_wrote,
     validate,
     write_cell,
     write_cell_error,
@@ -68,6 +70,7 @@ from ppaloc.fileio import check_replaceable_folder
 __all__ = [
     "COMBINE",
     "METRIC_COLUMNS",
+    "SWEEP_NAMES",
     "Cell",
     "SweepConfig",
     "SweepOutcome",
@@ -323,24 +326,21 @@ CellHook = Callable[[Cell, str], None]
 """Called on the client as ``hook(cell, status)`` after a cell's files are written."""
 
 
-#: What a sweep writes at the top of its folder; a folder holding anything else is not one.
-SWEEP_NAMES = frozenset(
-    {"cells", "summary.csv", "summary.json", "report.html", "report.md", "figures"}
-)
-
-
 def check_sweep_folder(out: Path) -> None:
-    """Refuse an ``out`` that is a file, or a folder holding files a sweep did not write:
-    its cell folders, figures and summaries are replaced, a user's files must not go with
-    them. An absent or empty folder, or an earlier sweep's (to resume it), is fine."""
+    """Refuse an ``out`` that is a file, or a folder holding files a sweep did not write, at
+    its top or inside ``figures/`` and ``cells/`` (:func:`sweep_wrote`): its cell folders,
+    figures and summaries are replaced, a user's files must not go with them. An absent or
+    empty folder, or an earlier sweep's (to resume it), is fine."""
+    written: dict[Path, frozenset[str]] = {}
     check_replaceable_folder(
         out,
-        owned=lambda _, name: name.startswith(".") or name in SWEEP_NAMES,
+        owned=lambda folder, name: sweep_wrote(folder, name, written),
         marked=lambda folder: (folder / "cells").is_dir() or (folder / "summary.json").is_file(),
         markers="cells/ or summary.json",
         writer="a sweep",
         kind="sweep folder",
         error=DataError,
+        nested=True,
     )
 
 

@@ -16,6 +16,7 @@ import dataclasses
 import hashlib
 import itertools
 import json
+import re
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -32,12 +33,18 @@ from ppaloc.evaluate.config import (
     reject_unknown_keys,
     with_tolerance,
 )
-from ppaloc.evaluate.results import CSV_COLUMNS, ROLE_COLUMNS, upgrade_summary
+from ppaloc.evaluate.results import (
+    CSV_COLUMNS,
+    ROLE_COLUMNS,
+    upgrade_summary,
+    written_by_ppaloc,
+)
 from ppaloc.fileio import new_folder, source_date, write_bytes
 
 __all__ = [
     "COMBINE",
     "METRIC_COLUMNS",
+    "SWEEP_NAMES",
     "Cell",
     "SweepConfig",
     "axes",
@@ -46,6 +53,7 @@ __all__ = [
     "expand",
     "one_line_error",
     "sweep_config_from_mapping",
+    "sweep_wrote",
     "validate",
     "write_cell",
     "write_cell_error",
@@ -532,6 +540,45 @@ def write_cell_error(out: Path, cell: Cell, line: str, trace: str) -> None:
     with new_folder(folder) as stage:
         write_bytes(stage / "cell.json", json.dumps(cell.describe(), indent=2) + "\n")
         write_bytes(stage / "error.json", json.dumps(record, indent=2) + "\n")
+
+
+#: What a sweep writes at the top of its folder; a folder holding anything else is not one.
+SWEEP_NAMES = frozenset(
+    {"cells", "summary.csv", "summary.json", "report.html", "report.md", "figures"}
+)
+_FIGURE = re.compile(r"heatmap-[1-9][0-9]*\.png")  # the report's figures (sweep_report)
+_CELL = re.compile(r".+-[0-9a-f]{16}")  # Cell.folder
+_CELL_STAGE = re.compile(r"\..+-[0-9a-f]{16}\.ppaloc-(new|old)-[0-9]+-[0-9a-f]+")
+_CELL_OWN = ("cell.json", "error.json")
+
+
+def sweep_wrote(folder: Path, name: str, written: dict[Path, frozenset[str]] | None = None) -> bool:
+    """Whether ``name``, a path relative to the sweep folder ``folder`` (``/`` between its
+    parts), is an entry a sweep writes there: one of :data:`SWEEP_NAMES` or a hidden name
+    at the top (and what the latter holds: a sweep never touches it); in ``figures/``, the
+    report's ``heatmap-N.png``; in ``cells/``, a cell's folder (``<method>-<id>/`` holding
+    a ``cell.json``) or the staging folder a killed write of one left, and in a cell's
+    folder its ``cell.json``, ``error.json`` and what ppaloc writes in a results folder
+    (:func:`ppaloc.evaluate.results.written_by_ppaloc`; ``written`` caches what each
+    cell's ``results.json`` names)."""
+    head, sep, rest = name.partition("/")
+    if not sep:
+        return name.startswith(".") or name in SWEEP_NAMES
+    if head.startswith("."):
+        return True
+    if head == "figures":
+        return _FIGURE.fullmatch(rest) is not None and not (folder / name).is_dir()
+    if head != "cells":
+        return False
+    cell, sep, inside = rest.partition("/")
+    if _CELL_STAGE.fullmatch(cell):
+        return True
+    sub = folder / "cells" / cell
+    if not (_CELL.fullmatch(cell) and sub.is_dir() and not sub.is_symlink()):
+        return False
+    if not (sub / "cell.json").is_file():
+        return False
+    return not sep or inside in _CELL_OWN or written_by_ppaloc(sub, inside, written)
 
 
 def one_line_error(exc: BaseException) -> str:

@@ -20,6 +20,7 @@ import base64
 import html
 import json
 import math
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,7 @@ import numpy as np
 
 from ppaloc.errors import DataError
 from ppaloc.evaluate.report import ReportFigure
+from ppaloc.evaluate.sweep_grid import sweep_wrote
 from ppaloc.fileio import new_folder, write_bytes
 
 __all__ = [
@@ -376,18 +378,44 @@ def _md_cells(rows: list[list[str]]) -> list[list[str]]:
     return [[v.replace("|", "\\|") for v in r] for r in rows]
 
 
+def _check_figures(out: Path) -> None:
+    """Refuse to rebuild the report of the sweep folder ``out`` where its ``figures/`` holds
+    an entry a sweep did not write: the figures are replaced whole, and a user's file must
+    not go with them."""
+    figures = out / "figures"
+    if figures.is_symlink() or not figures.is_dir():
+        return
+    for root, dirs, files in os.walk(figures):
+        dirs.sort()
+        for name in sorted([*dirs, *files]):
+            rel = (Path(root) / name).relative_to(out).as_posix()
+            if not sweep_wrote(out, rel):
+                raise DataError(
+                    f"{out} holds {rel!r}, which a sweep did not write, and the report's "
+                    "figures are replaced whole; move it out of figures/ first"
+                )
+
+
 def write_sweep_report(out: str | Path) -> Path:
-    """Write ``report.html`` and ``report.md`` into a sweep's folder, from ``summary.json``.
+    """Write ``report.html`` and ``report.md`` into a sweep's folder, from ``summary.json``;
+    ``figures/`` (the heat maps for report.md) is replaced whole.
 
     Returns
     -------
     Path
         ``out/report.html``.
+
+    Raises
+    ------
+    DataError
+        No readable ``summary.json``, or ``figures/`` holds a file the report does not
+        write (it would be lost with the old figures).
     """
     from ppaloc.evaluate.report import _CSS, _html_table, _md_table
 
     out = Path(out)
     summary = load_summary(out)
+    _check_figures(out)
     labels = dataset_labels(summary["axes"]["dataset"])
     swept = [a for a in summary["axes"] if a not in ("method", "dataset")]
     figs = _figures(summary, labels)
