@@ -9,6 +9,7 @@ import shlex
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from ppaloc.cpp import run_program
 from ppaloc.sim.demo import synthetic_scene
@@ -118,3 +119,17 @@ def test_the_frame_source_examples(cxx, tmp_path, monkeypatch):
     assert len(ran["run-video"]) == 2  # ?step=2 of 4
     if lavfi:
         assert len(ran["run-stream"]) == 3
+
+
+def test_the_refusal_shown_for_a_users_file_in_saved_is_the_real_one(tmp_path, monkeypatch):
+    from ppaloc.cpp.run import check_output_folder
+    from ppaloc.errors import PpalocError
+
+    (tmp_path / "run" / "saved").mkdir(parents=True)
+    (tmp_path / "run" / "summary.json").write_text('{"files": ["saved/edge.bmp"]}')
+    (tmp_path / "run" / "saved" / "edge.bmp").write_bytes(b"BM")
+    (tmp_path / "run" / "saved" / "notes.txt").write_text("keep me")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(PpalocError) as info:
+        check_output_folder("run")
+    assert f"`{info.value}`" in " ".join(DOC.read_text().split())

@@ -270,6 +270,31 @@ def test_an_output_folder_of_other_files_is_refused_before_the_run(tmp_path):
     check_output_folder(tmp_path / "new")
 
 
+def test_a_users_file_inside_displays_or_at_the_top_is_refused(faults, tmp_path, capsys):
+    out = tmp_path / "run"
+    args = ["cpp", "run", str(FAULTS), "--out", str(out), "-q", "--frames", "2"]
+    assert main(args) == 0
+    assert main(args) == 0  # an earlier run's folder: every file in it the run's own
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["files"] == [f"displays/image/frame_000{i}.png" for i in (0, 1)]
+    del summary["files"]  # a run's folder from before summary.json listed its files
+    (out / "summary.json").write_text(json.dumps(summary))
+    assert main(args) == 0
+    capsys.readouterr()
+    for mine in ("displays/image/notes.txt", "displays/mine.png", ".notes.txt"):
+        (out / mine).write_text("keep me")
+        assert main(args) == 1
+        err = capsys.readouterr().err
+        assert err == (
+            f"ppaloc: error: --out {out} holds {mine!r}, which ppaloc cpp run did not write, "
+            "and a run's folder is replaced whole; give a new folder or an earlier run's "
+            "folder\n"
+        )
+        assert (out / mine).read_text() == "keep me"
+        (out / mine).unlink()
+    assert main(args) == 0
+
+
 ROM_TABLE = "static const uint32_t table[2][5] = {{0, 0, 0, 0, 0}, {0, 0, 0, 0, 0}};\n"
 ROM_LOOP = "    while (1) {\n        vs_frame_loop_control();\n        rom();\n    }\n}\n"
 ROM_IN_MAIN = "int main() {\n    vs_init();\n    scamp5_kernel rom(table, 2);\n"

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from ppaloc.cli import main
 from ppaloc.cpp import compile_program, run_program
 from ppaloc.errors import PpalocError
 
@@ -71,3 +72,25 @@ def test_a_run_without_an_output_folder_refuses_to_save(frames):
         "save_image.cpp:18: vs_sim::save_image(A, 'grey.bmp'): this run has no output folder "
         "to save into: give one (ppaloc cpp run --out DIR, run_program(..., out=DIR))"
     )
+
+
+@pytest.mark.parametrize(
+    "mine",
+    [
+        ("saved/notes.txt", "saved/notes.txt"),
+        ("saved/points/mine.bmp", "saved/points/mine.bmp"),
+        ("saved/mine/a.bmp", "saved/mine"),  # the first entry the run did not write
+    ],
+)
+def test_a_users_file_inside_saved_is_refused(frames, tmp_path, capsys, mine):
+    mine, named = mine
+    out = tmp_path / "run"
+    args = ["cpp", "run", str(SOURCE), "--out", str(out), "-q", "--frames", "2"]
+    assert main(args) == 0
+    assert main(args) == 0  # an earlier run's saved/: every file in it the run's own
+    (out / mine).parent.mkdir(parents=True, exist_ok=True)
+    (out / mine).write_text("keep me")
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert f"holds {named!r}, which ppaloc cpp run did not write" in err
+    assert len(err.splitlines()) == 1 and (out / mine).read_text() == "keep me"

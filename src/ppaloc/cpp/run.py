@@ -45,6 +45,7 @@ __all__ = [
     "RunResult",
     "check_settings",
     "check_timeout",
+    "run_files",
     "run_program",
     "write_outputs",
 ]
@@ -99,6 +100,7 @@ class RunResult:
             "icws_run": sum(k.runs * len(k.kernel) for k in s.kernels.values() if k.kernel),
             "calls": dict(sorted(s.calls.items())),
             "displays": {str(h): name for h, name in s.displays.items()},
+            "files": run_files(s),
             "gui_values": s.gui_values,
             "texts": len(s.texts),
             "host_calls": len(s.host_log),
@@ -159,15 +161,38 @@ def display_folders(displays: dict[int, str]) -> dict[int, str]:
         names = {h: f"{n}_{h}" if n in shared else n for h, n in names.items()}
 
 
+def _display_file(folder: str, frame: int) -> str:
+    return f"displays/{folder}/frame_{frame:04d}.png"
+
+
+def run_files(session: Session) -> list[str]:
+    """The files a run writes below its folder's ``displays/`` and ``saved/``, relative to
+    the folder, sorted (``summary.json``'s ``files``: what a later run may replace).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> s = SimpleNamespace(displays={1: "", 2: "edges"}, outputs=[{1: 0}, {2: 0}],
+    ...                     saved_images={"a/b.bmp": 0})
+    >>> run_files(s)
+    ['displays/display/frame_0000.png', 'displays/edges/frame_0001.png', 'saved/a/b.bmp']
+    """
+    names = display_folders(session.displays)
+    shown = [
+        _display_file(names[h], f) for f, outputs in enumerate(session.outputs) for h in outputs
+    ]
+    return sorted([*shown, *(f"{SAVED_FOLDER}/{rel}" for rel in session.saved_images)])
+
+
 def write_outputs(result: RunResult, folder: Path) -> None:
     """Write a run's files into ``folder`` (see docs/cpp.md, "Outputs")."""
     s = result.session
     names = display_folders(s.displays)
     for frame, outputs in enumerate(s.outputs):
         for h, plane in outputs.items():
-            d = folder / "displays" / names[h]
-            d.mkdir(parents=True, exist_ok=True)
-            save_png(plane_to_image(plane), d / f"frame_{frame:04d}.png")
+            path = folder / _display_file(names[h], frame)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            save_png(plane_to_image(plane), path)
     tiles = {
         f"{s.displays[h] if names[h] == _slug(s.displays[h]) else names[h]} #{frame}": fit_plane(
             plane, s.sim.rows, s.sim.cols
@@ -256,16 +281,71 @@ OUTPUT_NAMES = frozenset(
 )  # fmt: skip
 
 
+def _recorded_files(folder: Path) -> frozenset[str]:
+    """The files below ``displays/`` and ``saved/`` that the ``summary.json`` of the run's
+    folder ``folder`` says the run wrote: its ``files``; for a run written before
+    ``files`` was recorded, every ``frame_NNNN.png`` in the folders of its ``displays``
+    (none where summary.json is unreadable)."""
+    try:
+        summary = json.loads((folder / "summary.json").read_bytes())
+    except (OSError, ValueError):
+        return frozenset()
+    if not isinstance(summary, dict):
+        return frozenset()
+    files = summary.get("files")
+    if isinstance(files, list):
+        return frozenset(f for f in files if isinstance(f, str))
+    displays = summary.get("displays")
+    if not isinstance(displays, dict):
+        return frozenset()
+    try:
+        names = display_folders({int(h): str(n) for h, n in displays.items()})
+    except ValueError:
+        return frozenset()
+    shown = (folder / "displays" / name for name in names.values())
+    return frozenset(
+        f"displays/{d.name}/{p.name}"
+        for d in shown
+        if d.is_dir() and not d.is_symlink()
+        for p in d.iterdir()
+        if re.fullmatch(r"frame_\d{4,}\.png", p.name) and p.is_file() and not p.is_symlink()
+    )
+
+
+def _run_wrote(folder: Path, name: str, written: dict[Path, frozenset[str]]) -> bool:
+    """Whether ``name``, a path relative to the run's folder ``folder``, is an entry a run
+    writes there: one of :data:`OUTPUT_NAMES` at the top; below ``displays/`` and
+    ``saved/``, a file its ``summary.json`` names (``written`` caches them) or a folder
+    holding one."""
+    head, sep, _ = name.partition("/")
+    if not sep:
+        return name in OUTPUT_NAMES
+    if head not in ("displays", SAVED_FOLDER):
+        return False
+    if folder not in written:
+        written[folder] = _recorded_files(folder)
+    own = written[folder]
+    path = folder / name
+    if path.is_symlink():
+        return False
+    if path.is_dir():
+        return any(f.startswith(name + "/") for f in own)
+    return name in own
+
+
 def check_output_folder(out: str | os.PathLike) -> None:
     """Refuse an ``out`` that is a file, or a non-empty folder that is not an earlier run's
-    (the folder is replaced whole: a user's own files must not go with it)."""
+    or holds an entry a run did not write, at its top or inside ``displays/`` and
+    ``saved/`` (the folder is replaced whole: a user's own files must not go with it)."""
+    written: dict[Path, frozenset[str]] = {}
     check_replaceable_folder(
         out,
-        owned=lambda _, name: name.startswith(".") or name in OUTPUT_NAMES,
+        owned=lambda folder, name: _run_wrote(folder, name, written),
         marked=lambda folder: (folder / "summary.json").is_file(),
         markers="summary.json",
         writer="ppaloc cpp run",
         kind="run's folder",
+        nested=True,
     )
 
 
