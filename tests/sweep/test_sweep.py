@@ -188,13 +188,13 @@ def test_a_worker_killed_mid_sweep_loses_no_cell(tmp_path, make_cluster):
         assert result.runs[row["method"]].metrics.f1_max == row["f1_max"]
 
 
-@pytest.mark.slow
 def _finished_cells(out: Path) -> list[Path]:
     """Cell folders with a results file, not the hidden staging folder a cell is written
     in before it replaces its target (``fileio.new_folder``): a cell there is not done."""
     return [p for p in out.glob("cells/*/results.json") if not p.parent.name.startswith(".")]
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(
     tmp_path, cluster2, ppaloc_command, signal_state
 ):
