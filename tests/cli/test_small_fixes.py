@@ -187,7 +187,7 @@ def test_a_sweep_refuses_a_tolerance_axis_beside_a_specs_own(tmp_path, capsys):
 def test_a_huge_value_is_cut_in_a_usage_error(capsys):
     spec = "synthetic:?places=" + "1" * 40_000
     code, _, err = run(capsys, "evaluate", spec)  # forgot -d: an extra argument
-    assert code == 2 and err.count("\n") == 1
+    assert code == 1 and err.count("\n") == 1
     assert len(err) < 500 and "... (40020 characters)" in err
 
 

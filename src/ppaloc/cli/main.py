@@ -5,8 +5,9 @@ has one thin ``run_*`` per command; this module only parses flags and TOML files
 imports nothing heavy at start-up) and maps errors to exit codes in :func:`main`:
 
 - 0: success;
-- 1: a user mistake (:class:`ppaloc.errors.PpalocError`), printed as one line;
-- 2: a command-line usage error, printed as one line;
+- 1: a user mistake (:class:`ppaloc.errors.PpalocError`) or a command-line usage error (an
+  unknown option, a value click refuses), printed as one line: both are bad input;
+- 2: a bare ``ppaloc``, which prints the help;
 - 3: a bug: one line naming a log file that holds the traceback;
 - 130: interrupted.
 """
@@ -1183,7 +1184,7 @@ def _main(argv: list[str] | None) -> int:
             f"{cmd}: error: {_one_line(exc.format_message())} (see `{cmd} --help`)",
             file=sys.stderr,
         )
-        return 2
+        return 1
     except click.ClickException as exc:
         print(f"ppaloc: error: {_one_line(exc.format_message())}", file=sys.stderr)
         return exc.exit_code or 1
