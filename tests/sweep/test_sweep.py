@@ -10,6 +10,8 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -188,6 +190,26 @@ def test_a_worker_killed_mid_sweep_loses_no_cell(tmp_path, make_cluster):
         assert result.runs[row["method"]].metrics.f1_max == row["f1_max"]
 
 
+@contextmanager
+def _own_group(command: list[str], cwd: Path) -> Iterator[subprocess.Popen]:
+    """Run ``command`` in a process group of its own, as a terminal's foreground job (what
+    Ctrl-C reaches), its output piped; the group is killed if it is still running after."""
+    proc = subprocess.Popen(
+        command,
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
 def _finished_cells(out: Path) -> list[Path]:
     """Cell folders with a results file, not the hidden staging folder a cell is written
     in before it replaces its target (``fileio.new_folder``): a cell there is not done."""
@@ -217,15 +239,7 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(
         "gamma = [0.0, 0.125, 0.25, 0.5, 1]\n"
     )
     args = ["sweep", "--config", str(toml), "--out", str(out), "--workers", "2"]
-    proc = subprocess.Popen(
-        [*ppaloc_command, *args],
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,  # its own process group, as a terminal's foreground job
-    )
-    try:
+    with _own_group([*ppaloc_command, *args], tmp_path) as proc:
         deadline = time.monotonic() + 60
         while not _finished_cells(out) and time.monotonic() < deadline:
             assert proc.poll() is None, proc.communicate()
@@ -234,10 +248,6 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_a_second_run_finishes_it(
         state = signal_state(proc.pid)  # for the message, should the signal not arrive
         os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does: the whole foreground group
         _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
     assert proc.returncode == 130, f"[signals of the child: {state}]\n{err}"
     assert err.strip().splitlines()[-1] == "ppaloc: interrupted"
     assert "Traceback" not in err
@@ -303,19 +313,7 @@ CTRL_C_AT_START = (
 
 def test_ctrl_c_while_the_local_cluster_starts_is_one_line(tmp_path):
     args = ["sweep", "-m", "seqslam", "-d", TINY[0], "--workers", "2", "--out", "s"]
-    proc = subprocess.Popen(
-        [sys.executable, "-c", CTRL_C_AT_START, *args],
-        cwd=tmp_path,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,  # its own process group, as a terminal's foreground job
-    )
-    try:
+    with _own_group([sys.executable, "-c", CTRL_C_AT_START, *args], tmp_path) as proc:
         _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
     assert proc.returncode == 130, err
     assert err.strip() == "ppaloc: interrupted", err  # no worker's traceback, no atexit error
