@@ -8,6 +8,7 @@ Not collected by pytest. Run from anywhere (paths resolve from this file)::
     .venv/bin/python benchmarks/eval_robust.py --sweep weighted-node-lbp.alpha=2,4,8,16
     .venv/bin/python benchmarks/eval_robust.py --json robust.json
     .venv/bin/python benchmarks/eval_robust.py --representations     # filter x descriptor
+    .venv/bin/python benchmarks/eval_robust.py --representations --held-out
 
 Routes (:func:`routes`): Nordland summer -> winter (tolerance +-2) and its sparse
 patch-normalised variant (every 10th frame, ``patch_norm=8``, tolerance +-1), three Gardens
@@ -16,6 +17,8 @@ a note when absent), and 60 generated routes: seeds 1-5 x ``speed_var`` 0.2 / 0.
 or without stops x a winter, autumn or dusk query against a summer map (``--places``
 places, default 200; tolerance +-1, the generator's default). "With stops" is the
 generator's default count (one per 150 places, at least one); "without" is ``stops=0``.
+``--held-out`` runs the routes of :func:`held_out_routes` instead (36 generated routes on
+which no default was chosen: the road with turns, the indoor lab, night).
 
 Every method is run as ``ppaloc evaluate`` runs it (``ppaloc.evaluate.run``: the sensor
 front-end once per route, then ``run_method`` per method, ``seed=0`` where a method takes
@@ -149,6 +152,42 @@ def routes(data_dir: Path | str | None = DATA, places: int = 200) -> list[tuple[
                         f"&speed_var={speed_var}"
                     )
                     out.append((label, spec if stops else f"{spec}&stops=0"))
+    return out
+
+
+HELD_OUT_SEEDS = (2, 3, 4, 5)
+HELD_OUT_TURN_QUERIES = ("autumn", "winter", "dusk", "night")
+LAB_SEEDS = (2, 3, 4)
+LAB_QUERIES = ("changed", "moved", "people", "dim")
+NIGHT_SEEDS = (1, 2, 3, 4)
+
+
+def held_out_routes(places: int = 200) -> list[tuple[str, str]]:
+    """Generated routes on which no default was chosen, as ``(label, spec)``: the road
+    with eight turns (seeds 2-5; a summer map, an autumn, winter, dusk or night query),
+    the indoor lab (seeds 2-4, 150 places, as ``eval_worlds.py``; each of its changed
+    conditions) and the straight road at night (seeds 1-4, ``speed_var`` 0.2 and 0.65,
+    the generator's stops): worlds and a condition that :func:`routes` does not hold.
+
+    Examples
+    --------
+    >>> held = [label for label, _ in held_out_routes()]
+    >>> len(held), held[0], held[-1]
+    (36, 'synthetic seed=2 turns=8 autumn', 'synthetic seed=4 speed_var=0.65 stops night')
+    """
+    out = []
+    for seed in HELD_OUT_SEEDS:
+        for query in HELD_OUT_TURN_QUERIES:
+            spec = f"synthetic:?places={places}&turns=8&query={query}&seed={seed}"
+            out.append((f"synthetic seed={seed} turns=8 {query}", spec))
+    for seed in LAB_SEEDS:
+        for query in LAB_QUERIES:
+            spec = f"synthetic:?world=lab&places=150&query={query}&seed={seed}"
+            out.append((f"synthetic seed={seed} lab {query}", spec))
+    for seed in NIGHT_SEEDS:
+        for speed_var in SPEED_VARS:
+            spec = f"synthetic:?places={places}&query=night&seed={seed}&speed_var={speed_var}"
+            out.append((f"synthetic seed={seed} speed_var={speed_var} stops night", spec))
     return out
 
 
@@ -586,6 +625,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         help="run only METHOD at each value of key and print route x value",
     )
     parser.add_argument("--data", type=Path, default=DATA, help="the shared data folder")
+    parser.add_argument(
+        "--held-out",
+        action="store_true",
+        help="the routes no default was chosen on (held_out_routes: the road with turns, "
+        "the lab, night) instead of the 65",
+    )
     args = parser.parse_args(argv)
 
     from ppaloc.errors import PpalocError
@@ -643,7 +688,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     if not jobs:
         raise SystemExit("error: no method to run")
 
-    selected = routes(args.data, args.places)
+    selected = held_out_routes(args.places) if args.held_out else routes(args.data, args.places)
     if args.routes:
         selected = [(label, spec) for label, spec in selected if args.routes in label]
     if not selected:
