@@ -332,3 +332,14 @@ def test_show_out_is_a_png_and_not_for_a_results_folder(tmp_path, capsys, folder
     assert code == 1 and err.count("\n") == 1
     assert "a results folder's report is rebuilt inside it" in err and "leave it out" in err
     assert not (tmp_path / "r.png").exists() and not (results / "report.html").exists()
+
+
+def test_map_refuses_a_missing_folder_before_it_reads_the_dataset(tmp_path, capsys):
+    out = tmp_path / "missing" / "m.npz"
+    missing = tmp_path / "no-such-route"  # the folder is refused first: nothing is read
+    code, _, err = run(capsys, "map", f"folder:{missing}", "--out", out)
+    assert code == 1
+    assert err == (
+        f"ppaloc: error: cannot write the map to {out}: folder {out.parent} does not exist; "
+        "create it first\n"
+    )

@@ -429,10 +429,12 @@ def run_map(
     from ppaloc.datasets.registry import load_reference
     from ppaloc.evaluate.run import ProgressBar, ReportedFrames, resolve_methods, sensor_stream
     from ppaloc.methods import make_localiser
+    from ppaloc.topomap.io import refuse_missing_folder
 
     (method,) = resolve_methods([method])
     if out.is_dir():
         raise DataError(f"--out {out} is a folder; give a file name such as map.npz")
+    refuse_missing_folder(out)  # before the map is built, not after
     loc = make_localiser(method, **params)  # parameters checked before the dataset loads
     refuse_input_as_out(out, _dataset_paths(dataset, reference=True), what="the dataset's")
     ds = load_reference(dataset)

@@ -84,6 +84,16 @@ def _describe(a: np.ndarray) -> dict[str, Any]:
     return {"dtype": a.dtype.str, "shape": list(a.shape)}
 
 
+def refuse_missing_folder(path: str | Path) -> None:
+    """Refuse, in one line, a map file whose folder does not exist (a mistyped folder is
+    not created): :func:`save_map` asks it, and ``ppaloc map`` before it builds the map."""
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise DataError(
+            f"cannot write the map to {path}: folder {path.parent} does not exist; create it first"
+        )
+
+
 def save_map(topomap: TopoMap, path: str | Path, *, dataset: str | None = None) -> Path:
     """Write ``topomap`` to ``path`` atomically (a temporary file, then ``os.replace``).
 
@@ -111,10 +121,7 @@ def save_map(topomap: TopoMap, path: str | Path, *, dataset: str | None = None) 
         ``path``.
     """
     path = Path(path)
-    if not path.parent.is_dir():
-        raise DataError(
-            f"cannot write the map to {path}: folder {path.parent} does not exist; create it first"
-        )
+    refuse_missing_folder(path)
     arrays = {"descriptors": topomap.descriptors, "frame_index": topomap.frame_index}
     if topomap.positions is not None:
         arrays["positions"] = topomap.positions
