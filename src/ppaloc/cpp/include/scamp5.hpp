@@ -611,6 +611,9 @@ inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, in
 #include "ppaloc_gen_macros.hpp"
 
 namespace scamp5_kernel_api {
+// As the device's kernel API headers do: a kernel block (its `using namespace
+// scamp5_kernel_api`) sees the registers without `using namespace SCAMP5_PE`.
+using namespace SCAMP5_PE;
 // The several-destination form: bus({a, b, ...}, {x, y, ...}), one ICW.
 inline void bus(std::initializer_list<ppa::Arg> dst, std::initializer_list<ppa::Arg> src,
                 ppa::Loc loc = PPA_HERE) {
