@@ -53,6 +53,27 @@ def test_link_errors_name_their_cause(cxx, tmp_path):
         compile_program(notes)
 
 
+def test_windows_include_path_named_with_its_fix(tmp_path):
+    # the device's Windows toolchain reads "..\inc\x.hpp" as a path; g++ would only say
+    # that no file of that name exists
+    (tmp_path / "inc").mkdir()
+    (tmp_path / "inc" / "x.hpp").write_text("#pragma once\n")
+    (tmp_path / "src").mkdir()
+    main_cpp = tmp_path / "src" / "main.cpp"
+    main_cpp.write_text('#include <scamp5.hpp>\n#include "..\\inc\\x.hpp"\nint main() {}\n')
+    with pytest.raises(PpalocError) as err:
+        compile_program(main_cpp)
+    assert str(err.value) == (
+        f'{main_cpp}:2: #include "..\\inc\\x.hpp" separates folders with \\, which only a '
+        "Windows compiler reads as a folder separator (g++ here takes it as part of the file "
+        'name): write #include "../inc/x.hpp"'
+    )
+    # the same in a header of an -I folder, written <inc\x.hpp>
+    main_cpp.write_text("#include <scamp5.hpp>\n\n#include <inc\\x.hpp>\nint main() {}\n")
+    with pytest.raises(PpalocError, match=r"main.cpp:3: #include <inc\\x.hpp> .* <inc/x.hpp>$"):
+        compile_program(main_cpp, include_dirs=[tmp_path])
+
+
 def test_unmodelled_call_named_before_the_run():
     with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: vs_gpio_output is a"):
         compile_program(PROGRAMS / "unmodelled.cpp")

@@ -110,6 +110,21 @@ def _resolve(name: str, quoted: bool, here: Path, folders: Sequence[Path]) -> Pa
     return None
 
 
+def _refuse_backslash(name: str, quoted: bool, path: Path, line: int, project: Project) -> None:
+    """Refuse ``#include "..\\inc\\x.hpp"`` where ``../inc/x.hpp`` is a project file: the
+    device's Windows toolchain takes ``\\`` as a folder separator, g++ here as part of the
+    name (it would say only that no such file exists)."""
+    fixed = name.replace("\\", "/")
+    if _resolve(fixed, quoted, path.parent, project.include_dirs) is None:
+        return
+    shown, fixed = (f'"{name}"', f'"{fixed}"') if quoted else (f"<{name}>", f"<{fixed}>")
+    raise PpalocError(
+        f"{path}:{line}: #include {shown} separates folders with \\, which only a Windows "
+        f"compiler reads as a folder separator (g++ here takes it as part of the file "
+        f"name): write #include {fixed}"
+    )
+
+
 def project_headers(project: Project, shadowed: frozenset[str] = frozenset()) -> list[Path]:
     """The project's own headers, in the order first included: what the sources include
     from their own folders or the ``-I`` folders, followed through those headers.
@@ -136,6 +151,8 @@ def project_headers(project: Project, shadowed: frozenset[str] = frozenset()) ->
             if not quoted and name in shadowed:
                 continue
             header = _resolve(name, quoted, path.parent, project.include_dirs)
+            if header is None and "\\" in name:
+                _refuse_backslash(name, quoted, path, text[: m.start()].count("\n") + 1, project)
             if header is None or header.resolve() in seen:
                 continue
             seen.add(header.resolve())
