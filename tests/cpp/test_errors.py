@@ -126,6 +126,40 @@ def test_null_pointer_crash(faults, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+ABORTS = r"""
+#include <scamp5.hpp>
+#include <cassert>
+#include <stdexcept>
+int main() {
+    vs_init();
+    int mode = 0;
+    vs_gui_add_slider("mode", 0, 2, 0, &mode);
+    while (1) {
+        vs_frame_loop_control();
+        if (mode == 0) assert(mode > 0 && "a mode");
+        if (mode == 1) throw std::out_of_range("index 7 is past the end");
+        if (mode == 2) throw 42;
+    }
+}
+"""
+
+
+@pytest.mark.parametrize(
+    ("mode", "cause"),
+    [
+        (0, 'the assertion `mode > 0 && "a mode"\' failed at aborts.cpp:11'),
+        (1, "an uncaught exception std::out_of_range: index 7 is past the end"),
+        (2, "an uncaught exception int"),
+    ],
+)
+def test_an_abort_names_its_cause(cxx, tmp_path, mode, cause):
+    source = tmp_path / "aborts.cpp"
+    source.write_text(ABORTS)
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES, settings={"mode": str(mode)}, timeout=60)
+    assert str(err.value) == f"aborts.cpp crashed in frame 0 (SIGABRT): {cause}"
+
+
 def test_division_by_zero_gives_the_devices_zero_and_is_reported(faults, tmp_path):
     assert fault(7, index=4).texts == ["25 0"] * len(FRAMES)
     result = fault(7)  # 100 / 0 and 100 % 0 in every frame: 0, and the dividend

@@ -249,6 +249,24 @@ _ASAN_KINDS = {
 }
 
 
+def _abort_cause(lines: Sequence[str]) -> str:
+    """What the C++ run-time printed before aborting the program: a failed ``assert``
+    (``the assertion `x > 0' failed at prog.cpp:12``) or an exception nothing caught
+    (``an uncaught exception std::out_of_range: index 7``), else ``""``."""
+    for i, ln in enumerate(lines):
+        m = re.search(r"(\S+):(\d+): [^\n]*?Assertion (.+) failed\.$", ln)
+        if m:
+            return f"the assertion {m.group(3)} failed at {Path(m.group(1)).name}:{m.group(2)}"
+        m = re.match(r"terminate called after throwing an instance of '(.+)'$", ln)
+        if m:
+            what = lines[i + 1] if i + 1 < len(lines) else ""
+            told = what.removeprefix("what():").strip() if what.startswith("what():") else ""
+            return f"an uncaught exception {m.group(1)}{f': {told}' if told else ''}"
+        if ln.startswith("terminate called without an active exception"):
+            return "std::terminate called without an active exception (a `throw;` outside a catch?)"
+    return ""
+
+
 def _crash_message(
     program: str, code: int, stderr: str, session: Session, files: frozenset[str] = frozenset()
 ) -> str:
@@ -269,7 +287,8 @@ def _crash_message(
             sig = signal.Signals(-code).name
         except ValueError:
             sig = f"signal {-code}"
-        return f"{program} crashed {where} ({sig})"
+        cause = _abort_cause(lines)
+        return f"{program} crashed {where} ({sig}){f': {cause}' if cause else ''}"
     last = f": {lines[-1]}" if lines else ""
     return f"{program} exited with status {code} {where}{last}"
 
