@@ -495,6 +495,17 @@ class scamp5_kernel {
                   "vs_scamp5_execute_icw");
     }
     bool null() const { return id == 0; }
+    // k([] { ... }): a kernel not yet recorded records the function's calls, as the device's
+    // operator() does (an array of kernels filled in a loop); one already recorded keeps
+    // its recording. Either way the kernel itself, to launch.
+    scamp5_kernel& operator()(std::function<void(void)> f, ppa::Loc loc = PPA_HERE) {
+        if (null()) {
+            recording_start(loc.file, loc.line);
+            f();
+            recording_stop();
+        }
+        return *this;
+    }
     // Accepted and recorded (host.txt): the kernels' ICWs are in timing.json.
     static void print_debug_info(ppa::Loc loc = PPA_HERE) {
         ppa::call("scamp5_kernel::print_debug_info", false, {}, loc);
