@@ -59,3 +59,61 @@ def test_kernels_recorded_by_calling_them_with_a_function(cxx, tmp_path):
     for out in result.session.outputs:
         np.testing.assert_allclose(out[1], 50, atol=1)  # 100 / 2
         np.testing.assert_allclose(out[2], 25, atol=1)  # 100 / 4
+
+
+STACK = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+
+// 300 mov = 600 ICWs: two such kernels do not fit the 1024-ICW stack at once
+#define LONG_KERNEL(DST, SRC) ([] {                          \
+        using namespace scamp5_kernel_api;                   \
+        for (int i = 0; i < 300; i++) mov(DST, SRC);         \
+    })
+
+int main() {
+    vs_init();
+    int mode = 0;
+    vs_gui_add_slider("mode", 0, 2, 0, &mode);
+    vs_handle d = vs_gui_add_display("d", 0, 0);
+    while (1) {
+        vs_frame_loop_control();
+        scamp5_in(A, 10);
+        scamp5_in(C, 20);
+        if (mode == 0) {  // each deleted after its launch: the next has the room again
+            scamp5_kernel* k = new scamp5_kernel(LONG_KERNEL(B, A));
+            (*k)();
+            delete k;
+            k = new scamp5_kernel(LONG_KERNEL(D, C));
+            (*k)();
+            delete k;
+        } else if (mode == 1) {  // a copy going leaves the kernel it copied on the stack
+            scamp5_kernel first(LONG_KERNEL(B, A));
+            { scamp5_kernel copy = first; }
+            first();
+            scamp5_kernel second(LONG_KERNEL(D, C));
+            second();
+        } else {  // both alive at once: the second loses ICWs, as on the device
+            static scamp5_kernel first(LONG_KERNEL(B, A));
+            static scamp5_kernel second(LONG_KERNEL(D, C));
+            first();
+            second();
+        }
+        scamp5_output_image(D, d);
+    }
+}
+"""
+
+
+def test_a_deleted_kernel_leaves_the_icw_stack(cxx, tmp_path):
+    source = tmp_path / "stack.cpp"
+    source.write_text(STACK)
+    frames = [np.zeros((16, 16), np.uint8)] * 2
+    for mode, lost in ((0, False), (1, True), (2, True)):
+        result = run_program(source, frames, settings={"mode": str(mode)}, timeout=60)
+        warnings = result.summary()["warnings"]
+        assert any("lost 176 of its ICWs" in w for w in warnings) == lost, (mode, warnings)
+        assert len(warnings) == int(lost)  # once, though recorded again in every frame
+        if not lost:
+            for out in result.session.outputs:
+                np.testing.assert_allclose(out[2], 20, atol=1)  # handle 2: after the slider

@@ -459,6 +459,18 @@ def test_move_to_heap_leaves_the_stack() -> None:
     assert len(big) == len(k) == MAX_ICWS and not k.dropped
 
 
+def test_leave_stack_frees_the_room_and_keeps_the_recording() -> None:
+    sim = Scamp5(2, 2)
+    with sim.kernel() as old:
+        for _ in range(MAX_ICWS):
+            old.nop()
+    old.leave_stack()  # the C++ object deleted: its room goes back to the stack
+    with sim.kernel() as k:
+        for _ in range(MAX_ICWS):
+            k.nop()
+    assert not k.dropped and len(old) == MAX_ICWS
+
+
 def test_a_failed_recording_frees_its_room() -> None:
     sim = Scamp5(2, 2)
     with pytest.raises(ZeroDivisionError), sim.kernel() as k:

@@ -87,6 +87,9 @@ class KernelStats:
     runs: int = 0
     modelled_us: float = 0.0
     file: str = "program"
+    #: Every C++ object holding it was destroyed: it left the ICW stack, and a later launch
+    #: (of the same body recorded again) records it again, as the device does.
+    freed: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready summary."""
@@ -398,7 +401,8 @@ class Session:
             raise ProgramError(f"{self.program}: kernel {kid} was run before it was defined")
         timing = self.sim.timing
         t0 = timing.now_us
-        if stats.kernel is None:
+        if stats.kernel is None or stats.freed:
+            stats.freed = False
             kernel = self.sim.kernel()
             try:
                 with warnings.catch_warnings(record=True) as caught, kernel as k:
@@ -418,17 +422,21 @@ class Session:
                     f"{stats.file}:{stats.line}: the kernel begun here: {exc}"
                 ) from None
             stats.kernel = kernel
-            for w in caught:  # the stack's own warning is worded for C++ below
-                if not issubclass(w.category, IcwStackWarning):
-                    self.warnings.append(f"{stats.file}:{stats.line}: {w.message}")
+            found = [
+                f"{stats.file}:{stats.line}: {w.message}"
+                for w in caught  # the stack's own warning is worded for C++ below
+                if not issubclass(w.category, IcwStackWarning)
+            ]
             dropped = getattr(kernel, "dropped", 0)
             if dropped:
                 self.device_errors |= ICW_STACK_OVERFLOW
-                self.warnings.append(
+                found.append(
                     f"{stats.file}:{stats.line}: the kernel begun here lost {dropped} of its "
                     "ICWs: the 1024-ICW stack that static kernels share is full (free some, "
                     "use dynamic kernels or move_to_heap(true))"
                 )
+            # a kernel recorded again after it was freed says it once
+            self.warnings += [w for w in found if w not in self.warnings]
         else:
             stats.kernel.run()
         stats.runs += 1
@@ -444,7 +452,8 @@ class Session:
         handler = HANDLERS.get(name)
         if handler is None:
             raise ProgramError(f"{self.at(line)}: {name} is not served by this simulator")
-        self.calls[name] += 1
+        if not name.startswith("ppaloc_"):  # the shim's own messages are not the program's
+            self.calls[name] += 1
         try:
             result = handler(self, args, line)
         except ProgramError:
@@ -925,6 +934,15 @@ def _division_by_zero(s: Session, a: list, line: int) -> None:
     )
 
 
+def _kernel_freed(s: Session, a: list, line: int) -> None:
+    """The last C++ object holding a kernel was destroyed (``delete``, the end of its
+    scope): the kernel leaves the ICW stack, as the device's destructor takes it off."""
+    stats = s.kernels.get(a[0])
+    if stats is not None and stats.kernel is not None and not stats.freed:
+        stats.kernel.leave_stack()
+        stats.freed = True
+
+
 def _static_kernel_changed(s: Session, a: list, line: int) -> None:
     """A static kernel begun again whose body would now record other calls: it runs as
     first recorded (as on the device), and the run warns once per place, naming the first
@@ -1111,6 +1129,7 @@ HANDLERS.update(
         "vs_host_event": _host_event,
         "ppaloc_division_by_zero": _division_by_zero,
         "ppaloc_static_kernel_changed": _static_kernel_changed,
+        "ppaloc_kernel_freed": _kernel_freed,
         "vs_sim::save_image": _save_image,
         "vs_scamp5_set_dac": _sim("load_dac"),
         **{
