@@ -316,6 +316,9 @@ def test_encode_spells_latch_halves_as_their_macro() -> None:
         (0, {16, 24}, "exactly one of NEWS, XN"),
         (3, {5}, "PROP clock"),
         (0, "x", "must be bit positions"),
+        (0, [13.7], r"bits=\[13.7\] must be bit positions"),  # not taken as bit 13
+        (0, [True], "must be bit positions"),
+        (0, 5, "must be bit positions"),
     ],
 )
 def test_raw_word_mistakes(clock, bits, message) -> None:
