@@ -136,8 +136,21 @@ class FramesFailedError(DataError):
         self.result = result
 
 
+#: The longest display folder name taken from a display's text (a file name holds at most
+#: 255 bytes, and a folder's listing should stay readable).
+SLUG_MAX = 64
+
+
 def _slug(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "display"
+    """A display's text as one folder name: characters other than letters, digits, ``_``,
+    ``.`` and ``-`` as ``_``, cut to :data:`SLUG_MAX`, without leading or trailing dots and
+    underscores (so ``..`` or ``.`` never names the folder above or the same one).
+
+    >>> [_slug(n) for n in ("edges", "R5 / R6", "..", ".", ".hidden", "x" * 300)] == [
+    ...     "edges", "R5_R6", "display", "display", "hidden", "x" * SLUG_MAX]
+    True
+    """
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)[:SLUG_MAX].strip("._") or "display"
 
 
 def display_folders(displays: dict[int, str]) -> dict[int, str]:
