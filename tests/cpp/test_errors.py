@@ -110,6 +110,25 @@ def test_hang_is_stopped(faults, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_loop_that_never_begins_a_frame_says_so(cxx, tmp_path):
+    # a loop that runs free on the device (vs_process_message alone, no frame calls)
+    source = tmp_path / "free.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\nusing namespace SCAMP5_PE;\nint main() {\n    vs_init();\n"
+        "    while (1) {\n        vs_process_message();\n        scamp5_in(A, 10);\n"
+        "        vs_loop_counter_inc();\n    }\n}\n"
+    )
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES, timeout=2, out=tmp_path / "out")
+    assert str(err.value) == (
+        "free.cpp did not finish within 2 s and never began a frame: each frame begins at "
+        "vs_frame_loop_control() or vs_wait_frame_trigger(); a loop that never ends, or a "
+        "frame loop without either (call vs_frame_loop_control() at its top)? raise "
+        "--timeout if it needs longer"
+    )
+    assert not (tmp_path / "out").exists()
+
+
 def test_out_of_bounds_write_is_one_line_and_leaves_no_folder(faults, tmp_path):
     fault(2, index=3)  # in bounds: fine
     with pytest.raises(PpalocError) as err:

@@ -597,11 +597,19 @@ def _serve(
             serve(session, read, write)
             served = True
         except TimeoutError:
-            where = f"in frame {session.frame}" if session.loops else "before its frame loop"
-            error = PpalocError(
-                f"{name} did not finish within {timeout:g} s (stopped {where}): a loop that "
-                "never ends? raise --timeout if it needs longer"
-            )
+            if session.loops:
+                error = PpalocError(
+                    f"{name} did not finish within {timeout:g} s (stopped in frame "
+                    f"{session.frame}): a loop that never ends? raise --timeout if it needs "
+                    "longer"
+                )
+            else:  # a loop that runs free on the device (vs_process_message alone) ends here
+                error = PpalocError(
+                    f"{name} did not finish within {timeout:g} s and never began a frame: "
+                    "each frame begins at vs_frame_loop_control() or vs_wait_frame_trigger(); "
+                    "a loop that never ends, or a frame loop without either (call "
+                    "vs_frame_loop_control() at its top)? raise --timeout if it needs longer"
+                )
         except ProgramError as exc:
             error = exc
         finally:
