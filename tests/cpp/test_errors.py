@@ -129,6 +129,20 @@ def test_a_loop_that_never_begins_a_frame_says_so(cxx, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_slider_whose_minimum_is_above_its_maximum_is_named(cxx, tmp_path):
+    # no --set value could be in its range; vs_gui_set_slider_range refuses it too
+    source = tmp_path / "range.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\nint main() {\n    vs_init();\n"
+        '    vs_gui_add_slider("level", 10, 0, 5);\n    vs_frame_loop_control();\n}\n'
+    )
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES, timeout=60)
+    assert str(err.value) == (
+        "range.cpp:4: vs_gui_add_slider('level', 10, 0, 5): the minimum is above the maximum"
+    )
+
+
 def test_out_of_bounds_write_is_one_line_and_leaves_no_folder(faults, tmp_path):
     fault(2, index=3)  # in bounds: fine
     with pytest.raises(PpalocError) as err:

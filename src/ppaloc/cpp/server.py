@@ -498,6 +498,11 @@ class Session:
         ``NAME`` is the item's text as the program declares it, or that text without its
         trailing colons and spaces (``--set threshold=30`` sets ``"threshold: "``).
         """
+        if lo > hi:  # as vs_gui_set_slider_range refuses it: no value could be set
+            raise ProgramError(
+                f"{self.at(line)}: vs_gui_add_{kind}({text!r}, {lo}, {hi}, {init}): the minimum "
+                "is above the maximum"
+            )
         name = self._setting_for(kind, text)
         if name is not None:
             self.unused.discard(name)
