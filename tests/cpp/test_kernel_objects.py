@@ -117,3 +117,34 @@ def test_a_deleted_kernel_leaves_the_icw_stack(cxx, tmp_path):
         if not lost:
             for out in result.session.outputs:
                 np.testing.assert_allclose(out[2], 20, atol=1)  # handle 2: after the slider
+
+
+LONG = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    int n = 0;
+    vs_gui_add_slider("n", 1, 1000000, 1, &n);
+    vs_frame_loop_control();
+    scamp5_dynamic_kernel_begin();
+        for (int i = 0; i < n; i++) mov(A, B);  // 2 ICWs a call
+    scamp5_dynamic_kernel_end();
+}
+"""
+
+
+def test_a_kernel_of_65536_calls_or_more_keeps_its_first_icws(cxx, tmp_path):
+    # the call count was 16 bits: 65,536 calls arrived as an empty kernel, 70,000 as 4,464
+    source = tmp_path / "long.cpp"
+    source.write_text(LONG)
+    frames = [np.zeros((16, 16), np.uint8)]
+    for n in (65536, 70000):
+        result = run_program(source, frames, settings={"n": str(n)}, timeout=60)
+        summary = result.summary()
+        assert summary["icws_run"] == 1024, n
+        assert summary["warnings"] == [
+            f"long.cpp:9: the kernel begun here lost {2 * n - 1024} of its ICWs: the 1024-ICW "
+            "stack that static kernels share is full (split it into kernels of at most 1024 "
+            "ICWs)"
+        ]

@@ -41,7 +41,7 @@ from ppaloc.cpp.protocol import (
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
-from ppaloc.sim.kernel import IcwStackWarning
+from ppaloc.sim.kernel import MAX_ICWS, IcwStackWarning
 from ppaloc.sim.registers import register_by_name
 from ppaloc.sim.render import plane_to_image
 
@@ -388,8 +388,8 @@ class Session:
         return body
 
     def _define(self, payload: memoryview) -> None:
-        kid, line, dynamic, n = struct.unpack_from("<IIBH", payload)
-        body = self.body(payload, 11, n)
+        kid, line, dynamic, n = struct.unpack_from("<IIBI", payload)
+        body = self.body(payload, 13, n)
         calls = [_shown_call(b) for b in body]
         self.kernels[kid] = KernelStats(
             kid, line & LINE_MASK, calls, body, dynamic=bool(dynamic), file=self.file_of(line)
@@ -430,10 +430,13 @@ class Session:
             dropped = getattr(kernel, "dropped", 0)
             if dropped:
                 self.device_errors |= ICW_STACK_OVERFLOW
+                if len(kernel) + dropped > MAX_ICWS:  # too long for the stack on its own
+                    fix = f"split it into kernels of at most {MAX_ICWS} ICWs"
+                else:
+                    fix = "free some, use dynamic kernels or move_to_heap(true)"
                 found.append(
                     f"{stats.file}:{stats.line}: the kernel begun here lost {dropped} of its "
-                    "ICWs: the 1024-ICW stack that static kernels share is full (free some, "
-                    "use dynamic kernels or move_to_heap(true))"
+                    f"ICWs: the 1024-ICW stack that static kernels share is full ({fix})"
                 )
             # a kernel recorded again after it was freed says it once
             self.warnings += [w for w in found if w not in self.warnings]

@@ -490,7 +490,7 @@ class scamp5_kernel {
     uint32_t id = 0;
     uint32_t where = 0;  // the wired place of its recording (messages about it name it)
     std::vector<uint8_t> body;
-    uint16_t calls = 0;
+    uint32_t calls = 0;  // a kernel of 65,536 calls and more is recorded whole
     unsigned line = 0;
     const char* file = "";
 
@@ -610,7 +610,7 @@ class scamp5_kernel {
         c.u32(id);
         c.u32(where);
         c.u8(dynamic ? 1 : 0);
-        c.u16(calls);
+        c.u32(calls);
         c.bytes(body.data(), body.size());
         c.end(at);
     }
@@ -652,7 +652,7 @@ class scamp5_kernel {
     }
     bool changed = false;           // a later pass's body differed: reported, not run again
     std::vector<uint8_t> recorded;  // the recording, aside while a later pass compares
-    uint16_t recorded_calls = 0;
+    uint32_t recorded_calls = 0;
 };
 
 inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, int n) {
