@@ -87,6 +87,11 @@ def make_project(
                 f"{path} is a folder, not a C++ source: give its .cpp files, and its header "
                 f"folders with -I {path}"
             )
+        if path.exists() and not path.is_file():  # read by the compiler, a pipe would block
+            raise PpalocError(
+                f"the program source {path} is not a regular file (a pipe, device or socket); "
+                "give a C++ source file"
+            )
         if not path.is_file():
             raise PpalocError(f"the program source {path} does not exist")
         key = path.resolve()
@@ -107,6 +112,13 @@ def _resolve(name: str, quoted: bool, here: Path, folders: Sequence[Path]) -> Pa
         candidate = folder / name
         if candidate.is_file():
             return candidate
+        if candidate.exists() and not candidate.is_dir():  # the compiler would wait on a pipe
+            shown = f'"{name}"' if quoted else f"<{name}>"
+            raise PpalocError(
+                f"#include {shown} names {candidate}, which is not a regular file (a pipe, "
+                "device or socket): the compiler would wait on it; replace it with the header "
+                "file"
+            )
     return None
 
 
