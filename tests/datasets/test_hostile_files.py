@@ -261,3 +261,12 @@ def test_citycentre_truth_outside_the_folder_is_refused(write_frames, tmp_path):
     write_frames(tmp_path / "cc", range(8))
     with pytest.raises(DataError, match=r"truth='\.\./x\.mat' points outside the dataset folder"):
         load_dataset(f"citycentre:{tmp_path / 'cc'}?truth=../x.mat")
+
+
+def test_an_image_that_is_a_pipe_is_refused_before_it_is_opened(tmp_path):
+    # Image.open on a FIFO waits for a writer for ever (ppaloc cpp run --image pipe.png)
+    import os
+
+    os.mkfifo(tmp_path / "f.png")
+    with pytest.raises(DataError, match=r"f.png is not a regular file \(a pipe, device or "):
+        read_grey(tmp_path / "f.png")

@@ -186,6 +186,8 @@ def read_grey_reduced(path: Path, at_least: int) -> tuple[np.ndarray, tuple[floa
 
 
 def _read(path: Path, draft: int | None, fix: str) -> tuple[np.ndarray, tuple[float, float]]:
+    if path.exists() and not path.is_file() and not path.is_dir():  # opening a pipe blocks
+        raise DataError(f"image {path} is not a regular file (a pipe, device or socket); {fix}")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
