@@ -50,6 +50,15 @@ def natural_key(name: str) -> tuple:
     return (key, name)  # the exact name breaks ties (e.g. "a01" and "a1")
 
 
+def missing(path: Path) -> str:
+    """Why a file a spec names cannot be read as one: ``"does not exist"``, or, for a pipe,
+    device or socket (which ppaloc never opens: a pipe would block), ``"is not a regular
+    file (a pipe, device or socket)"``."""
+    if Path(path).exists():
+        return "is not a regular file (a pipe, device or socket)"
+    return "does not exist"
+
+
 def require_dir(path: Path, what: str = "folder") -> Path:
     """Return ``path`` if it is a directory, else raise a ``DataError`` naming it."""
     path = Path(path)
