@@ -143,6 +143,22 @@ def test_a_slider_whose_minimum_is_above_its_maximum_is_named(cxx, tmp_path):
     )
 
 
+def test_a_program_that_closes_its_pipe_is_not_a_finished_run(cxx, tmp_path):
+    # it ended 'successfully' with fewer frames than asked, its outputs written
+    source = tmp_path / "closes.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\n#include <unistd.h>\nint main() {\n    vs_init();\n"
+        "    vs_frame_loop_control();\n    for (int fd = 3; fd < 64; fd++) close(fd);\n"
+        "    while (1) vs_frame_loop_control();\n}\n"
+    )
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES * 3, timeout=60, out=tmp_path / "out")
+    assert str(err.value).startswith(
+        "closes.cpp lost its pipe to the simulator in frame 0 (it closed the file descriptors"
+    )
+    assert not (tmp_path / "out").exists()
+
+
 def test_out_of_bounds_write_is_one_line_and_leaves_no_folder(faults, tmp_path):
     fault(2, index=3)  # in bounds: fine
     with pytest.raises(PpalocError) as err:

@@ -629,6 +629,13 @@ def _serve(
         stderr = err_f.read().decode("utf-8", "replace")
     if error is not None:
         raise error
-    if code != 0 and code != SERVER_EXIT:
+    if code == SERVER_EXIT:  # the shim lost its pipe, and the simulator had not ended the run
+        where = f"in frame {session.frame}" if session.loops else "before the frame loop"
+        raise PpalocError(
+            f"{name} lost its pipe to the simulator {where} (it closed the file descriptors "
+            "named by PPALOC_FD_IN and PPALOC_FD_OUT?): a program must leave them open; its "
+            "run is not written"
+        )
+    if code != 0:
         raise PpalocError(_crash_message(name, code, stderr, session, files))
     return RunResult(session, stdout, wall)
