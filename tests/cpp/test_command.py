@@ -61,6 +61,18 @@ def test_frames_from_an_image(tmp_path):
     assert int(frames[0][100, 100]) == 200
 
 
+def test_an_image_that_is_a_pipe_is_refused_not_waited_on(tmp_path):
+    import os
+
+    os.mkfifo(tmp_path / "scene.png")  # opening it would wait for a writer for ever
+    with pytest.raises(PpalocError) as err:
+        load_frames(tmp_path / "scene.png", None, 1)
+    assert str(err.value) == (
+        f"image {tmp_path / 'scene.png'} is not a regular file (a pipe, device or socket); "
+        "give --image an image file"
+    )
+
+
 def test_frames_from_a_dataset_and_defaults():
     frames = list(load_frames(None, "synthetic:?places=12&seed=2", 2))
     assert len(frames) == 2 and frames[1].shape == (256, 256)

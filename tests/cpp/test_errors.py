@@ -53,6 +53,27 @@ def test_link_errors_name_their_cause(cxx, tmp_path):
         compile_program(notes)
 
 
+def test_windows_include_path_named_with_its_fix(tmp_path):
+    # the device's Windows toolchain reads "..\inc\x.hpp" as a path; g++ would only say
+    # that no file of that name exists
+    (tmp_path / "inc").mkdir()
+    (tmp_path / "inc" / "x.hpp").write_text("#pragma once\n")
+    (tmp_path / "src").mkdir()
+    main_cpp = tmp_path / "src" / "main.cpp"
+    main_cpp.write_text('#include <scamp5.hpp>\n#include "..\\inc\\x.hpp"\nint main() {}\n')
+    with pytest.raises(PpalocError) as err:
+        compile_program(main_cpp)
+    assert str(err.value) == (
+        f'{main_cpp}:2: #include "..\\inc\\x.hpp" separates folders with \\, which only a '
+        "Windows compiler reads as a folder separator (g++ here takes it as part of the file "
+        'name): write #include "../inc/x.hpp"'
+    )
+    # the same in a header of an -I folder, written <inc\x.hpp>
+    main_cpp.write_text("#include <scamp5.hpp>\n\n#include <inc\\x.hpp>\nint main() {}\n")
+    with pytest.raises(PpalocError, match=r"main.cpp:3: #include <inc\\x.hpp> .* <inc/x.hpp>$"):
+        compile_program(main_cpp, include_dirs=[tmp_path])
+
+
 def test_unmodelled_call_named_before_the_run():
     with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: vs_gpio_output is a"):
         compile_program(PROGRAMS / "unmodelled.cpp")
@@ -89,6 +110,55 @@ def test_hang_is_stopped(faults, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_loop_that_never_begins_a_frame_says_so(cxx, tmp_path):
+    # a loop that runs free on the device (vs_process_message alone, no frame calls)
+    source = tmp_path / "free.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\nusing namespace SCAMP5_PE;\nint main() {\n    vs_init();\n"
+        "    while (1) {\n        vs_process_message();\n        scamp5_in(A, 10);\n"
+        "        vs_loop_counter_inc();\n    }\n}\n"
+    )
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES, timeout=2, out=tmp_path / "out")
+    assert str(err.value) == (
+        "free.cpp did not finish within 2 s and never began a frame: each frame begins at "
+        "vs_frame_loop_control() or vs_wait_frame_trigger(); a loop that never ends, or a "
+        "frame loop without either (call vs_frame_loop_control() at its top)? raise "
+        "--timeout if it needs longer"
+    )
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_slider_whose_minimum_is_above_its_maximum_is_named(cxx, tmp_path):
+    # no --set value could be in its range; vs_gui_set_slider_range refuses it too
+    source = tmp_path / "range.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\nint main() {\n    vs_init();\n"
+        '    vs_gui_add_slider("level", 10, 0, 5);\n    vs_frame_loop_control();\n}\n'
+    )
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES, timeout=60)
+    assert str(err.value) == (
+        "range.cpp:4: vs_gui_add_slider('level', 10, 0, 5): the minimum is above the maximum"
+    )
+
+
+def test_a_program_that_closes_its_pipe_is_not_a_finished_run(cxx, tmp_path):
+    # it ended 'successfully' with fewer frames than asked, its outputs written
+    source = tmp_path / "closes.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\n#include <unistd.h>\nint main() {\n    vs_init();\n"
+        "    vs_frame_loop_control();\n    for (int fd = 3; fd < 64; fd++) close(fd);\n"
+        "    while (1) vs_frame_loop_control();\n}\n"
+    )
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES * 3, timeout=60, out=tmp_path / "out")
+    assert str(err.value).startswith(
+        "closes.cpp lost its pipe to the simulator in frame 0 (it closed the file descriptors"
+    )
+    assert not (tmp_path / "out").exists()
+
+
 def test_out_of_bounds_write_is_one_line_and_leaves_no_folder(faults, tmp_path):
     fault(2, index=3)  # in bounds: fine
     with pytest.raises(PpalocError) as err:
@@ -103,6 +173,40 @@ def test_null_pointer_crash(faults, tmp_path):
     with pytest.raises(PpalocError, match="crashed in frame 0"):
         fault(6, tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+ABORTS = r"""
+#include <scamp5.hpp>
+#include <cassert>
+#include <stdexcept>
+int main() {
+    vs_init();
+    int mode = 0;
+    vs_gui_add_slider("mode", 0, 2, 0, &mode);
+    while (1) {
+        vs_frame_loop_control();
+        if (mode == 0) assert(mode > 0 && "a mode");
+        if (mode == 1) throw std::out_of_range("index 7 is past the end");
+        if (mode == 2) throw 42;
+    }
+}
+"""
+
+
+@pytest.mark.parametrize(
+    ("mode", "cause"),
+    [
+        (0, 'the assertion `mode > 0 && "a mode"\' failed at aborts.cpp:11'),
+        (1, "an uncaught exception std::out_of_range: index 7 is past the end"),
+        (2, "an uncaught exception int"),
+    ],
+)
+def test_an_abort_names_its_cause(cxx, tmp_path, mode, cause):
+    source = tmp_path / "aborts.cpp"
+    source.write_text(ABORTS)
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES, settings={"mode": str(mode)}, timeout=60)
+    assert str(err.value) == f"aborts.cpp crashed in frame 0 (SIGABRT): {cause}"
 
 
 def test_division_by_zero_gives_the_devices_zero_and_is_reported(faults, tmp_path):

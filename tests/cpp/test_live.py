@@ -128,6 +128,10 @@ def test_bad_requests_are_refused_in_one_line(live_program):
         ),
         ({"name": "level"}, 'POST /set takes {"name": TEXT, "value": INT} exactly'),
         (b"level=3", "POST /set: the body is not JSON"),
+        (
+            b"[" * 2000 + b"]" * 2000,  # under MAX_BODY: once a traceback on the terminal
+            'POST /set: the body nests too deeply; send {"name": TEXT, "value": INT}',
+        ),
     ]
     for body, message in bad:
         assert run.post(body) == (400, message + "\n"), body

@@ -147,6 +147,23 @@ def test_every_new_input_is_checked_in_one_line(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_pipe_for_a_source_or_a_header_is_refused_not_waited_on(tmp_path):
+    # the compiler would block on a FIFO for ever (no --timeout covers the build)
+    import os
+
+    fifo = tmp_path / "piped.cpp"
+    os.mkfifo(fifo)
+    with pytest.raises(PpalocError, match=r"piped.cpp is not a regular file \(a pipe, device"):
+        run_program([fifo], FRAME, out=tmp_path / "o")
+    (tmp_path / "inc").mkdir()
+    os.mkfifo(tmp_path / "inc" / "h.hpp")
+    main = tmp_path / "main.cpp"
+    main.write_text('#include <scamp5.hpp>\n#include "h.hpp"\nint main() {}\n')
+    with pytest.raises(PpalocError, match=r'#include "h.hpp" names .*inc/h.hpp, which is not a re'):
+        run_program([main], FRAME, include_dirs=[tmp_path / "inc"], out=tmp_path / "o")
+    assert not (tmp_path / "o").exists()
+
+
 def test_parse_define():
     assert parse_define("A=") == "A="
     assert parse_define("_x1=a b") == "_x1=a b"

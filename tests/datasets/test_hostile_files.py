@@ -261,3 +261,39 @@ def test_citycentre_truth_outside_the_folder_is_refused(write_frames, tmp_path):
     write_frames(tmp_path / "cc", range(8))
     with pytest.raises(DataError, match=r"truth='\.\./x\.mat' points outside the dataset folder"):
         load_dataset(f"citycentre:{tmp_path / 'cc'}?truth=../x.mat")
+
+
+def test_an_image_that_is_a_pipe_is_refused_before_it_is_opened(tmp_path):
+    # Image.open on a FIFO waits for a writer for ever (ppaloc cpp run --image pipe.png)
+    import os
+
+    os.mkfifo(tmp_path / "f.png")
+    with pytest.raises(DataError, match=r"f.png is not a regular file \(a pipe, device or "):
+        read_grey(tmp_path / "f.png")
+
+
+@pytest.mark.parametrize(
+    ("spec", "named"),
+    [
+        ("video:{d}/pipe.mp4,{d}/pipe.mp4", "video {d}/pipe.mp4"),
+        ("folder:{d}/ref,{d}/qry?gt={d}/pipe.npy", "gt={d}/pipe.npy"),
+        (
+            "folder:{d}/ref,{d}/qry?ref_positions={d}/pipe.csv&query_positions={d}/pipe.csv"
+            "&tolerance_m=5",
+            "ref_positions={d}/pipe.csv",
+        ),
+    ],
+)
+def test_a_pipe_a_spec_names_is_called_one_not_missing(tmp_path, spec, named):
+    import os
+
+    for sub in ("ref", "qry"):
+        (tmp_path / sub).mkdir()
+        Image.fromarray(np.zeros((8, 8), np.uint8)).save(tmp_path / sub / "a.png")
+    for name in ("pipe.mp4", "pipe.npy", "pipe.csv"):
+        os.mkfifo(tmp_path / name)
+    with pytest.raises(DataError) as err:
+        load_dataset(spec.format(d=tmp_path)).query_ground_truth  # noqa: B018
+    assert str(err.value).startswith(
+        named.format(d=tmp_path) + " is not a regular file (a pipe, device or socket)"
+    )

@@ -25,6 +25,9 @@ GOOD_ROW = (
         (b'{"rows": [{"method": "m", "n_nodes": true}]}', "row 0 is not a bench row"),
         (b'{"rows": [{"method": "m", "n_nodes": 8}]}', "row 0 lacks its timings"),
         (('{"rows": [' + GOOD_ROW.replace("1,", '"x",') + "]}").encode(), "lacks its timings"),
+        # save_bench never writes them; the report's log-scaled figure failed on Infinity
+        (('{"rows": [' + GOOD_ROW.replace("1,", "Infinity,") + "]}").encode(), "Infinity"),
+        (('{"rows": [' + GOOD_ROW.replace("2,", "NaN,") + "]}").encode(), "holds NaN"),
     ],
 )
 def test_damaged_bench_file_is_one_data_error(tmp_path, content, fragment):

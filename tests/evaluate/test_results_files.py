@@ -172,6 +172,17 @@ def test_a_hand_edited_summary_is_named(saved, mean_match, edit, message):
         load_results(saved)
 
 
+@pytest.mark.parametrize("constant", ["NaN", "Infinity", "-Infinity"])
+def test_a_hand_edited_nan_or_infinity_is_named(saved, mean_match, constant):
+    # ppaloc writes strict JSON (null for no value): NaN or Infinity is an edit
+    summary = json.loads((saved / "results.json").read_text())
+    summary["methods"][mean_match]["latency_ms_median"] = "@"
+    text = json.dumps(summary).replace('"@"', constant)
+    (saved / "results.json").write_text(text)
+    with pytest.raises(DataError, match=rf"results.json holds {constant}, which is not JSON"):
+        load_results(saved)
+
+
 def test_a_summary_without_methods_is_named(saved):
     summary = json.loads((saved / "results.json").read_text())
     summary["methods"] = {}

@@ -226,6 +226,10 @@ def test_config_rejects_unknown_keys_and_bad_values(tmp_path):
         read_toml(bad)
     with pytest.raises(PpalocError, match=r"config file .*missing.toml does not exist"):
         read_toml(tmp_path / "missing.toml")
+    # a file an editor saved as UTF-8 with a byte-order mark (Windows Notepad) is UTF-8 too
+    bom = tmp_path / "bom.toml"
+    bom.write_bytes(b"\xef\xbb\xbfseed = 3\n")
+    assert read_toml(bom) == {"seed": 3}
 
 
 def test_with_tolerance():

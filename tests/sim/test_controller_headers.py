@@ -269,6 +269,21 @@ def test_draw_calls_or_into_the_target() -> None:
         sim.draw_pixel(0, 0)
 
 
+def test_drawing_coordinates_are_bounded() -> None:
+    # enumerated point by point: a radius of 2**31 took the host hours and gigabytes
+    sim = Scamp5(8, 8)
+    sim.draw_begin(R5)
+    for call, args, name in (
+        (sim.draw_circle, (3, 3, 2**31 - 1), "radius=2147483647"),
+        (sim.draw_line, (0, 0, 2_000_000_000, 0), "r1=2000000000"),
+        (sim.draw_pixel, (2**70, 0), f"r={2**70}"),
+    ):
+        with pytest.raises(SimulatorError, match=rf"{name} is out of range; use \[-65536, 65536\]"):
+            call(*args)
+    sim.draw_circle(3, 3, 65536)  # the limit itself is drawn (outside the array: nothing)
+    assert not sim.read(R5).any()
+
+
 def test_draw_line_and_circle_clip_or_wrap() -> None:
     sim = Scamp5(4, 4)
     sim.scamp5_draw_begin(R5)

@@ -302,6 +302,8 @@ def test_inspection_helpers_validate(dsim: Scamp5) -> None:
         dsim.read(XE)
     with pytest.raises(SimulatorError, match="rows=0 is invalid"):
         Scamp5(rows=0)
+    with pytest.raises(SimulatorError, match=r"cols=1000000 is too large: use at most 4096"):
+        Scamp5(rows=2, cols=10**6)  # not a MemoryError from numpy
     with pytest.raises(SimulatorError, match="NaN or infinity into A"):
         dsim.write(A, np.full((4, 5), np.nan))
 

@@ -316,6 +316,9 @@ def test_encode_spells_latch_halves_as_their_macro() -> None:
         (0, {16, 24}, "exactly one of NEWS, XN"),
         (3, {5}, "PROP clock"),
         (0, "x", "must be bit positions"),
+        (0, [13.7], r"bits=\[13.7\] must be bit positions"),  # not taken as bit 13
+        (0, [True], "must be bit positions"),
+        (0, 5, "must be bit positions"),
     ],
 )
 def test_raw_word_mistakes(clock, bits, message) -> None:
@@ -457,6 +460,18 @@ def test_move_to_heap_leaves_the_stack() -> None:
         for _ in range(MAX_ICWS):
             k.nop()
     assert len(big) == len(k) == MAX_ICWS and not k.dropped
+
+
+def test_leave_stack_frees_the_room_and_keeps_the_recording() -> None:
+    sim = Scamp5(2, 2)
+    with sim.kernel() as old:
+        for _ in range(MAX_ICWS):
+            old.nop()
+    old.leave_stack()  # the C++ object deleted: its room goes back to the stack
+    with sim.kernel() as k:
+        for _ in range(MAX_ICWS):
+            k.nop()
+    assert not k.dropped and len(old) == MAX_ICWS
 
 
 def test_a_failed_recording_frees_its_room() -> None:

@@ -125,7 +125,7 @@ def load_frames(
     if image is not None:
         from ppaloc.datasets.images import read_grey
 
-        frame = to_sensor(read_grey(Path(image)))
+        frame = to_sensor(read_grey(Path(image), fix="give --image an image file"))
         return FrameSource([frame] * (frames or 1))
     if dataset is not None:
         from ppaloc.datasets.registry import (

@@ -433,6 +433,10 @@ class _Handler(BaseHTTPRequestHandler):
                 body = json.loads(self.rfile.read(size))
             except (ValueError, UnicodeDecodeError):
                 raise _Refused(400, "POST /set: the body is not JSON") from None
+            except RecursionError:  # "[[[[..." within MAX_BODY: no traceback on the terminal
+                raise _Refused(
+                    400, 'POST /set: the body nests too deeply; send {"name": TEXT, "value": INT}'
+                ) from None
             if not isinstance(body, dict) or set(body) != {"name", "value"}:
                 raise _Refused(400, 'POST /set takes {"name": TEXT, "value": INT} exactly')
             text, value = self.view.set(body["name"], body["value"])

@@ -87,6 +87,11 @@ def make_project(
                 f"{path} is a folder, not a C++ source: give its .cpp files, and its header "
                 f"folders with -I {path}"
             )
+        if path.exists() and not path.is_file():  # read by the compiler, a pipe would block
+            raise PpalocError(
+                f"the program source {path} is not a regular file (a pipe, device or socket); "
+                "give a C++ source file"
+            )
         if not path.is_file():
             raise PpalocError(f"the program source {path} does not exist")
         key = path.resolve()
@@ -107,7 +112,29 @@ def _resolve(name: str, quoted: bool, here: Path, folders: Sequence[Path]) -> Pa
         candidate = folder / name
         if candidate.is_file():
             return candidate
+        if candidate.exists() and not candidate.is_dir():  # the compiler would wait on a pipe
+            shown = f'"{name}"' if quoted else f"<{name}>"
+            raise PpalocError(
+                f"#include {shown} names {candidate}, which is not a regular file (a pipe, "
+                "device or socket): the compiler would wait on it; replace it with the header "
+                "file"
+            )
     return None
+
+
+def _refuse_backslash(name: str, quoted: bool, path: Path, line: int, project: Project) -> None:
+    """Refuse ``#include "..\\inc\\x.hpp"`` where ``../inc/x.hpp`` is a project file: the
+    device's Windows toolchain takes ``\\`` as a folder separator, g++ here as part of the
+    name (it would say only that no such file exists)."""
+    fixed = name.replace("\\", "/")
+    if _resolve(fixed, quoted, path.parent, project.include_dirs) is None:
+        return
+    shown, fixed = (f'"{name}"', f'"{fixed}"') if quoted else (f"<{name}>", f"<{fixed}>")
+    raise PpalocError(
+        f"{path}:{line}: #include {shown} separates folders with \\, which only a Windows "
+        f"compiler reads as a folder separator (g++ here takes it as part of the file "
+        f"name): write #include {fixed}"
+    )
 
 
 def project_headers(project: Project, shadowed: frozenset[str] = frozenset()) -> list[Path]:
@@ -136,6 +163,8 @@ def project_headers(project: Project, shadowed: frozenset[str] = frozenset()) ->
             if not quoted and name in shadowed:
                 continue
             header = _resolve(name, quoted, path.parent, project.include_dirs)
+            if header is None and "\\" in name:
+                _refuse_backslash(name, quoted, path, text[: m.start()].count("\n") + 1, project)
             if header is None or header.resolve() in seen:
                 continue
             seen.add(header.resolve())

@@ -8,7 +8,7 @@ Program -> simulator, one message each::
     u8 op, u32 payload length, payload
 
 - ``HELLO``: ``u32 version``; answered with ``u16 rows, u16 cols``.
-- ``DEF``: ``u32 id, u32 line, u8 dynamic, u16 n``, then ``n`` macro calls, each ``u8 name length,
+- ``DEF``: ``u32 id, u32 line, u8 dynamic, u32 n``, then ``n`` macro calls, each ``u8 name length,
   name, u32 line, u8 n_args, args``. Sent once per distinct kernel body; never answered.
 - ``RUN``: ``u32 id``. The first run records the kernel on the simulator (and runs it),
   later runs replay it. Never answered, so runs stream.
@@ -59,7 +59,7 @@ __all__ = [
 ]
 
 #: Protocol version (HELLO checks it).
-VERSION = 4
+VERSION = 5  # 5: a kernel's call count is a u32 (a u16 wrapped at 65,536 calls)
 
 #: Message opcodes.
 OPS: dict[str, int] = {"HELLO": 1, "DEF": 2, "RUN": 3, "CALL": 4, "EXIT": 5, "FILE": 6}

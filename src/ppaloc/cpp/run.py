@@ -136,8 +136,21 @@ class FramesFailedError(DataError):
         self.result = result
 
 
+#: The longest display folder name taken from a display's text (a file name holds at most
+#: 255 bytes, and a folder's listing should stay readable).
+SLUG_MAX = 64
+
+
 def _slug(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "display"
+    """A display's text as one folder name: characters other than letters, digits, ``_``,
+    ``.`` and ``-`` as ``_``, cut to :data:`SLUG_MAX`, without leading or trailing dots and
+    underscores (so ``..`` or ``.`` never names the folder above or the same one).
+
+    >>> [_slug(n) for n in ("edges", "R5 / R6", "..", ".", ".hidden", "x" * 300)] == [
+    ...     "edges", "R5_R6", "display", "display", "hidden", "x" * SLUG_MAX]
+    True
+    """
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)[:SLUG_MAX].strip("._") or "display"
 
 
 def display_folders(displays: dict[int, str]) -> dict[int, str]:
@@ -249,6 +262,24 @@ _ASAN_KINDS = {
 }
 
 
+def _abort_cause(lines: Sequence[str]) -> str:
+    """What the C++ run-time printed before aborting the program: a failed ``assert``
+    (``the assertion `x > 0' failed at prog.cpp:12``) or an exception nothing caught
+    (``an uncaught exception std::out_of_range: index 7``), else ``""``."""
+    for i, ln in enumerate(lines):
+        m = re.search(r"(\S+):(\d+): [^\n]*?Assertion (.+) failed\.$", ln)
+        if m:
+            return f"the assertion {m.group(3)} failed at {Path(m.group(1)).name}:{m.group(2)}"
+        m = re.match(r"terminate called after throwing an instance of '(.+)'$", ln)
+        if m:
+            what = lines[i + 1] if i + 1 < len(lines) else ""
+            told = what.removeprefix("what():").strip() if what.startswith("what():") else ""
+            return f"an uncaught exception {m.group(1)}{f': {told}' if told else ''}"
+        if ln.startswith("terminate called without an active exception"):
+            return "std::terminate called without an active exception (a `throw;` outside a catch?)"
+    return ""
+
+
 def _crash_message(
     program: str, code: int, stderr: str, session: Session, files: frozenset[str] = frozenset()
 ) -> str:
@@ -269,7 +300,8 @@ def _crash_message(
             sig = signal.Signals(-code).name
         except ValueError:
             sig = f"signal {-code}"
-        return f"{program} crashed {where} ({sig})"
+        cause = _abort_cause(lines)
+        return f"{program} crashed {where} ({sig}){f': {cause}' if cause else ''}"
     last = f": {lines[-1]}" if lines else ""
     return f"{program} exited with status {code} {where}{last}"
 
@@ -565,11 +597,19 @@ def _serve(
             serve(session, read, write)
             served = True
         except TimeoutError:
-            where = f"in frame {session.frame}" if session.loops else "before its frame loop"
-            error = PpalocError(
-                f"{name} did not finish within {timeout:g} s (stopped {where}): a loop that "
-                "never ends? raise --timeout if it needs longer"
-            )
+            if session.loops:
+                error = PpalocError(
+                    f"{name} did not finish within {timeout:g} s (stopped in frame "
+                    f"{session.frame}): a loop that never ends? raise --timeout if it needs "
+                    "longer"
+                )
+            else:  # a loop that runs free on the device (vs_process_message alone) ends here
+                error = PpalocError(
+                    f"{name} did not finish within {timeout:g} s and never began a frame: "
+                    "each frame begins at vs_frame_loop_control() or vs_wait_frame_trigger(); "
+                    "a loop that never ends, or a frame loop without either (call "
+                    "vs_frame_loop_control() at its top)? raise --timeout if it needs longer"
+                )
         except ProgramError as exc:
             error = exc
         finally:
@@ -589,6 +629,13 @@ def _serve(
         stderr = err_f.read().decode("utf-8", "replace")
     if error is not None:
         raise error
-    if code != 0 and code != SERVER_EXIT:
+    if code == SERVER_EXIT:  # the shim lost its pipe, and the simulator had not ended the run
+        where = f"in frame {session.frame}" if session.loops else "before the frame loop"
+        raise PpalocError(
+            f"{name} lost its pipe to the simulator {where} (it closed the file descriptors "
+            "named by PPALOC_FD_IN and PPALOC_FD_OUT?): a program must leave them open; its "
+            "run is not written"
+        )
+    if code != 0:
         raise PpalocError(_crash_message(name, code, stderr, session, files))
     return RunResult(session, stdout, wall)

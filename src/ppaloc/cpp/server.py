@@ -41,7 +41,7 @@ from ppaloc.cpp.protocol import (
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
 from ppaloc.sim.controller import to_scamp_buffer
-from ppaloc.sim.kernel import IcwStackWarning
+from ppaloc.sim.kernel import MAX_ICWS, IcwStackWarning
 from ppaloc.sim.registers import register_by_name
 from ppaloc.sim.render import plane_to_image
 
@@ -87,6 +87,9 @@ class KernelStats:
     runs: int = 0
     modelled_us: float = 0.0
     file: str = "program"
+    #: Every C++ object holding it was destroyed: it left the ICW stack, and a later launch
+    #: (of the same body recorded again) records it again, as the device does.
+    freed: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready summary."""
@@ -385,8 +388,8 @@ class Session:
         return body
 
     def _define(self, payload: memoryview) -> None:
-        kid, line, dynamic, n = struct.unpack_from("<IIBH", payload)
-        body = self.body(payload, 11, n)
+        kid, line, dynamic, n = struct.unpack_from("<IIBI", payload)
+        body = self.body(payload, 13, n)
         calls = [_shown_call(b) for b in body]
         self.kernels[kid] = KernelStats(
             kid, line & LINE_MASK, calls, body, dynamic=bool(dynamic), file=self.file_of(line)
@@ -398,7 +401,8 @@ class Session:
             raise ProgramError(f"{self.program}: kernel {kid} was run before it was defined")
         timing = self.sim.timing
         t0 = timing.now_us
-        if stats.kernel is None:
+        if stats.kernel is None or stats.freed:
+            stats.freed = False
             kernel = self.sim.kernel()
             try:
                 with warnings.catch_warnings(record=True) as caught, kernel as k:
@@ -418,17 +422,24 @@ class Session:
                     f"{stats.file}:{stats.line}: the kernel begun here: {exc}"
                 ) from None
             stats.kernel = kernel
-            for w in caught:  # the stack's own warning is worded for C++ below
-                if not issubclass(w.category, IcwStackWarning):
-                    self.warnings.append(f"{stats.file}:{stats.line}: {w.message}")
+            found = [
+                f"{stats.file}:{stats.line}: {w.message}"
+                for w in caught  # the stack's own warning is worded for C++ below
+                if not issubclass(w.category, IcwStackWarning)
+            ]
             dropped = getattr(kernel, "dropped", 0)
             if dropped:
                 self.device_errors |= ICW_STACK_OVERFLOW
-                self.warnings.append(
+                if len(kernel) + dropped > MAX_ICWS:  # too long for the stack on its own
+                    fix = f"split it into kernels of at most {MAX_ICWS} ICWs"
+                else:
+                    fix = "free some, use dynamic kernels or move_to_heap(true)"
+                found.append(
                     f"{stats.file}:{stats.line}: the kernel begun here lost {dropped} of its "
-                    "ICWs: the 1024-ICW stack that static kernels share is full (free some, "
-                    "use dynamic kernels or move_to_heap(true))"
+                    f"ICWs: the 1024-ICW stack that static kernels share is full ({fix})"
                 )
+            # a kernel recorded again after it was freed says it once
+            self.warnings += [w for w in found if w not in self.warnings]
         else:
             stats.kernel.run()
         stats.runs += 1
@@ -444,7 +455,8 @@ class Session:
         handler = HANDLERS.get(name)
         if handler is None:
             raise ProgramError(f"{self.at(line)}: {name} is not served by this simulator")
-        self.calls[name] += 1
+        if not name.startswith("ppaloc_"):  # the shim's own messages are not the program's
+            self.calls[name] += 1
         try:
             result = handler(self, args, line)
         except ProgramError:
@@ -489,6 +501,11 @@ class Session:
         ``NAME`` is the item's text as the program declares it, or that text without its
         trailing colons and spaces (``--set threshold=30`` sets ``"threshold: "``).
         """
+        if lo > hi:  # as vs_gui_set_slider_range refuses it: no value could be set
+            raise ProgramError(
+                f"{self.at(line)}: vs_gui_add_{kind}({text!r}, {lo}, {hi}, {init}): the minimum "
+                "is above the maximum"
+            )
         name = self._setting_for(kind, text)
         if name is not None:
             self.unused.discard(name)
@@ -925,6 +942,15 @@ def _division_by_zero(s: Session, a: list, line: int) -> None:
     )
 
 
+def _kernel_freed(s: Session, a: list, line: int) -> None:
+    """The last C++ object holding a kernel was destroyed (``delete``, the end of its
+    scope): the kernel leaves the ICW stack, as the device's destructor takes it off."""
+    stats = s.kernels.get(a[0])
+    if stats is not None and stats.kernel is not None and not stats.freed:
+        stats.kernel.leave_stack()
+        stats.freed = True
+
+
 def _static_kernel_changed(s: Session, a: list, line: int) -> None:
     """A static kernel begun again whose body would now record other calls: it runs as
     first recorded (as on the device), and the run warns once per place, naming the first
@@ -1111,6 +1137,7 @@ HANDLERS.update(
         "vs_host_event": _host_event,
         "ppaloc_division_by_zero": _division_by_zero,
         "ppaloc_static_kernel_changed": _static_kernel_changed,
+        "ppaloc_kernel_freed": _kernel_freed,
         "vs_sim::save_image": _save_image,
         "vs_scamp5_set_dac": _sim("load_dac"),
         **{

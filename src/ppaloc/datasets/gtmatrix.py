@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ppaloc.datasets.groundtruth import MAX_GROUND_TRUTH_BYTES, MAX_GROUND_TRUTH_ITEMS, PackedSets
+from ppaloc.datasets.images import missing
 from ppaloc.errors import DataError
 
 __all__ = ["MAX_MATRIX_CELLS", "MatrixFile", "read_matrix"]
@@ -101,7 +102,7 @@ def read_matrix(
     if path.is_dir():
         raise DataError(f"{where} is a folder; give the ground-truth matrix file")
     if not path.is_file():
-        raise DataError(f"{where} does not exist: check the path in the dataset spec")
+        raise DataError(f"{where} {missing(path)}: check the path in the dataset spec")
     suffix = path.suffix.lower()
     if suffix not in _SUFFIXES:
         raise DataError(f"{where} must be a .npy, .npz or .csv file of 0s and 1s")

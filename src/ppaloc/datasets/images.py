@@ -50,6 +50,15 @@ def natural_key(name: str) -> tuple:
     return (key, name)  # the exact name breaks ties (e.g. "a01" and "a1")
 
 
+def missing(path: Path) -> str:
+    """Why a file a spec names cannot be read as one: ``"does not exist"``, or, for a pipe,
+    device or socket (which ppaloc never opens: a pipe would block), ``"is not a regular
+    file (a pipe, device or socket)"``."""
+    if Path(path).exists():
+        return "is not a regular file (a pipe, device or socket)"
+    return "does not exist"
+
+
 def require_dir(path: Path, what: str = "folder") -> Path:
     """Return ``path`` if it is a directory, else raise a ``DataError`` naming it."""
     path = Path(path)
@@ -186,6 +195,8 @@ def read_grey_reduced(path: Path, at_least: int) -> tuple[np.ndarray, tuple[floa
 
 
 def _read(path: Path, draft: int | None, fix: str) -> tuple[np.ndarray, tuple[float, float]]:
+    if path.exists() and not path.is_file() and not path.is_dir():  # opening a pipe blocks
+        raise DataError(f"image {path} is not a regular file (a pipe, device or socket); {fix}")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)

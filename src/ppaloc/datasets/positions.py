@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ppaloc.datasets.groundtruth import MAX_GROUND_TRUTH_BYTES, MAX_GROUND_TRUTH_ITEMS, PackedSets
+from ppaloc.datasets.images import missing
 from ppaloc.errors import DataError
 
 __all__ = [
@@ -215,7 +216,7 @@ def _read_bytes(path: Path, what: str) -> bytes:
     if path.is_dir():
         raise DataError(f"{what}={path} is a folder; give the positions .csv file")
     if not path.is_file():
-        raise DataError(f"{what}={path} does not exist: check the path in the dataset spec")
+        raise DataError(f"{what}={path} {missing(path)}: check the path in the dataset spec")
     if path.suffix.lower() != ".csv":
         raise DataError(f"{what}={path} must be a .csv file (x,y / easting,northing / lat,lon)")
     try:

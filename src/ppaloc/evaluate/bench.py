@@ -154,7 +154,16 @@ def save_bench(bench: dict[str, Any], path: str | Path) -> Path:
         ",".join(str(r.get(c, "")) for c in cols) for r in bench["rows"] if "skipped" not in r
     ]
     write_bytes(path.with_suffix(".csv"), "\n".join(lines) + "\n")
-    return write_bytes(path, json.dumps(bench, indent=2) + "\n")
+    return write_bytes(path, json.dumps(bench, indent=2, allow_nan=False) + "\n")  # strict JSON
+
+
+class _NotJson(ValueError):
+    pass
+
+
+def _not_json(name: str) -> Any:
+    """NaN or Infinity, which ``save_bench`` never writes (strict JSON): a hand edit."""
+    raise _NotJson(f"it holds {name}, which is not JSON")
 
 
 def load_bench(path: str | Path) -> dict[str, Any] | None:
@@ -174,9 +183,10 @@ def load_bench(path: str | Path) -> dict[str, Any] | None:
                 f"{path} is larger than {MAX_BENCH_BYTES} bytes, not a bench file; delete it "
                 "or run `ppaloc bench` again"
             )
-        bench = json.loads(path.read_text(encoding="utf-8"))
+        bench = json.loads(path.read_text(encoding="utf-8"), parse_constant=_not_json)
     except (OSError, ValueError, RecursionError) as exc:
         reason = "nested too deeply" if isinstance(exc, RecursionError) else type(exc).__name__
+        reason = str(exc) if isinstance(exc, _NotJson) else reason
         raise DataError(
             f"cannot read {path} ({reason}); delete it or run `ppaloc bench` again"
         ) from None

@@ -361,7 +361,8 @@ def read_toml(path: str | Path) -> dict[str, Any]:
             "is a few lines of TOML"
         )
     try:
-        text = raw.decode("utf-8")
+        # UTF-8 with a byte-order mark, as Windows editors save it, is UTF-8 too
+        text = raw.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
         raise PpalocError(
             f"config file {path} is not UTF-8 text (byte {exc.start}); save it as UTF-8"

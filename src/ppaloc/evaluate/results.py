@@ -498,6 +498,14 @@ _NUMBERS = (
 """Optional fields of a method's entry that hold a number or null."""
 
 
+def _not_strict_json(name: str) -> Any:
+    """``json.loads``'s hook for NaN, Infinity and -Infinity, which ppaloc never writes
+    (strict JSON, ``allow_nan=False``): a hand-edited value is refused where it is read."""
+    raise ValueError(
+        f"results.json holds {name}, which is not JSON (ppaloc writes null where there is no value)"
+    )
+
+
 def _is_number(v: Any) -> bool:
     return v is None or (isinstance(v, int | float) and not isinstance(v, bool))
 
@@ -669,7 +677,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"
         )
     try:
-        summary = json.loads(path.read_text())
+        summary = json.loads(path.read_text(), parse_constant=_not_strict_json)
     except RecursionError:
         raise DataError(f"cannot read the results in {folder}: {path} is nested too deep") from None
     except (OSError, ValueError) as exc:

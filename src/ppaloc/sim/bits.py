@@ -11,6 +11,7 @@ several spellings). Words that match no modelled operation raise ``RegisterMisus
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Iterable
 
 from ppaloc.errors import RegisterMisuseError
@@ -298,9 +299,14 @@ def decode(clock: object, bits: object) -> Instruction:
             "3 (PROP); the AER, DOUT and FAST clocks are not modelled"
         )
     try:
-        positions = {int(b) for b in bits}  # type: ignore[union-attr]
-    except (TypeError, ValueError):
-        raise _bad(clock, [], f"bits={bits!r} must be bit positions (integers)") from None
+        listed = list(bits)  # type: ignore[call-overload]
+    except TypeError:
+        listed = None
+    if listed is None or any(
+        isinstance(b, bool) or not isinstance(b, numbers.Integral) for b in listed
+    ):  # 1.5 or "W1" is no bit position (int() would take 1.5 as bit 1)
+        raise _bad(clock, [], f"bits={bits!r} must be bit positions (integers)")
+    positions = {int(b) for b in listed}
     if any(not 0 <= b < 80 for b in positions):
         raise _bad(clock, positions, "bit positions run from 0 to 79")
     if clock == CLOCKS["prop"]:

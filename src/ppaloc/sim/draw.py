@@ -171,9 +171,18 @@ class DrawMixin:
         self.NOT(self._target("draw_negate"))  # type: ignore[attr-defined]
 
 
+#: The largest magnitude of a drawing coordinate or radius (as of a shift): a line or circle
+#: is enumerated point by point, so a coordinate of 2**31 would take hours and gigabytes.
+DRAW_LIMIT = 1 << 16
+
+
 def _int(call: str, name: str, value: Any) -> int:
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
         raise SimulatorError(f"{call}: {name}={value!r} must be an integer")
+    if not -DRAW_LIMIT <= value <= DRAW_LIMIT:
+        raise SimulatorError(
+            f"{call}: {name}={value!r} is out of range; use [{-DRAW_LIMIT}, {DRAW_LIMIT}]"
+        )
     return int(value)
 
 

@@ -62,6 +62,9 @@ _NEWS_I = NEWS.index
 _IN_I = IN.index
 _N_ANALOG = len(ANALOG_PLANES)
 _N_DIGITAL = len(DIGITAL_PLANES)
+#: The longest side of a simulated array: 16 times the device's 256 (a 4096 x 4096 array
+#: holds its planes in a few GiB; a side of 10**6 would ask for terabytes).
+MAX_SIDE = 4096
 _DECAYING = tuple(r.index for r in ANALOG_PLANES if r.role in ("general", "news"))
 assert _DECAYING == tuple(range(len(_DECAYING)))  # contiguous: one slice droops them all
 _DECAY_PLANES = slice(0, len(_DECAYING))
@@ -178,6 +181,11 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         for name, v in (("rows", rows), ("cols", cols)):
             if not isinstance(v, int | np.integer) or isinstance(v, bool) or v < 1:
                 raise SimulatorError(f"{name}={v!r} is invalid: use a positive integer")
+            if v > MAX_SIDE:
+                raise SimulatorError(
+                    f"{name}={v!r} is too large: use at most {MAX_SIDE} (the device's array is "
+                    "256 x 256; every element holds about 150 bytes of planes)"
+                )
         if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:
             raise SimulatorError(f"seed={seed!r} is invalid: use an integer >= 0")
         self._init_observers(observers)  # checked with the other arguments

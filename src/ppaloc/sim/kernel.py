@@ -161,6 +161,13 @@ class Kernel(ProgramAPI):
             raise KernelError("move_to_heap is called inside the kernel's `with` block")
         self._heap = bool(flag)
 
+    def leave_stack(self) -> None:
+        """The kernel leaves the shared ICW stack now, as when it is garbage collected (the
+        kernel API's destructor: a C++ kernel object deleted), freeing its room for others;
+        it keeps its recording, to be inspected."""
+        if self._stack_key is not None:
+            icw_stack(self.sim).release(self._stack_key)
+
     @property
     def on_heap(self) -> bool:
         """Whether the kernel left the shared ICW stack at the end of its recording

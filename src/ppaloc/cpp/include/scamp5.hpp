@@ -115,6 +115,11 @@ struct Arg {
     std::_Exit(SHIM_EXIT);
 }
 
+// True once the program's end has been sent: objects destroyed after it free nothing.
+inline bool& run_over() {
+    static bool over = false;
+    return over;
+}
 class Client {
    public:
     std::vector<uint8_t> buf;
@@ -223,6 +228,7 @@ class Client {
 
     void finish() {
         if (!connected) return;
+        run_over() = true;
         size_t at = begin(OP_EXIT);
         end(at);
         flush();
@@ -271,10 +277,8 @@ inline bool& comparing() {
 }
 
 // A controller call by name; with `want`, its answer.
-inline std::vector<uint8_t> call(const char* fn, bool want, std::initializer_list<Arg> args,
-                                 const Loc& loc) {
-    if (!want && comparing()) return {};
-    uint32_t where = wire(loc);
+inline std::vector<uint8_t> call_at(const char* fn, bool want, std::initializer_list<Arg> args,
+                                    uint32_t where) {
     Client& c = Client::get();
     size_t at = c.begin(OP_CALL);
     c.u8(want ? 1 : 0);
@@ -285,6 +289,11 @@ inline std::vector<uint8_t> call(const char* fn, bool want, std::initializer_lis
     c.end(at);
     if (!want) return {};
     return c.reply();
+}
+inline std::vector<uint8_t> call(const char* fn, bool want, std::initializer_list<Arg> args,
+                                 const Loc& loc) {
+    if (!want && comparing()) return {};
+    return call_at(fn, want, args, wire(loc));
 }
 
 inline int32_t as_int(const std::vector<uint8_t>& r) {
@@ -467,17 +476,50 @@ inline std::map<std::string, uint32_t>& known_bodies() {
     return m;
 }
 void emit(const char* fn, const Loc& loc, const Arg* const* args, int n);
+// The C++ kernel objects that hold each recorded (not dynamic) kernel: the simulator frees
+// a kernel's ICWs when the last one goes, as the device's destructor does. Never destroyed,
+// as kernels of static storage may be destroyed after it would be.
+inline std::map<uint32_t, int>& kernel_holders() {
+    static std::map<uint32_t, int>* m = new std::map<uint32_t, int>;
+    return *m;
+}
 }  // namespace ppa
 
 class scamp5_kernel {
    public:
     uint32_t id = 0;
+    uint32_t where = 0;  // the wired place of its recording (messages about it name it)
     std::vector<uint8_t> body;
-    uint16_t calls = 0;
+    uint32_t calls = 0;  // a kernel of 65,536 calls and more is recorded whole
     unsigned line = 0;
     const char* file = "";
 
     scamp5_kernel() {}
+    // A copy holds the same recording; the recording's ICWs stay on the stack while one
+    // object holds them (the device's copies would free them twice).
+    scamp5_kernel(const scamp5_kernel& o)
+        : id(o.id), where(o.where), body(o.body), calls(o.calls), line(o.line), file(o.file),
+          dynamic(o.dynamic) {
+        hold();
+    }
+    scamp5_kernel& operator=(const scamp5_kernel& o) {
+        if (this != &o) {
+            release();
+            id = o.id;
+            where = o.where;
+            body = o.body;
+            calls = o.calls;
+            line = o.line;
+            file = o.file;
+            dynamic = o.dynamic;
+            hold();
+        }
+        return *this;
+    }
+    // Deleted, or out of scope: the last object holding a recording takes its ICWs off the
+    // simulator's 1024-ICW stack, as the device's destructor does, so a program that
+    // records kernels, runs and deletes them (to fit a long program) has the room again.
+    ~scamp5_kernel() { release(); }
     explicit scamp5_kernel(std::function<void(void)> f, ppa::Loc loc = PPA_HERE) {
         recording_start(loc.file, loc.line);
         f();
@@ -495,6 +537,17 @@ class scamp5_kernel {
                   "vs_scamp5_execute_icw");
     }
     bool null() const { return id == 0; }
+    // k([] { ... }): a kernel not yet recorded records the function's calls, as the device's
+    // operator() does (an array of kernels filled in a loop); one already recorded keeps
+    // its recording. Either way the kernel itself, to launch.
+    scamp5_kernel& operator()(std::function<void(void)> f, ppa::Loc loc = PPA_HERE) {
+        if (null()) {
+            recording_start(loc.file, loc.line);
+            f();
+            recording_stop();
+        }
+        return *this;
+    }
     // Accepted and recorded (host.txt): the kernels' ICWs are in timing.json.
     static void print_debug_info(ppa::Loc loc = PPA_HERE) {
         ppa::call("scamp5_kernel::print_debug_info", false, {}, loc);
@@ -544,17 +597,20 @@ class scamp5_kernel {
         auto it = known.find(key);
         if (it != known.end()) {
             id = it->second;
+            where = ppa::wire(file, line);
+            hold();
             return;
         }
         id = uint32_t(known.size() + 1);
         known[key] = id;
-        uint32_t where = ppa::wire(file, line);
+        hold();
+        where = ppa::wire(file, line);
         ppa::Client& c = ppa::Client::get();
         size_t at = c.begin(ppa::OP_DEF);
         c.u32(id);
         c.u32(where);
         c.u8(dynamic ? 1 : 0);
-        c.u16(calls);
+        c.u32(calls);
         c.bytes(body.data(), body.size());
         c.end(at);
     }
@@ -582,9 +638,21 @@ class scamp5_kernel {
     friend void scamp5_launch_kernel(scamp5_kernel& k) { k(); }
 
    private:
+    void hold() {
+        if (id != 0 && !dynamic) ppa::kernel_holders()[id]++;
+    }
+    void release() {
+        if (id == 0 || dynamic) return;
+        auto& holders = ppa::kernel_holders();
+        auto it = holders.find(id);
+        if (it == holders.end() || --it->second > 0) return;
+        holders.erase(it);
+        // where it was recorded, as wired then: a static kernel may outlive the file maps
+        if (!ppa::run_over()) ppa::call_at("ppaloc_kernel_freed", false, {int(id)}, where);
+    }
     bool changed = false;           // a later pass's body differed: reported, not run again
     std::vector<uint8_t> recorded;  // the recording, aside while a later pass compares
-    uint16_t recorded_calls = 0;
+    uint32_t recorded_calls = 0;
 };
 
 inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, int n) {
@@ -611,6 +679,9 @@ inline void ppa::emit(const char* fn, const Loc& loc, const Arg* const* args, in
 #include "ppaloc_gen_macros.hpp"
 
 namespace scamp5_kernel_api {
+// As the device's kernel API headers do: a kernel block (its `using namespace
+// scamp5_kernel_api`) sees the registers without `using namespace SCAMP5_PE`.
+using namespace SCAMP5_PE;
 // The several-destination form: bus({a, b, ...}, {x, y, ...}), one ICW.
 inline void bus(std::initializer_list<ppa::Arg> dst, std::initializer_list<ppa::Arg> src,
                 ppa::Loc loc = PPA_HERE) {

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.datasets.frames import FrameSequence
-from ppaloc.datasets.images import MAX_IMAGE_PIXELS
+from ppaloc.datasets.images import MAX_IMAGE_PIXELS, missing
 from ppaloc.datasets.loaders import owntruth
 from ppaloc.datasets.route import RawRoute
 from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
@@ -241,7 +241,7 @@ class VideoFrames(FrameSequence):
         if self.path.is_dir():
             raise DataError(f"video {self.path} is a folder; give a video file")
         if not self.path.is_file():
-            raise DataError(f"video {self.path} does not exist: check the path in the spec")
+            raise DataError(f"video {self.path} {missing(self.path)}: check the path in the spec")
         self._decoder = _Decoder(self.path)
         n = self._decoder.count()
         if n == 0:
