@@ -910,6 +910,17 @@ def _where(row, a, af, df, t, bank, starts, flag_all, r0, r1):
             for p in range(fb.size):
                 fb[p] = (x0[p] + x1[p]) > zero
         return
+    if nsrc == 3 and nl == 3:  # the same from three (a threshold test's IN, a bound, W)
+        x0, x1, x2 = af[locs[0]][lo:hi], af[locs[1]][lo:hi], af[locs[2]][lo:hi]
+        if bank.size:
+            s0 = starts[row[_DRAW]] + lo
+            w = bank[s0 : s0 + (hi - lo)]
+            for p in range(fb.size):
+                fb[p] = (((x0[p] + x1[p]) + x2[p]) + w[p]) > zero
+        else:
+            for p in range(fb.size):
+                fb[p] = ((x0[p] + x1[p]) + x2[p]) > zero
+        return
     if nsrc == 1 and nl == 1:  # FLAG straight from one register, in one pass
         x = af[locs[0]][lo:hi]
     else:
