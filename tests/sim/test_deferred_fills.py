@@ -35,7 +35,7 @@ class Eager(Scamp5):
     """Writes every fill at once (what the deferral must be indistinguishable from)."""
 
     def _fill_later(self, i: int, value: float) -> None:
-        hostloops.fill(self._planes[i], value)
+        hostloops.fill(self._analog_planes[i], value)
 
 
 @st.composite
@@ -133,7 +133,7 @@ def test_a_fill_overwritten_first_is_never_written(monkeypatch):
     sim.load_in(-3)  # IN again: its first value is never seen
     assert passes == []
     k.run()  # reads A and IN, writes NEWS before reading it
-    planes = {sim._planes[r.index].__array_interface__["data"][0]: r for r in (s.A, s.IN)}
+    planes = {sim._analog_planes[r.index].__array_interface__["data"][0]: r for r in (s.A, s.IN)}
     assert sorted(planes[p].name for p in passes) == ["A", "IN"]
     assert (sim.read(s.A) == 5).all() and (sim.read(s.IN) == -3).all()
     assert (sim.read(s.NEWS) == -sim.read(s.B)).all()

@@ -186,7 +186,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         self.rng = np.random.default_rng(seed)
         self.noise = NoiseModel(noise, shape, _N_ANALOG, seed)
         self.timing = TimingModel(clock_hz=clock_hz)
-        self._planes = np.zeros((_N_ANALOG, *shape), dtype=np.float32)
+        self._analog_planes = np.zeros((_N_ANALOG, *shape), dtype=np.float32)
         # constant fills not yet written (plane index -> level; _fill_later)
         self._fills: dict[int, float] = {}
         self._d = np.zeros((_N_DIGITAL, *shape), dtype=bool)
@@ -209,7 +209,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         params = self.noise.params  # digital writes are timed only if registers decay
         self._retention = bool(params and params.digital_retention_ms is not None)
         if not self.noise.ideal:
-            self._planes[PIX.index] = self.noise.pixel_offset
+            self._analog_planes[PIX.index] = self.noise.pixel_offset
         self.engine = make_engine(engine, self)
 
     # ------------------------------------------------------------------ inspection
@@ -222,7 +222,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         """Every analogue plane, (planes, rows, cols) float32, with every fill written."""
         if self._fills:
             self._write_fills()
-        return self._planes
+        return self._analog_planes
 
     def _aplane(self, reg: Register) -> np.ndarray:
         """The live float32 plane of analogue ``reg`` (a view; writes bypass FLAG)."""
@@ -232,12 +232,12 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             )
         i = reg.index
         if i in self._fills:
-            hostloops.fill(self._planes[i], self._fills.pop(i))
+            hostloops.fill(self._analog_planes[i], self._fills.pop(i))
         if i < len(_DECAYING) and self._droop_us[i]:
             self._flush_droop((i,))
         elif i == _IN_I:
             self._in_level = None  # the caller may change IN through the view
-        return self._planes[i]
+        return self._analog_planes[i]
 
     def _set_in(self, value: float) -> None:
         """Drive ``IN`` with ``value`` everywhere (no pass when it already holds it; the
@@ -260,7 +260,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
 
     def _write_fills(self) -> None:
         """Write every deferred fill (:meth:`_fill_later`)."""
-        fills, planes = self._fills, self._planes
+        fills, planes = self._fills, self._analog_planes
         while fills:
             i, value = fills.popitem()
             hostloops.fill(planes[i], value)
@@ -270,7 +270,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         fills, except those of ``fresh`` planes (:func:`overwritten_first`) when FLAG is
         known to be set everywhere (the kernel then overwrites them whole before reading:
         the fill is never seen); fills of planes the kernel does not name stay deferred."""
-        fills, planes = self._fills, self._planes
+        fills, planes = self._fills, self._analog_planes
         whole = self._flag_masked is False
         for i in [i for i in fills if i in used]:
             value = fills.pop(i)
@@ -454,7 +454,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         if not self.noise.ideal:
             self._elapse()
         offset = None if self.noise.ideal else self.noise.pixel_offset
-        hostloops.load_image(self._planes[PIX.index], self._image, offset)
+        hostloops.load_image(self._analog_planes[PIX.index], self._image, offset)
         # observers receive this copy, read-only (made so after the compiled loop, which
         # is specialised for writable arrays)
         self._image.flags.writeable = False
@@ -536,7 +536,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             )
         )
         pending = self._droop_us
-        planes, decay = self._planes, self.noise.params.decay_per_ms
+        planes, decay = self._analog_planes, self.noise.params.decay_per_ms
         fresh = overwritten_first(instructions)
         every = np.array(touched, dtype=np.int64)
         rest = np.array([i for i in touched if i not in fresh], dtype=np.int64)
@@ -614,7 +614,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         """
         pending = self._droop_us
         if len(planes) == len(_DECAYING) and np.all(pending == pending[0]):
-            self.noise.droop(self._planes[_DECAY_PLANES], pending[0])  # one call for all
+            self.noise.droop(self._analog_planes[_DECAY_PLANES], pending[0])  # one call for all
             pending[:] = 0.0
             return
         which, steps = self._droop_which, self._droop_steps
@@ -628,7 +628,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
                     which[n], steps[n] = i, step
                     n += 1
         if n:
-            hostloops.droop_each(self._planes, which, steps, n)
+            hostloops.droop_each(self._analog_planes, which, steps, n)
 
     # ------------------------------------------------------------- FLAG machinery
     def _flag_mask(self) -> np.ndarray | None:
@@ -672,7 +672,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         return _noop
 
     def _op_rpix(self, ins: Instruction) -> Op:
-        pix = self._planes[PIX.index]
+        pix = self._analog_planes[PIX.index]
         level = self.noise.pixel_offset
 
         def rpix() -> None:
@@ -682,7 +682,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
 
     def _sum_closure(self, srcs: Iterable[Register]) -> Callable[[np.ndarray], None]:
         """A function writing the sum of analogue ``srcs`` (with neighbour terms) into out."""
-        a = self._planes
+        a = self._analog_planes
         local = [a[s.index] for s in srcs if s.role != "neighbour"]
         nbr = [_slices(*s.direction.offset) for s in srcs if s.role == "neighbour"]
         news = a[_NEWS_I]
@@ -742,14 +742,14 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
                 dr, dc = d.direction.offset
                 o, i = _slices(-dr, -dc)
                 edges = _edge_slices(-dr, -dc, self.rows, self.cols)
-                dsts.append((self._planes[_NEWS_I], d.index, (o, i, edges)))
+                dsts.append((self._analog_planes[_NEWS_I], d.index, (o, i, edges)))
             else:
-                dsts.append((self._planes[d.index], d.index, None))
+                dsts.append((self._analog_planes[d.index], d.index, None))
         return dsts
 
     def _bus_value(self, ins: Instruction, parts: int) -> Callable[[np.ndarray], None]:
         """``value(out)``: out := -(sum of sources) / parts (times the ICW's gain when noisy)."""
-        a = self._planes
+        a = self._analog_planes
         total = self._sum_closure(ins.srcs)
         noise = self.noise
         ideal = noise.ideal

@@ -327,7 +327,8 @@ class CompiledEngine:
         size = sim.rows * sim.cols
         bank = [0] if noise.ideal else [size]
         return {
-            "a": list(sim._planes.shape), "d": list(sim._d.shape), "latch": list(sim._latch.shape),
+            "a": list(sim._analog_planes.shape), "d": list(sim._d.shape),
+            "latch": list(sim._latch.shape),
             "scratch": [k, sim.rows, sim.cols], "offsets": list(noise.offsets.shape),
             "pixel": list(noise.pixel_offset.shape), "bank": bank, "bank_div": bank,
             "starts": [m], "gains": [m],
@@ -343,7 +344,7 @@ class CompiledEngine:
         fn = fused.load(text)
         scratch = self._scratch(fused.scratch_planes(instructions, sim.rows))
         m = sum(fused.draws(ins, noisy) for ins in instructions)
-        a, d, latch = sim._planes, sim._d, sim._latch
+        a, d, latch = sim._analog_planes, sim._d, sim._latch
         if noise.ideal:
             bank = bank_div = self._none
         else:
@@ -369,7 +370,7 @@ class CompiledEngine:
         sim = self.sim
         noise = sim.noise
         prog, m, (heads, outs, edges) = encode(instructions, noise.ideal, sim.rows, sim.cols)
-        a, d, latch = sim._planes, sim._d, sim._latch
+        a, d, latch = sim._analog_planes, sim._d, sim._latch
         t, t2, tb = self._t, self._t2, self._tb
         if noise.ideal:
             bank = bank_div = self._none
