@@ -167,9 +167,10 @@ class ControllerMixin(DrawMixin):
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
     ``_dplane``, ``_write_analog``, ``_write_digital``, ``_write_digital_grid``,
-    ``_flag_state``, ``_set_in``, ``_take_droop``, ``rng``, ``noise`` and ``timing``, and
-    tells the engine's observers (:mod:`ppaloc.sim.observe`) each plane a call writes
-    (``_note_write``). Every public call is a :func:`~ppaloc.sim.observe.controller_call`.
+    ``_flag_state``, ``_set_in``, ``_take_droop``, ``_fill_later``, ``rng``, ``noise``
+    and ``timing``, and tells the engine's observers (:mod:`ppaloc.sim.observe`) each
+    plane a call writes (``_note_write``). Every public call is a
+    :func:`~ppaloc.sim.observe.controller_call`.
     """
 
     rows: int
@@ -194,6 +195,7 @@ class ControllerMixin(DrawMixin):
         def _flag_state(self) -> tuple[np.ndarray, bool]: ...
         def _set_in(self, value: float) -> None: ...
         def _take_droop(self, reg: Register) -> np.float32 | None: ...
+        def _fill_later(self, i: int, value: float) -> None: ...
 
         _call_frame: Any
 
@@ -328,13 +330,18 @@ class ControllerMixin(DrawMixin):
         (:mod:`ppaloc.sim.hostloops`; a plain copy when FLAG is set everywhere, known
         without a pass while the engine tracks it), not a gather and a scatter through
         boolean indices: the DAC loads and shifts of a frame are its most frequent
-        controller calls. ``values`` are clipped to [-128, 127].
+        controller calls. A constant written everywhere in ideal mode is deferred
+        (``_fill_later``): its pass runs when the plane is next used, or never when it is
+        overwritten first. ``values`` are clipped to [-128, 127].
         """
         self._catch_up()  # older values droop up to now; the new ones start fresh
         if self._call_frame is not None:
             self._note_write(reg)
-        current = self._aplane(reg)
         flag, everywhere = self._flag_state()
+        if everywhere and self.noise.ideal and not isinstance(values, np.ndarray):
+            self._fill_later(reg.index, min(max(float(values), -128.0), 127.0))
+            return
+        current = self._aplane(reg)
         if noisy and not self.noise.ideal:
             self._write_analog(reg, values, None if everywhere else flag)
             return

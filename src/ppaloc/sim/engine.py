@@ -194,7 +194,9 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         self.rng = np.random.default_rng(seed)
         self.noise = NoiseModel(noise, shape, _N_ANALOG, seed)
         self.timing = TimingModel(clock_hz=clock_hz)
-        self._a = np.zeros((_N_ANALOG, *shape), dtype=np.float32)
+        self._analog_planes = np.zeros((_N_ANALOG, *shape), dtype=np.float32)
+        # constant fills not yet written (plane index -> level; _fill_later)
+        self._fills: dict[int, float] = {}
         self._d = np.zeros((_N_DIGITAL, *shape), dtype=bool)
         self._d[_FLAG_I] = True
         self._t = [np.zeros(shape, dtype=np.float32) for _ in range(3)]
@@ -215,13 +217,20 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         params = self.noise.params  # digital writes are timed only if registers decay
         self._retention = bool(params and params.digital_retention_ms is not None)
         if not self.noise.ideal:
-            self._a[PIX.index] = self.noise.pixel_offset
+            self._analog_planes[PIX.index] = self.noise.pixel_offset
         self.engine = make_engine(engine, self)
 
     # ------------------------------------------------------------------ inspection
     def __repr__(self) -> str:
         mode = "ideal" if self.noise.ideal else "noisy"
         return f"Scamp5(rows={self.rows}, cols={self.cols}, {mode}, {self.engine.name})"
+
+    @property
+    def _a(self) -> np.ndarray:
+        """Every analogue plane, (planes, rows, cols) float32, with every fill written."""
+        if self._fills:
+            self._write_fills()
+        return self._analog_planes
 
     def _aplane(self, reg: Register) -> np.ndarray:
         """The live float32 plane of analogue ``reg`` (a view; writes bypass FLAG)."""
@@ -230,19 +239,51 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
                 f"{reg!r} is not an analogue register plane: use A..F, NEWS, PIX or IN"
             )
         i = reg.index
+        if i in self._fills:
+            hostloops.fill(self._analog_planes[i], self._fills.pop(i))
         if i < len(_DECAYING) and self._droop_us[i]:
             self._flush_droop((i,))
         elif i == _IN_I:
             self._in_level = None  # the caller may change IN through the view
-        return self._a[i]
+        return self._analog_planes[i]
 
     def _set_in(self, value: float) -> None:
-        """Drive ``IN`` with ``value`` everywhere (no pass when it already holds it)."""
+        """Drive ``IN`` with ``value`` everywhere (no pass when it already holds it; the
+        pass itself deferred, :meth:`_fill_later`)."""
         if self._in_level != value:
-            hostloops.fill(self._a[_IN_I], value)
+            self._fill_later(_IN_I, value)
             self._in_level = value
         if self._call_frame is not None:
             self._note_write(IN)
+
+    def _fill_later(self, i: int, value: float) -> None:
+        """Analogue plane ``i`` now holds ``float32(value)`` everywhere: the pass that
+        writes it is deferred until the plane is next used (:meth:`_aplane`, :attr:`_a`,
+        a kernel that reads it), and dropped when the value is never read: another fill
+        comes first, or the next kernel to use the plane overwrites it whole before
+        reading it (:meth:`_settle_fills`). The DAC loads of a frame leave ``IN`` and a
+        ``temp`` (NEWS) so about forty times a frame. Only for planes that do not droop
+        (ideal mode, or ``IN``): a deferred value has no time of its own to droop from."""
+        self._fills[i] = value
+
+    def _write_fills(self) -> None:
+        """Write every deferred fill (:meth:`_fill_later`)."""
+        fills, planes = self._fills, self._analog_planes
+        while fills:
+            i, value = fills.popitem()
+            hostloops.fill(planes[i], value)
+
+    def _settle_fills(self, used: frozenset[int], fresh: frozenset[int]) -> None:
+        """Before a kernel that names the analogue planes ``used``: write their deferred
+        fills, except those of ``fresh`` planes (:func:`overwritten_first`) when FLAG is
+        known to be set everywhere (the kernel then overwrites them whole before reading:
+        the fill is never seen); fills of planes the kernel does not name stay deferred."""
+        fills, planes = self._fills, self._analog_planes
+        whole = self._flag_masked is False
+        for i in [i for i in fills if i in used]:
+            value = fills.pop(i)
+            if not (whole and i in fresh):
+                hostloops.fill(planes[i], value)
 
     def _take_droop(self, reg: Register) -> np.float32 | None:
         """The droop step pending on analogue ``reg``, cleared without a pass: the caller
@@ -421,7 +462,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         if not self.noise.ideal:
             self._elapse()
         offset = None if self.noise.ideal else self.noise.pixel_offset
-        hostloops.load_image(self._a[PIX.index], self._image, offset)
+        hostloops.load_image(self._analog_planes[PIX.index], self._image, offset)
         # observers receive this copy, read-only (made so after the compiled loop, which
         # is specialised for writable arrays)
         self._image.flags.writeable = False
@@ -464,10 +505,32 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
     def _compile_kernel(self, instructions: tuple[Instruction, ...]) -> Op:
         """A runner performing ``instructions`` in order, built by this simulator's engine.
 
-        With droop, the runner first applies the droop pending on the planes the ICWs read
-        or write (the others keep accumulating it until something touches them).
+        The runner first writes the deferred fills of the planes the ICWs name (or drops
+        them, :meth:`_settle_fills`), and with droop applies the droop pending on those
+        planes (the others keep accumulating it until something touches them).
         """
         run = self.engine.compile(tuple(instructions))
+        return self._with_fills(self._with_droop(run, instructions), instructions)
+
+    def _with_fills(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
+        """``run``, first settling the deferred fills of the planes the ICWs name
+        (:meth:`_settle_fills`)."""
+        used = frozenset(
+            r.index for ins in instructions for r in (*ins.dsts, *ins.srcs) if r.kind == "analog"
+        )
+        fresh = overwritten_first(instructions)
+        fills = self._fills
+
+        def run_filled() -> None:
+            if fills:
+                self._settle_fills(used, fresh)
+            run()
+
+        return run_filled
+
+    def _with_droop(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
+        """``run``, first applying (or dropping) the droop pending on the planes the ICWs
+        name, when planes droop."""
         if self.noise.ideal or not self.noise.params.decay_per_ms:
             return run
         touched = tuple(
@@ -481,7 +544,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             )
         )
         pending = self._droop_us
-        planes, decay = self._a, self.noise.params.decay_per_ms
+        planes, decay = self._analog_planes, self.noise.params.decay_per_ms
         fresh = overwritten_first(instructions)
         every = np.array(touched, dtype=np.int64)
         rest = np.array([i for i in touched if i not in fresh], dtype=np.int64)
@@ -559,7 +622,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         """
         pending = self._droop_us
         if len(planes) == len(_DECAYING) and np.all(pending == pending[0]):
-            self.noise.droop(self._a[_DECAY_PLANES], pending[0])  # one call for all
+            self.noise.droop(self._analog_planes[_DECAY_PLANES], pending[0])  # one call for all
             pending[:] = 0.0
             return
         which, steps = self._droop_which, self._droop_steps
@@ -573,7 +636,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
                     which[n], steps[n] = i, step
                     n += 1
         if n:
-            hostloops.droop_each(self._a, which, steps, n)
+            hostloops.droop_each(self._analog_planes, which, steps, n)
 
     # ------------------------------------------------------------- FLAG machinery
     def _flag_mask(self) -> np.ndarray | None:
@@ -617,7 +680,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         return _noop
 
     def _op_rpix(self, ins: Instruction) -> Op:
-        pix = self._a[PIX.index]
+        pix = self._analog_planes[PIX.index]
         level = self.noise.pixel_offset
 
         def rpix() -> None:
@@ -627,7 +690,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
 
     def _sum_closure(self, srcs: Iterable[Register]) -> Callable[[np.ndarray], None]:
         """A function writing the sum of analogue ``srcs`` (with neighbour terms) into out."""
-        a = self._a
+        a = self._analog_planes
         local = [a[s.index] for s in srcs if s.role != "neighbour"]
         nbr = [_slices(*s.direction.offset) for s in srcs if s.role == "neighbour"]
         news = a[_NEWS_I]
@@ -687,14 +750,14 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
                 dr, dc = d.direction.offset
                 o, i = _slices(-dr, -dc)
                 edges = _edge_slices(-dr, -dc, self.rows, self.cols)
-                dsts.append((self._a[_NEWS_I], d.index, (o, i, edges)))
+                dsts.append((self._analog_planes[_NEWS_I], d.index, (o, i, edges)))
             else:
-                dsts.append((self._a[d.index], d.index, None))
+                dsts.append((self._analog_planes[d.index], d.index, None))
         return dsts
 
     def _bus_value(self, ins: Instruction, parts: int) -> Callable[[np.ndarray], None]:
         """``value(out)``: out := -(sum of sources) / parts (times the ICW's gain when noisy)."""
-        a = self._a
+        a = self._analog_planes
         total = self._sum_closure(ins.srcs)
         noise = self.noise
         ideal = noise.ideal

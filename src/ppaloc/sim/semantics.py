@@ -153,7 +153,7 @@ def build_blur(sim: Any, ins: Any, horizontal: bool, vertical: bool) -> Callable
     """``blur``/``blurh``/``blurv(a, x)``: ``a := -diffuse(x)`` where FLAG, clipped; noisy
     like one bus transfer (gain, the written cell's offset, temporal noise)."""
     (dst,), (src,) = ins.dsts, ins.srcs
-    plane, x = sim._a[dst.index], sim._a[src.index]
+    plane, x = sim._analog_planes[dst.index], sim._analog_planes[src.index]
     r1, r2 = sim._d[R1.index], sim._d[R2.index]
     noise = sim.noise
 

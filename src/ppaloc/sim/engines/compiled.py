@@ -327,7 +327,8 @@ class CompiledEngine:
         size = sim.rows * sim.cols
         bank = [0] if noise.ideal else [size]
         return {
-            "a": list(sim._a.shape), "d": list(sim._d.shape), "latch": list(sim._latch.shape),
+            "a": list(sim._analog_planes.shape), "d": list(sim._d.shape),
+            "latch": list(sim._latch.shape),
             "scratch": [k, sim.rows, sim.cols], "offsets": list(noise.offsets.shape),
             "pixel": list(noise.pixel_offset.shape), "bank": bank, "bank_div": bank,
             "starts": [m], "gains": [m],
@@ -343,7 +344,7 @@ class CompiledEngine:
         fn = fused.load(text)
         scratch = self._scratch(fused.scratch_planes(instructions, sim.rows))
         m = sum(fused.draws(ins, noisy) for ins in instructions)
-        a, d, latch = sim._a, sim._d, sim._latch
+        a, d, latch = sim._analog_planes, sim._d, sim._latch
         if noise.ideal:
             bank = bank_div = self._none
         else:
@@ -369,7 +370,7 @@ class CompiledEngine:
         sim = self.sim
         noise = sim.noise
         prog, m, (heads, outs, edges) = encode(instructions, noise.ideal, sim.rows, sim.cols)
-        a, d, latch = sim._a, sim._d, sim._latch
+        a, d, latch = sim._analog_planes, sim._d, sim._latch
         t, t2, tb = self._t, self._t2, self._tb
         if noise.ideal:
             bank = bank_div = self._none
@@ -909,6 +910,17 @@ def _where(row, a, af, df, t, bank, starts, flag_all, r0, r1):
         else:
             for p in range(fb.size):
                 fb[p] = (x0[p] + x1[p]) > zero
+        return
+    if nsrc == 3 and nl == 3:  # the same from three (a threshold test's IN, a bound, W)
+        x0, x1, x2 = af[locs[0]][lo:hi], af[locs[1]][lo:hi], af[locs[2]][lo:hi]
+        if bank.size:
+            s0 = starts[row[_DRAW]] + lo
+            w = bank[s0 : s0 + (hi - lo)]
+            for p in range(fb.size):
+                fb[p] = (((x0[p] + x1[p]) + x2[p]) + w[p]) > zero
+        else:
+            for p in range(fb.size):
+                fb[p] = ((x0[p] + x1[p]) + x2[p]) > zero
         return
     if nsrc == 1 and nl == 1:  # FLAG straight from one register, in one pass
         x = af[locs[0]][lo:hi]

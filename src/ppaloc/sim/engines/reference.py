@@ -107,7 +107,7 @@ class ReferenceEngine:
 
     # ------------------------------------------------------------------ planes
     def _a(self, reg: Register) -> np.ndarray:
-        return self.sim._a[reg.index]
+        return self.sim._analog_planes[reg.index]
 
     def _d(self, reg: Register) -> np.ndarray:
         return self.sim._d[reg.index]
