@@ -336,3 +336,11 @@ def test_the_summary_is_rebuilt_from_the_cell_folders(tmp_path, issue_config):
     assert [r["gamma"] for r in rows] == [0.25, 0.5, None, 0.25, 0.5, None]
     assert summary["counts"] == {"cells": 6, "ok": 2, "failed": 1, "not_run": 3}
     assert cell_status(tmp_path, cells[2]) == ("not run", None)  # unparsable: not finished
+
+
+def test_a_cell_whose_results_hold_nan_is_not_finished(tmp_path, issue_config):
+    cell = expand(issue_config)[0]
+    _finish(tmp_path, cell, 0.75)
+    path = tmp_path / cell.folder / "results.json"
+    path.write_text(path.read_text().replace("0.75", "NaN"))  # a hand edit; never written
+    assert cell_status(tmp_path, cell) == ("not run", None)

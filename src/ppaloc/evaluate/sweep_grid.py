@@ -482,10 +482,17 @@ def validate(config: SweepConfig, cells: Sequence[Cell], *, source: str = "") ->
 # -- cell folders ----------------------------------------------------------------------------
 
 
+def _no_constant(name: str) -> Any:
+    """NaN or Infinity, which a cell's files never hold (ppaloc writes strict JSON)."""
+    raise ValueError(f"{name} is not JSON")
+
+
 def _read_json(path: Path) -> Any:
+    """A cell file's JSON, or None where it is missing or not strict JSON (a file cut short
+    or edited by hand, NaN included: the cell is then not finished, and runs again)."""
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        return json.loads(path.read_text(encoding="utf-8"), parse_constant=_no_constant)
+    except (OSError, ValueError, RecursionError):
         return None
 
 
