@@ -86,6 +86,19 @@ def test_frames_from_a_dataset_and_defaults():
         load_frames(None, None, 10**8)
 
 
+def test_more_frames_than_a_dataset_holds_are_refused_not_cut(tmp_path):
+    for i in range(3):
+        Image.fromarray(np.full((40, 60), 50 * i, np.uint8)).save(tmp_path / f"f{i}.png")
+    assert len(list(load_frames(None, f"folder:{tmp_path}", 3))) == 3
+    assert len(list(load_frames(None, f"folder:{tmp_path}", None))) == 3  # all, unasked
+    with pytest.raises(PpalocError) as err:
+        load_frames(None, f"folder:{tmp_path}", 5)
+    assert str(err.value) == (
+        f"--frames 5: --dataset folder:{tmp_path} has 3 frame(s); give --frames 3 or fewer, "
+        "or leave it out"
+    )
+
+
 @pytest.mark.parametrize("timeout", [float("inf"), float("nan"), 1e300, 0, -1])
 def test_a_timeout_out_of_range_is_refused_before_the_build(tmp_path, timeout):
     from ppaloc.cpp.run import run_program

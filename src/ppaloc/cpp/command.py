@@ -143,6 +143,11 @@ def load_frames(
                 f"are held in memory): take the first ones with --frames, or every k-th with "
                 "?step=k"
             )
+        if frames is not None and frames > len(query):  # asked for: never run fewer silently
+            raise PpalocError(
+                f"--frames {frames}: --dataset {dataset} has {len(query)} frame(s); give "
+                f"--frames {len(query)} or fewer, or leave it out"
+            )
         n = min(len(query), frames or (len(query) if alone else DATASET_FRAMES))
         return FrameSource((to_sensor(query[i]) for i in range(n)), n)
     if stream is not None:
