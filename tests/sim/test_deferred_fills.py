@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, reject, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from ppaloc_tests_sim_icws import icws as shared_icws
 
 import ppaloc.sim as s
-from ppaloc.errors import RegisterMisuseError
-from ppaloc.sim import OPS, Scamp5, hostloops
+from ppaloc.sim import Scamp5, hostloops
 from ppaloc.sim.engines import available_engines
-from ppaloc.sim.isa import make
 from ppaloc.sim.registers import ANALOG_PLANES, DIGITAL_PLANES
 
 ROWS, COLS = 4, 5
@@ -38,22 +37,9 @@ class Eager(Scamp5):
         hostloops.fill(self._analog_planes[i], value)
 
 
-@st.composite
-def icws(draw: st.DrawFn) -> tuple[str, tuple, tuple]:
-    op = draw(st.sampled_from(sorted(OPS)))
-    spec = OPS[op]
-    regs = []
-    for kind, (lo, hi), role in ((spec.dst_kind, spec.n_dst, 0), (spec.src_kind, spec.n_src, 1)):
-        if kind not in POOLS:
-            regs.append(())
-            continue
-        pool = POOLS[kind][role]
-        regs.append(tuple(draw(st.lists(st.sampled_from(pool), min_size=lo, max_size=hi))))
-    try:
-        make(op, regs[0], regs[1])
-    except RegisterMisuseError:
-        reject()
-    return op, regs[0], regs[1]
+def icws() -> st.SearchStrategy[tuple[str, tuple, tuple]]:
+    """One valid instruction of any row of the op table, over this module's registers."""
+    return shared_icws(POOLS)
 
 
 values = st.integers(-128, 127)

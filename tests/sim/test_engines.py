@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, reject, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from ppaloc_tests_sim_icws import icws as shared_icws
 
 import ppaloc.sim as s
-from ppaloc.errors import RegisterMisuseError, SimulatorError
+from ppaloc.errors import SimulatorError
 from ppaloc.sim import OPS, NoiseParams, Scamp5
 from ppaloc.sim import engine as engine_module
 from ppaloc.sim.engines import ENGINES, available_engines, default_engine
@@ -44,23 +45,9 @@ MODES: dict[str, str | NoiseParams] = {
 }
 
 
-@st.composite
-def icws(draw: st.DrawFn) -> tuple[str, tuple, tuple]:
-    """One valid instruction of any row of the op table."""
-    op = draw(st.sampled_from(sorted(OPS)))
-    spec = OPS[op]
-    regs = []
-    for kind, (lo, hi), role in ((spec.dst_kind, spec.n_dst, 0), (spec.src_kind, spec.n_src, 1)):
-        if kind not in POOLS:
-            regs.append(())
-            continue
-        pool = POOLS[kind][role]
-        regs.append(tuple(draw(st.lists(st.sampled_from(pool), min_size=lo, max_size=hi))))
-    try:
-        make(op, regs[0], regs[1])
-    except RegisterMisuseError:
-        reject()
-    return op, regs[0], regs[1]
+def icws() -> st.SearchStrategy[tuple[str, tuple, tuple]]:
+    """One valid instruction of any row of the op table, over this module's registers."""
+    return shared_icws(POOLS)
 
 
 programs = st.lists(st.lists(icws(), min_size=1, max_size=12), min_size=1, max_size=3)
