@@ -17,8 +17,9 @@ a note when absent), and 60 generated routes: seeds 1-5 x ``speed_var`` 0.2 / 0.
 or without stops x a winter, autumn or dusk query against a summer map (``--places``
 places, default 200; tolerance +-1, the generator's default). "With stops" is the
 generator's default count (one per 150 places, at least one); "without" is ``stops=0``.
-``--held-out`` runs the routes of :func:`held_out_routes` instead (36 generated routes on
-which no default was chosen: the road with turns, the indoor lab, night).
+``--held-out`` runs the routes of :func:`held_out_routes` instead (the four real pairs the
+other way round and 36 generated routes, none of which a default was chosen on: the road
+with turns, the indoor lab, night).
 
 Every method is run as ``ppaloc evaluate`` runs it (``ppaloc.evaluate.run``: the sensor
 front-end once per route, then ``run_method`` per method, ``seed=0`` where a method takes
@@ -160,22 +161,51 @@ HELD_OUT_TURN_QUERIES = ("autumn", "winter", "dusk", "night")
 LAB_SEEDS = (2, 3, 4)
 LAB_QUERIES = ("changed", "moved", "people", "dim")
 NIGHT_SEEDS = (1, 2, 3, 4)
+REVERSED_PAIRS = (
+    ("nordland-64x32", "nordland", "winter", "summer"),
+    ("gardens-point", "gardens-point", "day_right", "day_left"),
+    ("gardens-point", "gardens-point", "night_right", "day_right"),
+    ("gardens-point", "gardens-point", "night_right", "day_left"),
+)
+"""``(folder, loader, ref, query)``: the real pairs of :func:`routes` with map and query
+exchanged (tolerance +-2, as there)."""
 
 
-def held_out_routes(places: int = 200) -> list[tuple[str, str]]:
-    """Generated routes on which no default was chosen, as ``(label, spec)``: the road
-    with eight turns (seeds 2-5; a summer map, an autumn, winter, dusk or night query),
-    the indoor lab (seeds 2-4, 150 places, as ``eval_worlds.py``; each of its changed
-    conditions) and the straight road at night (seeds 1-4, ``speed_var`` 0.2 and 0.65,
-    the generator's stops): worlds and a condition that :func:`routes` does not hold.
+def _reversed_real_routes(data_dir: Path | str | None) -> list[tuple[str, str]]:
+    """The :data:`REVERSED_PAIRS` whose folder is under ``data_dir``; a note for the rest."""
+    out: list[tuple[str, str]] = []
+    missing: set[Path | None] = set()
+    for folder, loader, ref, query in REVERSED_PAIRS:
+        root = None if data_dir is None else Path(data_dir) / folder
+        if root is None or not root.is_dir():
+            missing.add(root)
+            continue
+        short = "gp" if loader == "gardens-point" else loader
+        out.append(
+            (f"{short} {ref}->{query}", f"{loader}:{root}?ref={ref}&query={query}&tolerance=2")
+        )
+    for root in sorted(missing, key=str):
+        print(f"note: {root} not found: its reversed pairs are skipped", file=sys.stderr)
+    return out
+
+
+def held_out_routes(data_dir: Path | str | None = DATA, places: int = 200) -> list[tuple[str, str]]:
+    """Routes on which no default was chosen, as ``(label, spec)``: four real pairs of
+    :func:`routes` the other way round (:data:`REVERSED_PAIRS`: the map from the traversal
+    that was the query; needs ``data_dir``, skipped with a note like :func:`routes`), then
+    the generated ones: the road with eight turns (seeds 2-5; a summer map, an autumn,
+    winter, dusk or night query), the indoor lab (seeds 2-4, 150 places, as
+    ``eval_worlds.py``; each of its changed conditions) and the straight road at night
+    (seeds 1-4, ``speed_var`` 0.2 and 0.65, the generator's stops): worlds and a
+    condition that :func:`routes` does not hold.
 
     Examples
     --------
-    >>> held = [label for label, _ in held_out_routes()]
+    >>> held = [label for label, _ in held_out_routes(None)]
     >>> len(held), held[0], held[-1]
     (36, 'synthetic seed=2 turns=8 autumn', 'synthetic seed=4 speed_var=0.65 stops night')
     """
-    out = []
+    out = _reversed_real_routes(data_dir)
     for seed in HELD_OUT_SEEDS:
         for query in HELD_OUT_TURN_QUERIES:
             spec = f"synthetic:?places={places}&turns=8&query={query}&seed={seed}"
@@ -628,8 +658,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument(
         "--held-out",
         action="store_true",
-        help="the routes no default was chosen on (held_out_routes: the road with turns, "
-        "the lab, night) instead of the 65",
+        help="the routes no default was chosen on (held_out_routes: the real pairs the "
+        "other way round, the road with turns, the lab, night) instead of the 65",
     )
     args = parser.parse_args(argv)
 
@@ -688,7 +718,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     if not jobs:
         raise SystemExit("error: no method to run")
 
-    selected = held_out_routes(args.places) if args.held_out else routes(args.data, args.places)
+    selected = (
+        held_out_routes(args.data, args.places) if args.held_out else routes(args.data, args.places)
+    )
     if args.routes:
         selected = [(label, spec) for label, spec in selected if args.routes in label]
     if not selected:

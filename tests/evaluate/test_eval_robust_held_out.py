@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from urllib.parse import parse_qsl
+
 from ppaloc.datasets.registry import load_dataset
 
 
 def test_the_held_out_routes_are_new_and_load(bench_script):
     eval_robust = bench_script("eval_robust")
-    held = eval_robust.held_out_routes(places=40)
+    held = eval_robust.held_out_routes(None, places=40)
     labels = [label for label, _ in held]
     assert len(held) == 36 and len(set(labels)) == 36
     chosen_on = {spec for _, spec in eval_robust.routes(None, places=40)}
@@ -16,5 +18,28 @@ def test_the_held_out_routes_are_new_and_load(bench_script):
     assert len(groups) == 10  # 4 road conditions, 4 lab ones, night at two speed spreads
     assert "generated, turns=8, night" in groups and "generated, lab, dim" in groups
     for _, spec in held[::9]:  # a road, a road at night, a lab and a straight night route
+        ds = load_dataset(spec)
+        assert len(ds.reference) > 0 and len(ds.query) == len(ds.ground_truth)
+
+
+def _pair(spec: str) -> tuple[str, str, str]:
+    """``(dataset, ref, query)`` of a real route's spec."""
+    where, _, query = spec.partition("?")
+    options = dict(parse_qsl(query))
+    return where, options["ref"], options["query"]
+
+
+def test_the_real_pairs_are_held_out_the_other_way_round(bench_script, shared_data):
+    eval_robust = bench_script("eval_robust")
+    held = dict(eval_robust.held_out_routes(shared_data, places=40))
+    real = {label: spec for label, spec in held.items() if not label.startswith("synthetic")}
+    assert len(real) == 4 and len(held) == 40
+    chosen_on = [spec for _, spec in eval_robust.routes(shared_data, places=40)]
+    chosen_pairs = {_pair(spec) for spec in chosen_on if not spec.startswith("synthetic")}
+    for label, spec in real.items():
+        assert spec not in chosen_on
+        where, ref, query = _pair(spec)
+        assert (where, query, ref) in chosen_pairs, label  # a pair of the 65, reversed
+        assert eval_robust.route_group(label) == label  # a real route is its own group
         ds = load_dataset(spec)
         assert len(ds.reference) > 0 and len(ds.query) == len(ds.ground_truth)
