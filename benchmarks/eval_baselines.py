@@ -32,13 +32,13 @@ from PIL import Image
 
 from ppaloc.baselines import SeqSLAM
 from ppaloc.baselines._common import uniqueness_ratio
-from ppaloc.baselines._image import mean_abs_diff, patch_normalise
 from ppaloc.baselines.seqslam import contrast_enhance
 from ppaloc.datasets import RouteDataset, load_dataset, to_grey, to_sensor
 from ppaloc.errors import PpalocError
 from ppaloc.evaluate.metrics import evaluate_estimates
 from ppaloc.evaluate.run import MethodRun, run_method
 from ppaloc.methods import make_localiser
+from ppaloc.place.patch import mean_abs_diff, patch_normalise
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 NORDLAND = f"nordland:{DATA}/nordland-64x32?tolerance=2"

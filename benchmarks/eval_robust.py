@@ -79,6 +79,7 @@ DEFAULT_METHODS = (
     "weighted-node-lowres",
     "weighted-node-lowres16",
     "weighted-node-haar",
+    "weighted-node-patch",
     "weighted-node-paper-lbp",
     "weighted-node-paper-lowres",
     "particle-filter",
@@ -91,6 +92,7 @@ REPRESENTATION_METHODS = (
     "weighted-node-lowres16",
     "weighted-node-lbp",
     "weighted-node-haar",
+    "weighted-node-patch",
     "particle-filter",
     "seqslam",
     "single-frame",
@@ -102,6 +104,7 @@ WN_BEST = (
     "weighted-node-lowres",
     "weighted-node-lowres16",
     "weighted-node-haar",
+    "weighted-node-patch",
 )
 """The weighted-node methods the ``best WN - best baseline`` column takes the better of."""
 SEEDS = (1, 2, 3, 4, 5)

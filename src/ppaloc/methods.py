@@ -84,6 +84,12 @@ METHODS: dict[str, MethodSpec] = {
         {"representation": "haar"},
         "the robust weighted-node filter on the host, 192 Haar signs + Hamming",
     ),
+    "weighted-node-patch": MethodSpec(
+        "ppaloc.localise.weighted:WeightedNodeLocaliser",
+        {"representation": "patch"},
+        "the robust weighted-node filter on the host, the baselines' 64x32 patch-normalised "
+        "image + mean absolute difference (host only, float)",
+    ),
     "weighted-node-paper-lowres": MethodSpec(
         "ppaloc.localise.weighted:WeightedNodeLocaliser",
         {"representation": "lowres", "preset": "paper"},

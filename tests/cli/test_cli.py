@@ -303,6 +303,18 @@ def test_map_and_localise_with_a_real_method(method, tiny_spec, tmp_path, capsys
     assert {0, 255} <= set(np.unique(grey).tolist())  # descriptor bits drawn black and white
 
 
+def test_map_localise_and_show_on_the_patch_place(tiny_spec, tmp_path, capsys):
+    method = "weighted-node-patch"
+    code, _, err = run(capsys, "map", tiny_spec, "-m", method, "--out", tmp_path / "m.npz", "-q")
+    assert code == 0, err
+    code, out, err = run(capsys, "localise", tmp_path / "m.npz", *_frames(tmp_path / "q", 3))
+    assert code == 0, err
+    assert len(out.splitlines()) == 4
+    code, out, err = run(capsys, "show", tmp_path / "m.npz", "--out", tmp_path / "m.png")
+    assert code == 0, err
+    assert "patch nodes" in out and (tmp_path / "m.png").stat().st_size > 0
+
+
 def test_bench_writes_json(mean_match, tmp_path, capsys):
     code, out, err = run(
         capsys, "bench", "-m", mean_match, "--sizes", "4,8", "--queries", "2", "--out", tmp_path

@@ -24,10 +24,10 @@ from ppaloc.baselines._descriptors import (
     lowres_distances,
     lowres_place,
 )
-from ppaloc.baselines._image import mean_abs_diff, preprocess
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import MethodParam, signature_parameters
 from ppaloc.place import HAAR_WORDS, LOWRES_GRIDS
+from ppaloc.place.patch import mean_abs_diff, preprocess
 from ppaloc.topomap import TopoMap
 
 __all__ = [

@@ -1,7 +1,7 @@
 """The node descriptors an image baseline can compare: its own image or the filter's place.
 
 SeqSLAM, the particle filter and single-frame matching compare, by default, SeqSLAM's
-patch-normalised 64x32 image (2048 values per place, :mod:`ppaloc.baselines._image`). To
+patch-normalised 64x32 image (2048 values per place, :mod:`ppaloc.place.patch`). To
 tell a method's filter from its descriptor, each of them also takes exactly the place the
 weighted-node filter stores (``descriptor=``):
 
@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ppaloc.baselines._image import check_frame
 from ppaloc.errors import PpalocError
 from ppaloc.localise.params import DEFAULT_CONTRAST, DEFAULT_CONTRAST_PATCH
 from ppaloc.place import (
@@ -46,6 +45,7 @@ from ppaloc.place import (
     sad,
     tile_cells,
 )
+from ppaloc.place.patch import check_frame
 
 __all__ = [
     "DESCRIPTORS",

@@ -35,11 +35,11 @@ import numpy as np
 
 from ppaloc.baselines._common import MapLocaliser, require_map, top_k, uniqueness_ratio
 from ppaloc.baselines._descriptors import check_descriptor, haar_place, lbp_place
-from ppaloc.baselines._image import downsample
 from ppaloc.baselines.ldb import comparison_count, hamming_distances, ldb_comparisons, selected_bits
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.place import HAAR_BITS, HAAR_WORDS, LBP_BITS, LOWRES_GRIDS
+from ppaloc.place.patch import downsample
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ABLEM", "sequence_distances"]

@@ -218,7 +218,8 @@ COLUMNS: tuple[Column, ...] = (
 
 _BY_HEADER = {c.header: c for c in COLUMNS}
 _REPRESENTATION = re.compile(
-    r"^(.*) \((8x8 image|16x16 image|32-bit LBP|192 Haar signs|method's own)\)$"
+    r"^(.*) \((8x8 image|16x16 image|32-bit LBP|192 Haar signs|64x32 patch-normalised|"
+    r"method's own)\)$"
 )
 """A Table I header: a field and the representation column it is shown in."""
 

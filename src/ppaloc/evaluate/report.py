@@ -48,6 +48,7 @@ REPRESENTATIONS = {
     "lowres16": "16x16 image, SAD",
     "lbp": "32-bit LBP, Hamming",
     "haar": "192 Haar signs, Hamming",
+    "patch": "64x32 patch-normalised image, SAD",
     "seqslam": "patch-normalised image, SAD",
     "single-frame": "patch-normalised image, SAD",
     "particle-filter": "patch-normalised image",
@@ -57,7 +58,7 @@ REPRESENTATIONS = {
 representation."""
 
 #: The weighted-node filter's places, in the order tables show them.
-_PLACES = ("lowres", "lowres16", "lbp", "haar")
+_PLACES = ("lowres", "lowres16", "lbp", "haar", "patch")
 
 
 FIGURE_KEYS = ("pr-curves", "difference", "position", "weights", "latency", "latency-vs-size")
@@ -122,7 +123,13 @@ _SHORT_HEADER = [
     "loop ms",
     "mJ",
 ]
-_SHORT_REPR = {"lowres": "8x8 img", "lowres16": "16x16 img", "lbp": "LBP", "haar": "Haar"}
+_SHORT_REPR = {
+    "lowres": "8x8 img",
+    "lowres16": "16x16 img",
+    "lbp": "LBP",
+    "haar": "Haar",
+    "patch": "patch img",
+}
 
 
 def _place(m: dict[str, Any]) -> str:
@@ -247,6 +254,7 @@ _COLUMNS = (
     ("lowres16", "16x16 image"),
     ("lbp", "32-bit LBP"),
     ("haar", "192 Haar signs"),
+    ("patch", "64x32 patch-normalised"),
     ("own", "method's own"),
 )
 

@@ -35,6 +35,7 @@ from ppaloc.localise.enhance import (
 )
 from ppaloc.localise.likelihood import (
     BINARY_PLACES,
+    FLOAT_PLACES,
     HAAR_EXPONENT,
     NodeDistances,
     distance_scale,
@@ -101,8 +102,11 @@ def read_values(kind: str, raw: np.ndarray, exact: bool) -> np.ndarray:
     ``code - 128 = floor((h + 2) / 4)``. Low-res ``ppa8``: the ADC code of ``-mu/2`` (the
     halving tree's result, ``code = floor(128.5 - mu/2)``) read back as ``2 (128 - code)``.
     Low-res ``float``: ``mu`` itself (the SAD over :func:`float_divisor`). Distances
-    ``enhance`` has made floats (float arithmetic only) are read by the same factors.
+    ``enhance`` has made floats (float arithmetic only) are read by the same factors. The
+    host's float places (``"patch"``): ``mu`` itself.
     """
+    if kind in FLOAT_PLACES:  # mu itself, a float (never ``exact``: no register holds it)
+        return raw.astype(np.float64)
     if kind == "lbp":
         return raw.astype(np.int64) * 2 if raw.dtype.kind in "iu" else raw * 2.0
     if kind == "haar":
@@ -119,6 +123,8 @@ def _enhanced(kind: str, raw: np.ndarray, window: int) -> np.ndarray:
     """``raw`` distances contrast-enhanced along the map (``enhance``, float only), in
     raw units such that :func:`read_values` reads :data:`ENHANCE_UNITS` a deviation."""
     z = contrast_enhance(raw, window)
+    if kind in FLOAT_PLACES:
+        return z * float(ENHANCE_UNITS)
     if kind == "lbp":
         return z * (ENHANCE_UNITS / 2.0)
     if kind == "haar":
@@ -153,7 +159,7 @@ class HostExecutor:
         Register arithmetic (``"ppa8"``).
     integer_readout : bool
         The frame's scale is decided on the register readout's integers (in either
-        arithmetic; not on distances ``enhance`` has made floats).
+        arithmetic; not on distances ``enhance`` has made floats, nor on a float place).
     ranking : ndarray of int or None
         The last frame's best nodes, best first (the estimate first), taken before the
         normalisation or adjustment.
@@ -178,8 +184,10 @@ class HostExecutor:
         self.exact = arithmetic == "ppa8"
         # the frame's scale is decided on the readout's integers (the robust preset's
         # distances), not on distances ``enhance`` (float only) has made floats
-        self.integer_readout = not params.enhance and (
-            representation in BINARY_PLACES or params.contrast is not None
+        self.integer_readout = (
+            not params.enhance
+            and representation not in FLOAT_PLACES
+            and (representation in BINARY_PLACES or params.contrast is not None)
         )
         self.ranking_k = ranking_k
         self.motion_model = motion_model(params)
@@ -202,7 +210,9 @@ class HostExecutor:
             self.representation,
             topomap.descriptors,
             exact=self.exact,
-            contrast=None if self.representation in BINARY_PLACES else self.params.contrast,
+            contrast=None
+            if self.representation in BINARY_PLACES + FLOAT_PLACES
+            else self.params.contrast,
             patch=self.params.contrast_patch,
         )
         self._use_map(topomap, distances)

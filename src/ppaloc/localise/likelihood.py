@@ -36,6 +36,11 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
   [0, 48] register units, exactly in the update; the controller reads it rounded,
   ``floor(h_i / 4 + 1/2)`` (the ADC code of the root, :data:`HAAR_EXPONENT`).
 
+- ``"patch"`` (host, float only): SeqSLAM's patch-normalised 64x32 image, the baselines'
+  own place (:func:`ppaloc.place.patch_image`). ``mu_i = PATCH_UNITS * m_i`` with ``m_i``
+  the mean absolute difference per pixel in deviations (:func:`ppaloc.place.mean_abs_diff`),
+  a float: no register holds the place's 2048 floats (:data:`FLOAT_PLACES`).
+
 Every case then scales by ``2**-shift``.
 """
 
@@ -56,14 +61,18 @@ from ppaloc.place import (
     lbp_descriptor,
     lowres_grid,
     lowres_image,
+    mean_abs_diff,
     normalise_contrast,
+    patch_image,
     tile_cells,
 )
 
 __all__ = [
     "BINARY_PLACES",
+    "FLOAT_PLACES",
     "HAAR_EXPONENT",
     "LOWRES_CAP",
+    "PATCH_UNITS",
     "NodeDistances",
     "distance_scale",
     "float_divisor",
@@ -74,6 +83,16 @@ LOWRES_CAP = 254
 
 BINARY_PLACES = ("lbp", "haar")
 """The places compared by Hamming distance: exact integer distances, no contrast."""
+
+FLOAT_PLACES = ("patch",)
+"""The places no register holds (the host's alone): float distances, float arithmetic."""
+
+PATCH_UNITS = 64.0
+"""``"patch"``: register units per deviation of mean absolute difference. Two unrelated
+patch-normalised pixels differ by about ``2 / sqrt(pi)`` (1.13) deviations, so an unrelated
+node reads some 70 units, in the range of the low-res places' ``mu`` (0-127); the robust
+filter scales each frame from its own spread, so the factor only keeps the spread well above
+``gain``."""
 
 HAAR_EXPONENT = 2
 """Haar signs: ``mu = h * 2**-HAAR_EXPONENT`` register units (64 per differing bit averaged
@@ -100,11 +119,15 @@ def distance_scale(representation: str, shift: int, exact: bool) -> float:
     (0.125, 0.125)
     >>> distance_scale("lowres16", 0, False), distance_scale("lowres16", 0, True) * 2**17
     (0.001953125, 1.0)
+    >>> distance_scale("patch", 2, False)
+    0.25
     """
     if representation == "lbp":
         return 2.0 ** (1 - shift)
     if representation == "haar":
         return 2.0 ** -(HAAR_EXPONENT + shift)
+    if representation in FLOAT_PLACES:
+        return 2.0**-shift
     if exact:
         return 2.0 ** -(17 + shift)
     return 2.0**-shift / float_divisor(representation)
@@ -115,10 +138,10 @@ class NodeDistances:
 
     Parameters
     ----------
-    kind : {"lowres", "lowres16", "lbp", "haar"}
+    kind : {"lowres", "lowres16", "lbp", "haar", "patch"}
     descriptors : ndarray
         The map's nodes: uint8 (N, 8, 8) or (N, 16, 16), uint32 (N,) (LBP) or (N, 8)
-        (Haar signs).
+        (Haar signs), float32 (N, 32, 64) (the patch-normalised image).
     exact : bool
         Low-res only: the register's distance (ppa8): to the unquantised live frame, or
         with ``contrast`` capped per cell; else the uint8 SAD to the quantised frame.
@@ -153,7 +176,15 @@ class NodeDistances:
             raise PpalocError(
                 f"the {kind} place compares contrast-normalised images only: give contrast="
             )
-        if kind in BINARY_PLACES:
+        if kind in FLOAT_PLACES:
+            if exact:
+                raise PpalocError(
+                    f"the {kind} place has no register arithmetic (no register holds it): "
+                    "use arithmetic='float'"
+                )
+            self._nodes = np.ascontiguousarray(descriptors, dtype=np.float32)
+            self.out = np.empty(len(self._nodes), np.float64)
+        elif kind in BINARY_PLACES:
             self._nodes = np.ascontiguousarray(descriptors, dtype=np.uint32)
             self.out = np.empty(len(self._nodes), np.uint8 if kind == "lbp" else np.uint16)
         else:
@@ -184,6 +215,9 @@ class NodeDistances:
             return hamming(lbp_descriptor(frame), self._nodes, out=self.out)
         if self.kind == "haar":
             return hamming_words(haar_descriptor(frame), self._nodes, out=self.out)
+        if self.kind in FLOAT_PLACES:
+            np.multiply(mean_abs_diff(patch_image(frame), self._nodes), PATCH_UNITS, out=self.out)
+            return self.out
         if self.exact:
             if self.contrast is None:
                 return self._index.sad_to_sums(block_sums(frame, 8), cap=LOWRES_CAP)
@@ -199,6 +233,6 @@ class NodeDistances:
         is. The robust preset's readout reads these in either arithmetic
         (:func:`ppaloc.localise.host.read_values`). Without ``contrast`` a float map
         compares the quantised frame, not the register's unquantised sums."""
-        if self.kind in BINARY_PLACES or self.exact:
+        if self.kind in BINARY_PLACES or self.kind in FLOAT_PLACES or self.exact:
             return raw
         return raw.astype(np.int64) << self._pixels_bits

@@ -38,6 +38,7 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import MethodParam
+from ppaloc.localise.likelihood import FLOAT_PLACES
 from ppaloc.localise.motion import MARGIN, PAPER_MARGIN
 from ppaloc.place.normalise import MAX_CONTRAST
 
@@ -145,7 +146,8 @@ the representations the paper preset runs on (:func:`runs_on`)."""
 def runs_on(representation: str, preset: str) -> bool:
     """Whether ``preset`` runs on ``representation``: a robust preset on every one, the
     paper's on those of :data:`DEFAULT_SHIFT` (not ``"lowres16"``, whose images it would
-    compare unnormalised).
+    compare unnormalised, nor the Haar signs or the patch-normalised image, which it does
+    not describe).
 
     Examples
     --------
@@ -446,9 +448,9 @@ class FilterParams:
 
         Parameters
         ----------
-        representation : {"lowres", "lowres16", "lbp", "haar"}
-            Sets the paper preset's default likelihood shift (lowres16 and haar run the
-            robust group only).
+        representation : {"lowres", "lowres16", "lbp", "haar", "patch"}
+            Sets the paper preset's default likelihood shift (lowres16, haar and patch run
+            the robust group only; patch in float only).
         preset : str
             A registered schedule's name (:data:`PRESETS`: ``"robust"``, ``"paper"``).
         arithmetic : {"float", "ppa8"}
@@ -469,10 +471,16 @@ class FilterParams:
             why = {
                 "lowres16": ", which compares contrast-normalised images only",
                 "haar": ", which the paper does not describe",
+                "patch": ", which the paper does not describe",
             }.get(representation, "")
             raise PpalocError(
                 f"preset={preset!r} does not run on the {representation} place{why}; use a "
                 f"robust preset, or {' or '.join(DEFAULT_SHIFT)}"
+            )
+        if arithmetic == "ppa8" and representation in FLOAT_PLACES:
+            raise PpalocError(
+                f"arithmetic='ppa8' does not run on the {representation} place, which no "
+                "register holds (a host place of floats); use arithmetic='float'"
             )
         params = {f.name: f.metadata["param"] for f in dataclasses.fields(cls) if f.metadata}
         unknown = sorted(set(values) - set(params))

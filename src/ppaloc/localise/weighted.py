@@ -77,8 +77,9 @@ __all__ = [
     "suggest_alpha",
 ]
 
-REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar")
-"""Place representations of the weighted-node filter (docs/ppa8.md)."""
+REPRESENTATIONS = ("lowres", "lowres16", "lbp", "haar", "patch")
+"""Place representations of the weighted-node filter (docs/ppa8.md; ``"patch"``, the
+baselines' own image, on the host only)."""
 
 MAX_RANKING = 10_000
 """The longest ranking an estimate lists (``ranking_k``)."""
@@ -156,10 +157,11 @@ class WeightedNodeLocaliser(DeclaredSpeeds):
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp", "haar"}
+    representation : {"lowres", "lowres16", "lbp", "haar", "patch"}
         Node kind: 8x8 or 16x16 low-res images compared by mean absolute difference (the
         16x16 ones with the robust preset only), 32-bit LBP descriptors or the 192 Haar
-        signs (robust only) compared by Hamming distance.
+        signs (robust only) compared by Hamming distance, or SeqSLAM's patch-normalised
+        64x32 image, the baselines' own (robust, float, host only; docs/localise.md).
     arithmetic : {"float", "ppa8"}
         ``"float"``: float32 weights clipped to [-127, 127], ties only between equal
         weights, the live low-res image quantised like a node (uint8 SAD, the fast path).
@@ -231,7 +233,9 @@ class WeightedNodeLocaliser(DeclaredSpeeds):
         """Every keyword this localiser takes (:class:`~ppaloc.localise.base.MethodParam`):
         its own options, then the filter's parameters (:class:`FilterParams`)."""
         return (
-            MethodParam("representation", Literal["lowres", "lowres16", "lbp", "haar"], "lowres"),
+            MethodParam(
+                "representation", Literal["lowres", "lowres16", "lbp", "haar", "patch"], "lowres"
+            ),
             MethodParam("arithmetic", Literal["float", "ppa8"], "float"),
             MethodParam("ranking_k", int, 10, 0, MAX_RANKING, "nodes each estimate ranks"),
             MethodParam("record_weights", bool, False, doc="keep every frame's weights"),

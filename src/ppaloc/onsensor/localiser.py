@@ -19,6 +19,7 @@ import numpy as np
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import DatasetNeed, Estimate, MethodParam
+from ppaloc.localise.likelihood import FLOAT_PLACES
 from ppaloc.localise.params import (
     DeclaredSpeeds,
     FilterParams,
@@ -67,8 +68,9 @@ def _check_options(representation: str, noise: Any, arithmetic: str, timing_stru
     """A one-line error for an option the sensor does not run, before any work."""
     check_representation(representation)
     if representation not in SENSOR_REPRESENTATIONS:
+        why = ": no register holds its values" if representation in FLOAT_PLACES else " so far"
         raise PpalocError(
-            f"representation={representation!r} runs on the host only so far "
+            f"representation={representation!r} runs on the host only{why} "
             f"(weighted-node-{representation}); the sensor runs "
             f"{', '.join(SENSOR_REPRESENTATIONS)} (docs/onsensor.md)"
         )

@@ -6,7 +6,9 @@ Every place starts from the exact block means of a (256, 256) uint8 sensor frame
 :func:`normalise_contrast`), the 32-bit LBP code of the 8x8 grid (:func:`hamming`) and the
 192-bit Haar signs of its blocks (:func:`haar_descriptor`, :func:`hamming_words`), both
 compared by Hamming distance. Everything is vectorised over leading axes (frames) or N
-nodes and exact.
+nodes and exact. Beside them, SeqSLAM's patch-normalised 64x32 image (:func:`patch_image`,
+:func:`mean_abs_diff`), the baselines' own place, which the weighted-node filter also
+takes on the host (no register holds its 2048 floats).
 """
 
 from ppaloc.place.grid import (
@@ -39,6 +41,7 @@ from ppaloc.place.lbp import (
     unpack_bits,
 )
 from ppaloc.place.normalise import CONTRAST_SCALES, contrast_scale, normalise_contrast
+from ppaloc.place.patch import PATCH_SHAPE, mean_abs_diff, patch_image
 from ppaloc.place.sad import sad
 
 __all__ = [
@@ -48,6 +51,7 @@ __all__ = [
     "HAAR_WORDS",
     "LBP_BITS",
     "LOWRES_GRIDS",
+    "PATCH_SHAPE",
     "SENSOR_SIZE",
     "LowresIndex",
     "block_means",
@@ -62,9 +66,11 @@ __all__ = [
     "lbp_grid",
     "lowres_grid",
     "lowres_image",
+    "mean_abs_diff",
     "normalise_contrast",
     "pack_bits",
     "pack_plane",
+    "patch_image",
     "sad",
     "tile_cells",
     "unpack_bits",

@@ -16,6 +16,8 @@ from ppaloc.place import (
     hamming_words,
     lbp_descriptor,
     lowres_image,
+    mean_abs_diff,
+    patch_image,
     sad,
 )
 from ppaloc.topomap.map import KIND_SPECS, TopoMap
@@ -27,6 +29,7 @@ KEYFRAME_UNITS = {
     "lowres16": "mean absolute difference per 16x16 cell, grey levels (SAD / 256)",
     "lbp": "Hamming distance, bits",
     "haar": "Hamming distance, bits",
+    "patch": "mean absolute difference per pixel of the patch-normalised image, deviations",
 }
 """What ``keyframe_threshold`` measures for each kind."""
 
@@ -34,12 +37,14 @@ _DESCRIBE: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     **{kind: partial(lowres_image, grid=g) for kind, g in LOWRES_GRIDS.items()},
     "lbp": lbp_descriptor,
     "haar": haar_descriptor,
+    "patch": patch_image,
 }
 
 
 def describe(frame: np.ndarray, kind: str) -> np.ndarray:
     """Return the node descriptor of one frame: uint8 (8, 8) or (16, 16), a uint32
-    scalar array (LBP) or 8 uint32 words (Haar signs).
+    scalar array (LBP), 8 uint32 words (Haar signs) or the float32 (32, 64)
+    patch-normalised image.
 
     Any frame is first shown to the sensor (:func:`ppaloc.frontend.to_sensor`,
     the identity for a (256, 256) uint8 frame).
@@ -58,6 +63,8 @@ def _change(kind: str, descriptor: np.ndarray, last: np.ndarray) -> float:
         return float(sad(descriptor, last[None])[0]) / descriptor.size
     if kind == "haar":
         return float(hamming_words(descriptor, last[None])[0])
+    if kind == "patch":
+        return float(mean_abs_diff(descriptor, last[None])[0])
     return float(hamming(descriptor, last.reshape(1))[0])
 
 
@@ -105,7 +112,7 @@ def build_topomap(
         The reference traversal in route order; (256, 256) uint8 sensor frames, or any
         frame :func:`~ppaloc.frontend.to_sensor` accepts. Read once, in order,
         so a lazy sequence is never held in memory whole.
-    kind : {"lowres", "lowres16", "lbp", "haar"}
+    kind : {"lowres", "lowres16", "lbp", "haar", "patch"}
         The place representation (:mod:`ppaloc.place`).
     keyframe_threshold : float, optional
         None (default, the paper): every frame becomes a node. Otherwise the first frame
@@ -113,7 +120,8 @@ def build_topomap(
         *last node* (not the last frame, so slow drift accumulates) is strictly above the
         threshold: for ``"lowres"`` the mean absolute difference per cell in grey levels
         (SAD / 64; ``"lowres16"`` SAD / 256), for ``"lbp"`` and ``"haar"`` the Hamming
-        distance in bits.
+        distance in bits, for ``"patch"`` the mean absolute difference per pixel in
+        deviations.
         0 drops only exact repeats (e.g. a vehicle standing still in a static scene).
     keep : callable, optional
         Another keyframe rule: ``keep(sensor_frame)`` is called on every frame in order

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ppaloc.place import HAAR_WORDS, LOWRES_GRIDS, unpack_bits, unpack_plane
+from ppaloc.place import HAAR_WORDS, LOWRES_GRIDS, PATCH_SHAPE, unpack_bits, unpack_plane
 from ppaloc.topomap.layout import KIND_BLOCK_SHAPES, SnakeLayout, layout_for
 
 __all__ = ["KIND_SPECS", "TopoMap"]
@@ -18,6 +18,7 @@ KIND_SPECS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     **{kind: (np.dtype(np.uint8), (g, g)) for kind, g in LOWRES_GRIDS.items()},
     "lbp": (np.dtype(np.uint32), ()),
     "haar": (np.dtype(np.uint32), (HAAR_WORDS,)),
+    "patch": (np.dtype(np.float32), PATCH_SHAPE),
 }
 """Descriptor dtype and per-node shape of the place representations of ``ppaloc.place``.
 

@@ -1,9 +1,12 @@
-"""Image preprocessing shared by the pixel-based baselines (SeqSLAM, particle filter, single).
+"""SeqSLAM's patch-normalised image: the place of the pixel-based baselines (SeqSLAM, the
+particle filter, single-frame matching) and of the weighted-node filter's host-only
+``"patch"`` place.
 
-Every baseline is fed the same (256, 256) ``uint8`` sensor frames and downsamples them
-itself. The pixel-based ones follow OpenSeqSLAM: a small grey image (64x32 by default) that
-is *patch normalised* (each 8x8 patch to zero mean and unit standard deviation) and compared
-by the mean absolute difference per pixel.
+Every method is fed the same (256, 256) ``uint8`` sensor frames and reduces them itself.
+This place follows OpenSeqSLAM: a small grey image (64x32 by default) that is *patch
+normalised* (each 8x8 patch to zero mean and unit standard deviation) and compared by the
+mean absolute difference per pixel. Its 2048 float values a place are no register's: the
+PPA holds the 8x8 and 16x16 images, the LBP codes and the Haar signs, not this one.
 """
 
 from __future__ import annotations
@@ -11,18 +14,20 @@ from __future__ import annotations
 import numpy as np
 
 from ppaloc.errors import PpalocError
+from ppaloc.place.grid import SENSOR_SIZE
 
 __all__ = [
-    "SENSOR_SIZE",
+    "PATCH_SHAPE",
     "check_frame",
     "downsample",
     "mean_abs_diff",
+    "patch_image",
     "patch_normalise",
     "preprocess",
 ]
 
-SENSOR_SIZE = 256
-"""Rows (= columns) of a sensor frame."""
+PATCH_SHAPE = (32, 64)
+"""Rows and columns of the place (OpenSeqSLAM's 64x32 image, width x height)."""
 
 _CHUNK_ELEMENTS = 1 << 22
 """Upper bound on the temporary array of :func:`mean_abs_diff` (elements, float32)."""
@@ -134,6 +139,13 @@ def preprocess(
     ndarray of float32, shape ``size``
     """
     return patch_normalise(downsample(frame, size), patch, quantise=quantise)
+
+
+def patch_image(frame: np.ndarray) -> np.ndarray:
+    """The ``"patch"`` place of one sensor frame: :func:`preprocess` at OpenSeqSLAM's
+    defaults (64x32, 8x8 patches), float32, shape :data:`PATCH_SHAPE`; the image the
+    baselines compare by default."""
+    return preprocess(frame)
 
 
 def mean_abs_diff(query: np.ndarray, nodes: np.ndarray) -> np.ndarray:

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from ppaloc.baselines._image import downsample, mean_abs_diff, patch_normalise, preprocess
 from ppaloc.errors import PpalocError
+from ppaloc.place.patch import downsample, mean_abs_diff, patch_normalise, preprocess
 
 
 def test_patch_normalise_golden_2x2() -> None:
