@@ -68,6 +68,7 @@ METHODS: dict[str, tuple[str, dict]] = {
     "weighted-node-lowres": ("weighted-node-lowres", {}),
     "weighted-node-lowres16": ("weighted-node-lowres16", {}),
     "weighted-node-haar": ("weighted-node-haar", {}),
+    "weighted-node-patch": ("weighted-node-patch", {}),
     "weighted-node-lbp": ("weighted-node-lbp", {}),
 }
 
