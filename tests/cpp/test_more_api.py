@@ -105,3 +105,27 @@ def test_gui_update_callback_runs_at_the_next_message_processing(cxx, tmp_path):
     assert result.texts == ["set, 0 calls", "callback 7", "frame, 1 calls", "frame, 1 calls"]
     # the display (handle 2, after the slider) got frame 0 in the callback
     np.testing.assert_array_equal(result.session.outputs[0][2], np.full((N, N), 72.0))
+
+
+MOVED_ON_CONNECT = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    vs_on_gui_update(VS_GUI_FRAME_RATE, [&](int32_t v) { vs_post_text("rate %d", v); });
+    vs_on_host_connect([&] { vs_gui_move_slider(VS_GUI_FRAME_RATE, 200); });
+    while (1) {
+        vs_frame_loop_control();
+    }
+}
+"""
+
+
+def test_a_callback_the_program_ran_is_not_run_again_with_the_hosts_value(cxx, tmp_path):
+    # the public mobile-robot tracker moves the frame rate in its connect callback, which
+    # runs the rate's callback; the host's value, due at the same message processing, is
+    # then the one delivered (it ran the callback a second time)
+    source = tmp_path / "moved.cpp"
+    source.write_text(MOVED_ON_CONNECT)
+    result = run_program(source, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
+    assert result.texts == ["rate 200"]

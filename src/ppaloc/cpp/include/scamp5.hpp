@@ -1243,7 +1243,10 @@ inline void vs_gui_move_slider(vs_handle h, int32_t value, bool feedback = true,
                                ppa::Loc loc = PPA_HERE) {
     vs_gui_set_slider(h, value, loc);
     ppa::Gui& g = ppa::gui();
-    if (feedback && g.callbacks.count(h)) g.callbacks[h](value);
+    if (feedback && g.callbacks.count(h)) {
+        g.due.erase(std::remove(g.due.begin(), g.due.end(), h), g.due.end());  // delivered
+        g.callbacks[h](value);
+    }
 }
 // A slider's new range: checked (a slider's handle, min <= max) and recorded; its value
 // is left as it is (the headers do not say the host moves it into the range).
