@@ -275,6 +275,17 @@ def test_show_draws_a_localise_csv(tmp_path, capsys, folder_map):
     assert code == 1 and "would overwrite the input" in err
 
 
+def test_show_draws_scores_whose_span_overflows(tmp_path, capsys):
+    # finite scores -1e308 and 1e308 (score accepts them): their span is inf, which the
+    # colour bar could not draw (an internal error, "Axis limits cannot be NaN or Inf")
+    est = tmp_path / "est.csv"
+    est.write_text("query,reference,score\n0,1,-1e308\n1,2,1e308\n2,3,0\n")
+    code, _, err = run(capsys, "show", est, "-q")
+    assert code == 0, err
+    with Image.open(est.with_suffix(".png")) as im:
+        assert im.size[0] > 500
+
+
 def test_localise_writes_a_file_name_that_is_not_utf8_to_its_csv(tmp_path, capsys, folder_map):
     q = tmp_path / "q"
     (raw,) = _images(q, ["e.png"])
