@@ -1200,7 +1200,12 @@ def _main(argv: list[str] | None) -> int:
         if exc.errno not in _USER_ERRNOS or exc.filename is None:
             return _internal_error(exc)
         name = _short(str(exc.filename), 120)
-        print(f"ppaloc: error: {exc.strerror}: {name}; check the path", file=sys.stderr)
+        fix = (
+            "free some space there or give another location"
+            if exc.errno in (errno.ENOSPC, errno.EDQUOT)
+            else "check the path"
+        )
+        print(f"ppaloc: error: {exc.strerror}: {name}; {fix}", file=sys.stderr)
         return 1
     except Exception as exc:  # a bug: keep the traceback for the report, show one line
         return _internal_error(exc)
