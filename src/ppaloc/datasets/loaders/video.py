@@ -92,6 +92,11 @@ def open_video(
     except Exception as exc:  # PyAV raises many types on a bad file
         if container is not None:
             container.close()
+        if isinstance(exc, EOFError):  # FFmpeg found no packet at all: a video of 0 frames
+            raise DataError(
+                f"{what} holds no frames (an empty video, or one cut short); give a video "
+                "with frames"
+            ) from None
         raise DataError(f"cannot read {what}: {exc}") from None
 
 
