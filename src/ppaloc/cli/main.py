@@ -1070,7 +1070,7 @@ def cpp_run(
 def _live_view(live: bool, host: str, port: int, fps: float | None = None) -> Any:
     """The ``--live`` view of a command (None without ``--live``; ``--host``, ``--port``
     or ``--fps`` without it are refused)."""
-    from ppaloc.cpp.live import LiveError, LiveView
+    from ppaloc.cpp.live import MAX_FPS, MIN_FPS, LiveError, LiveView
 
     if not live:
         ctx = click.get_current_context()
@@ -1078,8 +1078,10 @@ def _live_view(live: bool, host: str, port: int, fps: float | None = None) -> An
             if ctx.get_parameter_source(flag) is not click.core.ParameterSource.DEFAULT:
                 raise PpalocError(f"--{flag} is for the live view: give --live with it")
         return None
-    if fps is not None and not 0 < fps <= 10_000:
-        raise LiveError(f"--fps {fps:g} must be a number of frames per second in (0, 10000]")
+    if fps is not None and not MIN_FPS <= fps <= MAX_FPS:
+        raise LiveError(
+            f"--fps {fps:g} must be a number of frames per second in [{MIN_FPS}, {MAX_FPS}]"
+        )
     return LiveView(
         host,
         port,
