@@ -288,3 +288,13 @@ def test_an_error_in_a_staged_folder_names_the_file_in_the_target(tmp_path):
         raise OSError(errno.ENOSPC, "No space left on device", str(stage / "arrays" / "a.npz"))
     assert err.value.filename == str(out / "arrays" / "a.npz")
     assert os.listdir(tmp_path) == []
+
+
+def test_an_error_of_the_callers_own_work_is_left_as_it_is(tmp_path):
+    # only a write's errors (a full disk) are the file's; the caller's own error stays its own
+    failure = OSError(errno.EINVAL, "Invalid argument")
+    with pytest.raises(OSError) as err, atomic_write(tmp_path / "a.csv") as f:
+        f.write(b"row\n")
+        raise failure
+    assert err.value is failure
+    assert os.listdir(tmp_path) == []

@@ -214,10 +214,18 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
             tmp.unlink(missing_ok=True)
 
 
+_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
+"""The errors of a write or a flush that name no file: the file being written is meant."""
+
+
 def _naming(exc: OSError, path: Path) -> OSError:
-    """``exc`` naming ``path``, the file being written, where it names no file (a full
-    disk while writing) or a temporary of ``path``: what the user asked for, not ours."""
+    """``exc`` naming ``path``, the file being written, where it is a write's error that
+    names no file (a full disk) or it names a temporary of ``path``: what the user asked
+    for, not ours. Any other error (of the caller's own work in the block) is left as it
+    is."""
     name = exc.filename
+    if name is None and exc.errno not in _WRITE_ERRNOS:
+        return exc
     if name is not None:
         name = Path(os.fsdecode(name))
         ours = name.parent == path.parent and name.name.startswith(f".{path.name}.")
