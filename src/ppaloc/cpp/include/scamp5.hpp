@@ -629,14 +629,19 @@ class scamp5_kernel {
         calls = recorded_calls;
         std::vector<uint8_t>().swap(recorded);
     }
-    void operator()() {
-        if (null()) ppa::fail(ppa::Loc{file, line}, "a kernel is launched before it is recorded");
+    // A launch is named at its own place: a kernel never recorded has none of its own.
+    void operator()(ppa::Loc loc = PPA_HERE) {
+        if (null()) {
+            ppa::fail(loc,
+                      "a kernel is launched before it is recorded: record it first, "
+                      "scamp5_kernel k([]{ ... }), or call it with a function, k([]{ ... })");
+        }
         ppa::Client& c = ppa::Client::get();
         size_t at = c.begin(ppa::OP_RUN);
         c.u32(id);
         c.end(at);
     }
-    friend void scamp5_launch_kernel(scamp5_kernel& k) { k(); }
+    friend void scamp5_launch_kernel(scamp5_kernel& k, ppa::Loc loc = PPA_HERE) { k(loc); }
 
    private:
     void hold() {
