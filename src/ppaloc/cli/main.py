@@ -234,9 +234,11 @@ class _SafePath(click.Path):
         flag = param.opts[0] if param is not None and param.opts else "path"
         flag = flag if flag.startswith("-") else flag.upper()
         if isinstance(value, str):
-            from ppaloc.cli.outputs import check_path_text
+            from ppaloc.cli.outputs import check_path_text, refuse_folder_text
 
             check_path_text(value, flag)
+            if not self.want_dir:
+                refuse_folder_text(value, flag)
         path = Path(super().convert(value, param, ctx))
         if not self.want_dir and path.is_dir():
             raise PpalocError(f"{flag} {path} is a folder; give a file")
