@@ -1,5 +1,6 @@
 """Atomic writes: a file or a folder is replaced whole or not at all, even when killed."""
 
+import errno
 import os
 import signal
 import subprocess
@@ -240,3 +241,60 @@ def test_ctrl_c_after_a_nested_swap_stops_the_outer_transaction(tmp_path, monkey
             (inner / "new.txt").write_text("new")
         pytest.fail("the interrupt was lost")
     assert os.listdir(tmp_path) == ["matrix"] and os.listdir(out / "01-a") == ["old.txt"]
+
+
+def _disk_full(*_args):
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def test_a_full_disk_names_the_file_being_written_and_leaves_no_temporary(tmp_path, monkeypatch):
+    # the system's error named no file (or the hidden temporary), which the command could
+    # only report as an internal error
+    target = tmp_path / "map.npz"
+    target.write_text("old")
+    monkeypatch.setattr(fileio.os, "fsync", _disk_full)
+    with pytest.raises(OSError) as err:
+        write_bytes(target, "new")
+    assert (err.value.errno, err.value.filename) == (errno.ENOSPC, str(target))
+    assert target.read_text() == "old"
+    assert os.listdir(tmp_path) == ["map.npz"]
+
+
+def test_a_failed_copy_into_a_named_temporary_is_removed(tmp_path, monkeypatch):
+    # where the unnamed file cannot be linked (EXDEV on some mounts) its bytes are copied
+    # into a named temporary; a full disk during the copy left that half copy behind
+    calls = []
+
+    def fsync(fd):
+        calls.append(fd)
+        if len(calls) > 1:  # the unnamed file's own fsync passes, the copy's fails
+            _disk_full()
+
+    def link(*_args):
+        raise OSError(errno.EXDEV, "Invalid cross-device link")
+
+    monkeypatch.setattr(fileio.os, "fsync", fsync)
+    monkeypatch.setattr(fileio.os, "link", link)
+    target = tmp_path / "a.csv"
+    with pytest.raises(OSError) as err:
+        write_bytes(target, "new")
+    assert err.value.filename == str(target)
+    assert os.listdir(tmp_path) == []
+
+
+def test_an_error_in_a_staged_folder_names_the_file_in_the_target(tmp_path):
+    out = tmp_path / "run"
+    with pytest.raises(OSError) as err, fileio.new_folder(out) as stage:
+        raise OSError(errno.ENOSPC, "No space left on device", str(stage / "arrays" / "a.npz"))
+    assert err.value.filename == str(out / "arrays" / "a.npz")
+    assert os.listdir(tmp_path) == []
+
+
+def test_an_error_of_the_callers_own_work_is_left_as_it_is(tmp_path):
+    # only a write's errors (a full disk) are the file's; the caller's own error stays its own
+    failure = OSError(errno.EINVAL, "Invalid argument")
+    with pytest.raises(OSError) as err, atomic_write(tmp_path / "a.csv") as f:
+        f.write(b"row\n")
+        raise failure
+    assert err.value is failure
+    assert os.listdir(tmp_path) == []

@@ -154,12 +154,16 @@ def _name_anonymous(fd: int, path: Path) -> Path:
     try:
         os.link(f"/proc/self/fd/{fd}", tmp)
     except OSError:  # e.g. /proc hidden: copy the bytes into a named temporary
-        with open(tmp, "xb") as out:
-            os.lseek(fd, 0, os.SEEK_SET)
-            while chunk := os.read(fd, 1 << 20):
-                out.write(chunk)
-            out.flush()
-            os.fsync(out.fileno())
+        try:
+            with open(tmp, "xb") as out:
+                os.lseek(fd, 0, os.SEEK_SET)
+                while chunk := os.read(fd, 1 << 20):
+                    out.write(chunk)
+                out.flush()
+                os.fsync(out.fileno())
+        except BaseException:  # a full disk, an interrupt: no half copy is left
+            tmp.unlink(missing_ok=True)
+            raise
     return tmp
 
 
@@ -186,7 +190,10 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
     tmp: Path | None = None
     if fd is None:
         tmp = _temp_name(path)
-        fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, default_file_mode())
+        try:
+            fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, default_file_mode())
+        except OSError as exc:
+            raise _naming(exc, path) from None
     try:
         with os.fdopen(fd, mode, closefd=False, **open_kwargs) as f:
             yield f
@@ -196,10 +203,35 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
             tmp = _name_anonymous(fd, path)
         os.replace(tmp, path)
         tmp = None
+    except OSError as exc:
+        named = _naming(exc, path)
+        if named is exc:
+            raise
+        raise named from exc
     finally:
         os.close(fd)
         if tmp is not None:
             tmp.unlink(missing_ok=True)
+
+
+_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
+"""The errors of a write or a flush that name no file: the file being written is meant."""
+
+
+def _naming(exc: OSError, path: Path) -> OSError:
+    """``exc`` naming ``path``, the file being written, where it is a write's error that
+    names no file (a full disk) or it names a temporary of ``path``: what the user asked
+    for, not ours. Any other error (of the caller's own work in the block) is left as it
+    is."""
+    name = exc.filename
+    if name is None and exc.errno not in _WRITE_ERRNOS:
+        return exc
+    if name is not None:
+        name = Path(os.fsdecode(name))
+        ours = name.parent == path.parent and name.name.startswith(f".{path.name}.")
+        if not (ours and name.name.endswith(".tmp")):
+            return exc
+    return OSError(exc.errno, exc.strerror, str(path))
 
 
 def write_bytes(path: str | os.PathLike, data: bytes | str) -> Path:
@@ -403,7 +435,13 @@ def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[P
     try:
         if keep is not None and target.is_dir():
             _link_tree(target, stage, keep)
-        yield stage
+        try:
+            yield stage
+        except OSError as exc:  # a full disk names the file in target, not in our stage
+            named = _in_target(exc, stage, target)
+            if named is exc:
+                raise
+            raise named from exc
         _fsync_dir(stage)
         # Ctrl-C is held from here: once the new folder is in, it is the command's result,
         # and the old contents must not be left under a hidden name
@@ -425,6 +463,16 @@ def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[P
             raise KeyboardInterrupt  # a folder inside another's stage: that one is not done
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+def _in_target(exc: OSError, stage: Path, target: Path) -> OSError:
+    """``exc`` naming the file of ``target`` that its path in ``stage`` becomes."""
+    if exc.filename is None:
+        return exc
+    name = Path(os.fsdecode(exc.filename))
+    if not name.is_relative_to(stage):
+        return exc
+    return OSError(exc.errno, exc.strerror, str(target / name.relative_to(stage)))
 
 
 def _in_stage(path: Path) -> bool:

@@ -186,6 +186,10 @@ CASES: list[tuple[list[str], str | bytes | None, str]] = [
     (["sweep", "--config", "c.toml", "--out", "s"], "[sweep]\nworkers = 100000", "workers="),
     (["sweep", "--config", "c.toml", "--out", "s"], "[sweep]\nseed = -1", "seed=-1"),
     (["sweep", "--config", "c.toml", "--out", "/etc/passwd/s"], "[sweep]\nseed = 1", "a file"),
+    # a file's path written as a folder's: it became a file named 'maps' (the / dropped)
+    ([*MAP, "--out", "maps/"], None, "--out maps/ ends in '/', which names a folder; give a"),
+    ([*MAP, "--config", "c.toml"], 'out = "maps/"', "--out maps/ ends in '/', which names"),
+    (["localise", "m.npz", "f.png", "--out", "est/"], None, "--out est/ ends in '/', which"),
 ]
 
 

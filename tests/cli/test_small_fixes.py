@@ -275,6 +275,17 @@ def test_show_draws_a_localise_csv(tmp_path, capsys, folder_map):
     assert code == 1 and "would overwrite the input" in err
 
 
+def test_show_draws_scores_whose_span_overflows(tmp_path, capsys):
+    # finite scores -1e308 and 1e308 (score accepts them): their span is inf, which the
+    # colour bar could not draw (an internal error, "Axis limits cannot be NaN or Inf")
+    est = tmp_path / "est.csv"
+    est.write_text("query,reference,score\n0,1,-1e308\n1,2,1e308\n2,3,0\n")
+    code, _, err = run(capsys, "show", est, "-q")
+    assert code == 0, err
+    with Image.open(est.with_suffix(".png")) as im:
+        assert im.size[0] > 500
+
+
 def test_localise_writes_a_file_name_that_is_not_utf8_to_its_csv(tmp_path, capsys, folder_map):
     q = tmp_path / "q"
     (raw,) = _images(q, ["e.png"])
@@ -343,3 +354,29 @@ def test_map_refuses_a_missing_folder_before_it_reads_the_dataset(tmp_path, caps
         f"ppaloc: error: cannot write the map to {out}: folder {out.parent} does not exist; "
         "create it first\n"
     )
+
+
+# -- a full disk ------------------------------------------------------------------------------
+
+
+def test_a_full_disk_is_one_line_naming_the_file(tmp_path, capsys, monkeypatch):
+    # it was an internal error (exit 3, "this is a bug"): the system's error named no file
+    from ppaloc import fileio
+
+    def disk_full(*_args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(fileio.os, "fsync", disk_full)
+    out = tmp_path / "m.npz"
+    code, _, err = run(capsys, "map", "synthetic:?places=4&size=32", "--out", out, "-q")
+    assert (code, err) == (
+        1,
+        f"ppaloc: error: No space left on device: '{out}'; free some space there or give "
+        "another location\n",
+    )
+    assert os.listdir(tmp_path) == []
+    ev = tmp_path / "ev"
+    code, _, err = run(capsys, "evaluate", "-d", "synthetic:?places=4&size=32", "-m",
+                       "single-frame", "--no-report", "-q", "--out", ev)  # fmt: skip
+    assert code == 1 and err.startswith(f"ppaloc: error: No space left on device: '{ev}/")
+    assert os.listdir(tmp_path) == []  # no staging folder left either

@@ -101,7 +101,10 @@ def test_every_unmodelled_call_is_named_at_once_sorted():
         "p.cpp: 12 SCAMP-5d functions the simulator does not model (docs/cpp.md lists what "
         "is modelled):"
     )
-    assert lines[1:] == [f"  vs_missing_{k:02d} (line {12 - k})" for k in range(12)]
+    # separated by commas, which the CLI's one line keeps (it read 'a (line 1) b (line 2)')
+    assert lines[1:] == [f"  vs_missing_{k:02d} (line {12 - k})," for k in range(11)] + [
+        "  vs_missing_11 (line 1)"
+    ]
 
 
 def test_hang_is_stopped(faults, tmp_path):
@@ -157,6 +160,31 @@ def test_a_program_that_closes_its_pipe_is_not_a_finished_run(cxx, tmp_path):
         "closes.cpp lost its pipe to the simulator in frame 0 (it closed the file descriptors"
     )
     assert not (tmp_path / "out").exists()
+
+
+def test_a_full_disk_names_the_file_in_the_runs_folder(cxx, tmp_path, monkeypatch):
+    # a display's PNG refused by the system was named by its path in the hidden staging
+    # folder ('.out.ppaloc-new-...'), with "choose a writable folder" for a full disk
+    from ppaloc import fileio
+
+    source = tmp_path / "shows.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\nusing namespace SCAMP5_PE;\nint main() {\n    vs_init();\n"
+        '    vs_handle d = vs_gui_add_display("image", 0, 0);\n'
+        "    while (1) {\n        vs_frame_loop_control();\n        scamp5_get_image(A, B);\n"
+        "        scamp5_output_image(A, d);\n    }\n}\n"
+    )
+    compile_program(source)
+
+    def disk_full(*_args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(fileio.os, "fsync", disk_full)
+    out = tmp_path / "out"
+    with pytest.raises(OSError) as err:
+        run_program(source, FRAMES, timeout=60, out=out)
+    assert err.value.filename == str(out / "displays" / "image" / "frame_0000.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["shows.cpp"]
 
 
 def test_out_of_bounds_write_is_one_line_and_leaves_no_folder(faults, tmp_path):

@@ -5,8 +5,10 @@ kernels each recorded by calling it with a function (``ks[i]([] { ... })``, the 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from ppaloc.cpp import run_program
+from ppaloc.errors import PpalocError
 
 PROGRAM = r"""
 #include <scamp5.hpp>
@@ -148,3 +150,29 @@ def test_a_kernel_of_65536_calls_or_more_keeps_its_first_icws(cxx, tmp_path):
             "stack that static kernels share is full (split it into kernels of at most 1024 "
             "ICWs)"
         ]
+
+
+NEVER_RECORDED = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    scamp5_kernel k;  // made empty, never recorded
+    while (1) {
+        vs_frame_loop_control();
+        scamp5_launch_kernel(k);
+    }
+}
+"""
+
+
+def test_a_kernel_launched_before_it_is_recorded_is_named_at_the_launch(cxx, tmp_path):
+    # the message had no place: ":0: a kernel is launched before it is recorded"
+    source = tmp_path / "empty.cpp"
+    source.write_text(NEVER_RECORDED)
+    with pytest.raises(PpalocError) as err:
+        run_program(source, [np.zeros((16, 16), np.uint8)], timeout=60)
+    assert str(err.value) == (
+        "empty.cpp:9: a kernel is launched before it is recorded: record it first, "
+        "scamp5_kernel k([]{ ... }), or call it with a function, k([]{ ... })"
+    )

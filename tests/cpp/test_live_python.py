@@ -131,6 +131,7 @@ def test_bad_displays_and_items_are_refused_in_one_line():
         (lambda: view.switch("level"), r"switch 'level' \[0, 1\] was declared as slider"),
         (lambda: LiveView(program=""), r"program='' must be a non-empty name"),
         (lambda: LiveView(frames=-1), r"frames=-1 must be a count"),
+        (lambda: LiveView(fps=1e-300), r"fps=1e-300 must be .* in \[0.001, 10000\]"),
     ]:
         with pytest.raises(LiveError, match=message):
             call()

@@ -67,3 +67,65 @@ def test_misuse_is_one_line_with_its_line(frames, tmp_path, mode, message):
     with pytest.raises(PpalocError, match=message) as err:
         run(frames, mode, out=tmp_path / "run")
     assert "\n" not in str(err.value)
+
+
+CALLBACK_FIRST = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+vs_handle shown;  // added after the callback is set, as the public VO program does
+int main() {
+    vs_init();
+    int calls = 0;
+    vs_handle level = vs_gui_add_slider("level", 0, 10, 5);
+    vs_on_gui_update(level, [&](int32_t v) {
+        ++calls;
+        scamp5_get_image(A, B);
+        scamp5_output_image(A, shown);
+        vs_post_text("callback %d", v);
+    });
+    vs_post_text("set, %d calls", calls);
+    shown = vs_gui_add_display("shown", 0, 0);
+    while (1) {
+        vs_frame_loop_control();
+        vs_post_text("frame, %d calls", calls);
+    }
+}
+"""
+
+
+def test_gui_update_callback_runs_at_the_next_message_processing(cxx, tmp_path):
+    # the device calls it when the host's value arrives, in the message processing of the
+    # frame loop, never inside vs_on_gui_update: a callback that outputs to a display the
+    # program adds after setting it ran at once here and stopped the run ("display handle 0
+    # was not created by vs_gui_add_display")
+    source = tmp_path / "callback.cpp"
+    source.write_text(CALLBACK_FIRST)
+    frames = [np.full((N, N), 200, np.uint8)] * 2
+    result = run_program(source, frames, settings={"level": "7"}, timeout=60)
+    assert result.texts == ["set, 0 calls", "callback 7", "frame, 1 calls", "frame, 1 calls"]
+    # the display (handle 2, after the slider) got frame 0 in the callback
+    np.testing.assert_array_equal(result.session.outputs[0][2], np.full((N, N), 72.0))
+
+
+MOVED_ON_CONNECT = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    vs_on_gui_update(VS_GUI_FRAME_RATE, [&](int32_t v) { vs_post_text("rate %d", v); });
+    vs_on_host_connect([&] { vs_gui_move_slider(VS_GUI_FRAME_RATE, 200); });
+    while (1) {
+        vs_frame_loop_control();
+    }
+}
+"""
+
+
+def test_a_callback_the_program_ran_is_not_run_again_with_the_hosts_value(cxx, tmp_path):
+    # the public mobile-robot tracker moves the frame rate in its connect callback, which
+    # runs the rate's callback; the host's value, due at the same message processing, is
+    # then the one delivered (it ran the callback a second time)
+    source = tmp_path / "moved.cpp"
+    source.write_text(MOVED_ON_CONNECT)
+    result = run_program(source, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
+    assert result.texts == ["rate 200"]

@@ -189,6 +189,21 @@ def test_the_vendor_header_in_an_include_folder_is_not_scanned(tmp_path):
     assert project_headers(project) == [inc / "scamp5.hpp", inc / "scale.hpp"]  # unshadowed
 
 
+def test_a_scamp7_program_is_named_as_one_before_compiling(tmp_path):
+    # it failed to compile with "fatal error: scamp7.hpp: No such file or directory"
+    source = tmp_path / "s7.cpp"
+    source.write_text("// SCAMP-7\n#include <scamp7.hpp>\nusing namespace SCAMP7_PE;\n")
+    with pytest.raises(PpalocError) as err:
+        check_project(make_project([source]))
+    assert str(err.value) == (
+        f"{source}:2: #include <scamp7.hpp> is the SCAMP-7 device header: ppaloc simulates "
+        "the SCAMP-5d and runs its programs (#include <scamp5.hpp>); a SCAMP-7 program is "
+        "not supported"
+    )
+    (tmp_path / "scamp7.hpp").write_text("#pragma once\n")  # a header of its own: its own
+    check_project(make_project([source], [tmp_path]))
+
+
 def test_the_cli_refuses_bad_inputs_in_one_line(tmp_path, capsys):
     from ppaloc.cli.main import main
 

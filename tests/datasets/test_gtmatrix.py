@@ -147,7 +147,11 @@ def test_truncated_and_oversized_npy(tmp_path, monkeypatch):
         ("1,1,0,0\n0,0,x,0\n0,0,1,1\n", r"line 2, column 2: 'x' is not 0 or 1"),
         ("1,1,0,0\n0,0,,0\n0,0,1,1\n", r"line 2, column 2: '' is not 0 or 1"),
         ("1,1,0,0\n0,0,0.5,0\n0,0,1,1\n", r"line 2, column 2: '0.5' is not 0 or 1"),
-        ("1;1;0;0\n", r"has shape \(3, 1\); expected 3 x 4"),
+        ("1;1;0;0\n", r"has shape \(1, 1\); expected 3 x 4"),
+        # its whole shape, so a transposed file is named as one (it was '(3, 3)', the
+        # first line's count as if every line were like it, with no hint)
+        ("1,0,0\n0,1,0\n0,0,1\n1,1,1\n", r"has shape \(4, 3\); .*add gt_transpose=1"),
+        ("1,1,0,0\n0,0,0\n0,0,1,1\n", r"line 2 has 3 values where line 1 has 4; every line"),
     ],
 )
 def test_bad_csv_is_named(tmp_path, text, message):

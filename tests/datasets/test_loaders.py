@@ -219,3 +219,32 @@ def test_video_step_and_alignment(tmp_path):
     (tmp_path / "junk.mp4").write_bytes(b"\x00" * 100)
     with pytest.raises(DataError, match=r"junk\.mp4"):
         load_dataset(f"video:{tmp_path / 'ref.mp4'},{tmp_path / 'junk.mp4'}")
+
+
+def test_a_video_cut_short_is_named(tmp_path):
+    # its stream had no decoder set up: "cannot read video ...: 'NoneType' object has no
+    # attribute 'width'", a Python error in place of the cause
+    av = pytest.importorskip("av")
+    path = tmp_path / "clip.mp4"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("mpeg4", rate=5)
+        stream.width, stream.height, stream.pix_fmt = 32, 32, "yuv420p"
+        out.mux(stream.encode(av.VideoFrame.from_ndarray(np.zeros((32, 32, 3), np.uint8))))
+        out.mux(stream.encode())
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(DataError, match=r"clip\.mp4 holds no decodable video stream \(cut short"):
+        load_dataset(f"video:{path},{path}")
+
+
+def test_a_video_of_no_frames_is_named(tmp_path):
+    # FFmpeg's end of file on opening it: "cannot read video ...: [Errno 541478725] End of
+    # file", an error number in place of the cause
+    av = pytest.importorskip("av")
+    path = tmp_path / "empty.mkv"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("mpeg4", rate=5)
+        stream.width, stream.height, stream.pix_fmt = 32, 32, "yuv420p"
+        out.start_encoding()
+    with pytest.raises(DataError, match=r"empty\.mkv holds no frames \(an empty video"):
+        load_dataset(f"video:{path},{path}")

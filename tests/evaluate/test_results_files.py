@@ -157,6 +157,8 @@ def test_show_from_inside_the_folder_keeps_the_folder_in_place(saved, monkeypatc
         (lambda m: m.__setitem__("latency_ms_median", "x"), r"latency_ms_median is 'x'"),
         (lambda m: m.__setitem__("recall_at_k", [1, 2]), r"recall_at_k is \[1, 2\]"),
         (lambda m: m.__setitem__("map_kind", 3), r"map_kind is 3, expected a string"),
+        # the report reads params' descriptor: an internal error (AttributeError)
+        (lambda m: m.__setitem__("params", 5), r"params is 5, expected a table of the method's"),
         (
             lambda m: m.__setitem__("modelled_time_ms", {"chip": 5}),
             r"modelled_time_ms is \{'chip': 5\}, expected a table of \{low, mid, high\}",

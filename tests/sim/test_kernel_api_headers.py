@@ -319,6 +319,9 @@ def test_encode_spells_latch_halves_as_their_macro() -> None:
         (0, [13.7], r"bits=\[13.7\] must be bit positions"),  # not taken as bit 13
         (0, [True], "must be bit positions"),
         (0, 5, "must be bit positions"),
+        # named as the program writes it (icw(1,{plrb,bit,bitmode,wr,LR4}) of the public VO
+        # program), not by bit numbers
+        (1, {61, 62, 63, 64, 47}, r"icw\(1, \{LR4, plrb, bit, bitmode, wr\}\): no modelled"),
     ],
 )
 def test_raw_word_mistakes(clock, bits, message) -> None:

@@ -134,6 +134,14 @@ def _config(**values):
             {"params": {"able-m": {"bits": [1, 2]}}},
             "sweep.toml: [sweep.params.able-m]: 'able-m' is not in methods (seqslam); add it",
         ),
+        (  # TOML's inf (or 1e400): no cell's identity could be written (an internal error)
+            {"params": {"seqslam": {"vmin": [float("inf"), 0.5]}}},
+            "sweep.toml: [sweep.params.seqslam] vmin = [inf, 0.5] holds NaN or an infinite",
+        ),
+        (
+            {"params": {"seqslam": {"vmin": float("nan")}}},
+            "sweep.toml: [sweep.params.seqslam] vmin = nan holds NaN or an infinite number",
+        ),
         ({"seed": []}, "sweep.toml: seed=[] must be an integer or a non-empty list of them"),
         ({"tolerance": [-1]}, "sweep.toml: tolerance=[-1] must be an integer >= 0 or a"),
         ({"combine": "zip"}, "sweep.toml: combine='zip' must be one of product, one-at-a-time"),

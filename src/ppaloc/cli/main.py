@@ -234,9 +234,11 @@ class _SafePath(click.Path):
         flag = param.opts[0] if param is not None and param.opts else "path"
         flag = flag if flag.startswith("-") else flag.upper()
         if isinstance(value, str):
-            from ppaloc.cli.outputs import check_path_text
+            from ppaloc.cli.outputs import check_path_text, refuse_folder_text
 
             check_path_text(value, flag)
+            if not self.want_dir:
+                refuse_folder_text(value, flag)
         path = Path(super().convert(value, param, ctx))
         if not self.want_dir and path.is_dir():
             raise PpalocError(f"{flag} {path} is a folder; give a file")
@@ -1070,7 +1072,7 @@ def cpp_run(
 def _live_view(live: bool, host: str, port: int, fps: float | None = None) -> Any:
     """The ``--live`` view of a command (None without ``--live``; ``--host``, ``--port``
     or ``--fps`` without it are refused)."""
-    from ppaloc.cpp.live import LiveError, LiveView
+    from ppaloc.cpp.live import MAX_FPS, MIN_FPS, LiveError, LiveView
 
     if not live:
         ctx = click.get_current_context()
@@ -1078,8 +1080,10 @@ def _live_view(live: bool, host: str, port: int, fps: float | None = None) -> An
             if ctx.get_parameter_source(flag) is not click.core.ParameterSource.DEFAULT:
                 raise PpalocError(f"--{flag} is for the live view: give --live with it")
         return None
-    if fps is not None and not 0 < fps <= 10_000:
-        raise LiveError(f"--fps {fps:g} must be a number of frames per second in (0, 10000]")
+    if fps is not None and not MIN_FPS <= fps <= MAX_FPS:
+        raise LiveError(
+            f"--fps {fps:g} must be a number of frames per second in [{MIN_FPS}, {MAX_FPS}]"
+        )
     return LiveView(
         host,
         port,
@@ -1200,7 +1204,12 @@ def _main(argv: list[str] | None) -> int:
         if exc.errno not in _USER_ERRNOS or exc.filename is None:
             return _internal_error(exc)
         name = _short(str(exc.filename), 120)
-        print(f"ppaloc: error: {exc.strerror}: {name}; check the path", file=sys.stderr)
+        fix = (
+            "free some space there or give another location"
+            if exc.errno in (errno.ENOSPC, errno.EDQUOT)
+            else "check the path"
+        )
+        print(f"ppaloc: error: {exc.strerror}: {name}; {fix}", file=sys.stderr)
         return 1
     except Exception as exc:  # a bug: keep the traceback for the report, show one line
         return _internal_error(exc)

@@ -36,6 +36,20 @@ MAX_NAME = 255
 """Longest name between two slashes, in bytes (NAME_MAX)."""
 
 
+def refuse_folder_text(text: str | os.PathLike[str], flag: str) -> None:
+    """Refuse a file's path written as a folder's, ending in ``/``: ``--out maps/`` would
+    otherwise become a file named ``maps`` (a path drops its trailing slash).
+
+    Raises
+    ------
+    PpalocError
+        Naming the flag and the fix.
+    """
+    raw = os.fspath(text)
+    if isinstance(raw, str) and raw.rstrip("/" + os.sep) and raw.endswith(("/", os.sep)):
+        raise PpalocError(f"{flag} {raw} ends in '/', which names a folder; give a file name")
+
+
 def check_path_text(text: str | os.PathLike[str], flag: str) -> Path:
     """``text`` as a :class:`Path`, refusing an empty path, a NUL or an over-long one.
 
@@ -115,6 +129,8 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
         regular file, or its nearest existing folder cannot be written.
     """
     path = check_path_text(text, flag)
+    if not folder:
+        refuse_folder_text(text, flag)
     refuse_link_loop(path, flag)
     what = "folder" if folder else "file"
     if path.exists() or path.is_symlink():

@@ -63,8 +63,16 @@ def predictions_figure(predictions: list[Any], title: str) -> Any:
     axes = fig.subplots(n, 1, squeeze=False)[:, 0]
     for ax, p in zip(axes, predictions, strict=True):
         x, y, xlabel = _arrays(p)
-        points = ax.scatter(x, y, c=p.score, s=9, cmap="viridis", linewidths=0)
-        fig.colorbar(points, ax=ax, label="score (higher = surer)")
+        colour, label = np.asarray(p.score, dtype=np.float64), "score (higher = surer)"
+        half_span = colour.max() / 2 - colour.min() / 2 if colour.size else 0.0
+        if half_span > np.finfo(np.float64).max / 2:
+            # finite scores whose span a float64 cannot hold (-1e308 and 1e308): the
+            # colour bar cannot be drawn in score units, so the colours are their ranks
+            # (equal scores, equal ranks)
+            colour = np.unique(colour, return_inverse=True)[1].reshape(colour.shape)
+            label = "rank of the score (higher = surer)"
+        points = ax.scatter(x, y, c=colour, s=9, cmap="viridis", linewidths=0)
+        fig.colorbar(points, ax=ax, label=label)
         ax.set_xlabel(xlabel)
         ax.set_ylabel("predicted reference frame")
         ax.set_title(f"{p.label}: {len(p)} predictions")

@@ -127,7 +127,7 @@ def check_source(text: str, name: str, defined: frozenset[str] = frozenset()) ->
         function as ``prog.cpp:12: scamp5_foo is a SCAMP-5d function the simulator does not
         model; ...``, several on one line while they fit in :data:`ONE_LINE` characters
         (``prog.cpp: 2 SCAMP-5d functions the simulator does not model: aout (line 9),
-        vs_foo (lines 3, 7); ...``), else one a line.
+        vs_foo (lines 3, 7); ...``), else one a line, separated by commas.
 
     ``defined`` adds names the program's other files define (:func:`check_project`).
     """
@@ -164,7 +164,9 @@ def check_source(text: str, name: str, defined: frozenset[str] = frozenset()) ->
     one = f"{head}: {', '.join(items)}; {see}"
     if len(one) <= ONE_LINE:
         raise UnmodelledCallError(one)
-    raise UnmodelledCallError(f"{head} ({see}):\n" + "\n".join(f"  {i}" for i in items))
+    # one a line, each but the last ending in a comma, so that the CLI's one line (the
+    # lines joined by spaces) still separates them
+    raise UnmodelledCallError(f"{head} ({see}):\n" + ",\n".join(f"  {i}" for i in items))
 
 
 def _generated(root: Path) -> Path:

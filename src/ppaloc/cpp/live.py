@@ -45,12 +45,17 @@ from ppaloc.cpp.server import Session, gui_name
 from ppaloc.errors import PpalocError
 from ppaloc.sim.render import plane_to_image
 
-__all__ = ["PAGE", "TEXT_LINES", "LiveError", "LiveView", "image_8bit"]
+__all__ = ["MAX_FPS", "MIN_FPS", "PAGE", "TEXT_LINES", "LiveError", "LiveView", "image_8bit"]
 
 #: Largest POST body taken, bytes.
 MAX_BODY = 4096
 _LOOPBACK = frozenset({"127.0.0.1", "localhost", "::1"})
 _SLIDER_LIMIT = 2**31 - 1
+
+
+MIN_FPS, MAX_FPS = 0.001, 10_000
+"""The pacing a live view takes: at the slowest a frame every 1000 s (a slower one would
+wait beyond what a timer holds), at the fastest 10,000 a second."""
 
 
 class LiveError(PpalocError):
@@ -147,8 +152,10 @@ class LiveView:
             raise LiveError(f"--host {host!r} must be a host name or address, e.g. 127.0.0.1")
         if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
             raise LiveError(f"--port {port!r} must be in [0, 65535] (0 picks a free port)")
-        if not (isinstance(fps, int | float) and 0 < fps <= 10_000):
-            raise LiveError(f"fps={fps!r} must be a number of frames per second in (0, 10000]")
+        if not (isinstance(fps, int | float) and MIN_FPS <= fps <= MAX_FPS):
+            raise LiveError(
+                f"fps={fps!r} must be a number of frames per second in [{MIN_FPS}, {MAX_FPS}]"
+            )
         if not isinstance(program, str) or not program:
             raise LiveError(f"program={program!r} must be a non-empty name for the page")
         if frames is not None and (

@@ -165,6 +165,14 @@ def project_headers(project: Project, shadowed: frozenset[str] = frozenset()) ->
             header = _resolve(name, quoted, path.parent, project.include_dirs)
             if header is None and "\\" in name:
                 _refuse_backslash(name, quoted, path, text[: m.start()].count("\n") + 1, project)
+            if header is None and name.replace("\\", "/").rsplit("/", 1)[-1] == "scamp7.hpp":
+                line = text[: m.start()].count("\n") + 1
+                shown = f'"{name}"' if quoted else f"<{name}>"
+                raise PpalocError(
+                    f"{path}:{line}: #include {shown} is the SCAMP-7 device header: ppaloc "
+                    "simulates the SCAMP-5d and runs its "
+                    "programs (#include <scamp5.hpp>); a SCAMP-7 program is not supported"
+                )
             if header is None or header.resolve() in seen:
                 continue
             seen.add(header.resolve())

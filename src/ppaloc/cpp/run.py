@@ -32,7 +32,7 @@ from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.project import Project, make_project, project_headers
 from ppaloc.cpp.protocol import SERVER_EXIT, SHIM_EXIT
 from ppaloc.cpp.server import SAVED_FOLDER, ProgramError, Session, serve
-from ppaloc.errors import DataError, PpalocError
+from ppaloc.errors import DataError, PpalocError, SimulatorError
 from ppaloc.fileio import atomic_write, check_replaceable_folder, new_folder
 from ppaloc.sim import NoiseParams, Scamp5
 from ppaloc.sim.render import plane_to_image, render_montage, save_png
@@ -526,7 +526,12 @@ def run_program(
         session.check_settings()
         if out is not None:
             with new_folder(out) as stage:
-                write_outputs(result, stage)
+                try:
+                    write_outputs(result, stage)
+                except SimulatorError as exc:  # a PNG the system refused (a full disk):
+                    if isinstance(exc.__cause__, OSError):  # named in out, not the stage
+                        raise exc.__cause__ from None
+                    raise
             result.out = Path(out)
     finally:
         source.close()

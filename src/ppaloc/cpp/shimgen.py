@@ -110,15 +110,9 @@ def icw_bits() -> dict[str, int]:
     ``icw(clock, {bits...})``: flag bits, then the analogue write (``W1``-``W7``) and
     select (``SEL1``-``SEL7``) bits, the digital read (``RR1``-``RR12``) and write
     (``LR1``-``LR12``) bits, and the readout control bits."""
-    names = ["selsq", "selpix", "rstpix", "seldiffe", "seldiffs", "s_in", "rana", "sels",
-             "_bit8", "sele", "selx", "rid", "seln"]  # fmt: skip
-    names += [f"W{i}" for i in range(1, 8)] + ["wrf"] + [f"SEL{i}" for i in range(1, 8)]
-    names += ["setf", "selw", "pupd", "fbus"]
-    names += [f"RR{i}" for i in range(1, 13)] + [f"LR{i}" for i in range(1, 13)]
-    names += ["lfl", "rfl", "nbit", "nb", "plwb", "plrb", "bit", "bitmode", "wr", "ana",
-              "dig8", "g_start", "g_stop", "col_out", "dir", "row_out", "s0_left", "s1_left",
-              "rst_start", "rst_stop", "s0_bot", "s1_bot", "pgdb", "pgdbobus"]  # fmt: skip
-    return {n: i for i, n in enumerate(names)}
+    from ppaloc.sim.bits import BIT_NAMES
+
+    return {n: i for i, n in enumerate(BIT_NAMES)}
 
 
 def macros_header() -> str:

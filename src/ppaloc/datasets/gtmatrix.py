@@ -280,10 +280,8 @@ def _read_csv(
                 if not text:
                     continue
                 fields = text.split(",")
-                if n_rows >= want[0]:
-                    raise _shape_error(where, (n_rows + 1, len(fields)), want, transpose)
-                if len(fields) != want[1]:
-                    raise _shape_error(where, (want[0], len(fields)), want, transpose)
+                if n_rows >= want[0] or len(fields) != want[1]:
+                    raise _csv_shape_error(path, where, want, transpose)
                 ones = _csv_row(fields, where, line_no)
                 total += ones.size
                 if total > MAX_GROUND_TRUTH_ITEMS:
@@ -301,6 +299,28 @@ def _read_csv(
     if n_rows != want[0]:
         raise _shape_error(where, (n_rows, want[1]), want, transpose)
     return _pack(rows, cols, want, transpose), want
+
+
+def _csv_shape_error(path: Path, where: str, want: tuple[int, int], transpose: bool) -> DataError:
+    """The error for a CSV that is not ``want``: its whole shape (so that a transposed file
+    is named as one), or the first line whose number of values differs from the first's."""
+    n_rows, n_cols, first = 0, 0, 0
+    with open(path, encoding="utf-8-sig", newline="") as f:
+        for line_no, line in enumerate(f, 1):
+            text = line.strip()
+            if not text:
+                continue
+            count = len(text.split(","))
+            if n_rows == 0:
+                n_cols, first = count, line_no
+            elif count != n_cols:
+                return DataError(
+                    f"{where}, line {line_no} has {count} values where line {first} has "
+                    f"{n_cols}; every line is one row of the matrix, {want[1]} values "
+                    "separated by commas"
+                )
+            n_rows += 1
+    return _shape_error(where, (n_rows, n_cols), want, transpose)
 
 
 def _csv_row(fields: list[str], where: str, line_no: int) -> np.ndarray:

@@ -529,6 +529,8 @@ def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
     for field in ("map_kind", "recall_definition"):
         if not isinstance(entry.get(field, ""), str):
             raise bad(field, entry[field], "a string")
+    if not isinstance(entry.get("params", {}), dict):  # the report reads its descriptor
+        raise bad("params", entry["params"], "a table of the method's parameters")
     rk = entry.get("recall_at_k", {})
     if not isinstance(rk, dict) or not all(_is_number(v) for v in rk.values()):
         raise bad("recall_at_k", rk, "a table of numbers")

@@ -16,6 +16,7 @@ import dataclasses
 import hashlib
 import itertools
 import json
+import math
 import re
 from collections import Counter
 from collections.abc import Mapping, Sequence
@@ -155,6 +156,11 @@ class SweepConfig:
                         f"[sweep.params.{method}] {key} = [] is empty: give at least one value "
                         "(a list is swept, a single value is fixed)"
                     )
+                if not _finite(value):  # no cell's identity (JSON) could be written
+                    raise PpalocError(
+                        f"[sweep.params.{method}] {key} = {value!r} holds NaN or an infinite "
+                        "number (one as large as 1e400 is read as inf); give finite numbers"
+                    )
         for key, low in (("seed", None), ("tolerance", 0)):
             value = getattr(self, key)
             if value is None and key == "tolerance":
@@ -247,6 +253,18 @@ methods, datasets, params, tolerance, seed, recall, record_weights, max_weight_v
 
 
 # -- the grid --------------------------------------------------------------------------------
+
+
+def _finite(value: Any) -> bool:
+    """Whether ``value`` (a parameter: a number, a string, a list of them...) holds no NaN
+    or infinite float."""
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, list | tuple):
+        return all(_finite(v) for v in value)
+    if isinstance(value, Mapping):
+        return all(_finite(v) for v in value.values())
+    return True
 
 
 def _canonical(value: Any) -> str:

@@ -38,7 +38,21 @@ from ppaloc.sim.registers import (
     Register,
 )
 
-__all__ = ["CLOCKS", "decode", "encode", "register_fields"]
+__all__ = ["BIT_NAMES", "CLOCKS", "decode", "encode", "register_fields"]
+
+#: The names of the word's 80 bit positions (``SCAMP5_ICW_BITS``), by position: flag bits,
+#: the analogue write (``W1``-``W7``) and select (``SEL1``-``SEL7``) bits, the digital read
+#: (``RR1``-``RR12``) and write (``LR1``-``LR12``) bits, and the readout control bits.
+BIT_NAMES: tuple[str, ...] = (
+    "selsq", "selpix", "rstpix", "seldiffe", "seldiffs", "s_in", "rana", "sels", "_bit8",
+    "sele", "selx", "rid", "seln",
+    *(f"W{i}" for i in range(1, 8)), "wrf", *(f"SEL{i}" for i in range(1, 8)),
+    "setf", "selw", "pupd", "fbus",
+    *(f"RR{i}" for i in range(1, 13)), *(f"LR{i}" for i in range(1, 13)),
+    "lfl", "rfl", "nbit", "nb", "plwb", "plrb", "bit", "bitmode", "wr", "ana", "dig8",
+    "g_start", "g_stop", "col_out", "dir", "row_out", "s0_left", "s1_left", "rst_start",
+    "rst_stop", "s0_bot", "s1_bot", "pgdb", "pgdbobus",
+)  # fmt: skip
 
 #: The header's clock field values (``SCAMP5_CLOCK_*``).
 CLOCKS = {"analog": 0, "digital": 1, "dnews": 2, "prop": 3}
@@ -198,8 +212,10 @@ _DIGITAL_FLAG_BITS = {S_IN, PLWB, PLRB, BIT, BITMODE, NBIT, WRF, RID, NB, FBUS, 
 
 
 def _bad(clock: int, bits: Iterable[int], why: str) -> RegisterMisuseError:
+    # the word by the header's bit names (plrb, LR4, ...), as a program writes it
+    shown = ", ".join(BIT_NAMES[b] if 0 <= b < len(BIT_NAMES) else str(b) for b in sorted(bits))
     return RegisterMisuseError(
-        f"icw({clock}, {sorted(bits)}): {why}; issue a modelled word (docs/sim.md lists them) "
+        f"icw({clock}, {{{shown}}}): {why}; issue a modelled word (docs/sim.md lists them) "
         "or name the operation, k.icw('bus', (A,), (B,))"
     )
 

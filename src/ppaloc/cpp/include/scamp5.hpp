@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <map>
@@ -628,14 +629,19 @@ class scamp5_kernel {
         calls = recorded_calls;
         std::vector<uint8_t>().swap(recorded);
     }
-    void operator()() {
-        if (null()) ppa::fail(ppa::Loc{file, line}, "a kernel is launched before it is recorded");
+    // A launch is named at its own place: a kernel never recorded has none of its own.
+    void operator()(ppa::Loc loc = PPA_HERE) {
+        if (null()) {
+            ppa::fail(loc,
+                      "a kernel is launched before it is recorded: record it first, "
+                      "scamp5_kernel k([]{ ... }), or call it with a function, k([]{ ... })");
+        }
         ppa::Client& c = ppa::Client::get();
         size_t at = c.begin(ppa::OP_RUN);
         c.u32(id);
         c.end(at);
     }
-    friend void scamp5_launch_kernel(scamp5_kernel& k) { k(); }
+    friend void scamp5_launch_kernel(scamp5_kernel& k, ppa::Loc loc = PPA_HERE) { k(loc); }
 
    private:
     void hold() {
@@ -1006,6 +1012,7 @@ struct Gui {
         {GUI_HOST_STATUS, 1}, {GUI_FRAME_RATE, 30}, {GUI_FRAME_GAIN, 1}};
     std::map<vs_handle, volatile int*> writeback;
     std::map<vs_handle, std::function<void(int32_t)>> callbacks;
+    std::vector<vs_handle> due;  // callbacks set since the last message processing
     vs_handle next = 1;
 };
 inline Gui& gui() {
@@ -1048,6 +1055,14 @@ inline void process_messages() {
     if (h.connected < h.connect.size()) {
         host_event("connected (vs_on_host_connect)");
         while (h.connected < h.connect.size()) h.connect[h.connected++]();
+    }
+    // The host's values of the items whose callbacks were set since the last processing,
+    // as the host's GUI messages reach the device: each callback once, with its item's value.
+    Gui& g = gui();
+    while (!g.due.empty()) {
+        vs_handle item = g.due.front();
+        g.due.erase(g.due.begin());
+        if (g.callbacks.count(item) && g.values.count(item)) g.callbacks[item](g.values[item]);
     }
     if (h.request) {
         std::function<void(void)> answer = std::move(h.request);
@@ -1111,6 +1126,7 @@ inline void gui_changes(const std::vector<uint8_t>& r) {
         if (!g.values.count(h)) continue;
         g.values[h] = v;
         if (g.writeback.count(h)) *g.writeback[h] = v;
+        g.due.erase(std::remove(g.due.begin(), g.due.end(), h), g.due.end());
         if (g.callbacks.count(h)) g.callbacks[h](v);
     }
 }
@@ -1232,7 +1248,10 @@ inline void vs_gui_move_slider(vs_handle h, int32_t value, bool feedback = true,
                                ppa::Loc loc = PPA_HERE) {
     vs_gui_set_slider(h, value, loc);
     ppa::Gui& g = ppa::gui();
-    if (feedback && g.callbacks.count(h)) g.callbacks[h](value);
+    if (feedback && g.callbacks.count(h)) {
+        g.due.erase(std::remove(g.due.begin(), g.due.end(), h), g.due.end());  // delivered
+        g.callbacks[h](value);
+    }
 }
 // A slider's new range: checked (a slider's handle, min <= max) and recorded; its value
 // is left as it is (the headers do not say the host moves it into the range).
@@ -1249,7 +1268,10 @@ inline void vs_gui_set_slider_range(vs_handle h, int32_t min, int32_t max,
 inline void vs_on_gui_update(vs_handle item, std::function<void(int32_t)> f) {
     ppa::Gui& g = ppa::gui();
     g.callbacks[item] = f;
-    if (g.values.count(item)) f(g.values[item]);  // the value given to this run, once
+    // Called with the value given to this run, once, at the next message processing (the
+    // next vs_frame_loop_control or vs_process_message), as the device calls it when the
+    // host's value arrives, never from here.
+    if (std::find(g.due.begin(), g.due.end(), item) == g.due.end()) g.due.push_back(item);
 }
 
 // Modelled time: microseconds of the simulator's timing model, not the host's clock.

@@ -73,6 +73,11 @@ def open_video(
                 f"{what} holds no video stream (not a video, or cut short); give a complete video"
             )
         context = container.streams.video[0].codec_context
+        if context is None:  # a stream FFmpeg cannot set a decoder up for (a file cut short)
+            raise DataError(
+                f"{what} holds no decodable video stream (cut short, or in a codec this "
+                "FFmpeg lacks); give a complete video"
+            )
         w, h = int(context.width or 0), int(context.height or 0)
         if w * h > MAX_IMAGE_PIXELS:
             raise DataError(
@@ -87,6 +92,11 @@ def open_video(
     except Exception as exc:  # PyAV raises many types on a bad file
         if container is not None:
             container.close()
+        if isinstance(exc, EOFError):  # FFmpeg found no packet at all: a video of 0 frames
+            raise DataError(
+                f"{what} holds no frames (an empty video, or one cut short); give a video "
+                "with frames"
+            ) from None
         raise DataError(f"cannot read {what}: {exc}") from None
 
 
