@@ -186,6 +186,9 @@ class CompiledEngine:
     """Runs a kernel as one call of numba-compiled code (``engine="compiled"``)."""
 
     name = "compiled"
+    #: Ideal transfers on deferred constant fills are folded by the simulator
+    #: (:meth:`~ppaloc.sim.engine.Scamp5._with_folding`).
+    folds = True
 
     def __init__(self, sim: Scamp5) -> None:
         self.sim = sim
