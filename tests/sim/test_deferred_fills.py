@@ -5,7 +5,10 @@ A DAC load in ideal mode (and ``IN`` in every mode) records its constant instead
 writing the plane; the pass runs when the plane is next used, or is dropped when another
 fill comes first or the next kernel overwrites the plane whole before reading it. Random
 programs of DAC loads, kernels of any ICWs (FLAG set and partial), host reads and
-shifts run on a simulator that defers and on one that writes each fill at once.
+shifts run on a simulator that defers and on one that writes each fill at once. The same
+programs check that a DAC level written over a whole plane drops the plane's pending
+droop rather than applying it (``Scamp5._overwrite``), against a simulator that applies
+it, under fast droop too.
 
 A kernel whose leading transfers read only deferred constants has them folded on the
 compiled engine (``Scamp5._with_folding``): their destinations become fills and the rest
@@ -23,7 +26,7 @@ from ppaloc_tests_sim_icws import icws as shared_icws
 
 import ppaloc.sim as s
 from ppaloc.errors import RegisterMisuseError
-from ppaloc.sim import OPS, Scamp5, hostloops
+from ppaloc.sim import OPS, NoiseParams, Scamp5, hostloops
 from ppaloc.sim import engine as engine_module
 from ppaloc.sim.engines import available_engines
 from ppaloc.sim.isa import make
@@ -39,10 +42,23 @@ POOLS = {"analog": (ANALOG_DST, ANALOG_SRC), "digital": (DIGITAL_DST, DIGITAL_SR
 
 
 class Eager(Scamp5):
-    """Writes every fill at once (what the deferral must be indistinguishable from)."""
+    """Writes every fill at once, and applies a plane's pending droop before a host write
+    of every element (what the deferral and the dropped droop must be indistinguishable
+    from)."""
 
     def _fill_later(self, i: int, value: float) -> None:
         hostloops.fill(self._analog_planes[i], value)
+
+    def _overwrite(self, reg: s.Register) -> np.ndarray:
+        return self._aplane(reg)
+
+
+#: Noise modes: ideal, the preset, and fast droop (a plane's pending droop is large).
+NOISES = {
+    "ideal": "ideal",
+    "typical": "typical",
+    "aged": NoiseParams(temporal_sd=0.5, decay_per_ms=2000.0),
+}
 
 
 def icws() -> st.SearchStrategy[tuple[str, tuple, tuple]]:
@@ -63,7 +79,7 @@ steps = st.one_of(
 
 def play(cls: type[Scamp5], engine: str, noise: str, program: list, seed: int) -> list:
     """Run ``program``; return every value read and the planes' bytes at the end."""
-    sim = cls(ROWS, COLS, noise=noise, seed=seed % 5, engine=engine)
+    sim = cls(ROWS, COLS, noise=NOISES[noise], seed=seed % 5, engine=engine)
     rng = np.random.default_rng(seed)
     for r in ANALOG_PLANES:
         if r is not s.PIX:
@@ -94,7 +110,7 @@ def play(cls: type[Scamp5], engine: str, noise: str, program: list, seed: int) -
 
 
 @pytest.mark.parametrize("engine", available_engines())
-@pytest.mark.parametrize("noise", ["ideal", "typical"])
+@pytest.mark.parametrize("noise", list(NOISES))
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(program=st.lists(steps, min_size=1, max_size=10), seed=st.integers(0, 2**16))
 def test_deferred_fills_are_never_seen(engine, noise, program, seed):
@@ -143,7 +159,7 @@ folding_steps = st.one_of(
 
 
 @pytest.mark.parametrize("engine", available_engines())
-@pytest.mark.parametrize("noise", ["ideal", "typical"])
+@pytest.mark.parametrize("noise", list(NOISES))
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(blocks=st.lists(folding_steps, min_size=1, max_size=5), seed=st.integers(0, 2**16))
 def test_transfers_on_deferred_constants_fold_to_the_same_bytes(engine, noise, blocks, seed):

@@ -295,6 +295,19 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             self._in_level = None  # the caller may change IN through the view
         return self._analog_planes[i]
 
+    def _overwrite(self, reg: Register) -> np.ndarray:
+        """The live plane of analogue ``reg`` for a host write of every element: its
+        deferred fill and its pending droop are dropped, not applied (the old values are
+        never seen again; the new ones start their own time). ``reg`` is checked by the
+        caller (one of A-F, NEWS or IN)."""
+        i = reg.index
+        self._fills.pop(i, None)
+        if i < len(_DECAYING):
+            self._droop_us[i] = 0.0
+        elif i == _IN_I:
+            self._in_level = None
+        return self._analog_planes[i]
+
     def _set_in(self, value: float) -> None:
         """Drive ``IN`` with ``value`` everywhere (no pass when it already holds it; the
         pass itself deferred, :meth:`_fill_later`)."""
@@ -406,7 +419,8 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             self._elapse()  # older values droop first; the new one starts fresh
         if self._call_frame is not None:
             self._note_write(reg)
-        plane = self._aplane(reg)
+        whole = where is None and type(values) is float  # a level over the old values
+        plane = self._overwrite(reg) if whole else self._aplane(reg)
         t = self._t[2]
         if values is not t:  # a host call may form its values in the scratch plane
             if type(values) is float or (
