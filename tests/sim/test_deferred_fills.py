@@ -5,20 +5,31 @@ A DAC load in ideal mode (and ``IN`` in every mode) records its constant instead
 writing the plane; the pass runs when the plane is next used, or is dropped when another
 fill comes first or the next kernel overwrites the plane whole before reading it. Random
 programs of DAC loads, kernels of any ICWs (FLAG set and partial), host reads and
-shifts run on a simulator that defers and on one that writes each fill at once.
+shifts run on a simulator that defers and on one that writes each fill at once. The same
+programs check that a DAC level written over a whole plane drops the plane's pending
+droop rather than applying it (``Scamp5._overwrite``), against a simulator that applies
+it, under fast droop too.
+
+A kernel whose leading transfers read only deferred constants has them folded on the
+compiled engine (``Scamp5._with_folding``): their destinations become fills and the rest
+runs as a kernel of its own. Programs whose kernels start so run on every engine and are
+compared with the reference engine writing every fill at once.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, reject, settings
 from hypothesis import strategies as st
 from ppaloc_tests_sim_icws import icws as shared_icws
 
 import ppaloc.sim as s
-from ppaloc.sim import Scamp5, hostloops
+from ppaloc.errors import RegisterMisuseError
+from ppaloc.sim import OPS, NoiseParams, Scamp5, hostloops
+from ppaloc.sim import engine as engine_module
 from ppaloc.sim.engines import available_engines
+from ppaloc.sim.isa import make
 from ppaloc.sim.registers import ANALOG_PLANES, DIGITAL_PLANES
 
 ROWS, COLS = 4, 5
@@ -31,10 +42,23 @@ POOLS = {"analog": (ANALOG_DST, ANALOG_SRC), "digital": (DIGITAL_DST, DIGITAL_SR
 
 
 class Eager(Scamp5):
-    """Writes every fill at once (what the deferral must be indistinguishable from)."""
+    """Writes every fill at once, and applies a plane's pending droop before a host write
+    of every element (what the deferral and the dropped droop must be indistinguishable
+    from)."""
 
     def _fill_later(self, i: int, value: float) -> None:
         hostloops.fill(self._analog_planes[i], value)
+
+    def _overwrite(self, reg: s.Register) -> np.ndarray:
+        return self._aplane(reg)
+
+
+#: Noise modes: ideal, the preset, and fast droop (a plane's pending droop is large).
+NOISES = {
+    "ideal": "ideal",
+    "typical": "typical",
+    "aged": NoiseParams(temporal_sd=0.5, decay_per_ms=2000.0),
+}
 
 
 def icws() -> st.SearchStrategy[tuple[str, tuple, tuple]]:
@@ -55,7 +79,7 @@ steps = st.one_of(
 
 def play(cls: type[Scamp5], engine: str, noise: str, program: list, seed: int) -> list:
     """Run ``program``; return every value read and the planes' bytes at the end."""
-    sim = cls(ROWS, COLS, noise=noise, seed=seed % 5, engine=engine)
+    sim = cls(ROWS, COLS, noise=NOISES[noise], seed=seed % 5, engine=engine)
     rng = np.random.default_rng(seed)
     for r in ANALOG_PLANES:
         if r is not s.PIX:
@@ -86,11 +110,91 @@ def play(cls: type[Scamp5], engine: str, noise: str, program: list, seed: int) -
 
 
 @pytest.mark.parametrize("engine", available_engines())
-@pytest.mark.parametrize("noise", ["ideal", "typical"])
+@pytest.mark.parametrize("noise", list(NOISES))
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(program=st.lists(steps, min_size=1, max_size=10), seed=st.integers(0, 2**16))
 def test_deferred_fills_are_never_seen(engine, noise, program, seed):
     assert play(Scamp5, engine, noise, program, seed) == play(Eager, engine, noise, program, seed)
+
+
+@st.composite
+def constant_kernel(draw: st.DrawFn) -> list[tuple]:
+    """DAC loads, then a kernel that starts with bus transfers of local registers on what
+    they left constant (every form: halvings, thirds, sums to saturation, IN read) and may
+    go on with any ICWs: the kind of kernel whose leading ICWs fold."""
+    extreme = st.one_of(values, st.sampled_from([-128, -127, 127, 126, 100, -100]))
+    loads = draw(st.lists(st.sampled_from(LOADED), min_size=1, max_size=4, unique=True))
+    steps = [("in", reg, draw(extreme)) for reg in loads]
+    constant = set(loads) - {s.NEWS} if len(loads) > 1 else set(loads)
+    if draw(st.booleans()):
+        steps.append(("load_in", None, draw(extreme)))
+        constant.add(s.IN)
+    body = []
+    for _ in range(draw(st.integers(1, 5))):
+        op = draw(st.sampled_from(["bus", "bus", "bus2", "bus2", "bus3", "busn"]))
+        spec = OPS[op]
+        dsts = draw(st.lists(st.sampled_from(LOADED), min_size=spec.n_dst[0],
+                             max_size=spec.n_dst[1], unique=True))  # fmt: skip
+        pool = sorted(constant, key=lambda r: r.index)
+        srcs = draw(st.lists(st.sampled_from(pool), min_size=max(1, spec.n_src[0]),
+                             max_size=spec.n_src[1], unique=True))  # fmt: skip
+        try:
+            make(op, tuple(dsts), tuple(srcs))
+        except RegisterMisuseError:
+            continue
+        body.append((op, tuple(dsts), tuple(srcs)))
+        constant |= set(dsts)
+    body += draw(st.lists(icws(), max_size=3))
+    if not body:
+        reject()
+    return [*steps, ("kernel", body, 0)]
+
+
+folding_steps = st.one_of(
+    constant_kernel().map(tuple),
+    st.tuples(st.tuples(st.just("read"), st.sampled_from([*LOADED, s.IN]), st.just(0))),
+    st.tuples(st.tuples(st.just("kernel"), st.lists(icws(), min_size=1, max_size=3), st.just(0))),
+    st.tuples(st.tuples(st.just("shift"), st.sampled_from(LOADED), st.integers(-2, 2))),
+)
+
+
+@pytest.mark.parametrize("engine", available_engines())
+@pytest.mark.parametrize("noise", list(NOISES))
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(blocks=st.lists(folding_steps, min_size=1, max_size=5), seed=st.integers(0, 2**16))
+def test_transfers_on_deferred_constants_fold_to_the_same_bytes(engine, noise, blocks, seed):
+    program = [step for block in blocks for step in block]
+    expected = play(Eager, "reference", noise, program, seed)
+    assert play(Scamp5, engine, noise, program, seed) == expected
+
+
+def test_a_kernel_on_constants_folds(monkeypatch):
+    """Halvings of a DAC constant (the detection's fraction plane) leave fills, not
+    passes: only the planes the rest of the kernel reads are written."""
+    if "compiled" not in available_engines():
+        pytest.skip("folding is the compiled engine's")
+    sim = Scamp5(8, 8, engine="compiled")
+    sim.write(s.C, np.arange(64).reshape(8, 8) - 32)
+    with sim.kernel() as k:  # record (and run) once
+        k.bus2(s.E, s.NEWS, s.D)
+        k.bus2(s.D, s.NEWS, s.E)
+        k.bus(s.NEWS, s.C)
+        k.where(s.IN, s.D, s.NEWS)
+        k.all()
+    passes = count_fills(monkeypatch)
+    folded = []
+    fold = engine_module.fold_transfers
+    monkeypatch.setattr(
+        engine_module, "fold_transfers", lambda *a: folded.append(len(a[0])) or fold(*a)
+    )
+    sim.scamp5_in(s.D, 7)  # D, its temp NEWS and IN deferred
+    sim.load_in(3)
+    k.run()
+    assert folded == [2]  # both halvings, not the bus that reads C
+    planes = {sim._analog_planes[r.index].__array_interface__["data"][0]: r for r in (s.D, s.IN)}
+    assert sorted(planes[p].name for p in passes) == ["D", "IN"]  # E stays deferred
+    assert sim._fills == {s.E.index: -3.5}
+    assert (sim.read(s.D) == 1.75).all() and (sim.read(s.E) == -3.5).all()
 
 
 def count_fills(monkeypatch) -> list[int]:

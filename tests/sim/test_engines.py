@@ -174,6 +174,35 @@ def test_dead_scratch_writes_are_skipped_with_the_same_bytes(mode: str) -> None:
         )
 
 
+@pytest.mark.skipif("compiled" not in available_engines(), reason="numba is not installed")
+@pytest.mark.parametrize("mode", ["ideal", "typical", "aged"])
+def test_dead_last_destinations_are_skipped_with_the_same_bytes(mode: str) -> None:
+    """A halving's NEWS that the next ICW writes again is not written under noise; the
+    kept destination keeps its draw and the ICW its gain."""
+    from ppaloc.sim.engines.compiled import dead_last_destinations
+
+    def halve(x, y):
+        return ("bus2", (x, s.NEWS), (y,))
+
+    R, where = ("bus", (s.B,), (s.NEWS,)), ("where", (), (s.C,))
+    cases = {
+        (halve(s.E, s.D), halve(s.D, s.E), ("bus", (s.NEWS,), (s.C,)), R): {0: 1, 1: 1},
+        (halve(s.E, s.D), R): {},  # NEWS read
+        (halve(s.E, s.D), where, ("bus", (s.NEWS,), (s.C,)), R): {},  # FLAG may shrink
+        (("bus3", (s.A, s.E, s.NEWS), (s.D,)), ("bus2", (s.E, s.NEWS), (s.A,)), R): {0: 1},
+        (("bus2", (s.NEWS, s.E), (s.D,)), ("bus", (s.NEWS,), (s.C,)), R): {},  # NEWS first
+        (("bus3", (s.A, s.E, s.F), (s.D,)), ("bus", (s.F,), (s.C,)), R): {0: 2},
+        (("bus2", (s.E, s.XE), (s.D,)), ("bus", (s.NEWS,), (s.C,)), R): {},  # a push
+    }
+    for program, kept in cases.items():
+        assert dead_last_destinations([make(*ins) for ins in program]) == kept, program
+        for seed in range(4):
+            same_bytes(
+                run("compiled", mode, [list(program)], seed),
+                run("reference", mode, [list(program)], seed),
+            )
+
+
 def test_pending_droop_equals_droop_step_by_step() -> None:
     """A plane no kernel touches droops as much, applied at once when it is next read."""
     params = NoiseParams(decay_per_ms=40.0)

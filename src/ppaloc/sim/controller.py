@@ -167,7 +167,8 @@ class ControllerMixin(DrawMixin):
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
     ``_dplane``, ``_write_analog``, ``_write_digital``, ``_write_digital_grid``,
-    ``_flag_state``, ``_set_in``, ``_take_droop``, ``_fill_later``, ``rng``, ``noise``
+    ``_flag_state``, ``_set_in``, ``_take_droop``, ``_fill_later``, ``_overwrite``, ``rng``,
+    ``noise``
     and ``timing``, and tells the engine's observers (:mod:`ppaloc.sim.observe`) each
     plane a call writes (``_note_write``). Every public call is a
     :func:`~ppaloc.sim.observe.controller_call`.
@@ -196,6 +197,7 @@ class ControllerMixin(DrawMixin):
         def _set_in(self, value: float) -> None: ...
         def _take_droop(self, reg: Register) -> np.float32 | None: ...
         def _fill_later(self, i: int, value: float) -> None: ...
+        def _overwrite(self, reg: Register) -> np.ndarray: ...
 
         _call_frame: Any
 
@@ -338,10 +340,12 @@ class ControllerMixin(DrawMixin):
         if self._call_frame is not None:
             self._note_write(reg)
         flag, everywhere = self._flag_state()
-        if everywhere and self.noise.ideal and not isinstance(values, np.ndarray):
+        level = not isinstance(values, np.ndarray)
+        if everywhere and self.noise.ideal and level:
             self._fill_later(reg.index, min(max(float(values), -128.0), 127.0))
             return
-        current = self._aplane(reg)
+        # a level written everywhere: the old values' droop is never seen
+        current = self._overwrite(reg) if everywhere and level else self._aplane(reg)
         if noisy and not self.noise.ideal:
             self._write_analog(reg, values, None if everywhere else flag)
             return
@@ -408,8 +412,8 @@ class ControllerMixin(DrawMixin):
             self._catch_up()
             if self._call_frame is not None:
                 self._note_write(areg)
-            current = self._aplane(areg)
             flag, everywhere = self._flag_state()
+            current = self._overwrite(areg) if everywhere else self._aplane(areg)
             window = self.noise.window()
             hostloops.noisy_level(current, float(v), window, flag, everywhere)
         else:

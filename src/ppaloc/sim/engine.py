@@ -132,6 +132,54 @@ def overwritten_first(instructions: Iterable[Instruction]) -> frozenset[int]:
     return frozenset(fresh)
 
 
+def constant_prefix(instructions: tuple[Instruction, ...]) -> tuple[Instruction, ...]:
+    """The kernel's leading bus transfers (``bus``, ``bus2``, ``bus3``, ``busn``) that read
+    and write only their own element's registers (no neighbour alias, one source or more):
+    with FLAG set everywhere and constant sources, each writes one constant everywhere."""
+    n = 0
+    for ins in instructions:
+        if (
+            ins.op not in _BUS_OPS
+            or not ins.srcs
+            or any(r.kind != "analog" or r.role == "neighbour" for r in (*ins.dsts, *ins.srcs))
+        ):
+            break
+        n += 1
+    return instructions[:n]
+
+
+def fold_transfers(
+    steps: Iterable[tuple[tuple[int, ...], int, tuple[int, ...]]], values: dict[int, float]
+) -> dict[int, float]:
+    """Ideal bus transfers on constant planes: per step ``(sources, parts, destinations)``
+    every destination := clip(-(sum of the sources, left to right) / parts), in float32
+    as the engines compute it (``-sum``, ``sum * -0.5``, ``sum / -parts``). ``values``:
+    the planes' constants before (updated and returned).
+
+    Examples
+    --------
+    >>> fold_transfers([((3,), 2, (4, 6)), ((4, 8), 1, (3,))], {3: 100.0, 8: -99.0})
+    {3: 127.0, 8: -99.0, 4: -50.0, 6: -50.0}
+    """
+    for srcs, parts, dsts in steps:
+        total = np.float32(values[srcs[0]])
+        for i in srcs[1:]:
+            total = total + np.float32(values[i])
+        if parts == 1:
+            value = -total
+        elif parts == 2:
+            value = total * np.float32(-0.5)
+        else:
+            value = total / np.float32(-parts)
+        if value < _LO:
+            value = _LO
+        elif value > _HI:
+            value = _HI
+        for i in dsts:
+            values[i] = float(value)
+    return values
+
+
 class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
     """A simulated SCAMP-5 pixel processor array.
 
@@ -247,6 +295,19 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             self._in_level = None  # the caller may change IN through the view
         return self._analog_planes[i]
 
+    def _overwrite(self, reg: Register) -> np.ndarray:
+        """The live plane of analogue ``reg`` for a host write of every element: its
+        deferred fill and its pending droop are dropped, not applied (the old values are
+        never seen again; the new ones start their own time). ``reg`` is checked by the
+        caller (one of A-F, NEWS or IN)."""
+        i = reg.index
+        self._fills.pop(i, None)
+        if i < len(_DECAYING):
+            self._droop_us[i] = 0.0
+        elif i == _IN_I:
+            self._in_level = None
+        return self._analog_planes[i]
+
     def _set_in(self, value: float) -> None:
         """Drive ``IN`` with ``value`` everywhere (no pass when it already holds it; the
         pass itself deferred, :meth:`_fill_later`)."""
@@ -358,7 +419,8 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             self._elapse()  # older values droop first; the new one starts fresh
         if self._call_frame is not None:
             self._note_write(reg)
-        plane = self._aplane(reg)
+        whole = where is None and type(values) is float  # a level over the old values
+        plane = self._overwrite(reg) if whole else self._aplane(reg)
         t = self._t[2]
         if values is not t:  # a host call may form its values in the scratch plane
             if type(values) is float or (
@@ -510,7 +572,70 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         planes (the others keep accumulating it until something touches them).
         """
         run = self.engine.compile(tuple(instructions))
-        return self._with_fills(self._with_droop(run, instructions), instructions)
+        run = self._with_fills(self._with_droop(run, instructions), instructions)
+        return self._with_folding(run, tuple(instructions))
+
+    def _with_folding(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
+        """``run``, or in ideal mode on an engine that folds (``engine.folds``) a runner
+        that computes the kernel's leading transfers on constants once, not once per
+        element, when they read only planes with a deferred fill (:meth:`_fill_later`)
+        and FLAG is known to be set everywhere as the kernel starts.
+
+        Such a transfer (``bus``, ``bus2``, ``bus3``, ``busn`` of local registers, one
+        source or more: :func:`constant_prefix`) writes one constant into every element
+        of each destination, so its destinations become deferred fills of that value
+        (:func:`fold_transfers`: the engines' float32 operations in their order) and the
+        rest of the kernel runs as a kernel of its own (compiled on first use, per
+        length of the folded prefix). The bytes are those of the whole kernel: the fills
+        are written when the planes are next used, or dropped.
+        """
+        if not self.noise.ideal or not getattr(self.engine, "folds", False):
+            return run
+        prefix = constant_prefix(instructions)
+        if not prefix:
+            return run
+        steps = tuple(
+            (
+                tuple(r.index for r in ins.srcs),
+                len(ins.dsts) if ins.op != "bus" else 1,
+                tuple(r.index for r in ins.dsts),
+            )
+            for ins in prefix
+        )
+        # per length n of a folded prefix (longest first): the planes it reads before
+        # writing them (each must hold a fill) and the planes it writes
+        cuts: list[tuple[int, frozenset[int], frozenset[int]]] = []
+        needed: set[int] = set()
+        written: set[int] = set()
+        for n, (srcs, _, dsts) in enumerate(steps, 1):
+            needed |= set(srcs) - written
+            written |= set(dsts)
+            cuts.append((n, frozenset(needed), frozenset(written)))
+        cuts.reverse()
+        first = cuts[-1][1]  # what the first transfer reads: no fold without it
+        rests: dict[int, Op | None] = {}
+        fills = self._fills
+
+        def rest_of(n: int) -> Op | None:
+            rest_ins = instructions[n:]
+            rest = self._with_fills(self.engine.compile(rest_ins), rest_ins) if rest_ins else None
+            rests[n] = rest
+            return rest
+
+        def run_folding() -> None:
+            if fills and self._flag_masked is False and first.issubset(fills):
+                for n, need, wrote in cuts:
+                    if need.issubset(fills):
+                        values = fold_transfers(steps[:n], {i: fills[i] for i in need})
+                        for i in wrote:
+                            fills[i] = values[i]
+                        rest = rests[n] if n in rests else rest_of(n)
+                        if rest is not None:
+                            rest()
+                        return
+            run()
+
+        return run_folding
 
     def _with_fills(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
         """``run``, first settling the deferred fills of the planes the ICWs name

@@ -54,6 +54,7 @@ __all__ = [
     "FUSE_AFTER",
     "FUSE_ENV",
     "CompiledEngine",
+    "dead_last_destinations",
     "dead_writes",
     "fuse_after_from_env",
     "overwritten_unread",
@@ -119,7 +120,9 @@ def encode(
 
     In ideal mode every chain of neighbour moves (:mod:`.chains`, on a ``rows`` x
     ``cols`` array; none without the array's shape) gets a head row before its ICWs: run
-    composed when FLAG is set everywhere, else its ICWs run one by one.
+    composed when FLAG is set everywhere, else its ICWs run one by one. Under noise a
+    transfer's last destinations that are overwritten unread are not written
+    (:func:`dead_last_destinations`; each costs its cell offsets and a noise window).
     """
     body = np.zeros((len(instructions), _WIDTH), dtype=np.int64)
     draw = 0
@@ -139,6 +142,9 @@ def encode(
     dead = dead_writes(instructions, unread)
     for n in dead:
         body[n, _OP] = _NOP  # its noise draws stay counted: later draws keep their index
+    if not ideal:
+        for n, keep in dead_last_destinations(instructions, unread).items():
+            body[n, _ND] = keep  # the kept ones keep their draws, the ICW its gain
     found = chains.compose(instructions, set(dead), unread) if ideal and rows and cols else []
     heads = np.zeros((len(found), _WIDTH), dtype=np.int64)
     for c, ch in enumerate(found):
@@ -182,10 +188,38 @@ def dead_writes(instructions: list[Instruction], unread: list[set[int]] | None =
     ]
 
 
+def dead_last_destinations(
+    instructions: list[Instruction], unread: list[set[int]] | None = None
+) -> dict[int, int]:
+    """Per transfer of several destinations whose last ones (its own element's planes) are
+    overwritten before they are read (:func:`overwritten_unread`): how many of its
+    destinations to write, the first ones. Typical: the NEWS of a halving
+    ``bus2(x, NEWS, y)`` that the next halving writes again. Only the last ones go, so
+    that each kept destination keeps its noise draw (the ICW's first draw and gain, then
+    one per destination, in order)."""
+    if unread is None:
+        unread = overwritten_unread(instructions)
+    out: dict[int, int] = {}
+    for n, ins in enumerate(instructions):
+        if ins.op not in _TRANSFERS or len(ins.dsts) < 2:
+            continue
+        keep = len(ins.dsts)
+        while keep > 1 and (
+            ins.dsts[keep - 1].role != "neighbour" and ins.dsts[keep - 1].index in unread[n]
+        ):
+            keep -= 1
+        if keep < len(ins.dsts):
+            out[n] = keep
+    return out
+
+
 class CompiledEngine:
     """Runs a kernel as one call of numba-compiled code (``engine="compiled"``)."""
 
     name = "compiled"
+    #: Ideal transfers on deferred constant fills are folded by the simulator
+    #: (:meth:`~ppaloc.sim.engine.Scamp5._with_folding`).
+    folds = True
 
     def __init__(self, sim: Scamp5) -> None:
         self.sim = sim
