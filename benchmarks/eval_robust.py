@@ -27,7 +27,9 @@ one, recall definition A) and its max F1 is reported. Routes run in a process po
 (``--jobs``, default 2). Baseline results (every method whose name does not start with
 ``weighted-node`` or ``onsensor``) are cached in ``.cache/eval_robust/``, keyed by the
 spec, the method, its parameters and a hash of the sources that decide them
-(``ppaloc/baselines``, ``ppaloc/datasets``, ``ppaloc/frontend.py``, ``ppaloc/topomap`` and
+(``ppaloc/baselines``, ``ppaloc/datasets``, ``ppaloc/frontend.py``, ``ppaloc/place``, whose
+functions compute every baseline's image and places, ``ppaloc/localise/enhance.py``, whose
+contrast enhancement SeqSLAM and the particle filter call, ``ppaloc/topomap`` and
 ``ppaloc/evaluate/metrics.py``); ``--no-cache`` ignores it.
 
 Output: a Markdown table (route x method, max F1, and ``best WN - best baseline``: the
@@ -69,6 +71,8 @@ SOURCES = (
     "src/ppaloc/baselines",
     "src/ppaloc/datasets",
     "src/ppaloc/frontend.py",
+    "src/ppaloc/place",
+    "src/ppaloc/localise/enhance.py",
     "src/ppaloc/topomap",
     "src/ppaloc/evaluate/metrics.py",
 )

@@ -315,6 +315,20 @@ def test_map_localise_and_show_on_the_patch_place(tiny_spec, tmp_path, capsys):
     assert "patch nodes" in out and (tmp_path / "m.png").stat().st_size > 0
 
 
+@pytest.mark.parametrize("kind", ["patch", "haar"])
+def test_a_map_saved_from_python_is_localised_by_its_places_method(kind, tmp_path, capsys):
+    from ppaloc.localise import WeightedNodeLocaliser
+
+    rng = np.random.default_rng(3)
+    ref = rng.integers(0, 256, (4, 256, 256), dtype=np.uint8)
+    topomap = WeightedNodeLocaliser(kind, motion="always_forward").build_map(ref)
+    assert "method" not in topomap.provenance  # built in Python: it names no method
+    topomap.save(tmp_path / "m.npz")
+    code, out, err = run(capsys, "localise", tmp_path / "m.npz", *_frames(tmp_path / "q", 2))
+    assert code == 0, err
+    assert len(out.splitlines()) == 3
+
+
 def test_bench_writes_json(mean_match, tmp_path, capsys):
     code, out, err = run(
         capsys, "bench", "-m", mean_match, "--sizes", "4,8", "--queries", "2", "--out", tmp_path

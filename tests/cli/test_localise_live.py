@@ -119,8 +119,8 @@ def test_live_refuses_a_host_method_and_stray_flags(onsensor_map, capsys):
     assert err == (
         "ppaloc: error: --live shows the on-sensor localiser, and method 'weighted-node-lowres' "
         "runs on the host: give --method onsensor-lowres, onsensor-lowres16, onsensor-lbp or "
-        "onsensor-haar (with a map of their kind) or onsensor-auto (any map), or leave out "
-        "--live\n"
+        "onsensor-haar (with a map of their kind) or onsensor-auto (a map of any place a "
+        "sensor holds; a patch map is the host's alone), or leave out --live\n"
     )
     for flag, value in (("--port", "8000"), ("--host", "0.0.0.0"), ("--fps", "5")):
         code, _, err = run(capsys, "localise", map_path, ref, flag, value)

@@ -29,8 +29,10 @@ def _pair(spec: str) -> tuple[str, str, str]:
     return where, options["ref"], options["query"]
 
 
-def test_the_real_pairs_are_held_out_the_other_way_round(bench_script, shared_data):
-    eval_robust = bench_script("eval_robust")
+def test_the_real_pairs_are_held_out_the_other_way_round(
+    bench_script, shared_data, nordland_dir, gardens_point_dir
+):
+    eval_robust = bench_script("eval_robust")  # the fixtures skip without either dataset
     held = dict(eval_robust.held_out_routes(shared_data, places=40))
     real = {label: spec for label, spec in held.items() if not label.startswith("synthetic")}
     assert len(real) == 4 and len(held) == 40

@@ -306,8 +306,11 @@ def test_each_place_has_its_column_and_a_baseline_is_shown_on_its_descriptor():
             "weighted-node-lowres": entry("lowres", 0.7),
             "weighted-node-lowres16": entry("lowres16", 0.8),
             "weighted-node-lbp": entry("lbp", 0.6),
+            "weighted-node-patch": entry("patch", 0.9),
             "particle-filter": entry("particle-filter", 0.5, descriptor="lowres16"),
             "seqslam": entry("seqslam", 0.4),
+            # a baseline's own image named or not: the same column either way
+            "single-frame": entry("single-frame", 0.3, descriptor="patch"),
         }
     }
     header, rows = paper_table(summary)
@@ -315,13 +318,15 @@ def test_each_place_has_its_column_and_a_baseline_is_shown_on_its_descriptor():
         "F1 (8x8 image)",
         "F1 (16x16 image)",
         "F1 (32-bit LBP)",
+        "F1 (64x32 patch-normalised)",
         "F1 (method's own)",
     ]
     table = {row[0]: row[1::2] for row in rows}
     assert table == {
-        "weighted-node": ["0.700", "0.800", "0.600", ""],
-        "particle-filter": ["", "0.500", "", ""],
-        "seqslam": ["", "", "", "0.400"],
+        "weighted-node": ["0.700", "0.800", "0.600", "0.900", ""],
+        "particle-filter": ["", "0.500", "", "", ""],
+        "seqslam": ["", "", "", "", "0.400"],
+        "single-frame": ["", "", "", "", "0.300"],
     }
     assert all(column_of(h) is not None for h in header)
     reps = [row[1] for row in comparison_table(summary)[1]]
@@ -329,6 +334,8 @@ def test_each_place_has_its_column_and_a_baseline_is_shown_on_its_descriptor():
         "8x8 image, SAD",
         "16x16 image, SAD",
         "32-bit LBP, Hamming",
+        "64x32 patch-normalised image, SAD",
         "16x16 image, SAD",
+        "patch-normalised image, SAD",
         "patch-normalised image, SAD",
     ]

@@ -43,15 +43,27 @@ def test_the_patch_place_has_no_register_arithmetic_and_no_paper_preset():
         NodeDistances("patch", np.zeros((1, 32, 64), np.float32), exact=True)
 
 
-def test_the_float_readout_decides_the_frame_scale():
-    ex = HostExecutor("patch", FilterParams.create("patch"))
-    assert not ex.integer_readout  # no register integers to read: the floats themselves
-    ex.use_map(build_topomap(list(_frames(4, 1)), "patch"))
-    frame = _frames(1, 2)[0]
-    ex.begin(frame)
-    values = ex.node_values()
-    np.testing.assert_allclose(values, ex._raw_distances())
-    assert ex.minimum(values) == pytest.approx(values.min())
+def test_the_scale_is_read_from_the_floats_so_a_power_of_two_in_the_units_changes_nothing(
+    monkeypatch,
+):
+    import ppaloc.localise.likelihood as likelihood
+    from ppaloc.datasets.registry import load_dataset
+    from ppaloc.frontend import to_sensor
+
+    assert not HostExecutor("patch", FilterParams.create("patch")).integer_readout
+    ds = load_dataset("synthetic:?places=40&query=dusk&seed=2&speed_var=0.65")
+    ref = [to_sensor(f) for f in ds.reference]
+    query = [to_sensor(f) for f in ds.query]
+
+    def run(units: float) -> list[tuple[int, float]]:
+        monkeypatch.setattr(likelihood, "PATCH_UNITS", units)
+        loc = WeightedNodeLocaliser("patch")
+        loc.build_map(ref)
+        return [(e.node, e.score) for e in loc.localise(query)]
+
+    # the frame's shift is a power of two chosen from the frame's own spread: the filter
+    # sees the same scaled likelihood at 64 and 256 units a deviation, to the last bit
+    assert run(64.0) == run(256.0)
 
 
 def test_the_filter_follows_a_route_on_the_patch_place_and_its_map_reloads(tmp_path):

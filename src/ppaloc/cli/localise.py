@@ -172,26 +172,20 @@ def _check_natural_order(files: Sequence[Path]) -> None:
         last[folder] = p
 
 
-_KIND_METHOD = {
-    "lowres": "weighted-node-lowres",
-    "lowres16": "weighted-node-lowres16",
-    "lbp": "weighted-node-lbp",
-    "haar": "weighted-node-haar",
-}
-"""The method that reads a map of each kind, for a map that does not name its own."""
-
-
 def _method_for_map(topomap: Any, method: str | None, map_path: Path) -> str:
     """The method to localise with: ``method`` if given, else the one the map names (its
     provenance, or its node kind); a name from the map that this install does not offer is
     refused as the map's, with the fix."""
     from ppaloc.evaluate.run import resolve_methods
+    from ppaloc.localise.weighted import REPRESENTATIONS
     from ppaloc.methods import available_methods, registry
 
     if method:
         return resolve_methods([method])[0]
     named = topomap.provenance.get("method")
-    name = str(named) if named else _KIND_METHOD.get(topomap.kind, topomap.kind)
+    # a map that names no method: the weighted-node method of its place, if it is one
+    by_kind = f"weighted-node-{topomap.kind}" if topomap.kind in REPRESENTATIONS else None
+    name = str(named) if named else (by_kind or topomap.kind)
     if name not in available_methods():
         why = "is not available in this install" if name in registry() else "is unknown here"
         source = "provenance.method" if named else f"node kind {topomap.kind!r}"
@@ -267,7 +261,8 @@ def _check_live(loc: Any, name: str) -> None:
         raise PpalocError(
             f"--live shows the on-sensor localiser, and method {name!r} runs on the host: "
             "give --method onsensor-lowres, onsensor-lowres16, onsensor-lbp or onsensor-haar "
-            "(with a map of their kind) or onsensor-auto (any map), or leave out --live"
+            "(with a map of their kind) or onsensor-auto (a map of any place a sensor holds; "
+            "a patch map is the host's alone), or leave out --live"
         )
     loc.record_weights = True  # untimed register reads: the estimates do not change
 

@@ -136,7 +136,9 @@ def _place(m: dict[str, Any]) -> str:
     """The place a method compared: its map kind, or a baseline's ``descriptor`` when it
     ran on one of the weighted-node filter's places (``descriptor="lowres16"``)."""
     descriptor = (m.get("params") or {}).get("descriptor")
-    return descriptor if descriptor in _PLACES else m.get("map_kind", "")
+    # a baseline's "patch" is its own image, written out or not: its own column
+    filters_place = descriptor in _PLACES and descriptor != "patch"
+    return descriptor if filters_place else m.get("map_kind", "")
 
 
 def method_label(name: str, entry: dict[str, Any], *, short: bool = False) -> str:

@@ -147,7 +147,7 @@ class HostExecutor:
 
     Parameters
     ----------
-    representation : {"lowres", "lowres16", "lbp", "haar"}
+    representation : {"lowres", "lowres16", "lbp", "haar", "patch"}
     params : FilterParams
     arithmetic : {"float", "ppa8"}
     ranking_k : int

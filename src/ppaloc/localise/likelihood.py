@@ -1,8 +1,8 @@
 """Per-frame distances from the live frame to every map node, and their register scale.
 
-Every representation gives an integer distance per node, which the filter turns into the
-scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/ppa8.md,
-"Likelihood"):
+Every place a register holds gives an integer distance per node (the host's float place a
+float), which the filter turns into the scaled likelihood ``mu_s`` in register units with
+one power-of-two factor (docs/ppa8.md, "Likelihood"):
 
 - ``"lowres"``, ``arithmetic="ppa8"``: ``T_i = sum over the 64 cells of
   min(|S_c - 1024 q_ic|, 254 * 1024)`` with ``S_c`` the live frame's exact block sum and
@@ -35,7 +35,6 @@ scaled likelihood ``mu_s`` in register units with one power-of-two factor (docs/
   block loads 64 and a halving tree averages the 256 PEs, so ``mu_i = h_i / 4`` in
   [0, 48] register units, exactly in the update; the controller reads it rounded,
   ``floor(h_i / 4 + 1/2)`` (the ADC code of the root, :data:`HAAR_EXPONENT`).
-
 - ``"patch"`` (host, float only): SeqSLAM's patch-normalised 64x32 image, the baselines'
   own place (:func:`ppaloc.place.patch_image`). ``mu_i = PATCH_UNITS * m_i`` with ``m_i``
   the mean absolute difference per pixel in deviations (:func:`ppaloc.place.mean_abs_diff`),

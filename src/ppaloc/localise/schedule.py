@@ -88,7 +88,7 @@ class Executor(Protocol):
     thresholds and DAC constants), the others in float. ``integer_readout`` executors
     read each node's value as the controller's readout integer, from which the robust
     schedule decides the frame's scale in integers: True everywhere but the host on
-    distances ``enhance`` has made floats.
+    distances ``enhance`` has made floats and on its float place (``"patch"``).
     """
 
     exact: bool

@@ -145,7 +145,7 @@ def patch_image(frame: np.ndarray) -> np.ndarray:
     """The ``"patch"`` place of one sensor frame: :func:`preprocess` at OpenSeqSLAM's
     defaults (64x32, 8x8 patches), float32, shape :data:`PATCH_SHAPE`; the image the
     baselines compare by default."""
-    return preprocess(frame)
+    return preprocess(frame, PATCH_SHAPE)
 
 
 def mean_abs_diff(query: np.ndarray, nodes: np.ndarray) -> np.ndarray:
