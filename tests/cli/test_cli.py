@@ -329,6 +329,21 @@ def test_a_map_saved_from_python_is_localised_by_its_places_method(kind, tmp_pat
     assert len(out.splitlines()) == 3
 
 
+def test_onsensor_auto_localises_a_map_of_any_place_it_chooses_among(tiny_spec, tmp_path, capsys):
+    lbp = tmp_path / "lbp.npz"
+    code, _, err = run(capsys, "map", tiny_spec, "-m", "weighted-node-lbp", "--out", lbp, "-q")
+    assert code == 0, err
+    frames = _frames(tmp_path / "q", 2)
+    code, out, err = run(capsys, "localise", lbp, *frames, "-m", "onsensor-auto")
+    assert code == 0, err  # it runs the map's own place (it asked for 16x16 nodes)
+    assert len(out.splitlines()) == 3
+    patch = tmp_path / "patch.npz"
+    code, _, err = run(capsys, "map", tiny_spec, "-m", "weighted-node-patch", "--out", patch, "-q")
+    assert code == 0, err
+    code, _, err = run(capsys, "localise", patch, *frames, "-m", "onsensor-auto")
+    assert code == 1 and "holds 'patch' nodes" in err and "weighted-node-patch" in err
+
+
 def test_bench_writes_json(mean_match, tmp_path, capsys):
     code, out, err = run(
         capsys, "bench", "-m", mean_match, "--sizes", "4,8", "--queries", "2", "--out", tmp_path

@@ -201,9 +201,16 @@ def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
     how to build the right one."""
     from ppaloc.methods import registry
 
+    takes = getattr(loc, "map_kinds", None)  # a localiser that takes several kinds
+    if takes is not None and topomap.kind in takes:
+        return
     needs = getattr(loc, "representation", None) or getattr(loc, "kind", None)
     if needs is None or topomap.kind == needs:
         return
+    if takes is not None and len(takes) > 1:
+        needs = " or ".join(repr(k) for k in takes)
+    else:
+        needs = repr(needs)
     readers = [m for m, s in registry().items() if s.defaults.get("representation") == topomap.kind]
     built_by = topomap.provenance.get("method")
     if built_by and built_by not in readers:
@@ -211,7 +218,7 @@ def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
     use = f"localise it with --method {readers[0]}" if readers else "use a matching map"
     raise PpalocError(
         f"map {map_path} holds {topomap.kind!r} nodes but method {name!r} needs "
-        f"{needs!r} nodes: {use}, or build a map for {name} with "
+        f"{needs} nodes: {use}, or build a map for {name} with "
         f"`ppaloc map DATASET --method {name} --out MAP.npz`"
     )
 

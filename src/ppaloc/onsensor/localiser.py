@@ -234,6 +234,14 @@ class OnSensorLocaliser(DeclaredSpeeds):
         self.pipeline: SensorExecutor | SensorBank | None = None
         self._last_counts: tuple[Any, int, dict] | None = None
 
+    @property
+    def map_kinds(self) -> tuple[str, ...]:
+        """The node kinds of a saved map :meth:`use_map` takes: the localiser's place, or
+        with ``"auto"`` any place it chooses among (it then runs the map's own)."""
+        if self._auto is not None:
+            return tuple(self._auto.candidates)
+        return (self.representation,)
+
     @classmethod
     def parameters(cls) -> tuple[MethodParam, ...]:
         """Every keyword this localiser takes: its own options, then the filter's
