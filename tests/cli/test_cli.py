@@ -496,6 +496,16 @@ def test_evaluate_on_a_nordland_slice(nordland_dir, tmp_path, capsys):
     assert 0.0 <= summary["methods"][method]["f1_max"] <= 1.0
 
 
+def test_warm_up_without_numba_is_one_line(monkeypatch, capsys):
+    import ppaloc.sim.engines as engines
+
+    monkeypatch.setattr(engines, "available_engines", lambda: ["reference", "numpy"])
+    assert main(["warm-up"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("ppaloc: error: ppaloc warm-up compiles the simulator's numba code")
+    assert len(err.splitlines()) == 1 and "ppaloc[fast]" in err
+
+
 def test_warm_up_runs_the_pipelines_then_waits_for_their_compiles(monkeypatch, capsys):
     """`ppaloc warm-up` runs every on-sensor pipeline, then compiles in the foreground
     (here the runs and the compiles are counted, not made)."""

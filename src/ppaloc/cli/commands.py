@@ -633,6 +633,14 @@ def run_warm_up(*, quiet: bool = False) -> int:
     """Compile the fused code of every on-sensor pipeline (:func:`ppaloc.onsensor.warm.warm_up`)
     with a progress bar; print how many stretches were compiled. Returns that number."""
     from ppaloc.evaluate.run import ProgressBar
+    from ppaloc.sim.engines import available_engines
+
+    if "compiled" not in available_engines():
+        raise PpalocError(
+            "ppaloc warm-up compiles the simulator's numba code, and numba is not installed "
+            "here: install ppaloc with its fast extra (pip install 'ppaloc[fast]'), or run "
+            "without it (the numpy engine compiles nothing)"
+        )
     from ppaloc.onsensor.warm import CONFIGS, warm_up
 
     with ProgressBar(not quiet) as bar:
