@@ -10,8 +10,10 @@ $(BIN)/activate:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# the fast extra (numba): the simulated sensor's compiled engine, which the README's
+# demo times are measured with (without it the simulator runs its numpy engine, slower)
 $(VENV)/.installed: pyproject.toml $(BIN)/activate
-	$(BIN)/python -m pip install --quiet -e .
+	$(BIN)/python -m pip install --quiet -e '.[fast]'
 	touch $@
 
 $(VENV)/.installed-dev: pyproject.toml $(BIN)/activate
