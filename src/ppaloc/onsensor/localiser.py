@@ -236,11 +236,8 @@ class OnSensorLocaliser(DeclaredSpeeds):
 
     @property
     def map_kinds(self) -> tuple[str, ...]:
-        """The node kinds of a saved map :meth:`use_map` takes: the localiser's place, or
-        with ``"auto"`` any place it chooses among (it then runs the map's own)."""
-        if self._auto is not None:
-            return tuple(self._auto.candidates)
-        return (self.representation,)
+        """Node kinds of a saved map :meth:`use_map` takes (``"auto"``: any it chooses among)."""
+        return tuple(self._auto.candidates) if self._auto is not None else (self.representation,)
 
     @classmethod
     def parameters(cls) -> tuple[MethodParam, ...]:
@@ -320,13 +317,14 @@ class OnSensorLocaliser(DeclaredSpeeds):
             nodes = [mapper.sense_node(f) for f in frames]
             kept = list(range(len(frames)))
         dtype = KIND_SPECS[self.representation][0]
+        noise = self.noise if isinstance(self.noise, str) else "custom"
         params = {
             "kind": self.representation,
             "keyframe_threshold": None,
             "keyframes": "motion test" if self.params.keyframes else None,
             "keyframe_units": None,
             "n_frames": len(frames),
-            "mapped_on": f"simulated SCAMP-5, noise={self._noise_name()}",
+            "mapped_on": f"simulated SCAMP-5, noise={noise}",
         }
         if places is not None:
             params["places"] = "motion test"
@@ -346,7 +344,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
         (``"auto"`` takes the map's own place)."""
         if self._auto is not None:
             self._use(self._auto.for_kind(topomap.kind))
-        self._check_map(topomap)
+        check_map(topomap, self.representation)
         capacity = layout_for(self.representation, (self.size, self.size)).capacity
         pipe = self._new_pipeline(capacity)
         self._install(topomap, self._place(len(topomap), pipe, self._runs_of(topomap)))
@@ -354,12 +352,6 @@ class OnSensorLocaliser(DeclaredSpeeds):
     def _runs_of(self, topomap: TopoMap) -> np.ndarray | None:
         """The map's places where the schedule runs its runs (None otherwise)."""
         return topomap.places if self.schedule.runs and topomap.has_runs else None
-
-    def _check_map(self, topomap: TopoMap) -> None:
-        check_map(topomap, self.representation)
-
-    def _noise_name(self) -> str:
-        return self.noise if isinstance(self.noise, str) else "custom"
 
     def _new_pipeline(self, n_nodes: int, index: int = 0) -> SensorExecutor:
         # sensor i of a bank has its own noise seed (sensor 0's is the localiser's)
@@ -412,7 +404,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
         return lane
 
     def _install(self, topomap: TopoMap, pipe: SensorExecutor | SensorBank) -> None:
-        self._check_map(topomap)
+        check_map(topomap, self.representation)
         self.schedule.use_map(topomap)  # the paper's alpha, chosen from the map
         upload(pipe, topomap, self.schedule.runs)
         self.pipeline = pipe
