@@ -1,4 +1,5 @@
-"""``benchmarks/eval_robust.py --held-out``: the routes no default was chosen on."""
+"""``benchmarks/eval_robust.py``: the routes no default was chosen on (``--held-out``) and the
+summary lines."""
 
 from __future__ import annotations
 
@@ -45,3 +46,23 @@ def test_the_real_pairs_are_held_out_the_other_way_round(
         assert eval_robust.route_group(label) == label  # a real route is its own group
         ds = load_dataset(spec)
         assert len(ds.reference) > 0 and len(ds.query) == len(ds.ground_truth)
+
+
+def test_the_summary_counts_the_places_a_sensor_holds_on_their_own_line(bench_script):
+    eval_robust = bench_script("eval_robust")
+
+    def record(label: str, **f1: float) -> dict:
+        return {
+            "label": label,
+            "results": {k.replace("_", "-"): {"f1_max": v} for k, v in f1.items()},
+        }
+
+    methods = ["weighted-node-lowres16", "weighted-node-patch", "particle-filter"]
+    records = [  # the host's place wins the first route, the sensor's place the second
+        record("a", weighted_node_lowres16=0.5, weighted_node_patch=0.9, particle_filter=0.8),
+        record("b", weighted_node_lowres16=0.9, weighted_node_patch=0.7, particle_filter=0.8),
+    ]
+    text, summary = eval_robust.comparison_table(records, methods)
+    every, on_sensor = summary.values()
+    assert (every["wins"], on_sensor["wins"]) == (2, 1)
+    assert on_sensor["min_route"] == "a" and "places a sensor holds" in text
