@@ -201,16 +201,12 @@ def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
     how to build the right one."""
     from ppaloc.methods import registry
 
-    takes = getattr(loc, "map_kinds", None)  # a localiser that takes several kinds
-    if takes is not None and topomap.kind in takes:
+    own = getattr(loc, "representation", None) or getattr(loc, "kind", None)
+    # the kinds it takes: its own, or several (the on-sensor "auto" runs a map's own place)
+    takes = getattr(loc, "map_kinds", None) or ((own,) if own else ())
+    if not takes or topomap.kind in takes:
         return
-    needs = getattr(loc, "representation", None) or getattr(loc, "kind", None)
-    if needs is None or topomap.kind == needs:
-        return
-    if takes is not None and len(takes) > 1:
-        needs = " or ".join(repr(k) for k in takes)
-    else:
-        needs = repr(needs)
+    needs = " or ".join(repr(k) for k in takes)
     readers = [m for m, s in registry().items() if s.defaults.get("representation") == topomap.kind]
     built_by = topomap.provenance.get("method")
     if built_by and built_by not in readers:
