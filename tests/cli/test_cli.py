@@ -315,6 +315,14 @@ def test_map_localise_and_show_on_the_patch_place(tiny_spec, tmp_path, capsys):
     assert "patch nodes" in out and (tmp_path / "m.png").stat().st_size > 0
 
 
+def test_map_builds_the_most_accurate_host_filters_map_by_default(tiny_spec, tmp_path, capsys):
+    from ppaloc.topomap import load_map
+
+    code, _, err = run(capsys, "map", tiny_spec, "--out", tmp_path / "m.npz", "-q")
+    assert code == 0, err
+    assert load_map(tmp_path / "m.npz").kind == "patch"
+
+
 @pytest.mark.parametrize("kind", ["patch", "haar"])
 def test_a_map_saved_from_python_is_localised_by_its_places_method(kind, tmp_path, capsys):
     from ppaloc.localise import WeightedNodeLocaliser

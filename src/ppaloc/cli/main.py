@@ -34,6 +34,10 @@ log = logging.getLogger("ppaloc")
 
 _SECTIONS = ("evaluate", "bench", "map", "localise", "demo", "sweep", "score")
 
+DEFAULT_MAP_METHOD = "weighted-node-patch"
+"""`ppaloc map` without --method: the weighted-node filter on the baselines' own 64x32 image,
+the most accurate host filter over every route measured (README, "Which to pick")."""
+
 
 # -- configuration ------------------------------------------------------------------------
 
@@ -773,7 +777,12 @@ Examples:
 @click.option(
     "--out", type=_SafePath(dir_okay=False, path_type=Path), help="Map file to write (.npz)."
 )
-@click.option("--method", "-m", help="Method whose map to build [default: weighted-node-lowres].")
+@click.option(
+    "--method",
+    "-m",
+    help=f"Method whose map to build [default: {DEFAULT_MAP_METHOD}, the most accurate host "
+    "filter; a map for the sensor takes a sensor place, e.g. weighted-node-lowres16].",
+)
 @click.option("--param", "params", multiple=True, metavar="KEY=VALUE", help="Method parameter.")
 @_CONFIG
 @_QUIET
@@ -803,7 +812,7 @@ def map_(
     out_file = _output(values["out"], folder=False)
     run_map(
         dataset,
-        str(values.get("method") or "weighted-node-lowres"),
+        str(values.get("method") or DEFAULT_MAP_METHOD),
         out_file,
         dict(values.get("params", {})),
         quiet=bool(values.get("quiet")),
