@@ -86,6 +86,19 @@ def test_speed_checks_warn_once_per_declaring_method(caplog) -> None:
     assert [r.getMessage()[:2] for r in caplog.records] == ["a "]
 
 
+def test_methods_searching_the_same_speeds_share_one_warning_line(caplog) -> None:
+    gt = [np.array([2 * i]) for i in range(40)]
+    locs = {n: _Declares((0.8, 1.2)) for n in ("a", "b", "c")} | {"d": _Declares((1.0, 1.0))}
+    with caplog.at_level(logging.WARNING, logger="ppaloc.evaluate.speed"):
+        out = speed_checks(locs, gt)
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 2
+    assert lines[0].startswith("a, b and c each search query speeds of 0.8 to 1.2 reference")
+    assert "their figures here measure their speed assumption" in lines[0]
+    assert lines[1].startswith("d assumes a query speed of 1 ")
+    assert all(out[n]["warning"].startswith(f"{n} searches") for n in "abc")
+
+
 def test_baselines_declare_their_speeds() -> None:
     from ppaloc.methods import make_localiser
 

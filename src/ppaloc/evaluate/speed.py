@@ -17,8 +17,8 @@ ground truth and says so, once per method:
 - :func:`check_speed`: the share of windows far outside a method's range, and a warning
   when that share is large;
 - :func:`speed_checks`: the check of every method that declares a range (its localiser's
-  ``speed_range``), logged as a warning; each method's entry of ``results.json`` carries it
-  as ``speed_check``.
+  ``speed_range``), logged as a warning, one line for the methods that search the same
+  speeds; each method's entry of ``results.json`` carries its own as ``speed_check``.
 """
 
 from __future__ import annotations
@@ -181,26 +181,51 @@ def check_speed(
     median = float(np.median(known))
     out.update(query_speed_median=median, share_outside=outside)
     if outside > share:
-        searches = (
-            f"assumes a query speed of {lo:.3g}"
-            if lo == hi
-            else f"searches query speeds of {lo:.3g} to {hi:.3g}"
-        )
-        out["warning"] = (
-            f"{method} {searches} reference frames per query frame, but on {outside:.0%} of "
-            f"this route the query moves at under {lo / (1 + far):.2g} or over "
-            f"{hi * (1 + far):.2g} (median {median:.2f}): its figures here measure its speed "
-            f"assumption, not its place recognition; {remedy or DEFAULT_REMEDY} "
-            "(docs/baselines.md, 'Query speed')"
-        )
+        out["warning"] = _warning(method, False, (lo, hi), outside, far, median, remedy)
     return out
+
+
+def _warning(
+    subject: str,
+    several: bool,
+    speed_range: tuple[float, float],
+    outside: float,
+    far: float,
+    median: float,
+    remedy: str | None,
+) -> str:
+    """The one-line warning of :func:`check_speed`, for one method or several alike
+    (``several``: the subject names them, each searching the same speeds)."""
+    lo, hi = speed_range
+    verb, their = ("", "their") if several else ("s", "its")
+    searches = (
+        f"assume{verb} a query speed of {lo:.3g}"
+        if lo == hi
+        else f"search{'es' if verb else ''} query speeds of {lo:.3g} to {hi:.3g}"
+    )
+    return (
+        f"{subject} {searches} reference frames per query frame, but on {outside:.0%} of "
+        f"this route the query moves at under {lo / (1 + far):.2g} or over "
+        f"{hi * (1 + far):.2g} (median {median:.2f}): {their} figures here measure {their} "
+        f"speed assumption, not {their} place recognition; {remedy or DEFAULT_REMEDY} "
+        "(docs/baselines.md, 'Query speed')"
+    )
+
+
+def _names(names: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c each``: the subject of a warning shared by methods."""
+    if len(names) == 1:
+        return names[0]
+    return f"{', '.join(names[:-1])} and {names[-1]} each"
 
 
 def speed_checks(
     localisers: Mapping[str, Any], ground_truth: Sequence[np.ndarray], *, window: int = WINDOW
 ) -> dict[str, dict[str, Any]]:
-    """The speed check of every localiser that declares ``speed_range``, each warning logged
-    once (``logging.WARNING``, on stderr under ``ppaloc``'s command line).
+    """The speed check of every localiser that declares ``speed_range``, the warnings logged
+    once (``logging.WARNING``, on stderr under ``ppaloc``'s command line): one line for the
+    methods that search the same speeds with the same remedy, which an evaluation of every
+    method would otherwise print a dozen times.
 
     Parameters
     ----------
@@ -226,8 +251,21 @@ def speed_checks(
         return {}
     speeds = window_speeds(match_centres(ground_truth), window)
     out = {}
+    warned: dict[tuple[tuple[float, float], str | None], list[str]] = {}
     for name, (rng, remedy) in declared.items():
         out[name] = check_speed(speeds, (rng[0], rng[1]), method=name, remedy=remedy)
         if out[name]["warning"]:
-            log.warning("%s", out[name]["warning"])
+            warned.setdefault(((float(rng[0]), float(rng[1])), remedy), []).append(name)
+    for (rng, remedy), names in warned.items():  # one line for the methods alike
+        first = out[names[0]]
+        line = _warning(
+            _names(names),
+            len(names) > 1,
+            rng,
+            first["share_outside"],
+            FAR,
+            first["query_speed_median"],
+            remedy,
+        )
+        log.warning("%s", line)
     return out
