@@ -323,6 +323,16 @@ def test_map_builds_the_most_accurate_host_filters_map_by_default(tiny_spec, tmp
     assert load_map(tmp_path / "m.npz").kind == "patch"
 
 
+def test_a_map_of_one_node_is_named_in_the_singular(tmp_path, capsys):
+    _frames(tmp_path / "ref", 1)
+    code, out, err = run(capsys, "map", f"folder:{tmp_path / 'ref'}", "--out", tmp_path / "m.npz")
+    assert code == 0, err
+    assert "(1 patch node from" in out
+    code, out, err = run(capsys, "show", tmp_path / "m.npz", "--out", tmp_path / "m.png")
+    assert code == 0, err
+    assert ": 1 patch node ->" in out
+
+
 @pytest.mark.parametrize("kind", ["patch", "haar"])
 def test_a_map_saved_from_python_is_localised_by_its_places_method(kind, tmp_path, capsys):
     from ppaloc.localise import WeightedNodeLocaliser

@@ -452,7 +452,8 @@ def run_map(
         topomap.provenance["reference_names"] = names
     path = topomap.save(out, dataset=dataset)
     if not quiet:
-        print(f"map: {path} ({len(topomap)} {topomap.kind} nodes from {ds.name}, {method})")
+        nodes = f"{len(topomap)} {topomap.kind} node{'' if len(topomap) == 1 else 's'}"
+        print(f"map: {path} ({nodes} from {ds.name}, {method})")
     return path
 
 
@@ -572,7 +573,9 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
 
         write_bytes(out, png_bytes(_descriptor_figure(topomap)))
     if not quiet:
-        print(f"{path}: {len(topomap)} {topomap.kind} nodes -> {out}")
+        print(
+            f"{path}: {len(topomap)} {topomap.kind} node{'' if len(topomap) == 1 else 's'} -> {out}"
+        )
     return out
 
 
