@@ -129,3 +129,27 @@ def test_a_callback_the_program_ran_is_not_run_again_with_the_hosts_value(cxx, t
     source.write_text(MOVED_ON_CONNECT)
     result = run_program(source, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
     assert result.texts == ["rate 200"]
+
+
+BUTTON_CALLBACK = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    vs_handle reset = vs_gui_add_button("reset");
+    vs_on_gui_update(reset, [&](int32_t v) { vs_post_text("pressed %d", v); });
+    while (1) {
+        vs_frame_loop_control();
+        vs_post_text("frame");
+    }
+}
+"""
+
+
+def test_a_button_callback_runs_only_when_it_is_pressed(cxx, tmp_path):
+    # the host sends a button's message when it is pressed, never at the start as it
+    # sends a slider's value; nothing presses it here (it ran once with 0, a press)
+    source = tmp_path / "button.cpp"
+    source.write_text(BUTTON_CALLBACK)
+    result = run_program(source, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
+    assert result.texts == ["frame", "frame"]

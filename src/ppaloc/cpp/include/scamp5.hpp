@@ -27,6 +27,7 @@
 #include <array>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -1013,6 +1014,7 @@ struct Gui {
     std::map<vs_handle, volatile int*> writeback;
     std::map<vs_handle, std::function<void(int32_t)>> callbacks;
     std::vector<vs_handle> due;  // callbacks set since the last message processing
+    std::set<vs_handle> buttons;  // never pressed: the host sends no value for them
     vs_handle next = 1;
 };
 inline Gui& gui() {
@@ -1218,6 +1220,7 @@ inline vs_handle vs_gui_add_button(const char* text) {
     (void)text;
     vs_handle h = ppa::gui().next++;
     ppa::gui().values[h] = 0;  // never pressed
+    ppa::gui().buttons.insert(h);
     return h;
 }
 namespace ppa {
@@ -1270,7 +1273,9 @@ inline void vs_on_gui_update(vs_handle item, std::function<void(int32_t)> f) {
     g.callbacks[item] = f;
     // Called with the value given to this run, once, at the next message processing (the
     // next vs_frame_loop_control or vs_process_message), as the device calls it when the
-    // host's value arrives, never from here.
+    // host's value arrives, never from here. A button's callback runs when it is pressed,
+    // and nothing presses one here.
+    if (g.buttons.count(item)) return;
     if (std::find(g.due.begin(), g.due.end(), item) == g.due.end()) g.due.push_back(item);
 }
 
