@@ -378,6 +378,11 @@ def test_cli_exit_codes(faults, tmp_path, capsys):
     assert main([*args, "-q"]) == 0
     assert main(["cpp", "run", str(FAULTS), "--out", str(noisy), "--seed", "-1"]) == 1
     assert "--seed -1 must be 0 or more" in capsys.readouterr().err
+    # as every other command's seed: at most 2**63 - 1 (a larger one ran)
+    assert main(["cpp", "run", str(FAULTS), "--out", str(noisy), "--seed", str(2**64)]) == 1
+    assert capsys.readouterr().err == (
+        f"ppaloc: error: --seed {2**64} is too large: give an integer in [0, {2**63 - 1}]\n"
+    )
     code = main(["cpp", "run", str(FAULTS), "--out", str(tmp_path / "bad"), "--set", "fault=3"])
     assert code == 1
     err = capsys.readouterr().err
