@@ -188,8 +188,12 @@ def _merge(
 ) -> dict[str, Any]:
     """Flags that were given (not None, not empty) override the file; params merge per
     method (``nested``: ``{method: {key: value}}``) or key by key (one method's table)."""
+    from ppaloc.evaluate.config import check_limits
+
     merged = dict(file_values)
     _check_cli_values(merged, source)  # a bad file value is refused even when a flag wins
+    # a flag's number is refused as the flag's, not the file's (whose name it would carry)
+    check_limits({k: v for k, v in flags.items() if isinstance(v, int | float)})
     if nested:  # one method's table is checked by the command, which names its section
         _check_params(merged.get("params"), source)
     for key, value in flags.items():
