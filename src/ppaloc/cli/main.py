@@ -900,6 +900,7 @@ def localise(
     epilog="""\b
 Examples:
   ppaloc show run1                  # table + run1/report.html rebuilt from the files
+  ppaloc show sweep1                # a sweep's best cells + its report rebuilt
   ppaloc show route.npz --out route.png
   ppaloc show planes.npz            # every 2-D array as a register plane
   ppaloc show est.csv               # a localise CSV: its rows, and est.png"""
@@ -912,8 +913,8 @@ Examples:
 )
 @_QUIET
 def show(path: Path, out: Path | None, quiet: bool | None) -> None:
-    """Render a results folder (table and report), a saved map, register planes or a
-    localise CSV (rows, and a plot of predicted reference against query)."""
+    """Render a results folder or a sweep's (table and report), a saved map, register planes
+    or a localise CSV (rows, and a plot of predicted reference against query)."""
     from ppaloc.cli.commands import run_show
 
     run_show(path, None if out is None else _output(out, folder=False), quiet=bool(quiet))
