@@ -459,3 +459,15 @@ def test_a_rom_kernel_compiles_and_stops_where_it_is_built(cxx, tmp_path, source
     assert message.endswith("or run raw ICW words with vs_scamp5_execute_icw")
     assert "\n" not in message
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("shape", [(64, 32), (32, 64), (300, 300)])
+def test_frames_not_square_or_larger_than_the_device_are_refused(faults, shape):
+    # the array took their shape: a program's hardware addresses (8-bit, 0..255) then
+    # failed mid-run (select_col(5) of a 300-wide array: "c=294 is out of range")
+    with pytest.raises(PpalocError) as err:
+        run_program(FAULTS, [np.zeros(shape, np.uint8)])
+    assert str(err.value).startswith(
+        f"the frames are {shape[0]} x {shape[1]}: the array a device program runs on is "
+        "square and at most 256 x 256"
+    )
