@@ -134,3 +134,29 @@ def test_numpy_integers_are_accepted_where_ints_are(sim: Scamp5) -> None:
     assert sim.read(B)[1, 1] == 4
     with pytest.raises(RegisterMisuseError, match=r"boundary=1.0 .* use 0 or 1"):
         sim.DNEWS(R5, R6, east, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        # a digital destination beside a source that is no register: the message about the
+        # destination printed the instruction, and stopped on the source's missing name
+        (lambda s: s.abs(R5, None), r"bus: None is not a register handle"),
+        (lambda s: s.bus(R5, None), r"bus: None is not a register handle"),
+        (lambda s: s.bus(None), r"bus\(None\): give a register"),
+        (lambda s: s.bus(3), r"bus\(3\): give a register"),
+        (lambda s: s.icw([], (A,)), r"\[\] is not an instruction"),
+        (lambda s: s.address_mask(None, 0, 0, 0, False), r"address_mask: r=None must be"),
+        (lambda s: s.address_mask(0, 0, 0, 300, False), r"address_mask: cx=300 is out of"),
+    ],
+)
+def test_api_arguments_of_the_wrong_kind_are_one_line(sim: Scamp5, call, message) -> None:
+    with pytest.raises(PpalocError, match=message) as err:
+        call(sim)
+    assert "\n" not in str(err.value)
+
+
+def test_address_mask_takes_numpy_integers(sim: Scamp5) -> None:
+    # np.uint8(255) & ~3 overflowed uint8 (an OverflowError)
+    got = sim.address_mask(np.uint8(255), np.uint8(0), np.uint8(3), np.uint8(0), False)
+    np.testing.assert_array_equal(got, sim.address_mask(255, 0, 3, 0, False))

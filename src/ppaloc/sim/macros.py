@@ -119,7 +119,7 @@ class ProgramAPI:
 
             self._emit((decode(op, dsts),))
             return
-        if op not in OPS:
+        if not isinstance(op, str) or op not in OPS:
             raise RegisterMisuseError(f"{op!r} is not an instruction; use one of {sorted(OPS)}")
         for name, regs in (("dsts", dsts), ("srcs", srcs)):
             if isinstance(regs, Register) or not isinstance(regs, Sequence):
@@ -148,6 +148,11 @@ class ProgramAPI:
         if isinstance(a, Register):
             self._prim("bus", (a,), srcs)
             return
+        if not isinstance(a, Sequence) or isinstance(a, str):
+            raise RegisterMisuseError(
+                f"bus({a!r}): give a register, or the destinations and the sources as two "
+                "tuples, e.g. bus(A, B) or bus((A, B), (C,))"
+            )
         if len(srcs) > 1 or (srcs and isinstance(srcs[0], Register)):
             raise RegisterMisuseError(
                 "bus(dsts, srcs): give the destinations and the sources as two tuples, "
