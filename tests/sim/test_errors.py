@@ -11,6 +11,7 @@ import pytest
 
 from ppaloc.errors import PpalocError, RegisterMisuseError, SimulatorError
 from ppaloc.sim import R5, R6, A, B, NoiseParams, Scamp5, TimingModel, east
+from ppaloc.sim.kernel import IcwStackWarning
 from ppaloc.sim.registers import register_by_name
 
 
@@ -77,6 +78,21 @@ def test_global_sum_out_must_be_an_array(sim: Scamp5) -> None:
 def test_newsblur_iterations(sim: Scamp5, n) -> None:
     with pytest.raises(SimulatorError, match=rf"newsblur\(A, B, {n!r}\): iterations={n!r}"):
         sim.newsblur(A, B, n)
+
+
+@pytest.mark.parametrize("name", ["newsblur", "newsblurh", "gauss", "gaussv"])
+def test_blur_iterations_beyond_the_controllers_bound_are_refused(sim: Scamp5, name) -> None:
+    # 2**70 iterations built a list of 2**71 steps (memory until the machine gave out; a
+    # C++ int of 10**8 took tens of GB), where any kernel keeps 1024 ICWs
+    with pytest.raises(SimulatorError) as err, sim.kernel() as k:
+        getattr(k, name)(A, B, 2**70)
+    assert str(err.value) == (
+        f"{name}(A, B, {2**70}): iterations={2**70} is too many; use an integer in "
+        "[1, 65536] (a kernel holds 1024 ICWs)"
+    )
+    with pytest.warns(IcwStackWarning, match="lost"), sim.kernel() as k:
+        getattr(k, name)(A, B, 1 << 16)  # the bound itself: its first ICWs kept, as ever
+    assert len(k) == 1024 and k.dropped > 0
 
 
 def test_noise_params_must_be_numbers() -> None:

@@ -669,6 +669,11 @@ def _no_r12_dst(call: str, dsts: Sequence[Register]) -> None:
             )
 
 
+MAX_ITERATIONS = 1 << 16
+"""Most passes of a blur macro (``newsblur*``, ``gauss*``), the bound of the controller's
+``diffuse`` and ``flood`` iterations: two ICWs a pass, far beyond a kernel's 1024."""
+
+
 def _check_iterations(call: str, iterations: object) -> None:
     if (
         isinstance(iterations, bool)
@@ -676,6 +681,11 @@ def _check_iterations(call: str, iterations: object) -> None:
         or iterations < 1
     ):
         raise SimulatorError(f"{call}: iterations={iterations!r} is invalid; use an integer >= 1")
+    if iterations > MAX_ITERATIONS:  # its steps are listed before the kernel keeps 1024
+        raise SimulatorError(
+            f"{call}: iterations={iterations!r} is too many; use an integer in "
+            f"[1, {MAX_ITERATIONS}] (a kernel holds 1024 ICWs)"
+        )
 
 
 def _and_steps(d: Register, d0: Register, d1: Register) -> list[Step]:
