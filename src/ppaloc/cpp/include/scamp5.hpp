@@ -1590,8 +1590,18 @@ inline void vs_post_set_channel(uint32_t ch, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("vs_post_set_channel", false, int(ch));
 }
 namespace ppa {
+// The most bytes one posted array carries (a 2048 x 2048 float array; the device's own
+// memory holds far less): a size beyond it is a bad count, e.g. -1 made a size_t.
+constexpr size_t MAX_POST_BYTES = size_t(1) << 24;
 template <typename T>
 inline void post(const char* fn, const T* data, size_t rows, size_t cols, const Loc& loc) {
+    if (rows > MAX_POST_BYTES || cols > MAX_POST_BYTES ||
+        rows * cols > MAX_POST_BYTES / sizeof(T)) {
+        fail(loc, std::string(fn) + "(" + std::to_string(rows) + " rows, " +
+                      std::to_string(cols) + " cols): more than a post carries (" +
+                      std::to_string(MAX_POST_BYTES) +
+                      " bytes); give the array's rows and columns");
+    }
     if (!data && rows * cols) fail(loc, std::string(fn) + ": the data pointer is NULL");
     call(fn, false, {Arg(data, rows * cols * sizeof(T)), int(rows), int(cols)}, loc);
 }
