@@ -189,6 +189,8 @@ def test_posted_data_keeps_frame_channel_and_type(frames, tmp_path):
         # it stopped in the shim: "an uncaught exception std::length_error", no line
         (20, r"device_api.cpp:\d+: vs_post_int16\(18446744073709551615 rows, 4 cols\): more "
              r"than a post carries \(16777216 bytes\); give the array's rows and columns"),
+        (21, r"device_api.cpp:\d+: scamp5_display_events\(18446744073709551615 events\): more "
+             r"than a post carries \(16777216 bytes\); give the number of events in the buffer"),
     ],
 )  # fmt: skip
 def test_misuse_is_one_line_with_its_line(frames, tmp_path, mode, message):
