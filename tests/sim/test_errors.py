@@ -90,8 +90,10 @@ def test_blur_iterations_beyond_the_controllers_bound_are_refused(sim: Scamp5, n
         f"{name}(A, B, {2**70}): iterations={2**70} is too many; use an integer in "
         "[1, 65536] (a kernel holds 1024 ICWs)"
     )
+    with pytest.raises(SimulatorError, match="is too many"), sim.kernel() as k:
+        getattr(k, name)(A, B, (1 << 16) + 1)
     with pytest.warns(IcwStackWarning, match="lost"), sim.kernel() as k:
-        getattr(k, name)(A, B, 1 << 16)  # the bound itself: its first ICWs kept, as ever
+        getattr(k, name)(A, B, 600)  # more than a kernel holds: its first ICWs kept, as ever
     assert len(k) == 1024 and k.dropped > 0
 
 
