@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 from PIL import Image
 
+from ppaloc.errors import DataError
+
 __all__ = ["SENSOR_SHAPE", "to_grey", "to_sensor"]
 
 SENSOR_SHAPE = (256, 256)
@@ -21,16 +23,33 @@ def to_grey(frame: np.ndarray) -> np.ndarray:
     Colour is converted with the ITU-R 601 luma weights (0.299 R + 0.587 G + 0.114 B),
     the rule Pillow's ``convert("L")`` uses; alpha is ignored; float frames are taken as
     [0, 1] and scaled to [0, 255].
+
+    Raises
+    ------
+    DataError
+        A frame of another shape, of values that are not real numbers (text, objects,
+        complex) or holding NaN or infinite values (no grey level stands for them).
     """
     a = np.asarray(frame)
+    if a.dtype.kind not in "biuf":
+        raise DataError(
+            f"a frame must hold real numbers, got dtype {a.dtype}: give a uint8 image "
+            "(or floats in [0, 1])"
+        )
+    if a.dtype.kind == "f" and not np.isfinite(a).all():
+        bad = int(np.count_nonzero(~np.isfinite(a)))
+        raise DataError(
+            f"a frame of shape {a.shape} holds {bad} NaN or infinite value(s), which no grey "
+            "level stands for: give finite values"
+        )
     if a.ndim == 3 and a.shape[2] in (3, 4):
         a = a[..., :3].astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)
         a = np.rint(a) if np.issubdtype(np.asarray(frame).dtype, np.integer) else a
     elif a.ndim == 3 and a.shape[2] == 1:
         a = a[..., 0]
     elif a.ndim != 2:
-        raise ValueError(f"a frame must be 2-D grey or HxWx3/4 colour, got shape {a.shape}")
-    if np.issubdtype(a.dtype, np.floating) and a.size and float(np.nanmax(a)) <= 1.0:
+        raise DataError(f"a frame must be 2-D grey or HxWx3/4 colour, got shape {a.shape}")
+    if np.issubdtype(a.dtype, np.floating) and a.size and float(np.max(a)) <= 1.0:
         a = a * 255.0
     return np.clip(a, 0, 255).astype(np.uint8)
 
@@ -43,6 +62,7 @@ def to_sensor(frame: np.ndarray) -> np.ndarray:
     when shrinking, so downsampling is anti-aliased). Nothing is cropped: the aspect ratio
     is not kept (Nordland's 64x32 is stretched 4x by 8x, Gardens Point's 960x540 squeezed),
     so every method sees the full field of view, as in OpenSeqSLAM's resize to 64x32.
+    A frame :func:`to_grey` refuses, or an empty one, raises :class:`~ppaloc.errors.DataError`.
 
     Examples
     --------
@@ -53,7 +73,7 @@ def to_sensor(frame: np.ndarray) -> np.ndarray:
     if grey.shape == SENSOR_SHAPE:
         return grey
     if grey.size == 0:
-        raise ValueError("an empty frame cannot be shown to the sensor")
+        raise DataError(f"an empty frame (shape {grey.shape}) cannot be shown to the sensor")
     size = (SENSOR_SHAPE[1], SENSOR_SHAPE[0])  # Pillow takes (width, height)
     out = Image.fromarray(grey).resize(size, Image.Resampling.BILINEAR)
     return np.asarray(out, dtype=np.uint8)

@@ -284,3 +284,28 @@ def test_a_symlink_loop_is_named(tmp_path, monkeypatch, capsys, argv, named):
     assert code == 1, err
     assert err.startswith(f"ppaloc: error: {named} ") and err.count("\n") == 1, err
     assert "symlink loop" in err
+
+
+SWEEP_TOML = f'datasets = ["{TINY}"]\nmethods = ["single-frame"]\n'
+
+
+@pytest.mark.parametrize(
+    ("argv", "toml"),
+    [
+        (["evaluate", "--seed", "9" * 30, "--out", "r"], BASE_TOML),
+        (["evaluate", "--tolerance", "-4", "--out", "r"], BASE_TOML),
+        (["bench", "--seed", "-3", "--out", "r"], 'methods = ["single-frame"]\n'),
+        (["sweep", "--tolerance", "-3", "--out", "r"], SWEEP_TOML),
+    ],
+)
+def test_a_bad_flag_beside_a_config_file_is_not_blamed_on_the_file(
+    tmp_path, monkeypatch, capsys, argv, toml
+):
+    # the message named c.toml for a value that only the flag gave
+    monkeypatch.chdir(tmp_path)
+    Path("c.toml").write_text(toml)
+    assert main([*argv, "--config", "c.toml"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and " must be an integer in [" in err, err
+    assert "c.toml" not in err
+    assert not Path("r").exists()

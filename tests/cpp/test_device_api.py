@@ -186,6 +186,11 @@ def test_posted_data_keeps_frame_channel_and_type(frames, tmp_path):
         (17, r"vs_post_bind_io_agent\(NULL\): give an io agent: vs_usb, vs_spi or vs_uart"),
         (18, r"allow_highspeed\(\) is a kernel function: call it inside a kernel"),
         (19, r"vs_frame_trigger_set\(1, 0\): the interval num/den s needs num and den above 0"),
+        # it stopped in the shim: "an uncaught exception std::length_error", no line
+        (20, r"device_api.cpp:\d+: vs_post_int16\(18446744073709551615 rows, 4 cols\): more "
+             r"than a post carries \(16777216 bytes\); give the array's rows and columns"),
+        (21, r"device_api.cpp:\d+: scamp5_display_events\(18446744073709551615 events\): more "
+             r"than a post carries \(16777216 bytes\); give the number of events in the buffer"),
     ],
 )  # fmt: skip
 def test_misuse_is_one_line_with_its_line(frames, tmp_path, mode, message):

@@ -378,6 +378,11 @@ def test_cli_exit_codes(faults, tmp_path, capsys):
     assert main([*args, "-q"]) == 0
     assert main(["cpp", "run", str(FAULTS), "--out", str(noisy), "--seed", "-1"]) == 1
     assert "--seed -1 must be 0 or more" in capsys.readouterr().err
+    # as every other command's seed: at most 2**63 - 1 (a larger one ran)
+    assert main(["cpp", "run", str(FAULTS), "--out", str(noisy), "--seed", str(2**64)]) == 1
+    assert capsys.readouterr().err == (
+        f"ppaloc: error: --seed {2**64} is too large: give an integer in [0, {2**63 - 1}]\n"
+    )
     code = main(["cpp", "run", str(FAULTS), "--out", str(tmp_path / "bad"), "--set", "fault=3"])
     assert code == 1
     err = capsys.readouterr().err
@@ -454,3 +459,15 @@ def test_a_rom_kernel_compiles_and_stops_where_it_is_built(cxx, tmp_path, source
     assert message.endswith("or run raw ICW words with vs_scamp5_execute_icw")
     assert "\n" not in message
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("shape", [(64, 32), (32, 64), (300, 300)])
+def test_frames_not_square_or_larger_than_the_device_are_refused(faults, shape):
+    # the array took their shape: a program's hardware addresses (8-bit, 0..255) then
+    # failed mid-run (select_col(5) of a 300-wide array: "c=294 is out of range")
+    with pytest.raises(PpalocError) as err:
+        run_program(FAULTS, [np.zeros(shape, np.uint8)])
+    assert str(err.value).startswith(
+        f"the frames are {shape[0]} x {shape[1]}: the array a device program runs on is "
+        "square and at most 256 x 256"
+    )

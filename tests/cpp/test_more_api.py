@@ -129,3 +129,60 @@ def test_a_callback_the_program_ran_is_not_run_again_with_the_hosts_value(cxx, t
     source.write_text(MOVED_ON_CONNECT)
     result = run_program(source, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
     assert result.texts == ["rate 200"]
+
+
+BUTTON_CALLBACK = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    vs_handle reset = vs_gui_add_button("reset");
+    vs_on_gui_update(reset, [&](int32_t v) { vs_post_text("pressed %d", v); });
+    while (1) {
+        vs_frame_loop_control();
+        vs_post_text("frame");
+    }
+}
+"""
+
+
+def test_a_button_callback_runs_only_when_it_is_pressed(cxx, tmp_path):
+    # the host sends a button's message when it is pressed, never at the start as it
+    # sends a slider's value; nothing presses it here (it ran once with 0, a press)
+    source = tmp_path / "button.cpp"
+    source.write_text(BUTTON_CALLBACK)
+    result = run_program(source, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
+    assert result.texts == ["frame", "frame"]
+
+
+INIT_OUTSIDE = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    int level = 0;
+    vs_handle h = vs_gui_add_slider("level", 0, 10, 50, &level);
+    vs_gui_add_slider("low", -5, 5, -9);
+    while (1) {
+        vs_frame_loop_control();
+        vs_post_text("%d %d", level, vs_gui_read_slider(h));
+    }
+}
+"""
+
+
+def test_a_sliders_initial_value_outside_its_range_starts_at_the_nearest_end(cxx, tmp_path):
+    # min and max are the values the slider allows (the headers): the host's slider holds
+    # only those, so the program gets the nearest end; it got 50 from a [0, 10] slider,
+    # which no --set or live view could give back
+    source = tmp_path / "init.cpp"
+    source.write_text(INIT_OUTSIDE)
+    result = run_program(source, [np.zeros((N, N), np.uint8)], timeout=60)
+    assert result.texts == ["10 10"]
+    assert result.session.gui_values == {"level": 10, "low": -5}
+    assert result.session.warnings == [
+        "init.cpp:7: vs_gui_add_slider('level', 0, 10, 50): the initial value is outside the "
+        "range the slider allows; it starts at 10, as the host's slider holds",
+        "init.cpp:8: vs_gui_add_slider('low', -5, 5, -9): the initial value is outside the "
+        "range the slider allows; it starts at -5, as the host's slider holds",
+    ]

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from ppaloc.datasets import to_grey, to_sensor
+from ppaloc.errors import DataError
 
 
 @pytest.mark.parametrize(
@@ -37,3 +38,24 @@ def test_stretch_keeps_the_whole_field_of_view():
 def test_colour_uses_601_luma():
     px = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]]], np.uint8)
     assert to_grey(px).tolist() == [[76, 150, 29]]
+
+
+@pytest.mark.parametrize(
+    ("frame", "message"),
+    [
+        (np.full((4, 4), np.nan), r"holds 16 NaN or infinite value\(s\)"),
+        (np.array([[np.inf, 0.5], [0.0, 1.0]], np.float32), r"holds 1 NaN or infinite"),
+        (np.full((4, 4, 3), np.nan), r"holds 48 NaN or infinite"),
+        (np.full((4, 4), "a"), r"must hold real numbers, got dtype <U1"),
+        (np.ones((4, 4), complex), r"must hold real numbers, got dtype complex128"),
+        (np.zeros((4, 4), object), r"must hold real numbers, got dtype object"),
+        (np.zeros((4, 4, 2)), r"must be 2-D grey or HxWx3/4 colour, got shape \(4, 4, 2\)"),
+        (np.zeros((0, 5), np.uint8), r"an empty frame \(shape \(0, 5\)\) cannot be shown"),
+    ],
+)
+def test_a_frame_no_grey_level_stands_for_is_refused(frame, message):
+    # NaN became black (0) with a warning; text stopped in numpy's clip; complex lost its
+    # imaginary part with a warning
+    with pytest.raises(DataError, match=message) as err:
+        to_sensor(frame)
+    assert "\n" not in str(err.value)

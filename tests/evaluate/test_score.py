@@ -23,6 +23,8 @@ from ppaloc.evaluate.score import (
     score_predictions,
 )
 
+from ..datasets.test_loaders import _write_video
+
 
 def _dataset(n: int = 4, tolerance: int = 0, m: int | None = None) -> RouteDataset:
     """``n`` rendered reference frames and ``m`` (default ``n``) query frames; query ``i``
@@ -131,17 +133,8 @@ def test_names_are_matched_where_the_dataset_has_files(tmp_path):
 
 
 def test_a_video_frame_is_named_by_its_file_and_index(tmp_path):
-    av = pytest.importorskip("av")
     path = tmp_path / "v.mp4"
-    with av.open(str(path), "w") as container:
-        stream = container.add_stream("mpeg4", rate=5)
-        stream.width, stream.height, stream.pix_fmt = 32, 32, "yuv420p"
-        for i in range(4):
-            frame = av.VideoFrame.from_ndarray(np.full((32, 32, 3), 50 * i, np.uint8), "rgb24")
-            for packet in stream.encode(frame):
-                container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
+    _write_video(path, [np.full((32, 32), 50 * i, np.uint8) for i in range(4)], fps=5)
     ds = load_dataset(f"video:{path},{path}?step=2")
     assert ds.reference.names() == ["v.mp4#0", "v.mp4#2"]
 

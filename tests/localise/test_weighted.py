@@ -316,6 +316,17 @@ def test_step_without_map_and_wrong_map(route):
         loc.build_map([])
 
 
+@pytest.mark.parametrize(
+    "frame", [np.zeros((256, 256)), np.zeros((32, 32), np.uint8), np.zeros((256, 256, 3), np.uint8)]
+)
+def test_a_frame_that_is_not_a_sensor_frame_is_a_user_error(route, frame):
+    # it was a ValueError from the place layer (SeqSLAM and the sensor: PpalocError)
+    loc = WeightedNodeLocaliser("lbp")
+    loc.build_map(route)
+    with pytest.raises(PpalocError, match=r"convert frames with ppaloc\.frontend\.to_sensor"):
+        loc.step(frame)
+
+
 @pytest.mark.parametrize("n", [5, 300, 5000, 70001])
 def test_top_k_finds_the_largest(n):
     from ppaloc.localise.host import top_k

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ppaloc.errors import PpalocError
 from ppaloc.place import block_means, block_sums, lbp_grid, lowres_image
 
 
@@ -54,7 +55,7 @@ def test_block_means_rejects_a_grid_that_does_not_divide_256(grid: int) -> None:
     ],
 )
 def test_block_sums_rejects_non_sensor_frames(frames: np.ndarray, message: str) -> None:
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(PpalocError, match=message):  # a user's frame: one line from the CLI
         block_sums(frames)
 
 

@@ -11,6 +11,7 @@ import pytest
 
 from ppaloc.errors import PpalocError, RegisterMisuseError, SimulatorError
 from ppaloc.sim import R5, R6, A, B, NoiseParams, Scamp5, TimingModel, east
+from ppaloc.sim.kernel import IcwStackWarning
 from ppaloc.sim.registers import register_by_name
 
 
@@ -79,6 +80,23 @@ def test_newsblur_iterations(sim: Scamp5, n) -> None:
         sim.newsblur(A, B, n)
 
 
+@pytest.mark.parametrize("name", ["newsblur", "newsblurh", "gauss", "gaussv"])
+def test_blur_iterations_beyond_the_controllers_bound_are_refused(sim: Scamp5, name) -> None:
+    # 2**70 iterations built a list of 2**71 steps (memory until the machine gave out; a
+    # C++ int of 10**8 took tens of GB), where any kernel keeps 1024 ICWs
+    with pytest.raises(SimulatorError) as err, sim.kernel() as k:
+        getattr(k, name)(A, B, 2**70)
+    assert str(err.value) == (
+        f"{name}(A, B, {2**70}): iterations={2**70} is too many; use an integer in "
+        "[1, 65536] (a kernel holds 1024 ICWs)"
+    )
+    with pytest.raises(SimulatorError, match="is too many"), sim.kernel() as k:
+        getattr(k, name)(A, B, (1 << 16) + 1)
+    with pytest.warns(IcwStackWarning, match="lost"), sim.kernel() as k:
+        getattr(k, name)(A, B, 600)  # more than a kernel holds: its first ICWs kept, as ever
+    assert len(k) == 1024 and k.dropped > 0
+
+
 def test_noise_params_must_be_numbers() -> None:
     with pytest.raises(SimulatorError, match=r"NoiseParams.temporal_sd='a' is invalid: use a"):
         NoiseParams(temporal_sd="a")
@@ -134,3 +152,29 @@ def test_numpy_integers_are_accepted_where_ints_are(sim: Scamp5) -> None:
     assert sim.read(B)[1, 1] == 4
     with pytest.raises(RegisterMisuseError, match=r"boundary=1.0 .* use 0 or 1"):
         sim.DNEWS(R5, R6, east, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        # a digital destination beside a source that is no register: the message about the
+        # destination printed the instruction, and stopped on the source's missing name
+        (lambda s: s.abs(R5, None), r"bus: None is not a register handle"),
+        (lambda s: s.bus(R5, None), r"bus: None is not a register handle"),
+        (lambda s: s.bus(None), r"bus\(None\): give a register"),
+        (lambda s: s.bus(3), r"bus\(3\): give a register"),
+        (lambda s: s.icw([], (A,)), r"\[\] is not an instruction"),
+        (lambda s: s.address_mask(None, 0, 0, 0, False), r"address_mask: r=None must be"),
+        (lambda s: s.address_mask(0, 0, 0, 300, False), r"address_mask: cx=300 is out of"),
+    ],
+)
+def test_api_arguments_of_the_wrong_kind_are_one_line(sim: Scamp5, call, message) -> None:
+    with pytest.raises(PpalocError, match=message) as err:
+        call(sim)
+    assert "\n" not in str(err.value)
+
+
+def test_address_mask_takes_numpy_integers(sim: Scamp5) -> None:
+    # np.uint8(255) & ~3 overflowed uint8 (an OverflowError)
+    got = sim.address_mask(np.uint8(255), np.uint8(0), np.uint8(3), np.uint8(0), False)
+    np.testing.assert_array_equal(got, sim.address_mask(255, 0, 3, 0, False))

@@ -81,6 +81,19 @@ def test_product_and_one_at_a_time():
     ]
 
 
+def test_a_grid_of_too_many_cells_is_refused_before_it_is_listed():
+    # 200 x 200 x 100 values made 4 million cells in memory, minutes before the first ran
+    params = {"seqslam": {"ds": list(range(1, 201)), "vmin": [0.1] * 200, "vmax": [1] * 100}}
+    config = SweepConfig(methods=("seqslam",), datasets=TINY, params=params, seed=[0, 1])
+    with pytest.raises(PpalocError) as info:
+        expand(config)  # counted, not listed
+    assert str(info.value) == (
+        "the grid has 16,000,000 cells (2 datasets x 2 seeds x 4,000,000 method settings), "
+        "more than the 100,000 one sweep runs: sweep fewer values, or split the grid into "
+        "several sweeps"
+    )
+
+
 def test_seed_and_tolerance_lists_are_axes_and_columns():
     config = SweepConfig(methods=("seqslam",), datasets=TINY[:1], seed=[0, 1], tolerance=[1, 3])
     cells = expand(config)

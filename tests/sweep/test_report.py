@@ -184,3 +184,15 @@ def test_a_users_file_in_figures_is_kept_and_the_report_refused(tmp_path):
         "figures are replaced whole; move it out of figures/ first"
     )
     assert (tmp_path / "figures" / "notes.txt").read_text() == "keep me"
+
+
+def test_show_on_a_sweep_folder_prints_its_best_cells_and_rebuilds_its_report(tmp_path, capsys):
+    # `ppaloc show` on a sweep's folder said it held no results.json, naming only evaluate
+    from ppaloc.cli import main
+
+    write_bytes(tmp_path / "summary.json", json.dumps(summary()))
+    assert main(["show", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "Best cell per method and dataset" in out and "seqslam" in out
+    assert f"report:  {tmp_path / 'report.html'}" in out
+    assert "Max F1 against gain" in (tmp_path / "report.html").read_text()

@@ -355,7 +355,7 @@ def run_sweep(
         the summary and report are written when cells failed (the first one's error).
     """
     from ppaloc.evaluate.sweep import run_sweep as sweep_run
-    from ppaloc.evaluate.sweep_report import best_cells, dataset_labels, write_sweep_report
+    from ppaloc.evaluate.sweep_report import write_sweep_report
 
     outcome = sweep_run(
         config,
@@ -370,31 +370,7 @@ def run_sweep(
         write_sweep_report(out)
     summary = outcome.summary
     if not quiet:
-        from rich import box
-        from rich.table import Table
-
-        labels = dataset_labels(summary["axes"]["dataset"])
-        swept = [a for a in summary["axes"] if a not in ("method", "dataset")]
-        table = Table(
-            title="Best cell per method and dataset",
-            title_justify="left",
-            box=box.SIMPLE_HEAD,
-            pad_edge=False,
-        )
-        for name in ("Method", "Dataset", "F1", "AUC", "Swept values", "Cells ok"):
-            table.add_column(name, justify="left" if name in ("Method", "Dataset") else "right")
-        for g in best_cells(summary):
-            r = g["row"] or {}
-            values = ", ".join(f"{a}={r[a]}" for a in swept if r.get(a) is not None)
-            table.add_row(
-                g["method"],
-                labels.get(g["dataset"], g["dataset"]),
-                "-" if r.get("f1_max") is None else f"{r['f1_max']:.3f}",
-                "-" if r.get("auc") is None else f"{r['auc']:.3f}",
-                values or "-",
-                f"{g['ok']}/{g['cells']}",
-            )
-        _console().print(table)
+        _print_best_cells(summary)
         c = summary["counts"]
         print(
             f"{c['cells']} cells: {outcome.n_skipped} already done, {outcome.n_run} run now, "
@@ -411,6 +387,37 @@ def run_sweep(
             "same command again to retry them"
         )
     return outcome
+
+
+def _print_best_cells(summary: dict[str, Any]) -> None:
+    """Print a sweep summary's best cell per method and dataset (a table)."""
+    from rich import box
+    from rich.table import Table
+
+    from ppaloc.evaluate.sweep_report import best_cells, dataset_labels
+
+    labels = dataset_labels(summary["axes"]["dataset"])
+    swept = [a for a in summary["axes"] if a not in ("method", "dataset")]
+    table = Table(
+        title="Best cell per method and dataset",
+        title_justify="left",
+        box=box.SIMPLE_HEAD,
+        pad_edge=False,
+    )
+    for name in ("Method", "Dataset", "F1", "AUC", "Swept values", "Cells ok"):
+        table.add_column(name, justify="left" if name in ("Method", "Dataset") else "right")
+    for g in best_cells(summary):
+        r = g["row"] or {}
+        values = ", ".join(f"{a}={r[a]}" for a in swept if r.get(a) is not None)
+        table.add_row(
+            g["method"],
+            labels.get(g["dataset"], g["dataset"]),
+            "-" if r.get("f1_max") is None else f"{r['f1_max']:.3f}",
+            "-" if r.get("auc") is None else f"{r['auc']:.3f}",
+            values or "-",
+            f"{g['ok']}/{g['cells']}",
+        )
+    _console().print(table)
 
 
 # -- map and localise ------------------------------------------------------------------------
@@ -521,6 +528,17 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     return _show_planes(path, out, quiet=quiet)
 
 
+def _is_sweep(folder: Path) -> bool:
+    """Whether ``folder`` holds a sweep's ``summary.json`` (read as ``load_summary`` reads it)."""
+    import json
+
+    try:
+        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(summary, dict) and summary.get("format") == "ppaloc-sweep-summary"
+
+
 def _show_results(folder: Path, *, quiet: bool) -> Path:
     import json
 
@@ -532,6 +550,14 @@ def _show_results(folder: Path, *, quiet: bool) -> Path:
         if not quiet:
             print(f"matrix: {folder / 'matrix.csv'}")
         return folder / "matrix.csv"
+    if not (folder / "results.json").is_file() and _is_sweep(folder):
+        from ppaloc.evaluate.sweep_report import load_summary, write_sweep_report
+
+        report = write_sweep_report(folder)  # from summary.json, as `ppaloc sweep` writes it
+        if not quiet:
+            _print_best_cells(load_summary(folder))
+            print(f"report:  {report}")
+        return report
     if not (folder / "results.json").is_file():
         raise DataError(
             f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"

@@ -192,8 +192,12 @@ def _merge(
 ) -> dict[str, Any]:
     """Flags that were given (not None, not empty) override the file; params merge per
     method (``nested``: ``{method: {key: value}}``) or key by key (one method's table)."""
+    from ppaloc.evaluate.config import check_limits
+
     merged = dict(file_values)
     _check_cli_values(merged, source)  # a bad file value is refused even when a flag wins
+    # a flag's number is refused as the flag's, not the file's (whose name it would carry)
+    check_limits({k: v for k, v in flags.items() if isinstance(v, int | float)})
     if nested:  # one method's table is checked by the command, which names its section
         _check_params(merged.get("params"), source)
     for key, value in flags.items():
@@ -905,6 +909,7 @@ def localise(
     epilog="""\b
 Examples:
   ppaloc show run1                  # table + run1/report.html rebuilt from the files
+  ppaloc show sweep1                # a sweep's best cells + its report rebuilt
   ppaloc show route.npz --out route.png
   ppaloc show planes.npz            # every 2-D array as a register plane
   ppaloc show est.csv               # a localise CSV: its rows, and est.png"""
@@ -917,8 +922,8 @@ Examples:
 )
 @_QUIET
 def show(path: Path, out: Path | None, quiet: bool | None) -> None:
-    """Render a results folder (table and report), a saved map, register planes or a
-    localise CSV (rows, and a plot of predicted reference against query)."""
+    """Render a results folder or a sweep's (table and report), a saved map, register planes
+    or a localise CSV (rows, and a plot of predicted reference against query)."""
     from ppaloc.cli.commands import run_show
 
     run_show(path, None if out is None else _output(out, folder=False), quiet=bool(quiet))

@@ -52,6 +52,8 @@ __all__ = [
 
 #: Frames of the montage (the first ones; every frame has its own PNGs).
 MONTAGE_FRAMES = 8
+#: The side of the device's array: a program's frames are square and at most this.
+DEVICE_SIDE = 256
 
 
 @dataclass
@@ -453,9 +455,10 @@ def run_program(
         A SCAMP-5d device program (C++): its source file, or its files (compiled and
         linked together; the first names the program in messages).
     frames : FrameSource or iterable of uint8 arrays, optional
-        The exposures, all of one shape (the array size); default one synthetic scene of
-        256 x 256 (``ppaloc.sim.demo.synthetic_scene``). A list is checked whole before
-        the build; an iterator or a :class:`~ppaloc.cpp.frames.FrameSource` (a stream, as
+        The exposures, all of one square shape of at most 256 x 256 (the array size, as the
+        device's: its addresses are 8-bit); default one synthetic scene of 256 x 256
+        (``ppaloc.sim.demo.synthetic_scene``). A list is checked whole before the build; an
+        iterator or a :class:`~ppaloc.cpp.frames.FrameSource` (a stream, as
         ``ppaloc cpp run --stream`` gives) is read one frame at a time as the program asks
         for the next, its first frame before the build. A frame that cannot be read, or is
         not like the first, ends the run there: the outputs of the frames before it are
@@ -507,6 +510,13 @@ def run_program(
                 source.error or "no frames to run on: give at least one image or --frames 1 or more"
             )
         shape = first.shape
+        if shape[0] != shape[1] or shape[0] > DEVICE_SIDE:
+            raise PpalocError(
+                f"the frames are {shape[0]} x {shape[1]}: the array a device program runs on "
+                f"is square and at most {DEVICE_SIDE} x {DEVICE_SIDE}, as the device's (its "
+                "addresses are 8-bit); give square frames of at most that size "
+                "(ppaloc.frontend.to_sensor makes any image 256 x 256)"
+            )
         exe = compile_program(project)
         files = frozenset(
             p.name for p in (*project.sources, *project_headers(project, SHIM_HEADERS))

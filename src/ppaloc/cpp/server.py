@@ -524,8 +524,14 @@ class Session:
                     f"--set {name}={value} is outside the {kind}'s range [{lo}, {hi}] "
                     f"({self.at(line)})"
                 )
-        else:
-            value = init
+        else:  # the host's slider holds only values of its range: the nearest end
+            value = min(max(init, lo), hi)
+            if value != init:
+                self.warnings.append(
+                    f"{self.at(line)}: vs_gui_add_{kind}({text!r}, {lo}, {hi}, {init}): the "
+                    f"initial value is outside the range the {kind} allows; it starts at "
+                    f"{value}, as the host's {kind} holds"
+                )
         self.gui_values[text] = value
         self.gui_items[text] = GuiItem(kind, text, lo, hi, handle)
         return value

@@ -44,6 +44,7 @@ from ppaloc.fileio import new_folder, source_date, write_bytes
 
 __all__ = [
     "COMBINE",
+    "MAX_CELLS",
     "METRIC_COLUMNS",
     "SWEEP_NAMES",
     "Cell",
@@ -52,6 +53,7 @@ __all__ = [
     "cell_status",
     "collect_summary",
     "expand",
+    "grid_size",
     "one_line_error",
     "sweep_config_from_mapping",
     "sweep_wrote",
@@ -377,6 +379,46 @@ def _column(param: str) -> str:
     return f"param:{param}" if param in _RESERVED else param
 
 
+MAX_CELLS = 100_000
+"""Most cells one sweep holds (every cell is listed, checked and given a folder)."""
+
+
+def grid_size(config: SweepConfig) -> int:
+    """The number of cells :func:`expand` lists (before a value listed twice is merged),
+    counted without listing them.
+
+    Raises
+    ------
+    PpalocError
+        If it is more than :data:`MAX_CELLS`.
+
+    Examples
+    --------
+    >>> grid_size(SweepConfig(methods=("seqslam",), datasets=("synthetic:?places=9",),
+    ...                       params={"seqslam": {"ds": [5, 10], "vmin": [0.1, 0.2]}}))
+    4
+    """
+    settings = 0
+    for method in config.methods:
+        lengths = [len(v) for v in config.swept(method).values()]
+        product = config.combine == "product" or not lengths
+        settings += math.prod(lengths) if product else sum(lengths)
+    parts = [(len(config.datasets), "dataset")]
+    for value, noun in ((config.seed, "seed"), (config.tolerance, "tolerance")):
+        values, swept = _values(value)
+        if swept:
+            parts.append((len(values), noun))
+    total = settings * math.prod(n for n, _ in parts)
+    if total > MAX_CELLS:
+        shown = " x ".join(f"{n:,} {noun}{'s' if n != 1 else ''}" for n, noun in parts)
+        raise PpalocError(
+            f"the grid has {total:,} cells ({shown} x {settings:,} method settings), more "
+            f"than the {MAX_CELLS:,} one sweep runs: sweep fewer values, or split the grid "
+            "into several sweeps"
+        )
+    return total
+
+
 def expand(config: SweepConfig) -> list[Cell]:
     """Every cell of the grid, datasets outermost, then methods, then parameter values;
     a cell that comes up twice (a value listed twice) is kept once.
@@ -395,6 +437,7 @@ def expand(config: SweepConfig) -> list[Cell]:
     >>> len(expand(cfg))
     6
     """
+    grid_size(config)  # refused before millions of cells are listed
     seeds, seeds_swept = _values(config.seed)
     tolerances, tol_swept = _values(config.tolerance)
     cells: dict[str, Cell] = {}

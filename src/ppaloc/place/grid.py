@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ppaloc.errors import PpalocError
+
 __all__ = [
     "LOWRES_GRIDS",
     "SENSOR_SIZE",
@@ -26,12 +28,12 @@ LOWRES_GRIDS: dict[str, int] = {"lowres": 8, "lowres16": 16}
 def _check_frames(frames: np.ndarray) -> np.ndarray:
     a = np.asarray(frames)
     if a.ndim < 2 or a.shape[-2:] != (SENSOR_SIZE, SENSOR_SIZE):
-        raise ValueError(
+        raise PpalocError(
             f"sensor frames must have shape (..., 256, 256), got {a.shape}; "
             "convert frames with ppaloc.frontend.to_sensor first"
         )
     if a.dtype != np.uint8:
-        raise ValueError(
+        raise PpalocError(
             f"sensor frames must be uint8, got {a.dtype}; "
             "convert frames with ppaloc.frontend.to_sensor first"
         )

@@ -317,7 +317,8 @@ class ControllerMixin(DrawMixin):
         """The (read-only) plane of the elements an address pattern selects: ``(r, c)``
         with "don't care" bits ``rx``, ``cx``, in hardware addresses (``scamp_addr``) or
         array coordinates (inspection; untimed, changes nothing)."""
-        return self._pattern(r, c, rx, cx, scamp_addr).mask
+        args = _pattern_args("address_mask", r, c, rx, cx)
+        return self._pattern(*args, bool(scamp_addr)).mask
 
     # ----------------------------------------------------------------------------------
     # DAC

@@ -197,6 +197,12 @@ def make(
     spec = OPS[op]
     ins = Instruction(op, tuple(dsts), tuple(srcs), origin)
     at = _where(origin)
+    for r in (*ins.dsts, *ins.srcs):  # first: every message below prints the instruction
+        if not isinstance(r, Register):
+            raise RegisterMisuseError(
+                f"{at}{op}: {r!r} is not a register handle; use A..F, NEWS, XN/XE/XS/XW, "
+                "PIX, IN, R0..R12, FLAG or SELECT from ppaloc.sim"
+            )
     for regs, kind, (lo, hi), what in (
         (ins.dsts, spec.dst_kind, spec.n_dst, "destination"),
         (ins.srcs, spec.src_kind, spec.n_src, "source"),
@@ -207,11 +213,6 @@ def make(
                 f"{at}{op} takes {want} {what} register(s), got {len(regs)}: {ins}"
             )
         for r in regs:
-            if not isinstance(r, Register):
-                raise RegisterMisuseError(
-                    f"{at}{op}: {r!r} is not a register handle; use A..F, NEWS, XN/XE/XS/XW, "
-                    "PIX, IN, R0..R12, FLAG or SELECT from ppaloc.sim"
-                )
             if r.kind != kind:
                 raise RegisterMisuseError(
                     f"{at}{ins}: {r.name} is {'an analogue' if r.kind == 'analog' else 'a digital'}"

@@ -119,7 +119,7 @@ class ProgramAPI:
 
             self._emit((decode(op, dsts),))
             return
-        if op not in OPS:
+        if not isinstance(op, str) or op not in OPS:
             raise RegisterMisuseError(f"{op!r} is not an instruction; use one of {sorted(OPS)}")
         for name, regs in (("dsts", dsts), ("srcs", srcs)):
             if isinstance(regs, Register) or not isinstance(regs, Sequence):
@@ -148,6 +148,11 @@ class ProgramAPI:
         if isinstance(a, Register):
             self._prim("bus", (a,), srcs)
             return
+        if not isinstance(a, Sequence) or isinstance(a, str):
+            raise RegisterMisuseError(
+                f"bus({a!r}): give a register, or the destinations and the sources as two "
+                "tuples, e.g. bus(A, B) or bus((A, B), (C,))"
+            )
         if len(srcs) > 1 or (srcs and isinstance(srcs[0], Register)):
             raise RegisterMisuseError(
                 "bus(dsts, srcs): give the destinations and the sources as two tuples, "
@@ -664,6 +669,11 @@ def _no_r12_dst(call: str, dsts: Sequence[Register]) -> None:
             )
 
 
+MAX_ITERATIONS = 1 << 16
+"""Most passes of a blur macro (``newsblur*``, ``gauss*``), the bound of the controller's
+``diffuse`` and ``flood`` iterations: two ICWs a pass, far beyond a kernel's 1024."""
+
+
 def _check_iterations(call: str, iterations: object) -> None:
     if (
         isinstance(iterations, bool)
@@ -671,6 +681,11 @@ def _check_iterations(call: str, iterations: object) -> None:
         or iterations < 1
     ):
         raise SimulatorError(f"{call}: iterations={iterations!r} is invalid; use an integer >= 1")
+    if iterations > MAX_ITERATIONS:  # its steps are listed before the kernel keeps 1024
+        raise SimulatorError(
+            f"{call}: iterations={iterations!r} is too many; use an integer in "
+            f"[1, {MAX_ITERATIONS}] (a kernel holds 1024 ICWs)"
+        )
 
 
 def _and_steps(d: Register, d0: Register, d1: Register) -> list[Step]:

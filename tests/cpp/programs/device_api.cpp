@@ -122,6 +122,13 @@ int main() {
             scamp5_kernel_api::allow_highspeed(true);  // outside a kernel
         } else if (mode == 19) {
             vs_frame_trigger_set(1, 0);
+        } else if (mode == 20) {
+            const int16_t values[4] = {1, 2, 3, 4};
+            int rows = -1;  // a size_t of 2^64 - 1
+            vs_post_int16(values, rows, 4);
+        } else if (mode == 21) {
+            const uint8_t events[2] = {1, 2};
+            scamp5_display_events(d0, events, size_t(-1));
         }
     }
 }

@@ -27,6 +27,7 @@
 #include <array>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -1013,6 +1014,7 @@ struct Gui {
     std::map<vs_handle, volatile int*> writeback;
     std::map<vs_handle, std::function<void(int32_t)>> callbacks;
     std::vector<vs_handle> due;  // callbacks set since the last message processing
+    std::set<vs_handle> buttons;  // never pressed: the host sends no value for them
     vs_handle next = 1;
 };
 inline Gui& gui() {
@@ -1218,6 +1220,7 @@ inline vs_handle vs_gui_add_button(const char* text) {
     (void)text;
     vs_handle h = ppa::gui().next++;
     ppa::gui().values[h] = 0;  // never pressed
+    ppa::gui().buttons.insert(h);
     return h;
 }
 namespace ppa {
@@ -1270,7 +1273,9 @@ inline void vs_on_gui_update(vs_handle item, std::function<void(int32_t)> f) {
     g.callbacks[item] = f;
     // Called with the value given to this run, once, at the next message processing (the
     // next vs_frame_loop_control or vs_process_message), as the device calls it when the
-    // host's value arrives, never from here.
+    // host's value arrives, never from here. A button's callback runs when it is pressed,
+    // and nothing presses one here.
+    if (g.buttons.count(item)) return;
     if (std::find(g.due.begin(), g.due.end(), item) == g.due.end()) g.due.push_back(item);
 }
 
@@ -1585,8 +1590,24 @@ inline void vs_post_set_channel(uint32_t ch, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("vs_post_set_channel", false, int(ch));
 }
 namespace ppa {
+// The most bytes one posted array or drawn list carries (a 2048 x 2048 float array; the
+// device's own memory holds far less): a size beyond it is a bad count, e.g. -1 made a size_t.
+constexpr size_t MAX_POST_BYTES = size_t(1) << 24;
+inline void check_bytes(const std::string& shown, size_t n, size_t item, const char* fix,
+                        const Loc& loc) {
+    if (n > MAX_POST_BYTES / item) {
+        fail(loc, shown + ": more than a post carries (" + std::to_string(MAX_POST_BYTES) +
+                      " bytes); give " + fix);
+    }
+}
 template <typename T>
 inline void post(const char* fn, const T* data, size_t rows, size_t cols, const Loc& loc) {
+    std::string shown = std::string(fn) + "(" + std::to_string(rows) + " rows, " +
+                        std::to_string(cols) + " cols)";
+    const char* fix = "the array's rows and columns";
+    check_bytes(shown, rows, sizeof(T), fix, loc);
+    check_bytes(shown, cols, sizeof(T), fix, loc);
+    check_bytes(shown, rows * cols, sizeof(T), fix, loc);
     if (!data && rows * cols) fail(loc, std::string(fn) + ": the data pointer is NULL");
     call(fn, false, {Arg(data, rows * cols * sizeof(T)), int(rows), int(cols)}, loc);
 }
@@ -1804,12 +1825,16 @@ inline void scamp5_output_boundingbox(DSRC dr, vs_handle display, uint8_t* resul
 inline void scamp5_display_boundingbox(vs_handle display, const uint8_t* vec4v, size_t count,
                                        ppa::Loc loc = PPA_HERE) {
     if (!vec4v && count) ppa::fail(loc, "scamp5_display_boundingbox: the buffer is NULL");
+    ppa::check_bytes("scamp5_display_boundingbox(" + std::to_string(count) + " boxes)", count, 4,
+                     "the number of boxes in the buffer", loc);
     PPA_CALL("scamp5_display_boundingbox", false, display, ppa::Arg(vec4v, 4 * count),
              int(count));
 }
 inline void scamp5_display_events(vs_handle display, const uint8_t* vec2v, size_t count,
                                   ppa::Loc loc = PPA_HERE) {
     if (!vec2v && count) ppa::fail(loc, "scamp5_display_events: the buffer is NULL");
+    ppa::check_bytes("scamp5_display_events(" + std::to_string(count) + " events)", count, 2,
+                     "the number of events in the buffer", loc);
     PPA_CALL("scamp5_display_events", false, display, ppa::Arg(vec2v, 2 * count), int(count));
 }
 inline void scamp5_display_image(vs_handle display, const uint8_t* buffer, uint8_t w, uint8_t h,
