@@ -312,6 +312,17 @@ class Session:
                 self._changes.append((item.handle, value))
         return 1
 
+    def counted_loop(self) -> bytes:
+        """``vs_loop_counter_inc`` in a program that never waits for the frame trigger
+        (its loop runs free on the device): the end of a frame and the start of the next,
+        :meth:`loop_answer`'s answer. The frame it ends began with the program, so the
+        first one also counts as frame 0's start (its modelled time from the run's start).
+        """
+        if self.loops == 0:
+            self.loops = 1
+            self.source.take()  # frame 0, exposed since the program started
+        return self.loop_answer()
+
     def loop_answer(self) -> bytes:
         """The answer to ``vs_frame_loop_control``: :meth:`loop`'s value, then the handles
         and values of the sliders and switches a live view changed (:mod:`ppaloc.cpp.protocol`).
@@ -1086,6 +1097,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_post_text": _post_text,
     "vs_frame_loop_control": lambda s, a, line: s.loop_answer(),
     "vs_wait_frame_trigger": lambda s, a, line: s.loop_answer(),
+    "vs_loop_counter_inc": lambda s, a, line: s.counted_loop(),
     "vs_stopwatch_now": _stopwatch,
 }
 

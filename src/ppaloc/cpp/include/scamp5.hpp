@@ -1134,7 +1134,15 @@ inline void gui_changes(const std::vector<uint8_t>& r) {
 // The frame trigger is the frame boundary: each wait for it starts the next frame (after the
 // last, the program ends). vs_frame_loop_control is the loop counter's increment, that wait
 // and the message processing at once, as on the device; a program may write the three itself.
+// A program that never waits for the trigger (its loop runs free on the device:
+// vs_process_message, the body, vs_loop_counter_inc) counts its frames with the loop
+// counter: until it first calls vs_frame_loop_control or vs_wait_frame_trigger, each
+// vs_loop_counter_inc ends a frame and starts the next.
 namespace ppa {
+inline bool& paced() {
+    static bool p = false;
+    return p;
+}
 inline void next_frame(const char* fn, const Loc& loc) {
     std::vector<uint8_t> r = call(fn, true, {0}, loc);
     gui_changes(r);
@@ -1142,9 +1150,11 @@ inline void next_frame(const char* fn, const Loc& loc) {
 }
 }  // namespace ppa
 inline void vs_wait_frame_trigger(ppa::Loc loc = PPA_HERE) {
+    ppa::paced() = true;
     ppa::next_frame("vs_wait_frame_trigger", loc);
 }
 inline void vs_frame_loop_control(ppa::Loc loc = PPA_HERE) {
+    ppa::paced() = true;
     ppa::loop_counter()++;
     ppa::next_frame("vs_frame_loop_control", loc);
     ppa::process_messages();
@@ -1173,7 +1183,10 @@ inline void vs_on_user_value(std::function<void(uint8_t, int32_t)> f, ppa::Loc l
     ppa::call("vs_on_user_value", false, {}, loc);
 }
 inline void vs_wait(uint32_t usec) { (void)usec; }
-inline void vs_loop_counter_inc() { ppa::loop_counter()++; }
+inline void vs_loop_counter_inc(ppa::Loc loc = PPA_HERE) {
+    ppa::loop_counter()++;
+    if (!ppa::paced()) ppa::next_frame("vs_loop_counter_inc", loc);
+}
 inline void vs_loop_counter_reset() { ppa::loop_counter() = 0; }
 inline uint32_t vs_loop_counter_get() { return ppa::loop_counter(); }
 #define VS_LC vs_loop_counter_get()

@@ -1,0 +1,37 @@
+"""Usages found in public device programs beyond the tutorials (``programs/idioms.cpp``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ppaloc.cpp import compile_program, run_program
+
+from .conftest import PROGRAMS
+
+IDIOMS = PROGRAMS / "idioms.cpp"
+
+
+@pytest.fixture(scope="module")
+def idioms(cxx):
+    return compile_program(IDIOMS)
+
+
+def run(mode: int, frames, tmp_path=None):
+    out = None if tmp_path is None else tmp_path / "out"
+    return run_program(IDIOMS, frames, settings={"mode": mode}, timeout=60, out=out)
+
+
+def test_a_free_running_loop_counts_its_frames_with_the_loop_counter(idioms, tmp_path):
+    # while (1) { vs_process_message(); ...; vs_loop_counter_inc(); } with no frame trigger
+    # (the public AnalogNet demos): each increment ends a frame; it ran until the timeout
+    frames = [np.full((64, 64), 40 * (k + 1), np.uint8) for k in range(3)]
+    result = run(0, frames, tmp_path)
+    session = result.session
+    assert [t for _, t in session.texts] == ["pass 0", "pass 1", "pass 2"]
+    assert [f for f, _ in session.texts] == [0, 1, 2]
+    (handle,) = session.displays
+    shown = [session.outputs[k][handle] for k in range(3)]
+    for k, plane in enumerate(shown):  # get_image's full range: p - 128
+        assert np.all(plane == 40 * (k + 1) - 128)
+    assert len(session.frame_us) == 3
