@@ -35,3 +35,12 @@ def test_a_free_running_loop_counts_its_frames_with_the_loop_counter(idioms, tmp
     for k, plane in enumerate(shown):  # get_image's full range: p - 128
         assert np.all(plane == 40 * (k + 1) - 128)
     assert len(session.frame_us) == 3
+
+
+def test_an_event_scan_beyond_4000_slots_scans_4000(idioms):
+    # scamp5_scan_events takes a uint16_t max_num and "up to 4000 events" are scanned
+    # (scamp5_output.hpp): 5000 slots give the first 4000 events, then end markers;
+    # it was refused (max_num=5000 is out of range)
+    result = run(1, [np.zeros((64, 64), np.uint8)])
+    # all 4096 elements set; hardware column first: slot k is column k // 64, row k % 64
+    assert result.session.texts[0][1] == "last 3999: 62 31; then 0 0"

@@ -40,7 +40,7 @@ from ppaloc.cpp.protocol import (
 )
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
-from ppaloc.sim.controller import to_scamp_buffer
+from ppaloc.sim.controller import MAX_EVENTS, to_scamp_buffer
 from ppaloc.sim.kernel import MAX_ICWS, IcwStackWarning
 from ppaloc.sim.registers import register_by_name
 from ppaloc.sim.render import plane_to_image
@@ -625,15 +625,24 @@ def _scan_dreg(s: Session, a: list, line: int) -> bytes:
     return pack_dreg_rows(s.sim.scan_dreg(dreg, r0, min(r1, s.sim.rows - 1)))
 
 
+def _events(s: Session, method: str, dreg: Register, max_num: int, *dirs: int) -> np.ndarray:
+    """The events a device scan of ``max_num`` slots (the header's ``uint16_t``) finds:
+    "up to 4000 events can be scanned" (``scamp5_output.hpp``), so a larger ``max_num``
+    scans 4000 and leaves the slots beyond them as end markers; 0 scans nothing."""
+    scanned = min(max_num, MAX_EVENTS)
+    if scanned == 0:
+        return np.zeros((0, 2), np.int64)
+    return getattr(s.sim, method)(dreg, scanned, *dirs, scamp_addr=True)
+
+
 def _scan_events(s: Session, a: list, line: int) -> bytes:
     dreg, max_num, h_dir, v_dir = a
-    events = s.sim.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=True)
-    return events_buffer(events, max_num)
+    return events_buffer(_events(s, "scan_events", dreg, max_num, h_dir, v_dir), max_num)
 
 
 def _scan_events_rc(s: Session, a: list, line: int) -> bytes:
     dreg, max_num, h_dir, v_dir = a
-    events = s.sim.scan_events_rc(dreg, max_num, h_dir, v_dir, scamp_addr=True)
+    events = _events(s, "scan_events_rc", dreg, max_num, h_dir, v_dir)
     buf = np.zeros((max_num, 2), np.uint8)  # (row, column) pairs: the row first
     if len(events):
         buf[: len(events)] = events
@@ -766,7 +775,7 @@ def _output_areg(s: Session, a: list, line: int) -> None:
 def _output_events(s: Session, a: list, line: int) -> None:
     dreg, handle, max_num, h_dir, v_dir = a
     s.display(handle, line)
-    buffer = events_buffer(s.sim.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=True), max_num)
+    buffer = events_buffer(_events(s, "scan_events", dreg, max_num, h_dir, v_dir), max_num)
     s.host("usb_output", len(buffer))
     s._output(handle, event_marks((s.sim.rows, s.sim.cols), buffer, max_num), line)
 

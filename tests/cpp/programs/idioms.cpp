@@ -18,7 +18,20 @@ int main() {
             vs_loop_counter_inc();
         }
     }
+    static uint8_t events[5000 * 2];
     while (1) {
         vs_frame_loop_control();
+        if (mode == 1) {  // more event slots than the 4000 a scan gives
+            std::memset(events, 0xff, sizeof(events));
+            scamp5_kernel_begin();
+                SET(R5);
+            scamp5_kernel_end();
+            scamp5_scan_events(R5, events, 5000);
+            int last = -1;
+            for (int k = 0; k < 5000; k++)
+                if (events[2 * k] || events[2 * k + 1]) last = k;
+            vs_post_text("last %d: %d %d; then %d %d", last, events[2 * last],
+                         events[2 * last + 1], events[2 * last + 2], events[9999]);
+        }
     }
 }
