@@ -75,7 +75,7 @@ def test_windows_include_path_named_with_its_fix(tmp_path):
 
 
 def test_unmodelled_call_named_before_the_run():
-    with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: vs_gpio_output is a"):
+    with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: vs_post_message is a"):
         compile_program(PROGRAMS / "unmodelled.cpp")
     with pytest.raises(UnmodelledCallError, match=r"p.cpp:2: aout is"):
         check_source("scamp5_kernel_begin();\n  aout(A);\n", "p.cpp")

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from ppaloc.cpp import compile_program, run_program
+from ppaloc.errors import PpalocError
 
 from .conftest import PROGRAMS
 
@@ -44,3 +45,25 @@ def test_an_event_scan_beyond_4000_slots_scans_4000(idioms):
     result = run(1, [np.zeros((64, 64), np.uint8)])
     # all 4096 elements set; hardware column first: slot k is column k // 64, row k % 64
     assert result.session.texts[0][1] == "last 3999: 62 31; then 0 0"
+
+
+def test_gpio_pins_read_their_pull_or_their_output(idioms, tmp_path):
+    # vs_gpio.h (the public SCAMP-Image-Acquisition program drives lights through it)
+    result = run(2, [np.zeros((64, 64), np.uint8)], tmp_path)
+    assert result.session.texts[0][1] == "gpio 1 0 1 1"
+    host = (tmp_path / "out" / "host.txt").read_text().splitlines()
+    assert host[:4] == [
+        "frame 0: vs_gpio_as_input(23, 1)",
+        "frame 0: vs_gpio_as_input(27, 0)",
+        "frame 0: vs_gpio_as_output(28)",
+        "frame 0: vs_gpio_output(28, 1)",
+    ]
+
+
+def test_a_gpio_pin_beyond_the_port_is_named(idioms):
+    with pytest.raises(PpalocError) as err:
+        run(3, [np.zeros((64, 64), np.uint8)])
+    assert str(err.value) == (
+        "idioms.cpp:43: vs_gpio_output(40, 1): GPIO port 6 has pins 0 to 31 "
+        "(VS_GPIO_X0 ... VS_GPIO_X4 are the board's)"
+    )

@@ -206,6 +206,8 @@ class Session:
     # place -> [first frame, count, index in warnings]
     divisions_by_zero: dict[str, list[int]] = field(default_factory=dict)
     device_errors: int = 0  # vs_device_error_bits, as the frame loop's answer carries them
+    # vs_gpio_*: pin -> [is an output, pulled up, output latch]
+    gpio: dict[int, list[bool]] = field(default_factory=dict)
     loops: int = 0
     finished: bool = False
     frame_loop_us: list[float] = field(default_factory=list)
@@ -928,6 +930,39 @@ def _led(a: list) -> str | None:
     return None if 0 <= a[0] < LEDS else f"the board has LEDs 0 to {LEDS - 1} (VS_LED_0 ...)"
 
 
+#: The pins of the board's GPIO port 6 (``vs_gpio.h``: ``VS_GPIO_X0`` is pin 23).
+GPIO_PINS = 32
+
+
+def _gpio(name: str) -> Handler:
+    """``vs_gpio_as_input``, ``_as_output``, ``_output``, ``_input`` (``vs_gpio.h``): the
+    board's pins, wired to nothing here. Configurations and outputs are recorded in
+    ``host.txt``; an input reads its pull (``pu`` 1: high), an output the level it drives,
+    a pin never configured its state out of reset, an input pulled up (1)."""
+
+    def handler(s: Session, a: list, line: int) -> bytes | None:
+        pin = a[0]
+        call = f"{name}({', '.join(map(_show, a))})"
+        if not 0 <= pin < GPIO_PINS:
+            raise ProgramError(
+                f"{s.at(line)}: {call}: GPIO port 6 has pins 0 to {GPIO_PINS - 1} "
+                "(VS_GPIO_X0 ... VS_GPIO_X4 are the board's)"
+            )
+        state = s.gpio.setdefault(pin, [False, True, False])
+        if name == "vs_gpio_input":
+            return _i32(int(state[2] if state[0] else state[1]))
+        if name == "vs_gpio_as_input":
+            state[0], state[1] = False, a[1] != 0
+        elif name == "vs_gpio_as_output":
+            state[0] = True
+        else:
+            state[2] = a[1] != 0
+        s.note(call)
+        return None
+
+    return handler
+
+
 def _trigger_mode(a: list) -> str | None:
     mode, arg = a
     if not 0 <= mode < len(TRIGGER_MODES):
@@ -1128,6 +1163,10 @@ HANDLERS.update(
         "vs_gui_set_lineplot": _graph("lineplot"),
         "vs_post_set_channel": _post_channel,
         **{name: _post(name) for name in _POST_TYPES},
+        **{
+            fn: _gpio(fn)
+            for fn in ("vs_gpio_as_input", "vs_gpio_as_output", "vs_gpio_output", "vs_gpio_input")
+        },
         "vs_led_on": _accepted("vs_led_on", _led),
         "vs_led_off": _accepted("vs_led_off", _led),
         "vs_led_toggle": _accepted("vs_led_toggle", _led),

@@ -32,6 +32,15 @@ int main() {
                 if (events[2 * k] || events[2 * k + 1]) last = k;
             vs_post_text("last %d: %d %d; then %d %d", last, events[2 * last],
                          events[2 * last + 1], events[2 * last + 2], events[9999]);
+        } else if (mode == 2) {  // the board's GPIO pins, wired to nothing
+            vs_gpio_as_input(VS_GPIO_X0, 1);
+            vs_gpio_as_input(VS_GPIO_X1, 0);
+            vs_gpio_as_output(VS_GPIO_X2);
+            vs_gpio_output(VS_GPIO_X2, 1);
+            vs_post_text("gpio %d %d %d %d", vs_gpio_input(VS_GPIO_X0), vs_gpio_input(VS_GPIO_X1),
+                         vs_gpio_input(VS_GPIO_X2), vs_gpio_input(VS_GPIO_X4));
+        } else if (mode == 3) {
+            vs_gpio_output(40, 1);
         }
     }
 }

@@ -1359,6 +1359,26 @@ inline void vs_led_toggle(int idx, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("vs_led_toggle", false, idx);
 }
 
+// The board's GPIO pins (vs_gpio.h), wired to nothing here: configurations and outputs are
+// recorded; an input reads its pull, an output the level it drives.
+#define VS_GPIO_X0 23
+#define VS_GPIO_X1 27
+#define VS_GPIO_X2 28
+#define VS_GPIO_X3 29
+#define VS_GPIO_X4 30
+inline void vs_gpio_as_input(uint8_t pin, int pu, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_gpio_as_input", false, int(pin), pu);
+}
+inline void vs_gpio_as_output(uint8_t pin, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_gpio_as_output", false, int(pin));
+}
+inline int vs_gpio_input(uint8_t pin, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("vs_gpio_input", true, int(pin)));
+}
+inline void vs_gpio_output(uint8_t pin, int output, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_gpio_output", false, int(pin), output);
+}
+
 // The chip's bias voltages: accepted and recorded (the simulator has no analogue biases).
 inline void vs_scamp5_configure_voltage(int e, uint16_t d, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("vs_scamp5_configure_voltage", false, e, int(d));
