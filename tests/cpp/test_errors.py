@@ -126,9 +126,10 @@ def test_a_loop_that_never_begins_a_frame_says_so(cxx, tmp_path):
         run_program(source, FRAMES, timeout=2, out=tmp_path / "out")
     assert str(err.value) == (
         "free.cpp did not finish within 2 s and never began a frame: each frame begins at "
-        "vs_frame_loop_control() or vs_wait_frame_trigger(); a loop that never ends, or a "
-        "frame loop without either (call vs_frame_loop_control() at its top)? raise "
-        "--timeout if it needs longer"
+        "vs_frame_loop_control() or vs_wait_frame_trigger() (in a loop that waits for "
+        "neither, vs_loop_counter_inc() ends one); a loop that never ends, or a frame loop "
+        "without any of them (call vs_frame_loop_control() at its top)? raise --timeout if "
+        "it needs longer"
     )
     assert not (tmp_path / "out").exists()
 
