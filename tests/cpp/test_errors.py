@@ -75,7 +75,7 @@ def test_windows_include_path_named_with_its_fix(tmp_path):
 
 
 def test_unmodelled_call_named_before_the_run():
-    with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: vs_gpio_output is a"):
+    with pytest.raises(UnmodelledCallError, match=r"unmodelled.cpp:9: vs_post_message is a"):
         compile_program(PROGRAMS / "unmodelled.cpp")
     with pytest.raises(UnmodelledCallError, match=r"p.cpp:2: aout is"):
         check_source("scamp5_kernel_begin();\n  aout(A);\n", "p.cpp")
@@ -114,20 +114,22 @@ def test_hang_is_stopped(faults, tmp_path):
 
 
 def test_a_loop_that_never_begins_a_frame_says_so(cxx, tmp_path):
-    # a loop that runs free on the device (vs_process_message alone, no frame calls)
+    # a loop that runs free on the device (vs_process_message alone, no frame calls, no
+    # loop counter: tests/cpp/test_idioms.py runs one that counts its frames with it)
     source = tmp_path / "free.cpp"
     source.write_text(
         "#include <scamp5.hpp>\nusing namespace SCAMP5_PE;\nint main() {\n    vs_init();\n"
         "    while (1) {\n        vs_process_message();\n        scamp5_in(A, 10);\n"
-        "        vs_loop_counter_inc();\n    }\n}\n"
+        "    }\n}\n"
     )
     with pytest.raises(PpalocError) as err:
         run_program(source, FRAMES, timeout=2, out=tmp_path / "out")
     assert str(err.value) == (
         "free.cpp did not finish within 2 s and never began a frame: each frame begins at "
-        "vs_frame_loop_control() or vs_wait_frame_trigger(); a loop that never ends, or a "
-        "frame loop without either (call vs_frame_loop_control() at its top)? raise "
-        "--timeout if it needs longer"
+        "vs_frame_loop_control() or vs_wait_frame_trigger() (in a loop that waits for "
+        "neither, vs_loop_counter_inc() ends one); a loop that never ends, or a frame loop "
+        "without any of them (call vs_frame_loop_control() at its top)? raise --timeout if "
+        "it needs longer"
     )
     assert not (tmp_path / "out").exists()
 

@@ -621,8 +621,9 @@ def _serve(
             else:  # a loop that runs free on the device (vs_process_message alone) ends here
                 error = PpalocError(
                     f"{name} did not finish within {timeout:g} s and never began a frame: "
-                    "each frame begins at vs_frame_loop_control() or vs_wait_frame_trigger(); "
-                    "a loop that never ends, or a frame loop without either (call "
+                    "each frame begins at vs_frame_loop_control() or vs_wait_frame_trigger() "
+                    "(in a loop that waits for neither, vs_loop_counter_inc() ends one); a loop "
+                    "that never ends, or a frame loop without any of them (call "
                     "vs_frame_loop_control() at its top)? raise --timeout if it needs longer"
                 )
         except ProgramError as exc:

@@ -40,7 +40,7 @@ from ppaloc.cpp.protocol import (
 )
 from ppaloc.errors import PpalocError
 from ppaloc.sim import Direction, Kernel, Register, Scamp5
-from ppaloc.sim.controller import to_scamp_buffer
+from ppaloc.sim.controller import MAX_EVENTS, to_scamp_buffer
 from ppaloc.sim.kernel import MAX_ICWS, IcwStackWarning
 from ppaloc.sim.registers import register_by_name
 from ppaloc.sim.render import plane_to_image
@@ -206,6 +206,8 @@ class Session:
     # place -> [first frame, count, index in warnings]
     divisions_by_zero: dict[str, list[int]] = field(default_factory=dict)
     device_errors: int = 0  # vs_device_error_bits, as the frame loop's answer carries them
+    # vs_gpio_*: pin -> [is an output, pulled up, output latch]
+    gpio: dict[int, list[bool]] = field(default_factory=dict)
     loops: int = 0
     finished: bool = False
     frame_loop_us: list[float] = field(default_factory=list)
@@ -311,6 +313,17 @@ class Session:
             if item.handle is not None:
                 self._changes.append((item.handle, value))
         return 1
+
+    def counted_loop(self) -> bytes:
+        """``vs_loop_counter_inc`` in a program that never waits for the frame trigger
+        (its loop runs free on the device): the end of a frame and the start of the next,
+        :meth:`loop_answer`'s answer. The frame it ends began with the program, so the
+        first one also counts as frame 0's start (its modelled time from the run's start).
+        """
+        if self.loops == 0:
+            self.loops = 1
+            self.source.take()  # frame 0, exposed since the program started
+        return self.loop_answer()
 
     def loop_answer(self) -> bytes:
         """The answer to ``vs_frame_loop_control``: :meth:`loop`'s value, then the handles
@@ -620,15 +633,24 @@ def _scan_dreg(s: Session, a: list, line: int) -> bytes:
     return pack_dreg_rows(s.sim.scan_dreg(dreg, r0, min(r1, s.sim.rows - 1)))
 
 
+def _events(s: Session, method: str, dreg: Register, max_num: int, *dirs: int) -> np.ndarray:
+    """The events a device scan of ``max_num`` slots (the header's ``uint16_t``) finds:
+    "up to 4000 events can be scanned" (``scamp5_output.hpp``), so a larger ``max_num``
+    scans 4000 and leaves the slots beyond them as end markers; 0 scans nothing."""
+    scanned = min(max_num, MAX_EVENTS)
+    if scanned == 0:
+        return np.zeros((0, 2), np.int64)
+    return getattr(s.sim, method)(dreg, scanned, *dirs, scamp_addr=True)
+
+
 def _scan_events(s: Session, a: list, line: int) -> bytes:
     dreg, max_num, h_dir, v_dir = a
-    events = s.sim.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=True)
-    return events_buffer(events, max_num)
+    return events_buffer(_events(s, "scan_events", dreg, max_num, h_dir, v_dir), max_num)
 
 
 def _scan_events_rc(s: Session, a: list, line: int) -> bytes:
     dreg, max_num, h_dir, v_dir = a
-    events = s.sim.scan_events_rc(dreg, max_num, h_dir, v_dir, scamp_addr=True)
+    events = _events(s, "scan_events_rc", dreg, max_num, h_dir, v_dir)
     buf = np.zeros((max_num, 2), np.uint8)  # (row, column) pairs: the row first
     if len(events):
         buf[: len(events)] = events
@@ -761,7 +783,7 @@ def _output_areg(s: Session, a: list, line: int) -> None:
 def _output_events(s: Session, a: list, line: int) -> None:
     dreg, handle, max_num, h_dir, v_dir = a
     s.display(handle, line)
-    buffer = events_buffer(s.sim.scan_events(dreg, max_num, h_dir, v_dir, scamp_addr=True), max_num)
+    buffer = events_buffer(_events(s, "scan_events", dreg, max_num, h_dir, v_dir), max_num)
     s.host("usb_output", len(buffer))
     s._output(handle, event_marks((s.sim.rows, s.sim.cols), buffer, max_num), line)
 
@@ -912,6 +934,39 @@ def _accepted(name: str, check: Callable[[list], str | None] | None = None) -> H
 
 def _led(a: list) -> str | None:
     return None if 0 <= a[0] < LEDS else f"the board has LEDs 0 to {LEDS - 1} (VS_LED_0 ...)"
+
+
+#: The pins of the board's GPIO port 6 (``vs_gpio.h``: ``VS_GPIO_X0`` is pin 23).
+GPIO_PINS = 32
+
+
+def _gpio(name: str) -> Handler:
+    """``vs_gpio_as_input``, ``_as_output``, ``_output``, ``_input`` (``vs_gpio.h``): the
+    board's pins, wired to nothing here. Configurations and outputs are recorded in
+    ``host.txt``; an input reads its pull (``pu`` 1: high), an output the level it drives,
+    a pin never configured its state out of reset, an input pulled up (1)."""
+
+    def handler(s: Session, a: list, line: int) -> bytes | None:
+        pin = a[0]
+        call = f"{name}({', '.join(map(_show, a))})"
+        if not 0 <= pin < GPIO_PINS:
+            raise ProgramError(
+                f"{s.at(line)}: {call}: GPIO port 6 has pins 0 to {GPIO_PINS - 1} "
+                "(VS_GPIO_X0 ... VS_GPIO_X4 are the board's)"
+            )
+        state = s.gpio.setdefault(pin, [False, True, False])
+        if name == "vs_gpio_input":
+            return _i32(int(state[2] if state[0] else state[1]))
+        if name == "vs_gpio_as_input":
+            state[0], state[1] = False, a[1] != 0
+        elif name == "vs_gpio_as_output":
+            state[0] = True
+        else:
+            state[2] = a[1] != 0
+        s.note(call)
+        return None
+
+    return handler
 
 
 def _trigger_mode(a: list) -> str | None:
@@ -1092,6 +1147,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_post_text": _post_text,
     "vs_frame_loop_control": lambda s, a, line: s.loop_answer(),
     "vs_wait_frame_trigger": lambda s, a, line: s.loop_answer(),
+    "vs_loop_counter_inc": lambda s, a, line: s.counted_loop(),
     "vs_stopwatch_now": _stopwatch,
 }
 
@@ -1113,6 +1169,10 @@ HANDLERS.update(
         "vs_gui_set_lineplot": _graph("lineplot"),
         "vs_post_set_channel": _post_channel,
         **{name: _post(name) for name in _POST_TYPES},
+        **{
+            fn: _gpio(fn)
+            for fn in ("vs_gpio_as_input", "vs_gpio_as_output", "vs_gpio_output", "vs_gpio_input")
+        },
         "vs_led_on": _accepted("vs_led_on", _led),
         "vs_led_off": _accepted("vs_led_off", _led),
         "vs_led_toggle": _accepted("vs_led_toggle", _led),

@@ -3,9 +3,9 @@ using namespace SCAMP5_PE;
 
 int main() {
     vs_init();
-    // vs_gpio_output(0, 1); in a comment is fine
+    // vs_post_message(0, 1); in a comment is fine
     while (1) {
         vs_frame_loop_control();
-        vs_gpio_output(0, 1);
+        vs_post_message(0, 1);
     }
 }

@@ -1136,7 +1136,15 @@ inline void gui_changes(const std::vector<uint8_t>& r) {
 // The frame trigger is the frame boundary: each wait for it starts the next frame (after the
 // last, the program ends). vs_frame_loop_control is the loop counter's increment, that wait
 // and the message processing at once, as on the device; a program may write the three itself.
+// A program that never waits for the trigger (its loop runs free on the device:
+// vs_process_message, the body, vs_loop_counter_inc) counts its frames with the loop
+// counter: until it first calls vs_frame_loop_control or vs_wait_frame_trigger, each
+// vs_loop_counter_inc ends a frame and starts the next.
 namespace ppa {
+inline bool& paced() {
+    static bool p = false;
+    return p;
+}
 inline void next_frame(const char* fn, const Loc& loc) {
     std::vector<uint8_t> r = call(fn, true, {0}, loc);
     gui_changes(r);
@@ -1144,9 +1152,11 @@ inline void next_frame(const char* fn, const Loc& loc) {
 }
 }  // namespace ppa
 inline void vs_wait_frame_trigger(ppa::Loc loc = PPA_HERE) {
+    ppa::paced() = true;
     ppa::next_frame("vs_wait_frame_trigger", loc);
 }
 inline void vs_frame_loop_control(ppa::Loc loc = PPA_HERE) {
+    ppa::paced() = true;
     ppa::loop_counter()++;
     ppa::next_frame("vs_frame_loop_control", loc);
     ppa::process_messages();
@@ -1175,7 +1185,10 @@ inline void vs_on_user_value(std::function<void(uint8_t, int32_t)> f, ppa::Loc l
     ppa::call("vs_on_user_value", false, {}, loc);
 }
 inline void vs_wait(uint32_t usec) { (void)usec; }
-inline void vs_loop_counter_inc() { ppa::loop_counter()++; }
+inline void vs_loop_counter_inc(ppa::Loc loc = PPA_HERE) {
+    ppa::loop_counter()++;
+    if (!ppa::paced()) ppa::next_frame("vs_loop_counter_inc", loc);
+}
 inline void vs_loop_counter_reset() { ppa::loop_counter() = 0; }
 inline uint32_t vs_loop_counter_get() { return ppa::loop_counter(); }
 #define VS_LC vs_loop_counter_get()
@@ -1349,6 +1362,26 @@ inline void vs_led_on(int idx, ppa::Loc loc = PPA_HERE) { PPA_CALL("vs_led_on", 
 inline void vs_led_off(int idx, ppa::Loc loc = PPA_HERE) { PPA_CALL("vs_led_off", false, idx); }
 inline void vs_led_toggle(int idx, ppa::Loc loc = PPA_HERE) {
     PPA_CALL("vs_led_toggle", false, idx);
+}
+
+// The board's GPIO pins (vs_gpio.h), wired to nothing here: configurations and outputs are
+// recorded; an input reads its pull, an output the level it drives.
+#define VS_GPIO_X0 23
+#define VS_GPIO_X1 27
+#define VS_GPIO_X2 28
+#define VS_GPIO_X3 29
+#define VS_GPIO_X4 30
+inline void vs_gpio_as_input(uint8_t pin, int pu, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_gpio_as_input", false, int(pin), pu);
+}
+inline void vs_gpio_as_output(uint8_t pin, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_gpio_as_output", false, int(pin));
+}
+inline int vs_gpio_input(uint8_t pin, ppa::Loc loc = PPA_HERE) {
+    return ppa::as_int(PPA_CALL("vs_gpio_input", true, int(pin)));
+}
+inline void vs_gpio_output(uint8_t pin, int output, ppa::Loc loc = PPA_HERE) {
+    PPA_CALL("vs_gpio_output", false, int(pin), output);
 }
 
 // The chip's bias voltages: accepted and recorded (the simulator has no analogue biases).
