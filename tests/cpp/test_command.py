@@ -42,7 +42,7 @@ def test_an_unknown_gui_name_lists_the_names_as_typed():
     with pytest.raises(PpalocError) as err:
         s.check_settings()
     assert str(err.value) == (
-        "--set nope=...: p.cpp has no slider or switch of that name "
+        "--set nope=...: p.cpp has no slider, switch or button of that name "
         "(it has: 'edge mode', threshold)"
     )
 
@@ -121,12 +121,15 @@ def test_settings_take_numbers_and_bools():
     [
         (
             {"threshold": None},
-            r"^settings\['threshold'\]=None: a slider or switch takes a number, ",
+            r"^settings\['threshold'\]=None: a slider, switch or button takes a number, ",
         ),
         ({"threshold": [1]}, r"^settings\['threshold'\]=\[1\]: "),
-        ({"threshold": 2.5}, r"^settings\['threshold'\]=2.5: a slider or switch takes an integer"),
+        (
+            {"threshold": 2.5},
+            r"^settings\['threshold'\]=2.5: a slider, switch or button takes an integer",
+        ),
         ({"threshold": float("nan")}, r"^settings\['threshold'\]=nan: .* takes an integer"),
-        ({3: 1}, r"^settings key 3 must be a slider's or switch's name"),
+        ({3: 1}, r"^settings key 3 must be a slider's, switch's or button's name"),
         ([("threshold", 1)], r"^settings=\[\('threshold', 1\)\] must be a mapping"),
     ],
 )

@@ -349,7 +349,7 @@ def test_bad_controller_value_names_the_line(faults):
 def test_settings_checked(faults):
     with pytest.raises(PpalocError, match=r"--set fault=12 is outside the slider's range"):
         fault(12)
-    with pytest.raises(PpalocError, match="has no slider or switch of that name"):
+    with pytest.raises(PpalocError, match="has no slider, switch or button of that name"):
         run_program(FAULTS, FRAMES, settings={"nope": "1"})
 
 
@@ -361,7 +361,7 @@ def test_a_slider_named_with_a_colon_is_set_with_or_without_it(faults, tmp_path,
     assert json.loads((out / "summary.json").read_text())["gui_values"]["gain: "] == 5
     assert main(["cpp", "run", str(FAULTS), "--out", str(out), "-q", "--set", "gian=5"]) == 1
     assert capsys.readouterr().err == (
-        "ppaloc: error: --set gian=...: faults.cpp has no slider or switch of that name "
+        "ppaloc: error: --set gian=...: faults.cpp has no slider, switch or button of that name "
         "(it has: fault, index, gain)\n"
     )
 

@@ -199,3 +199,33 @@ def test_chromium_shows_the_displays_and_sets_a_slider(live_program, dump_dom):
     assert dom.count('data-loaded="1"') == 2, out.stderr[-2000:]
     assert 'data-set="ok"' in dom and '<h1 id="title">live.cpp</h1>' in dom
     assert "level 42 writeback 42 callback 42 (2 calls)" in result.texts[-1]
+
+
+BUTTON = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    vs_handle store = vs_gui_add_button("store");
+    int presses = 0;
+    vs_on_gui_update(store, [&](int32_t v) { ++presses; vs_post_text("pressed %d", v); });
+    while (1) {
+        vs_frame_loop_control();
+        vs_post_text("frame %d", presses);
+    }
+}
+"""
+
+
+def test_a_button_pressed_on_the_page_runs_its_callback_once_a_press(cxx, tmp_path):
+    source = tmp_path / "button.cpp"
+    source.write_text(BUTTON)
+    run = Run(program=source, frames=FRAMES * 3, timeout=30)
+    s = run.wait_for(lambda s: s["texts"], "text")
+    assert s["items"] == [{"name": "store", "kind": "button", "min": 0, "max": 1, "value": 0}]
+    assert run.post({"name": "store", "value": 1})[0] == 200
+    run.wait_for(lambda s: any(t["text"] == "pressed 1" for t in s["texts"]), "the press")
+    assert run.post({"name": "store", "value": 1})[0] == 200
+    run.wait_for(lambda s: any(t["text"] == "frame 2" for t in s["texts"]), "a second press")
+    result = run.end()
+    assert result.texts[0] == "frame 0" and result.texts.count("pressed 1") == 2

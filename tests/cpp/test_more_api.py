@@ -155,6 +155,16 @@ def test_a_button_callback_runs_only_when_it_is_pressed(cxx, tmp_path):
     assert result.texts == ["frame", "frame"]
 
 
+def test_a_button_set_to_1_is_pressed_once_at_the_start(cxx, tmp_path):
+    source = tmp_path / "button.cpp"
+    source.write_text(BUTTON_CALLBACK)
+    frames = [np.zeros((N, N), np.uint8)] * 2
+    result = run_program(source, frames, settings={"reset": 1}, timeout=60)
+    assert result.texts == ["pressed 1", "frame", "frame"]
+    with pytest.raises(PpalocError, match=r"--set reset=2 is outside the button's range \[0, 1\]"):
+        run_program(source, frames, settings={"reset": 2}, timeout=60)
+
+
 INIT_OUTSIDE = r"""
 #include <scamp5.hpp>
 using namespace SCAMP5_PE;

@@ -5,8 +5,9 @@
 :class:`~ppaloc.cpp.livestate.LiveState`: displays by name with their newest image and the
 frame it came from, sliders and switches with their ranges and values, posted text, and
 frames done of total. The page polls ``state.json`` (every 100 ms) and loads each display's
-newest image as a PNG. A slider or switch moved on the page is POSTed to ``set``, checked
-against the item's range, and reaches the program at its next frame boundary.
+newest image as a PNG. A slider or switch moved (a button pressed) on the page is POSTed to
+``set``, checked against the item's range, and reaches the program at its next frame
+boundary.
 
 Two kinds of producer fill the state. A C++ run: :func:`ppaloc.cpp.run.run_program` opens
 the view on its session (:class:`ppaloc.cpp.server.Session`), which hands it what each
@@ -524,21 +525,26 @@ function showItems(list) {
     if (!row) {
       const label = document.createElement("label");
       label.textContent = it.name;
-      const input = document.createElement("input");
+      const input = document.createElement(it.kind === "button" ? "button" : "input");
       input.name = it.name;
-      if (it.kind === "switch") { input.type = "checkbox"; }
-      else { input.type = "range"; input.min = it.min; input.max = it.max; input.step = 1; }
       const out = document.createElement("output");
-      input.addEventListener(it.kind === "switch" ? "change" : "input", () => {
-        const v = it.kind === "switch" ? (input.checked ? 1 : 0) : Number(input.value);
-        out.textContent = v;
-        setItem(it.name, v);
-      });
+      if (it.kind === "button") {
+        input.type = "button"; input.textContent = "press";
+        input.addEventListener("click", () => setItem(it.name, 1));
+      } else {
+        if (it.kind === "switch") { input.type = "checkbox"; }
+        else { input.type = "range"; input.min = it.min; input.max = it.max; input.step = 1; }
+        input.addEventListener(it.kind === "switch" ? "change" : "input", () => {
+          const v = it.kind === "switch" ? (input.checked ? 1 : 0) : Number(input.value);
+          out.textContent = v;
+          setItem(it.name, v);
+        });
+      }
       $("items").append(label, input, out);
       row = {input: input, out: out};
       inputs.set(it.name, row);
     }
-    if (document.activeElement !== row.input) {
+    if (it.kind !== "button" && document.activeElement !== row.input) {
       if (it.kind === "switch") row.input.checked = it.value !== 0;
       else row.input.value = it.value;
       row.out.textContent = it.value;

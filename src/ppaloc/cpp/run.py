@@ -397,14 +397,15 @@ def check_settings(settings: Mapping[str, object] | None) -> dict[str, str]:
         return {}
     if not isinstance(settings, Mapping):
         raise PpalocError(
-            f"settings={settings!r} must be a mapping of slider or switch names to values, "
-            'e.g. {"threshold": 30}'
+            f"settings={settings!r} must be a mapping of slider, switch or button names to "
+            'values, e.g. {"threshold": 30}'
         )
     out: dict[str, str] = {}
     for key, value in settings.items():
         if not isinstance(key, str) or not key.strip():
             raise PpalocError(
-                f"settings key {key!r} must be a slider's or switch's name (a non-empty string)"
+                f"settings key {key!r} must be a slider's, switch's or button's name (a "
+                "non-empty string)"
             )
         if isinstance(value, str):
             text = value
@@ -417,8 +418,8 @@ def check_settings(settings: Mapping[str, object] | None) -> dict[str, str]:
                 "an integer" if isinstance(value, numbers.Real) else "a number, a bool or a string"
             )
             raise PpalocError(
-                f"settings[{key!r}]={value!r}: a slider or switch takes {kind}, e.g. 30, True "
-                "or 'on'"
+                f"settings[{key!r}]={value!r}: a slider, switch or button takes {kind}, e.g. 30, "
+                "True or 'on'"
             )
         out[key] = text
     return out

@@ -509,7 +509,8 @@ class Session:
         line: int,
         handle: int | None = None,
     ) -> int:
-        """The value of a slider or switch: ``--set NAME=VALUE`` or its initial value.
+        """The value of a slider, switch or button: ``--set NAME=VALUE`` or its initial value
+        (a button's 0; ``--set NAME=1`` presses it once at the start).
 
         ``NAME`` is the item's text as the program declares it, or that text without its
         trailing colons and spaces (``--set threshold=30`` sets ``"threshold: "``).
@@ -523,7 +524,7 @@ class Session:
         if name is not None:
             self.unused.discard(name)
             raw = self.settings[name]
-            if kind == "switch" and raw.lower() in ("on", "true", "yes", "off", "false", "no"):
+            if kind != "slider" and raw.lower() in ("on", "true", "yes", "off", "false", "no"):
                 value = int(raw.lower() in ("on", "true", "yes"))
             else:
                 try:
@@ -562,13 +563,14 @@ class Session:
                 )
         if self.unused:
             raise PpalocError(
-                f"--set {sorted(self.unused)[0]}=...: {self.program} has no slider or switch "
-                f"of that name (it has: {', '.join(self.gui_names()) or 'none'})"
+                f"--set {sorted(self.unused)[0]}=...: {self.program} has no slider, switch "
+                f"or button of that name (it has: {', '.join(self.gui_names()) or 'none'})"
             )
 
     def gui_names(self) -> list[str]:
-        """The run's sliders and switches as ``--set`` takes them: without their trailing
-        colons and spaces unless two items share that name, quoted for a shell if need be."""
+        """The run's sliders, switches and buttons as ``--set`` takes them: without their
+        trailing colons and spaces unless two items share that name, quoted for a shell if
+        need be."""
         texts = list(self.gui_values)
         bare = Counter(gui_name(t) for t in texts)
         return [shlex.quote(gui_name(t) if bare[gui_name(t)] == 1 else t) for t in texts]
@@ -1144,6 +1146,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_gui_add_display": _add_display,
     "vs_gui_add_slider": _slider("slider"),
     "vs_gui_add_switch": _slider("switch"),
+    "vs_gui_add_button": _slider("button"),
     "vs_post_text": _post_text,
     "vs_frame_loop_control": lambda s, a, line: s.loop_answer(),
     "vs_wait_frame_trigger": lambda s, a, line: s.loop_answer(),

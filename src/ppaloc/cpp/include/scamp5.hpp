@@ -1014,7 +1014,7 @@ struct Gui {
     std::map<vs_handle, volatile int*> writeback;
     std::map<vs_handle, std::function<void(int32_t)>> callbacks;
     std::vector<vs_handle> due;  // callbacks set since the last message processing
-    std::set<vs_handle> buttons;  // never pressed: the host sends no value for them
+    std::set<vs_handle> buttons;  // their callbacks run only when pressed
     vs_handle next = 1;
 };
 inline Gui& gui() {
@@ -1171,7 +1171,7 @@ inline void vs_on_shutdown(std::function<void(void)> f) { ppa::hooks().shutdown.
 inline void vs_on_gui_connect(std::function<void(void)> f) { vs_on_host_connect(f); }
 inline void vs_on_gui_disconnect(std::function<void(void)> f) { vs_on_host_disconnect(f); }
 // The host never records a run nor sends a user value here: accepted and recorded
-// (host.txt), never called, as a button is never pressed.
+// (host.txt), never called.
 inline void vs_on_gui_start_recording(std::function<void(void)> f, ppa::Loc loc = PPA_HERE) {
     (void)f;
     ppa::call("vs_on_gui_start_recording", false, {}, loc);
@@ -1229,10 +1229,11 @@ inline vs_handle vs_gui_add_switch(const char* text, bool init, volatile int* wr
                                    ppa::Loc loc = PPA_HERE) {
     return ppa::gui_item("vs_gui_add_switch", text, 0, 1, init ? 1 : 0, writeback, loc);
 }
-inline vs_handle vs_gui_add_button(const char* text) {
-    (void)text;
-    vs_handle h = ppa::gui().next++;
-    ppa::gui().values[h] = 0;  // never pressed
+// A button is pressed once at the start where the run was given --set NAME=1 (its value 1
+// then, its callback called with 1 at the next message processing), else only from a live
+// view; its value is 0 otherwise.
+inline vs_handle vs_gui_add_button(const char* text, ppa::Loc loc = PPA_HERE) {
+    vs_handle h = ppa::gui_item("vs_gui_add_button", text, 0, 1, 0, NULL, loc);
     ppa::gui().buttons.insert(h);
     return h;
 }
@@ -1286,9 +1287,9 @@ inline void vs_on_gui_update(vs_handle item, std::function<void(int32_t)> f) {
     g.callbacks[item] = f;
     // Called with the value given to this run, once, at the next message processing (the
     // next vs_frame_loop_control or vs_process_message), as the device calls it when the
-    // host's value arrives, never from here. A button's callback runs when it is pressed,
-    // and nothing presses one here.
-    if (g.buttons.count(item)) return;
+    // host's value arrives, never from here. A button's callback runs when it is pressed:
+    // at the start only where the run pressed it (--set NAME=1).
+    if (g.buttons.count(item) && !g.values[item]) return;
     if (std::find(g.due.begin(), g.due.end(), item) == g.due.end()) g.due.push_back(item);
 }
 
