@@ -23,11 +23,12 @@ def run(mode: int, frames, tmp_path=None):
     return run_program(IDIOMS, frames, settings={"mode": mode}, timeout=60, out=out)
 
 
-def test_a_free_running_loop_counts_its_frames_with_the_loop_counter(idioms, tmp_path):
+def test_a_free_running_loop_counts_its_frames_with_the_loop_counter(cxx, tmp_path):
     # while (1) { vs_process_message(); ...; vs_loop_counter_inc(); } with no frame trigger
     # (the public AnalogNet demos): each increment ends a frame; it ran until the timeout
     frames = [np.full((64, 64), 40 * (k + 1), np.uint8) for k in range(3)]
-    result = run(0, frames, tmp_path)
+    source = PROGRAMS / "free_running.cpp"
+    result = run_program(source, frames, timeout=60, out=tmp_path / "out")
     session = result.session
     assert [t for _, t in session.texts] == ["pass 0", "pass 1", "pass 2"]
     assert [f for f, _ in session.texts] == [0, 1, 2]
@@ -64,6 +65,38 @@ def test_a_gpio_pin_beyond_the_port_is_named(idioms):
     with pytest.raises(PpalocError) as err:
         run(3, [np.zeros((64, 64), np.uint8)])
     assert str(err.value) == (
-        "idioms.cpp:43: vs_gpio_output(40, 1): GPIO port 6 has pins 0 to 31 "
+        "idioms.cpp:33: vs_gpio_output(40, 1): GPIO port 6 has pins 0 to 31 "
         "(VS_GPIO_X0 ... VS_GPIO_X4 are the board's)"
     )
+
+
+COUNTED_BEFORE_THE_WAIT = r"""
+#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    for (int k = 0; k < MODE; k++) {  // a warm-up counted on the loop counter
+        vs_process_message();
+        vs_loop_counter_inc();
+    }
+    while (1) {
+        vs_loop_counter_inc();  // the three calls of vs_frame_loop_control, written out
+        vs_wait_frame_trigger();
+        vs_process_message();
+        vs_post_text("body");
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("warm_up", [0, 10])
+def test_a_program_that_waits_for_the_trigger_anywhere_counts_loops_without_ending_frames(
+    cxx, tmp_path, warm_up
+):
+    # the loop counter counted before the first wait (the documented order of
+    # vs_frame_loop_control's three calls, or a warm-up loop): its frames are the waits
+    source = tmp_path / "counted.cpp"
+    source.write_text(COUNTED_BEFORE_THE_WAIT.replace("MODE", str(warm_up)))
+    frames = [np.zeros((64, 64), np.uint8)] * 4
+    result = run_program(source, frames, timeout=60)
+    assert [(f, t) for f, t in result.session.texts] == [(k, "body") for k in range(4)]

@@ -222,6 +222,24 @@ def check_project(project: Project) -> list[Path]:
     return headers
 
 
+_TRIGGERS = re.compile(r"\b(?:vs_frame_loop_control|vs_wait_frame_trigger)\s*\(")
+
+
+def paced(project: Project, headers: Sequence[Path]) -> bool:
+    """Whether the program waits for the frame trigger anywhere (``vs_frame_loop_control``
+    or ``vs_wait_frame_trigger`` called in a source or a project header): its frames are
+    those waits, and ``vs_loop_counter_inc`` only counts. A program that names neither runs
+    free, and each ``vs_loop_counter_inc`` ends one of its frames (docs/cpp.md)."""
+    for path in [*project.sources, *headers]:
+        try:
+            text = path.read_text(errors="replace")
+        except OSError as exc:
+            raise PpalocError(f"cannot read {path}: {exc.strerror}") from None
+        if _TRIGGERS.search(strip_code(text)):
+            return True
+    return False
+
+
 def compile_program(
     source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | Project,
     include_dirs: Sequence[str | os.PathLike[str]] = (),
@@ -280,6 +298,7 @@ def compile_program(
     cmd = [cxx, *FLAGS, f"-I{include}", f"-I{gen}"]
     cmd += [f"-I{d}" for d in project.include_dirs]
     cmd += [f"-D{d}" for d in project.defines]
+    cmd += [f"-DPPA_PACED={int(paced(project, headers))}"]  # a function of the sources
     cmd += [*map(str, project.sources), "-o", str(tmp)]
     try:
         done = subprocess.run(cmd, capture_output=True, text=True)

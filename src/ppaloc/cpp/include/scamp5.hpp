@@ -1138,11 +1138,16 @@ inline void gui_changes(const std::vector<uint8_t>& r) {
 // and the message processing at once, as on the device; a program may write the three itself.
 // A program that never waits for the trigger (its loop runs free on the device:
 // vs_process_message, the body, vs_loop_counter_inc) counts its frames with the loop
-// counter: until it first calls vs_frame_loop_control or vs_wait_frame_trigger, each
-// vs_loop_counter_inc ends a frame and starts the next.
+// counter: each vs_loop_counter_inc ends a frame and starts the next, in a program whose
+// sources call neither vs_frame_loop_control nor vs_wait_frame_trigger (the build defines
+// PPA_PACED=1 where one of them is called anywhere, so a program that counts its loops
+// before its first wait loses no frame).
+#ifndef PPA_PACED
+#define PPA_PACED 0
+#endif
 namespace ppa {
 inline bool& paced() {
-    static bool p = false;
+    static bool p = PPA_PACED;
     return p;
 }
 inline void next_frame(const char* fn, const Loc& loc) {
