@@ -423,6 +423,11 @@ def _print_best_cells(summary: dict[str, Any]) -> None:
 # -- map and localise ------------------------------------------------------------------------
 
 
+def _count_nodes(topomap: Any) -> str:
+    """``300 lbp nodes``, ``1 patch node``: a map's size as the commands print it."""
+    return f"{len(topomap)} {topomap.kind} node{'' if len(topomap) == 1 else 's'}"
+
+
 def run_map(
     dataset: str, method: str, out: Path, params: dict[str, Any], *, quiet: bool = False
 ) -> Path:
@@ -459,8 +464,7 @@ def run_map(
         topomap.provenance["reference_names"] = names
     path = topomap.save(out, dataset=dataset)
     if not quiet:
-        nodes = f"{len(topomap)} {topomap.kind} node{'' if len(topomap) == 1 else 's'}"
-        print(f"map: {path} ({nodes} from {ds.name}, {method})")
+        print(f"map: {path} ({_count_nodes(topomap)} from {ds.name}, {method})")
     return path
 
 
@@ -599,9 +603,7 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
 
         write_bytes(out, png_bytes(_descriptor_figure(topomap)))
     if not quiet:
-        print(
-            f"{path}: {len(topomap)} {topomap.kind} node{'' if len(topomap) == 1 else 's'} -> {out}"
-        )
+        print(f"{path}: {_count_nodes(topomap)} -> {out}")
     return out
 
 

@@ -7,7 +7,7 @@ about one node per frame, the weighted-node filter's transition costs assume one
 frame where it does not know the speed. A query driven at twice the mapping speed is
 outside all of them, and such a method then fails for a reason that has nothing to do
 with recognising places. This module measures the query's speed from the dataset's
-ground truth and says so, once per method:
+ground truth and says so, one line for the methods that search the same speeds:
 
 - :func:`match_centres`: the reference frame each query sits at (the median of its accepted
   reference frames; NaN for a query without a true match, which is skipped);
@@ -181,18 +181,19 @@ def check_speed(
     median = float(np.median(known))
     out.update(query_speed_median=median, share_outside=outside)
     if outside > share:
-        out["warning"] = _warning(method, False, (lo, hi), outside, far, median, remedy)
+        out["warning"] = _warning(method, (lo, hi), outside, median, remedy, far=far)
     return out
 
 
 def _warning(
     subject: str,
-    several: bool,
     speed_range: tuple[float, float],
     outside: float,
-    far: float,
     median: float,
     remedy: str | None,
+    *,
+    several: bool = False,
+    far: float = FAR,
 ) -> str:
     """The one-line warning of :func:`check_speed`, for one method or several alike
     (``several``: the subject names them, each searching the same speeds)."""
@@ -213,7 +214,8 @@ def _warning(
 
 
 def _names(names: Sequence[str]) -> str:
-    """``a``, ``a and b``, ``a, b and c each``: the subject of a warning shared by methods."""
+    """``a``, ``a and b each``, ``a, b and c each``: the subject of a warning shared by
+    methods."""
     if len(names) == 1:
         return names[0]
     return f"{', '.join(names[:-1])} and {names[-1]} each"
@@ -260,12 +262,11 @@ def speed_checks(
         first = out[names[0]]
         line = _warning(
             _names(names),
-            len(names) > 1,
             rng,
             first["share_outside"],
-            FAR,
             first["query_speed_median"],
             remedy,
+            several=len(names) > 1,
         )
         log.warning("%s", line)
     return out
