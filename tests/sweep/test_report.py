@@ -196,3 +196,12 @@ def test_show_on_a_sweep_folder_prints_its_best_cells_and_rebuilds_its_report(tm
     assert "Best cell per method and dataset" in out and "seqslam" in out
     assert f"report:  {tmp_path / 'report.html'}" in out
     assert "Max F1 against gain" in (tmp_path / "report.html").read_text()
+
+
+def test_show_names_a_damaged_sweep_summary(tmp_path, capsys):
+    from ppaloc.cli import main
+
+    (tmp_path / "summary.json").write_text('{"format": "ppaloc-sweep-summary", ')
+    assert main(["show", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert f"cannot read {tmp_path / 'summary.json'}" in err and "results.json" not in err

@@ -532,17 +532,6 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     return _show_planes(path, out, quiet=quiet)
 
 
-def _is_sweep(folder: Path) -> bool:
-    """Whether ``folder`` holds a sweep's ``summary.json`` (read as ``load_summary`` reads it)."""
-    import json
-
-    try:
-        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    return isinstance(summary, dict) and summary.get("format") == "ppaloc-sweep-summary"
-
-
 def _show_results(folder: Path, *, quiet: bool) -> Path:
     import json
 
@@ -554,12 +543,13 @@ def _show_results(folder: Path, *, quiet: bool) -> Path:
         if not quiet:
             print(f"matrix: {folder / 'matrix.csv'}")
         return folder / "matrix.csv"
-    if not (folder / "results.json").is_file() and _is_sweep(folder):
+    if not (folder / "results.json").is_file() and (folder / "summary.json").is_file():
         from ppaloc.evaluate.sweep_report import load_summary, write_sweep_report
 
+        summary = load_summary(folder)  # a sweep's; a damaged or foreign one named as such
         report = write_sweep_report(folder)  # from summary.json, as `ppaloc sweep` writes it
         if not quiet:
-            _print_best_cells(load_summary(folder))
+            _print_best_cells(summary)
             print(f"report:  {report}")
         return report
     if not (folder / "results.json").is_file():
