@@ -245,6 +245,25 @@ def test_localise_with_a_map_of_the_wrong_kind_names_the_right_fix(tmp_path, mon
     assert "representation='lbp'" not in err
 
 
+def test_live_with_a_map_no_sensor_method_reads_names_only_a_map_to_build(
+    tmp_path, monkeypatch, capsys
+):
+    monkeypatch.chdir(tmp_path)
+    assert main(["map", TINY, "--out", "patch.npz", "-q"]) == 0  # the host's patch place
+    from PIL import Image
+
+    Image.new("L", (32, 32)).save("f.png")
+    capsys.readouterr()
+    argv = ["localise", "patch.npz", "f.png", "-m", "onsensor-lowres", "--live"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "holds 'patch' nodes but method 'onsensor-lowres' needs 'lowres' nodes" in err
+    assert "build a map for onsensor-lowres with `ppaloc map" in err
+    assert "weighted-node-patch" not in err  # --live shows the sensor: no host method will do
+    assert main(argv[:-1]) == 1  # without --live the host's method is a way out too
+    assert "localise it with --method weighted-node-patch" in capsys.readouterr().err
+
+
 def test_param_on_map_and_localise_merges_key_by_key(tmp_path, monkeypatch, capsys):
     # --param KEY=VALUE crashed in the parameter merge even with a valid value
     monkeypatch.chdir(tmp_path)

@@ -196,9 +196,11 @@ def _method_for_map(topomap: Any, method: str | None, map_path: Path) -> str:
     return name
 
 
-def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
-    """Refuse a map of another kind than ``loc`` needs, naming the methods that read it and
-    how to build the right one."""
+def _check_map_kind(
+    topomap: Any, loc: Any, name: str, map_path: Path, *, live: bool = False
+) -> None:
+    """Refuse a map of another kind than ``loc`` needs, naming the methods that read it (not
+    with ``live``: only ``name``'s own map would do) and how to build the right one."""
     from ppaloc.methods import registry
 
     own = getattr(loc, "representation", None) or getattr(loc, "kind", None)
@@ -211,11 +213,16 @@ def _check_map_kind(topomap: Any, loc: Any, name: str, map_path: Path) -> None:
     built_by = topomap.provenance.get("method")
     if built_by and built_by not in readers:
         readers.insert(0, str(built_by))
-    use = f"localise it with --method {readers[0]}" if readers else "use a matching map"
+    build = f"build a map for {name} with `ppaloc map DATASET --method {name} --out MAP.npz`"
+    if live:  # --live shows the sensor: another method's map is no way out
+        use = build
+    elif readers:
+        use = f"localise it with --method {readers[0]}, or {build}"
+    else:
+        use = f"use a matching map, or {build}"
     raise PpalocError(
-        f"map {map_path} holds {topomap.kind!r} nodes but method {name!r} needs "
-        f"{needs} nodes: {use}, or build a map for {name} with "
-        f"`ppaloc map DATASET --method {name} --out MAP.npz`"
+        f"map {map_path} holds {topomap.kind!r} nodes but method {name!r} needs {needs} "
+        f"nodes: {use}"
     )
 
 
@@ -353,7 +360,7 @@ def run_localise(
     use = getattr(loc, "use_map", None)
     if use is None:
         raise PpalocError(f"method {name!r} cannot load a saved map (it has no use_map)")
-    _check_map_kind(topomap, loc, name, map_path)
+    _check_map_kind(topomap, loc, name, map_path, live=live is not None)
     if live is not None:
         _check_live(loc, name)
     names = _reference_names(topomap, map_path)
