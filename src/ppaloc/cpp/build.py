@@ -209,6 +209,14 @@ def check_project(project: Project) -> list[Path]:
 
     A name one file defines (a helper ``vs_blend`` in ``extra.cpp``) is known in all.
     """
+    headers, texts = _read_project(project)
+    _check_texts(texts)
+    return headers
+
+
+def _read_project(project: Project) -> tuple[list[Path], list[tuple[Path, str]]]:
+    """The project's headers, and the text of every source and header, read once for every
+    scan of the build (the unmodelled calls, the frame triggers)."""
     headers = project_headers(project, SHIM_HEADERS)
     texts: list[tuple[Path, str]] = []
     for path in [*project.sources, *headers]:
@@ -216,28 +224,25 @@ def check_project(project: Project) -> list[Path]:
             texts.append((path, path.read_text(errors="replace")))
         except OSError as exc:
             raise PpalocError(f"cannot read {path}: {exc.strerror}") from None
+    return headers, texts
+
+
+def _check_texts(texts: Sequence[tuple[Path, str]]) -> None:
+    """:func:`check_project`'s scan of texts already read."""
     defined = frozenset().union(*(_defined_here(strip_code(t)) for _, t in texts))
     for path, text in texts:
         check_source(text, str(path), defined)
-    return headers
 
 
 _TRIGGERS = re.compile(r"\b(?:vs_frame_loop_control|vs_wait_frame_trigger)\s*\(")
 
 
-def paced(project: Project, headers: Sequence[Path]) -> bool:
+def _paced(texts: Sequence[tuple[Path, str]]) -> bool:
     """Whether the program waits for the frame trigger anywhere (``vs_frame_loop_control``
     or ``vs_wait_frame_trigger`` called in a source or a project header): its frames are
     those waits, and ``vs_loop_counter_inc`` only counts. A program that names neither runs
     free, and each ``vs_loop_counter_inc`` ends one of its frames (docs/cpp.md)."""
-    for path in [*project.sources, *headers]:
-        try:
-            text = path.read_text(errors="replace")
-        except OSError as exc:
-            raise PpalocError(f"cannot read {path}: {exc.strerror}") from None
-        if _TRIGGERS.search(strip_code(text)):
-            return True
-    return False
+    return any(_TRIGGERS.search(strip_code(text)) for _, text in texts)
 
 
 def compile_program(
@@ -268,7 +273,8 @@ def compile_program(
         With the compiler's own messages (file, line, column) when it does not compile.
     """
     project = source if isinstance(source, Project) else make_project(source, include_dirs, defines)
-    headers = check_project(project)
+    headers, texts = _read_project(project)
+    _check_texts(texts)
     cxx = compiler()
     if cxx is None:
         raise PpalocError("no C++ compiler found (g++); install Debian's g++ package or set $CXX")
@@ -298,7 +304,7 @@ def compile_program(
     cmd = [cxx, *FLAGS, f"-I{include}", f"-I{gen}"]
     cmd += [f"-I{d}" for d in project.include_dirs]
     cmd += [f"-D{d}" for d in project.defines]
-    cmd += [f"-DPPA_PACED={int(paced(project, headers))}"]  # a function of the sources
+    cmd += [f"-DPPA_PACED={int(_paced(texts))}"]  # a function of the sources
     cmd += [*map(str, project.sources), "-o", str(tmp)]
     try:
         done = subprocess.run(cmd, capture_output=True, text=True)
