@@ -201,26 +201,8 @@ def test_chromium_shows_the_displays_and_sets_a_slider(live_program, dump_dom):
     assert "level 42 writeback 42 callback 42 (2 calls)" in result.texts[-1]
 
 
-BUTTON = r"""
-#include <scamp5.hpp>
-using namespace SCAMP5_PE;
-int main() {
-    vs_init();
-    vs_handle store = vs_gui_add_button("store");
-    int presses = 0;
-    vs_on_gui_update(store, [&](int32_t v) { ++presses; vs_post_text("pressed %d", v); });
-    while (1) {
-        vs_frame_loop_control();
-        vs_post_text("frame %d", presses);
-    }
-}
-"""
-
-
-def test_a_button_pressed_on_the_page_runs_its_callback_once_a_press(cxx, tmp_path):
-    source = tmp_path / "button.cpp"
-    source.write_text(BUTTON)
-    run = Run(program=source, frames=FRAMES * 3, timeout=30)
+def test_a_button_pressed_on_the_page_runs_its_callback_once_a_press(cxx):
+    run = Run(program=PROGRAMS / "button.cpp", frames=FRAMES * 3, timeout=30)
     s = run.wait_for(lambda s: s["texts"], "text")
     assert s["items"] == [{"name": "store", "kind": "button", "min": 0, "max": 1, "value": 0}]
     assert run.post({"name": "store", "value": 1})[0] == 200

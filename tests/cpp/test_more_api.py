@@ -131,38 +131,22 @@ def test_a_callback_the_program_ran_is_not_run_again_with_the_hosts_value(cxx, t
     assert result.texts == ["rate 200"]
 
 
-BUTTON_CALLBACK = r"""
-#include <scamp5.hpp>
-using namespace SCAMP5_PE;
-int main() {
-    vs_init();
-    vs_handle reset = vs_gui_add_button("reset");
-    vs_on_gui_update(reset, [&](int32_t v) { vs_post_text("pressed %d", v); });
-    while (1) {
-        vs_frame_loop_control();
-        vs_post_text("frame");
-    }
-}
-"""
+BUTTON = PROGRAMS / "button.cpp"
 
 
-def test_a_button_callback_runs_only_when_it_is_pressed(cxx, tmp_path):
+def test_a_button_callback_runs_only_when_it_is_pressed(cxx):
     # the host sends a button's message when it is pressed, never at the start as it
     # sends a slider's value; nothing presses it here (it ran once with 0, a press)
-    source = tmp_path / "button.cpp"
-    source.write_text(BUTTON_CALLBACK)
-    result = run_program(source, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
-    assert result.texts == ["frame", "frame"]
+    result = run_program(BUTTON, [np.zeros((N, N), np.uint8)] * 2, timeout=60)
+    assert result.texts == ["frame 0", "frame 0"]
 
 
-def test_a_button_set_to_1_is_pressed_once_at_the_start(cxx, tmp_path):
-    source = tmp_path / "button.cpp"
-    source.write_text(BUTTON_CALLBACK)
+def test_a_button_set_to_1_is_pressed_once_at_the_start(cxx):
     frames = [np.zeros((N, N), np.uint8)] * 2
-    result = run_program(source, frames, settings={"reset": 1}, timeout=60)
-    assert result.texts == ["pressed 1", "frame", "frame"]
-    with pytest.raises(PpalocError, match=r"--set reset=2 is outside the button's range \[0, 1\]"):
-        run_program(source, frames, settings={"reset": 2}, timeout=60)
+    result = run_program(BUTTON, frames, settings={"store": 1}, timeout=60)
+    assert result.texts == ["pressed 1", "frame 1", "frame 1"]
+    with pytest.raises(PpalocError, match=r"--set store=2 is outside the button's range \[0, 1\]"):
+        run_program(BUTTON, frames, settings={"store": 2}, timeout=60)
 
 
 INIT_OUTSIDE = r"""
