@@ -7,6 +7,7 @@ from ppaloc.datasets import RouteDataset, to_grey, to_sensor
 from ppaloc.errors import PpalocError
 from ppaloc.localise import Estimate
 from ppaloc.methods import make_localiser
+from ppaloc.seeds import SEED_MAX
 from ppaloc.topomap import TopoMap
 
 
@@ -58,3 +59,26 @@ def test_unknown_method_parameter_names_the_accepted_ones():
         match=r"method 'single-frame': unknown parameter 'nope'; its parameters: size, patch, ",
     ):
         make_localiser("single-frame", nope=1)
+
+
+@pytest.mark.parametrize(
+    ("method", "key"),
+    [("particle-filter", "seed"), ("able-m", "bit_seed"), ("onsensor-lowres", "seed")],
+)
+def test_every_method_seed_takes_the_one_seed_range(method, key):
+    make_localiser(method, **{key: SEED_MAX})
+    with pytest.raises(PpalocError, match=f"{key}={SEED_MAX + 1} must be in \\[0, {SEED_MAX}\\]"):
+        make_localiser(method, **{key: SEED_MAX + 1})
+
+
+def test_the_generator_the_configuration_and_cpp_take_the_one_seed_range():
+    from ppaloc.cpp import command
+    from ppaloc.datasets.registry import parse_dataset_spec
+    from ppaloc.errors import DatasetSpecError
+    from ppaloc.evaluate.config import LIMITS
+
+    parse_dataset_spec(f"synthetic:?seed={SEED_MAX}")
+    with pytest.raises(DatasetSpecError, match=f"in \\[0, {SEED_MAX}\\]"):
+        parse_dataset_spec(f"synthetic:?seed={SEED_MAX + 1}")
+    assert LIMITS["seed"] == (0, SEED_MAX)
+    assert command.SEED_MAX is SEED_MAX

@@ -40,6 +40,7 @@ from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.place import HAAR_BITS, HAAR_WORDS, LBP_BITS, LOWRES_GRIDS
 from ppaloc.place.patch import downsample
+from ppaloc.seeds import SEED_MAX
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ABLEM", "sequence_distances"]
@@ -117,7 +118,7 @@ class ABLEM(MapLocaliser):
         "side": (8, 1024),
         "levels": (1, 64),
         "n_bits": (1, 1_000_000),
-        "bit_seed": (0, 2**63 - 1),
+        "bit_seed": (0, SEED_MAX),
         "rwindow": (0, 1_000_000),
         "top_k": (1, 10_000),
     }

@@ -42,6 +42,7 @@ from ppaloc.baselines._descriptors import check_descriptor
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.localise.enhance import contrast_enhance
+from ppaloc.seeds import SEED_MAX
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ParticleFilter", "systematic_resample"]
@@ -137,7 +138,7 @@ class ParticleFilter(ImageLocaliser):
         "enhance_window": (0, 10_000),
         "size": (1, 1024),
         "patch": (1, 1024),
-        "seed": (0, 2**63 - 1),
+        "seed": (0, SEED_MAX),
         "top_k": (1, 10_000),
     }
 

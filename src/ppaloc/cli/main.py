@@ -934,7 +934,11 @@ def show(path: Path, out: Path | None, quiet: bool | None) -> None:
     "warm-up",
     epilog="""\b
 Examples:
-  ppaloc warm-up        # once per machine (and after an upgrade); a few minutes""",
+  ppaloc warm-up        # once per machine (and after an upgrade)
+
+\b
+It can take tens of minutes on a busy two-core machine; Ctrl-C keeps what it has
+compiled, and the next warm-up goes on from there.""",
 )
 @_QUIET
 def warm_up(quiet: bool | None) -> None:

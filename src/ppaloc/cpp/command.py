@@ -21,13 +21,12 @@ from ppaloc.cpp.run import (
     run_program,
 )
 from ppaloc.errors import PpalocError
+from ppaloc.seeds import SEED_MAX
 
 __all__ = ["load_frames", "parse_settings", "parse_stream_options", "run_cpp"]
 
 #: Frames taken from a dataset when --frames is not given.
 DATASET_FRAMES = 10
-#: The largest --seed, as every other command's seed (a signed 64-bit integer).
-MAX_SEED = 2**63 - 1
 
 
 def parse_settings(items: Sequence[str]) -> dict[str, str]:
@@ -189,8 +188,8 @@ def run_cpp(
     """
     if seed < 0:
         raise PpalocError(f"--seed {seed} must be 0 or more")
-    if seed > MAX_SEED:
-        raise PpalocError(f"--seed {seed} is too large: give an integer in [0, {MAX_SEED}]")
+    if seed > SEED_MAX:
+        raise PpalocError(f"--seed {seed} is too large: give an integer in [0, {SEED_MAX}]")
     # Every value, then the program's files and the output folder, are checked before any
     # frame is read: a stream or a long video takes time to read.
     _check_frames(frames)

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from ppaloc.errors import PpalocError
+from ppaloc.seeds import SEED_MAX
 
 __all__ = [
     "DEMO_DATASET",
@@ -59,7 +60,7 @@ MAX_BENCH_SIZE = 262_144
 
 LIMITS: dict[str, tuple[float, float]] = {
     "tolerance": (0, 1000),
-    "seed": (0, 2**63 - 1),
+    "seed": (0, SEED_MAX),
     "max_weight_values": (0, 100_000_000),
     "queries": (1, 100_000),
     "warmup": (0, 10_000),

@@ -45,6 +45,7 @@ from ppaloc.onsensor.precursor import (
     loop_counts,
     structure_counts,
 )
+from ppaloc.seeds import SEED_MAX
 from ppaloc.sim import NoiseParams
 from ppaloc.sim.observe import SimObserver, check_observers
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
@@ -246,7 +247,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
         return (
             MethodParam("representation", str, "lowres"),
             MethodParam("noise", str | NoiseParams, "ideal", doc="ideal, low, typical, high"),
-            MethodParam("seed", int, 0, 0, 2**63 - 1, "seed of the simulator's noise"),
+            MethodParam("seed", int, 0, 0, SEED_MAX, "seed of the simulator's noise"),
             MethodParam("arithmetic", str, "ppa8"),
             MethodParam("record_weights", bool, False),
             MethodParam("size", int, 256, 16, 256, "array side (multiples of 64)"),

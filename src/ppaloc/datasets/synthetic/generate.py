@@ -28,6 +28,7 @@ from ppaloc.datasets.synthetic.path import drift, make_path
 from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import make_world
 from ppaloc.errors import DataError
+from ppaloc.seeds import SEED_MAX
 
 __all__ = [
     "MAX_OFFSET",
@@ -66,8 +67,8 @@ MAX_OFFSET = 20.0
 """Largest lateral offset of the query, metres either side."""
 MAX_SIZE = 1024
 """Largest frame side, pixels (a frame renders in time and memory of its area)."""
-MAX_SEED = 2**63 - 1
-"""Largest seed."""
+MAX_SEED = SEED_MAX
+"""Largest seed (:data:`ppaloc.seeds.SEED_MAX`, as every seed)."""
 
 _MAX_DWELL = 24  # frames of one stop (motion.py draws 6-24)
 
