@@ -729,7 +729,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         self._flag_partial = False  # the kernel may change FLAG
         run()
         self.timing.charge_kernel(counts)
-        if dwritten.size:
+        if self._retention and dwritten.size:
             self._touch_digital(dwritten)
 
     def _touch_digital(self, planes: np.ndarray | int) -> None:
