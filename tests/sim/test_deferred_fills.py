@@ -242,3 +242,28 @@ def test_a_partial_flag_keeps_the_fill():
         k.bus(s.NEWS, s.A)
     news = sim.read(s.NEWS)
     assert (news[~np.eye(4, dtype=bool)] == -9).all()
+
+
+def test_in_set_back_to_the_level_its_plane_holds_is_not_written_again(monkeypatch):
+    """No ICW writes ``IN``: a level set, replaced before any kernel read it, and set
+    again leaves the plane as it was, so no pass writes it; a host write of ``IN`` (a
+    view of it) makes its level unknown again."""
+    sim = Scamp5(8, 8)
+    sim.write(s.B, np.arange(64).reshape(8, 8) - 32)
+    with sim.kernel() as k:  # A := B + IN (record and run once; B is no constant: no fold)
+        k.bus(s.NEWS, s.B, s.IN)
+        k.bus(s.A, s.NEWS)
+    sim.load_in(5)
+    k.run()  # IN's plane holds 5
+    plane_in = sim._analog_planes[s.IN.index].__array_interface__["data"][0]
+    passes = count_fills(monkeypatch)
+    sim.load_in(7)  # never read
+    sim.load_in(5)
+    k.run()
+    assert plane_in not in passes
+    assert (sim.read(s.A) == sim.read(s.B) + 5).all()
+    sim.write(s.IN, np.full((8, 8), 1.0))
+    sim.load_in(5)
+    k.run()
+    assert passes.count(plane_in) == 1
+    assert (sim.read(s.A) == sim.read(s.B) + 5).all()

@@ -228,14 +228,7 @@ class CellLoadMixin:
             if replay:
                 written = np.zeros(p * q, bool)
                 written[order[:-1]] = True
-                row_cell, col_cell, _ = self._cells_of(p, q)
-                cell = row_cell[:, None] * q + col_cell[None, :]
-                mask = written[cell] & (row_cell >= 0)[:, None] & (col_cell >= 0)[None, :]
-                plane = self._dplane(dreg)
-                if clear:
-                    plane &= ~mask
-                else:
-                    plane |= mask
+                self._or_cells(self._dplane(dreg), written.reshape(p, q), clear)
                 self.timing.charge_rounds(steps, m)
                 order = order[-1:]
         for flat in order:
@@ -250,6 +243,25 @@ class CellLoadMixin:
                 kernels[(dreg, tmp, clear)] = kernel
             else:
                 kernel.run()
+
+    def _or_cells(self, plane: np.ndarray, written: np.ndarray, clear: bool) -> None:
+        """``plane |=`` (``clear``: ``&= NOT``) the ``p x q`` bool grid ``written`` at the
+        PEs each cell's pattern selects, the last cell's where two select one PE. A grid
+        that tiles the plane goes in as ``p`` whole rows repeated down it (a 3-D view),
+        not through a gather over the plane."""
+        p, q = written.shape
+        row_cell, col_cell, tiled = self._cells_of(p, q)
+        if tiled:
+            view = plane.reshape(self.rows // p, p, self.cols)
+            band = np.tile(written, (1, self.cols // q))
+        else:
+            view = plane
+            band = written.reshape(-1)[row_cell[:, None] * q + col_cell[None, :]]
+            band &= (row_cell >= 0)[:, None] & (col_cell >= 0)[None, :]
+        if clear:
+            view &= ~band
+        else:
+            view |= band
 
     def _elapse_rounds(self, at: np.ndarray, skip: int = -1) -> np.ndarray:
         """The droop bookkeeping of elapse instants ``at`` that the routine's calls would

@@ -21,6 +21,7 @@ Semantics (docs/sim.md has the reasoning):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
@@ -103,6 +104,18 @@ def _edge_slices(dr: int, dc: int, rows: int, cols: int) -> list[tuple[slice, sl
 
 _BUS_OPS = frozenset({"bus", "bus2", "bus3", "busn"})
 _FLAG_OPS = frozenset({"where", "WHERE", "all"})
+
+
+def same_level(a: float, b: float | None) -> bool:
+    """Whether a fill of ``a`` writes the bytes a plane of level ``b`` holds (None:
+    unknown): equal values of the same sign (``0.0`` and ``-0.0`` differ in their bytes).
+
+    Examples
+    --------
+    >>> same_level(3.0, 3.0), same_level(0.0, -0.0), same_level(1.0, None)
+    (True, False, False)
+    """
+    return b is not None and a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
 
 
 def overwritten_first(instructions: Iterable[Instruction]) -> frozenset[int]:
@@ -254,6 +267,8 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         self._flag_masked: bool | None = False  # None: unknown, recompute
         self._flag_partial = False  # FLAG seen partial since the last kernel or FLAG access
         self._in_level: float | None = 0.0  # the level IN holds everywhere (None: unknown)
+        # the level IN's plane itself holds everywhere (its fill written; None: unknown)
+        self._in_plane: float | None = 0.0
         self._image: np.ndarray | None = None
         self._ops_cache: dict[tuple, Op] = {}
         self._last_us = 0.0
@@ -278,6 +293,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         """Every analogue plane, (planes, rows, cols) float32, with every fill written."""
         if self._fills:
             self._write_fills()
+        self._in_plane = None  # the caller may change IN through the planes
         return self._analog_planes
 
     def _aplane(self, reg: Register) -> np.ndarray:
@@ -288,11 +304,11 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             )
         i = reg.index
         if i in self._fills:
-            hostloops.fill(self._analog_planes[i], self._fills.pop(i))
+            self._write_fill(i, self._fills.pop(i))
         if i < len(_DECAYING) and self._droop_us[i]:
             self._flush_droop((i,))
         elif i == _IN_I:
-            self._in_level = None  # the caller may change IN through the view
+            self._in_level = self._in_plane = None  # the caller may change IN through the view
         return self._analog_planes[i]
 
     def _overwrite(self, reg: Register) -> np.ndarray:
@@ -305,7 +321,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         if i < len(_DECAYING):
             self._droop_us[i] = 0.0
         elif i == _IN_I:
-            self._in_level = None
+            self._in_level = self._in_plane = None
         return self._analog_planes[i]
 
     def _set_in(self, value: float) -> None:
@@ -327,24 +343,34 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         (ideal mode, or ``IN``): a deferred value has no time of its own to droop from."""
         self._fills[i] = value
 
+    def _write_fill(self, i: int, value: float) -> None:
+        """Write the deferred fill of analogue plane ``i``: one pass, none for ``IN`` when
+        its plane already holds ``value`` (IN is written by fills and host views only,
+        never by an ICW: a DAC level set, replaced before any kernel read it, and set
+        again leaves the plane as it was)."""
+        if i == _IN_I:
+            if same_level(value, self._in_plane):
+                return
+            self._in_plane = value
+        hostloops.fill(self._analog_planes[i], value)
+
     def _write_fills(self) -> None:
         """Write every deferred fill (:meth:`_fill_later`)."""
-        fills, planes = self._fills, self._analog_planes
+        fills = self._fills
         while fills:
-            i, value = fills.popitem()
-            hostloops.fill(planes[i], value)
+            self._write_fill(*fills.popitem())
 
     def _settle_fills(self, used: frozenset[int], fresh: frozenset[int]) -> None:
         """Before a kernel that names the analogue planes ``used``: write their deferred
         fills, except those of ``fresh`` planes (:func:`overwritten_first`) when FLAG is
         known to be set everywhere (the kernel then overwrites them whole before reading:
         the fill is never seen); fills of planes the kernel does not name stay deferred."""
-        fills, planes = self._fills, self._analog_planes
+        fills = self._fills
         whole = self._flag_masked is False
         for i in [i for i in fills if i in used]:
             value = fills.pop(i)
             if not (whole and i in fresh):
-                hostloops.fill(planes[i], value)
+                self._write_fill(i, value)
 
     def _take_droop(self, reg: Register) -> np.float32 | None:
         """The droop step pending on analogue ``reg``, cleared without a pass: the caller
@@ -703,7 +729,7 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         self._flag_partial = False  # the kernel may change FLAG
         run()
         self.timing.charge_kernel(counts)
-        if dwritten.size:
+        if self._retention and dwritten.size:
             self._touch_digital(dwritten)
 
     def _touch_digital(self, planes: np.ndarray | int) -> None:

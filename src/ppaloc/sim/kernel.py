@@ -21,7 +21,7 @@ from __future__ import annotations
 import itertools
 import warnings
 import weakref
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
 
 from ppaloc.errors import KernelError
@@ -111,7 +111,7 @@ class Kernel(ProgramAPI):
         self._recorded: list[Instruction] = []
         self._open = False
         self._sealed = False
-        self._ops: list | None = None
+        self._ops: Callable[[], None] | None = None
         self._icws: tuple[Instruction, ...] | None = None
         self._counts: tuple[tuple[str, int], ...] | None = None
         self._dwritten = None
@@ -231,17 +231,23 @@ class Kernel(ProgramAPI):
         The simulator's observers receive a :class:`~ppaloc.sim.observe.KernelRun` of
         this kernel after each run.
         """
+        ops = self._ops
+        if ops is None:  # compiled only once sealed and whole, so a replay checks nothing
+            ops = self._compile()
+        sim = self.sim
+        sim._run_ops(ops, self._counts, self._dwritten)
+        if sim._observers:
+            sim._observed_icws(self, self._icws)
+
+    def _compile(self) -> Callable[[], None]:
+        """The first run's checks, then the runner and what each run charges and touches."""
+        from ppaloc.sim.engine import count_clocks, written_digital
+
         self._check_not_failed()
         if not self._sealed:
             raise KernelError("a kernel runs after its `with` block has ended")
-        sim = self.sim
-        if self._ops is None:
-            from ppaloc.sim.engine import count_clocks, written_digital
-
-            self._icws = tuple(self._recorded)  # sealed: what observers receive
-            self._ops = sim._compile_kernel(self._recorded)
-            self._counts = tuple(count_clocks(self._recorded).items())  # the timing's key
-            self._dwritten = written_digital(self._recorded)
-        sim._run_ops(self._ops, self._counts, self._dwritten)
-        if sim._observers:
-            sim._observed_icws(self, self.instructions)
+        self._icws = tuple(self._recorded)  # sealed: what observers receive
+        self._counts = tuple(count_clocks(self._recorded).items())  # the timing's key
+        self._dwritten = written_digital(self._recorded)
+        self._ops = self.sim._compile_kernel(self._recorded)
+        return self._ops

@@ -413,12 +413,14 @@ class CompiledEngine:
         offsets, pixel = noise.offsets, noise.pixel_offset
         none_s, none_g = self._no_starts, self._no_gains
         runs = self._runs
+        draws = not noise.ideal and m > 0
+        take = noise.take
 
         def run() -> None:
-            if noise.ideal or m == 0:
-                starts, gains = none_s, none_g
+            if draws:
+                starts, gains = take(m)
             else:
-                starts, gains = noise.take(m)
+                starts, gains = none_s, none_g
             all_set = _run(
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
