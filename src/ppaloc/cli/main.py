@@ -1175,20 +1175,57 @@ def _show_warning(
     print(f"ppaloc: warning: {_one_line(f'{category.__name__}: {message}')}", file=sys.stderr)
 
 
+class _NamedStdout:
+    """``sys.stdout`` whose write errors name it: the system's error for a write to standard
+    output (a full disk under ``ppaloc localise ... > est.csv``) carries no file name, and
+    :func:`main` reads an error without one as a bug. Everything else is the stream's."""
+
+    name = "standard output"
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except OSError as exc:
+            raise self._named(exc) from None
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except OSError as exc:
+            raise self._named(exc) from None
+
+    def _named(self, exc: OSError) -> OSError:
+        if exc.filename is not None or isinstance(exc, BrokenPipeError):
+            return exc
+        return OSError(exc.errno, exc.strerror, self.name)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the ``ppaloc`` command; return the exit code (see the module docstring)."""
     import warnings
 
     shown, warnings.showwarning = warnings.showwarning, _show_warning
+    stdout = sys.stdout
+    if stdout is not None:
+        sys.stdout = _NamedStdout(stdout)
     try:
         return _main(argv)
     finally:
+        sys.stdout = stdout
         warnings.showwarning = shown
 
 
 def _main(argv: list[str] | None) -> int:
     try:
         cli.main(args=argv, prog_name="ppaloc", standalone_mode=False)
+        if sys.stdout is not None:
+            sys.stdout.flush()  # what is still buffered: its failure is reported here
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except click.exceptions.Abort:
