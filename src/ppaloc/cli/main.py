@@ -74,7 +74,8 @@ def _parse_params(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
                 f"--param {item!r} must look like METHOD.KEY=VALUE, "
                 "e.g. --param weighted-node-lowres.alpha=8"
             )
-        out.setdefault(method.strip(), {})[name.strip()] = _parse_value(value.strip())
+        table = out.setdefault(method.strip(), {})
+        _set_once(table, name.strip(), _parse_value(value.strip()), f"{method.strip()}.")
     return out
 
 
@@ -85,8 +86,19 @@ def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
         key, eq, value = item.partition("=")
         if not eq or not key.strip():
             raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param alpha=8")
-        out[key.strip()] = _parse_value(value.strip())
+        _set_once(out, key.strip(), _parse_value(value.strip()))
     return out
+
+
+def _set_once(table: dict[str, Any], key: str, value: Any, prefix: str = "") -> None:
+    """``table[key] = value`` for a ``--param``, refusing a key given before with another
+    value: two values are a contradiction for the user to settle (the same one is fine)."""
+    if key in table and table[key] != value:
+        raise PpalocError(
+            f"--param {prefix}{key} is given twice ({_short(table[key])}, then {_short(value)}): "
+            "give it once"
+        )
+    table[key] = value
 
 
 def _file_values(path: Path | None, section: str) -> dict[str, Any]:
