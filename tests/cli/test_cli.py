@@ -120,6 +120,31 @@ def test_param_flags_reach_the_method(mean_match, tiny_spec, tmp_path, capsys):
     assert z["node"][0] != 0 or z["node"][1] != 1  # shifted by 2 from the exact match
 
 
+def test_a_param_flag_given_twice_with_two_values_is_refused(
+    mean_match, tiny_spec, tmp_path, capsys
+):
+    # the later value was taken without a word
+    out = tmp_path / "run"
+    args = ("evaluate", "-d", tiny_spec, "-m", mean_match, "--out", out, "-q", "--no-report")
+    code, _, err = run(
+        capsys, *args, "--param", f"{mean_match}.offset=2", "--param", f"{mean_match}.offset=1"
+    )
+    assert (code, err) == (
+        1,
+        f"ppaloc: error: --param {mean_match}.offset is given twice (2, then 1): give it once\n",
+    )
+    assert not out.exists()
+    code, _, err = run(capsys, "map", tiny_spec, "-m", mean_match, "--out", tmp_path / "m.npz",
+                       "--param", "offset=2", "--param", "offset=3")  # fmt: skip
+    assert (code, err) == (
+        1,
+        "ppaloc: error: --param offset is given twice (2, then 3): give it once\n",
+    )
+    code, _, err = run(capsys, *args, "--param", f"{mean_match}.offset=2",
+                       "--param", f" {mean_match}.offset = 2")  # fmt: skip
+    assert code == 0, err  # the same value twice says one thing
+
+
 def test_several_datasets_make_a_matrix(mean_match, tmp_path, capsys):
     a, b = "synthetic:?places=8&size=32&sync=1", "synthetic:?places=6&size=32&sync=1&seed=1"
     out = tmp_path / "m"

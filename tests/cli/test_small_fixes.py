@@ -3,8 +3,10 @@ block, a leak), and each test fails on the code before its fix."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
+import sys
 import threading
 import warnings
 from pathlib import Path
@@ -380,3 +382,38 @@ def test_a_full_disk_is_one_line_naming_the_file(tmp_path, capsys, monkeypatch):
                        "single-frame", "--no-report", "-q", "--out", ev)  # fmt: skip
     assert code == 1 and err.startswith(f"ppaloc: error: No space left on device: '{ev}/")
     assert os.listdir(tmp_path) == []  # no staging folder left either
+
+
+class _FullStdout(io.StringIO):
+    """Standard output on a full disk: the system's error names no file."""
+
+    def __init__(self, fail_on: str) -> None:
+        super().__init__()
+        self.fail_on = fail_on
+
+    def write(self, text: str) -> int:
+        if self.fail_on == "write":
+            raise OSError(28, "No space left on device")
+        return super().write(text)
+
+    def flush(self) -> None:
+        if self.fail_on == "flush":
+            raise OSError(28, "No space left on device")
+
+
+@pytest.mark.parametrize("fail_on", ["write", "flush"])
+def test_a_full_disk_under_standard_output_is_one_line(
+    fail_on, folder_map, tmp_path, capsys, monkeypatch
+):
+    # `ppaloc localise MAP FRAMES > est.csv` on a full disk, or `ppaloc --help > file`, was
+    # an internal error (exit 3, "this is a bug"): the error of a write to stdout names no
+    # file; a line left in the buffer failed only as the interpreter ended (exit 120)
+    frames = _images(tmp_path / "q", ["q0.png", "q1.png"])[0].parent
+    expected = (
+        "ppaloc: error: No space left on device: 'standard output'; free some space there or "
+        "give another location\n"
+    )
+    for args in (["localise", folder_map, frames], ["--help"], ["map", "--help"]):
+        monkeypatch.setattr(sys, "stdout", _FullStdout(fail_on))
+        code, _, err = run(capsys, *args)
+        assert (code, err) == (1, expected), args

@@ -16,6 +16,21 @@ def test_parse_settings():
         parse_settings(["threshold"])
 
 
+def test_a_setting_given_twice_with_two_values_is_refused():
+    # the later value was taken without a word
+    from ppaloc.cpp.command import parse_stream_options
+
+    assert parse_settings(["threshold=30", "threshold = 30"]) == {"threshold": "30"}
+    with pytest.raises(PpalocError) as err:
+        parse_settings(["threshold=30", "dilate=on", "threshold=40"])
+    assert str(err.value) == "--set threshold is given twice ('30', then '40'): give it once"
+    with pytest.raises(PpalocError) as err:
+        parse_stream_options(["framerate=30", "framerate=25"])
+    assert str(err.value) == (
+        "--stream-option framerate is given twice ('30', then '25'): give it once"
+    )
+
+
 def _session(**settings: str):
     from ppaloc.cpp.server import Session
     from ppaloc.sim import Scamp5

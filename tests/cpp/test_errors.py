@@ -473,3 +473,33 @@ def test_frames_not_square_or_larger_than_the_device_are_refused(faults, shape):
         f"the frames are {shape[0]} x {shape[1]}: the array a device program runs on is "
         "square and at most 256 x 256"
     )
+
+
+def test_a_program_that_prints_without_end_is_kept_within_a_bound(cxx, tmp_path, monkeypatch):
+    # its output went to temporary files read back whole: a printf in a loop that never
+    # ended wrote gigabytes before the timeout (6.5 GB resident after a 10 s timeout), now
+    # the first MAX_OUTPUT_BYTES of stdout are kept, and the first and last of stderr
+    from ppaloc.cpp import capture
+
+    monkeypatch.setattr(capture, "MAX_OUTPUT_BYTES", 1000)
+    source = tmp_path / "chatty.cpp"
+    source.write_text(
+        "#include <scamp5.hpp>\n#include <cstdio>\n"
+        "int main() {\n    vs_init();\n    vs_frame_loop_control();\n"
+        '    for (int i = 0; i < 100000; i++) printf("line %06d\\n", i);\n'
+        '    for (int i = 0; i < 100000; i++) fprintf(stderr, "noise %06d\\n", i);\n'
+        '    fprintf(stderr, "the last words\\n");\n    return 3;\n}\n'
+    )
+    with pytest.raises(PpalocError) as err:
+        run_program(source, FRAMES, timeout=60)
+    assert str(err.value) == "chatty.cpp exited with status 3 in frame 0: the last words"
+    source.write_text(source.read_text().replace("return 3;", "return 0;"))
+    result = run_program(source, FRAMES, timeout=60)
+    printed = "".join(f"line {i:06d}\n" for i in range(100000))  # 1,200,000 bytes
+    assert result.stdout == (
+        printed[:1000] + "\n[ppaloc: 1199000 more bytes of standard output not kept: a run "
+        "keeps the first 1000 bytes]\n"
+    )
+    assert result.session.warnings == [
+        "chatty.cpp printed 1200000 bytes to standard output; stdout.txt keeps the first 1000"
+    ]

@@ -152,6 +152,9 @@ def test_truncated_and_oversized_npy(tmp_path, monkeypatch):
         # first line's count as if every line were like it, with no hint)
         ("1,0,0\n0,1,0\n0,0,1\n1,1,1\n", r"has shape \(4, 3\); .*add gt_transpose=1"),
         ("1,1,0,0\n0,0,0\n0,0,1,1\n", r"line 2 has 3 values where line 1 has 4; every line"),
+        # no line, or blank lines only: it was 'has shape (0, 4)', a width it does not have
+        ("", r"has no values \(an empty file\); expected 3 x 4 \(queries x references"),
+        ("\n \n\n", r"has no values \(an empty file\); expected 3 x 4"),
     ],
 )
 def test_bad_csv_is_named(tmp_path, text, message):

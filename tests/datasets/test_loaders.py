@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -187,13 +188,13 @@ def test_citycentre_bad_inputs(write_frames, tmp_path):
 # --- video ----------------------------------------------------------------------------------
 
 
-def _write_video(path, frames, fps=10, shape=None, codec="libx264"):
+def _write_video(path, frames, fps=10, shape=None, codec="libx264", pix_fmt="yuv420p"):
     """``frames`` (grey, uint8) as a video; ``shape`` sizes one of no frames."""
     av = pytest.importorskip("av")
     with av.open(str(path), "w") as out:
         stream = out.add_stream(codec, rate=fps)
         stream.height, stream.width = shape or frames[0].shape
-        stream.pix_fmt = "yuv420p"
+        stream.pix_fmt = pix_fmt
         if not frames:  # the container's header and no packet
             out.start_encoding()
             return
@@ -235,6 +236,43 @@ def test_a_video_cut_short_is_named(tmp_path):
     path.write_bytes(data[: len(data) // 2])
     with pytest.raises(DataError, match=r"clip\.mp4 holds no decodable video stream \(cut short"):
         load_dataset(f"video:{path},{path}")
+
+
+def test_a_damaged_video_without_a_frame_count_is_named(tmp_path):
+    # Matroska records no frame count, so the frames are counted by decoding them; a damaged
+    # frame met there ended in an internal error (av's InvalidDataError, exit 3)
+    path = tmp_path / "clip.mkv"
+    rng = np.random.default_rng(0)
+    frames = [rng.integers(0, 256, (48, 64), dtype=np.uint8) for _ in range(30)]
+    _write_video(path, frames, codec="mjpeg", pix_fmt="yuvj420p")
+    data = bytearray(path.read_bytes())
+    at = [m.start() for m in re.finditer(b"\xff\xd8", bytes(data))][6] + 300  # frame 6's tables
+    data[at : at + 250] = bytes((b * 7 + 13) % 256 for b in data[at : at + 250])
+    path.write_bytes(bytes(data))
+    with pytest.raises(DataError) as err:
+        load_dataset(f"video:{path},{path}")
+    message = str(err.value)
+    assert re.fullmatch(
+        rf"cannot decode frame \d+ of video {re.escape(str(path))} \(decoded to count its "
+        r"frames, which its container does not record\): Invalid data found when processing "
+        r"input; the video is damaged or cut short: give a complete video",
+        message,
+    ), message
+
+
+def test_ffmpeg_causes_read_without_error_numbers(tmp_path):
+    # "cannot read video ...: [Errno 1094995529] Invalid data found when processing input:
+    # '...'": FFmpeg's error number and the file again; an empty file is called empty
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"\x00" * 100)
+    with pytest.raises(DataError) as err:
+        load_dataset(f"video:{junk},{junk}")
+    assert str(err.value) == f"cannot read video {junk}: Invalid data found when processing input"
+    empty = tmp_path / "empty.mp4"
+    empty.write_bytes(b"")
+    with pytest.raises(DataError) as err:
+        load_dataset(f"video:{empty},{empty}")
+    assert str(err.value) == f"video {empty} is empty (0 bytes); give a complete video"
 
 
 def test_a_video_of_no_frames_is_named(tmp_path):

@@ -50,6 +50,21 @@ def test_positions_in_metres_with_queries_that_have_no_match(folders):
     }  # fmt: skip
 
 
+def test_positions_beyond_a_million_kilometres_are_refused(folders):
+    # coordinates near 1e154 metres overflowed the k-d tree's squared distances: an internal
+    # error (scipy's ValueError "Encountering floating point overflow") for any tolerance
+    (folders / "ref.csv").write_text("x,y\n0,0\n1e300,0\n20,0\n30,0\n40,0\n")
+    (folders / "qry.csv").write_text("x,y\n1,0\n24,3\n100,0\n41,0\n")
+    spec = _spec(folders, ref_positions=folders / "ref.csv", query_positions=folders / "qry.csv",
+                 tolerance_m=5)  # fmt: skip
+    with pytest.raises(DataError) as err:
+        load_dataset(spec)
+    assert str(err.value) == (
+        f"ref_positions={folders / 'ref.csv'}, line 3: x 1e+300 is not a position in "
+        "-1e+09..1e+09 metres (a million kilometres); give positions in metres"
+    )
+
+
 def test_soft_tolerance_and_same_place_from_positions(folders):
     # reference frames 1-3 stand at one place (within 0.5 m); the query at x = 75.3 reaches
     # frames 1 and 2 (24.7 m, 24.9 m) but not 3 (25.1 m): closed, it accepts all three

@@ -116,6 +116,8 @@ def test_from_metres_bounds_the_pairs(monkeypatch):
         ("lat,lon\n10,190\n", 1, r"lon 190 is not a longitude in -180..180 degrees"),
         ("easting,northing,zone\n1,2,32V\n3,4,33V\n", 2, r"spans UTM zones 32V, 33V; .* lat/lon"),
         ("x,y\n1e999,2\n", 1, r"column 'x' is 1e999: too large to be a position"),
+        ("x,y\n1,2e9\n", 1, r"line 2: y 2e\+09 is not a position in -1e\+09..1e\+09 metres"),
+        ("easting,northing\n-1e300,2\n", 1, r"line 2: easting -1e\+300 is not a position in"),
     ],
 )
 def test_every_bad_file_is_one_line_naming_the_fix(tmp_path, text, n, message):

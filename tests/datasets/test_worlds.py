@@ -64,6 +64,12 @@ def test_lab_world_defaults_and_conditions():
         ("synthetic:?places=20&turns=6", "turns=6: a route of 20 places takes 0 to places//4 = 5"),
         ("synthetic:?world=lab&query=winter", "unknown condition 'winter' in the lab"),
         ("synthetic:?query=changed", "unknown condition 'changed': choose from summer"),
+        # it blamed turns=1, which the spec did not give (the lab's default)
+        (
+            "synthetic:?world=lab&places=3",
+            r"^a lab route of 3 places is too short for the lab's default of max\(1, places // "
+            r"25\) turns \(one turn takes 4 places\): give places=4 or more, or turns=0$",
+        ),
     ],
 )
 def test_bad_worlds_are_one_line_errors(spec, message):

@@ -15,8 +15,14 @@ def test_constructor_stays_compatible_and_validates() -> None:
     assert TopoMap("seqslam", np.zeros((4, 64), np.float32)).layout is None
     with pytest.raises(ValueError, match=r"a 'lbp' map holds uint32 descriptors of shape \(N, \)"):
         TopoMap("lbp", np.zeros(3, np.int64))
-    with pytest.raises(ValueError, match="frame_index has 2 entries for 3 nodes"):
+    with pytest.raises(ValueError, match=r"one reference frame per node, shape \(3,\), got \(2,\)"):
         TopoMap("lbp", np.zeros(3, np.uint32), frame_index=[0, 1])
+    # a frame_index of one row per node but two columns read "has 3 entries for 3 nodes"
+    with pytest.raises(ValueError) as err:
+        TopoMap("lbp", np.zeros(3, np.uint32), frame_index=np.zeros((3, 2), np.int64))
+    assert str(err.value) == (
+        "frame_index must hold one reference frame per node, shape (3,), got (3, 2)"
+    )
     with pytest.raises(ValueError, match=r"positions must have shape \(N, D\) with N = 3"):
         TopoMap("lbp", np.zeros(3, np.uint32), positions=np.zeros((2, 2)))
     assert TopoMap("lbp", np.zeros(3, np.uint32), positions=np.arange(3)).positions.shape == (3, 1)

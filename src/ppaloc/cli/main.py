@@ -74,7 +74,8 @@ def _parse_params(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
                 f"--param {item!r} must look like METHOD.KEY=VALUE, "
                 "e.g. --param weighted-node-lowres.alpha=8"
             )
-        out.setdefault(method.strip(), {})[name.strip()] = _parse_value(value.strip())
+        table = out.setdefault(method.strip(), {})
+        _set_once(table, name.strip(), _parse_value(value.strip()), f"{method.strip()}.")
     return out
 
 
@@ -85,8 +86,19 @@ def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
         key, eq, value = item.partition("=")
         if not eq or not key.strip():
             raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param alpha=8")
-        out[key.strip()] = _parse_value(value.strip())
+        _set_once(out, key.strip(), _parse_value(value.strip()))
     return out
+
+
+def _set_once(table: dict[str, Any], key: str, value: Any, prefix: str = "") -> None:
+    """``table[key] = value`` for a ``--param``, refusing a key given before with another
+    value: two values are a contradiction for the user to settle (the same one is fine)."""
+    if key in table and table[key] != value:
+        raise PpalocError(
+            f"--param {prefix}{key} is given twice ({_short(table[key])}, then {_short(value)}): "
+            "give it once"
+        )
+    table[key] = value
 
 
 def _file_values(path: Path | None, section: str) -> dict[str, Any]:
@@ -1179,20 +1191,57 @@ def _show_warning(
     print(f"ppaloc: warning: {_one_line(f'{category.__name__}: {message}')}", file=sys.stderr)
 
 
+class _NamedStdout:
+    """``sys.stdout`` whose write errors name it: the system's error for a write to standard
+    output (a full disk under ``ppaloc localise ... > est.csv``) carries no file name, and
+    :func:`main` reads an error without one as a bug. Everything else is the stream's."""
+
+    name = "standard output"
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except OSError as exc:
+            raise self._named(exc) from None
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except OSError as exc:
+            raise self._named(exc) from None
+
+    def _named(self, exc: OSError) -> OSError:
+        if exc.filename is not None or isinstance(exc, BrokenPipeError):
+            return exc
+        return OSError(exc.errno, exc.strerror, self.name)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the ``ppaloc`` command; return the exit code (see the module docstring)."""
     import warnings
 
     shown, warnings.showwarning = warnings.showwarning, _show_warning
+    stdout = sys.stdout
+    if stdout is not None:
+        sys.stdout = _NamedStdout(stdout)
     try:
         return _main(argv)
     finally:
+        sys.stdout = stdout
         warnings.showwarning = shown
 
 
 def _main(argv: list[str] | None) -> int:
     try:
         cli.main(args=argv, prog_name="ppaloc", standalone_mode=False)
+        if sys.stdout is not None:
+            sys.stdout.flush()  # what is still buffered: its failure is reported here
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except click.exceptions.Abort:

@@ -36,8 +36,18 @@ def parse_settings(items: Sequence[str]) -> dict[str, str]:
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
             raise PpalocError(f"--set {item!r} must be NAME=VALUE, e.g. --set threshold=30")
-        out[name.strip()] = value.strip()
+        _set_once(out, name.strip(), value.strip(), "--set")
     return out
+
+
+def _set_once(table: dict[str, str], name: str, value: str, flag: str) -> None:
+    """``table[name] = value``, refusing a name given before with another value: two values
+    are a contradiction for the user to settle (the same one is fine)."""
+    if name in table and table[name] != value:
+        raise PpalocError(
+            f"{flag} {name} is given twice ({table[name]!r:.40}, then {value!r:.40}): give it once"
+        )
+    table[name] = value
 
 
 MAX_FRAMES = 2000
@@ -63,7 +73,7 @@ def parse_stream_options(items: Sequence[str]) -> dict[str, str]:
                 f"--stream-option {item!r} must be NAME=VALUE, an FFmpeg input option, e.g. "
                 "--stream-option video_size=640x480"
             )
-        out[name.strip()] = value.strip()
+        _set_once(out, name.strip(), value.strip(), "--stream-option")
     return out
 
 

@@ -16,7 +16,6 @@ import re
 import select
 import signal
 import subprocess
-import tempfile
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -27,6 +26,7 @@ import numpy as np
 from PIL import Image
 
 from ppaloc.cpp.build import SHIM_HEADERS, compile_program
+from ppaloc.cpp.capture import Capture
 from ppaloc.cpp.displays import fit_plane
 from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.project import Project, make_project, project_headers
@@ -570,80 +570,91 @@ def _serve(
         PPALOC_FD_IN=str(to_prog_r),
         ASAN_OPTIONS="detect_leaks=0:abort_on_error=0",
     )
-    with tempfile.TemporaryFile() as out_f, tempfile.TemporaryFile() as err_f:
-        start = time.perf_counter()
+    out_r, out_w = os.pipe()
+    err_r, err_w = os.pipe()
+    start = time.perf_counter()
+    try:
+        proc = subprocess.Popen(
+            [str(exe)],
+            stdin=subprocess.DEVNULL,
+            stdout=out_w,
+            stderr=err_w,
+            pass_fds=(to_sim_w, to_prog_r),
+            env=env,
+        )
+    except OSError as exc:
+        for fd in (to_sim_r, to_sim_w, to_prog_r, to_prog_w, out_r, out_w, err_r, err_w):
+            os.close(fd)
+        raise PpalocError(f"cannot start {name}: {exc.strerror or exc}") from None
+    for fd in (to_sim_w, to_prog_r, out_w, err_w):
+        os.close(fd)
+    out_f, err_f = Capture(out_r), Capture(err_r, tail=True)  # drained as it prints
+    deadline = start + timeout
+    error: PpalocError | None = None
+    read_before = session.source.waited_s  # the first frame, read before the build
+
+    def read_deadline() -> float:  # nor are a live view's pacing and reading the frames
+        paced = live.waited_s if live is not None else 0.0
+        return deadline + paced + session.source.waited_s - read_before
+
+    def read() -> bytes:
+        left = read_deadline() - time.perf_counter()
+        ready = select.select([to_sim_r], [], [], max(left, 0))[0] if left > 0 else []
+        if not ready:
+            raise TimeoutError
+        return os.read(to_sim_r, 1 << 16)
+
+    def write(data: bytes) -> None:
         try:
-            proc = subprocess.Popen(
-                [str(exe)],
-                stdin=subprocess.DEVNULL,
-                stdout=out_f,
-                stderr=err_f,
-                pass_fds=(to_sim_w, to_prog_r),
-                env=env,
+            os.write(to_prog_w, data)
+        except BrokenPipeError:
+            pass
+
+    served = False
+    try:
+        serve(session, read, write)
+        served = True
+    except TimeoutError:
+        if session.loops:
+            error = PpalocError(
+                f"{name} did not finish within {timeout:g} s (stopped in frame "
+                f"{session.frame}): a loop that never ends? raise --timeout if it needs "
+                "longer"
             )
-        except OSError as exc:
-            for fd in (to_sim_r, to_sim_w, to_prog_r, to_prog_w):
-                os.close(fd)
-            raise PpalocError(f"cannot start {name}: {exc.strerror or exc}") from None
-        os.close(to_sim_w)
-        os.close(to_prog_r)
-        deadline = start + timeout
-        error: PpalocError | None = None
-        read_before = session.source.waited_s  # the first frame, read before the build
-
-        def read_deadline() -> float:  # nor are a live view's pacing and reading the frames
-            paced = live.waited_s if live is not None else 0.0
-            return deadline + paced + session.source.waited_s - read_before
-
-        def read() -> bytes:
-            left = read_deadline() - time.perf_counter()
-            ready = select.select([to_sim_r], [], [], max(left, 0))[0] if left > 0 else []
-            if not ready:
-                raise TimeoutError
-            return os.read(to_sim_r, 1 << 16)
-
-        def write(data: bytes) -> None:
-            try:
-                os.write(to_prog_w, data)
-            except BrokenPipeError:
-                pass
-
-        served = False
+        else:  # a loop that runs free on the device (vs_process_message alone) ends here
+            error = PpalocError(
+                f"{name} did not finish within {timeout:g} s and never began a frame: "
+                "each frame begins at vs_frame_loop_control() or vs_wait_frame_trigger() "
+                "(in a loop that waits for neither, vs_loop_counter_inc() ends one); a loop "
+                "that never ends, or a frame loop without any of them (call "
+                "vs_frame_loop_control() at its top)? raise --timeout if it needs longer"
+            )
+    except ProgramError as exc:
+        error = exc
+    finally:
+        if not served and proc.poll() is None:  # an error of any kind: stop it now
+            proc.kill()
         try:
-            serve(session, read, write)
-            served = True
-        except TimeoutError:
-            if session.loops:
-                error = PpalocError(
-                    f"{name} did not finish within {timeout:g} s (stopped in frame "
-                    f"{session.frame}): a loop that never ends? raise --timeout if it needs "
-                    "longer"
-                )
-            else:  # a loop that runs free on the device (vs_process_message alone) ends here
-                error = PpalocError(
-                    f"{name} did not finish within {timeout:g} s and never began a frame: "
-                    "each frame begins at vs_frame_loop_control() or vs_wait_frame_trigger() "
-                    "(in a loop that waits for neither, vs_loop_counter_inc() ends one); a loop "
-                    "that never ends, or a frame loop without any of them (call "
-                    "vs_frame_loop_control() at its top)? raise --timeout if it needs longer"
-                )
-        except ProgramError as exc:
-            error = exc
-        finally:
-            if not served and proc.poll() is None:  # an error of any kind: stop it now
-                proc.kill()
-            try:
-                code = proc.wait(timeout=max(read_deadline() - time.perf_counter(), 0) + 5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                code = proc.wait()
-            os.close(to_sim_r)
-            os.close(to_prog_w)
-        wall = time.perf_counter() - start
-        out_f.seek(0)
-        err_f.seek(0)
-        stdout = out_f.read().decode("utf-8", "replace")
-        stderr = err_f.read().decode("utf-8", "replace")
+            code = proc.wait(timeout=max(read_deadline() - time.perf_counter(), 0) + 5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            code = proc.wait()
+        os.close(to_sim_r)
+        os.close(to_prog_w)
+    wall = time.perf_counter() - start
+    out_f.finish()
+    err_f.finish()
+    stdout = out_f.head.decode("utf-8", "replace")
+    if out_f.dropped:
+        stdout += (
+            f"\n[ppaloc: {out_f.dropped} more bytes of standard output not kept: a run "
+            f"keeps the first {out_f.limit} bytes]\n"
+        )
+        session.warnings.append(
+            f"{name} printed {len(out_f.head) + out_f.dropped} bytes to standard output; "
+            f"stdout.txt keeps the first {out_f.limit}"
+        )
+    stderr = (err_f.head + err_f.tail).decode("utf-8", "replace")
     if error is not None:
         raise error
     if code == SERVER_EXIT:  # the shim lost its pipe, and the simulator had not ended the run

@@ -144,7 +144,11 @@ def read_matrix(
 
 
 def _shape_error(
-    where: str, shape: tuple[int, ...], want: tuple[int, int], transpose: bool
+    where: str,
+    shape: tuple[int, ...],
+    want: tuple[int, int],
+    transpose: bool,
+    found: str | None = None,
 ) -> DataError:
     rows, cols = ("references", "queries") if transpose else ("queries", "references")
     row = "reference" if transpose else "query"
@@ -156,8 +160,9 @@ def _shape_error(
             if not transpose
             else "; it looks transposed: drop gt_transpose"
         )
+    found = found or f"shape {tuple(shape)}"
     return DataError(
-        f"{where} has shape {tuple(shape)}; expected {want[0]} x {want[1]} ({rows} x {cols}, "
+        f"{where} has {found}; expected {want[0]} x {want[1]} ({rows} x {cols}, "
         f"one row per {row}){hint}"
     )
 
@@ -296,6 +301,8 @@ def _read_csv(
         raise DataError(f"{where} is not a UTF-8 text CSV; save the matrix as text") from None
     except OSError as exc:
         raise DataError(f"cannot read {where}: {exc.strerror or exc}") from None
+    if n_rows == 0 < want[0]:  # no line held a value: no shape to report
+        raise _shape_error(where, (), want, transpose, found="no values (an empty file)")
     if n_rows != want[0]:
         raise _shape_error(where, (n_rows, want[1]), want, transpose)
     return _pack(rows, cols, want, transpose), want

@@ -41,6 +41,7 @@ from ppaloc.errors import DataError
 __all__ = [
     "COORDINATES",
     "MAX_POSITIONS_BYTES",
+    "MAX_POSITION_M",
     "PositionsFile",
     "from_metres",
     "read_positions",
@@ -49,6 +50,11 @@ __all__ = [
 
 MAX_POSITIONS_BYTES = MAX_GROUND_TRUTH_BYTES
 """Largest positions file read (256 MiB: about 8 million rows of ``x,y``)."""
+
+MAX_POSITION_M = 1e9
+"""Largest magnitude of an ``x``, ``y``, easting or northing, in metres (a million
+kilometres, beyond any route on the ground): the distances between positions are then
+exact to a micrometre, where coordinates near 1e154 overflowed the squared distances."""
 
 COORDINATES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "xy": (("x",), ("y",)),
@@ -174,6 +180,8 @@ def read_positions(
                 values[n, k] = _number(row[c], where, line, header[c])
             if kind == "latlon":
                 _check_degrees(values[n], where, line, (header[cols[0]], header[cols[1]]))
+            else:
+                _check_metres(values[n], where, line, (header[cols[0]], header[cols[1]]))
             if names is not None and name_col is not None:
                 given = row[name_col].strip()
                 if Path(given).name != names[n]:
@@ -295,6 +303,16 @@ def _check_degrees(pair: np.ndarray, where: str, line: int, columns: tuple[str, 
             raise DataError(
                 f"{where}, line {line}: {columns[k].strip()} {pair[k]:g} is not a "
                 f"{name} in -{limit:g}..{limit:g} degrees{swapped}"
+            )
+
+
+def _check_metres(pair: np.ndarray, where: str, line: int, columns: tuple[str, str]) -> None:
+    for k in range(2):
+        if abs(pair[k]) > MAX_POSITION_M:
+            raise DataError(
+                f"{where}, line {line}: {columns[k].strip()} {pair[k]:g} is not a position in "
+                f"-{MAX_POSITION_M:g}..{MAX_POSITION_M:g} metres (a million kilometres); "
+                "give positions in metres"
             )
 
 

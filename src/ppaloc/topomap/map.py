@@ -85,7 +85,8 @@ class TopoMap:
         self.frame_index = np.asarray(self.frame_index, dtype=np.int64)
         if self.frame_index.shape != (len(self.descriptors),):
             raise ValueError(
-                f"frame_index has {len(self.frame_index)} entries for {len(self.descriptors)} nodes"
+                f"frame_index must hold one reference frame per node, shape "
+                f"({len(self.descriptors)},), got {self.frame_index.shape}"
             )
         if self.positions is not None:
             self.positions = np.asarray(self.positions, dtype=np.float64)

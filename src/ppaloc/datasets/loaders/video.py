@@ -97,7 +97,19 @@ def open_video(
                 f"{what} holds no frames (an empty video, or one cut short); give a video "
                 "with frames"
             ) from None
-        raise DataError(f"cannot read {what}: {exc}") from None
+        raise DataError(f"cannot read {what}: {_reason(exc)}") from None
+
+
+def _reason(exc: BaseException) -> str:
+    """An error of PyAV in words: FFmpeg's own cause without its error number and the
+    file or FFmpeg function it met it in (``[Errno 1094995529] Invalid data found when
+    processing input: 'avcodec_send_packet()'`` is ``Invalid data found when processing
+    input``); any other error as it reads."""
+    import av
+
+    if isinstance(exc, av.FFmpegError) and exc.strerror:
+        return str(exc.strerror)
+    return str(exc)
 
 
 def _grey(frame: Any) -> np.ndarray:
@@ -144,7 +156,9 @@ class _StreamFrames:
             grey = None if frame is None else _grey(frame)
         except Exception as exc:  # PyAV raises many types on a broken stream
             self.close()
-            raise DataError(f"cannot decode frame {self.decoded} of {self.what}: {exc}") from None
+            raise DataError(
+                f"cannot decode frame {self.decoded} of {self.what}: {_reason(exc)}"
+            ) from None
         if grey is None:
             self.close()
             if not self.decoded:
@@ -206,9 +220,26 @@ class _Decoder:
     def count(self) -> int:
         self.open()
         n = int(self.container.streams.video[0].frames or 0)
-        if n <= 0:  # the container does not say: count by decoding
-            n = sum(1 for _ in self.frames)
+        if n <= 0:  # the container does not say (Matroska, WebM, MPEG-TS): count by decoding
+            n = self._decode_all()
             self.open()
+        return n
+
+    def _decode_all(self) -> int:
+        """How many frames decoding the whole file gives; a frame that fails is named."""
+        import av
+
+        n = 0
+        try:
+            for _ in self.frames:
+                n += 1
+        except av.FFmpegError as exc:  # a damaged frame, met while counting
+            self.close()
+            raise DataError(
+                f"cannot decode frame {n} of video {self.path} (decoded to count its frames, "
+                f"which its container does not record): {_reason(exc)}; the video is damaged "
+                "or cut short: give a complete video"
+            ) from None
         return n
 
     def get(self, i: int) -> np.ndarray:
@@ -223,7 +254,9 @@ class _Decoder:
         except StopIteration:
             raise DataError(f"video {self.path} ends before frame {i}") from None
         except Exception as exc:
-            raise DataError(f"cannot decode frame {i} of video {self.path}: {exc}") from None
+            raise DataError(
+                f"cannot decode frame {i} of video {self.path}: {_reason(exc)}"
+            ) from None
 
     def close(self) -> None:
         if self.container is not None:
@@ -252,6 +285,8 @@ class VideoFrames(FrameSequence):
             raise DataError(f"video {self.path} is a folder; give a video file")
         if not self.path.is_file():
             raise DataError(f"video {self.path} {missing(self.path)}: check the path in the spec")
+        if self.path.stat().st_size == 0:
+            raise DataError(f"video {self.path} is empty (0 bytes); give a complete video")
         self._decoder = _Decoder(self.path)
         n = self._decoder.count()
         if n == 0:

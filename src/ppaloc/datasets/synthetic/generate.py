@@ -235,6 +235,12 @@ def synthetic_route(
     _check_bounds(places, spacing, speed, stops, extra, sync, size, offset, seed)
     if turns is None:
         turns = 0 if world == "road" else max(1, places // 25)
+        if turns > places // 4:  # the lab's one turn needs four places
+            raise DataError(
+                f"a lab route of {places} places is too short for the lab's default of "
+                "max(1, places // 25) turns (one turn takes 4 places): give places=4 or "
+                "more, or turns=0"
+            )
     if not 0 <= turns <= places // 4:
         raise DataError(
             f"turns={turns}: a route of {places} places takes 0 to places//4 = {places // 4} turns"
