@@ -249,7 +249,31 @@ def test_a_file_that_is_not_utf8_names_its_line(spec, tmp_path, capsys):
     f.write_bytes(b"query,reference,score\n0,0,1\n1,\xff,1\n")
     code, _, err = run(capsys, "score", f, "-d", spec, "--out", tmp_path / "o")
     assert code == 1
-    assert err == f"ppaloc: error: {f} line 3: byte 30 is not UTF-8; save the file as UTF-8 text\n"
+    assert err == (
+        f"ppaloc: error: {f} line 3: the reference field is not UTF-8 text; save the file as "
+        "UTF-8 text (only the frames' file names, query_name and reference_name, may hold "
+        "other bytes)\n"
+    )
+
+
+def test_a_header_that_is_not_utf8_is_refused(spec, tmp_path, capsys):
+    f = tmp_path / "mine.csv"
+    f.write_bytes(b"query,reference,sc\xe9re\n0,0,1\n")
+    code, _, err = run(capsys, "score", f, "-d", spec, "--out", tmp_path / "o")
+    assert code == 1
+    assert err.startswith(f"ppaloc: error: {f} line 1: the header is not UTF-8 text;")
+
+
+def test_file_names_that_are_not_utf8_are_read_as_their_own_bytes(tmp_path):
+    """ppaloc localise writes a frame's file name that is not UTF-8 back as its bytes; the
+    file's names read as the folder listing reads them (os.fsdecode)."""
+    from ppaloc.evaluate.score import read_predictions
+
+    f = tmp_path / "mine.csv"
+    f.write_bytes(b"query_name,reference_name,score\ncaf\xe9-1.png,caf\xe9-0.png,0.5\n")
+    (p,) = read_predictions(f)
+    assert p.queries["query_name"] == [os.fsdecode(b"caf\xe9-1.png")]
+    assert p.references[0]["reference_name"] == [os.fsdecode(b"caf\xe9-0.png")]
 
 
 def test_a_file_too_large_is_refused_before_it_is_read(spec, tmp_path, capsys, monkeypatch):

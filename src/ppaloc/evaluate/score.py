@@ -96,6 +96,9 @@ _SCALARS = ("query", "query_name", "reference", "reference_name", "score", "meth
 _OPTIONAL = ("latency_ms", "moved")
 _RANKED = re.compile(r"reference(_name)?_(0|[1-9][0-9]{0,5})")  # reference_02 is not rank 2
 _INDEX = re.compile(r"\s*\+?[0-9]{1,19}\s*")
+#: A byte that is not UTF-8, as ``surrogateescape`` decodes it (a frame's own file name,
+#: which ``ppaloc localise`` writes back as its bytes).
+_RAW_BYTE = re.compile("[\udc80-\udcff]")
 _DOCS = "see docs/evaluate-cli.md, Predictions files"
 
 
@@ -357,11 +360,11 @@ def read_predictions(
     raw = _raw_bytes(path, MAX_PREDICTIONS_BYTES if max_bytes is None else max_bytes)
     try:
         text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        raise DataError(
-            f"{path} line {line}: byte {exc.start} is not UTF-8; save the file as UTF-8 text"
-        ) from None
+    except UnicodeDecodeError:
+        # a frame's file name that is not UTF-8 is its own bytes (as ppaloc localise writes
+        # it, and as the dataset's folder listing reads it); every other field is checked
+        # to be UTF-8 text (_check_text)
+        text = raw.decode("utf-8-sig", "surrogateescape")
     del raw
     reader = csv.reader(io.StringIO(text, newline=""))
     try:
@@ -373,6 +376,7 @@ def read_predictions(
                 f"{path} is empty; give a CSV whose first line names its columns, e.g. "
                 "query,reference,score"
             )
+        _check_text(path, reader.line_num, header, "the header")
         columns = _header(path, header, reader.line_num)
         return _read_rows(path, reader, columns, len(header))
     except csv.Error as exc:
@@ -395,6 +399,8 @@ def _read_rows(path: Path, reader: Any, columns: dict[str, int], width: int) -> 
                 if f"reference{n}{suffix}" in columns
             ]
         )
+    names = {i: c for c, i in columns.items()}
+    text_cols = [i for c, i in columns.items() if not _is_name_column(c)]
     groups: dict[str, dict[str, Any]] = {}
     stem_label = None if "method" in columns else _label(path, 1, path.stem, True)
     for row in reader:
@@ -407,6 +413,8 @@ def _read_rows(path: Path, reader: Any, columns: dict[str, int], width: int) -> 
                 "give every row one field per column (an empty field where there is no value)"
             )
         cells = [c.strip() for c in row]
+        for i in text_cols:
+            _check_text(path, line, [cells[i]], f"the {names[i]} field")
         label = stem_label or _label(path, line, cells[columns["method"]], False)
         g = groups.get(label)
         if g is None:
@@ -476,6 +484,22 @@ def _read_rows(path: Path, reader: Any, columns: dict[str, int], width: int) -> 
         )
         for label, g in groups.items()
     ]
+
+
+def _is_name_column(column: str) -> bool:
+    """Whether ``column`` holds frames' file names (``query_name``, ``reference_name``,
+    ``reference_name_K``): the one kind of field whose bytes need not be UTF-8."""
+    return column == "query_name" or column.startswith("reference_name")
+
+
+def _check_text(path: Path, line: int, cells: list[str], what: str) -> None:
+    """Refuse ``cells`` holding a byte that is not UTF-8 (only file names may)."""
+    if any(_RAW_BYTE.search(c) for c in cells):
+        raise DataError(
+            f"{path} line {line}: {what} is not UTF-8 text; save the file as UTF-8 text "
+            "(only the frames' file names, query_name and reference_name, may hold other "
+            "bytes)"
+        )
 
 
 def _latency(path: Path, line: int, cells: list[str], columns: Mapping[str, int]) -> float:
