@@ -503,3 +503,26 @@ def test_a_program_that_prints_without_end_is_kept_within_a_bound(cxx, tmp_path,
     assert result.session.warnings == [
         "chatty.cpp printed 1200000 bytes to standard output; stdout.txt keeps the first 1000"
     ]
+
+
+def test_a_capture_stops_at_its_deadline_while_a_writer_holds_the_pipe():
+    # a process the program leaves running keeps its standard output open: the captures
+    # waited for each pipe to close, 5 s each, one after the other, and their threads and
+    # pipes stayed until the process ended; now they stop together at one deadline
+    import os
+
+    from ppaloc.cpp.capture import Capture, finish_all
+
+    pipes = [os.pipe(), os.pipe()]
+    captures = (Capture(pipes[0][0]), Capture(pipes[1][0], tail=True))
+    os.write(pipes[0][1], b"the parent ends\n")
+    try:
+        finish_all(captures, wait=0.2)
+        assert captures[0].head == b"the parent ends\n"
+        assert not any(c._thread.is_alive() for c in captures)
+        for read_end, _ in pipes:
+            with pytest.raises(OSError):
+                os.fstat(read_end)  # closed by the capture
+    finally:
+        for _, write_end in pipes:
+            os.close(write_end)

@@ -12,13 +12,22 @@ from __future__ import annotations
 
 import collections
 import os
+import select
 import threading
+import time
 
-__all__ = ["MAX_OUTPUT_BYTES", "Capture"]
+__all__ = ["CLOSE_WAIT_S", "MAX_OUTPUT_BYTES", "Capture", "finish_all"]
 
 MAX_OUTPUT_BYTES = 16 << 20
 """Bytes of a program's output kept from its start (16 MiB; as many again from its end
 where the end is kept)."""
+
+CLOSE_WAIT_S = 1.0
+"""Seconds the captures wait, together, for their pipes to close once the program has
+ended: its last output is in the pipes by then; a process it left running that holds
+them open is not waited for longer."""
+
+_POLL_S = 0.05  # how often a drain looks whether it was told to stop
 
 
 class Capture:
@@ -31,7 +40,7 @@ class Capture:
     >>> r, w = os.pipe()
     >>> c = Capture(r, limit=4, tail=True)
     >>> _ = os.write(w, b"0123456789"); os.close(w)
-    >>> c.finish(); c.head, c.tail, c.dropped
+    >>> c.finish(time.monotonic() + 1); c.head, c.tail, c.dropped
     (b'0123', b'6789', 2)
     """
 
@@ -44,12 +53,18 @@ class Capture:
         self._tail_size = 0
         self._keep_tail = tail
         self._lock = threading.Lock()
+        self._stop = threading.Event()
         self._thread = threading.Thread(target=self._drain, name="ppaloc-capture", daemon=True)
         self._thread.start()
 
     def _drain(self) -> None:
         try:
-            while data := os.read(self._fd, 1 << 16):
+            while not self._stop.is_set():
+                if not select.select([self._fd], [], [], _POLL_S)[0]:
+                    continue
+                data = os.read(self._fd, 1 << 16)
+                if not data:
+                    break
                 with self._lock:
                     self._keep(data)
         except OSError:
@@ -81,10 +96,13 @@ class Capture:
             self.dropped += cut
             excess -= cut
 
-    def finish(self, timeout: float = 5.0) -> None:
-        """Wait for the pipe to close (every writer gone), at most ``timeout`` seconds: a
-        process the program left running with the pipe open is not waited for."""
-        self._thread.join(timeout)
+    def finish(self, deadline: float) -> None:
+        """Wait for the pipe to close (every writer gone) until ``deadline`` (a
+        ``time.monotonic()`` time), then stop reading and close it: a process the program
+        left running with the pipe open is not waited for beyond it."""
+        self._thread.join(max(0.0, deadline - time.monotonic()))
+        self._stop.set()
+        self._thread.join()
 
     @property
     def head(self) -> bytes:
@@ -98,3 +116,10 @@ class Capture:
         only; at most ``limit``)."""
         with self._lock:
             return b"".join(self._tail)
+
+
+def finish_all(captures: tuple[Capture, ...], wait: float = CLOSE_WAIT_S) -> None:
+    """:meth:`Capture.finish` every capture by one deadline, ``wait`` seconds from now."""
+    deadline = time.monotonic() + wait
+    for capture in captures:
+        capture.finish(deadline)

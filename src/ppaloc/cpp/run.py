@@ -26,7 +26,7 @@ import numpy as np
 from PIL import Image
 
 from ppaloc.cpp.build import SHIM_HEADERS, compile_program
-from ppaloc.cpp.capture import Capture
+from ppaloc.cpp.capture import Capture, finish_all
 from ppaloc.cpp.displays import fit_plane
 from ppaloc.cpp.frames import FrameSource
 from ppaloc.cpp.project import Project, make_project, project_headers
@@ -642,8 +642,7 @@ def _serve(
         os.close(to_sim_r)
         os.close(to_prog_w)
     wall = time.perf_counter() - start
-    out_f.finish()
-    err_f.finish()
+    finish_all((out_f, err_f))
     stdout = out_f.head.decode("utf-8", "replace")
     if out_f.dropped:
         stdout += (
@@ -654,7 +653,10 @@ def _serve(
             f"{name} printed {len(out_f.head) + out_f.dropped} bytes to standard output; "
             f"stdout.txt keeps the first {out_f.limit}"
         )
-    stderr = (err_f.head + err_f.tail).decode("utf-8", "replace")
+    # the bytes dropped between the two parts: a line break, so no line joins them
+    stderr = (err_f.head + (b"\n" if err_f.dropped else b"") + err_f.tail).decode(
+        "utf-8", "replace"
+    )
     if error is not None:
         raise error
     if code == SERVER_EXIT:  # the shim lost its pipe, and the simulator had not ended the run
