@@ -140,6 +140,12 @@ def test_a_param_flag_given_twice_with_two_values_is_refused(
         1,
         "ppaloc: error: --param offset is given twice (2, then 3): give it once\n",
     )
+    code, _, err = run(capsys, "map", tiny_spec, "-m", mean_match, "--out", tmp_path / "m.npz",
+                       "--param", "offset=2", "--param", "offset=2.0")  # fmt: skip
+    assert (code, err) == (  # an integer and a float are two values
+        1,
+        "ppaloc: error: --param offset is given twice (2, then 2.0): give it once\n",
+    )
     code, _, err = run(capsys, *args, "--param", f"{mean_match}.offset=2",
                        "--param", f" {mean_match}.offset = 2")  # fmt: skip
     assert code == 0, err  # the same value twice says one thing

@@ -407,7 +407,7 @@ def test_a_full_disk_under_standard_output_is_one_line(
 ):
     # `ppaloc localise MAP FRAMES > est.csv` on a full disk, or `ppaloc --help > file`, was
     # an internal error (exit 3, "this is a bug"): the error of a write to stdout names no
-    # file; a line left in the buffer failed only as the interpreter ended (exit 120)
+    # file
     frames = _images(tmp_path / "q", ["q0.png", "q1.png"])[0].parent
     expected = (
         "ppaloc: error: No space left on device: 'standard output'; free some space there or "
@@ -417,3 +417,33 @@ def test_a_full_disk_under_standard_output_is_one_line(
         monkeypatch.setattr(sys, "stdout", _FullStdout(fail_on))
         code, _, err = run(capsys, *args)
         assert (code, err) == (1, expected), args
+
+
+class _FullBytes(io.BytesIO):
+    """A full disk under a binary stream: the system's error names no file."""
+
+    def write(self, data: bytes) -> int:
+        raise OSError(28, "No space left on device")
+
+
+class _AsciiStdout(io.StringIO):
+    """Standard output whose encoding cannot hold every character (PYTHONIOENCODING=ascii):
+    click writes to its binary buffer instead."""
+
+    encoding = "ascii"
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.buffer = _FullBytes()
+
+
+def test_a_full_disk_under_standard_outputs_buffer_is_one_line(capsys, monkeypatch):
+    # click writes to sys.stdout.buffer where the text stream's encoding is ascii: that
+    # stream's error was unnamed (exit 3, "this is a bug")
+    monkeypatch.setattr(sys, "stdout", _AsciiStdout())
+    code, _, err = run(capsys, "--help")
+    assert code == 1
+    assert err == (
+        "ppaloc: error: No space left on device: 'standard output'; free some space there or "
+        "give another location\n"
+    )

@@ -92,8 +92,9 @@ def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
 
 def _set_once(table: dict[str, Any], key: str, value: Any, prefix: str = "") -> None:
     """``table[key] = value`` for a ``--param``, refusing a key given before with another
-    value: two values are a contradiction for the user to settle (the same one is fine)."""
-    if key in table and table[key] != value:
+    value: two values are a contradiction for the user to settle (the same one is fine;
+    ``10`` and ``10.0``, or ``1`` and ``true``, are two)."""
+    if key in table and (type(table[key]) is not type(value) or table[key] != value):
         raise PpalocError(
             f"--param {prefix}{key} is given twice ({_short(table[key])}, then {_short(value)}): "
             "give it once"
@@ -1194,24 +1195,34 @@ def _show_warning(
 class _NamedStdout:
     """``sys.stdout`` whose write errors name it: the system's error for a write to standard
     output (a full disk under ``ppaloc localise ... > est.csv``) carries no file name, and
-    :func:`main` reads an error without one as a bug. Everything else is the stream's."""
+    :func:`main` reads an error without one as a bug. Its binary ``buffer`` (which click
+    writes to where the text stream's encoding cannot hold its output) is named alike;
+    everything else is the stream's."""
 
     name = "standard output"
 
     def __init__(self, stream: Any) -> None:
         self._stream = stream
 
-    def write(self, text: str) -> int:
+    def write(self, text: Any) -> int:
         try:
             return self._stream.write(text)
         except OSError as exc:
             raise self._named(exc) from None
+
+    def writelines(self, lines: Any) -> None:
+        for line in lines:
+            self.write(line)
 
     def flush(self) -> None:
         try:
             self._stream.flush()
         except OSError as exc:
             raise self._named(exc) from None
+
+    @property
+    def buffer(self) -> _NamedStdout:
+        return _NamedStdout(self._stream.buffer)
 
     def _named(self, exc: OSError) -> OSError:
         if exc.filename is not None or isinstance(exc, BrokenPipeError):
