@@ -387,3 +387,21 @@ def test_pattern_cells_refuses_bad_grids():
         sim.pattern_cells(A, np.ones((2, 2), bool), R3)
     with pytest.raises(SimulatorError, match="pattern_cells inside an open"), sim.kernel():
         sim.pattern_cells(R5, np.ones((2, 2), bool), R3)
+
+
+@pytest.mark.parametrize(("p", "q"), [(4, 4), (2, 8), (16, 16), (3, 5), (8, 2)])
+@pytest.mark.parametrize("clear", [False, True])
+def test_or_cells_is_the_gather_of_each_pes_last_cell(p, q, clear):
+    """``_or_cells`` (a tiling grid as rows repeated down a 3-D view, any other through a
+    gather) against the gather it replaced, on random grids and planes."""
+    sim = Scamp5(16, 16)
+    rng = np.random.default_rng(p * 31 + q)
+    for _ in range(3):
+        written = rng.random((p, q)) < 0.5
+        plane = rng.random((16, 16)) < 0.5
+        row_cell, col_cell, _ = sim._cells_of(p, q)
+        cell = row_cell[:, None] * q + col_cell[None, :]
+        mask = written.reshape(-1)[cell] & (row_cell >= 0)[:, None] & (col_cell >= 0)[None, :]
+        expected = plane & ~mask if clear else plane | mask
+        sim._or_cells(plane, written, clear)
+        assert np.array_equal(plane, expected)

@@ -359,12 +359,12 @@ def read_predictions(
     path = Path(path)
     raw = _raw_bytes(path, MAX_PREDICTIONS_BYTES if max_bytes is None else max_bytes)
     try:
-        text = raw.decode("utf-8-sig")
+        text, raw_bytes = raw.decode("utf-8-sig"), False
     except UnicodeDecodeError:
         # a frame's file name that is not UTF-8 is its own bytes (as ppaloc localise writes
         # it, and as the dataset's folder listing reads it); every other field is checked
         # to be UTF-8 text (_check_text)
-        text = raw.decode("utf-8-sig", "surrogateescape")
+        text, raw_bytes = raw.decode("utf-8-sig", "surrogateescape"), True
     del raw
     reader = csv.reader(io.StringIO(text, newline=""))
     try:
@@ -376,9 +376,10 @@ def read_predictions(
                 f"{path} is empty; give a CSV whose first line names its columns, e.g. "
                 "query,reference,score"
             )
-        _check_text(path, reader.line_num, header, "the header")
+        if raw_bytes:
+            _check_text(path, reader.line_num, header, "the header")
         columns = _header(path, header, reader.line_num)
-        return _read_rows(path, reader, columns, len(header))
+        return _read_rows(path, reader, columns, len(header), raw_bytes)
     except csv.Error as exc:
         raise DataError(
             f"{path} line {reader.line_num}: not CSV ({exc}); write one row per line, "
@@ -386,7 +387,11 @@ def read_predictions(
         ) from None
 
 
-def _read_rows(path: Path, reader: Any, columns: dict[str, int], width: int) -> list[Predictions]:
+def _read_rows(
+    path: Path, reader: Any, columns: dict[str, int], width: int, raw_bytes: bool
+) -> list[Predictions]:
+    """Every row's prediction, grouped by method label; ``raw_bytes``: the file holds
+    bytes that are not UTF-8, allowed in file names only."""
     query_cols = [c for c in ("query", "query_name") if c in columns]
     deepest = max([1] + [int(m.group(2)) for c in columns if (m := _RANKED.fullmatch(c))])
     rank_cols: list[list[tuple[str, int]]] = []
@@ -400,7 +405,7 @@ def _read_rows(path: Path, reader: Any, columns: dict[str, int], width: int) -> 
             ]
         )
     names = {i: c for c, i in columns.items()}
-    text_cols = [i for c, i in columns.items() if not _is_name_column(c)]
+    text_cols = [i for c, i in columns.items() if raw_bytes and not _is_name_column(c)]
     groups: dict[str, dict[str, Any]] = {}
     stem_label = None if "method" in columns else _label(path, 1, path.stem, True)
     for row in reader:

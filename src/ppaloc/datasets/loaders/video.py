@@ -227,13 +227,11 @@ class _Decoder:
 
     def _decode_all(self) -> int:
         """How many frames decoding the whole file gives; a frame that fails is named."""
-        import av
-
         n = 0
         try:
             for _ in self.frames:
                 n += 1
-        except av.FFmpegError as exc:  # a damaged frame, met while counting
+        except Exception as exc:  # a damaged frame, met while counting (PyAV raises many types)
             self.close()
             raise DataError(
                 f"cannot decode frame {n} of video {self.path} (decoded to count its frames, "
