@@ -191,10 +191,19 @@ def _check_file_types(
 
 
 def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
-    """The checked output location (see :func:`ppaloc.cli.outputs.check_output`)."""
+    """The checked output location (see :func:`ppaloc.cli.outputs.check_output`; ``-``
+    is refused: standard output holds neither a folder nor a binary file)."""
     from ppaloc.cli.outputs import check_output
 
     return check_output(value, flag, folder=folder)
+
+
+def _text_output(value: Any, flag: str = "--out") -> Path | None:
+    """The checked output file of text, or None for ``-``: standard output (see
+    :func:`ppaloc.cli.outputs.check_text_output`)."""
+    from ppaloc.cli.outputs import check_text_output
+
+    return check_text_output(value, flag)
 
 
 def _merge(
@@ -253,6 +262,8 @@ class _SafePath(click.Path):
         self.want_file, self.want_dir = file_okay, dir_okay
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        if self.allow_dash and value == "-":  # as typed: the command says what it means
+            return value  # (a Path would not tell it from ./-, a file named -)
         flag = param.opts[0] if param is not None and param.opts else "path"
         flag = flag if flag.startswith("-") else flag.upper()
         if isinstance(value, str):
@@ -299,7 +310,7 @@ _RECALL = click.option(
 )
 _RESULTS_OUT = click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder for results.json, results.csv, arrays/ and the report [default: results].",
 )
 _NO_REPORT = click.option(
@@ -349,7 +360,7 @@ Examples:
 )
 @click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     default=Path("ppaloc-report"),
     show_default=True,
     help="Folder for results and report.",
@@ -610,7 +621,7 @@ Examples:
 )
 @click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder for bench.json and bench.csv.",
 )
 @_CONFIG
@@ -680,7 +691,7 @@ cells and retry the failed ones.""",
 )
 @click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder of the sweep: cells/, summary.csv, summary.json, report.html.",
 )
 @click.option(
@@ -793,7 +804,9 @@ Examples:
 )
 @click.argument("dataset")
 @click.option(
-    "--out", type=_SafePath(dir_okay=False, path_type=Path), help="Map file to write (.npz)."
+    "--out",
+    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
+    help="Map file to write (.npz).",
 )
 @click.option(
     "--method",
@@ -857,8 +870,8 @@ or VIDEO#INDEX, where the map records it)""",
 @click.argument("frames", nargs=-1, required=True, type=_SafePath(path_type=Path))
 @click.option(
     "--out",
-    type=_SafePath(dir_okay=False, path_type=Path),
-    help="CSV file to write [default: stdout].",
+    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
+    help="CSV file to write; - or none: standard output.",
 )
 @click.option("--method", "-m", help="Method to localise with [default: the map's].")
 @click.option("--param", "params", multiple=True, metavar="KEY=VALUE", help="Method parameter.")
@@ -911,7 +924,7 @@ def localise(
     run_localise(
         map_path,
         list(frames),
-        None if values.get("out") is None else _output(values["out"], folder=False),
+        None if values.get("out") is None else _text_output(values["out"]),
         method=values.get("method"),
         params=dict(values.get("params", {})),
         keep_order=keep_order,
@@ -931,7 +944,7 @@ Examples:
 @click.argument("path", type=_SafePath(path_type=Path))
 @click.option(
     "--out",
-    type=_SafePath(dir_okay=False, path_type=Path),
+    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
     help="PNG to write (maps, planes, CSV; a name ending in .png).",
 )
 @_QUIET
@@ -1043,7 +1056,7 @@ Examples:
 @click.option(
     "--out",
     required=True,
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder to write (replaced whole when the run succeeds).",
 )
 @click.option(
@@ -1083,7 +1096,7 @@ def cpp_run(
 
     run_cpp(
         program,
-        out,
+        _output(out, folder=True),
         include_dirs=include_dirs,
         defines=defines,
         image=image,
