@@ -29,6 +29,11 @@ def test_a_setting_given_twice_with_two_values_is_refused():
     assert str(err.value) == (
         "--stream-option framerate is given twice ('30', then '25'): give it once"
     )
+    # a long value is cut as the --param of every other command cuts it, marked as cut (it
+    # lost its closing quote and showed no sign of the cut)
+    with pytest.raises(PpalocError) as err:
+        parse_settings(["name=" + "a" * 100, "name=b"])
+    assert str(err.value) == f"--set name is given twice ('{'a' * 56}..., then 'b'): give it once"
 
 
 def _session(**settings: str):

@@ -27,6 +27,7 @@ from typing import Any
 import click
 
 from ppaloc.errors import PpalocError
+from ppaloc.flags import set_once, short
 
 __all__ = ["cli", "main"]
 
@@ -75,7 +76,8 @@ def _parse_params(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
                 "e.g. --param weighted-node-lowres.alpha=8"
             )
         table = out.setdefault(method.strip(), {})
-        _set_once(table, name.strip(), _parse_value(value.strip()), f"{method.strip()}.")
+        what = f"--param {method.strip()}.{name.strip()}"
+        set_once(table, name.strip(), _parse_value(value.strip()), what)
     return out
 
 
@@ -86,20 +88,8 @@ def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
         key, eq, value = item.partition("=")
         if not eq or not key.strip():
             raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param alpha=8")
-        _set_once(out, key.strip(), _parse_value(value.strip()))
+        set_once(out, key.strip(), _parse_value(value.strip()), f"--param {key.strip()}")
     return out
-
-
-def _set_once(table: dict[str, Any], key: str, value: Any, prefix: str = "") -> None:
-    """``table[key] = value`` for a ``--param``, refusing a key given before with another
-    value: two values are a contradiction for the user to settle (the same one is fine;
-    ``10`` and ``10.0``, or ``1`` and ``true``, are two)."""
-    if key in table and (type(table[key]) is not type(value) or table[key] != value):
-        raise PpalocError(
-            f"--param {prefix}{key} is given twice ({_short(table[key])}, then {_short(value)}): "
-            "give it once"
-        )
-    table[key] = value
 
 
 def _file_values(path: Path | None, section: str) -> dict[str, Any]:
@@ -113,17 +103,11 @@ def _file_values(path: Path | None, section: str) -> dict[str, Any]:
     table = data.get(section, {})
     if not isinstance(table, dict):
         raise PpalocError(
-            f"{section} = {_short(table)} in {path} must be a table: write [{section}] "
+            f"{section} = {short(table)} in {path} must be a table: write [{section}] "
             "and its keys below it"
         )
     values.update(table)
     return values
-
-
-def _short(value: Any, limit: int = 60) -> str:
-    """``repr(value)`` cut to ``limit`` characters, for messages."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 _CLI_TYPES: dict[str, tuple[type, ...]] = {
@@ -146,7 +130,7 @@ def _check_cli_values(values: dict[str, Any], source: Path | None) -> None:
         if value is None or isinstance(value, types):
             continue
         wanted = {"quiet": "true or false", "no_report": "true or false"}.get(key, "a string")
-        raise PpalocError(f"{key} = {_short(value)}{where} must be {wanted}")
+        raise PpalocError(f"{key} = {short(value)}{where} must be {wanted}")
 
 
 def _check_params(params: Any, source: Path | None) -> None:
@@ -156,7 +140,7 @@ def _check_params(params: Any, source: Path | None) -> None:
         return
     if not isinstance(params, dict) or not all(isinstance(p, dict) for p in params.values()):
         raise PpalocError(
-            f"params = {_short(params)}{where} must be a table of tables, one per method, "
+            f"params = {short(params)}{where} must be a table of tables, one per method, "
             "e.g. [params.seqslam] then ds = 20"
         )
 
@@ -171,7 +155,7 @@ def _check_method_params(params: Any, source: Path | None) -> None:
     for method, values in (params or {}).items():
         if method not in registry():
             raise PpalocError(
-                f"params given for unknown method {_short(method)}{where}; methods: "
+                f"params given for unknown method {short(method)}{where}; methods: "
                 + ", ".join(registry())
             )
         check_method(method, values)  # what it reads from the dataset: when it runs
@@ -1141,7 +1125,7 @@ def _sizes(text: str) -> list[int]:
     parts = [s.strip() for s in text.split(",") if s.strip()]
     if len(text) > 1000 or not all(p.isascii() and p.isdigit() and len(p) < 20 for p in parts):
         raise PpalocError(
-            f"sizes {_short(text)} must be comma-separated whole numbers, e.g. 64,256,1024"
+            f"sizes {short(text)} must be comma-separated whole numbers, e.g. 64,256,1024"
         )
     return [int(p) for p in parts]
 
@@ -1295,7 +1279,7 @@ def _main(argv: list[str] | None) -> int:
     except OSError as exc:  # the system refused a path the user gave: not a bug
         if exc.errno not in _USER_ERRNOS or exc.filename is None:
             return _internal_error(exc)
-        name = _short(str(exc.filename), 120)
+        name = short(str(exc.filename), 120)
         fix = (
             "free some space there or give another location"
             if exc.errno in (errno.ENOSPC, errno.EDQUOT)
