@@ -38,6 +38,11 @@ CASES: list[tuple[list[str], str | bytes | None, str]] = [
     (["cpp", "run", "p.cpp", "--frames", "100000000", "--out", "r"], None, "must be in [1, 2000]"),
     (["cpp", "run", "p.cpp", "--host", "0.0.0.0", "--out", "r"], None, "--host is for the live"),
     (["cpp", "run", "p.cpp", "--live", "--port", "70000", "--out", "r"], None, "--port 70000 must"),
+    # cpp run's paths are checked as every command's: '' was the current folder (-I '' ran)
+    (["cpp", "run", "", "--out", "r"], None, "PROGRAM '' is empty"),
+    (["cpp", "run", "p.cpp", "-I", "", "--out", "r"], None, "-I '' is empty"),
+    (["cpp", "run", "p.cpp", "--image", "", "--out", "r"], None, "--image '' is empty"),
+    (["cpp", "run", "p.cpp", "--image", "/tmp", "--out", "r"], None, "--image /tmp is a folder"),
     # flags
     ([*EV, "-m", "particle-filter", "--seed", "-1", "--out", "r"], None, "seed=-1 must be"),
     ([*EV, "--seed", "9" * 30, "--out", "r"], None, "seed=9999"),

@@ -974,13 +974,13 @@ Examples:
   ppaloc cpp run tracker.cpp --stream /dev/video0 --stream-format v4l2 --frames 100 --out run
   ppaloc cpp run tracker.cpp --dataset 'synthetic:?places=20' --frames 5 --out run""",
 )
-@click.argument("program", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("program", nargs=-1, required=True, type=_SafePath(path_type=Path))
 @click.option(
     "-I",
     "--include",
     "include_dirs",
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=_SafePath(path_type=Path),
     metavar="DIR",
     help="A folder of the program's headers (repeatable), as the compiler's -I.",
 )
@@ -992,7 +992,7 @@ Examples:
     metavar="NAME[=VALUE]",
     help="A macro for the program (repeatable), as the compiler's -D: -D NAME=1, -DNAME.",
 )
-@click.option("--image", type=click.Path(dir_okay=False, path_type=Path), help="Frame image.")
+@click.option("--image", type=_SafePath(dir_okay=False, path_type=Path), help="Frame image.")
 @click.option(
     "--dataset",
     help="Dataset spec whose query frames are the exposures, or a folder of images or a video "
