@@ -224,6 +224,14 @@ def test_a_port_in_use_is_one_line_and_a_view_serves_one_run():
             r"--port, or 0 for a free one\)$",
         ):
             LiveView(port=first.port).open(session)
+        # an address this machine does not have: the host is at fault, not the port (the
+        # advice was another --port)
+        with pytest.raises(
+            LiveError,
+            match=r"^live view cannot listen on 192\.0\.2\.1:0: .*\(give --host an address of "
+            r"this machine: 127\.0\.0\.1 for it alone, 0\.0\.0\.0 for every network\)$",
+        ):
+            LiveView(host="192.0.2.1").open(session)
     finally:
         first.close(session)
 
