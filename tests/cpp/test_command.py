@@ -67,6 +67,16 @@ def test_an_unknown_gui_name_lists_the_names_as_typed():
     )
 
 
+def test_a_setting_is_a_plain_integer_as_the_hosts_slider_gives_one():
+    # Python's int() took 1_0 as 10 and the Arabic-Indic digit three as 3, without a word
+    s = _session(a="+7", b=" -3 ", c="1_0", d="\u0663", e="0x10")
+    assert s.gui_value("slider", "a", -9, 9, 0, 1) == 7
+    assert s.gui_value("slider", "b", -9, 9, 0, 2) == -3
+    for name in "cde":
+        with pytest.raises(PpalocError, match=rf"^--set {name}=.*: the slider takes an integer"):
+            s.gui_value("slider", name, 0, 99, 0, 3)
+
+
 def test_two_names_of_one_gui_item_are_refused():
     s = _session(gain="1", **{"gain:": "2"})
     with pytest.raises(PpalocError, match=r"--set gain=\.\.\. and --set gain:=\.\.\. both name"):

@@ -534,13 +534,12 @@ class Session:
             raw = self.settings[name]
             if kind != "slider" and raw.lower() in ("on", "true", "yes", "off", "false", "no"):
                 value = int(raw.lower() in ("on", "true", "yes"))
+            elif re.fullmatch(r"\s*[+-]?[0-9]{1,4000}\s*", raw):  # as typed: not 1_0, not ٣
+                value = int(raw)
             else:
-                try:
-                    value = int(raw)
-                except ValueError:
-                    raise ProgramError(
-                        f"--set {name}={raw}: the {kind} takes an integer in [{lo}, {hi}]"
-                    ) from None
+                raise ProgramError(
+                    f"--set {name}={raw}: the {kind} takes an integer in [{lo}, {hi}]"
+                )
             if not lo <= value <= hi:
                 raise ProgramError(
                     f"--set {name}={value} is outside the {kind}'s range [{lo}, {hi}] "
