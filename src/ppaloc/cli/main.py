@@ -1150,7 +1150,8 @@ def _reject_unknown(
 
 def _crash_log(exc: BaseException) -> Path:
     fd, name = tempfile.mkstemp(prefix="ppaloc-crash-", suffix=".log")
-    with open(fd, "w") as f:
+    # an argument of bytes that are not UTF-8 is held as surrogates: written as escapes
+    with open(fd, "w", encoding="utf-8", errors="backslashreplace") as f:
         f.write(" ".join(sys.argv) + "\n\n")
         f.write("".join(traceback.format_exception(exc)))
     return Path(name)
