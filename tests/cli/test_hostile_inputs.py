@@ -7,6 +7,7 @@ import os
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from ppaloc.cli import main
@@ -333,3 +334,30 @@ def test_a_bad_flag_beside_a_config_file_is_not_blamed_on_the_file(
     assert err.count("\n") == 1 and " must be an integer in [" in err, err
     assert "c.toml" not in err
     assert not Path("r").exists()
+
+
+@pytest.mark.parametrize("command", ["evaluate", "score", "sweep"])
+def test_a_dataset_whose_name_is_not_utf8_is_refused_before_the_run(
+    tmp_path, monkeypatch, capsys, command
+):
+    # a folder named in Latin-1 bytes (any bytes make a Linux name): the run did its work,
+    # then failed writing results.csv (an internal error, exit 3), nothing kept
+    from PIL import Image
+
+    monkeypatch.chdir(tmp_path)
+    folder = os.fsdecode(b"caf\xe9")
+    os.mkdir(folder)
+    for i in range(3):
+        Image.fromarray(np.full((16, 16), 40 * i, np.uint8)).save(f"{folder}/f{i}.png")
+    Path("p.csv").write_text("query,reference,score\n0,0,1\n1,1,1\n2,2,1\n")
+    spec = f"folder:{folder},{folder}"
+    argv = {
+        "evaluate": ["evaluate", "-d", spec, "-m", "single-frame", "-q", "--no-report"],
+        "score": ["score", "p.csv", "-d", spec, "-q", "--no-report"],
+        "sweep": ["sweep", "-d", spec, "-m", "single-frame", "-q", "--no-report"],
+    }[command]
+    assert main([*argv, "--out", "r"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "dataset spec 'folder:caf\\udce9,caf\\udce9' names a file or folder whose name " in err
+    assert "is not UTF-8 text" in err and not Path("r").exists()
