@@ -138,7 +138,7 @@ def _write_run(
     if not quiet:
         import json
 
-        summary = json.loads(path.read_text())
+        summary = json.loads(path.read_text(encoding="utf-8"))
         print_results_table(summary, title=f"{result.dataset_name} ({result.dataset})")
         print(f"results: {shown_as or out}/results.json")
         if report:
@@ -216,8 +216,8 @@ def run_matrix(
             path = run_evaluate(
                 config, stage / name, quiet=quiet, report=report, shown_as=out / name
             )
-            spec = json.loads(path.read_text())["dataset"]
-            with open(path.with_suffix(".csv")) as f:
+            spec = json.loads(path.read_text(encoding="utf-8"))["dataset"]
+            with open(path.with_suffix(".csv"), encoding="utf-8", newline="") as f:
                 for row in list(csv.reader(f))[1:]:
                     writer.writerow([spec, name, *row])
         write_bytes(stage / "matrix.csv", text.getvalue())
@@ -558,7 +558,7 @@ def _show_results(folder: Path, *, quiet: bool) -> Path:
         )
     report = write_report(folder)
     if not quiet:
-        summary = json.loads((folder / "results.json").read_text())
+        summary = json.loads((folder / "results.json").read_text(encoding="utf-8"))
         print_results_table(summary, title=f"{summary.get('dataset', '')}")
         print(f"report: {report}")
     return report
