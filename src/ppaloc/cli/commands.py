@@ -632,6 +632,11 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
             raise DataError(
                 f"{path}: array {name!r} holds {a.dtype} values, not numbers or bits to draw"
             )
+        if a.size == 0:  # it was drawn as a plane of no pixels, said to be drawn
+            raise DataError(
+                f"{path}: array {name!r} has shape {a.shape}, no cells to draw; give planes "
+                "of at least one row and one column"
+            )
         bad = int(np.count_nonzero(~np.isfinite(a))) if a.dtype.kind == "f" else 0
         if bad:  # a register holds a number; NaN has no grey level
             raise DataError(
