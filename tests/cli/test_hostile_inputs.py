@@ -336,6 +336,27 @@ def test_a_bad_flag_beside_a_config_file_is_not_blamed_on_the_file(
     assert not Path("r").exists()
 
 
+@pytest.mark.parametrize(
+    ("argv", "toml", "message"),
+    [
+        (["map", TINY, "-m", "", "--out", "m.npz"], "[map]\n", "--method '' is empty: give a"),
+        (["sweep", "--scheduler", "", "--out", "r"], SWEEP_TOML, "--scheduler '' is empty: give"),
+        (["map", TINY, "--out", "m.npz"], '[map]\nmethod = ""\n', "method = '' is empty in c.toml"),
+    ],
+)
+def test_an_empty_name_is_blamed_on_where_it_was_given(
+    tmp_path, monkeypatch, capsys, argv, toml, message
+):
+    # an empty --method or --scheduler beside a config file was "method = '' is empty in
+    # c.toml", a file that did not hold it
+    monkeypatch.chdir(tmp_path)
+    Path("c.toml").write_text(toml)
+    assert main([*argv, "--config", "c.toml"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not Path("r").exists() and not Path("m.npz").exists()
+
+
 @pytest.mark.parametrize("command", ["evaluate", "score", "sweep"])
 def test_a_dataset_whose_name_is_not_utf8_is_refused_before_the_run(
     tmp_path, monkeypatch, capsys, command

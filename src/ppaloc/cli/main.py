@@ -120,13 +120,15 @@ _CLI_TYPES: dict[str, tuple[type, ...]] = {
 """Type of each key a command reads itself (not a config dataclass field)."""
 
 
-def _check_cli_values(values: dict[str, Any], source: Path | None) -> None:
-    """Refuse a command-level key of the wrong type (``out = 5``, ``quiet = "yes"``)."""
+def _check_cli_values(values: dict[str, Any], source: Path | None, *, flags: bool = False) -> None:
+    """Refuse a command-level key of the wrong type (``out = 5``, ``quiet = "yes"``), or
+    an empty name; ``flags``: the values are the flags' (``--method ''``), not a file's."""
     where = f" in {source}" if source else ""
     for key, types in _CLI_TYPES.items():
         value = values.get(key)
         if isinstance(value, str) and key in ("method", "scheduler") and not value.strip():
-            raise PpalocError(f"{key} = '' is empty{where}: give a name, or leave it out")
+            given = f"--{key} {value!r}" if flags else f"{key} = ''"
+            raise PpalocError(f"{given} is empty{where}: give a name, or leave it out")
         if value is None or isinstance(value, types):
             continue
         wanted = {"quiet": "true or false", "no_report": "true or false"}.get(key, "a string")
@@ -220,7 +222,7 @@ def _merge(
             merged["params"] = {**base, **value} if isinstance(base, dict) else base
         else:
             merged[key] = value
-    _check_cli_values(merged, source)
+    _check_cli_values(flags, None, flags=True)  # the file's values were checked above
     return merged
 
 
