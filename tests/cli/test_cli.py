@@ -278,6 +278,13 @@ def test_a_bug_is_one_line_with_a_traceback_log(standin, monkeypatch, tiny_spec,
     assert err.count("\n") == 1
     log = Path(err.strip().rsplit(" ", 1)[-1])
     assert log.parent == tmp_path and "Traceback" in log.read_text()
+    # an argument that is not UTF-8 (a file name of Latin-1 bytes) is in the log as an
+    # escape: writing it failed, and the bug came out as a traceback after all
+    monkeypatch.setattr(sys, "argv", ["ppaloc", "localise", "m.npz", "\udce9t\udce9.png"])
+    code, _, err = run(capsys, "evaluate", "-d", tiny_spec, "-m", name, "--out", tmp_path / "r")
+    assert code == 3 and err.count("\n") == 1
+    log = Path(err.strip().rsplit(" ", 1)[-1])
+    assert log.read_text(encoding="utf-8").startswith("ppaloc localise m.npz \\udce9t\\udce9.png\n")
 
 
 # -- map, localise, bench, show, demo -------------------------------------------------------------

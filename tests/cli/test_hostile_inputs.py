@@ -7,6 +7,7 @@ import os
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from ppaloc.cli import main
@@ -38,6 +39,11 @@ CASES: list[tuple[list[str], str | bytes | None, str]] = [
     (["cpp", "run", "p.cpp", "--frames", "100000000", "--out", "r"], None, "must be in [1, 2000]"),
     (["cpp", "run", "p.cpp", "--host", "0.0.0.0", "--out", "r"], None, "--host is for the live"),
     (["cpp", "run", "p.cpp", "--live", "--port", "70000", "--out", "r"], None, "--port 70000 must"),
+    # cpp run's paths are checked as every command's: '' was the current folder (-I '' ran)
+    (["cpp", "run", "", "--out", "r"], None, "PROGRAM '' is empty"),
+    (["cpp", "run", "p.cpp", "-I", "", "--out", "r"], None, "-I '' is empty"),
+    (["cpp", "run", "p.cpp", "--image", "", "--out", "r"], None, "--image '' is empty"),
+    (["cpp", "run", "p.cpp", "--image", "/tmp", "--out", "r"], None, "--image /tmp is a folder"),
     # flags
     ([*EV, "-m", "particle-filter", "--seed", "-1", "--out", "r"], None, "seed=-1 must be"),
     ([*EV, "--seed", "9" * 30, "--out", "r"], None, "seed=9999"),
@@ -328,3 +334,51 @@ def test_a_bad_flag_beside_a_config_file_is_not_blamed_on_the_file(
     assert err.count("\n") == 1 and " must be an integer in [" in err, err
     assert "c.toml" not in err
     assert not Path("r").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "toml", "message"),
+    [
+        (["map", TINY, "-m", "", "--out", "m.npz"], "[map]\n", "--method '' is empty: give a"),
+        (["sweep", "--scheduler", "", "--out", "r"], SWEEP_TOML, "--scheduler '' is empty: give"),
+        (["map", TINY, "--out", "m.npz"], '[map]\nmethod = ""\n', "method = '' is empty in c.toml"),
+    ],
+)
+def test_an_empty_name_is_blamed_on_where_it_was_given(
+    tmp_path, monkeypatch, capsys, argv, toml, message
+):
+    # an empty --method or --scheduler beside a config file was "method = '' is empty in
+    # c.toml", a file that did not hold it
+    monkeypatch.chdir(tmp_path)
+    Path("c.toml").write_text(toml)
+    assert main([*argv, "--config", "c.toml"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not Path("r").exists() and not Path("m.npz").exists()
+
+
+@pytest.mark.parametrize("command", ["evaluate", "score", "sweep"])
+def test_a_dataset_whose_name_is_not_utf8_is_refused_before_the_run(
+    tmp_path, monkeypatch, capsys, command
+):
+    # a folder named in Latin-1 bytes (any bytes make a Linux name): the run did its work,
+    # then failed writing results.csv (an internal error, exit 3), nothing kept
+    from PIL import Image
+
+    monkeypatch.chdir(tmp_path)
+    folder = os.fsdecode(b"caf\xe9")
+    os.mkdir(folder)
+    for i in range(3):
+        Image.fromarray(np.full((16, 16), 40 * i, np.uint8)).save(f"{folder}/f{i}.png")
+    Path("p.csv").write_text("query,reference,score\n0,0,1\n1,1,1\n2,2,1\n")
+    spec = f"folder:{folder},{folder}"
+    argv = {
+        "evaluate": ["evaluate", "-d", spec, "-m", "single-frame", "-q", "--no-report"],
+        "score": ["score", "p.csv", "-d", spec, "-q", "--no-report"],
+        "sweep": ["sweep", "-d", spec, "-m", "single-frame", "-q", "--no-report"],
+    }[command]
+    assert main([*argv, "--out", "r"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "dataset spec 'folder:caf\\udce9,caf\\udce9' names a file or folder whose name " in err
+    assert "is not UTF-8 text" in err and not Path("r").exists()

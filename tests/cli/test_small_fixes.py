@@ -216,6 +216,18 @@ def test_planes_holding_nan_are_one_line_not_a_cast_warning(tmp_path, capsys):
     )
 
 
+def test_an_empty_plane_is_refused_not_drawn_as_nothing(tmp_path, capsys):
+    # a (0, 5) array was "drawn": a PNG of its label alone, "1 planes -> ..."
+    planes = tmp_path / "planes.npz"
+    np.savez(planes, A=np.zeros((0, 5)), B=np.ones((4, 4)))
+    code, _, err = run(capsys, "show", planes)
+    assert code == 1 and not planes.with_suffix(".png").exists()
+    assert err == (
+        f"ppaloc: error: {planes}: array 'A' has shape (0, 5), no cells to draw; give planes "
+        "of at least one row and one column\n"
+    )
+
+
 def test_a_warning_that_reaches_the_user_is_one_line(tmp_path, capsys, monkeypatch):
     import ppaloc.cli.commands as commands
     from ppaloc.errors import PpalocError

@@ -29,6 +29,11 @@ def test_a_setting_given_twice_with_two_values_is_refused():
     assert str(err.value) == (
         "--stream-option framerate is given twice ('30', then '25'): give it once"
     )
+    # a long value is cut as the --param of every other command cuts it, marked as cut (it
+    # lost its closing quote and showed no sign of the cut)
+    with pytest.raises(PpalocError) as err:
+        parse_settings(["name=" + "a" * 100, "name=b"])
+    assert str(err.value) == f"--set name is given twice ('{'a' * 56}..., then 'b'): give it once"
 
 
 def _session(**settings: str):
@@ -60,6 +65,16 @@ def test_an_unknown_gui_name_lists_the_names_as_typed():
         "--set nope=...: p.cpp has no slider, switch or button of that name "
         "(it has: 'edge mode', threshold)"
     )
+
+
+def test_a_setting_is_a_plain_integer_as_the_hosts_slider_gives_one():
+    # Python's int() took 1_0 as 10 and the Arabic-Indic digit three as 3, without a word
+    s = _session(a="+7", b=" -3 ", c="1_0", d="\u0663", e="0x10")
+    assert s.gui_value("slider", "a", -9, 9, 0, 1) == 7
+    assert s.gui_value("slider", "b", -9, 9, 0, 2) == -3
+    for name in "cde":
+        with pytest.raises(PpalocError, match=rf"^--set {name}=.*: the slider takes an integer"):
+            s.gui_value("slider", name, 0, 99, 0, 3)
 
 
 def test_two_names_of_one_gui_item_are_refused():

@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -389,6 +393,34 @@ def test_cli_exit_codes(faults, tmp_path, capsys):
     assert code == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "faults.cpp:28" in err
+
+
+def test_a_runs_files_are_utf8_whatever_the_locale(cxx, tmp_path):
+    # text.txt, host.txt and stdout.txt were written in the locale's encoding: under an
+    # ASCII one (C, Python's UTF-8 mode off) a program's non-ASCII text failed them after
+    # the run (an internal error, exit 3, nothing kept); under Latin-1 they were Latin-1
+    exe = Path(sys.executable).with_name("ppaloc")
+    if not exe.is_file():
+        pytest.skip("the ppaloc console script is not installed next to this python")
+    program = tmp_path / "text.cpp"
+    program.write_text(
+        "#include <scamp5.hpp>\n#include <cstdio>\nint main() {\n    vs_init();\n"
+        '    vs_frame_loop_control();\n    vs_post_text("temp\u00e9rature %d", 5);\n'
+        '    std::printf("sortie \u00e9\\n");\n    return 0;\n}\n',
+        encoding="utf-8",
+    )
+    env = {**os.environ, "LC_ALL": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0"}
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [str(exe), "cpp", "run", str(program), "--out", str(out), "-q"],
+        capture_output=True,
+        env=env,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert (out / "text.txt").read_text(encoding="utf-8") == "frame 0: temp\u00e9rature 5\n"
+    assert (out / "stdout.txt").read_text(encoding="utf-8") == "sortie \u00e9\n"
 
 
 def test_an_output_folder_of_other_files_is_refused_before_the_run(tmp_path):

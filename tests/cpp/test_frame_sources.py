@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from ppaloc.cli.main import cli
+from ppaloc.cli.main import cli, main
 from ppaloc.cpp import run_program
 from ppaloc.cpp.command import load_frames
 from ppaloc.errors import PpalocError
@@ -132,6 +132,42 @@ def test_stream_options_reach_ffmpeg(cxx, tmp_path, capsys):
         load_frames(None, None, 1, str(raw), "rawvideo", ["video_size"])
     with pytest.raises(PpalocError, match=r"^--stream-option needs --stream INPUT"):
         load_frames(None, None, 1, None, None, ["video_size=8x4"])
+
+
+def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatch, capsys):
+    # FFmpeg leaves an option no part of it takes unused, without a word: the run went on
+    # with the input's defaults (a camera at its own size for video_sise=640x480)
+    av = pytest.importorskip("av")
+    with pytest.raises(PpalocError) as err:
+        load_frames(None, None, 1, "testsrc", "lavfi", ["video_sise=640x480"])
+    message = str(err.value)
+    assert "\n" not in message
+    assert message.startswith(
+        "stream testsrc (format lavfi): the lavfi input takes no option 'video_sise' (did "
+        "you mean video_size?); its own options: dumpgraph, graph, graph_file; FFmpeg's "
+        "general input options are taken too (probesize, analyzeduration"
+    )
+    # a format FFmpeg finds itself (a file's) is asked once it is found
+    path = tmp_path / "clip.mkv"
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("ffv1", rate=10)
+        stream.width, stream.height, stream.pix_fmt = 16, 16, "yuv420p"
+        for packet in stream.encode(av.VideoFrame(16, 16, "yuv420p")):
+            container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    with pytest.raises(PpalocError, match=r"the matroska input takes no option 'nosuch'"):
+        load_frames(None, None, 1, str(path), None, ["nosuch=1"])
+    # what the input and FFmpeg's general options take goes through
+    assert len(list(load_frames(None, None, 1, str(path), None, ["probesize=100000"]))) == 1
+    options = ["graph=testsrc=size=8x8", "analyzeduration=0", "threads=1"]
+    assert len(list(load_frames(None, None, 2, "unused", "lavfi", options))) == 2
+    # given a format, before the input is opened; the command's error is one line, exit 1
+    monkeypatch.setattr(av, "open", lambda *a, **k: pytest.fail("the input was opened"))
+    argv = ["cpp", "run", str(MEANS), "--stream", "testsrc", "--stream-format", "lavfi"]
+    assert main([*argv, "--stream-option", "bogus=1", "--out", str(tmp_path / "run")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the lavfi input takes no option 'bogus'" in err
 
 
 def test_the_program_is_checked_before_any_frame_is_read(tmp_path, monkeypatch):

@@ -148,6 +148,45 @@ def test_bad_requests_are_refused_in_one_line(live_program):
     assert run.end().session.gui_values == {"level: ": 10, "invert": 0}
 
 
+def test_a_range_the_program_sets_holds_the_pages_values(cxx):
+    # vs_gui_set_slider_range was recorded only: the page kept the declared range, and a
+    # value outside the program's new one reached it (50 with the range [0, 20])
+    run = Run(program=PROGRAMS / "narrow.cpp", frames=FRAMES * 3, timeout=30)
+    s = run.wait_for(lambda s: any(t["text"] == "frame 3 level 10" for t in s["texts"]), "")
+    assert s["items"] == [{"name": "level: ", "kind": "slider", "min": 0, "max": 20, "value": 10}]
+    assert run.post({"name": "level", "value": 50}) == (
+        400,
+        "'level: '=50 is outside the slider's range [0, 20]\n",
+    )
+    assert run.post({"name": "level", "value": 20})[0] == 200
+    result = run.end()
+    assert result.texts[-1].endswith("level 20")
+    assert (2, "vs_gui_set_slider_range(1, 0, 20)") in result.session.host_log
+
+
+def test_a_value_set_before_the_program_narrowed_the_range_is_held_to_it():
+    # set on the page while the range was [0, 100]; the program narrowed it to [0, 20]
+    # before the frame boundary that applies it: the host's slider holds 20, as it holds
+    # an initial value outside the range at the nearer end
+    from ppaloc.cpp.server import GuiItem, Session
+    from ppaloc.sim import Scamp5
+
+    class Page:
+        def frame_done(self, session):
+            return [("level: ", 50)]
+
+    session = Session(Scamp5(4, 4), [np.zeros((4, 4), np.uint8)] * 2, live=Page())
+    session.gui_items["level: "] = GuiItem("slider", "level: ", 0, 20, 7)
+    session.gui_values["level: "] = 10
+    assert session.loop() == 1
+    assert session.gui_values["level: "] == 20 and session._changes == [(7, 20)]
+    assert session.host_log[-1] == (
+        0,
+        "live view: slider 'level: ' set to 50, outside its range [0, 20] since the program "
+        "set it: 20",
+    )
+
+
 def test_a_hang_still_ends_the_run_and_the_server(cxx, tmp_path):
     compile_program(PROGRAMS / "faults.cpp")
     run = Run(PROGRAMS / "faults.cpp", FRAMES[:1], settings={"fault": 1}, timeout=2)
@@ -185,6 +224,14 @@ def test_a_port_in_use_is_one_line_and_a_view_serves_one_run():
             r"--port, or 0 for a free one\)$",
         ):
             LiveView(port=first.port).open(session)
+        # an address this machine does not have: the host is at fault, not the port (the
+        # advice was another --port)
+        with pytest.raises(
+            LiveError,
+            match=r"^live view cannot listen on 192\.0\.2\.1:0: .*\(give --host an address of "
+            r"this machine: 127\.0\.0\.1 for it alone, 0\.0\.0\.0 for every network\)$",
+        ):
+            LiveView(host="192.0.2.1").open(session)
     finally:
         first.close(session)
 

@@ -240,6 +240,24 @@ def test_an_unreachable_scheduler_fails_at_once_and_writes_nothing(tmp_path, iss
         run_sweep(issue_config, out, scheduler="localhost")
 
 
+def test_a_scheduler_of_a_scheme_dask_does_not_speak_is_one_line(tmp_path, issue_config, capfd):
+    # Dask's own ValueError was turned into one line, but the client it left half made
+    # printed "Exception ignored in: <function Client.__del__ ...>" and a traceback
+    import gc
+
+    with pytest.raises(PpalocError) as info:
+        run_sweep(issue_config, tmp_path / "out", scheduler="http://x:1", connect_timeout=2)
+    gc.collect()
+    assert str(info.value) == (
+        "--scheduler 'http://x:1': Dask reaches a scheduler by tcp://, tls://, ucx://, ws://, "
+        "wss://, not http://; e.g. tcp://10.0.0.5:8786"
+    )
+    with pytest.raises(PpalocError, match=r"^--scheduler 'inproc://x': Dask reaches a sch"):
+        run_sweep(issue_config, tmp_path / "out", scheduler="inproc://x", connect_timeout=2)
+    gc.collect()
+    assert "Traceback" not in capfd.readouterr().err
+
+
 def test_bad_parameters_fail_before_the_scheduler_is_reached(tmp_path):
     config = _config(params={"seqslam": {"gamma": [0.5]}})
     with pytest.raises(PpalocError, match="unknown parameter 'gamma'"):

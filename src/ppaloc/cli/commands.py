@@ -138,7 +138,7 @@ def _write_run(
     if not quiet:
         import json
 
-        summary = json.loads(path.read_text())
+        summary = json.loads(path.read_text(encoding="utf-8"))
         print_results_table(summary, title=f"{result.dataset_name} ({result.dataset})")
         print(f"results: {shown_as or out}/results.json")
         if report:
@@ -216,8 +216,8 @@ def run_matrix(
             path = run_evaluate(
                 config, stage / name, quiet=quiet, report=report, shown_as=out / name
             )
-            spec = json.loads(path.read_text())["dataset"]
-            with open(path.with_suffix(".csv")) as f:
+            spec = json.loads(path.read_text(encoding="utf-8"))["dataset"]
+            with open(path.with_suffix(".csv"), encoding="utf-8", newline="") as f:
                 for row in list(csv.reader(f))[1:]:
                     writer.writerow([spec, name, *row])
         write_bytes(stage / "matrix.csv", text.getvalue())
@@ -558,7 +558,7 @@ def _show_results(folder: Path, *, quiet: bool) -> Path:
         )
     report = write_report(folder)
     if not quiet:
-        summary = json.loads((folder / "results.json").read_text())
+        summary = json.loads((folder / "results.json").read_text(encoding="utf-8"))
         print_results_table(summary, title=f"{summary.get('dataset', '')}")
         print(f"report: {report}")
     return report
@@ -631,6 +631,11 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
         if a.dtype.kind not in "biuf":  # register planes are real numbers or bits
             raise DataError(
                 f"{path}: array {name!r} holds {a.dtype} values, not numbers or bits to draw"
+            )
+        if a.size == 0:  # it was drawn as a plane of no pixels, said to be drawn
+            raise DataError(
+                f"{path}: array {name!r} has shape {a.shape}, no cells to draw; give planes "
+                "of at least one row and one column"
             )
         bad = int(np.count_nonzero(~np.isfinite(a))) if a.dtype.kind == "f" else 0
         if bad:  # a register holds a number; NaN has no grey level

@@ -27,6 +27,7 @@ from typing import Any
 import click
 
 from ppaloc.errors import PpalocError
+from ppaloc.flags import set_once, short
 
 __all__ = ["cli", "main"]
 
@@ -75,7 +76,8 @@ def _parse_params(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
                 "e.g. --param weighted-node-lowres.alpha=8"
             )
         table = out.setdefault(method.strip(), {})
-        _set_once(table, name.strip(), _parse_value(value.strip()), f"{method.strip()}.")
+        what = f"--param {method.strip()}.{name.strip()}"
+        set_once(table, name.strip(), _parse_value(value.strip()), what)
     return out
 
 
@@ -86,20 +88,8 @@ def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
         key, eq, value = item.partition("=")
         if not eq or not key.strip():
             raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param alpha=8")
-        _set_once(out, key.strip(), _parse_value(value.strip()))
+        set_once(out, key.strip(), _parse_value(value.strip()), f"--param {key.strip()}")
     return out
-
-
-def _set_once(table: dict[str, Any], key: str, value: Any, prefix: str = "") -> None:
-    """``table[key] = value`` for a ``--param``, refusing a key given before with another
-    value: two values are a contradiction for the user to settle (the same one is fine;
-    ``10`` and ``10.0``, or ``1`` and ``true``, are two)."""
-    if key in table and (type(table[key]) is not type(value) or table[key] != value):
-        raise PpalocError(
-            f"--param {prefix}{key} is given twice ({_short(table[key])}, then {_short(value)}): "
-            "give it once"
-        )
-    table[key] = value
 
 
 def _file_values(path: Path | None, section: str) -> dict[str, Any]:
@@ -113,17 +103,11 @@ def _file_values(path: Path | None, section: str) -> dict[str, Any]:
     table = data.get(section, {})
     if not isinstance(table, dict):
         raise PpalocError(
-            f"{section} = {_short(table)} in {path} must be a table: write [{section}] "
+            f"{section} = {short(table)} in {path} must be a table: write [{section}] "
             "and its keys below it"
         )
     values.update(table)
     return values
-
-
-def _short(value: Any, limit: int = 60) -> str:
-    """``repr(value)`` cut to ``limit`` characters, for messages."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 _CLI_TYPES: dict[str, tuple[type, ...]] = {
@@ -136,17 +120,19 @@ _CLI_TYPES: dict[str, tuple[type, ...]] = {
 """Type of each key a command reads itself (not a config dataclass field)."""
 
 
-def _check_cli_values(values: dict[str, Any], source: Path | None) -> None:
-    """Refuse a command-level key of the wrong type (``out = 5``, ``quiet = "yes"``)."""
+def _check_cli_values(values: dict[str, Any], source: Path | None, *, flags: bool = False) -> None:
+    """Refuse a command-level key of the wrong type (``out = 5``, ``quiet = "yes"``), or
+    an empty name; ``flags``: the values are the flags' (``--method ''``), not a file's."""
     where = f" in {source}" if source else ""
     for key, types in _CLI_TYPES.items():
         value = values.get(key)
         if isinstance(value, str) and key in ("method", "scheduler") and not value.strip():
-            raise PpalocError(f"{key} = '' is empty{where}: give a name, or leave it out")
+            given = f"--{key} {value!r}" if flags else f"{key} = ''"
+            raise PpalocError(f"{given} is empty{where}: give a name, or leave it out")
         if value is None or isinstance(value, types):
             continue
         wanted = {"quiet": "true or false", "no_report": "true or false"}.get(key, "a string")
-        raise PpalocError(f"{key} = {_short(value)}{where} must be {wanted}")
+        raise PpalocError(f"{key} = {short(value)}{where} must be {wanted}")
 
 
 def _check_params(params: Any, source: Path | None) -> None:
@@ -156,7 +142,7 @@ def _check_params(params: Any, source: Path | None) -> None:
         return
     if not isinstance(params, dict) or not all(isinstance(p, dict) for p in params.values()):
         raise PpalocError(
-            f"params = {_short(params)}{where} must be a table of tables, one per method, "
+            f"params = {short(params)}{where} must be a table of tables, one per method, "
             "e.g. [params.seqslam] then ds = 20"
         )
 
@@ -171,7 +157,7 @@ def _check_method_params(params: Any, source: Path | None) -> None:
     for method, values in (params or {}).items():
         if method not in registry():
             raise PpalocError(
-                f"params given for unknown method {_short(method)}{where}; methods: "
+                f"params given for unknown method {short(method)}{where}; methods: "
                 + ", ".join(registry())
             )
         check_method(method, values)  # what it reads from the dataset: when it runs
@@ -191,10 +177,19 @@ def _check_file_types(
 
 
 def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
-    """The checked output location (see :func:`ppaloc.cli.outputs.check_output`)."""
+    """The checked output location (see :func:`ppaloc.cli.outputs.check_output`; ``-``
+    is refused: standard output holds neither a folder nor a binary file)."""
     from ppaloc.cli.outputs import check_output
 
     return check_output(value, flag, folder=folder)
+
+
+def _text_output(value: Any, flag: str = "--out") -> Path | None:
+    """The checked output file of text, or None for ``-``: standard output (see
+    :func:`ppaloc.cli.outputs.check_text_output`)."""
+    from ppaloc.cli.outputs import check_text_output
+
+    return check_text_output(value, flag)
 
 
 def _merge(
@@ -227,7 +222,7 @@ def _merge(
             merged["params"] = {**base, **value} if isinstance(base, dict) else base
         else:
             merged[key] = value
-    _check_cli_values(merged, source)
+    _check_cli_values(flags, None, flags=True)  # the file's values were checked above
     return merged
 
 
@@ -253,6 +248,8 @@ class _SafePath(click.Path):
         self.want_file, self.want_dir = file_okay, dir_okay
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        if self.allow_dash and value == "-":  # as typed: the command says what it means
+            return value  # (a Path would not tell it from ./-, a file named -)
         flag = param.opts[0] if param is not None and param.opts else "path"
         flag = flag if flag.startswith("-") else flag.upper()
         if isinstance(value, str):
@@ -299,7 +296,7 @@ _RECALL = click.option(
 )
 _RESULTS_OUT = click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder for results.json, results.csv, arrays/ and the report [default: results].",
 )
 _NO_REPORT = click.option(
@@ -349,7 +346,7 @@ Examples:
 )
 @click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     default=Path("ppaloc-report"),
     show_default=True,
     help="Folder for results and report.",
@@ -610,7 +607,7 @@ Examples:
 )
 @click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder for bench.json and bench.csv.",
 )
 @_CONFIG
@@ -680,7 +677,7 @@ cells and retry the failed ones.""",
 )
 @click.option(
     "--out",
-    type=_SafePath(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder of the sweep: cells/, summary.csv, summary.json, report.html.",
 )
 @click.option(
@@ -793,7 +790,9 @@ Examples:
 )
 @click.argument("dataset")
 @click.option(
-    "--out", type=_SafePath(dir_okay=False, path_type=Path), help="Map file to write (.npz)."
+    "--out",
+    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
+    help="Map file to write (.npz).",
 )
 @click.option(
     "--method",
@@ -857,8 +856,8 @@ or VIDEO#INDEX, where the map records it)""",
 @click.argument("frames", nargs=-1, required=True, type=_SafePath(path_type=Path))
 @click.option(
     "--out",
-    type=_SafePath(dir_okay=False, path_type=Path),
-    help="CSV file to write [default: stdout].",
+    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
+    help="CSV file to write; - or none: standard output.",
 )
 @click.option("--method", "-m", help="Method to localise with [default: the map's].")
 @click.option("--param", "params", multiple=True, metavar="KEY=VALUE", help="Method parameter.")
@@ -911,7 +910,7 @@ def localise(
     run_localise(
         map_path,
         list(frames),
-        None if values.get("out") is None else _output(values["out"], folder=False),
+        None if values.get("out") is None else _text_output(values["out"]),
         method=values.get("method"),
         params=dict(values.get("params", {})),
         keep_order=keep_order,
@@ -931,7 +930,7 @@ Examples:
 @click.argument("path", type=_SafePath(path_type=Path))
 @click.option(
     "--out",
-    type=_SafePath(dir_okay=False, path_type=Path),
+    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
     help="PNG to write (maps, planes, CSV; a name ending in .png).",
 )
 @_QUIET
@@ -977,13 +976,13 @@ Examples:
   ppaloc cpp run tracker.cpp --stream /dev/video0 --stream-format v4l2 --frames 100 --out run
   ppaloc cpp run tracker.cpp --dataset 'synthetic:?places=20' --frames 5 --out run""",
 )
-@click.argument("program", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("program", nargs=-1, required=True, type=_SafePath(path_type=Path))
 @click.option(
     "-I",
     "--include",
     "include_dirs",
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=_SafePath(path_type=Path),
     metavar="DIR",
     help="A folder of the program's headers (repeatable), as the compiler's -I.",
 )
@@ -995,7 +994,7 @@ Examples:
     metavar="NAME[=VALUE]",
     help="A macro for the program (repeatable), as the compiler's -D: -D NAME=1, -DNAME.",
 )
-@click.option("--image", type=click.Path(dir_okay=False, path_type=Path), help="Frame image.")
+@click.option("--image", type=_SafePath(dir_okay=False, path_type=Path), help="Frame image.")
 @click.option(
     "--dataset",
     help="Dataset spec whose query frames are the exposures, or a folder of images or a video "
@@ -1043,7 +1042,7 @@ Examples:
 @click.option(
     "--out",
     required=True,
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
     help="Folder to write (replaced whole when the run succeeds).",
 )
 @click.option(
@@ -1083,7 +1082,7 @@ def cpp_run(
 
     run_cpp(
         program,
-        out,
+        _output(out, folder=True),
         include_dirs=include_dirs,
         defines=defines,
         image=image,
@@ -1128,7 +1127,7 @@ def _sizes(text: str) -> list[int]:
     parts = [s.strip() for s in text.split(",") if s.strip()]
     if len(text) > 1000 or not all(p.isascii() and p.isdigit() and len(p) < 20 for p in parts):
         raise PpalocError(
-            f"sizes {_short(text)} must be comma-separated whole numbers, e.g. 64,256,1024"
+            f"sizes {short(text)} must be comma-separated whole numbers, e.g. 64,256,1024"
         )
     return [int(p) for p in parts]
 
@@ -1153,7 +1152,8 @@ def _reject_unknown(
 
 def _crash_log(exc: BaseException) -> Path:
     fd, name = tempfile.mkstemp(prefix="ppaloc-crash-", suffix=".log")
-    with open(fd, "w") as f:
+    # an argument of bytes that are not UTF-8 is held as surrogates: written as escapes
+    with open(fd, "w", encoding="utf-8", errors="backslashreplace") as f:
         f.write(" ".join(sys.argv) + "\n\n")
         f.write("".join(traceback.format_exception(exc)))
     return Path(name)
@@ -1282,7 +1282,7 @@ def _main(argv: list[str] | None) -> int:
     except OSError as exc:  # the system refused a path the user gave: not a bug
         if exc.errno not in _USER_ERRNOS or exc.filename is None:
             return _internal_error(exc)
-        name = _short(str(exc.filename), 120)
+        name = short(str(exc.filename), 120)
         fix = (
             "free some space there or give another location"
             if exc.errno in (errno.ENOSPC, errno.EDQUOT)

@@ -21,11 +21,14 @@ from ppaloc.errors import DataError, PpalocError
 __all__ = [
     "MAX_NAME",
     "MAX_PATH",
+    "STDOUT",
     "check_output",
     "check_path_text",
     "check_png",
+    "check_text_output",
     "refuse_input_as_out",
     "refuse_link_loop",
+    "refuse_stdout",
     "resolve",
 ]
 
@@ -34,6 +37,41 @@ MAX_PATH = 4096
 
 MAX_NAME = 255
 """Longest name between two slashes, in bytes (NAME_MAX)."""
+
+
+STDOUT = "-"
+"""An output given as ``-`` (the text as typed): standard output where the command writes
+one text file (:func:`check_text_output`: ``ppaloc localise``'s CSV), refused where it
+writes a folder of several files or a binary file (:func:`check_output`). ``./-`` names a
+file or folder called ``-``."""
+
+
+def refuse_stdout(text: object, flag: str, *, folder: bool) -> None:
+    """Refuse ``-`` (:data:`STDOUT`) as an output that cannot go to standard output: a
+    folder of several files, or a binary file.
+
+    Raises
+    ------
+    PpalocError
+        Naming the flag, what the command writes and the fix.
+
+    Examples
+    --------
+    >>> try:
+    ...     refuse_stdout("-", "--out", folder=True)
+    ... except PpalocError as exc:
+    ...     print(str(exc)[:71])
+    --out - is standard output, but this command writes a folder of several
+    >>> refuse_stdout("./-", "--out", folder=True)  # a folder named '-'
+    """
+    if not (isinstance(text, str) and text == STDOUT):
+        return
+    what = "a folder of several files" if folder else "a binary file, not text"
+    name = "folder" if folder else "file"
+    raise PpalocError(
+        f"{flag} - is standard output, but this command writes {what}; give a {name} name "
+        "(./- for one named '-')"
+    )
 
 
 def refuse_folder_text(text: str | os.PathLike[str], flag: str) -> None:
@@ -125,9 +163,11 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
     Raises
     ------
     PpalocError
-        Before any work: the path is empty, is the wrong kind of entry, lies under a
-        regular file, or its nearest existing folder cannot be written.
+        Before any work: the path is empty, is ``-`` (:func:`refuse_stdout`), is the wrong
+        kind of entry, lies under a regular file, or its nearest existing folder cannot be
+        written.
     """
+    refuse_stdout(text, flag, folder=folder)
     path = check_path_text(text, flag)
     if not folder:
         refuse_folder_text(text, flag)
@@ -165,6 +205,20 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
     os.close(fd)
     os.unlink(name)
     return path
+
+
+def check_text_output(text: str | os.PathLike[str], flag: str = "--out") -> Path | None:
+    """Check an output file whose text may go to standard output: None for ``-``
+    (:data:`STDOUT`), else the checked file (:func:`check_output`).
+
+    Examples
+    --------
+    >>> check_text_output("-") is None
+    True
+    """
+    if isinstance(text, str) and text == STDOUT:
+        return None
+    return check_output(text, flag, folder=False)
 
 
 def check_png(out: Path) -> None:

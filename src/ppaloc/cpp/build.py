@@ -88,7 +88,7 @@ def _shim_text() -> str:
     headers = sorted(
         (h for h in include.iterdir() if h.name.endswith(".hpp")), key=lambda h: h.name
     )
-    return "\n".join(h.read_text() for h in headers)
+    return "\n".join(h.read_text(encoding="utf-8") for h in headers)
 
 
 @cache
@@ -177,8 +177,8 @@ def _generated(root: Path) -> Path:
     if not (folder / "ppaloc_gen_macros.hpp").exists():
         tmp = root / f".gen-{digest}-{os.getpid()}"
         tmp.mkdir(parents=True, exist_ok=True)
-        (tmp / "ppaloc_gen_consts.hpp").write_text(consts)
-        (tmp / "ppaloc_gen_macros.hpp").write_text(macros)
+        (tmp / "ppaloc_gen_consts.hpp").write_text(consts, encoding="utf-8")
+        (tmp / "ppaloc_gen_macros.hpp").write_text(macros, encoding="utf-8")
         try:
             os.rename(tmp, folder)
         except OSError:  # another process got there first
@@ -221,7 +221,7 @@ def _read_project(project: Project) -> tuple[list[Path], list[tuple[Path, str]]]
     texts: list[tuple[Path, str]] = []
     for path in [*project.sources, *headers]:
         try:
-            texts.append((path, path.read_text(errors="replace")))
+            texts.append((path, path.read_text(encoding="utf-8", errors="replace")))
         except OSError as exc:
             raise PpalocError(f"cannot read {path}: {exc.strerror}") from None
     return headers, texts
@@ -292,8 +292,8 @@ def compile_program(
     version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
     key = hashlib.sha256(
         "\0".join(
-            [_shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(),
-             (gen / "ppaloc_gen_consts.hpp").read_text(), " ".join(FLAGS), version,
+            [_shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(encoding="utf-8"),
+             (gen / "ppaloc_gen_consts.hpp").read_text(encoding="utf-8"), " ".join(FLAGS), version,
              _inputs(project, headers)]
         ).encode()
     ).hexdigest()[:24]  # fmt: skip
@@ -328,7 +328,7 @@ def _inputs(project: Project, headers: Sequence[Path]) -> str:
     folder (the same program compiled from a temporary copy hits the cache)."""
     parts = ["sources"]
     for path in project.sources:
-        parts += [path.name, path.read_text(errors="replace")]
+        parts += [path.name, path.read_text(encoding="utf-8", errors="replace")]
     parts += ["defines", *project.defines, "headers"]
     beside = {
         h
@@ -338,7 +338,7 @@ def _inputs(project: Project, headers: Sequence[Path]) -> str:
     }
     for header in [*headers, *sorted(beside - set(headers))]:
         try:
-            parts += [header.name, header.read_text(errors="replace")]
+            parts += [header.name, header.read_text(encoding="utf-8", errors="replace")]
         except OSError:
             continue
     return "\0".join(parts)

@@ -21,6 +21,7 @@ from ppaloc.cpp.run import (
     run_program,
 )
 from ppaloc.errors import PpalocError
+from ppaloc.flags import set_once
 from ppaloc.seeds import SEED_MAX
 
 __all__ = ["load_frames", "parse_settings", "parse_stream_options", "run_cpp"]
@@ -36,18 +37,8 @@ def parse_settings(items: Sequence[str]) -> dict[str, str]:
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
             raise PpalocError(f"--set {item!r} must be NAME=VALUE, e.g. --set threshold=30")
-        _set_once(out, name.strip(), value.strip(), "--set")
+        set_once(out, name.strip(), value.strip(), f"--set {name.strip()}")
     return out
-
-
-def _set_once(table: dict[str, str], name: str, value: str, flag: str) -> None:
-    """``table[name] = value``, refusing a name given before with another value: two values
-    are a contradiction for the user to settle (the same one is fine)."""
-    if name in table and table[name] != value:
-        raise PpalocError(
-            f"{flag} {name} is given twice ({table[name]!r:.40}, then {value!r:.40}): give it once"
-        )
-    table[name] = value
 
 
 MAX_FRAMES = 2000
@@ -73,7 +64,7 @@ def parse_stream_options(items: Sequence[str]) -> dict[str, str]:
                 f"--stream-option {item!r} must be NAME=VALUE, an FFmpeg input option, e.g. "
                 "--stream-option video_size=640x480"
             )
-        _set_once(out, name.strip(), value.strip(), "--stream-option")
+        set_once(out, name.strip(), value.strip(), f"--stream-option {name.strip()}")
     return out
 
 

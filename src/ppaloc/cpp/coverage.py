@@ -61,7 +61,7 @@ def _reached(folders: list[Path]) -> list[Path]:
         if f in seen:
             continue
         seen[f] = None
-        text = f.read_text(errors="replace")
+        text = f.read_text(encoding="utf-8", errors="replace")
         for inc in re.findall(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]', text, flags=re.M):
             hit = by_name.get(Path(inc).name)
             if hit is not None and hit not in seen:
@@ -123,7 +123,7 @@ def declared_names(folders: list[Path]) -> dict[str, str]:
     """
     out: dict[str, str] = {}
     for f in _reached(folders):
-        for name in sorted(_declared(strip_code(f.read_text(errors="replace")))):
+        for name in sorted(_declared(strip_code(f.read_text(encoding="utf-8", errors="replace")))):
             out.setdefault(name, f.name)
     return out
 
@@ -132,7 +132,7 @@ def shim_names() -> frozenset[str]:
     """Every prefixed name the shim's code defines or uses (its headers, comments left
     out, and the generated ones) and every kernel function."""
     include = resources.files("ppaloc.cpp").joinpath("include")
-    texts = [h.read_text() for h in include.iterdir() if h.name.endswith(".hpp")]
+    texts = [h.read_text(encoding="utf-8") for h in include.iterdir() if h.name.endswith(".hpp")]
     texts += [constants_header(), macros_header()]
     code = "\n".join(strip_code(t) for t in texts)
     return frozenset(set(_NAME.findall(code)) | set(kernel_macros()))

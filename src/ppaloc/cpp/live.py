@@ -28,6 +28,7 @@ Frames are paced to at most ``fps`` per second so a person can watch and steer t
 
 from __future__ import annotations
 
+import errno
 import json
 import re
 import socket
@@ -207,10 +208,16 @@ class LiveView:
             )
         try:
             self._httpd = server_cls((self.host, self.port), handler)
-        except OSError as exc:
+        except OSError as exc:  # the host's fault (no such name, not this machine's) or the port's
+            host = isinstance(exc, socket.gaierror) or exc.errno == errno.EADDRNOTAVAIL
+            fix = (
+                "give --host an address of this machine: 127.0.0.1 for it alone, 0.0.0.0 "
+                "for every network"
+                if host
+                else "give another --port, or 0 for a free one"
+            )
             raise LiveError(
-                f"live view cannot listen on {self.host}:{self.port}: "
-                f"{exc.strerror or exc} (give another --port, or 0 for a free one)"
+                f"live view cannot listen on {self.host}:{self.port}: {exc.strerror or exc} ({fix})"
             ) from None
         self._httpd.daemon_threads = True
         self.port = self._httpd.server_address[1]

@@ -155,7 +155,7 @@ def project_headers(project: Project, shadowed: frozenset[str] = frozenset()) ->
     while todo:
         path = todo.pop(0)
         try:
-            text = path.read_text(errors="replace")
+            text = path.read_text(encoding="utf-8", errors="replace")
         except OSError:
             continue
         for m in _INCLUDE.finditer(text):

@@ -218,17 +218,22 @@ def write_outputs(result: RunResult, folder: Path) -> None:
     if tiles:
         columns = max(len(o) for o in s.outputs[:MONTAGE_FRAMES])
         render_montage(tiles, folder / "montage.png", columns=columns)
-    (folder / "text.txt").write_text("".join(f"frame {f}: {t}\n" for f, t in s.texts))
+    (folder / "text.txt").write_text(
+        "".join(f"frame {f}: {t}\n" for f, t in s.texts), encoding="utf-8"
+    )
     if s.host_log:  # host-side calls: "after the run" for the end-of-run callbacks
         ran = s.source.taken if s.finished else s.frame + 1  # a program that returned: all ran
         (folder / "host.txt").write_text(
-            "".join(f"{f'frame {f}' if f < ran else 'after the run'}: {t}\n" for f, t in s.host_log)
+            "".join(
+                f"{f'frame {f}' if f < ran else 'after the run'}: {t}\n" for f, t in s.host_log
+            ),
+            encoding="utf-8",
         )
     if s.posts:
-        (folder / "posts.json").write_text(json.dumps(s.posts))
-    (folder / "timing.json").write_text(json.dumps(result.timing(), indent=1))
-    (folder / "summary.json").write_text(json.dumps(result.summary(), indent=1))
-    (folder / "stdout.txt").write_text(result.stdout)
+        (folder / "posts.json").write_text(json.dumps(s.posts), encoding="utf-8")
+    (folder / "timing.json").write_text(json.dumps(result.timing(), indent=1), encoding="utf-8")
+    (folder / "summary.json").write_text(json.dumps(result.summary(), indent=1), encoding="utf-8")
+    (folder / "stdout.txt").write_text(result.stdout, encoding="utf-8")
     for rel, image in s.saved_images.items():  # vs_sim::save_image, as 8-bit grey BMPs
         path = folder / SAVED_FOLDER / rel
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -308,8 +308,16 @@ class Session:
         self.sim.set_image(frame)
         for text, value in changes:
             item = self.gui_items[text]
+            held = min(max(value, item.lo), item.hi)  # the host's slider holds its range
+            if held != value:  # (a value set on the page before the program narrowed it)
+                self.note(
+                    f"live view: {item.kind} {text!r} set to {value}, outside its range "
+                    f"[{item.lo}, {item.hi}] since the program set it: {held}"
+                )
+                value = held
+            else:
+                self.note(f"live view: {item.kind} {text!r} set to {value}")
             self.gui_values[text] = value
-            self.note(f"live view: {item.kind} {text!r} set to {value}")
             if item.handle is not None:
                 self._changes.append((item.handle, value))
         return 1
@@ -526,13 +534,12 @@ class Session:
             raw = self.settings[name]
             if kind != "slider" and raw.lower() in ("on", "true", "yes", "off", "false", "no"):
                 value = int(raw.lower() in ("on", "true", "yes"))
+            elif re.fullmatch(r"\s*[+-]?[0-9]{1,4000}\s*", raw):  # as typed: not 1_0, not ٣
+                value = int(raw)
             else:
-                try:
-                    value = int(raw)
-                except ValueError:
-                    raise ProgramError(
-                        f"--set {name}={raw}: the {kind} takes an integer in [{lo}, {hi}]"
-                    ) from None
+                raise ProgramError(
+                    f"--set {name}={raw}: the {kind} takes an integer in [{lo}, {hi}]"
+                )
             if not lo <= value <= hi:
                 raise ProgramError(
                     f"--set {name}={value} is outside the {kind}'s range [{lo}, {hi}] "
@@ -738,6 +745,17 @@ def _bitstack_end(s: Session, a: list, line: int) -> None:
 def _add_display(s: Session, a: list, line: int) -> None:
     text, handle = a[0], a[1]
     s.displays[handle] = text
+
+
+def _set_slider_range(s: Session, a: list, line: int) -> None:
+    """``vs_gui_set_slider_range(handle, min, max)`` (the shim has checked the handle and
+    ``min <= max``): recorded, and the slider's range is the new one, which the live view
+    shows and holds its values to; its value is left as it is."""
+    handle, lo, hi = a
+    s.note(f"vs_gui_set_slider_range({handle}, {lo}, {hi})")
+    for text, item in s.gui_items.items():
+        if item.handle == handle and item.kind == "slider":
+            s.gui_items[text] = GuiItem(item.kind, text, lo, hi, handle)
 
 
 def _slider(kind: str) -> Handler:
@@ -1147,6 +1165,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_gui_add_slider": _slider("slider"),
     "vs_gui_add_switch": _slider("switch"),
     "vs_gui_add_button": _slider("button"),
+    "vs_gui_set_slider_range": _set_slider_range,
     "vs_post_text": _post_text,
     "vs_frame_loop_control": lambda s, a, line: s.loop_answer(),
     "vs_wait_frame_trigger": lambda s, a, line: s.loop_answer(),
@@ -1194,7 +1213,6 @@ HANDLERS.update(
             for fn in (
                 "scamp5_kernel_begin_print",
                 "vs_gui_save_snapshots",
-                "vs_gui_set_slider_range",
                 "vs_on_gui_start_recording",
                 "vs_on_gui_stop_recording",
                 "vs_on_user_value",

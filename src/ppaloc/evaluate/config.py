@@ -30,6 +30,7 @@ __all__ = [
     "BenchConfig",
     "EvaluateConfig",
     "check_limits",
+    "check_spec_text",
     "check_tolerance",
     "check_types",
     "config_from_mapping",
@@ -150,6 +151,7 @@ class EvaluateConfig:
     def __post_init__(self) -> None:
         object.__setattr__(self, "methods", tuple(self.methods))
         check_limits({k: getattr(self, k) for k in ("tolerance", "seed", "max_weight_values")})
+        check_spec_text(self.dataset)
         check_tolerance(self.dataset, self.tolerance)
         if str(self.recall).upper() not in ("A", "B", "C"):
             raise PpalocError(f"recall={self.recall!r} must be one of A, B, C")
@@ -385,6 +387,34 @@ def _spec_tolerance(spec: str) -> str | None:
         if eq and key.strip().lower() == "tolerance":
             return value.strip()
     return None
+
+
+def check_spec_text(spec: str) -> None:
+    """Refuse a dataset spec that is not text the result files can record: one naming a
+    file or folder whose name is bytes of another encoding than UTF-8 (Linux allows any;
+    Python holds them as surrogates), which no UTF-8 file can hold, so the run failed
+    after its work, writing its results.
+
+    Raises
+    ------
+    PpalocError
+        Naming the spec and the fix.
+
+    Examples
+    --------
+    >>> check_spec_text("folder:caf\u00e9,night")  # a UTF-8 name: recorded as it is
+    """
+    if not isinstance(spec, str):
+        return
+    try:
+        spec.encode("utf-8")
+    except UnicodeEncodeError:
+        shown = repr(spec) if len(spec) <= 120 else repr(spec[:100]) + f"... ({len(spec)} chars)"
+        raise PpalocError(
+            f"dataset spec {shown} names a file or folder whose name is not UTF-8 text (the "
+            "\\udc.. are its bytes), which the result files, UTF-8 text, cannot record; give "
+            "it a UTF-8 name, or a link to it with one (ln -s)"
+        ) from None
 
 
 def check_tolerance(spec: str, tolerance: int | None) -> None:

@@ -679,7 +679,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
             f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"
         )
     try:
-        summary = json.loads(path.read_text(), parse_constant=_not_strict_json)
+        summary = json.loads(path.read_text(encoding="utf-8"), parse_constant=_not_strict_json)
     except RecursionError:
         raise DataError(f"cannot read the results in {folder}: {path} is nested too deep") from None
     except (OSError, ValueError) as exc:

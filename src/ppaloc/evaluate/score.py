@@ -54,7 +54,12 @@ import numpy as np
 from ppaloc.datasets import RouteDataset
 from ppaloc.datasets.groundtruth import PackedSets
 from ppaloc.errors import DataError, PpalocError
-from ppaloc.evaluate.config import check_limits, check_tolerance, with_tolerance
+from ppaloc.evaluate.config import (
+    check_limits,
+    check_spec_text,
+    check_tolerance,
+    with_tolerance,
+)
 from ppaloc.evaluate.run import MethodRun, RunResult, method_metrics, scoring_protocol
 
 __all__ = [
@@ -129,6 +134,7 @@ class ScoreConfig:
         if not self.predictions:
             raise PpalocError("no predictions file: give one or more CSV files to score")
         check_limits({"tolerance": self.tolerance})
+        check_spec_text(self.dataset)
         check_tolerance(self.dataset, self.tolerance)
         if str(self.recall).upper() not in ("A", "B", "C"):
             raise PpalocError(f"recall={self.recall!r} must be one of A, B, C")

@@ -131,12 +131,22 @@ def _run_cell(config: dict[str, Any], dataset: Any) -> dict[str, bytes]:
 
 
 def _probe(address: str, timeout: float) -> None:
-    """Refuse an unreachable ``tcp://HOST:PORT`` at once, before Dask retries for ``timeout``."""
+    """Refuse an unreachable ``tcp://HOST:PORT`` at once, before Dask retries for ``timeout``,
+    and an address of a scheme Dask does not speak (``http://``: Dask's own error left a
+    half-made client whose clean-up printed a traceback)."""
     import socket
+
+    from distributed.comm.registry import backends
 
     scheme, sep, rest = address.partition("://")
     if not sep:
         scheme, rest = "tcp", address
+    if scheme not in backends or scheme == "inproc":  # inproc: inside one process only
+        known = ", ".join(f"{s}://" for s in sorted(backends) if s != "inproc")
+        raise PpalocError(
+            f"--scheduler {address!r}: Dask reaches a scheduler by {known}, not {scheme}://; "
+            "e.g. tcp://10.0.0.5:8786"
+        )
     if scheme not in ("tcp", "tls"):
         return
     host, colon, port = rest.rpartition(":")

@@ -30,6 +30,7 @@ from ppaloc import __version__
 from ppaloc.errors import DataError, PpalocError
 from ppaloc.evaluate.config import (
     EvaluateConfig,
+    check_spec_text,
     check_tolerance,
     reject_unknown_keys,
     with_tolerance,
@@ -515,6 +516,7 @@ def validate(config: SweepConfig, cells: Sequence[Cell], *, source: str = "") ->
         raise PpalocError(f"{where}methods: {exc}") from None
     for spec in dict.fromkeys(c.spec for c in cells):
         try:
+            check_spec_text(spec)
             parse_dataset_spec(spec)
         except PpalocError as exc:
             raise PpalocError(f"{where}datasets: {exc}") from None

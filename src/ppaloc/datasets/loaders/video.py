@@ -57,17 +57,28 @@ def open_video(
     ``testsrc=size=320x240`` with ``format="lavfi"``; a URL); ``what`` names it in
     messages.
 
+    ``options`` are FFmpeg's input options (``-NAME VALUE`` before ``-i``); one the input
+    does not take is refused (:func:`~ppaloc.datasets.loaders.ffoptions.check_input_options`:
+    FFmpeg would ignore it without a word), before the input is opened where ``format`` is
+    given, else once FFmpeg has found the format.
+
     Raises
     ------
     DataError
-        If it cannot be opened, holds no video stream, or claims frames of more than
-        :data:`~ppaloc.datasets.images.MAX_IMAGE_PIXELS` pixels.
+        If it cannot be opened, holds no video stream, claims frames of more than
+        :data:`~ppaloc.datasets.images.MAX_IMAGE_PIXELS` pixels, or is given an option
+        it does not take.
     """
     import av
 
+    from ppaloc.datasets.loaders.ffoptions import check_input_options
+
+    check_input_options(options, format, what)
     container = None
     try:
         container = av.open(target, format=format, options=options or {})
+        if format is None:
+            check_input_options(options, container.format.name, what)
         if not container.streams.video:
             raise DataError(
                 f"{what} holds no video stream (not a video, or cut short); give a complete video"

@@ -773,7 +773,7 @@ def _module_path(text: str) -> Path | None:
     """The module ``text`` written to the cache folder (None where it cannot be)."""
     path = cache_folder() / f"{_name(text)}.py"
     try:
-        if not path.exists() or path.read_text() != text:
+        if not path.exists() or path.read_text(encoding="utf-8") != text:
             write_bytes(path, text)
     except OSError:
         return None
@@ -913,7 +913,7 @@ def _warm(path: str, shapes: dict[str, list[int]]) -> None:
     name = Path(path).stem
     spec = importlib.util.spec_from_file_location(name, path)
     module = sys.modules[name] = importlib.util.module_from_spec(spec)  # numba's cache
-    text = Path(path).read_text()
+    text = Path(path).read_text(encoding="utf-8")
     try:
         spec.loader.exec_module(module)  # records the module by name, as the simulator's
         dtypes = {

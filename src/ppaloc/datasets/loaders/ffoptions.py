@@ -1,0 +1,182 @@
+"""The input options FFmpeg takes for an input format, so that one it does not take is
+refused rather than ignored.
+
+FFmpeg hands an input the options it knows and leaves the rest unused without a word (and
+PyAV drops what is left), so ``--stream-option video_sise=640x480`` would run the camera at
+its default size. The names are read from the option tables of the FFmpeg libraries PyAV
+loaded (``av_opt_next`` through :mod:`ctypes`, the same tables ``ffmpeg -h demuxer=NAME``
+prints): the format's own options, FFmpeg's general input (``AVFormatContext``) and decoder
+(``AVCodecContext``) options, which every input takes, and where the format reads through
+a protocol (a file, ``http://``, ``udp://``) every input protocol's options, as protocols
+hand options on to the ones below them. Where the libraries cannot be read so (a build of
+PyAV whose libraries are not found), nothing is refused: the options go to FFmpeg as given.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import difflib
+import functools
+import glob
+import os
+from dataclasses import dataclass
+from typing import Any
+
+from ppaloc.errors import DataError
+
+__all__ = ["InputOptions", "check_input_options", "input_options"]
+
+#: ``AV_OPT_SEARCH_FAKE_OBJ``: the object given is a pointer to an ``AVClass`` pointer.
+_FAKE_OBJ = 2
+
+
+@dataclass(frozen=True)
+class InputOptions:
+    """The options an input format takes: its ``own`` and FFmpeg's ``general`` ones."""
+
+    format: str
+    own: frozenset[str]
+    general: frozenset[str]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.own or name in self.general
+
+
+class _Option(ctypes.Structure):  # the start of FFmpeg's AVOption
+    _fields_ = [("name", ctypes.c_char_p)]
+
+
+class _InputFormat(ctypes.Structure):  # the public start of AVInputFormat (FFmpeg 4 to 8)
+    _fields_ = [
+        ("name", ctypes.c_char_p),
+        ("long_name", ctypes.c_char_p),
+        ("flags", ctypes.c_int),
+        ("extensions", ctypes.c_char_p),
+        ("codec_tag", ctypes.c_void_p),
+        ("priv_class", ctypes.c_void_p),
+    ]
+
+
+def _library(name: str) -> str | None:
+    """The path of FFmpeg's library ``name`` (``avformat``) that PyAV loaded: the one
+    mapped into this process, else the one shipped beside the ``av`` package."""
+    import av
+
+    try:
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
+            for line in maps:
+                path = line.split(maxsplit=5)[-1].strip()
+                if os.path.basename(path).startswith(f"lib{name}"):
+                    return path
+    except OSError:
+        pass
+    base = os.path.dirname(os.path.dirname(av.__file__))
+    for pattern in (f"av.libs/lib{name}*", f"av/.dylibs/lib{name}*", f"av.libs/{name}-*.dll"):
+        found = sorted(glob.glob(os.path.join(base, pattern)))
+        if found:
+            return found[0]
+    return None
+
+
+@functools.cache
+def _libraries() -> tuple[Any, Any, Any] | None:
+    """FFmpeg's avformat, avcodec and avutil as PyAV loaded them, or None."""
+    paths = [_library(n) for n in ("avformat", "avcodec", "avutil")]
+    if None in paths:
+        return None
+    try:
+        fmt, codec, util = (ctypes.CDLL(p) for p in paths)  # type: ignore[arg-type]
+        util.av_opt_next.restype = ctypes.c_void_p
+        util.av_opt_next.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+        util.av_opt_find.restype = ctypes.c_void_p
+        util.av_opt_find.argtypes = [
+            ctypes.c_void_p,
+            ctypes.c_char_p,
+            ctypes.c_char_p,
+            ctypes.c_int,
+            ctypes.c_int,
+        ]
+        fmt.avformat_get_class.restype = ctypes.c_void_p
+        fmt.av_find_input_format.restype = ctypes.c_void_p
+        fmt.av_find_input_format.argtypes = [ctypes.c_char_p]
+        fmt.avio_enum_protocols.restype = ctypes.c_char_p
+        fmt.avio_enum_protocols.argtypes = [ctypes.POINTER(ctypes.c_void_p), ctypes.c_int]
+        fmt.avio_protocol_get_class.restype = ctypes.c_void_p
+        fmt.avio_protocol_get_class.argtypes = [ctypes.c_char_p]
+        codec.avcodec_get_class.restype = ctypes.c_void_p
+    except (OSError, AttributeError):
+        return None
+    return fmt, codec, util
+
+
+def _names(util: Any, cls: int | None) -> set[str]:
+    """The option names of the ``AVClass`` at ``cls``: its options, not the named
+    constants of their values (``av_opt_find`` without a unit finds only options)."""
+    if not cls:
+        return set()
+    obj = ctypes.c_void_p(cls)
+    out: set[str] = set()
+    prev = None
+    while prev := util.av_opt_next(ctypes.byref(obj), prev):
+        raw = _Option.from_address(prev).name
+        if raw and util.av_opt_find(ctypes.byref(obj), raw, None, 0, _FAKE_OBJ) == prev:
+            out.add(raw.decode("utf-8", "replace"))
+    return out
+
+
+@functools.cache
+def input_options(format: str) -> InputOptions | None:
+    """The options FFmpeg's input format ``format`` (``v4l2``, ``lavfi``, ``mov``) takes,
+    or None where FFmpeg has no such input or its tables cannot be read."""
+    libs = _libraries()
+    if libs is None or not format:
+        return None
+    fmt, codec, util = libs
+    pointer = fmt.av_find_input_format(format.split(",")[0].encode())
+    if not pointer:
+        return None
+    found = _InputFormat.from_address(pointer)
+    names = (found.name or b"").decode("utf-8", "replace").split(",")
+    if format.split(",")[0] not in names:  # not the layout read above: take nothing on trust
+        return None
+    general = _names(util, fmt.avformat_get_class()) | _names(util, codec.avcodec_get_class())
+    if not found.flags & 1:  # AVFMT_NOFILE unset: it reads through a protocol
+        opaque = ctypes.c_void_p()
+        while protocol := fmt.avio_enum_protocols(ctypes.byref(opaque), 0):
+            general |= _names(util, fmt.avio_protocol_get_class(protocol))
+    own = _names(util, found.priv_class)
+    return InputOptions(format.split(",")[0], frozenset(own), frozenset(general - own))
+
+
+#: FFmpeg's general input options a message names as examples.
+_EXAMPLES = ("probesize", "analyzeduration", "fflags", "rtbufsize")
+
+
+def check_input_options(options: dict[str, str] | None, format: str | None, what: str) -> None:
+    """Refuse an option FFmpeg's input ``format`` does not take, in one line naming it,
+    the closest names, the format's own options and examples of the general ones.
+
+    Nothing is refused where ``format`` is None or its options cannot be read
+    (:func:`input_options`).
+
+    Raises
+    ------
+    DataError
+        ``{what}: the lavfi input takes no option 'x'; its own options: dumpgraph, ...``.
+    """
+    if not options or format is None:
+        return
+    known = input_options(format)
+    if known is None:
+        return
+    for name in options:
+        if name in known:
+            continue
+        close = difflib.get_close_matches(name, sorted(known.own | known.general), n=2)
+        hint = f" (did you mean {' or '.join(close)}?)" if close else ""
+        general = ", ".join(e for e in _EXAMPLES if e in known.general)
+        raise DataError(
+            f"{what}: the {known.format} input takes no option {name!r}{hint}; its own "
+            f"options: {', '.join(sorted(known.own)) or 'none'}; FFmpeg's general input "
+            f"options are taken too ({general}, ...)"
+        )
