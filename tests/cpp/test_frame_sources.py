@@ -138,6 +138,10 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
     # FFmpeg leaves an option no part of it takes unused, without a word: the run went on
     # with the input's defaults (a camera at its own size for video_sise=640x480)
     av = pytest.importorskip("av")
+    from ppaloc.datasets.loaders.ffoptions import input_options
+
+    if input_options("lavfi") is None:  # nothing is refused where the tables cannot be read
+        pytest.skip("the option tables of this PyAV build's FFmpeg libraries cannot be read")
     with pytest.raises(PpalocError) as err:
         load_frames(None, None, 1, "testsrc", "lavfi", ["video_sise=640x480"])
     message = str(err.value)
