@@ -111,15 +111,29 @@ def test_outputs_of_areg_events_and_bounding_box(frames, tmp_path):
 
 def test_display_of_byte_images_and_events(frames):
     out = run(frames, 3).session.outputs[0]
-    np.testing.assert_array_equal(
-        out[FIRST] + 128, [[0, 50, 100, 150], [200, 250, 255, 5]]
-    )  # 4 x 2, top-down
+    # 4 x 2, column-major from the top-right element (scamp5_output.hpp): buffer[1] is the
+    # right column's second row, buffer[2] the next column's first
+    np.testing.assert_array_equal(out[FIRST] + 128, [[255, 200, 100, 0], [5, 250, 150, 50]])
     patched = frames[0].astype(np.float32) - 128
-    patched[5:7, 6:8] = np.array([[0, 50], [100, 150]]) - 128.0
+    # rows 5-6, hardware columns 6-7 (array columns N - 8 and N - 7), first byte top-right
+    patched[5:7, N - 8 : N - 6] = np.array([[100, 0], [150, 50]]) - 128.0
     np.testing.assert_array_equal(out[SECOND], patched)  # pasted over the image
     marks = np.zeros((N, N), bool)
     marks[2, N - 1 - 1] = marks[0, 0] = True  # (column 1, row 2), (column 63, row 0); (0,0) ends
     np.testing.assert_array_equal(out[THIRD], marks)
+
+
+def test_scanned_regions_display_as_they_were_scanned(frames):
+    """scamp5_display_image takes scamp5_scan_areg's buffer ("useful when used in
+    combination with scanning functions such as scamp5_scan_areg", the same layout), and a
+    patch at the region's own address lands where it was scanned."""
+    for frame, out in zip(frames, run(frames, 7).session.outputs, strict=True):
+        a = frame.astype(np.float32) - 128  # scamp5_get_image's yf; its ADC codes are frame
+        np.testing.assert_array_equal(out[FIRST], a)
+        black = np.full((N, N), -128.0, np.float32)
+        black[10:13, N - 25 : N - 20] = a[10:13, N - 25 : N - 20]  # hardware columns 20-24
+        np.testing.assert_array_equal(out[SECOND], black)
+        np.testing.assert_array_equal(out[THIRD], a)
 
 
 def test_display_of_boxes_rgb_image_and_text(frames):

@@ -10,8 +10,10 @@ draws it: bool for marks (events, box outlines), float ``value - 128`` for byte 
 so a byte ``b`` is drawn as grey level ``b``.
 
 Positions arrive as the device writes them: events and boxes in hardware addresses
-(column 0 at the east edge, docs/sim-controller.md), byte images top-down, left to right
-as the host draws them.
+(column 0 at the east edge, docs/sim-controller.md); byte images of ``scamp5_display_image``
+column-major from the top-right element, as ``scamp5_scan_areg`` fills them
+(``scamp5_output.hpp``), those of ``vs_gui_display_image`` in the layout its format gives
+(top-down, left to right by default).
 """
 
 from __future__ import annotations

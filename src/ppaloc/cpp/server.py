@@ -813,11 +813,17 @@ def _display_events(s: Session, a: list, line: int) -> None:
     s._output(handle, event_marks((s.sim.rows, s.sim.cols), data, count), line)
 
 
+def _scamp5_image(data: bytes, w: int, h: int) -> np.ndarray:
+    """A ``scamp5_display_image*`` buffer as a plane: "column major format, starting from
+    top right" (``scamp5_output.hpp``), the layout ``scamp5_scan_areg`` fills."""
+    return byte_image(data, w, h, column_major=True, right_to_left=True)
+
+
 def _display_image(s: Session, a: list, line: int) -> None:
     handle, data, w, h = a
     s.display(handle, line)
     s.host("usb_output", w * h)
-    s._output(handle, byte_image(data, w, h), line)
+    s._output(handle, _scamp5_image(data, w, h), line)
 
 
 def _display_image_patch(s: Session, a: list, line: int) -> None:
@@ -829,12 +835,13 @@ def _display_image_patch(s: Session, a: list, line: int) -> None:
             f"{s.at(line)}: a {w} x {h} patch at row {r0}, column {c0} runs off the "
             f"{cols} x {rows} display; place it within it"
         )
-    patch = byte_image(data, w, h)
+    patch = _scamp5_image(data, w, h)
     shown = s.outputs[s.frame].get(handle) if len(s.outputs) > s.frame else None
     if shown is None or shown.shape != (rows, cols) or shown.dtype == bool:
         shown = np.full((rows, cols), -128.0, np.float32)  # black
     plane = shown.copy()
-    plane[r0 : r0 + h, c0 : c0 + w] = patch
+    # rows r0.., hardware columns c0..: its first byte is the patch's top-right element
+    plane[r0 : r0 + h, cols - c0 - w : cols - c0] = patch
     s.host("usb_output", w * h)
     s._output(handle, plane, line)
 

@@ -101,6 +101,14 @@ int main() {
             vs_post_set_channel(9);
             vs_post_int8(h8, 2, 1);
             vs_post_float(hf, 1, 1);
+        } else if (mode == 7) {  // a scanned region displayed whole and pasted back
+            static uint8_t whole[64 * 64], part[5 * 3];
+            scamp5_scan_areg(A, whole, 0, 0, 63, 63, 1, 1);
+            scamp5_display_image(d0, whole, 64, 64);
+            scamp5_scan_areg(A, part, 10, 20, 12, 24, 1, 1);  // 3 rows x 5 hardware columns
+            scamp5_display_image_patch(d1, part, 5, 3, 10, 20);
+            scamp5_output_image(A, d2);
+            scamp5_display_image_patch(d2, part, 5, 3, 10, 20);  // over itself: unchanged
         }
         // misuse, one line each
         else if (mode == 10) {
