@@ -109,6 +109,19 @@ def test_outputs_of_areg_events_and_bounding_box(frames, tmp_path):
     assert (tmp_path / "run" / "montage.png").exists()
 
 
+def test_bounding_box_of_the_top_right_element_is_drawn(frames):
+    """scamp5_output_boundingbox outputs "the bounding box coordinates of the '1's": a 1
+    at hardware address (0, 0) alone has the box (0, 0, 0, 0), the bytes an empty
+    register gives too, and is drawn; an empty register draws nothing."""
+    result = run(frames, 8)
+    corner = np.zeros((N, N), bool)
+    corner[0, N - 1] = True  # hardware column 0 is the east edge
+    for out in result.session.outputs:
+        np.testing.assert_array_equal(out[FIRST], corner)
+        assert not out[SECOND].any()
+    assert result.texts[0] == "box 0 0 0 0 none 0 0 0 0"
+
+
 def test_display_of_byte_images_and_events(frames):
     out = run(frames, 3).session.outputs[0]
     # 4 x 2, column-major from the top-right element (scamp5_output.hpp): buffer[1] is the

@@ -793,9 +793,13 @@ def _output_events(s: Session, a: list, line: int) -> None:
 def _output_boundingbox(s: Session, a: list, line: int) -> bytes:
     dreg, handle = a
     s.display(handle, line)
-    box = _bounding_box(s, [dreg], line)
+    found = s.sim.scan_boundingbox(dreg, scamp_addr=True)
+    box = bytes(4) if found is None else np.asarray(found, np.uint8).ravel().tobytes()
     s.host("usb_output", len(box))
-    s._output(handle, box_outlines((s.sim.rows, s.sim.cols), box, 1), line)
+    # the register's own box, drawn even where its bytes are zeros (a 1 at the top-right
+    # element alone), which the buffer cannot tell from an empty register
+    shape = (s.sim.rows, s.sim.cols)
+    s._output(handle, box_outlines(shape, box, 1, empty_zeros=found is None), line)
     return box
 
 

@@ -109,6 +109,16 @@ int main() {
             scamp5_display_image_patch(d1, part, 5, 3, 10, 20);
             scamp5_output_image(A, d2);
             scamp5_display_image_patch(d2, part, 5, 3, 10, 20);  // over itself: unchanged
+        } else if (mode == 8) {  // the bounding box of a 1 at the top-right element alone
+            uint8_t box[4] = {9, 9, 9, 9}, none[4] = {9, 9, 9, 9};
+            scamp5_load_point(R5, 0, 0);
+            scamp5_output_boundingbox(R5, d0, box);
+            scamp5_kernel_begin();
+                CLR(R6);
+            scamp5_kernel_end();
+            scamp5_output_boundingbox(R6, d1, none);  // an empty register: nothing drawn
+            vs_post_text("box %d %d %d %d none %d %d %d %d", box[0], box[1], box[2], box[3],
+                         none[0], none[1], none[2], none[3]);
         }
         // misuse, one line each
         else if (mode == 10) {
