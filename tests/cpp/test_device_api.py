@@ -122,6 +122,18 @@ def test_bounding_box_of_the_top_right_element_is_drawn(frames):
     assert result.texts[0] == "box 0 0 0 0 none 0 0 0 0"
 
 
+def test_vs_wait_passes_modelled_time(frames):
+    """vs_wait(usec) is a "polled time delay" (vs_m0.hpp): the modelled clock the
+    stopwatch reads advances by usec (and the call's overhead), charged to the loop."""
+    result = run(frames, 9)
+    timing = result.session.sim.timing
+    waited = timing.call_us("vs_wait", 2500)
+    assert 2500 <= waited < 2501
+    assert result.texts[:2] == [f"waited {int(waited + 0.5)}"] * 2
+    assert timing.report().stage("loop").calls["vs_wait"] == 2  # once a frame; vs_wait(0) free
+    assert all(us >= 2500 for us in result.session.frame_loop_us)
+
+
 def test_display_of_byte_images_and_events(frames):
     out = run(frames, 3).session.outputs[0]
     # 4 x 2, column-major from the top-right element (scamp5_output.hpp): buffer[1] is the

@@ -753,6 +753,12 @@ def _post_text(s: Session, a: list, line: int) -> None:
     s.texts.append((s.frame, a[0]))
 
 
+def _wait(s: Session, a: list, line: int) -> None:
+    """``vs_wait(usec)``: a polled delay of ``usec`` microseconds (a ``uint32_t``, sent
+    as its 4 bytes), on the modelled clock, charged to the host side (``loop``)."""
+    s.host("vs_wait", int.from_bytes(a[0][:4], "little"))
+
+
 def _stopwatch(s: Session, a: list, line: int) -> bytes:
     return struct.pack("<d", s.sim.timing.now_us)
 
@@ -1163,6 +1169,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_wait_frame_trigger": lambda s, a, line: s.loop_answer(),
     "vs_loop_counter_inc": lambda s, a, line: s.counted_loop(),
     "vs_stopwatch_now": _stopwatch,
+    "vs_wait": _wait,
 }
 
 # The device API beyond the chip: outputs other than whole images, host graphics and data

@@ -119,6 +119,11 @@ int main() {
             scamp5_output_boundingbox(R6, d1, none);  // an empty register: nothing drawn
             vs_post_text("box %d %d %d %d none %d %d %d %d", box[0], box[1], box[2], box[3],
                          none[0], none[1], none[2], none[3]);
+        } else if (mode == 9) {  // a polled delay, on the modelled clock
+            vs_stopwatch watch;
+            vs_wait(2500);
+            vs_wait(0);
+            vs_post_text("waited %u", watch.get_usec());
         }
         // misuse, one line each
         else if (mode == 10) {

@@ -1189,7 +1189,11 @@ inline void vs_on_user_value(std::function<void(uint8_t, int32_t)> f, ppa::Loc l
     (void)f;
     ppa::call("vs_on_user_value", false, {}, loc);
 }
-inline void vs_wait(uint32_t usec) { (void)usec; }
+// A polled delay: no wall-clock wait here; the modelled clock (vs_stopwatch, timing.json)
+// advances by usec, charged to the host side of the frame as the loop's own costs are.
+inline void vs_wait(uint32_t usec, ppa::Loc loc = PPA_HERE) {
+    if (usec) PPA_CALL("vs_wait", false, ppa::Arg(&usec, sizeof usec));
+}
 inline void vs_loop_counter_inc(ppa::Loc loc = PPA_HERE) {
     ppa::loop_counter()++;
     if (!ppa::paced()) ppa::next_frame("vs_loop_counter_inc", loc);
