@@ -134,6 +134,12 @@ def test_vs_wait_passes_modelled_time(frames):
     assert all(us >= 2500 for us in result.session.frame_loop_us)
 
 
+def test_bound_io_agents_read_back(frames):
+    """scamp5_get_io_agent (scamp5_output.hpp) and vs_post_get_io_agent (vs_post.hpp)
+    return the agent bound last: vs_usb before any binding, as assumed here."""
+    assert run(frames, 22).texts[0] == "agents 1 1 1 1"
+
+
 def test_display_of_byte_images_and_events(frames):
     out = run(frames, 3).session.outputs[0]
     # 4 x 2, column-major from the top-right element (scamp5_output.hpp): buffer[1] is the

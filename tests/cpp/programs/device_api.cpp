@@ -124,6 +124,15 @@ int main() {
             vs_wait(2500);
             vs_wait(0);
             vs_post_text("waited %u", watch.get_usec());
+        } else if (mode == 22) {  // the bound io agents, read back
+            vs_io_agent_api* scamp5_first = scamp5_get_io_agent();
+            vs_io_agent_api* post_first = vs_post_get_io_agent();
+            scamp5_bind_io_agent(vs_spi);
+            vs_post_bind_io_agent(vs_uart);
+            int bound = scamp5_get_io_agent() == vs_spi && vs_post_get_io_agent() == vs_uart;
+            scamp5_bind_io_agent(scamp5_first);  // put back as it was
+            vs_post_text("agents %d %d %d %d", scamp5_first == vs_usb, post_first == vs_usb,
+                         bound, scamp5_get_io_agent() == vs_usb);
         }
         // misuse, one line each
         else if (mode == 10) {

@@ -1414,12 +1414,28 @@ inline void bind_agent(const char* fn, vs_io_agent_api* p, const Loc& loc) {
 inline vs_io_agent_api* vs_usb = &ppa::usb_agent;
 inline vs_io_agent_api* vs_spi = &ppa::spi_agent;
 inline vs_io_agent_api* vs_uart = &ppa::uart_agent;
+// The agents bound for posts and for the scamp5 outputs: vs_usb until a program binds
+// another (the host's link; the headers do not name the agent bound at the start).
+namespace ppa {
+inline vs_io_agent_api*& post_agent() {
+    static vs_io_agent_api* p = vs_usb;
+    return p;
+}
+inline vs_io_agent_api*& scamp5_agent() {
+    static vs_io_agent_api* p = vs_usb;
+    return p;
+}
+}  // namespace ppa
 inline void vs_post_bind_io_agent(vs_io_agent_api* u, ppa::Loc loc = PPA_HERE) {
     ppa::bind_agent("vs_post_bind_io_agent", u, loc);
+    ppa::post_agent() = u;
 }
 inline void scamp5_bind_io_agent(vs_io_agent_api* p, ppa::Loc loc = PPA_HERE) {
     ppa::bind_agent("scamp5_bind_io_agent", p, loc);
+    ppa::scamp5_agent() = p;
 }
+inline vs_io_agent_api* vs_post_get_io_agent(void) { return ppa::post_agent(); }
+inline vs_io_agent_api* scamp5_get_io_agent() { return ppa::scamp5_agent(); }
 // Waiting for an io agent to finish sending: output reaches the run's folder at once, so
 // there is nothing to wait for (checked and recorded).
 inline void vs_wait_io_agent(vs_io_agent_api* p, ppa::Loc loc = PPA_HERE) {
