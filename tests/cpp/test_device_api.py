@@ -140,6 +140,14 @@ def test_bound_io_agents_read_back(frames):
     assert run(frames, 22).texts[0] == "agents 1 1 1 1"
 
 
+def test_host_sliders_of_the_update_table_are_named(frames):
+    """vs_on_gui_update's table (vs_interaction.hpp) names VS_GUI_VECTOR_LENGTH,
+    _IMAGE_LENGTH and _IMAGE_BLEND: they compile, with the device's handles
+    (vs_protocol_gui.hpp); their callbacks are never called, the host here holding no
+    value for them."""
+    assert run(frames, 23).texts[0] == "blend -1 handles 132 133 134"
+
+
 def test_display_of_byte_images_and_events(frames):
     out = run(frames, 3).session.outputs[0]
     # 4 x 2, column-major from the top-right element (scamp5_output.hpp): buffer[1] is the
@@ -236,6 +244,8 @@ def test_posted_data_keeps_frame_channel_and_type(frames, tmp_path):
              r"than a post carries \(16777216 bytes\); give the array's rows and columns"),
         (21, r"device_api.cpp:\d+: scamp5_display_events\(18446744073709551615 events\): more "
              r"than a post carries \(16777216 bytes\); give the number of events in the buffer"),
+        (24, r"device_api.cpp:\d+: vs_gui_read_slider\(VS_GUI_IMAGE_LENGTH, \.\.\.\): the "
+             r"host's own slider, whose value the headers do not give and this run does not hold"),
     ],
 )  # fmt: skip
 def test_misuse_is_one_line_with_its_line(frames, tmp_path, mode, message):

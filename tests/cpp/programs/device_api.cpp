@@ -133,6 +133,13 @@ int main() {
             scamp5_bind_io_agent(scamp5_first);  // put back as it was
             vs_post_text("agents %d %d %d %d", scamp5_first == vs_usb, post_first == vs_usb,
                          bound, scamp5_get_io_agent() == vs_usb);
+        } else if (mode == 23) {  // the host's sliders of vs_on_gui_update's table
+            int blend = -1;
+            vs_on_gui_update(VS_GUI_IMAGE_BLEND, [&](int32_t v) { blend = v; });
+            vs_on_gui_update(VS_GUI_VECTOR_LENGTH, [&](int32_t v) { blend = v; });
+            vs_process_message();
+            vs_post_text("blend %d handles %d %d %d", blend, VS_GUI_VECTOR_LENGTH,
+                         VS_GUI_IMAGE_LENGTH, VS_GUI_IMAGE_BLEND);
         }
         // misuse, one line each
         else if (mode == 10) {
@@ -158,6 +165,8 @@ int main() {
             const int16_t values[4] = {1, 2, 3, 4};
             int rows = -1;  // a size_t of 2^64 - 1
             vs_post_int16(values, rows, 4);
+        } else if (mode == 24) {
+            vs_gui_read_slider(VS_GUI_IMAGE_LENGTH);
         } else if (mode == 21) {
             const uint8_t events[2] = {1, 2};
             scamp5_display_events(d0, events, size_t(-1));

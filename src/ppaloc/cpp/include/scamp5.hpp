@@ -1008,6 +1008,10 @@ inline uint32_t& loop_counter() {
 // The host's own GUI items (the device's VS_GUI_* handles) and their values here: the host
 // is connected, the frame gain is 1 (scamp5_get_image's default), the frame rate 30 fps.
 constexpr vs_handle GUI_HOST_STATUS = 128, GUI_FRAME_RATE = 130, GUI_FRAME_GAIN = 131;
+// The host's other sliders vs_on_gui_update names (vector and image data length, image
+// blend): the headers give no value, so none is held (a callback set on one is never
+// called; reading one stops the program in one line).
+constexpr vs_handle GUI_VECTOR_LENGTH = 132, GUI_IMAGE_LENGTH = 133, GUI_IMAGE_BLEND = 134;
 struct Gui {
     std::map<vs_handle, int32_t> values{
         {GUI_HOST_STATUS, 1}, {GUI_FRAME_RATE, 30}, {GUI_FRAME_GAIN, 1}};
@@ -1250,6 +1254,13 @@ namespace ppa {
 inline int32_t& gui_value(const char* fn, vs_handle h, const Loc& loc) {
     Gui& g = gui();
     auto it = g.values.find(h);
+    if (it == g.values.end() && h >= GUI_VECTOR_LENGTH && h <= GUI_IMAGE_BLEND) {
+        static const char* const names[] = {"VS_GUI_VECTOR_LENGTH", "VS_GUI_IMAGE_LENGTH",
+                                            "VS_GUI_IMAGE_BLEND"};
+        fail(loc, std::string(fn) + "(" + names[h - GUI_VECTOR_LENGTH] +
+                      ", ...): the host's own slider, whose value the headers do not give "
+                      "and this run does not hold");
+    }
     if (it == g.values.end()) {
         fail(loc, std::string(fn) + "(" + std::to_string(h) +
                       ", ...): no slider, switch or button has this handle; give one that "
@@ -1330,6 +1341,9 @@ class vs_stopwatch {
 #define VS_GUI_HOST_STATUS ppa::GUI_HOST_STATUS
 #define VS_GUI_FRAME_RATE ppa::GUI_FRAME_RATE
 #define VS_GUI_FRAME_GAIN ppa::GUI_FRAME_GAIN
+#define VS_GUI_VECTOR_LENGTH ppa::GUI_VECTOR_LENGTH
+#define VS_GUI_IMAGE_LENGTH ppa::GUI_IMAGE_LENGTH
+#define VS_GUI_IMAGE_BLEND ppa::GUI_IMAGE_BLEND
 
 // A display style given by name to vs_gui_add_display (its JSON is for the host's GUI).
 class vs_gui_script {
