@@ -842,8 +842,8 @@ def _display_image_patch(s: Session, a: list, line: int) -> None:
     rows, cols = (s.sim.rows, s.sim.cols)
     if r0 + h > rows or c0 + w > cols:
         raise ProgramError(
-            f"{s.at(line)}: a {w} x {h} patch at row {r0}, column {c0} runs off the "
-            f"{cols} x {rows} display; place it within it"
+            f"{s.at(line)}: scamp5_display_image_patch: a {w} x {h} patch at row {r0}, "
+            f"hardware column {c0} runs off the {cols} x {rows} display; place it within it"
         )
     patch = _scamp5_image(data, w, h)
     shown = s.outputs[s.frame].get(handle) if len(s.outputs) > s.frame else None
