@@ -109,17 +109,70 @@ def test_outputs_of_areg_events_and_bounding_box(frames, tmp_path):
     assert (tmp_path / "run" / "montage.png").exists()
 
 
+def test_bounding_box_of_the_top_right_element_is_drawn(frames):
+    """scamp5_output_boundingbox outputs "the bounding box coordinates of the '1's": a 1
+    at hardware address (0, 0) alone has the box (0, 0, 0, 0), the bytes an empty
+    register gives too, and is drawn; an empty register draws nothing."""
+    result = run(frames, 8)
+    corner = np.zeros((N, N), bool)
+    corner[0, N - 1] = True  # hardware column 0 is the east edge
+    for out in result.session.outputs:
+        np.testing.assert_array_equal(out[FIRST], corner)
+        assert not out[SECOND].any()
+    assert result.texts[0] == "box 0 0 0 0 none 0 0 0 0"
+
+
+def test_vs_wait_passes_modelled_time(frames):
+    """vs_wait(usec) is a "polled time delay" (vs_m0.hpp): the modelled clock the
+    stopwatch reads advances by usec (and the call's overhead), charged to the loop."""
+    result = run(frames, 9)
+    timing = result.session.sim.timing
+    waited = timing.call_us("vs_wait", 2500)
+    assert 2500 <= waited < 2501
+    assert result.texts[:2] == [f"waited {int(waited + 0.5)}"] * 2
+    assert timing.report().stage("loop").calls["vs_wait"] == 2  # once a frame; vs_wait(0) free
+    assert all(us >= 2500 for us in result.session.frame_loop_us)
+
+
+def test_bound_io_agents_read_back(frames):
+    """scamp5_get_io_agent (scamp5_output.hpp) and vs_post_get_io_agent (vs_post.hpp)
+    return the agent bound last: vs_usb before any binding, as assumed here."""
+    assert run(frames, 22).texts[0] == "agents 1 1 1 1"
+
+
+def test_host_sliders_of_the_update_table_are_named(frames):
+    """vs_on_gui_update's table (vs_interaction.hpp) names VS_GUI_VECTOR_LENGTH,
+    _IMAGE_LENGTH and _IMAGE_BLEND: they compile, with the device's handles
+    (vs_protocol_gui.hpp); their callbacks are never called, the host here holding no
+    value for them."""
+    assert run(frames, 23).texts[0] == "blend -1 handles 132 133 134"
+
+
 def test_display_of_byte_images_and_events(frames):
     out = run(frames, 3).session.outputs[0]
-    np.testing.assert_array_equal(
-        out[FIRST] + 128, [[0, 50, 100, 150], [200, 250, 255, 5]]
-    )  # 4 x 2, top-down
+    # 4 x 2, column-major from the top-right element (scamp5_output.hpp): buffer[1] is the
+    # right column's second row, buffer[2] the next column's first
+    np.testing.assert_array_equal(out[FIRST] + 128, [[255, 200, 100, 0], [5, 250, 150, 50]])
     patched = frames[0].astype(np.float32) - 128
-    patched[5:7, 6:8] = np.array([[0, 50], [100, 150]]) - 128.0
+    # rows 5-6, hardware columns 6-7 (array columns N - 8 and N - 7), first byte top-right
+    patched[5:7, N - 8 : N - 6] = np.array([[100, 0], [150, 50]]) - 128.0
     np.testing.assert_array_equal(out[SECOND], patched)  # pasted over the image
     marks = np.zeros((N, N), bool)
     marks[2, N - 1 - 1] = marks[0, 0] = True  # (column 1, row 2), (column 63, row 0); (0,0) ends
     np.testing.assert_array_equal(out[THIRD], marks)
+
+
+def test_scanned_regions_display_as_they_were_scanned(frames):
+    """scamp5_display_image takes scamp5_scan_areg's buffer ("useful when used in
+    combination with scanning functions such as scamp5_scan_areg", the same layout), and a
+    patch at the region's own address lands where it was scanned."""
+    for frame, out in zip(frames, run(frames, 7).session.outputs, strict=True):
+        a = frame.astype(np.float32) - 128  # scamp5_get_image's yf; its ADC codes are frame
+        np.testing.assert_array_equal(out[FIRST], a)
+        black = np.full((N, N), -128.0, np.float32)
+        black[10:13, N - 25 : N - 20] = a[10:13, N - 25 : N - 20]  # hardware columns 20-24
+        np.testing.assert_array_equal(out[SECOND], black)
+        np.testing.assert_array_equal(out[THIRD], a)
 
 
 def test_display_of_boxes_rgb_image_and_text(frames):
@@ -182,7 +235,8 @@ def test_posted_data_keeps_frame_channel_and_type(frames, tmp_path):
         (12, r"vs_configure_frame_trigger\(9, 60\): mode 9 is not a frame trigger mode"),
         (14, r"scamp5_output_areg\(A, 1, 2, 3, 0\): r0=3 is not a phase of s=2; use 0 to 1"),
         (15, r"device_api.cpp:\d+: display handle 55 was not created by vs_gui_add_display"),
-        (16, r"a 2 x 2 patch at row 63, column 0 runs off the 64 x 64 display"),
+        (16, r"device_api.cpp:\d+: scamp5_display_image_patch: a 2 x 2 patch at row 63, "
+             r"hardware column 0 runs off the 64 x 64 display"),
         (17, r"vs_post_bind_io_agent\(NULL\): give an io agent: vs_usb, vs_spi or vs_uart"),
         (18, r"allow_highspeed\(\) is a kernel function: call it inside a kernel"),
         (19, r"vs_frame_trigger_set\(1, 0\): the interval num/den s needs num and den above 0"),
@@ -191,6 +245,8 @@ def test_posted_data_keeps_frame_channel_and_type(frames, tmp_path):
              r"than a post carries \(16777216 bytes\); give the array's rows and columns"),
         (21, r"device_api.cpp:\d+: scamp5_display_events\(18446744073709551615 events\): more "
              r"than a post carries \(16777216 bytes\); give the number of events in the buffer"),
+        (24, r"device_api.cpp:\d+: vs_gui_read_slider\(VS_GUI_IMAGE_LENGTH, \.\.\.\): the "
+             r"host's own slider, whose value the headers do not give and this run does not hold"),
     ],
 )  # fmt: skip
 def test_misuse_is_one_line_with_its_line(frames, tmp_path, mode, message):

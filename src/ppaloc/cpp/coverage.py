@@ -5,7 +5,8 @@ The headers are the user's own copy, read at run time (``benchmarks/cpp_coverage
 nothing of them is kept here. Declarations are found by pattern, not by a C++ parser: a
 ``#define`` (not an include guard), a ``namespace``, ``struct``/``class``/``enum``/
 ``union``, ``typedef`` or ``using`` name, an enumerator, and a name written after a type
-and followed by ``(``, ``=``, ``;`` or ``[`` (a function or a variable); a block under
+(``T name``, ``T *name``, ``T*name``) and followed by ``(``, ``=``, ``;`` or ``[`` (a
+function or a variable); a block under
 ``#ifdef ..._PRIVATE`` is the library's own and left out.
 """
 
@@ -101,7 +102,8 @@ def _declared(code: str) -> set[str]:
     names.update(re.findall(r"\(\s*\*\s*(\w+)\s*\)\s*\(", code))
     for body in re.findall(r"\benum\b[^{;]*\{([^}]*)\}", code):
         names.update(re.findall(r"(?:^|,)\s*(\w+)", body))
-    for m in re.finditer(rf"([\w*&>]+)\s+[*&]*\s*({_PREFIX})\s*[(=;\[]", code):
+    # a type, then the name: after a space, or after a * or & with none (``T*name(``)
+    for m in re.finditer(rf"([\w*&>]+?)(?:\s+[*&]*|[*&]+)\s*({_PREFIX})\s*[(=;\[]", code):
         if m.group(1) not in _NOT_TYPES:
             names.add(m.group(2))
     return {n for n in names if re.fullmatch(_PREFIX, n)}

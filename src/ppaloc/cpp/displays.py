@@ -10,8 +10,10 @@ draws it: bool for marks (events, box outlines), float ``value - 128`` for byte 
 so a byte ``b`` is drawn as grey level ``b``.
 
 Positions arrive as the device writes them: events and boxes in hardware addresses
-(column 0 at the east edge, docs/sim-controller.md), byte images top-down, left to right
-as the host draws them.
+(column 0 at the east edge, docs/sim-controller.md); byte images of ``scamp5_display_image``
+column-major from the top-right element, as ``scamp5_scan_areg`` fills them
+(``scamp5_output.hpp``), those of ``vs_gui_display_image`` in the layout its format gives
+(top-down, left to right by default).
 """
 
 from __future__ import annotations
@@ -101,11 +103,14 @@ def event_marks(shape: tuple[int, int], cr: bytes, count: int) -> np.ndarray:
     return plane
 
 
-def box_outlines(shape: tuple[int, int], boxes: bytes, count: int) -> np.ndarray:
+def box_outlines(
+    shape: tuple[int, int], boxes: bytes, count: int, *, empty_zeros: bool = True
+) -> np.ndarray:
     """Boxes of 4 bytes each (``r, c`` of the top-right corner, then of the bottom-left
     one, hardware columns: the layout of ``scamp5_scan_boundingbox``) drawn as outlines
     on a bool plane, clipped to the array; an all-zero box (an empty register) draws
-    nothing.
+    nothing, unless ``empty_zeros`` is False (the caller knows it is the box of a 1 at
+    hardware address (0, 0) alone).
 
     Examples
     --------
@@ -118,7 +123,7 @@ def box_outlines(shape: tuple[int, int], boxes: bytes, count: int) -> np.ndarray
     rows, cols = shape
     plane = np.zeros(shape, bool)
     for r_a, c_a, r_b, c_b in _positions(boxes, 4, count, "boxes"):
-        if not (r_a or c_a or r_b or c_b):
+        if empty_zeros and not (r_a or c_a or r_b or c_b):
             continue
         top, bottom = sorted((r_a, r_b))
         # hardware column c is array column cols - 1 - c

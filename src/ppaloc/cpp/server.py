@@ -771,6 +771,12 @@ def _post_text(s: Session, a: list, line: int) -> None:
     s.texts.append((s.frame, a[0]))
 
 
+def _wait(s: Session, a: list, line: int) -> None:
+    """``vs_wait(usec)``: a polled delay of ``usec`` microseconds (a ``uint32_t``, sent
+    as its 4 bytes), on the modelled clock, charged to the host side (``loop``)."""
+    s.host("vs_wait", int.from_bytes(a[0][:4], "little"))
+
+
 def _stopwatch(s: Session, a: list, line: int) -> bytes:
     return struct.pack("<d", s.sim.timing.now_us)
 
@@ -811,9 +817,13 @@ def _output_events(s: Session, a: list, line: int) -> None:
 def _output_boundingbox(s: Session, a: list, line: int) -> bytes:
     dreg, handle = a
     s.display(handle, line)
-    box = _bounding_box(s, [dreg], line)
+    found = s.sim.scan_boundingbox(dreg, scamp_addr=True)
+    box = bytes(4) if found is None else np.asarray(found, np.uint8).ravel().tobytes()
     s.host("usb_output", len(box))
-    s._output(handle, box_outlines((s.sim.rows, s.sim.cols), box, 1), line)
+    # the register's own box, drawn even where its bytes are zeros (a 1 at the top-right
+    # element alone), which the buffer cannot tell from an empty register
+    shape = (s.sim.rows, s.sim.cols)
+    s._output(handle, box_outlines(shape, box, 1, empty_zeros=found is None), line)
     return box
 
 
@@ -831,11 +841,17 @@ def _display_events(s: Session, a: list, line: int) -> None:
     s._output(handle, event_marks((s.sim.rows, s.sim.cols), data, count), line)
 
 
+def _scamp5_image(data: bytes, w: int, h: int) -> np.ndarray:
+    """A ``scamp5_display_image*`` buffer as a plane: "column major format, starting from
+    top right" (``scamp5_output.hpp``), the layout ``scamp5_scan_areg`` fills."""
+    return byte_image(data, w, h, column_major=True, right_to_left=True)
+
+
 def _display_image(s: Session, a: list, line: int) -> None:
     handle, data, w, h = a
     s.display(handle, line)
     s.host("usb_output", w * h)
-    s._output(handle, byte_image(data, w, h), line)
+    s._output(handle, _scamp5_image(data, w, h), line)
 
 
 def _display_image_patch(s: Session, a: list, line: int) -> None:
@@ -844,15 +860,16 @@ def _display_image_patch(s: Session, a: list, line: int) -> None:
     rows, cols = (s.sim.rows, s.sim.cols)
     if r0 + h > rows or c0 + w > cols:
         raise ProgramError(
-            f"{s.at(line)}: a {w} x {h} patch at row {r0}, column {c0} runs off the "
-            f"{cols} x {rows} display; place it within it"
+            f"{s.at(line)}: scamp5_display_image_patch: a {w} x {h} patch at row {r0}, "
+            f"hardware column {c0} runs off the {cols} x {rows} display; place it within it"
         )
-    patch = byte_image(data, w, h)
+    patch = _scamp5_image(data, w, h)
     shown = s.outputs[s.frame].get(handle) if len(s.outputs) > s.frame else None
     if shown is None or shown.shape != (rows, cols) or shown.dtype == bool:
         shown = np.full((rows, cols), -128.0, np.float32)  # black
     plane = shown.copy()
-    plane[r0 : r0 + h, c0 : c0 + w] = patch
+    # rows r0.., hardware columns c0..: its first byte is the patch's top-right element
+    plane[r0 : r0 + h, cols - c0 - w : cols - c0] = patch
     s.host("usb_output", w * h)
     s._output(handle, plane, line)
 
@@ -1171,6 +1188,7 @@ HANDLERS: dict[str, Handler] = {
     "vs_wait_frame_trigger": lambda s, a, line: s.loop_answer(),
     "vs_loop_counter_inc": lambda s, a, line: s.counted_loop(),
     "vs_stopwatch_now": _stopwatch,
+    "vs_wait": _wait,
 }
 
 # The device API beyond the chip: outputs other than whole images, host graphics and data

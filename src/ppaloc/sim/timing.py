@@ -222,6 +222,12 @@ def _default_calls() -> Mapping[str, CallCost]:
             fixed_range=(125.0, 1000.0),
             per_unit_range=(0.025, 0.1),
         ),
+        "vs_wait": CallCost(
+            0.0,
+            per_unit_us=1.0,
+            unit="us waited",
+            source="vs_m0.hpp: vs_wait(usec), a polled delay of usec microseconds",
+        ),
         "scamp5_draw_pixel": CallCost(
             0.0,
             source="estimate: one address write into the drawn DREG (the per-call overhead only)",

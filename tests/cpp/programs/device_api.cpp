@@ -101,6 +101,45 @@ int main() {
             vs_post_set_channel(9);
             vs_post_int8(h8, 2, 1);
             vs_post_float(hf, 1, 1);
+        } else if (mode == 7) {  // a scanned region displayed whole and pasted back
+            static uint8_t whole[64 * 64], part[5 * 3];
+            scamp5_scan_areg(A, whole, 0, 0, 63, 63, 1, 1);
+            scamp5_display_image(d0, whole, 64, 64);
+            scamp5_scan_areg(A, part, 10, 20, 12, 24, 1, 1);  // 3 rows x 5 hardware columns
+            scamp5_display_image_patch(d1, part, 5, 3, 10, 20);
+            scamp5_output_image(A, d2);
+            scamp5_display_image_patch(d2, part, 5, 3, 10, 20);  // over itself: unchanged
+        } else if (mode == 8) {  // the bounding box of a 1 at the top-right element alone
+            uint8_t box[4] = {9, 9, 9, 9}, none[4] = {9, 9, 9, 9};
+            scamp5_load_point(R5, 0, 0);
+            scamp5_output_boundingbox(R5, d0, box);
+            scamp5_kernel_begin();
+                CLR(R6);
+            scamp5_kernel_end();
+            scamp5_output_boundingbox(R6, d1, none);  // an empty register: nothing drawn
+            vs_post_text("box %d %d %d %d none %d %d %d %d", box[0], box[1], box[2], box[3],
+                         none[0], none[1], none[2], none[3]);
+        } else if (mode == 9) {  // a polled delay, on the modelled clock
+            vs_stopwatch watch;
+            vs_wait(2500);
+            vs_wait(0);
+            vs_post_text("waited %u", watch.get_usec());
+        } else if (mode == 22) {  // the bound io agents, read back
+            vs_io_agent_api* scamp5_first = scamp5_get_io_agent();
+            vs_io_agent_api* post_first = vs_post_get_io_agent();
+            scamp5_bind_io_agent(vs_spi);
+            vs_post_bind_io_agent(vs_uart);
+            int bound = scamp5_get_io_agent() == vs_spi && vs_post_get_io_agent() == vs_uart;
+            scamp5_bind_io_agent(scamp5_first);  // put back as it was
+            vs_post_text("agents %d %d %d %d", scamp5_first == vs_usb, post_first == vs_usb,
+                         bound, scamp5_get_io_agent() == vs_usb);
+        } else if (mode == 23) {  // the host's sliders of vs_on_gui_update's table
+            int blend = -1;
+            vs_on_gui_update(VS_GUI_IMAGE_BLEND, [&](int32_t v) { blend = v; });
+            vs_on_gui_update(VS_GUI_VECTOR_LENGTH, [&](int32_t v) { blend = v; });
+            vs_process_message();
+            vs_post_text("blend %d handles %d %d %d", blend, VS_GUI_VECTOR_LENGTH,
+                         VS_GUI_IMAGE_LENGTH, VS_GUI_IMAGE_BLEND);
         }
         // misuse, one line each
         else if (mode == 10) {
@@ -126,6 +165,8 @@ int main() {
             const int16_t values[4] = {1, 2, 3, 4};
             int rows = -1;  // a size_t of 2^64 - 1
             vs_post_int16(values, rows, 4);
+        } else if (mode == 24) {
+            vs_gui_read_slider(VS_GUI_IMAGE_LENGTH);
         } else if (mode == 21) {
             const uint8_t events[2] = {1, 2};
             scamp5_display_events(d0, events, size_t(-1));

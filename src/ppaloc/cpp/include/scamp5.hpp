@@ -1008,6 +1008,10 @@ inline uint32_t& loop_counter() {
 // The host's own GUI items (the device's VS_GUI_* handles) and their values here: the host
 // is connected, the frame gain is 1 (scamp5_get_image's default), the frame rate 30 fps.
 constexpr vs_handle GUI_HOST_STATUS = 128, GUI_FRAME_RATE = 130, GUI_FRAME_GAIN = 131;
+// The host's other sliders vs_on_gui_update names (vector and image data length, image
+// blend): the headers give no value, so none is held (a callback set on one is never
+// called; reading one stops the program in one line).
+constexpr vs_handle GUI_VECTOR_LENGTH = 132, GUI_IMAGE_LENGTH = 133, GUI_IMAGE_BLEND = 134;
 struct Gui {
     std::map<vs_handle, int32_t> values{
         {GUI_HOST_STATUS, 1}, {GUI_FRAME_RATE, 30}, {GUI_FRAME_GAIN, 1}};
@@ -1189,7 +1193,11 @@ inline void vs_on_user_value(std::function<void(uint8_t, int32_t)> f, ppa::Loc l
     (void)f;
     ppa::call("vs_on_user_value", false, {}, loc);
 }
-inline void vs_wait(uint32_t usec) { (void)usec; }
+// A polled delay: no wall-clock wait here; the modelled clock (vs_stopwatch, timing.json)
+// advances by usec, charged to the host side of the frame as the loop's own costs are.
+inline void vs_wait(uint32_t usec, ppa::Loc loc = PPA_HERE) {
+    if (usec) PPA_CALL("vs_wait", false, ppa::Arg(&usec, sizeof usec));
+}
 inline void vs_loop_counter_inc(ppa::Loc loc = PPA_HERE) {
     ppa::loop_counter()++;
     if (!ppa::paced()) ppa::next_frame("vs_loop_counter_inc", loc);
@@ -1246,6 +1254,13 @@ namespace ppa {
 inline int32_t& gui_value(const char* fn, vs_handle h, const Loc& loc) {
     Gui& g = gui();
     auto it = g.values.find(h);
+    if (it == g.values.end() && h >= GUI_VECTOR_LENGTH && h <= GUI_IMAGE_BLEND) {
+        static const char* const names[] = {"VS_GUI_VECTOR_LENGTH", "VS_GUI_IMAGE_LENGTH",
+                                            "VS_GUI_IMAGE_BLEND"};
+        fail(loc, std::string(fn) + "(" + names[h - GUI_VECTOR_LENGTH] +
+                      ", ...): the host's own slider, whose value the headers do not give "
+                      "and this run does not hold");
+    }
     if (it == g.values.end()) {
         fail(loc, std::string(fn) + "(" + std::to_string(h) +
                       ", ...): no slider, switch or button has this handle; give one that "
@@ -1326,6 +1341,9 @@ class vs_stopwatch {
 #define VS_GUI_HOST_STATUS ppa::GUI_HOST_STATUS
 #define VS_GUI_FRAME_RATE ppa::GUI_FRAME_RATE
 #define VS_GUI_FRAME_GAIN ppa::GUI_FRAME_GAIN
+#define VS_GUI_VECTOR_LENGTH ppa::GUI_VECTOR_LENGTH
+#define VS_GUI_IMAGE_LENGTH ppa::GUI_IMAGE_LENGTH
+#define VS_GUI_IMAGE_BLEND ppa::GUI_IMAGE_BLEND
 
 // A display style given by name to vs_gui_add_display (its JSON is for the host's GUI).
 class vs_gui_script {
@@ -1410,12 +1428,28 @@ inline void bind_agent(const char* fn, vs_io_agent_api* p, const Loc& loc) {
 inline vs_io_agent_api* vs_usb = &ppa::usb_agent;
 inline vs_io_agent_api* vs_spi = &ppa::spi_agent;
 inline vs_io_agent_api* vs_uart = &ppa::uart_agent;
+// The agents bound for posts and for the scamp5 outputs: vs_usb until a program binds
+// another (the host's link; the headers do not name the agent bound at the start).
+namespace ppa {
+inline vs_io_agent_api*& post_agent() {
+    static vs_io_agent_api* p = vs_usb;
+    return p;
+}
+inline vs_io_agent_api*& scamp5_agent() {
+    static vs_io_agent_api* p = vs_usb;
+    return p;
+}
+}  // namespace ppa
 inline void vs_post_bind_io_agent(vs_io_agent_api* u, ppa::Loc loc = PPA_HERE) {
     ppa::bind_agent("vs_post_bind_io_agent", u, loc);
+    ppa::post_agent() = u;
 }
 inline void scamp5_bind_io_agent(vs_io_agent_api* p, ppa::Loc loc = PPA_HERE) {
     ppa::bind_agent("scamp5_bind_io_agent", p, loc);
+    ppa::scamp5_agent() = p;
 }
+inline vs_io_agent_api* vs_post_get_io_agent(void) { return ppa::post_agent(); }
+inline vs_io_agent_api* scamp5_get_io_agent() { return ppa::scamp5_agent(); }
 // Waiting for an io agent to finish sending: output reaches the run's folder at once, so
 // there is nothing to wait for (checked and recorded).
 inline void vs_wait_io_agent(vs_io_agent_api* p, ppa::Loc loc = PPA_HERE) {
