@@ -773,8 +773,11 @@ def _post_text(s: Session, a: list, line: int) -> None:
 
 def _wait(s: Session, a: list, line: int) -> None:
     """``vs_wait(usec)``: a polled delay of ``usec`` microseconds (a ``uint32_t``, sent
-    as its 4 bytes), on the modelled clock, charged to the host side (``loop``)."""
-    s.host("vs_wait", int.from_bytes(a[0][:4], "little"))
+    as its 4 bytes) on the sensor's controller, on the modelled clock. It is the chip's
+    side of the frame (``chip_us``), as kernels and controller calls are, not the host
+    link's (``loop``): the public programs that call it wait out an exposure between
+    ``getpix`` kernels."""
+    s.sim.timing.charge_call("vs_wait", int.from_bytes(a[0][:4], "little"))
 
 
 def _stopwatch(s: Session, a: list, line: int) -> bytes:

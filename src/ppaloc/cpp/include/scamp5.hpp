@@ -1193,8 +1193,9 @@ inline void vs_on_user_value(std::function<void(uint8_t, int32_t)> f, ppa::Loc l
     (void)f;
     ppa::call("vs_on_user_value", false, {}, loc);
 }
-// A polled delay: no wall-clock wait here; the modelled clock (vs_stopwatch, timing.json)
-// advances by usec, charged to the host side of the frame as the loop's own costs are.
+// A polled delay on the controller: no wall-clock wait here; the modelled clock
+// (vs_stopwatch, timing.json) advances by usec, on the chip's side of the frame as a
+// kernel's time is (programs wait out an exposure with it), not the host link's loop.
 inline void vs_wait(uint32_t usec, ppa::Loc loc = PPA_HERE) {
     if (usec) PPA_CALL("vs_wait", false, ppa::Arg(&usec, sizeof usec));
 }
