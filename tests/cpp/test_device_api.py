@@ -242,6 +242,8 @@ def test_posted_data_keeps_frame_channel_and_type(frames, tmp_path):
         (15, r"device_api.cpp:\d+: display handle 55 was not created by vs_gui_add_display"),
         (16, r"device_api.cpp:\d+: scamp5_display_image_patch: a 2 x 2 patch at row 63, "
              r"hardware column 0 runs off the 64 x 64 display"),
+        (25, r"device_api.cpp:\d+: scamp5_display_image_patch: a 2 x 2 patch at row 0, "
+             r"hardware column 63 runs off the 64 x 64 display"),
         (17, r"vs_post_bind_io_agent\(NULL\): give an io agent: vs_usb, vs_spi or vs_uart"),
         (18, r"allow_highspeed\(\) is a kernel function: call it inside a kernel"),
         (19, r"vs_frame_trigger_set\(1, 0\): the interval num/den s needs num and den above 0"),

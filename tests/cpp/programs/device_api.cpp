@@ -155,6 +155,9 @@ int main() {
         } else if (mode == 16) {
             const uint8_t image[4] = {1, 2, 3, 4};
             scamp5_display_image_patch(d0, image, 2, 2, 63, 0);
+        } else if (mode == 25) {  // off the west edge: hardware columns 63 and 64
+            const uint8_t image[4] = {1, 2, 3, 4};
+            scamp5_display_image_patch(d0, image, 2, 2, 0, 63);
         } else if (mode == 17) {
             vs_post_bind_io_agent(NULL);
         } else if (mode == 18) {
