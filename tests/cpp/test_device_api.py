@@ -180,6 +180,21 @@ def test_scanned_regions_display_as_they_were_scanned(frames):
         np.testing.assert_array_equal(out[THIRD], a)
 
 
+def test_a_patch_goes_over_the_display_previous_image(frames):
+    """scamp5_display_image_patch "will apply the image over the previous image in the
+    display" (scamp5_output.hpp): a digital register's image (drawn as 0 and 255) and the
+    image an earlier frame left stay around it."""
+    first, second = run(frames, 26).session.outputs
+    patch = np.array([[30, 10], [40, 20]], np.float32) - 128  # column-major, top-right first
+    digital = np.full((N, N), -128.0, np.float32)
+    digital[3, N - 1 - 2] = 127.0  # the point at row 3, hardware column 2
+    digital[10:12, N - 12 : N - 10] = patch
+    np.testing.assert_array_equal(first[FIRST], digital)
+    earlier = frames[0].astype(np.float32) - 128  # frame 0's image of A on the second display
+    earlier[20:22, N - 22 : N - 20] = patch
+    np.testing.assert_array_equal(second[SECOND], earlier)
+
+
 def test_display_of_boxes_rgb_image_and_text(frames):
     result = run(frames, 4)
     out = result.session.outputs[0]

@@ -857,6 +857,23 @@ def _display_image(s: Session, a: list, line: int) -> None:
     s._output(handle, _scamp5_image(data, w, h), line)
 
 
+def _shown_before(s: Session, handle: int, shape: tuple[int, int]) -> np.ndarray | None:
+    """A copy of the image display ``handle`` shows now, the newest of any frame so far
+    (a patch goes "over the previous image in the display", ``scamp5_output.hpp``), as an
+    analogue plane (a digital register's image as -128 and 127, drawn alike); None where
+    it has shown nothing of the display's size."""
+    for frame in range(min(s.frame, len(s.outputs) - 1), -1, -1):
+        shown = s.outputs[frame].get(handle)
+        if shown is None:
+            continue
+        if shown.shape != shape:
+            return None
+        if shown.dtype == bool:
+            return np.where(shown, 127.0, -128.0).astype(np.float32)
+        return np.array(shown, dtype=np.float32)
+    return None
+
+
 def _display_image_patch(s: Session, a: list, line: int) -> None:
     handle, data, w, h, r0, c0 = a
     s.display(handle, line)
@@ -867,10 +884,9 @@ def _display_image_patch(s: Session, a: list, line: int) -> None:
             f"hardware column {c0} runs off the {cols} x {rows} display; place it within it"
         )
     patch = _scamp5_image(data, w, h)
-    shown = s.outputs[s.frame].get(handle) if len(s.outputs) > s.frame else None
-    if shown is None or shown.shape != (rows, cols) or shown.dtype == bool:
-        shown = np.full((rows, cols), -128.0, np.float32)  # black
-    plane = shown.copy()
+    plane = _shown_before(s, handle, (rows, cols))
+    if plane is None:
+        plane = np.full((rows, cols), -128.0, np.float32)  # nothing shown yet: black
     # rows r0.., hardware columns c0..: its first byte is the patch's top-right element
     plane[r0 : r0 + h, cols - c0 - w : cols - c0] = patch
     s.host("usb_output", w * h)

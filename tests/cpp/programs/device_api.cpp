@@ -133,6 +133,17 @@ int main() {
             scamp5_bind_io_agent(scamp5_first);  // put back as it was
             vs_post_text("agents %d %d %d %d", scamp5_first == vs_usb, post_first == vs_usb,
                          bound, scamp5_get_io_agent() == vs_usb);
+        } else if (mode == 26) {  // patches over the display's previous image
+            static int frame = 0;
+            const uint8_t image[4] = {10, 20, 30, 40};
+            if (frame++ == 0) {
+                scamp5_load_point(R5, 3, 2);
+                scamp5_output_image(R5, d0);  // a digital register's image
+                scamp5_display_image_patch(d0, image, 2, 2, 10, 10);
+                scamp5_output_image(A, d1);
+            } else {  // over the image an earlier frame left
+                scamp5_display_image_patch(d1, image, 2, 2, 20, 20);
+            }
         } else if (mode == 23) {  // the host's sliders of vs_on_gui_update's table
             int blend = -1;
             vs_on_gui_update(VS_GUI_IMAGE_BLEND, [&](int32_t v) { blend = v; });
