@@ -6,6 +6,7 @@ Not collected by pytest. Run from the project root::
     .venv/bin/python benchmarks/eval_speed.py                       # autumn and winter
     .venv/bin/python benchmarks/eval_speed.py --queries autumn --speeds 0.5,1,2
     .venv/bin/python benchmarks/eval_speed.py --param weighted-node-lowres16.lane_speed=0
+    .venv/bin/python benchmarks/eval_speed.py --representations     # the same information
 
 The route is ``synthetic:?places=200&query=Q&seed=S&speed=V`` for each speed ``V`` (the
 query crosses ``V`` places a frame, with the generator's stops; docs/datasets.md), so
@@ -15,6 +16,12 @@ speed on average. Each method runs through the evaluation's runner
 (:func:`ppaloc.evaluate.run.run_method`) with its defaults; each table's last row gives
 the speeds the method declares (``speed_range``, the range ``ppaloc evaluate`` warns
 outside: docs/baselines.md, "Query speed").
+
+``--representations`` gives every filter the same information, as in ``eval_robust.py``:
+the weighted-node filter on each of its places (``weighted-node-patch`` among them) and
+each baseline that takes a ``descriptor`` once per descriptor (columns ``NAME/DESCRIPTOR``);
+after each table, a line per speed says whether the better weighted-node place scores at
+least the particle filter on the same place (:func:`same_place`).
 
 ``--queries nordland`` runs the real Nordland summer -> winter route of ``../shared/data``
 instead, the winter query subsampled to each speed (:func:`faster`: frame ``round(i v)``
@@ -39,7 +46,7 @@ from ppaloc.evaluate.run import run_method
 from ppaloc.methods import make_localiser
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import DATA, add_param_option, parse_params
+from eval_robust import DATA, add_param_option, descriptor_columns, parse_params
 
 METHODS = (
     "weighted-node-lowres16",
@@ -50,6 +57,23 @@ METHODS = (
     "seqslam",
     "able-m",
 )
+REPRESENTATION_METHODS = (
+    "weighted-node-lowres16",
+    "weighted-node-lowres",
+    "weighted-node-haar",
+    "weighted-node-lbp",
+    "weighted-node-patch",
+    "particle-filter",
+)
+"""The methods of ``--representations`` (the particle filter expanded per descriptor)."""
+PLACE_OF = {
+    "weighted-node-lowres": "lowres",
+    "weighted-node-lowres16": "lowres16",
+    "weighted-node-lbp": "lbp",
+    "weighted-node-haar": "haar",
+    "weighted-node-patch": "patch",
+}
+"""The descriptor a baseline takes for each weighted-node place (the same information)."""
 SPEEDS = (0.35, 0.5, 0.7, 1.0, 1.5, 2.0, 2.5)
 QUERIES = ("autumn", "winter")
 
@@ -100,6 +124,23 @@ def frames_at(query: str, seed: int, speed: float, places: int) -> tuple[list, l
     return ref, [to_sensor(f) for f in ds.query], list(ds.ground_truth)
 
 
+def columns(
+    methods: tuple[str, ...],
+    params: dict[str, dict[str, Any]] | None = None,
+    representations: bool = False,
+) -> list[tuple[str, str, dict[str, Any]]]:
+    """The ``(column, method, params)`` jobs: one a method, or with ``representations``
+    each baseline once per descriptor it takes (:func:`eval_robust.descriptor_columns`).
+
+    >>> [c for c, _, _ in columns(("weighted-node-lbp", "able-m"), representations=True)]
+    ['weighted-node-lbp', 'able-m/lbp', 'able-m/haar', 'able-m/ldb']
+    """
+    params = params or {}
+    if not representations:
+        return [(m, m, dict(params.get(m) or {})) for m in methods]
+    return [job for m in methods for job in descriptor_columns(m, params.get(m) or {})]
+
+
 def sweep(
     query: str,
     seed: int,
@@ -107,25 +148,56 @@ def sweep(
     methods: tuple[str, ...],
     places: int,
     params: dict[str, dict[str, Any]] | None = None,
+    representations: bool = False,
 ) -> dict[float, dict[str, float]]:
-    """Max F1 of every method at every speed (one route each), each method with its
-    ``params`` (``--param``) over its defaults."""
-    params = params or {}
+    """Max F1 of every column (:func:`columns`) at every speed (one route each), each
+    method with its ``params`` (``--param``) over its defaults."""
+    jobs = columns(methods, params, representations)
     out: dict[float, dict[str, float]] = {}
     for speed in speeds:
         ref, frames, truth = frames_at(query, seed, speed, places)
         out[speed] = {
-            m: run_method(m, ref, frames, truth, params=params.get(m)).metrics.f1_max
-            for m in methods
+            col: run_method(m, ref, frames, truth, params=p or None).metrics.f1_max
+            for col, m, p in jobs
         }
         row = " ".join(f"{m} {f:.3f}" for m, f in out[speed].items())
         print(f"  {query} seed {seed} speed {speed:g} ({len(frames)} queries): {row}", flush=True)
     return out
 
 
+def same_place(row: dict[str, float], baseline: str = "particle-filter") -> str:
+    """Whether the better weighted-node place of ``row`` scores at least ``baseline`` on
+    the same place (``baseline/DESCRIPTOR``), or by how much the closest falls short.
+
+    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6,
+    ...             "weighted-node-haar": 0.7, "particle-filter/haar": 0.65})
+    'at least particle-filter on the same place: haar (0.700 against 0.650)'
+    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6})
+    'below particle-filter on every place: short by 0.100 on lbp (0.500 against 0.600)'
+    """
+    pairs = [
+        (row[wn] - row[f"{baseline}/{place}"], place, row[wn], row[f"{baseline}/{place}"])
+        for wn, place in PLACE_OF.items()
+        if wn in row and f"{baseline}/{place}" in row
+    ]
+    if not pairs:
+        return f"no weighted-node place beside {baseline} on the same place"
+    held = [p for p in pairs if p[0] >= 0]
+    if held:
+        names = ", ".join(f"{p} ({w:.3f} against {b:.3f})" for _, p, w, b in held)
+        return f"at least {baseline} on the same place: {names}"
+    gap, place, w, b = max(pairs)
+    return (
+        f"below {baseline} on every place: short by {-gap:.3f} on {place} ({w:.3f} against {b:.3f})"
+    )
+
+
 def declared(method: str, params: dict[str, Any] | None = None) -> str:
-    """The method's ``speed_range`` (with ``params``) as ``lo-hi``, or ``-`` where it
-    declares none."""
+    """The ``speed_range`` (with ``params``) of ``method``, or of a column
+    ``METHOD/DESCRIPTOR``, as ``lo-hi``, or ``-`` where it declares none."""
+    if "/" in method:
+        method, descriptor = method.split("/", 1)
+        params = {**(params or {}), "descriptor": descriptor}
     rng = getattr(make_localiser(method, **(params or {})), "speed_range", None)
     return "-" if rng is None else f"{rng[0]:.2g}-{rng[1]:.3g}"
 
@@ -135,13 +207,15 @@ def table(
     methods: tuple[str, ...],
     params: dict[str, dict[str, Any]] | None = None,
 ) -> str:
-    """A markdown table: one row per speed, one column per method, the ranges last."""
+    """A markdown table: one row per speed, one column per method (or column), the
+    ranges last."""
     params = params or {}
     head = "| speed | " + " | ".join(methods) + " |"
     lines = [head, "|---" * (len(methods) + 1) + "|"]
     for speed, row in figures.items():
         lines.append(f"| {speed:g} | " + " | ".join(f"{row[m]:.3f}" for m in methods) + " |")
-    lines.append("| declared | " + " | ".join(declared(m, params.get(m)) for m in methods) + " |")
+    ranges = (declared(m, params.get(m.split("/")[0])) for m in methods)
+    lines.append("| declared | " + " | ".join(ranges) + " |")
     return "\n".join(lines)
 
 
@@ -151,22 +225,40 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--queries", default=",".join(QUERIES))
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--places", type=int, default=200)
-    parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument(
+        "--methods",
+        default=None,
+        help="default: every method, or with "
+        "--representations the weighted-node places and the particle filter",
+    )
+    parser.add_argument(
+        "--representations",
+        action="store_true",
+        help="every filter on the same information: the weighted-node filter on each place, "
+        "each baseline once per descriptor it takes",
+    )
     add_param_option(parser)
     parser.add_argument("--json", type=Path, default=None, help="write every figure here")
     args = parser.parse_args(argv)
     params = parse_params(args.param)
     speeds = tuple(float(s) for s in args.speeds.split(","))
-    methods = tuple(args.methods.split(","))
+    default = REPRESENTATION_METHODS if args.representations else METHODS
+    methods = tuple(args.methods.split(",")) if args.methods else default
     for name in sorted(set(params) - set(methods)):
         print(f"note: --param for {name!r}, which is not run, is ignored", file=sys.stderr)
     figures = {}
     for query in args.queries.split(","):
-        figures[query] = sweep(query, args.seed, speeds, methods, args.places, params)
+        figures[query] = sweep(
+            query, args.seed, speeds, methods, args.places, params, args.representations
+        )
+        cols = tuple(c for c, _, _ in columns(methods, params, args.representations))
         print(
-            f"\n{query}, seed {args.seed}:\n\n{table(figures[query], methods, params)}\n",
+            f"\n{query}, seed {args.seed}:\n\n{table(figures[query], cols, params)}\n",
             flush=True,
         )
+        if args.representations:
+            for speed, row in figures[query].items():
+                print(f"  {query} at {speed:g}: {same_place(row)}", flush=True)
     if args.json:
         data = {q: {f"{s:g}": row for s, row in f.items()} for q, f in figures.items()}
         args.json.write_text(json.dumps(data, indent=1))

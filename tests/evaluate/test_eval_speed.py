@@ -55,3 +55,20 @@ def test_a_faster_query_keeps_every_v_th_frame(bench_script):
     assert eval_speed.faster(4, 1).tolist() == [0, 1, 2, 3]
     with pytest.raises(SystemExit, match="1 or faster"):
         eval_speed.faster(4, 0.5)
+
+
+def test_the_same_information_runs_each_baseline_on_every_place(bench_script, capsys):
+    """``--representations``: the particle filter once per descriptor, beside the
+    weighted-node place, and a line saying whether a place holds against it."""
+    eval_speed = bench_script("eval_speed")
+    methods = ("weighted-node-lbp", "particle-filter")
+    got = eval_speed.sweep("autumn", 1, (1.0,), methods, 24, None, True)
+    assert list(got[1.0]) == [
+        "weighted-node-lbp",
+        *(f"particle-filter/{d}" for d in ("lowres", "lowres16", "lbp", "haar", "patch")),
+    ]
+    line = eval_speed.same_place(got[1.0])
+    wn, pf = got[1.0]["weighted-node-lbp"], got[1.0]["particle-filter/lbp"]
+    assert line.startswith("at least" if wn >= pf else "below") and "lbp" in line
+    table = eval_speed.table(got, tuple(got[1.0]))
+    assert table.splitlines()[-1].startswith("| declared | 0.5-2 | 0.64-1.67 |")
