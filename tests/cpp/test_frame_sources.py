@@ -174,6 +174,30 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
     assert err.count("\n") == 1 and "the lavfi input takes no option 'bogus'" in err
 
 
+def test_the_option_tables_are_read_from_pyavs_own_ffmpeg(cxx, tmp_path):
+    # another FFmpeg mapped into the process (one a package bundles) was taken for PyAV's:
+    # the tables of another version were read, or (here, a library lacking them) none, and
+    # nothing was refused
+    import subprocess
+    import sys
+
+    pytest.importorskip("av")
+    (tmp_path / "other.cpp").write_text(
+        'extern "C" unsigned avformat_version(void) { return (58u << 16) | (76u << 8) | 100u; }\n'
+    )
+    other = tmp_path / "libavformat.so.58"
+    subprocess.run([cxx, "-shared", "-fPIC", "-o", other, tmp_path / "other.cpp"], check=True)
+    code = (
+        "import ctypes, sys, av; ctypes.CDLL(sys.argv[1]); "
+        "from ppaloc.datasets.loaders.ffoptions import input_options; "
+        "print(input_options('lavfi') is not None)"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(other)], capture_output=True, text=True, check=True
+    )
+    assert done.stdout == "True\n", done.stderr
+
+
 def test_the_program_is_checked_before_any_frame_is_read(tmp_path, monkeypatch):
     import ppaloc.datasets.loaders.video as video
     from ppaloc.cpp.command import run_cpp

@@ -8,8 +8,10 @@ loaded (``av_opt_next`` through :mod:`ctypes`, the same tables ``ffmpeg -h demux
 prints): the format's own options, FFmpeg's general input (``AVFormatContext``) and decoder
 (``AVCodecContext``) options, which every input takes, and where the format reads through
 a protocol (a file, ``http://``, ``udp://``) every input protocol's options, as protocols
-hand options on to the ones below them. Where the libraries cannot be read so (a build of
-PyAV whose libraries are not found), nothing is refused: the options go to FFmpeg as given.
+hand options on to the ones below them. The libraries are the ones of the versions PyAV
+reports (another FFmpeg may be loaded in the process too). Where they cannot be read so (a
+build of PyAV whose libraries are not found), nothing is refused: the options go to FFmpeg
+as given.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import difflib
 import functools
 import glob
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,9 +60,9 @@ class _InputFormat(ctypes.Structure):  # the public start of AVInputFormat (FFmp
     ]
 
 
-def _library(name: str) -> str | None:
-    """The path of FFmpeg's library ``name`` (``avformat``) that PyAV loaded: the one
-    mapped into this process, else the one shipped beside the ``av`` package."""
+def _candidates(name: str) -> Iterator[str]:
+    """Paths that may hold FFmpeg's library ``name`` (``avformat``): those mapped into this
+    process, then those shipped beside the ``av`` package."""
     import av
 
     try:
@@ -67,25 +70,45 @@ def _library(name: str) -> str | None:
             for line in maps:
                 path = line.split(maxsplit=5)[-1].strip()
                 if os.path.basename(path).startswith(f"lib{name}"):
-                    return path
+                    yield path
     except OSError:
         pass
     base = os.path.dirname(os.path.dirname(av.__file__))
     for pattern in (f"av.libs/lib{name}*", f"av/.dylibs/lib{name}*", f"av.libs/{name}-*.dll"):
-        found = sorted(glob.glob(os.path.join(base, pattern)))
-        if found:
-            return found[0]
+        yield from sorted(glob.glob(os.path.join(base, pattern)))
+
+
+def _library(name: str) -> Any:
+    """FFmpeg's library ``name`` (``avformat``) as PyAV loaded it: the first candidate
+    (:func:`_candidates`) of the version PyAV reports, else None. Another FFmpeg may be
+    mapped into the process too (one another package bundles), and its tables are not the
+    ones PyAV's FFmpeg reads."""
+    import av
+
+    major, minor, micro = av.library_versions[f"lib{name}"]
+    wanted = (major << 16) | (minor << 8) | micro
+    for path in dict.fromkeys(_candidates(name)):
+        try:
+            lib = ctypes.CDLL(path)
+            version = getattr(lib, f"{name}_version")
+        except (OSError, AttributeError):
+            continue
+        version.restype, version.argtypes = ctypes.c_uint, []
+        if version() == wanted:
+            return lib
     return None
 
 
 @functools.cache
 def _libraries() -> tuple[Any, Any, Any] | None:
     """FFmpeg's avformat, avcodec and avutil as PyAV loaded them, or None."""
-    paths = [_library(n) for n in ("avformat", "avcodec", "avutil")]
-    if None in paths:
+    try:
+        fmt, codec, util = (_library(n) for n in ("avformat", "avcodec", "avutil"))
+    except (KeyError, TypeError, ValueError):  # a PyAV that reports no such version
+        return None
+    if fmt is None or codec is None or util is None:
         return None
     try:
-        fmt, codec, util = (ctypes.CDLL(p) for p in paths)  # type: ignore[arg-type]
         util.av_opt_next.restype = ctypes.c_void_p
         util.av_opt_next.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         util.av_opt_find.restype = ctypes.c_void_p
