@@ -134,6 +134,21 @@ def test_stream_options_reach_ffmpeg(cxx, tmp_path, capsys):
         load_frames(None, None, 1, None, None, ["video_size=8x4"])
 
 
+def _clip(path: Path, codec: str, pix_fmt: str, frames: int = 1) -> Path:
+    """A video of ``frames`` 64 x 48 frames in ``codec``."""
+    import av
+
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream(codec, rate=10)
+        stream.width, stream.height, stream.pix_fmt = 64, 48, pix_fmt
+        for _ in range(frames):
+            for packet in stream.encode(av.VideoFrame(64, 48, pix_fmt)):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    return path
+
+
 def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatch, capsys):
     # FFmpeg leaves an option no part of it takes unused, without a word: the run went on
     # with the input's defaults (a camera at its own size for video_sise=640x480)
@@ -152,14 +167,7 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
         "general input options are taken too (probesize, analyzeduration"
     )
     # a format FFmpeg finds itself (a file's) is asked once it is found
-    path = tmp_path / "clip.mkv"
-    with av.open(str(path), "w") as container:
-        stream = container.add_stream("ffv1", rate=10)
-        stream.width, stream.height, stream.pix_fmt = 16, 16, "yuv420p"
-        for packet in stream.encode(av.VideoFrame(16, 16, "yuv420p")):
-            container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
+    path = _clip(tmp_path / "clip.mkv", "ffv1", "yuv420p")
     with pytest.raises(PpalocError, match=r"the matroska input takes no option 'nosuch'"):
         load_frames(None, None, 1, str(path), None, ["nosuch=1"])
     # what the input and FFmpeg's general options take goes through
@@ -172,6 +180,19 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
     assert main([*argv, "--stream-option", "bogus=1", "--out", str(tmp_path / "run")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "the lavfi input takes no option 'bogus'" in err
+
+
+def test_an_option_every_protocol_takes_is_not_refused(tmp_path):
+    # rw_timeout (FFmpeg's URLContext: every protocol's) was refused as no option of the
+    # input, for a file as for an http:// video
+    pytest.importorskip("av")
+    from ppaloc.datasets.loaders.ffoptions import input_options
+
+    if input_options("matroska") is None:
+        pytest.skip("the option tables of this PyAV build's FFmpeg libraries cannot be read")
+    path = _clip(tmp_path / "clip.mkv", "ffv1", "yuv420p")
+    for option in ("rw_timeout=5000000", "protocol_blacklist=udp"):
+        assert len(list(load_frames(None, None, 1, str(path), None, [option]))) == 1
 
 
 def test_the_option_tables_are_read_from_pyavs_own_ffmpeg(cxx, tmp_path):

@@ -8,10 +8,10 @@ loaded (``av_opt_next`` through :mod:`ctypes`, the same tables ``ffmpeg -h demux
 prints): the format's own options, FFmpeg's general input (``AVFormatContext``) and decoder
 (``AVCodecContext``) options, which every input takes, and where the format reads through
 a protocol (a file, ``http://``, ``udp://``) every input protocol's options, as protocols
-hand options on to the ones below them. The libraries are the ones of the versions PyAV
-reports (another FFmpeg may be loaded in the process too). Where they cannot be read so (a
-build of PyAV whose libraries are not found), nothing is refused: the options go to FFmpeg
-as given.
+hand options on to the ones below them, and those every protocol takes (``rw_timeout``).
+The libraries are the ones of the versions PyAV reports (another FFmpeg may be loaded in
+the process too). Where they cannot be read so (a build of PyAV whose libraries are not
+found), nothing is refused: the options go to FFmpeg as given.
 """
 
 from __future__ import annotations
@@ -129,7 +129,35 @@ def _libraries() -> tuple[Any, Any, Any] | None:
         codec.avcodec_get_class.restype = ctypes.c_void_p
     except (OSError, AttributeError):
         return None
+    for name in ("av_opt_child_class_iterate", "av_opt_child_class_next"):  # FFmpeg 4.4+, 4
+        if hasattr(util, name):
+            getattr(util, name).restype = ctypes.c_void_p
     return fmt, codec, util
+
+
+def _child_class(util: Any, parent: int, name: bytes) -> int | None:
+    """The child ``AVClass`` named ``name`` of the one at ``parent`` (an ``AVClass``
+    begins with its name), or None."""
+    for child in _children(util, parent):
+        if ctypes.c_char_p.from_address(child).value == name:
+            return child
+    return None
+
+
+def _children(util: Any, parent: int) -> Iterator[int]:
+    """The child classes of the ``AVClass`` at ``parent``."""
+    if hasattr(util, "av_opt_child_class_iterate"):  # FFmpeg 4.4 and later
+        state = ctypes.c_void_p()
+        while child := util.av_opt_child_class_iterate(
+            ctypes.c_void_p(parent), ctypes.byref(state)
+        ):
+            yield child
+    elif hasattr(util, "av_opt_child_class_next"):  # before
+        child = None
+        while child := util.av_opt_child_class_next(
+            ctypes.c_void_p(parent), ctypes.c_void_p(child)
+        ):
+            yield child
 
 
 def _names(util: Any, cls: int | None) -> set[str]:
@@ -167,6 +195,10 @@ def input_options(format: str) -> InputOptions | None:
         opaque = ctypes.c_void_p()
         while protocol := fmt.avio_enum_protocols(ctypes.byref(opaque), 0):
             general |= _names(util, fmt.avio_protocol_get_class(protocol))
+        # and every protocol's general ones (rw_timeout): FFmpeg's URLContext, a child of
+        # AVIOContext, itself the first child of AVFormatContext
+        avio = _child_class(util, fmt.avformat_get_class(), b"AVIOContext")
+        general |= _names(util, avio and _child_class(util, avio, b"URLContext"))
     own = _names(util, found.priv_class)
     return InputOptions(format.split(",")[0], frozenset(own), frozenset(general - own))
 
