@@ -162,13 +162,13 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
     message = str(err.value)
     assert "\n" not in message
     assert message.startswith(
-        "stream testsrc (format lavfi): the lavfi input takes no option 'video_sise' (did "
-        "you mean video_size?); its own options: dumpgraph, graph, graph_file; FFmpeg's "
-        "general input options are taken too (probesize, analyzeduration"
+        "stream testsrc (format lavfi): the lavfi input takes no option 'video_sise'; its "
+        "own options: dumpgraph, graph, graph_file; FFmpeg's general input and decoding "
+        "options are taken too (probesize, analyzeduration"
     )
     # a format FFmpeg finds itself (a file's) is asked once it is found
     path = _clip(tmp_path / "clip.mkv", "ffv1", "yuv420p")
-    with pytest.raises(PpalocError, match=r"the matroska input takes no option 'nosuch'"):
+    with pytest.raises(PpalocError, match=r"the matroska input and its ffv1 decoder take no "):
         load_frames(None, None, 1, str(path), None, ["nosuch=1"])
     # what the input and FFmpeg's general options take goes through
     assert len(list(load_frames(None, None, 1, str(path), None, ["probesize=100000"]))) == 1
@@ -180,6 +180,44 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
     assert main([*argv, "--stream-option", "bogus=1", "--out", str(tmp_path / "run")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "the lavfi input takes no option 'bogus'" in err
+
+
+def test_a_decoding_option_reaches_the_decoder_the_frames_come_from(tmp_path):
+    # FFmpeg's decoding options (lowres) were taken and changed nothing: PyAV hands them to
+    # the decoder it opens while probing the input alone; a decoder's own (mjpeg's
+    # extern_huff) was refused as no option of the input
+    pytest.importorskip("av")
+    from ppaloc.datasets.loaders.ffoptions import input_options
+    from ppaloc.datasets.loaders.video import stream_frames
+
+    if input_options("avi") is None:
+        pytest.skip("the option tables of this PyAV build's FFmpeg libraries cannot be read")
+    path = _clip(tmp_path / "clip.avi", "mjpeg", "yuvj420p")
+
+    def first(options: dict[str, str]) -> np.ndarray:
+        frames = stream_frames(str(path), None, options)
+        try:
+            return next(frames)
+        finally:
+            frames.close()
+
+    assert first({}).shape == (48, 64)
+    assert first({"lowres": "1", "probesize": "100000"}).shape == (24, 32)
+    assert first({"extern_huff": "0"}).shape == (48, 64)
+    # another decoder's own option is refused once the decoder is known, naming both
+    with pytest.raises(PpalocError) as err:
+        first({"enable_er": "1"})
+    assert (
+        "the avi input and its mjpeg decoder take no option 'enable_er'; the input's own "
+        "options: use_odml; the decoder's: extern_huff; FFmpeg's general input and decoding "
+        "options are taken too (probesize, "
+    ) in str(err.value)
+    # given a format, the check before the input is opened leaves it to that one
+    with pytest.raises(PpalocError, match=r"the lavfi input and its \w+ decoder take no optio"):
+        load_frames(None, None, 1, "testsrc", "lavfi", ["extern_huff=0"])
+    # a name of bytes that are not UTF-8 (held as surrogates) is no option, in one line
+    with pytest.raises(PpalocError, match=r"the lavfi input takes no option 'x\\udce9'"):
+        load_frames(None, None, 1, "testsrc", "lavfi", ["x\udce9=0"])
 
 
 def test_an_option_every_protocol_takes_is_not_refused(tmp_path):
