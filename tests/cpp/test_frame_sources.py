@@ -220,6 +220,15 @@ def test_a_decoding_option_reaches_the_decoder_the_frames_come_from(tmp_path):
         load_frames(None, None, 1, "testsrc", "lavfi", ["x\udce9=0"])
 
 
+def test_a_format_name_of_bytes_that_are_not_utf8_is_one_line(tmp_path):
+    # --stream-format given bytes of another encoding (held as surrogates) beside a
+    # --stream-option failed encoding its name to look it up: an internal error (exit 3)
+    with pytest.raises(PpalocError) as err:
+        load_frames(None, None, 1, str(tmp_path / "v.avi"), "av\udce9", ["threads=1"])
+    message = str(err.value)
+    assert message.startswith("cannot read stream ") and "(format av\udce9)" in message
+
+
 def test_an_option_every_protocol_takes_is_not_refused(tmp_path):
     # rw_timeout (FFmpeg's URLContext: every protocol's) was refused as no option of the
     # input, for a file as for an http:// video

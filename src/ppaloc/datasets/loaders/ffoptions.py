@@ -207,7 +207,7 @@ def input_options(format: str) -> InputOptions | None:
     """The options FFmpeg's input format ``format`` (``v4l2``, ``lavfi``, ``mov``) takes,
     or None where FFmpeg has no such input or its tables cannot be read."""
     libs = _libraries()
-    if libs is None or not format:
+    if libs is None or not format or not format.isascii():  # FFmpeg's names are ASCII
         return None
     fmt, codec, util = libs
     pointer = fmt.av_find_input_format(format.split(",")[0].encode())
