@@ -25,7 +25,7 @@ def _param_examples() -> list[tuple[str, str]]:
     out = []
     for page in PAGES:
         for m in re.finditer(r"--param\s+(\"[^\"]*\"|'[^']*'|[^\s`]+)", page.read_text()):
-            value = m.group(1).strip("\"'")
+            value = shlex.split(m.group(1))[0]  # its quotes removed as the shell does
             if "KEY=VALUE" in value:
                 continue
             out.append((page.name, value))

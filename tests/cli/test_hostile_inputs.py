@@ -382,3 +382,21 @@ def test_a_dataset_whose_name_is_not_utf8_is_refused_before_the_run(
     assert err.count("\n") == 1
     assert "dataset spec 'folder:caf\\udce9,caf\\udce9' names a file or folder whose name " in err
     assert "is not UTF-8 text" in err and not Path("r").exists()
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        ("synth\udce9tic:?places=12", "unknown dataset kind 'synth\\udce9tic'"),
+        ("synthetic:?places=1\udce9", "key 'places' must be an integer"),
+    ],
+)
+def test_a_spec_of_bytes_that_are_not_utf8_elsewhere_is_named_as_its_parser_names_it(
+    tmp_path, monkeypatch, capsys, spec, message
+):
+    # such bytes in the kind or a value were blamed on a file or folder's name, and the fix
+    # given was to rename it or link to it
+    monkeypatch.chdir(tmp_path)
+    assert main(["evaluate", "-d", spec, "-m", "single-frame", "-q", "--out", "r"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and "file or folder" not in err, err

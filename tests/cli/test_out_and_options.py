@@ -119,3 +119,23 @@ def test_cpp_runs_out_is_checked_as_every_commands_before_the_build(tmp_path, ca
     code, _, err = run(capsys, "cpp", "run", program, "--out", "/proc/no-such/run")
     assert code == 1 and err.count("\n") == 1
     assert "--out /proc/no-such/run: cannot write in /proc" in err
+
+
+def test_a_reader_that_stops_reading_the_csv_ends_the_run_quietly(map_and_frames):
+    # `ppaloc localise ... | head -1`: click made the closed pipe exit code 1 without a
+    # word, and with stdout buffered (no PYTHONUNBUFFERED) the flush at exit printed
+    # "Exception ignored ... BrokenPipeError" and made it 120
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    code = "import sys; from ppaloc.cli import main; sys.exit(main())"
+    argv = [sys.executable, "-c", code, "localise", *map_and_frames, "--out", "-"]
+    with subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True
+    ) as proc:
+        proc.stdout.close()  # before the first line: the write meets a closed pipe
+        err = proc.stderr.read()
+        assert proc.wait(timeout=300) == 0, err
+    assert err == ""

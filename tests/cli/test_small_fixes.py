@@ -226,6 +226,11 @@ def test_an_empty_plane_is_refused_not_drawn_as_nothing(tmp_path, capsys):
         f"ppaloc: error: {planes}: array 'A' has shape (0, 5), no cells to draw; give planes "
         "of at least one row and one column\n"
     )
+    # alone, it was drawn (a PNG of its label) and reported as one plane, exit 0
+    np.savez(planes, A=np.zeros((5, 0), bool))
+    code, out, err = run(capsys, "show", planes)
+    assert code == 1 and out == "" and not planes.with_suffix(".png").exists()
+    assert "array 'A' has shape (5, 0), no cells to draw" in err
 
 
 def test_a_warning_that_reaches_the_user_is_one_line(tmp_path, capsys, monkeypatch):

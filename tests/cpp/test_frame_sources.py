@@ -134,6 +134,21 @@ def test_stream_options_reach_ffmpeg(cxx, tmp_path, capsys):
         load_frames(None, None, 1, None, None, ["video_size=8x4"])
 
 
+def _clip(path: Path, codec: str, pix_fmt: str, frames: int = 1) -> Path:
+    """A video of ``frames`` 64 x 48 frames in ``codec``."""
+    import av
+
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream(codec, rate=10)
+        stream.width, stream.height, stream.pix_fmt = 64, 48, pix_fmt
+        for _ in range(frames):
+            for packet in stream.encode(av.VideoFrame(64, 48, pix_fmt)):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    return path
+
+
 def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatch, capsys):
     # FFmpeg leaves an option no part of it takes unused, without a word: the run went on
     # with the input's defaults (a camera at its own size for video_sise=640x480)
@@ -147,20 +162,13 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
     message = str(err.value)
     assert "\n" not in message
     assert message.startswith(
-        "stream testsrc (format lavfi): the lavfi input takes no option 'video_sise' (did "
-        "you mean video_size?); its own options: dumpgraph, graph, graph_file; FFmpeg's "
-        "general input options are taken too (probesize, analyzeduration"
+        "stream testsrc (format lavfi): the lavfi input takes no option 'video_sise'; its "
+        "own options: dumpgraph, graph, graph_file; FFmpeg's general input and decoding "
+        "options are taken too (probesize, analyzeduration"
     )
     # a format FFmpeg finds itself (a file's) is asked once it is found
-    path = tmp_path / "clip.mkv"
-    with av.open(str(path), "w") as container:
-        stream = container.add_stream("ffv1", rate=10)
-        stream.width, stream.height, stream.pix_fmt = 16, 16, "yuv420p"
-        for packet in stream.encode(av.VideoFrame(16, 16, "yuv420p")):
-            container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
-    with pytest.raises(PpalocError, match=r"the matroska input takes no option 'nosuch'"):
+    path = _clip(tmp_path / "clip.mkv", "ffv1", "yuv420p")
+    with pytest.raises(PpalocError, match=r"the matroska input and its ffv1 decoder take no "):
         load_frames(None, None, 1, str(path), None, ["nosuch=1"])
     # what the input and FFmpeg's general options take goes through
     assert len(list(load_frames(None, None, 1, str(path), None, ["probesize=100000"]))) == 1
@@ -172,6 +180,90 @@ def test_a_stream_option_the_input_does_not_take_is_refused(tmp_path, monkeypatc
     assert main([*argv, "--stream-option", "bogus=1", "--out", str(tmp_path / "run")]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "the lavfi input takes no option 'bogus'" in err
+
+
+def test_a_decoding_option_reaches_the_decoder_the_frames_come_from(tmp_path):
+    # FFmpeg's decoding options (lowres) were taken and changed nothing: PyAV hands them to
+    # the decoder it opens while probing the input alone; a decoder's own (mjpeg's
+    # extern_huff) was refused as no option of the input
+    pytest.importorskip("av")
+    from ppaloc.datasets.loaders.ffoptions import input_options
+    from ppaloc.datasets.loaders.video import stream_frames
+
+    if input_options("avi") is None:
+        pytest.skip("the option tables of this PyAV build's FFmpeg libraries cannot be read")
+    path = _clip(tmp_path / "clip.avi", "mjpeg", "yuvj420p")
+
+    def first(options: dict[str, str]) -> np.ndarray:
+        frames = stream_frames(str(path), None, options)
+        try:
+            return next(frames)
+        finally:
+            frames.close()
+
+    assert first({}).shape == (48, 64)
+    assert first({"lowres": "1", "probesize": "100000"}).shape == (24, 32)
+    assert first({"extern_huff": "0"}).shape == (48, 64)
+    # another decoder's own option is refused once the decoder is known, naming both
+    with pytest.raises(PpalocError) as err:
+        first({"enable_er": "1"})
+    assert (
+        "the avi input and its mjpeg decoder take no option 'enable_er'; the input's own "
+        "options: use_odml; the decoder's: extern_huff; FFmpeg's general input and decoding "
+        "options are taken too (probesize, "
+    ) in str(err.value)
+    # given a format, the check before the input is opened leaves it to that one
+    with pytest.raises(PpalocError, match=r"the lavfi input and its \w+ decoder take no optio"):
+        load_frames(None, None, 1, "testsrc", "lavfi", ["extern_huff=0"])
+    # a name of bytes that are not UTF-8 (held as surrogates) is no option, in one line
+    with pytest.raises(PpalocError, match=r"the lavfi input takes no option 'x\\udce9'"):
+        load_frames(None, None, 1, "testsrc", "lavfi", ["x\udce9=0"])
+
+
+def test_a_format_name_of_bytes_that_are_not_utf8_is_one_line(tmp_path):
+    # --stream-format given bytes of another encoding (held as surrogates) beside a
+    # --stream-option failed encoding its name to look it up: an internal error (exit 3)
+    with pytest.raises(PpalocError) as err:
+        load_frames(None, None, 1, str(tmp_path / "v.avi"), "av\udce9", ["threads=1"])
+    message = str(err.value)
+    assert message.startswith("cannot read stream ") and "(format av\udce9)" in message
+
+
+def test_an_option_every_protocol_takes_is_not_refused(tmp_path):
+    # rw_timeout (FFmpeg's URLContext: every protocol's) was refused as no option of the
+    # input, for a file as for an http:// video
+    pytest.importorskip("av")
+    from ppaloc.datasets.loaders.ffoptions import input_options
+
+    if input_options("matroska") is None:
+        pytest.skip("the option tables of this PyAV build's FFmpeg libraries cannot be read")
+    path = _clip(tmp_path / "clip.mkv", "ffv1", "yuv420p")
+    for option in ("rw_timeout=5000000", "protocol_blacklist=udp"):
+        assert len(list(load_frames(None, None, 1, str(path), None, [option]))) == 1
+
+
+def test_the_option_tables_are_read_from_pyavs_own_ffmpeg(cxx, tmp_path):
+    # another FFmpeg mapped into the process (one a package bundles) was taken for PyAV's:
+    # the tables of another version were read, or (here, a library lacking them) none, and
+    # nothing was refused
+    import subprocess
+    import sys
+
+    pytest.importorskip("av")
+    (tmp_path / "other.cpp").write_text(
+        'extern "C" unsigned avformat_version(void) { return (58u << 16) | (76u << 8) | 100u; }\n'
+    )
+    other = tmp_path / "libavformat.so.58"
+    subprocess.run([cxx, "-shared", "-fPIC", "-o", other, tmp_path / "other.cpp"], check=True)
+    code = (
+        "import ctypes, sys, av; ctypes.CDLL(sys.argv[1]); "
+        "from ppaloc.datasets.loaders.ffoptions import input_options; "
+        "print(input_options('lavfi') is not None)"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(other)], capture_output=True, text=True, check=True
+    )
+    assert done.stdout == "True\n", done.stderr
 
 
 def test_the_program_is_checked_before_any_frame_is_read(tmp_path, monkeypatch):

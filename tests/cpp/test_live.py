@@ -248,6 +248,23 @@ def test_chromium_shows_the_displays_and_sets_a_slider(live_program, dump_dom):
     assert "level 42 writeback 42 callback 42 (2 calls)" in result.texts[-1]
 
 
+@pytest.mark.slow
+def test_the_page_shows_a_range_the_program_sets(cxx, dump_dom):
+    # the page gave a slider its min and max once, when it first showed it: the range the
+    # program set later reached the state but not the page, whose slider kept [0, 100]
+    import re
+
+    program = PROGRAMS / "narrow_on_set.cpp"
+    compile_program(program)
+    run = Run(program=program, frames=FRAMES * 2, fps=25, timeout=60)
+    run.wait_for(lambda s: s["items"], "the slider")
+    out = dump_dom(run.url + "?set=level=42", 3000)
+    result = run.end()
+    assert "level 42 narrowed 1" in result.texts, result.texts[-3:]
+    found = re.search(r'<input name="level: " type="range" min="(\d+)" max="(\d+)"', out.stdout)
+    assert found is not None and found.groups() == ("0", "20"), out.stdout[-2000:]
+
+
 def test_a_button_pressed_on_the_page_runs_its_callback_once_a_press(cxx):
     run = Run(program=PROGRAMS / "button.cpp", frames=FRAMES * 3, timeout=30)
     s = run.wait_for(lambda s: s["texts"], "text")

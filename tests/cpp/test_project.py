@@ -88,6 +88,29 @@ def test_a_changed_header_builds_again(cxx, tmp_path):
     assert run_program([main, extra], FRAME, include_dirs=[inc]).texts == ["scaled 12"]
 
 
+def test_bytes_that_are_not_utf8_in_a_source_its_name_or_a_define_are_the_program(cxx, tmp_path):
+    # the build's cache key read a source as UTF-8 with such bytes replaced, so two sources
+    # that differ in them only ran the program built first; a source named in them (a
+    # Latin-1 file name) or a -D value of them failed the key: an internal error
+    import os
+
+    program = (
+        b"#include <scamp5.hpp>\nint main() {\n    vs_init();\n    vs_frame_loop_control();\n"
+        b'    const char *s = "\xe9";\n    vs_post_text("%d %d", (unsigned char)s[0], VALUE);\n'
+        b"    return 0;\n}\n"
+    )
+    source = tmp_path / "prog.cpp"
+    source.write_bytes(program)
+    assert run_program(source, FRAME, defines=["VALUE=1"]).texts == ["233 1"]
+    source.write_bytes(program.replace(b'"\xe9"', b'"\xe8"'))
+    assert run_program(source, FRAME, defines=["VALUE=1"]).texts == ["232 1"]
+    named = Path(os.fsdecode(os.path.join(os.fsencode(tmp_path), b"caf\xe9.cpp")))
+    named.write_bytes(program)
+    assert run_program(named, FRAME, defines=["VALUE=1"]).texts == ["233 1"]
+    value = 'VALUE=sizeof("\udce9")'  # a -D value of a Latin-1 byte, as argv gives it
+    assert run_program(source, FRAME, defines=[value]).texts == ["232 2"]
+
+
 def test_an_error_in_the_second_file_names_it(cxx, tmp_path):
     extra = EXTRA.replace("    return v * GAIN;", "    scamp5_output_image(A, 99);\n    return v;")
     extra = extra.replace(

@@ -258,6 +258,27 @@ def test_a_scheduler_of_a_scheme_dask_does_not_speak_is_one_line(tmp_path, issue
     assert "Traceback" not in capfd.readouterr().err
 
 
+def test_a_scheduler_of_a_scheme_a_package_adds_to_dask_is_not_refused(monkeypatch):
+    # a comm backend a package registers (an entry point in distributed.comm.backends, as
+    # distributed-ucxx's ucxx://) is loaded by Dask when first named: it was refused as a
+    # scheme Dask does not speak, since it was not loaded yet
+    from importlib.metadata import EntryPoint
+
+    from distributed.comm import registry
+
+    from ppaloc.evaluate.sweep import _probe
+
+    added = EntryPoint("added", "distributed.comm.tcp:TCPBackend", "distributed.comm.backends")
+    monkeypatch.setattr(registry, "backends", dict(registry.backends))
+    monkeypatch.setattr(
+        registry, "_entry_points", lambda name, group: [added] if name == "added" else []
+    )
+    _probe("added://10.0.0.5:8786", 1.0)  # nothing to probe for a scheme not tcp or tls
+    assert "added" in registry.backends
+    with pytest.raises(PpalocError, match=r"by added://, tcp://, .*not http://"):
+        _probe("http://x:1", 1.0)
+
+
 def test_bad_parameters_fail_before_the_scheduler_is_reached(tmp_path):
     config = _config(params={"seqslam": {"gamma": [0.5]}})
     with pytest.raises(PpalocError, match="unknown parameter 'gamma'"):

@@ -4,7 +4,7 @@ Layers: the library (``ppaloc.evaluate`` and below) does the work; ``ppaloc.cli.
 has one thin ``run_*`` per command; this module only parses flags and TOML files (it
 imports nothing heavy at start-up) and maps errors to exit codes in :func:`main`:
 
-- 0: success;
+- 0: success, or standard output's reader stopped reading (``... | head``);
 - 1: a user mistake (:class:`ppaloc.errors.PpalocError`) or a command-line usage error (an
   unknown option, a value click refuses), printed as one line: both are bad input;
 - 2: a bare ``ppaloc``, which prints the help;
@@ -1224,13 +1224,37 @@ class _NamedStdout:
     def buffer(self) -> _NamedStdout:
         return _NamedStdout(self._stream.buffer)
 
-    def _named(self, exc: OSError) -> OSError:
-        if exc.filename is not None or isinstance(exc, BrokenPipeError):
+    def _named(self, exc: OSError) -> Exception:
+        if isinstance(exc, BrokenPipeError):  # not an OSError: click would exit 1 on it
+            return _ReaderGone()
+        if exc.filename is not None:
             return exc
         return OSError(exc.errno, exc.strerror, self.name)
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
+
+
+class _ReaderGone(Exception):
+    """Standard output's reader stopped reading (``ppaloc localise ... | head``): not an
+    error, the command ends there with exit code 0. Click turns an ``EPIPE`` it meets into
+    exit code 1 without a word (and a command's own ``OSError`` handling could take it for
+    a path's), so :class:`_NamedStdout` raises this instead."""
+
+
+def _discard_stdout(stream: Any) -> None:
+    """Point standard output's file descriptor at the null device once its reader has
+    gone: what is still buffered would fail the flush at exit (``Exception ignored ...
+    BrokenPipeError``, exit code 120)."""
+    import os
+
+    try:
+        fd = stream.fileno()
+        null = os.open(os.devnull, os.O_WRONLY)
+    except (AttributeError, OSError, ValueError):  # not a file (a test's stream)
+        return
+    os.dup2(null, fd)
+    os.close(null)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -1242,10 +1266,14 @@ def main(argv: list[str] | None = None) -> int:
     if stdout is not None:
         sys.stdout = _NamedStdout(stdout)
     try:
-        return _main(argv)
+        code = _main(argv)
     finally:
         sys.stdout = stdout
         warnings.showwarning = shown
+    if code == _READER_GONE:
+        _discard_stdout(stdout)
+        return 0
+    return code
 
 
 def _main(argv: list[str] | None) -> int:
@@ -1277,8 +1305,8 @@ def _main(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         print("ppaloc: interrupted", file=sys.stderr)
         return 130
-    except BrokenPipeError:
-        return 0
+    except (_ReaderGone, BrokenPipeError):
+        return _READER_GONE
     except OSError as exc:  # the system refused a path the user gave: not a bug
         if exc.errno not in _USER_ERRNOS or exc.filename is None:
             return _internal_error(exc)
@@ -1294,6 +1322,9 @@ def _main(argv: list[str] | None) -> int:
         return _internal_error(exc)
     return 0
 
+
+_READER_GONE = -1
+"""What :func:`_main` returns when standard output's reader has gone (exit code 0)."""
 
 _USER_ERRNOS = frozenset(
     {

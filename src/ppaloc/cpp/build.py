@@ -295,7 +295,7 @@ def compile_program(
             [_shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(encoding="utf-8"),
              (gen / "ppaloc_gen_consts.hpp").read_text(encoding="utf-8"), " ".join(FLAGS), version,
              _inputs(project, headers)]
-        ).encode()
+        ).encode("utf-8", "surrogateescape")  # a name or -D value of other bytes: its bytes
     ).hexdigest()[:24]  # fmt: skip
     exe = root / f"prog-{key}"
     if exe.exists():
@@ -325,10 +325,12 @@ def _inputs(project: Project, headers: Sequence[Path]) -> str:
     """Everything of the program that goes into its build, for the cache key: each source
     in order, the defines, the headers the sources include and every header beside a
     source (so a changed header builds the program again); files by name and text, not
-    folder (the same program compiled from a temporary copy hits the cache)."""
+    folder (the same program compiled from a temporary copy hits the cache). Bytes that are
+    not UTF-8 are kept as themselves (``surrogateescape``): two sources that differ in them
+    only are two programs."""
     parts = ["sources"]
     for path in project.sources:
-        parts += [path.name, path.read_text(encoding="utf-8", errors="replace")]
+        parts += [path.name, path.read_text(encoding="utf-8", errors="surrogateescape")]
     parts += ["defines", *project.defines, "headers"]
     beside = {
         h
@@ -338,7 +340,7 @@ def _inputs(project: Project, headers: Sequence[Path]) -> str:
     }
     for header in [*headers, *sorted(beside - set(headers))]:
         try:
-            parts += [header.name, header.read_text(encoding="utf-8", errors="replace")]
+            parts += [header.name, header.read_text(encoding="utf-8", errors="surrogateescape")]
         except OSError:
             continue
     return "\0".join(parts)

@@ -551,6 +551,9 @@ function showItems(list) {
       row = {input: input, out: out};
       inputs.set(it.name, row);
     }
+    if (row.input.type === "range") {  // the program may set its range as it runs
+      row.input.min = it.min; row.input.max = it.max;
+    }
     if (it.kind !== "button" && document.activeElement !== row.input) {
       if (it.kind === "switch") row.input.checked = it.value !== 0;
       else row.input.value = it.value;

@@ -395,6 +395,9 @@ def check_spec_text(spec: str) -> None:
     Python holds them as surrogates), which no UTF-8 file can hold, so the run failed
     after its work, writing its results.
 
+    Such bytes elsewhere (a kind or a value typed in another encoding) make a spec that is
+    wrong anyway, refused as its parser refuses it: renaming a file cannot help there.
+
     Raises
     ------
     PpalocError
@@ -409,6 +412,9 @@ def check_spec_text(spec: str) -> None:
     try:
         spec.encode("utf-8")
     except UnicodeEncodeError:
+        from ppaloc.datasets import parse_dataset_spec
+
+        parse_dataset_spec(spec)  # the spec's own mistake first
         shown = repr(spec) if len(spec) <= 120 else repr(spec[:100]) + f"... ({len(spec)} chars)"
         raise PpalocError(
             f"dataset spec {shown} names a file or folder whose name is not UTF-8 text (the "

@@ -136,13 +136,19 @@ def _probe(address: str, timeout: float) -> None:
     half-made client whose clean-up printed a traceback)."""
     import socket
 
-    from distributed.comm.registry import backends
+    from distributed.comm import registry
 
     scheme, sep, rest = address.partition("://")
     if not sep:
         scheme, rest = "tcp", address
-    if scheme not in backends or scheme == "inproc":  # inproc: inside one process only
-        known = ", ".join(f"{s}://" for s in sorted(backends) if s != "inproc")
+    try:  # Dask's own and those a package adds (an entry point Dask loads when first named)
+        registry.get_backend(scheme)
+    except ValueError:
+        scheme_known = False
+    else:
+        scheme_known = scheme != "inproc"  # inproc: inside one process only
+    if not scheme_known:
+        known = ", ".join(f"{s}://" for s in sorted(registry.backends) if s != "inproc")
         raise PpalocError(
             f"--scheduler {address!r}: Dask reaches a scheduler by {known}, not {scheme}://; "
             "e.g. tcp://10.0.0.5:8786"

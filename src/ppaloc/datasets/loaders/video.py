@@ -57,10 +57,11 @@ def open_video(
     ``testsrc=size=320x240`` with ``format="lavfi"``; a URL); ``what`` names it in
     messages.
 
-    ``options`` are FFmpeg's input options (``-NAME VALUE`` before ``-i``); one the input
-    does not take is refused (:func:`~ppaloc.datasets.loaders.ffoptions.check_input_options`:
-    FFmpeg would ignore it without a word), before the input is opened where ``format`` is
-    given, else once FFmpeg has found the format.
+    ``options`` are FFmpeg's input options (``-NAME VALUE`` before ``-i``): the input's,
+    and its decoder's, which go to the decoder the frames come from; one neither takes is
+    refused (:func:`~ppaloc.datasets.loaders.ffoptions.check_input_options`: FFmpeg would
+    ignore it without a word), before the input is opened where ``format`` is given (but
+    for a decoder's own, which waits for the decoder), else once it is open.
 
     Raises
     ------
@@ -71,14 +72,12 @@ def open_video(
     """
     import av
 
-    from ppaloc.datasets.loaders.ffoptions import check_input_options
+    from ppaloc.datasets.loaders.ffoptions import check_input_options, input_options
 
     check_input_options(options, format, what)
     container = None
     try:
         container = av.open(target, format=format, options=options or {})
-        if format is None:
-            check_input_options(options, container.format.name, what)
         if not container.streams.video:
             raise DataError(
                 f"{what} holds no video stream (not a video, or cut short); give a complete video"
@@ -89,6 +88,10 @@ def open_video(
                 f"{what} holds no decodable video stream (cut short, or in a codec this "
                 "FFmpeg lacks); give a complete video"
             )
+        if options:  # the input is known now, and its decoder
+            check_input_options(options, container.format.name, what, context.codec.name)
+            known = input_options(container.format.name)
+            context.options = {} if known is None else known.for_decoder(options)
         w, h = int(context.width or 0), int(context.height or 0)
         if w * h > MAX_IMAGE_PIXELS:
             raise DataError(
