@@ -1,9 +1,10 @@
 """Deferred constant fills (``Scamp5._fill_later``) are never seen: the same bytes as
 writing every fill at once, whatever reads the plane next.
 
-A DAC load in ideal mode (and ``IN`` in every mode) records its constant instead of
-writing the plane; the pass runs when the plane is next used, or is dropped when another
-fill comes first or the next kernel overwrites the plane whole before reading it. Random
+A DAC load in ideal mode (and ``IN`` in every mode, and a noiseless level such as
+``scamp5_in``'s ``temp`` under noise) records its constant instead of writing the plane;
+the pass runs when the plane is next used, or is dropped when another fill comes first or
+the next kernel overwrites the plane whole before reading it. Random
 programs of DAC loads, kernels of any ICWs (FLAG set and partial), host reads and
 shifts run on a simulator that defers and on one that writes each fill at once. The same
 programs check that a DAC level written over a whole plane drops the plane's pending
@@ -47,7 +48,7 @@ class Eager(Scamp5):
     from)."""
 
     def _fill_later(self, i: int, value: float) -> None:
-        hostloops.fill(self._analog_planes[i], value)
+        hostloops.fill(self._aplane(ANALOG_PLANES[i]), value)  # drooped, then filled
 
     def _overwrite(self, reg: s.Register) -> np.ndarray:
         return self._aplane(reg)

@@ -333,16 +333,17 @@ class ControllerMixin(DrawMixin):
         (:mod:`ppaloc.sim.hostloops`; a plain copy when FLAG is set everywhere, known
         without a pass while the engine tracks it), not a gather and a scatter through
         boolean indices: the DAC loads and shifts of a frame are its most frequent
-        controller calls. A constant written everywhere in ideal mode is deferred
-        (``_fill_later``): its pass runs when the plane is next used, or never when it is
-        overwritten first. ``values`` are clipped to [-128, 127].
+        controller calls. A constant written everywhere without noise (ideal mode, or a
+        noiseless write such as ``scamp5_in``'s ``temp``) is deferred (``_fill_later``):
+        its pass runs when the plane is next used, or never when it is overwritten first.
+        ``values`` are clipped to [-128, 127].
         """
         self._catch_up()  # older values droop up to now; the new ones start fresh
         if self._call_frame is not None:
             self._note_write(reg)
         flag, everywhere = self._flag_state()
         level = not isinstance(values, np.ndarray)
-        if everywhere and self.noise.ideal and level:
+        if everywhere and level and (self.noise.ideal or not noisy):
             self._fill_later(reg.index, min(max(float(values), -128.0), 127.0))
             return
         # a level written everywhere: the old values' droop is never seen

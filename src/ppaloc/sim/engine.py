@@ -339,9 +339,14 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         a kernel that reads it), and dropped when the value is never read: another fill
         comes first, or the next kernel to use the plane overwrites it whole before
         reading it (:meth:`_settle_fills`). The DAC loads of a frame leave ``IN`` and a
-        ``temp`` (NEWS) so about forty times a frame. Only for planes that do not droop
-        (ideal mode, or ``IN``): a deferred value has no time of its own to droop from."""
+        ``temp`` (NEWS) so about forty times a frame. A plane that droops (noisy, A-F and
+        NEWS) starts its droop time afresh, as a write does (its pending droop is
+        dropped): its fill is written before any droop is applied to it (the pass of a
+        kernel that reads it or of a host access, :meth:`_aplane`), so the bytes are those
+        of the fill written at once and drooped for the time since."""
         self._fills[i] = value
+        if i < len(_DECAYING):
+            self._droop_us[i] = 0.0
 
     def _write_fill(self, i: int, value: float) -> None:
         """Write the deferred fill of analogue plane ``i``: one pass, none for ``IN`` when
