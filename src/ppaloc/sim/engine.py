@@ -311,6 +311,21 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             self._in_level = self._in_plane = None  # the caller may change IN through the view
         return self._analog_planes[i]
 
+    def _aplane_and_droop(self, reg: Register) -> tuple[np.ndarray, np.float32 | None]:
+        """:meth:`_aplane` for a host call that rewrites the whole plane in one pass (a
+        shift, a masked DAC write): the plane with its deferred fill written, and the droop
+        pending on it taken (cleared) instead of applied, for the call to apply to each old
+        value it reads or keeps (None: nothing droops). The bytes are those of the droop
+        pass :meth:`_aplane` makes, without the pass."""
+        if not isinstance(reg, Register) or reg.kind != "analog" or reg.role == "neighbour":
+            return self._aplane(reg), None  # the same error as _aplane
+        i = reg.index
+        if i >= len(_DECAYING):
+            return self._aplane(reg), None
+        if i in self._fills:
+            self._write_fill(i, self._fills.pop(i))
+        return self._analog_planes[i], self._take_droop(reg)
+
     def _overwrite(self, reg: Register) -> np.ndarray:
         """The live plane of analogue ``reg`` for a host write of every element: its
         deferred fill and its pending droop are dropped, not applied (the old values are
