@@ -118,9 +118,10 @@ def encode(
 ) -> tuple[np.ndarray, int, tuple[np.ndarray, ...]]:
     """(table of rows, noise draws of the whole segment when noisy, chain tables).
 
-    In ideal mode every chain of neighbour moves (:mod:`.chains`, on a ``rows`` x
-    ``cols`` array; none without the array's shape) gets a head row before its ICWs: run
-    composed when FLAG is set everywhere, else its ICWs run one by one. Under noise a
+    Every chain of neighbour moves (:mod:`.chains`, on a ``rows`` x ``cols`` array;
+    none without the array's shape) gets a head row before its ICWs: run composed when
+    FLAG is set everywhere (ideal: :func:`_chain`; noisy: :func:`_noisy_chain`, each
+    step's draws read from its own row), else its ICWs run one by one. Under noise a
     transfer's last destinations that are overwritten unread are not written
     (:func:`dead_last_destinations`; each costs its cell offsets and a noise window).
     """
@@ -145,12 +146,12 @@ def encode(
     if not ideal:
         for n, keep in dead_last_destinations(instructions, unread).items():
             body[n, _ND] = keep  # the kept ones keep their draws, the ICW its gain
-    found = chains.compose(instructions, set(dead), unread) if ideal and rows and cols else []
+    found = chains.compose(instructions, set(dead), unread, not ideal) if rows and cols else []
     heads = np.zeros((len(found), _WIDTH), dtype=np.int64)
     for c, ch in enumerate(found):
         heads[c, _OP], heads[c, _PARTS], heads[c, _ND] = _CHAIN, c, len(ch.steps)
     prog = np.insert(body, [ch.start for ch in found], heads, axis=0) if found else body
-    return prog, draw, chains.tables(found, rows, cols)
+    return prog, draw, chains.tables(found, rows, cols, ideal)
 
 
 def overwritten_unread(instructions: list[Instruction]) -> list[set[int]]:
@@ -1182,6 +1183,133 @@ def _chain(a, c, heads, outs, edges, t, t2):
 
 
 @_inline
+def _chain_step(o, x, dc, read, scale, orow, wrow):
+    """One noisy move of a chain on a row, FLAG set everywhere: o := the move of row x,
+    each element reading the one ``dc`` columns away (0 in a column chain, whose rows
+    are picked by the caller). The operations of :func:`_neighbour_move` on one row:
+    clip(((0 + x) * gain + offset) + noise) for a read, clip((x * gain + offset) +
+    noise) for a push; with no neighbour, the value of a missing term (a read's 0 *
+    gain, a push's 0) plus the offset and noise."""
+    cols = o.size
+    zero = np.float32(0.0)
+    edge = zero * scale if read else zero
+    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
+    _edge(o, 0, c_lo, edge, True, orow, wrow)
+    _edge(o, c_hi, cols, edge, True, orow, wrow)
+    w = c_hi - c_lo
+    oo, ow, ww = o[c_lo:c_hi], orow[c_lo:c_hi], wrow[c_lo:c_hi]
+    xx = x[c_lo + dc : c_hi + dc]
+    if read:
+        for c in range(w):
+            oo[c] = _clip(((zero + xx[c]) * scale + ow[c]) + ww[c])
+    else:
+        for c in range(w):
+            oo[c] = _clip((xx[c] * scale + ow[c]) + ww[c])
+
+
+@_inline
+def _chain_move(row):
+    """(read?, row offset, column offset of the element a chain step reads, its
+    destination plane) from the step's ICW row: a read looks at the neighbour its
+    source names, a push comes from the sender opposite its destination."""
+    read = row[_DD0] == 0
+    if read:
+        code = row[_SD0]
+        return read, _DR[code], _DC[code], row[_D0]
+    code = row[_DD0]
+    return read, -_DR[code], -_DC[code], row[_D0]
+
+
+#: Elements of a band of rows that a noisy chain takes through all its steps at once:
+#: the band's two buffers stay in the first- or second-level cache, and each step reads
+#: its offsets and noise window as runs long enough for the prefetcher.
+CHAIN_BAND = 4096
+
+
+@_jit
+def _noisy_chain(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2):
+    """Chain ``c`` of noisy neighbour moves (.chains; its steps are ``prog[first:]``),
+    FLAG set everywhere: each plane it leaves written, without the passes between.
+
+    Every step takes its own draws (its row's first draw: the window start and the
+    gain) and its destination's cell offsets at the position the step writes, so each
+    element goes through the same float32 operations, in the same order, as the ICWs
+    one by one. The chain runs band by band (:data:`CHAIN_BAND` elements of whole
+    rows), each band through every step, the planes between the steps in band buffers
+    (``t``, ``t2``); only the chain's outputs are stored. A row chain takes each band
+    of rows through the steps once and stores every output there (up to its last
+    output's step). A column chain has one output (:func:`.chains.compose`): the band
+    of its rows r goes through the steps, step k at the rows r + (the offsets of the
+    steps after it), every element of a row whose step reads a row beyond the edge
+    getting a missing term's value; when the output is the source its bands run in the
+    order that reads each source row before it is written."""
+    rows, cols = a.shape[1], a.shape[2]
+    src, axis, o0, no = heads[c, 0], heads[c, 1], heads[c, 2], heads[c, 3]
+    band = max(1, CHAIN_BAND // cols)
+    zero = np.float32(0.0)
+    if axis == 1:  # every output, each band once
+        last = 0
+        for j in range(no):
+            last = max(last, outs[o0 + j, 1])
+        for b0 in range(0, rows, band):
+            nb = min(band, rows - b0)
+            ip, ib = a[src], b0  # what the step reads: a plane and its first row
+            for k in range(last):
+                row = prog[first + k]
+                read, _, dc, dst = _chain_move(row)
+                base = row[_DRAW]
+                scale = np.float32(gains[base] / row[_PARTS])
+                op, ob = (t, 0) if k % 2 == 0 else (t2, 0)
+                plane = -1  # (chosen first: an array picked inside the loop ran 6x slower)
+                for j in range(no):
+                    if outs[o0 + j, 1] == k + 1:
+                        plane = outs[o0 + j, 0]
+                if plane >= 0:
+                    op, ob = a[plane], b0
+                off = offsets[dst]
+                for i in range(nb):
+                    r = b0 + i
+                    s0 = starts[base] + r * cols
+                    _chain_step(op[ob + i], ip[ib + i], dc, read, scale, off[r],
+                                bank[s0 : s0 + cols])  # fmt: skip
+                ip, ib = op, ob
+        return
+    if no == 0:
+        return
+    plane, n, total = outs[o0, 0], outs[o0, 1], outs[o0, 2]
+    down = plane == src and total < 0  # the source read above: bands from the bottom
+    nbands = (rows + band - 1) // band
+    for bb in range(nbands):
+        b0 = (nbands - 1 - bb) * band if down else bb * band
+        nb = min(band, rows - b0)
+        ip, ib = a[src], b0 + total  # step 1 reads the source at r + total
+        shift = total  # step k writes the rows r + shift
+        for k in range(n):
+            row = prog[first + k]
+            read, dr, _, dst = _chain_move(row)
+            base = row[_DRAW]
+            scale = np.float32(gains[base] / row[_PARTS])
+            before = shift  # the rows it reads
+            shift -= dr
+            op, ob = (t, 0) if k % 2 == 0 else (t2, 0)
+            if k == n - 1:
+                op, ob = a[plane], b0
+            off = offsets[dst]
+            edge = zero * scale if read else zero
+            for i in range(nb):
+                q = b0 + i + shift
+                if q < 0 or q >= rows:  # off the array: the next step reads no term
+                    continue
+                s0 = starts[base] + q * cols
+                out, orow, wrow = op[ob + i], off[q], bank[s0 : s0 + cols]
+                if 0 <= b0 + i + before < rows:
+                    _chain_step(out, ip[ib + i], 0, read, scale, orow, wrow)
+                else:
+                    _edge(out, 0, cols, edge, True, orow, wrow)
+            ip, ib = op, ob
+
+
+@_inline
 def _local_only(row):
     """Whether a transfer reads and writes only its own element (no neighbour term, no
     push): under a partial FLAG it changes nothing in a row where FLAG is all 0."""
@@ -1256,7 +1384,11 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
         op = row[_OP]
         if op == _CHAIN:
             if flag_all:
-                _chain(a, row[_PARTS], heads, outs, edges, t, t2)
+                if bank.size == 0:
+                    _chain(a, row[_PARTS], heads, outs, edges, t, t2)
+                else:
+                    _noisy_chain(a, prog, i, row[_PARTS], heads, outs, offsets, bank,
+                                 starts, gains, t, t2)  # fmt: skip
                 i += row[_ND]
             continue
         if not flag_all and op == _BUS and _local_only(row):
