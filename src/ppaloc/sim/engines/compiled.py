@@ -36,6 +36,7 @@ import os
 import statistics
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numba
@@ -54,6 +55,7 @@ __all__ = [
     "FUSE_AFTER",
     "FUSE_ENV",
     "CompiledEngine",
+    "KernelDroop",
     "dead_last_destinations",
     "dead_writes",
     "fuse_after_from_env",
@@ -100,6 +102,8 @@ _DIR_CODE = {(-1, 0): 1, (0, 1): 2, (1, 0): 3, (0, -1): 4}
 # DNEWS selectors R1 south, R2 west, R3 north, R4 east, as direction codes
 _SEL_DIR = np.array([0, 3, 4, 1, 2], dtype=np.int64)
 _FLAG, _NEWS, _PIX, _R0, _R12 = FLAG.index, NEWS.index, PIX.index, R0.index, R12.index
+#: The analogue planes that droop (A-F, NEWS: indices 0 .. _N_DECAY - 1).
+_N_DECAY = NEWS.index + 1
 
 
 def _dir(reg) -> int:
@@ -214,6 +218,32 @@ def dead_last_destinations(
     return out
 
 
+@dataclass(frozen=True)
+class KernelDroop:
+    """The droop pending before a kernel, as its first part applies it: ``codes`` per
+    decaying plane (0 not named by the kernel, 1 named, 2 named and overwritten whole
+    before it is read: dropped when FLAG is known to be set everywhere as the kernel
+    starts, :func:`~ppaloc.sim.engine.overwritten_first`), the decay per ms, and
+    ``before``, the simulator's call that applies it before a runner that cannot."""
+
+    codes: np.ndarray
+    decay: float
+    before: Callable[[], None]
+
+
+def _after(droop: KernelDroop | None, run: Callable[[], None]) -> Callable[[], None]:
+    """``run``, after the simulator's call that applies ``droop`` (if any)."""
+    if droop is None:
+        return run
+    before = droop.before
+
+    def aged() -> None:
+        before()
+        run()
+
+    return aged
+
+
 class CompiledEngine:
     """Runs a kernel as one call of numba-compiled code (``engine="compiled"``)."""
 
@@ -240,6 +270,7 @@ class CompiledEngine:
         self._none = np.zeros(0, dtype=np.float32)
         self._no_starts = np.zeros(0, dtype=np.int64)
         self._no_gains = np.zeros(0, dtype=np.float64)
+        self._no_codes = np.zeros(_N_DECAY, dtype=np.int64)  # a part with no droop to apply
 
     def supports(self, op: str) -> bool:
         """Whether ``op`` has compiled code (others run through the numpy engine)."""
@@ -254,7 +285,15 @@ class CompiledEngine:
 
         A run of at least two ICWs the second tier can fuse (:mod:`.fused`) starts on
         this tier and moves to generated, fused loops on its :attr:`fuse_after`-th run.
+
+        When planes droop, the kernel's first part applies the droop pending on the planes
+        the kernel names (the simulator's :meth:`~ppaloc.sim.engine.Scamp5._with_droop`
+        does it in a call of its own before the kernel otherwise): a first-tier segment
+        in its own call (:func:`_run`), the fused tier's code through the simulator's call
+        before it. The runner is then marked ``applies_droop``; a kernel whose first ICW
+        runs through the numpy engine is left to the simulator.
         """
+        droop = self._kernel_droop(instructions)
         parts: list[Callable[[], None]] = []
         run_of: list[Instruction] = []
         for ins in (*instructions, None):
@@ -262,17 +301,38 @@ class CompiledEngine:
                 run_of.append(ins)
                 continue
             if run_of:
-                parts.extend(self._tiered(run_of))
+                parts.extend(self._tiered(run_of, droop if not parts else None))
                 run_of = []
             if ins is not None:
                 parts.append(self.sim._compile(ins))
-        return in_order(parts)
+        run = in_order(parts)  # a closure of this call's own (the first part applies droop)
+        if droop is not None and self._encodable(instructions[0]):
+            run.applies_droop = True  # type: ignore[attr-defined]
+        return run
 
-    def _tiered(self, instructions: list[Instruction]) -> list[Callable[[], None]]:
+    def _kernel_droop(self, instructions: tuple[Instruction, ...]) -> KernelDroop | None:
+        """The droop pending before the kernel, for its first part to apply (None when
+        planes do not droop)."""
+        sim = self.sim
+        before = sim._droop_applier(instructions) if instructions else None
+        if before is None:
+            return None
+        from ppaloc.sim.engine import droop_planes
+
+        touched, fresh = droop_planes(instructions)
+        codes = np.zeros(_N_DECAY, dtype=np.int64)
+        for i in touched:
+            codes[i] = 2 if i in fresh else 1
+        return KernelDroop(codes, float(sim.noise.params.decay_per_ms), before)
+
+    def _tiered(
+        self, instructions: list[Instruction], droop: KernelDroop | None = None
+    ) -> list[Callable[[], None]]:
         """Runners of an encodable run: its fusable stretches (two ICWs or more) tiered,
-        the rest on this tier."""
+        the rest on this tier. ``droop``: the kernel's pending droop, for the first
+        runner (:meth:`compile`)."""
         if self.fuse_after is None:  # never fused: the fused module is not even imported
-            return [self._segment(instructions)]
+            return [self._segment(instructions, droop)]
         from ppaloc.sim.engines import fused
 
         parts: list[Callable[[], None]] = []
@@ -281,43 +341,47 @@ class CompiledEngine:
         for ins in (*instructions, None):
             if ins is not None and fused.fusable(ins):
                 if other:
-                    parts.append(self._segment(other))
+                    parts.append(self._segment(other, None if parts else droop))
                     other = []
                 stretch.append(ins)
                 continue
             if len(stretch) >= 2 and self.fuse_after is not None:
-                parts.append(self._tier_up(stretch))
+                parts.append(self._tier_up(stretch, None if parts else droop))
             elif stretch:
                 other.extend(stretch)
             stretch = []
             if ins is not None:
                 other.append(ins)
         if other:
-            parts.append(self._segment(other))
+            parts.append(self._segment(other, None if parts else droop))
         return parts
 
     #: Runs of each tier, alternating, after which a stretch keeps the faster one.
     TRIAL_RUNS = 16
 
-    def _tier_up(self, instructions: list[Instruction]) -> Callable[[], None]:
+    def _tier_up(
+        self, instructions: list[Instruction], droop: KernelDroop | None = None
+    ) -> Callable[[], None]:
         """A runner of a fusable stretch: this tier until its fused code is there (from its
         ``fuse_after``-th run, compiled in the background; at once when ``fuse_after`` is
         1 or the code is in the cache folder), then both tiers in turn for
         :attr:`TRIAL_RUNS` runs each, then the faster. Both leave the same bytes; which is
         faster depends on the stretch and the machine (the fused code of a stretch of
-        small passes under a partial FLAG can lose to this tier's one-pass loops)."""
+        small passes under a partial FLAG can lose to this tier's one-pass loops). With
+        ``droop`` (the kernel's first part) each tier applies the kernel's pending droop:
+        this one in its call, the fused code through the simulator's call first."""
         from ppaloc.sim.engines import fused
 
         sim = self.sim
         text = fused.source(instructions, sim.rows, sim.cols, not sim.noise.ideal)
         after = self.fuse_after
-        first = self._segment(instructions)
+        first = self._segment(instructions, droop)
         state = "waiting"  # for the fused code; then "trial"; then "chosen"
         chosen, fast = first, first
         times: tuple[list[float], list[float]] = ([], [])  # (first tier, fused) per run
         runs = 0
         if after <= 1 or fused.cached(text):
-            state, fast = "trial", self._fused(instructions, text)
+            state, fast = "trial", _after(droop, self._fused(instructions, text))
 
         def run() -> None:
             nonlocal state, chosen, fast, runs
@@ -337,7 +401,7 @@ class CompiledEngine:
                 elif runs > after and runs % 16 == 0:
                     fused.background.poll()
                     if fused.cached(text):
-                        state, fast = "trial", self._fused(instructions, text)
+                        state, fast = "trial", _after(droop, self._fused(instructions, text))
                     elif fused.failed(text):
                         state = "chosen"  # this tier for good
             chosen()
@@ -401,10 +465,16 @@ class CompiledEngine:
 
         return run
 
-    def _segment(self, instructions: list[Instruction]) -> Callable[[], None]:
+    def _segment(
+        self, instructions: list[Instruction], droop: KernelDroop | None = None
+    ) -> Callable[[], None]:
+        """A first-tier runner of encodable ICWs: one call of :func:`_run`. With ``droop``
+        (the kernel's first part) that call first applies the kernel's pending droop."""
         sim = self.sim
         noise = sim.noise
         prog, m, (heads, outs, edges) = encode(instructions, noise.ideal, sim.rows, sim.cols)
+        codes, decay = (self._no_codes, 0.0) if droop is None else (droop.codes, droop.decay)
+        pending = sim._droop_us
         a, d, latch = sim._analog_planes, sim._d, sim._latch
         t, t2, tb = self._t, self._t2, self._tb
         if noise.ideal:
@@ -425,7 +495,7 @@ class CompiledEngine:
             all_set = _run(
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
-                heads, outs, edges, runs,
+                heads, outs, edges, runs, pending, decay, codes,
             )  # fmt: skip
             # what the kernel knows of FLAG at its end: set everywhere (no mask), or partial
             # (the host calls need not look; the numpy engine's cached mask is rebuilt)
@@ -1309,6 +1379,18 @@ def _noisy_chain(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t
             ip, ib = op, ob
 
 
+@_jit
+def _droop(x, step):
+    """``x`` droops by ``step`` in place: ``x - clip(x, -step, step)`` (numpy's clip: max,
+    then min), the operations of ``hostloops.droop``."""
+    lo = -step
+    for p in range(x.size):
+        v = x[p]
+        t = v if v > lo else lo
+        t = t if t < step else step
+        x[p] = v - t
+
+
 @_inline
 def _local_only(row):
     """Whether a transfer reads and writes only its own element (no neighbour term, no
@@ -1357,7 +1439,7 @@ def _flag_rows(flag, rows, cols, runs):
 
 @_jit
 def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains, known,
-         heads, outs, edges, runs):  # fmt: skip
+         heads, outs, edges, runs, pending, decay, codes):  # fmt: skip
     """Run the ICWs of ``prog`` in order, each over the whole array; returns whether FLAG
     is then set everywhere (tracked through the kernel, as each ICW needs it). ``known``:
     FLAG is set everywhere to begin with (the simulator's tracked state), else it is
@@ -1365,7 +1447,13 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     skips its ICWs; else they run one by one. Under a partial FLAG a transfer that stays
     inside its element runs only over the rows where FLAG has a 1 (``runs``: scratch of
     ``2 * rows + 2``, found once per change of FLAG): the rows it skips it would leave
-    as they are, and noise is drawn by position, so the bytes are the same."""
+    as they are, and noise is drawn by position, so the bytes are the same.
+
+    First the droop pending on the planes ``codes`` names (:class:`KernelDroop`; all 0
+    when this part applies none; ``pending``: the simulator's microseconds per decaying
+    plane, cleared here): a plane the kernel overwrites whole before reading it (code 2)
+    has it dropped when ``known``; another droops by ``float32(decay * us / 1000)`` in a
+    pass, as ``hostloops.droop_pending`` does it before the kernel."""
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     af = a.reshape(a.shape[0], n)
@@ -1377,6 +1465,13 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     tbu = tbu2.reshape(-1)
     flag_all = True if known else _all_set(du[_FLAG])
     nruns = -1  # the rows of FLAG's 1s, not yet found
+    for pl in range(codes.size):
+        if codes[pl] == 0 or pending[pl] <= 0:
+            continue
+        us = pending[pl]
+        pending[pl] = 0.0
+        if codes[pl] == 1 or not known:  # (code 2, known: overwritten whole, never seen)
+            _droop(af[pl], np.float32(decay * us / 1000.0))
     i = 0
     while i < prog.shape[0]:
         row = prog[i]
