@@ -10,9 +10,12 @@ sources, one destination): the sum, the bus's negation or division, the transfer
 receiving cell's offset and temporal noise, the saturation and the FLAG mask in the same
 loop; a neighbour move (a push of one source, a read of one neighbour's NEWS, FLAG set
 everywhere) is one pass too, and in ideal mode a chain of such moves (a shift by several
-elements, :mod:`.chains`) is one pass in all. The noise draws of the kernel are taken
-from the seeded bank up front (:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order
-the other engines draw them, so every engine leaves the same bytes. Digital planes stay
+elements, :mod:`.chains`) is one pass in all; under noise a chain runs band by band, its
+planes between the steps in buffers (:func:`_noisy_chain`). The noise draws of the
+kernel are taken from the seeded bank up front
+(:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order the other engines draw them, so
+every engine leaves the same bytes; a kernel's call applies the droop pending on its
+planes first (:meth:`CompiledEngine.compile`). Digital planes stay
 one byte per element and run as bytes (``uint8`` views), which LLVM vectorises 64 PEs to
 an instruction.
 
