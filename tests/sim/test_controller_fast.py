@@ -159,6 +159,69 @@ def test_noisy_shift_loop_equals_droop_shift_and_noisy_write(case, v, h, everywh
 
 
 @needs_numba
+@settings(max_examples=120, deadline=None)
+@given(
+    planes(n_extra=2),
+    st.integers(-13, 13),
+    st.integers(-13, 13),
+    st.booleans(),
+    st.none() | st.floats(2**-10, 3, width=32),
+    st.floats(2**-10, 40, width=32),  # the pending droop (a step of 0 is never taken)
+)
+def test_noisy_shift_applies_the_pending_droop_as_a_pass_before_it(
+    case, v, h, everywhere, step, before
+):
+    """The pending droop taken into the shift's pass (``before``): the same bytes as a
+    droop pass over the whole plane, then the shift (its values read drooped, its kept
+    elements drooped again by ``step``), from the numba loop and the numpy one."""
+    out, flag, (offset, window) = case
+    rows, cols = out.shape
+    v, h = max(-(rows - 1), min(rows - 1, v)), max(-(cols - 1), min(cols - 1, h))
+    want, got = out.copy(), out.copy()
+    hostloops.droop(want, np.float32(before))
+    hostloops.noisy_shift(want, v, h, flag, everywhere, offset, window, step)
+    hostloops.noisy_shift(got, v, h, flag, everywhere, offset, window, step, np.float32(before))
+    assert np.array_equal(_bits(got), _bits(want))
+    numpy_got = out.copy()
+    s = np.float32(0) if step is None else np.float32(step)
+    droops = step is not None and not everywhere
+    loops = hostloops.numpy_loops()
+    loops.noisy_shift(numpy_got, v, h, flag, everywhere, None, True, offset, window, droops, s,
+                      True, np.float32(before))  # fmt: skip
+    assert np.array_equal(_bits(numpy_got), _bits(want))
+
+
+@needs_numba
+@settings(max_examples=80, deadline=None)
+@given(planes(n_extra=1), VALUES, st.booleans(), st.floats(2**-10, 40, width=32))
+def test_masked_levels_apply_the_pending_droop_as_a_pass_before_them(
+    case, value, everywhere, before
+):
+    """A masked fill and a masked noisy level with the plane's pending droop in their
+    pass (``before``): the bytes of a droop pass, then the write."""
+    out, flag, (window,) = case
+    b = np.float32(before)
+    want, got = out.copy(), out.copy()
+    hostloops.droop(want, b)
+    hostloops.fill_where(want, value, flag)
+    hostloops.fill_where(got, value, flag, b)
+    assert np.array_equal(_bits(got), _bits(want))
+    want, got = out.copy(), out.copy()
+    if not everywhere:  # everywhere, every element is written: nothing droops
+        hostloops.droop(want, b)
+    hostloops.noisy_level(want, value, window, flag, everywhere)
+    hostloops.noisy_level(got, value, window, flag, everywhere, None if everywhere else b)
+    assert np.array_equal(_bits(got), _bits(want))
+    for loops in (hostloops.numpy_loops(),):  # and the numpy versions of the same calls
+        numpy_got = out.copy()
+        loops.fill_where(numpy_got, value, flag, True, b)
+        want = out.copy()
+        hostloops.droop(want, b)
+        hostloops.fill_where(want, value, flag)
+        assert np.array_equal(_bits(numpy_got), _bits(want))
+
+
+@needs_numba
 def test_shift_loop_on_a_full_plane_crosses_its_chunks():
     """Full planes, every kind of FLAG row the row-by-row shift tells apart (none, every,
     some element of a row flagged), offsets of every sign and the array's ends, ideal and
@@ -179,11 +242,16 @@ def test_shift_loop_on_a_full_plane_crosses_its_chunks():
                 assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere)
                 offset, window = (rng.normal(0, 3, (256, 256)).astype(np.float32) for _ in "ow")
                 for step in (None, np.float32(0.25)):
-                    want, got = plane.copy(), plane.copy()
-                    droops, s = step is not None and not everywhere, np.float32(step or 0)
-                    numpy_shift(want, v, h, flag, everywhere, True, offset, window, droops, s)
-                    hostloops.noisy_shift(got, v, h, flag, everywhere, offset, window, step)
-                    assert np.array_equal(_bits(got), _bits(want)), (v, h, everywhere, step)
+                    for before in (None, np.float32(0.75)):
+                        want, got = plane.copy(), plane.copy()
+                        droops, s = step is not None and not everywhere, np.float32(step or 0)
+                        if before is not None:
+                            hostloops.droop(want, before)
+                        numpy_shift(want, v, h, flag, everywhere, True, offset, window, droops, s)
+                        hostloops.noisy_shift(
+                            got, v, h, flag, everywhere, offset, window, step, before
+                        )
+                        assert np.array_equal(_bits(got), _bits(want)), (v, h, step, before)
 
 
 @needs_numba

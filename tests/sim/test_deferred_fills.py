@@ -1,14 +1,16 @@
 """Deferred constant fills (``Scamp5._fill_later``) are never seen: the same bytes as
 writing every fill at once, whatever reads the plane next.
 
-A DAC load in ideal mode (and ``IN`` in every mode) records its constant instead of
-writing the plane; the pass runs when the plane is next used, or is dropped when another
-fill comes first or the next kernel overwrites the plane whole before reading it. Random
+A DAC load in ideal mode (and ``IN`` in every mode, and a noiseless level such as
+``scamp5_in``'s ``temp`` under noise) records its constant instead of writing the plane;
+the pass runs when the plane is next used, or is dropped when another fill comes first or
+the next kernel overwrites the plane whole before reading it. Random
 programs of DAC loads, kernels of any ICWs (FLAG set and partial), host reads and
 shifts run on a simulator that defers and on one that writes each fill at once. The same
 programs check that a DAC level written over a whole plane drops the plane's pending
-droop rather than applying it (``Scamp5._overwrite``), against a simulator that applies
-it, under fast droop too.
+droop rather than applying it (``Scamp5._overwrite``), and that a shift or a masked DAC
+write applies it in its own pass (``Scamp5._aplane_and_droop``), against a simulator that
+applies it in a pass before, under fast droop too.
 
 A kernel whose leading transfers read only deferred constants has them folded on the
 compiled engine (``Scamp5._with_folding``): their destinations become fills and the rest
@@ -42,15 +44,19 @@ POOLS = {"analog": (ANALOG_DST, ANALOG_SRC), "digital": (DIGITAL_DST, DIGITAL_SR
 
 
 class Eager(Scamp5):
-    """Writes every fill at once, and applies a plane's pending droop before a host write
-    of every element (what the deferral and the dropped droop must be indistinguishable
-    from)."""
+    """Writes every fill at once, applies a plane's pending droop before a host write of
+    every element, and in a pass of its own before a shift or a masked DAC write (what
+    the deferral, the dropped droop and the droop taken into a host call's pass must be
+    indistinguishable from)."""
 
     def _fill_later(self, i: int, value: float) -> None:
-        hostloops.fill(self._analog_planes[i], value)
+        hostloops.fill(self._aplane(ANALOG_PLANES[i]), value)  # drooped, then filled
 
     def _overwrite(self, reg: s.Register) -> np.ndarray:
         return self._aplane(reg)
+
+    def _aplane_and_droop(self, reg: s.Register) -> tuple[np.ndarray, None]:
+        return self._aplane(reg), None
 
 
 #: Noise modes: ideal, the preset, and fast droop (a plane's pending droop is large).

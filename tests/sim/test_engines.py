@@ -223,6 +223,54 @@ def test_pending_droop_equals_droop_step_by_step() -> None:
     assert np.all(np.abs(lazy) <= np.abs(values))  # towards 0, never past it
 
 
+@pytest.mark.skipif("compiled" not in available_engines(), reason="no numba")
+@pytest.mark.parametrize("fuse_after", [None, 1])
+def test_a_compiled_kernel_applies_the_pending_droop_in_its_own_call(
+    monkeypatch: pytest.MonkeyPatch, fuse_after: int | None
+) -> None:
+    """Under droop a compiled kernel applies the droop pending on its planes in its own
+    call (the first tier; the fused tier's code after the simulator's call), dropping
+    it for a plane it overwrites whole first; a kernel whose first ICW runs through the
+    numpy engine (a blur) leaves it to the simulator's call. The reference's bytes
+    either way, FLAG set everywhere or not when a kernel starts."""
+    from ppaloc.sim import hostloops
+
+    calls: list[int] = []
+    pending = hostloops.droop_pending
+    monkeypatch.setattr(hostloops, "droop_pending", lambda *a: calls.append(1) or pending(*a))
+    params = NoiseParams(temporal_sd=0.5, decay_per_ms=300.0)
+    sims = {}
+    for engine in ("reference", "compiled"):
+        sim = sims[engine] = Scamp5(8, 8, noise=params, seed=3, engine=engine)
+        if engine == "compiled":
+            sim.engine.fuse_after = fuse_after
+        rng = np.random.default_rng(5)
+        for r in (s.A, s.B, s.C, s.D, s.E, s.F, s.NEWS):
+            sim.write(r, rng.integers(-128, 128, (8, 8)) / 2)
+        kernels = []
+        with sim.kernel() as k:  # D read first, E and NEWS overwritten first, C read later
+            k.bus2(s.E, s.NEWS, s.D)
+            k.bus2(s.D, s.NEWS, s.E)
+            k.bus(s.NEWS, s.C)
+            k.where(s.IN, s.D, s.NEWS)
+        kernels.append(k)
+        with sim.kernel() as k:  # under that FLAG: F keeps its drooped values unflagged
+            k.bus(s.F, s.A, s.B)
+            k.all()
+        kernels.append(k)
+        with sim.kernel() as k:  # its first ICW through the numpy engine
+            k.blur(s.A, s.C)
+            k.bus(s.B, s.A)
+        kernels.append(k)
+        calls.clear()
+        for _ in range(4):
+            for k in kernels:
+                k.run()
+        if engine == "compiled" and fuse_after is None:
+            assert len(calls) == 4  # the blur kernel's only
+    same_bytes(sims["compiled"], sims["reference"])
+
+
 def test_the_reference_engine_models_every_op() -> None:
     engine = Scamp5(2, 2, engine="reference").engine
     assert [op for op in OPS if not engine.supports(op)] == []

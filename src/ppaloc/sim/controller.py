@@ -167,8 +167,8 @@ class ControllerMixin(DrawMixin):
 
     Uses only the engine's internal accessors: ``rows``, ``cols``, ``_aplane``,
     ``_dplane``, ``_write_analog``, ``_write_digital``, ``_write_digital_grid``,
-    ``_flag_state``, ``_set_in``, ``_take_droop``, ``_fill_later``, ``_overwrite``, ``rng``,
-    ``noise``
+    ``_flag_state``, ``_set_in``, ``_take_droop``, ``_aplane_and_droop``, ``_fill_later``,
+    ``_overwrite``, ``rng``, ``noise``
     and ``timing``, and tells the engine's observers (:mod:`ppaloc.sim.observe`) each
     plane a call writes (``_note_write``). Every public call is a
     :func:`~ppaloc.sim.observe.controller_call`.
@@ -196,6 +196,7 @@ class ControllerMixin(DrawMixin):
         def _flag_state(self) -> tuple[np.ndarray, bool]: ...
         def _set_in(self, value: float) -> None: ...
         def _take_droop(self, reg: Register) -> np.float32 | None: ...
+        def _aplane_and_droop(self, reg: Register) -> tuple[np.ndarray, np.float32 | None]: ...
         def _fill_later(self, i: int, value: float) -> None: ...
         def _overwrite(self, reg: Register) -> np.ndarray: ...
 
@@ -333,20 +334,26 @@ class ControllerMixin(DrawMixin):
         (:mod:`ppaloc.sim.hostloops`; a plain copy when FLAG is set everywhere, known
         without a pass while the engine tracks it), not a gather and a scatter through
         boolean indices: the DAC loads and shifts of a frame are its most frequent
-        controller calls. A constant written everywhere in ideal mode is deferred
-        (``_fill_later``): its pass runs when the plane is next used, or never when it is
-        overwritten first. ``values`` are clipped to [-128, 127].
+        controller calls. A constant written everywhere without noise (ideal mode, or a
+        noiseless write such as ``scamp5_in``'s ``temp``) is deferred (``_fill_later``):
+        its pass runs when the plane is next used, or never when it is overwritten first.
+        ``values`` are clipped to [-128, 127].
         """
         self._catch_up()  # older values droop up to now; the new ones start fresh
         if self._call_frame is not None:
             self._note_write(reg)
         flag, everywhere = self._flag_state()
         level = not isinstance(values, np.ndarray)
-        if everywhere and self.noise.ideal and level:
+        if everywhere and level and (self.noise.ideal or not noisy):
             self._fill_later(reg.index, min(max(float(values), -128.0), 127.0))
             return
-        # a level written everywhere: the old values' droop is never seen
-        current = self._overwrite(reg) if everywhere and level else self._aplane(reg)
+        before = None  # the droop pending on the plane, when the fill below applies it
+        if everywhere and level:  # a level written everywhere: the old values' droop is never seen
+            current = self._overwrite(reg)
+        elif level and not noisy:  # the kept elements droop in the fill's own pass
+            current, before = self._aplane_and_droop(reg)
+        else:
+            current = self._aplane(reg)
         if noisy and not self.noise.ideal:
             self._write_analog(reg, values, None if everywhere else flag)
             return
@@ -361,7 +368,7 @@ class ControllerMixin(DrawMixin):
         if everywhere:
             hostloops.fill(current, value)
         else:
-            hostloops.fill_where(current, value, flag)
+            hostloops.fill_where(current, value, flag, before)
 
     def _temp(self, call: str, areg: Register, temp: Any) -> Register | None:
         """The header's ``temp`` register (default NEWS), or None when it is ``areg``."""
@@ -414,9 +421,12 @@ class ControllerMixin(DrawMixin):
             if self._call_frame is not None:
                 self._note_write(areg)
             flag, everywhere = self._flag_state()
-            current = self._overwrite(areg) if everywhere else self._aplane(areg)
+            if everywhere:
+                current, before = self._overwrite(areg), None
+            else:  # the kept elements droop in the write's own pass
+                current, before = self._aplane_and_droop(areg)
             window = self.noise.window()
-            hostloops.noisy_level(current, float(v), window, flag, everywhere)
+            hostloops.noisy_level(current, float(v), window, flag, everywhere, before)
         else:
             self._write_masked(areg, float(v), noisy=False)
 
@@ -686,7 +696,7 @@ class ControllerMixin(DrawMixin):
         the shift takes applied to the elements FLAG keeps, after the shifted values were
         read (:func:`hostloops.noisy_shift`).
         """
-        plane = self._aplane(reg)
+        plane, before = self._aplane_and_droop(reg)  # the droop pending: in the shift's pass
         self.timing.charge_call("shift_areg", steps)
         if self._call_frame is not None:
             self._note_write(reg)
@@ -697,7 +707,7 @@ class ControllerMixin(DrawMixin):
         self._catch_up()
         step = self._take_droop(reg)  # the droop since the charge, for the kept elements
         offset, window = self.noise.terms(reg.index, divided=False)
-        hostloops.noisy_shift(plane, v, h, flag, everywhere, offset, window, step)
+        hostloops.noisy_shift(plane, v, h, flag, everywhere, offset, window, step, before)
 
     @staticmethod
     def _shifted(plane: np.ndarray, h: int, v: int, fill: float | bool) -> np.ndarray:

@@ -145,6 +145,20 @@ def overwritten_first(instructions: Iterable[Instruction]) -> frozenset[int]:
     return frozenset(fresh)
 
 
+def droop_planes(instructions: Iterable[Instruction]) -> tuple[tuple[int, ...], frozenset[int]]:
+    """(the decaying analogue planes the ICWs name, in order; those of them the kernel
+    overwrites whole before reading, :func:`overwritten_first`): what the droop pending
+    before a kernel is applied to, or dropped from."""
+    instructions = tuple(instructions)
+    touched = {
+        r.index
+        for ins in instructions
+        for r in (*ins.dsts, *ins.srcs)
+        if r.kind == "analog" and r.index < len(_DECAYING)
+    }
+    return tuple(sorted(touched)), overwritten_first(instructions)
+
+
 def constant_prefix(instructions: tuple[Instruction, ...]) -> tuple[Instruction, ...]:
     """The kernel's leading bus transfers (``bus``, ``bus2``, ``bus3``, ``busn``) that read
     and write only their own element's registers (no neighbour alias, one source or more):
@@ -311,6 +325,21 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             self._in_level = self._in_plane = None  # the caller may change IN through the view
         return self._analog_planes[i]
 
+    def _aplane_and_droop(self, reg: Register) -> tuple[np.ndarray, np.float32 | None]:
+        """:meth:`_aplane` for a host call that rewrites the whole plane in one pass (a
+        shift, a masked DAC write): the plane with its deferred fill written, and the droop
+        pending on it taken (cleared) instead of applied, for the call to apply to each old
+        value it reads or keeps (None: nothing droops). The bytes are those of the droop
+        pass :meth:`_aplane` makes, without the pass."""
+        if not isinstance(reg, Register) or reg.kind != "analog" or reg.role == "neighbour":
+            return self._aplane(reg), None  # the same error as _aplane
+        i = reg.index
+        if i >= len(_DECAYING):
+            return self._aplane(reg), None
+        if i in self._fills:
+            self._write_fill(i, self._fills.pop(i))
+        return self._analog_planes[i], self._take_droop(reg)
+
     def _overwrite(self, reg: Register) -> np.ndarray:
         """The live plane of analogue ``reg`` for a host write of every element: its
         deferred fill and its pending droop are dropped, not applied (the old values are
@@ -339,9 +368,14 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         a kernel that reads it), and dropped when the value is never read: another fill
         comes first, or the next kernel to use the plane overwrites it whole before
         reading it (:meth:`_settle_fills`). The DAC loads of a frame leave ``IN`` and a
-        ``temp`` (NEWS) so about forty times a frame. Only for planes that do not droop
-        (ideal mode, or ``IN``): a deferred value has no time of its own to droop from."""
+        ``temp`` (NEWS) so about forty times a frame. A plane that droops (noisy, A-F and
+        NEWS) starts its droop time afresh, as a write does (its pending droop is
+        dropped): its fill is written before any droop is applied to it (the pass of a
+        kernel that reads it or of a host access, :meth:`_aplane`), so the bytes are those
+        of the fill written at once and drooped for the time since."""
         self._fills[i] = value
+        if i < len(_DECAYING):
+            self._droop_us[i] = 0.0
 
     def _write_fill(self, i: int, value: float) -> None:
         """Write the deferred fill of analogue plane ``i``: one pass, none for ``IN`` when
@@ -681,45 +715,50 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
 
     def _with_droop(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
         """``run``, first applying (or dropping) the droop pending on the planes the ICWs
-        name, when planes droop."""
-        if self.noise.ideal or not self.noise.params.decay_per_ms:
+        name, when planes droop; ``run`` itself when it applies that droop as it runs (a
+        runner marked ``applies_droop``: the compiled engine's, in its first call)."""
+        aging = self._droop_applier(instructions)
+        if aging is None or getattr(run, "applies_droop", False):
             return run
-        touched = tuple(
-            sorted(
-                {
-                    r.index
-                    for ins in instructions
-                    for r in (*ins.dsts, *ins.srcs)
-                    if r.kind == "analog" and r.index < len(_DECAYING)
-                }
-            )
-        )
+
+        def run_aged() -> None:
+            aging()
+            run()
+
+        return run_aged
+
+    def _droop_applier(self, instructions: tuple[Instruction, ...]) -> Op | None:
+        """What applies (or drops) the droop pending on the planes the ICWs name before
+        they run, in one call (None when planes do not droop): each touched plane's step
+        applied in a pass and its pending time cleared, except a plane the kernel
+        overwrites whole before reading it when FLAG is known to be set everywhere as it
+        starts (:func:`overwritten_first`), whose pending time is only cleared."""
+        if self.noise.ideal or not self.noise.params.decay_per_ms:
+            return None
+        touched, fresh = droop_planes(instructions)
         pending = self._droop_us
         planes, decay = self._analog_planes, self.noise.params.decay_per_ms
-        fresh = overwritten_first(instructions)
         every = np.array(touched, dtype=np.int64)
         rest = np.array([i for i in touched if i not in fresh], dtype=np.int64)
         fresh_idx = np.array(sorted(fresh), dtype=np.int64)
         none = fresh_idx[:0]
         droop_pending = hostloops.droop_pending
 
-        def run_aged() -> None:
+        def age() -> None:
             droop_pending(planes, pending, every, decay, none)
-            run()
 
         if not fresh:
-            return run_aged
+            return age
 
-        def run_aged_fresh() -> None:
+        def age_fresh() -> None:
             # planes the kernel overwrites whole before reading (FLAG set everywhere when
             # it starts) need not droop first: their old values are never seen again
             if self._flag_masked is False:
                 droop_pending(planes, pending, rest, decay, fresh_idx)
             else:
                 droop_pending(planes, pending, every, decay, none)
-            run()
 
-        return run_aged_fresh
+        return age_fresh
 
     def _run_ops(
         self, run: Op, counts: dict[str, int] | tuple[tuple[str, int], ...], dwritten: np.ndarray

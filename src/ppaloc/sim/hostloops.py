@@ -98,9 +98,14 @@ def grid(out: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
     _loops().grid(out, rows, cols)
 
 
-def fill_where(out: np.ndarray, value: float, flag: np.ndarray) -> None:
-    """``out := float32(value)`` where ``flag``."""
-    _loops().fill_where(out, float(value), flag)
+def fill_where(
+    out: np.ndarray, value: float, flag: np.ndarray, before: np.float32 | None = None
+) -> None:
+    """``out := float32(value)`` where ``flag``; with ``before`` (the droop pending on
+    ``out``) the kept elements droop by it first, as :func:`droop` of the whole plane
+    before the fill: one pass instead of two."""
+    pre = before is not None
+    _loops().fill_where(out, float(value), flag, pre, np.float32(before if pre else 0.0))
 
 
 def shift(plane: np.ndarray, v: int, h: int, flag: np.ndarray, everywhere: bool) -> None:
@@ -118,16 +123,23 @@ def noisy_shift(
     offset: np.ndarray,
     window: np.ndarray,
     step: np.float32 | None,
+    before: np.float32 | None = None,
 ) -> None:
     """A noisy ``shift`` in place, one pass: where ``flag`` (everywhere if ``everywhere``)
     ``plane[r, c] := clip((plane[r + v, c - h] + offset) + window, -128, 127)`` (0 for
     the value from beyond the edge), as :func:`noisy_write` writes the shifted plane;
     elsewhere the old value droops by ``step`` (none if None), as :func:`droop` after
-    the shifted values were read."""
+    the shifted values were read. ``before``: the droop pending on ``plane`` when the
+    call starts (none if None), which every old value takes first, the shifted ones
+    and the kept ones, as :func:`droop` of the whole plane before the shift would."""
     droops = step is not None and not everywhere
     s = np.float32(0.0) if step is None else np.float32(step)
+    pre = before is not None
+    b = np.float32(before if pre else 0.0)
     buf = np.empty(plane.shape[1], np.float32)
-    _loops().noisy_shift(plane, v, h, flag, everywhere, buf, True, offset, window, droops, s)
+    _loops().noisy_shift(
+        plane, v, h, flag, everywhere, buf, True, offset, window, droops, s, pre, b
+    )
 
 
 def droop(planes: np.ndarray, step: float) -> None:
@@ -172,11 +184,20 @@ def noisy_write(
 
 
 def noisy_level(
-    out: np.ndarray, value: float, window: np.ndarray, flag: np.ndarray, everywhere: bool
+    out: np.ndarray,
+    value: float,
+    window: np.ndarray,
+    flag: np.ndarray,
+    everywhere: bool,
+    before: np.float32 | None = None,
 ) -> None:
     """``out := clip(float32(value) + window, -128, 127)`` where ``flag`` (everywhere if
-    ``everywhere``), float32: one DAC level written with one temporal-noise window."""
-    _loops().noisy_level(out, float(value), window, flag, everywhere)
+    ``everywhere``), float32: one DAC level written with one temporal-noise window; with
+    ``before`` (the droop pending on ``out``) the kept elements droop by it first, as
+    :func:`droop` of the whole plane before the write."""
+    pre = before is not None
+    b = np.float32(before if pre else 0.0)
+    _loops().noisy_level(out, float(value), window, flag, everywhere, pre, b)
 
 
 def cell_writes(
@@ -214,7 +235,9 @@ def numpy_loops() -> SimpleNamespace:
     def select_np(out: np.ndarray, src: np.ndarray, flag: np.ndarray) -> None:
         np.copyto(out, src, where=flag, casting="unsafe")
 
-    def fill_np(out: np.ndarray, value: float, flag: np.ndarray) -> None:
+    def fill_np(out: np.ndarray, value: float, flag: np.ndarray, pre=False, pstep=0.0) -> None:
+        if pre:  # the droop pending on the plane, then the fill: the definition
+            droop_np(out, np.float32(pstep))
         np.copyto(out, np.float32(value), where=flag)
 
     def fill_all_np(out: np.ndarray, value: float) -> None:
@@ -240,8 +263,12 @@ def numpy_loops() -> SimpleNamespace:
 
     scratch: dict[tuple[int, ...], np.ndarray] = {}
 
-    def shift_np(plane, v, h, flag, everywhere, noisy, offset, window, droops, step) -> None:
+    def shift_np(
+        plane, v, h, flag, everywhere, noisy, offset, window, droops, step, pre=False, pstep=0.0
+    ) -> None:
         rows, cols = plane.shape
+        if pre:  # the droop pending on the plane, then the shift: the definition
+            droop_np(plane, np.float32(pstep))
         new = np.zeros_like(plane)
         r0, r1 = max(0, -v), min(rows, rows - v)
         c0, c1 = max(0, h), min(cols, cols + h)
@@ -257,8 +284,10 @@ def numpy_loops() -> SimpleNamespace:
     def ideal_shift_np(plane, v, h, flag, everywhere, buf) -> None:
         shift_np(plane, v, h, flag, everywhere, False, plane, plane, False, np.float32(0))
 
-    def noisy_shift_np(plane, v, h, flag, everywhere, buf, noisy, offset, window, droops, step):
-        shift_np(plane, v, h, flag, everywhere, noisy, offset, window, droops, step)
+    def noisy_shift_np(
+        plane, v, h, flag, everywhere, buf, noisy, offset, window, droops, step, pre, pstep
+    ):
+        shift_np(plane, v, h, flag, everywhere, noisy, offset, window, droops, step, pre, pstep)
 
     def droop_np(planes: np.ndarray, step: np.float32) -> None:
         tmp = scratch.get(planes.shape)
@@ -309,7 +338,9 @@ def numpy_loops() -> SimpleNamespace:
         else:
             np.copyto(out, values, where=flag)
 
-    def noisy_level_np(out, value, window, flag, everywhere) -> None:
+    def noisy_level_np(out, value, window, flag, everywhere, pre=False, pstep=0.0) -> None:
+        if pre:  # the droop pending on the plane, then the write: the definition
+            droop_np(out, np.float32(pstep))
         new = np.clip(np.float32(value) + window, np.float32(-128), np.float32(127))
         np.copyto(out, new, where=True if everywhere else flag)
 
@@ -343,6 +374,18 @@ def _numba_loops() -> SimpleNamespace:
 
     jit = numba.njit(cache=True, nogil=True, boundscheck=False)
 
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
+    def _noisy_value(x, offset, noise):  # pragma: no cover - compiled
+        v = x + offset  # float32, in noisy_write's order; clipped max, then min
+        v = v + noise
+        v = v if v > np.float32(-128.0) else np.float32(-128.0)
+        return v if v < np.float32(127.0) else np.float32(127.0)
+
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
+    def _droop_of(x, step):  # pragma: no cover - compiled
+        t = x if x > -step else -step  # numpy's clip: max, then min
+        return t if t < step else step
+
     @jit
     def select_nb(out, src, flag):  # pragma: no cover - compiled
         n = out.size
@@ -355,26 +398,21 @@ def _numba_loops() -> SimpleNamespace:
             o[i] = x if f[i] else y
 
     @jit
-    def fill_nb(out, value, flag):  # pragma: no cover - compiled
+    def fill_nb(out, value, flag, pre, pstep):  # pragma: no cover - compiled
+        # with pre, each kept element droops by pstep first (droop_nb's operations)
         n = out.size
         o = out.reshape(n)
         f = flag.reshape(n)
         x = np.float32(value)  # the wrappers pass a float: rounded here, once
+        if pre:
+            for i in range(n):
+                y = o[i]
+                y = y - _droop_of(y, pstep)
+                o[i] = x if f[i] else y
+            return
         for i in range(n):
             y = o[i]
             o[i] = x if f[i] else y
-
-    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
-    def _noisy_value(x, offset, noise):  # pragma: no cover - compiled
-        v = x + offset  # float32, in noisy_write's order; clipped max, then min
-        v = v + noise
-        v = v if v > np.float32(-128.0) else np.float32(-128.0)
-        return v if v < np.float32(127.0) else np.float32(127.0)
-
-    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
-    def _droop_of(x, step):  # pragma: no cover - compiled
-        t = x if x > -step else -step  # numpy's clip: max, then min
-        return t if t < step else step
 
     from numba.core.cpu import CPUTargetOptions
 
@@ -445,17 +483,31 @@ def _numba_loops() -> SimpleNamespace:
                 y = dst[i]
                 dst[i] = x if fr[i] else y
 
+    @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **no_runtime)
+    def _droop_row(dst, step):  # pragma: no cover - compiled
+        # dst droops by step in place (droop_nb's operations, on a row)
+        lo = -step
+        for i in range(dst.size):
+            x = dst[i]
+            t = x if x > lo else lo
+            t = t if t < step else step
+            dst[i] = x - t
+
     @rows_jit
-    def rows_shift_nb(plane, v, h, flag, everywhere, buf, noisy, offset, window, droops, step):
-        # pragma: no cover - compiled
+    def rows_shift_nb(
+        plane, v, h, flag, everywhere, buf, noisy, offset, window, droops, step, pre, pstep
+    ):  # pragma: no cover - compiled
         # the shift row by row: row r takes row r + v moved by h (0 from beyond the edge),
         # the rows in the order that reads every source row before it is written (a row's
         # own values, v = 0, through ``buf``, one row long); a row FLAG leaves whole is
         # skipped (noisy with droop: only drooped), one it sets whole written without a
         # select (address patterns flag whole rows). Noisy, each written element gets
         # clip((value + offset) + window) and with ``droops`` each kept one droops by
-        # ``step`` after the values were read. Row views: no reference counting, no
-        # allocation
+        # ``step`` after the values were read. With ``pre`` every old value first droops
+        # by ``pstep`` (the droop pending when the call starts: a source row as it is
+        # copied into ``buf``, a row as its turn comes, before its kept elements take
+        # ``step``), as a droop pass over the plane before the shift would. Row views: no
+        # reference counting, no allocation
         rows, cols = plane.shape
         c_lo, c_hi = max(0, h), min(cols, cols + h)  # the columns with a source column
         for j in range(rows):
@@ -467,6 +519,8 @@ def _numba_loops() -> SimpleNamespace:
                 for c in range(cols):
                     n_set += fr[c]
             if n_set == 0:
+                if noisy and pre:
+                    _droop_row(dst, pstep)
                 if noisy and droops:
                     for c in range(cols):
                         y = dst[c]
@@ -477,11 +531,15 @@ def _numba_loops() -> SimpleNamespace:
             od, wd = offset[r], window[r]
             if 0 <= s < rows:
                 src = plane[s, c_lo - h : c_hi - h]
-                if v == 0:
+                if v == 0 or pre:  # the row's own values, or the drooped source, in buf
                     own = src
                     src = buf[: own.size]
                     for i in range(own.size):
                         src[i] = own[i]
+                    if pre:
+                        _droop_row(src, pstep)
+                if noisy and pre and not whole:  # the kept elements' pending droop
+                    _droop_row(dst, pstep)
                 if noisy:
                     inner = slice(c_lo, c_hi)
                     _move_noisy(
@@ -494,6 +552,8 @@ def _numba_loops() -> SimpleNamespace:
                     _clear(dst[:c_lo], fr[:c_lo], whole)
                     _clear(dst[c_hi:], fr[c_hi:], whole)
             elif noisy:
+                if pre and not whole:
+                    _droop_row(dst, pstep)
                 _clear_noisy(dst, od, wd, fr, whole, droops, step)
             else:
                 _clear(dst, fr, whole)
@@ -514,7 +574,9 @@ def _numba_loops() -> SimpleNamespace:
     def ideal_rows_shift_nb(plane, v, h, flag, everywhere, buf):  # pragma: no cover
         # rows_shift_nb's ideal case: fewer arguments for the call to pass
         zero = np.float32(0.0)
-        rows_shift_nb(plane, v, h, flag, everywhere, buf, False, plane, plane, False, zero)
+        rows_shift_nb(
+            plane, v, h, flag, everywhere, buf, False, plane, plane, False, zero, False, zero
+        )
 
     @jit
     def fill_all_nb(out, value):  # pragma: no cover - compiled
@@ -623,7 +685,8 @@ def _numba_loops() -> SimpleNamespace:
             o[i] = x if everywhere or f[i] else y
 
     @jit
-    def level_nb(out, value, window, flag, everywhere):  # pragma: no cover - compiled
+    def level_nb(out, value, window, flag, everywhere, pre, pstep):  # pragma: no cover
+        # with pre (and not everywhere) each kept element droops by pstep first
         n = out.size
         o = out.reshape(n)
         win = window.reshape(n)
@@ -631,6 +694,15 @@ def _numba_loops() -> SimpleNamespace:
         lo = np.float32(-128.0)
         hi = np.float32(127.0)
         v = np.float32(value)
+        if pre and not everywhere:
+            for i in range(n):
+                x = v + win[i]  # float32, as the numpy version
+                x = x if x > lo else lo
+                x = x if x < hi else hi
+                y = o[i]
+                y = y - _droop_of(y, pstep)
+                o[i] = x if f[i] else y
+            return
         for i in range(n):
             x = v + win[i]  # float32, as the numpy version
             x = x if x > lo else lo

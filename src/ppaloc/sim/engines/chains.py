@@ -15,7 +15,12 @@ the last step whose neighbour lies beyond the edge (a push there delivers 0, a r
 nothing gives ``clip(-0) = -0.0``) and the steps after it, a constant per column (or per
 row) computed here once. So the engine writes each plane the chain leaves (its last
 write, unless a later ICW overwrites it unread) in one pass, bit for bit what the ICWs
-one by one leave; under a partial FLAG, or with noise, it runs them one by one.
+one by one leave; under a partial FLAG it runs them one by one.
+
+With noise each step adds its own gain, cell offsets and noise window at the position it
+writes, so nothing composes: the engine still runs every step's arithmetic, but band by
+band of rows, the planes between the steps in buffers that stay in the first-level
+cache, and only the planes the chain leaves are stored (``compiled._noisy_chain``).
 
 Chains run along one axis (a move of the other axis ends one), so a row of the result
 reads one row of the source.
@@ -105,19 +110,30 @@ def find(instructions: list[Instruction], skipped: set[int]) -> list[Chain]:
 
 
 def compose(
-    instructions: list[Instruction], skipped: set[int], unread: list[set[int]]
+    instructions: list[Instruction],
+    skipped: set[int],
+    unread: list[set[int]],
+    noisy: bool = False,
 ) -> list[Chain]:
     """The chains worth composing, each with the outputs a later ICW may read (not in
     ``unread`` at its last step: the planes whose value there no later ICW reads).
 
-    A two-step chain whose result is its own source is left to run ICW by ICW: the row
-    buffer that result needs makes it cost what its two moves do.
+    In ideal mode a two-step chain whose result is its own source is left to run ICW by
+    ICW: the row buffer that result needs makes it cost what its two moves do. Under
+    noise (``noisy``) every step still costs its arithmetic, cell offsets and noise
+    window, and the chain saves the passes over the planes between the steps: a row
+    chain takes each row through its steps once for all its outputs, a column chain
+    would walk each output's steps on its own (two live outputs: nearly twice its
+    steps), so one with more than one output is left to run ICW by ICW.
     """
     kept = []
     for ch in find(instructions, skipped):
         gone = unread[ch.start + len(ch.steps) - 1]
         outputs = tuple((p, n) for p, n in ch.outputs if p not in gone)
-        if len(ch.steps) > 2 or ch.source not in {p for p, _ in outputs}:
+        if noisy:
+            if ch.axis == 1 or len(outputs) <= 1:
+                kept.append(replace(ch, outputs=outputs))
+        elif len(ch.steps) > 2 or ch.source not in {p for p, _ in outputs}:
             kept.append(replace(ch, outputs=outputs))
     return kept
 
@@ -169,14 +185,18 @@ def _form(steps: tuple[tuple[bool, int], ...], n: int) -> tuple[int, int, int]:
     return int(steps[0][0]), int(second), max(0, n - 2) % 2
 
 
-def tables(chains: list[Chain], rows: int, cols: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def tables(
+    chains: list[Chain], rows: int, cols: int, edge_values: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The chains as the engine's arrays: ``(heads, outputs, edges)``.
 
     - heads (chain, 5): source plane, axis, first output, outputs, row order (1
       upwards, -1 downwards, 0: the source is copied first);
     - outputs (output, 8): plane, steps applied, source offset, interior lo and hi,
       then :func:`_form`;
-    - edges (output, max(rows, cols)): the values beyond the interior (:func:`_edges`).
+    - edges (output, max(rows, cols)): the values beyond the interior (:func:`_edges`;
+      zeros unless ``edge_values``: under noise an element beyond the interior gets its
+      own offsets and draws, computed as the chain runs).
     """
     heads, outs, edges = [], [], []
     width = max(rows, cols)
@@ -187,7 +207,8 @@ def tables(chains: list[Chain], rows: int, cols: int) -> tuple[np.ndarray, np.nd
             lo, hi, off = _interior(ch.steps, n, size)
             outs.append((plane, n, off, lo, hi, *_form(ch.steps, n)))
             e = np.zeros(width, dtype=_F32)
-            e[:size] = _edges(ch.steps, n, size)
+            if edge_values:
+                e[:size] = _edges(ch.steps, n, size)
             edges.append(e)
             offsets.append(off)
         order = 1

@@ -10,9 +10,12 @@ sources, one destination): the sum, the bus's negation or division, the transfer
 receiving cell's offset and temporal noise, the saturation and the FLAG mask in the same
 loop; a neighbour move (a push of one source, a read of one neighbour's NEWS, FLAG set
 everywhere) is one pass too, and in ideal mode a chain of such moves (a shift by several
-elements, :mod:`.chains`) is one pass in all. The noise draws of the kernel are taken
-from the seeded bank up front (:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order
-the other engines draw them, so every engine leaves the same bytes. Digital planes stay
+elements, :mod:`.chains`) is one pass in all; under noise a chain runs band by band, its
+planes between the steps in buffers (:func:`_noisy_chain`). The noise draws of the
+kernel are taken from the seeded bank up front
+(:meth:`~ppaloc.sim.noise.NoiseModel.take`), in the order the other engines draw them, so
+every engine leaves the same bytes; a kernel's call applies the droop pending on its
+planes first (:meth:`CompiledEngine.compile`). Digital planes stay
 one byte per element and run as bytes (``uint8`` views), which LLVM vectorises 64 PEs to
 an instruction.
 
@@ -36,6 +39,7 @@ import os
 import statistics
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numba
@@ -54,6 +58,7 @@ __all__ = [
     "FUSE_AFTER",
     "FUSE_ENV",
     "CompiledEngine",
+    "KernelDroop",
     "dead_last_destinations",
     "dead_writes",
     "fuse_after_from_env",
@@ -100,6 +105,8 @@ _DIR_CODE = {(-1, 0): 1, (0, 1): 2, (1, 0): 3, (0, -1): 4}
 # DNEWS selectors R1 south, R2 west, R3 north, R4 east, as direction codes
 _SEL_DIR = np.array([0, 3, 4, 1, 2], dtype=np.int64)
 _FLAG, _NEWS, _PIX, _R0, _R12 = FLAG.index, NEWS.index, PIX.index, R0.index, R12.index
+#: The analogue planes that droop (A-F, NEWS: indices 0 .. _N_DECAY - 1).
+_N_DECAY = NEWS.index + 1
 
 
 def _dir(reg) -> int:
@@ -118,9 +125,10 @@ def encode(
 ) -> tuple[np.ndarray, int, tuple[np.ndarray, ...]]:
     """(table of rows, noise draws of the whole segment when noisy, chain tables).
 
-    In ideal mode every chain of neighbour moves (:mod:`.chains`, on a ``rows`` x
-    ``cols`` array; none without the array's shape) gets a head row before its ICWs: run
-    composed when FLAG is set everywhere, else its ICWs run one by one. Under noise a
+    Every chain of neighbour moves (:mod:`.chains`, on a ``rows`` x ``cols`` array;
+    none without the array's shape) gets a head row before its ICWs: run composed when
+    FLAG is set everywhere (ideal: :func:`_chain`; noisy: :func:`_noisy_chain`, each
+    step's draws read from its own row), else its ICWs run one by one. Under noise a
     transfer's last destinations that are overwritten unread are not written
     (:func:`dead_last_destinations`; each costs its cell offsets and a noise window).
     """
@@ -145,12 +153,12 @@ def encode(
     if not ideal:
         for n, keep in dead_last_destinations(instructions, unread).items():
             body[n, _ND] = keep  # the kept ones keep their draws, the ICW its gain
-    found = chains.compose(instructions, set(dead), unread) if ideal and rows and cols else []
+    found = chains.compose(instructions, set(dead), unread, not ideal) if rows and cols else []
     heads = np.zeros((len(found), _WIDTH), dtype=np.int64)
     for c, ch in enumerate(found):
         heads[c, _OP], heads[c, _PARTS], heads[c, _ND] = _CHAIN, c, len(ch.steps)
     prog = np.insert(body, [ch.start for ch in found], heads, axis=0) if found else body
-    return prog, draw, chains.tables(found, rows, cols)
+    return prog, draw, chains.tables(found, rows, cols, ideal)
 
 
 def overwritten_unread(instructions: list[Instruction]) -> list[set[int]]:
@@ -213,6 +221,32 @@ def dead_last_destinations(
     return out
 
 
+@dataclass(frozen=True)
+class KernelDroop:
+    """The droop pending before a kernel, as its first part applies it: ``codes`` per
+    decaying plane (0 not named by the kernel, 1 named, 2 named and overwritten whole
+    before it is read: dropped when FLAG is known to be set everywhere as the kernel
+    starts, :func:`~ppaloc.sim.engine.overwritten_first`), the decay per ms, and
+    ``before``, the simulator's call that applies it before a runner that cannot."""
+
+    codes: np.ndarray
+    decay: float
+    before: Callable[[], None]
+
+
+def _after(droop: KernelDroop | None, run: Callable[[], None]) -> Callable[[], None]:
+    """``run``, after the simulator's call that applies ``droop`` (if any)."""
+    if droop is None:
+        return run
+    before = droop.before
+
+    def aged() -> None:
+        before()
+        run()
+
+    return aged
+
+
 class CompiledEngine:
     """Runs a kernel as one call of numba-compiled code (``engine="compiled"``)."""
 
@@ -239,6 +273,7 @@ class CompiledEngine:
         self._none = np.zeros(0, dtype=np.float32)
         self._no_starts = np.zeros(0, dtype=np.int64)
         self._no_gains = np.zeros(0, dtype=np.float64)
+        self._no_codes = np.zeros(_N_DECAY, dtype=np.int64)  # a part with no droop to apply
 
     def supports(self, op: str) -> bool:
         """Whether ``op`` has compiled code (others run through the numpy engine)."""
@@ -253,7 +288,15 @@ class CompiledEngine:
 
         A run of at least two ICWs the second tier can fuse (:mod:`.fused`) starts on
         this tier and moves to generated, fused loops on its :attr:`fuse_after`-th run.
+
+        When planes droop, the kernel's first part applies the droop pending on the planes
+        the kernel names (the simulator's :meth:`~ppaloc.sim.engine.Scamp5._with_droop`
+        does it in a call of its own before the kernel otherwise): a first-tier segment
+        in its own call (:func:`_run`), the fused tier's code through the simulator's call
+        before it. The runner is then marked ``applies_droop``; a kernel whose first ICW
+        runs through the numpy engine is left to the simulator.
         """
+        droop = self._kernel_droop(instructions)
         parts: list[Callable[[], None]] = []
         run_of: list[Instruction] = []
         for ins in (*instructions, None):
@@ -261,17 +304,38 @@ class CompiledEngine:
                 run_of.append(ins)
                 continue
             if run_of:
-                parts.extend(self._tiered(run_of))
+                parts.extend(self._tiered(run_of, droop if not parts else None))
                 run_of = []
             if ins is not None:
                 parts.append(self.sim._compile(ins))
-        return in_order(parts)
+        run = in_order(parts)  # a closure of this call's own (the first part applies droop)
+        if droop is not None and self._encodable(instructions[0]):
+            run.applies_droop = True  # type: ignore[attr-defined]
+        return run
 
-    def _tiered(self, instructions: list[Instruction]) -> list[Callable[[], None]]:
+    def _kernel_droop(self, instructions: tuple[Instruction, ...]) -> KernelDroop | None:
+        """The droop pending before the kernel, for its first part to apply (None when
+        planes do not droop)."""
+        sim = self.sim
+        before = sim._droop_applier(instructions) if instructions else None
+        if before is None:
+            return None
+        from ppaloc.sim.engine import droop_planes
+
+        touched, fresh = droop_planes(instructions)
+        codes = np.zeros(_N_DECAY, dtype=np.int64)
+        for i in touched:
+            codes[i] = 2 if i in fresh else 1
+        return KernelDroop(codes, float(sim.noise.params.decay_per_ms), before)
+
+    def _tiered(
+        self, instructions: list[Instruction], droop: KernelDroop | None = None
+    ) -> list[Callable[[], None]]:
         """Runners of an encodable run: its fusable stretches (two ICWs or more) tiered,
-        the rest on this tier."""
+        the rest on this tier. ``droop``: the kernel's pending droop, for the first
+        runner (:meth:`compile`)."""
         if self.fuse_after is None:  # never fused: the fused module is not even imported
-            return [self._segment(instructions)]
+            return [self._segment(instructions, droop)]
         from ppaloc.sim.engines import fused
 
         parts: list[Callable[[], None]] = []
@@ -280,43 +344,47 @@ class CompiledEngine:
         for ins in (*instructions, None):
             if ins is not None and fused.fusable(ins):
                 if other:
-                    parts.append(self._segment(other))
+                    parts.append(self._segment(other, None if parts else droop))
                     other = []
                 stretch.append(ins)
                 continue
             if len(stretch) >= 2 and self.fuse_after is not None:
-                parts.append(self._tier_up(stretch))
+                parts.append(self._tier_up(stretch, None if parts else droop))
             elif stretch:
                 other.extend(stretch)
             stretch = []
             if ins is not None:
                 other.append(ins)
         if other:
-            parts.append(self._segment(other))
+            parts.append(self._segment(other, None if parts else droop))
         return parts
 
     #: Runs of each tier, alternating, after which a stretch keeps the faster one.
     TRIAL_RUNS = 16
 
-    def _tier_up(self, instructions: list[Instruction]) -> Callable[[], None]:
+    def _tier_up(
+        self, instructions: list[Instruction], droop: KernelDroop | None = None
+    ) -> Callable[[], None]:
         """A runner of a fusable stretch: this tier until its fused code is there (from its
         ``fuse_after``-th run, compiled in the background; at once when ``fuse_after`` is
         1 or the code is in the cache folder), then both tiers in turn for
         :attr:`TRIAL_RUNS` runs each, then the faster. Both leave the same bytes; which is
         faster depends on the stretch and the machine (the fused code of a stretch of
-        small passes under a partial FLAG can lose to this tier's one-pass loops)."""
+        small passes under a partial FLAG can lose to this tier's one-pass loops). With
+        ``droop`` (the kernel's first part) each tier applies the kernel's pending droop:
+        this one in its call, the fused code through the simulator's call first."""
         from ppaloc.sim.engines import fused
 
         sim = self.sim
         text = fused.source(instructions, sim.rows, sim.cols, not sim.noise.ideal)
         after = self.fuse_after
-        first = self._segment(instructions)
+        first = self._segment(instructions, droop)
         state = "waiting"  # for the fused code; then "trial"; then "chosen"
         chosen, fast = first, first
         times: tuple[list[float], list[float]] = ([], [])  # (first tier, fused) per run
         runs = 0
         if after <= 1 or fused.cached(text):
-            state, fast = "trial", self._fused(instructions, text)
+            state, fast = "trial", _after(droop, self._fused(instructions, text))
 
         def run() -> None:
             nonlocal state, chosen, fast, runs
@@ -336,7 +404,7 @@ class CompiledEngine:
                 elif runs > after and runs % 16 == 0:
                     fused.background.poll()
                     if fused.cached(text):
-                        state, fast = "trial", self._fused(instructions, text)
+                        state, fast = "trial", _after(droop, self._fused(instructions, text))
                     elif fused.failed(text):
                         state = "chosen"  # this tier for good
             chosen()
@@ -400,10 +468,16 @@ class CompiledEngine:
 
         return run
 
-    def _segment(self, instructions: list[Instruction]) -> Callable[[], None]:
+    def _segment(
+        self, instructions: list[Instruction], droop: KernelDroop | None = None
+    ) -> Callable[[], None]:
+        """A first-tier runner of encodable ICWs: one call of :func:`_run`. With ``droop``
+        (the kernel's first part) that call first applies the kernel's pending droop."""
         sim = self.sim
         noise = sim.noise
         prog, m, (heads, outs, edges) = encode(instructions, noise.ideal, sim.rows, sim.cols)
+        codes, decay = (self._no_codes, 0.0) if droop is None else (droop.codes, droop.decay)
+        pending = sim._droop_us
         a, d, latch = sim._analog_planes, sim._d, sim._latch
         t, t2, tb = self._t, self._t2, self._tb
         if noise.ideal:
@@ -424,7 +498,7 @@ class CompiledEngine:
             all_set = _run(
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
-                heads, outs, edges, runs,
+                heads, outs, edges, runs, pending, decay, codes,
             )  # fmt: skip
             # what the kernel knows of FLAG at its end: set everywhere (no mask), or partial
             # (the host calls need not look; the numpy engine's cached mask is rebuilt)
@@ -1182,6 +1256,145 @@ def _chain(a, c, heads, outs, edges, t, t2):
 
 
 @_inline
+def _chain_step(o, x, dc, read, scale, orow, wrow):
+    """One noisy move of a chain on a row, FLAG set everywhere: o := the move of row x,
+    each element reading the one ``dc`` columns away (0 in a column chain, whose rows
+    are picked by the caller). The operations of :func:`_neighbour_move` on one row:
+    clip(((0 + x) * gain + offset) + noise) for a read, clip((x * gain + offset) +
+    noise) for a push; with no neighbour, the value of a missing term (a read's 0 *
+    gain, a push's 0) plus the offset and noise."""
+    cols = o.size
+    zero = np.float32(0.0)
+    edge = zero * scale if read else zero
+    c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
+    _edge(o, 0, c_lo, edge, True, orow, wrow)
+    _edge(o, c_hi, cols, edge, True, orow, wrow)
+    w = c_hi - c_lo
+    oo, ow, ww = o[c_lo:c_hi], orow[c_lo:c_hi], wrow[c_lo:c_hi]
+    xx = x[c_lo + dc : c_hi + dc]
+    if read:
+        for c in range(w):
+            oo[c] = _clip(((zero + xx[c]) * scale + ow[c]) + ww[c])
+    else:
+        for c in range(w):
+            oo[c] = _clip((xx[c] * scale + ow[c]) + ww[c])
+
+
+@_inline
+def _chain_move(row):
+    """(read?, row offset, column offset of the element a chain step reads, its
+    destination plane) from the step's ICW row: a read looks at the neighbour its
+    source names, a push comes from the sender opposite its destination."""
+    read = row[_DD0] == 0
+    if read:
+        code = row[_SD0]
+        return read, _DR[code], _DC[code], row[_D0]
+    code = row[_DD0]
+    return read, -_DR[code], -_DC[code], row[_D0]
+
+
+#: Elements of a band of rows that a noisy chain takes through all its steps at once:
+#: the band's two buffers stay in the first- or second-level cache, and each step reads
+#: its offsets and noise window as runs long enough for the prefetcher.
+CHAIN_BAND = 4096
+
+
+@_jit
+def _noisy_chain(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2):
+    """Chain ``c`` of noisy neighbour moves (.chains; its steps are ``prog[first:]``),
+    FLAG set everywhere: each plane it leaves written, without the passes between.
+
+    Every step takes its own draws (its row's first draw: the window start and the
+    gain) and its destination's cell offsets at the position the step writes, so each
+    element goes through the same float32 operations, in the same order, as the ICWs
+    one by one. The chain runs band by band (:data:`CHAIN_BAND` elements of whole
+    rows), each band through every step, the planes between the steps in band buffers
+    (``t``, ``t2``); only the chain's outputs are stored. A row chain takes each band
+    of rows through the steps once and stores every output there (up to its last
+    output's step). A column chain has one output (:func:`.chains.compose`): the band
+    of its rows r goes through the steps, step k at the rows r + (the offsets of the
+    steps after it), every element of a row whose step reads a row beyond the edge
+    getting a missing term's value; when the output is the source its bands run in the
+    order that reads each source row before it is written."""
+    rows, cols = a.shape[1], a.shape[2]
+    src, axis, o0, no = heads[c, 0], heads[c, 1], heads[c, 2], heads[c, 3]
+    band = max(1, CHAIN_BAND // cols)
+    zero = np.float32(0.0)
+    if axis == 1:  # every output, each band once
+        last = 0
+        for j in range(no):
+            last = max(last, outs[o0 + j, 1])
+        for b0 in range(0, rows, band):
+            nb = min(band, rows - b0)
+            ip, ib = a[src], b0  # what the step reads: a plane and its first row
+            for k in range(last):
+                row = prog[first + k]
+                read, _, dc, dst = _chain_move(row)
+                base = row[_DRAW]
+                scale = np.float32(gains[base] / row[_PARTS])
+                op, ob = (t, 0) if k % 2 == 0 else (t2, 0)
+                plane = -1  # (chosen first: an array picked inside the loop ran 6x slower)
+                for j in range(no):
+                    if outs[o0 + j, 1] == k + 1:
+                        plane = outs[o0 + j, 0]
+                if plane >= 0:
+                    op, ob = a[plane], b0
+                off = offsets[dst]
+                for i in range(nb):
+                    r = b0 + i
+                    s0 = starts[base] + r * cols
+                    _chain_step(op[ob + i], ip[ib + i], dc, read, scale, off[r],
+                                bank[s0 : s0 + cols])  # fmt: skip
+                ip, ib = op, ob
+        return
+    if no == 0:
+        return
+    plane, n, total = outs[o0, 0], outs[o0, 1], outs[o0, 2]
+    down = plane == src and total < 0  # the source read above: bands from the bottom
+    nbands = (rows + band - 1) // band
+    for bb in range(nbands):
+        b0 = (nbands - 1 - bb) * band if down else bb * band
+        nb = min(band, rows - b0)
+        ip, ib = a[src], b0 + total  # step 1 reads the source at r + total
+        shift = total  # step k writes the rows r + shift
+        for k in range(n):
+            row = prog[first + k]
+            read, dr, _, dst = _chain_move(row)
+            base = row[_DRAW]
+            scale = np.float32(gains[base] / row[_PARTS])
+            before = shift  # the rows it reads
+            shift -= dr
+            op, ob = (t, 0) if k % 2 == 0 else (t2, 0)
+            if k == n - 1:
+                op, ob = a[plane], b0
+            off = offsets[dst]
+            edge = zero * scale if read else zero
+            for i in range(nb):
+                q = b0 + i + shift
+                if q < 0 or q >= rows:  # off the array: the next step reads no term
+                    continue
+                s0 = starts[base] + q * cols
+                out, orow, wrow = op[ob + i], off[q], bank[s0 : s0 + cols]
+                if 0 <= b0 + i + before < rows:
+                    _chain_step(out, ip[ib + i], 0, read, scale, orow, wrow)
+                else:
+                    _edge(out, 0, cols, edge, True, orow, wrow)
+            ip, ib = op, ob
+
+
+@_jit
+def _droop(x, step):
+    """``x`` droops by ``step`` in place: ``x - clip(x, -step, step)`` (numpy's clip: max,
+    then min), the operations of ``hostloops.droop``."""
+    lo = -step
+    for p in range(x.size):
+        v = x[p]
+        t = v if v > lo else lo
+        t = t if t < step else step
+        x[p] = v - t
+
+
+@_inline
 def _local_only(row):
     """Whether a transfer reads and writes only its own element (no neighbour term, no
     push): under a partial FLAG it changes nothing in a row where FLAG is all 0."""
@@ -1229,7 +1442,7 @@ def _flag_rows(flag, rows, cols, runs):
 
 @_jit
 def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains, known,
-         heads, outs, edges, runs):  # fmt: skip
+         heads, outs, edges, runs, pending, decay, codes):  # fmt: skip
     """Run the ICWs of ``prog`` in order, each over the whole array; returns whether FLAG
     is then set everywhere (tracked through the kernel, as each ICW needs it). ``known``:
     FLAG is set everywhere to begin with (the simulator's tracked state), else it is
@@ -1237,7 +1450,13 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     skips its ICWs; else they run one by one. Under a partial FLAG a transfer that stays
     inside its element runs only over the rows where FLAG has a 1 (``runs``: scratch of
     ``2 * rows + 2``, found once per change of FLAG): the rows it skips it would leave
-    as they are, and noise is drawn by position, so the bytes are the same."""
+    as they are, and noise is drawn by position, so the bytes are the same.
+
+    First the droop pending on the planes ``codes`` names (:class:`KernelDroop`; all 0
+    when this part applies none; ``pending``: the simulator's microseconds per decaying
+    plane, cleared here): a plane the kernel overwrites whole before reading it (code 2)
+    has it dropped when ``known``; another droops by ``float32(decay * us / 1000)`` in a
+    pass, as ``hostloops.droop_pending`` does it before the kernel."""
     rows, cols = a.shape[1], a.shape[2]
     n = rows * cols
     af = a.reshape(a.shape[0], n)
@@ -1249,6 +1468,13 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
     tbu = tbu2.reshape(-1)
     flag_all = True if known else _all_set(du[_FLAG])
     nruns = -1  # the rows of FLAG's 1s, not yet found
+    for pl in range(codes.size):
+        if codes[pl] == 0 or pending[pl] <= 0:
+            continue
+        us = pending[pl]
+        pending[pl] = 0.0
+        if codes[pl] == 1 or not known:  # (code 2, known: overwritten whole, never seen)
+            _droop(af[pl], np.float32(decay * us / 1000.0))
     i = 0
     while i < prog.shape[0]:
         row = prog[i]
@@ -1256,7 +1482,11 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
         op = row[_OP]
         if op == _CHAIN:
             if flag_all:
-                _chain(a, row[_PARTS], heads, outs, edges, t, t2)
+                if bank.size == 0:
+                    _chain(a, row[_PARTS], heads, outs, edges, t, t2)
+                else:
+                    _noisy_chain(a, prog, i, row[_PARTS], heads, outs, offsets, bank,
+                                 starts, gains, t, t2)  # fmt: skip
                 i += row[_ND]
             continue
         if not flag_all and op == _BUS and _local_only(row):
