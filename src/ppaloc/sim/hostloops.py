@@ -486,12 +486,9 @@ def _numba_loops() -> SimpleNamespace:
     @numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **no_runtime)
     def _droop_row(dst, step):  # pragma: no cover - compiled
         # dst droops by step in place (droop_nb's operations, on a row)
-        lo = -step
         for i in range(dst.size):
             x = dst[i]
-            t = x if x > lo else lo
-            t = t if t < step else step
-            dst[i] = x - t
+            dst[i] = x - _droop_of(x, step)
 
     @rows_jit
     def rows_shift_nb(
@@ -522,9 +519,7 @@ def _numba_loops() -> SimpleNamespace:
                 if noisy and pre:
                     _droop_row(dst, pstep)
                 if noisy and droops:
-                    for c in range(cols):
-                        y = dst[c]
-                        dst[c] = y - _droop_of(y, step)
+                    _droop_row(dst, step)
                 continue
             whole = n_set == cols
             s = r + v
