@@ -44,7 +44,10 @@ filter's places first and the method's own last (``particle-filter/lowres``, ``/
 to the weighted-node filter on each place (:data:`REPRESENTATION_METHODS` unless
 ``--methods`` names others). After the route table
 comes a table of route groups (:func:`route_group`: each real route, each generated
-condition over its seeds) with the means over the real, the generated and all routes.
+condition over its seeds) with the means over the real, the generated and all routes,
+then the line of the filter's target on the same information (:func:`same_place_summary`):
+on how many routes the better weighted-node place scores at least the particle filter on
+that place, and by how much each of the others falls short.
 """
 
 from __future__ import annotations
@@ -512,6 +515,105 @@ def run_all(
 # -- tables ---------------------------------------------------------------------------------
 
 
+PLACE_OF = {
+    "weighted-node-lowres": "lowres",
+    "weighted-node-lowres16": "lowres16",
+    "weighted-node-lbp": "lbp",
+    "weighted-node-haar": "haar",
+    "weighted-node-patch": "patch",
+}
+"""The descriptor a baseline takes for each weighted-node place (the same information)."""
+
+
+def _same_place_pairs(
+    row: dict[str, float], baseline: str
+) -> list[tuple[float, str, float, float]]:
+    """``(weighted-node minus baseline, place, weighted-node, baseline)`` for each place of
+    ``row`` that both the weighted-node filter and ``baseline/DESCRIPTOR`` ran on."""
+    return [
+        (row[wn] - row[f"{baseline}/{place}"], place, row[wn], row[f"{baseline}/{place}"])
+        for wn, place in PLACE_OF.items()
+        if wn in row and f"{baseline}/{place}" in row
+    ]
+
+
+def same_place(row: dict[str, float], baseline: str = "particle-filter") -> str:
+    """Whether the better weighted-node place of ``row`` scores at least ``baseline`` on
+    the same place (``baseline/DESCRIPTOR``), or by how much the closest falls short.
+
+    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6,
+    ...             "weighted-node-haar": 0.7, "particle-filter/haar": 0.65})
+    'at least particle-filter on the same place: haar (0.700 against 0.650)'
+    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6})
+    'below particle-filter on every place: short by 0.100 on lbp (0.500 against 0.600)'
+    """
+    pairs = _same_place_pairs(row, baseline)
+    if not pairs:
+        return f"no weighted-node place beside {baseline} on the same place"
+    held = [p for p in pairs if p[0] >= 0]
+    if held:
+        names = ", ".join(f"{p} ({w:.3f} against {b:.3f})" for _, p, w, b in held)
+        return f"at least {baseline} on the same place: {names}"
+    gap, place, w, b = max(pairs)
+    return (
+        f"below {baseline} on every place: short by {-gap:.3f} on {place} ({w:.3f} against {b:.3f})"
+    )
+
+
+def same_place_summary(
+    records: list[dict[str, Any]], baseline: str = "particle-filter"
+) -> tuple[str, dict[str, Any]]:
+    """On how many routes the better weighted-node place scores at least ``baseline`` on
+    the same place (issue target: every route), and by how much the others fall short.
+
+    Returns the text and ``{"baseline", "held", "routes", "short": [{"label", "place",
+    "weighted_node", "baseline", "gap"}]}``; a route counts where some place ran beside
+    ``baseline`` on it.
+
+    >>> rec = lambda label, wn, pf: {"label": label, "results": {
+    ...     "weighted-node-haar": {"f1_max": wn}, "particle-filter/haar": {"f1_max": pf}}}
+    >>> text, stats = same_place_summary([rec("a", 0.7, 0.6), rec("b", 0.5, 0.52)])
+    >>> short = stats["short"][0]
+    >>> stats["held"], stats["routes"], short["label"], round(short["gap"], 3)
+    (1, 2, 'b', -0.02)
+    >>> text.split("; ")  # doctest: +NORMALIZE_WHITESPACE
+    ['The better weighted-node place scores at least particle-filter on the same place on 1
+      of 2 routes', 'below it: b (haar 0.500 against 0.520, short by 0.020)']
+    """
+    held, routes, short = 0, 0, []
+    for rec in records:
+        row = {c: v for c in rec["results"] if (v := _f1(rec, c)) is not None}
+        pairs = _same_place_pairs(row, baseline)
+        if not pairs:
+            continue
+        routes += 1
+        gap, place, w, b = max(pairs)
+        if gap >= 0:
+            held += 1
+        else:
+            short.append(
+                {
+                    "label": rec["label"],
+                    "place": place,
+                    "weighted_node": w,
+                    "baseline": b,
+                    "gap": gap,
+                }
+            )
+    text = (
+        f"The better weighted-node place scores at least {baseline} on the same place on "
+        f"{held} of {routes} routes"
+    )
+    if short:
+        text += "; below it: " + "; ".join(
+            f"{s['label']} ({s['place']} {s['weighted_node']:.3f} against {s['baseline']:.3f}, "
+            f"short by {-s['gap']:.3f})"
+            for s in short
+        )
+    stats = {"baseline": baseline, "held": held, "routes": routes, "short": short}
+    return text, stats
+
+
 def _f1(rec: dict[str, Any], column: str) -> float | None:
     r = rec["results"].get(column)
     return None if r is None else r["f1_max"]
@@ -748,10 +850,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         table, summary = sweep_table(records, columns)
     else:
         table, summary = comparison_table(records, columns)
-    groups = None
+    groups = same = None
     if args.representations:
         group_text, groups = group_table(records, columns)
         table += "\n\nMean max F1 per route group:\n\n" + group_text
+        same_text, same = same_place_summary(records)
+        table += "\n\n" + same_text
     wall = time.perf_counter() - t0
     print(table)
     print(f"\n{len(records)} routes, wall time {wall:.0f} s, {args.jobs} jobs", file=sys.stderr)
@@ -769,6 +873,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             "notes": notes,
             "summary": summary,
             "groups": groups,
+            "same_place": same,
             "wall_s": wall,
             "routes": records,
         }

@@ -46,7 +46,7 @@ from ppaloc.evaluate.run import run_method
 from ppaloc.methods import make_localiser
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import DATA, add_param_option, descriptor_columns, parse_params
+from eval_robust import DATA, add_param_option, descriptor_columns, parse_params, same_place
 
 METHODS = (
     "weighted-node-lowres16",
@@ -66,14 +66,6 @@ REPRESENTATION_METHODS = (
     "particle-filter",
 )
 """The methods of ``--representations`` (the particle filter expanded per descriptor)."""
-PLACE_OF = {
-    "weighted-node-lowres": "lowres",
-    "weighted-node-lowres16": "lowres16",
-    "weighted-node-lbp": "lbp",
-    "weighted-node-haar": "haar",
-    "weighted-node-patch": "patch",
-}
-"""The descriptor a baseline takes for each weighted-node place (the same information)."""
 SPEEDS = (0.35, 0.5, 0.7, 1.0, 1.5, 2.0, 2.5)
 QUERIES = ("autumn", "winter")
 
@@ -163,33 +155,6 @@ def sweep(
         row = " ".join(f"{m} {f:.3f}" for m, f in out[speed].items())
         print(f"  {query} seed {seed} speed {speed:g} ({len(frames)} queries): {row}", flush=True)
     return out
-
-
-def same_place(row: dict[str, float], baseline: str = "particle-filter") -> str:
-    """Whether the better weighted-node place of ``row`` scores at least ``baseline`` on
-    the same place (``baseline/DESCRIPTOR``), or by how much the closest falls short.
-
-    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6,
-    ...             "weighted-node-haar": 0.7, "particle-filter/haar": 0.65})
-    'at least particle-filter on the same place: haar (0.700 against 0.650)'
-    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6})
-    'below particle-filter on every place: short by 0.100 on lbp (0.500 against 0.600)'
-    """
-    pairs = [
-        (row[wn] - row[f"{baseline}/{place}"], place, row[wn], row[f"{baseline}/{place}"])
-        for wn, place in PLACE_OF.items()
-        if wn in row and f"{baseline}/{place}" in row
-    ]
-    if not pairs:
-        return f"no weighted-node place beside {baseline} on the same place"
-    held = [p for p in pairs if p[0] >= 0]
-    if held:
-        names = ", ".join(f"{p} ({w:.3f} against {b:.3f})" for _, p, w, b in held)
-        return f"at least {baseline} on the same place: {names}"
-    gap, place, w, b = max(pairs)
-    return (
-        f"below {baseline} on every place: short by {-gap:.3f} on {place} ({w:.3f} against {b:.3f})"
-    )
 
 
 def declared(method: str, params: dict[str, Any] | None = None) -> str:

@@ -66,3 +66,41 @@ def test_the_summary_counts_the_places_a_sensor_holds_on_their_own_line(bench_sc
     every, on_sensor = summary.values()
     assert (every["wins"], on_sensor["wins"]) == (2, 1)
     assert on_sensor["min_route"] == "a" and "places a sensor holds" in text
+
+
+def test_the_same_place_line_counts_routes_by_their_better_place(bench_script):
+    eval_robust = bench_script("eval_robust")
+
+    def record(label: str, **f1: float) -> dict:
+        columns = {k.replace("_", "-").replace("-slash-", "/"): v for k, v in f1.items()}
+        return {"label": label, "results": {k: {"f1_max": v} for k, v in columns.items()}}
+
+    records = [
+        # held by the Haar signs although the 16x16 place trails on its own information
+        record(
+            "held",
+            weighted_node_lowres16=0.80,
+            particle_filter_slash_lowres16=0.85,
+            weighted_node_haar=0.70,
+            particle_filter_slash_haar=0.70,
+        ),
+        # short on both places: the closer one, the patch place, is the one reported
+        record(
+            "short",
+            weighted_node_lowres16=0.60,
+            particle_filter_slash_lowres16=0.70,
+            weighted_node_patch=0.90,
+            particle_filter_slash_patch=0.92,
+        ),
+        # no place ran beside the particle filter on it: not counted
+        record("alone", weighted_node_lbp=0.5, particle_filter_slash_haar=0.4),
+    ]
+    text, stats = eval_robust.same_place_summary(records)
+    assert (stats["held"], stats["routes"]) == (1, 2)
+    (short,) = stats["short"]
+    assert short["label"] == "short" and short["place"] == "patch"
+    assert abs(short["gap"] + 0.02) < 1e-12
+    assert text == (
+        "The better weighted-node place scores at least particle-filter on the same place on "
+        "1 of 2 routes; below it: short (patch 0.900 against 0.920, short by 0.020)"
+    )
