@@ -3,7 +3,10 @@ summary lines."""
 
 from __future__ import annotations
 
+import json
 from urllib.parse import parse_qsl
+
+import pytest
 
 from ppaloc.datasets.registry import load_dataset
 
@@ -104,3 +107,27 @@ def test_the_same_place_line_counts_routes_by_their_better_place(bench_script):
         "The better weighted-node place scores at least particle-filter on the same place on "
         "1 of 2 routes; below it: short (patch 0.900 against 0.920, short by 0.020)"
     )
+
+
+def test_the_same_place_figure_draws_each_place_of_each_run(bench_script, tmp_path):
+    figure = bench_script("figure_same_place")
+
+    def record(label: str, wn: float, pf: float) -> dict:
+        return {
+            "label": label,
+            "results": {
+                "weighted-node-haar": {"f1_max": wn},
+                "particle-filter/haar": {"f1_max": pf},
+            },
+        }
+
+    run = tmp_path / "run.json"
+    run.write_text(json.dumps({"routes": [record("a", 0.7, 0.6), record("b", 0.5, 0.52)]}))
+    assert figure.pairs(json.loads(run.read_text())["routes"]) == {
+        "haar": ([0.6, 0.52], [0.7, 0.5])
+    }
+    out = tmp_path / "fig" / "same-place.png"
+    figure.main([str(run), str(run), "--titles", "one,two", "--out", str(out)])
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(SystemExit, match="1 titles for 2 files"):
+        figure.main([str(run), str(run), "--titles", "one", "--out", str(out)])
