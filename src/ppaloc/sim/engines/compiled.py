@@ -27,6 +27,10 @@ over the whole array (running a kernel as a wavefront of row bands, each ICW lag
 far as its data dependencies need, was measured and gave no gain at 256 x 256: the planes
 are served from the second-level and last-level caches either way).
 
+Under noise the larger pieces (a chain's bands, a neighbour move's rows, a one-pass
+transfer's elements) can be shared among threads (``$PPALOC_THREADS``, default 1;
+:attr:`CompiledEngine.threads`), each element computed as on one thread.
+
 An ICW this engine has no code for runs through the numpy engine's closure, between
 compiled parts, so a new row of ``isa.OPS`` works at once.
 
@@ -35,6 +39,7 @@ numba is imported here only: ``ppaloc.sim`` imports without it.
 
 from __future__ import annotations
 
+import logging
 import os
 import statistics
 import time
@@ -64,6 +69,8 @@ __all__ = [
     "fuse_after_from_env",
     "overwritten_unread",
 ]
+
+log = logging.getLogger(__name__)
 
 # op codes
 _NOP, _RPIX, _BUS, _WHERE, _ALL, _SET, _CLR, _MOV, _NOT, _OR, _NOR = range(11)
@@ -274,6 +281,12 @@ class CompiledEngine:
         self._no_starts = np.zeros(0, dtype=np.int64)
         self._no_gains = np.zeros(0, dtype=np.float64)
         self._no_codes = np.zeros(_N_DECAY, dtype=np.int64)  # a part with no droop to apply
+        #: Threads that share the work of a kernel's larger pieces under noise (noisy
+        #: chains, neighbour moves and one-pass transfers; :func:`threads_from_env`), on
+        #: arrays of at least :data:`SPLIT_MIN` elements. Read when a kernel is compiled.
+        self.threads = 1
+        if sim.rows * sim.cols >= SPLIT_MIN:
+            self.threads = usable_threads(threads_from_env())
 
     def supports(self, op: str) -> bool:
         """Whether ``op`` has compiled code (others run through the numpy engine)."""
@@ -489,6 +502,7 @@ class CompiledEngine:
         runs = self._runs
         draws = not noise.ideal and m > 0
         take = noise.take
+        threads = self.threads
 
         def run() -> None:
             if draws:
@@ -498,7 +512,7 @@ class CompiledEngine:
             all_set = _run(
                 prog, a, d, latch, t, t2, tb,
                 offsets, pixel, bank, bank_div, starts, gains, sim._flag_masked is False,
-                heads, outs, edges, runs, pending, decay, codes,
+                heads, outs, edges, runs, pending, decay, codes, threads,
             )  # fmt: skip
             # what the kernel knows of FLAG at its end: set everywhere (no mask), or partial
             # (the host calls need not look; the numpy engine's cached mask is rebuilt)
@@ -526,12 +540,50 @@ def fuse_after_from_env() -> int | None:
     raise SimulatorError(f"{FUSE_ENV}={value!r} is invalid: use a number of runs >= 1, or never")
 
 
+#: The environment variable that sets :attr:`CompiledEngine.threads`.
+THREADS_ENV = "PPALOC_THREADS"
+#: Elements an array must have before a kernel's work is shared among threads (a
+#: parallel region costs a few microseconds to start and join).
+SPLIT_MIN = 16384
+
+
+def threads_from_env() -> int:
+    """``$PPALOC_THREADS`` as a number of threads, else 1 (the measured default here)."""
+    value = os.environ.get(THREADS_ENV, "").strip()
+    if not value:
+        return 1
+    if value.isdigit() and int(value) >= 1:
+        return int(value)
+    raise SimulatorError(f"{THREADS_ENV}={value!r} is invalid: use a number of threads >= 1")
+
+
+def usable_threads(threads: int) -> int:
+    """``threads``, or 1 unless numba's threading layer is ``omp`` or ``tbb``: its
+    fallback, ``workqueue``, takes about 100 us to start a parallel region and must not
+    be entered from two threads at once."""
+    if threads <= 1:
+        return 1
+    try:
+        from numba.np.ufunc import parallel
+
+        parallel._launch_threads()
+        layer = numba.threading_layer()
+    except (ImportError, AttributeError, ValueError):
+        return 1
+    if layer in ("omp", "tbb"):
+        return threads
+    log.warning("%s=%d ignored: numba's threading layer is %s", THREADS_ENV, threads, layer)
+    return 1
+
+
 # numba's option to compile without its reference-counting runtime (``_nrt``, long
 # present though underscored); a numba without it compiles the same code with the runtime
 _NO_RUNTIME = {"_nrt": False} if hasattr(CPUTargetOptions, "_nrt") else {}
 _jit = numba.njit(cache=True, nogil=True, boundscheck=False, **_NO_RUNTIME)
 # the per-ICW dispatch takes many arrays: inlined, so that no call passes them all
 _inline = numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **_NO_RUNTIME)
+# work shared among threads (``numba.prange``), where it comes in pieces large enough
+_par = numba.njit(cache=True, nogil=True, boundscheck=False, parallel=True, **_NO_RUNTIME)
 # Every loop below keeps its branches outside the innermost loop (or as selects inside),
 # so that LLVM vectorises it; values are float32 throughout, in the reference's order.
 # Every op works on the rows [r0, r1) of its planes (flat views [r0 * cols, r1 * cols)).
@@ -772,6 +824,19 @@ def _fused_noisy(dst, x0, x1, nl, scale, off, win, flag, flag_all):
             dst[p] = v if flag[p] else old
 
 
+@_par
+def _fused_noisy_split(dst, x0, x1, nl, scale, off, win, flag, flag_all, threads):
+    """:func:`_fused_noisy` with the elements shared among ``threads`` threads, each a
+    run of whole 64-element blocks: every element gets the same operations."""
+    n = dst.size
+    blocks = (n + 63) // 64
+    for j in numba.prange(threads):
+        p0 = min(n, (j * blocks // threads) * 64)
+        p1 = min(n, ((j + 1) * blocks // threads) * 64)
+        _fused_noisy(dst[p0:p1], x0[p0:p1], x1[p0:p1], nl, scale, off[p0:p1], win[p0:p1],
+                     flag[p0:p1], flag_all)  # fmt: skip
+
+
 @_jit
 def _push(t2, t, flag, code, flag_all, r0, r1):
     """t2[r] := t of the sender r - offset if flagged, else 0; 0 beyond the edge."""
@@ -838,6 +903,19 @@ def _noisy_into_two(d0, d1, x0, scale, off0, win0, off1, win1):
         d1[p] = _clip((v + off1[p]) + win1[p])
 
 
+@_par
+def _noisy_into_two_split(d0, d1, x0, scale, off0, win0, off1, win1, threads):
+    """:func:`_noisy_into_two` with the elements shared among ``threads`` threads, in
+    whole 64-element blocks."""
+    n = d0.size
+    blocks = (n + 63) // 64
+    for j in numba.prange(threads):
+        p0 = min(n, (j * blocks // threads) * 64)
+        p1 = min(n, ((j + 1) * blocks // threads) * 64)
+        _noisy_into_two(d0[p0:p1], d1[p0:p1], x0[p0:p1], scale, off0[p0:p1], win0[p0:p1],
+                        off1[p0:p1], win1[p0:p1])  # fmt: skip
+
+
 @_inline
 def _edge(out, c0, c1, value, noisy, orow, wrow):
     """out[c0:c1] := the value an element gets with no neighbour (+ offset and noise)."""
@@ -887,6 +965,16 @@ def _neighbour_move(dst, src, code, read, ideal, scale, off, win, r0, r1):
                 o[c] = _clip((x[c] * scale + oo[c]) + ww[c])
 
 
+@_par
+def _neighbour_move_split(dst, src, code, read, ideal, scale, off, win, threads):
+    """:func:`_neighbour_move` over the whole array with its rows shared among
+    ``threads`` threads (``dst`` is not ``src``, so no thread reads what another writes)."""
+    rows = src.shape[0]
+    for j in numba.prange(threads):
+        _neighbour_move(dst, src, code, read, ideal, scale, off, win, j * rows // threads,
+                        (j + 1) * rows // threads)  # fmt: skip
+
+
 @_jit
 def _write_bus(dst, tf, parts, ideal, scale, flag, flag_all, off, win):
     """dst := the bus's value of the sum in tf (+ offset and noise, saturated), FLAG-masked."""
@@ -916,8 +1004,22 @@ def _write_bus(dst, tf, parts, ideal, scale, flag, flag_all, off, win):
             dst[p] = v if (flag_all or flag[p]) else old
 
 
+@_par
+def _write_bus_split(dst, tf, parts, scale, flag, flag_all, off, win, threads):
+    """:func:`_write_bus` under noise with the elements shared among ``threads`` threads,
+    in whole 64-element blocks."""
+    n = dst.size
+    blocks = (n + 63) // 64
+    for j in numba.prange(threads):
+        p0 = min(n, (j * blocks // threads) * 64)
+        p1 = min(n, ((j + 1) * blocks // threads) * 64)
+        _write_bus(dst[p0:p1], tf[p0:p1], parts, False, scale, flag[p0:p1], flag_all,
+                   off[p0:p1], win[p0:p1])  # fmt: skip
+
+
 @_inline
-def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, flag_all, r0, r1):
+def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, flag_all, r0, r1,
+              threads):  # fmt: skip
     parts, nd, nsrc = row[_PARTS], row[_ND], row[_NS]
     ideal = bank.size == 0
     rows, cols = a.shape[1], a.shape[2]
@@ -940,7 +1042,11 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
         if not ideal:
             win = bank_w[starts[base] + lo : starts[base] + hi]
             off = offsets[d0].reshape(-1)[lo:hi]
-            _fused_noisy(af[d0][lo:hi], x0, x1, nl, scale, off, win, fb, flag_all)
+            if threads > 1:
+                _fused_noisy_split(af[d0][lo:hi], x0, x1, nl, scale, off, win, fb, flag_all,
+                                   threads)  # fmt: skip
+            else:
+                _fused_noisy(af[d0][lo:hi], x0, x1, nl, scale, off, win, fb, flag_all)
             return
     if flag_all and nd == 2 and nsrc == 1 and nl == 1 and parts > 1:
         if row[_DD0] == 0 and row[_DD0 + 1] == 0 and row[_D0] != row[_D0 + 1]:
@@ -951,7 +1057,11 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
                 w0 = bank_w[starts[base] + lo : starts[base] + hi]
                 w1 = bank_w[starts[base + 1] + lo : starts[base + 1] + hi]
                 o0, o1 = offsets[e0].reshape(-1)[lo:hi], offsets[e1].reshape(-1)[lo:hi]
-                _noisy_into_two(af[e0][lo:hi], af[e1][lo:hi], x0, scale, o0, w0, o1, w1)
+                if threads > 1:
+                    _noisy_into_two_split(af[e0][lo:hi], af[e1][lo:hi], x0, scale, o0, w0,
+                                          o1, w1, threads)  # fmt: skip
+                else:
+                    _noisy_into_two(af[e0][lo:hi], af[e1][lo:hi], x0, scale, o0, w0, o1, w1)
             return
     if parts == 1 and nd == 1 and nsrc == 1 and flag_all and r0 == 0 and r1 == rows:
         d0, code = row[_D0], row[_DD0]  # a neighbour move: a push of one source, or a read
@@ -962,8 +1072,11 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
             if not ideal:
                 off = offsets[d0]
                 win = bank_w[starts[base] : starts[base] + rows * cols].reshape(rows, cols)
-            _neighbour_move(a[d0], src, row[_SD0] if read else code, read, ideal, scale,
-                            off, win, r0, r1)  # fmt: skip
+            code = row[_SD0] if read else code
+            if threads > 1 and not ideal and d0 != (_NEWS if read else locs[0]):
+                _neighbour_move_split(a[d0], src, code, read, ideal, scale, off, win, threads)
+            else:
+                _neighbour_move(a[d0], src, code, read, ideal, scale, off, win, r0, r1)
             return
     pushed = False
     for k in range(nd):
@@ -982,7 +1095,12 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
             d0 = row[_D0]
             win = bank_w[starts[base] + lo : starts[base] + hi] if not ideal else bank
             off = offsets[d0].reshape(-1)[lo:hi]
-            _write_bus(af[d0][lo:hi], tf[lo:hi], parts, ideal, scale, fb, flag_all, off, win)
+            if threads > 1 and not ideal:
+                _write_bus_split(af[d0][lo:hi], tf[lo:hi], parts, scale, fb, flag_all, off,
+                                 win, threads)  # fmt: skip
+            else:
+                _write_bus(af[d0][lo:hi], tf[lo:hi], parts, ideal, scale, fb, flag_all, off,
+                           win)  # fmt: skip
             return
         _bus_value(tf, parts, ideal, scale, elo, ehi)
     t2f = t2.reshape(-1)
@@ -1120,14 +1238,14 @@ def _dnews(row, du2, tb2, edge, r0, r1):
 
 @_inline
 def _op(row, r0, r1, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
-        offsets, pixel, bank, bank_div, starts, gains):  # fmt: skip
+        offsets, pixel, bank, bank_div, starts, gains, threads):  # fmt: skip
     """One ICW over the rows [r0, r1); returns whether FLAG is now set everywhere."""
     cols = a.shape[2]
     lo, hi = r0 * cols, r1 * cols
     op = row[_OP]
     if op == _BUS:
         _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains,
-                  flag_all, r0, r1)  # fmt: skip
+                  flag_all, r0, r1, threads)  # fmt: skip
     elif op == _WHERE:
         _where(row, a, af, df, t, bank, starts, flag_all, r0, r1)
         flag_all = _all_set(du[_FLAG])
@@ -1299,6 +1417,87 @@ def _chain_move(row):
 CHAIN_BAND = 4096
 
 
+@_inline
+def _noisy_row_bands(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2,
+                     k0, k1, own):  # fmt: skip
+    """Bands ``[k0, k1)`` of a row chain through its steps (:func:`_noisy_chain`); with
+    ``own`` each band keeps its buffers in its own rows of ``t`` and ``t2``, so that
+    bands may run at once, else in their first rows."""
+    rows, cols = a.shape[1], a.shape[2]
+    src, o0, no = heads[c, 0], heads[c, 2], heads[c, 3]
+    band = max(1, CHAIN_BAND // cols)
+    last = 0
+    for j in range(no):
+        last = max(last, outs[o0 + j, 1])
+    for bb in range(k0, k1):
+        b0 = bb * band
+        nb = min(band, rows - b0)
+        tb0 = b0 if own else 0
+        ip, ib = a[src], b0  # what the step reads: a plane and its first row
+        for k in range(last):
+            row = prog[first + k]
+            read, _, dc, dst = _chain_move(row)
+            base = row[_DRAW]
+            scale = np.float32(gains[base] / row[_PARTS])
+            op, ob = (t, tb0) if k % 2 == 0 else (t2, tb0)
+            plane = -1  # (chosen first: an array picked inside the loop ran 6x slower)
+            for j in range(no):
+                if outs[o0 + j, 1] == k + 1:
+                    plane = outs[o0 + j, 0]
+            if plane >= 0:
+                op, ob = a[plane], b0
+            off = offsets[dst]
+            for i in range(nb):
+                r = b0 + i
+                s0 = starts[base] + r * cols
+                _chain_step(op[ob + i], ip[ib + i], dc, read, scale, off[r],
+                            bank[s0 : s0 + cols])  # fmt: skip
+            ip, ib = op, ob
+
+
+@_inline
+def _noisy_column_bands(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2,
+                        k0, k1, own):  # fmt: skip
+    """Bands ``[k0, k1)`` of a column chain (:func:`_noisy_chain`; ``own``: as in
+    :func:`_noisy_row_bands`)."""
+    rows, cols = a.shape[1], a.shape[2]
+    src, o0 = heads[c, 0], heads[c, 2]
+    band = max(1, CHAIN_BAND // cols)
+    zero = np.float32(0.0)
+    plane, n, total = outs[o0, 0], outs[o0, 1], outs[o0, 2]
+    down = plane == src and total < 0  # the source read above: bands from the bottom
+    nbands = (rows + band - 1) // band
+    for bb in range(k0, k1):
+        b0 = (nbands - 1 - bb) * band if down else bb * band
+        nb = min(band, rows - b0)
+        tb0 = b0 if own else 0
+        ip, ib = a[src], b0 + total  # step 1 reads the source at r + total
+        shift = total  # step k writes the rows r + shift
+        for k in range(n):
+            row = prog[first + k]
+            read, dr, _, dst = _chain_move(row)
+            base = row[_DRAW]
+            scale = np.float32(gains[base] / row[_PARTS])
+            before = shift  # the rows it reads
+            shift -= dr
+            op, ob = (t, tb0) if k % 2 == 0 else (t2, tb0)
+            if k == n - 1:
+                op, ob = a[plane], b0
+            off = offsets[dst]
+            edge = zero * scale if read else zero
+            for i in range(nb):
+                q = b0 + i + shift
+                if q < 0 or q >= rows:  # off the array: the next step reads no term
+                    continue
+                s0 = starts[base] + q * cols
+                out, orow, wrow = op[ob + i], off[q], bank[s0 : s0 + cols]
+                if 0 <= b0 + i + before < rows:
+                    _chain_step(out, ip[ib + i], 0, read, scale, orow, wrow)
+                else:
+                    _edge(out, 0, cols, edge, True, orow, wrow)
+            ip, ib = op, ob
+
+
 @_jit
 def _noisy_chain(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2):
     """Chain ``c`` of noisy neighbour moves (.chains; its steps are ``prog[first:]``),
@@ -1317,69 +1516,40 @@ def _noisy_chain(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t
     getting a missing term's value; when the output is the source its bands run in the
     order that reads each source row before it is written."""
     rows, cols = a.shape[1], a.shape[2]
-    src, axis, o0, no = heads[c, 0], heads[c, 1], heads[c, 2], heads[c, 3]
+    nbands = (rows + max(1, CHAIN_BAND // cols) - 1) // max(1, CHAIN_BAND // cols)
+    if heads[c, 1] == 1:
+        _noisy_row_bands(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2,
+                         0, nbands, False)  # fmt: skip
+    elif heads[c, 3] > 0:
+        _noisy_column_bands(a, prog, first, c, heads, outs, offsets, bank, starts, gains,
+                            t, t2, 0, nbands, False)  # fmt: skip
+
+
+@_inline
+def _bands_apart(c, heads, outs):
+    """Whether the bands of a noisy chain may run at once: each reads only planes no
+    other band writes (a row chain; a column chain whose output is not its source)."""
+    return heads[c, 1] == 1 or (heads[c, 3] > 0 and outs[heads[c, 2], 0] != heads[c, 0])
+
+
+@_par
+def _noisy_chain_split(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2,
+                       threads):  # fmt: skip
+    """:func:`_noisy_chain` with its bands shared among ``threads`` threads, each a run
+    of consecutive bands with buffers in its own rows (:func:`_bands_apart` holds): every
+    element gets the same operations on the same values as in one thread."""
+    rows, cols = a.shape[1], a.shape[2]
     band = max(1, CHAIN_BAND // cols)
-    zero = np.float32(0.0)
-    if axis == 1:  # every output, each band once
-        last = 0
-        for j in range(no):
-            last = max(last, outs[o0 + j, 1])
-        for b0 in range(0, rows, band):
-            nb = min(band, rows - b0)
-            ip, ib = a[src], b0  # what the step reads: a plane and its first row
-            for k in range(last):
-                row = prog[first + k]
-                read, _, dc, dst = _chain_move(row)
-                base = row[_DRAW]
-                scale = np.float32(gains[base] / row[_PARTS])
-                op, ob = (t, 0) if k % 2 == 0 else (t2, 0)
-                plane = -1  # (chosen first: an array picked inside the loop ran 6x slower)
-                for j in range(no):
-                    if outs[o0 + j, 1] == k + 1:
-                        plane = outs[o0 + j, 0]
-                if plane >= 0:
-                    op, ob = a[plane], b0
-                off = offsets[dst]
-                for i in range(nb):
-                    r = b0 + i
-                    s0 = starts[base] + r * cols
-                    _chain_step(op[ob + i], ip[ib + i], dc, read, scale, off[r],
-                                bank[s0 : s0 + cols])  # fmt: skip
-                ip, ib = op, ob
-        return
-    if no == 0:
-        return
-    plane, n, total = outs[o0, 0], outs[o0, 1], outs[o0, 2]
-    down = plane == src and total < 0  # the source read above: bands from the bottom
     nbands = (rows + band - 1) // band
-    for bb in range(nbands):
-        b0 = (nbands - 1 - bb) * band if down else bb * band
-        nb = min(band, rows - b0)
-        ip, ib = a[src], b0 + total  # step 1 reads the source at r + total
-        shift = total  # step k writes the rows r + shift
-        for k in range(n):
-            row = prog[first + k]
-            read, dr, _, dst = _chain_move(row)
-            base = row[_DRAW]
-            scale = np.float32(gains[base] / row[_PARTS])
-            before = shift  # the rows it reads
-            shift -= dr
-            op, ob = (t, 0) if k % 2 == 0 else (t2, 0)
-            if k == n - 1:
-                op, ob = a[plane], b0
-            off = offsets[dst]
-            edge = zero * scale if read else zero
-            for i in range(nb):
-                q = b0 + i + shift
-                if q < 0 or q >= rows:  # off the array: the next step reads no term
-                    continue
-                s0 = starts[base] + q * cols
-                out, orow, wrow = op[ob + i], off[q], bank[s0 : s0 + cols]
-                if 0 <= b0 + i + before < rows:
-                    _chain_step(out, ip[ib + i], 0, read, scale, orow, wrow)
-                else:
-                    _edge(out, 0, cols, edge, True, orow, wrow)
-            ip, ib = op, ob
+    row_chain = heads[c, 1] == 1
+    for j in numba.prange(threads):
+        k0, k1 = j * nbands // threads, (j + 1) * nbands // threads
+        if row_chain:
+            _noisy_row_bands(a, prog, first, c, heads, outs, offsets, bank, starts, gains,
+                             t, t2, k0, k1, True)  # fmt: skip
+        else:
+            _noisy_column_bands(a, prog, first, c, heads, outs, offsets, bank, starts, gains,
+                                t, t2, k0, k1, True)  # fmt: skip
 
 
 @_jit
@@ -1442,7 +1612,7 @@ def _flag_rows(flag, rows, cols, runs):
 
 @_jit
 def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, gains, known,
-         heads, outs, edges, runs, pending, decay, codes):  # fmt: skip
+         heads, outs, edges, runs, pending, decay, codes, threads):  # fmt: skip
     """Run the ICWs of ``prog`` in order, each over the whole array; returns whether FLAG
     is then set everywhere (tracked through the kernel, as each ICW needs it). ``known``:
     FLAG is set everywhere to begin with (the simulator's tracked state), else it is
@@ -1484,6 +1654,9 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
             if flag_all:
                 if bank.size == 0:
                     _chain(a, row[_PARTS], heads, outs, edges, t, t2)
+                elif threads > 1 and _bands_apart(row[_PARTS], heads, outs):
+                    _noisy_chain_split(a, prog, i, row[_PARTS], heads, outs, offsets, bank,
+                                       starts, gains, t, t2, threads)  # fmt: skip
                 else:
                     _noisy_chain(a, prog, i, row[_PARTS], heads, outs, offsets, bank,
                                  starts, gains, t, t2)  # fmt: skip
@@ -1494,10 +1667,10 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
                 nruns = _flag_rows(du[_FLAG], rows, cols, runs)
             for j in range(nruns):
                 _op(row, runs[2 * j], runs[2 * j + 1], a, af, df, du, du2, lu, tbu, tbu2,
-                    t, t2, flag_all, offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
+                    t, t2, flag_all, offsets, pixel, bank, bank_div, starts, gains, 1)  # fmt: skip
             continue
         flag_all = _op(row, 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
-            offsets, pixel, bank, bank_div, starts, gains)  # fmt: skip
+            offsets, pixel, bank, bank_div, starts, gains, threads)  # fmt: skip
         if op == _WHERE or op == _WHERED or op == _ALL:
             nruns = -1
     return flag_all
