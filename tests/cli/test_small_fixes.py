@@ -216,6 +216,31 @@ def test_planes_holding_nan_are_one_line_not_a_cast_warning(tmp_path, capsys):
     )
 
 
+def test_planes_of_two_shapes_are_named_with_the_file(tmp_path, capsys):
+    # the montage's own message: 'render_montage: planes differ in shape [(4, 4), (5, 5)]'
+    planes = tmp_path / "planes.npz"
+    np.savez(planes, A=np.zeros((4, 4)), B=np.ones((5, 5)))
+    code, _, err = run(capsys, "show", planes)
+    assert code == 1 and not planes.with_suffix(".png").exists()
+    assert err == (
+        f"ppaloc: error: {planes}: arrays 'A' (4 x 4) and 'B' (5 x 5) differ in shape; "
+        "register planes are drawn side by side at one size: save the planes of each size in "
+        "a file of their own\n"
+    )
+
+
+def test_planes_of_more_cells_than_show_draws_are_refused(tmp_path, capsys):
+    # a few kB compressed: a 40,000 x 40,000 plane of the same kind took 15 GB and a minute
+    planes = tmp_path / "planes.npz"
+    np.savez_compressed(planes, A=np.zeros((8000, 8000), bool))
+    code, _, err = run(capsys, "show", planes)
+    assert code == 1 and not planes.with_suffix(".png").exists()
+    assert err == (
+        f"ppaloc: error: {planes}: its 2-D arrays hold 64000000 cells, more than the 50000000 "
+        "ppaloc show draws (a sensor's plane is 256 x 256); save fewer or smaller planes\n"
+    )
+
+
 def test_an_empty_plane_is_refused_not_drawn_as_nothing(tmp_path, capsys):
     # a (0, 5) array was "drawn": a PNG of its label alone, "1 planes -> ..."
     planes = tmp_path / "planes.npz"
