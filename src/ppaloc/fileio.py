@@ -173,7 +173,10 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
 
     The folder must exist. On an exception the temporary file is removed and ``path`` is
     left as it was; if the process is killed, an anonymous temporary disappears with it
-    (a named one is removed by the next write of ``path``).
+    (a named one is removed by the next write of ``path``). A symbolic link is followed,
+    as the shell's ``>`` follows it: the file it names is replaced and the link kept
+    (replacing the link itself lost it, and ``--out /dev/stdout`` made ``/dev/stdout`` a
+    file).
 
     Examples
     --------
@@ -185,6 +188,8 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
     'hello'
     """
     path = Path(path)
+    if path.is_symlink():
+        path = Path(os.path.realpath(path))
     _sweep_stale_files(path.parent, path.name)
     fd = _open_anonymous(path.parent)
     tmp: Path | None = None

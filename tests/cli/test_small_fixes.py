@@ -330,6 +330,19 @@ def test_show_draws_scores_whose_span_overflows(tmp_path, capsys):
         assert im.size[0] > 500
 
 
+def test_an_out_that_is_a_link_writes_the_file_it_names(tmp_path, capsys, folder_map):
+    # the link was replaced by a file and the file it named kept its old rows
+    q = _images(tmp_path / "q", ["a.png"])[0]
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "est.csv").write_text("old\n")
+    link = tmp_path / "est.csv"
+    link.symlink_to("runs/est.csv")
+    code, _, err = run(capsys, "localise", folder_map, q, "--out", link)
+    assert code == 0, err
+    assert link.is_symlink()
+    assert (tmp_path / "runs" / "est.csv").read_text().startswith("frame,path,node,")
+
+
 def test_localise_writes_a_file_name_that_is_not_utf8_to_its_csv(tmp_path, capsys, folder_map):
     q = tmp_path / "q"
     (raw,) = _images(q, ["e.png"])
