@@ -570,3 +570,22 @@ def test_a_capture_stops_at_its_deadline_while_a_writer_holds_the_pipe():
     finally:
         for _, write_end in pipes:
             os.close(write_end)
+
+
+def test_an_empty_cxx_is_unset_and_a_missing_one_is_named(tmp_path, capsys, monkeypatch):
+    # CXX= (set, empty) said "no C++ compiler found (g++)" where g++ is installed, and
+    # CXX=/nonexistent was blamed on g++ too
+    import shutil
+
+    from ppaloc.cpp.build import compiler
+
+    monkeypatch.setenv("CXX", "")
+    assert compiler() == shutil.which("g++")
+    monkeypatch.setenv("CXX", "/nonexistent/c++")
+    source = tmp_path / "p.cpp"
+    source.write_text("int main() { return 0; }\n")
+    assert main(["cpp", "run", str(source), "--out", str(tmp_path / "run"), "-q"]) == 1
+    assert capsys.readouterr().err == (
+        "ppaloc: error: $CXX='/nonexistent/c++' is not a program found on PATH; set CXX to a "
+        "C++ compiler (g++, clang++, or its full path) or unset it to use g++\n"
+    )
