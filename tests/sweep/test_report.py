@@ -232,6 +232,9 @@ def _cell(**changes):
         (json.dumps(_cell(f1_max="high")), "cells[0].f1_max is 'high', expected a number"),
         (json.dumps(_cell(status=5)), "cells[0].status is 5, expected a string"),
         (json.dumps(_cell(method="other")), "cells[0].method 'other' is not in axes.method"),
+        # a newer summary was read as if it were this version's
+        (json.dumps({**summary(), "version": 2}), "is in sweep summary version 2, newer than"),
+        (json.dumps({**summary(), "version": "1"}), "'version' is '1', expected a version"),
     ],
 )
 def test_a_damaged_or_hand_edited_summary_is_one_line(tmp_path, capsys, text, message):

@@ -27,9 +27,10 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc import __version__
 from ppaloc.errors import DataError
 from ppaloc.evaluate.report import ReportFigure
-from ppaloc.evaluate.sweep_grid import sweep_wrote
+from ppaloc.evaluate.sweep_grid import SUMMARY_VERSION, sweep_wrote
 from ppaloc.fileio import new_folder, write_bytes
 
 __all__ = [
@@ -65,6 +66,15 @@ def load_summary(out: str | Path) -> dict[str, Any]:
         raise DataError(f"cannot read {path}: {exc}") from None
     if not isinstance(summary, dict) or summary.get("format") != "ppaloc-sweep-summary":
         raise DataError(f"{path} is not a ppaloc sweep summary")
+    version = summary.get("version", SUMMARY_VERSION)
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        raise DataError(f"{path}: 'version' is {_shown(version)}, expected a version number")
+    if version > SUMMARY_VERSION:
+        raise DataError(
+            f"{path} is in sweep summary version {version}, newer than this ppaloc "
+            f"{__version__} reads (1 to {SUMMARY_VERSION}); show it with the ppaloc that "
+            "wrote it, or run the sweep again with this one"
+        )
     problem = _summary_problem(summary)
     if problem:
         raise DataError(
