@@ -402,6 +402,20 @@ def test_show_out_is_a_png_and_not_for_a_results_folder(tmp_path, capsys, folder
     assert not (tmp_path / "r.png").exists() and not (results / "report.html").exists()
 
 
+def test_show_of_a_folder_that_is_no_results_folder_names_the_folder_not_out(tmp_path, capsys):
+    # --out was blamed ("a results folder's report is rebuilt inside it (frames/report.html)")
+    # for a folder of images, which show does not draw with or without it
+    frames = tmp_path / "frames"
+    _images(frames, ["f0.png"])
+    code, _, err = run(capsys, "show", frames, "--out", tmp_path / "f.png")
+    assert code == 1
+    assert err == (
+        f"ppaloc: error: {frames} holds no results.json; give a folder written by "
+        "`ppaloc evaluate --out`\n"
+    )
+    assert not (tmp_path / "f.png").exists()
+
+
 def test_map_refuses_a_missing_folder_before_it_reads_the_dataset(tmp_path, capsys):
     out = tmp_path / "missing" / "m.npz"
     missing = tmp_path / "no-such-route"  # the folder is refused first: nothing is read

@@ -504,7 +504,8 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     what = "give a results folder, a map (.npz), register planes (.npz) or a localise CSV"
     recover_folder(path)  # a results folder whose replacement was killed half-way
     if path.is_dir():
-        if out is not None:
+        marks = ("results.json", "matrix.csv", "summary.json")  # what _show_results reads
+        if out is not None and any((path / name).is_file() for name in marks):
             raise DataError(
                 f"--out {out}: a results folder's report is rebuilt inside it "
                 f"({path / 'report.html'}); --out names the PNG of a map, register planes "
