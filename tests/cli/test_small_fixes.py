@@ -516,3 +516,21 @@ def test_a_full_disk_under_standard_outputs_buffer_is_one_line(capsys, monkeypat
         "ppaloc: error: No space left on device: 'standard output'; free some space there or "
         "give another location\n"
     )
+
+
+def test_oracle_moves_short_of_the_query_are_refused_before_the_run(tmp_path, capsys):
+    # refused at the first frame beyond them, after the map was built and the frames run
+    spec = "synthetic:?places=12&size=32&sync=1&seed=2"
+    code, _, err = run(
+        capsys, "evaluate", "-d", spec, "-m", "weighted-node-lbp", "--no-report", "-q",
+        "--param", "weighted-node-lbp.motion=oracle",
+        "--param", "weighted-node-lbp.oracle_moves=[true, false]",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err.startswith(
+        "ppaloc: error: method 'weighted-node-lbp': oracle_moves holds 2 moves for the "
+    ) and err.endswith(
+        f"query frames of '{spec}'; give one a query frame, or leave "
+        "oracle_moves out to read the dataset's true motion\n"
+    )
