@@ -70,6 +70,41 @@ def test_the_named_fallback_works_without_anonymous_files(tmp_path, monkeypatch)
     assert os.listdir(tmp_path) == ["x.txt"]
 
 
+@pytest.mark.parametrize("anonymous", [True, False])
+def test_a_write_through_a_link_replaces_the_file_it_names_and_keeps_the_link(
+    tmp_path, monkeypatch, anonymous
+):
+    # the link itself was replaced by a file: --out /dev/stdout (stdout redirected to a
+    # file) made /dev/stdout a regular file, as root, for every later process
+    if not anonymous:
+        monkeypatch.setattr(fileio, "_open_anonymous", lambda folder: None)
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "est.csv").write_text("old")
+    link = tmp_path / "est.csv"
+    link.symlink_to("data/est.csv")
+    write_bytes(link, "new")
+    assert link.is_symlink() and os.readlink(link) == "data/est.csv"
+    assert (tmp_path / "data" / "est.csv").read_text() == "new"
+    assert sorted(os.listdir(tmp_path)) == ["data", "est.csv"]
+    assert os.listdir(tmp_path / "data") == ["est.csv"]
+
+
+@pytest.mark.parametrize("through_a_link", [False, True])
+def test_a_pipe_is_never_replaced_by_a_write(tmp_path, through_a_link):
+    # show est.csv writes est.png beside it, a name no --out check saw: a pipe there (or a
+    # link to one, or to /dev/null) was replaced by the PNG
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)
+    target = tmp_path / "est.png"
+    if through_a_link:
+        target.symlink_to("pipe")
+    else:
+        target = pipe
+    with pytest.raises(PpalocError, match="is a device, pipe or socket, not a file; writing"):
+        write_bytes(target, "png")
+    assert pipe.is_fifo() and target.is_fifo()
+
+
 @pytest.mark.parametrize("exchange", [True, False])
 def test_new_folder_replaces_the_whole_folder(tmp_path, monkeypatch, exchange):
     if not exchange:

@@ -173,7 +173,10 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
 
     The folder must exist. On an exception the temporary file is removed and ``path`` is
     left as it was; if the process is killed, an anonymous temporary disappears with it
-    (a named one is removed by the next write of ``path``).
+    (a named one is removed by the next write of ``path``). A symbolic link is followed,
+    as the shell's ``>`` follows it: the file it names is replaced and the link kept
+    (replacing the link itself lost it, and ``--out /dev/stdout`` made ``/dev/stdout`` a
+    file). A target that is a device, pipe or socket is refused (a ``PpalocError``).
 
     Examples
     --------
@@ -185,6 +188,15 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
     'hello'
     """
     path = Path(path)
+    if path.is_symlink():
+        path = Path(os.path.realpath(path))
+    if path.exists() and not path.is_file() and not path.is_dir():
+        # a write replaces its target whole: it never takes the place of a device (a
+        # /dev/null), pipe or socket, however the name was reached (--out, a default name)
+        raise PpalocError(
+            f"{path} is a device, pipe or socket, not a file; writing would replace it: give "
+            "a file name (or move it aside)"
+        )
     _sweep_stale_files(path.parent, path.name)
     fd = _open_anonymous(path.parent)
     tmp: Path | None = None

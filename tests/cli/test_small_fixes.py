@@ -216,6 +216,31 @@ def test_planes_holding_nan_are_one_line_not_a_cast_warning(tmp_path, capsys):
     )
 
 
+def test_planes_of_two_shapes_are_named_with_the_file(tmp_path, capsys):
+    # the montage's own message: 'render_montage: planes differ in shape [(4, 4), (5, 5)]'
+    planes = tmp_path / "planes.npz"
+    np.savez(planes, A=np.zeros((4, 4)), B=np.ones((5, 5)))
+    code, _, err = run(capsys, "show", planes)
+    assert code == 1 and not planes.with_suffix(".png").exists()
+    assert err == (
+        f"ppaloc: error: {planes}: arrays 'A' (4 x 4) and 'B' (5 x 5) differ in shape; "
+        "register planes are drawn side by side at one size: save the planes of each size in "
+        "a file of their own\n"
+    )
+
+
+def test_planes_of_more_cells_than_show_draws_are_refused(tmp_path, capsys):
+    # a few kB compressed: a 40,000 x 40,000 plane of the same kind took 15 GB and a minute
+    planes = tmp_path / "planes.npz"
+    np.savez_compressed(planes, A=np.zeros((8000, 8000), bool))
+    code, _, err = run(capsys, "show", planes)
+    assert code == 1 and not planes.with_suffix(".png").exists()
+    assert err == (
+        f"ppaloc: error: {planes}: its 2-D arrays hold 64000000 cells, more than the 50000000 "
+        "ppaloc show draws (a sensor's plane is 256 x 256); save fewer or smaller planes\n"
+    )
+
+
 def test_an_empty_plane_is_refused_not_drawn_as_nothing(tmp_path, capsys):
     # a (0, 5) array was "drawn": a PNG of its label alone, "1 planes -> ..."
     planes = tmp_path / "planes.npz"
@@ -305,6 +330,19 @@ def test_show_draws_scores_whose_span_overflows(tmp_path, capsys):
         assert im.size[0] > 500
 
 
+def test_an_out_that_is_a_link_writes_the_file_it_names(tmp_path, capsys, folder_map):
+    # the link was replaced by a file and the file it named kept its old rows
+    q = _images(tmp_path / "q", ["a.png"])[0]
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "est.csv").write_text("old\n")
+    link = tmp_path / "est.csv"
+    link.symlink_to("runs/est.csv")
+    code, _, err = run(capsys, "localise", folder_map, q, "--out", link)
+    assert code == 0, err
+    assert link.is_symlink()
+    assert (tmp_path / "runs" / "est.csv").read_text().startswith("frame,path,node,")
+
+
 def test_localise_writes_a_file_name_that_is_not_utf8_to_its_csv(tmp_path, capsys, folder_map):
     q = tmp_path / "q"
     (raw,) = _images(q, ["e.png"])
@@ -362,6 +400,20 @@ def test_show_out_is_a_png_and_not_for_a_results_folder(tmp_path, capsys, folder
     assert code == 1 and err.count("\n") == 1
     assert "a results folder's report is rebuilt inside it" in err and "leave it out" in err
     assert not (tmp_path / "r.png").exists() and not (results / "report.html").exists()
+
+
+def test_show_of_a_folder_that_is_no_results_folder_names_the_folder_not_out(tmp_path, capsys):
+    # --out was blamed ("a results folder's report is rebuilt inside it (frames/report.html)")
+    # for a folder of images, which show does not draw with or without it
+    frames = tmp_path / "frames"
+    _images(frames, ["f0.png"])
+    code, _, err = run(capsys, "show", frames, "--out", tmp_path / "f.png")
+    assert code == 1
+    assert err == (
+        f"ppaloc: error: {frames} holds no results.json; give a folder written by "
+        "`ppaloc evaluate --out`\n"
+    )
+    assert not (tmp_path / "f.png").exists()
 
 
 def test_map_refuses_a_missing_folder_before_it_reads_the_dataset(tmp_path, capsys):
@@ -463,4 +515,22 @@ def test_a_full_disk_under_standard_outputs_buffer_is_one_line(capsys, monkeypat
     assert err == (
         "ppaloc: error: No space left on device: 'standard output'; free some space there or "
         "give another location\n"
+    )
+
+
+def test_oracle_moves_short_of_the_query_are_refused_before_the_run(tmp_path, capsys):
+    # refused at the first frame beyond them, after the map was built and the frames run
+    spec = "synthetic:?places=12&size=32&sync=1&seed=2"
+    code, _, err = run(
+        capsys, "evaluate", "-d", spec, "-m", "weighted-node-lbp", "--no-report", "-q",
+        "--param", "weighted-node-lbp.motion=oracle",
+        "--param", "weighted-node-lbp.oracle_moves=[true, false]",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err.startswith(
+        "ppaloc: error: method 'weighted-node-lbp': oracle_moves holds 2 moves for the "
+    ) and err.endswith(
+        f"query frames of '{spec}'; give one a query frame, or leave "
+        "oracle_moves out to read the dataset's true motion\n"
     )

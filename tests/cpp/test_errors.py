@@ -441,6 +441,18 @@ def test_an_output_folder_of_other_files_is_refused_before_the_run(tmp_path):
     check_output_folder(tmp_path / "new")
 
 
+def test_an_earlier_runs_summary_nested_too_deep_is_one_line(tmp_path):
+    # reading which files the run wrote in displays/ ended in an internal error (RecursionError)
+    from ppaloc.cpp.run import check_output_folder
+    from ppaloc.errors import PpalocError
+
+    (tmp_path / "displays" / "image").mkdir(parents=True)
+    (tmp_path / "displays" / "image" / "frame_0000.png").write_bytes(b"png")
+    (tmp_path / "summary.json").write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(PpalocError, match="holds 'displays/image', which ppaloc cpp run did not"):
+        check_output_folder(tmp_path)
+
+
 def test_a_users_file_inside_displays_or_at_the_top_is_refused(faults, tmp_path, capsys):
     out = tmp_path / "run"
     args = ["cpp", "run", str(FAULTS), "--out", str(out), "-q", "--frames", "2"]
@@ -558,3 +570,22 @@ def test_a_capture_stops_at_its_deadline_while_a_writer_holds_the_pipe():
     finally:
         for _, write_end in pipes:
             os.close(write_end)
+
+
+def test_an_empty_cxx_is_unset_and_a_missing_one_is_named(tmp_path, capsys, monkeypatch):
+    # CXX= (set, empty) said "no C++ compiler found (g++)" where g++ is installed, and
+    # CXX=/nonexistent was blamed on g++ too
+    import shutil
+
+    from ppaloc.cpp.build import compiler
+
+    monkeypatch.setenv("CXX", "")
+    assert compiler() == shutil.which("g++")
+    monkeypatch.setenv("CXX", "/nonexistent/c++")
+    source = tmp_path / "p.cpp"
+    source.write_text("int main() { return 0; }\n")
+    assert main(["cpp", "run", str(source), "--out", str(tmp_path / "run"), "-q"]) == 1
+    assert capsys.readouterr().err == (
+        "ppaloc: error: $CXX='/nonexistent/c++' is not a program found on PATH; set CXX to a "
+        "C++ compiler (g++, clang++, or its full path) or unset it to use g++\n"
+    )

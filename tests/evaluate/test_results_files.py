@@ -203,3 +203,33 @@ def test_a_file_where_the_figures_go_is_replaced_by_them(saved):
     (saved / "figures").write_text("not a folder")
     write_report(saved)
     assert (saved / "figures").is_dir()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        # read unguarded to find the report's own figures: an internal error (RecursionError)
+        ("[" * 100_000 + "]" * 100_000, "results.json is nested too deep"),
+        # blamed on a figure ppaloc had written: 'holds figures/x.png, which ppaloc did not write'
+        ("[1, 2]", "results.json is not a results table"),
+    ],
+)
+def test_show_names_a_results_json_it_cannot_read_beside_its_figures(saved, capsys, text, message):
+    from ppaloc.cli import main
+    from ppaloc.evaluate.report import write_report
+
+    write_report(saved)
+    (saved / "results.json").write_text(text)
+    assert main(["show", str(saved)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("ppaloc: error: ") and "\n" not in err and message in err
+
+
+def test_evaluate_over_a_results_json_nested_too_deep_is_one_line(saved, capsys):
+    from ppaloc.cli import main
+
+    (saved / "results.json").write_text("[" * 100_000 + "]" * 100_000)
+    spec = "synthetic:?places=12&size=32&sync=1&seed=2"
+    assert main(["evaluate", "-d", spec, "-m", "single-frame", "-q", "--out", str(saved)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("ppaloc: error: ") and "\n" not in err and "did not write" in err

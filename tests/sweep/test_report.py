@@ -205,3 +205,45 @@ def test_show_names_a_damaged_sweep_summary(tmp_path, capsys):
     assert main(["show", str(tmp_path)]) == 1
     err = capsys.readouterr().err
     assert f"cannot read {tmp_path / 'summary.json'}" in err and "results.json" not in err
+
+
+def _without(key):
+    s = summary()
+    del s[key]
+    return s
+
+
+def _cell(**changes):
+    s = summary()
+    s["cells"][0].update(changes)
+    return s
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[" * 100_000 + "]" * 100_000, "it is nested too deep"),
+        (json.dumps(summary()).replace("0.6", "NaN", 1), "it holds NaN, which is not JSON"),
+        (json.dumps(_without("axes")), "'axes' is None, expected a table of lists"),
+        (json.dumps(_without("counts")), "'counts' is None, expected a table of counts"),
+        (json.dumps({**summary(), "axes": {**summary()["axes"], "gain": 5}}), "axes.gain is 5"),
+        (json.dumps({**summary(), "cells": "x"}), "'cells' is 'x', expected a list of tables"),
+        (json.dumps({**summary(), "config": "x"}), "'config' is 'x', expected a table"),
+        (json.dumps(_cell(f1_max="high")), "cells[0].f1_max is 'high', expected a number"),
+        (json.dumps(_cell(status=5)), "cells[0].status is 5, expected a string"),
+        (json.dumps(_cell(method="other")), "cells[0].method 'other' is not in axes.method"),
+        # a newer summary was read as if it were this version's
+        (json.dumps({**summary(), "version": 2}), "is in sweep summary version 2, newer than"),
+        (json.dumps({**summary(), "version": "1"}), "'version' is '1', expected a version"),
+    ],
+)
+def test_a_damaged_or_hand_edited_summary_is_one_line(tmp_path, capsys, text, message):
+    # each was an internal error of `ppaloc show` (RecursionError, KeyError, TypeError, ...)
+    from ppaloc.cli import main
+
+    write_bytes(tmp_path / "summary.json", text)
+    assert main(["show", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("ppaloc: error: ") and "\n" not in err
+    assert message in err
+    assert not (tmp_path / "report.html").exists()

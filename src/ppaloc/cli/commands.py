@@ -504,7 +504,8 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     what = "give a results folder, a map (.npz), register planes (.npz) or a localise CSV"
     recover_folder(path)  # a results folder whose replacement was killed half-way
     if path.is_dir():
-        if out is not None:
+        marks = ("results.json", "matrix.csv", "summary.json")  # what _show_results reads
+        if out is not None and any((path / name).is_file() for name in marks):
             raise DataError(
                 f"--out {out}: a results folder's report is rebuilt inside it "
                 f"({path / 'report.html'}); --out names the PNG of a map, register planes "
@@ -613,13 +614,18 @@ def _descriptor_figure(topomap: Any) -> Any:
     return fig
 
 
+MAX_PLANE_CELLS = 50_000_000
+"""Most cells ``ppaloc show`` draws from one file of register planes (a sensor's plane is
+256 x 256 = 65,536): a compressed ``.npz`` of a few MB can claim a 40,000 x 40,000 plane,
+which took 15 GB and a minute to draw."""
+
+
 def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
-    from ppaloc.evaluate.results import MAX_RESULT_BYTES
     from ppaloc.npzfile import NpzError, read_npz
     from ppaloc.sim.render import render_montage
 
-    try:  # every member's size bounded before it is read
-        arrays = read_npz(path, max_bytes=MAX_RESULT_BYTES)
+    try:  # every member's size bounded before it is read (8 bytes a cell at most)
+        arrays = read_npz(path, max_bytes=8 * MAX_PLANE_CELLS)
     except NpzError as exc:
         raise DataError(f"{path}: {exc}") from None
     except OSError as exc:
@@ -627,6 +633,12 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     planes = {k: a for k, a in arrays.items() if a.ndim == 2}
     if not planes:
         raise DataError(f"{path} holds no 2-D arrays to draw as register planes")
+    cells = sum(a.size for a in planes.values())
+    if cells > MAX_PLANE_CELLS:
+        raise DataError(
+            f"{path}: its 2-D arrays hold {cells} cells, more than the {MAX_PLANE_CELLS} "
+            "ppaloc show draws (a sensor's plane is 256 x 256); save fewer or smaller planes"
+        )
     for name, a in planes.items():
         if a.dtype.kind not in "biuf":  # register planes are real numbers or bits
             raise DataError(
@@ -643,6 +655,15 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
                 f"{path}: array {name!r} holds {bad} NaN or infinite values, which no "
                 "register holds; replace them (e.g. np.nan_to_num) before drawing"
             )
+    (first, a), *rest = planes.items()
+    other = next(((n, b) for n, b in rest if b.shape != a.shape), None)
+    if other is not None:  # the montage draws planes of one size (it named itself, not the file)
+        raise DataError(
+            f"{path}: arrays {first!r} ({a.shape[0]} x {a.shape[1]}) and {other[0]!r} "
+            f"({other[1].shape[0]} x {other[1].shape[1]}) differ in shape; register planes "
+            "are drawn side by side at one size: save the planes of each size in a file of "
+            "their own"
+        )
     out = out or path.with_suffix(".png")
     refuse_input_as_out(out, [path])
     check_png(out)

@@ -63,9 +63,20 @@ class UnmodelledCallError(PpalocError):
 
 
 def compiler() -> str | None:
-    """The C++ compiler to use (``$CXX``, else ``g++``), or None when there is none."""
-    name = os.environ.get("CXX", "g++")
-    return shutil.which(name)
+    """The C++ compiler to use (``$CXX``, else ``g++``; an empty ``$CXX`` is unset, as
+    make takes it), or None when there is none."""
+    return shutil.which(os.environ.get("CXX") or "g++")
+
+
+def _no_compiler() -> str:
+    """Why there is no compiler, naming what was looked for: ``$CXX`` where it is set."""
+    given = os.environ.get("CXX")
+    if given:
+        return (
+            f"$CXX={given!r:.200} is not a program found on PATH; set CXX to a C++ compiler "
+            "(g++, clang++, or its full path) or unset it to use g++"
+        )
+    return "no C++ compiler found (g++); install Debian's g++ package or set $CXX"
 
 
 def cache_dir() -> Path:
@@ -277,7 +288,7 @@ def compile_program(
     _check_texts(texts)
     cxx = compiler()
     if cxx is None:
-        raise PpalocError("no C++ compiler found (g++); install Debian's g++ package or set $CXX")
+        raise PpalocError(_no_compiler())
     root = cache_dir()
     try:
         root.mkdir(parents=True, exist_ok=True)

@@ -327,7 +327,7 @@ def _recorded_files(folder: Path) -> frozenset[str]:
     (none where summary.json is unreadable)."""
     try:
         summary = json.loads((folder / "summary.json").read_bytes())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return frozenset()
     if not isinstance(summary, dict):
         return frozenset()

@@ -172,7 +172,7 @@ def _written_files(folder: Path) -> frozenset[str]:
 
     try:
         summary = json.loads((folder / "results.json").read_bytes())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return frozenset()
     if not isinstance(summary, dict):
         return frozenset()
@@ -257,6 +257,7 @@ def check_report_figures(folder: str | Path) -> None:
     figures = folder / "figures"
     if figures.is_symlink() or not figures.is_dir():
         return
+    _read_summary(folder)  # an unreadable results.json is named as such, not its figures
     written: dict[Path, frozenset[str]] = {}
     for root, dirs, files in os.walk(figures):
         dirs.sort()
@@ -648,6 +649,30 @@ def _load_difference(
     )
 
 
+def _read_summary(folder: Path) -> dict[str, Any]:
+    """The table ``folder/results.json`` holds, as written (strict JSON, a table).
+
+    Raises
+    ------
+    DataError
+        If the file is missing, unreadable, not JSON, nested too deep or not a table.
+    """
+    path = folder / "results.json"
+    if not path.is_file():
+        raise DataError(
+            f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"
+        )
+    try:
+        summary = json.loads(path.read_text(encoding="utf-8"), parse_constant=_not_strict_json)
+    except RecursionError:
+        raise DataError(f"cannot read the results in {folder}: {path} is nested too deep") from None
+    except (OSError, ValueError) as exc:
+        raise DataError(f"cannot read the results in {folder}: {exc}") from None
+    if not isinstance(summary, dict):
+        raise DataError(f"{path} is not a results table; give a folder written by ppaloc")
+    return summary
+
+
 def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     """Read a results folder written by :func:`save_results`.
 
@@ -674,19 +699,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
     if not folder.exists():
         recover_folder(folder)  # a transaction killed between its two renames
     path = folder / "results.json"
-    if not path.is_file():
-        raise DataError(
-            f"{folder} holds no results.json; give a folder written by `ppaloc evaluate --out`"
-        )
-    try:
-        summary = json.loads(path.read_text(encoding="utf-8"), parse_constant=_not_strict_json)
-    except RecursionError:
-        raise DataError(f"cannot read the results in {folder}: {path} is nested too deep") from None
-    except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read the results in {folder}: {exc}") from None
-    if not isinstance(summary, dict):
-        raise DataError(f"{path} is not a results table; give a folder written by ppaloc")
-    summary = upgrade_summary(summary, path)
+    summary = upgrade_summary(_read_summary(folder), path)
     missing = [k for k in ("dataset", "tolerance", "methods") if k not in summary]
     if missing:
         raise DataError(

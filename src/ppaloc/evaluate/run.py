@@ -719,6 +719,21 @@ class ProgressBar:
             self._bar.__exit__(None, None, None)
 
 
+def _check_oracle_moves(name: str, params: Mapping[str, Any], n_query: int, spec: str) -> None:
+    """Refuse, before any frame is read, ground-truth moves given by hand (``oracle_moves``)
+    that stop short of the query: the oracle motion model reads one a frame, and failed at
+    the first frame beyond them, after the map was built and the frames before it run."""
+    moves = params.get("oracle_moves")
+    if params.get("motion") != "oracle" or moves is None or isinstance(moves, str):
+        return
+    if len(moves) < n_query:
+        raise PpalocError(
+            f"method {name!r}: oracle_moves holds {len(moves)} moves for the {n_query} query "
+            f"frames of {spec!r}; give one a query frame, or leave oracle_moves out to read "
+            "the dataset's true motion"
+        )
+
+
 def run_evaluation(
     config: EvaluateConfig,
     *,
@@ -782,6 +797,8 @@ def run_evaluation(
             needs = dataset_needs(name, params)
             shown = {arg: f"dataset {needs[arg].attribute}" for arg in given}
             plan[name] = ({**params, **shown}, loc)
+    for name, (params, _) in plan.items():
+        _check_oracle_moves(name, params, len(dataset.query), spec)
     gt = PackedSets.from_sets(dataset.ground_truth)
     speeds = speed_checks({name: loc for name, (_, loc) in plan.items()}, gt)  # logs warnings
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None

@@ -47,6 +47,7 @@ __all__ = [
     "COMBINE",
     "MAX_CELLS",
     "METRIC_COLUMNS",
+    "SUMMARY_VERSION",
     "SWEEP_NAMES",
     "Cell",
     "SweepConfig",
@@ -699,7 +700,7 @@ def collect_summary(config: SweepConfig, out: str | Path) -> dict[str, Any]:
         counts["ok" if status == "ok" else "not_run" if status == _NOT_RUN else "failed"] += 1
     return {
         "format": "ppaloc-sweep-summary",
-        "version": 1,
+        "version": SUMMARY_VERSION,
         "config": config.to_dict(),
         "axes": _jsonable(grid),
         "columns": columns,
@@ -713,6 +714,11 @@ def collect_summary(config: SweepConfig, out: str | Path) -> dict[str, Any]:
         "ppaloc_version": __version__,
         **_created(),
     }
+
+
+SUMMARY_VERSION = 1
+"""The version of ``summary.json`` this ppaloc writes (``version``); a newer one is refused
+where it is read."""
 
 
 def _created() -> dict[str, str]:

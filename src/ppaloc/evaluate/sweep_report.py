@@ -27,9 +27,10 @@ from typing import Any
 
 import numpy as np
 
+from ppaloc import __version__
 from ppaloc.errors import DataError
 from ppaloc.evaluate.report import ReportFigure
-from ppaloc.evaluate.sweep_grid import sweep_wrote
+from ppaloc.evaluate.sweep_grid import SUMMARY_VERSION, sweep_wrote
 from ppaloc.fileio import new_folder, write_bytes
 
 __all__ = [
@@ -49,20 +50,87 @@ def load_summary(out: str | Path) -> dict[str, Any]:
     Raises
     ------
     DataError
-        If it is missing or not a sweep summary.
+        If it is missing, not strict JSON, not a sweep summary, or a field the report
+        reads does not have the type ppaloc writes (a hand edit, a damaged file).
     """
     path = Path(out) / "summary.json"
     try:
-        summary = json.loads(path.read_text(encoding="utf-8"))
+        summary = json.loads(path.read_text(encoding="utf-8"), parse_constant=_not_json)
     except FileNotFoundError:
         raise DataError(
             f"{out} holds no summary.json; give a folder written by `ppaloc sweep --out`"
         ) from None
+    except RecursionError:
+        raise DataError(f"cannot read {path}: it is nested too deep") from None
     except (OSError, ValueError) as exc:
         raise DataError(f"cannot read {path}: {exc}") from None
     if not isinstance(summary, dict) or summary.get("format") != "ppaloc-sweep-summary":
         raise DataError(f"{path} is not a ppaloc sweep summary")
+    version = summary.get("version", SUMMARY_VERSION)
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        raise DataError(f"{path}: 'version' is {_shown(version)}, expected a version number")
+    if version > SUMMARY_VERSION:
+        raise DataError(
+            f"{path} is in sweep summary version {version}, newer than this ppaloc "
+            f"{__version__} reads (1 to {SUMMARY_VERSION}); show it with the ppaloc that "
+            "wrote it, or run the sweep again with this one"
+        )
+    problem = _summary_problem(summary)
+    if problem:
+        raise DataError(
+            f"{path}: {problem}; run `ppaloc sweep --out {out}` again with its configuration "
+            "(finished cells are kept) to write it anew"
+        )
     return summary
+
+
+def _not_json(name: str) -> Any:
+    """NaN or Infinity, which ppaloc never writes in a summary (strict JSON)."""
+    raise ValueError(f"it holds {name}, which is not JSON")
+
+
+def _summary_problem(summary: Mapping[str, Any]) -> str | None:
+    """The first field of a sweep summary that the report cannot read as ppaloc writes it
+    (``collect_summary``), in words; None when every field it reads is right."""
+    for key, kind, words in (
+        ("config", dict, "a table"),
+        ("axes", dict, "a table of lists"),
+        ("cells", list, "a list of tables"),
+        ("counts", dict, "a table of counts"),
+    ):
+        if not isinstance(summary.get(key), kind):
+            return f"{key!r} is {_shown(summary.get(key))}, expected {words}"
+    axes = summary["axes"]
+    for name, values in axes.items():
+        if not isinstance(values, list):
+            return f"axes.{name} is {_shown(values)}, expected a list"
+    for name in ("method", "dataset"):
+        if not all(isinstance(v, str) for v in axes.get(name, [None])):
+            return f"axes.{name} is {_shown(axes.get(name))}, expected a list of names"
+    for key in ("cells", "ok", "failed"):
+        value = summary["counts"].get(key)
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            return f"counts.{key} is {_shown(value)}, expected a count >= 0"
+    for i, row in enumerate(summary["cells"]):
+        if not isinstance(row, dict):
+            return f"cells[{i}] is {_shown(row)}, expected a table"
+        for key in ("method", "dataset", "status", "cell"):
+            if not isinstance(row.get(key), str):
+                return f"cells[{i}].{key} is {_shown(row.get(key))}, expected a string"
+        for key, axis in (("method", "method"), ("dataset", "dataset")):
+            if row[key] not in axes[axis]:
+                return f"cells[{i}].{key} {row[key]!r:.80} is not in axes.{axis}"
+        for key in ("f1_max", "auc", "recall_at_100p"):
+            value = row.get(key)
+            if isinstance(value, bool) or not isinstance(value, int | float | None):
+                return f"cells[{i}].{key} is {_shown(value)}, expected a number or null"
+    return None
+
+
+def _shown(value: Any) -> str:
+    """A value of a summary as a message shows it: its repr, cut to 60 characters."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _key(v: Any) -> str:
