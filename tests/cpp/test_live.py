@@ -6,7 +6,6 @@ import http.client
 import io
 import json
 import threading
-import time
 import urllib.error
 import urllib.request
 
@@ -18,7 +17,7 @@ from ppaloc.cpp import compile_program, run_program
 from ppaloc.cpp.live import PAGE, LiveError, LiveView
 from ppaloc.errors import PpalocError
 
-from .conftest import PROGRAMS, LiveClient
+from .conftest import PROGRAMS, LiveClient, wait_until
 
 LIVE = PROGRAMS / "live.cpp"
 FRAMES = [np.full((64, 64), 100, np.uint8)] * 40
@@ -59,12 +58,11 @@ class Run(LiveClient):
         return json.loads(self.get("state.json")[1])
 
     def wait_for(self, ready, what: str) -> dict:
-        for _ in range(500):
+        def shown() -> dict | None:
             s = self.state()
-            if ready(s):
-                return s
-            time.sleep(0.01)
-        raise AssertionError(f"the live view never showed {what}")
+            return s if ready(s) else None
+
+        return wait_until(shown, f"showed {what}")
 
     def end(self):
         self.thread.join(30)

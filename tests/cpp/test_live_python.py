@@ -5,7 +5,6 @@ from __future__ import annotations
 import io
 import json
 import threading
-import time
 import urllib.error
 import urllib.request
 
@@ -16,7 +15,7 @@ from PIL import Image
 from ppaloc.cpp.live import LiveError, LiveView, image_8bit
 from ppaloc.cpp.livestate import Refused
 
-from .conftest import LiveClient
+from .conftest import LiveClient, wait_until
 
 RAMP = np.arange(12, dtype=np.float64).reshape(3, 4)  # 0 .. 11: scaled to 0 .. 255
 
@@ -62,13 +61,12 @@ class Loop(LiveClient):
 
 def test_a_display_a_slider_and_a_switch_reach_the_python_program():
     loop = Loop()
-    for _ in range(500):
+
+    def shown() -> dict | None:
         s = json.loads(loop.get("state.json"))
-        if len(s["displays"]) == 2 and s["texts"]:
-            break
-        time.sleep(0.01)
-    else:
-        raise AssertionError("the live view never showed the displays and text")
+        return s if len(s["displays"]) == 2 and s["texts"] else None
+
+    s = wait_until(shown, "showed the displays and text")
     assert s["program"] == "demo loop" and s["frames"] == 300 and not s["finished"]
     assert [(d["id"], d["name"]) for d in s["displays"]] == [(0, "ramp"), (1, "mask")]
     assert s["displays"][0]["src"].startswith("display/0.png?v=")
