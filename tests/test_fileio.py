@@ -89,6 +89,29 @@ def test_a_write_through_a_link_replaces_the_file_it_names_and_keeps_the_link(
     assert os.listdir(tmp_path / "data") == ["est.csv"]
 
 
+@pytest.mark.parametrize("anonymous", [True, False])
+@pytest.mark.parametrize("through_a_link", [False, True])
+def test_a_file_that_is_replaced_keeps_its_permissions(
+    tmp_path, monkeypatch, anonymous, through_a_link
+):
+    # the new file took the default mode: a private (0600) file became world-readable, and
+    # a file written through a link lost the mode it had
+    if not anonymous:
+        monkeypatch.setattr(fileio, "_open_anonymous", lambda folder: None)
+    (tmp_path / "data").mkdir()
+    target = tmp_path / "data" / "est.csv"
+    target.write_text("old")
+    target.chmod(0o600)
+    name = tmp_path / "est.csv" if through_a_link else target
+    if through_a_link:
+        name.symlink_to("data/est.csv")
+    write_bytes(name, "new")
+    assert target.read_text() == "new"
+    assert target.stat().st_mode & 0o777 == 0o600
+    write_bytes(tmp_path / "data" / "fresh.csv", "new")  # a new file: the ordinary mode
+    assert (tmp_path / "data" / "fresh.csv").stat().st_mode & 0o777 == default_file_mode()
+
+
 @pytest.mark.parametrize("through_a_link", [False, True])
 def test_a_pipe_is_never_replaced_by_a_write(tmp_path, through_a_link):
     # show est.csv writes est.png beside it, a name no --out check saw: a pipe there (or a

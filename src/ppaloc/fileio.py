@@ -176,7 +176,9 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
     (a named one is removed by the next write of ``path``). A symbolic link is followed,
     as the shell's ``>`` follows it: the file it names is replaced and the link kept
     (replacing the link itself lost it, and ``--out /dev/stdout`` made ``/dev/stdout`` a
-    file). A target that is a device, pipe or socket is refused (a ``PpalocError``).
+    file). A file that is replaced keeps its permissions, as with ``>``; a new one gets
+    :func:`default_file_mode`. A target that is a device, pipe or socket is refused (a
+    ``PpalocError``).
 
     Examples
     --------
@@ -197,6 +199,10 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
             f"{path} is a device, pipe or socket, not a file; writing would replace it: give "
             "a file name (or move it aside)"
         )
+    try:  # the permissions of the file replaced: a private (0600) file stays private
+        kept = os.stat(path).st_mode & 0o777 if path.is_file() else None
+    except OSError:
+        kept = None
     _sweep_stale_files(path.parent, path.name)
     fd = _open_anonymous(path.parent)
     tmp: Path | None = None
@@ -213,6 +219,8 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
         os.fsync(fd)
         if tmp is None:
             tmp = _name_anonymous(fd, path)
+        if kept is not None:
+            os.chmod(tmp, kept)
         os.replace(tmp, path)
         tmp = None
     except OSError as exc:
