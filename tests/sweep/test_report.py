@@ -230,6 +230,9 @@ def _cell(**changes):
         (json.dumps({**summary(), "cells": "x"}), "'cells' is 'x', expected a list of tables"),
         (json.dumps({**summary(), "config": "x"}), "'config' is 'x', expected a table"),
         (json.dumps(_cell(f1_max="high")), "cells[0].f1_max is 'high', expected a number"),
+        # a number no float holds was an internal error (OverflowError) or drawn as inf
+        (json.dumps(_cell(f1_max=10**400)), "cells[0].f1_max is 1000000000000000000000"),
+        (json.dumps(_cell(auc=0.125)).replace("0.125", "1e400"), "cells[0].auc is inf, expected"),
         (json.dumps(_cell(status=5)), "cells[0].status is 5, expected a string"),
         (json.dumps(_cell(method="other")), "cells[0].method 'other' is not in axes.method"),
         # a newer summary was read as if it were this version's

@@ -21,6 +21,7 @@ import html
 import json
 import math
 import os
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -122,9 +123,16 @@ def _summary_problem(summary: Mapping[str, Any]) -> str | None:
                 return f"cells[{i}].{key} {row[key]!r:.80} is not in axes.{axis}"
         for key in ("f1_max", "auc", "recall_at_100p"):
             value = row.get(key)
-            if isinstance(value, bool) or not isinstance(value, int | float | None):
+            if value is not None and not _is_float(value):  # 1e400 reads as inf, 10**400 an int
                 return f"cells[{i}].{key} is {_shown(value)}, expected a number or null"
     return None
+
+
+def _is_float(value: Any) -> bool:
+    """``value`` is a finite number a float holds (an int of 400 digits is not one)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    return -sys.float_info.max <= value <= sys.float_info.max
 
 
 def _shown(value: Any) -> str:
