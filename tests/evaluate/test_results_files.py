@@ -156,6 +156,9 @@ def test_show_from_inside_the_folder_keeps_the_folder_in_place(saved, monkeypatc
         (lambda m: m.__setitem__("auc", True), r"auc is True, expected a number"),
         (lambda m: m.__setitem__("latency_ms_median", "x"), r"latency_ms_median is 'x'"),
         (lambda m: m.__setitem__("recall_at_k", [1, 2]), r"recall_at_k is \[1, 2\]"),
+        # a number no float holds: an internal error (OverflowError) of the table or report
+        (lambda m: m.__setitem__("build_s", 10**400), r"build_s is 10000000000"),
+        (lambda m: m.__setitem__("latency_ms_median", 10**400), r"latency_ms_median is 1000"),
         (lambda m: m.__setitem__("map_kind", 3), r"map_kind is 3, expected a string"),
         # the report reads params' descriptor: an internal error (AttributeError)
         (lambda m: m.__setitem__("params", 5), r"params is 5, expected a table of the method's"),
@@ -182,6 +185,15 @@ def test_a_hand_edited_nan_or_infinity_is_named(saved, mean_match, constant):
     text = json.dumps(summary).replace('"@"', constant)
     (saved / "results.json").write_text(text)
     with pytest.raises(DataError, match=rf"results.json holds {constant}, which is not JSON"):
+        load_results(saved)
+
+
+def test_a_number_beyond_a_float_is_named(saved, mean_match):
+    # 1e400 reads as inf, which ppaloc never writes (strict JSON)
+    summary = json.loads((saved / "results.json").read_text())
+    summary["methods"][mean_match]["f1_max"] = "@"
+    (saved / "results.json").write_text(json.dumps(summary).replace('"@"', "1e400"))
+    with pytest.raises(DataError, match=rf"methods\.{mean_match}\.f1_max is inf, expected"):
         load_results(saved)
 
 

@@ -38,6 +38,7 @@ import io
 import json
 import os
 import re
+import sys
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -508,7 +509,13 @@ def _not_strict_json(name: str) -> Any:
 
 
 def _is_number(v: Any) -> bool:
-    return v is None or (isinstance(v, int | float) and not isinstance(v, bool))
+    """None, or a finite number a float holds: 1e400 reads as inf and an int of 400
+    digits overflows where it is drawn or formatted, and ppaloc writes neither."""
+    if v is None:
+        return True
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return False
+    return -sys.float_info.max <= v <= sys.float_info.max
 
 
 def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
