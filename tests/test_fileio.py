@@ -10,7 +10,7 @@ import pytest
 
 from ppaloc import fileio
 from ppaloc.errors import PpalocError
-from ppaloc.fileio import atomic_write, default_file_mode, write_bytes
+from ppaloc.fileio import atomic_write, default_file_mode, update_folder, write_bytes
 
 
 def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
@@ -87,6 +87,22 @@ def test_a_write_through_a_link_replaces_the_file_it_names_and_keeps_the_link(
     assert (tmp_path / "data" / "est.csv").read_text() == "new"
     assert sorted(os.listdir(tmp_path)) == ["data", "est.csv"]
     assert os.listdir(tmp_path / "data") == ["est.csv"]
+
+
+def test_a_link_in_a_folder_being_replaced_is_replaced_not_written_through(tmp_path):
+    # show rebuilds report.md in a staging copy of the results folder: a report.md that was
+    # a link to the user's notes wrote the notes over before the folder was in
+    (tmp_path / "notes.md").write_text("my notes")
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "report.md").symlink_to("../notes.md")
+    (tmp_path / "run" / "null").symlink_to(os.devnull)
+    with update_folder(tmp_path / "run") as stage:
+        write_bytes(stage / "report.md", "report")
+        write_bytes(stage / "null", "x")
+    assert (tmp_path / "notes.md").read_text() == "my notes"
+    assert not (tmp_path / "run" / "report.md").is_symlink()
+    assert (tmp_path / "run" / "report.md").read_text() == "report"
+    assert (tmp_path / "run" / "null").read_text() == "x"
 
 
 @pytest.mark.parametrize("anonymous", [True, False])

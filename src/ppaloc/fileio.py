@@ -174,7 +174,9 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
     The folder must exist. On an exception the temporary file is removed and ``path`` is
     left as it was; if the process is killed, an anonymous temporary disappears with it
     (a named one is removed by the next write of ``path``). A symbolic link is followed,
-    as the shell's ``>`` follows it: the file it names is replaced and the link kept
+    as the shell's ``>`` follows it (except inside a staging folder of
+    :func:`update_folder` or :func:`new_folder`, whose entries are replaced with the
+    folder): the file it names is replaced and the link kept
     (replacing the link itself lost it, and ``--out /dev/stdout`` made ``/dev/stdout`` a
     file). A file that is replaced keeps its permissions, as with ``>``; a new one gets
     :func:`default_file_mode`. A target that is a device, pipe or socket is refused (a
@@ -190,9 +192,12 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
     'hello'
     """
     path = Path(path)
-    if path.is_symlink():
+    if path.is_symlink() and not _in_stage(path):
+        # a link inside a staging folder is a copy of the folder's entry, replaced with the
+        # folder whole: written through, it changed the file it names before the folder
+        # was in, or if the command then failed
         path = Path(os.path.realpath(path))
-    if path.exists() and not path.is_file() and not path.is_dir():
+    if not path.is_symlink() and path.exists() and not path.is_file() and not path.is_dir():
         # a write replaces its target whole: it never takes the place of a device (a
         # /dev/null), pipe or socket, however the name was reached (--out, a default name)
         raise PpalocError(
@@ -200,7 +205,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
             "a file name (or move it aside)"
         )
     try:  # the permissions of the file replaced: a private (0600) file stays private
-        kept = os.stat(path).st_mode & 0o777 if path.is_file() else None
+        kept = os.stat(path).st_mode & 0o777 if path.is_file() and not path.is_symlink() else None
     except OSError:
         kept = None
     _sweep_stale_files(path.parent, path.name)
