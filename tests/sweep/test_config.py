@@ -398,6 +398,25 @@ def test_the_summary_is_rebuilt_from_the_cell_folders(tmp_path, issue_config):
     assert cell_status(tmp_path, cells[2]) == ("not run", None)  # unparsable: not finished
 
 
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [('"high"', "f1_max is 'high', expected a number"), ("1" + "0" * 400, "f1_max is 10000")],
+)
+def test_a_cell_whose_results_hold_a_field_of_another_type_is_failed(
+    tmp_path, issue_config, value, message
+):
+    # it went into summary.json as it was, and ppaloc show on the sweep refused the summary
+    # (or ended in an internal error), telling to run the sweep again, which kept the cell
+    cell = expand(issue_config)[0]
+    _finish(tmp_path, cell, 0.75)
+    path = tmp_path / cell.folder / "results.json"
+    path.write_text(path.read_text().replace("0.75", value))  # a hand edit
+    status, results = cell_status(tmp_path, cell)
+    assert results is None and f"{path}: methods.{cell.method}.{message}" in status
+    row = collect_summary(issue_config, tmp_path)["cells"][0]
+    assert row["f1_max"] is None and row["status"] == status
+
+
 def test_a_cell_whose_results_hold_nan_is_not_finished(tmp_path, issue_config):
     cell = expand(issue_config)[0]
     _finish(tmp_path, cell, 0.75)

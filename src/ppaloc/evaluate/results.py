@@ -65,6 +65,7 @@ __all__ = [
     "RESULTS_FORMAT",
     "ROLE_COLUMNS",
     "array_file",
+    "check_method_entry",
     "check_replaceable",
     "check_report_figures",
     "load_results",
@@ -518,9 +519,12 @@ def _is_number(v: Any) -> bool:
     return -sys.float_info.max <= v <= sys.float_info.max
 
 
-def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
+def _check_fields(
+    entry: Mapping[str, Any], name: str, path: Path, *, complete: bool = True
+) -> None:
     """The fields a table or report reads from a method's entry have the types ppaloc
-    writes (a hand-edited results.json is named, field and all, in one line)."""
+    writes (a hand-edited results.json is named, field and all, in one line); with
+    ``complete``, every one of :data:`_METRICS` is there."""
 
     def bad(field: str, value: Any, want: str) -> DataError:
         return DataError(
@@ -528,7 +532,7 @@ def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
             "give a folder written by `ppaloc evaluate --out` (or run it again)"
         )
 
-    for field in _METRICS:
+    for field in _METRICS if complete else ():
         if field not in entry:
             raise bad(field, "missing", "a number")
     for field in (*_METRICS, *_NUMBERS):
@@ -567,6 +571,13 @@ def _check_fields(entry: Mapping[str, Any], name: str, path: Path) -> None:
         )
         if not ok:
             raise bad("modelled_time_ms", times, "a table of {low, mid, high} numbers")
+
+
+def check_method_entry(entry: Mapping[str, Any], name: str, path: str | Path) -> None:
+    """Refuse (``DataError``, naming ``path`` and the field) a method's entry of a
+    ``results.json`` where a field a table or report reads, if there, lacks the type
+    ppaloc writes (a sweep's cell: its fields go into the sweep's summary)."""
+    _check_fields(entry, name, Path(path), complete=False)
 
 
 def upgrade_summary(summary: dict[str, Any], path: str | Path = "results.json") -> dict[str, Any]:

@@ -38,6 +38,7 @@ from ppaloc.evaluate.config import (
 from ppaloc.evaluate.results import (
     CSV_COLUMNS,
     ROLE_COLUMNS,
+    check_method_entry,
     upgrade_summary,
     written_by_ppaloc,
 )
@@ -572,7 +573,11 @@ def cell_status(out: str | Path, cell: Cell) -> tuple[str, dict[str, Any] | None
         and isinstance(results["methods"].get(cell.method), dict)
     ):
         try:  # a cell written before a field was renamed is read under today's names
-            return "ok", upgrade_summary(results, folder / "results.json")
+            path = folder / "results.json"
+            results = upgrade_summary(results, path)
+            # a hand-edited field reached summary.json, which show then refused
+            check_method_entry(results["methods"][cell.method], cell.method, path)
+            return "ok", results
         except DataError as exc:
             return str(exc), None
     error = _read_json(folder / "error.json")
