@@ -416,6 +416,21 @@ def test_show_of_a_folder_that_is_no_results_folder_names_the_folder_not_out(tmp
     assert not (tmp_path / "f.png").exists()
 
 
+def test_show_of_a_cpp_runs_folder_names_its_summary_not_out(tmp_path, capsys):
+    # --out was blamed for a folder whose summary.json is a cpp run's, not a sweep's: only
+    # without --out was the summary named as the cause
+    run_folder = tmp_path / "run"
+    run_folder.mkdir()
+    (run_folder / "summary.json").write_text('{"program": "p.cpp", "frames": 0}\n')
+    for extra in ([], ["--out", tmp_path / "f.png"]):
+        code, _, err = run(capsys, "show", run_folder, *extra)
+        assert code == 1
+        assert (
+            err == f"ppaloc: error: {run_folder / 'summary.json'} is not a ppaloc sweep summary\n"
+        )
+    assert not (tmp_path / "f.png").exists()
+
+
 def test_map_refuses_a_missing_folder_before_it_reads_the_dataset(tmp_path, capsys):
     out = tmp_path / "missing" / "m.npz"
     missing = tmp_path / "no-such-route"  # the folder is refused first: nothing is read

@@ -506,6 +506,10 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     if path.is_dir():
         marks = ("results.json", "matrix.csv", "summary.json")  # what _show_results reads
         if out is not None and any((path / name).is_file() for name in marks):
+            if not any((path / name).is_file() for name in marks[:2]):
+                from ppaloc.evaluate.sweep_report import load_summary
+
+                load_summary(path)  # a cpp run's summary.json is named, not --out
             raise DataError(
                 f"--out {out}: a results folder's report is rebuilt inside it "
                 f"({path / 'report.html'}); --out names the PNG of a map, register planes "
