@@ -189,7 +189,7 @@ def test_threads_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     assert Scamp5(4, 5, engine="compiled").engine.threads == 1
     monkeypatch.setattr(numba, "threading_layer", lambda: "workqueue")
     assert usable_threads(2) == 1
-    for bad in ("0", "two", "-1"):
+    for bad in ("0", "two", "-1", "²", "2²"):
         monkeypatch.setenv(THREADS_ENV, bad)
         with pytest.raises(SimulatorError, match=THREADS_ENV):
             threads_from_env()

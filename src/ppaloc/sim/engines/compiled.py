@@ -537,7 +537,7 @@ def fuse_after_from_env() -> int | None:
         return FUSE_AFTER
     if value == "never":
         return None
-    if value.isdigit() and int(value) >= 1:
+    if value.isascii() and value.isdigit() and int(value) >= 1:  # not '²': int() fails
         return int(value)
     raise SimulatorError(f"{FUSE_ENV}={value!r} is invalid: use a number of runs >= 1, or never")
 
@@ -554,7 +554,7 @@ def threads_from_env() -> int:
     value = os.environ.get(THREADS_ENV, "").strip()
     if not value:
         return 1
-    if value.isdigit() and int(value) >= 1:
+    if value.isascii() and value.isdigit() and int(value) >= 1:  # not '²': int() fails
         return int(value)
     raise SimulatorError(f"{THREADS_ENV}={value!r} is invalid: use a number of threads >= 1")
 
