@@ -108,7 +108,7 @@ def test_fuse_after_comes_from_the_environment(monkeypatch: pytest.MonkeyPatch) 
     assert fuse_after_from_env() is None
     monkeypatch.setenv("PPALOC_FUSE_AFTER", "5")
     assert fuse_after_from_env() == 5
-    for bad in ("0", "-2", "soon"):
+    for bad in ("0", "-2", "soon", "²"):
         monkeypatch.setenv("PPALOC_FUSE_AFTER", bad)
         with pytest.raises(SimulatorError, match="PPALOC_FUSE_AFTER"):
             fuse_after_from_env()

@@ -189,7 +189,45 @@ def test_threads_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
     assert Scamp5(4, 5, engine="compiled").engine.threads == 1
     monkeypatch.setattr(numba, "threading_layer", lambda: "workqueue")
     assert usable_threads(2) == 1
-    for bad in ("0", "two", "-1"):
+    for bad in ("0", "two", "-1", "²", "2²"):
         monkeypatch.setenv(THREADS_ENV, bad)
         with pytest.raises(SimulatorError, match=THREADS_ENV):
             threads_from_env()
+
+
+def test_one_thread_compiles_no_parallel_code(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With one thread (the default) a kernel runs the variant of ``_run`` typed with
+    ``threads=None``, which neither calls nor compiles the parallel (``prange``) functions:
+    a fresh numba cache then pays no parallel compilation; a number of threads compiles
+    them when a kernel first calls one."""
+    import numba
+    from numba import types
+
+    from ppaloc.sim.engines import compiled
+
+    monkeypatch.delenv(compiled.THREADS_ENV, raising=False)
+    sim = Scamp5(128, 128, noise="typical", seed=0, engine="compiled")
+    assert sim.engine.threads == 1
+    with sim.kernel() as k:
+        k.icw("bus", (s.B,), (s.A,))
+        k.icw("bus", (s.XE,), (s.B,))
+    assert any(sig[-1] == types.none for sig in compiled._run.signatures)
+
+    def parallel(x, threads):
+        x[0] = threads
+
+    par = numba.njit(parallel)
+    call = compiled._shared(par)
+
+    @numba.njit
+    def kernel(x, threads):
+        if compiled._many(threads):
+            call(x, threads)
+        else:
+            x[0] = -1
+
+    x = np.zeros(1)
+    kernel(x, None)
+    assert x[0] == -1 and par.signatures == []
+    kernel(x, 2)
+    assert x[0] == 2 and len(par.signatures) == 1

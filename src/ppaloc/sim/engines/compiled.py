@@ -49,7 +49,9 @@ from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
+from numba import types
 from numba.core.cpu import CPUTargetOptions
+from numba.extending import overload
 
 from ppaloc.errors import SimulatorError
 from ppaloc.sim.engines import chains, in_order
@@ -502,7 +504,7 @@ class CompiledEngine:
         runs = self._runs
         draws = not noise.ideal and m > 0
         take = noise.take
-        threads = self.threads
+        threads = self.threads if self.threads > 1 else None  # None: no parallel code
 
         def run() -> None:
             if draws:
@@ -535,7 +537,7 @@ def fuse_after_from_env() -> int | None:
         return FUSE_AFTER
     if value == "never":
         return None
-    if value.isdigit() and int(value) >= 1:
+    if value.isascii() and value.isdigit() and int(value) >= 1:  # not '²': int() fails
         return int(value)
     raise SimulatorError(f"{FUSE_ENV}={value!r} is invalid: use a number of runs >= 1, or never")
 
@@ -552,7 +554,7 @@ def threads_from_env() -> int:
     value = os.environ.get(THREADS_ENV, "").strip()
     if not value:
         return 1
-    if value.isdigit() and int(value) >= 1:
+    if value.isascii() and value.isdigit() and int(value) >= 1:  # not '²': int() fails
         return int(value)
     raise SimulatorError(f"{THREADS_ENV}={value!r} is invalid: use a number of threads >= 1")
 
@@ -584,6 +586,40 @@ _jit = numba.njit(cache=True, nogil=True, boundscheck=False, **_NO_RUNTIME)
 _inline = numba.njit(cache=True, nogil=True, boundscheck=False, inline="always", **_NO_RUNTIME)
 # work shared among threads (``numba.prange``), where it comes in pieces large enough
 _par = numba.njit(cache=True, nogil=True, boundscheck=False, parallel=True, **_NO_RUNTIME)
+
+
+def _many(threads):
+    """Whether work is shared: ``threads`` above 1 (``None``, one thread, shares nothing)."""
+    return threads is not None and threads > 1
+
+
+@overload(_many, inline="always")
+def _many_typed(threads):
+    if isinstance(threads, (types.NoneType, types.Omitted)):
+        return lambda threads: False
+    return lambda threads: threads > 1
+
+
+def _shared(parallel):
+    """A call of the ``parallel`` (``prange``) function whose last argument is ``threads``,
+    compiled into a kernel only when ``threads`` is a number: :func:`_run` with
+    ``threads=None`` (one thread, the default) neither calls nor compiles it, so a fresh
+    cache pays numba's parallel compilation only when threads are asked for."""
+
+    def call(*args):
+        return parallel(*args)
+
+    @overload(call)
+    def _typed(*args):
+        if isinstance(args[-1], (types.NoneType, types.Omitted)):
+            return lambda *args: None  # never reached: _many(None) is False
+        return lambda *args: parallel(*args)
+
+    call.__name__ = call.__qualname__ = parallel.__name__.removesuffix("_par")
+    call.__doc__ = parallel.__doc__
+    return call
+
+
 # Every loop below keeps its branches outside the innermost loop (or as selects inside),
 # so that LLVM vectorises it; values are float32 throughout, in the reference's order.
 # Every op works on the rows [r0, r1) of its planes (flat views [r0 * cols, r1 * cols)).
@@ -825,7 +861,7 @@ def _fused_noisy(dst, x0, x1, nl, scale, off, win, flag, flag_all):
 
 
 @_par
-def _fused_noisy_split(dst, x0, x1, nl, scale, off, win, flag, flag_all, threads):
+def _fused_noisy_split_par(dst, x0, x1, nl, scale, off, win, flag, flag_all, threads):
     """:func:`_fused_noisy` with the elements shared among ``threads`` threads, each a
     run of whole 64-element blocks: every element gets the same operations."""
     n = dst.size
@@ -835,6 +871,9 @@ def _fused_noisy_split(dst, x0, x1, nl, scale, off, win, flag, flag_all, threads
         p1 = min(n, ((j + 1) * blocks // threads) * 64)
         _fused_noisy(dst[p0:p1], x0[p0:p1], x1[p0:p1], nl, scale, off[p0:p1], win[p0:p1],
                      flag[p0:p1], flag_all)  # fmt: skip
+
+
+_fused_noisy_split = _shared(_fused_noisy_split_par)
 
 
 @_jit
@@ -904,7 +943,7 @@ def _noisy_into_two(d0, d1, x0, scale, off0, win0, off1, win1):
 
 
 @_par
-def _noisy_into_two_split(d0, d1, x0, scale, off0, win0, off1, win1, threads):
+def _noisy_into_two_split_par(d0, d1, x0, scale, off0, win0, off1, win1, threads):
     """:func:`_noisy_into_two` with the elements shared among ``threads`` threads, in
     whole 64-element blocks."""
     n = d0.size
@@ -914,6 +953,9 @@ def _noisy_into_two_split(d0, d1, x0, scale, off0, win0, off1, win1, threads):
         p1 = min(n, ((j + 1) * blocks // threads) * 64)
         _noisy_into_two(d0[p0:p1], d1[p0:p1], x0[p0:p1], scale, off0[p0:p1], win0[p0:p1],
                         off1[p0:p1], win1[p0:p1])  # fmt: skip
+
+
+_noisy_into_two_split = _shared(_noisy_into_two_split_par)
 
 
 @_inline
@@ -966,13 +1008,16 @@ def _neighbour_move(dst, src, code, read, ideal, scale, off, win, r0, r1):
 
 
 @_par
-def _neighbour_move_split(dst, src, code, read, ideal, scale, off, win, threads):
+def _neighbour_move_split_par(dst, src, code, read, ideal, scale, off, win, threads):
     """:func:`_neighbour_move` over the whole array with its rows shared among
     ``threads`` threads (``dst`` is not ``src``, so no thread reads what another writes)."""
     rows = src.shape[0]
     for j in numba.prange(threads):
         _neighbour_move(dst, src, code, read, ideal, scale, off, win, j * rows // threads,
                         (j + 1) * rows // threads)  # fmt: skip
+
+
+_neighbour_move_split = _shared(_neighbour_move_split_par)
 
 
 @_jit
@@ -1005,7 +1050,7 @@ def _write_bus(dst, tf, parts, ideal, scale, flag, flag_all, off, win):
 
 
 @_par
-def _write_bus_split(dst, tf, parts, scale, flag, flag_all, off, win, threads):
+def _write_bus_split_par(dst, tf, parts, scale, flag, flag_all, off, win, threads):
     """:func:`_write_bus` under noise with the elements shared among ``threads`` threads,
     in whole 64-element blocks."""
     n = dst.size
@@ -1015,6 +1060,9 @@ def _write_bus_split(dst, tf, parts, scale, flag, flag_all, off, win, threads):
         p1 = min(n, ((j + 1) * blocks // threads) * 64)
         _write_bus(dst[p0:p1], tf[p0:p1], parts, False, scale, flag[p0:p1], flag_all,
                    off[p0:p1], win[p0:p1])  # fmt: skip
+
+
+_write_bus_split = _shared(_write_bus_split_par)
 
 
 @_inline
@@ -1042,7 +1090,7 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
         if not ideal:
             win = bank_w[starts[base] + lo : starts[base] + hi]
             off = offsets[d0].reshape(-1)[lo:hi]
-            if threads > 1:
+            if _many(threads):
                 _fused_noisy_split(af[d0][lo:hi], x0, x1, nl, scale, off, win, fb, flag_all,
                                    threads)  # fmt: skip
             else:
@@ -1057,7 +1105,7 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
                 w0 = bank_w[starts[base] + lo : starts[base] + hi]
                 w1 = bank_w[starts[base + 1] + lo : starts[base + 1] + hi]
                 o0, o1 = offsets[e0].reshape(-1)[lo:hi], offsets[e1].reshape(-1)[lo:hi]
-                if threads > 1:
+                if _many(threads):
                     _noisy_into_two_split(af[e0][lo:hi], af[e1][lo:hi], x0, scale, o0, w0,
                                           o1, w1, threads)  # fmt: skip
                 else:
@@ -1073,7 +1121,7 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
                 off = offsets[d0]
                 win = bank_w[starts[base] : starts[base] + rows * cols].reshape(rows, cols)
             code = row[_SD0] if read else code
-            if threads > 1 and not ideal and d0 != (_NEWS if read else locs[0]):
+            if _many(threads) and not ideal and d0 != (_NEWS if read else locs[0]):
                 _neighbour_move_split(a[d0], src, code, read, ideal, scale, off, win, threads)
             else:
                 _neighbour_move(a[d0], src, code, read, ideal, scale, off, win, r0, r1)
@@ -1095,7 +1143,7 @@ def _transfer(row, a, af, df, t, t2, offsets, bank, bank_div, starts, gains, fla
             d0 = row[_D0]
             win = bank_w[starts[base] + lo : starts[base] + hi] if not ideal else bank
             off = offsets[d0].reshape(-1)[lo:hi]
-            if threads > 1 and not ideal:
+            if _many(threads) and not ideal:
                 _write_bus_split(af[d0][lo:hi], tf[lo:hi], parts, scale, fb, flag_all, off,
                                  win, threads)  # fmt: skip
             else:
@@ -1533,7 +1581,7 @@ def _bands_apart(c, heads, outs):
 
 
 @_par
-def _noisy_chain_split(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2,
+def _noisy_chain_split_par(a, prog, first, c, heads, outs, offsets, bank, starts, gains, t, t2,
                        threads):  # fmt: skip
     """:func:`_noisy_chain` with its bands shared among ``threads`` threads, each a run
     of consecutive bands with buffers in its own rows (:func:`_bands_apart` holds): every
@@ -1550,6 +1598,9 @@ def _noisy_chain_split(a, prog, first, c, heads, outs, offsets, bank, starts, ga
         else:
             _noisy_column_bands(a, prog, first, c, heads, outs, offsets, bank, starts, gains,
                                 t, t2, k0, k1, True)  # fmt: skip
+
+
+_noisy_chain_split = _shared(_noisy_chain_split_par)
 
 
 @_jit
@@ -1654,7 +1705,7 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
             if flag_all:
                 if bank.size == 0:
                     _chain(a, row[_PARTS], heads, outs, edges, t, t2)
-                elif threads > 1 and _bands_apart(row[_PARTS], heads, outs):
+                elif _many(threads) and _bands_apart(row[_PARTS], heads, outs):
                     _noisy_chain_split(a, prog, i, row[_PARTS], heads, outs, offsets, bank,
                                        starts, gains, t, t2, threads)  # fmt: skip
                 else:
@@ -1666,8 +1717,8 @@ def _run(prog, a, d, latch, t, t2, tb, offsets, pixel, bank, bank_div, starts, g
             if nruns < 0:
                 nruns = _flag_rows(du[_FLAG], rows, cols, runs)
             for j in range(nruns):
-                _op(row, runs[2 * j], runs[2 * j + 1], a, af, df, du, du2, lu, tbu, tbu2,
-                    t, t2, flag_all, offsets, pixel, bank, bank_div, starts, gains, 1)  # fmt: skip
+                _op(row, runs[2 * j], runs[2 * j + 1], a, af, df, du, du2, lu, tbu, tbu2, t,
+                    t2, flag_all, offsets, pixel, bank, bank_div, starts, gains, None)  # fmt: skip
             continue
         flag_all = _op(row, 0, rows, a, af, df, du, du2, lu, tbu, tbu2, t, t2, flag_all,
             offsets, pixel, bank, bank_div, starts, gains, threads)  # fmt: skip
