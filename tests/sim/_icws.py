@@ -11,12 +11,18 @@ from collections.abc import Mapping, Sequence
 from hypothesis import reject
 from hypothesis import strategies as st
 
+import ppaloc.sim as s
 from ppaloc.errors import RegisterMisuseError
 from ppaloc.sim import OPS
 from ppaloc.sim.isa import make
 
 Pools = Mapping[str, tuple[Sequence, Sequence]]
 """Per register kind (``"analog"``, ``"digital"``): the destinations and the sources."""
+
+LOCAL = [s.A, s.B, s.C, s.D, s.E, s.F]
+"""The analogue registers of an element's own."""
+AXES = {1: [(s.XE, s.XW), (s.XW, s.XE)], 0: [(s.XN, s.XS), (s.XS, s.XN)]}
+"""Per axis: the read of each direction's neighbour, and the push that reads the same one."""
 
 
 @st.composite
@@ -36,3 +42,23 @@ def icws(draw: st.DrawFn, pools: Pools) -> tuple[str, tuple, tuple]:
     except RegisterMisuseError:
         reject()
     return op, regs[0], regs[1]
+
+
+@st.composite
+def chain(draw: st.DrawFn, most: int = 6) -> list[tuple]:
+    """Linked neighbour moves along one axis (2 to ``most`` steps), each reading what the
+    one before wrote, from NEWS or a local plane."""
+    axis = draw(st.sampled_from([0, 1]))
+    read = draw(st.booleans())
+    plane = s.NEWS if read else draw(st.sampled_from(LOCAL))
+    out = []
+    for _ in range(draw(st.integers(2, most))):
+        read_reg, push_reg = draw(st.sampled_from(AXES[axis]))
+        if read:
+            plane = draw(st.sampled_from(LOCAL))
+            out.append(("bus", (plane,), (read_reg,)))
+        else:
+            out.append(("bus", (push_reg,), (plane,)))
+            plane = s.NEWS
+        read = not read
+    return out

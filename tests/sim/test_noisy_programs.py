@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from ppaloc_tests_sim_icws import LOCAL, chain
 from ppaloc_tests_sim_icws import icws as shared_icws
 
 import ppaloc.sim as s
@@ -27,14 +28,11 @@ from ppaloc.sim.registers import ANALOG_PLANES, DIGITAL_PLANES
 
 pytestmark = pytest.mark.skipif("compiled" not in available_engines(), reason="no numba")
 
-LOCAL = [s.A, s.B, s.C, s.D, s.E, s.F]
 LOADED = [*LOCAL, s.NEWS]
 ANALOG_DST = [*LOADED, s.XN, s.XE, s.XS, s.XW]
 ANALOG_SRC = [*ANALOG_DST, s.PIX, s.IN]
 DIGITAL_DST = [getattr(s, f"R{i}") for i in range(13)]
 POOLS = {"analog": (ANALOG_DST, ANALOG_SRC), "digital": (DIGITAL_DST, [*DIGITAL_DST, s.FLAG])}
-#: the read of each direction's neighbour, and the push that reads the same neighbour
-AXES = {1: [(s.XE, s.XW), (s.XW, s.XE)], 0: [(s.XN, s.XS), (s.XS, s.XN)]}
 SHAPES = [(1, 1), (1, 6), (6, 1), (3, 7), (4, 5)]
 SPECIAL = [-128.0, 127.0, -0.0, 0.0, 0.5, -0.5]
 
@@ -48,25 +46,6 @@ NOISES = {
         temporal_sd=0.5, decay_per_ms=500.0, digital_retention_ms=0.002, digital_flip_per_ms=1.0
     ),
 }
-
-
-@st.composite
-def chain(draw: st.DrawFn) -> list[tuple]:
-    """Linked neighbour moves along one axis (2 to 6 steps), from NEWS or a local plane."""
-    axis = draw(st.sampled_from([0, 1]))
-    read = draw(st.booleans())
-    plane = s.NEWS if read else draw(st.sampled_from(LOCAL))
-    out = []
-    for _ in range(draw(st.integers(2, 6))):
-        read_reg, push_reg = draw(st.sampled_from(AXES[axis]))
-        if read:
-            plane = draw(st.sampled_from(LOCAL))
-            out.append(("bus", (plane,), (read_reg,)))
-        else:
-            out.append(("bus", (push_reg,), (plane,)))
-            plane = s.NEWS
-        read = not read
-    return out
 
 
 piece = st.one_of(

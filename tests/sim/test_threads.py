@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from ppaloc_tests_sim_icws import AXES, LOCAL, chain
 from ppaloc_tests_sim_icws import icws as shared_icws
 
 import ppaloc.sim as s
@@ -24,13 +25,10 @@ from ppaloc.sim.registers import ANALOG_PLANES, DIGITAL_PLANES
 
 pytestmark = pytest.mark.skipif("compiled" not in available_engines(), reason="no numba")
 
-LOCAL = [s.A, s.B, s.C, s.D, s.E, s.F]
 ANALOG_DST = [*LOCAL, s.NEWS, s.XN, s.XE, s.XS, s.XW]
 ANALOG_SRC = [*ANALOG_DST, s.PIX, s.IN]
 DIGITAL_DST = [getattr(s, f"R{i}") for i in range(13)]
 POOLS = {"analog": (ANALOG_DST, ANALOG_SRC), "digital": (DIGITAL_DST, [*DIGITAL_DST, s.FLAG])}
-#: the read of each direction's neighbour, and the push that reads the same neighbour
-AXES = {1: [(s.XE, s.XW), (s.XW, s.XE)], 0: [(s.XN, s.XS), (s.XS, s.XN)]}
 #: shapes of one band and of several (a band is about 4096 elements of whole rows)
 SHAPES = [(1, 1), (1, 9), (9, 1), (4, 5), (7, 13), (3, 2048), (9, 1024), (40, 1)]
 SPECIAL = [-128.0, 127.0, -0.0, 0.0, 0.5, -0.5]
@@ -41,25 +39,6 @@ NOISES = {
     "zero": NoiseParams(),
     "aged": NoiseParams(temporal_sd=0.5, fixed_offset_sd=2.0, decay_per_ms=2000.0),
 }
-
-
-@st.composite
-def chain(draw: st.DrawFn) -> list[tuple]:
-    """Linked neighbour moves along one axis (2 to 8 steps), from NEWS or a local plane."""
-    axis = draw(st.sampled_from([0, 1]))
-    read = draw(st.booleans())
-    plane = s.NEWS if read else draw(st.sampled_from(LOCAL))
-    out = []
-    for _ in range(draw(st.integers(2, 8))):
-        read_reg, push_reg = draw(st.sampled_from(AXES[axis]))
-        if read:
-            plane = draw(st.sampled_from(LOCAL))
-            out.append(("bus", (plane,), (read_reg,)))
-        else:
-            out.append(("bus", (push_reg,), (plane,)))
-            plane = s.NEWS
-        read = not read
-    return out
 
 
 def move() -> st.SearchStrategy[list[tuple]]:
@@ -86,7 +65,7 @@ def halving() -> st.SearchStrategy[list[tuple]]:
 
 
 pieces = st.one_of(
-    chain(),
+    chain(most=8),
     move(),
     local(),
     halving(),
