@@ -549,3 +549,44 @@ def test_oracle_moves_short_of_the_query_are_refused_before_the_run(tmp_path, ca
         f"query frames of '{spec}'; give one a query frame, or leave "
         "oracle_moves out to read the dataset's true motion\n"
     )
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "says"),
+    [
+        ("PPALOC_ENGINE", "xx", "PPALOC_ENGINE='xx' is not an engine"),
+        ("PPALOC_THREADS", "abc", "PPALOC_THREADS='abc' is invalid"),
+        ("PPALOC_FUSE_AFTER", "soon", "PPALOC_FUSE_AFTER='soon' is invalid"),
+    ],
+)
+def test_a_bad_engine_setting_is_refused_before_any_method_runs(
+    tmp_path, capsys, monkeypatch, name, value, says
+):
+    # refused when the simulator started, after the host methods listed before it had run
+    pytest.importorskip("numba")
+    import ppaloc.evaluate.run as evaluate_run
+
+    ran: list[str] = []
+    real = evaluate_run.run_method
+    monkeypatch.setattr(
+        evaluate_run, "run_method", lambda name, *a, **k: ran.append(name) or real(name, *a, **k)
+    )
+    monkeypatch.setenv(name, value)
+    spec = "synthetic:?places=12&size=32&sync=1&seed=2"
+    code, _, err = run(
+        capsys, "evaluate", "-d", spec, "-m", "weighted-node-lbp", "-m", "onsensor-lbp",
+        "--no-report", "-q", "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and not (tmp_path / "r").exists() and ran == []
+    assert says in err and err.count("\n") == 1
+
+
+def test_a_bad_thread_count_is_refused_on_a_small_array_too(monkeypatch):
+    # read only for arrays of SPLIT_MIN elements or more, so a small one took any value
+    pytest.importorskip("numba")
+    from ppaloc.errors import SimulatorError
+    from ppaloc.sim import Scamp5
+
+    monkeypatch.setenv("PPALOC_THREADS", "many")
+    with pytest.raises(SimulatorError, match="PPALOC_THREADS='many' is invalid"):
+        Scamp5(8, 8, engine="compiled")

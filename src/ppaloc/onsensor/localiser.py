@@ -47,6 +47,7 @@ from ppaloc.onsensor.precursor import (
 )
 from ppaloc.seeds import SEED_MAX
 from ppaloc.sim import NoiseParams
+from ppaloc.sim.engines import check_environment
 from ppaloc.sim.observe import SimObserver, check_observers
 from ppaloc.sim.timing import Interval, add_counts, diff_counts
 from ppaloc.topomap import KIND_SPECS, TopoMap, layout_for
@@ -94,6 +95,7 @@ def _check_options(representation: str, noise: Any, arithmetic: str, timing_stru
             f"arithmetic={arithmetic!r}: the sensor computes in register arithmetic; "
             "use arithmetic='ppa8' (or the host WeightedNodeLocaliser for 'float')"
         )
+    check_environment()  # $PPALOC_ENGINE and the engine's settings, before any method runs
 
 
 class OnSensorLocaliser(DeclaredSpeeds):

@@ -30,6 +30,7 @@ __all__ = [
     "ENGINES",
     "Engine",
     "available_engines",
+    "check_environment",
     "default_engine",
     "finish_compiles",
     "in_order",
@@ -87,6 +88,18 @@ def default_engine() -> str:
         _check(name, f"{ENV_VAR}={name!r}")
         return name
     return available_engines()[-1]
+
+
+def check_environment() -> None:
+    """Refuse, in one line and before any work, an environment setting the default engine
+    would refuse at its first simulator: ``$PPALOC_ENGINE``, and for the compiled engine
+    ``$PPALOC_FUSE_AFTER`` and ``$PPALOC_THREADS`` (a command that runs host methods
+    first would otherwise run them before it fails)."""
+    if default_engine() == "compiled":
+        from ppaloc.sim.engines.compiled import fuse_after_from_env, threads_from_env
+
+        fuse_after_from_env()
+        threads_from_env()
 
 
 def _check(name: object, shown: str) -> None:

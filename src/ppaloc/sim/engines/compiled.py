@@ -286,9 +286,8 @@ class CompiledEngine:
         #: Threads that share the work of a kernel's larger pieces under noise (noisy
         #: chains, neighbour moves and one-pass transfers; :func:`threads_from_env`), on
         #: arrays of at least :data:`SPLIT_MIN` elements. Read when a kernel is compiled.
-        self.threads = 1
-        if sim.rows * sim.cols >= SPLIT_MIN:
-            self.threads = usable_threads(threads_from_env())
+        asked = threads_from_env()  # a bad value is refused on any array, large or small
+        self.threads = usable_threads(asked) if sim.rows * sim.cols >= SPLIT_MIN else 1
 
     def supports(self, op: str) -> bool:
         """Whether ``op`` has compiled code (others run through the numpy engine)."""
