@@ -26,6 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -68,16 +69,13 @@ def localiser(package: ModuleType, representation: str, noise: str):
     return loc
 
 
-def side_by_side(base: ModuleType, representation: str, noise: str, rounds: int) -> str:
-    """One line of figures: both trees' localisers, frames alternating."""
+def alternate(locs: dict[Any, Any], rounds: int) -> dict[Any, list[float]]:
+    """Each localiser of ``locs`` stepped through the benchmark's frames ``rounds`` times,
+    frame by frame, the one that goes first alternating (both see the same load): the
+    seconds of every step, per key."""
     import bench_onsensor as bench
-    import ppaloc
 
-    locs = {
-        "base": localiser(base, representation, noise),
-        "tree": localiser(ppaloc, representation, noise),
-    }
-    times: dict[str, list[float]] = {k: [] for k in locs}
+    times: dict[Any, list[float]] = {k: [] for k in locs}
     order = list(locs)
     for _ in range(rounds):
         for frame in bench.frames():
@@ -86,14 +84,40 @@ def side_by_side(base: ModuleType, representation: str, noise: str, rounds: int)
                 t = time.perf_counter()
                 locs[k].step(frame)
                 times[k].append(time.perf_counter() - t)
-    ests = {k: [loc.step(f) for f in bench.frames()] for k, loc in locs.items()}
-    same = all(
-        (a.node, a.score, a.modelled_latency_ms, a.energy_mj)
-        == (b.node, b.score, b.modelled_latency_ms, b.energy_mj)
-        for a, b in zip(ests["base"], ests["tree"], strict=True)
+    return times
+
+
+def same_estimates(a: Any, b: Any) -> bool:
+    """Whether two localisers give the same node, score, modelled latency and energy on
+    one more pass over the benchmark's frames."""
+    import bench_onsensor as bench
+
+    return all(
+        (x.node, x.score, x.modelled_latency_ms, x.energy_mj)
+        == (y.node, y.score, y.modelled_latency_ms, y.energy_mj)
+        for x, y in zip(
+            [a.step(f) for f in bench.frames()], [b.step(f) for f in bench.frames()], strict=True
+        )
     )
-    m0, m1 = statistics.median(times["base"]), statistics.median(times["tree"])
-    paired = statistics.median(a / b for a, b in zip(times["base"], times["tree"], strict=True))
+
+
+def medians(a: list[float], b: list[float]) -> tuple[float, float, float]:
+    """(median of ``a``, median of ``b``, median of the paired ratios ``a / b``)."""
+    paired = statistics.median(x / y for x, y in zip(a, b, strict=True))
+    return statistics.median(a), statistics.median(b), paired
+
+
+def side_by_side(base: ModuleType, representation: str, noise: str, rounds: int) -> str:
+    """One line of figures: both trees' localisers, frames alternating."""
+    import ppaloc
+
+    locs = {
+        "base": localiser(base, representation, noise),
+        "tree": localiser(ppaloc, representation, noise),
+    }
+    times = alternate(locs, rounds)
+    same = same_estimates(locs["base"], locs["tree"])
+    m0, m1, paired = medians(times["base"], times["tree"])
     return (
         f"{representation:8s} {noise:8s} base {m0 * 1e3:6.2f} ms ({1 / m0:6.1f} frames/s)  "
         f"tree {m1 * 1e3:6.2f} ms ({1 / m1:6.1f} frames/s)  ratio {m0 / m1:.3f}  "

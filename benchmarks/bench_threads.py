@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -36,31 +34,18 @@ def busy() -> tuple[int, int]:
 def side_by_side(representation: str, noise: str, threads: int, rounds: int) -> str:
     """One line of figures: the localisers of one thread and of ``threads``."""
     import bench_onsensor as bench
+    from bench_side_by_side import alternate, medians, same_estimates
     from ppaloc.sim.engines.compiled import THREADS_ENV
 
     locs = {}
     for k in (1, threads):
         os.environ[THREADS_ENV] = str(k)
         locs[k] = bench.localiser(representation, noise)
-    times: dict[int, list[float]] = {k: [] for k in locs}
-    order = list(locs)
     b0, t0 = busy()
-    for _ in range(rounds):
-        for frame in bench.frames():
-            order.reverse()
-            for k in order:
-                t = time.perf_counter()
-                locs[k].step(frame)
-                times[k].append(time.perf_counter() - t)
+    times = alternate(locs, rounds)
     b1, t1 = busy()
-    ests = {k: [loc.step(f) for f in bench.frames()] for k, loc in locs.items()}
-    same = all(
-        (a.node, a.score, a.modelled_latency_ms, a.energy_mj)
-        == (b.node, b.score, b.modelled_latency_ms, b.energy_mj)
-        for a, b in zip(ests[1], ests[threads], strict=True)
-    )
-    m1, mn = statistics.median(times[1]), statistics.median(times[threads])
-    paired = statistics.median(a / b for a, b in zip(times[1], times[threads], strict=True))
+    same = same_estimates(locs[1], locs[threads])
+    m1, mn, paired = medians(times[1], times[threads])
     load = f"{100 * (b1 - b0) / (t1 - t0):.0f}%" if t1 > t0 else "?"
     return (
         f"{representation:8s} {noise:8s} 1 thread {m1 * 1e3:6.2f} ms ({1 / m1:6.1f} frames/s)  "
