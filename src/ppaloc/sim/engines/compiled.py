@@ -859,15 +859,21 @@ def _fused_noisy(dst, x0, x1, nl, scale, off, win, flag, flag_all):
             dst[p] = v if flag[p] else old
 
 
+@_inline
+def _blocks(n, j, threads):
+    """The elements ``[p0, p1)`` thread ``j`` of ``threads`` takes of ``n``: a run of whole
+    64-element blocks, the runs of all threads covering every element once."""
+    blocks = (n + 63) // 64
+    return min(n, (j * blocks // threads) * 64), min(n, ((j + 1) * blocks // threads) * 64)
+
+
 @_par
 def _fused_noisy_split_par(dst, x0, x1, nl, scale, off, win, flag, flag_all, threads):
     """:func:`_fused_noisy` with the elements shared among ``threads`` threads, each a
     run of whole 64-element blocks: every element gets the same operations."""
     n = dst.size
-    blocks = (n + 63) // 64
     for j in numba.prange(threads):
-        p0 = min(n, (j * blocks // threads) * 64)
-        p1 = min(n, ((j + 1) * blocks // threads) * 64)
+        p0, p1 = _blocks(n, j, threads)
         _fused_noisy(dst[p0:p1], x0[p0:p1], x1[p0:p1], nl, scale, off[p0:p1], win[p0:p1],
                      flag[p0:p1], flag_all)  # fmt: skip
 
@@ -946,10 +952,8 @@ def _noisy_into_two_split_par(d0, d1, x0, scale, off0, win0, off1, win1, threads
     """:func:`_noisy_into_two` with the elements shared among ``threads`` threads, in
     whole 64-element blocks."""
     n = d0.size
-    blocks = (n + 63) // 64
     for j in numba.prange(threads):
-        p0 = min(n, (j * blocks // threads) * 64)
-        p1 = min(n, ((j + 1) * blocks // threads) * 64)
+        p0, p1 = _blocks(n, j, threads)
         _noisy_into_two(d0[p0:p1], d1[p0:p1], x0[p0:p1], scale, off0[p0:p1], win0[p0:p1],
                         off1[p0:p1], win1[p0:p1])  # fmt: skip
 
@@ -1053,10 +1057,8 @@ def _write_bus_split_par(dst, tf, parts, scale, flag, flag_all, off, win, thread
     """:func:`_write_bus` under noise with the elements shared among ``threads`` threads,
     in whole 64-element blocks."""
     n = dst.size
-    blocks = (n + 63) // 64
     for j in numba.prange(threads):
-        p0 = min(n, (j * blocks // threads) * 64)
-        p1 = min(n, ((j + 1) * blocks // threads) * 64)
+        p0, p1 = _blocks(n, j, threads)
         _write_bus(dst[p0:p1], tf[p0:p1], parts, False, scale, flag[p0:p1], flag_all,
                    off[p0:p1], win[p0:p1])  # fmt: skip
 
