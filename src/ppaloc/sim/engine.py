@@ -159,6 +159,15 @@ def droop_planes(instructions: Iterable[Instruction]) -> tuple[tuple[int, ...], 
     return tuple(sorted(touched)), overwritten_first(instructions)
 
 
+def _named_planes(instructions: tuple[Instruction, ...]) -> tuple[frozenset[int], frozenset[int]]:
+    """(the analogue planes the ICWs name; those of them the kernel overwrites whole before
+    reading, :func:`overwritten_first`): what :meth:`Scamp5._settle_fills` takes."""
+    used = frozenset(
+        r.index for ins in instructions for r in (*ins.dsts, *ins.srcs) if r.kind == "analog"
+    )
+    return used, overwritten_first(instructions)
+
+
 def constant_prefix(instructions: tuple[Instruction, ...]) -> tuple[Instruction, ...]:
     """The kernel's leading bus transfers (``bus``, ``bus2``, ``bus3``, ``busn``) that read
     and write only their own element's registers (no neighbour alias, one source or more):
@@ -631,15 +640,17 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         them, :meth:`_settle_fills`), and with droop applies the droop pending on those
         planes (the others keep accumulating it until something touches them).
         """
-        run = self.engine.compile(tuple(instructions))
-        run = self._with_fills(self._with_droop(run, instructions), instructions)
-        return self._with_folding(run, tuple(instructions))
+        instructions = tuple(instructions)
+        run = self._with_droop(self.engine.compile(instructions), instructions)
+        return self._with_folding(run, instructions)
 
     def _with_folding(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
-        """``run``, or in ideal mode on an engine that folds (``engine.folds``) a runner
-        that computes the kernel's leading transfers on constants once, not once per
-        element, when they read only planes with a deferred fill (:meth:`_fill_later`)
-        and FLAG is known to be set everywhere as the kernel starts.
+        """``run`` after the deferred fills of the planes the ICWs name are settled
+        (:meth:`_with_fills`), or in ideal mode on an engine that folds
+        (``engine.folds``) a runner that computes the kernel's leading transfers on
+        constants once, not once per element, when they read only planes with a deferred
+        fill (:meth:`_fill_later`) and FLAG is known to be set everywhere as the kernel
+        starts.
 
         Such a transfer (``bus``, ``bus2``, ``bus3``, ``busn`` of local registers, one
         source or more: :func:`constant_prefix`) writes one constant into every element
@@ -649,11 +660,11 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         length of the folded prefix). The bytes are those of the whole kernel: the fills
         are written when the planes are next used, or dropped.
         """
-        if not self.noise.ideal or not getattr(self.engine, "folds", False):
-            return run
-        prefix = constant_prefix(instructions)
+        prefix = ()
+        if self.noise.ideal and getattr(self.engine, "folds", False):
+            prefix = constant_prefix(instructions)
         if not prefix:
-            return run
+            return self._with_fills(run, instructions)
         steps = tuple(
             (
                 tuple(r.index for r in ins.srcs),
@@ -675,6 +686,8 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         first = cuts[-1][1]  # what the first transfer reads: no fold without it
         rests: dict[int, Op | None] = {}
         fills = self._fills
+        used, fresh = _named_planes(instructions)
+        settle = self._settle_fills
 
         def rest_of(n: int) -> Op | None:
             rest_ins = instructions[n:]
@@ -683,16 +696,18 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             return rest
 
         def run_folding() -> None:
-            if fills and self._flag_masked is False and first.issubset(fills):
-                for n, need, wrote in cuts:
-                    if need.issubset(fills):
-                        values = fold_transfers(steps[:n], {i: fills[i] for i in need})
-                        for i in wrote:
-                            fills[i] = values[i]
-                        rest = rests[n] if n in rests else rest_of(n)
-                        if rest is not None:
-                            rest()
-                        return
+            if fills:
+                if self._flag_masked is False and first.issubset(fills):
+                    for n, need, wrote in cuts:
+                        if need.issubset(fills):
+                            values = fold_transfers(steps[:n], {i: fills[i] for i in need})
+                            for i in wrote:
+                                fills[i] = values[i]
+                            rest = rests[n] if n in rests else rest_of(n)
+                            if rest is not None:
+                                rest()
+                            return
+                settle(used, fresh)  # what _with_fills's runner does, in this call
             run()
 
         return run_folding
@@ -700,15 +715,13 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
     def _with_fills(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
         """``run``, first settling the deferred fills of the planes the ICWs name
         (:meth:`_settle_fills`)."""
-        used = frozenset(
-            r.index for ins in instructions for r in (*ins.dsts, *ins.srcs) if r.kind == "analog"
-        )
-        fresh = overwritten_first(instructions)
+        used, fresh = _named_planes(instructions)
         fills = self._fills
+        settle = self._settle_fills
 
         def run_filled() -> None:
             if fills:
-                self._settle_fills(used, fresh)
+                settle(used, fresh)
             run()
 
         return run_filled
@@ -770,6 +783,34 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         self.timing.charge_kernel(counts)
         if self._retention and dwritten.size:
             self._touch_digital(dwritten)
+
+    def _kernel_runner(
+        self, run: Op, counts: tuple[tuple[str, int], ...], dwritten: np.ndarray
+    ) -> Op:
+        """One call that does what :meth:`_run_ops` does for a recorded kernel (``run``,
+        its ``counts`` and the digital planes it writes), its choices made once: the noise
+        mode, whether digital writes are timed, and the kernel's cost
+        (:meth:`TimingModel.kernel_charger`). A kernel runs through it while nothing
+        observes the simulator (:meth:`Kernel.run`); the same planes, draws, clock and
+        charges as :meth:`_run_ops`."""
+        timing = self.timing
+        charge = timing.kernel_charger(counts)
+        elapse = None if self.noise.ideal else self._elapse
+        touched = dwritten if self._retention and dwritten.size else None
+
+        def run_kernel() -> None:
+            if elapse is not None:
+                elapse()
+            self._flag_partial = False  # the kernel may change FLAG
+            run()
+            if self.timing is timing:
+                charge()
+            else:  # a timing model put in place since
+                self.timing.charge_kernel(counts)
+            if touched is not None:
+                self._touch_digital(touched)
+
+        return run_kernel
 
     def _touch_digital(self, planes: np.ndarray | int) -> None:
         """Digital ``planes`` (indices) written now: their retention starts again (nothing
