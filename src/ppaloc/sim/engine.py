@@ -409,6 +409,8 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         known to be set everywhere (the kernel then overwrites them whole before reading:
         the fill is never seen); fills of planes the kernel does not name stay deferred."""
         fills = self._fills
+        if used.isdisjoint(fills):
+            return
         whole = self._flag_masked is False
         for i in [i for i in fills if i in used]:
             value = fills.pop(i)
@@ -675,13 +677,13 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         )
         # per length n of a folded prefix (longest first): the planes it reads before
         # writing them (each must hold a fill) and the planes it writes
-        cuts: list[tuple[int, frozenset[int], frozenset[int]]] = []
+        cuts: list[tuple[int, frozenset[int], frozenset[int], tuple[int, ...]]] = []
         needed: set[int] = set()
         written: set[int] = set()
         for n, (srcs, _, dsts) in enumerate(steps, 1):
             needed |= set(srcs) - written
             written |= set(dsts)
-            cuts.append((n, frozenset(needed), frozenset(written)))
+            cuts.append((n, frozenset(needed), frozenset(written), tuple(sorted(needed))))
         cuts.reverse()
         first = cuts[-1][1]  # what the first transfer reads: no fold without it
         rests: dict[int, Op | None] = {}
@@ -695,14 +697,31 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             rests[n] = rest
             return rest
 
+        # (prefix length, the levels it reads) -> the levels it leaves, per plane it
+        # writes: a frame folds the same levels again and again (the fraction tests' DAC
+        # loads). Not kept for a zero read (0.0 and -0.0 are equal keys, not the same bytes)
+        folded: dict[tuple, tuple[tuple[int, float], ...]] = {}
+
+        def fold(n: int, need: tuple[int, ...], wrote: frozenset[int]) -> None:
+            levels = tuple([fills[i] for i in need])
+            key = (n, levels)
+            out = folded.get(key)
+            if out is None:
+                values = fold_transfers(steps[:n], dict(zip(need, levels, strict=True)))
+                out = tuple([(i, values[i]) for i in wrote])
+                if 0.0 not in levels:
+                    if len(folded) >= 256:
+                        folded.clear()
+                    folded[key] = out
+            for i, value in out:
+                fills[i] = value
+
         def run_folding() -> None:
             if fills:
                 if self._flag_masked is False and first.issubset(fills):
-                    for n, need, wrote in cuts:
+                    for n, need, wrote, order in cuts:
                         if need.issubset(fills):
-                            values = fold_transfers(steps[:n], {i: fills[i] for i in need})
-                            for i in wrote:
-                                fills[i] = values[i]
+                            fold(n, order, wrote)
                             rest = rests[n] if n in rests else rest_of(n)
                             if rest is not None:
                                 rest()
