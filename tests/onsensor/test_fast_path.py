@@ -74,3 +74,20 @@ def test_an_unobserved_run_leaves_what_an_observed_run_does(rep: str, noise: str
         for a, b in zip(*sims, strict=True):
             assert_same(state(a), state(b))
     assert "KernelRun" in events  # the observed localiser did run through the observed path
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp"])
+def test_a_roots_pe_is_its_blocks_corner_asked_once_or_again(rep: str) -> None:
+    """``Sensor.root_of`` keeps each node's root: the same PE on every call, the corner of
+    the node's block in the snake layout plus its tile's column offset."""
+    loc = OnSensorLocaliser(rep, size=SIZE)
+    loc.use_map(loc.build_map(route()[0]))
+    sensor = loc.pipeline.sensor
+    layout = sensor.layout
+    nodes = np.arange(sensor.n_nodes)
+    tile, br, bc = layout.node_to_block(nodes)
+    rows, cols = br * sensor.bh, bc * sensor.bw + tile
+    want = [(int(r), int(c)) for r, c in zip(rows, cols, strict=True)]
+    for _ in range(2):
+        assert [sensor.root_of(int(n)) for n in nodes] == want
+        assert [sensor.root_of(np.int64(n)) for n in nodes[::-1]] == want[::-1]
