@@ -203,6 +203,41 @@ def test_a_kernel_on_constants_folds(monkeypatch):
     assert (sim.read(s.D) == 1.75).all() and (sim.read(s.E) == -3.5).all()
 
 
+def test_a_kernel_folded_again_and_again_leaves_the_same_bytes():
+    """A kernel folds the same levels on many runs (the fraction tests of a frame): its
+    folds are kept per levels read, never for a zero (``0.0`` and ``-0.0`` are equal
+    keys), and every run leaves the bytes of the reference engine writing every fill."""
+    if "compiled" not in available_engines():
+        pytest.skip("folding is the compiled engine's")
+    # levels of D: repeated, both signs, the ends, and zeros of both signs (a negated 0.0
+    # left by the first kernel, then 0.0 from the DAC)
+    levels = [7, 7, -3, 7, 127, -128, -3, None, 0, None, 0, 5, 7]
+    runs = []
+    for cls, engine in ((Scamp5, "compiled"), (Eager, "reference")):
+        sim = cls(8, 8, engine=engine)
+        sim.write(s.C, np.arange(64).reshape(8, 8) - 32)
+        with sim.kernel() as negate:
+            negate.bus(s.D, s.A)
+        with sim.kernel() as k:  # E := -D keeps a zero's sign (negated), D := -E / 2
+            k.bus(s.E, s.D)
+            k.bus2(s.D, s.NEWS, s.E)
+            k.bus(s.NEWS, s.C)
+            k.where(s.IN, s.D, s.NEWS)
+            k.all()
+        seen = []
+        for v in levels:
+            if v is None:  # D := -0.0, a fill left by a folded kernel
+                sim.scamp5_in(s.A, 0, s.B)
+                negate.run()
+            else:
+                sim.scamp5_in(s.D, v)
+            sim.load_in(3)
+            k.run()
+            seen.append(sim._a.tobytes())  # every plane's bytes, every fill written
+        runs.append([*seen, sim._d.tobytes()])
+    assert runs[0] == runs[1]
+
+
 def count_fills(monkeypatch) -> list[int]:
     """The planes' addresses of every fill pass from now on."""
     passes: list[int] = []

@@ -156,6 +156,21 @@ def test_a_stretch_is_compiled_in_the_background_and_then_taken_from_the_cache(
     assert loads == [text, text]
 
 
+def test_a_waiting_stretch_looks_for_the_files_cached_and_failed_read(fused) -> None:
+    """The marks a stretch waiting for its code looks for every 16 runs (as text, one
+    ``os.path.exists`` each) are the files :func:`cached` and :func:`failed` read."""
+    import pathlib
+
+    text = "x = 1\n"
+    done, failed = fused.marks(text)
+    assert not fused.cached(text) and not fused.failed(text)
+    pathlib.Path(done).parent.mkdir(parents=True, exist_ok=True)
+    pathlib.Path(done).touch()
+    assert fused.cached(text) and not fused.failed(text)
+    pathlib.Path(failed).touch()
+    assert fused.failed(text)
+
+
 def test_a_cache_folder_that_cannot_be_written_compiles_in_memory(
     monkeypatch: pytest.MonkeyPatch, tmp_path
 ) -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -69,13 +71,21 @@ def test_replay_equals_re_recording(noise: str) -> None:
 
 def test_every_run_is_charged_to_the_timing_model() -> None:
     sim = fresh()
-    charged = []
-    sim.timing.charge_kernel = lambda counts: charged.append(dict(counts))
-    with sim.kernel() as k:
+    with sim.stage("recorded"), sim.kernel() as k:
         program(k)
-    k.run()
-    sim.mov(A, B)  # a direct call is a kernel of its own
-    assert charged == [k.counts, k.counts, {"analog": 2, "digital": 0, "dnews": 0, "nop": 0}]
+    with sim.stage("replayed"):
+        k.run()
+    with sim.stage("direct"):
+        sim.mov(A, B)  # a direct call is a kernel of its own
+    report = sim.timing.report()
+    nonzero = {c: n for c, n in k.counts.items() if n}
+    assert [(report.stage(s).kernels, report.stage(s).icws) for s in ("recorded", "replayed")] == [
+        (1, nonzero),
+        (1, nonzero),
+    ]
+    assert (report.stage("direct").kernels, report.stage("direct").icws) == (1, {"analog": 2})
+    assert sim.timing.now_us == pytest.approx(sum(r.us for r in report.stages))
+    assert report.stage("recorded").us == report.stage("replayed").us > 0
 
 
 def test_the_icw_stack_drops_what_does_not_fit() -> None:
@@ -145,3 +155,24 @@ def test_a_kernel_whose_recording_failed_cannot_be_reused() -> None:
     with pytest.raises(KernelError, match=r"recording of this kernel failed"):
         k.run()
     assert len(k) == 2  # what was recorded before the failure, for inspection
+
+
+def test_a_replay_is_charged_at_the_costs_of_its_run() -> None:
+    """A kernel's cost is bound once for its runs while nothing observes the simulator;
+    a change of the clock or the constants since is charged as the observed run charges
+    it (``TimingModel.charge_kernel``)."""
+    sims = [fresh(), fresh()]
+    sims[1].observe(lambda sim, event: None)  # runs through Scamp5._run_ops
+    for sim in sims:
+        with sim.kernel() as k:
+            program(k)
+        sim.timing.clock_hz = 5e6
+        k.run()
+        sim.timing.constants = dataclasses.replace(sim.timing.constants, kernel_launch_us=2.0)
+        k.run()
+        sim.timing.reset()
+        k.run()
+    plain, observed = (sim.timing for sim in sims)
+    assert plain.report().as_dict() == observed.report().as_dict()
+    assert (plain.now_us, plain.energy_uj) == (observed.now_us, observed.energy_uj)
+    assert plain.report().stages[0].kernels == 1

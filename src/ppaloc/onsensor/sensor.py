@@ -108,6 +108,7 @@ class Sensor:
         self.layout: SnakeLayout = layout_for(representation, (size, size))
         self.bh, self.bw = self.layout.block_shape
         self.block_nodes = self._block_node_table()
+        self._roots: dict[int, tuple[int, int]] = {}  # node -> its root PE (root_of)
         self.n_nodes = int(n_nodes)
         self.tiles = self.tiles_for(self.n_nodes)
         self.run_steps = 0
@@ -118,6 +119,8 @@ class Sensor:
         self.local_plans: dict[int, tuple[np.ndarray, list[tuple[int, int]]]] = {}
         self.sim = Scamp5(size, size, noise=noise, seed=seed, observers=observers)
         self.kernels = KernelCache(self.sim)
+        # the cache's own call, without this method's frame on every kernel run
+        self.run = self.kernels.run  # type: ignore[method-assign]
         self.node_grid()
 
     # ------------------------------------------------------------------ geometry
@@ -167,9 +170,14 @@ class Sensor:
         return np.sort(self.block_nodes[events[:, 0] // self.bh, events[:, 1]])
 
     def root_of(self, node: int) -> tuple[int, int]:
-        """The PE ``(row, col)`` of ``node``'s root (tile offset included)."""
-        tile, br, bc = self.layout.node_to_block(np.array([node]))
-        return int(br[0]) * self.bh, int(bc[0]) * self.bw + int(tile[0])
+        """The PE ``(row, col)`` of ``node``'s root (tile offset included; worked out once
+        per node, as the local term and the carry ask for a few every frame)."""
+        root = self._roots.get(node)
+        if root is None:
+            tile, br, bc = self.layout.node_to_block(np.array([node]))
+            root = int(br[0]) * self.bh, int(bc[0]) * self.bw + int(tile[0])
+            self._roots[int(node)] = root
+        return root
 
     # ------------------------------------------------------------------ kernels and masks
     def run(self, build: Callable[..., Any], *args: Any) -> Kernel:

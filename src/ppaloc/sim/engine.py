@@ -159,6 +159,15 @@ def droop_planes(instructions: Iterable[Instruction]) -> tuple[tuple[int, ...], 
     return tuple(sorted(touched)), overwritten_first(instructions)
 
 
+def _named_planes(instructions: tuple[Instruction, ...]) -> tuple[frozenset[int], frozenset[int]]:
+    """(the analogue planes the ICWs name; those of them the kernel overwrites whole before
+    reading, :func:`overwritten_first`): what :meth:`Scamp5._settle_fills` takes."""
+    used = frozenset(
+        r.index for ins in instructions for r in (*ins.dsts, *ins.srcs) if r.kind == "analog"
+    )
+    return used, overwritten_first(instructions)
+
+
 def constant_prefix(instructions: tuple[Instruction, ...]) -> tuple[Instruction, ...]:
     """The kernel's leading bus transfers (``bus``, ``bus2``, ``bus3``, ``busn``) that read
     and write only their own element's registers (no neighbour alias, one source or more):
@@ -400,6 +409,8 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         known to be set everywhere (the kernel then overwrites them whole before reading:
         the fill is never seen); fills of planes the kernel does not name stay deferred."""
         fills = self._fills
+        if used.isdisjoint(fills):
+            return
         whole = self._flag_masked is False
         for i in [i for i in fills if i in used]:
             value = fills.pop(i)
@@ -631,15 +642,17 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         them, :meth:`_settle_fills`), and with droop applies the droop pending on those
         planes (the others keep accumulating it until something touches them).
         """
-        run = self.engine.compile(tuple(instructions))
-        run = self._with_fills(self._with_droop(run, instructions), instructions)
-        return self._with_folding(run, tuple(instructions))
+        instructions = tuple(instructions)
+        run = self._with_droop(self.engine.compile(instructions), instructions)
+        return self._with_folding(run, instructions)
 
     def _with_folding(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
-        """``run``, or in ideal mode on an engine that folds (``engine.folds``) a runner
-        that computes the kernel's leading transfers on constants once, not once per
-        element, when they read only planes with a deferred fill (:meth:`_fill_later`)
-        and FLAG is known to be set everywhere as the kernel starts.
+        """``run`` after the deferred fills of the planes the ICWs name are settled
+        (:meth:`_with_fills`), or in ideal mode on an engine that folds
+        (``engine.folds``) a runner that computes the kernel's leading transfers on
+        constants once, not once per element, when they read only planes with a deferred
+        fill (:meth:`_fill_later`) and FLAG is known to be set everywhere as the kernel
+        starts.
 
         Such a transfer (``bus``, ``bus2``, ``bus3``, ``busn`` of local registers, one
         source or more: :func:`constant_prefix`) writes one constant into every element
@@ -649,11 +662,11 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         length of the folded prefix). The bytes are those of the whole kernel: the fills
         are written when the planes are next used, or dropped.
         """
-        if not self.noise.ideal or not getattr(self.engine, "folds", False):
-            return run
-        prefix = constant_prefix(instructions)
+        prefix = ()
+        if self.noise.ideal and getattr(self.engine, "folds", False):
+            prefix = constant_prefix(instructions)
         if not prefix:
-            return run
+            return self._with_fills(run, instructions)
         steps = tuple(
             (
                 tuple(r.index for r in ins.srcs),
@@ -664,17 +677,19 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         )
         # per length n of a folded prefix (longest first): the planes it reads before
         # writing them (each must hold a fill) and the planes it writes
-        cuts: list[tuple[int, frozenset[int], frozenset[int]]] = []
+        cuts: list[tuple[int, frozenset[int], frozenset[int], tuple[int, ...]]] = []
         needed: set[int] = set()
         written: set[int] = set()
         for n, (srcs, _, dsts) in enumerate(steps, 1):
             needed |= set(srcs) - written
             written |= set(dsts)
-            cuts.append((n, frozenset(needed), frozenset(written)))
+            cuts.append((n, frozenset(needed), frozenset(written), tuple(sorted(needed))))
         cuts.reverse()
         first = cuts[-1][1]  # what the first transfer reads: no fold without it
         rests: dict[int, Op | None] = {}
         fills = self._fills
+        used, fresh = _named_planes(instructions)
+        settle = self._settle_fills
 
         def rest_of(n: int) -> Op | None:
             rest_ins = instructions[n:]
@@ -682,17 +697,36 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
             rests[n] = rest
             return rest
 
+        # (prefix length, the levels it reads) -> the levels it leaves, per plane it
+        # writes: a frame folds the same levels again and again (the fraction tests' DAC
+        # loads). Not kept for a zero read (0.0 and -0.0 are equal keys, not the same bytes)
+        folded: dict[tuple, tuple[tuple[int, float], ...]] = {}
+
+        def fold(n: int, need: tuple[int, ...], wrote: frozenset[int]) -> None:
+            levels = tuple([fills[i] for i in need])
+            key = (n, levels)
+            out = folded.get(key)
+            if out is None:
+                values = fold_transfers(steps[:n], dict(zip(need, levels, strict=True)))
+                out = tuple([(i, values[i]) for i in wrote])
+                if 0.0 not in levels:
+                    if len(folded) >= 256:
+                        folded.clear()
+                    folded[key] = out
+            for i, value in out:
+                fills[i] = value
+
         def run_folding() -> None:
-            if fills and self._flag_masked is False and first.issubset(fills):
-                for n, need, wrote in cuts:
-                    if need.issubset(fills):
-                        values = fold_transfers(steps[:n], {i: fills[i] for i in need})
-                        for i in wrote:
-                            fills[i] = values[i]
-                        rest = rests[n] if n in rests else rest_of(n)
-                        if rest is not None:
-                            rest()
-                        return
+            if fills:
+                if self._flag_masked is False and first.issubset(fills):
+                    for n, need, wrote, order in cuts:
+                        if need.issubset(fills):
+                            fold(n, order, wrote)
+                            rest = rests[n] if n in rests else rest_of(n)
+                            if rest is not None:
+                                rest()
+                            return
+                settle(used, fresh)  # what _with_fills's runner does, in this call
             run()
 
         return run_folding
@@ -700,15 +734,13 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
     def _with_fills(self, run: Op, instructions: tuple[Instruction, ...]) -> Op:
         """``run``, first settling the deferred fills of the planes the ICWs name
         (:meth:`_settle_fills`)."""
-        used = frozenset(
-            r.index for ins in instructions for r in (*ins.dsts, *ins.srcs) if r.kind == "analog"
-        )
-        fresh = overwritten_first(instructions)
+        used, fresh = _named_planes(instructions)
         fills = self._fills
+        settle = self._settle_fills
 
         def run_filled() -> None:
             if fills:
-                self._settle_fills(used, fresh)
+                settle(used, fresh)
             run()
 
         return run_filled
@@ -770,6 +802,34 @@ class Scamp5(ObservableMixin, ControllerMixin, CellLoadMixin, ProgramAPI):
         self.timing.charge_kernel(counts)
         if self._retention and dwritten.size:
             self._touch_digital(dwritten)
+
+    def _kernel_runner(
+        self, run: Op, counts: tuple[tuple[str, int], ...], dwritten: np.ndarray
+    ) -> Op:
+        """One call that does what :meth:`_run_ops` does for a recorded kernel (``run``,
+        its ``counts`` and the digital planes it writes), its choices made once: the noise
+        mode, whether digital writes are timed, and the kernel's cost
+        (:meth:`TimingModel.kernel_charger`). A kernel runs through it while nothing
+        observes the simulator (:meth:`Kernel.run`); the same planes, draws, clock and
+        charges as :meth:`_run_ops`."""
+        timing = self.timing
+        charge = timing.kernel_charger(counts)
+        elapse = None if self.noise.ideal else self._elapse
+        touched = dwritten if self._retention and dwritten.size else None
+
+        def run_kernel() -> None:
+            if elapse is not None:
+                elapse()
+            self._flag_partial = False  # the kernel may change FLAG
+            run()
+            if self.timing is timing:
+                charge()
+            else:  # a timing model put in place since
+                self.timing.charge_kernel(counts)
+            if touched is not None:
+                self._touch_digital(touched)
+
+        return run_kernel
 
     def _touch_digital(self, planes: np.ndarray | int) -> None:
         """Digital ``planes`` (indices) written now: their retention starts again (nothing

@@ -115,6 +115,7 @@ class Kernel(ProgramAPI):
         self._icws: tuple[Instruction, ...] | None = None
         self._counts: tuple[tuple[str, int], ...] | None = None
         self._dwritten = None
+        self._runner: Callable[[], None] | None = None  # a run while nothing observes
         self._failed = False
         self._heap = False
         self._stack_key: int | None = None
@@ -231,16 +232,19 @@ class Kernel(ProgramAPI):
         The simulator's observers receive a :class:`~ppaloc.sim.observe.KernelRun` of
         this kernel after each run.
         """
-        ops = self._ops
-        if ops is None:  # compiled only once sealed and whole, so a replay checks nothing
-            ops = self._compile()
+        runner = self._runner
+        if runner is None:  # compiled only once sealed and whole, so a replay checks nothing
+            runner = self._compile()
         sim = self.sim
-        sim._run_ops(ops, self._counts, self._dwritten)
         if sim._observers:
+            sim._run_ops(self._ops, self._counts, self._dwritten)
             sim._observed_icws(self, self._icws)
+        else:  # the same run, its choices made once (Scamp5._kernel_runner)
+            runner()
 
     def _compile(self) -> Callable[[], None]:
-        """The first run's checks, then the runner and what each run charges and touches."""
+        """The first run's checks, then the runner, what each run charges and touches,
+        and the run of all of it while nothing observes."""
         from ppaloc.sim.engine import count_clocks, written_digital
 
         self._check_not_failed()
@@ -250,4 +254,5 @@ class Kernel(ProgramAPI):
         self._counts = tuple(count_clocks(self._recorded).items())  # the timing's key
         self._dwritten = written_digital(self._recorded)
         self._ops = self.sim._compile_kernel(self._recorded)
-        return self._ops
+        self._runner = self.sim._kernel_runner(self._ops, self._counts, self._dwritten)
+        return self._runner

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import numbers
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from types import MappingProxyType
 from typing import Any
@@ -837,6 +837,35 @@ class TimingModel:
         row.chip_uj += chip
         self._total_us += us
         self._chip_uj += chip
+
+    def kernel_charger(self, counts: tuple[tuple[str, int], ...]) -> Callable[[], None]:
+        """A call that charges one run of a kernel of ``counts`` (as :meth:`charge_kernel`
+        takes them), as :meth:`charge_kernel` does it: the same sums in the same order,
+        so the same floats. The cost is looked up once, when the call is made, and used
+        while the constants, the clock and the PE count stay as they were (a change of
+        any of them makes the call charge through :meth:`charge_kernel`). A recorded
+        kernel makes one for its runs."""
+        key = counts
+        costs = self._kernel_costs
+        us, chip, nonzero = costs.get(key) or self._kernel_cost(key)
+        charge_kernel = self.charge_kernel
+
+        def charge() -> None:
+            if self._kernel_costs is not costs:  # the costs were forgotten since
+                charge_kernel(key)
+                return
+            self._charges += 1
+            row = self._row or self._stage_row()
+            icws = row.icws
+            for cls, k in nonzero:
+                icws[cls] = icws.get(cls, 0) + k
+            row.kernels += 1
+            row.us += us
+            row.chip_uj += chip
+            self._total_us += us
+            self._chip_uj += chip
+
+        return charge
 
     def _call_cost(self, name: str) -> tuple[float, float, float]:
         """(fixed time with the overhead, time per unit, ICWs per unit) of call ``name``."""

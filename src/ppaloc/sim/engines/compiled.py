@@ -399,6 +399,8 @@ class CompiledEngine:
         runs = 0
         if after <= 1 or fused.cached(text):
             state, fast = "trial", _after(droop, self._fused(instructions, text))
+        done, failed = fused.marks(text)
+        exists = os.path.exists
 
         def run() -> None:
             nonlocal state, chosen, fast, runs
@@ -417,9 +419,9 @@ class CompiledEngine:
                     fused.background.request(text, self._shapes(instructions))
                 elif runs > after and runs % 16 == 0:
                     fused.background.poll()
-                    if fused.cached(text):
+                    if exists(done):  # fused.cached(text)
                         state, fast = "trial", _after(droop, self._fused(instructions, text))
-                    elif fused.failed(text):
+                    elif exists(failed):  # fused.failed(text)
                         state = "chosen"  # this tier for good
             chosen()
 

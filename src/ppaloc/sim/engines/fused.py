@@ -736,6 +736,14 @@ def cached(text: str) -> bool:
     return (cache_folder() / f"{_name(text)}.ok").exists()
 
 
+def marks(text: str) -> tuple[str, str]:
+    """The files :func:`cached` and :func:`failed` look for, as text: a stretch waiting
+    for its code looks every 16 runs with one ``os.path.exists`` each, not a hash of its
+    text and a path built each time."""
+    base = cache_folder() / _name(text)
+    return f"{base}.ok", f"{base}.failed"
+
+
 def mark_cached(text: str) -> None:
     """Record that the module ``text`` has been compiled (see :func:`cached`)."""
     try:
