@@ -590,3 +590,34 @@ def test_a_bad_thread_count_is_refused_on_a_small_array_too(monkeypatch):
     monkeypatch.setenv("PPALOC_THREADS", "many")
     with pytest.raises(SimulatorError, match="PPALOC_THREADS='many' is invalid"):
         Scamp5(8, 8, engine="compiled")
+
+
+@pytest.mark.parametrize("command", ["evaluate", "bench"])
+def test_a_param_flag_for_a_method_left_out_of_the_run_is_refused(
+    tmp_path, capsys, mean_match, tiny_spec, command
+):
+    # it changed nothing and said nothing: a typo of the method's name went unseen
+    where = ["-d", tiny_spec] if command == "evaluate" else ["--sizes", "8"]
+    code, _, err = run(
+        capsys, command, *where, "-m", mean_match, "--param", "seqslam.ds=10",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err == (
+        f"ppaloc: error: --param seqslam.ds is for a method this run leaves out (methods: "
+        f"{mean_match}); add --method seqslam or correct the method's name\n"
+    )
+
+
+def test_a_config_files_params_for_a_method_left_out_still_run(
+    tmp_path, capsys, mean_match, tiny_spec
+):
+    # a shared file's tables for other methods are not the flag's mistake
+    config = tmp_path / "run.toml"
+    config.write_text(f'methods = ["{mean_match}"]\n[params.seqslam]\nds = 10\n')
+    code, _, err = run(
+        capsys, "evaluate", "-d", tiny_spec, "--config", config, "--no-report", "-q",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "r" / "results.json").exists()

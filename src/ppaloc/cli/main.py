@@ -163,6 +163,24 @@ def _check_method_params(params: Any, source: Path | None) -> None:
         check_method(method, values)  # what it reads from the dataset: when it runs
 
 
+def _check_flag_params_run(flag_params: dict[str, dict[str, Any]], methods: Any) -> None:
+    """Refuse a ``--param METHOD.KEY=VALUE`` flag for a method the run leaves out: it
+    would change nothing, silently (``-m weighted-node-lbp --param
+    weighted-node-lowres.gain=3``); a configuration file's ``[params.METHOD]`` may hold
+    tables for methods a run leaves out, as shared files do."""
+    if not methods:
+        return  # every available method runs
+    run = [methods] if isinstance(methods, str) else list(methods)
+    for method, values in flag_params.items():
+        if method not in run:
+            key = next(iter(values))  # a known method's valid key: checked before
+            raise PpalocError(
+                f"--param {method}.{key} is for a method this run leaves out (methods: "
+                f"{', '.join(map(str, run))}); add --method {method} or correct the "
+                "method's name"
+            )
+
+
 def _check_file_types(
     cls: type, file_values: dict[str, Any], source: Path | None, skip: tuple[str, ...] = ()
 ) -> None:
@@ -454,6 +472,7 @@ def evaluate(
 
     file_values = _file_values(config_file, "evaluate")
     _check_file_types(EvaluateConfig, file_values, config_file, skip=("dataset",))
+    flag_params = _parse_params(params)
     values = _merge(
         file_values,
         {
@@ -462,7 +481,7 @@ def evaluate(
             "tolerance": tolerance,
             "recall": recall,
             "seed": seed,
-            "params": _parse_params(params),
+            "params": flag_params,
             "record_weights": record_weights,
             "out": out,
             "no_report": no_report,
@@ -475,6 +494,7 @@ def evaluate(
         values, [*fields, "out", "no_report", "quiet"], source=str(config_file or "")
     )
     _check_method_params(values.get("params"), config_file)
+    _check_flag_params_run(flag_params, values.get("methods"))
     out_dir = _output(_pop(values, "out", "results"), folder=True)
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
@@ -630,6 +650,7 @@ def bench(
     size_list = None if sizes is None else _sizes(sizes)
     file_values = _file_values(config_file, "bench")
     _check_file_types(BenchConfig, file_values, config_file)
+    flag_params = _parse_params(params)
     values = _merge(
         file_values,
         {
@@ -638,7 +659,7 @@ def bench(
             "queries": queries,
             "seed": seed,
             "max_build_s": max_build_s,
-            "params": _parse_params(params),
+            "params": flag_params,
             "out": out,
             "quiet": quiet,
         },
@@ -650,6 +671,7 @@ def bench(
     quiet_ = bool(_pop(values, "quiet", False))
     config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
     _check_method_params(config.params, config_file)
+    _check_flag_params_run(flag_params, config.methods)
     out_path = None if out_dir is None else _output(out_dir, folder=True)
     run_bench(config, out_path, quiet=quiet_)
 
