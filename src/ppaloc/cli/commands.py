@@ -677,6 +677,49 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     return out
 
 
+# -- methods ---------------------------------------------------------------------------------
+
+
+def run_methods(names: list[str]) -> None:
+    """Print every available method with its summary, or each of ``names`` with its
+    parameters (:func:`ppaloc.methods.parameter_table`): what ``--param`` takes, found
+    without reading the source or the documentation."""
+    from rich import box
+    from rich.table import Table
+
+    from ppaloc.methods import available_methods, parameter_table, registry
+
+    available = available_methods()
+    if not names:
+        width = max(map(len, available), default=0)
+        for name in available:
+            print(f"{name:<{width}}  {registry()[name].summary}")
+        print("\nppaloc methods NAME lists a method's parameters.")
+        return
+    for name in names:
+        if name not in available:
+            raise PpalocError(f"method {name!r} is unknown; choose from: {', '.join(available)}")
+    for k, name in enumerate(names):
+        rows, left_out = parameter_table(name)
+        print(("\n" if k else "") + f"{name}: {registry()[name].summary}")
+        if not rows and not left_out:
+            print("  takes any keyword (its class declares no parameters)")
+            continue
+        table = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1, 0, 0))
+        for column in ("parameter", "default", "accepted", "what"):
+            table.add_column(column, overflow="fold")
+        for row in rows:
+            table.add_row(*row)
+        _console().print(table)
+        if left_out:
+            print(f"not read by its preset (other methods' parameters): {', '.join(left_out)}")
+    print(
+        "\n- = none given: the method chooses. Set one with --param METHOD.KEY=VALUE; what "
+        "each sets: docs/localise.md (the weighted-node filter), docs/onsensor.md (the "
+        "simulated sensor), docs/baselines.md (the baselines)."
+    )
+
+
 # -- warm-up ---------------------------------------------------------------------------------
 
 

@@ -346,6 +346,7 @@ Examples:
   ppaloc bench --sizes 256,1024,4096
   ppaloc sweep --config sweep.toml --out sweep1
   ppaloc show run1
+  ppaloc methods weighted-node-lbp     # its parameters, defaults and ranges
 
 Run `ppaloc COMMAND --help` for each command's options.""",
 )
@@ -962,6 +963,22 @@ def show(path: Path, out: Path | None, quiet: bool | None) -> None:
     from ppaloc.cli.commands import run_show
 
     run_show(path, None if out is None else _output(out, folder=False), quiet=bool(quiet))
+
+
+@cli.command(
+    epilog="""\b
+Examples:
+  ppaloc methods                       # every method available here, one line each
+  ppaloc methods weighted-node-lbp     # its parameters: default, accepted values
+  ppaloc methods seqslam able-m""",
+)
+@click.argument("names", nargs=-1)
+def methods(names: tuple[str, ...]) -> None:
+    """List the methods, or each named method's parameters (the keys of --param
+    METHOD.KEY=VALUE) with the default it runs with and the values accepted."""
+    from ppaloc.cli.commands import run_methods
+
+    run_methods(list(names))
 
 
 @cli.command(
