@@ -621,3 +621,22 @@ def test_a_config_files_params_for_a_method_left_out_still_run(
     )  # fmt: skip
     assert code == 0, err
     assert (tmp_path / "r" / "results.json").exists()
+
+
+@pytest.mark.parametrize("command", ["show", "score"])
+def test_a_table_of_results_given_as_predictions_names_its_folder(
+    tmp_path, capsys, tiny_spec, command
+):
+    # it was "unknown column 'f1_max'; the columns are query, ...": true, but no help
+    table = tmp_path / "run" / "results.csv"
+    table.parent.mkdir()
+    table.write_text("method,f1_max,auc\nweighted-node-lbp,0.9,0.8\n")
+    extra = ["-d", tiny_spec, "--out", tmp_path / "scored"] if command == "score" else []
+    code, _, err = run(capsys, command, table, *extra)
+    assert code == 1
+    assert err == (
+        f"ppaloc: error: {table} is a table of results (f1_max per method: results.csv or "
+        "matrix.csv of ppaloc evaluate, summary.csv of ppaloc sweep), not predictions (one "
+        f"row per query: query, reference, score); ppaloc show {table.parent} shows its "
+        "folder\n"
+    )
