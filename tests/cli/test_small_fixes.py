@@ -640,3 +640,20 @@ def test_a_table_of_results_given_as_predictions_names_its_folder(
         f"row per query: query, reference, score); ppaloc show {table.parent} shows its "
         "folder\n"
     )
+
+
+@pytest.mark.parametrize("command", ["evaluate", "bench"])
+def test_methods_joined_by_a_comma_are_named_as_several(
+    tmp_path, capsys, mean_match, tiny_spec, command
+):
+    # "-m a,b" was "method 'a,b' is unknown; choose from: ..." with both names in the list
+    where = ["-d", tiny_spec] if command == "evaluate" else ["--sizes", "8"]
+    code, _, err = run(
+        capsys, command, *where, "-m", f"{mean_match},seqslam", "--out", tmp_path / "r"
+    )
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err == (
+        f"ppaloc: error: method '{mean_match},seqslam' names 2 methods in one: give each its "
+        f"own --method (-m {mean_match} -m seqslam), or list them in a configuration file "
+        "(methods = [...])\n"
+    )

@@ -158,12 +158,12 @@ def _config(**values):
         ({"seed": []}, "sweep.toml: seed=[] must be an integer or a non-empty list of them"),
         ({"tolerance": [-1]}, "sweep.toml: tolerance=[-1] must be an integer >= 0 or a"),
         ({"combine": "zip"}, "sweep.toml: combine='zip' must be one of product, one-at-a-time"),
-        ({"methods": "seqslam, able-m"}, None),  # one string is one method (then unknown)
+        ({"methods": "seqslam, able-m"}, None),  # one string is one method (two, joined)
     ],
 )
 def test_bad_values_name_their_key(values, message):
     if message is None:
-        with pytest.raises(PpalocError, match="methods: method 'seqslam, able-m' is unknown"):
+        with pytest.raises(PpalocError, match="methods: method 'seqslam, able-m' names 2 methods in one"):
             validate(_config(**values), expand(_config(**values)))
         return
     with pytest.raises(PpalocError) as info:
