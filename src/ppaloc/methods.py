@@ -474,6 +474,10 @@ def make_localiser(name: str, **params: Any) -> Localiser:
         return cls(**{**spec.defaults, **params})
     except (TypeError, ValueError, OverflowError) as exc:
         raise PpalocError(f"method {name!r}: {exc}") from exc
+    except PpalocError as exc:  # the class's own check: say which method, as above
+        if str(exc).startswith(f"method {name!r}"):
+            raise
+        raise type(exc)(f"method {name!r}: {exc}") from exc
 
 
 def accepted_parameters(name: str) -> tuple[str, ...] | None:

@@ -657,3 +657,24 @@ def test_methods_joined_by_a_comma_are_named_as_several(
         f"own --method (-m {mean_match} -m seqslam), or list them in a configuration file "
         "(methods = [...])\n"
     )
+
+
+def test_a_value_the_filter_refuses_names_the_method(tmp_path, capsys, tiny_spec):
+    # of two methods run, the message said neither: "motion='forwards' is not one of ..."
+    code, _, err = run(
+        capsys, "evaluate", "-d", tiny_spec, "-m", "weighted-node-lbp", "-m", "onsensor-lbp",
+        "--param", "onsensor-lbp.alpha=3", "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and err == (
+        "ppaloc: error: method 'onsensor-lbp': alpha=3 is a parameter of preset 'paper', not "
+        "of preset 'robust'; pass preset='paper' (the methods weighted-node-paper-*, "
+        "onsensor-paper-*) to use it\n"
+    )
+    code, _, err = run(
+        capsys, "evaluate", "-d", tiny_spec, "-m", "weighted-node-lbp",
+        "--param", "weighted-node-lbp.motion=forwards", "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and err == (
+        "ppaloc: error: method 'weighted-node-lbp': motion='forwards' is not one of image, "
+        "always_forward, oracle\n"
+    )
