@@ -73,9 +73,14 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
         if scored
         else "median wall-clock time of step on this machine"
     )
+    turning = (
+        "F1 str., F1 turn = max F1 of the straight and of the turning query frames alone;\n"
+        if "F1 str." in header
+        else ""
+    )
     print(
         f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); "
-        "R@100P = recall at 100% precision;\n"
+        f"R@100P = recall at 100% precision;\n{turning}"
         "P@100R = precision with every query accepted (100% recall under recall B and C);\n"
         f"host ms = {host};\n"
         "chip ms, loop ms = modelled time per frame on the sensor and for the whole hardware "
