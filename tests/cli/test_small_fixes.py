@@ -678,3 +678,21 @@ def test_a_value_the_filter_refuses_names_the_method(tmp_path, capsys, tiny_spec
         "ppaloc: error: method 'weighted-node-lbp': motion='forwards' is not one of image, "
         "always_forward, oracle\n"
     )
+
+
+def test_show_of_a_file_of_a_results_folder_names_the_folder(
+    tmp_path, capsys, mean_match, tiny_spec
+):
+    # results.json was "not a readable .npz archive", a method's arrays "differ in shape"
+    folder = tmp_path / "run"
+    code, _, err = run(capsys, "evaluate", "-d", tiny_spec, "-m", mean_match, "-q", "--out", folder)
+    assert code == 0, err
+    for name in ("results.json", "results.csv", "report.html", f"arrays/{mean_match}.npz"):
+        code, out, err = run(capsys, "show", folder / name)
+        assert code == 1 and not out, name
+        assert err == (
+            f"ppaloc: error: {folder / name} is a file of the results folder {folder}: "
+            f"ppaloc show {folder} shows it (the table, and the report rebuilt from its files)\n"
+        )
+    code, _, err = run(capsys, "show", folder)
+    assert code == 0, err

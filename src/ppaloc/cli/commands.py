@@ -525,6 +525,12 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
         refuse_link_loop(path, "the path")
         state = "is not a regular file" if path.exists() else "does not exist"
         raise DataError(f"{path} {state}; {what}")
+    folder = _results_folder_of(path)
+    if folder is not None:
+        raise DataError(
+            f"{path} is a file of the results folder {folder}: ppaloc show {folder} shows "
+            "it (the table, and the report rebuilt from its files)"
+        )
     if path.suffix.lower() == ".csv":
         from ppaloc.cli.showcsv import show_predictions
 
@@ -540,6 +546,33 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     if is_map:  # a damaged map is refused by load_map with its cause, not drawn as planes
         return _show_map(path, out, quiet=quiet)
     return _show_planes(path, out, quiet=quiet)
+
+
+_FOLDER_FILES = {
+    "results.json": ("results.json",),
+    "results.csv": ("results.json",),
+    "report.html": ("results.json", "summary.json"),
+    "report.md": ("results.json", "summary.json"),
+    "matrix.csv": ("matrix.csv",),
+    "summary.json": ("summary.json",),
+    "summary.csv": ("summary.json",),
+}
+"""A results or sweep folder's own files, by name, and the files that mark the folder."""
+
+
+def _results_folder_of(path: Path) -> Path | None:
+    """The results (or sweep) folder ``path`` is one of the files of, where ``ppaloc
+    show`` reads the folder, not the file: its ``results.json``, report, table, or a
+    method's ``arrays/*.npz`` (register planes, ``*.registers.npz``, are drawn alone)."""
+    parent = path.parent
+    marks = _FOLDER_FILES.get(path.name, ())
+    if any((parent / mark).is_file() for mark in marks):
+        if path.name != "summary.json" or (parent / "cells").is_dir():  # not a cpp run's
+            return parent
+    in_arrays = parent.name == "arrays" and (parent.parent / "results.json").is_file()
+    if in_arrays and path.suffix == ".npz" and not path.name.endswith(".registers.npz"):
+        return parent.parent
+    return None
 
 
 def _show_results(folder: Path, *, quiet: bool) -> Path:
