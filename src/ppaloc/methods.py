@@ -318,9 +318,12 @@ def parameter_table(name: str) -> tuple[list[tuple[str, str, str, str]], list[st
     declared = method_parameters(name)
     if declared is None:
         return [], []
-    built = make_localiser(
-        name, **{a: need.stand_in for a, need in dataset_needs(name, {}).items()}
-    )
+    try:
+        built = make_localiser(
+            name, **{a: need.stand_in for a, need in dataset_needs(name, {}).items()}
+        )
+    except PpalocError:  # a class that needs a value given (a plugin's): its declaration
+        built = None
     resolved = getattr(built, "params", None)
     fields = getattr(resolved, "__dataclass_fields__", {})
     group = getattr(resolved, "group", None)
