@@ -73,7 +73,7 @@ def _parse_params(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
         if not eq or not dot or not method or not name:
             raise PpalocError(
                 f"--param {item!r} must look like METHOD.KEY=VALUE, "
-                "e.g. --param weighted-node-lowres.alpha=8"
+                "e.g. --param weighted-node-lowres.gain=8"
             )
         table = out.setdefault(method.strip(), {})
         what = f"--param {method.strip()}.{name.strip()}"
@@ -87,7 +87,7 @@ def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
     for item in items:
         key, eq, value = item.partition("=")
         if not eq or not key.strip():
-            raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param alpha=8")
+            raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param gain=8")
         set_once(out, key.strip(), _parse_value(value.strip()), f"--param {key.strip()}")
     return out
 
@@ -417,7 +417,7 @@ run.toml:
   tolerance = 2
   out = "run1"
   [params.weighted-node-lowres]
-  gamma = 0.25""",
+  gain = 8""",
 )
 @click.option(
     "--dataset",
@@ -442,7 +442,7 @@ run.toml:
     "params",
     multiple=True,
     metavar="METHOD.KEY=VALUE",
-    help="A method parameter, repeatable, e.g. weighted-node-lowres.alpha=8.",
+    help="A method parameter, repeatable, e.g. weighted-node-lowres.gain=8.",
 )
 @click.option(
     "--weights/--no-weights",
@@ -1182,7 +1182,7 @@ def _reject_unknown(
     if not isinstance(values.get("params", {}), dict):
         raise PpalocError(
             f"params in {source} must be a table of the method's keys, e.g. "
-            f"[{section}.params] followed by alpha = 8"
+            f"[{section}.params] followed by gain = 8"
         )
 
 
