@@ -106,6 +106,14 @@ def test_nordland_bad_inputs(write_frames, tmp_path):
         load_dataset(f"nordland:{tmp_path}?query=summer")
     with pytest.raises(DataError, match=r"Nordland folder .*nowhere does not exist"):
         load_dataset(f"nordland:{tmp_path / 'nowhere'}")
+    # a season's own folder given as the root was "summer/summer does not exist (present:
+    # none); choose ref= and query= among them"
+    with pytest.raises(DataError) as info:
+        load_dataset(f"nordland:{tmp_path / 'summer'}")
+    assert str(info.value) == (
+        f"Nordland folder {tmp_path / 'summer'} is a season folder, not the folder that holds "
+        f"the seasons: give its parent ({tmp_path}) and choose the seasons with ref= and query="
+    )
 
 
 # --- gardens point and vprbench -------------------------------------------------------------
