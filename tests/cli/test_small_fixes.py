@@ -696,3 +696,15 @@ def test_show_of_a_file_of_a_results_folder_names_the_folder(
         )
     code, _, err = run(capsys, "show", folder)
     assert code == 0, err
+
+
+def test_show_titles_the_table_as_the_run_did(tmp_path, capsys, mean_match, tiny_spec):
+    # the run printed "NAME (SPEC)", show the spec alone
+    folder = tmp_path / "run"
+    code, out, err = run(capsys, "evaluate", "-d", tiny_spec, "-m", mean_match, "--out", folder)
+    assert code == 0, err
+    title = out.splitlines()[0].strip()
+    assert title.endswith(f"({tiny_spec})") and not title.startswith("(")
+    code, shown, err = run(capsys, "show", folder)
+    assert code == 0, err
+    assert shown.splitlines()[0].strip() == title

@@ -602,7 +602,8 @@ def _show_results(folder: Path, *, quiet: bool) -> Path:
     report = write_report(folder)
     if not quiet:
         summary = json.loads((folder / "results.json").read_text(encoding="utf-8"))
-        print_results_table(summary, title=f"{summary.get('dataset', '')}")
+        name, spec = summary.get("dataset_name"), summary.get("dataset", "")
+        print_results_table(summary, title=f"{name} ({spec})" if name else f"{spec}")  # as run
         print(f"report: {report}")
     return report
 
