@@ -708,3 +708,31 @@ def test_show_titles_the_table_as_the_run_did(tmp_path, capsys, mean_match, tiny
     code, shown, err = run(capsys, "show", folder)
     assert code == 0, err
     assert shown.splitlines()[0].strip() == title
+
+
+def test_the_table_keeps_method_names_whole_on_an_80_column_terminal(
+    tmp_path, capsys, monkeypatch, tiny_spec
+):
+    # the name column had folded to five letters a line ("weigh", "ted-n", "ode-p", ...)
+    from rich.console import Console
+
+    import ppaloc.cli.commands as commands
+
+    folder = tmp_path / "run"
+    names = ["weighted-node-paper-lowres", "onsensor-paper-lbp", "seqslam-centred"]
+    argv = ["evaluate", "-d", tiny_spec, "--out", folder, "-q", "--no-report"]
+    code, _, err = run(capsys, *argv, *(a for n in names for a in ("-m", n)))
+    assert code == 0, err
+    summary = json.loads((folder / "results.json").read_text())
+    for width, left_out in ((80, "P@F1, R@F1, loop ms"), (200, None)):
+        monkeypatch.setattr(commands, "_console", lambda w=width: Console(width=w))
+        commands.print_results_table(summary, title="t")
+        out = capsys.readouterr().out
+        table = out.split("F1 = max F1", 1)[0]
+        assert max(len(line) for line in table.splitlines()) <= width
+        assert all(f" {n}" in table for n in ["weighted-node-paper-lowres", *names[1:]])
+        assert "F1" in table and "R@100P" in table and "mJ" in table
+        if left_out:
+            assert f"left out to fit this terminal's {width} columns: {left_out}" in out
+        else:
+            assert "left out" not in out and " P@F1 " in table

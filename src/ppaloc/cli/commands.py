@@ -40,6 +40,12 @@ def _console():
     return Console(highlight=False, soft_wrap=False, width=None if sys.stdout.isatty() else 160)
 
 
+_NARROW_DROPS = ("P@F1", "R@F1", "loop ms", "AUC", "chip ms", "mJ", "P@100R", "R@100P")
+"""The printed table's columns left out, in this order (those without a figure first),
+until its method names fit whole on a narrow terminal (80 columns: the names had folded
+into five-letter pieces)."""
+
+
 def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     """Print the comparison table of a ``results.json`` summary on stdout."""
     from rich import box
@@ -48,7 +54,19 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     from ppaloc.evaluate.report import comparison_table, method_notes
 
     header, rows = comparison_table(summary, short=True)
-    keep = [i for i, h in enumerate(header) if h not in ("Repr.", "p95 ms")]  # fit 80 columns
+    keep = [i for i, h in enumerate(header) if h not in ("Repr.", "p95 ms")]
+    widths = [max([len(header[i])] + [len(r[i]) for r in rows]) for i in range(len(header))]
+    console = _console()
+    left_out = []
+    empty = [
+        n for n in _NARROW_DROPS if n in header and {r[header.index(n)] for r in rows} <= {"-"}
+    ]
+    for name in [*empty, *_NARROW_DROPS]:  # names whole on a narrow terminal: fewer columns
+        if sum(widths[i] + 2 for i in keep) + 1 <= console.width:  # padding, rules, edges
+            break
+        if name in header and header.index(name) in keep:
+            keep.remove(header.index(name))
+            left_out.append(name)
     table = Table(
         title=title or None,
         title_justify="left",
@@ -57,14 +75,13 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
         padding=(0, 1, 0, 0),
     )
     for i in keep:
-        width = max([len(header[i])] + [len(r[i]) for r in rows])
-        if i == 0:  # the method name folds on a narrow terminal, numbers never do
+        if i == 0:  # the method name folds on a terminal too narrow still, numbers never do
             table.add_column(header[i], overflow="fold")
         else:
-            table.add_column(header[i], justify="right", min_width=width)
+            table.add_column(header[i], justify="right", min_width=widths[i])
     for r in rows:
         table.add_row(*(r[i] for i in keep))
-    _console().print(table)
+    console.print(table)
     recall = {m.get("recall_definition", "A") for m in summary["methods"].values()}
     config = summary.get("config")
     scored = isinstance(config, dict) and config.get("command") == "score"
@@ -88,6 +105,11 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     )
     for note in method_notes(summary, short=True):
         print(f"note: {note}")
+    if left_out:
+        print(
+            f"left out to fit this terminal's {console.width} columns: {', '.join(left_out)} "
+            "(a wider terminal shows them; results.csv and the report hold every figure)"
+        )
 
 
 # -- evaluate ------------------------------------------------------------------------------
