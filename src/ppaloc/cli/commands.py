@@ -431,9 +431,18 @@ def _print_best_cells(summary: dict[str, Any]) -> None:
         box=box.SIMPLE_HEAD,
         pad_edge=False,
     )
+    best = best_cells(summary)
     for name in ("Method", "Dataset", "F1", "AUC", "Swept values", "Cells ok"):
-        table.add_column(name, justify="left" if name in ("Method", "Dataset") else "right")
-    for g in best_cells(summary):
+        if name == "Method":  # whole, never cut: two methods may share their first letters
+            width = max([len(name)] + [len(g["method"]) for g in best])
+            table.add_column(name, no_wrap=True, min_width=width)
+        elif name in ("Dataset", "Swept values"):  # folded where the terminal is narrow
+            table.add_column(
+                name, overflow="fold", justify="left" if name == "Dataset" else "right"
+            )
+        else:
+            table.add_column(name, justify="right", no_wrap=True)
+    for g in best:
         r = g["row"] or {}
         values = ", ".join(f"{a}={r[a]}" for a in swept if r.get(a) is not None)
         table.add_row(
