@@ -193,3 +193,12 @@ def test_a_warning_names_the_method_s_own_remedy() -> None:
     assert make_localiser("onsensor-lbp").speed_remedy.startswith("lower skip_cost")
     assert "robust preset" in make_localiser("weighted-node-lbp", preset="paper").speed_remedy
     assert not hasattr(make_localiser("seqslam"), "speed_remedy")
+
+
+def test_the_short_note_of_a_method_of_one_speed_names_that_speed():
+    # the paper preset's note read "outside the speeds it searches (1-1)"
+    check = {"warning": "...", "range": [1.0, 1.0], "share_outside": 0.7}
+    summary = {"methods": {"weighted-node-paper-lbp": {"speed_check": check}}}
+    assert method_notes(summary, short=True) == [
+        "weighted-node-paper-lbp: the query moves off the speed it assumes (1) on 70% of the route"
+    ]

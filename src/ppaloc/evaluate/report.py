@@ -170,9 +170,13 @@ def method_notes(summary: dict[str, Any], *, short: bool = False) -> list[str]:
         check = m.get("speed_check") or {}
         if check.get("warning"):
             lo, hi = check["range"]
+            speeds = (
+                f"off the speed it assumes ({lo:.3g})"
+                if lo == hi
+                else f"outside the speeds it searches ({lo:.3g}-{hi:.3g})"
+            )  # "(1-1)" said nothing
             notes.append(
-                f"{name}: the query moves outside the speeds it searches ({lo:.3g}-{hi:.3g}) "
-                f"on {check['share_outside']:.0%} of the route"
+                f"{name}: the query moves {speeds} on {check['share_outside']:.0%} of the route"
                 if short
                 else check["warning"]
             )
