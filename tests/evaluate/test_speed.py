@@ -202,3 +202,25 @@ def test_the_short_note_of_a_method_of_one_speed_names_that_speed():
     assert method_notes(summary, short=True) == [
         "weighted-node-paper-lbp: the query moves off the speed it assumes (1) on 70% of the route"
     ]
+
+
+def test_the_short_notes_of_methods_alike_are_one_line():
+    # a run of every method printed a dozen lines that differed only in the name
+    def check(lo, hi):
+        return {"speed_check": {"warning": "...", "range": [lo, hi], "share_outside": 0.5}}
+
+    summary = {
+        "methods": {
+            "weighted-node-lbp": check(0.5, 2.0),
+            "seqslam-centred": {**check(0.8, 1.2), "reads_future": True},
+            "onsensor-lbp": check(0.5, 2.0),
+        }
+    }
+    assert method_notes(summary, short=True) == [
+        "weighted-node-lbp, onsensor-lbp: the query moves outside the speeds it searches "
+        "(0.5-2) on 50% of the route",
+        "seqslam-centred is offline (reads future frames)",
+        "seqslam-centred: the query moves outside the speeds it searches (0.8-1.2) on 50% of "
+        "the route",
+    ]
+    assert len(method_notes(summary)) == 4  # the report's notes: each method's own
