@@ -736,3 +736,19 @@ def test_the_table_keeps_method_names_whole_on_an_80_column_terminal(
             assert f"left out to fit this terminal's {width} columns: {left_out}" in out
         else:
             assert "left out" not in out and " P@F1 " in table
+
+
+def test_show_draws_a_methods_register_planes_under_their_labels(tmp_path, capsys, monkeypatch):
+    # arrays/METHOD.registers.npz was drawn as "plane0", "plane1", its labels unread
+    import ppaloc.sim.render as render
+
+    drawn = {}
+    monkeypatch.setattr(render, "render_montage", lambda planes, out, **k: drawn.update(planes))
+    path = tmp_path / "run" / "arrays" / "onsensor-lbp.registers.npz"
+    path.parent.mkdir(parents=True)
+    planes = {f"plane{i}": np.full((4, 4), i, np.int16) for i in range(2)}
+    np.savez(path, **planes, labels=np.array(["C: weights", "R9: detection candidates"]))
+    code, _, err = run(capsys, "show", path, "--out", tmp_path / "r.png")
+    assert code == 0, err
+    assert list(drawn) == ["C: weights", "R9: detection candidates"]
+    assert drawn["R9: detection candidates"][0, 0] == 1

@@ -705,6 +705,15 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     except OSError as exc:
         raise DataError(f"cannot read {path} ({exc.strerror or exc})") from None
     planes = {k: a for k, a in arrays.items() if a.ndim == 2}
+    labels = arrays.get("labels")
+    if (  # a results folder's arrays/METHOD.registers.npz: each plane under its label
+        labels is not None
+        and labels.ndim == 1
+        and labels.dtype.kind == "U"
+        and len(set(labels.tolist())) == len(labels) == len(planes)
+        and all(f"plane{i}" in planes for i in range(len(labels)))
+    ):
+        planes = {str(label): planes[f"plane{i}"] for i, label in enumerate(labels)}
     if not planes:
         raise DataError(f"{path} holds no 2-D arrays to draw as register planes")
     cells = sum(a.size for a in planes.values())
