@@ -119,3 +119,28 @@ def test_a_plugin_never_replaces_a_builtin_and_a_broken_one_is_left_out(site, ca
     assert "method 'seqslam'" in text and "a method of that name exists" in text
     assert "method 'missing'" in text and "cannot be loaded" in text
     assert "method 'not-a-class'" in text and "not a class or a MethodSpec" in text
+
+
+def test_ppaloc_methods_lists_a_plugins_parameters(example, site, capsys):
+    from ppaloc.cli.main import main
+
+    (site / "ppaloc_needy.py").write_text(
+        "class Needy:\n    name = 'needy'\n    def __init__(self, *, k: int) -> None: ...\n"
+        "class Loose:\n    name = 'loose'\n    def __init__(self, **kw) -> None: ...\n"
+    )
+    shutil.rmtree(next(site.glob("*.dist-info")))
+    _install(
+        site,
+        {
+            example: "ppaloc_thumbnail:Thumbnail",
+            "needy": "ppaloc_needy:Needy",  # cannot be built without k: its declaration
+            "loose": "ppaloc_needy:Loose",
+        },
+    )
+    plugins.cache_clear()
+    assert main(["methods", example, "needy", "loose"]) == 0
+    out = capsys.readouterr().out
+    rows = {line.split()[0]: line.split() for line in out.splitlines() if line.strip()}
+    assert rows["side"][1:3] == ["16", "an"]
+    assert rows["k"][1:3] == ["-", "an"]
+    assert "  takes any keyword (its class declares no parameters)" in out

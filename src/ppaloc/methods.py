@@ -45,6 +45,7 @@ __all__ = [
     "dataset_needs",
     "make_localiser",
     "method_parameters",
+    "parameter_table",
     "plugins",
     "registry",
 ]
@@ -271,6 +272,74 @@ def method_parameters(name: str) -> dict[str, MethodParam] | None:
     return {p.name: p for p in signature_parameters(cls)}
 
 
+def _shown_value(value: Any) -> str:
+    """A default as it would be given (TOML): ``true``, ``[1, 1]``, ``'image'``; ``-``
+    for none (the method chooses, e.g. the paper preset's alpha from the map)."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, tuple | list):
+        return "[" + ", ".join(_shown_value(v) for v in value) + "]"
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def _accepted(param: MethodParam) -> str:
+    """What a value of ``param`` must be, in words, with its range."""
+    if param.hint is Any or param.hint is inspect.Parameter.empty:
+        return "what the method checks"
+    words = _type_words(param.hint)
+    if param.low is None and param.high is None:
+        return words
+    bounds = ", ".join(
+        "inf" if b is None else (f"{b:g}" if isinstance(b, float) else str(b))
+        for b in (param.low, param.high)
+    )
+    return f"{words} in [{bounds}]"
+
+
+def parameter_table(name: str) -> tuple[list[tuple[str, str, str, str]], list[str]]:
+    """The parameters method ``name`` takes with ``--param``, for ``ppaloc methods NAME``:
+    rows of (parameter, default, accepted, what) in the class's order, with the default
+    the method resolves (the built method's ``params``, where it keeps them: a preset's
+    or a representation's own default), and the names left out because the method's
+    preset does not read them. The keys the method's name fixes (``representation``,
+    ``preset``) are not offered, as ``--param`` refuses nothing else.
+
+    Examples
+    --------
+    >>> rows, _ = parameter_table("seqslam")
+    >>> [r for r in rows if r[0] == "ds"]
+    [('ds', '10', 'an integer in [0, 500]', '')]
+    >>> parameter_table("weighted-node-paper-lbp")[1][:2]
+    ['gain', 'memory']
+    """
+    spec, _ = _method_class(name)
+    declared = method_parameters(name)
+    if declared is None:
+        return [], []
+    try:
+        built = make_localiser(
+            name, **{a: need.stand_in for a, need in dataset_needs(name, {}).items()}
+        )
+    except PpalocError:  # a class that needs a value given (a plugin's): its declaration
+        built = None
+    resolved = getattr(built, "params", None)
+    fields = getattr(resolved, "__dataclass_fields__", {})
+    group = getattr(resolved, "group", None)
+    rows, left_out = [], []
+    for key, param in declared.items():
+        if key in spec.defaults:
+            continue
+        contract = fields[key].metadata.get("param") if key in fields else None
+        if group is not None and getattr(contract, "group", None) not in (None, group):
+            left_out.append(key)
+            continue
+        default = getattr(resolved, key) if key in fields else param.default
+        rows.append((key, _shown_value(default), _accepted(param), param.doc))
+    return rows, left_out
+
+
 def check_parameters(name: str, params: Mapping[str, Any]) -> None:
     """Check each parameter of method ``name`` against its declared type and range
     (:func:`method_parameters`), before the method is built.
@@ -408,6 +477,10 @@ def make_localiser(name: str, **params: Any) -> Localiser:
         return cls(**{**spec.defaults, **params})
     except (TypeError, ValueError, OverflowError) as exc:
         raise PpalocError(f"method {name!r}: {exc}") from exc
+    except PpalocError as exc:  # the class's own check: say which method, as above
+        if str(exc).startswith(f"method {name!r}"):
+            raise
+        raise type(exc)(f"method {name!r}: {exc}") from exc
 
 
 def accepted_parameters(name: str) -> tuple[str, ...] | None:

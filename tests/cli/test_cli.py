@@ -234,7 +234,7 @@ def test_method_params_in_a_config_file_must_be_a_table(tmp_path, capsys):
     assert code == 1
     assert err == (
         f"ppaloc: error: params in {toml} must be a table of the method's keys, e.g. "
-        "[localise.params] followed by alpha = 8\n"
+        "[localise.params] followed by gain = 8\n"
     )
 
 

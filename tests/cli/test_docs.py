@@ -132,3 +132,45 @@ def test_the_messages_shown_are_the_commands(gardens_point_dir, tmp_path, monkey
         assert code == 1
         got.append(err.strip().replace(str(path), "netvlad.csv"))
     assert got == shown
+
+
+def _accepted(argv: list[str], monkeypatch, capsys) -> None:
+    """``ppaloc evaluate ARGV`` passes every check (the run itself replaced)."""
+    import ppaloc.cli.commands as commands
+
+    ran = []
+    monkeypatch.setattr(commands, "run_evaluate", lambda config, *a, **k: ran.append(config))
+    code = main(["evaluate", *argv])
+    assert code == 0 and len(ran) == 1, capsys.readouterr().err
+
+
+def test_the_config_examples_of_the_help_and_the_page_are_accepted(tmp_path, monkeypatch, capsys):
+    # both set gamma, a parameter of the paper preset, on the robust weighted-node-lowres
+    from click.testing import CliRunner
+
+    from ppaloc.cli.main import cli
+
+    text = CliRunner().invoke(cli, ["evaluate", "--help"], terminal_width=200).output
+    example = text.split("run.toml:\n", 1)[1].split("\n\n", 1)[0]
+    section = CLI_DOC.split("### Configuration files", 1)[1]
+    page = re.search(r"```toml\n(.*?)```", section, re.S)[1]
+    monkeypatch.chdir(tmp_path)
+    for k, body in enumerate((example, page)):
+        (tmp_path / f"{k}.toml").write_text("\n".join(line.strip() for line in body.split("\n")))
+        _accepted(["--config", f"{k}.toml"], monkeypatch, capsys)
+
+
+def test_the_param_examples_the_command_gives_are_accepted(monkeypatch, capsys):
+    from click.testing import CliRunner
+
+    from ppaloc.cli.main import cli
+
+    text = CliRunner().invoke(cli, ["evaluate", "--help"], terminal_width=200).output
+    (given,) = re.findall(r"e\.g\. ([\w-]+\.\w+=\w+)\.", " ".join(text.split()))
+    assert main(["evaluate", "-d", "synthetic", "--param", "gain=8"]) == 1
+    (hinted,) = re.findall(r"e\.g\. --param (\S+)\n", capsys.readouterr().err)
+    for value in (given, hinted):
+        method = value.split(".")[0]
+        _accepted(
+            ["-d", "synthetic:?places=6", "-m", method, "--param", value], monkeypatch, capsys
+        )

@@ -590,3 +590,165 @@ def test_a_bad_thread_count_is_refused_on_a_small_array_too(monkeypatch):
     monkeypatch.setenv("PPALOC_THREADS", "many")
     with pytest.raises(SimulatorError, match="PPALOC_THREADS='many' is invalid"):
         Scamp5(8, 8, engine="compiled")
+
+
+@pytest.mark.parametrize("command", ["evaluate", "bench"])
+def test_a_param_flag_for_a_method_left_out_of_the_run_is_refused(
+    tmp_path, capsys, mean_match, tiny_spec, command
+):
+    # it changed nothing and said nothing: a typo of the method's name went unseen
+    where = ["-d", tiny_spec] if command == "evaluate" else ["--sizes", "8"]
+    code, _, err = run(
+        capsys, command, *where, "-m", mean_match, "--param", "seqslam.ds=10",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err == (
+        f"ppaloc: error: --param seqslam.ds is for a method this run leaves out (methods: "
+        f"{mean_match}); add --method seqslam or correct the method's name\n"
+    )
+
+
+def test_a_config_files_params_for_a_method_left_out_still_run(
+    tmp_path, capsys, mean_match, tiny_spec
+):
+    # a shared file's tables for other methods are not the flag's mistake
+    config = tmp_path / "run.toml"
+    config.write_text(f'methods = ["{mean_match}"]\n[params.seqslam]\nds = 10\n')
+    code, _, err = run(
+        capsys, "evaluate", "-d", tiny_spec, "--config", config, "--no-report", "-q",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "r" / "results.json").exists()
+
+
+@pytest.mark.parametrize("command", ["show", "score"])
+def test_a_table_of_results_given_as_predictions_names_its_folder(
+    tmp_path, capsys, tiny_spec, command
+):
+    # it was "unknown column 'f1_max'; the columns are query, ...": true, but no help
+    table = tmp_path / "run" / "results.csv"
+    table.parent.mkdir()
+    table.write_text("method,f1_max,auc\nweighted-node-lbp,0.9,0.8\n")
+    extra = ["-d", tiny_spec, "--out", tmp_path / "scored"] if command == "score" else []
+    code, _, err = run(capsys, command, table, *extra)
+    assert code == 1
+    assert err == (
+        f"ppaloc: error: {table} is a table of results (f1_max per method: results.csv or "
+        "matrix.csv of ppaloc evaluate, summary.csv of ppaloc sweep), not predictions (one "
+        f"row per query: query, reference, score); ppaloc show {table.parent} shows its "
+        "folder\n"
+    )
+
+
+@pytest.mark.parametrize("command", ["evaluate", "bench"])
+def test_methods_joined_by_a_comma_are_named_as_several(
+    tmp_path, capsys, mean_match, tiny_spec, command
+):
+    # "-m a,b" was "method 'a,b' is unknown; choose from: ..." with both names in the list
+    where = ["-d", tiny_spec] if command == "evaluate" else ["--sizes", "8"]
+    code, _, err = run(
+        capsys, command, *where, "-m", f"{mean_match},seqslam", "--out", tmp_path / "r"
+    )
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err == (
+        f"ppaloc: error: method '{mean_match},seqslam' names 2 methods in one: give each its "
+        f"own --method (-m {mean_match} -m seqslam), or list them in a configuration file "
+        "(methods = [...])\n"
+    )
+
+
+def test_a_value_the_filter_refuses_names_the_method(tmp_path, capsys, tiny_spec):
+    # of two methods run, the message said neither: "motion='forwards' is not one of ..."
+    code, _, err = run(
+        capsys, "evaluate", "-d", tiny_spec, "-m", "weighted-node-lbp", "-m", "onsensor-lbp",
+        "--param", "onsensor-lbp.alpha=3", "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and err == (
+        "ppaloc: error: method 'onsensor-lbp': alpha=3 is a parameter of preset 'paper', not "
+        "of preset 'robust'; pass preset='paper' (the methods weighted-node-paper-*, "
+        "onsensor-paper-*) to use it\n"
+    )
+    code, _, err = run(
+        capsys, "evaluate", "-d", tiny_spec, "-m", "weighted-node-lbp",
+        "--param", "weighted-node-lbp.motion=forwards", "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and err == (
+        "ppaloc: error: method 'weighted-node-lbp': motion='forwards' is not one of image, "
+        "always_forward, oracle\n"
+    )
+
+
+def test_show_of_a_file_of_a_results_folder_names_the_folder(
+    tmp_path, capsys, mean_match, tiny_spec
+):
+    # results.json was "not a readable .npz archive", a method's arrays "differ in shape"
+    folder = tmp_path / "run"
+    code, _, err = run(capsys, "evaluate", "-d", tiny_spec, "-m", mean_match, "-q", "--out", folder)
+    assert code == 0, err
+    for name in ("results.json", "results.csv", "report.html", f"arrays/{mean_match}.npz"):
+        code, out, err = run(capsys, "show", folder / name)
+        assert code == 1 and not out, name
+        assert err == (
+            f"ppaloc: error: {folder / name} is a file of the results folder {folder}: "
+            f"ppaloc show {folder} shows it (the table, and the report rebuilt from its files)\n"
+        )
+    code, _, err = run(capsys, "show", folder)
+    assert code == 0, err
+
+
+def test_show_titles_the_table_as_the_run_did(tmp_path, capsys, mean_match, tiny_spec):
+    # the run printed "NAME (SPEC)", show the spec alone
+    folder = tmp_path / "run"
+    code, out, err = run(capsys, "evaluate", "-d", tiny_spec, "-m", mean_match, "--out", folder)
+    assert code == 0, err
+    title = out.splitlines()[0].strip()
+    assert title.endswith(f"({tiny_spec})") and not title.startswith("(")
+    code, shown, err = run(capsys, "show", folder)
+    assert code == 0, err
+    assert shown.splitlines()[0].strip() == title
+
+
+def test_the_table_keeps_method_names_whole_on_an_80_column_terminal(
+    tmp_path, capsys, monkeypatch, tiny_spec
+):
+    # the name column had folded to five letters a line ("weigh", "ted-n", "ode-p", ...)
+    from rich.console import Console
+
+    import ppaloc.cli.commands as commands
+
+    folder = tmp_path / "run"
+    names = ["weighted-node-paper-lowres", "onsensor-paper-lbp", "seqslam-centred"]
+    argv = ["evaluate", "-d", tiny_spec, "--out", folder, "-q", "--no-report"]
+    code, _, err = run(capsys, *argv, *(a for n in names for a in ("-m", n)))
+    assert code == 0, err
+    summary = json.loads((folder / "results.json").read_text())
+    for width, left_out in ((80, "P@F1, R@F1, loop ms"), (200, None)):
+        monkeypatch.setattr(commands, "_console", lambda w=width: Console(width=w))
+        commands.print_results_table(summary, title="t")
+        out = capsys.readouterr().out
+        table = out.split("F1 = max F1", 1)[0]
+        assert max(len(line) for line in table.splitlines()) <= width
+        assert all(f" {n}" in table for n in ["weighted-node-paper-lowres", *names[1:]])
+        assert "F1" in table and "R@100P" in table and "mJ" in table
+        if left_out:
+            assert f"left out to fit this terminal's {width} columns: {left_out}" in out
+        else:
+            assert "left out" not in out and " P@F1 " in table
+
+
+def test_show_draws_a_methods_register_planes_under_their_labels(tmp_path, capsys, monkeypatch):
+    # arrays/METHOD.registers.npz was drawn as "plane0", "plane1", its labels unread
+    import ppaloc.sim.render as render
+
+    drawn = {}
+    monkeypatch.setattr(render, "render_montage", lambda planes, out, **k: drawn.update(planes))
+    path = tmp_path / "run" / "arrays" / "onsensor-lbp.registers.npz"
+    path.parent.mkdir(parents=True)
+    planes = {f"plane{i}": np.full((4, 4), i, np.int16) for i in range(2)}
+    np.savez(path, **planes, labels=np.array(["C: weights", "R9: detection candidates"]))
+    code, _, err = run(capsys, "show", path, "--out", tmp_path / "r.png")
+    assert code == 0, err
+    assert list(drawn) == ["C: weights", "R9: detection candidates"]
+    assert drawn["R9: detection candidates"][0, 0] == 1

@@ -106,6 +106,14 @@ def test_nordland_bad_inputs(write_frames, tmp_path):
         load_dataset(f"nordland:{tmp_path}?query=summer")
     with pytest.raises(DataError, match=r"Nordland folder .*nowhere does not exist"):
         load_dataset(f"nordland:{tmp_path / 'nowhere'}")
+    # a season's own folder given as the root was "summer/summer does not exist (present:
+    # none); choose ref= and query= among them"
+    with pytest.raises(DataError) as info:
+        load_dataset(f"nordland:{tmp_path / 'summer'}")
+    assert str(info.value) == (
+        f"Nordland folder {tmp_path / 'summer'} is a season folder, not the folder that holds "
+        f"the seasons: give its parent ({tmp_path}) and choose the seasons with ref= and query="
+    )
 
 
 # --- gardens point and vprbench -------------------------------------------------------------
@@ -282,3 +290,17 @@ def test_a_video_of_no_frames_is_named(tmp_path):
     _write_video(path, [], shape=(32, 32))
     with pytest.raises(DataError, match=r"empty\.mkv holds no frames \(an empty video"):
         load_dataset(f"video:{path},{path}")
+
+
+def test_a_missing_relative_folder_says_where_it_was_looked_for(tmp_path, monkeypatch):
+    # a spec in a --config file of another folder is read from the current one, unsaid
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(DataError) as info:
+        load_dataset("nordland:../data/nordland-64x32")
+    assert str(info.value) == (
+        "Nordland folder ../data/nordland-64x32 does not exist: check the path in the dataset "
+        f"spec (a relative path is read from the current folder, {tmp_path})"
+    )
+    with pytest.raises(DataError) as info:
+        load_dataset(f"nordland:{tmp_path / 'nowhere'}")
+    assert str(info.value).endswith("check the path in the dataset spec")

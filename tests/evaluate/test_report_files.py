@@ -126,6 +126,25 @@ def test_the_difference_figure_from_files(folder):
     assert figures.png_bytes(fig)[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def _overlaps(a, b) -> bool:
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def test_no_legend_covers_the_estimates_or_the_weights(folder):
+    # an estimate of the first frames far up the map sat under a legend in the top left
+    result, _ = load_results(folder)
+    position = figures.position_along_route(result)
+    position.canvas.draw()
+    (legend,) = position.legends
+    box = legend.get_window_extent()
+    assert [t.get_text() for t in legend.get_texts()] == ["true", "correct", "wrong"]
+    assert not any(_overlaps(box, ax.get_window_extent()) for ax in position.axes)
+    assert not any(ax.get_legend() for ax in position.axes)
+    weights = figures.weights_heatmaps(result)
+    (ax,) = [a for a in weights.axes if a.images]
+    assert ax.get_legend() is None and ax.get_title().endswith("; dashed: the true node")
+
+
 def test_the_weights_figure_draws_the_truth_in_nodes(folder):
     result, _ = load_results(folder)
     fig = figures.weights_heatmaps(result)

@@ -193,3 +193,34 @@ def test_a_warning_names_the_method_s_own_remedy() -> None:
     assert make_localiser("onsensor-lbp").speed_remedy.startswith("lower skip_cost")
     assert "robust preset" in make_localiser("weighted-node-lbp", preset="paper").speed_remedy
     assert not hasattr(make_localiser("seqslam"), "speed_remedy")
+
+
+def test_the_short_note_of_a_method_of_one_speed_names_that_speed():
+    # the paper preset's note read "outside the speeds it searches (1-1)"
+    check = {"warning": "...", "range": [1.0, 1.0], "share_outside": 0.7}
+    summary = {"methods": {"weighted-node-paper-lbp": {"speed_check": check}}}
+    assert method_notes(summary, short=True) == [
+        "weighted-node-paper-lbp: the query moves off the speed it assumes (1) on 70% of the route"
+    ]
+
+
+def test_the_short_notes_of_methods_alike_are_one_line():
+    # a run of every method printed a dozen lines that differed only in the name
+    def check(lo, hi):
+        return {"speed_check": {"warning": "...", "range": [lo, hi], "share_outside": 0.5}}
+
+    summary = {
+        "methods": {
+            "weighted-node-lbp": check(0.5, 2.0),
+            "seqslam-centred": {**check(0.8, 1.2), "reads_future": True},
+            "onsensor-lbp": check(0.5, 2.0),
+        }
+    }
+    assert method_notes(summary, short=True) == [
+        "weighted-node-lbp, onsensor-lbp: the query moves outside the speeds it searches "
+        "(0.5-2) on 50% of the route",
+        "seqslam-centred is offline (reads future frames)",
+        "seqslam-centred: the query moves outside the speeds it searches (0.8-1.2) on 50% of "
+        "the route",
+    ]
+    assert len(method_notes(summary)) == 4  # the report's notes: each method's own

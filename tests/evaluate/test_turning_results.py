@@ -82,3 +82,19 @@ def test_tiny_route_with_turns_renders(mean_match, tmp_path):
     assert np.array_equal(back.query_turning, result.query_turning)
     assert write_report(tmp_path).is_file()
     assert (tmp_path / "figures" / "position.png").stat().st_size > 0
+
+
+def test_the_printed_table_says_what_its_turning_columns_are(mean_match, turned, tmp_path, capsys):
+    # the columns "F1 str." and "F1 turn" were printed without a word on what they are
+    from ppaloc.cli.commands import print_results_table
+
+    legend = "F1 str., F1 turn = max F1 of the straight and of the turning query frames alone;"
+    for shown in (True, False):
+        if not shown:  # the same route without its turning flags
+            del turned.meta["query_turning"], turned.meta["reference_turning"]
+        run = run_evaluation(EvaluateConfig(methods=(mean_match,)), dataset=turned, progress=False)
+        folder = tmp_path / str(shown)
+        save_results(run, folder)
+        print_results_table(load_results(folder)[1])
+        out = capsys.readouterr().out
+        assert ("F1 str." in out) is shown and (legend in out) is shown

@@ -158,12 +158,14 @@ def _config(**values):
         ({"seed": []}, "sweep.toml: seed=[] must be an integer or a non-empty list of them"),
         ({"tolerance": [-1]}, "sweep.toml: tolerance=[-1] must be an integer >= 0 or a"),
         ({"combine": "zip"}, "sweep.toml: combine='zip' must be one of product, one-at-a-time"),
-        ({"methods": "seqslam, able-m"}, None),  # one string is one method (then unknown)
+        ({"methods": "seqslam, able-m"}, None),  # one string is one method (two, joined)
     ],
 )
 def test_bad_values_name_their_key(values, message):
     if message is None:
-        with pytest.raises(PpalocError, match="methods: method 'seqslam, able-m' is unknown"):
+        with pytest.raises(
+            PpalocError, match="methods: method 'seqslam, able-m' names 2 methods in one"
+        ):
             validate(_config(**values), expand(_config(**values)))
         return
     with pytest.raises(PpalocError) as info:
@@ -210,7 +212,9 @@ def test_a_bad_value_of_a_parameter_names_the_cell():
         methods=["weighted-node-paper-lbp"],
         params={"weighted-node-paper-lbp": {"gamma": [0.25, 0.3]}},
     )
-    with pytest.raises(PpalocError, match=r"\(cell gamma=0.3\): gamma=0.3"):
+    with pytest.raises(
+        PpalocError, match=r"\(cell gamma=0.3\): method 'weighted-node-paper-lbp': gamma=0.3"
+    ):
         validate(config, expand(config))
 
 

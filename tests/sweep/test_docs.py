@@ -60,3 +60,27 @@ def test_the_refusal_shown_for_a_users_file_in_figures_is_the_real_one(tmp_path,
     with pytest.raises(PpalocError) as info:
         check_sweep_folder(Path("sweep1"))
     assert f"`{info.value}`" in " ".join(TEXT.split())
+
+
+def test_the_first_examples_table_shows_what_its_cells_score():
+    # the page's seqslam rows had gone stale: the table is the sweep's, cell by cell
+    from ppaloc.evaluate.config import EvaluateConfig
+    from ppaloc.evaluate.run import run_evaluation
+
+    sweep = tomllib.loads(TOML[0])["sweep"]
+    table = TEXT.split("$ ppaloc sweep --config sweep.toml --out gamma\n", 1)[1]
+    rows = re.findall(r"^ (\S+) +seed=(\d) +([\d.]+) +([\d.]+) +(\S+) +\d/\d$", table, re.M)
+    assert len(rows) == 4
+    for method, seed, f1, auc, swept in rows:
+        (dataset,) = [d for d in sweep["datasets"] if d.endswith(f"seed={seed}")]
+        key, _, value = swept.partition("=")
+        params = {} if swept == "-" else {method: {key: tomllib.loads(f"v = {value}")["v"]}}
+        config = EvaluateConfig(
+            dataset=dataset,
+            methods=(method,),
+            tolerance=sweep["tolerance"],
+            params=params,
+            record_weights=False,
+        )
+        metrics = run_evaluation(config, progress=False).runs[method].metrics
+        assert (f"{metrics.f1_max:.3f}", f"{metrics.auc:.3f}") == (f1, auc), (method, seed)

@@ -250,3 +250,24 @@ def test_a_damaged_or_hand_edited_summary_is_one_line(tmp_path, capsys, text, me
     assert err.startswith("ppaloc: error: ") and "\n" not in err
     assert message in err
     assert not (tmp_path / "report.html").exists()
+
+
+def test_the_printed_best_cells_keep_method_names_whole_on_80_columns(monkeypatch, capsys):
+    # two methods sharing their first letters were both "weighted-node-lo…" on 80 columns
+    from rich.console import Console
+
+    import ppaloc.cli.commands as commands
+
+    long = {"lbp": "weighted-node-lowres", "lowres": "weighted-node-lowres16"}
+    data = summary()
+    for cell in data["cells"]:
+        cell["method"] = long.get(cell["method"], cell["method"])
+        cell["dataset"] += "&query=autumn&speed_var=0.65&stops=3"
+    data["axes"]["method"] = [long.get(m, m) for m in data["axes"]["method"]]
+    data["axes"]["dataset"] = [d + "&query=autumn&speed_var=0.65&stops=3" for d in (A, B)]
+    monkeypatch.setattr(commands, "_console", lambda: Console(width=80))
+    commands._print_best_cells(data)
+    out = capsys.readouterr().out
+    assert "…" not in out and max(map(len, out.splitlines())) <= 80
+    starts = [line.split()[0] for line in out.splitlines()[4:] if line[:2].strip()]
+    assert sorted(set(starts)) == ["seqslam", "weighted-node-lowres", "weighted-node-lowres16"]

@@ -40,6 +40,12 @@ def _console():
     return Console(highlight=False, soft_wrap=False, width=None if sys.stdout.isatty() else 160)
 
 
+_NARROW_DROPS = ("P@F1", "R@F1", "loop ms", "AUC", "chip ms", "mJ", "P@100R", "R@100P")
+"""The printed table's columns left out, in this order (those without a figure first),
+until its method names fit whole on a narrow terminal (80 columns: the names had folded
+into five-letter pieces)."""
+
+
 def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     """Print the comparison table of a ``results.json`` summary on stdout."""
     from rich import box
@@ -48,7 +54,19 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     from ppaloc.evaluate.report import comparison_table, method_notes
 
     header, rows = comparison_table(summary, short=True)
-    keep = [i for i, h in enumerate(header) if h not in ("Repr.", "p95 ms")]  # fit 80 columns
+    keep = [i for i, h in enumerate(header) if h not in ("Repr.", "p95 ms")]
+    widths = [max([len(header[i])] + [len(r[i]) for r in rows]) for i in range(len(header))]
+    console = _console()
+    left_out = []
+    empty = [
+        n for n in _NARROW_DROPS if n in header and {r[header.index(n)] for r in rows} <= {"-"}
+    ]
+    for name in [*empty, *_NARROW_DROPS]:  # names whole on a narrow terminal: fewer columns
+        if sum(widths[i] + 2 for i in keep) + 1 <= console.width:  # padding, rules, edges
+            break
+        if name in header and header.index(name) in keep:
+            keep.remove(header.index(name))
+            left_out.append(name)
     table = Table(
         title=title or None,
         title_justify="left",
@@ -57,14 +75,13 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
         padding=(0, 1, 0, 0),
     )
     for i in keep:
-        width = max([len(header[i])] + [len(r[i]) for r in rows])
-        if i == 0:  # the method name folds on a narrow terminal, numbers never do
+        if i == 0:  # the method name folds on a terminal too narrow still, numbers never do
             table.add_column(header[i], overflow="fold")
         else:
-            table.add_column(header[i], justify="right", min_width=width)
+            table.add_column(header[i], justify="right", min_width=widths[i])
     for r in rows:
         table.add_row(*(r[i] for i in keep))
-    _console().print(table)
+    console.print(table)
     recall = {m.get("recall_definition", "A") for m in summary["methods"].values()}
     config = summary.get("config")
     scored = isinstance(config, dict) and config.get("command") == "score"
@@ -73,9 +90,14 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
         if scored
         else "median wall-clock time of step on this machine"
     )
+    turning = (
+        "F1 str., F1 turn = max F1 of the straight and of the turning query frames alone;\n"
+        if "F1 str." in header
+        else ""
+    )
     print(
         f"F1 = max F1 (recall definition {', '.join(sorted(recall))}); "
-        "R@100P = recall at 100% precision;\n"
+        f"R@100P = recall at 100% precision;\n{turning}"
         "P@100R = precision with every query accepted (100% recall under recall B and C);\n"
         f"host ms = {host};\n"
         "chip ms, loop ms = modelled time per frame on the sensor and for the whole hardware "
@@ -83,6 +105,11 @@ def print_results_table(summary: dict[str, Any], *, title: str = "") -> None:
     )
     for note in method_notes(summary, short=True):
         print(f"note: {note}")
+    if left_out:
+        print(
+            f"left out to fit this terminal's {console.width} columns: {', '.join(left_out)} "
+            "(a wider terminal shows them; results.csv and the report hold every figure)"
+        )
 
 
 # -- evaluate ------------------------------------------------------------------------------
@@ -404,9 +431,18 @@ def _print_best_cells(summary: dict[str, Any]) -> None:
         box=box.SIMPLE_HEAD,
         pad_edge=False,
     )
+    best = best_cells(summary)
     for name in ("Method", "Dataset", "F1", "AUC", "Swept values", "Cells ok"):
-        table.add_column(name, justify="left" if name in ("Method", "Dataset") else "right")
-    for g in best_cells(summary):
+        if name == "Method":  # whole, never cut: two methods may share their first letters
+            width = max([len(name)] + [len(g["method"]) for g in best])
+            table.add_column(name, no_wrap=True, min_width=width)
+        elif name in ("Dataset", "Swept values"):  # folded where the terminal is narrow
+            table.add_column(
+                name, overflow="fold", justify="left" if name == "Dataset" else "right"
+            )
+        else:
+            table.add_column(name, justify="right", no_wrap=True)
+    for g in best:
         r = g["row"] or {}
         values = ", ".join(f"{a}={r[a]}" for a in swept if r.get(a) is not None)
         table.add_row(
@@ -520,6 +556,12 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
         refuse_link_loop(path, "the path")
         state = "is not a regular file" if path.exists() else "does not exist"
         raise DataError(f"{path} {state}; {what}")
+    folder = _results_folder_of(path)
+    if folder is not None:
+        raise DataError(
+            f"{path} is a file of the results folder {folder}: ppaloc show {folder} shows "
+            "it (the table, and the report rebuilt from its files)"
+        )
     if path.suffix.lower() == ".csv":
         from ppaloc.cli.showcsv import show_predictions
 
@@ -535,6 +577,33 @@ def run_show(path: Path, out: Path | None, *, quiet: bool = False) -> Path | Non
     if is_map:  # a damaged map is refused by load_map with its cause, not drawn as planes
         return _show_map(path, out, quiet=quiet)
     return _show_planes(path, out, quiet=quiet)
+
+
+_FOLDER_FILES = {
+    "results.json": ("results.json",),
+    "results.csv": ("results.json",),
+    "report.html": ("results.json", "summary.json"),
+    "report.md": ("results.json", "summary.json"),
+    "matrix.csv": ("matrix.csv",),
+    "summary.json": ("summary.json",),
+    "summary.csv": ("summary.json",),
+}
+"""A results or sweep folder's own files, by name, and the files that mark the folder."""
+
+
+def _results_folder_of(path: Path) -> Path | None:
+    """The results (or sweep) folder ``path`` is one of the files of, where ``ppaloc
+    show`` reads the folder, not the file: its ``results.json``, report, table, or a
+    method's ``arrays/*.npz`` (register planes, ``*.registers.npz``, are drawn alone)."""
+    parent = path.parent
+    marks = _FOLDER_FILES.get(path.name, ())
+    if any((parent / mark).is_file() for mark in marks):
+        if path.name != "summary.json" or (parent / "cells").is_dir():  # not a cpp run's
+            return parent
+    in_arrays = parent.name == "arrays" and (parent.parent / "results.json").is_file()
+    if in_arrays and path.suffix == ".npz" and not path.name.endswith(".registers.npz"):
+        return parent.parent
+    return None
 
 
 def _show_results(folder: Path, *, quiet: bool) -> Path:
@@ -564,7 +633,8 @@ def _show_results(folder: Path, *, quiet: bool) -> Path:
     report = write_report(folder)
     if not quiet:
         summary = json.loads((folder / "results.json").read_text(encoding="utf-8"))
-        print_results_table(summary, title=f"{summary.get('dataset', '')}")
+        name, spec = summary.get("dataset_name"), summary.get("dataset", "")
+        print_results_table(summary, title=f"{name} ({spec})" if name else f"{spec}")  # as run
         print(f"report: {report}")
     return report
 
@@ -635,6 +705,15 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     except OSError as exc:
         raise DataError(f"cannot read {path} ({exc.strerror or exc})") from None
     planes = {k: a for k, a in arrays.items() if a.ndim == 2}
+    labels = arrays.get("labels")
+    if (  # a results folder's arrays/METHOD.registers.npz: each plane under its label
+        labels is not None
+        and labels.ndim == 1
+        and labels.dtype.kind == "U"
+        and len(set(labels.tolist())) == len(labels) == len(planes)
+        and all(f"plane{i}" in planes for i in range(len(labels)))
+    ):
+        planes = {str(label): planes[f"plane{i}"] for i, label in enumerate(labels)}
     if not planes:
         raise DataError(f"{path} holds no 2-D arrays to draw as register planes")
     cells = sum(a.size for a in planes.values())
@@ -675,6 +754,49 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
     if not quiet:
         print(f"{path}: {len(planes)} planes -> {out}")
     return out
+
+
+# -- methods ---------------------------------------------------------------------------------
+
+
+def run_methods(names: list[str]) -> None:
+    """Print every available method with its summary, or each of ``names`` with its
+    parameters (:func:`ppaloc.methods.parameter_table`): what ``--param`` takes, found
+    without reading the source or the documentation."""
+    from rich import box
+    from rich.table import Table
+
+    from ppaloc.methods import available_methods, parameter_table, registry
+
+    available = available_methods()
+    if not names:
+        width = max(map(len, available), default=0)
+        for name in available:
+            print(f"{name:<{width}}  {registry()[name].summary}")
+        print("\nppaloc methods NAME lists a method's parameters.")
+        return
+    for name in names:
+        if name not in available:
+            raise PpalocError(f"method {name!r} is unknown; choose from: {', '.join(available)}")
+    for k, name in enumerate(names):
+        rows, left_out = parameter_table(name)
+        print(("\n" if k else "") + f"{name}: {registry()[name].summary}")
+        if not rows and not left_out:
+            print("  takes any keyword (its class declares no parameters)")
+            continue
+        table = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1, 0, 0))
+        for column in ("parameter", "default", "accepted", "what"):
+            table.add_column(column, overflow="fold")
+        for row in rows:
+            table.add_row(*row)
+        _console().print(table)
+        if left_out:
+            print(f"not read by its preset (other methods' parameters): {', '.join(left_out)}")
+    print(
+        "\n- = none given: the method chooses. Set one with --param METHOD.KEY=VALUE; what "
+        "each sets: docs/localise.md (the weighted-node filter), docs/onsensor.md (the "
+        "simulated sensor), docs/baselines.md (the baselines)."
+    )
 
 
 # -- warm-up ---------------------------------------------------------------------------------

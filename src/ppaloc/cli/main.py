@@ -73,7 +73,7 @@ def _parse_params(items: tuple[str, ...]) -> dict[str, dict[str, Any]]:
         if not eq or not dot or not method or not name:
             raise PpalocError(
                 f"--param {item!r} must look like METHOD.KEY=VALUE, "
-                "e.g. --param weighted-node-lowres.alpha=8"
+                "e.g. --param weighted-node-lowres.gain=8"
             )
         table = out.setdefault(method.strip(), {})
         what = f"--param {method.strip()}.{name.strip()}"
@@ -87,7 +87,7 @@ def _parse_method_params(items: tuple[str, ...]) -> dict[str, Any]:
     for item in items:
         key, eq, value = item.partition("=")
         if not eq or not key.strip():
-            raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param alpha=8")
+            raise PpalocError(f"--param {item!r} must look like KEY=VALUE, e.g. --param gain=8")
         set_once(out, key.strip(), _parse_value(value.strip()), f"--param {key.strip()}")
     return out
 
@@ -161,6 +161,24 @@ def _check_method_params(params: Any, source: Path | None) -> None:
                 + ", ".join(registry())
             )
         check_method(method, values)  # what it reads from the dataset: when it runs
+
+
+def _check_flag_params_run(flag_params: dict[str, dict[str, Any]], methods: Any) -> None:
+    """Refuse a ``--param METHOD.KEY=VALUE`` flag for a method the run leaves out: it
+    would change nothing, silently (``-m weighted-node-lbp --param
+    weighted-node-lowres.gain=3``); a configuration file's ``[params.METHOD]`` may hold
+    tables for methods a run leaves out, as shared files do."""
+    if not methods:
+        return  # every available method runs
+    run = [methods] if isinstance(methods, str) else list(methods)
+    for method, values in flag_params.items():
+        if method not in run:
+            key = next(iter(values))  # a known method's valid key: checked before
+            raise PpalocError(
+                f"--param {method}.{key} is for a method this run leaves out (methods: "
+                f"{', '.join(map(str, run))}); add --method {method} or correct the "
+                "method's name"
+            )
 
 
 def _check_file_types(
@@ -328,6 +346,7 @@ Examples:
   ppaloc bench --sizes 256,1024,4096
   ppaloc sweep --config sweep.toml --out sweep1
   ppaloc show run1
+  ppaloc methods weighted-node-lbp     # its parameters, defaults and ranges
 
 Run `ppaloc COMMAND --help` for each command's options.""",
 )
@@ -398,7 +417,7 @@ run.toml:
   tolerance = 2
   out = "run1"
   [params.weighted-node-lowres]
-  gamma = 0.25""",
+  gain = 8""",
 )
 @click.option(
     "--dataset",
@@ -423,7 +442,7 @@ run.toml:
     "params",
     multiple=True,
     metavar="METHOD.KEY=VALUE",
-    help="A method parameter, repeatable, e.g. weighted-node-lowres.alpha=8.",
+    help="A method parameter, repeatable, e.g. weighted-node-lowres.gain=8.",
 )
 @click.option(
     "--weights/--no-weights",
@@ -454,6 +473,7 @@ def evaluate(
 
     file_values = _file_values(config_file, "evaluate")
     _check_file_types(EvaluateConfig, file_values, config_file, skip=("dataset",))
+    flag_params = _parse_params(params)
     values = _merge(
         file_values,
         {
@@ -462,7 +482,7 @@ def evaluate(
             "tolerance": tolerance,
             "recall": recall,
             "seed": seed,
-            "params": _parse_params(params),
+            "params": flag_params,
             "record_weights": record_weights,
             "out": out,
             "no_report": no_report,
@@ -475,6 +495,7 @@ def evaluate(
         values, [*fields, "out", "no_report", "quiet"], source=str(config_file or "")
     )
     _check_method_params(values.get("params"), config_file)
+    _check_flag_params_run(flag_params, values.get("methods"))
     out_dir = _output(_pop(values, "out", "results"), folder=True)
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
@@ -630,6 +651,7 @@ def bench(
     size_list = None if sizes is None else _sizes(sizes)
     file_values = _file_values(config_file, "bench")
     _check_file_types(BenchConfig, file_values, config_file)
+    flag_params = _parse_params(params)
     values = _merge(
         file_values,
         {
@@ -638,7 +660,7 @@ def bench(
             "queries": queries,
             "seed": seed,
             "max_build_s": max_build_s,
-            "params": _parse_params(params),
+            "params": flag_params,
             "out": out,
             "quiet": quiet,
         },
@@ -650,6 +672,7 @@ def bench(
     quiet_ = bool(_pop(values, "quiet", False))
     config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
     _check_method_params(config.params, config_file)
+    _check_flag_params_run(flag_params, config.methods)
     out_path = None if out_dir is None else _output(out_dir, folder=True)
     run_bench(config, out_path, quiet=quiet_)
 
@@ -943,6 +966,22 @@ def show(path: Path, out: Path | None, quiet: bool | None) -> None:
 
 
 @cli.command(
+    epilog="""\b
+Examples:
+  ppaloc methods                       # every method available here, one line each
+  ppaloc methods weighted-node-lbp     # its parameters: default, accepted values
+  ppaloc methods seqslam able-m""",
+)
+@click.argument("names", nargs=-1)
+def methods(names: tuple[str, ...]) -> None:
+    """List the methods, or each named method's parameters (the keys of --param
+    METHOD.KEY=VALUE) with the default it runs with and the values accepted."""
+    from ppaloc.cli.commands import run_methods
+
+    run_methods(list(names))
+
+
+@cli.command(
     "warm-up",
     epilog="""\b
 Examples:
@@ -1143,7 +1182,7 @@ def _reject_unknown(
     if not isinstance(values.get("params", {}), dict):
         raise PpalocError(
             f"params in {source} must be a table of the method's keys, e.g. "
-            f"[{section}.params] followed by alpha = 8"
+            f"[{section}.params] followed by gain = 8"
         )
 
 

@@ -63,7 +63,10 @@ def require_dir(path: Path, what: str = "folder") -> Path:
     """Return ``path`` if it is a directory, else raise a ``DataError`` naming it."""
     path = Path(path)
     if not path.exists():
-        raise DataError(f"{what} {path} does not exist: check the path in the dataset spec")
+        where = ""
+        if not path.is_absolute():  # a spec from a --config file elsewhere reads from here too
+            where = f" (a relative path is read from the current folder, {Path.cwd()})"
+        raise DataError(f"{what} {path} does not exist: check the path in the dataset spec{where}")
     if not path.is_dir():
         raise DataError(f"{what} {path} is not a folder: give the folder that holds the images")
     return path

@@ -160,7 +160,7 @@ class EvaluateConfig:
             isinstance(v, Mapping) for v in self.params.values()
         ):
             raise PpalocError(
-                "params must be a table of tables, e.g. [params.weighted-node-lowres] alpha = 8"
+                "params must be a table of tables, e.g. [params.weighted-node-lowres] gain = 8"
             )
 
     def resolved_dataset(self) -> str:

@@ -188,7 +188,13 @@ def position_along_route(result: RunResult) -> Figure:
         ax.set_ylabel("reference frame")
     for ax in axes[-1, :]:
         ax.set_xlabel("query frame")
-    axes[0, 0].legend(loc="upper left", markerscale=3)
+    # below the panels: inside one, it hid the estimates of the first frames, which are
+    # the top left's where a filter starts far from the truth
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(
+        handles, labels, loc="outside lower center", ncols=len(labels), markerscale=3,
+        frameon=False,
+    )  # fmt: skip
     fig.suptitle(f"Position estimate along the route, {result.dataset_name}")
     return fig
 
@@ -265,7 +271,7 @@ def weights_heatmaps(result: RunResult) -> Figure | None:
         if frames is not None and len(frames) == n_nodes:
             q = np.arange(len(truth))
             ax.plot(q, true_nodes(truth, frames), color="cyan", lw=0.9, ls="--", label="true node")
-            ax.legend(loc="upper left")
+            title += "; dashed: the true node"  # a legend inside hid the first frames' weights
         else:
             title += "; true node not drawn: the folder lacks the map's frame_index"
         ax.set_title(title)

@@ -158,7 +158,8 @@ def method_notes(summary: dict[str, Any], *, short: bool = False) -> list[str]:
     """What a reader must know about some methods' figures: an offline method that read
     future frames, and the speed check's warnings (:mod:`ppaloc.evaluate.speed`); ``short``
     for a terminal, where the warning itself was logged during the run."""
-    notes = []
+    notes: list[str] = []
+    alike: dict[str, list[str]] = {}  # short speed notes: one line for the methods alike
     for name, m in summary["methods"].items():
         if m.get("reads_future"):
             notes.append(
@@ -170,13 +171,20 @@ def method_notes(summary: dict[str, Any], *, short: bool = False) -> list[str]:
         check = m.get("speed_check") or {}
         if check.get("warning"):
             lo, hi = check["range"]
-            notes.append(
-                f"{name}: the query moves outside the speeds it searches ({lo:.3g}-{hi:.3g}) "
-                f"on {check['share_outside']:.0%} of the route"
-                if short
-                else check["warning"]
-            )
-    return notes
+            speeds = (
+                f"off the speed it assumes ({lo:.3g})"
+                if lo == hi
+                else f"outside the speeds it searches ({lo:.3g}-{hi:.3g})"
+            )  # "(1-1)" said nothing
+            if short:
+                said = f"the query moves {speeds} on {check['share_outside']:.0%} of the route"
+                if said not in alike:
+                    alike[said] = []
+                    notes.append(said)
+                alike[said].append(name)
+            else:
+                notes.append(check["warning"])
+    return [f"{', '.join(alike[n])}: {n}" if n in alike else n for n in notes]
 
 
 def comparison_table(

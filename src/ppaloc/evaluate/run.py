@@ -304,6 +304,13 @@ def resolve_methods(names: Sequence[str]) -> list[str]:
         return available
     out: list[str] = []
     for name in names:
+        parts = [p.strip() for p in str(name).split(",")]
+        if name not in available and len(parts) > 1 and all(p in available for p in parts):
+            raise PpalocError(
+                f"method {name!r} names {len(parts)} methods in one: give each its own "
+                f"--method ({' '.join(f'-m {p}' for p in parts)}), or list them in a "
+                "configuration file (methods = [...])"
+            )
         if name not in available:
             why = "is not available in this install" if name in registry() else "is unknown"
             raise PpalocError(

@@ -240,6 +240,12 @@ def _header(path: Path, row: list[str], at: int = 1) -> dict[str, int]:
     known, none twice, the needed ones present."""
     columns: dict[str, int] = {}
     given: dict[str, str] = {}
+    if "f1_max" in (raw.strip().lower() for raw in row):  # a table the commands write
+        raise DataError(
+            f"{path} is a table of results (f1_max per method: results.csv or matrix.csv "
+            "of ppaloc evaluate, summary.csv of ppaloc sweep), not predictions (one row per "
+            f"query: query, reference, score); ppaloc show {path.parent} shows its folder"
+        )
     for i, raw in enumerate(row):
         name = raw.strip().lower()
         if not name:

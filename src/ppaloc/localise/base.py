@@ -78,8 +78,8 @@ class MethodParam:
 
     A localiser class declares its parameters with a classmethod ``parameters() ->
     tuple[MethodParam, ...]``; the method registry (:mod:`ppaloc.methods`) checks every
-    value a user gives (``--param``, TOML, a sweep) against them before any work, and the
-    command's help lists them. A class that declares none is read from its signature.
+    value a user gives (``--param``, TOML, a sweep) against them before any work, and
+    ``ppaloc methods NAME`` lists them. A class that declares none is read from its signature.
 
     Attributes
     ----------

@@ -491,7 +491,11 @@ class FilterParams:
         for key, spec in params.items():
             if spec.group not in (None, group) and values.get(key) is not None:
                 other = spec.group
-                methods = "weighted-node-paper-*" if other == "paper" else "weighted-node-*"
+                methods = (
+                    "weighted-node-paper-*, onsensor-paper-*"
+                    if other == "paper"
+                    else "weighted-node-*, onsensor-*"
+                )
                 raise PpalocError(
                     f"{key}={values[key]!r} is a parameter of preset {other!r}, not of "
                     f"preset {preset!r}; pass preset={other!r} (the methods {methods}) to use it"

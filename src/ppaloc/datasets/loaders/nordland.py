@@ -45,6 +45,12 @@ def _season_dir(root, season: str):
     d = root / name
     if not d.is_dir():
         present = sorted(p.name for p in root.iterdir() if p.is_dir())
+        if not present and root.name in (*SEASONS, "autumn"):  # a season given as the root
+            raise DataError(
+                f"Nordland folder {root} is a season folder, not the folder that holds the "
+                f"seasons: give its parent ({root.parent}) and choose the seasons with ref= "
+                "and query="
+            )
         raise DataError(
             f"Nordland season folder {d} does not exist (present: {', '.join(present) or 'none'}); "
             "choose ref= and query= among them"

@@ -1,0 +1,72 @@
+"""``ppaloc methods``: the methods and each one's parameters from the command line, with
+the default each runs with and what it accepts (only the docs and the source said so)."""
+
+from __future__ import annotations
+
+import pytest
+
+from ppaloc.cli import main
+from ppaloc.cli.main import _parse_value
+from ppaloc.methods import (
+    available_methods,
+    check_method,
+    make_localiser,
+    method_parameters,
+    parameter_table,
+    registry,
+)
+
+
+def run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_methods_lists_every_available_method_with_its_summary(capsys):
+    code, out, err = run(capsys, "methods")
+    assert code == 0 and not err
+    listed = [line.split()[0] for line in out.splitlines()[: len(available_methods())]]
+    assert listed == available_methods()
+    assert registry()["seqslam"].summary in out
+
+
+def test_a_methods_parameters_show_their_defaults_and_ranges(capsys):
+    code, out, err = run(capsys, "methods", "weighted-node-lbp", "seqslam")
+    assert code == 0 and not err
+    lines = {line.split()[0]: line.split() for line in out.splitlines() if line.strip()}
+    assert lines["gain"][1:] == ["4", "an", "integer", "in", "[1,", "32]"]
+    assert lines["ds"][1:3] == ["10", "an"]
+    assert "--param METHOD.KEY=VALUE" in out
+
+
+def test_the_paper_preset_shows_its_own_defaults_and_names_the_others(capsys):
+    code, out, _ = run(capsys, "methods", "onsensor-paper-lowres")
+    assert code == 0
+    shift = [line.split() for line in out.splitlines() if line.split()[:1] == ["shift"]]
+    assert shift[0][1] == "2"  # the paper preset's shift for 8x8 images, not the class's None
+    assert "not read by its preset (other methods' parameters): gain, memory," in out
+
+
+@pytest.mark.parametrize("name", available_methods())
+def test_every_default_shown_is_a_value_the_method_takes(name):
+    rows, left_out = parameter_table(name)
+    declared = method_parameters(name) or {}
+    assert {r[0] for r in rows} | set(left_out) | set(registry()[name].defaults) == set(declared)
+    built = make_localiser(name)
+    given = {}
+    for key, default, _, _ in rows:
+        if default == "-":
+            continue
+        value = _parse_value(default)
+        given[key] = value
+        resolved = getattr(getattr(built, "params", None), key, declared[key].default)
+        assert value == (list(resolved) if isinstance(resolved, tuple) else resolved), key
+    check_method(name, given)  # every default, given back with --param, is accepted
+
+
+def test_an_unknown_method_is_one_line(capsys):
+    code, out, err = run(capsys, "methods", "seqslm")
+    assert code == 1 and not out
+    assert err.startswith("ppaloc: error: method 'seqslm' is unknown; choose from: ")
+    assert err.count("\n") == 1
