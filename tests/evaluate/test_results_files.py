@@ -244,4 +244,5 @@ def test_evaluate_over_a_results_json_nested_too_deep_is_one_line(saved, capsys)
     spec = "synthetic:?places=12&size=32&sync=1&seed=2"
     assert main(["evaluate", "-d", spec, "-m", "single-frame", "-q", "--out", str(saved)]) == 1
     err = capsys.readouterr().err.strip()
-    assert err.startswith("ppaloc: error: ") and "\n" not in err and "did not write" in err
+    assert err.startswith(f"ppaloc: error: cannot read {(saved / 'results.json').resolve()} ")
+    assert "(nested too deep)" in err and "\n" not in err
