@@ -213,6 +213,24 @@ def _without(key):
     return s
 
 
+def _cell_without(key):
+    s = summary()
+    del s["cells"][0][key]
+    return s
+
+
+def _counts_without(key):
+    s = summary()
+    del s["counts"][key]
+    return s
+
+
+def _axes_without(key):
+    s = summary()
+    del s["axes"][key]
+    return s
+
+
 def _cell(**changes):
     s = summary()
     s["cells"][0].update(changes)
@@ -224,8 +242,13 @@ def _cell(**changes):
     [
         ("[" * 100_000 + "]" * 100_000, "it is nested too deep"),
         (json.dumps(summary()).replace("0.6", "NaN", 1), "it holds NaN, which is not JSON"),
-        (json.dumps(_without("axes")), "'axes' is None, expected a table of lists"),
-        (json.dumps(_without("counts")), "'counts' is None, expected a table of counts"),
+        # a missing field read "'axes' is None", as if it held null
+        (json.dumps(_without("axes")), "'axes' is missing, expected a table of lists"),
+        (json.dumps(_without("counts")), "'counts' is missing, expected a table of counts"),
+        (json.dumps({**summary(), "axes": None}), "'axes' is None, expected a table of lists"),
+        (json.dumps(_cell_without("status")), "cells[0].status is missing, expected a string"),
+        (json.dumps(_counts_without("ok")), "counts.ok is missing, expected a count >= 0"),
+        (json.dumps(_axes_without("dataset")), "axes.dataset is missing, expected a list of"),
         (json.dumps({**summary(), "axes": {**summary()["axes"], "gain": 5}}), "axes.gain is 5"),
         (json.dumps({**summary(), "cells": "x"}), "'cells' is 'x', expected a list of tables"),
         (json.dumps({**summary(), "config": "x"}), "'config' is 'x', expected a table"),

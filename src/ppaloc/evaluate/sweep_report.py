@@ -100,24 +100,24 @@ def _summary_problem(summary: Mapping[str, Any]) -> str | None:
         ("counts", dict, "a table of counts"),
     ):
         if not isinstance(summary.get(key), kind):
-            return f"{key!r} is {_shown(summary.get(key))}, expected {words}"
+            return f"{key!r} {_state(summary, key)}, expected {words}"
     axes = summary["axes"]
     for name, values in axes.items():
         if not isinstance(values, list):
             return f"axes.{name} is {_shown(values)}, expected a list"
     for name in ("method", "dataset"):
         if not all(isinstance(v, str) for v in axes.get(name, [None])):
-            return f"axes.{name} is {_shown(axes.get(name))}, expected a list of names"
+            return f"axes.{name} {_state(axes, name)}, expected a list of names"
     for key in ("cells", "ok", "failed"):
         value = summary["counts"].get(key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            return f"counts.{key} is {_shown(value)}, expected a count >= 0"
+            return f"counts.{key} {_state(summary['counts'], key)}, expected a count >= 0"
     for i, row in enumerate(summary["cells"]):
         if not isinstance(row, dict):
             return f"cells[{i}] is {_shown(row)}, expected a table"
         for key in ("method", "dataset", "status", "cell"):
             if not isinstance(row.get(key), str):
-                return f"cells[{i}].{key} is {_shown(row.get(key))}, expected a string"
+                return f"cells[{i}].{key} {_state(row, key)}, expected a string"
         for key, axis in (("method", "method"), ("dataset", "dataset")):
             if row[key] not in axes[axis]:
                 return f"cells[{i}].{key} {row[key]!r:.80} is not in axes.{axis}"
@@ -133,6 +133,12 @@ def _is_float(value: Any) -> bool:
     if isinstance(value, bool) or not isinstance(value, int | float):
         return False
     return -sys.float_info.max <= value <= sys.float_info.max
+
+
+def _state(table: Mapping[str, Any], key: str) -> str:
+    """What a summary's ``table`` holds under ``key``, in words: ``is missing`` where it has
+    no such field (which read ``is None``, as if the field said null), else ``is VALUE``."""
+    return "is missing" if key not in table else f"is {_shown(table[key])}"
 
 
 def _shown(value: Any) -> str:
