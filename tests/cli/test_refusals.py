@@ -7,9 +7,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from ppaloc.cli import main
+from ppaloc.errors import PpalocError
 
 
 def run(capsys, *args: object) -> tuple[int, str, str]:
@@ -47,3 +49,29 @@ def test_localise_refuses_oracle_moves_short_of_the_frames_before_any_line(
     code, _, err = run(capsys, "localise", m, frames, *args, "--out", csv)
     assert code == 0, err
     assert len(csv.read_text().splitlines()) == 4
+
+
+def test_the_out_probe_tries_the_folder_a_link_leads_to(tmp_path, capsys, monkeypatch):
+    # the link's own folder was tried, so a target folder the run could not write (or one
+    # missing) failed only when the result was written, after the work
+    import tempfile
+
+    from ppaloc.cli import outputs
+
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    (here / "est.csv").symlink_to(there / "est.csv")
+    real = tempfile.mkstemp
+
+    def mkstemp(*args, dir=None, **kwargs):  # a folder root cannot be kept out of
+        if Path(dir) == there:
+            raise PermissionError(13, "Permission denied")
+        return real(*args, dir=dir, **kwargs)
+
+    monkeypatch.setattr(outputs.tempfile, "mkstemp", mkstemp)
+    with pytest.raises(PpalocError, match=f"cannot write in {there} \\(Permission denied\\)"):
+        outputs.check_output(here / "est.csv", folder=False)
+    (here / "gone.csv").symlink_to(tmp_path / "missing" / "est.csv")
+    with pytest.raises(PpalocError, match=r"whose folder .*missing is not a folder that exists"):
+        outputs.check_output(here / "gone.csv", folder=False)

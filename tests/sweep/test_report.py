@@ -198,6 +198,22 @@ def test_show_on_a_sweep_folder_prints_its_best_cells_and_rebuilds_its_report(tm
     assert "Max F1 against gain" in (tmp_path / "report.html").read_text()
 
 
+def test_show_refuses_a_sweep_report_linked_into_a_loop_and_keeps_the_link(tmp_path, capsys):
+    # report.html, a name ppaloc picks, linked to itself: the link was replaced by a file
+    from ppaloc.cli import main
+
+    write_bytes(tmp_path / "summary.json", json.dumps(summary()))
+    (tmp_path / "report.html").symlink_to("report.html")
+    assert main(["show", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err == (
+        f"ppaloc: error: cannot write {tmp_path / 'report.html'}: it is a symbolic link that "
+        "leads into a loop (links that lead back to themselves), which writing would replace "
+        "with a file; remove the link or point it at a file\n"
+    )
+    assert (tmp_path / "report.html").is_symlink()
+
+
 def test_show_names_a_damaged_sweep_summary(tmp_path, capsys):
     from ppaloc.cli import main
 

@@ -4,8 +4,10 @@ A run that fails only after minutes of work because ``--out`` cannot be written 
 work; so each command checks its output first: the text is not empty and holds no NUL,
 no part of the way to it is a regular file, a folder target is not a file and a file
 target is not a folder, an existing device, pipe or socket (``/dev/null``) is never
-replaced, and the nearest existing folder accepts a new file (tried for real, so it holds
-for root and read-only mounts alike).
+replaced, and the nearest existing folder of where the output lands (a link's target's
+folder, since the file a link names is replaced beside it; a folder's own parent, where
+it is staged) accepts a new file (tried for real, so it holds for root and read-only
+mounts alike).
 """
 
 from __future__ import annotations
@@ -183,10 +185,17 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
             raise PpalocError(f"{flag} {path} is a file; give a folder for the results")
         if not folder and path.is_dir():
             raise PpalocError(f"{flag} {path} is a folder; give a file name")
-        if not os.access(path, os.W_OK):
+        if path.exists() and not os.access(path, os.W_OK):  # a dangling link: its folder
             raise PpalocError(f"{flag} {path} is not writable; give a {what} you can write")
-    parent = path if folder and path.is_dir() else path.parent
-    probe = parent
+    # where the write lands: the file a link names is replaced beside it, and a folder is
+    # replaced through a staging folder beside it, with links followed (fileio)
+    real = Path(os.path.realpath(path))
+    if path.is_symlink() and not folder and not real.parent.is_dir():
+        raise PpalocError(
+            f"{flag} {path} is a symbolic link to {real}, whose folder {real.parent} is not "
+            f"a folder that exists; create it, or give another {what}"
+        )
+    probe = real.parent
     while not probe.exists():
         if probe.is_symlink():
             raise PpalocError(f"{flag} {path}: {probe} is a dangling symbolic link")
