@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ppaloc.cli.localise import run_localise
-from ppaloc.cli.outputs import check_png, refuse_input_as_out, refuse_link_loop
+from ppaloc.cli.outputs import check_png, check_suffix, refuse_input_as_out, refuse_link_loop
 from ppaloc.errors import DataError, PpalocError
 
 __all__ = [
@@ -449,6 +449,7 @@ def run_map(
     refuse_missing_folder(out)  # before the map is built, not after
     loc = make_localiser(method, **params)  # parameters checked before the dataset loads
     refuse_input_as_out(out, _dataset_paths(dataset, reference=True), what="the dataset's")
+    check_suffix(out, "a map (.npz)", "a name ending in .npz")
     ds = load_reference(dataset)
     reference = sensor_stream(ds.reference)  # read, converted and described one at a time
     with ProgressBar(not quiet) as bar:

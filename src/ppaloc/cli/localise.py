@@ -341,7 +341,7 @@ def run_localise(
     int
         Frames localised.
     """
-    from ppaloc.cli.outputs import refuse_input_as_out
+    from ppaloc.cli.outputs import check_suffix, refuse_input_as_out
     from ppaloc.datasets import to_sensor
     from ppaloc.evaluate.run import ProgressBar, check_oracle_moves, hand_query
     from ppaloc.methods import make_localiser
@@ -376,6 +376,7 @@ def run_localise(
     if out is not None:
         if out.is_dir():
             raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
+        check_suffix(out, "a CSV of estimates", "a name such as estimates.csv")
         if not out.parent.is_dir():  # as ppaloc map: a mistyped folder is not created
             raise DataError(
                 f"cannot write the CSV to {out}: folder {out.parent} does not exist; "

@@ -27,6 +27,7 @@ __all__ = [
     "check_output",
     "check_path_text",
     "check_png",
+    "check_suffix",
     "check_text_output",
     "refuse_input_as_out",
     "refuse_link_loop",
@@ -241,6 +242,42 @@ def check_png(out: Path) -> None:
     """
     if out.suffix.lower() != ".png":
         raise PpalocError(f"--out {out}: show draws PNG images; give a file name ending in .png")
+
+
+def check_suffix(out: Path, writes: str, fix: str) -> None:
+    """Refuse an ``--out`` whose suffix names an image, a video or a map (``.npz``) where
+    the command writes something else (``ppaloc map --out x.png`` wrote a map named as an
+    image, which a folder of frames then held as an unreadable image).
+
+    Parameters
+    ----------
+    out : Path
+        The output file.
+    writes : str
+        What the command writes there (``"a map (.npz)"``).
+    fix : str
+        The name to give (``"a name ending in .npz"``).
+
+    Raises
+    ------
+    PpalocError
+        Naming the file, what it would hold and the fix.
+    """
+    from ppaloc.cli.localise import VIDEO_SUFFIXES
+    from ppaloc.datasets.images import IMAGE_SUFFIXES
+
+    suffix = out.suffix.lower()
+    named = (
+        "an image"
+        if suffix in IMAGE_SUFFIXES
+        else "a video"
+        if suffix in VIDEO_SUFFIXES
+        else "a map"
+        if suffix == ".npz"
+        else None
+    )
+    if named is not None and not writes.startswith(named):
+        raise PpalocError(f"--out {out} names {named}, but it would hold {writes}; give {fix}")
 
 
 def refuse_input_as_out(
