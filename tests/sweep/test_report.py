@@ -289,3 +289,52 @@ def test_a_damaged_or_hand_edited_summary_is_one_line(tmp_path, capsys, text, me
     assert err.startswith("ppaloc: error: ") and "\n" not in err
     assert message in err
     assert not (tmp_path / "report.html").exists()
+
+
+def _grid_summary(n: int) -> dict:
+    """One method over gain x memory, ``n`` values each, every cell finished."""
+    cells = [
+        row("lbp", A, (g * n + m) / (n * n), gain=g, memory=m) for g in range(n) for m in range(n)
+    ]
+    return {
+        "format": "ppaloc-sweep-summary",
+        "config": {"combine": "product"},
+        "axes": {
+            "method": ["lbp"],
+            "dataset": [A],
+            "gain": list(range(n)),
+            "memory": list(range(n)),
+        },
+        "cells": cells,
+        "counts": {"cells": len(cells), "ok": len(cells), "failed": 0, "not_run": 0},
+    }
+
+
+def test_the_sensitivity_tables_read_each_cell_once_per_axis(monkeypatch):
+    # each value of an axis scanned every cell: 300 x 300 values took over ten minutes
+    import ppaloc.evaluate.sweep_report as sweep_report
+
+    n, calls = 30, []
+    real = sweep_report._key
+    monkeypatch.setattr(sweep_report, "_key", lambda v: calls.append(1) or real(v))
+    tables = dict((axis, rows) for axis, _, rows in sensitivity(_grid_summary(n)))
+    assert len(calls) <= 2 * (3 * n * n + n)  # per axis: each cell's value and route
+    mean = [float(r[1]) for r in tables["gain"]]
+    assert mean == pytest.approx([(g * n + (n - 1) / 2) / (n * n) for g in range(n)], abs=1e-3)
+
+
+def test_a_large_heat_map_is_drawn_in_colours_with_its_ticks_thinned():
+    # a text per square: 90,000 squares took minutes to draw, unreadable at that size
+    import ppaloc.evaluate.sweep_report as sweep_report
+
+    n = 50
+    *_, grid = f1_grid(_grid_summary(n), "lbp", "gain", "memory")
+    names = [str(v) for v in range(n)]
+    fig = sweep_report._heatmap(grid, names, names, "gain", "memory", "lbp")
+    ax = fig.axes[0]
+    assert len(ax.texts) == 0
+    assert [t.get_text() for t in ax.get_xticklabels()] == [str(v) for v in range(0, n, 2)]
+    figs = sweep_report._figures(_grid_summary(n), {})
+    assert "Colours alone (more than 400 squares): the values are in summary.csv" in figs[0].caption
+    small = sweep_report._heatmap(grid[:3, :3], names[:3], names[:3], "gain", "memory", "lbp")
+    assert len(small.axes[0].texts) == 9
