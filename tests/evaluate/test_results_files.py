@@ -152,7 +152,9 @@ def test_show_from_inside_the_folder_keeps_the_folder_in_place(saved, monkeypatc
     ("edit", "message"),
     [
         (lambda m: m.__setitem__("f1_max", "high"), r"f1_max is 'high', expected a number"),
-        (lambda m: m.pop("f1_max"), r"f1_max is 'missing', expected a number"),
+        # a field left out read as if it held the text 'missing'
+        (lambda m: m.pop("f1_max"), r"f1_max is missing, expected a number"),
+        (lambda m: m.__setitem__("f1_max", "missing"), r"f1_max is 'missing', expected a number"),
         (lambda m: m.__setitem__("auc", True), r"auc is True, expected a number"),
         (lambda m: m.__setitem__("latency_ms_median", "x"), r"latency_ms_median is 'x'"),
         (lambda m: m.__setitem__("recall_at_k", [1, 2]), r"recall_at_k is \[1, 2\]"),

@@ -551,15 +551,16 @@ def _check_fields(
     writes (a hand-edited results.json is named, field and all, in one line); with
     ``complete``, every one of :data:`_METRICS` is there."""
 
-    def bad(field: str, value: Any, want: str) -> DataError:
+    def bad(field: str, value: Any, want: str, *, missing: bool = False) -> DataError:
+        state = "is missing" if missing else f"is {value!r:.40}"  # not the text 'missing'
         return DataError(
-            f"{path}: methods.{name}.{field} is {value!r:.40}, expected {want}; "
+            f"{path}: methods.{name}.{field} {state}, expected {want}; "
             "give a folder written by `ppaloc evaluate --out` (or run it again)"
         )
 
     for field in _METRICS if complete else ():
         if field not in entry:
-            raise bad(field, "missing", "a number")
+            raise bad(field, None, "a number", missing=True)
     for field in (*_METRICS, *_NUMBERS):
         if not _is_number(entry.get(field)):
             raise bad(field, entry[field], "a number or null")
