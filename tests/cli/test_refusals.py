@@ -75,3 +75,27 @@ def test_the_out_probe_tries_the_folder_a_link_leads_to(tmp_path, capsys, monkey
     (here / "gone.csv").symlink_to(tmp_path / "missing" / "est.csv")
     with pytest.raises(PpalocError, match=r"whose folder .*missing is not a folder that exists"):
         outputs.check_output(here / "gone.csv", folder=False)
+
+
+@pytest.mark.parametrize("command", ["sweep", "cpp run"])
+def test_an_out_inside_a_dataset_folder_is_refused_as_evaluate_refuses_it(
+    tmp_path, capsys, command
+):
+    # sweep and cpp run wrote their folder among the frames they read
+    _images(tmp_path / "ref", 2)
+    _images(tmp_path / "qry", 2)
+    out = tmp_path / "qry" / "out"
+    if command == "sweep":
+        spec = f"folder:{tmp_path / 'ref'},{tmp_path / 'qry'}"
+        args = ["sweep", "-m", "single-frame", "-d", spec, "-q", "--out", out]
+    else:
+        program = Path(__file__).parents[1] / "cpp" / "programs" / "means.cpp"
+        spec = f"folder:{tmp_path / 'qry'}"
+        args = ["cpp", "run", program, "--dataset", spec, "-q", "--out", out]
+    code, _, err = run(capsys, *args)
+    assert (code, err) == (
+        1,
+        f"ppaloc: error: --out {out} lies inside the dataset's input folder {tmp_path / 'qry'}, "
+        "which would then hold it among its inputs; write it outside that folder\n",
+    )
+    assert not out.exists()
