@@ -30,7 +30,8 @@ spec, the method, its parameters and a hash of the sources that decide them
 (``ppaloc/baselines``, ``ppaloc/datasets``, ``ppaloc/frontend.py``, ``ppaloc/place``, whose
 functions compute every baseline's image and places, ``ppaloc/localise/enhance.py``, whose
 contrast enhancement SeqSLAM and the particle filter call, ``ppaloc/topomap`` and
-``ppaloc/evaluate/metrics.py``); ``--no-cache`` ignores it.
+``ppaloc/evaluate/metrics.py``); ``--no-cache`` ignores it. SIGTERM (``kill PID``) ends the
+pool's workers with the script, as Ctrl-C does (:func:`route_pool`).
 
 Output: a Markdown table (route x method, max F1, and ``best WN - best baseline``: the
 best of the weighted-node places (:data:`WN_BEST`) minus the best baseline) and a summary
@@ -54,13 +55,16 @@ from __future__ import annotations
 
 import argparse
 import ast
+import contextlib
 import hashlib
 import json
 import multiprocessing
 import os
+import signal
 import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -455,6 +459,41 @@ def evaluate_route(
     }
 
 
+def _end_workers(signum: int, frame: Any) -> None:
+    """End this process's pool workers, then this process as ``signum`` ends it."""
+    children = multiprocessing.active_children()
+    for child in children:
+        child.terminate()
+    for child in children:
+        child.join(timeout=10)
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+
+
+@contextlib.contextmanager
+def route_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
+    """A pool of ``workers`` spawned processes that SIGTERM ends with this one.
+
+    Ctrl-C reaches the workers too (a terminal signals the whole process group), but
+    SIGTERM (``kill PID``, a job scheduler's stop) reaches this process alone: it ended,
+    and its workers ran on with their routes and then waited for work that never came,
+    for over an hour. While the pool is open, SIGTERM ends the workers first, then this
+    process as SIGTERM would (from the main thread, which alone sets signal handlers).
+    """
+    # Spawned workers inherit these before they import numpy: one BLAS thread each.
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    ctx = multiprocessing.get_context("spawn")
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _end_workers) if main else None
+    try:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            yield pool
+    finally:
+        if main:
+            signal.signal(signal.SIGTERM, previous)
+
+
 def run_all(
     selected: list[tuple[str, str]],
     jobs: list[tuple[str, str, dict[str, Any]]],
@@ -484,11 +523,7 @@ def run_all(
         for label, spec in selected:
             report(evaluate_route(label, spec, jobs, cache, source))
     else:
-        # Spawned workers inherit these before they import numpy: one BLAS thread each.
-        for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-            os.environ.setdefault(var, "1")
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx) as pool:
+        with route_pool(min(workers, n)) as pool:
             futures = {
                 pool.submit(evaluate_route, label, spec, jobs, cache, source): label
                 for label, spec in selected

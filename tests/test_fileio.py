@@ -372,3 +372,23 @@ def test_an_error_of_the_callers_own_work_is_left_as_it_is(tmp_path):
         raise failure
     assert err.value is failure
     assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("loop", ["itself", "two links"])
+def test_a_write_through_a_link_loop_is_refused_and_keeps_the_links(tmp_path, loop):
+    # the loop's own name was taken as the file it named, and the link replaced by a file
+    link = tmp_path / "report.html"
+    if loop == "itself":
+        link.symlink_to("report.html")
+    else:
+        link.symlink_to("other")
+        (tmp_path / "other").symlink_to("report.html")
+    with pytest.raises(PpalocError, match=r"symbolic link that leads into a loop") as info:
+        with fileio.atomic_write(link, "w") as f:
+            f.write("x")
+    assert str(info.value) == (
+        f"cannot write {link}: it is a symbolic link that leads into a loop (links that lead "
+        "back to themselves), which writing would replace with a file; remove the link or "
+        "point it at a file"
+    )
+    assert link.is_symlink() and sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == []

@@ -196,6 +196,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
         # a link inside a staging folder is a copy of the folder's entry, replaced with the
         # folder whole: written through, it changed the file it names before the folder
         # was in, or if the command then failed
+        _refuse_link_loop(path)
         path = Path(os.path.realpath(path))
     if not path.is_symlink() and path.exists() and not path.is_file() and not path.is_dir():
         # a write replaces its target whole: it never takes the place of a device (a
@@ -237,6 +238,27 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb", **open_kwargs: Any) 
         os.close(fd)
         if tmp is not None:
             tmp.unlink(missing_ok=True)
+
+
+def _refuse_link_loop(path: Path) -> None:
+    """Refuse to write through ``path``, a symbolic link, where it leads into a loop of
+    links: there is no file to replace, and the write replaced the link itself with a file
+    (a ``report.html`` linked to itself, a name ppaloc picks for its output).
+
+    Raises
+    ------
+    PpalocError
+        Naming the link and the fix.
+    """
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise PpalocError(
+                f"cannot write {path}: it is a symbolic link that leads into a loop (links "
+                "that lead back to themselves), which writing would replace with a file; "
+                "remove the link or point it at a file"
+            ) from None
 
 
 _WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})

@@ -139,3 +139,27 @@ def test_a_reader_that_stops_reading_the_csv_ends_the_run_quietly(map_and_frames
         err = proc.stderr.read()
         assert proc.wait(timeout=300) == 0, err
     assert err == ""
+
+
+@pytest.mark.parametrize(
+    ("command", "out", "says"),
+    [
+        ("map", "route.png", "names an image, but it would hold a map (.npz); give a name "
+         "ending in .npz"),
+        ("map", "route.MP4", "names a video, but it would hold a map (.npz)"),
+        ("localise", "est.npz", "names a map, but it would hold a CSV of estimates; give a "
+         "name such as estimates.csv"),
+        ("localise", "est.jpg", "names an image, but it would hold a CSV of estimates"),
+    ],
+)  # fmt: skip
+def test_an_out_named_as_another_format_is_refused(
+    map_and_frames, tmp_path, capsys, command, out, says
+):
+    # map --out x.png wrote a map (a zip) named as an image, which a folder of frames then
+    # held as an unreadable image
+    target = tmp_path / "o" / out
+    target.parent.mkdir()
+    args = ["map", TINY, "-q"] if command == "map" else ["localise", *map_and_frames]
+    code, _, err = run(capsys, *args, "--out", target)
+    assert code == 1 and err.startswith(f"ppaloc: error: --out {target} {says}")
+    assert err.count("\n") == 1 and not target.exists()

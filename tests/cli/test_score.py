@@ -325,3 +325,33 @@ def test_the_output_may_not_lie_in_the_datasets_folders(spec, tmp_path, capsys):
     code, _, err = run(capsys, "score", f, "-d", spec, "--out", tmp_path / "ref" / "scored")
     assert code == 1
     assert "lies inside the dataset's input folder" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("column", ["query", "reference"])
+def test_show_refuses_an_index_no_64_bit_integer_holds(tmp_path, capsys, column):
+    # 19 digits matched the index pattern and overflowed in show (an internal error)
+    rows = {"query": "9999999999999999999,0,1", "reference": "0,9999999999999999999,1"}
+    f = tmp_path / "p.csv"
+    f.write_text(f"query,reference,score\n{rows[column]}\n")
+    assert main(["show", str(f)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"ppaloc: error: {f} line 2: {column} '9999999999999999999' is not a")
+    assert err.count("\n") == 1 and not (tmp_path / "p.png").exists()
+
+
+def test_show_draws_the_first_methods_of_a_file_of_many(tmp_path, monkeypatch):
+    # a panel a label: a file of 300 labels took minutes to lay out and drew a PNG of
+    # 100,000 rows of pixels
+    from ppaloc.cli.showcsv import predictions_figure
+    from ppaloc.evaluate import figures
+    from ppaloc.evaluate.score import read_predictions
+
+    monkeypatch.setattr(figures, "MAX_DRAWN", 2)
+    f = tmp_path / "p.csv"
+    f.write_text("method,query,reference,score\n" + "".join(f"m{k},0,0,1\n" for k in range(5)))
+    fig = predictions_figure(read_predictions(f), "p.csv")
+    assert [a.get_title() for a in fig.axes if a.get_title()] == [
+        "m0: 1 predictions",
+        "m1: 1 predictions",
+    ]
+    assert fig.get_suptitle() == "p.csv (the first 2 of 5 methods)"

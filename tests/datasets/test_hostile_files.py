@@ -3,6 +3,7 @@ tells a damaged file from one that needs ``trust=1``, and bounds sizes before al
 
 from __future__ import annotations
 
+import os
 import pickle
 import re
 import struct
@@ -297,3 +298,50 @@ def test_a_pipe_a_spec_names_is_called_one_not_missing(tmp_path, spec, named):
     assert str(err.value).startswith(
         named.format(d=tmp_path) + " is not a regular file (a pipe, device or socket)"
     )
+
+
+@pytest.mark.parametrize(
+    ("graph", "says"),
+    [
+        ("testsrc=size=8x8,scale=64:64", "claims 64 x 64 pixels a frame, more than 4000"),
+        ("testsrc=size=64x64,scale=8:8", "makes frames of 64 x 64 pixels, more than 4000"),
+    ],
+)
+def test_a_lavfi_graph_of_huge_frames_is_refused_before_it_makes_one(
+    graph, says, tmp_path, monkeypatch
+):
+    # FFmpeg's probe ran the graph for a frame before its size was checked: a graph of
+    # 20000 x 20000 frames took gigabytes and was killed
+    av = pytest.importorskip("av")
+    import ppaloc.datasets.loaders.video as video
+
+    try:
+        av.open("testsrc=size=32x24", format="lavfi").close()
+    except Exception as exc:  # PyAV's FFmpeg built without lavfi
+        pytest.skip(f"FFmpeg here has no lavfi input: {exc}")
+    monkeypatch.setattr(video, "MAX_IMAGE_PIXELS", 4000)  # 64 x 64 is too large
+    log = tmp_path / "frames.txt"  # a line per frame the graph makes, written at its close
+    tail = f",metadata=mode=add:key=k:value=v,metadata=mode=print:file={log}"
+    with pytest.raises(
+        DataError, match=f"^stream {re.escape(graph + tail)} \\(format lavfi\\) {says};"
+    ):
+        video.stream_frames(graph + tail, "lavfi")
+    assert not log.exists() or log.read_text() == ""
+
+
+@pytest.mark.parametrize(
+    ("make", "says"),
+    [
+        (lambda p: p.mkdir(), "f1.png is named like an image but is a folder; move it out"),
+        (os.mkfifo, "f1.png is named like an image but is a pipe, device or socket; move it"),
+        (lambda p: p.symlink_to(os.devnull), "f1.png is named like an image but is a pipe"),
+        (lambda p: p.symlink_to(p.name), "f1.png is a symbolic link that leads into a loop"),
+    ],
+)
+def test_an_entry_named_like_an_image_that_is_none_is_named_when_listed(tmp_path, make, says):
+    # skipped without a word: a frame dropped, every later index moved against the other
+    # traversal; a link loop was called a link to a target that does not exist
+    Image.fromarray(np.zeros((4, 4), np.uint8)).save(tmp_path / "f0.png")
+    make(tmp_path / "f1.png")
+    with pytest.raises(DataError, match=f"^image folder {re.escape(str(tmp_path))}: {says}"):
+        list_images(tmp_path)

@@ -149,3 +149,25 @@ def test_a_bad_reference_alone_spec_names_its_own_mistake(spec: str, fragment: s
     with pytest.raises(DataError) as info:
         load_reference(spec.replace("REF", str(tmp_path)))
     assert fragment in str(info.value) and "takes 2 path(s)" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("name", "keys", "whole"),
+    [("a,b", "", "a,b"), ("c?d", "", "c?d"), ("c?d", "?tolerance=1", "c?d")],
+)
+def test_a_folder_named_with_a_comma_or_question_mark_is_named_whole(
+    tmp_path, monkeypatch, name, keys, whole
+):
+    # refused as a missing folder 'a', or as a key 'd' without a value, while it was there
+    from ppaloc.errors import DatasetSpecError
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / name).mkdir()
+    spec = f"folder:{name}{keys}"
+    with pytest.raises(DatasetSpecError) as info:
+        load_dataset(spec)
+    assert str(info.value) == (
+        f"dataset spec {spec!r}: {whole!r} is one path, but a spec reads ',' as the cut between "
+        "two paths and '?' as the start of its keys, so no path in a spec can hold them; give a "
+        "link to it whose name has neither"
+    )

@@ -152,7 +152,9 @@ def test_show_from_inside_the_folder_keeps_the_folder_in_place(saved, monkeypatc
     ("edit", "message"),
     [
         (lambda m: m.__setitem__("f1_max", "high"), r"f1_max is 'high', expected a number"),
-        (lambda m: m.pop("f1_max"), r"f1_max is 'missing', expected a number"),
+        # a field left out read as if it held the text 'missing'
+        (lambda m: m.pop("f1_max"), r"f1_max is missing, expected a number"),
+        (lambda m: m.__setitem__("f1_max", "missing"), r"f1_max is 'missing', expected a number"),
         (lambda m: m.__setitem__("auc", True), r"auc is True, expected a number"),
         (lambda m: m.__setitem__("latency_ms_median", "x"), r"latency_ms_median is 'x'"),
         (lambda m: m.__setitem__("recall_at_k", [1, 2]), r"recall_at_k is \[1, 2\]"),
@@ -244,4 +246,5 @@ def test_evaluate_over_a_results_json_nested_too_deep_is_one_line(saved, capsys)
     spec = "synthetic:?places=12&size=32&sync=1&seed=2"
     assert main(["evaluate", "-d", spec, "-m", "single-frame", "-q", "--out", str(saved)]) == 1
     err = capsys.readouterr().err.strip()
-    assert err.startswith("ppaloc: error: ") and "\n" not in err and "did not write" in err
+    assert err.startswith(f"ppaloc: error: cannot read {(saved / 'results.json').resolve()} ")
+    assert "(nested too deep)" in err and "\n" not in err

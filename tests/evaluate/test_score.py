@@ -170,3 +170,28 @@ def test_any_row_order_scores_as_the_arrays_do(tmp_path_factory, rows, order, to
     want = evaluate_estimates(ref, score, ds.ground_truth)
     assert run.metrics.f1_max == want.f1_max and run.metrics.auc == want.auc
     assert run.metrics.curve.recall.tolist() == want.curve.recall.tolist()
+
+
+def test_a_file_of_many_methods_draws_the_best_in_each_figure(tmp_path, monkeypatch):
+    # a panel, curve or box per label: a file of hundreds of labels took minutes to lay
+    # out (the position figure alone, 150 rows of panels)
+    from ppaloc.evaluate import figures
+    from ppaloc.evaluate.report import _figures
+
+    monkeypatch.setattr(figures, "MAX_DRAWN", 3, raising=False)  # 12: a smaller test
+    n, labels = 16, 5
+    rows = ["method,query,reference,score,latency_ms"]
+    for k in range(labels):  # method mK predicts the first K queries right
+        rows += [f"m{k},{q},{q if q < k else (q + 8) % n},{q / n},1.5" for q in range(n)]
+    f = _write(tmp_path / "many.csv", "\n".join(rows) + "\n")
+    result = score_predictions(ScoreConfig("tiny", (str(f),)), dataset=_dataset(n))
+    best = ["m2", "m3", "m4"]
+    pr = figures.pr_curves(result)
+    assert [t.get_text().split(" ")[0] for t in pr.axes[0].get_legend().get_texts()] == best
+    position = figures.position_along_route(result)
+    assert [a.get_title().split(":")[0] for a in position.axes if a.get_visible()] == best
+    latency = figures.latency_per_frame(result)
+    assert [t.get_text() for t in latency.axes[0].get_yticklabels()] == best
+    captions = {fig.key: fig.caption for fig in _figures(result, None)}
+    note = f"Drawn: the 3 methods of highest max F1 of the {labels}"
+    assert all(note in captions[k] for k in ("pr-curves", "position", "latency"))

@@ -286,3 +286,34 @@ def test_show_keeps_a_users_file_in_figures(_reported_template, tmp_path, capsys
     err = capsys.readouterr().err
     assert "holds 'figures/notes.txt', which ppaloc did not write" in err
     assert len(err.splitlines()) == 1 and (run / "figures" / "notes.txt").read_text() == "keep me"
+
+
+@pytest.mark.parametrize("damage", ["corrupt", "unreadable", "not a table"])
+def test_an_unreadable_results_json_is_named_as_the_cause(tmp_path, capsys, monkeypatch, damage):
+    # the folder was refused as holding 'arrays/_dataset.npz', which ppaloc did not write
+    run = tmp_path / "run"
+    assert main(_evaluate(run, NEW)) == 0
+    summary = run / "results.json"
+    why = {"corrupt": "not JSON: Expecting property name", "not a table": "not a results table"}
+    summary.write_text({"corrupt": "{bad", "not a table": "[1]"}.get(damage, "{}"))
+    kept = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
+    with monkeypatch.context() as patch:
+        if damage == "unreadable":  # a chmod is no obstacle to root: the read is refused here
+            real = Path.read_bytes
+
+            def read_bytes(self: Path) -> bytes:
+                if self.name == "results.json":
+                    raise PermissionError(13, "Permission denied", str(self))
+                return real(self)
+
+            patch.setattr(Path, "read_bytes", read_bytes)
+        assert main(_evaluate(run, NEW)) == 1
+    err = capsys.readouterr().err
+    reason = why.get(damage, "Permission denied")
+    assert err.startswith(f"ppaloc: error: cannot read {summary.resolve()} ({reason}")
+    assert err.endswith(
+        "which names the files ppaloc wrote in its arrays/ and figures/, so the folder cannot "
+        "be replaced without losing a file of yours; restore results.json (read permission, or "
+        "a copy) or give a new folder\n"
+    )
+    assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file()} == kept

@@ -10,6 +10,8 @@ one band or several (and rows or columns of one element) against the reference e
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -172,6 +174,36 @@ def test_threads_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
         monkeypatch.setenv(THREADS_ENV, bad)
         with pytest.raises(SimulatorError, match=THREADS_ENV):
             threads_from_env()
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "says"),
+    [
+        # no machine integer holds it: numba was given an object and failed (a traceback)
+        ("PPALOC_THREADS", "9" * 20, "'99999999999999999999' is invalid: use a number of "
+         "threads from 1 to 1024"),
+        ("PPALOC_THREADS", "1025", "'1025' is invalid: use a number of threads from 1 to 1024"),
+        # more digits than Python converts: its own error, naming no variable
+        ("PPALOC_THREADS", "1" * 5000, "'" + "1" * 35 + "...' is invalid"),
+        ("PPALOC_FUSE_AFTER", "9" * 20, "'99999999999999999999' is invalid: use a number of "
+         "runs from 1 to 1,000,000,000, or never"),
+        ("PPALOC_FUSE_AFTER", "1" * 5000, "'" + "1" * 35 + "...' is invalid"),
+    ],
+)  # fmt: skip
+def test_a_count_beyond_its_maximum_is_refused_in_the_environment_check(
+    monkeypatch: pytest.MonkeyPatch, name: str, value: str, says: str
+) -> None:
+    from ppaloc.sim.engines import check_environment
+    from ppaloc.sim.engines.compiled import fuse_after_from_env, threads_from_env
+
+    monkeypatch.setenv("PPALOC_ENGINE", "compiled")
+    monkeypatch.setenv(name, value)
+    parse = threads_from_env if name == "PPALOC_THREADS" else fuse_after_from_env
+    for check in (check_environment, parse):
+        with pytest.raises(SimulatorError, match=f"^{name}={re.escape(says)}"):
+            check()
+    monkeypatch.setenv(name, "0" * 30 + "2")  # leading zeros are the number they lead
+    assert check_environment() is None
 
 
 def test_one_thread_compiles_no_parallel_code(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -198,6 +198,22 @@ def test_show_on_a_sweep_folder_prints_its_best_cells_and_rebuilds_its_report(tm
     assert "Max F1 against gain" in (tmp_path / "report.html").read_text()
 
 
+def test_show_refuses_a_sweep_report_linked_into_a_loop_and_keeps_the_link(tmp_path, capsys):
+    # report.html, a name ppaloc picks, linked to itself: the link was replaced by a file
+    from ppaloc.cli import main
+
+    write_bytes(tmp_path / "summary.json", json.dumps(summary()))
+    (tmp_path / "report.html").symlink_to("report.html")
+    assert main(["show", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err == (
+        f"ppaloc: error: cannot write {tmp_path / 'report.html'}: it is a symbolic link that "
+        "leads into a loop (links that lead back to themselves), which writing would replace "
+        "with a file; remove the link or point it at a file\n"
+    )
+    assert (tmp_path / "report.html").is_symlink()
+
+
 def test_show_names_a_damaged_sweep_summary(tmp_path, capsys):
     from ppaloc.cli import main
 
@@ -213,6 +229,24 @@ def _without(key):
     return s
 
 
+def _cell_without(key):
+    s = summary()
+    del s["cells"][0][key]
+    return s
+
+
+def _counts_without(key):
+    s = summary()
+    del s["counts"][key]
+    return s
+
+
+def _axes_without(key):
+    s = summary()
+    del s["axes"][key]
+    return s
+
+
 def _cell(**changes):
     s = summary()
     s["cells"][0].update(changes)
@@ -224,8 +258,13 @@ def _cell(**changes):
     [
         ("[" * 100_000 + "]" * 100_000, "it is nested too deep"),
         (json.dumps(summary()).replace("0.6", "NaN", 1), "it holds NaN, which is not JSON"),
-        (json.dumps(_without("axes")), "'axes' is None, expected a table of lists"),
-        (json.dumps(_without("counts")), "'counts' is None, expected a table of counts"),
+        # a missing field read "'axes' is None", as if it held null
+        (json.dumps(_without("axes")), "'axes' is missing, expected a table of lists"),
+        (json.dumps(_without("counts")), "'counts' is missing, expected a table of counts"),
+        (json.dumps({**summary(), "axes": None}), "'axes' is None, expected a table of lists"),
+        (json.dumps(_cell_without("status")), "cells[0].status is missing, expected a string"),
+        (json.dumps(_counts_without("ok")), "counts.ok is missing, expected a count >= 0"),
+        (json.dumps(_axes_without("dataset")), "axes.dataset is missing, expected a list of"),
         (json.dumps({**summary(), "axes": {**summary()["axes"], "gain": 5}}), "axes.gain is 5"),
         (json.dumps({**summary(), "cells": "x"}), "'cells' is 'x', expected a list of tables"),
         (json.dumps({**summary(), "config": "x"}), "'config' is 'x', expected a table"),
@@ -271,3 +310,52 @@ def test_the_printed_best_cells_keep_method_names_whole_on_80_columns(monkeypatc
     assert "…" not in out and max(map(len, out.splitlines())) <= 80
     starts = [line.split()[0] for line in out.splitlines()[4:] if line[:2].strip()]
     assert sorted(set(starts)) == ["seqslam", "weighted-node-lowres", "weighted-node-lowres16"]
+
+
+def _grid_summary(n: int) -> dict:
+    """One method over gain x memory, ``n`` values each, every cell finished."""
+    cells = [
+        row("lbp", A, (g * n + m) / (n * n), gain=g, memory=m) for g in range(n) for m in range(n)
+    ]
+    return {
+        "format": "ppaloc-sweep-summary",
+        "config": {"combine": "product"},
+        "axes": {
+            "method": ["lbp"],
+            "dataset": [A],
+            "gain": list(range(n)),
+            "memory": list(range(n)),
+        },
+        "cells": cells,
+        "counts": {"cells": len(cells), "ok": len(cells), "failed": 0, "not_run": 0},
+    }
+
+
+def test_the_sensitivity_tables_read_each_cell_once_per_axis(monkeypatch):
+    # each value of an axis scanned every cell: 300 x 300 values took over ten minutes
+    import ppaloc.evaluate.sweep_report as sweep_report
+
+    n, calls = 30, []
+    real = sweep_report._key
+    monkeypatch.setattr(sweep_report, "_key", lambda v: calls.append(1) or real(v))
+    tables = dict((axis, rows) for axis, _, rows in sensitivity(_grid_summary(n)))
+    assert len(calls) <= 2 * (3 * n * n + n)  # per axis: each cell's value and route
+    mean = [float(r[1]) for r in tables["gain"]]
+    assert mean == pytest.approx([(g * n + (n - 1) / 2) / (n * n) for g in range(n)], abs=1e-3)
+
+
+def test_a_large_heat_map_is_drawn_in_colours_with_its_ticks_thinned():
+    # a text per square: 90,000 squares took minutes to draw, unreadable at that size
+    import ppaloc.evaluate.sweep_report as sweep_report
+
+    n = 50
+    *_, grid = f1_grid(_grid_summary(n), "lbp", "gain", "memory")
+    names = [str(v) for v in range(n)]
+    fig = sweep_report._heatmap(grid, names, names, "gain", "memory", "lbp")
+    ax = fig.axes[0]
+    assert len(ax.texts) == 0
+    assert [t.get_text() for t in ax.get_xticklabels()] == [str(v) for v in range(0, n, 2)]
+    figs = sweep_report._figures(_grid_summary(n), {})
+    assert "Colours alone (more than 400 squares): the values are in summary.csv" in figs[0].caption
+    small = sweep_report._heatmap(grid[:3, :3], names[:3], names[:3], "gain", "memory", "lbp")
+    assert len(small.axes[0].texts) == 9

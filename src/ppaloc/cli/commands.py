@@ -17,10 +17,11 @@ from typing import Any
 import numpy as np
 
 from ppaloc.cli.localise import run_localise
-from ppaloc.cli.outputs import check_png, refuse_input_as_out, refuse_link_loop
+from ppaloc.cli.outputs import check_png, check_suffix, refuse_input_as_out, refuse_link_loop
 from ppaloc.errors import DataError, PpalocError
 
 __all__ = [
+    "refuse_out_in_datasets",
     "run_bench",
     "run_demo",
     "run_evaluate",
@@ -199,6 +200,14 @@ def _dataset_paths(spec: str, *, reference: bool = False) -> list[Path]:
         return list((parse_reference_spec if reference else parse_dataset_spec)(spec).paths)
     except PpalocError:
         return []
+
+
+def refuse_out_in_datasets(out: Path, specs: Sequence[str], *, reference: bool = False) -> None:
+    """Refuse an ``out`` that is a file or folder of the datasets ``specs`` read, or lies
+    inside one (``evaluate`` refused it; ``sweep`` and ``cpp run --dataset`` wrote their
+    folder among the frames); ``reference``: specs whose reference may come alone."""
+    for spec in specs:
+        refuse_input_as_out(out, _dataset_paths(spec, reference=reference), what="the dataset's")
 
 
 def _check_results_out(out: Path, spec: str, inputs: Sequence[Path] = ()) -> None:
@@ -384,6 +393,7 @@ def run_sweep(
     from ppaloc.evaluate.sweep import run_sweep as sweep_run
     from ppaloc.evaluate.sweep_report import write_sweep_report
 
+    refuse_out_in_datasets(out, config.datasets)
     outcome = sweep_run(
         config,
         out,
@@ -485,6 +495,7 @@ def run_map(
     refuse_missing_folder(out)  # before the map is built, not after
     loc = make_localiser(method, **params)  # parameters checked before the dataset loads
     refuse_input_as_out(out, _dataset_paths(dataset, reference=True), what="the dataset's")
+    check_suffix(out, "a map (.npz)", "a name ending in .npz")
     ds = load_reference(dataset)
     reference = sensor_stream(ds.reference)  # read, converted and described one at a time
     with ProgressBar(not quiet) as bar:

@@ -341,9 +341,9 @@ def run_localise(
     int
         Frames localised.
     """
-    from ppaloc.cli.outputs import refuse_input_as_out
+    from ppaloc.cli.outputs import check_suffix, refuse_input_as_out
     from ppaloc.datasets import to_sensor
-    from ppaloc.evaluate.run import ProgressBar, hand_query
+    from ppaloc.evaluate.run import ProgressBar, check_oracle_moves, hand_query
     from ppaloc.methods import make_localiser
     from ppaloc.topomap import load_map
 
@@ -365,12 +365,18 @@ def run_localise(
         _check_live(loc, name)
     names = _reference_names(topomap, map_path)
     sources = frame_inputs(frames, keep_order=keep_order)
+    total = sum(len(s) for s in sources)
+    # refused before the first line, as evaluate refuses them before its run
+    check_oracle_moves(
+        name, {**stored, **(params or {})}, total, "frames given", fix="another --param motion"
+    )
     # every file read, symlinked frames too
     listed = [p for s in sources for p in s.images]
     refuse_input_as_out(out, [map_path, *frames, *listed])
     if out is not None:
         if out.is_dir():
             raise DataError(f"--out {out} is a folder; give a file name such as estimates.csv")
+        check_suffix(out, "a CSV of estimates", "a name such as estimates.csv")
         if not out.parent.is_dir():  # as ppaloc map: a mistyped folder is not created
             raise DataError(
                 f"cannot write the CSV to {out}: folder {out.parent} does not exist; "
@@ -381,7 +387,6 @@ def run_localise(
     # an offline method (seqslam-centred) reads every frame before its first step
     hand_query(loc, _sensor_frames(sources))
     frame_index = np.asarray(topomap.frame_index)
-    total = sum(len(s) for s in sources)
     # The bar only when the CSV goes to a file: on stdout it would interleave with the lines.
     if live is not None:
         live.live_state.program = f"ppaloc localise {map_path.name} ({name})"

@@ -1115,13 +1115,17 @@ def cpp_run(
 ) -> None:
     """Compile PROGRAM (one or more C++ sources) against the SCAMP-5d shim and run it on
     the simulator."""
+    from ppaloc.cli.commands import refuse_out_in_datasets
     from ppaloc.cpp.command import run_cpp
 
     view = _live_view(live, host, port)
+    out_path = _output(out, folder=True)
+    if dataset is not None:
+        refuse_out_in_datasets(out_path, [dataset], reference=True)
 
     run_cpp(
         program,
-        _output(out, folder=True),
+        out_path,
         include_dirs=include_dirs,
         defines=defines,
         image=image,

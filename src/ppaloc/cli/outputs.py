@@ -4,8 +4,10 @@ A run that fails only after minutes of work because ``--out`` cannot be written 
 work; so each command checks its output first: the text is not empty and holds no NUL,
 no part of the way to it is a regular file, a folder target is not a file and a file
 target is not a folder, an existing device, pipe or socket (``/dev/null``) is never
-replaced, and the nearest existing folder accepts a new file (tried for real, so it holds
-for root and read-only mounts alike).
+replaced, and the nearest existing folder of where the output lands (a link's target's
+folder, since the file a link names is replaced beside it; a folder's own parent, where
+it is staged) accepts a new file (tried for real, so it holds for root and read-only
+mounts alike).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ __all__ = [
     "check_output",
     "check_path_text",
     "check_png",
+    "check_suffix",
     "check_text_output",
     "refuse_input_as_out",
     "refuse_link_loop",
@@ -183,10 +186,17 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
             raise PpalocError(f"{flag} {path} is a file; give a folder for the results")
         if not folder and path.is_dir():
             raise PpalocError(f"{flag} {path} is a folder; give a file name")
-        if not os.access(path, os.W_OK):
+        if path.exists() and not os.access(path, os.W_OK):  # a dangling link: its folder
             raise PpalocError(f"{flag} {path} is not writable; give a {what} you can write")
-    parent = path if folder and path.is_dir() else path.parent
-    probe = parent
+    # where the write lands: the file a link names is replaced beside it, and a folder is
+    # replaced through a staging folder beside it, with links followed (fileio)
+    real = Path(os.path.realpath(path))
+    if path.is_symlink() and not folder and not real.parent.is_dir():
+        raise PpalocError(
+            f"{flag} {path} is a symbolic link to {real}, whose folder {real.parent} is not "
+            f"a folder that exists; create it, or give another {what}"
+        )
+    probe = real.parent
     while not probe.exists():
         if probe.is_symlink():
             raise PpalocError(f"{flag} {path}: {probe} is a dangling symbolic link")
@@ -232,6 +242,42 @@ def check_png(out: Path) -> None:
     """
     if out.suffix.lower() != ".png":
         raise PpalocError(f"--out {out}: show draws PNG images; give a file name ending in .png")
+
+
+def check_suffix(out: Path, writes: str, fix: str) -> None:
+    """Refuse an ``--out`` whose suffix names an image, a video or a map (``.npz``) where
+    the command writes something else (``ppaloc map --out x.png`` wrote a map named as an
+    image, which a folder of frames then held as an unreadable image).
+
+    Parameters
+    ----------
+    out : Path
+        The output file.
+    writes : str
+        What the command writes there (``"a map (.npz)"``).
+    fix : str
+        The name to give (``"a name ending in .npz"``).
+
+    Raises
+    ------
+    PpalocError
+        Naming the file, what it would hold and the fix.
+    """
+    from ppaloc.cli.localise import VIDEO_SUFFIXES
+    from ppaloc.datasets.images import IMAGE_SUFFIXES
+
+    suffix = out.suffix.lower()
+    named = (
+        "an image"
+        if suffix in IMAGE_SUFFIXES
+        else "a video"
+        if suffix in VIDEO_SUFFIXES
+        else "a map"
+        if suffix == ".npz"
+        else None
+    )
+    if named is not None and not writes.startswith(named):
+        raise PpalocError(f"--out {out} names {named}, but it would hold {writes}; give {fix}")
 
 
 def refuse_input_as_out(

@@ -48,7 +48,9 @@ def _arrays(p: Any) -> tuple[np.ndarray, np.ndarray, str]:
 
 
 def predictions_figure(predictions: list[Any], title: str) -> Any:
-    """One panel per method: predicted reference frame against query, coloured by score.
+    """One panel per method: predicted reference frame against query, coloured by score;
+    of more than :data:`~ppaloc.evaluate.figures.MAX_DRAWN` methods, the first of them in
+    the file, the title saying so.
 
     Returns
     -------
@@ -57,11 +59,14 @@ def predictions_figure(predictions: list[Any], title: str) -> Any:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    n = len(predictions)
+    from ppaloc.evaluate.figures import MAX_DRAWN
+
+    drawn = predictions[:MAX_DRAWN]  # a panel a label: hundreds took minutes to lay out
+    n = len(drawn)
     fig = Figure(figsize=(8, 3.2 * n + 0.6), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(n, 1, squeeze=False)[:, 0]
-    for ax, p in zip(axes, predictions, strict=True):
+    for ax, p in zip(axes, drawn, strict=True):
         x, y, xlabel = _arrays(p)
         colour, label = np.asarray(p.score, dtype=np.float64), "score (higher = surer)"
         half_span = colour.max() / 2 - colour.min() / 2 if colour.size else 0.0
@@ -77,6 +82,8 @@ def predictions_figure(predictions: list[Any], title: str) -> Any:
         ax.set_ylabel("predicted reference frame")
         ax.set_title(f"{p.label}: {len(p)} predictions")
         ax.grid(alpha=0.3)
+    if len(predictions) > n:
+        title += f" (the first {n} of {len(predictions)} methods)"
     fig.suptitle(title)
     return fig
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import os
 import re
 import warnings
 from pathlib import Path
@@ -88,14 +90,26 @@ def list_images(folder: Path, what: str = "image folder") -> list[Path]:
             if p.suffix.lower() not in IMAGE_SUFFIXES:
                 continue
             if p.is_symlink() and not p.exists():
+                if _leads_into_loop(p):
+                    raise DataError(
+                        f"{what} {folder}: {p.name} is a symbolic link that leads into a loop "
+                        "(links that lead back to themselves); fix the link or remove it"
+                    )
                 raise DataError(
                     f"{what} {folder}: {p.name} is a symbolic link to {_link_target(p)}, which "
                     "does not exist; restore the target or remove the link"
                 )
-            if p.is_file():
-                files.append(p)
-                if len(files) > MAX_IMAGES:
-                    raise DataError(f"{what} {folder} holds more than {MAX_IMAGES} images")
+            if not p.is_file():
+                # skipped, it dropped a frame without a word (and moved every later frame's
+                # index against the other traversal's)
+                kind = "a folder" if p.is_dir() else "a pipe, device or socket"
+                raise DataError(
+                    f"{what} {folder}: {p.name} is named like an image but is {kind}; move it "
+                    "out of the folder or rename it"
+                )
+            files.append(p)
+            if len(files) > MAX_IMAGES:
+                raise DataError(f"{what} {folder} holds more than {MAX_IMAGES} images")
     except PermissionError:
         raise DataError(f"{what} {folder} cannot be listed (permission denied)") from None
     if not files:
@@ -136,6 +150,15 @@ def dataset_file(root: Path, name: str, key: str, suffix: str) -> Path:
     if not path.is_file():
         raise DataError(f"{key}={name!r}: ground-truth file {path} does not exist")
     return path
+
+
+def _leads_into_loop(p: Path) -> bool:
+    """Whether following the link ``p`` meets a loop of links."""
+    try:
+        os.stat(p)
+    except OSError as exc:
+        return exc.errno == errno.ELOOP
+    return False
 
 
 def _link_target(p: Path) -> str:

@@ -17,6 +17,7 @@ Grammar
 from __future__ import annotations
 
 import math
+import os
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -243,6 +244,21 @@ class KindSchema:
     example: str
 
 
+def _refuse_whole_path(text: str, rest: str) -> None:
+    """Refuse a spec whose path is one file or folder with ``,`` or ``?`` in its name (a
+    folder ``a,b``), which the spec's syntax cuts in two: it was refused as a missing
+    folder ``a``, or ``?d`` read as a key without a value, while the folder was there."""
+    cuts = [i for i, c in enumerate(rest) if c == "?"]
+    for whole in [rest[:i].strip() for i in cuts] + [rest.strip()]:
+        # os.path.exists: a name too long for the system is no path (Path.exists raises)
+        if ("," in whole or "?" in whole) and os.path.exists(os.path.expanduser(whole)):
+            raise DatasetSpecError(
+                f"dataset spec {_show(text)}: {_show(whole)} is one path, but a spec reads ',' "
+                "as the cut between two paths and '?' as the start of its keys, so no path in "
+                "a spec can hold them; give a link to it whose name has neither"
+            )
+
+
 def parse_spec(
     text: str,
     schemas: Mapping[str, KindSchema],
@@ -297,6 +313,8 @@ def parse_spec(
     path_text, _, query = rest.partition("?")
     path_text = path_text.strip()
     parts = [p.strip() for p in path_text.split(",")] if path_text else []
+    if not all(os.path.exists(os.path.expanduser(p)) for p in parts) or "?" in rest:
+        _refuse_whole_path(text, rest)
     if len(parts) not in schema.n_paths:
         want = " or ".join(str(n) for n in schema.n_paths)
         raise DatasetSpecError(

@@ -17,7 +17,10 @@ from matplotlib.figure import Figure
 from ppaloc.evaluate.run import RunResult
 
 __all__ = [
+    "MAX_DRAWN",
     "difference_matrix",
+    "drawn_methods",
+    "drawn_note",
     "latency_per_frame",
     "latency_vs_map_size",
     "png_bytes",
@@ -34,6 +37,41 @@ _STYLE = {
     "axes.labelsize": 10,
     "legend.fontsize": 9,
 }
+
+
+MAX_DRAWN = 12
+"""Most methods a figure draws (a curve, a panel or a box each): beyond it the figures
+take the methods of highest max F1 and the tables alone show the others. A figure of a
+panel per method grew a panel per label, and a predictions file of hundreds of labels
+took minutes to lay out, for panels too small to read."""
+
+
+def drawn_methods(result: RunResult, among: Sequence[str] | None = None) -> list[str]:
+    """The methods a figure draws of ``among`` (default: every method), in the result's
+    order: every one up to :data:`MAX_DRAWN`, else the :data:`MAX_DRAWN` of highest max F1
+    (the first on a tie)."""
+    names = list(result.runs) if among is None else [n for n in result.runs if n in among]
+    if len(names) <= MAX_DRAWN:
+        return names
+
+    def f1(name: str) -> float:
+        v = result.runs[name].metrics.f1_max
+        return float(v) if np.isfinite(v) else -1.0
+
+    best = set(sorted(names, key=lambda n: -f1(n))[:MAX_DRAWN])  # sorted is stable
+    return [n for n in names if n in best]
+
+
+def drawn_note(result: RunResult, among: Sequence[str] | None = None) -> str:
+    """A caption's sentence saying which methods a figure of ``among`` (default: every
+    method) leaves out ('' if none)."""
+    n = len(result.runs) if among is None else len(among)
+    if n <= MAX_DRAWN:
+        return ""
+    return (
+        f" Drawn: the {MAX_DRAWN} methods of highest max F1 of the {n}; the tables show "
+        "every method."
+    )
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -91,9 +129,11 @@ def pr_curves(result: RunResult) -> Figure:
     """Precision against recall of every method in one plot, max-F1 points marked."""
     fig = _figure(10.0, 5.2)
     ax = fig.add_subplot()
-    colours = _colours(list(result.runs))
+    names = drawn_methods(result)
+    colours = _colours(names)
     definition = "A"
-    for name, run in result.runs.items():
+    for name in names:
+        run = result.runs[name]
         c = run.metrics.curve
         definition = c.recall_definition
         if not len(c.recall):
@@ -158,7 +198,7 @@ def position_along_route(result: RunResult) -> Figure:
     Query frames taken in a turn (``result.query_turning``, where known) are shaded grey,
     and each panel's title adds the max F1 on straight and on turning queries.
     """
-    names = list(result.runs)
+    names = drawn_methods(result)
     cols = 2 if len(names) > 1 else 1
     rows = -(-len(names) // cols)
     fig = _figure(11.0 if cols == 2 else 7.0, 2.7 * rows + 0.4)
@@ -240,7 +280,8 @@ def weights_heatmaps(result: RunResult) -> Figure | None:
     to nodes through the map's ``frame_index`` (:func:`true_nodes`); a folder that does not
     record it draws the truth only where the map has one node per reference frame.
     """
-    runs = [r for r in result.runs.values() if r.weights is not None]
+    recorded = [n for n, r in result.runs.items() if r.weights is not None]
+    runs = [result.runs[n] for n in drawn_methods(result, recorded)]
     if not runs:
         return None
     fig = _figure(11.0, 2.6 * len(runs) + 0.4)
@@ -304,7 +345,7 @@ def difference_matrix(result: RunResult) -> Figure | None:
     d = result.difference
     if d is None or not result.runs:
         return None
-    names = list(result.runs)
+    names = drawn_methods(result)
     panels = len(names) + 1
     cols = 2 if panels <= 4 else 3
     rows = -(-panels // cols)
@@ -469,6 +510,7 @@ def latency_per_frame(result: RunResult) -> Figure:
     (box plot; predictions scored from a file without times are left out)."""
     data = {n: np.asarray(r.latency_ms) for n, r in result.runs.items()}
     data = {n: a[np.isfinite(a)] for n, a in data.items() if np.isfinite(a).any()}
+    data = {n: data[n] for n in drawn_methods(result, list(data))}
     names = list(data)
     fig = _figure(10.0, 0.45 * len(names) + 1.4)
     ax = fig.add_subplot()

@@ -387,7 +387,8 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
             "pr-curves",
             "Precision-recall curves",
             "Every distinct confidence value is a threshold. Recall definition "
-            f"{d}: {RECALL_DEFINITIONS[d]}. Dots mark each method's maximum F1.",
+            f"{d}: {RECALL_DEFINITIONS[d]}. Dots mark each method's maximum F1."
+            + figures.drawn_note(result),
             figures.png_bytes(figures.pr_curves(result)),
         ),
     ]
@@ -406,7 +407,7 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
                 f"percentile; {sampled}. First panel: the matrix alone. Then per method: the "
                 "accepted reference frames of each query (band) and the predicted reference "
                 "frame of each query, filled where the method's max-F1 threshold accepts "
-                "it, hollow where it rejects it.",
+                "it, hollow where it rejects it." + figures.drawn_note(result),
                 figures.png_bytes(diff),
             )
         )
@@ -421,7 +422,8 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
                 " Shaded bands: query frames taken in a turn."
                 if result.query_turning is not None and result.query_turning.any()
                 else ""
-            ),
+            )
+            + figures.drawn_note(result),
             figures.png_bytes(figures.position_along_route(result)),
         ),
     ]
@@ -435,21 +437,28 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
                 "record it, in the method's own units; y is the map's nodes (a keyframe map "
                 "has fewer nodes than reference frames); colour clipped to the 1st-99.5th "
                 "percentile. Dashed: the true node, the node whose own reference frame is the "
-                "last at or before the middle accepted frame of the query.",
+                "last at or before the middle accepted frame of the query."
+                + figures.drawn_note(
+                    result, [n for n, r in result.runs.items() if r.weights is not None]
+                ),
                 figures.png_bytes(heat),
             )
         )
     out += _register_figures(result)
-    if any(np.isfinite(run.latency_ms).any() for run in result.runs.values()):
+    timed = [n for n, r in result.runs.items() if np.isfinite(r.latency_ms).any()]
+    if timed:
         out.append(
             ReportFigure(
                 "latency",
                 "Host time per frame in this run",
-                "Time per query as the predictions files give it (ppaloc score), not "
-                "measured by ppaloc."
-                if isinstance(result.config, dict) and result.config.get("command") == "score"
-                else "Wall-clock time of each call to step, all methods measured in one "
-                "run on this machine.",
+                (
+                    "Time per query as the predictions files give it (ppaloc score), not "
+                    "measured by ppaloc."
+                    if isinstance(result.config, dict) and result.config.get("command") == "score"
+                    else "Wall-clock time of each call to step, all methods measured in one "
+                    "run on this machine."
+                )
+                + figures.drawn_note(result, timed),
                 figures.png_bytes(figures.latency_per_frame(result)),
             )
         )

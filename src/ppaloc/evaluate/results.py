@@ -169,15 +169,29 @@ def _temporary_of(name: str, owned: Iterable[str]) -> bool:
 def _written_files(folder: Path) -> frozenset[str]:
     """The files below ``folder`` that its ``results.json`` says ppaloc wrote: the checked
     ``files``, each method's ``arrays`` and ``registers``, the difference matrix, the
-    dataset's arrays, and the report's figures (none where results.json is unreadable)."""
+    dataset's arrays, and the report's figures (none where there is no results.json).
+
+    Raises
+    ------
+    DataError
+        A ``results.json`` that cannot be read or is not a table, named as such.
+    """
     from ppaloc.evaluate.report import figure_files
 
+    path = folder / "results.json"
     try:
-        summary = json.loads((folder / "results.json").read_bytes())
-    except (OSError, ValueError, RecursionError):
+        summary = json.loads(path.read_bytes())
+    except FileNotFoundError:
         return frozenset()
+    except (OSError, ValueError, RecursionError) as exc:
+        why = (
+            "nested too deep"
+            if isinstance(exc, RecursionError)
+            else (exc.strerror or str(exc) if isinstance(exc, OSError) else f"not JSON: {exc}")
+        )
+        raise _unreadable_summary(path, why) from None
     if not isinstance(summary, dict):
-        return frozenset()
+        raise _unreadable_summary(path, "not a results table")
     named: list[Any] = ["arrays/_dataset.npz"]
     files = summary.get("files")
     named += list(files) if isinstance(files, dict) else []
@@ -191,6 +205,17 @@ def _written_files(folder: Path) -> frozenset[str]:
         named.append(difference.get("arrays"))
     named += figure_files([str(m) for m in methods])
     return frozenset(n for n in named if isinstance(n, str))
+
+
+def _unreadable_summary(path: Path, why: str) -> DataError:
+    """The error of a ``results.json`` that cannot be read where it alone tells ppaloc's
+    files below ``arrays/`` and ``figures/`` from a user's (they were refused as the
+    user's, naming ``arrays/_dataset.npz`` rather than the file at fault)."""
+    return DataError(
+        f"cannot read {path} ({why}), which names the files ppaloc wrote in its arrays/ and "
+        "figures/, so the folder cannot be replaced without losing a file of yours; restore "
+        "results.json (read permission, or a copy) or give a new folder"
+    )
 
 
 def _ours(folder: Path, name: str, written: dict[Path, frozenset[str]] | None = None) -> bool:
@@ -526,15 +551,16 @@ def _check_fields(
     writes (a hand-edited results.json is named, field and all, in one line); with
     ``complete``, every one of :data:`_METRICS` is there."""
 
-    def bad(field: str, value: Any, want: str) -> DataError:
+    def bad(field: str, value: Any, want: str, *, missing: bool = False) -> DataError:
+        state = "is missing" if missing else f"is {value!r:.40}"  # not the text 'missing'
         return DataError(
-            f"{path}: methods.{name}.{field} is {value!r:.40}, expected {want}; "
+            f"{path}: methods.{name}.{field} {state}, expected {want}; "
             "give a folder written by `ppaloc evaluate --out` (or run it again)"
         )
 
     for field in _METRICS if complete else ():
         if field not in entry:
-            raise bad(field, "missing", "a number")
+            raise bad(field, None, "a number", missing=True)
     for field in (*_METRICS, *_NUMBERS):
         if not _is_number(entry.get(field)):
             raise bad(field, entry[field], "a number or null")

@@ -53,6 +53,7 @@ __all__ = [
     "ProgressBar",
     "ReportedFrames",
     "RunResult",
+    "check_oracle_moves",
     "hand_query",
     "localiser_params",
     "method_metrics",
@@ -726,18 +727,48 @@ class ProgressBar:
             self._bar.__exit__(None, None, None)
 
 
-def _check_oracle_moves(name: str, params: Mapping[str, Any], n_query: int, spec: str) -> None:
+def check_oracle_moves(
+    name: str,
+    params: Mapping[str, Any],
+    n_query: int,
+    query: str,
+    *,
+    fix: str = "leave oracle_moves out to read the dataset's true motion",
+) -> None:
     """Refuse, before any frame is read, ground-truth moves given by hand (``oracle_moves``)
     that stop short of the query: the oracle motion model reads one a frame, and failed at
-    the first frame beyond them, after the map was built and the frames before it run."""
+    the first frame beyond them, after the map was built and the frames before it run.
+
+    Parameters
+    ----------
+    name : str
+        The method, as the message names it.
+    params : mapping
+        Its parameters (``motion``, ``oracle_moves``; a string there is a description of
+        moves read from a dataset, which cover it by construction).
+    n_query : int
+        The query frames the run will give the method.
+    query : str
+        What the query is, as the message names it (``query frames of 'SPEC'``).
+    fix : str
+        The way out besides giving one move a frame.
+
+    Raises
+    ------
+    PpalocError
+        Fewer moves than query frames.
+    """
     moves = params.get("oracle_moves")
     if params.get("motion") != "oracle" or moves is None or isinstance(moves, str):
         return
-    if len(moves) < n_query:
+    try:
+        given = len(moves)
+    except TypeError:
+        return  # not a list: the localiser refuses it with its own message
+    if given < n_query:
         raise PpalocError(
-            f"method {name!r}: oracle_moves holds {len(moves)} moves for the {n_query} query "
-            f"frames of {spec!r}; give one a query frame, or leave oracle_moves out to read "
-            "the dataset's true motion"
+            f"method {name!r}: oracle_moves holds {given} moves for the {n_query} {query}; "
+            f"give one a query frame, or {fix}"
         )
 
 
@@ -805,7 +836,7 @@ def run_evaluation(
             shown = {arg: f"dataset {needs[arg].attribute}" for arg in given}
             plan[name] = ({**params, **shown}, loc)
     for name, (params, _) in plan.items():
-        _check_oracle_moves(name, params, len(dataset.query), spec)
+        check_oracle_moves(name, params, len(dataset.query), f"query frames of {spec!r}")
     gt = PackedSets.from_sets(dataset.ground_truth)
     speeds = speed_checks({name: loc for name, (_, loc) in plan.items()}, gt)  # logs warnings
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None

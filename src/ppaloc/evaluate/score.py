@@ -101,6 +101,16 @@ _SCALARS = ("query", "query_name", "reference", "reference_name", "score", "meth
 _OPTIONAL = ("latency_ms", "moved")
 _RANKED = re.compile(r"reference(_name)?_(0|[1-9][0-9]{0,5})")  # reference_02 is not rank 2
 _INDEX = re.compile(r"\s*\+?[0-9]{1,19}\s*")
+_MAX_INDEX = (1 << 63) - 1
+"""Largest frame index read (a 64-bit integer's: 19 digits go beyond it)."""
+
+
+def _is_index(text: str) -> bool:
+    """Whether ``text`` is a 0-based frame index: a whole number a 64-bit integer holds
+    (``9999999999999999999`` was read and ended ``ppaloc show`` in an internal error)."""
+    return _INDEX.fullmatch(text) is not None and int(text) <= _MAX_INDEX
+
+
 #: A byte that is not UTF-8, as ``surrogateescape`` decodes it (a frame's own file name,
 #: which ``ppaloc localise`` writes back as its bytes).
 _RAW_BYTE = re.compile("[\udc80-\udcff]")
@@ -445,11 +455,7 @@ def _read_rows(
             }
         for c in query_cols:
             value = cells[columns[c]]
-            if (
-                c == "query"
-                and not _INDEX.fullmatch(value)
-                and not (value == "" and len(query_cols) > 1)
-            ):
+            if c == "query" and not _is_index(value) and not (value == "" and len(query_cols) > 1):
                 raise DataError(
                     f"{path} line {line}: query {_show(value)} is not a query index; give the "
                     "0-based index of the query frame (a whole number >= 0)"
@@ -460,7 +466,7 @@ def _read_rows(
             for name, i in cols:
                 value = cells[i]
                 column = name if k == 1 else f"{name}_{k}"
-                if name == "reference" and value and not _INDEX.fullmatch(value):
+                if name == "reference" and value and not _is_index(value):
                     raise DataError(
                         f"{path} line {line}: {column} {_show(value)} is not a reference "
                         "index; give the 0-based index of the reference frame (a whole "

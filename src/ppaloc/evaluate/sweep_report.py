@@ -100,24 +100,24 @@ def _summary_problem(summary: Mapping[str, Any]) -> str | None:
         ("counts", dict, "a table of counts"),
     ):
         if not isinstance(summary.get(key), kind):
-            return f"{key!r} is {_shown(summary.get(key))}, expected {words}"
+            return f"{key!r} {_state(summary, key)}, expected {words}"
     axes = summary["axes"]
     for name, values in axes.items():
         if not isinstance(values, list):
             return f"axes.{name} is {_shown(values)}, expected a list"
     for name in ("method", "dataset"):
         if not all(isinstance(v, str) for v in axes.get(name, [None])):
-            return f"axes.{name} is {_shown(axes.get(name))}, expected a list of names"
+            return f"axes.{name} {_state(axes, name)}, expected a list of names"
     for key in ("cells", "ok", "failed"):
         value = summary["counts"].get(key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            return f"counts.{key} is {_shown(value)}, expected a count >= 0"
+            return f"counts.{key} {_state(summary['counts'], key)}, expected a count >= 0"
     for i, row in enumerate(summary["cells"]):
         if not isinstance(row, dict):
             return f"cells[{i}] is {_shown(row)}, expected a table"
         for key in ("method", "dataset", "status", "cell"):
             if not isinstance(row.get(key), str):
-                return f"cells[{i}].{key} is {_shown(row.get(key))}, expected a string"
+                return f"cells[{i}].{key} {_state(row, key)}, expected a string"
         for key, axis in (("method", "method"), ("dataset", "dataset")):
             if row[key] not in axes[axis]:
                 return f"cells[{i}].{key} {row[key]!r:.80} is not in axes.{axis}"
@@ -133,6 +133,12 @@ def _is_float(value: Any) -> bool:
     if isinstance(value, bool) or not isinstance(value, int | float):
         return False
     return -sys.float_info.max <= value <= sys.float_info.max
+
+
+def _state(table: Mapping[str, Any], key: str) -> str:
+    """What a summary's ``table`` holds under ``key``, in words: ``is missing`` where it has
+    no such field (which read ``is None``, as if the field said null), else ``is VALUE``."""
+    return "is missing" if key not in table else f"is {_shown(table[key])}"
 
 
 def _shown(value: Any) -> str:
@@ -264,18 +270,22 @@ def sensitivity(summary: Mapping[str, Any]) -> list[tuple[str, list[str], list[l
             best = "better of the two" if len(methods) == 2 else "best of the methods"
             header += [f"{best}, mean", f"{best}, min"]
         rows = []
+        # the finished cells by their value of the axis, read once (each value scanned
+        # every cell: 300 x 300 values took minutes)
+        by_value: dict[str, list[Mapping[str, Any]]] = {}
+        for r in summary["cells"]:
+            if (
+                r["method"] in methods
+                and r["status"] == "ok"
+                and r.get("f1_max") is not None
+                and r.get(axis) is not None
+            ):
+                by_value.setdefault(_key(r[axis]), []).append(r)
         for value in summary["axes"][axis]:
             per: dict[str, dict[str, list[float]]] = {m: {} for m in methods}
-            for r in summary["cells"]:
-                if (
-                    r["method"] in per
-                    and r["status"] == "ok"
-                    and r.get("f1_max") is not None
-                    and r.get(axis) is not None
-                    and _key(r[axis]) == _key(value)
-                ):
-                    route = _key([r["dataset"], r.get("seed"), r.get("tolerance")])
-                    per[r["method"]].setdefault(route, []).append(float(r["f1_max"]))
+            for r in by_value.get(_key(value), []):
+                route = _key([r["dataset"], r.get("seed"), r.get("tolerance")])
+                per[r["method"]].setdefault(route, []).append(float(r["f1_max"]))
             means = {m: {k: float(np.mean(v)) for k, v in per[m].items()} for m in methods}
             row = [_text(value)]
             for m in methods:
@@ -366,6 +376,21 @@ def f1_grid(
     return yv, xv, grid
 
 
+MAX_WRITTEN_CELLS = 400
+"""Most squares of a heat map that carry their value as text; a larger map is colours
+alone (its values are in ``summary.csv``): 300 x 300 values, a text each, took over ten
+minutes to draw."""
+
+MAX_TICKS = 40
+"""Most labelled ticks along a heat map's axis; beyond, every k-th value is labelled."""
+
+
+def _every(n: int) -> range:
+    """The ticks labelled along an axis of ``n`` values: all of up to :data:`MAX_TICKS`,
+    else every k-th from the first."""
+    return range(0, n, max(1, -(-n // MAX_TICKS)))
+
+
 def _heatmap(
     grid: np.ndarray, ylabels: list[str], xlabels: list[str], ylabel: str, xlabel: str, title: str
 ) -> Any:
@@ -384,16 +409,21 @@ def _heatmap(
     masked = np.ma.masked_invalid(grid)
     im = ax.imshow(masked, vmin=0.0, vmax=1.0, cmap="viridis", aspect="auto")
     ax.set_facecolor("#e4e4e8")
-    for i in range(ny):
-        for j in range(nx):
-            v = grid[i, j]
-            text = "-" if math.isnan(v) else f"{v:.2f}"
-            colour = "black" if math.isnan(v) or v > 0.6 else "white"
-            ax.text(j, i, text, ha="center", va="center", fontsize=8, color=colour)
+    if ny * nx <= MAX_WRITTEN_CELLS:
+        for i in range(ny):
+            for j in range(nx):
+                v = grid[i, j]
+                text = "-" if math.isnan(v) else f"{v:.2f}"
+                colour = "black" if math.isnan(v) or v > 0.6 else "white"
+                ax.text(j, i, text, ha="center", va="center", fontsize=8, color=colour)
+    xs, ys = _every(nx), _every(ny)
     ax.set_xticks(
-        range(nx), xlabels, rotation=30 if rotate else 0, ha="right" if rotate else "center"
+        xs,
+        [xlabels[j] for j in xs],
+        rotation=30 if rotate else 0,
+        ha="right" if rotate else "center",
     )
-    ax.set_yticks(range(ny), ylabels)
+    ax.set_yticks(ys, [ylabels[i] for i in ys])
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)
@@ -427,6 +457,12 @@ def _figures(summary: Mapping[str, Any], labels: Mapping[str, str]) -> list[Repo
             ]
             rest = f", mean over {', '.join(others)}" if others else ""
             caption = f"Max F1 of {method} by {a} and {b}{rest}. '-': no cell finished."
+        if grid.size > MAX_WRITTEN_CELLS:
+            caption = caption.replace(
+                "'-': no cell finished.",
+                f"Colours alone (more than {MAX_WRITTEN_CELLS} squares): the values are in "
+                "summary.csv; grey: no cell finished.",
+            )
         fig = _heatmap(grid, names(a, yv), names(b, xv), a, b, title)
         out.append(ReportFigure(f"heatmap-{n + 1}", title, caption, png_bytes(fig)))
     return out

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -47,6 +48,32 @@ SCHEMA = KindSchema(
 )
 
 
+_GRAPH_SIZE = re.compile(r"(?<![0-9])([0-9]+)x([0-9]+)(?![0-9])")
+"""A frame size written ``WxH`` in a filter graph (a source's ``size=``/``s=``)."""
+
+
+def _lavfi_options(target: str, what: str, options: dict[str, str] | None) -> dict[str, str]:
+    """The options of a ``lavfi`` input, with the frames it makes bounded before FFmpeg
+    makes one.
+
+    FFmpeg's probe of the input (``av.open``) ran the filter graph for a frame before the
+    size of its frames could be read, and a graph of 20000 x 20000 frames took gigabytes
+    and was killed before the size was refused; ``max_ts_probe=0`` lets the probe end on the
+    sizes the graph declares, read before any frame is made. A size written ``WxH`` in
+    the graph larger than :data:`~ppaloc.datasets.images.MAX_IMAGE_PIXELS` is refused
+    before the graph runs, as a source of that size scaled down after it would make its
+    frames all the same.
+    """
+    for m in _GRAPH_SIZE.finditer(target):
+        w, h = int(m.group(1)), int(m.group(2))
+        if w * h > MAX_IMAGE_PIXELS:
+            raise DataError(
+                f"{what} makes frames of {w} x {h} pixels, more than {MAX_IMAGE_PIXELS}; give "
+                "a smaller size"
+            )
+    return {**(options or {}), "max_ts_probe": "0"}
+
+
 def open_video(
     target: str, what: str, format: str | None = None, options: dict[str, str] | None = None
 ) -> tuple[Any, Iterator[Any]]:
@@ -63,6 +90,9 @@ def open_video(
     ignore it without a word), before the input is opened where ``format`` is given (but
     for a decoder's own, which waits for the decoder), else once it is open.
 
+    A ``lavfi`` graph's frame size is checked before the graph makes a frame
+    (:func:`_lavfi_options`).
+
     Raises
     ------
     DataError
@@ -75,9 +105,10 @@ def open_video(
     from ppaloc.datasets.loaders.ffoptions import check_input_options, input_options
 
     check_input_options(options, format, what)
+    given = _lavfi_options(target, what, options) if format == "lavfi" else options or {}
     container = None
     try:
-        container = av.open(target, format=format, options=options or {})
+        container = av.open(target, format=format, options=given)
         if not container.streams.video:
             raise DataError(
                 f"{what} holds no video stream (not a video, or cut short); give a complete video"

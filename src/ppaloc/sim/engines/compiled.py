@@ -64,6 +64,8 @@ if TYPE_CHECKING:
 __all__ = [
     "FUSE_AFTER",
     "FUSE_ENV",
+    "MAX_FUSE_AFTER",
+    "MAX_THREADS",
     "CompiledEngine",
     "KernelDroop",
     "dead_last_destinations",
@@ -529,6 +531,8 @@ class CompiledEngine:
 FUSE_AFTER = 64
 #: The environment variable that sets it: a number of runs, or "never".
 FUSE_ENV = "PPALOC_FUSE_AFTER"
+#: The most runs :data:`FUSE_ENV` may give (more is "never" in all but name).
+MAX_FUSE_AFTER = 1_000_000_000
 
 
 def fuse_after_from_env() -> int | None:
@@ -538,26 +542,54 @@ def fuse_after_from_env() -> int | None:
         return FUSE_AFTER
     if value == "never":
         return None
-    if value.isascii() and value.isdigit() and int(value) >= 1:  # not '²': int() fails
-        return int(value)
-    raise SimulatorError(f"{FUSE_ENV}={value!r} is invalid: use a number of runs >= 1, or never")
+    runs = _count(value, MAX_FUSE_AFTER)
+    if runs is not None:
+        return runs
+    raise SimulatorError(
+        f"{FUSE_ENV}={_shown(value)} is invalid: use a number of runs from 1 to "
+        f"{MAX_FUSE_AFTER:,}, or never"
+    )
+
+
+def _count(value: str, maximum: int) -> int | None:
+    """``value`` as a whole number from 1 to ``maximum``, else None: ASCII digits only (not
+    '²', which ``int`` refuses), and no more of them than ``maximum`` has (a 5,000-digit
+    value met Python's limit on converting digits, and a 20-digit one no machine integer
+    holds reached numba as an object and failed there)."""
+    if not (value.isascii() and value.isdigit()) or len(value.lstrip("0")) > len(str(maximum)):
+        return None
+    n = int(value)
+    return n if 1 <= n <= maximum else None
+
+
+def _shown(value: str) -> str:
+    """An environment value as a message shows it: its repr, cut to 40 characters."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:36] + "...'"
 
 
 #: The environment variable that sets :attr:`CompiledEngine.threads`.
 THREADS_ENV = "PPALOC_THREADS"
+#: The most threads :data:`THREADS_ENV` may ask for: far more than the cores of any
+#: machine the simulator runs on (each thread takes a share of a 256 x 256 array).
+MAX_THREADS = 1024
 #: Elements an array must have before a kernel's work is shared among threads (a
 #: parallel region costs a few microseconds to start and join).
 SPLIT_MIN = 16384
 
 
 def threads_from_env() -> int:
-    """``$PPALOC_THREADS`` as a number of threads, else 1 (the measured default here)."""
+    """``$PPALOC_THREADS`` as a number of threads (1 to :data:`MAX_THREADS`), else 1 (the
+    measured default here)."""
     value = os.environ.get(THREADS_ENV, "").strip()
     if not value:
         return 1
-    if value.isascii() and value.isdigit() and int(value) >= 1:  # not '²': int() fails
-        return int(value)
-    raise SimulatorError(f"{THREADS_ENV}={value!r} is invalid: use a number of threads >= 1")
+    threads = _count(value, MAX_THREADS)
+    if threads is not None:
+        return threads
+    raise SimulatorError(
+        f"{THREADS_ENV}={_shown(value)} is invalid: use a number of threads from 1 to {MAX_THREADS}"
+    )
 
 
 def usable_threads(threads: int) -> int:
