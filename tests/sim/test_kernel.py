@@ -8,7 +8,28 @@ import numpy as np
 import pytest
 
 from ppaloc.errors import KernelError
-from ppaloc.sim import MAX_ICWS, NEWS, R5, R6, R7, A, B, C, D, IcwStackWarning, Scamp5, east, north
+from ppaloc.sim import (
+    MAX_ICWS,
+    NEWS,
+    R1,
+    R2,
+    R3,
+    R5,
+    R6,
+    R7,
+    A,
+    B,
+    C,
+    D,
+    E,
+    F,
+    IcwStackWarning,
+    NoiseParams,
+    Scamp5,
+    east,
+    north,
+)
+from ppaloc.sim.engines import available_engines
 
 
 def program(k) -> None:
@@ -176,3 +197,52 @@ def test_a_replay_is_charged_at_the_costs_of_its_run() -> None:
     assert plain.report().as_dict() == observed.report().as_dict()
     assert (plain.now_us, plain.energy_uj) == (observed.now_us, observed.energy_uj)
     assert plain.report().stages[0].kernels == 1
+
+
+#: Noise whose digital registers decay a few microseconds after their last write (the
+#: kernel runs' digital writes restart their retention: Scamp5._touch_digital).
+RETAINING = NoiseParams(
+    temporal_sd=0.3, decay_per_ms=50.0, digital_retention_ms=0.002, digital_flip_per_ms=0.9
+)
+
+
+@pytest.mark.parametrize("engine", available_engines())
+@pytest.mark.parametrize("noise", ["ideal", "typical", RETAINING], ids=["ideal", "typical", "ret"])
+def test_an_unobserved_replay_leaves_what_an_observed_replay_does(engine, noise) -> None:
+    """Replays through the runner bound at compile time (nothing observes) and through
+    ``Scamp5._run_ops`` (an observer attached): the same planes, droop, draws, digital
+    writes' times and decay, clock and report, a folding kernel's fills and a FLAG left
+    partial included."""
+
+    def play(observed: bool) -> list:
+        sim = Scamp5(8, 8, noise=noise, seed=1, engine=engine)
+        if observed:
+            sim.observe(lambda sim, event: None)
+        rng = np.random.default_rng(5)
+        for reg in (A, B, C, D):
+            sim.write(reg, rng.integers(-100, 100, (8, 8)))
+        for reg in (R1, R2, R3, R5):
+            sim.write(reg, rng.random((8, 8)) < 0.5)
+        with sim.kernel() as digital:
+            digital.OR(R1, R2, R3)
+        with sim.kernel() as analogue:  # a halving of a DAC level first: it folds
+            analogue.bus2(E, NEWS, D)
+            analogue.add(F, E, C)
+            analogue.WHERE(R5)
+            analogue.bus(B, F)
+        for i in range(40):
+            sim.scamp5_in(D, (7, -3, 0, 7)[i % 4])
+            (digital if i % 2 else analogue).run()
+        report = sim.timing.report()
+        return [
+            sim._a.tobytes(),
+            sim._d.tobytes(),
+            sim._latch.tobytes(),
+            sim._droop_us.tobytes(),
+            sim._dtouch_us.tobytes(),
+            (sim._dtouch_low, sim._last_us, sim._flag_masked, sim._flag_partial),
+            (sim.noise._batch, sim.noise._k),
+            (sim.timing.now_us, sim.timing.energy_uj, report.as_dict()),
+        ]
+
+    assert play(False) == play(True)
