@@ -637,9 +637,24 @@ def test_a_table_of_results_given_as_predictions_names_its_folder(
     assert err == (
         f"ppaloc: error: {table} is a table of results (f1_max per method: results.csv or "
         "matrix.csv of ppaloc evaluate, summary.csv of ppaloc sweep), not predictions (one "
-        f"row per query: query, reference, score); ppaloc show {table.parent} shows its "
-        "folder\n"
-    )
+        "row per query: query, reference, score); ppaloc show shows the folder the run "
+        "wrote it in\n"
+    )  # a copy: its folder holds no results.json, ppaloc show would refuse it
+    if command == "score":  # in the run's folder, which ppaloc show reads, it is named
+        (table.parent / "results.json").write_text("{}")
+        code, _, err = run(capsys, command, table, *extra)
+        assert code == 1 and err.endswith(f"; ppaloc show {table.parent} shows its folder\n")
+
+
+def test_predictions_with_an_extra_f1_max_column_are_not_called_a_table_of_results(
+    tmp_path, capsys, tiny_spec
+):
+    # query, reference and score are predictions: the unknown column is the one to name
+    path = tmp_path / "pred.csv"
+    path.write_text("query,reference,score,f1_max\n0,0,0.5,1\n")
+    code, _, err = run(capsys, "score", path, "-d", tiny_spec, "--out", tmp_path / "s")
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith(f"ppaloc: error: {path} line 1: unknown column 'f1_max'; ")
 
 
 @pytest.mark.parametrize("command", ["evaluate", "bench"])
