@@ -711,6 +711,12 @@ def test_show_of_a_file_of_a_results_folder_names_the_folder(
         )
     code, _, err = run(capsys, "show", folder)
     assert code == 0, err
+    # the difference matrix, one 2-D array, is drawn as it was, not refused with the rest
+    difference = folder / "arrays" / "_difference.npz"
+    assert difference.is_file()
+    code, out, err = run(capsys, "show", difference, "--out", tmp_path / "d.png")
+    assert code == 0, err
+    assert out.startswith(f"{difference}: 1 planes -> ") and (tmp_path / "d.png").is_file()
 
 
 def test_show_titles_the_table_as_the_run_did(tmp_path, capsys, mean_match, tiny_spec):

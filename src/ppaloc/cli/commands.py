@@ -594,14 +594,16 @@ _FOLDER_FILES = {
 def _results_folder_of(path: Path) -> Path | None:
     """The results (or sweep) folder ``path`` is one of the files of, where ``ppaloc
     show`` reads the folder, not the file: its ``results.json``, report, table, or a
-    method's ``arrays/*.npz`` (register planes, ``*.registers.npz``, are drawn alone)."""
+    method's ``arrays/*.npz`` (register planes, ``*.registers.npz``, and the difference
+    matrix, ``_difference.npz``, one 2-D array, are drawn alone)."""
     parent = path.parent
     marks = _FOLDER_FILES.get(path.name, ())
     if any((parent / mark).is_file() for mark in marks):
         if path.name != "summary.json" or (parent / "cells").is_dir():  # not a cpp run's
             return parent
     in_arrays = parent.name == "arrays" and (parent.parent / "results.json").is_file()
-    if in_arrays and path.suffix == ".npz" and not path.name.endswith(".registers.npz"):
+    drawn = path.name.endswith(".registers.npz") or path.name == "_difference.npz"
+    if in_arrays and path.suffix == ".npz" and not drawn:
         return parent.parent
     return None
 
