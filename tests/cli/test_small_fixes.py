@@ -759,6 +759,30 @@ def test_the_table_keeps_method_names_whole_on_an_80_column_terminal(
             assert "left out" not in out and " P@F1 " in table
 
 
+def test_the_narrow_table_leaves_out_the_columns_without_a_figure_first(
+    tmp_path, capsys, monkeypatch, tiny_spec
+):
+    # host methods only: chip ms, loop ms and mJ are all "-", and go before any figure
+    from rich.console import Console
+
+    import ppaloc.cli.commands as commands
+
+    folder = tmp_path / "run"
+    argv = ["evaluate", "-d", tiny_spec, "--out", folder, "-q", "--no-report"]
+    code, _, err = run(capsys, *argv, "-m", "weighted-node-paper-lowres", "-m", "seqslam")
+    assert code == 0, err
+    summary = json.loads((folder / "results.json").read_text())
+    monkeypatch.setattr(commands, "_console", lambda: Console(width=200))
+    commands.print_results_table(summary)
+    line = next(x for x in capsys.readouterr().out.splitlines() if " Method " in x)
+    width = len(line) - 1  # one column short of the whole table
+    monkeypatch.setattr(commands, "_console", lambda: Console(width=width))
+    commands.print_results_table(summary)
+    out = capsys.readouterr().out
+    assert f"left out to fit this terminal's {width} columns: loop ms (a wider" in out
+    assert " P@F1 " in out and " R@F1 " in out and " chip ms " in out
+
+
 def test_show_draws_a_methods_register_planes_under_their_labels(tmp_path, capsys, monkeypatch):
     # arrays/METHOD.registers.npz was drawn as "plane0", "plane1", its labels unread
     import ppaloc.sim.render as render
