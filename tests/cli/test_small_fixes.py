@@ -623,6 +623,26 @@ def test_a_config_files_params_for_a_method_left_out_still_run(
     assert (tmp_path / "r" / "results.json").exists()
 
 
+@pytest.mark.parametrize("command", ["evaluate", "bench"])
+def test_a_param_flag_for_a_method_the_files_list_leaves_out_names_the_file(
+    tmp_path, capsys, mean_match, tiny_spec, command
+):
+    # "add --method seqslam" would replace the file's methods with seqslam alone
+    config = tmp_path / "run.toml"
+    config.write_text(f'[{command}]\nmethods = ["{mean_match}"]\n')
+    where = ["-d", tiny_spec] if command == "evaluate" else ["--sizes", "8"]
+    code, _, err = run(
+        capsys, command, *where, "--config", config, "--param", "seqslam.ds=10",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err == (
+        f"ppaloc: error: --param seqslam.ds is for a method this run leaves out (methods: "
+        f"{mean_match}); add 'seqslam' to methods in {config} (a --method flag would "
+        "replace that list) or correct the method's name\n"
+    )
+
+
 @pytest.mark.parametrize("command", ["show", "score"])
 def test_a_table_of_results_given_as_predictions_names_its_folder(
     tmp_path, capsys, tiny_spec, command
