@@ -780,8 +780,10 @@ def run_methods(names: list[str]) -> None:
     for name in names:
         if name not in available:
             raise PpalocError(f"method {name!r} is unknown; choose from: {', '.join(available)}")
+    required = False
     for k, name in enumerate(names):
         rows, left_out = parameter_table(name)
+        required = required or any(row[1] == "required" for row in rows)
         print(("\n" if k else "") + f"{name}: {registry()[name].summary}")
         if not rows and not left_out:
             print("  takes any keyword (its class declares no parameters)")
@@ -795,7 +797,8 @@ def run_methods(names: list[str]) -> None:
         if left_out:
             print(f"not read by its preset (other methods' parameters): {', '.join(left_out)}")
     print(
-        "\n- = none given: the method chooses. Set one with --param METHOD.KEY=VALUE; what "
+        ("\nrequired = the method needs a value given with --param." if required else "")
+        + "\n- = none given: the method chooses. Set one with --param METHOD.KEY=VALUE; what "
         "each sets: docs/localise.md (the weighted-node filter), docs/onsensor.md (the "
         "simulated sensor), docs/baselines.md (the baselines)."
     )
