@@ -142,5 +142,6 @@ def test_ppaloc_methods_lists_a_plugins_parameters(example, site, capsys):
     out = capsys.readouterr().out
     rows = {line.split()[0]: line.split() for line in out.splitlines() if line.strip()}
     assert rows["side"][1:3] == ["16", "an"]
-    assert rows["k"][1:3] == ["-", "an"]
+    assert rows["k"][1:3] == ["required", "an"]  # "-" said the method chooses it
+    assert "\nrequired = the method needs a value given with --param.\n" in out
     assert "  takes any keyword (its class declares no parameters)" in out

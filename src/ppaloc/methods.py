@@ -302,7 +302,8 @@ def parameter_table(name: str) -> tuple[list[tuple[str, str, str, str]], list[st
     """The parameters method ``name`` takes with ``--param``, for ``ppaloc methods NAME``:
     rows of (parameter, default, accepted, what) in the class's order, with the default
     the method resolves (the built method's ``params``, where it keeps them: a preset's
-    or a representation's own default), and the names left out because the method's
+    or a representation's own default; ``required`` for a keyword its class needs given),
+    and the names left out because the method's
     preset does not read them. The keys the method's name fixes (``representation``,
     ``preset``) are not offered, as ``--param`` refuses nothing else.
 
@@ -314,10 +315,18 @@ def parameter_table(name: str) -> tuple[list[tuple[str, str, str, str]], list[st
     >>> parameter_table("weighted-node-paper-lbp")[1][:2]
     ['gain', 'memory']
     """
-    spec, _ = _method_class(name)
+    spec, cls = _method_class(name)
     declared = method_parameters(name)
     if declared is None:
         return [], []
+    try:  # a keyword without a default must be given: "-" would say the method chooses
+        required = {
+            k
+            for k, p in inspect.signature(cls).parameters.items()
+            if p.default is p.empty and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)
+        }
+    except (TypeError, ValueError):  # no signature to read
+        required = set()
     try:
         built = make_localiser(
             name, **{a: need.stand_in for a, need in dataset_needs(name, {}).items()}
@@ -336,7 +345,8 @@ def parameter_table(name: str) -> tuple[list[tuple[str, str, str, str]], list[st
             left_out.append(key)
             continue
         default = getattr(resolved, key) if key in fields else param.default
-        rows.append((key, _shown_value(default), _accepted(param), param.doc))
+        shown = "required" if key in required and default is None else _shown_value(default)
+        rows.append((key, shown, _accepted(param), param.doc))
     return rows, left_out
 
 

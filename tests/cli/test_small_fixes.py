@@ -623,6 +623,26 @@ def test_a_config_files_params_for_a_method_left_out_still_run(
     assert (tmp_path / "r" / "results.json").exists()
 
 
+@pytest.mark.parametrize("command", ["evaluate", "bench"])
+def test_a_param_flag_for_a_method_the_files_list_leaves_out_names_the_file(
+    tmp_path, capsys, mean_match, tiny_spec, command
+):
+    # "add --method seqslam" would replace the file's methods with seqslam alone
+    config = tmp_path / "run.toml"
+    config.write_text(f'[{command}]\nmethods = ["{mean_match}"]\n')
+    where = ["-d", tiny_spec] if command == "evaluate" else ["--sizes", "8"]
+    code, _, err = run(
+        capsys, command, *where, "--config", config, "--param", "seqslam.ds=10",
+        "--out", tmp_path / "r",
+    )  # fmt: skip
+    assert code == 1 and not (tmp_path / "r").exists()
+    assert err == (
+        f"ppaloc: error: --param seqslam.ds is for a method this run leaves out (methods: "
+        f"{mean_match}); add 'seqslam' to methods in {config} (a --method flag would "
+        "replace that list) or correct the method's name\n"
+    )
+
+
 @pytest.mark.parametrize("command", ["show", "score"])
 def test_a_table_of_results_given_as_predictions_names_its_folder(
     tmp_path, capsys, tiny_spec, command
@@ -637,9 +657,24 @@ def test_a_table_of_results_given_as_predictions_names_its_folder(
     assert err == (
         f"ppaloc: error: {table} is a table of results (f1_max per method: results.csv or "
         "matrix.csv of ppaloc evaluate, summary.csv of ppaloc sweep), not predictions (one "
-        f"row per query: query, reference, score); ppaloc show {table.parent} shows its "
-        "folder\n"
-    )
+        "row per query: query, reference, score); ppaloc show shows the folder the run "
+        "wrote it in\n"
+    )  # a copy: its folder holds no results.json, ppaloc show would refuse it
+    if command == "score":  # in the run's folder, which ppaloc show reads, it is named
+        (table.parent / "results.json").write_text("{}")
+        code, _, err = run(capsys, command, table, *extra)
+        assert code == 1 and err.endswith(f"; ppaloc show {table.parent} shows its folder\n")
+
+
+def test_predictions_with_an_extra_f1_max_column_are_not_called_a_table_of_results(
+    tmp_path, capsys, tiny_spec
+):
+    # query, reference and score are predictions: the unknown column is the one to name
+    path = tmp_path / "pred.csv"
+    path.write_text("query,reference,score,f1_max\n0,0,0.5,1\n")
+    code, _, err = run(capsys, "score", path, "-d", tiny_spec, "--out", tmp_path / "s")
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith(f"ppaloc: error: {path} line 1: unknown column 'f1_max'; ")
 
 
 @pytest.mark.parametrize("command", ["evaluate", "bench"])
@@ -696,6 +731,12 @@ def test_show_of_a_file_of_a_results_folder_names_the_folder(
         )
     code, _, err = run(capsys, "show", folder)
     assert code == 0, err
+    # the difference matrix, one 2-D array, is drawn as it was, not refused with the rest
+    difference = folder / "arrays" / "_difference.npz"
+    assert difference.is_file()
+    code, out, err = run(capsys, "show", difference, "--out", tmp_path / "d.png")
+    assert code == 0, err
+    assert out.startswith(f"{difference}: 1 planes -> ") and (tmp_path / "d.png").is_file()
 
 
 def test_show_titles_the_table_as_the_run_did(tmp_path, capsys, mean_match, tiny_spec):
@@ -736,6 +777,30 @@ def test_the_table_keeps_method_names_whole_on_an_80_column_terminal(
             assert f"left out to fit this terminal's {width} columns: {left_out}" in out
         else:
             assert "left out" not in out and " P@F1 " in table
+
+
+def test_the_narrow_table_leaves_out_the_columns_without_a_figure_first(
+    tmp_path, capsys, monkeypatch, tiny_spec
+):
+    # host methods only: chip ms, loop ms and mJ are all "-", and go before any figure
+    from rich.console import Console
+
+    import ppaloc.cli.commands as commands
+
+    folder = tmp_path / "run"
+    argv = ["evaluate", "-d", tiny_spec, "--out", folder, "-q", "--no-report"]
+    code, _, err = run(capsys, *argv, "-m", "weighted-node-paper-lowres", "-m", "seqslam")
+    assert code == 0, err
+    summary = json.loads((folder / "results.json").read_text())
+    monkeypatch.setattr(commands, "_console", lambda: Console(width=200))
+    commands.print_results_table(summary)
+    line = next(x for x in capsys.readouterr().out.splitlines() if " Method " in x)
+    width = len(line) - 1  # one column short of the whole table
+    monkeypatch.setattr(commands, "_console", lambda: Console(width=width))
+    commands.print_results_table(summary)
+    out = capsys.readouterr().out
+    assert f"left out to fit this terminal's {width} columns: loop ms (a wider" in out
+    assert " P@F1 " in out and " R@F1 " in out and " chip ms " in out
 
 
 def test_show_draws_a_methods_register_planes_under_their_labels(tmp_path, capsys, monkeypatch):

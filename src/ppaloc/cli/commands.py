@@ -605,14 +605,16 @@ _FOLDER_FILES = {
 def _results_folder_of(path: Path) -> Path | None:
     """The results (or sweep) folder ``path`` is one of the files of, where ``ppaloc
     show`` reads the folder, not the file: its ``results.json``, report, table, or a
-    method's ``arrays/*.npz`` (register planes, ``*.registers.npz``, are drawn alone)."""
+    method's ``arrays/*.npz`` (register planes, ``*.registers.npz``, and the difference
+    matrix, ``_difference.npz``, one 2-D array, are drawn alone)."""
     parent = path.parent
     marks = _FOLDER_FILES.get(path.name, ())
     if any((parent / mark).is_file() for mark in marks):
         if path.name != "summary.json" or (parent / "cells").is_dir():  # not a cpp run's
             return parent
     in_arrays = parent.name == "arrays" and (parent.parent / "results.json").is_file()
-    if in_arrays and path.suffix == ".npz" and not path.name.endswith(".registers.npz"):
+    drawn = path.name.endswith(".registers.npz") or path.name == "_difference.npz"
+    if in_arrays and path.suffix == ".npz" and not drawn:
         return parent.parent
     return None
 
@@ -789,8 +791,10 @@ def run_methods(names: list[str]) -> None:
     for name in names:
         if name not in available:
             raise PpalocError(f"method {name!r} is unknown; choose from: {', '.join(available)}")
+    required = False
     for k, name in enumerate(names):
         rows, left_out = parameter_table(name)
+        required = required or any(row[1] == "required" for row in rows)
         print(("\n" if k else "") + f"{name}: {registry()[name].summary}")
         if not rows and not left_out:
             print("  takes any keyword (its class declares no parameters)")
@@ -804,7 +808,8 @@ def run_methods(names: list[str]) -> None:
         if left_out:
             print(f"not read by its preset (other methods' parameters): {', '.join(left_out)}")
     print(
-        "\n- = none given: the method chooses. Set one with --param METHOD.KEY=VALUE; what "
+        ("\nrequired = the method needs a value given with --param." if required else "")
+        + "\n- = none given: the method chooses. Set one with --param METHOD.KEY=VALUE; what "
         "each sets: docs/localise.md (the weighted-node filter), docs/onsensor.md (the "
         "simulated sensor), docs/baselines.md (the baselines)."
     )

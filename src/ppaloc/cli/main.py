@@ -163,21 +163,29 @@ def _check_method_params(params: Any, source: Path | None) -> None:
         check_method(method, values)  # what it reads from the dataset: when it runs
 
 
-def _check_flag_params_run(flag_params: dict[str, dict[str, Any]], methods: Any) -> None:
+def _check_flag_params_run(
+    flag_params: dict[str, dict[str, Any]], methods: Any, listed_in: Path | None = None
+) -> None:
     """Refuse a ``--param METHOD.KEY=VALUE`` flag for a method the run leaves out: it
     would change nothing, silently (``-m weighted-node-lbp --param
     weighted-node-lowres.gain=3``); a configuration file's ``[params.METHOD]`` may hold
-    tables for methods a run leaves out, as shared files do."""
+    tables for methods a run leaves out, as shared files do. ``listed_in``: the file
+    whose ``methods`` the run takes (no ``--method`` flag given, which would replace it)."""
     if not methods:
         return  # every available method runs
     run = [methods] if isinstance(methods, str) else list(methods)
     for method, values in flag_params.items():
         if method not in run:
             key = next(iter(values))  # a known method's valid key: checked before
+            add = (
+                f"add {method!r} to methods in {listed_in} (a --method flag would replace "
+                "that list)"
+                if listed_in is not None
+                else f"add --method {method}"
+            )
             raise PpalocError(
                 f"--param {method}.{key} is for a method this run leaves out (methods: "
-                f"{', '.join(map(str, run))}); add --method {method} or correct the "
-                "method's name"
+                f"{', '.join(map(str, run))}); {add} or correct the method's name"
             )
 
 
@@ -495,7 +503,7 @@ def evaluate(
         values, [*fields, "out", "no_report", "quiet"], source=str(config_file or "")
     )
     _check_method_params(values.get("params"), config_file)
-    _check_flag_params_run(flag_params, values.get("methods"))
+    _check_flag_params_run(flag_params, values.get("methods"), None if methods else config_file)
     out_dir = _output(_pop(values, "out", "results"), folder=True)
     report = not _pop(values, "no_report", False)
     quiet_ = bool(_pop(values, "quiet", False))
@@ -672,7 +680,7 @@ def bench(
     quiet_ = bool(_pop(values, "quiet", False))
     config = config_from_mapping(BenchConfig, values, source=str(config_file or ""))
     _check_method_params(config.params, config_file)
-    _check_flag_params_run(flag_params, config.methods)
+    _check_flag_params_run(flag_params, config.methods, None if methods else config_file)
     out_path = None if out_dir is None else _output(out_dir, folder=True)
     run_bench(config, out_path, quiet=quiet_)
 

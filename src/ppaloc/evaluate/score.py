@@ -250,11 +250,19 @@ def _header(path: Path, row: list[str], at: int = 1) -> dict[str, int]:
     known, none twice, the needed ones present."""
     columns: dict[str, int] = {}
     given: dict[str, str] = {}
-    if "f1_max" in (raw.strip().lower() for raw in row):  # a table the commands write
+    names = {raw.strip().lower() for raw in row}
+    if "f1_max" in names and "score" not in names:  # a table the commands write
+        folder = path.parent
+        written = any((folder / n).is_file() for n in ("results.json", "summary.json"))
+        show = (
+            f"ppaloc show {folder} shows its folder"
+            if written or path.name == "matrix.csv"
+            else "ppaloc show shows the folder the run wrote it in"
+        )  # a copy elsewhere: its folder holds no run to show
         raise DataError(
             f"{path} is a table of results (f1_max per method: results.csv or matrix.csv "
             "of ppaloc evaluate, summary.csv of ppaloc sweep), not predictions (one row per "
-            f"query: query, reference, score); ppaloc show {path.parent} shows its folder"
+            f"query: query, reference, score); {show}"
         )
     for i, raw in enumerate(row):
         name = raw.strip().lower()
