@@ -250,6 +250,49 @@ def test_a_stretch_of_only_nops_fuses_into_no_loop(fused, noise, monkeypatch) ->
     assert sims[0]._a.tobytes() == sims[1]._a.tobytes()
 
 
+@pytest.mark.parametrize("noise", ["ideal", "typical"])
+def test_a_stretch_numba_cannot_compile_here_runs_on_the_first_tier(
+    fused, noise, monkeypatch, caplog
+) -> None:
+    """With ``fuse_after`` 1 a stretch is compiled in this process; where numba cannot
+    compile it (a stretch of about a thousand ICWs ends in a RecursionError in numba's
+    analysis) the kernel still runs, on the first tier, with the reference's bytes, the
+    stretch is marked failed, and a later simulator does not try it again."""
+    from ppaloc.sim.engines.compiled import CompiledEngine
+
+    tried = []
+
+    def unable(text):
+        tried.append(text)
+
+        def run(*args):
+            raise RecursionError("maximum recursion depth exceeded")
+
+        return run
+
+    monkeypatch.setattr(fused, "load", unable)
+    monkeypatch.setenv("PPALOC_FUSE_AFTER", "1")
+    built = []
+    real = CompiledEngine._fused
+    monkeypatch.setattr(
+        CompiledEngine, "_fused", lambda self, *a: built.append(1) or real(self, *a)
+    )
+    sims = []
+    for engine in ("reference", "compiled", "compiled"):
+        sim = Scamp5(6, 7, noise=noise, seed=3, engine=engine)
+        sim.write(s.A, np.arange(42.0).reshape(6, 7) - 20)
+        with sim.kernel() as k:
+            for ins in block_mean_step(s.XE):
+                k.icw(ins.op, ins.dsts, ins.srcs)
+        for _ in range(3):
+            k.run()
+        sims.append(sim)
+    assert sims[0]._a.tobytes() == sims[1]._a.tobytes() == sims[2]._a.tobytes()
+    assert len(tried) == 1 and not built  # the second simulator read the failed mark
+    assert fused.failed(tried[0]) and not fused.cached(tried[0])
+    assert "could not be compiled (RecursionError)" in caplog.text
+
+
 def test_a_module_that_fails_to_load_leaves_nothing_behind(fused, monkeypatch) -> None:
     """A generated module whose import fails raises its own error every time, not a
     missing ``run`` of a half-made module left in sys.modules."""

@@ -383,12 +383,14 @@ class CompiledEngine:
     ) -> Callable[[], None]:
         """A runner of a fusable stretch: this tier until its fused code is there (from its
         ``fuse_after``-th run, compiled in the background; at once when ``fuse_after`` is
-        1 or the code is in the cache folder), then both tiers in turn for
+        1, in this process, or the code is in the cache folder), then both tiers in turn for
         :attr:`TRIAL_RUNS` runs each, then the faster. Both leave the same bytes; which is
         faster depends on the stretch and the machine (the fused code of a stretch of
         small passes under a partial FLAG can lose to this tier's one-pass loops). With
         ``droop`` (the kernel's first part) each tier applies the kernel's pending droop:
-        this one in its call, the fused code through the simulator's call first."""
+        this one in its call, the fused code through the simulator's call first. A
+        stretch numba cannot compile (marked failed, by the background compile or by
+        :func:`~ppaloc.sim.engines.fused.compile_here`) stays on this tier."""
         from ppaloc.sim.engines import fused
 
         sim = self.sim
@@ -399,8 +401,14 @@ class CompiledEngine:
         chosen, fast = first, first
         times: tuple[list[float], list[float]] = ([], [])  # (first tier, fused) per run
         runs = 0
-        if after <= 1 or fused.cached(text):
+        if fused.cached(text) or (
+            after <= 1
+            and not fused.failed(text)
+            and fused.compile_here(text, self._shapes(instructions))
+        ):
             state, fast = "trial", _after(droop, self._fused(instructions, text))
+        elif after <= 1:  # numba could not compile it (now or before): this tier for good
+            state = "chosen"
         done, failed = fused.marks(text)
         exists = os.path.exists
 

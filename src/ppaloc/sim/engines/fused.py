@@ -43,6 +43,7 @@ import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numba
 import numpy as np
@@ -53,8 +54,8 @@ from ppaloc.sim.isa import Instruction
 from ppaloc.sim.registers import FLAG, NEWS, PIX, R0, R12
 
 __all__ = [
-    "FUSABLE", "Background", "Pass", "background", "cache_folder", "cached", "draws",
-    "failed", "fusable", "groups", "load", "mark_cached", "plan", "scratch_planes",
+    "FUSABLE", "Background", "Pass", "background", "cache_folder", "cached", "compile_here",
+    "draws", "failed", "fusable", "groups", "load", "mark_cached", "plan", "scratch_planes",
     "source",
 ]  # fmt: skip
 
@@ -924,17 +925,47 @@ def _warm(path: str, shapes: dict[str, list[int]]) -> None:
     text = Path(path).read_text(encoding="utf-8")
     try:
         spec.loader.exec_module(module)  # records the module by name, as the simulator's
-        dtypes = {
-            "a": np.float32, "d": np.bool_, "latch": np.bool_, "scratch": np.float32,
-            "offsets": np.float32, "pixel": np.float32, "bank": np.float32,
-            "bank_div": np.float32, "starts": np.int64, "gains": np.float64,
-        }  # fmt: skip
-        args = [np.zeros(shapes[key], dtype) for key, dtype in dtypes.items()]
-        module.run(*args, False)
+        _run_on_zeros(module.run, shapes)
     except Exception:
         (Path(path).with_suffix(".failed")).touch()
         raise
     mark_cached(text)
+
+
+def _run_on_zeros(run: Any, shapes: dict[str, list[int]]) -> None:
+    """One run of a generated module's ``run`` on zero arrays of ``shapes``: numba compiles
+    it for the simulator's argument types, and no plane of a simulator is touched."""
+    dtypes = {
+        "a": np.float32, "d": np.bool_, "latch": np.bool_, "scratch": np.float32,
+        "offsets": np.float32, "pixel": np.float32, "bank": np.float32,
+        "bank_div": np.float32, "starts": np.int64, "gains": np.float64,
+    }  # fmt: skip
+    run(*[np.zeros(shapes[key], dtype) for key, dtype in dtypes.items()], False)
+
+
+def compile_here(text: str, shapes: dict[str, list[int]]) -> bool:
+    """Compile the module ``text`` in this process (``fuse_after`` 1), as the background
+    compiler would: True when it is ready; False, the stretch marked as failed (so no
+    process tries it again) and a warning logged, where numba cannot compile it (a
+    stretch of about a thousand ICWs exceeds the recursion numba's analysis of one
+    function takes). The simulator then runs the stretch on the first tier, as it does
+    after a failed background compile; nothing of the simulator is touched either way."""
+    try:
+        _run_on_zeros(load(text), shapes)
+    except Exception as e:  # numba's errors, RecursionError among them
+        try:
+            folder = cache_folder()
+            folder.mkdir(parents=True, exist_ok=True)
+            (folder / f"{_name(text)}.failed").touch()
+        except OSError:  # a folder that cannot be written: nothing is kept
+            pass
+        log.warning(
+            "a stretch of fused code could not be compiled (%s); the engine's first tier runs it",
+            type(e).__name__,
+        )
+        return False
+    mark_cached(text)
+    return True
 
 
 def _in_memory(name: str, text: str):
