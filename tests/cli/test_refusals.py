@@ -99,3 +99,32 @@ def test_an_out_inside_a_dataset_folder_is_refused_as_evaluate_refuses_it(
         "which would then hold it among its inputs; write it outside that folder\n",
     )
     assert not out.exists()
+
+
+def test_sweep_out_is_probed_in_the_folder_it_writes_in(tmp_path, capsys, monkeypatch):
+    # a sweep writes its cells, summary and report into its folder, not beside it: an
+    # existing folder it can write, in a parent it cannot, was refused before the run
+    import tempfile
+
+    from ppaloc.cli import commands, outputs
+
+    out = tmp_path / "sweep1"
+    out.mkdir()
+    real = tempfile.mkstemp
+
+    def mkstemp(*args, dir=None, **kwargs):  # the parent, as a folder root cannot write in
+        if Path(dir) == tmp_path:
+            raise PermissionError(13, "Permission denied")
+        return real(*args, dir=dir, **kwargs)
+
+    ran = []
+    monkeypatch.setattr(outputs.tempfile, "mkstemp", mkstemp)
+    monkeypatch.setattr(commands, "run_sweep", lambda config, out, **kw: ran.append(out))
+    args = ["sweep", "-m", "single-frame", "-d", "synthetic:?places=20", "-q", "--out", out]
+    code, _, err = run(capsys, *args)
+    assert code == 0, err
+    assert ran == [out]
+    # a folder still to be made is made in the parent, which must take it
+    code, _, err = run(capsys, *args[:-1], tmp_path / "sweep2")
+    assert code == 1
+    assert f"cannot write in {tmp_path} (Permission denied)" in err

@@ -202,12 +202,12 @@ def _check_file_types(
     check_limits(values, source=str(source or ""))
 
 
-def _output(value: Any, *, folder: bool, flag: str = "--out") -> Path:
+def _output(value: Any, *, folder: bool, flag: str = "--out", in_place: bool = False) -> Path:
     """The checked output location (see :func:`ppaloc.cli.outputs.check_output`; ``-``
     is refused: standard output holds neither a folder nor a binary file)."""
     from ppaloc.cli.outputs import check_output
 
-    return check_output(value, flag, folder=folder)
+    return check_output(value, flag, folder=folder, in_place=in_place)
 
 
 def _text_output(value: Any, flag: str = "--out") -> Path | None:
@@ -794,7 +794,8 @@ def sweep(
         raise PpalocError(f"connect_timeout={timeout!r} must be a number of seconds in (0, 3600]")
     keys = ("seed", "tolerance", "max_weight_values")
     check_limits({k: values.get(k) for k in keys}, source=source)  # before any cluster starts
-    out_dir = _output(out_dir, folder=True)
+    # a sweep writes into its folder (cells, summary, report), never beside it
+    out_dir = _output(out_dir, folder=True, in_place=True)
     config = sweep_config_from_mapping(values, source=source)
     run_sweep(
         config,

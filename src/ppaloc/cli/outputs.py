@@ -155,8 +155,14 @@ def resolve(path: str | os.PathLike[str], what: str) -> Path:
         raise
 
 
-def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: bool) -> Path:
+def check_output(
+    text: str | os.PathLike[str], flag: str = "--out", *, folder: bool, in_place: bool = False
+) -> Path:
     """Check that ``text`` can become the output folder (``folder=True``) or file.
+
+    ``in_place``: the command writes into an existing folder rather than replacing it
+    through a staging folder beside it (``ppaloc sweep``), so that folder, not its parent,
+    must accept a new file.
 
     Returns
     -------
@@ -189,14 +195,15 @@ def check_output(text: str | os.PathLike[str], flag: str = "--out", *, folder: b
         if path.exists() and not os.access(path, os.W_OK):  # a dangling link: its folder
             raise PpalocError(f"{flag} {path} is not writable; give a {what} you can write")
     # where the write lands: the file a link names is replaced beside it, and a folder is
-    # replaced through a staging folder beside it, with links followed (fileio)
+    # replaced through a staging folder beside it, with links followed (fileio); a folder
+    # written in place (a sweep's) takes its files itself
     real = Path(os.path.realpath(path))
     if path.is_symlink() and not folder and not real.parent.is_dir():
         raise PpalocError(
             f"{flag} {path} is a symbolic link to {real}, whose folder {real.parent} is not "
             f"a folder that exists; create it, or give another {what}"
         )
-    probe = real.parent
+    probe = real if folder and in_place and real.is_dir() else real.parent
     while not probe.exists():
         if probe.is_symlink():
             raise PpalocError(f"{flag} {path}: {probe} is a dangling symbolic link")
