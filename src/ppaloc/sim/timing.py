@@ -826,7 +826,12 @@ class TimingModel:
         cost = self._kernel_costs.get(key)
         if cost is None:
             cost = self._kernel_cost(key)
-        us, chip, nonzero = cost
+        self._add_kernel(*cost)
+
+    def _add_kernel(self, us: float, chip: float, nonzero: tuple[tuple[str, int], ...]) -> None:
+        """One kernel run's cost added to the stage's row and the totals (the one place
+        the sums are made, in one order: :meth:`charge_kernel` and :meth:`kernel_charger`'s
+        calls give the same floats)."""
         self._charges += 1
         row = self._row or self._stage_row()
         icws = row.icws
@@ -848,22 +853,13 @@ class TimingModel:
         key = counts
         costs = self._kernel_costs
         us, chip, nonzero = costs.get(key) or self._kernel_cost(key)
-        charge_kernel = self.charge_kernel
+        charge_kernel, add = self.charge_kernel, self._add_kernel
 
         def charge() -> None:
             if self._kernel_costs is not costs:  # the costs were forgotten since
                 charge_kernel(key)
                 return
-            self._charges += 1
-            row = self._row or self._stage_row()
-            icws = row.icws
-            for cls, k in nonzero:
-                icws[cls] = icws.get(cls, 0) + k
-            row.kernels += 1
-            row.us += us
-            row.chip_uj += chip
-            self._total_us += us
-            self._chip_uj += chip
+            add(us, chip, nonzero)
 
         return charge
 
