@@ -47,6 +47,7 @@ __all__ = [
     "atomic_write",
     "check_replaceable_folder",
     "default_file_mode",
+    "leads_into_loop",
     "new_folder",
     "recover_folder",
     "source_date",
@@ -250,15 +251,34 @@ def _refuse_link_loop(path: Path) -> None:
     PpalocError
         Naming the link and the fix.
     """
+    if leads_into_loop(path):
+        raise PpalocError(
+            f"cannot write {path}: it is a symbolic link that leads into a loop (links "
+            "that lead back to themselves), which writing would replace with a file; "
+            "remove the link or point it at a file"
+        )
+
+
+def leads_into_loop(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is, or lies under, a loop of symbolic links (the system's ELOOP):
+    no file is there to read or write. A path with a NUL is not one (it is refused with
+    its own message where it is checked).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> (folder / "a").symlink_to(folder / "a")
+    >>> leads_into_loop(folder / "a"), leads_into_loop(folder)
+    (True, False)
+    """
     try:
         os.stat(path)
     except OSError as exc:
-        if exc.errno == errno.ELOOP:
-            raise PpalocError(
-                f"cannot write {path}: it is a symbolic link that leads into a loop (links "
-                "that lead back to themselves), which writing would replace with a file; "
-                "remove the link or point it at a file"
-            ) from None
+        return exc.errno == errno.ELOOP
+    except ValueError:
+        return False
+    return False
 
 
 _WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})

@@ -12,13 +12,13 @@ mounts alike).
 
 from __future__ import annotations
 
-import errno
 import os
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 from ppaloc.errors import DataError, PpalocError
+from ppaloc.fileio import leads_into_loop
 
 __all__ = [
     "MAX_NAME",
@@ -131,16 +131,11 @@ def refuse_link_loop(path: str | os.PathLike[str], what: str) -> None:
     DataError
         Naming ``what`` (``--out``, ``the dataset's input``), the path and the fix.
     """
-    try:
-        os.stat(path)
-    except OSError as exc:
-        if exc.errno == errno.ELOOP:
-            raise DataError(
-                f"{what} {os.fspath(path)} leads into a symlink loop (links that lead back "
-                "to themselves); give a real file or folder, or fix the links"
-            ) from None
-    except ValueError:  # a NUL: refused with its own message where the path is checked
-        pass
+    if leads_into_loop(path):
+        raise DataError(
+            f"{what} {os.fspath(path)} leads into a symlink loop (links that lead back "
+            "to themselves); give a real file or folder, or fix the links"
+        )
 
 
 def resolve(path: str | os.PathLike[str], what: str) -> Path:
