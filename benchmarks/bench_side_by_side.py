@@ -116,11 +116,27 @@ def side_by_side(base: ModuleType, representation: str, noise: str, rounds: int)
         "tree": localiser(ppaloc, representation, noise),
     }
     times = alternate(locs, rounds)
-    same = same_estimates(locs["base"], locs["tree"])
-    m0, m1, paired = medians(times["base"], times["tree"])
+    return compared(representation, noise, locs, times, "base", "tree")
+
+
+def compared(
+    representation: str,
+    noise: str,
+    locs: dict[Any, Any],
+    times: dict[Any, list[float]],
+    first: Any,
+    second: Any,
+    labels: tuple[str, str] | None = None,
+) -> str:
+    """The printed line of two localisers stepped by :func:`alternate`: each one's median
+    frame (ms and frames/s), their ratio, the paired ratio and whether their estimates
+    agree (``labels`` name them, else their keys in ``locs``)."""
+    m0, m1, paired = medians(times[first], times[second])
+    same = same_estimates(locs[first], locs[second])
+    a, b = labels or (str(first), str(second))
     return (
-        f"{representation:8s} {noise:8s} base {m0 * 1e3:6.2f} ms ({1 / m0:6.1f} frames/s)  "
-        f"tree {m1 * 1e3:6.2f} ms ({1 / m1:6.1f} frames/s)  ratio {m0 / m1:.3f}  "
+        f"{representation:8s} {noise:8s} {a} {m0 * 1e3:6.2f} ms ({1 / m0:6.1f} frames/s)  "
+        f"{b} {m1 * 1e3:6.2f} ms ({1 / m1:6.1f} frames/s)  ratio {m0 / m1:.3f}  "
         f"paired {paired:.3f}  same estimates {same}"
     )
 

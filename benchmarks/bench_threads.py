@@ -34,7 +34,7 @@ def busy() -> tuple[int, int]:
 def side_by_side(representation: str, noise: str, threads: int, rounds: int) -> str:
     """One line of figures: the localisers of one thread and of ``threads``."""
     import bench_onsensor as bench
-    from bench_side_by_side import alternate, medians, same_estimates
+    from bench_side_by_side import alternate, compared
     from ppaloc.sim.engines.compiled import THREADS_ENV
 
     locs = {}
@@ -44,14 +44,10 @@ def side_by_side(representation: str, noise: str, threads: int, rounds: int) -> 
     b0, t0 = busy()
     times = alternate(locs, rounds)
     b1, t1 = busy()
-    same = same_estimates(locs[1], locs[threads])
-    m1, mn, paired = medians(times[1], times[threads])
     load = f"{100 * (b1 - b0) / (t1 - t0):.0f}%" if t1 > t0 else "?"
-    return (
-        f"{representation:8s} {noise:8s} 1 thread {m1 * 1e3:6.2f} ms ({1 / m1:6.1f} frames/s)  "
-        f"{threads} threads {mn * 1e3:6.2f} ms ({1 / mn:6.1f} frames/s)  ratio {m1 / mn:.3f}  "
-        f"paired {paired:.3f}  same estimates {same}  processors busy {load}"
-    )
+    labels = ("1 thread", f"{threads} threads")
+    line = compared(representation, noise, locs, times, 1, threads, labels)
+    return f"{line}  processors busy {load}"
 
 
 def main() -> None:
