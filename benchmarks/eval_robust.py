@@ -9,6 +9,7 @@ Not collected by pytest. Run from anywhere (paths resolve from this file)::
     .venv/bin/python benchmarks/eval_robust.py --json robust.json
     .venv/bin/python benchmarks/eval_robust.py --representations     # filter x descriptor
     .venv/bin/python benchmarks/eval_robust.py --representations --held-out
+    .venv/bin/python benchmarks/eval_robust.py --representations --seed-spread 10
 
 Routes (:func:`routes`): Nordland summer -> winter (tolerance +-2) and its sparse
 patch-normalised variant (every 10th frame, ``patch_norm=8``, tolerance +-1), three Gardens
@@ -48,7 +49,10 @@ comes a table of route groups (:func:`route_group`: each real route, each genera
 condition over its seeds) with the means over the real, the generated and all routes,
 then the line of the filter's target on the same information (:func:`same_place_summary`):
 on how many routes the better weighted-node place scores at least the particle filter on
-that place, and by how much each of the others falls short.
+that place, and by how much each of the others falls short. ``--seed-spread K`` runs the
+particle filter on each of those others' place at K seeds in all (the table's seed 0
+among them) and prints its mean, spread and range there beside the weighted-node filter's
+figure, which draws nothing: how much of a shortfall is one seed's luck.
 """
 
 from __future__ import annotations
@@ -649,6 +653,70 @@ def same_place_summary(
     return text, stats
 
 
+def seed_spread_jobs(place: str, seeds: int) -> list[tuple[str, str, dict[str, Any]]]:
+    """The particle filter on ``place`` at seeds ``1 .. seeds - 1`` (the table's run is
+    seed 0, :data:`SEED`), one column each: ``particle-filter/PLACE@seed=S``.
+
+    >>> [c for c, _, _ in seed_spread_jobs("haar", 3)]
+    ['particle-filter/haar@seed=1', 'particle-filter/haar@seed=2']
+    """
+    return [
+        (f"particle-filter/{place}@seed={s}", "particle-filter", {"descriptor": place, "seed": s})
+        for s in range(SEED + 1, SEED + seeds)
+    ]
+
+
+def seed_spread_summary(
+    short: list[dict[str, Any]], records: list[dict[str, Any]], seeds: int
+) -> tuple[str, list[dict[str, Any]]]:
+    """For each route of ``short`` (:func:`same_place_summary`'s), the particle filter's
+    max F1 on that place over ``seeds`` seeds (the table's seed 0 and the extra runs in
+    ``records``, :func:`seed_spread_jobs`), beside the weighted-node filter's, which draws
+    nothing: how far the shortfall is the particle filter's luck on one seed.
+
+    >>> short = [{"label": "a", "place": "haar", "weighted_node": 0.86, "baseline": 0.87}]
+    >>> recs = [{"label": "a", "results": {"particle-filter/haar@seed=1": {"f1_max": 0.85},
+    ...                                    "particle-filter/haar@seed=2": {"f1_max": 0.89}}}]
+    >>> text, rows = seed_spread_summary(short, recs, 3)
+    >>> print(text)  # doctest: +NORMALIZE_WHITESPACE
+    Over seeds 0-2 the particle filter scores: a, haar 0.870 +- 0.020 (0.850-0.890;
+    the weighted-node filter's 0.860 at or above it on 1 of 3 seeds)
+    >>> rows[0]["mean"], rows[0]["at_or_below"]
+    (0.87, 1)
+    """
+    by_label = {r["label"]: r for r in records}
+    parts, rows = [], []
+    for entry in short:
+        place, wn = entry["place"], entry["weighted_node"]
+        results = by_label.get(entry["label"], {}).get("results", {})
+        f1s = [entry["baseline"]]  # seed 0: the table's own run
+        for column, _, _ in seed_spread_jobs(place, seeds):
+            value = results.get(column, {}).get("f1_max")
+            if value is not None:
+                f1s.append(float(value))
+        arr = np.asarray(f1s)
+        sd = float(arr.std(ddof=1)) if arr.size > 1 else 0.0
+        row = {
+            "label": entry["label"],
+            "place": place,
+            "weighted_node": wn,
+            "seeds": int(arr.size),
+            "mean": round(float(arr.mean()), 6),
+            "sd": round(sd, 6),
+            "min": float(arr.min()),
+            "max": float(arr.max()),
+            "at_or_below": int((arr <= wn).sum()),
+        }
+        rows.append(row)
+        parts.append(
+            f"{row['label']}, {place} {row['mean']:.3f} +- {sd:.3f} ({row['min']:.3f}-"
+            f"{row['max']:.3f}; the weighted-node filter's {wn:.3f} at or above it on "
+            f"{row['at_or_below']} of {row['seeds']} seeds)"
+        )
+    text = f"Over seeds {SEED}-{SEED + seeds - 1} the particle filter scores: " + "; ".join(parts)
+    return text, rows
+
+
 def _f1(rec: dict[str, Any], column: str) -> float | None:
     r = rec["results"].get(column)
     return None if r is None else r["f1_max"]
@@ -804,6 +872,15 @@ def main(argv: Sequence[str] | None = None) -> None:
         metavar="METHOD.key=v1,v2,...",
         help="run only METHOD at each value of key and print route x value",
     )
+    parser.add_argument(
+        "--seed-spread",
+        type=int,
+        default=0,
+        metavar="K",
+        help="with --representations: run the particle filter on each route where no "
+        "weighted-node place reaches it on the same place at K seeds in all (the table's "
+        "seed 0 among them) and print its spread there",
+    )
     parser.add_argument("--data", type=Path, default=DATA, help="the shared data folder")
     parser.add_argument(
         "--held-out",
@@ -821,6 +898,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     available = set(available_methods())
     notes: list[str] = []
 
+    if args.seed_spread and not args.representations:
+        raise SystemExit("error: --seed-spread reads --representations' same-place line; give both")
+    if not 0 <= args.seed_spread <= 100:
+        raise SystemExit(f"error: --seed-spread {args.seed_spread} must be in [0, 100]")
     if args.sweep and args.representations:
         raise SystemExit("error: --sweep and --representations do not go together; give one")
     if args.sweep:
@@ -891,6 +972,22 @@ def main(argv: Sequence[str] | None = None) -> None:
         table += "\n\nMean max F1 per route group:\n\n" + group_text
         same_text, same = same_place_summary(records)
         table += "\n\n" + same_text
+        if args.seed_spread > 1 and same["short"]:
+            shorts = {s["label"]: s["place"] for s in same["short"]}
+            spread_records = []
+            for place in sorted(set(shorts.values())):
+                picked = [(lb, sp) for lb, sp in selected if shorts.get(lb) == place]
+                spread_records += run_all(
+                    picked,
+                    seed_spread_jobs(place, args.seed_spread),
+                    workers=args.jobs,
+                    cache_dir=None if args.no_cache else CACHE_DIR,
+                )
+            spread_text, spread = seed_spread_summary(
+                same["short"], spread_records, args.seed_spread
+            )
+            same["seed_spread"] = spread
+            table += "\n\n" + spread_text
     wall = time.perf_counter() - t0
     print(table)
     print(f"\n{len(records)} routes, wall time {wall:.0f} s, {args.jobs} jobs", file=sys.stderr)

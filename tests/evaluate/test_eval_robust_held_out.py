@@ -131,3 +131,37 @@ def test_the_same_place_figure_draws_each_place_of_each_run(bench_script, tmp_pa
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(SystemExit, match="1 titles for 2 files"):
         figure.main([str(run), str(run), "--titles", "one", "--out", str(out)])
+
+
+def test_the_seed_spread_puts_each_short_route_beside_the_particle_filter_over_seeds(
+    bench_script,
+):
+    eval_robust = bench_script("eval_robust")
+    jobs = eval_robust.seed_spread_jobs("patch", 4)
+    assert [c for c, _, _ in jobs] == [f"particle-filter/patch@seed={s}" for s in (1, 2, 3)]
+    assert all(name == "particle-filter" for _, name, _ in jobs)
+    assert [u for _, _, u in jobs] == [{"descriptor": "patch", "seed": s} for s in (1, 2, 3)]
+    short = [
+        {"label": "a", "place": "patch", "weighted_node": 0.80, "baseline": 0.84, "gap": -0.04},
+        {"label": "b", "place": "haar", "weighted_node": 0.50, "baseline": 0.52, "gap": -0.02},
+    ]
+    extra = {"particle-filter/patch@seed=1": 0.78, "particle-filter/patch@seed=2": 0.82}
+    records = [  # seed 3 of route a failed: it is left out, not counted as 0
+        {"label": "a", "results": {k: {"f1_max": v} for k, v in extra.items()}},
+        {"label": "b", "results": {"particle-filter/haar@seed=1": {"f1_max": 0.50}}},
+    ]
+    text, rows = eval_robust.seed_spread_summary(short, records, 4)
+    a, b = rows
+    assert (a["seeds"], a["min"], a["max"], a["at_or_below"]) == (3, 0.78, 0.84, 1)
+    assert abs(a["mean"] - 0.81333) < 1e-4 and abs(a["sd"] - 0.030551) < 1e-5
+    assert (b["seeds"], b["at_or_below"]) == (2, 1)  # a tie counts for the filter
+    assert text.startswith("Over seeds 0-3 the particle filter scores: a, patch 0.813 +- 0.031")
+    assert "b, haar 0.510 +- 0.014 (0.500-0.520; the weighted-node filter's 0.500 at or " in text
+
+
+def test_the_seed_spread_needs_the_same_place_line(bench_script):
+    eval_robust = bench_script("eval_robust")
+    with pytest.raises(SystemExit, match="--seed-spread reads --representations"):
+        eval_robust.main(["--seed-spread", "5"])
+    with pytest.raises(SystemExit, match=r"--seed-spread 101 must be in \[0, 100\]"):
+        eval_robust.main(["--representations", "--seed-spread", "101"])
