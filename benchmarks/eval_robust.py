@@ -653,67 +653,95 @@ def same_place_summary(
     return text, stats
 
 
-def seed_spread_jobs(place: str, seeds: int) -> list[tuple[str, str, dict[str, Any]]]:
-    """The particle filter on ``place`` at seeds ``1 .. seeds - 1`` (the table's run is
-    seed 0, :data:`SEED`), one column each: ``particle-filter/PLACE@seed=S``.
+def seed_spread_jobs(
+    place: str, seeds: int, user: dict[str, Any] | None = None
+) -> list[tuple[str, str, dict[str, Any]]]:
+    """The particle filter on ``place`` at the ``seeds - 1`` seeds after the table's (its
+    ``user`` parameters' ``seed``, else :data:`SEED`), with the table's other parameters,
+    one column each: ``particle-filter/PLACE@seed=S``.
 
     >>> [c for c, _, _ in seed_spread_jobs("haar", 3)]
     ['particle-filter/haar@seed=1', 'particle-filter/haar@seed=2']
+    >>> seed_spread_jobs("lbp", 2, {"seed": 7, "n_particles": 200})[0][2]
+    {'seed': 8, 'n_particles': 200, 'descriptor': 'lbp'}
     """
+    user = dict(user or {})
+    first = int(user.get("seed", SEED))
     return [
-        (f"particle-filter/{place}@seed={s}", "particle-filter", {"descriptor": place, "seed": s})
-        for s in range(SEED + 1, SEED + seeds)
+        (
+            f"particle-filter/{place}@seed={s}",
+            "particle-filter",
+            {**user, "seed": s, "descriptor": place},
+        )
+        for s in range(first + 1, first + seeds)
     ]
 
 
 def seed_spread_summary(
-    short: list[dict[str, Any]], records: list[dict[str, Any]], seeds: int
+    short: list[dict[str, Any]],
+    records: list[dict[str, Any]],
+    seeds: int,
+    user: dict[str, Any] | None = None,
 ) -> tuple[str, list[dict[str, Any]]]:
     """For each route of ``short`` (:func:`same_place_summary`'s), the particle filter's
-    max F1 on that place over ``seeds`` seeds (the table's seed 0 and the extra runs in
-    ``records``, :func:`seed_spread_jobs`), beside the weighted-node filter's, which draws
-    nothing: how far the shortfall is the particle filter's luck on one seed.
+    max F1 on that place at each seed that ran (the table's and the extra runs in
+    ``records``, :func:`seed_spread_jobs`; a run that failed is left out and its seed
+    not named), beside the weighted-node filter's, which draws nothing: how far a
+    shortfall is the particle filter's luck on one seed. ``sd`` is the sample standard
+    deviation (None from one run).
 
     >>> short = [{"label": "a", "place": "haar", "weighted_node": 0.86, "baseline": 0.87}]
     >>> recs = [{"label": "a", "results": {"particle-filter/haar@seed=1": {"f1_max": 0.85},
     ...                                    "particle-filter/haar@seed=2": {"f1_max": 0.89}}}]
     >>> text, rows = seed_spread_summary(short, recs, 3)
     >>> print(text)  # doctest: +NORMALIZE_WHITESPACE
-    Over seeds 0-2 the particle filter scores: a, haar 0.870 +- 0.020 (0.850-0.890;
-    the weighted-node filter's 0.860 at or above it on 1 of 3 seeds)
-    >>> rows[0]["mean"], rows[0]["at_or_below"]
-    (0.87, 1)
+    The particle filter's max F1 over its seeds on the routes below it: a,
+    particle-filter/haar over seeds 0-2: mean 0.870, sd 0.020, range 0.850-0.890; the
+    weighted-node filter's 0.860 at or above it on 1 of 3 seeds
+    >>> rows[0]["mean"], rows[0]["at_or_below"], rows[0]["seeds"]
+    (0.87, 1, [0, 1, 2])
     """
     by_label = {r["label"]: r for r in records}
+    first = int((user or {}).get("seed", SEED))
     parts, rows = [], []
     for entry in short:
         place, wn = entry["place"], entry["weighted_node"]
         results = by_label.get(entry["label"], {}).get("results", {})
-        f1s = [entry["baseline"]]  # seed 0: the table's own run
-        for column, _, _ in seed_spread_jobs(place, seeds):
+        ran, f1s = [first], [float(entry["baseline"])]  # the table's own run
+        for column, _, job in seed_spread_jobs(place, seeds, user):
             value = results.get(column, {}).get("f1_max")
             if value is not None:
+                ran.append(int(job["seed"]))
                 f1s.append(float(value))
         arr = np.asarray(f1s)
-        sd = float(arr.std(ddof=1)) if arr.size > 1 else 0.0
+        sd = float(arr.std(ddof=1)) if arr.size > 1 else None
         row = {
             "label": entry["label"],
             "place": place,
             "weighted_node": wn,
-            "seeds": int(arr.size),
+            "seeds": ran,
+            "f1_max": f1s,
             "mean": round(float(arr.mean()), 6),
-            "sd": round(sd, 6),
+            "sd": None if sd is None else round(sd, 6),
             "min": float(arr.min()),
             "max": float(arr.max()),
             "at_or_below": int((arr <= wn).sum()),
         }
         rows.append(row)
+        if len(ran) == 1:
+            named = f"seed {ran[0]}"
+        elif ran == list(range(ran[0], ran[-1] + 1)):
+            named = f"seeds {ran[0]}-{ran[-1]}"
+        else:
+            named = f"seeds {ran}"
+        spread = "no sd from one run" if sd is None else f"sd {sd:.3f}"
         parts.append(
-            f"{row['label']}, {place} {row['mean']:.3f} +- {sd:.3f} ({row['min']:.3f}-"
-            f"{row['max']:.3f}; the weighted-node filter's {wn:.3f} at or above it on "
-            f"{row['at_or_below']} of {row['seeds']} seeds)"
+            f"{row['label']}, particle-filter/{place} over {named}: mean "
+            f"{row['mean']:.3f}, {spread}, range {row['min']:.3f}-{row['max']:.3f}; the "
+            f"weighted-node filter's {wn:.3f} at or above it on {row['at_or_below']} of "
+            f"{arr.size} seeds"
         )
-    text = f"Over seeds {SEED}-{SEED + seeds - 1} the particle filter scores: " + "; ".join(parts)
+    text = "The particle filter's max F1 over its seeds on the routes below it: " + "; ".join(parts)
     return text, rows
 
 
@@ -900,8 +928,11 @@ def main(argv: Sequence[str] | None = None) -> None:
 
     if args.seed_spread and not args.representations:
         raise SystemExit("error: --seed-spread reads --representations' same-place line; give both")
-    if not 0 <= args.seed_spread <= 100:
-        raise SystemExit(f"error: --seed-spread {args.seed_spread} must be in [0, 100]")
+    if args.seed_spread and not 2 <= args.seed_spread <= 100:
+        raise SystemExit(
+            f"error: --seed-spread {args.seed_spread} must be in [2, 100] (the seeds in all, "
+            "the table's one among them)"
+        )
     if args.sweep and args.representations:
         raise SystemExit("error: --sweep and --representations do not go together; give one")
     if args.sweep:
@@ -972,21 +1003,26 @@ def main(argv: Sequence[str] | None = None) -> None:
         table += "\n\nMean max F1 per route group:\n\n" + group_text
         same_text, same = same_place_summary(records)
         table += "\n\n" + same_text
-        if args.seed_spread > 1 and same["short"]:
+        if args.seed_spread:
+            user = params.get("particle-filter", {})
             shorts = {s["label"]: s["place"] for s in same["short"]}
             spread_records = []
             for place in sorted(set(shorts.values())):
                 picked = [(lb, sp) for lb, sp in selected if shorts.get(lb) == place]
                 spread_records += run_all(
                     picked,
-                    seed_spread_jobs(place, args.seed_spread),
+                    seed_spread_jobs(place, args.seed_spread, user),
                     workers=args.jobs,
                     cache_dir=None if args.no_cache else CACHE_DIR,
                 )
             spread_text, spread = seed_spread_summary(
-                same["short"], spread_records, args.seed_spread
+                same["short"], spread_records, args.seed_spread, user
             )
             same["seed_spread"] = spread
+            if not same["routes"]:
+                spread_text = "--seed-spread: no route ran the particle filter beside a place"
+            elif not spread:
+                spread_text = "--seed-spread: no route is below the particle filter; nothing to run"
             table += "\n\n" + spread_text
     wall = time.perf_counter() - t0
     print(table)

@@ -141,27 +141,40 @@ def test_the_seed_spread_puts_each_short_route_beside_the_particle_filter_over_s
     assert [c for c, _, _ in jobs] == [f"particle-filter/patch@seed={s}" for s in (1, 2, 3)]
     assert all(name == "particle-filter" for _, name, _ in jobs)
     assert [u for _, _, u in jobs] == [{"descriptor": "patch", "seed": s} for s in (1, 2, 3)]
+    # the table's other parameters run at every seed, and its own seed starts the count
+    (job,) = eval_robust.seed_spread_jobs("lbp", 2, {"seed": 7, "n_particles": 200})
+    assert job == ("particle-filter/lbp@seed=8", "particle-filter",
+                   {"seed": 8, "n_particles": 200, "descriptor": "lbp"})  # fmt: skip
     short = [
         {"label": "a", "place": "patch", "weighted_node": 0.80, "baseline": 0.84, "gap": -0.04},
         {"label": "b", "place": "haar", "weighted_node": 0.50, "baseline": 0.52, "gap": -0.02},
+        {"label": "c", "place": "lbp", "weighted_node": 0.30, "baseline": 0.31, "gap": -0.01},
     ]
-    extra = {"particle-filter/patch@seed=1": 0.78, "particle-filter/patch@seed=2": 0.82}
-    records = [  # seed 3 of route a failed: it is left out, not counted as 0
+    extra = {"particle-filter/patch@seed=1": 0.78, "particle-filter/patch@seed=3": 0.82}
+    records = [  # seed 2 of route a failed: it is left out, not counted as 0
         {"label": "a", "results": {k: {"f1_max": v} for k, v in extra.items()}},
         {"label": "b", "results": {"particle-filter/haar@seed=1": {"f1_max": 0.50}}},
     ]
     text, rows = eval_robust.seed_spread_summary(short, records, 4)
-    a, b = rows
-    assert (a["seeds"], a["min"], a["max"], a["at_or_below"]) == (3, 0.78, 0.84, 1)
+    a, b, c = rows
+    assert (a["seeds"], a["f1_max"]) == ([0, 1, 3], [0.84, 0.78, 0.82])
+    assert (a["min"], a["max"], a["at_or_below"]) == (0.78, 0.84, 1)
     assert abs(a["mean"] - 0.81333) < 1e-4 and abs(a["sd"] - 0.030551) < 1e-5
-    assert (b["seeds"], b["at_or_below"]) == (2, 1)  # a tie counts for the filter
-    assert text.startswith("Over seeds 0-3 the particle filter scores: a, patch 0.813 +- 0.031")
-    assert "b, haar 0.510 +- 0.014 (0.500-0.520; the weighted-node filter's 0.500 at or " in text
+    assert (b["seeds"], b["at_or_below"]) == ([0, 1], 1)  # a tie counts for the filter
+    assert (c["seeds"], c["sd"]) == ([0], None)  # every extra run failed: no spread
+    assert text.startswith(
+        "The particle filter's max F1 over its seeds on the routes below it: a, "
+        "particle-filter/patch over seeds [0, 1, 3]: mean 0.813, sd 0.031, range 0.780-0.840; "
+        "the weighted-node filter's 0.800 at or above it on 1 of 3 seeds; b, "
+        "particle-filter/haar over seeds 0-1: mean 0.510, sd 0.014"
+    )
+    assert "c, particle-filter/lbp over seed 0: mean 0.310, no sd from one run" in text
 
 
 def test_the_seed_spread_needs_the_same_place_line(bench_script):
     eval_robust = bench_script("eval_robust")
     with pytest.raises(SystemExit, match="--seed-spread reads --representations"):
         eval_robust.main(["--seed-spread", "5"])
-    with pytest.raises(SystemExit, match=r"--seed-spread 101 must be in \[0, 100\]"):
-        eval_robust.main(["--representations", "--seed-spread", "101"])
+    for k in ("1", "101"):
+        with pytest.raises(SystemExit, match=rf"--seed-spread {k} must be in \[2, 100\]"):
+            eval_robust.main(["--representations", "--seed-spread", k])
