@@ -35,7 +35,7 @@ def test_a_methods_parameters_show_their_defaults_and_ranges(capsys):
     code, out, err = run(capsys, "methods", "weighted-node-lbp", "seqslam")
     assert code == 0 and not err
     lines = {line.split()[0]: line.split() for line in out.splitlines() if line.strip()}
-    assert lines["gain"][1:] == ["4", "an", "integer", "in", "[1,", "32]"]
+    assert lines["gain"][1:7] == ["4", "an", "integer", "in", "[1,", "32]"]
     assert lines["ds"][1:3] == ["10", "an"]
     assert "--param METHOD.KEY=VALUE" in out
 
@@ -70,3 +70,28 @@ def test_an_unknown_method_is_one_line(capsys):
     assert code == 1 and not out
     assert err.startswith("ppaloc: error: method 'seqslm' is unknown; choose from: ")
     assert err.count("\n") == 1
+
+
+def test_every_filter_parameter_says_what_it_sets_and_its_choices(capsys):
+    from ppaloc.localise.params import PARAM_LINES, filter_method_params
+
+    for param in filter_method_params():
+        assert param.doc, f"{param.name} has no line for ppaloc methods"
+    assert set(PARAM_LINES) == {p.name for p in filter_method_params()} - {"preset"}
+    code, out, _ = run(capsys, "methods", "weighted-node-lowres", "weighted-node-paper-lbp")
+    assert code == 0
+    lines = {line.split()[0]: line for line in out.splitlines() if line.strip()}
+    assert "one of 2, 4, 8" in lines["contrast_patch"]
+    assert "one of 'image', 'always_forward', 'oracle'" in lines["motion"]
+    assert "the most nodes one frame may advance" in lines["max_advance"]
+    # a line is printed as written: square brackets are not taken for rich's markup
+    assert "paper: the forward window [lo, hi], nodes" in lines["advance"]
+
+
+def test_a_choice_given_out_of_its_values_is_refused_with_them(capsys):
+    code, _, err = run(
+        capsys, "evaluate", "-d", "synthetic:?places=20&seed=1", "-m", "weighted-node-lowres",
+        "--param", "weighted-node-lowres.contrast_patch=3", "--out", "unused",
+    )  # fmt: skip
+    assert code == 1
+    assert "contrast_patch=3 must be one of 2, 4, 8" in err

@@ -710,8 +710,8 @@ def test_a_value_the_filter_refuses_names_the_method(tmp_path, capsys, tiny_spec
         "--param", "weighted-node-lbp.motion=forwards", "--out", tmp_path / "r",
     )  # fmt: skip
     assert code == 1 and err == (
-        "ppaloc: error: method 'weighted-node-lbp': motion='forwards' is not one of image, "
-        "always_forward, oracle\n"
+        "ppaloc: error: method 'weighted-node-lbp': motion='forwards' must be one of 'image', "
+        "'always_forward', 'oracle'\n"
     )
 
 

@@ -777,6 +777,7 @@ def run_methods(names: list[str]) -> None:
     parameters (:func:`ppaloc.methods.parameter_table`): what ``--param`` takes, found
     without reading the source or the documentation."""
     from rich import box
+    from rich.markup import escape
     from rich.table import Table
 
     from ppaloc.methods import available_methods, parameter_table, registry
@@ -802,8 +803,8 @@ def run_methods(names: list[str]) -> None:
         table = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 1, 0, 0))
         for column in ("parameter", "default", "accepted", "what"):
             table.add_column(column, overflow="fold")
-        for row in rows:
-            table.add_row(*row)
+        for row in rows:  # as written: a default [1, 1] or a doc's [lo, hi] is no markup
+            table.add_row(*map(escape, row))
         _console().print(table)
         if left_out:
             print(f"not read by its preset (other methods' parameters): {', '.join(left_out)}")

@@ -32,7 +32,7 @@ import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -57,6 +57,7 @@ __all__ = [
     "MINIMUM_BITS",
     "MOTIONS",
     "NO_LANES",
+    "PARAM_LINES",
     "VARY_AGE",
     "VARY_BAND",
     "VARY_RECORD",
@@ -1185,6 +1186,46 @@ def choose_candidate(candidates: np.ndarray, previous: int | None) -> int:
     return int(candidates[np.argmin(np.abs(candidates - previous))])
 
 
+PARAM_LINES = {
+    "motion": "the forward/still decision: the image test, always forward, or the true moves",
+    "motion_margin": "the motion test's dead zone, register units (two grey levels each)",
+    "motion_shift": "forward where at least 2**-shift of the textured pixels saw an edge cross",
+    "motion_min_support": "below this many textured pixels a frame counts as forward",
+    "confidence_radius": "confidence: the best weight minus the best outside +-R places",
+    "keyframes": "one node per distinct place (a stop of the reference is one node)",
+    "gain": "a frame's likelihood span between its best and its mean node, units",
+    "memory": "the floor below the best weight, units (memory / gain frames of evidence)",
+    "stay_cost": "cost of staying when the motion test says forward",
+    "move_cost": "cost of advancing when the motion test says still",
+    "skip_cost": "cost of each node advanced beyond one in a frame",
+    "max_advance": "the most nodes one frame may advance",
+    "contrast": "low-res: grey-level deviation each image tile is normalised to; 0 off",
+    "contrast_patch": "low-res: side of the normalised tiles, in 32-pixel blocks (8: whole)",
+    "enhance": "host float only: SeqSLAM's contrast enhancement window, nodes; 0 off",
+    "local_gain": "units a node loses when all its local_window neighbours are closer",
+    "local_window": "neighbours each side the local term compares a node with",
+    "speed_window": "forward frames over which the estimate's path gives its speed; 0 off",
+    "speed_confidence": "confidence the path needs on every frame of the window to give it",
+    "lost_window": "confidence 0 while the estimate held one place this many forward frames",
+    "speed_vary": "halve the costs where this many recent speeds were off 1/frame; 0 off",
+    "still_decay": "confidence lost a still frame where the map kept moving; 0 off",
+    "lane_speed": "the fastest speed lane, places a frame (0: no lanes)",
+    "lanes": "speed lanes above one place a frame, evenly spaced up to lane_speed",
+    "slow_lane": "one more lane at half a place a frame",
+    "lane_lead": "report a lane's estimate where its confidence leads by this; 0 off",
+    "lane_confidence": "confidence a lane's path needs for the filter to take its speed",
+    "lane_speed_lead": "a sure faster lane's lead that hands its speed over; 0 off",
+    "alpha": "paper: the likelihood offset (none: chosen from the map)",
+    "gamma": "paper: the adjustment factor",
+    "k": "paper: the adjustment's period, frames",
+    "shift": "paper: the likelihood's right shift",
+    "advance": "paper: the forward window [lo, hi], nodes",
+}
+"""One line per filter parameter on what it sets, for ``ppaloc methods NAME``
+(:func:`filter_method_params`; the :class:`FilterParams` docstring and docs/localise.md
+say more)."""
+
+
 def filter_method_params() -> tuple[MethodParam, ...]:
     """Every filter parameter as a method parameter (type, default, range), from the one
     declaration of each in :class:`FilterParams` (a default that depends on the preset or
@@ -1193,10 +1234,17 @@ def filter_method_params() -> tuple[MethodParam, ...]:
 
     hints = typing.get_type_hints(FilterParams)
     out = [MethodParam("preset", str, "robust", doc="a registered schedule: robust, paper")]
+    choices = {"motion": MOTIONS, "patch": CONTRAST_PATCHES}  # the values a kind accepts
     for f in dataclasses.fields(FilterParams):
         spec: Param | None = f.metadata.get("param")
         if spec is None:
             continue
         default = None if callable(spec.default) else spec.default
-        out.append(MethodParam(f.name, hints[f.name], default, spec.low, spec.high))
+        hint = hints[f.name]
+        if spec.kind in choices:  # the values themselves, not any text or integer
+            hint = Literal[choices[spec.kind]]  # type: ignore[valid-type]
+            if type(None) in typing.get_args(hints[f.name]):
+                hint = hint | None
+        doc = PARAM_LINES.get(f.name, "")
+        out.append(MethodParam(f.name, hint, default, spec.low, spec.high, doc))
     return tuple(out)
