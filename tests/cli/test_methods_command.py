@@ -95,3 +95,18 @@ def test_a_choice_given_out_of_its_values_is_refused_with_them(capsys):
     )  # fmt: skip
     assert code == 1
     assert "contrast_patch=3 must be one of 2, 4, 8" in err
+
+
+@pytest.mark.parametrize("name", available_methods())
+def test_every_parameter_of_a_built_in_method_says_what_it_sets(name):
+    # the baselines' lines come from their class docstrings' Parameters sections
+    rows, _ = parameter_table(name)
+    assert rows and all(what for _, _, _, what in rows), [r[0] for r in rows if not r[3]]
+    if name == "particle-filter":
+        lines = {key: what for key, _, _, what in rows}
+        assert lines["n_particles"] == "Number of particles."
+        assert (
+            lines["max_jump"]
+            == "Largest forward jump in nodes (jumps are uniform over 2 .. max_jump)."
+        )
+        assert lines["p_jump"] == lines["p_stay"]  # "p_stay, p_forward, p_jump : float"

@@ -120,12 +120,74 @@ class DatasetNeed:
     stand_in: Any = None
 
 
+#: The longest line :func:`parameter_lines` keeps of a description (cut at a word).
+LINE_CHARS = 100
+
+
+def parameter_lines(doc: str | None) -> dict[str, str]:
+    r"""The first sentence of each entry of a numpydoc ``Parameters`` section, by name
+    (``a, b : int`` gives both names the line), with reST markup taken out: the line
+    ``ppaloc methods NAME`` shows, from the docstring that already documents it.
+
+    Examples
+    --------
+    >>> doc = "\n".join([
+    ...     "A toy.", "", "Parameters", "----------", "size : int",
+    ...     '    Side of the image (``descriptor="patch"`` only). More words.',
+    ...     "lo, hi : float", "    Bounds of :func:`~ppaloc.place.thing`;", "    inclusive.",
+    ...     "", "Returns", "-------", "int",
+    ... ])
+    >>> lines = parameter_lines(doc)
+    >>> lines["size"]
+    'Side of the image (descriptor="patch" only).'
+    >>> lines["hi"], list(lines)
+    ('Bounds of thing; inclusive.', ['size', 'lo', 'hi'])
+    """
+    import inspect
+    import re
+
+    lines = inspect.cleandoc(doc or "").splitlines()
+    rule = [bool(ln.strip()) and set(ln.strip()) == {"-"} for ln in lines]
+    start = next(
+        (k + 2 for k in range(len(lines) - 1) if lines[k].strip() == "Parameters" and rule[k + 1]),
+        None,
+    )
+    out: dict[str, str] = {}
+    if start is None:
+        return out
+    names: list[str] = []
+    text: list[str] = []
+
+    def keep() -> None:
+        line = re.sub(r":\w+:`~?(?:[\w.]+\.)?([^`]+)`", r"\1", " ".join(text))
+        line = line.replace("``", "")
+        line = re.split(r"(?<=[^.\s]\.)\s+(?=[A-Z\"(`])", line, maxsplit=1)[0]
+        if len(line) > LINE_CHARS:
+            line = line[: line.rfind(" ", 0, LINE_CHARS)] + " ..."
+        for name in names:
+            out.setdefault(name, line)
+
+    for k in range(start, len(lines)):
+        line = lines[k]
+        if k + 1 < len(lines) and rule[k + 1]:
+            break  # the next section's heading
+        if line and not line[0].isspace():  # an entry: "name : type" or "a, b : type"
+            keep()
+            names = [n.strip() for n in line.split(" : ")[0].split(",") if n.strip()]
+            text = []
+        elif line.strip():
+            text.append(line.strip())
+    keep()
+    return out
+
+
 def signature_parameters(
     cls: type, ranges: dict[str, tuple[float, float]] | None = None
 ) -> tuple[MethodParam, ...]:
     """A class's keyword parameters as :class:`MethodParam`: the types of its ``__init__``
     annotations, the defaults of its signature and ``ranges`` (name -> (low, high)), so each
-    parameter has one default (the signature's) and one range (the class's table).
+    parameter has one default (the signature's) and one range (the class's table), and the
+    first sentence of its entry in the class docstring (:func:`parameter_lines`).
 
     Examples
     --------
@@ -141,11 +203,12 @@ def signature_parameters(
         hints = typing.get_type_hints(cls.__init__)  # type: ignore[misc]
     except Exception:  # an annotation that does not resolve: leave the types to the class
         hints = {}
+    docs = parameter_lines(inspect.getdoc(cls))
     out = []
     for key, p in inspect.signature(cls).parameters.items():
         if p.kind in (inspect.Parameter.VAR_KEYWORD, inspect.Parameter.VAR_POSITIONAL):
             continue
         default = None if p.default is inspect.Parameter.empty else p.default
         low, high = (ranges or {}).get(key, (None, None))
-        out.append(MethodParam(key, hints.get(key, Any), default, low, high))
+        out.append(MethodParam(key, hints.get(key, Any), default, low, high, docs.get(key, "")))
     return tuple(out)

@@ -236,7 +236,12 @@ class WeightedNodeLocaliser(DeclaredSpeeds):
             MethodParam(
                 "representation", Literal["lowres", "lowres16", "lbp", "haar", "patch"], "lowres"
             ),
-            MethodParam("arithmetic", Literal["float", "ppa8"], "float"),
+            MethodParam(
+                "arithmetic",
+                Literal["float", "ppa8"],
+                "float",
+                doc="float, or ppa8: the sensor's register arithmetic, exactly",
+            ),
             MethodParam("ranking_k", int, 10, 0, MAX_RANKING, "nodes each estimate ranks"),
             MethodParam("record_weights", bool, False, doc="keep every frame's weights"),
             MethodParam("oracle_moves", Any, None, doc="the true moves, for motion='oracle'"),
