@@ -180,8 +180,13 @@ def _fits(value: Any, hint: Any) -> bool:
     origin, args = typing.get_origin(hint), typing.get_args(hint)
     if hint is Any or hint is inspect.Parameter.empty:
         return True
-    if origin is Literal:
-        return any(value == a and type(value) is type(a) for a in args)
+    if origin is Literal:  # a subclass counts (numpy's str), but True is not the 1 of a list
+        return any(
+            value == a
+            and isinstance(value, type(a))
+            and isinstance(value, bool) == isinstance(a, bool)
+            for a in args
+        )
     if origin in (typing.Union, types.UnionType):
         return (value is None and type(None) in args) or any(
             _fits(value, a) for a in args if a is not type(None)
@@ -310,8 +315,8 @@ def parameter_table(name: str) -> tuple[list[tuple[str, str, str, str]], list[st
     Examples
     --------
     >>> rows, _ = parameter_table("seqslam")
-    >>> [r for r in rows if r[0] == "ds"]
-    [('ds', '10', 'an integer in [0, 500]', '')]
+    >>> [r[:3] for r in rows if r[0] == "ds"]
+    [('ds', '10', 'an integer in [0, 500]')]
     >>> parameter_table("weighted-node-paper-lbp")[1][:2]
     ['gain', 'memory']
     """

@@ -110,3 +110,22 @@ def test_every_parameter_of_a_built_in_method_says_what_it_sets(name):
             == "Largest forward jump in nodes (jumps are uniform over 2 .. max_jump)."
         )
         assert lines["p_jump"] == lines["p_stay"]  # "p_stay, p_forward, p_jump : float"
+
+
+def test_a_choice_is_checked_by_value_not_by_its_exact_type():
+    from typing import Literal
+
+    import numpy as np
+
+    from ppaloc.errors import PpalocError
+    from ppaloc.methods import _fits, check_parameters
+
+    check_parameters("weighted-node-lowres", {"motion": np.str_("image"), "contrast_patch": 4})
+    with pytest.raises(PpalocError, match="contrast_patch=3 must be one of 2, 4, 8"):
+        check_parameters("weighted-node-lowres", {"contrast_patch": 3})
+
+    class Count(int):  # an int by subclass, as numpy's str_ is a str
+        pass
+
+    assert _fits(Count(2), Literal[1, 2]) and not _fits(True, Literal[1, 2])  # True == 1
+    assert _fits(True, Literal[True, "auto"]) and not _fits(1, Literal[True])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import inspect
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
@@ -120,32 +122,43 @@ class DatasetNeed:
     stand_in: Any = None
 
 
-#: The longest line :func:`parameter_lines` keeps of a description (cut at a word).
-LINE_CHARS = 100
+#: Words a sentence of a description does not end after.
+_NOT_AN_END = ("e.g.", "i.e.", "et al.", "vs.", "cf.", "approx.")
+
+
+def _first_sentence(text: str) -> str:
+    """``text`` up to its first full stop that ends a sentence (not "e.g.", not "2 .. 3")."""
+    for m in re.finditer(r"(?<=[^.\s]\.)\s+(?=[A-Z\"(`])", text):
+        if not text[: m.start()].endswith(_NOT_AN_END):
+            return text[: m.start()]
+    return text
 
 
 def parameter_lines(doc: str | None) -> dict[str, str]:
-    r"""The first sentence of each entry of a numpydoc ``Parameters`` section, by name
-    (``a, b : int`` gives both names the line), with reST markup taken out: the line
-    ``ppaloc methods NAME`` shows, from the docstring that already documents it.
+    r"""What each entry of a numpydoc ``Parameters`` section says, by name, with reST
+    markup taken out: the line ``ppaloc methods NAME`` shows, from the docstring that
+    already documents it. An entry's first sentence; the whole entry where its type is a
+    set of choices (``{"a", "b"}``: each choice is described in turn). ``a, b : int``
+    gives both names the line.
 
     Examples
     --------
     >>> doc = "\n".join([
     ...     "A toy.", "", "Parameters", "----------", "size : int",
-    ...     '    Side of the image (``descriptor="patch"`` only). More words.',
-    ...     "lo, hi : float", "    Bounds of :func:`~ppaloc.place.thing`;", "    inclusive.",
+    ...     '    Side of the image (``descriptor="patch"`` only), e.g. 64. More words.',
+    ...     "lo, hi: float", "    Bounds of :func:`~ppaloc.place.thing`;", "",
+    ...     "    :attr:`Estimate.weights` inclusive.",
+    ...     'mode : {"a", "b"}', '    "a": one way. "b": the other.',
     ...     "", "Returns", "-------", "int",
     ... ])
     >>> lines = parameter_lines(doc)
     >>> lines["size"]
-    'Side of the image (descriptor="patch" only).'
+    'Side of the image (descriptor="patch" only), e.g. 64.'
     >>> lines["hi"], list(lines)
-    ('Bounds of thing; inclusive.', ['size', 'lo', 'hi'])
+    ('Bounds of thing; Estimate.weights inclusive.', ['size', 'lo', 'hi', 'mode'])
+    >>> lines["mode"]
+    '"a": one way. "b": the other.'
     """
-    import inspect
-    import re
-
     lines = inspect.cleandoc(doc or "").splitlines()
     rule = [bool(ln.strip()) and set(ln.strip()) == {"-"} for ln in lines]
     start = next(
@@ -156,14 +169,17 @@ def parameter_lines(doc: str | None) -> dict[str, str]:
     if start is None:
         return out
     names: list[str] = []
+    kind = ""
     text: list[str] = []
 
     def keep() -> None:
-        line = re.sub(r":\w+:`~?(?:[\w.]+\.)?([^`]+)`", r"\1", " ".join(text))
-        line = line.replace("``", "")
-        line = re.split(r"(?<=[^.\s]\.)\s+(?=[A-Z\"(`])", line, maxsplit=1)[0]
-        if len(line) > LINE_CHARS:
-            line = line[: line.rfind(" ", 0, LINE_CHARS)] + " ..."
+        line = re.sub(
+            r":(?:\w+:)*\w+:`(~?)([^`<]+?)\s*(?:<[^>]*>)?`",
+            lambda m: m.group(2).rsplit(".", 1)[-1] if m.group(1) else m.group(2),
+            " ".join(text),
+        ).replace("``", "")
+        if not kind.startswith("{"):
+            line = _first_sentence(line)
         for name in names:
             out.setdefault(name, line)
 
@@ -173,7 +189,9 @@ def parameter_lines(doc: str | None) -> dict[str, str]:
             break  # the next section's heading
         if line and not line[0].isspace():  # an entry: "name : type" or "a, b : type"
             keep()
-            names = [n.strip() for n in line.split(" : ")[0].split(",") if n.strip()]
+            head, *rest = re.split(r"\s*:\s", line, maxsplit=1)
+            kind = rest[0].strip() if rest else ""
+            names = [n.strip() for n in head.split(",") if n.strip()]
             text = []
         elif line.strip():
             text.append(line.strip())
@@ -196,14 +214,14 @@ def signature_parameters(
     >>> [(p.name, p.hint, p.default, p.high) for p in signature_parameters(Toy, {"size": (1, 64)})]
     [('size', <class 'int'>, 8, 64), ('name', <class 'str'>, 'toy', None)]
     """
-    import inspect
     import typing
 
     try:
         hints = typing.get_type_hints(cls.__init__)  # type: ignore[misc]
     except Exception:  # an annotation that does not resolve: leave the types to the class
         hints = {}
-    docs = parameter_lines(inspect.getdoc(cls))
+    # the class's Parameters section, else __init__'s (where a class documents them)
+    docs = {**parameter_lines(inspect.getdoc(cls.__init__)), **parameter_lines(inspect.getdoc(cls))}
     out = []
     for key, p in inspect.signature(cls).parameters.items():
         if p.kind in (inspect.Parameter.VAR_KEYWORD, inspect.Parameter.VAR_POSITIONAL):
