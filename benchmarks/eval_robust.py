@@ -50,7 +50,7 @@ condition over its seeds) with the means over the real, the generated and all ro
 then the line of the filter's target on the same information (:func:`same_place_summary`):
 on how many routes the better weighted-node place scores at least the particle filter on
 that place, and by how much each of the others falls short. ``--seed-spread K`` runs the
-particle filter on each of those others' place at K seeds in all (the table's seed 0
+particle filter on each of those others' place at K seeds in all (the table's seed
 among them) and prints its mean, spread and range there beside the weighted-node filter's
 figure, which draws nothing: how much of a shortfall is one seed's luck.
 """
@@ -907,7 +907,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         metavar="K",
         help="with --representations: run the particle filter on each route where no "
         "weighted-node place reaches it on the same place at K seeds in all (the table's "
-        "seed 0 among them) and print its spread there",
+        "seed among them) and print its spread there",
     )
     parser.add_argument("--data", type=Path, default=DATA, help="the shared data folder")
     parser.add_argument(
