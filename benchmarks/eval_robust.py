@@ -68,8 +68,8 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Iterable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
@@ -474,6 +474,22 @@ def _end_workers(signum: int, frame: Any) -> None:
     os.kill(os.getpid(), signum)
 
 
+def completed(futures: Iterable[Future], poll: float = 0.5) -> Iterator[Future]:
+    """``futures`` as each finishes, like ``as_completed``, waking every ``poll`` seconds.
+
+    The kernel hands a signal sent to the process to any of its threads. Where one of
+    the pool's threads takes it, Python only marks the handler due, and the main
+    thread, asleep in ``as_completed`` or ``result()`` until a route ends, does not run
+    it: SIGTERM then left the script and its workers running for the rest of their
+    routes. Waking every ``poll`` seconds runs a due handler (or Ctrl-C's
+    KeyboardInterrupt) within ``poll`` seconds, at the cost of a wake-up a second.
+    """
+    pending = set(futures)
+    while pending:
+        done, pending = wait(pending, timeout=poll, return_when=FIRST_COMPLETED)
+        yield from done
+
+
 @contextlib.contextmanager
 def route_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     """A pool of ``workers`` spawned processes that SIGTERM ends with this one.
@@ -483,6 +499,8 @@ def route_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     and its workers ran on with their routes and then waited for work that never came,
     for over an hour. While the pool is open, SIGTERM ends the workers first, then this
     process as SIGTERM would (from the main thread, which alone sets signal handlers).
+    Wait for the pool's futures with :func:`completed`, not ``as_completed`` or
+    ``result()``: the handler runs in the main thread, and only once that thread wakes.
     """
     # Spawned workers inherit these before they import numpy: one BLAS thread each.
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -532,7 +550,7 @@ def run_all(
                 pool.submit(evaluate_route, label, spec, jobs, cache, source): label
                 for label, spec in selected
             }
-            for fut in as_completed(futures):
+            for fut in completed(futures):
                 try:
                     report(fut.result())
                 except Exception as exc:  # one broken route must not stop the rest
