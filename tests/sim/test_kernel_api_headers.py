@@ -109,6 +109,10 @@ GOLDEN.update(
             lambda k: k.div(A, B, C, D),
             ["bus2(A, B, D)", "bus(NEWS, D, B)", "bus(C, NEWS, A)", "bus2(A, B, C)", "bus(A, B)"],
         ),
+        "div(A, B, C, C)": (  # x0 may be y2: the 3-argument form's expansion
+            lambda k: k.div(A, B, C, C),
+            ["bus2(A, B, C)", "bus(NEWS, C, B)", "bus(C, NEWS, A)", "bus2(A, B, C)", "bus(A, B)"],
+        ),
         "diva(A, B, C)": (
             lambda k: k.diva(A, B, C),
             ["bus2(B, C, A)", "bus(NEWS, B, A)", "bus(A, NEWS, C)", "bus2(B, C, A)", "bus(A, B)"],

@@ -243,6 +243,7 @@ def test_dnews_macro_several_directions(sim: Scamp5) -> None:
         (lambda s: s.abs(A, A), r"in abs\(A, A\): bus\(A, NEWS, A\) lists A twice"),
         (lambda s: s.mov(NEWS, A), r"in mov\(NEWS, A\): bus\(NEWS, NEWS\) lists NEWS twice"),
         (lambda s: s.div(A, B, A), r"div\(A, B, A\): A appears twice"),
+        (lambda s: s.div(A, B, C, A), r"div\(A, B, C, A\): A appears twice"),
         (lambda s: s.diva(A, A, B), r"diva\(A, A, B\): A appears twice"),
         (lambda s: s.movx(A, B, 3), r"movx\(A, B, 3\): direction 3 is not one of"),
         (lambda s: s.AND(R5, R0, R6), r"AND\(R5, R0, R6\): R0 cannot be an argument"),

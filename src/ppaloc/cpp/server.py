@@ -155,6 +155,14 @@ def _shown_call(call: tuple[str, int, list]) -> str:
     return f"{call[0]}({', '.join(map(_show, call[2]))})"
 
 
+def _call_error(at: str, call: str, exc: Exception) -> str:
+    """``file:line: call: message``, the call named once where the simulator's message
+    already begins with it (a macro's own checks name their call)."""
+    text = str(exc)
+    named = text.startswith((f"{call}: ", f"in {call}: "))
+    return f"{at}: {text}" if named else f"{at}: {call}: {text}"
+
+
 def _show(arg: Any) -> str:
     if isinstance(arg, tuple):
         return "{" + ", ".join(map(_show, arg)) + "}"
@@ -435,7 +443,7 @@ class Session:
                             getattr(k, name)(*_directions(name, args))
                         except (PpalocError, TypeError) as exc:
                             call = f"{name}({', '.join(map(_show, args))})"
-                            raise ProgramError(f"{self.at(line)}: {call}: {exc}") from None
+                            raise ProgramError(_call_error(self.at(line), call, exc)) from None
             except ProgramError:
                 raise
             except PpalocError as exc:  # the kernel as a whole (e.g. too many ICWs)
@@ -484,7 +492,7 @@ class Session:
             raise
         except PpalocError as exc:
             call = f"{name}({', '.join(map(_show, args))})"
-            raise ProgramError(f"{self.at(line)}: {call}: {exc}") from None
+            raise ProgramError(_call_error(self.at(line), call, exc)) from None
         if not want:
             return None
         return b"" if result is None else result

@@ -349,11 +349,13 @@ class ProgramAPI:
         self._macro("divq", (y0, x0), [("bus2", (y0, NEWS), (x0,)), ("bus", (y0,), (NEWS,))])
 
     def div(self, y0: Register, y1: Register, y2: Register, x0: Register | None = None) -> None:
-        """``y0 := x0 / 2`` (x0 defaults to y2); y1 := -x0/2, y2 := x0; 5 ICWs, NEWS scratch."""
+        """``y0 := x0 / 2`` (x0 defaults to y2); y1 := -x0/2, y2 := x0; 5 ICWs, NEWS scratch.
+
+        ``x0`` may be ``y2`` (the header's expansion is then the 3-argument form's)."""
         src = y2 if x0 is None else x0
         args = (y0, y1, y2) if x0 is None else (y0, y1, y2, x0)
         call = _call("div", args)
-        _distinct(call, args)
+        _distinct(call, (y0, y1, y2) if src == y2 else args)
         self._emit(
             expand(
                 call,
