@@ -301,6 +301,37 @@ def test_a_static_kernel_begun_again_with_other_calls_is_reported_once(cxx, tmp_
     assert result.session.host_log == [(0, "allow_highspeed(1)")]
 
 
+COUNTING_KERNEL = """#include <scamp5.hpp>
+using namespace SCAMP5_PE;
+int main() {
+    vs_init();
+    int n = 0;
+    while (1) {
+        vs_frame_loop_control();
+        scamp5_kernel_begin();
+            mov(A, B);
+            n++;
+        scamp5_kernel_end();
+        vs_post_text("n=%d", n);
+    }
+}
+"""
+
+
+@pytest.mark.parametrize(("check", "texts"), [(True, ["n=1", "n=2", "n=3"]), (False, ["n=1"] * 3)])
+def test_a_static_kernels_body_runs_once_without_the_kernel_check(cxx, tmp_path, check, texts):
+    # the device runs the body once; the check runs it again to compare, and its C++ with it
+    path = tmp_path / "count.cpp"
+    path.write_text(COUNTING_KERNEL)
+    result = run_program(path, FRAMES * 3, kernel_check=check)
+    assert result.texts == texts
+    assert [k.runs for k in result.session.kernels.values()] == [3]
+    helper = tmp_path / "helper.cpp"
+    helper.write_text(HELPER_KERNELS)
+    warned = run_program(helper, FRAMES, kernel_check=check).session.warnings
+    assert len(warned) == int(check)  # the helper's other registers: found by the check only
+
+
 def test_int_min_by_minus_one_wraps_as_on_the_device_without_a_report(faults):
     result = fault(8)  # INT_MIN / -1, INT_MIN % -1, LLONG_MIN / -1, LLONG_MIN % -1
     assert result.texts == ["-2147483648 0 -9223372036854775808 0"] * len(FRAMES)

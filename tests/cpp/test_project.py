@@ -133,7 +133,7 @@ def test_an_error_in_a_header_kernel_names_the_header(cxx, tmp_path):
     )
     extra = EXTRA.replace("    return v * GAIN;", "    bad();\n    return v;")
     main, extra_cpp, inc = _project(tmp_path, extra=extra, header=header)
-    with pytest.raises(PpalocError, match=r"^scale\.hpp:10: sub\(A, B, A\): "):
+    with pytest.raises(PpalocError, match=r"^scale\.hpp:10: in sub\(A, B, A\): "):
         run_program([main, extra_cpp], FRAME, include_dirs=[inc])
 
 

@@ -1088,6 +1088,15 @@ Examples:
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
 @click.option(
+    "--kernel-check/--no-kernel-check",
+    default=True,
+    show_default=True,
+    help="Run a static kernel's body again at later passes to compare it with its "
+    "recording, warning at the first difference (a kernel in a helper called with other "
+    "registers); its other C++ statements, a counter or a printf, then run again too, "
+    "which the device never does. --no-kernel-check runs each body once, as the device.",
+)
+@click.option(
     "--out",
     required=True,
     type=_SafePath(file_okay=False, allow_dash=True, path_type=Path),
@@ -1116,6 +1125,7 @@ def cpp_run(
     timeout: float,
     noise: str,
     seed: int,
+    kernel_check: bool,
     out: Path,
     live: bool,
     host: str,
@@ -1149,6 +1159,7 @@ def cpp_run(
         seed=seed,
         quiet=bool(quiet),
         live=view,
+        kernel_check=kernel_check,
     )
 
 

@@ -182,6 +182,7 @@ def run_cpp(
     seed: int = 0,
     quiet: bool = False,
     live: LiveView | None = None,
+    kernel_check: bool = True,
 ) -> RunResult:
     """Run ``program`` on the simulator and write ``out``; print one summary line.
 
@@ -210,6 +211,7 @@ def run_cpp(
             noise=noise,
             seed=seed,
             live=live,
+            kernel_check=kernel_check,
         )
     except FramesFailedError as exc:  # the frames that ran: their warnings, then the error
         if not quiet:  # the cause itself is the error's line

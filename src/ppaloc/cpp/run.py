@@ -452,6 +452,7 @@ def run_program(
     noise: str | NoiseParams = "ideal",
     seed: int = 0,
     live: LiveView | None = None,
+    kernel_check: bool = True,
 ) -> RunResult:
     """Compile ``program`` (cached) and run it on the simulator, one frame per loop pass.
 
@@ -486,6 +487,12 @@ def run_program(
         the displays, sliders, switches and text in a browser as frames run and feeds the
         page's slider and switch changes to the program; closed when the run ends, however
         it ends. Its frame pacing does not count against ``timeout``.
+    kernel_check : bool
+        Run a static kernel's body again at later passes to compare what it would record
+        with its recording, warning once at the first difference (a kernel in a helper
+        called with other registers); the body's other C++ statements (a counter, a
+        printf) then run again too, which the device never does. False: each body runs
+        once, as on the device.
 
     Raises
     ------
@@ -534,7 +541,7 @@ def run_program(
         if live is not None:
             live.open(session)
         try:
-            result = _serve(exe, session, name, timeout, live, files)
+            result = _serve(exe, session, name, timeout, live, files, kernel_check)
         finally:
             if live is not None:
                 live.close(session)
@@ -566,6 +573,7 @@ def _serve(
     timeout: float,
     live: LiveView | None = None,
     files: frozenset[str] = frozenset(),
+    kernel_check: bool = True,
 ) -> RunResult:
     to_sim_r, to_sim_w = os.pipe()
     to_prog_r, to_prog_w = os.pipe()
@@ -574,6 +582,7 @@ def _serve(
         PPALOC_FD_OUT=str(to_sim_w),
         PPALOC_FD_IN=str(to_prog_r),
         ASAN_OPTIONS="detect_leaks=0:abort_on_error=0",
+        PPALOC_KERNEL_CHECK="1" if kernel_check else "0",
     )
     out_r, out_w = os.pipe()
     err_r, err_w = os.pipe()

@@ -278,6 +278,17 @@ inline bool& comparing() {
     return on;
 }
 
+// Whether later passes run a static kernel's body again to compare it (the run's
+// --no-kernel-check sets PPALOC_KERNEL_CHECK=0: each body then runs once, as on the device,
+// its other C++ statements with it).
+inline bool kernel_check() {
+    static const bool on = [] {
+        const char* v = std::getenv("PPALOC_KERNEL_CHECK");
+        return !(v && v[0] == '0' && v[1] == '\0');
+    }();
+    return on;
+}
+
 // A controller call by name; with `want`, its answer.
 inline std::vector<uint8_t> call_at(const char* fn, bool want, std::initializer_list<Arg> args,
                                     uint32_t where) {
@@ -561,13 +572,15 @@ class scamp5_kernel {
     // recording at every later pass, and so does the shim, but a later pass runs the body
     // again to compare what it would record (a kernel in a helper function called with
     // other registers records the first call's): the first difference is reported once, a
-    // warning of the run, and then the body is no longer run. True: run the body.
+    // warning of the run, and then the body is no longer run. The body's other C++
+    // statements run again with it; without the check (kernel_check()) a body runs once,
+    // as on the device. True: run the body.
     bool begin_static(const char* f, unsigned l) {
         if (null()) {
             recording_start(f, l);
             return true;
         }
-        if (changed) return false;
+        if (changed || !ppa::kernel_check()) return false;
         if (ppa::active()) ppa::fail(ppa::Loc{f, l}, "a kernel begins inside another kernel");
         recorded.swap(body);
         body.clear();
