@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import datetime
 import hashlib
 import json
 import subprocess
@@ -155,6 +156,14 @@ def _config(**values):
             {"params": {"seqslam": {"vmin": float("nan")}}},
             "sweep.toml: [sweep.params.seqslam] vmin = nan holds NaN or an infinite number",
         ),
+        (  # a TOML date: no cell's identity could be written (an internal error)
+            {"params": {"seqslam": {"ds": [datetime.date(1979, 5, 27), 3]}}},
+            "sweep.toml: [sweep.params.seqslam] ds = 1979-05-27 is a TOML date, not a",
+        ),
+        (
+            {"params": {"seqslam": {"ds": {"a": datetime.time(7, 32)}}}},
+            "sweep.toml: [sweep.params.seqslam] ds = 07:32:00 is a TOML time, not a",
+        ),
         ({"seed": []}, "sweep.toml: seed=[] must be an integer or a non-empty list of them"),
         ({"tolerance": [-1]}, "sweep.toml: tolerance=[-1] must be an integer >= 0 or a"),
         ({"combine": "zip"}, "sweep.toml: combine='zip' must be one of product, one-at-a-time"),
@@ -242,6 +251,9 @@ def test_an_unreachable_scheduler_fails_at_once_and_writes_nothing(tmp_path, iss
     assert not out.exists()
     with pytest.raises(PpalocError, match="must look like tcp://HOST:PORT"):
         run_sweep(issue_config, out, scheduler="localhost")
+    for port in (0, 99999):  # no scheduler listens there: not "start one" advice
+        with pytest.raises(PpalocError, match=rf"'tcp://127.0.0.1:{port}': port {port} must be in"):
+            run_sweep(issue_config, out, scheduler=f"tcp://127.0.0.1:{port}")
 
 
 def test_a_scheduler_of_a_scheme_dask_does_not_speak_is_one_line(tmp_path, issue_config, capfd):

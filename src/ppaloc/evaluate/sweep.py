@@ -160,6 +160,8 @@ def _probe(address: str, timeout: float) -> None:
         raise PpalocError(
             f"--scheduler {address!r} must look like tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786"
         )
+    if not 1 <= int(port) <= 65535:  # no scheduler can listen there: not a start-one advice
+        raise PpalocError(f"--scheduler {address!r}: port {int(port)} must be in [1, 65535]")
     try:
         with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout):
             pass

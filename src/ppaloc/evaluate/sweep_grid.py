@@ -161,6 +161,13 @@ class SweepConfig:
                         f"[sweep.params.{method}] {key} = [] is empty: give at least one value "
                         "(a list is swept, a single value is fixed)"
                     )
+                odd = _not_a_value(value)
+                if odd is not None:  # a TOML date or time: no method takes one
+                    raise PpalocError(
+                        f"[sweep.params.{method}] {key} = {odd} is a TOML "
+                        f"{type(odd).__name__}, not a parameter value; give a number, a "
+                        "string (quoted) or a list of them"
+                    )
                 if not _finite(value):  # no cell's identity (JSON) could be written
                     raise PpalocError(
                         f"[sweep.params.{method}] {key} = {value!r} holds NaN or an infinite "
@@ -270,6 +277,16 @@ def _finite(value: Any) -> bool:
     if isinstance(value, Mapping):
         return all(_finite(v) for v in value.values())
     return True
+
+
+def _not_a_value(value: Any) -> Any:
+    """The first item of ``value`` (a parameter, lists and tables walked) that is none of
+    a bool, number, string or None (a TOML date or time), or None where there is none."""
+    if isinstance(value, list | tuple):
+        return next((odd for v in value if (odd := _not_a_value(v)) is not None), None)
+    if isinstance(value, Mapping):
+        return _not_a_value(list(value.values()))
+    return None if value is None or isinstance(value, bool | int | float | str) else value
 
 
 def _canonical(value: Any) -> str:
