@@ -44,9 +44,11 @@ from typing import IO, Any
 from ppaloc.errors import PpalocError
 
 __all__ = [
+    "PNG_SOFTWARE",
     "atomic_write",
     "check_replaceable_folder",
     "default_file_mode",
+    "drawn_by_ppaloc",
     "leads_into_loop",
     "new_folder",
     "recover_folder",
@@ -55,6 +57,23 @@ __all__ = [
     "user_cache",
     "write_bytes",
 ]
+
+
+#: The PNG ``Software`` text of every image ppaloc draws: ``ppaloc show`` replaces a PNG
+#: beside its input only where it carries this (:func:`drawn_by_ppaloc`).
+PNG_SOFTWARE = "ppaloc"
+
+
+def drawn_by_ppaloc(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a PNG ppaloc drew (its ``Software`` text is :data:`PNG_SOFTWARE`);
+    False for any other file, or none."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as img:
+            return img.format == "PNG" and img.info.get("Software") == PNG_SOFTWARE
+    except (OSError, UnidentifiedImageError, ValueError):
+        return False
 
 
 def default_file_mode() -> int:

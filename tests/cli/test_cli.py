@@ -434,6 +434,29 @@ def test_show_results_map_and_planes(mean_match, tiny_spec, tmp_path, capsys):
         assert im.size[0] > 512
 
 
+def test_show_replaces_only_its_own_png_beside_the_input(mean_match, tmp_path, capsys):
+    # `show m.npz` draws m.png beside it: it replaced a photo of the user's of that name
+    spec = "synthetic:?places=6&size=32&sync=1"
+    m = tmp_path / "m.npz"
+    assert run(capsys, "map", spec, "-m", mean_match, "--out", m, "-q")[0] == 0
+    photo = tmp_path / "m.png"
+    Image.fromarray(np.full((4, 4), 7, np.uint8)).save(photo)
+    kept = photo.read_bytes()
+    code, _, err = run(capsys, "show", m, "-q")
+    assert code == 1 and photo.read_bytes() == kept
+    assert err.strip() == (
+        f"ppaloc: error: {photo} exists and is not a plot ppaloc drew: show would replace "
+        "it; give --out to name the PNG to write (or move it away)"
+    )
+    assert run(capsys, "show", m, "--out", photo, "-q")[0] == 0  # named: replaced
+    code, _, err = run(capsys, "show", m, "-q")  # its own plot, drawn again in place
+    assert code == 0, err
+    planes = tmp_path / "planes.npz"  # a montage of planes is marked too
+    np.savez(planes, A=np.zeros((8, 8)))
+    assert run(capsys, "show", planes, "-q")[0] == 0
+    assert run(capsys, "show", planes, "-q")[0] == 0
+
+
 def test_show_and_localise_never_write_over_their_inputs(mean_match, tmp_path, capsys):
     spec = "synthetic:?places=6&size=32&sync=1"
     m = tmp_path / "m.npz"

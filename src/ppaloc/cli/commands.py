@@ -17,7 +17,13 @@ from typing import Any
 import numpy as np
 
 from ppaloc.cli.localise import run_localise
-from ppaloc.cli.outputs import check_png, check_suffix, refuse_input_as_out, refuse_link_loop
+from ppaloc.cli.outputs import (
+    check_png,
+    check_suffix,
+    default_png,
+    refuse_input_as_out,
+    refuse_link_loop,
+)
 from ppaloc.errors import DataError, PpalocError
 
 __all__ = [
@@ -658,7 +664,7 @@ def _show_map(path: Path, out: Path | None, *, quiet: bool) -> Path:
     topomap = load_map(path)
     if not len(topomap):
         raise DataError(f"{path} is a map of 0 nodes: there is nothing to draw")
-    out = out or path.with_suffix(".png")
+    out = out or default_png(path)
     refuse_input_as_out(out, [path])
     check_png(out)
     layout = topomap.layout
@@ -760,7 +766,7 @@ def _show_planes(path: Path, out: Path | None, *, quiet: bool) -> Path:
             "are drawn side by side at one size: save the planes of each size in a file of "
             "their own"
         )
-    out = out or path.with_suffix(".png")
+    out = out or default_png(path)
     refuse_input_as_out(out, [path])
     check_png(out)
     render_montage(planes, out, scale=1)

@@ -233,6 +233,28 @@ def check_text_output(text: str | os.PathLike[str], flag: str = "--out") -> Path
     return check_output(text, flag, folder=False)
 
 
+def default_png(path: Path) -> Path:
+    """Where ``ppaloc show`` draws ``path`` without ``--out``: beside it, as ``.png``.
+
+    A PNG already there is replaced only where ppaloc drew it (an earlier ``show``); one
+    of the user's (a frame, a photo) would be lost.
+
+    Raises
+    ------
+    PpalocError
+        Naming the file and the fix.
+    """
+    from ppaloc.fileio import drawn_by_ppaloc
+
+    out = path.with_suffix(".png")
+    if out.exists() and not drawn_by_ppaloc(out):
+        raise PpalocError(
+            f"{out} exists and is not a plot ppaloc drew: show would replace it; give --out "
+            "to name the PNG to write (or move it away)"
+        )
+    return out
+
+
 def check_png(out: Path) -> None:
     """Refuse an ``--out`` of ``ppaloc show`` whose suffix names another format than the
     PNG it writes (``x.pdf`` would hold PNG bytes).

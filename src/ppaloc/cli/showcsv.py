@@ -97,14 +97,14 @@ def show_predictions(path: Path, out: Path | None, *, quiet: bool = False) -> Pa
     Path
         The PNG written.
     """
-    from ppaloc.cli.outputs import check_png, refuse_input_as_out
+    from ppaloc.cli.outputs import check_png, default_png, refuse_input_as_out
     from ppaloc.evaluate.figures import png_bytes
     from ppaloc.evaluate.score import read_predictions
     from ppaloc.fileio import write_bytes
 
     predictions = read_predictions(path)
     drawn = [(p, *_arrays(p)) for p in predictions]  # every problem before anything is written
-    out = out or path.with_suffix(".png")
+    out = out or default_png(path)
     refuse_input_as_out(out, [path])
     check_png(out)
     write_bytes(out, png_bytes(predictions_figure(predictions, path.name)))

@@ -119,9 +119,11 @@ def png_bytes(fig: Figure) -> bytes:
     """The figure as PNG bytes."""
     import matplotlib as mpl
 
+    from ppaloc.fileio import PNG_SOFTWARE
+
     buf = io.BytesIO()
     with mpl.rc_context(_STYLE):
-        fig.savefig(buf, format="png")
+        fig.savefig(buf, format="png", metadata={"Software": PNG_SOFTWARE})
     return buf.getvalue()
 
 
