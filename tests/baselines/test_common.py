@@ -54,3 +54,35 @@ def test_difference_column_is_the_mean_absolute_difference(toy_route) -> None:
     q = s.describe(query[0]).astype(np.float64)
     expected = [np.mean(np.abs(s.map.descriptors[i].astype(np.float64) - q)) for i in range(5)]
     np.testing.assert_allclose(s.difference_column(query[0]), expected, rtol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("method", "param", "message"),
+    [
+        ("seqslam", {"patch": 7}, "SeqSLAM: patch=7 must divide both sides of size=(32, 64) (e.g."),
+        ("single-frame", {"size": [1, 1]}, "SingleFrame: patch=8 must divide both sides of size="),
+        ("particle-filter", {"size": [32, 60]}, "ParticleFilter: size=(32, 60) must be two"),
+        ("able-m", {"side": 100}, "ABLE-M: side=100 must divide 256, the sensor frame's side"),
+        ("seqslam", {"patch": 1}, "method 'seqslam': patch=1 must be in [2, 256]"),
+    ],
+)
+def test_an_image_the_method_cannot_make_is_refused_before_any_frame(method, param, message):
+    # values inside the declared ranges failed only at the first frame, in words about a
+    # "downsample size" or a shape the user never gave, and a sweep ran such cells
+    from ppaloc.evaluate.sweep_grid import expand, sweep_config_from_mapping, validate
+    from ppaloc.methods import check_method
+
+    with pytest.raises(PpalocError) as info:
+        check_method(method, param)
+    assert message in str(info.value)
+    config = sweep_config_from_mapping(
+        {
+            "methods": [method],
+            "datasets": ["synthetic:?places=6"],
+            "params": {method: {k: [v, v] for k, v in param.items()}},
+        }
+    )
+    with pytest.raises(PpalocError) as info:  # before any cell runs
+        validate(config, expand(config))
+    assert message in str(info.value)
+    check_method(method, {})  # the defaults make their image

@@ -39,6 +39,7 @@ from ppaloc.baselines.ldb import comparison_count, hamming_distances, ldb_compar
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.place import HAAR_BITS, HAAR_WORDS, LBP_BITS, LOWRES_GRIDS
+from ppaloc.place.grid import SENSOR_SIZE
 from ppaloc.place.patch import downsample
 from ppaloc.seeds import SEED_MAX
 from ppaloc.topomap import TopoMap
@@ -115,7 +116,7 @@ class ABLEM(MapLocaliser):
     #: leaves the method's meaning; the published defaults lie inside.
     RANGES: ClassVar[dict[str, tuple[float, float]]] = {
         "length": (1, 1000),
-        "side": (8, 1024),
+        "side": (8, 256),
         "levels": (1, 64),
         "n_bits": (1, 1_000_000),
         "bit_seed": (0, SEED_MAX),
@@ -161,6 +162,12 @@ class ABLEM(MapLocaliser):
             "bit_seed": (int(bit_seed), 0),
         }
         self.descriptor = check_descriptor("ABLE-M", descriptor, own, allowed=self.DESCRIPTORS)
+        if self.descriptor == "ldb" and SENSOR_SIZE % self.side:  # at build, not the first frame
+            sides = ", ".join(str(d) for d in range(8, SENSOR_SIZE + 1) if SENSOR_SIZE % d == 0)
+            raise PpalocError(
+                f"ABLE-M: side={self.side} must divide {SENSOR_SIZE}, the sensor frame's side "
+                f"(one of {sides}; OpenABLE's 64)"
+            )
         if self.descriptor == "lbp":
             self._bits = np.arange(LBP_BITS)
         elif self.descriptor == "haar":

@@ -42,6 +42,7 @@ from ppaloc.baselines._descriptors import check_descriptor
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.localise.enhance import contrast_enhance
+from ppaloc.place.patch import check_patch_image
 from ppaloc.seeds import SEED_MAX
 from ppaloc.topomap import TopoMap
 
@@ -103,9 +104,11 @@ class ParticleFilter(ImageLocaliser):
     enhance_window : int
         Contrast enhancement window (as SeqSLAM: 10).
     size : (rows, cols)
-        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
+        Downsampled image size (as SeqSLAM: 32 x 64), each side a divisor of 256 and a
+        multiple of ``patch``; ``descriptor="patch"`` only.
     patch : int
-        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
+        Patch normalisation tile side (as SeqSLAM: 8), at least 2; ``descriptor="patch"``
+        only.
     descriptor : {"patch", "lowres", "lowres16", "lbp", "haar"}
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
@@ -136,8 +139,8 @@ class ParticleFilter(ImageLocaliser):
         "max_jump": (2, 1_000_000),
         "sigma_rel": (1e-9, 1e6),
         "enhance_window": (0, 10_000),
-        "size": (1, 1024),
-        "patch": (1, 1024),
+        "size": (1, 256),
+        "patch": (2, 256),
         "seed": (0, SEED_MAX),
         "top_k": (1, 10_000),
     }
@@ -185,6 +188,8 @@ class ParticleFilter(ImageLocaliser):
         self.patch = int(patch)
         own = {"size": (self.size, (32, 64)), "patch": (self.patch, 8)}
         self.descriptor = check_descriptor("ParticleFilter", descriptor, own)
+        if self.descriptor == "patch":  # at build, not at the first frame
+            check_patch_image("ParticleFilter", self.size, self.patch)
         self.seed = int(seed)
         self.top_k = int(top_k)
         self.record_weights = bool(record_weights)

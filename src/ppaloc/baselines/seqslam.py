@@ -54,6 +54,7 @@ from ppaloc.baselines._descriptors import check_descriptor
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
 from ppaloc.localise.enhance import contrast_enhance
+from ppaloc.place.patch import check_patch_image
 from ppaloc.topomap import TopoMap
 
 __all__ = ["SeqSLAM", "contrast_enhance", "trajectory_costs", "trajectory_offsets"]
@@ -142,10 +143,11 @@ class SeqSLAM(ImageLocaliser):
         frames, so it runs offline: over a whole query with :meth:`localise_sequence`, or
         frame by frame after :meth:`read_ahead` has been handed the query.
     size : (rows, cols)
-        Downsampled image size (OpenSeqSLAM: 32 rows x 64 columns); ``descriptor="patch"``
-        only.
+        Downsampled image size (OpenSeqSLAM: 32 rows x 64 columns), each side a divisor of
+        256 and a multiple of ``patch``; ``descriptor="patch"`` only.
     patch : int
-        Patch normalisation tile side (OpenSeqSLAM: 8); ``descriptor="patch"`` only.
+        Patch normalisation tile side (OpenSeqSLAM: 8), at least 2; ``descriptor="patch"``
+        only.
     quantise : bool
         Store patch-normalised images as OpenSeqSLAM does (``127 + round(z)``); default
         False keeps the float z-scores (see docs/baselines.md); ``descriptor="patch"``
@@ -199,8 +201,8 @@ class SeqSLAM(ImageLocaliser):
     #: drives memory or time or leaves the method's meaning; the published defaults lie
     #: inside. ``ds``: the trajectory set-up grows as ds^2, about 1 s at 500.
     RANGES: ClassVar[dict[str, tuple[float, float]]] = {
-        "size": (1, 1024),
-        "patch": (1, 1024),
+        "size": (1, 256),
+        "patch": (2, 256),
         "ds": (0, 500),
         "vmin": (0.001, 100.0),
         "vmax": (0.001, 100.0),
@@ -254,6 +256,8 @@ class SeqSLAM(ImageLocaliser):
             "quantise": (self.quantise, False),
         }
         self.descriptor = check_descriptor("SeqSLAM", descriptor, own)
+        if self.descriptor == "patch":  # at build, not at the first frame
+            check_patch_image("SeqSLAM", self.size, self.patch)
         self.ds = int(ds) + (int(ds) % 2 if mode == "centred" else 0)
         n_v = round((vmax - vmin) / vstep) + 1
         self.velocities = vmin + vstep * np.arange(n_v)

@@ -18,6 +18,7 @@ from ppaloc.baselines._common import ImageLocaliser, top_k, uniqueness_ratio
 from ppaloc.baselines._descriptors import check_descriptor
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import Estimate
+from ppaloc.place.patch import check_patch_image
 from ppaloc.topomap import TopoMap
 
 __all__ = ["SingleFrame"]
@@ -31,9 +32,11 @@ class SingleFrame(ImageLocaliser):
     Parameters
     ----------
     size : (rows, cols)
-        Downsampled image size (as SeqSLAM: 32 x 64); ``descriptor="patch"`` only.
+        Downsampled image size (as SeqSLAM: 32 x 64), each side a divisor of 256 and a
+        multiple of ``patch``; ``descriptor="patch"`` only.
     patch : int
-        Patch normalisation tile side (as SeqSLAM: 8); ``descriptor="patch"`` only.
+        Patch normalisation tile side (as SeqSLAM: 8), at least 2; ``descriptor="patch"``
+        only.
     descriptor : {"patch", "lowres", "lowres16", "lbp", "haar"}
         What a node holds and how it is compared: SeqSLAM's patch-normalised image by the
         mean absolute difference per pixel (default), the weighted-node filter's
@@ -54,8 +57,8 @@ class SingleFrame(ImageLocaliser):
     #: Accepted range of each numeric parameter (of each item of a pair), where a value
     #: drives memory or time or leaves the method's meaning; the defaults lie inside.
     RANGES: ClassVar[dict[str, tuple[float, float]]] = {
-        "size": (1, 1024),
-        "patch": (1, 1024),
+        "size": (1, 256),
+        "patch": (2, 256),
         "radius": (0, 1_000_000),
         "top_k": (1, 10_000),
     }
@@ -78,6 +81,8 @@ class SingleFrame(ImageLocaliser):
         self.patch = int(patch)
         own = {"size": (self.size, (32, 64)), "patch": (self.patch, 8)}
         self.descriptor = check_descriptor("SingleFrame", descriptor, own)
+        if self.descriptor == "patch":  # at build, not at the first frame
+            check_patch_image("SingleFrame", self.size, self.patch)
         self.radius = int(radius)
         self.top_k = int(top_k)
         self.record_weights = bool(record_weights)

@@ -19,6 +19,7 @@ from ppaloc.place.grid import SENSOR_SIZE
 __all__ = [
     "PATCH_SHAPE",
     "check_frame",
+    "check_patch_image",
     "downsample",
     "mean_abs_diff",
     "patch_image",
@@ -48,6 +49,47 @@ def check_frame(frame: np.ndarray) -> np.ndarray:
             f"{a.dtype}; convert frames with ppaloc.datasets.to_sensor first"
         )
     return a
+
+
+def check_patch_image(method: str, size: tuple[int, int], patch: int) -> None:
+    """Refuse a downsampled ``size`` and ``patch`` that :func:`preprocess` cannot use, when
+    a method is built rather than at its first frame: each side of ``size`` a divisor of
+    256 (the sensor frame's side) and a multiple of ``patch``, ``patch`` at least 2 (a
+    tile's deviation needs two pixels).
+
+    Raises
+    ------
+    PpalocError
+        One line naming ``method``, both values and an example that works.
+
+    Examples
+    --------
+    >>> check_patch_image("SeqSLAM", (32, 64), 8)
+    >>> check_patch_image("SeqSLAM", (32, 60), 8)
+    Traceback (most recent call last):
+    ppaloc.errors.PpalocError: SeqSLAM: size=(32, 60) must be two divisors of 256, ...
+    >>> check_patch_image("SeqSLAM", (32, 64), 7)
+    Traceback (most recent call last):
+    ppaloc.errors.PpalocError: SeqSLAM: patch=7 must divide both sides of size=(32, 64) ...
+    """
+    rows, cols = size
+    example = "(e.g. size=(32, 64), patch=8, SeqSLAM's)"
+    if rows < 1 or cols < 1 or SENSOR_SIZE % rows or SENSOR_SIZE % cols:
+        raise PpalocError(
+            f"{method}: size=({rows}, {cols}) must be two divisors of {SENSOR_SIZE}, the "
+            f"sensor frame's side {example}"
+        )
+    if patch < 2:
+        raise PpalocError(
+            f"{method}: patch={patch} must be at least 2: a tile's deviation needs two pixels"
+        )
+    if rows % patch or cols % patch:
+        fits = [p for p in range(2, min(rows, cols) + 1) if rows % p == 0 and cols % p == 0]
+        near = min(fits, key=lambda p: (abs(p - patch), -p)) if fits else None
+        hint = f"e.g. patch={near}" if near else example[1:-1]
+        raise PpalocError(
+            f"{method}: patch={patch} must divide both sides of size=({rows}, {cols}) ({hint})"
+        )
 
 
 def downsample(frame: np.ndarray, size: tuple[int, int] = (32, 64)) -> np.ndarray:
