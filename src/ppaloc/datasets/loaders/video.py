@@ -10,6 +10,13 @@ and needs equal frame counts; ``align=proportional`` assumes both traversals mov
 constant speed, so query frame ``i`` of ``M`` is at reference frame ``i (N - 1) / (M - 1)``.
 Or the user's own, as for ``folder:``: positions files with a tolerance in metres, or
 hard and soft matrices (:mod:`ppaloc.datasets.loaders.owntruth`).
+
+A container that records no frame count (Matroska, WebM, MPEG-TS) has its frames counted
+by decoding them. FFmpeg ends such a video without an error where the file is cut short,
+or where damaged data made its reader skip ahead, so the count is compared with what the
+container declares (a ``NUMBER_OF_FRAMES`` tag, else its duration times its frame rate);
+clearly fewer frames is a :class:`ShortVideoWarning`, and an error under
+``align=proportional``, whose ground truth follows the two lengths.
 """
 
 from __future__ import annotations
@@ -17,9 +24,10 @@ from __future__ import annotations
 import contextlib
 import itertools
 import re
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -31,7 +39,15 @@ from ppaloc.datasets.spec import DatasetSpec, Key, KindSchema
 from ppaloc.errors import DataError
 from ppaloc.frontend import to_grey
 
-__all__ = ["SCHEMA", "VideoFrames", "load", "open_video", "read_stream", "stream_frames"]
+__all__ = [
+    "SCHEMA",
+    "ShortVideoWarning",
+    "VideoFrames",
+    "load",
+    "open_video",
+    "read_stream",
+    "stream_frames",
+]
 
 SCHEMA = KindSchema(
     n_paths=(2,),
@@ -46,6 +62,20 @@ SCHEMA = KindSchema(
     },
     example="video:ref.mp4,query.mp4?step=2&align=proportional",
 )
+
+
+class ShortVideoWarning(UserWarning):
+    """A video decoded to clearly fewer frames than its container declares: it is cut short
+    or damaged (FFmpeg ends such a video without an error)."""
+
+
+SHORT_FRAMES = 2
+"""Frames a video may fall short of what its container declares without a word: container
+durations and frame rates are estimates (rounding, a variable frame rate)."""
+
+SHORT_FRACTION = 0.03
+"""Fraction of the declared frames a video may fall short by without a word (a shortfall
+must exceed both this and :data:`SHORT_FRAMES`)."""
 
 
 _GRAPH_SIZE = re.compile(r"(?<![0-9])([0-9]+)x([0-9]+)(?![0-9])")
@@ -244,6 +274,88 @@ def read_stream(
         frames.close()
 
 
+def _tag(stream: Any, name: str) -> str | None:
+    """A stream tag's value (Matroska tags may carry a language: ``NUMBER_OF_FRAMES-eng``)."""
+    for key, value in (getattr(stream, "metadata", None) or {}).items():
+        if key.upper() == name or key.upper().startswith(f"{name}-"):
+            return str(value)
+    return None
+
+
+class _Declared(NamedTuple):
+    """The frames a container declares for a stream that records no frame count."""
+
+    frames: int
+    how: str
+    """How it was read: ``4.0 s at 10 fps``, ``its NUMBER_OF_FRAMES tag``."""
+    seconds: float | None
+    """The stream's duration (None for a ``NUMBER_OF_FRAMES`` tag, an exact count)."""
+    rate: float
+
+
+def _declared(container: Any, stream: Any) -> _Declared | None:
+    """The frames a container declares for a stream that records no frame count, or None
+    where it declares too little to tell.
+
+    A ``NUMBER_OF_FRAMES`` tag (mkvmerge writes one) is taken as it is; else the stream's
+    duration (its own, or its ``DURATION`` tag, or the container's where the video is its
+    only stream: an audio track may outlast the video) times its average frame rate.
+    """
+    with contextlib.suppress(ValueError, TypeError):
+        tagged = int(_tag(stream, "NUMBER_OF_FRAMES") or "")
+        if tagged > 0:
+            return _Declared(tagged, "its NUMBER_OF_FRAMES tag", None, 0.0)
+    seconds = None
+    if stream.duration and stream.time_base:
+        seconds = float(stream.duration * stream.time_base)
+    elif (text := _tag(stream, "DURATION")) is not None:
+        with contextlib.suppress(ValueError):
+            h, m, sec = text.strip().split(":")
+            seconds = int(h) * 3600 + int(m) * 60 + float(sec)
+    elif container.duration and len(container.streams) == 1:
+        seconds = container.duration / 1_000_000
+    rate = float(stream.average_rate or stream.guessed_rate or 0)
+    if not seconds or seconds <= 0 or rate <= 0 or round(seconds * rate) <= 0:
+        return None
+    return _Declared(round(seconds * rate), f"{seconds:.1f} s at {rate:.4g} fps", seconds, rate)
+
+
+def _clearly_short(n: int, declared: int) -> bool:
+    """Whether ``n`` decoded frames fall clearly short of ``declared`` (see
+    :data:`SHORT_FRAMES`, :data:`SHORT_FRACTION`)."""
+    missing = declared - n
+    return missing > SHORT_FRAMES and missing > SHORT_FRACTION * declared
+
+
+def _shortfall(
+    path: Path, n: int, last: float | None, declared: _Declared
+) -> tuple[str, bool] | None:
+    """Why ``n`` decoded frames, the last ``last`` seconds after the first, fall clearly
+    short of what the container declares, and whether frames are surely missing; None if
+    they do not.
+
+    Frames are surely missing where the container gives an exact count, or where they stop
+    clearly before its duration (cut short, or damaged there). Frames that reach its end
+    but are too few may be missing inside it (damaged data FFmpeg skipped) or the stream's
+    frame rate may vary, which a duration times a frame rate does not see.
+    """
+    if not _clearly_short(n, declared.frames):
+        return None
+    head = f"video {path} decoded to {n} frames, but its container declares {declared.frames} "
+    head += f"({declared.how})"
+    if declared.seconds is None:
+        return f"{head}: it is cut short or damaged", True
+    if last is None:  # frames without times: where they went is unknown
+        return f"{head}: it is cut short or damaged, or its frame rate varies", False
+    after = round((declared.seconds - last) * declared.rate) - 1  # frames past the last one
+    if _clearly_short(declared.frames - after, declared.frames):
+        return f"{head}, and they stop at {last:.1f} s: it is cut short or damaged", True
+    return (
+        f"{head}, and they reach {last:.1f} s: frames are missing inside it (damaged data "
+        "skipped), or its frame rate varies"
+    ), False
+
+
 class _Decoder:
     """A sequential decoder over one file that can restart; shared by all slices."""
 
@@ -252,6 +364,8 @@ class _Decoder:
         self.container = None
         self.frames = None
         self.next_index = 0
+        self.declared = 0  # the frames its container records (0: counted by decoding)
+        self.short: tuple[str, bool] | None = None  # see _shortfall
 
     def __del__(self) -> None:
         with contextlib.suppress(Exception):  # at interpreter exit av may be gone already
@@ -263,19 +377,32 @@ class _Decoder:
         self.next_index = 0
 
     def count(self) -> int:
+        """The video's frames: as its container records them, else counted by decoding
+        them, and then :attr:`short` says why where that is clearly fewer than its
+        container declares (:func:`_shortfall`)."""
         self.open()
-        n = int(self.container.streams.video[0].frames or 0)
+        stream = self.container.streams.video[0]
+        n = self.declared = int(stream.frames or 0)
+        self.short = None
         if n <= 0:  # the container does not say (Matroska, WebM, MPEG-TS): count by decoding
-            n = self._decode_all()
+            declared = _declared(self.container, stream)
+            n, last = self._decode_all()
             self.open()
+            if declared is not None and n:
+                self.short = _shortfall(self.path, n, last, declared)
         return n
 
-    def _decode_all(self) -> int:
-        """How many frames decoding the whole file gives; a frame that fails is named."""
-        n = 0
+    def _decode_all(self) -> tuple[int, float | None]:
+        """How many frames decoding the whole file gives, and the time of the last from
+        the first (None where the frames carry no time); a frame that fails is named."""
+        n, first, last = 0, None, None
         try:
-            for _ in self.frames:
+            for frame in self.frames:
                 n += 1
+                t = frame.time
+                if t is not None:
+                    first = t if first is None else first
+                    last = t - first
         except Exception as exc:  # a damaged frame, met while counting (PyAV raises many types)
             self.close()
             raise DataError(
@@ -283,7 +410,7 @@ class _Decoder:
                 f"which its container does not record): {_reason(exc)}; the video is damaged "
                 "or cut short: give a complete video"
             ) from None
-        return n
+        return n, last
 
     def get(self, i: int) -> np.ndarray:
         if self.frames is None or i < self.next_index:
@@ -295,6 +422,11 @@ class _Decoder:
                 if self.next_index - 1 == i:
                     return _grey(frame)
         except StopIteration:
+            if self.declared:  # the container's own count promised it
+                raise DataError(
+                    f"video {self.path} ends before frame {i} of the {self.declared} its "
+                    "container declares: it is cut short or damaged; give a complete video"
+                ) from None
             raise DataError(f"video {self.path} ends before frame {i}") from None
         except Exception as exc:
             raise DataError(
@@ -308,7 +440,14 @@ class _Decoder:
 
     def __getstate__(self) -> dict:
         # An open file does not travel: a copy reopens the video on its first access.
-        return {"path": self.path, "container": None, "frames": None, "next_index": 0}
+        return {
+            "path": self.path,
+            "container": None,
+            "frames": None,
+            "next_index": 0,
+            "declared": self.declared,
+            "short": self.short,
+        }
 
 
 class VideoFrames(FrameSequence):
@@ -320,9 +459,25 @@ class VideoFrames(FrameSequence):
         Any container and codec FFmpeg reads.
     cache : int
         Frames kept in the LRU cache.
+    proportional : bool
+        The ground truth follows the video's length (``align=proportional``): a video
+        that surely lacks frames its container declares (:func:`_shortfall`) is refused,
+        where it is otherwise a :class:`ShortVideoWarning`, and one that may lack frames
+        inside it is a warning that says what it does to the ground truth.
+
+    Raises
+    ------
+    DataError
+        If the file is missing, not a video, damaged where a frame is decoded to count
+        them, has no frames, or (``proportional``) surely lacks frames.
+
+    Warns
+    -----
+    ShortVideoWarning
+        If it decodes to clearly fewer frames than its container declares.
     """
 
-    def __init__(self, path: Path, cache: int = 16) -> None:
+    def __init__(self, path: Path, cache: int = 16, *, proportional: bool = False) -> None:
         self.path = Path(path)
         if self.path.is_dir():
             raise DataError(f"video {self.path} is a folder; give a video file")
@@ -335,6 +490,23 @@ class VideoFrames(FrameSequence):
         if n == 0:
             self._decoder.close()
             raise DataError(f"video {self.path} has no frames")
+        if self._decoder.short is not None:
+            why, surely = self._decoder.short
+            if surely and proportional:
+                self._decoder.close()
+                raise DataError(
+                    f"{why}; align=proportional places query frames by the two videos' "
+                    "lengths, so every query frame's ground truth would be wrong: give a "
+                    "complete video, or your own ground truth"
+                )
+            why += f"; its {n} frames are used"
+            if proportional:
+                why += (
+                    ", but align=proportional places query frames by the two videos' "
+                    "lengths, so their ground truth may be off"
+                )
+            # stacklevel 1: one warning per file and process (a map reads its video twice)
+            warnings.warn(why, ShortVideoWarning, stacklevel=1)
         super().__init__(self._decoder.get, range(n), cache)
 
     def close(self) -> None:
@@ -351,9 +523,16 @@ def load(spec: DatasetSpec) -> RawRoute:
     """Open both videos; the ground truth follows ``align`` (or the spec's own)."""
     owntruth.check(spec)
     ref_path, query_path = spec.paths
-    ref, query = VideoFrames(ref_path), VideoFrames(query_path)
-    n, m = len(ref), len(query)
     own = owntruth.given(spec)
+    # proportional truth follows both lengths, unless both are the one video (a map's)
+    by_length = not own and spec.options["align"] == "proportional" and ref_path != query_path
+    ref = VideoFrames(ref_path, proportional=by_length)
+    try:
+        query = VideoFrames(query_path, proportional=by_length)
+    except BaseException:
+        ref.close()
+        raise
+    n, m = len(ref), len(query)
     if own:
         place = np.arange(m, dtype=np.float64)  # replaced by owntruth.apply
     elif spec.options["align"] == "index":
