@@ -70,8 +70,32 @@ def test_unknown_register_name() -> None:
 
 
 def test_global_sum_out_must_be_an_array(sim: Scamp5) -> None:
-    with pytest.raises(SimulatorError, match=r"out must be a numpy array of shape \(4, 4\)"):
+    with pytest.raises(
+        SimulatorError, match=r"out must be a writable numpy array of shape \(4, 4\)"
+    ):
         sim.global_sum_16(A, out=[0] * 16)
+
+
+@pytest.mark.parametrize(
+    ("out", "got"),
+    [
+        (np.zeros((4, 4), np.int8), "dtype int8, which cannot hold the codes 0-255"),
+        (np.zeros((4, 4), bool), "dtype bool, which cannot hold the codes 0-255"),
+        (np.zeros((4, 4), np.uint8)[::1].view(), "a read-only array"),
+    ],
+)
+def test_global_sum_out_that_cannot_hold_the_codes_is_refused_before_the_call(
+    sim: Scamp5, out, got
+) -> None:
+    # an int8 out read the codes 255 as -1, and a refused call was charged its time
+    out.flags.writeable = got != "a read-only array"
+    sim.write(A, 127.0)
+    before = sim.timing.now_us
+    with pytest.raises(SimulatorError, match=f"got {got}; pass np.zeros"):
+        sim.global_sum_16(A, out=out)
+    assert sim.timing.now_us == before
+    fine = np.zeros((4, 4), np.int16)
+    assert sim.global_sum_16(A, out=fine) == 16 * 255 and (fine == 255).all()
 
 
 @pytest.mark.parametrize("n", [0, -2, "2", 1.0])
@@ -178,3 +202,63 @@ def test_address_mask_takes_numpy_integers(sim: Scamp5) -> None:
     # np.uint8(255) & ~3 overflowed uint8 (an OverflowError)
     got = sim.address_mask(np.uint8(255), np.uint8(0), np.uint8(3), np.uint8(0), False)
     np.testing.assert_array_equal(got, sim.address_mask(255, 0, 3, 0, False))
+
+
+@pytest.mark.parametrize(
+    ("tmp", "clear", "message"),
+    [
+        ("R5", False, r"pattern_cells\(R5, cells, R5\): tmp must be another digital register"),
+        ("R0", True, r"pattern_cells\(R5, cells, R0, clear=True\): tmp must be another"),
+    ],
+)
+def test_pattern_cells_refuses_a_tmp_it_would_clobber_before_any_call(tmp, clear, message):
+    # the error came from deep inside, after the pattern was loaded and its time charged
+    from ppaloc.sim import registers
+
+    sim = Scamp5(8, 8)
+    sim.SET(R5)
+    before = sim.timing.now_us
+    with pytest.raises(RegisterMisuseError, match=message):
+        sim.pattern_cells(R5, np.eye(2, dtype=bool), getattr(registers, tmp), clear)
+    assert sim.timing.now_us == before and sim.read(R5).all()
+
+
+def test_shift_refuses_the_dnews_selectors_and_an_analogue_boundary():
+    from ppaloc.sim import R1, R4
+
+    sim = Scamp5(8, 8)
+    for reg in (R1, R4):  # a digital shift's DNEWS steps overwrite R1-R4 first
+        with pytest.raises(RegisterMisuseError, match=rf"shift\({reg.name}, 1, 0\): .*R1-R4"):
+            sim.shift(reg, 1, 0)
+    with pytest.raises(RegisterMisuseError, match=r"shift\(A, 1, 0, boundary=1\): an analogue"):
+        sim.shift(A, 1, 0, boundary=1)
+    assert sim.timing.now_us == 0.0
+    sim.shift(R5, 1, 0, boundary=1)  # a digital register of the program's own: fine
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [("clock_hz", 0), ("clock_hz", -1e3), ("clock_hz", float("nan")), ("pe_count", -5),
+     ("pe_count", 2.5), ("pe_count", True), ("constants", {})],
+)  # fmt: skip
+def test_timing_setters_check_as_the_constructor_does(name, value):
+    # time ran backwards, energy went negative, or a ZeroDivisionError came at the next call
+    sim = Scamp5(8, 8)
+    with pytest.raises(SimulatorError, match=rf"{name}=.* is invalid"):
+        setattr(sim.timing, name, value)
+    with pytest.raises(SimulatorError, match=rf"{name}=.* is invalid"):
+        TimingModel(**{name: value})
+    sim.mov(A, B)
+    assert sim.timing.now_us > 0
+
+
+def test_default_patterns_select_the_whole_of_an_array_larger_than_the_chip():
+    # the defaults stopped at row and column 255: a point at (299, 299) was not seen
+    sim = Scamp5(300, 300)
+    sim.load_point(R5, 299, 299)
+    assert sim.global_or(R5) == 1
+    sim.write(A, 5.0)
+    assert sim.global_sum_sparse(A) == 4 * 5 + 128  # as on 256 x 256: a quarter, 4 v + 128
+    small = Scamp5(256, 256)
+    small.write(A, 5.0)
+    assert small.global_sum_sparse(A) == 148

@@ -28,9 +28,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ppaloc.errors import SimulatorError
+from ppaloc.errors import RegisterMisuseError, SimulatorError
 from ppaloc.sim import hostloops
-from ppaloc.sim.registers import IN, Register
+from ppaloc.sim.registers import IN, R0, Register
 
 if TYPE_CHECKING:
     from ppaloc.sim.kernel import Kernel
@@ -198,6 +198,16 @@ class CellLoadMixin:
         call = "pattern_cells"
         self._dreg(call, dreg)
         self._dreg(call, tmp)
+        if tmp == dreg or (clear and tmp == R0):  # refused before any call is made
+            why = (
+                "the pattern would overwrite the register it is ORed into"
+                if tmp == dreg
+                else "CLR_IF(dreg, tmp) uses R0 as its scratch"
+            )
+            raise RegisterMisuseError(
+                f"{call}({dreg.name}, cells, {tmp.name}{', clear=True' if clear else ''}): "
+                f"tmp must be another digital register: {why}"
+            )
         grid = np.asarray(cells)
         if (
             grid.ndim != 2

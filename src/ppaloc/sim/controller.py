@@ -112,6 +112,14 @@ def from_scamp_buffer(buffer: np.ndarray, n_rows: int, n_cols: int) -> np.ndarra
     return np.asarray(buffer).reshape(n_cols, n_rows).T[:, ::-1].copy()
 
 
+_WIDE_MASK = (1 << 16) - 1
+"""A "don't care" mask over every address bit of an array of up to 4096 (a default pattern
+selects the whole array where it is larger than the chip's 256)."""
+
+_DNEWS_SELECTORS = frozenset({"R1", "R2", "R3", "R4"})
+"""The digital registers that select a DNEWS step's direction (a digital shift's steps)."""
+
+
 def _as_int(call: str, name: str, value: Any, lo: int, hi: int) -> int:
     if type(value) is int and lo <= value <= hi:  # the common case, checked first
         return value
@@ -669,6 +677,17 @@ class ControllerMixin(DrawMixin):
         steps = abs(h) + abs(v)  # the time is the steps asked for, the move at most the array
         h = max(min(h, self.cols), -self.cols)
         v = max(min(v, self.rows), -self.rows)
+        if reg.kind == "analog" and b:  # refused before the call is made
+            raise RegisterMisuseError(
+                f"{call}({reg.name}, {h}, {v}, boundary={b}): an analogue shift brings in 0; "
+                "boundary is the value a digital shift brings in"
+            )
+        if reg.name in _DNEWS_SELECTORS:
+            raise RegisterMisuseError(
+                f"{call}({reg.name}, {h}, {v}): {reg.name} cannot be shifted: a digital shift "
+                "is DNEWS steps, which overwrite R1-R4 with their direction first; copy it to "
+                "another register (R5-R12) and shift that"
+            )
         self._catch_up()  # shift the values as they are now
         if reg.kind == "analog":
             self._areg(call, reg)
@@ -755,15 +774,23 @@ class ControllerMixin(DrawMixin):
     def _global_sum(self, call: str, areg: Register, n: int, out: np.ndarray | None) -> int:
         self._catch_up()
         self._areg(call, areg)  # the header's AREG: A-F or NEWS, not PIX or IN
+        if out is not None:  # refused before the call is made (and charged)
+            got = None
+            if not isinstance(out, np.ndarray) or out.shape != (n, n):
+                got = f"shape {out.shape}" if isinstance(out, np.ndarray) else type(out).__name__
+            elif out.dtype == np.bool_ or not np.can_cast(np.uint8, out.dtype):
+                got = f"dtype {out.dtype}, which cannot hold the codes 0-255"
+            elif not out.flags.writeable:
+                got = "a read-only array"
+            if got is not None:
+                raise SimulatorError(
+                    f"{call}: out must be a writable numpy array of shape ({n}, {n}) that "
+                    f"holds 0-255, got {got}; pass np.zeros(({n}, {n}), dtype=np.uint8) or "
+                    "leave it out"
+                )
         codes = self._adc(self._block_means(call, self._aplane(areg), n))
         self.timing.charge_call(call)
         if out is not None:
-            if not isinstance(out, np.ndarray) or out.shape != (n, n):
-                got = f"shape {out.shape}" if isinstance(out, np.ndarray) else type(out).__name__
-                raise SimulatorError(
-                    f"{call}: out must be a numpy array of shape ({n}, {n}), got {got}; "
-                    f"pass np.zeros(({n}, {n}), dtype=np.uint8) or leave it out"
-                )
             out[...] = codes
         return int(codes.sum(dtype=np.int64))
 
@@ -786,7 +813,10 @@ class ControllerMixin(DrawMixin):
         call = "global_or"
         self._catch_up()
         self._dreg(call, dreg, source=True)
-        pattern = self._pattern(*_pattern_args(call, r, c, rx, cx), scamp_addr)
+        args = _pattern_args(call, r, c, rx, cx)
+        if args == (0, 0, 255, 255):  # the default: the whole array, beyond 256 too
+            args = (0, 0, _WIDE_MASK, _WIDE_MASK)
+        pattern = self._pattern(*args, scamp_addr)
         self.timing.charge_call(call)
         selected = self._dplane(dreg)
         if pattern.rows is None and pattern.cols is None:
@@ -1247,10 +1277,12 @@ class ControllerMixin(DrawMixin):
         self._catch_up()
         self._areg(call, areg)
         if r is None and c is None and rx is None and cx is None:
-            r, c, rx, cx, scamp_addr = 2, 2, 254, 254, True
-        r, c = (2 if x is None else x for x in (r, c))
-        rx, cx = (254 if x is None else x for x in (rx, cx))
-        mask = self.address_mask(*_pattern_args(call, r, c, rx, cx), scamp_addr)
+            # the header's default: every other row and column, beyond 256 too
+            mask = self._pattern(2, 2, _WIDE_MASK - 1, _WIDE_MASK - 1, True).mask
+        else:
+            r, c = (2 if x is None else x for x in (r, c))
+            rx, cx = (254 if x is None else x for x in (rx, cx))
+            mask = self.address_mask(*_pattern_args(call, r, c, rx, cx), scamp_addr)
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg)[mask])
 

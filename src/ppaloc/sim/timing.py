@@ -31,6 +31,7 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import math
 import numbers
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
@@ -651,6 +652,32 @@ class TimingReport:
         return table
 
 
+def _checked_clock(value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
+        raise TimingError(
+            f"clock_hz={value!r} is invalid: use a positive frequency in Hz (e.g. 10e6)"
+        )
+    return float(value)
+
+
+def _checked_constants(value: Any) -> TimingConstants:
+    if not isinstance(value, TimingConstants):
+        raise TimingError(
+            f"constants={value!r} is invalid: use a ppaloc.sim.TimingConstants "
+            "(e.g. dataclasses.replace(TimingConstants(), kernel_launch_us=0.5))"
+        )
+    return value
+
+
+def _checked_pe_count(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise TimingError(
+            f"pe_count={value!r} is invalid: use the number of processing elements, a "
+            "positive integer (rows x cols, e.g. 256 * 256)"
+        )
+    return int(value)
+
+
 class TimingModel:
     """Accumulates the modelled time and energy of kernels and controller calls.
 
@@ -676,18 +703,9 @@ class TimingModel:
         *,
         pe_count: int = 256 * 256,
     ) -> None:
-        if not isinstance(clock_hz, numbers.Real) or not 0 < clock_hz < float("inf"):
-            raise TimingError(
-                f"clock_hz={clock_hz!r} is invalid: use a positive frequency in Hz (e.g. 10e6)"
-            )
-        if constants is not None and not isinstance(constants, TimingConstants):
-            raise TimingError(
-                f"constants={constants!r} is invalid: use a ppaloc.sim.TimingConstants "
-                "(e.g. dataclasses.replace(TimingConstants(), kernel_launch_us=0.5))"
-            )
-        self._clock_hz = float(clock_hz)
-        self._constants = constants if constants is not None else TimingConstants()
-        self._pe_count = int(pe_count)
+        self._clock_hz = _checked_clock(clock_hz)
+        self._constants = TimingConstants() if constants is None else _checked_constants(constants)
+        self._pe_count = _checked_pe_count(pe_count)
         self._charges = 0
         self._forget_costs()
         self.reset()
@@ -701,7 +719,7 @@ class TimingModel:
 
     @clock_hz.setter
     def clock_hz(self, value: float) -> None:
-        self._clock_hz = float(value)
+        self._clock_hz = _checked_clock(value)  # checked as the constructor checks it
         self._forget_costs()
 
     @property
@@ -711,7 +729,7 @@ class TimingModel:
 
     @constants.setter
     def constants(self, value: TimingConstants) -> None:
-        self._constants = value
+        self._constants = _checked_constants(value)
         self._forget_costs()
 
     @property
@@ -721,7 +739,7 @@ class TimingModel:
 
     @pe_count.setter
     def pe_count(self, value: int) -> None:
-        self._pe_count = int(value)
+        self._pe_count = _checked_pe_count(value)
         self._forget_costs()
 
     def _forget_costs(self) -> None:
