@@ -30,8 +30,10 @@ one, recall definition A) and its max F1 is reported. Routes run in a process po
 spec, the method, its parameters and a hash of the sources that decide them
 (``ppaloc/baselines``, ``ppaloc/datasets``, ``ppaloc/frontend.py``, ``ppaloc/place``, whose
 functions compute every baseline's image and places, ``ppaloc/localise/enhance.py``, whose
-contrast enhancement SeqSLAM and the particle filter call, ``ppaloc/topomap`` and
-``ppaloc/evaluate/metrics.py``); ``--no-cache`` ignores it. SIGTERM (``kill PID``) ends the
+contrast enhancement SeqSLAM and the particle filter call, ``ppaloc/localise/base.py``,
+``ppaloc/topomap``, ``ppaloc/evaluate/metrics.py`` and ``run.py``, ``ppaloc/methods.py``,
+and the values of the low-res places' normalisation constants the baselines read from
+``ppaloc/localise/params.py``); ``--no-cache`` ignores it. SIGTERM (``kill PID``) ends the
 pool's workers with the script, as Ctrl-C does (:func:`route_pool`).
 
 Output: a Markdown table (route x method, max F1, and ``best WN - best baseline``: the
@@ -48,8 +50,10 @@ to the weighted-node filter on each place (:data:`REPRESENTATION_METHODS` unless
 comes a table of route groups (:func:`route_group`: each real route, each generated
 condition over its seeds) with the means over the real, the generated and all routes,
 then the line of the filter's target on the same information (:func:`same_place_summary`):
-on how many routes the better weighted-node place scores at least the particle filter on
-that place, and by how much each of the others falls short. ``--seed-spread K`` runs the
+on how many routes the better weighted-node place (the one of highest max F1, chosen by
+the filter's own figures) scores at least the particle filter on that place, by how much
+each of the others falls short, and, a weaker count beside it, on how many some place
+does (five places give five chances) and each place's own count. ``--seed-spread K`` runs the
 particle filter on each of those others' place at K seeds in all (the table's seed
 among them) and prints its mean, spread and range there beside the weighted-node filter's
 figure, which draws nothing: how much of a shortfall is one seed's luck.
@@ -84,10 +88,19 @@ SOURCES = (
     "src/ppaloc/frontend.py",
     "src/ppaloc/place",
     "src/ppaloc/localise/enhance.py",
+    "src/ppaloc/localise/base.py",
     "src/ppaloc/topomap",
     "src/ppaloc/evaluate/metrics.py",
+    "src/ppaloc/evaluate/run.py",
+    "src/ppaloc/methods.py",
 )
-"""What a cached baseline figure depends on besides its spec, method and parameters."""
+"""What a cached baseline figure depends on besides its spec, method and parameters (with
+:data:`SHARED_VALUES`)."""
+
+SHARED_VALUES = ("DEFAULT_CONTRAST", "DEFAULT_CONTRAST_PATCH")
+"""Constants of ``ppaloc.localise.params`` the baselines read (the low-res places'
+normalisation, ``ppaloc.baselines._descriptors``): their values join the hash, not the
+file, which the filter's every default would change."""
 
 DEFAULT_METHODS = (
     "weighted-node-lbp",
@@ -350,8 +363,13 @@ def is_cached_method(name: str) -> bool:
 
 
 def source_hash(root: Path = ROOT) -> str:
-    """SHA-256 over the paths and bytes of every ``.py`` file under :data:`SOURCES`."""
+    """SHA-256 over the values of :data:`SHARED_VALUES` and the paths and bytes of every
+    ``.py`` file under :data:`SOURCES`."""
+    from ppaloc.localise import params
+
     h = hashlib.sha256()
+    for name in SHARED_VALUES:
+        h.update(f"{name}={getattr(params, name)!r}\0".encode())
     for rel in SOURCES:
         p = root / rel
         files = sorted(p.rglob("*.py")) if p.is_dir() else [p] if p.is_file() else []
@@ -594,38 +612,50 @@ def _same_place_pairs(
     ]
 
 
+def _better_place(pairs: list[tuple[float, str, float, float]]) -> tuple[float, str, float, float]:
+    """The pair of the weighted-node filter's better place: the highest weighted-node max
+    F1 (the filter's own figure, chosen without the baseline's), the first on a tie."""
+    return max(pairs, key=lambda p: p[2])
+
+
 def same_place(row: dict[str, float], baseline: str = "particle-filter") -> str:
-    """Whether the better weighted-node place of ``row`` scores at least ``baseline`` on
-    the same place (``baseline/DESCRIPTOR``), or by how much the closest falls short.
+    """Whether the better weighted-node place of ``row`` (by its own max F1) scores at
+    least ``baseline`` on that place (``baseline/DESCRIPTOR``), and on which places it does.
 
     >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6,
     ...             "weighted-node-haar": 0.7, "particle-filter/haar": 0.65})
-    'at least particle-filter on the same place: haar (0.700 against 0.650)'
-    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.6})
-    'below particle-filter on every place: short by 0.100 on lbp (0.500 against 0.600)'
+    'at least particle-filter on its better place: haar (0.700 against 0.650)'
+    >>> same_place({"weighted-node-lbp": 0.5, "particle-filter/lbp": 0.4,
+    ...             "weighted-node-haar": 0.7, "particle-filter/haar": 0.75}).split("; ")
+    ... # doctest: +NORMALIZE_WHITESPACE
+    ['below particle-filter on its better place: short by 0.050 on haar (0.700 against
+      0.750)', 'at least it on lbp']
     """
     pairs = _same_place_pairs(row, baseline)
     if not pairs:
         return f"no weighted-node place beside {baseline} on the same place"
-    held = [p for p in pairs if p[0] >= 0]
-    if held:
-        names = ", ".join(f"{p} ({w:.3f} against {b:.3f})" for _, p, w, b in held)
-        return f"at least {baseline} on the same place: {names}"
-    gap, place, w, b = max(pairs)
-    return (
-        f"below {baseline} on every place: short by {-gap:.3f} on {place} ({w:.3f} against {b:.3f})"
+    gap, place, w, b = _better_place(pairs)
+    if gap >= 0:
+        return f"at least {baseline} on its better place: {place} ({w:.3f} against {b:.3f})"
+    text = (
+        f"below {baseline} on its better place: short by {-gap:.3f} on {place} "
+        f"({w:.3f} against {b:.3f})"
     )
+    held = [p for g, p, _, _ in pairs if g >= 0]
+    return text + (f"; at least it on {', '.join(held)}" if held else "")
 
 
 def same_place_summary(
     records: list[dict[str, Any]], baseline: str = "particle-filter"
 ) -> tuple[str, dict[str, Any]]:
-    """On how many routes the better weighted-node place scores at least ``baseline`` on
-    the same place (issue target: every route), and by how much the others fall short.
+    """On how many routes the better weighted-node place (by its own max F1) scores at
+    least ``baseline`` on that place (issue target: every route), and by how much the
+    others fall short; beside it, the routes where some place does (a weaker count: five
+    places give five chances) and each place's own count.
 
-    Returns the text and ``{"baseline", "held", "routes", "short": [{"label", "place",
-    "weighted_node", "baseline", "gap"}]}``; a route counts where some place ran beside
-    ``baseline`` on it.
+    Returns the text and ``{"baseline", "held", "held_some", "routes", "places": {place:
+    [held, routes]}, "short": [{"label", "place", "weighted_node", "baseline", "gap"}]}``;
+    a route counts where some place ran beside ``baseline`` on it.
 
     >>> rec = lambda label, wn, pf: {"label": label, "results": {
     ...     "weighted-node-haar": {"f1_max": wn}, "particle-filter/haar": {"f1_max": pf}}}
@@ -634,17 +664,24 @@ def same_place_summary(
     >>> stats["held"], stats["routes"], short["label"], round(short["gap"], 3)
     (1, 2, 'b', -0.02)
     >>> text.split("; ")  # doctest: +NORMALIZE_WHITESPACE
-    ['The better weighted-node place scores at least particle-filter on the same place on 1
-      of 2 routes', 'below it: b (haar 0.500 against 0.520, short by 0.020)']
+    ['The better weighted-node place (by its own max F1) scores at least particle-filter on
+      that place on 1 of 2 routes (some place on 1: haar 1 of 2)',
+     'below it: b (haar 0.500 against 0.520, short by 0.020)']
     """
-    held, routes, short = 0, 0, []
+    held, held_some, routes, short = 0, 0, 0, []
+    places: dict[str, list[int]] = {}
     for rec in records:
         row = {c: v for c in rec["results"] if (v := _f1(rec, c)) is not None}
         pairs = _same_place_pairs(row, baseline)
         if not pairs:
             continue
         routes += 1
-        gap, place, w, b = max(pairs)
+        held_some += any(g >= 0 for g, _, _, _ in pairs)
+        for g, p, _, _ in pairs:
+            count = places.setdefault(p, [0, 0])
+            count[0] += g >= 0
+            count[1] += 1
+        gap, place, w, b = _better_place(pairs)
         if gap >= 0:
             held += 1
         else:
@@ -657,9 +694,10 @@ def same_place_summary(
                     "gap": gap,
                 }
             )
+    each = ", ".join(f"{p} {h} of {n}" for p, (h, n) in places.items())
     text = (
-        f"The better weighted-node place scores at least {baseline} on the same place on "
-        f"{held} of {routes} routes"
+        f"The better weighted-node place (by its own max F1) scores at least {baseline} on "
+        f"that place on {held} of {routes} routes (some place on {held_some}: {each})"
     )
     if short:
         text += "; below it: " + "; ".join(
@@ -667,7 +705,14 @@ def same_place_summary(
             f"short by {-s['gap']:.3f})"
             for s in short
         )
-    stats = {"baseline": baseline, "held": held, "routes": routes, "short": short}
+    stats = {
+        "baseline": baseline,
+        "held": held,
+        "held_some": held_some,
+        "routes": routes,
+        "places": places,
+        "short": short,
+    }
     return text, stats
 
 

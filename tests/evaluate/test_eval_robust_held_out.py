@@ -79,19 +79,28 @@ def test_the_same_place_line_counts_routes_by_their_better_place(bench_script):
         return {"label": label, "results": {k: {"f1_max": v} for k, v in columns.items()}}
 
     records = [
-        # held by the Haar signs although the 16x16 place trails on its own information
+        # held: the better place (16x16, by the filter's own F1) is above the particle filter
         record(
             "held",
+            weighted_node_lowres16=0.90,
+            particle_filter_slash_lowres16=0.85,
+            weighted_node_haar=0.70,
+            particle_filter_slash_haar=0.75,
+        ),
+        # short: the Haar signs hold, but the better place is the 16x16 one, which trails
+        # (this route counted as held while any place did: five places, five chances)
+        record(
+            "some",
             weighted_node_lowres16=0.80,
             particle_filter_slash_lowres16=0.85,
             weighted_node_haar=0.70,
             particle_filter_slash_haar=0.70,
         ),
-        # short on both places: the closer one, the patch place, is the one reported
+        # short on both places: the better one, the patch place, is the one reported
         record(
             "short",
             weighted_node_lowres16=0.60,
-            particle_filter_slash_lowres16=0.70,
+            particle_filter_slash_lowres16=0.50,
             weighted_node_patch=0.90,
             particle_filter_slash_patch=0.92,
         ),
@@ -99,13 +108,17 @@ def test_the_same_place_line_counts_routes_by_their_better_place(bench_script):
         record("alone", weighted_node_lbp=0.5, particle_filter_slash_haar=0.4),
     ]
     text, stats = eval_robust.same_place_summary(records)
-    assert (stats["held"], stats["routes"]) == (1, 2)
-    (short,) = stats["short"]
+    assert (stats["held"], stats["held_some"], stats["routes"]) == (1, 3, 3)
+    assert stats["places"] == {"lowres16": [2, 3], "haar": [1, 2], "patch": [0, 1]}
+    some, short = stats["short"]
+    assert (some["label"], some["place"]) == ("some", "lowres16")
     assert short["label"] == "short" and short["place"] == "patch"
     assert abs(short["gap"] + 0.02) < 1e-12
     assert text == (
-        "The better weighted-node place scores at least particle-filter on the same place on "
-        "1 of 2 routes; below it: short (patch 0.900 against 0.920, short by 0.020)"
+        "The better weighted-node place (by its own max F1) scores at least particle-filter "
+        "on that place on 1 of 3 routes (some place on 3: lowres16 2 of 3, haar 1 of 2, "
+        "patch 0 of 1); below it: some (lowres16 0.800 against 0.850, short by 0.050); "
+        "short (patch 0.900 against 0.920, short by 0.020)"
     )
 
 
@@ -178,3 +191,16 @@ def test_the_seed_spread_needs_the_same_place_line(bench_script):
     for k in ("1", "101"):
         with pytest.raises(SystemExit, match=rf"--seed-spread {k} must be in \[2, 100\]"):
             eval_robust.main(["--representations", "--seed-spread", k])
+
+
+def test_the_baselines_cache_follows_the_constants_they_read(bench_script, monkeypatch):
+    # the baselines' low-res places read the filter's normalisation constants from
+    # localise/params.py, which the hash left out: a changed constant served stale figures
+    from ppaloc.localise import params
+
+    eval_robust = bench_script("eval_robust")
+    before = eval_robust.source_hash()
+    assert eval_robust.source_hash() == before
+    monkeypatch.setattr(params, "DEFAULT_CONTRAST", params.DEFAULT_CONTRAST + 1)
+    assert eval_robust.source_hash() != before
+    assert {"src/ppaloc/evaluate/run.py", "src/ppaloc/methods.py"} <= set(eval_robust.SOURCES)
