@@ -418,15 +418,18 @@ def forgetting(
                     rep, arithmetic="float", preset="robust", motion="always_forward"
                 )
                 host.build_map(ref)
-                transition = host._transition
+                ex = host.executor
+                transition = ex.transition
 
-                def forget(costs, host=host, transition=transition, factor=factor):
-                    host._w *= factor  # a simulation experiment: the weights before it
+                def forget(costs, ex=ex, transition=transition, factor=factor):
+                    ex._w *= factor  # a simulation experiment: the weights before it
                     transition(costs)
 
-                host._transition = forget
+                ex.transition = forget  # the schedule calls its executor's transition
                 est = host.localise(query)
-                correct = is_correct(np.array([e.node for e in est]), truth)
+                nodes = np.array([e.node for e in est])
+                # a node's own frame, as ppaloc evaluate scores every method
+                correct = is_correct(predicted_frames(nodes, host.topomap.frame_index), truth)
                 curve = pr_curve([e.score for e in est], correct, has_match, recall="A")
                 print(f"| {name} | {rep} | {factor} | {max_f1(curve)[0]:.3f} |", flush=True)
 

@@ -152,8 +152,8 @@ class TopoMap:
 
         A keyframe map's node covers the frames up to the next node's frame (a stop in
         the reference is one node); the last node runs to ``params["n_frames"]`` where
-        the map records it, else to its own frame + 1. Evaluation carries the ground
-        truth from frames to nodes with these spans.
+        the map records it, else to its own frame + 1. Evaluation does not use them: an
+        estimate is scored by its node's own frame (``frame_index``), as every method's.
 
         Examples
         --------
