@@ -76,7 +76,7 @@ def draw(paths: list[Path], titles: list[str], out: Path) -> None:
         ax.grid(alpha=0.3)
         ax.set_xlabel("particle filter on the place (max F1)")
         ax.set_title(
-            f"{title}: the better place at least the particle filter\n"
+            f"{title}: the better place (by its own F1) at least\nthe particle filter on it "
             f"on {stats['held']} of {stats['routes']} routes",
             fontsize=10,
         )
