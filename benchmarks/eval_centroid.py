@@ -65,7 +65,9 @@ def local_centroid(
 ) -> int:
     """The rounded centroid of the nodes within ``radius`` of ``node``, each weighed by
     ``exp((w - w_max) / temperature)`` over those nodes (``w`` rounded half up to an
-    integer first with ``rounded``); the estimate itself where the weights are flat.
+    integer first with ``rounded``). Where the weights are flat it is the window's middle:
+    the estimate itself, but near either end of the map, where the window is cut short,
+    a place inward of it.
 
     Examples
     --------

@@ -500,7 +500,7 @@ def completed(futures: Iterable[Future], poll: float = 0.5) -> Iterator[Future]:
     thread, asleep in ``as_completed`` or ``result()`` until a route ends, does not run
     it: SIGTERM then left the script and its workers running for the rest of their
     routes. Waking every ``poll`` seconds runs a due handler (or Ctrl-C's
-    KeyboardInterrupt) within ``poll`` seconds, at the cost of a wake-up a second.
+    KeyboardInterrupt) within ``poll`` seconds, at the cost of a wake-up each ``poll``.
     """
     pending = set(futures)
     while pending:

@@ -445,8 +445,9 @@ def test_show_replaces_only_its_own_png_beside_the_input(mean_match, tmp_path, c
     code, _, err = run(capsys, "show", m, "-q")
     assert code == 1 and photo.read_bytes() == kept
     assert err.strip() == (
-        f"ppaloc: error: {photo} exists and is not a plot ppaloc drew: show would replace "
-        "it; give --out to name the PNG to write (or move it away)"
+        f"ppaloc: error: {photo} exists and carries no mark of a plot ppaloc drew (PNG text "
+        "'Software: ppaloc', which ppaloc's images carry since 2026-12-07): show would "
+        f"replace it; give --out {photo} to replace it, or another name"
     )
     assert run(capsys, "show", m, "--out", photo, "-q")[0] == 0  # named: replaced
     code, _, err = run(capsys, "show", m, "-q")  # its own plot, drawn again in place

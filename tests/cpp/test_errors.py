@@ -373,6 +373,28 @@ def test_register_misuse_names_the_line(faults):
     assert str(e.value).count("sub(A, B, A)") == 1  # the call named once
 
 
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        ("bus(A, A)", "k.cpp:6: bus(A, A) lists A twice;"),
+        ("DNEWS(R5, R1, south)", "k.cpp:6: DNEWS(R5, R1, south, 0): R1 cannot be an argument"),
+        ("div(A, B, C, A)", "k.cpp:6: div(A, B, C, A): A appears twice"),
+    ],
+)
+def test_a_misused_call_is_named_once_in_the_simulators_own_spelling(cxx, tmp_path, call, message):
+    # the shim's call text came first, then the simulator's own naming of the same call
+    path = tmp_path / "k.cpp"
+    path.write_text(
+        "#include <scamp5.hpp>\nusing namespace SCAMP5_PE;\nint main() {\n    vs_init();\n"
+        f"    while (1) {{ vs_frame_loop_control();\n        scamp5_kernel_begin(); {call}; "
+        "scamp5_kernel_end();\n    }\n}\n"
+    )
+    with pytest.raises(PpalocError) as e:
+        run_program(path, FRAMES)
+    assert str(e.value).startswith(message)
+    assert str(e.value).count(call.partition("(")[0] + "(") == 1
+
+
 def test_kernel_function_outside_a_kernel(faults):
     with pytest.raises(PpalocError, match=r"faults.cpp:32: mov\(\) is a kernel function"):
         fault(4)

@@ -259,6 +259,7 @@ def test_default_patterns_select_the_whole_of_an_array_larger_than_the_chip():
     assert sim.global_or(R5) == 1
     sim.write(A, 5.0)
     assert sim.global_sum_sparse(A) == 4 * 5 + 128  # as on 256 x 256: a quarter, 4 v + 128
+    assert sim.global_sum_sparse(A, 2, 2, 254, 254, scamp_addr=True) == 148  # given: the same
     small = Scamp5(256, 256)
     small.write(A, 5.0)
     assert small.global_sum_sparse(A) == 148

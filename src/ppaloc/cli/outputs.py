@@ -236,8 +236,9 @@ def check_text_output(text: str | os.PathLike[str], flag: str = "--out") -> Path
 def default_png(path: Path) -> Path:
     """Where ``ppaloc show`` draws ``path`` without ``--out``: beside it, as ``.png``.
 
-    A PNG already there is replaced only where ppaloc drew it (an earlier ``show``); one
-    of the user's (a frame, a photo) would be lost.
+    A PNG already there is replaced only where it carries ppaloc's mark (an earlier
+    ``show``; :func:`ppaloc.fileio.drawn_by_ppaloc`); one of the user's (a frame, a photo)
+    would be lost, so without the mark ``--out`` must name it.
 
     Raises
     ------
@@ -249,8 +250,9 @@ def default_png(path: Path) -> Path:
     out = path.with_suffix(".png")
     if out.exists() and not drawn_by_ppaloc(out):
         raise PpalocError(
-            f"{out} exists and is not a plot ppaloc drew: show would replace it; give --out "
-            "to name the PNG to write (or move it away)"
+            f"{out} exists and carries no mark of a plot ppaloc drew (PNG text 'Software: "
+            f"ppaloc', which ppaloc's images carry since 2026-12-07): show would replace it; "
+            f"give --out {out} to replace it, or another name"
         )
     return out
 

@@ -157,9 +157,11 @@ def _shown_call(call: tuple[str, int, list]) -> str:
 
 def _call_error(at: str, call: str, exc: Exception) -> str:
     """``file:line: call: message``, the call named once where the simulator's message
-    already begins with it (a macro's own checks name their call)."""
+    already begins with it, in its own spelling (``in sub(A, B, A): ...``, ``bus(A, A)
+    lists A twice``, ``DNEWS(R5, R1, south, 0): ...`` with the default it filled in)."""
     text = str(exc)
-    named = text.startswith((f"{call}: ", f"in {call}: "))
+    name = call.partition("(")[0]
+    named = text.startswith((f"{name}(", f"in {name}("))
     return f"{at}: {text}" if named else f"{at}: {call}: {text}"
 
 

@@ -1277,12 +1277,15 @@ class ControllerMixin(DrawMixin):
         self._catch_up()
         self._areg(call, areg)
         if r is None and c is None and rx is None and cx is None:
-            # the header's default: every other row and column, beyond 256 too
+            r, c, rx, cx, scamp_addr = 2, 2, 254, 254, True
+        r, c = (2 if x is None else x for x in (r, c))
+        rx, cx = (254 if x is None else x for x in (rx, cx))
+        args = _pattern_args(call, r, c, rx, cx)
+        if args == (2, 2, 254, 254) and scamp_addr:
+            # the header's default, given or not: every other row and column, beyond 256 too
             mask = self._pattern(2, 2, _WIDE_MASK - 1, _WIDE_MASK - 1, True).mask
         else:
-            r, c = (2 if x is None else x for x in (r, c))
-            rx, cx = (254 if x is None else x for x in (rx, cx))
-            mask = self.address_mask(*_pattern_args(call, r, c, rx, cx), scamp_addr)
+            mask = self.address_mask(*args, scamp_addr)
         self.timing.charge_call("global_sum_16")
         return self._sum_code(self._aplane(areg)[mask])
 
