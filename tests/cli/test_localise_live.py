@@ -42,14 +42,16 @@ def onsensor_map(tmp_path_factory) -> tuple[Path, Path]:
 class Localise:
     """``ppaloc localise MAP REF... --live`` in a thread, on a free port."""
 
-    def __init__(self, map_path: Path, ref: Path, repeat: int, tmp_path: Path) -> None:
+    def __init__(
+        self, map_path: Path, ref: Path, repeat: int, tmp_path: Path, fps: str = "10"
+    ) -> None:
         with socket.socket() as s:
             s.bind(("127.0.0.1", 0))
             self.port = s.getsockname()[1]
         self.url = f"http://127.0.0.1:{self.port}/"
         self.csv = tmp_path / "est.csv"
         argv = ["localise", str(map_path), *[str(ref)] * repeat, "--out", str(self.csv)]
-        argv += ["--live", "--port", str(self.port), "--fps", "10"]
+        argv += ["--live", "--port", str(self.port), "--fps", fps]
         self.code: int | None = None
         self.thread = threading.Thread(target=lambda: setattr(self, "code", main(argv)))
         self.thread.daemon = True
@@ -79,7 +81,7 @@ class Localise:
 
 def test_live_shows_the_sensor_frame_the_weights_and_the_estimate(onsensor_map, tmp_path):
     map_path, ref = onsensor_map
-    run = Localise(map_path, ref, 3, tmp_path)
+    run = Localise(map_path, ref, 3, tmp_path, fps="4")  # 3 s of frames to read from
     s = run.state(lambda s: s["frame"] >= 1, "a frame")
     assert s["program"] == "ppaloc localise m.npz (onsensor-lowres)" and s["frames"] == 12
     assert [d["name"] for d in s["displays"]] == [
@@ -144,7 +146,9 @@ def test_weights_grid_lays_the_nodes_out_by_rows():
 @pytest.mark.slow
 def test_chromium_shows_the_live_localiser(onsensor_map, tmp_path, dump_dom):
     map_path, ref = onsensor_map
-    run = Localise(map_path, ref, 4, tmp_path)  # 16 frames at 10 per second
+    # 16 frames at 4 a second: the page must load its images before the view closes (at
+    # 10 a second it closed 2 s after Chromium started, which a loaded machine can pass)
+    run = Localise(map_path, ref, 4, tmp_path, fps="4")
     run.state(lambda s: s["frame"] >= 1, "a frame")
     out = dump_dom(run.url, 1500)
     run.end()

@@ -22,11 +22,12 @@ RAMP = np.arange(12, dtype=np.float64).reshape(3, 4)  # 0 .. 11: scaled to 0 .. 
 
 class Loop(LiveClient):
     """A Python program in a thread: per frame it reads a slider and a switch, shows an
-    image and a line of text, until it reads level 42 (or 300 frames)."""
+    image and a line of text, until it reads level 42 (or 1500 frames: 15 s for the page's
+    change to come on a loaded machine; the loop ends at 42)."""
 
     def __init__(self) -> None:
         self.urls: list[str] = []
-        self.view = LiveView(program="demo loop", frames=300, fps=100, announce=self.urls.append)
+        self.view = LiveView(program="demo loop", frames=1500, fps=100, announce=self.urls.append)
         self.read: list[tuple[int, bool]] = []
         self.error: Exception | None = None
         self.thread = threading.Thread(target=self._run, daemon=True)
@@ -35,7 +36,7 @@ class Loop(LiveClient):
     def _run(self) -> None:
         try:
             with self.view as view:
-                for _ in range(300):
+                for _ in range(1500):
                     level = view.slider("level", 0, 100, 10)
                     invert = view.switch("invert")
                     self.read.append((level, invert))
@@ -67,7 +68,7 @@ def test_a_display_a_slider_and_a_switch_reach_the_python_program():
         return s if len(s["displays"]) == 2 and s["texts"] else None
 
     s = wait_until(shown, "showed the displays and text")
-    assert s["program"] == "demo loop" and s["frames"] == 300 and not s["finished"]
+    assert s["program"] == "demo loop" and s["frames"] == 1500 and not s["finished"]
     assert [(d["id"], d["name"]) for d in s["displays"]] == [(0, "ramp"), (1, "mask")]
     assert s["displays"][0]["src"].startswith("display/0.png?v=")
     assert s["items"] == [

@@ -273,7 +273,7 @@ def test_loading_a_synthetic_route_renders_no_frame(monkeypatch):
 
 
 @pytest.mark.slow
-def test_sigint_stops_a_long_evaluation_within_a_second(tmp_path, ppaloc_command, signal_state):
+def test_sigint_stops_a_long_evaluation_within_seconds(tmp_path, ppaloc_command, signal_state):
     """A real Ctrl-C (SIGINT) while the map is built: one line, exit 130, nothing written."""
     import signal
     import subprocess
@@ -305,7 +305,9 @@ def test_sigint_stops_a_long_evaluation_within_a_second(tmp_path, ppaloc_command
         proc.kill()
     assert proc.returncode == 130, "".join(lines) + rest
     assert lines[-1].strip() == "ppaloc: interrupted" and not rest.strip(), "".join(lines) + rest
-    assert waited < 1.0, f"took {waited:.2f} s to stop"
+    # within 3 s of the signal: mapping the 3000 frames takes about 10 s, so a stop at its
+    # end fails this (1 s failed on a loaded machine, where the child waits its turn)
+    assert waited < 3.0, f"took {waited:.2f} s to stop"
     assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
