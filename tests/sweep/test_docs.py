@@ -42,12 +42,15 @@ def test_the_refusal_shown_for_gamma_on_the_robust_filter_is_the_real_one():
     assert f"ppaloc: error: {info.value}\n" in TEXT
 
 
-def test_the_python_example_runs(tmp_path):
+def test_the_python_example_runs(tmp_path, monkeypatch, capsys):
+    # as a script: its run under the __main__ guard Dask's spawned workers need
     (block,) = PYTHON
-    namespace = {"out_dir": tmp_path / "sweep"}
+    monkeypatch.chdir(tmp_path)
+    namespace = {"__name__": "__main__"}
     exec(compile(block, "docs/sweep.md python block", "exec"), namespace)
     assert (namespace["outcome"].n_run, namespace["outcome"].n_failed) == (3, 0)
-    assert (tmp_path / "sweep" / "report.html").is_file()
+    assert capsys.readouterr().out.splitlines()[0] == "3 0"  # as its comment says
+    assert (tmp_path / "sweep-py" / "report.html").is_file()
 
 
 def test_the_refusal_shown_for_a_users_file_in_figures_is_the_real_one(tmp_path, monkeypatch):
