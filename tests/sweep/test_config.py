@@ -239,14 +239,14 @@ def test_unknown_method_and_dataset_key():
 def test_an_unreachable_scheduler_fails_at_once_and_writes_nothing(tmp_path, issue_config):
     import socket
 
-    with socket.socket() as s:  # a port nothing listens on
+    out = tmp_path / "sweep"
+    with socket.socket() as s:  # a port held, not listened on: no other process takes it
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    out = tmp_path / "sweep"
-    t0 = time.perf_counter()
-    with pytest.raises(PpalocError) as info:
-        run_sweep(issue_config, out, scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=2)
-    assert time.perf_counter() - t0 < 5
+        t0 = time.perf_counter()
+        with pytest.raises(PpalocError) as info:
+            run_sweep(issue_config, out, scheduler=f"tcp://127.0.0.1:{port}", connect_timeout=2)
+        assert time.perf_counter() - t0 < 5
     assert str(info.value).startswith(f"cannot reach the Dask scheduler at tcp://127.0.0.1:{port}")
     assert not out.exists()
     with pytest.raises(PpalocError, match="must look like tcp://HOST:PORT"):
