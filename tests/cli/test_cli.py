@@ -341,6 +341,25 @@ def test_map_and_localise_with_a_real_method(method, tiny_spec, tmp_path, capsys
     assert {0, 255} <= set(np.unique(grey).tolist())  # descriptor bits drawn black and white
 
 
+def test_localise_keeps_the_maps_own_parameters_when_its_method_is_named(tmp_path, capsys):
+    # `-m` naming the map's own method dropped the parameters the map was built with
+    spec = "synthetic:?places=20&seed=1"
+    m = tmp_path / "m.npz"
+    method = "weighted-node-lowres"
+    assert run(capsys, "map", spec, "-m", method, "--param", "contrast=0", "--out", m, "-q")[0] == 0
+    frames = _frames(tmp_path / "q", 8)
+
+    def rows(*extra: object) -> list[list[str]]:
+        code, out, err = run(capsys, "localise", m, *frames, *extra)
+        assert code == 0, err
+        return [line.split(",")[2:5] for line in out.splitlines()[1:]]  # node, frame, score
+
+    kept = rows()
+    assert rows("-m", method) == kept
+    assert rows("-m", method, "--param", "contrast=0") == kept
+    assert rows("-m", method, "--param", "contrast=48") != kept  # the user's value wins
+
+
 def test_map_localise_and_show_on_the_patch_place(tiny_spec, tmp_path, capsys):
     method = "weighted-node-patch"
     code, _, err = run(capsys, "map", tiny_spec, "-m", method, "--out", tmp_path / "m.npz", "-q")

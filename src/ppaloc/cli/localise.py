@@ -349,7 +349,11 @@ def run_localise(
 
     topomap = load_map(map_path)
     name = _method_for_map(topomap, method, map_path)
-    stored = topomap.provenance.get("method_params") or {} if not method else {}
+    # the map's own parameters, whether its method is named or taken from the map (named,
+    # they were dropped: the same method localised with its defaults); another method's
+    # are not its own
+    own = not method or name == topomap.provenance.get("method")
+    stored = topomap.provenance.get("method_params") or {} if own else {}
     if not isinstance(stored, dict):
         raise DataError(f"map {map_path}: provenance.method_params is not a table of parameters")
     try:
