@@ -84,14 +84,16 @@ def test_bank_and_store_mistakes_name_the_value():
         OnSensorLocaliser("lbp", store="levels")
     with pytest.raises(PpalocError, match="sensor_nodes"):
         OnSensorLocaliser("lbp", sensor_nodes=0)
-    paper = OnSensorLocaliser("lbp", preset="paper", alpha=8, sensor_nodes=4)
+    # refused when the localiser is built, not once a map (minutes of mapping) is made
+    with pytest.raises(PpalocError, match="sensor_nodes=4 sets the sensors of a bank, and a"):
+        OnSensorLocaliser("lbp", preset="paper", alpha=8, sensor_nodes=4)
+    paper = OnSensorLocaliser("lbp", preset="paper", alpha=8)  # a map beyond one sensor
     with pytest.raises(PpalocError, match="robust preset only"):
-        paper.use_map(TopoMap("lbp", np.arange(10, dtype=np.uint32)))
+        SensorBank(paper._new_pipeline(4), 10, paper._new_pipeline)
     # a frame may advance max_advance nodes into the next sensor: each must hold that many
-    tiny = OnSensorLocaliser("lbp", sensor_nodes=1)
     with pytest.raises(PpalocError, match="sensor_nodes=1 is too small for a bank"):
-        tiny.use_map(TopoMap("lbp", np.arange(10, dtype=np.uint32)))
-    OnSensorLocaliser("lbp", sensor_nodes=1).use_map(TopoMap("lbp", np.arange(1, dtype=np.uint32)))
+        OnSensorLocaliser("lbp", sensor_nodes=1)
+    OnSensorLocaliser("lbp", sensor_nodes=3).use_map(TopoMap("lbp", np.arange(10, dtype=np.uint32)))
 
 
 def test_a_noisy_read_below_the_weight_range_is_carried_as_its_edge():

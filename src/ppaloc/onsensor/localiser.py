@@ -227,6 +227,19 @@ class OnSensorLocaliser(DeclaredSpeeds):
         if sensor_nodes is not None and (isinstance(sensor_nodes, bool) or int(sensor_nodes) < 1):
             raise PpalocError(f"sensor_nodes={sensor_nodes!r} must be a positive integer")
         self.sensor_nodes = None if sensor_nodes is None else int(sensor_nodes)
+        if self.sensor_nodes is not None:  # refused here, not once the map is built
+            if not self.schedule.sensor.bank:
+                raise PpalocError(
+                    f"sensor_nodes={self.sensor_nodes} sets the sensors of a bank, and a bank "
+                    f"runs the robust preset only (preset {p.preset!r} runs on one sensor): "
+                    "leave sensor_nodes out, or use the robust preset"
+                )
+            if self.sensor_nodes < self.schedule.max_advance:
+                raise PpalocError(
+                    f"sensor_nodes={self.sensor_nodes} is too small for a bank: each sensor "
+                    f"must hold at least the {self.schedule.max_advance} node(s) a frame may "
+                    "advance into the next sensor"
+                )
         self.observers = check_observers(observers)
         self.record_weights = bool(record_weights)
         self.timing_structure = timing_structure
