@@ -108,3 +108,11 @@ def test_a_noisy_read_below_the_weight_range_is_carried_as_its_edge():
     (got,) = pipe.carry_out(1)
     assert got == -127.0
     make_pipeline("lowres", 10, params, size=64).carry_in([got])  # the DAC takes it
+
+
+def test_a_small_array_given_the_commands_frames_says_to_leave_size_alone():
+    # the commands give 256 x 256 sensor frames: size=64 failed asking to convert them
+    loc = OnSensorLocaliser("lowres", size=64)
+    with pytest.raises(PpalocError, match="size=64 simulates a 64 x 64 array, but the frames"):
+        loc.build_map([np.zeros((256, 256), np.uint8)] * 3)
+    loc.build_map([np.zeros((64, 64), np.uint8)] * 3)  # its own size, from Python

@@ -265,7 +265,9 @@ class OnSensorLocaliser(DeclaredSpeeds):
             MethodParam("seed", int, 0, 0, SEED_MAX, "seed of the simulator's noise"),
             MethodParam("arithmetic", str, "ppa8", doc="ppa8 only: the registers' arithmetic"),
             MethodParam("record_weights", bool, False, doc="keep every frame's weights"),
-            MethodParam("size", int, 256, 16, 256, "array side (multiples of 64)"),
+            MethodParam(
+                "size", int, 256, 16, 256, "array side (multiples of 64); the commands' frames: 256"
+            ),
             MethodParam("timing_structure", str, "ppaloc", doc="timed as " + ", ".join(STRUCTURES)),
             MethodParam("store", str | None, None, doc="the map store (docs/onsensor.md)"),
             MethodParam("sensor_nodes", int | None, None, doc="at most this many nodes a sensor"),
@@ -516,6 +518,12 @@ class OnSensorLocaliser(DeclaredSpeeds):
 def check_frame(frame: np.ndarray, size: int) -> None:
     """A one-line error unless ``frame`` is a sensor frame: uint8 of shape (size, size)."""
     frame = np.asarray(frame)
+    if frame.dtype == np.uint8 and frame.shape == (256, 256) and size != 256:
+        raise PpalocError(
+            f"size={size} simulates a {size} x {size} array, but the frames are the sensor's "
+            "256 x 256 (as ppaloc evaluate, map and localise give them): leave size at 256 "
+            "there; a smaller array takes frames of its own size from Python"
+        )
     if frame.dtype != np.uint8 or frame.shape != (size, size):
         raise PpalocError(
             f"a sensor frame must be uint8 of shape ({size}, {size}), got "
