@@ -224,22 +224,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
         self.seed = int(seed)
         self.size = int(size)
         self.store = PLACES[representation].choose_store(self.schedule.sensor, store)
-        if sensor_nodes is not None and (isinstance(sensor_nodes, bool) or int(sensor_nodes) < 1):
-            raise PpalocError(f"sensor_nodes={sensor_nodes!r} must be a positive integer")
-        self.sensor_nodes = None if sensor_nodes is None else int(sensor_nodes)
-        if self.sensor_nodes is not None:  # refused here, not once the map is built
-            if not self.schedule.sensor.bank:
-                raise PpalocError(
-                    f"sensor_nodes={self.sensor_nodes} sets the sensors of a bank, and a bank "
-                    f"runs the robust preset only (preset {p.preset!r} runs on one sensor): "
-                    "leave sensor_nodes out, or use the robust preset"
-                )
-            if self.sensor_nodes < self.schedule.max_advance:
-                raise PpalocError(
-                    f"sensor_nodes={self.sensor_nodes} is too small for a bank: each sensor "
-                    f"must hold at least the {self.schedule.max_advance} node(s) a frame may "
-                    "advance into the next sensor"
-                )
+        self.sensor_nodes = _check_sensor_nodes(sensor_nodes, self.schedule)
         self.observers = check_observers(observers)
         self.record_weights = bool(record_weights)
         self.timing_structure = timing_structure
@@ -265,9 +250,7 @@ class OnSensorLocaliser(DeclaredSpeeds):
             MethodParam("seed", int, 0, 0, SEED_MAX, "seed of the simulator's noise"),
             MethodParam("arithmetic", str, "ppa8", doc="ppa8 only: the registers' arithmetic"),
             MethodParam("record_weights", bool, False, doc="keep every frame's weights"),
-            MethodParam(
-                "size", int, 256, 16, 256, "array side (multiples of 64); the commands' frames: 256"
-            ),
+            MethodParam("size", int, 256, 16, 256, "array side, a multiple of 64 (commands: 256)"),
             MethodParam("timing_structure", str, "ppaloc", doc="timed as " + ", ".join(STRUCTURES)),
             MethodParam("store", str | None, None, doc="the map store (docs/onsensor.md)"),
             MethodParam("sensor_nodes", int | None, None, doc="at most this many nodes a sensor"),
@@ -513,6 +496,29 @@ class OnSensorLocaliser(DeclaredSpeeds):
         """``reset()``, then ``step`` every frame in order."""
         self.reset()
         return [self.step(f) for f in frames]
+
+
+def _check_sensor_nodes(sensor_nodes: Any, schedule: Schedule) -> int | None:
+    """``sensor_nodes`` as an int (None: a sensor's capacity), refused when the localiser is
+    built rather than once its map is: a bank's sensor holds at least the nodes a frame
+    may advance into the next, and only the robust preset runs on a bank."""
+    if sensor_nodes is None:
+        return None
+    if isinstance(sensor_nodes, bool) or int(sensor_nodes) < 1:
+        raise PpalocError(f"sensor_nodes={sensor_nodes!r} must be a positive integer")
+    n = int(sensor_nodes)
+    if not schedule.sensor.bank:
+        raise PpalocError(
+            f"sensor_nodes={n} sets the sensors of a bank, and a bank runs the robust preset "
+            f"only (preset {schedule.params.preset!r} runs on one sensor): leave sensor_nodes "
+            "out, or use the robust preset"
+        )
+    if n < schedule.max_advance:
+        raise PpalocError(
+            f"sensor_nodes={n} is too small for a bank: each sensor must hold at least the "
+            f"{schedule.max_advance} node(s) a frame may advance into the next sensor"
+        )
+    return n
 
 
 def check_frame(frame: np.ndarray, size: int) -> None:
