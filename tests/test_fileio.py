@@ -303,6 +303,8 @@ def test_ctrl_c_after_the_swap_finishes_the_transaction(tmp_path, monkeypatch):
     assert os.listdir(tmp_path) == ["run"], "the old contents were left under a hidden name"
     assert os.listdir(out) == ["new.txt"]
     assert signal.getsignal(signal.SIGINT) is before  # the handler given back
+    # a command that writes more folders is told, once, and stops after this one
+    assert fileio.held_interrupt() and not fileio.held_interrupt()
 
 
 def test_ctrl_c_after_a_nested_swap_stops_the_outer_transaction(tmp_path, monkeypatch):

@@ -49,6 +49,7 @@ __all__ = [
     "check_replaceable_folder",
     "default_file_mode",
     "drawn_by_ppaloc",
+    "held_interrupt",
     "leads_into_loop",
     "new_folder",
     "recover_folder",
@@ -547,6 +548,8 @@ def _transaction(target: Path, keep: Callable[[str], bool] | None) -> Iterator[P
                 shutil.rmtree(stage, ignore_errors=True)
         if interrupted and _in_stage(target):
             raise KeyboardInterrupt  # a folder inside another's stage: that one is not done
+        if interrupted:  # this folder is done; a command writing more asks held_interrupt()
+            _HELD.append(True)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
 
@@ -565,6 +568,20 @@ def _in_stage(path: Path) -> bool:
     """Whether ``path`` lies inside the staging folder of another transaction (a matrix
     run's dataset folders inside the matrix's stage)."""
     return any(".ppaloc-new-" in parent.name for parent in path.parents)
+
+
+_HELD: list[bool] = []
+"""Ctrl-C held by a finished transaction (:func:`held_interrupt`)."""
+
+
+def held_interrupt() -> bool:
+    """Whether a Ctrl-C came while a finished folder transaction held it, since the last
+    call (which clears it). The folder is the command's result and stays; a command that
+    writes one folder after another (a sweep's cells) stops after the one it wrote, which
+    otherwise lost the Ctrl-C and ran on to its end."""
+    came = bool(_HELD)
+    _HELD.clear()
+    return came
 
 
 @contextmanager

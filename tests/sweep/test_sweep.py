@@ -136,6 +136,38 @@ def test_resume_after_an_interruption_runs_only_the_missing_cells(tmp_path, clus
     assert outcome.summary["counts"]["ok"] == 6
 
 
+def test_ctrl_c_while_a_cells_folder_goes_in_stops_the_sweep_after_it(
+    tmp_path, cluster2, issue_config, monkeypatch
+):
+    # the cell's transaction held the Ctrl-C (its folder is a result) and the sweep lost
+    # it: it ran on to its end and exited 0
+    import contextlib
+
+    from ppaloc import fileio
+
+    real, calls = fileio._sigint_held, []
+
+    @contextlib.contextmanager
+    def held():
+        with real() as came:
+            yield came
+            if not calls:  # Ctrl-C as the first cell's folder takes its place
+                calls.append(1)
+                came.append(True)
+
+    monkeypatch.setattr(fileio, "_sigint_held", held)
+    finished = []
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(
+            issue_config,
+            tmp_path / "sweep",
+            client=cluster2,
+            on_cell=lambda c, s: finished.append(c),
+        )
+    rows = json.loads((tmp_path / "sweep" / "summary.json").read_text())["cells"]
+    assert sum(r["status"] == "ok" for r in rows) == 1 and len(finished) == 0
+
+
 def test_one_and_two_workers_give_the_same_metrics(tmp_path, cluster2, make_cluster):
     config = SweepConfig(
         methods=("particle-filter", "weighted-node-paper-lbp"),

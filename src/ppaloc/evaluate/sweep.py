@@ -65,7 +65,7 @@ from ppaloc.evaluate.sweep_grid import (
     write_cell_error,
     write_summary,
 )
-from ppaloc.fileio import check_replaceable_folder
+from ppaloc.fileio import check_replaceable_folder, held_interrupt
 
 __all__ = [
     "COMBINE",
@@ -491,9 +491,12 @@ def _run_cells(
         with ProgressBar(progress) as bar:
             bar.add("cells", total, label=f"sweep cells ({done} already done)")
             bar("cells", done)
+            held_interrupt()  # one held before this run is not this run's
             for future in as_completed(list(futures), loop=client.loop):
                 cell = futures.pop(future)
                 status = _collect(future, cell, out)
+                if held_interrupt():  # Ctrl-C while the cell's folder went in: it stays
+                    raise KeyboardInterrupt
                 if status != "ok":
                     failures.append((cell, status))
                     log.info("cell %s failed: %s", cell.label(), status)
