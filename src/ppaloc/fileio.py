@@ -57,12 +57,25 @@ __all__ = [
     "update_folder",
     "user_cache",
     "write_bytes",
+    "write_png",
 ]
 
 
 #: The PNG ``Software`` text of every image ppaloc draws: ``ppaloc show`` replaces a PNG
 #: beside its input only where it carries this (:func:`drawn_by_ppaloc`).
 PNG_SOFTWARE = "ppaloc"
+
+
+def write_png(path: str | os.PathLike[str], image: Any, **options: Any) -> None:
+    """Write a Pillow ``image`` to ``path`` as PNG through :func:`atomic_write`, with the
+    ``Software`` text :data:`PNG_SOFTWARE` that :func:`drawn_by_ppaloc` reads (``options``
+    go to ``Image.save``, e.g. ``optimize=True``)."""
+    from PIL import PngImagePlugin
+
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", PNG_SOFTWARE)
+    with atomic_write(path) as f:
+        image.save(f, format="PNG", pnginfo=info, **options)
 
 
 def drawn_by_ppaloc(path: str | os.PathLike[str]) -> bool:

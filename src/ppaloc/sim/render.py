@@ -22,10 +22,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont, PngImagePlugin
+from PIL import Image, ImageDraw, ImageFont
 
 from ppaloc.errors import SimulatorError
-from ppaloc.fileio import PNG_SOFTWARE, atomic_write
+from ppaloc.fileio import write_png
 from ppaloc.sim.registers import Register
 
 if TYPE_CHECKING:
@@ -64,10 +64,7 @@ def _write_atomically(image: Image.Image, path: Path) -> Path:
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        info = PngImagePlugin.PngInfo()
-        info.add_text("Software", PNG_SOFTWARE)
-        with atomic_write(path) as f:
-            image.save(f, format="PNG", pnginfo=info)
+        write_png(path, image)
     except OSError as e:
         raise SimulatorError(
             f"cannot write {str(path)!r}: {e.strerror or e}; choose a writable folder"

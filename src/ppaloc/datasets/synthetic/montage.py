@@ -7,12 +7,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont, PngImagePlugin
+from PIL import Image, ImageDraw, ImageFont
 
 from ppaloc.datasets.synthetic.conditions import CONDITIONS
 from ppaloc.datasets.synthetic.render import LANE_CENTRE, Renderer
 from ppaloc.datasets.synthetic.world import SEGMENT_TYPES, make_world
-from ppaloc.fileio import PNG_SOFTWARE, atomic_write
+from ppaloc.fileio import write_png
 
 __all__ = ["conditions_montage", "montage_array", "sequence_strip", "worlds_montage"]
 
@@ -106,10 +106,7 @@ def _save_png(canvas: Image.Image, path: str | os.PathLike) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     # 256 colours keep the figure small enough for a README without visible loss.
     quantized = canvas.quantize(256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
-    info = PngImagePlugin.PngInfo()
-    info.add_text("Software", PNG_SOFTWARE)
-    with atomic_write(path) as f:
-        quantized.save(f, format="PNG", optimize=True, pnginfo=info)
+    write_png(path, quantized, optimize=True)
     return path
 
 
