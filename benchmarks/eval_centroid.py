@@ -36,15 +36,9 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_robust import DATA, completed, held_out_routes, route_pool, routes
+from eval_robust import DATA, PLACE_OF, completed, held_out_routes, route_pool, routes
 
-METHODS = (
-    "weighted-node-lowres16",
-    "weighted-node-lowres",
-    "weighted-node-haar",
-    "weighted-node-lbp",
-    "weighted-node-patch",
-)
+METHODS = tuple(PLACE_OF)
 """The weighted-node filter on each place (``patch``: the host in float only)."""
 
 VARIANTS = (
