@@ -1,32 +1,35 @@
 """The weights' local centroid as the reported estimate, measured offline on every route.
 
-Not collected by pytest. The robust filter reports the node of its best weight (the
-candidate nearest the last estimate among the best). Where a neighbour's weight is
-nearly as high, the query often lies between them, or on the neighbour: this reports
-instead the rounded centroid of the weights within ``radius`` places of that estimate,
-each weighed by ``exp((w - w_best) / T)`` (:func:`local_centroid`). The filter's state,
-its confidence and its next frame are unchanged: each route is run once with its
-weights recorded, and every variant replaces the reported nodes after the run, so the
-figures are what the filter would score if it reported the centroid.
+Not collected by pytest. The robust filter reports the local centroid of its weights
+about the detected node (``centroid_radius`` 2, ``centroid_temperature`` 2;
+docs/localise.md, item 16). This is the measurement that chose them: each route is run
+once with the centroid off (``centroid_radius=0``: the detected node reported) and its
+weights recorded, and every variant replaces the reported nodes after the run with the
+centroid of the recorded weights about them (:func:`offline_centroid`, the filter's own
+:func:`~ppaloc.localise.params.local_centroid`), so the figures are what the filter
+would score reporting that variant (on a frame a speed lane reports, about the lane's
+node but from the filter's own weights, which the filter itself does not do).
 
-``--rounded`` variants round each weight to an integer first: what one ADC read of each
-place's weight register gives the sensor controller (five reads a frame at radius 2),
-against the exact register value the ``ppa8`` arithmetic holds::
+``int`` variants read each weight as one ADC read gives it (``weight_read``, the
+nearest integer: what ``ppa8`` and the sensor read), the others its exact value (what
+float reads). The weights are recorded after the frame's normalisation, which in ``ppa8``
+subtracts an integer and so leaves the reads as the filter's own; in float it subtracts
+the exact maximum, so there the ``int`` variants round what no filter rounds, and with
+the default ``ppa8`` weights the exact variants are not what the ``ppa8`` filter does::
 
     .venv/bin/python benchmarks/eval_centroid.py                    # 65 routes, ppa8, ~10 min
     .venv/bin/python benchmarks/eval_centroid.py --held-out         # the 40 held-out routes
     .venv/bin/python benchmarks/eval_centroid.py --methods weighted-node-lowres16 --float
 
 Prints, per method, each variant's mean max F1 over the generated and the real routes
-and the routes it raises and lowers against the reported estimate (``--json`` keeps
-every route's figure).
+and the routes it raises and lowers against the detected node (``--json`` keeps every
+route's figure).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from collections.abc import Sequence
@@ -37,6 +40,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_robust import DATA, PLACE_OF, completed, held_out_routes, route_pool, routes
+from ppaloc.localise.params import centroid_window, local_centroid, weight_read
 
 METHODS = tuple(PLACE_OF)
 """The weighted-node filter on each place (``patch``: the host in float only)."""
@@ -54,29 +58,17 @@ VARIANTS = (
 integer read."""
 
 
-def local_centroid(
+def offline_centroid(
     weights: np.ndarray, node: int, radius: int, temperature: float, rounded: bool
 ) -> int:
-    """The rounded centroid of the nodes within ``radius`` of ``node``, each weighed by
-    ``exp((w - w_max) / temperature)`` over those nodes (``w`` rounded half up to an
-    integer first with ``rounded``). Where the weights are flat it is the window's middle:
-    the estimate itself, but near either end of the map, where the window is cut short,
-    a place inward of it.
-
-    Examples
-    --------
-    >>> w = np.array([0.0, 10.0, 30.0, 29.0, 29.0, 5.0])
-    >>> local_centroid(w, 2, 2, 2.0, True), local_centroid(w, 2, 1, 2.0, True)
-    (3, 2)
-    >>> local_centroid(w, 2, 2, 0.25, True)  # a low T: the best weight alone
-    2
-    """
-    lo, hi = max(0, node - radius), min(len(weights), node + radius + 1)
-    w = np.asarray(weights[lo:hi], np.float64)
-    if rounded:
-        w = np.floor(w + 0.5)
-    p = np.exp((w - w.max()) / temperature)
-    return math.floor(float((np.arange(lo, hi) * p).sum() / p.sum()) + 0.5)
+    """The centroid the filter would report about ``node`` from one frame's recorded
+    weights: :func:`~ppaloc.localise.params.local_centroid` over the
+    :func:`~ppaloc.localise.params.centroid_window`, each weight read as one ADC read
+    gives it with ``rounded`` (:func:`~ppaloc.localise.params.weight_read`)."""
+    a, b = centroid_window(node, radius, len(weights))
+    values = [float(v) for v in weights[a : b + 1]]
+    reads = [weight_read(v) for v in values] if rounded else values
+    return local_centroid(reads, a, temperature)  # type: ignore[arg-type]
 
 
 def variant_name(temperature: float, radius: int, rounded: bool) -> str:
@@ -87,7 +79,7 @@ def variant_name(temperature: float, radius: int, rounded: bool) -> str:
 def evaluate_route(
     label: str, spec: str, methods: Sequence[str], arithmetic: str
 ) -> dict[str, Any]:
-    """Every method on one route: the reported estimate's max F1 and each variant's."""
+    """Every method on one route: the detected node's max F1 and each variant's."""
     from ppaloc.datasets import load_dataset
     from ppaloc.evaluate.metrics import evaluate_estimates
     from ppaloc.evaluate.run import localiser_params, predicted_frames, run_method, sensor_frames
@@ -101,6 +93,7 @@ def evaluate_route(
     out: dict[str, dict[str, float]] = {}
     for name in methods:
         user = {} if name.endswith("-patch") else {"arithmetic": arithmetic}
+        user["centroid_radius"] = 0  # the detected node, which the variants move
         params = localiser_params(name, user, seed=0, record_weights=True)
         loc = make_localiser(name, **params)
         run = run_method(
@@ -119,7 +112,7 @@ def evaluate_route(
         row = {"estimate": float(evaluate_estimates(run.ref_index, score, truth).f1_max)}
         for temperature, radius, rounded in VARIANTS:
             est = np.array(
-                [local_centroid(weights[i], int(n), radius, temperature, rounded)
+                [offline_centroid(weights[i], int(n), radius, temperature, rounded)
                  for i, n in enumerate(nodes)]
             )  # fmt: skip
             f1 = evaluate_estimates(predicted_frames(est, frame_index), score, truth).f1_max
@@ -191,7 +184,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                 report(fut.result())
     order = {label: i for i, (label, _) in enumerate(selected)}
     records.sort(key=lambda r: order[r["label"]])
-    print(f"max F1, the reported estimate against its local centroid ({arithmetic} weights)")
+    print(f"max F1, the detected node against its local centroid ({arithmetic} weights)")
     print(summary(records, methods))
     if args.json is not None:
         args.json.write_text(json.dumps(records, indent=1))

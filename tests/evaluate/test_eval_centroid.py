@@ -21,11 +21,11 @@ def test_the_centroid_stays_within_radius_and_a_lone_peak_keeps_it(
     eval_centroid = bench_script("eval_centroid")
     w = np.asarray(weights, np.float64) + 0.25
     node = data.draw(st.integers(0, len(w) - 1))
-    got = eval_centroid.local_centroid(w, node, radius, temperature, rounded)
+    got = eval_centroid.offline_centroid(w, node, radius, temperature, rounded)
     assert max(0, node - radius) <= got <= min(len(w) - 1, node + radius)
     peak = w.copy()
     peak[node] = 1000.0  # far above its neighbours: nothing to pull the estimate away
-    assert eval_centroid.local_centroid(peak, node, radius, temperature, rounded) == node
+    assert eval_centroid.offline_centroid(peak, node, radius, temperature, rounded) == node
 
 
 def test_a_route_gives_the_estimates_figure_and_every_variant(bench_script):

@@ -59,9 +59,12 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     frame's by ``lane_speed_lead``, its node at most ``confidence_radius`` ahead of the
     filter's last: its path's speed with no confidence asked, in the same range, from a
     path that did not stall; a frame reports the surest lane's estimate
-    and confidence where they lead its own by ``lane_lead``."""
+    and confidence where they lead its own by ``lane_lead``. The estimate reported is
+    the rounded centroid of the nodes within ``centroid_radius`` of the one detected,
+    each weighed by ``exp((x - max x) / centroid_temperature)``, ``x`` its weight
+    rounded half up to an integer; the filter goes on from the detected node."""
     lane = [None] * (len(frames) + 1)
-    lane_outs = []  # each lane's (node, weights, confidence) per frame, fastest first
+    lane_outs = []  # each lane's (reported, weights, confidence, node) per frame, fastest first
     lane_any = []  # each lane's path speed after each frame, no confidence asked
     lane_v = []  # each lane's speed
     fast, slow = Fraction(0), Fraction(-1)
@@ -105,7 +108,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
             faster = [k for k, u in enumerate(lane_v) if u > 1]  # the lanes above 1
             if v is None and faster and path and p.lane_speed_lead:  # the surest's
                 k = max(faster, key=lambda k: (lane_outs[k][t - 1][2], -k))  # first of equals
-                node, score = lane_outs[k][t - 1][0], lane_outs[k][t - 1][2]
+                node, score = lane_outs[k][t - 1][3], lane_outs[k][t - 1][2]
                 if (
                     score >= p.lane_confidence
                     and score >= path[-1][1] + p.lane_speed_lead
@@ -168,18 +171,23 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         lost = p.lost_window  # the record of forward frames held one place: on any frame
         if lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1:
             score = min(score, 0.0)  # the path stood still while the query moved
+        rad = p.centroid_radius  # the reported node: the centroid of the reads about it
+        a, b = max(node - rad, 0), min(node + rad, n - 1)
+        x = [math.floor(v + 0.5) for v in w[a : b + 1]]
+        e = [math.exp((v - max(x)) / p.centroid_temperature) for v in x]
+        shown = a + math.floor(sum(i * v for i, v in enumerate(e)) / sum(e) + 0.5)
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
-        out.append((int(node), w.copy(), score))
+        out.append((int(shown), w.copy(), score, int(node)))
         stalled = lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1
         gate = None if centre is None else p.lane_confidence  # a lane's path: its own gate
         speeds.append(None if stalled else _gate(path, p, gate))  # a stalled lane: none
         anyway.append(None if stalled else _gate(path, p, 0))
         lost_at.append(stalled)
-    for t, (_, w, score) in enumerate(out):  # a lane that leads: its estimate reported
+    for t, (_, w, score, node) in enumerate(out):  # a lane that leads: its estimate reported
         lanes = [o[t] for o in lane_outs]
         best = max(lanes, key=lambda o: o[2], default=None)  # the first of equals
         if p.lane_lead and best is not None and best[2] >= score + p.lane_lead and not lost_at[t]:
-            out[t] = (best[0], w, best[2])
+            out[t] = (best[0], w, best[2], node)
     return out, speeds, anyway
 
 
@@ -204,6 +212,7 @@ _CASE = dict(
     lead=32,
     lane_gate=0,
     speed_lead=0,
+    centroid=(2, 2),
 )
 
 
@@ -228,6 +237,7 @@ _CASE = dict(
     lead=st.sampled_from([0, 8, 32]),
     lane_gate=st.sampled_from([0, 4, 24]),
     speed_lead=st.sampled_from([0, 4, 8, 24]),
+    centroid=st.sampled_from([(0, 2), (2, 2), (4, 1), (3, 8), (2, 64)]),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     **{**_CASE, "seed": 1, "max_advance": 1, "lost": 2}
@@ -302,6 +312,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     lead,
     lane_gate,
     speed_lead,
+    centroid,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -330,6 +341,8 @@ def test_ppa8_equals_the_robust_contract_written_out(
         lane_lead=lead,
         lane_confidence=lane_gate,
         lane_speed_lead=speed_lead,
+        centroid_radius=centroid[0],
+        centroid_temperature=centroid[1],
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(
@@ -342,7 +355,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     )
     loc.use_map(TopoMap(kind, nodes, frame_index=frame_index))
     want, _, _ = naive_robust(nodes, frames, moves, loc.params, frame_index)
-    for est, (node, w, score) in zip(loc.localise(frames), want, strict=True):
+    for est, (node, w, score, _) in zip(loc.localise(frames), want, strict=True):
         assert est.node == node and est.score == score
         np.testing.assert_array_equal(est.weights, w)
         assert est.weights.max() < 1 and est.weights.min() >= -memory
@@ -480,11 +493,13 @@ def test_a_path_held_in_a_run_of_one_place_is_a_path_held(route):
     """On a map with runs the stall is counted in places: past a map whose last place is
     a run of 5 nodes, the estimate flows along the run (nodes 9-13) and holds its last
     node, and the score falls to 0 once place 9 has held over 8 forward frames (frames
-    17-19), where counting nodes would not yet see a stall."""
+    17-19), where counting nodes would not yet see a stall. (The detected nodes: the
+    centroid of the run's equal weights would report a node inside it.)"""
     ref = np.concatenate((route[:10], np.repeat(route[9:10], 4, axis=0)))
     places = np.array([*range(10), 9, 9, 9, 9])
     m = TopoMap("lowres", lowres_image(ref, 8), np.arange(14), places=places)
-    loc = WeightedNodeLocaliser("lowres", motion="always_forward", confidence_radius=1)
+    kw = dict(motion="always_forward", confidence_radius=1, centroid_radius=0)
+    loc = WeightedNodeLocaliser("lowres", **kw)
     loc.use_map(m)
     est = loc.localise(route)
     assert [e.node for e in est][9:] == [9, 10, 11, 12, *[13] * 7]

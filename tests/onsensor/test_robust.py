@@ -23,6 +23,7 @@ from ppaloc.localise.params import (
     FilterParams,
     frame_scale,
     transition_costs,
+    weight_read,
 )
 from ppaloc.localise.schedule import SCHEDULES, make_schedule
 from ppaloc.localise.weighted import WeightedNodeLocaliser
@@ -57,6 +58,23 @@ def _put_weights(pipe, values: np.ndarray, fill: float = 99.0) -> None:
     w = np.full((SIZE, SIZE), fill, np.float32)
     w[br * pipe.sensor.bh, bc * pipe.sensor.bw + t] = values
     pipe.sim.write(C, w)
+
+
+@pytest.mark.parametrize("negated", [False, True])
+def test_the_estimate_reads_each_weight_as_ppa8_does(negated):
+    """One ADC read of a node's root gives ``floor(w + 1/2)``, halves up, as ppa8's
+    :func:`weight_read`; where LBP keeps minus the weights (in ``A``), they are copied
+    back first (a read of ``-w`` rounds the halves down)."""
+    pipe = _pipe("lbp", 8)
+    w = np.array([-3.5, -2.5, 0.5, 1.5, 0.25, -0.75, 2.5, 126.5], np.float32)
+    _put_weights(pipe, w)
+    if negated:
+        pipe.sim.write(A, -pipe.sim.read(C))
+        pipe.sim.write(C, np.zeros((SIZE, SIZE), np.float32))
+        pipe.state.negated = True
+    assert pipe.weight_reads(0, 7) == [weight_read(v) for v in w] == [-3, -2, 1, 2, 0, -1, 3, 127]
+    assert pipe.weight_reads(2, 4) == [1, 2, 0]
+    assert pipe.sensor.timing.counts_by_stage().get("estimate")
 
 
 def _flat(tree):

@@ -42,7 +42,13 @@ from ppaloc.localise.likelihood import (
     float_divisor,
 )
 from ppaloc.localise.motion import AlwaysForward, ImageMotion, MotionModel
-from ppaloc.localise.params import FilterParams, choose_candidate, local_step, refined_minimum
+from ppaloc.localise.params import (
+    FilterParams,
+    choose_candidate,
+    local_step,
+    refined_minimum,
+    weight_read,
+)
 from ppaloc.topomap import TopoMap
 
 __all__ = ["ARITHMETICS", "HostExecutor", "motion_model", "read_values", "top_k"]
@@ -462,6 +468,13 @@ class HostExecutor:
             top_b = math.floor(top_w * step) / step
             return top_b - math.floor(outside * step) / step
         return float(self._w[(node + self._offset) % len(self._w)]) - outside
+
+    def weight_reads(self, a: int, b: int) -> list[float]:
+        """The weights of nodes ``a .. b``: one ADC read each in ppa8
+        (:func:`weight_read`), the values in float."""
+        w = self._w
+        values = [float(w[(i + self._offset) % len(w)]) for i in range(a, b + 1)]
+        return [weight_read(v) for v in values] if self.exact else values
 
     def rank(self, node: int) -> None:
         """:attr:`ranking`: the ``ranking_k`` best nodes, best first, the estimate first."""

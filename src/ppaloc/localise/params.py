@@ -67,6 +67,7 @@ __all__ = [
     "PathSpeed",
     "adjustment",
     "assumed_speeds",
+    "centroid_window",
     "check_int",
     "choose_candidate",
     "filter_method_params",
@@ -76,6 +77,7 @@ __all__ = [
     "lane_speed_taken",
     "lane_speeds",
     "likelihood_shift",
+    "local_centroid",
     "local_step",
     "path_speed",
     "path_stalled",
@@ -88,6 +90,7 @@ __all__ = [
     "still_score",
     "stood_at_or_next",
     "transition_costs",
+    "weight_read",
 ]
 
 GAMMAS = (0.0, 0.125, 0.25, 0.5, 1.0)
@@ -384,6 +387,18 @@ class FilterParams:
         than the map while the filter falls behind it is seldom sure of it nine frames
         in a row, and is then the surest of the weight sets by a wide margin. Range [0,
         127] (default 8; 0 is off). Controller integers only.
+    centroid_radius, centroid_temperature : int
+        Robust: the frame reports the rounded centroid of the nodes within
+        ``centroid_radius`` of the detected one, each weighed by ``exp((w - w_max) /
+        centroid_temperature)`` over those nodes, their weights as the controller reads
+        them (one ADC read each on the sensor and in ``ppa8``; :func:`local_centroid`):
+        where a neighbour's weight is nearly the best, the query often stands between
+        them or on it. The detection, the confidence and everything the filter goes on
+        from keep the detected node (so on the host and the ideal sensor nothing else
+        changes; a noisy sensor's reads draw readout noise like any other). Ranges [0, 8]
+        (default 2; 0 reports the detected node, and 1 nearly always does: a neighbour
+        pulls the centroid at most half a node) and [1, 64] units (default 2, half a
+        frame's likelihood span ``gain``).
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -428,6 +443,8 @@ class FilterParams:
     lane_lead: int | None = field(default=32, metadata=_param("robust", "int", 32, 0, 127))
     lane_confidence: int | None = field(default=24, metadata=_param("robust", "int", 24, 0, 127))
     lane_speed_lead: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 127))
+    centroid_radius: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 8))
+    centroid_temperature: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 64))
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -1186,6 +1203,42 @@ def choose_candidate(candidates: np.ndarray, previous: int | None) -> int:
     return int(candidates[np.argmin(np.abs(candidates - previous))])
 
 
+def centroid_window(node: int, radius: int, n_nodes: int) -> tuple[int, int]:
+    """The nodes ``(a, b)`` (inclusive) whose weights the reported estimate reads:
+    ``node +- radius`` within the map."""
+    return max(0, node - radius), min(n_nodes - 1, node + radius)
+
+
+def weight_read(value: float) -> int:
+    """A weight as one ADC read gives it to the controller: the nearest integer, halves
+    up (the simulator's ``read_areg``, docs/sim.md)."""
+    return math.floor(value + 0.5)
+
+
+def local_centroid(weights: Sequence[float], first: int, temperature: int) -> int:
+    """The reported estimate: the rounded centroid (halves up) of nodes ``first,
+    first + 1, ...``, each weighed by ``exp((w - w_max) / temperature)`` over ``weights``,
+    the weights of the :func:`centroid_window` as read.
+
+    The max-product weights peak at one node, but on a map of one node per distinct
+    place the query stands between two nodes as often as on one, and then both hold
+    nearly the best weight; a weight ``temperature`` units below the best counts ``1/e``
+    as much. Flat weights give the window's middle; one weight far above the rest gives
+    its node. Controller arithmetic on a few values read: no array time beyond the reads.
+
+    Examples
+    --------
+    >>> local_centroid([0, 10, 30, 29, 29], 0, 2)
+    3
+    >>> local_centroid([0, 10, 30, 20, 5], 0, 2), local_centroid([4, 4, 4], 7, 2)
+    (2, 8)
+    """
+    top = max(weights)
+    p = [math.exp((w - top) / temperature) for w in weights]
+    centre = sum(i * q for i, q in enumerate(p)) / sum(p)
+    return first + math.floor(centre + 0.5)
+
+
 PARAM_LINES = {
     "motion": "the forward/still decision: the image test, always forward, or the true moves",
     "motion_margin": "the motion test's dead zone, register units (two grey levels each)",
@@ -1204,9 +1257,9 @@ PARAM_LINES = {
     "enhance": "host float only: SeqSLAM's contrast enhancement window, nodes; 0 off",
     "local_gain": "units a node loses when all 2 local_window neighbours are closer",
     "local_window": "neighbours each side the local term compares a node with",
-    "speed_window": "forward frames over which the estimate's path gives its speed; 0 off",
+    "speed_window": "forward frames over which the detected path gives its speed; 0 off",
     "speed_confidence": "confidence the path needs on every frame of the window to give it",
-    "lost_window": "confidence 0 while the estimate held one place this many forward frames",
+    "lost_window": "confidence 0 while the detected node held one place this many frames",
     "speed_vary": "forward costs halved where no speed shows and this many lately varied; 0 off",
     "still_decay": "confidence lost a still frame where the map kept moving; 0 off",
     "lane_speed": "the fastest speed lane, places a frame (0: none faster; see slow_lane)",
@@ -1215,6 +1268,8 @@ PARAM_LINES = {
     "lane_lead": "report a lane's estimate where its confidence leads by this; 0 off",
     "lane_confidence": "confidence a lane's path needs for the filter to take its speed",
     "lane_speed_lead": "a sure faster lane's lead that hands its speed over; 0 off",
+    "centroid_radius": "report the weights' centroid over +-this many nodes; 0 off",
+    "centroid_temperature": "the centroid weighs each node by exp((w - best) / this), units",
     "alpha": "paper: the likelihood offset (none: chosen from the map)",
     "gamma": "paper: the adjustment factor: 0, 1/8, 1/4, 1/2 or 1",
     "k": "paper: the adjustment's period, frames",

@@ -49,11 +49,13 @@ from ppaloc.localise.params import (
     FilterParams,
     PathSpeed,
     adjustment,
+    centroid_window,
     frame_scale,
     lane_reported,
     lane_speed_led,
     lane_speed_taken,
     lane_speeds,
+    local_centroid,
     path_speed,
     path_stalled,
     speed_off,
@@ -143,9 +145,17 @@ class Executor(Protocol):
         floored the same way (what a sensor's threshold searches find)."""
         ...
 
+    def weight_reads(self, a: int, b: int) -> list[float]:
+        """Robust, ``centroid_radius``: the weights of nodes ``a .. b`` (inclusive, on the
+        map) after the confidence, as the controller reads them: one ADC read each where
+        ``exact`` (the nearest integer, :func:`~ppaloc.localise.params.weight_read`), the
+        values themselves in float."""
+        ...
+
     def rank(self, node: int) -> None:
         """Keep what the frame's estimate reports before the weights change again (the
-        host's ranking); nothing on executors that report none."""
+        host's ranking, the reported estimate first); nothing on executors that report
+        none."""
 
     def normalise(self, top: float) -> None:
         """Robust: ``w := max(clip(w - T), -memory)`` (a sensor may defer it)."""
@@ -156,8 +166,11 @@ class Executor(Protocol):
 
 @dataclass(frozen=True)
 class FrameResult:
-    """What a schedule's frame decided: the estimate, its confidence, the motion
-    decision and the detection threshold ``top`` (``T``); ``lane``: the speed lane whose
+    """What a schedule's frame decided: the reported estimate, its confidence, the
+    motion decision and the detection threshold ``top`` (``T``); ``detected``: the node
+    the detection found, which the filter goes on from (the tie-break, the path), the
+    reported node or another (:meth:`Schedule.report`; None where a caller builds a
+    result without one: :attr:`found` is then the node); ``lane``: the speed lane whose
     estimate and confidence these are (its index, fastest first), None for the filter's
     own (:func:`~ppaloc.localise.params.lane_reported`)."""
 
@@ -166,6 +179,12 @@ class FrameResult:
     moved: bool
     top: float
     lane: int | None = None
+    detected: int | None = None
+
+    @property
+    def found(self) -> int:
+        """The detected node (:attr:`detected`, or :attr:`node` where they are one)."""
+        return self.node if self.detected is None else self.detected
 
 
 @dataclass(frozen=True)
@@ -219,7 +238,8 @@ class Schedule:
     frames : int
         Frames since :meth:`reset`.
     prev : int or None
-        The last estimate.
+        The last frame's detected node (the tie-break's; the node reported may be
+        another, :meth:`report`).
     """
 
     uses: ClassVar[str] = "robust"
@@ -301,14 +321,21 @@ class Schedule:
         raise NotImplementedError
 
     def finish(self, ex: Executor, moved: bool) -> FrameResult:
-        """The end of every preset's frame: detection, confidence and ranking, then
-        :meth:`end_frame` (the normalisation or the adjustment)."""
+        """The end of every preset's frame: detection, confidence, the estimate reported
+        (:meth:`report`) and ranking, then :meth:`end_frame` (the normalisation or the
+        adjustment)."""
         node, top = ex.detect(self.prev, self.detect_bits)
         score = ex.confidence(node, top, self.window(node), self.detect_bits)
-        ex.rank(node)
+        reported = self.report(ex, node)
+        ex.rank(reported)
         self.end_frame(ex, top)
         self.prev = node
-        return FrameResult(node, score, moved, top)
+        return FrameResult(reported, score, moved, top, detected=node)
+
+    def report(self, ex: Executor, node: int) -> int:
+        """The estimate the frame reports, given the detected ``node``: the node itself
+        (the paper's)."""
+        return node
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """What the weights undergo after detection (nothing by default)."""
@@ -319,7 +346,7 @@ class RobustSchedule(Schedule):
 
     Per frame: motion; the transition over stay/+1 .. +max_advance nodes at the costs
     the motion decision sets (from the second frame), a forward frame's centred on the
-    speed of the estimate's own path (:func:`~ppaloc.localise.params.path_speed`), or
+    speed of the detected nodes' own path (:func:`~ppaloc.localise.params.path_speed`), or
     where it shows none on the speed of the first speed lane's path, fastest first, that
     shows one outside the filter's own range and did not stall (further sets of weights
     whose forward costs centre on the lanes' speeds,
@@ -339,7 +366,9 @@ class RobustSchedule(Schedule):
     on still frames less ``still_decay`` a frame where the map did not stand still,
     :func:`~ppaloc.localise.params.still_score`); normalisation. The frame reports a
     speed lane's estimate and confidence instead where the lane's leads the filter's by
-    ``lane_lead`` (:func:`~ppaloc.localise.params.lane_reported`).
+    ``lane_lead`` (:func:`~ppaloc.localise.params.lane_reported`). The node reported
+    is the local centroid of the weights around the one detected (``centroid_radius``,
+    :meth:`report`); the filter goes on from the detected one.
     """
 
     uses = "robust"
@@ -419,11 +448,11 @@ class RobustSchedule(Schedule):
         result = self.finish(ex, moved)
         self._still = 0 if moved else self._still + 1  # since the last forward decision
         if self._still:
-            score = still_score(result.score, self._still, self._stood(result.node), p)
+            score = still_score(result.score, self._still, self._stood(result.found), p)
             result = replace(result, score=score)
         keep = max(int(p.speed_window or 0), int(p.lost_window or 0))
         if moved and not first and keep:
-            self._path_places.append(self.place(result.node))
+            self._path_places.append(self.place(result.found))
             self._path_scores.append(result.score)
             if len(self._path_places) > keep + 1:  # the longer window's two ends
                 self._path_places.pop(0)
@@ -473,14 +502,14 @@ class RobustSchedule(Schedule):
             if taken is not None:
                 return taken
         own = (self._path_places[-1], self._path_scores[-1]) if self._path_places else None
-        lanes = [(self.place(r.node), r.score) for r in self._lane_results]
+        lanes = [(self.place(r.found), r.score) for r in self._lane_results]
         k = lane_speed_led(own, lanes, p)
         if k is None or path_stalled(self.lane_schedules[k]._path_places, p):
             return None
         return lane_speed_taken(self.lane_schedules[k].path_speed(0), p)
 
     def path_speed(self, confidence: int | None = None) -> PathSpeed | None:
-        """The speed of the estimate's own path (:func:`~ppaloc.localise.params.
+        """The speed of the detected nodes' own path (:func:`~ppaloc.localise.params.
         path_speed`), or None where its gate passes none; ``confidence`` in place of
         ``speed_confidence`` where given (a lane's path read by its filter)."""
         return path_speed(self._path_places, self._path_scores, self.params, confidence)
@@ -513,7 +542,7 @@ class RobustSchedule(Schedule):
 
     @property
     def path(self) -> tuple[tuple[int, float], ...]:
-        """The ``(place, confidence)`` of the estimate on the last ``speed_window + 1``
+        """The ``(place, confidence)`` of the detected node on the last ``speed_window + 1``
         forward frames, or ``lost_window + 1`` if longer (after the first frame), oldest
         first: what :func:`~ppaloc.localise.params.path_speed` and
         :func:`~ppaloc.localise.params.path_stalled` read. The confidences are the
@@ -532,6 +561,17 @@ class RobustSchedule(Schedule):
         self._speeds_off: list[tuple[int, bool]] = []
         self._forward = 0
         self._still = 0  # frames since the last forward decision
+
+    def report(self, ex: Executor, node: int) -> int:
+        """With ``centroid_radius``: the local centroid of the weights around ``node``,
+        read by the executor (:func:`~ppaloc.localise.params.local_centroid`); else
+        ``node``."""
+        p, topomap = self.params, self.topomap
+        radius = int(p.centroid_radius or 0)
+        if not radius or topomap is None:
+            return node
+        a, b = centroid_window(node, radius, len(topomap))
+        return local_centroid(ex.weight_reads(a, b), a, int(p.centroid_temperature))  # type: ignore[arg-type]
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """The normalisation ``w := max(clip(w - T), -memory)``."""

@@ -318,6 +318,17 @@ class SensorBank:
             self.timing.sync()
         return float(top - out) + (self.top_fraction - frac) / 2**bits
 
+    def weight_reads(self, a: int, b: int) -> list[float]:
+        """The weights of nodes ``a .. b``, each read by the sensor that holds it."""
+        out: list[float] = []
+        ends = [*self.offsets[1:], self.n_nodes]
+        for s, off, end in zip(self.sensors, self.offsets, ends, strict=True):
+            lo, hi = max(a, off), min(b, end - 1)
+            if lo <= hi:
+                out += s.weight_reads(lo - off, hi - off)
+        self.timing.sync()
+        return out
+
     def rank(self, node: int) -> None:
         """A bank reports no ranking."""
 

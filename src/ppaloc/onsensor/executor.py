@@ -33,7 +33,7 @@ from ppaloc.onsensor.places import Places
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.onsensor.snake import shift_weights
 from ppaloc.onsensor.transition import transition
-from ppaloc.onsensor.weights import WeightState, read_weights
+from ppaloc.onsensor.weights import WeightState, read_roots, read_weights
 from ppaloc.sim import Kernel, NoiseParams, Register, Scamp5, TimingModel
 from ppaloc.sim.observe import SimObserver
 from ppaloc.topomap import SnakeLayout, TopoMap
@@ -235,8 +235,7 @@ class SensorExecutor:
         transition(self.sensor, self.state, memory, costs, carried, runs=True)
 
     def node_values(self) -> np.ndarray:
-        """Robust: the live frame in place, then every node's ``r_i``
-        (:func:`ppaloc.onsensor.likelihood.node_values`)."""
+        """Robust: the live frame in place, then every node's ``r_i`` (:mod:`.likelihood`)."""
         self.places.prepare_live()
         return likelihood.node_values(self.sensor, self.places)
 
@@ -269,9 +268,7 @@ class SensorExecutor:
         (a bank's pairs across its cuts)."""
         return local.local_term(self.sensor, self.places, self.state, gain, window, wanted)
 
-    def local_edges(
-        self, gain: int, window: int, own: dict[int, float], others: Sequence[tuple[int, float]]
-    ) -> None:
+    def local_edges(self, gain: int, window: int, own: dict, others: Sequence[tuple]) -> None:
         """The local term across a bank's cuts (:func:`~ppaloc.onsensor.local.local_edges`)."""
         local.local_edges(self.sensor, self.places, self.state, gain, window, own, others)
 
@@ -295,6 +292,10 @@ class SensorExecutor:
         """The refined ``T`` minus the maximum outside the nodes ``window``, each to
         ``2**-bits`` (:func:`ppaloc.onsensor.detect.confidence`)."""
         return detect.confidence(self.sensor, self.state, int(top), *window, bits)
+
+    def weight_reads(self, a: int, b: int) -> list[float]:
+        """Nodes ``a .. b``'s weights, a read each (:func:`~.weights.read_roots`)."""
+        return list(read_roots(self.sensor, self.state, a, b))
 
     def rank(self, node: int) -> None:
         """The sensor reports no ranking."""

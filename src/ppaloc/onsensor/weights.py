@@ -16,8 +16,9 @@ import numpy as np
 
 from ppaloc.onsensor import gain
 from ppaloc.onsensor.sensor import Sensor
+from ppaloc.sim import Kernel, Register
 
-__all__ = ["WeightState", "read_weights"]
+__all__ = ["WeightState", "read_roots", "read_weights"]
 
 
 @dataclass
@@ -86,3 +87,26 @@ def read_weights(sensor: Sensor, state: WeightState, memory: int | None) -> np.n
     if state.pending_top is not None:
         w = np.maximum(np.clip(w - state.pending_top, -127, 127), -memory)  # type: ignore[operator]
     return w
+
+
+def read_roots(sensor: Sensor, state: WeightState, a: int, b: int) -> list[int]:
+    """The weights of nodes ``a .. b`` (this sensor's numbers), one ADC read each at the
+    node's root: the nearest integer, halves up, as ``ppa8`` reads them
+    (:func:`~ppaloc.localise.params.weight_read`). Stage ``"estimate"``.
+
+    After the detection (nothing pending). Where the register holds minus the weights,
+    one ``bus`` copies them into ``spare`` first: a read of minus a weight rounds its
+    halves the other way.
+    """
+    assert state.pending_top is None and not state.pending_offset, "read after detect"
+    sim, r = sensor.sim, sensor.roles
+    with sensor.stage("estimate"):
+        src = r.weights
+        if state.negated:
+            sensor.run(_negate, r.spare, r.negated)
+            src = r.spare
+        return [int(sim.read_areg(src, *sensor.root_of(i))) - 128 for i in range(a, b + 1)]
+
+
+def _negate(k: Kernel, out: Register, src: Register) -> None:
+    k.bus(out, src)
