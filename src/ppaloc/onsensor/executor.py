@@ -268,7 +268,9 @@ class SensorExecutor:
         (a bank's pairs across its cuts)."""
         return local.local_term(self.sensor, self.places, self.state, gain, window, wanted)
 
-    def local_edges(self, gain: int, window: int, own: dict, others: Sequence[tuple]) -> None:
+    def local_edges(
+        self, gain: int, window: int, own: dict[int, float], others: Sequence[tuple[int, float]]
+    ) -> None:
         """The local term across a bank's cuts (:func:`~ppaloc.onsensor.local.local_edges`)."""
         local.local_edges(self.sensor, self.places, self.state, gain, window, own, others)
 
@@ -426,8 +428,7 @@ class SensorExecutor:
         return self.state.last_alpha
 
     def weights(self) -> np.ndarray:
-        """The weights in map order, read from the register (inspection, untimed), with
-        the pending stay cost and normalisation applied, as the host reports them."""
+        """The weights in map order as the host reports them (an untimed inspection)."""
         return read_weights(self.sensor, self.state, self.params.memory)
 
     def register_planes(self) -> dict[str, np.ndarray]:
