@@ -26,8 +26,8 @@ TEXT = " ".join(README.read_text().split())
     ("method", "param", "said"),
     [
         ("weighted-node-haar", {"local_gain": 0}, "0.955 with `local_gain=0`"),
-        ("weighted-node-lbp", {"still_decay": 0}, "0.979 with `still_decay=0`"),
-        ("weighted-node-lowres", {"contrast": 0}, "from 0.79 (`contrast=0`;"),
+        ("weighted-node-lbp", {"still_decay": 0}, "0.980 with `still_decay=0`"),
+        ("weighted-node-lowres", {"contrast": 0}, "from 0.80 (`contrast=0`;"),
     ],
 )
 def test_the_demo_routes_figures_without_a_term_are_the_runs(method, param, said):

@@ -62,7 +62,11 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     and confidence where they lead its own by ``lane_lead``. The estimate reported is
     the rounded centroid of the nodes within ``centroid_radius`` of the one detected,
     each weighed by ``exp((x - max x) / centroid_temperature)``, ``x`` its weight
-    rounded half up to an integer; the filter goes on from the detected node."""
+    rounded half up to an integer; the filter goes on from the detected node. The
+    confidence reported is the frame's (or the lane's) times the share of ``exp((x - max
+    x) / concentration_temperature)`` held within one node of the detected one among
+    the nodes within ``concentration_radius`` of it (at least 2; else 1), the lanes'
+    own leads and gates reading the confidence before it."""
     lane = [None] * (len(frames) + 1)
     lane_outs = []  # each lane's (reported, weights, confidence, node) per frame, fastest first
     lane_any = []  # each lane's path speed after each frame, no confidence asked
@@ -176,18 +180,27 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         x = [math.floor(v + 0.5) for v in w[a : b + 1]]
         e = [math.exp((v - max(x)) / p.centroid_temperature) for v in x]
         shown = a + math.floor(sum(i * v for i, v in enumerate(e)) / sum(e) + 0.5)
+        share, rad = 1.0, p.concentration_radius  # the weights' share about the node
+        if rad >= 2:
+            a = max(node - rad, 0)
+            x = [math.floor(v + 0.5) for v in w[a : min(node + rad, n - 1) + 1]]
+            e = [math.exp((v - max(x)) / p.concentration_temperature) for v in x]
+            share = sum(v for i, v in enumerate(e, start=a) if abs(i - node) <= 1) / sum(e)
         w = np.maximum(np.clip(w - top, -127, 127), -p.memory)
-        out.append((int(shown), w.copy(), score, int(node)))
+        out.append((int(shown), w.copy(), score, int(node), share))
         stalled = lost and len(path) > lost and len({n for n, _ in path[-1 - lost :]}) == 1
         gate = None if centre is None else p.lane_confidence  # a lane's path: its own gate
         speeds.append(None if stalled else _gate(path, p, gate))  # a stalled lane: none
         anyway.append(None if stalled else _gate(path, p, 0))
         lost_at.append(stalled)
-    for t, (_, w, score, node) in enumerate(out):  # a lane that leads: its estimate reported
+    for t, (shown, w, score, node, share) in enumerate(out):  # a lane that leads: its own
         lanes = [o[t] for o in lane_outs]
         best = max(lanes, key=lambda o: o[2], default=None)  # the first of equals
         if p.lane_lead and best is not None and best[2] >= score + p.lane_lead and not lost_at[t]:
-            out[t] = (best[0], w, best[2], node)
+            shown, score, share = best[0], best[2], best[4]
+        if centre is None:  # the confidence reported; a lane's keeps its own for the above
+            score *= share
+        out[t] = (shown, w, score, node, share)
     return out, speeds, anyway
 
 
@@ -213,6 +226,7 @@ _CASE = dict(
     lane_gate=0,
     speed_lead=0,
     centroid=(2, 2),
+    spread=(4, 4),
 )
 
 
@@ -238,6 +252,7 @@ _CASE = dict(
     lane_gate=st.sampled_from([0, 4, 24]),
     speed_lead=st.sampled_from([0, 4, 8, 24]),
     centroid=st.sampled_from([(0, 2), (2, 2), (4, 1), (3, 8), (2, 64)]),
+    spread=st.sampled_from([(0, 4), (4, 4), (1, 4), (2, 1), (8, 16), (3, 64)]),
 )
 @example(  # a still frame after a stalled path: its score is 0, its margin positive
     **{**_CASE, "seed": 1, "max_advance": 1, "lost": 2}
@@ -313,6 +328,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     lane_gate,
     speed_lead,
     centroid,
+    spread,
 ):
     rng = np.random.default_rng(seed)
     grid = 16 if kind == "lowres16" else 8
@@ -343,6 +359,8 @@ def test_ppa8_equals_the_robust_contract_written_out(
         lane_speed_lead=speed_lead,
         centroid_radius=centroid[0],
         centroid_temperature=centroid[1],
+        concentration_radius=spread[0],
+        concentration_temperature=spread[1],
         confidence_radius=1,
     )
     loc = WeightedNodeLocaliser(
@@ -355,7 +373,7 @@ def test_ppa8_equals_the_robust_contract_written_out(
     )
     loc.use_map(TopoMap(kind, nodes, frame_index=frame_index))
     want, _, _ = naive_robust(nodes, frames, moves, loc.params, frame_index)
-    for est, (node, w, score, _) in zip(loc.localise(frames), want, strict=True):
+    for est, (node, w, score, _, _) in zip(loc.localise(frames), want, strict=True):
         assert est.node == node and est.score == score
         np.testing.assert_array_equal(est.weights, w)
         assert est.weights.max() < 1 and est.weights.min() >= -memory
@@ -473,6 +491,7 @@ def test_the_confidence_falls_on_still_frames_where_the_map_kept_moving(route, a
     else:  # node 12 stands for reference frames 12-17, node 16 for 21-22
         m = TopoMap("lowres", lowres_image(route, 8), [*range(13), *range(18, 22), *range(23, 26)])
     kw = dict(arithmetic=arithmetic, motion="oracle", oracle_moves=moves, confidence_radius=1)
+    kw |= dict(concentration_radius=0)  # the still frames' rule alone: the margin reported
     got, plain = [], []
     for decay, out in ((4, got), (0, plain)):
         loc = WeightedNodeLocaliser("lowres", still_decay=decay, **kw)

@@ -97,7 +97,7 @@ def _recording(loc: WeightedNodeLocaliser) -> list[tuple[int, ...]]:
     return seen
 
 
-def _twice_the_speed(route, speed_confidence: int, lane_speed: int = 0):
+def _twice_the_speed(route, speed_confidence: int, lane_speed: int = 0, **kw):
     """The toy route there and back as a map, a query at two places a frame, and a
     filter (window 4, no speed lane: the path's own speed) that records its transitions'
     costs."""
@@ -111,6 +111,7 @@ def _twice_the_speed(route, speed_confidence: int, lane_speed: int = 0):
         speed_confidence=speed_confidence,
         lane_speed=lane_speed,
         slow_lane=False,
+        **kw,
     )
     loc.build_map(reference)
     return loc, _recording(loc), frames, truth
@@ -133,7 +134,8 @@ def test_the_gate_waits_for_a_sure_path(route):
     """With a gate, the same query's costs stay those of one node a frame until the
     estimate's confidence has reached it at both ends of the window and between them
     (this toy route's confidence grows from 0 to about 20 units over ten frames)."""
-    loc, seen, frames, _ = _twice_the_speed(route, speed_confidence=8)
+    # the margin reported (no concentration), so the frames' scores are what the gate reads
+    loc, seen, frames, _ = _twice_the_speed(route, speed_confidence=8, concentration_radius=0)
     scores = [e.score for e in loc.localise(frames)]
     one_a_frame = transition_costs(True, loc.params)
     # the first window of five estimates (after the first frame's) all at the gate
@@ -160,7 +162,12 @@ def test_on_a_map_with_runs_the_path_is_counted_in_places(route):
     reference = np.concatenate([route[:5], np.repeat(route[5:6], 6, axis=0), route[6:]])
     places = np.concatenate([np.arange(5), np.full(6, 5), np.arange(6, len(route))])
     loc = WeightedNodeLocaliser(
-        "lowres", keyframes=False, motion="always_forward", speed_window=8, speed_confidence=0
+        "lowres",
+        keyframes=False,
+        motion="always_forward",
+        speed_window=8,
+        speed_confidence=0,
+        concentration_radius=0,  # the margin reported: what the path records
     )
     m = loc.build_map(reference)
     loc.use_map(TopoMap(m.kind, m.descriptors, m.frame_index, places=places, params=m.params))

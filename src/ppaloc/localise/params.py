@@ -70,6 +70,7 @@ __all__ = [
     "centroid_window",
     "check_int",
     "choose_candidate",
+    "concentration",
     "filter_method_params",
     "frame_scale",
     "lane_reported",
@@ -399,6 +400,18 @@ class FilterParams:
         (default 2; 0 reports the detected node, and 1 nearly always does: a neighbour
         pulls the centroid at most half a node) and [1, 64] units (default 2, half a
         frame's likelihood span ``gain``).
+    concentration_radius, concentration_temperature : int
+        Robust: the reported confidence is the margin (``confidence_radius``) times the
+        weights' concentration about the detected node: the share of ``exp((w - w_max)
+        / concentration_temperature)`` that the detected node and its two neighbours
+        hold among the nodes within ``concentration_radius`` of it, their weights as the
+        controller reads them (:func:`concentration`). The margin sees competitors
+        beyond ``confidence_radius`` places; a hill of the weights that is broad, or a
+        second one close by, says the filter is unsure where along the route it is,
+        which the margin does not see. Only the reported confidence takes it: the path's
+        gate, the lanes' leads and everything the filter goes on from keep the margin.
+        Ranges [0, 8] (default 4; 0 and 1 are off: the share is then 1) and [1, 64]
+        units (default 4, a frame's likelihood span ``gain``).
     alpha, gamma, k, shift, advance
         Paper: Algorithm 1's likelihood offset (None: from the map), adjustment factor
         (one of :data:`GAMMAS`, default 1/2), adjustment period (default 1), likelihood
@@ -445,6 +458,10 @@ class FilterParams:
     lane_speed_lead: int | None = field(default=8, metadata=_param("robust", "int", 8, 0, 127))
     centroid_radius: int | None = field(default=2, metadata=_param("robust", "int", 2, 0, 8))
     centroid_temperature: int | None = field(default=2, metadata=_param("robust", "int", 2, 1, 64))
+    concentration_radius: int | None = field(default=4, metadata=_param("robust", "int", 4, 0, 8))
+    concentration_temperature: int | None = field(
+        default=4, metadata=_param("robust", "int", 4, 1, 64)
+    )
     alpha: float | None = field(default=None, metadata=_param("paper", "alpha", None))
     gamma: float | None = field(default=None, metadata=_param("paper", "gamma", 0.5))
     k: int | None = field(default=None, metadata=_param("paper", "int", 1, 1, MAX_PERIOD))
@@ -1239,6 +1256,31 @@ def local_centroid(weights: Sequence[float], first: int, temperature: int) -> in
     return first + math.floor(centre + 0.5)
 
 
+def concentration(weights: Sequence[float], first: int, node: int, temperature: int) -> float:
+    """The weights' concentration about ``node``: the share of ``exp((w - w_max) /
+    temperature)`` that ``node - 1 .. node + 1`` hold among nodes ``first, first + 1,
+    ...`` (``weights``, as read; the window about ``node`` that
+    :func:`centroid_window` gives for ``concentration_radius``). In (0, 1]: near 1 where
+    every weight two or more nodes from ``node`` is far below the best, 1/3 where the
+    nine weights of a window of +-4 are equal, 1/2 where a second hill as high lies two
+    or more nodes away. The reported confidence is the margin times it. Controller
+    arithmetic on the values read.
+
+    Examples
+    --------
+    >>> round(concentration([0, 0, 40, 0, 0], 0, 2, 4), 3)
+    1.0
+    >>> round(concentration([30, 36, 40, 36, 30], 0, 2, 4), 3)
+    0.914
+    >>> round(concentration([40, 0, 40, 0, 0], 0, 2, 4), 3)
+    0.5
+    """
+    top = max(weights)
+    p = [math.exp((w - top) / temperature) for w in weights]
+    near = sum(q for i, q in enumerate(p, start=first) if abs(i - node) <= 1)
+    return near / sum(p)
+
+
 PARAM_LINES = {
     "motion": "the forward/still decision: the image test, always forward, or the true moves",
     "motion_margin": "the motion test's dead zone, register units (two grey levels each)",
@@ -1270,6 +1312,8 @@ PARAM_LINES = {
     "lane_speed_lead": "a sure faster lane's lead that hands its speed over; 0 off",
     "centroid_radius": "report the weights' centroid over +-this many nodes; 0 off",
     "centroid_temperature": "the centroid weighs each node by exp((w - best) / this), units",
+    "concentration_radius": "confidence times the weights' share at +-1 of those at +-this; 0 off",
+    "concentration_temperature": "the share weighs each node by exp((w - best) / this), units",
     "alpha": "paper: the likelihood offset (none: chosen from the map)",
     "gamma": "paper: the adjustment factor: 0, 1/8, 1/4, 1/2 or 1",
     "k": "paper: the adjustment's period, frames",

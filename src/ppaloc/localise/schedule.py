@@ -50,6 +50,7 @@ from ppaloc.localise.params import (
     PathSpeed,
     adjustment,
     centroid_window,
+    concentration,
     frame_scale,
     lane_reported,
     lane_speed_led,
@@ -146,10 +147,10 @@ class Executor(Protocol):
         ...
 
     def weight_reads(self, a: int, b: int) -> list[float]:
-        """Robust, ``centroid_radius``: the weights of nodes ``a .. b`` (inclusive, on the
-        map) after the confidence, as the controller reads them: one ADC read each where
-        ``exact`` (the nearest integer, :func:`~ppaloc.localise.params.weight_read`), the
-        values themselves in float."""
+        """Robust, ``centroid_radius`` and ``concentration_radius``: the weights of nodes
+        ``a .. b`` (inclusive, on the map) after the confidence, as the controller reads
+        them: one ADC read each where ``exact`` (the nearest integer,
+        :func:`~ppaloc.localise.params.weight_read`), the values themselves in float."""
         ...
 
     def rank(self, node: int) -> None:
@@ -172,7 +173,11 @@ class FrameResult:
     reported node or another (:meth:`Schedule.report`; None where a caller builds a
     result without one: :attr:`found` is then the node); ``lane``: the speed lane whose
     estimate and confidence these are (its index, fastest first), None for the filter's
-    own (:func:`~ppaloc.localise.params.lane_reported`)."""
+    own (:func:`~ppaloc.localise.params.lane_reported`); ``share``: the weights'
+    concentration about the detected node
+    (:func:`~ppaloc.localise.params.concentration`; 1 where a preset reads none), which
+    the robust filter's reported confidence is multiplied by as its frame ends (its
+    lanes' results keep the margin their gates read)."""
 
     node: int
     score: float
@@ -180,6 +185,7 @@ class FrameResult:
     top: float
     lane: int | None = None
     detected: int | None = None
+    share: float = 1.0
 
     @property
     def found(self) -> int:
@@ -326,16 +332,17 @@ class Schedule:
         adjustment)."""
         node, top = ex.detect(self.prev, self.detect_bits)
         score = ex.confidence(node, top, self.window(node), self.detect_bits)
-        reported = self.report(ex, node)
+        reported, share = self.report(ex, node)
         ex.rank(reported)
         self.end_frame(ex, top)
         self.prev = node
-        return FrameResult(reported, score, moved, top, detected=node)
+        return FrameResult(reported, score, moved, top, detected=node, share=share)
 
-    def report(self, ex: Executor, node: int) -> int:
-        """The estimate the frame reports, given the detected ``node``: the node itself
+    def report(self, ex: Executor, node: int) -> tuple[int, float]:
+        """The estimate the frame reports, given the detected ``node``, and the weights'
+        concentration about ``node`` (:attr:`FrameResult.share`): the node itself and 1
         (the paper's)."""
-        return node
+        return node, 1.0
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """What the weights undergo after detection (nothing by default)."""
@@ -368,7 +375,9 @@ class RobustSchedule(Schedule):
     speed lane's estimate and confidence instead where the lane's leads the filter's by
     ``lane_lead`` (:func:`~ppaloc.localise.params.lane_reported`). The node reported
     is the local centroid of the weights around the one detected (``centroid_radius``,
-    :meth:`report`); the filter goes on from the detected one.
+    :meth:`report`); the filter goes on from the detected one. The confidence reported
+    is the frame's (or the lane's) times the weights' concentration about its detected
+    node (``concentration_radius``); the path and the lanes read it before that.
     """
 
     uses = "robust"
@@ -465,7 +474,9 @@ class RobustSchedule(Schedule):
         k = lane_reported(result.score, [r.score for r in self._lane_results], p, stalled)
         if k is not None:  # a lane holds the frames the filter's own costs lost
             lane = self._lane_results[k]
-            result = replace(result, node=lane.node, score=lane.score, lane=k)
+            result = replace(result, node=lane.node, score=lane.score, lane=k, share=lane.share)
+        if self.centre is None:  # the confidence reported; a lane's result keeps its margin
+            result = replace(result, score=result.score * result.share)
         return result
 
     def run_lanes(self, frame: np.ndarray, moved: bool) -> None:
@@ -562,16 +573,31 @@ class RobustSchedule(Schedule):
         self._forward = 0
         self._still = 0  # frames since the last forward decision
 
-    def report(self, ex: Executor, node: int) -> int:
-        """With ``centroid_radius``: the local centroid of the weights around ``node``,
-        read by the executor (:func:`~ppaloc.localise.params.local_centroid`); else
-        ``node``."""
+    def report(self, ex: Executor, node: int) -> tuple[int, float]:
+        """With ``centroid_radius``: the local centroid of the weights around ``node``
+        (:func:`~ppaloc.localise.params.local_centroid`), else ``node``; with
+        ``concentration_radius``: the weights' concentration about ``node``
+        (:func:`~ppaloc.localise.params.concentration`), else 1. The executor reads
+        the nodes of the wider window once."""
         p, topomap = self.params, self.topomap
-        radius = int(p.centroid_radius or 0)
-        if not radius or topomap is None:
-            return node
-        a, b = centroid_window(node, radius, len(topomap))
-        return local_centroid(ex.weight_reads(a, b), a, int(p.centroid_temperature))  # type: ignore[arg-type]
+        centroid, spread = int(p.centroid_radius or 0), int(p.concentration_radius or 0)
+        if spread < 2:  # a window of the node and its neighbours alone: a share of 1
+            spread = 0
+        if not (centroid or spread) or topomap is None:
+            return node, 1.0
+        n = len(topomap)
+        a, b = centroid_window(node, max(centroid, spread), n)
+        reads = ex.weight_reads(a, b)
+        reported, share = node, 1.0
+        if centroid:
+            lo, hi = centroid_window(node, centroid, n)
+            t = int(p.centroid_temperature)  # type: ignore[arg-type]
+            reported = local_centroid(reads[lo - a : hi - a + 1], lo, t)
+        if spread:
+            lo, hi = centroid_window(node, spread, n)
+            t = int(p.concentration_temperature)  # type: ignore[arg-type]
+            share = concentration(reads[lo - a : hi - a + 1], lo, node, t)
+        return reported, share
 
     def end_frame(self, ex: Executor, top: float) -> None:
         """The normalisation ``w := max(clip(w - T), -memory)``."""
