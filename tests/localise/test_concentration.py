@@ -78,10 +78,11 @@ def test_only_the_reported_confidence_moves(route, arithmetic):
     for a, b in zip(runs[0], runs[4], strict=True):
         assert a.node == b.node
         np.testing.assert_array_equal(a.weights, b.weights)
-        lo, hi = centroid_window(a.node, 4, len(route))
+        lo, hi = centroid_window(a.node, 4, len(a.weights))
         values = [float(v) for v in a.weights[lo : hi + 1]]
         reads = [weight_read(v) for v in values] if arithmetic == "ppa8" else values
         assert b.score == pytest.approx(a.score * concentration(reads, lo, a.node, 4), rel=1e-9)
+        assert b.score <= a.score
         lowered += b.score < a.score
     assert lowered > 0
 
