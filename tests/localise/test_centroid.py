@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ppaloc.errors import PpalocError
-from ppaloc.localise.params import FilterParams, centroid_window, local_centroid, weight_read
+from ppaloc.localise.params import centroid_window, local_centroid, weight_read
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 from ppaloc.topomap import TopoMap
 
@@ -48,19 +47,6 @@ def test_golden():
     assert local_centroid([0, 0, 2, 2, 2], 0, 2) == 3  # (f + 9) / (2 f + 3) = 2.51
     assert centroid_window(1, 2, 10) == (0, 3) and centroid_window(8, 2, 10) == (6, 9)
     assert [weight_read(v) for v in (-2.5, -0.5, 0.49, 0.5, 126.5)] == [-2, 0, 0, 1, 127]
-
-
-@pytest.mark.parametrize(
-    "kw, message",
-    [
-        ({"centroid_radius": 9}, r"centroid_radius=9 must be in \[0, 8\]"),
-        ({"centroid_temperature": 0}, r"centroid_temperature=0 must be in \[1, 64\]"),
-        ({"centroid_radius": 2, "preset": "paper"}, "parameter of preset 'robust'"),
-    ],
-)
-def test_out_of_range_is_a_one_line_error(kw, message):
-    with pytest.raises(PpalocError, match=message):
-        FilterParams.create("lbp", **kw)
 
 
 @pytest.mark.parametrize("arithmetic", ["float", "ppa8"])

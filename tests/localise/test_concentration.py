@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ppaloc.errors import PpalocError
-from ppaloc.localise.params import FilterParams, centroid_window, concentration, weight_read
+from ppaloc.localise.params import centroid_window, concentration, weight_read
 from ppaloc.localise.weighted import WeightedNodeLocaliser
 
 weights = st.lists(st.integers(-127, 127), min_size=3, max_size=17)
@@ -43,19 +42,6 @@ def test_golden():
     assert concentration([30, 36, 40, 36, 30], 10, 12, 4) == pytest.approx(near / (near + far))
     assert concentration([40, 40, 0, 40], 0, 0, 4) == pytest.approx(2 / 3, abs=1e-4)
     assert centroid_window(2, 4, 20) == (0, 6)
-
-
-@pytest.mark.parametrize(
-    "kw, message",
-    [
-        ({"concentration_radius": 9}, r"concentration_radius=9 must be in \[0, 8\]"),
-        ({"concentration_temperature": 0}, r"concentration_temperature=0 must be in \[1, 64\]"),
-        ({"concentration_radius": 4, "preset": "paper"}, "parameter of preset 'robust'"),
-    ],
-)
-def test_out_of_range_is_a_one_line_error(kw, message):
-    with pytest.raises(PpalocError, match=message):
-        FilterParams.create("lbp", **kw)
 
 
 @pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
