@@ -1232,6 +1232,13 @@ def weight_read(value: float) -> int:
     return math.floor(value + 0.5)
 
 
+def _relative_mass(weights: Sequence[float], temperature: int) -> list[float]:
+    """``exp((w - w_max) / temperature)`` of each weight: the posterior's mass relative to
+    the best node's, at the temperature of the reported estimate or confidence."""
+    top = max(weights)
+    return [math.exp((w - top) / temperature) for w in weights]
+
+
 def local_centroid(weights: Sequence[float], first: int, temperature: int) -> int:
     """The reported estimate: the rounded centroid (halves up) of nodes ``first,
     first + 1, ...``, each weighed by ``exp((w - w_max) / temperature)`` over ``weights``,
@@ -1250,8 +1257,7 @@ def local_centroid(weights: Sequence[float], first: int, temperature: int) -> in
     >>> local_centroid([0, 10, 30, 20, 5], 0, 2), local_centroid([4, 4, 4], 7, 2)
     (2, 8)
     """
-    top = max(weights)
-    p = [math.exp((w - top) / temperature) for w in weights]
+    p = _relative_mass(weights, temperature)
     centre = sum(i * q for i, q in enumerate(p)) / sum(p)
     return first + math.floor(centre + 0.5)
 
@@ -1275,8 +1281,7 @@ def concentration(weights: Sequence[float], first: int, node: int, temperature: 
     >>> round(concentration([40, 0, 40, 0, 0], 0, 2, 4), 3)
     0.5
     """
-    top = max(weights)
-    p = [math.exp((w - top) / temperature) for w in weights]
+    p = _relative_mass(weights, temperature)
     near = sum(q for i, q in enumerate(p, start=first) if abs(i - node) <= 1)
     return near / sum(p)
 
