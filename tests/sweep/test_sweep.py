@@ -349,3 +349,24 @@ def test_ctrl_c_while_the_local_cluster_starts_is_one_line(tmp_path):
         _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert err.strip() == "ppaloc: interrupted", err  # no worker's traceback, no atexit error
+
+
+@pytest.mark.parametrize("quiet", [True, False])
+def test_a_sweep_quiets_the_clusters_loggers_and_restores_them(quiet):
+    """Ctrl-C can stop the cluster's event loop mid-callback, and tornado then logs the
+    callback's traceback: a sweep (without ``-v``) keeps those loggers quiet while it runs,
+    and leaves every level as it found it."""
+    import logging
+
+    from ppaloc.evaluate.sweep import QUIET_LOGGERS, _dask_logging
+
+    names = [name for name, _ in QUIET_LOGGERS]
+    assert {"distributed", "tornado.application"} <= set(names)
+    before = {name: logging.getLogger(name).level for name in names}
+    with pytest.raises(KeyboardInterrupt), _dask_logging(quiet=quiet):
+        for name, level in QUIET_LOGGERS:
+            want = level if quiet else before[name]
+            assert logging.getLogger(name).level == want, name
+        assert logging.getLogger("tornado.application").isEnabledFor(logging.ERROR) != quiet
+        raise KeyboardInterrupt
+    assert {name: logging.getLogger(name).level for name in names} == before

@@ -199,17 +199,31 @@ def connect(
             yield client
 
 
+#: The loggers a sweep quiets (unless ``-v``), and the level each is set to: distributed's
+#: own at ERROR; tornado's callback errors (``tornado.application``), which the cluster's
+#: event loop logs with a traceback when Ctrl-C stops it mid-callback, at CRITICAL (Dask's
+#: own default for ``tornado``; nothing a user of a sweep can act on).
+QUIET_LOGGERS = (
+    ("distributed", logging.ERROR),
+    ("tornado", logging.CRITICAL),
+    ("tornado.application", logging.CRITICAL),
+)
+
+
 @contextmanager
 def _dask_logging(*, quiet: bool) -> Iterator[None]:
-    """distributed's loggers at ERROR while a sweep runs (unless ``-v``), restored after."""
-    logger = logging.getLogger("distributed")
-    level = logger.level
+    """The loggers of :data:`QUIET_LOGGERS` at their levels while a sweep runs (unless
+    ``-v``), restored after."""
+    loggers = [(logging.getLogger(name), level) for name, level in QUIET_LOGGERS]
+    before = [logger.level for logger, _ in loggers]
     if quiet:
-        logger.setLevel(logging.ERROR)
+        for logger, level in loggers:
+            logger.setLevel(level)
     try:
         yield
     finally:
-        logger.setLevel(level)
+        for (logger, _), level in zip(loggers, before, strict=True):
+            logger.setLevel(level)
 
 
 @contextmanager
