@@ -35,6 +35,11 @@ _READ_ERRORS = (
     RecursionError,
     MemoryError,
     OverflowError,
+    # zipfile on a member whose altered fields ask for what it does not do: a zip version
+    # or compression method it lacks (NotImplementedError), an encrypted member
+    # (RuntimeError: "password required")
+    NotImplementedError,
+    RuntimeError,
     zipfile.BadZipFile,
     zlib.error,
 )
@@ -169,7 +174,7 @@ def read_npz(
     try:
         try:
             zf = zipfile.ZipFile(f)
-        except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
+        except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError) as exc:
             raise NpzError(f"corrupt or truncated .npz archive ({exc})") from None
         with zf:
             size = None

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from ppaloc.errors import DataError, MapFormatError
 from ppaloc.topomap import FORMAT_NAME, TopoMap, load_map, read_header, save_map
@@ -197,3 +199,26 @@ def test_round_trip_of_a_16x16_map_and_its_shape_checked(tmp_path: Path) -> None
     assert loaded.equals(m) and loaded.kind == "lowres16"
     with pytest.raises(ValueError, match="lowres16"):
         TopoMap("lowres16", np.zeros((5, 8, 8), np.uint8))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    changes=st.lists(
+        st.tuples(st.floats(0, 1, exclude_max=True), st.integers(0, 255)), min_size=1, max_size=5
+    )
+)
+def test_any_changed_bytes_load_the_same_map_or_name_the_damage(changes, tmp_path_factory):
+    """A map file with a few bytes changed anywhere (zip headers and directory included:
+    a version, compression method or encryption flag the reader lacks) loads as the map
+    it was or fails with MapFormatError; never another exception."""
+    m = TopoMap("lbp", np.arange(7, dtype=np.uint32) * 0x01010101)
+    path = m.save(tmp_path_factory.mktemp("fuzz") / "map.npz")
+    data = bytearray(path.read_bytes())
+    for where, value in changes:
+        data[int(where * len(data))] = value
+    path.write_bytes(bytes(data))
+    try:
+        loaded = load_map(path)
+    except MapFormatError:
+        return
+    assert loaded.equals(m)
