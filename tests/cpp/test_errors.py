@@ -41,6 +41,18 @@ def test_compile_error_names_file_and_line(cxx):
     assert "undefined_name" in str(err.value)
 
 
+def test_compiler_messages_that_are_not_utf8_are_read(cxx, tmp_path):
+    """A source in Latin-1 (or any bytes) makes the compiler quote bytes that are not
+    UTF-8: its errors are still one CompileError, and its warnings do not stop the run."""
+    bad = tmp_path / "latin1.cpp"
+    bad.write_bytes(b'#include <scamp5.hpp>\nint main() { vs_init(); int x = "caf\xe9"; }\n')
+    with pytest.raises(CompileError, match=r"latin1.cpp:2:"):
+        compile_program(bad)
+    warns = tmp_path / "warns.cpp"
+    warns.write_bytes(b"#include <scamp5.hpp>\n#warning caf\xe9\nint main() { vs_init(); }\n")
+    assert compile_program(warns).exists()
+
+
 def test_link_errors_name_their_cause(cxx, tmp_path):
     no_main = tmp_path / "nomain.cpp"
     no_main.write_text("#include <scamp5.hpp>\nint foo() { return 1; }\n")

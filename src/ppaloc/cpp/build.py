@@ -300,7 +300,9 @@ def compile_program(
         root.mkdir(mode=0o700, exist_ok=True)
     include = resources.files("ppaloc.cpp").joinpath("include")
     gen = _generated(root)
-    version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
+    version = subprocess.run(
+        [cxx, "--version"], capture_output=True, text=True, errors="replace"
+    ).stdout
     key = hashlib.sha256(
         "\0".join(
             [_shim_text(), (gen / "ppaloc_gen_macros.hpp").read_text(encoding="utf-8"),
@@ -318,7 +320,7 @@ def compile_program(
     cmd += [f"-DPPA_PACED={int(_paced(texts))}"]  # a function of the sources
     cmd += [*map(str, project.sources), "-o", str(tmp)]
     try:
-        done = subprocess.run(cmd, capture_output=True, text=True)
+        done = subprocess.run(cmd, capture_output=True, text=True, errors="replace")
         if done.returncode != 0:
             names = ", ".join(map(str, project.sources))
             raise CompileError(
