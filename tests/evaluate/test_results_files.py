@@ -248,3 +248,29 @@ def test_evaluate_over_a_results_json_nested_too_deep_is_one_line(saved, capsys)
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"ppaloc: error: cannot read {(saved / 'results.json').resolve()} ")
     assert "(nested too deep)" in err and "\n" not in err
+
+
+@pytest.mark.parametrize("field", ["latency_ms_median", "latency_ms_p95", "energy_mj"])
+def test_show_reports_a_method_without_an_optional_figure(saved, mean_match, capsys, field):
+    # optional fields (a number or null): the report's tables read them as absent ("-"),
+    # where an entry without one was an internal error (KeyError)
+    from ppaloc.cli import main
+
+    summary = json.loads((saved / "results.json").read_text())
+    del summary["methods"][mean_match][field]
+    (saved / "results.json").write_text(json.dumps(summary))
+    assert main(["show", str(saved)]) == 0, capsys.readouterr().err
+    assert "| - |" in (saved / "report.md").read_text()
+
+
+@pytest.mark.parametrize("value", ["x", -1, 0.5, True, [1]])
+def test_a_protocol_ground_truth_that_is_not_a_table_is_named(saved, capsys, value):
+    # the report reads its tolerance from it: an internal error (AttributeError) before
+    from ppaloc.cli import main
+
+    summary = json.loads((saved / "results.json").read_text())
+    summary.setdefault("protocol", {})["ground_truth"] = value
+    (saved / "results.json").write_text(json.dumps(summary))
+    assert main(["show", str(saved)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "protocol.ground_truth is" in err and "expected a table" in err and "\n" not in err

@@ -757,6 +757,15 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         raise DataError(f"{path}: 'methods' is empty; {_again(folder)}")
     for name, entry in summary["methods"].items():
         _check_fields(entry, name, path)
+    truth = (
+        summary.get("protocol", {}).get("ground_truth")
+        if isinstance(summary.get("protocol"), dict)
+        else None
+    )
+    if truth is not None and not isinstance(truth, dict):  # the report reads its tolerance
+        raise DataError(
+            f"{path}: protocol.ground_truth is {truth!r:.40}, expected a table; {_again(folder)}"
+        )
     if "files" in summary:
         _check_whole(folder, summary["files"])
     tolerance = _count(summary, "tolerance", path)
