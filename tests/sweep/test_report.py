@@ -264,6 +264,7 @@ def _cell(**changes):
         (json.dumps({**summary(), "axes": None}), "'axes' is None, expected a table of lists"),
         (json.dumps(_cell_without("status")), "cells[0].status is missing, expected a string"),
         (json.dumps(_counts_without("ok")), "counts.ok is missing, expected a count >= 0"),
+        (json.dumps(_counts_without("not_run")), "counts.not_run is missing, expected a"),
         (json.dumps(_axes_without("dataset")), "axes.dataset is missing, expected a list of"),
         (json.dumps({**summary(), "axes": {**summary()["axes"], "gain": 5}}), "axes.gain is 5"),
         (json.dumps({**summary(), "cells": "x"}), "'cells' is 'x', expected a list of tables"),

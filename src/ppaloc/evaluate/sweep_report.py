@@ -108,7 +108,7 @@ def _summary_problem(summary: Mapping[str, Any]) -> str | None:
     for name in ("method", "dataset"):
         if not all(isinstance(v, str) for v in axes.get(name, [None])):
             return f"axes.{name} {_state(axes, name)}, expected a list of names"
-    for key in ("cells", "ok", "failed"):
+    for key in ("cells", "ok", "failed", "not_run"):
         value = summary["counts"].get(key)
         if not isinstance(value, int) or isinstance(value, bool) or value < 0:
             return f"counts.{key} {_state(summary['counts'], key)}, expected a count >= 0"
