@@ -319,11 +319,23 @@ def test_show_draws_a_localise_csv(tmp_path, capsys, folder_map):
     assert code == 1 and "would overwrite the input" in err
 
 
-def test_show_draws_scores_whose_span_overflows(tmp_path, capsys):
-    # finite scores -1e308 and 1e308 (score accepts them): their span is inf, which the
-    # colour bar could not draw (an internal error, "Axis limits cannot be NaN or Inf")
+@pytest.mark.parametrize(
+    "scores",
+    [
+        # their span is inf, which the colour bar could not draw (an internal error, "Axis
+        # limits cannot be NaN or Inf")
+        ("-1e308", "1e308", "0"),
+        # equal and near a float64's limit: the colour bar's ticks overflowed (an internal
+        # error, "arange: cannot compute length")
+        ("1e308", "1e308", "1e308"),
+        ("-1.7e308", "-1.7e308", "-1.7e308"),
+    ],
+)
+def test_show_draws_scores_whose_span_overflows(tmp_path, capsys, scores):
+    # finite scores that score accepts
     est = tmp_path / "est.csv"
-    est.write_text("query,reference,score\n0,1,-1e308\n1,2,1e308\n2,3,0\n")
+    rows = "".join(f"{i},{i + 1},{v}\n" for i, v in enumerate(scores))
+    est.write_text("query,reference,score\n" + rows)
     code, _, err = run(capsys, "show", est, "-q")
     assert code == 0, err
     with Image.open(est.with_suffix(".png")) as im:

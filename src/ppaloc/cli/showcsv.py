@@ -47,6 +47,11 @@ def _arrays(p: Any) -> tuple[np.ndarray, np.ndarray, str]:
     return np.arange(len(p)), reference, "row of the file"
 
 
+#: The largest score magnitude the colour bar draws in score units (a million times below a
+#: float64's limit: its ticks and margins are computed with headroom).
+_LARGEST_DRAWN = np.finfo(np.float64).max / 2**20
+
+
 def predictions_figure(predictions: list[Any], title: str) -> Any:
     """One panel per method: predicted reference frame against query, coloured by score;
     of more than :data:`~ppaloc.evaluate.figures.MAX_DRAWN` methods, the first of them in
@@ -70,8 +75,10 @@ def predictions_figure(predictions: list[Any], title: str) -> Any:
         x, y, xlabel = _arrays(p)
         colour, label = np.asarray(p.score, dtype=np.float64), "score (higher = surer)"
         half_span = colour.max() / 2 - colour.min() / 2 if colour.size else 0.0
-        if half_span > np.finfo(np.float64).max / 2:
-            # finite scores whose span a float64 cannot hold (-1e308 and 1e308): the
+        largest = np.abs(colour).max() if colour.size else 0.0
+        if half_span > np.finfo(np.float64).max / 2 or largest > _LARGEST_DRAWN:
+            # finite scores whose span a float64 cannot hold (-1e308 and 1e308), or so
+            # near its limit that the colour bar's ticks overflow (1e308 everywhere): the
             # colour bar cannot be drawn in score units, so the colours are their ranks
             # (equal scores, equal ranks)
             colour = np.unique(colour, return_inverse=True)[1].reshape(colour.shape)
