@@ -203,3 +203,26 @@ def test_two_map_runs_with_the_same_seed_give_the_same_bytes(tmp_path, monkeypat
         if name == "a":
             time.sleep(1.1)  # a clock time in the file (in seconds) would now differ
     assert (tmp_path / "a").read_bytes() == (tmp_path / "b").read_bytes()
+
+
+def test_patch_values_no_tile_can_hold_are_refused(tmp_path):
+    # finite but near float32's limit, they made the filter's distances infinite (an
+    # internal IndexError of ppaloc localise); a real patch-normalised image loads
+    from ppaloc.place import PATCH_SHAPE, patch_image
+    from ppaloc.topomap.io import PATCH_LIMIT
+
+    rng = np.random.default_rng(5)
+    frames = [rng.integers(0, 256, (256, 256), dtype=np.uint8) for _ in range(3)]
+    frames[1][:128] = 0  # a constant half: tiles of zeros beside the rest
+    real = TopoMap("patch", np.stack([patch_image(f) for f in frames]))
+    assert np.abs(real.descriptors).max() <= PATCH_LIMIT
+    assert load_map(real.save(tmp_path / "real.npz")).equals(real)
+    for value in (1e37, -47.0):
+        desc = real.descriptors.copy()
+        desc[2, 5, 7] = value
+        path = TopoMap("patch", desc).save(tmp_path / "big.npz")
+        with pytest.raises(MapFormatError, match=r"descriptors\[2\] holds .*, outside \+-46"):
+            load_map(path)
+    extreme = np.zeros((1, *PATCH_SHAPE), np.float32)  # one bright pixel in a dark image
+    extreme[0, 0, 0] = np.sqrt(2048) - 1e-3
+    assert len(load_map(TopoMap("patch", extreme).save(tmp_path / "edge.npz"))) == 1

@@ -271,6 +271,14 @@ def _field_error(header: dict[str, Any]) -> str | None:
     return None
 
 
+#: The largest value a ``"patch"`` map's descriptors may hold: each is a z-score within
+#: its tile, at most ``(n - 1) / sqrt(n)`` for a tile of ``n`` pixels (7.875 for the 8x8
+#: tiles of :func:`ppaloc.place.patch_image`), below ``sqrt(2048)`` for any tile of the
+#: 64x32 image. A larger value is an altered map, and near float32's limit its distances
+#: overflow to infinity.
+PATCH_LIMIT = 46.0
+
+
 def _array_error(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str | None:
     """The first array that contradicts the header or is out of range, or None."""
     n = header["n_nodes"]
@@ -298,6 +306,15 @@ def _array_error(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str |
         if a is not None and a.dtype.kind == "f" and not np.isfinite(a).all():
             i = int(np.flatnonzero(~np.isfinite(a.reshape(len(a), -1)).all(axis=1))[0])
             return f"{name}[{i}] holds a NaN or infinite value"
+    desc = arrays["descriptors"]
+    if header["kind"] == "patch" and desc.size and float(np.abs(desc).max()) > PATCH_LIMIT:
+        big = np.abs(desc.reshape(len(desc), -1)) > PATCH_LIMIT
+        i = int(np.flatnonzero(big.any(axis=1))[0])
+        value = float(np.abs(desc[i]).max())
+        return (
+            f"descriptors[{i}] holds {value:.3g}, outside +-{PATCH_LIMIT:g}, the range of a "
+            "patch-normalised image"
+        )
     return None
 
 
