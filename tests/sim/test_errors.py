@@ -198,6 +198,27 @@ def test_api_arguments_of_the_wrong_kind_are_one_line(sim: Scamp5, call, message
     assert "\n" not in str(err.value)
 
 
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda s, a: s.scamp5_load_pattern(R5, 3, 4, 0, 0, scamp_addr=a),
+        lambda s, a: s.load_point(R5, 1, 2, scamp_addr=a),
+        lambda s, a: s.select_point(1, 2, scamp_addr=a),
+        lambda s, a: s.global_or(R5, 0, 0, 0, 0, scamp_addr=a),
+        lambda s, a: s.read_areg(A, 1, 2, scamp_addr=a),
+        lambda s, a: (s.draw_begin(R5), s.draw_point(1, 2, scamp_addr=a), s.draw_end()),
+        lambda s, a: s.address_mask(0, 0, 0, 0, a),
+    ],
+)
+def test_scamp_addr_is_true_or_false(sim: Scamp5, call) -> None:
+    # a list was an internal TypeError (the address patterns' cache) or taken as True
+    for value in ([1, 2], 2, "yes", None):
+        with pytest.raises(SimulatorError, match=r"scamp_addr=.* must be True or False"):
+            call(sim, value)
+    for value in (True, False, 1, 0, np.bool_(True)):
+        call(sim, value)
+
+
 def test_address_mask_takes_numpy_integers(sim: Scamp5) -> None:
     # np.uint8(255) & ~3 overflowed uint8 (an OverflowError)
     got = sim.address_mask(np.uint8(255), np.uint8(0), np.uint8(3), np.uint8(0), False)

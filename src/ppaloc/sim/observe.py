@@ -433,6 +433,17 @@ def _signature(fn: Callable[..., Any]) -> inspect.Signature:
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+def _flag(call: str, name: str, value: Any) -> bool:
+    """A controller call's yes/no argument (``scamp_addr``) as a bool: True, False, or 1
+    and 0 as a C++ caller passes them; anything else is named in one line (a list was an
+    internal TypeError where the address patterns are cached)."""
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer) and value in (0, 1):
+        return bool(value)
+    raise SimulatorError(f"{call}: {name}={value!r:.40} must be True or False")
+
+
 def controller_call(fn: F) -> F:
     """Mark a controller call: observers receive each top-level call as one
     :class:`ControllerCall` named ``fn.__name__``.
@@ -443,6 +454,8 @@ def controller_call(fn: F) -> F:
 
     @functools.wraps(fn)
     def call(self, *args, **kwargs):
+        if kwargs and "scamp_addr" in kwargs:
+            kwargs["scamp_addr"] = _flag(name, "scamp_addr", kwargs["scamp_addr"])
         if not self._observers or self._call_frame is not None:
             return fn(self, *args, **kwargs)
         return self._observe_call(name, fn, args, kwargs)
