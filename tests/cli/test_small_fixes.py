@@ -829,3 +829,30 @@ def test_show_draws_a_methods_register_planes_under_their_labels(tmp_path, capsy
     assert code == 0, err
     assert list(drawn) == ["C: weights", "R9: detection candidates"]
     assert drawn["R9: detection candidates"][0, 0] == 1
+
+
+def test_an_out_the_user_cannot_read_is_still_written(
+    tmp_path, capsys, folder_map, mean_match, monkeypatch
+):
+    # an output is written, never read: a write-only file given to --out was refused as
+    # "not readable" (os.access is faked, since this suite may run as root)
+    import os
+
+    q = _images(tmp_path / "q", ["a.png"])[0]
+    outs = {"map": tmp_path / "m2.npz", "localise": tmp_path / "est.csv"}
+    for path in outs.values():
+        path.write_text("old\n")
+    access = os.access
+    monkeypatch.setattr(
+        os,
+        "access",
+        lambda p, mode, **kw: (
+            False if mode == os.R_OK and Path(p) in outs.values() else access(p, mode, **kw)
+        ),
+    )
+    ref = f"folder:{tmp_path / 'ref'}"
+    code, _, err = run(capsys, "map", ref, "-m", mean_match, "--out", outs["map"], "-q")
+    assert code == 0, err
+    code, _, err = run(capsys, "localise", folder_map, q, "--out", outs["localise"])
+    assert code == 0, err
+    assert outs["localise"].read_text().startswith("frame,")

@@ -823,7 +823,7 @@ Examples:
 @click.argument("dataset")
 @click.option(
     "--out",
-    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
+    type=_SafePath(dir_okay=False, allow_dash=True, readable=False, path_type=Path),
     help="Map file to write (.npz).",
 )
 @click.option(
@@ -888,7 +888,7 @@ or VIDEO#INDEX, where the map records it)""",
 @click.argument("frames", nargs=-1, required=True, type=_SafePath(path_type=Path))
 @click.option(
     "--out",
-    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
+    type=_SafePath(dir_okay=False, allow_dash=True, readable=False, path_type=Path),
     help="CSV file to write; - or none: standard output.",
 )
 @click.option("--method", "-m", help="Method to localise with [default: the map's].")
@@ -962,7 +962,7 @@ Examples:
 @click.argument("path", type=_SafePath(path_type=Path))
 @click.option(
     "--out",
-    type=_SafePath(dir_okay=False, allow_dash=True, path_type=Path),
+    type=_SafePath(dir_okay=False, allow_dash=True, readable=False, path_type=Path),
     help="PNG to write (maps, planes, CSV; a name ending in .png).",
 )
 @_QUIET
