@@ -322,15 +322,53 @@ def test_step_without_map_and_wrong_map(route):
         loc.build_map([])
 
 
-@pytest.mark.parametrize(
-    "frame", [np.zeros((256, 256)), np.zeros((32, 32), np.uint8), np.zeros((256, 256, 3), np.uint8)]
-)
+BAD_FRAMES = [
+    np.zeros((256, 256)),
+    np.zeros((32, 32), np.uint8),
+    np.zeros((256, 256, 3), np.uint8),
+    np.zeros((256, 256), np.uint16),
+    np.zeros((2, 256, 256), np.uint8),  # a batch: past the place layer's (..., 256, 256)
+    np.zeros((0, 256, 256), np.uint8),
+]
+
+
+@pytest.mark.parametrize("frame", BAD_FRAMES)
 def test_a_frame_that_is_not_a_sensor_frame_is_a_user_error(route, frame):
     # it was a ValueError from the place layer (SeqSLAM and the sensor: PpalocError)
     loc = WeightedNodeLocaliser("lbp")
     loc.build_map(route)
-    with pytest.raises(PpalocError, match=r"convert frames with ppaloc\.frontend\.to_sensor"):
+    with pytest.raises(PpalocError, match=r"convert frames with ppaloc\.datasets\.to_sensor"):
         loc.step(frame)
+
+
+@pytest.mark.parametrize(
+    ("representation", "kw"),
+    [
+        ("lowres", {"motion": "always_forward"}),
+        ("lowres", {}),
+        ("haar", {"motion": "always_forward"}),
+        ("lbp", {"preset": "paper", "motion": "always_forward"}),
+        ("lbp", {"motion": "oracle", "oracle_moves": [True] * 12}),
+        ("patch", {"arithmetic": "float"}),
+    ],
+)
+def test_a_refused_frame_leaves_the_filter_as_it_was(route, representation, kw):
+    # the schedule counted the frame, took a motion decision (an oracle move) and moved the
+    # weights before the frame was refused: every later estimate changed
+    loc = WeightedNodeLocaliser(representation, **kw)
+    loc.build_map(route)
+    query = list(route[:12])
+    clean = [(e.node, e.score) for e in loc.localise(query)]
+    loc.reset()
+    got = []
+    for i, frame in enumerate(query):
+        if i in (0, 3):
+            for bad in BAD_FRAMES:
+                with pytest.raises(PpalocError):
+                    loc.step(bad)
+        e = loc.step(frame)
+        got.append((e.node, e.score))
+    assert got == clean
 
 
 @pytest.mark.parametrize("n", [5, 300, 5000, 70001])

@@ -59,6 +59,7 @@ from ppaloc.localise.params import (
     filter_method_params,
 )
 from ppaloc.localise.schedule import SCHEDULES, Schedule, make_schedule
+from ppaloc.place.patch import check_frame
 from ppaloc.topomap import TopoMap, build_topomap
 
 __all__ = [
@@ -322,7 +323,9 @@ class WeightedNodeLocaliser(DeclaredSpeeds):
         """Localise one new sensor frame ((256, 256) uint8) by the preset's schedule."""
         if self.topomap is None:
             raise PpalocError("no map: call build_map(frames) or use_map(topomap) first")
-        r = self.schedule.step(self.executor, frame)
+        # checked before the schedule counts the frame or moves the weights: a refused
+        # frame leaves the filter as it was
+        r = self.schedule.step(self.executor, check_frame(frame))
         ranking = self.executor.ranking
         if r.lane is not None and ranking is not None:  # a speed lane's estimate
             ranking = self.schedule.lanes[r.lane].ranking_for(r.node, self.ranking_k)  # type: ignore[attr-defined]

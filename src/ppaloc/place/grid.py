@@ -30,12 +30,12 @@ def _check_frames(frames: np.ndarray) -> np.ndarray:
     if a.ndim < 2 or a.shape[-2:] != (SENSOR_SIZE, SENSOR_SIZE):
         raise PpalocError(
             f"sensor frames must have shape (..., 256, 256), got {a.shape}; "
-            "convert frames with ppaloc.frontend.to_sensor first"
+            "convert frames with ppaloc.datasets.to_sensor first"
         )
     if a.dtype != np.uint8:
         raise PpalocError(
             f"sensor frames must be uint8, got {a.dtype}; "
-            "convert frames with ppaloc.frontend.to_sensor first"
+            "convert frames with ppaloc.datasets.to_sensor first"
         )
     return a
 
