@@ -209,7 +209,7 @@ def test_patch_values_no_tile_can_hold_are_refused(tmp_path):
     # finite but near float32's limit, they made the filter's distances infinite (an
     # internal IndexError of ppaloc localise); a real patch-normalised image loads
     from ppaloc.place import PATCH_SHAPE, patch_image
-    from ppaloc.topomap.io import PATCH_LIMIT
+    from ppaloc.topomap import PATCH_LIMIT
 
     rng = np.random.default_rng(5)
     frames = [rng.integers(0, 256, (256, 256), dtype=np.uint8) for _ in range(3)]
@@ -217,12 +217,37 @@ def test_patch_values_no_tile_can_hold_are_refused(tmp_path):
     real = TopoMap("patch", np.stack([patch_image(f) for f in frames]))
     assert np.abs(real.descriptors).max() <= PATCH_LIMIT
     assert load_map(real.save(tmp_path / "real.npz")).equals(real)
+    header, arrays = _parts(real, tmp_path)
     for value in (1e37, -47.0):
         desc = real.descriptors.copy()
         desc[2, 5, 7] = value
-        path = TopoMap("patch", desc).save(tmp_path / "big.npz")
+        with pytest.raises(ValueError, match=r"descriptors\[2\] holds .*, outside \+-46"):
+            TopoMap("patch", desc)  # made in Python
+        path = _resigned(tmp_path / "big.npz", header, {**arrays, "descriptors": desc})
         with pytest.raises(MapFormatError, match=r"descriptors\[2\] holds .*, outside \+-46"):
-            load_map(path)
+            load_map(path)  # altered on disk, checksum and all
     extreme = np.zeros((1, *PATCH_SHAPE), np.float32)  # one bright pixel in a dark image
     extreme[0, 0, 0] = np.sqrt(2048) - 1e-3
     assert len(load_map(TopoMap("patch", extreme).save(tmp_path / "edge.npz"))) == 1
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: TopoMap("patch", np.full((2, 32, 64), np.nan, np.float32)), r"descriptors\[0\]"),
+        (lambda: TopoMap("other", np.array([[0.0], [np.inf]])), r"descriptors\[1\] holds a NaN"),
+        (lambda: TopoMap("lbp", np.zeros(3, np.uint32), frame_index=[-5, -1, 7]), r"frame_index"),
+        (
+            lambda: TopoMap("lbp", np.zeros(3, np.uint32), positions=[0, np.nan, 2]),
+            r"positions\[1\]",
+        ),
+        (lambda: TopoMap(None, np.zeros(3, np.uint32)), r"kind must name what a node holds"),
+        (lambda: TopoMap("", np.zeros(3, np.uint32)), r"kind must name what a node holds"),
+    ],
+)
+def test_a_map_no_file_could_hold_is_refused_when_made(make, message):
+    # each was made and saved, and the file then refused by load_map (a good file saved
+    # over is lost); the filters read NaN descriptors as an internal IndexError, and the
+    # baselines returned estimates from them without a word
+    with pytest.raises(ValueError, match=message):
+        make()

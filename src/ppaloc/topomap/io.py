@@ -29,7 +29,7 @@ import ppaloc
 from ppaloc.errors import DataError, MapFormatError
 from ppaloc.fileio import atomic_write, source_date
 from ppaloc.npzfile import NpzError, read_npz, write_npz
-from ppaloc.topomap.map import TopoMap
+from ppaloc.topomap.map import TopoMap, value_problem
 
 __all__ = [
     "FORMAT_NAME",
@@ -271,14 +271,6 @@ def _field_error(header: dict[str, Any]) -> str | None:
     return None
 
 
-#: The largest value a ``"patch"`` map's descriptors may hold: each is a z-score within
-#: its tile, at most ``(n - 1) / sqrt(n)`` for a tile of ``n`` pixels (7.875 for the 8x8
-#: tiles of :func:`ppaloc.place.patch_image`), below ``sqrt(2048)`` for any tile of the
-#: 64x32 image. A larger value is an altered map, and near float32's limit its distances
-#: overflow to infinity.
-PATCH_LIMIT = 46.0
-
-
 def _array_error(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str | None:
     """The first array that contradicts the header or is out of range, or None."""
     n = header["n_nodes"]
@@ -290,9 +282,8 @@ def _array_error(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str |
     fi = arrays["frame_index"]
     if fi.dtype.kind not in "iu":
         return f"frame_index holds {fi.dtype}, expected integers"
-    if len(fi) and int(fi.min()) < 0:
-        i = int(np.argmin(fi))
-        return f"frame_index[{i}] is {int(fi[i])}; reference frame numbers are >= 0"
+    if len(fi) and int(fi.min()) < 0:  # as value_problem says it, before n_frames
+        return value_problem(header["kind"], arrays["descriptors"], fi, None)
     n_frames = header.get("params", {}).get("n_frames")
     if isinstance(n_frames, int) and not isinstance(n_frames, bool) and len(fi):
         if int(fi.max()) >= n_frames:
@@ -301,21 +292,7 @@ def _array_error(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str |
                 f"frame_index[{i}] is {int(fi[i])}, beyond params.n_frames = {n_frames} "
                 "reference frames"
             )
-    for name in ("descriptors", "positions"):
-        a = arrays.get(name)
-        if a is not None and a.dtype.kind == "f" and not np.isfinite(a).all():
-            i = int(np.flatnonzero(~np.isfinite(a.reshape(len(a), -1)).all(axis=1))[0])
-            return f"{name}[{i}] holds a NaN or infinite value"
-    desc = arrays["descriptors"]
-    if header["kind"] == "patch" and desc.size and float(np.abs(desc).max()) > PATCH_LIMIT:
-        big = np.abs(desc.reshape(len(desc), -1)) > PATCH_LIMIT
-        i = int(np.flatnonzero(big.any(axis=1))[0])
-        value = float(np.abs(desc[i]).max())
-        return (
-            f"descriptors[{i}] holds {value:.3g}, outside +-{PATCH_LIMIT:g}, the range of a "
-            "patch-normalised image"
-        )
-    return None
+    return value_problem(header["kind"], arrays["descriptors"], fi, arrays.get("positions"))
 
 
 def load_map(path: str | Path) -> TopoMap:

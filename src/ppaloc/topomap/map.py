@@ -12,7 +12,7 @@ import numpy as np
 from ppaloc.place import HAAR_WORDS, LOWRES_GRIDS, PATCH_SHAPE, unpack_bits, unpack_plane
 from ppaloc.topomap.layout import KIND_BLOCK_SHAPES, SnakeLayout, layout_for
 
-__all__ = ["KIND_SPECS", "TopoMap"]
+__all__ = ["KIND_SPECS", "PATCH_LIMIT", "TopoMap", "value_problem"]
 
 KIND_SPECS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
     **{kind: (np.dtype(np.uint8), (g, g)) for kind, g in LOWRES_GRIDS.items()},
@@ -24,6 +24,44 @@ KIND_SPECS: dict[str, tuple[np.dtype, tuple[int, ...]]] = {
 
 Other kinds (a baseline's own descriptors) are accepted with any numeric dtype.
 """
+
+
+#: The largest value a ``"patch"`` map's descriptors may hold: each is a z-score within
+#: its tile, at most ``(n - 1) / sqrt(n)`` for a tile of ``n`` pixels (7.875 for the 8x8
+#: tiles of :func:`ppaloc.place.patch_image`), below ``sqrt(2048)`` for any tile of the
+#: 64x32 image. A larger value is an altered map, and near float32's limit its distances
+#: overflow to infinity.
+PATCH_LIMIT = 46.0
+
+
+def value_problem(
+    kind: str,
+    descriptors: np.ndarray,
+    frame_index: np.ndarray,
+    positions: np.ndarray | None,
+) -> str | None:
+    """The first value no map can hold, in words, or None: a reference frame number below
+    0, a NaN or infinity in float descriptors or in the positions (the filters' distances
+    and the evaluation's errors would be NaN), a ``"patch"`` value beyond
+    :data:`PATCH_LIMIT`. One check for the constructor and for :func:`~ppaloc.topomap.
+    load_map` alike, so a map that can be made can be saved and loaded again."""
+    fi = np.asarray(frame_index)
+    if len(fi) and int(fi.min()) < 0:
+        i = int(np.argmin(fi))
+        return f"frame_index[{i}] is {int(fi[i])}; reference frame numbers are >= 0"
+    for name, a in (("descriptors", descriptors), ("positions", positions)):
+        if a is not None and a.dtype.kind == "f" and a.size and not np.isfinite(a).all():
+            i = int(np.flatnonzero(~np.isfinite(a.reshape(len(a), -1)).all(axis=1))[0])
+            return f"{name}[{i}] holds a NaN or infinite value"
+    d = descriptors
+    if kind == "patch" and d.size and float(np.abs(d).max()) > PATCH_LIMIT:
+        i = int(np.flatnonzero((np.abs(d.reshape(len(d), -1)) > PATCH_LIMIT).any(axis=1))[0])
+        value = float(np.abs(d[i]).max())
+        return (
+            f"descriptors[{i}] holds {value:.3g}, outside +-{PATCH_LIMIT:g}, the range of a "
+            "patch-normalised image"
+        )
+    return None
 
 
 @dataclass(eq=False)
@@ -68,6 +106,10 @@ class TopoMap:
     places: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        if not isinstance(self.kind, str) or not self.kind:
+            raise ValueError(
+                f"kind must name what a node holds (a str such as 'lbp'), got {self.kind!r:.40}"
+            )
         self.descriptors = np.asarray(self.descriptors)
         if self.descriptors.ndim == 0:
             raise ValueError("descriptors must have one entry per node, shape (N, ...)")
@@ -98,6 +140,9 @@ class TopoMap:
                     f"got {self.positions.shape}"
                 )
 
+        problem = value_problem(self.kind, self.descriptors, self.frame_index, self.positions)
+        if problem:
+            raise ValueError(problem)
         if self.places is not None:
             self.places = np.asarray(self.places)
             if self.places.shape != (len(self.descriptors),) or not np.issubdtype(
