@@ -22,13 +22,16 @@ def to_grey(frame: np.ndarray) -> np.ndarray:
 
     Colour is converted with the ITU-R 601 luma weights (0.299 R + 0.587 G + 0.114 B),
     the rule Pillow's ``convert("L")`` uses; alpha is ignored; float frames are taken as
-    [0, 1] and scaled to [0, 255].
+    [0, 1] and scaled to [0, 255]; uint16 frames are 16-bit images, scaled to 8 bits as
+    :func:`ppaloc.datasets.images.read_grey` scales a 16-bit file; other integer frames
+    must hold grey levels 0-255.
 
     Raises
     ------
     DataError
         A frame of another shape, of values that are not real numbers (text, objects,
-        complex) or holding NaN or infinite values (no grey level stands for them).
+        complex), holding NaN or infinite values (no grey level stands for them), or of
+        integers outside 0-255 (other than uint16).
     """
     a = np.asarray(frame)
     if a.dtype.kind not in "biuf":
@@ -42,6 +45,15 @@ def to_grey(frame: np.ndarray) -> np.ndarray:
             f"a frame of shape {a.shape} holds {bad} NaN or infinite value(s), which no grey "
             "level stands for: give finite values"
         )
+    if a.dtype == np.uint16:  # a 16-bit image: scaled to 8 bits as read_grey scales one
+        a = np.rint(a * (255.0 / 65535.0)).astype(np.uint8)
+    elif a.dtype.kind in "iu" and a.dtype != np.uint8 and a.size:
+        lo, hi = int(a.min()), int(a.max())
+        if lo < 0 or hi > 255:  # clipped, it was a frame almost all black or white
+            raise DataError(
+                f"a frame of {a.dtype} holds values from {lo} to {hi}, outside the grey levels "
+                "0-255: give uint8 (0-255), uint16 (a 16-bit image) or floats in [0, 1]"
+            )
     if a.ndim == 3 and a.shape[2] in (3, 4):
         a = a[..., :3].astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)
         a = np.rint(a) if np.issubdtype(np.asarray(frame).dtype, np.integer) else a

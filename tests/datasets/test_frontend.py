@@ -51,6 +51,9 @@ def test_colour_uses_601_luma():
         (np.zeros((4, 4), object), r"must hold real numbers, got dtype object"),
         (np.zeros((4, 4, 2)), r"must be 2-D grey or HxWx3/4 colour, got shape \(4, 4, 2\)"),
         (np.zeros((0, 5), np.uint8), r"an empty frame \(shape \(0, 5\)\) cannot be shown"),
+        # clipped to 0-255 before, a frame almost all black or white
+        (np.full((4, 4), 300, np.int64), r"int64 holds values from 300 to 300, outside"),
+        (np.array([[-3, 9]], np.int16), r"int16 holds values from -3 to 9, outside the grey"),
     ],
 )
 def test_a_frame_no_grey_level_stands_for_is_refused(frame, message):
@@ -59,3 +62,24 @@ def test_a_frame_no_grey_level_stands_for_is_refused(frame, message):
     with pytest.raises(DataError, match=message) as err:
         to_sensor(frame)
     assert "\n" not in str(err.value)
+
+
+def test_a_16_bit_frame_is_scaled_as_a_16_bit_file_is():
+    # uint16 was clipped at 255: a 16-bit ramp came out 99.6% white
+    ramp = np.rint(np.linspace(0, 65535, 256))[None, :].repeat(4, axis=0).astype(np.uint16)
+    grey = to_grey(ramp)
+    assert grey[0, 0] == 0 and grey[0, -1] == 255 and grey[0, 128] in (128, 129)
+    assert to_grey(np.stack([ramp] * 3, axis=-1)).tolist() == grey.tolist()  # colour alike
+    assert to_grey(np.full((2, 2), 200, np.int32)).tolist() == [[200, 200], [200, 200]]
+
+
+def test_a_16_bit_frame_reads_as_its_file_does(tmp_path):
+    from PIL import Image
+
+    from ppaloc.datasets.images import read_grey
+
+    ramp = np.rint(np.linspace(0, 65535, 64))[None, :].repeat(4, axis=0).astype(np.uint16)
+    Image.fromarray(ramp).save(tmp_path / "ramp.png")
+    got = read_grey(tmp_path / "ramp.png")
+    got = got[0] if isinstance(got, tuple) else got
+    assert to_grey(ramp).tolist() == np.asarray(got).tolist()
