@@ -122,6 +122,28 @@ def test_localisation_error_m_golden():
     assert m.error_m_median == pytest.approx((1 + np.hypot(10, 3)) / 2)
 
 
+@pytest.mark.parametrize(
+    ("nodes", "message"),
+    [
+        ([0, -1], r"predicted node \[1\] is -1, outside the 3 reference positions"),  # wrapped
+        ([0, 5], r"predicted node \[1\] is 5, outside the 3"),  # an IndexError
+        ([0.0, 1.5], r"predicted node \[1\] is 1.5, not a whole number"),  # truncated
+        ([0, 10**30], r"must be integers"),  # an OverflowError
+    ],
+)
+def test_predicted_nodes_that_index_no_reference_are_named(nodes, message):
+    ref, qry = np.array([[0.0], [1.0], [50.0]]), np.array([[0.0], [1.0]])
+    with pytest.raises(ValueError, match=message):
+        evaluate_estimates(nodes, [1, 2], [[0], [1]], reference_positions=ref, query_positions=qry)
+
+
+def test_a_fractional_node_is_not_counted_correct():
+    # 0.9 was truncated to node 0 and counted a true match
+    with pytest.raises(ValueError, match=r"predicted node \[0\] is 0.9, not a whole number"):
+        is_correct([0.9], [[0]])
+    assert is_correct(np.array([2.0, 7.0]), [[1, 2], [3]]).tolist() == [True, False]
+
+
 def test_localisation_error_frames_no_match_is_nan():
     assert np.isnan(localisation_error_frames([3], [[]])[0])
 

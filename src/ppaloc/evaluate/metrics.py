@@ -77,6 +77,23 @@ RECALL_DEFINITIONS: dict[str, str] = {
 """Recall definition letter -> what it divides by (see the module docstring)."""
 
 
+def _as_nodes(nodes: Any) -> np.ndarray:
+    """Predicted reference indices as int64, refusing values that are not whole numbers
+    (0.9 was truncated to 0 and counted correct) or beyond int64, in one line."""
+    a = np.asarray(nodes)
+    if a.dtype.kind == "f":
+        bad = ~np.isfinite(a) | (a != np.round(a))
+        if bad.any():
+            i = int(np.flatnonzero(bad.ravel())[0])
+            raise ValueError(f"predicted node [{i}] is {float(a.ravel()[i])!r}, not a whole number")
+    elif a.dtype.kind not in "biu":
+        raise ValueError(f"predicted nodes must be integers, got dtype {a.dtype}")
+    try:
+        return a.astype(np.int64, casting="unsafe" if a.dtype.kind == "f" else "same_kind").ravel()
+    except (OverflowError, TypeError):
+        raise ValueError("predicted nodes must be integers within int64") from None
+
+
 def _as_ground_truth(ground_truth: Sequence[Any], n: int) -> PackedSets:
     """The ground truth packed (no copy when it already is), checked to have ``n`` rows."""
     if len(ground_truth) != n:
@@ -108,7 +125,7 @@ def is_correct(nodes: np.ndarray, ground_truth: Sequence[Any]) -> np.ndarray:
     >>> is_correct([3, 7], [[2, 3, 4], []]).tolist()
     [True, False]
     """
-    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    nodes = _as_nodes(nodes)
     gt = _as_ground_truth(ground_truth, len(nodes))
     rows = _entry_rows(gt)
     hit = gt.indices == nodes[rows]
@@ -422,7 +439,7 @@ def localisation_error_frames(nodes: np.ndarray, ground_truth: Sequence[Any]) ->
     >>> localisation_error_frames([5, 10, 3], [[4, 5, 6], [2, 3, 4], []]).tolist()
     [0.0, 6.0, nan]
     """
-    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    nodes = _as_nodes(nodes)
     gt = _as_ground_truth(ground_truth, len(nodes))
     out = np.full(len(nodes), np.nan)
     nonempty = gt.lengths > 0
@@ -456,13 +473,19 @@ def localisation_error_m(
     >>> localisation_error_m([1, 0], [[0.0, 0.0], [3.0, 4.0]], [[0.0, 0.0], [0.0, 0.0]])
     array([5., 0.])
     """
-    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    nodes = _as_nodes(nodes)
     ref = np.asarray(reference_positions, dtype=np.float64)
     qry = np.asarray(query_positions, dtype=np.float64)
     ref = ref[:, None] if ref.ndim == 1 else ref
     qry = qry[:, None] if qry.ndim == 1 else qry
     if len(qry) != len(nodes):
         raise ValueError(f"{len(qry)} query positions for {len(nodes)} estimates")
+    outside = (nodes < 0) | (nodes >= len(ref))
+    if outside.any():  # -1 was measured against the last reference, N an IndexError
+        i = int(np.flatnonzero(outside)[0])
+        raise ValueError(
+            f"predicted node [{i}] is {int(nodes[i])}, outside the {len(ref)} reference positions"
+        )
     return np.linalg.norm(ref[nodes] - qry, axis=1)
 
 
@@ -608,7 +631,7 @@ def evaluate_estimates(
     >>> m.f1_max, m.precision_at_100r, m.n_soft
     (0.8571428571428571, 1.0, 1)
     """
-    nodes = np.asarray(nodes, dtype=np.int64).ravel()
+    nodes = _as_nodes(nodes)
     gt = _as_ground_truth(ground_truth, len(nodes))
     correct = is_correct(nodes, gt)
     has_match = gt.lengths > 0
