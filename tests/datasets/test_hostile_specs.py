@@ -5,6 +5,8 @@ Each case must be refused before any frame is rendered or read (fast, no hang).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -74,6 +76,10 @@ CASES = [
     # the spec string itself
     ("", "empty dataset spec"),
     ("   ", "empty dataset spec"),
+    # not a str: was called empty
+    (Path("synthetic"), "a dataset spec is a str, got PosixPath('synthetic')"),
+    (b"synthetic:", "a dataset spec is a str, got b'synthetic:'"),
+    (5, "a dataset spec is a str, got 5"),
     ("synthetic:?places=10&places=20", "key 'places' is given twice"),
     ("synthetic:?placez=10", "unknown key 'placez'"),
     ("synthetic:?places", "'places' is not key=value"),
@@ -90,7 +96,7 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize(("spec", "fragment"), CASES, ids=[c[0][:60] for c in CASES])
+@pytest.mark.parametrize(("spec", "fragment"), CASES, ids=[str(c[0])[:60] for c in CASES])
 def test_hostile_spec_is_one_line_error(spec: str, fragment: str) -> None:
     with pytest.raises(DataError) as info:
         load_dataset(spec)

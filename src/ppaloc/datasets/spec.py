@@ -284,7 +284,12 @@ def parse_spec(
     DatasetSpecError
         Naming the bad part of the spec and the fix.
     """
-    if not isinstance(text, str) or not text.strip():
+    if not isinstance(text, str):  # a Path, bytes or a number is not a spec, nor empty
+        raise DatasetSpecError(
+            f"a dataset spec is a str, got {text!r:.60}: write KIND:PATH[?key=value&...], e.g. "
+            "synthetic:?places=500&query=winter or folder:PATH"
+        )
+    if not text.strip():
         raise DatasetSpecError(
             "empty dataset spec: write KIND:PATH[?key=value&...], e.g. "
             "synthetic:?places=500&query=winter"
