@@ -243,6 +243,10 @@ def test_patch_values_no_tile_can_hold_are_refused(tmp_path):
         ),
         (lambda: TopoMap(None, np.zeros(3, np.uint32)), r"kind must name what a node holds"),
         (lambda: TopoMap("", np.zeros(3, np.uint32)), r"kind must name what a node holds"),
+        (  # an OverflowError before
+            lambda: TopoMap("lbp", np.zeros(3, np.uint32), frame_index=[0, 1, 2**70]),
+            r"frame_index must hold one reference frame number per node \(integers\)",
+        ),
     ],
 )
 def test_a_map_no_file_could_hold_is_refused_when_made(make, message):

@@ -124,7 +124,13 @@ class TopoMap:
                 )
         if self.frame_index is None:
             self.frame_index = np.arange(len(self.descriptors))
-        self.frame_index = np.asarray(self.frame_index, dtype=np.int64)
+        try:
+            self.frame_index = np.asarray(self.frame_index, dtype=np.int64)
+        except (OverflowError, TypeError, ValueError):
+            raise ValueError(
+                f"frame_index must hold one reference frame number per node (integers), got "
+                f"{self.frame_index!r:.60}"
+            ) from None
         if self.frame_index.shape != (len(self.descriptors),):
             raise ValueError(
                 f"frame_index must hold one reference frame per node, shape "
