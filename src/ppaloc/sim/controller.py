@@ -42,7 +42,7 @@ import numpy as np
 from ppaloc.errors import RegisterMisuseError, SimulatorError
 from ppaloc.sim import hostloops
 from ppaloc.sim.draw import DrawMixin
-from ppaloc.sim.observe import _flag, controller_call
+from ppaloc.sim.observe import controller_call, yes_no_argument
 from ppaloc.sim.registers import (
     DNEWS_SELECTORS,
     FLAG,
@@ -327,7 +327,7 @@ class ControllerMixin(DrawMixin):
         with "don't care" bits ``rx``, ``cx``, in hardware addresses (``scamp_addr``) or
         array coordinates (inspection; untimed, changes nothing)."""
         args = _pattern_args("address_mask", r, c, rx, cx)
-        return self._pattern(*args, _flag("address_mask", "scamp_addr", scamp_addr)).mask
+        return self._pattern(*args, yes_no_argument("address_mask", "scamp_addr", scamp_addr)).mask
 
     # ----------------------------------------------------------------------------------
     # DAC

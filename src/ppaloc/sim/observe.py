@@ -433,7 +433,7 @@ def _signature(fn: Callable[..., Any]) -> inspect.Signature:
 F = TypeVar("F", bound=Callable[..., Any])
 
 
-def _flag(call: str, name: str, value: Any) -> bool:
+def yes_no_argument(call: str, name: str, value: Any) -> bool:
     """A controller call's yes/no argument (``scamp_addr``) as a bool: True, False, or 1
     and 0 as a C++ caller passes them; anything else is named in one line (a list was an
     internal TypeError where the address patterns are cached)."""
@@ -455,7 +455,7 @@ def controller_call(fn: F) -> F:
     @functools.wraps(fn)
     def call(self, *args, **kwargs):
         if kwargs and "scamp_addr" in kwargs:
-            kwargs["scamp_addr"] = _flag(name, "scamp_addr", kwargs["scamp_addr"])
+            kwargs["scamp_addr"] = yes_no_argument(name, "scamp_addr", kwargs["scamp_addr"])
         if not self._observers or self._call_frame is not None:
             return fn(self, *args, **kwargs)
         return self._observe_call(name, fn, args, kwargs)
