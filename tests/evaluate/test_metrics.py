@@ -129,6 +129,7 @@ def test_localisation_error_m_golden():
         ([0, 5], r"predicted node \[1\] is 5, outside the 3"),  # an IndexError
         ([0.0, 1.5], r"predicted node \[1\] is 1.5, not a whole number"),  # truncated
         ([0, 10**30], r"must be integers"),  # an OverflowError
+        (np.array([0.0, 1e30]), r"predicted node \[1\] is 1e\+30, not a whole number within"),
     ],
 )
 def test_predicted_nodes_that_index_no_reference_are_named(nodes, message):

@@ -79,19 +79,18 @@ RECALL_DEFINITIONS: dict[str, str] = {
 
 def _as_nodes(nodes: Any) -> np.ndarray:
     """Predicted reference indices as int64, refusing values that are not whole numbers
-    (0.9 was truncated to 0 and counted correct) or beyond int64, in one line."""
+    within int64 (0.9 was truncated to 0 and counted correct; 1e30 cast to garbage with a
+    warning) in one line."""
     a = np.asarray(nodes)
     if a.dtype.kind == "f":
-        bad = ~np.isfinite(a) | (a != np.round(a))
+        bad = ~np.isfinite(a) | (a != np.round(a)) | (np.abs(a) >= 2.0**63)
         if bad.any():
             i = int(np.flatnonzero(bad.ravel())[0])
-            raise ValueError(f"predicted node [{i}] is {float(a.ravel()[i])!r}, not a whole number")
+            value = float(a.ravel()[i])
+            raise ValueError(f"predicted node [{i}] is {value!r}, not a whole number within int64")
     elif a.dtype.kind not in "biu":
         raise ValueError(f"predicted nodes must be integers, got dtype {a.dtype}")
-    try:
-        return a.astype(np.int64, casting="unsafe" if a.dtype.kind == "f" else "same_kind").ravel()
-    except (OverflowError, TypeError):
-        raise ValueError("predicted nodes must be integers within int64") from None
+    return a.astype(np.int64).ravel()
 
 
 def _as_ground_truth(ground_truth: Sequence[Any], n: int) -> PackedSets:
