@@ -74,9 +74,8 @@ def predictions_figure(predictions: list[Any], title: str) -> Any:
     for ax, p in zip(axes, drawn, strict=True):
         x, y, xlabel = _arrays(p)
         colour, label = np.asarray(p.score, dtype=np.float64), "score (higher = surer)"
-        half_span = colour.max() / 2 - colour.min() / 2 if colour.size else 0.0
         largest = np.abs(colour).max() if colour.size else 0.0
-        if half_span > np.finfo(np.float64).max / 2 or largest > _LARGEST_DRAWN:
+        if largest > _LARGEST_DRAWN:
             # finite scores whose span a float64 cannot hold (-1e308 and 1e308), or so
             # near its limit that the colour bar's ticks overflow (1e308 everywhere): the
             # colour bar cannot be drawn in score units, so the colours are their ranks

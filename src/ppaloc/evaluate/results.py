@@ -757,11 +757,8 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         raise DataError(f"{path}: 'methods' is empty; {_again(folder)}")
     for name, entry in summary["methods"].items():
         _check_fields(entry, name, path)
-    truth = (
-        summary.get("protocol", {}).get("ground_truth")
-        if isinstance(summary.get("protocol"), dict)
-        else None
-    )
+    protocol = summary["protocol"] if isinstance(summary.get("protocol"), dict) else {}
+    truth = protocol.get("ground_truth")
     if truth is not None and not isinstance(truth, dict):  # the report reads its tolerance
         raise DataError(
             f"{path}: protocol.ground_truth is {truth!r:.40}, expected a table; {_again(folder)}"
@@ -875,7 +872,7 @@ def load_results(folder: str | Path) -> tuple[RunResult, dict[str, Any]]:
         query_moved=ds.get("query_moved"),
         query_turning=_bools(ds.get("query_turning")),
         reference_turning=_bools(ds.get("reference_turning")),
-        protocol=summary["protocol"] if isinstance(summary.get("protocol"), dict) else {},
+        protocol=protocol,
         difference=_load_difference(folder, summary, n_queries, n_ref),
         ppaloc_version=summary.get("ppaloc_version", ""),
         created=summary.get("created", ""),

@@ -282,8 +282,9 @@ def _array_error(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str |
     fi = arrays["frame_index"]
     if fi.dtype.kind not in "iu":
         return f"frame_index holds {fi.dtype}, expected integers"
-    if len(fi) and int(fi.min()) < 0:  # as value_problem says it, before n_frames
-        return value_problem(header["kind"], arrays["descriptors"], fi, None)
+    problem = value_problem(header["kind"], arrays["descriptors"], fi, arrays.get("positions"))
+    if problem:
+        return problem
     n_frames = header.get("params", {}).get("n_frames")
     if isinstance(n_frames, int) and not isinstance(n_frames, bool) and len(fi):
         if int(fi.max()) >= n_frames:
@@ -292,7 +293,7 @@ def _array_error(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> str |
                 f"frame_index[{i}] is {int(fi[i])}, beyond params.n_frames = {n_frames} "
                 "reference frames"
             )
-    return value_problem(header["kind"], arrays["descriptors"], fi, arrays.get("positions"))
+    return None
 
 
 def load_map(path: str | Path) -> TopoMap:
