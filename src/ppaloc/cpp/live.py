@@ -170,7 +170,8 @@ class LiveView:
         self.announce = announce
         self.waited_s = 0.0
         self.live_state = LiveState(program, frames)
-        self._seen_texts = 0
+        self._seen_texts = 0  # the session's console lines shown, since its last clear
+        self._seen_clears = 0
         self._handles: dict[str, int] = {}  # a Python program's displays by name
         self._last = 0.0
         self._httpd: ThreadingHTTPServer | None = None
@@ -283,13 +284,18 @@ class LiveView:
     def _take(self, session: Session, *, finished: bool) -> None:
         frame = session.frame
         outputs = session.outputs[frame] if len(session.outputs) > frame else {}
-        texts = session.texts[self._seen_texts :]
+        cleared = session.console_clears != self._seen_clears
+        if cleared:  # the console was cleared since the last frame shown
+            self._seen_clears, self._seen_texts = session.console_clears, 0
+        texts = session.console[self._seen_texts :]
         self._seen_texts += len(texts)
         state = self.live_state
         with state.batch():
             state.name_displays(session.displays)
             for handle, plane in outputs.items():
                 state.put_display(handle, plane, frame, plane_to_image)
+            if cleared:
+                state.clear_texts()
             state.put_texts(texts)
             for text, item in session.gui_items.items():
                 value = session.gui_values.get(text, item.lo)

@@ -105,6 +105,11 @@ class LiveState:
         with self._lock:
             self._texts = (self._texts + list(lines))[-TEXT_LINES:]
 
+    def clear_texts(self) -> None:
+        """Empty the text panel (a program's ``vs_post_text("!clear")``)."""
+        with self._lock:
+            self._texts = []
+
     def put_item(self, name: str, kind: str, lo: int, hi: int, value: int) -> None:
         """Declare or update a slider or switch (``kind``) with range [lo, hi] and value."""
         with self._lock:

@@ -188,15 +188,20 @@ def run_files(session: Session) -> list[str]:
     --------
     >>> from types import SimpleNamespace
     >>> s = SimpleNamespace(displays={1: "", 2: "edges"}, outputs=[{1: 0}, {2: 0}],
-    ...                     saved_images={"a/b.bmp": 0})
-    >>> run_files(s)
-    ['displays/display/frame_0000.png', 'displays/edges/frame_0001.png', 'saved/a/b.bmp']
+    ...                     saved_images={"a/b.bmp": 0}, saved_texts={"log.txt": ""})
+    >>> for name in run_files(s):
+    ...     print(name)
+    displays/display/frame_0000.png
+    displays/edges/frame_0001.png
+    saved/a/b.bmp
+    saved/log.txt
     """
     names = display_folders(session.displays)
     shown = [
         _display_file(names[h], f) for f, outputs in enumerate(session.outputs) for h in outputs
     ]
-    return sorted([*shown, *(f"{SAVED_FOLDER}/{rel}" for rel in session.saved_images)])
+    saved = [*session.saved_images, *session.saved_texts]
+    return sorted([*shown, *(f"{SAVED_FOLDER}/{rel}" for rel in saved)])
 
 
 def write_outputs(result: RunResult, folder: Path) -> None:
@@ -239,6 +244,10 @@ def write_outputs(result: RunResult, folder: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(path) as f:
             Image.fromarray(image).save(f, format="BMP")
+    for rel, text in s.saved_texts.items():  # vs_post_text("!save NAME"): the console
+        path = folder / SAVED_FOLDER / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
 
 
 def _bad_access_place(lines: Sequence[str], files: frozenset[str]) -> str:

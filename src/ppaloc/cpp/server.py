@@ -230,6 +230,12 @@ class Session:
     out_folder: PurePath | None = None
     # vs_sim::save_image: 8-bit images by their path under the output folder's saved/
     saved_images: dict[str, np.ndarray] = field(default_factory=dict)
+    # vs_post_text("!save NAME"): the console's text by its path under saved/
+    saved_texts: dict[str, str] = field(default_factory=dict)
+    # the host app's console: the posted lines since its last "!clear", and how many
+    # times it was cleared (the live view's text panel follows both)
+    console: list[tuple[int, str]] = field(default_factory=list)
+    console_clears: int = 0
     _saved_folders: set[str] = field(default_factory=set)
     _bitstack: list | None = None
     _frame_start_us: float = 0.0
@@ -776,9 +782,52 @@ def _slider(kind: str) -> Handler:
     return handler
 
 
+#: A post that is one of the host app's console commands (vs_post.hpp, ``vs_post_text``):
+#: ``!clear`` or ``!save [NAME]`` as its first line; what follows a newline is text.
+CONSOLE_COMMAND = re.compile(r"!(clear|save)(?:[ \t]+([^\n]*?))?[ \t]*(?:\n|$)")
+
+
 def _post_text(s: Session, a: list, line: int) -> None:
-    s.host("usb_output", len(a[0].encode()))
-    s.texts.append((s.frame, a[0]))
+    """``vs_post_text``: the text goes to ``text.txt`` as posted, and to the host app's
+    console (the live view's text panel) unless it is a console command: ``!clear``
+    empties the console, ``!save NAME`` keeps its text as ``saved/NAME`` (``.txt`` added
+    to a name without a suffix; ``saved/console_FRAME.txt`` without a name)."""
+    text = a[0]
+    s.host("usb_output", len(text.encode()))
+    s.texts.append((s.frame, text))
+    command = CONSOLE_COMMAND.match(text)
+    if command is None:
+        s.console.append((s.frame, text))
+        return
+    verb, name = command.groups()
+    if verb == "clear":
+        s.note('vs_post_text("!clear"): the console cleared')
+        s.console.clear()
+        s.console_clears += 1
+    else:
+        _save_console(s, name or f"console_{s.frame:04d}", command.group(0).rstrip(), line)
+    rest = text[command.end() :]
+    if rest:
+        s.console.append((s.frame, rest))
+
+
+def _save_console(s: Session, name: str, posted: str, line: int) -> None:
+    """``!save NAME`` (``posted``): the console's posts, one a line, as ``saved/NAME`` (a
+    name refused as ``vs_sim::save_image`` refuses a path is a warning; nothing is
+    saved)."""
+    call = f"vs_post_text({posted!r})"
+    rel, problem = saved_image_path(name if PurePath(name).suffix else f"{name}.txt")
+    if rel is not None:
+        problem = _saved_clash(s, rel)
+    if problem is not None:
+        where = s.at(line) if line & LINE_MASK else s.program  # the shim sends no line
+        s.warnings.append(f"{where}: {call}: not saved: {problem}")
+        return
+    s.saved_images.pop(rel, None)  # the last save of a path wins
+    s.saved_texts[rel] = "".join(t if t.endswith("\n") else f"{t}\n" for _, t in s.console)
+    s._saved_folders.update(_parents(rel))
+    posts = f"{len(s.console)} post{'' if len(s.console) == 1 else 's'}"
+    s.note(f"{call}: the console's {posts} saved as {SAVED_FOLDER}/{rel}")
 
 
 def _wait(s: Session, a: list, line: int) -> None:
@@ -1142,18 +1191,30 @@ def _save_image(s: Session, a: list, line: int) -> None:
             "(ppaloc cpp run --out DIR, run_program(..., out=DIR))"
         )
     rel, problem = saved_image_path(path)
-    if rel is None:
+    if rel is not None:
+        problem = _saved_clash(s, rel)
+    if problem is not None:
         raise ProgramError(f"{s.at(line)}: {call}: {problem}")
-    parents = ["/".join(rel.split("/")[:k]) for k in range(1, rel.count("/") + 1)]
-    clash = next((p for p in parents if p in s.saved_images), None)
-    if clash is not None:
-        raise ProgramError(
-            f"{s.at(line)}: {call}: {clash!r} is a file this run saved, not a folder"
-        )
-    if rel in s._saved_folders:
-        raise ProgramError(f"{s.at(line)}: {call}: {rel!r} is a folder of files this run saved")
+    s.saved_texts.pop(rel, None)  # the last save of a path wins
     s.saved_images[rel] = plane_to_image(s.sim.read(reg))
-    s._saved_folders.update(parents)
+    s._saved_folders.update(_parents(rel))
+
+
+def _parents(rel: str) -> list[str]:
+    """The folders of a path under ``saved/``: ``a``, ``a/b`` for ``a/b/c.bmp``."""
+    return ["/".join(rel.split("/")[:k]) for k in range(1, rel.count("/") + 1)]
+
+
+def _saved_clash(s: Session, rel: str) -> str | None:
+    """Why ``saved/rel`` cannot be written beside what this run saved (a file where a
+    folder is wanted, or the reverse), or None."""
+    saved = s.saved_images.keys() | s.saved_texts.keys()
+    clash = next((p for p in _parents(rel) if p in saved), None)
+    if clash is not None:
+        return f"{clash!r} is a file this run saved, not a folder"
+    if rel in s._saved_folders:
+        return f"{rel!r} is a folder of files this run saved"
+    return None
 
 
 #: Every call the shim sends, by name: ``handler(session, args, line) -> answer or None``.
