@@ -358,3 +358,38 @@ def test_each_place_has_its_column_and_a_baseline_is_shown_on_its_descriptor():
         "patch-normalised image, SAD",
         "patch-normalised image, SAD",
     ]
+
+
+def test_latency_against_map_size_keeps_its_legend_and_tells_the_presets_apart():
+    # the demo's 19 methods (7 modelled too) ran the legend off the bottom of a 4.8 in
+    # figure, and the paper's preset drew exactly as its default (same colour, line, marker)
+    names = [f"weighted-node-m{i}" for i in range(8)] + ["weighted-node-paper-m0"]
+    names += [f"onsensor-m{i}" for i in range(6)] + ["onsensor-paper-m0"]
+    names += ["seqslam", "able-m", "particle-filter"]
+    rows = [
+        {
+            "method": name,
+            "n_nodes": n,
+            "latency_ms_median": 1.0 + i,
+            "latency_ms_p95": 2.0 + i,
+            **({"modelled_latency_ms_median": 0.5} if name.startswith("onsensor") else {}),
+        }
+        for i, name in enumerate(names)
+        for n in (64, 256)
+    ]
+    fig = figures.latency_vs_map_size({"rows": rows})
+    fig.canvas.draw()
+    (ax,) = fig.axes
+    legend = ax.get_legend()
+    assert len(legend.get_texts()) == len(names) + 7
+    box, page = legend.get_window_extent(), fig.bbox
+    assert page.y0 <= box.y0 and box.y1 <= page.y1 and box.x1 <= page.x1
+    lines = {line.get_label(): line for line in ax.lines}
+    for default, paper in [
+        ("weighted-node-m0", "weighted-node-paper-m0"),
+        ("onsensor-m0", "onsensor-paper-m0"),
+        ("onsensor-m0 (modelled on-sensor)", "onsensor-paper-m0 (modelled on-sensor)"),
+    ]:
+        a, b = lines[default], lines[paper]
+        assert a.get_color() == b.get_color() and a.get_linestyle() == b.get_linestyle()
+        assert a.get_markerfacecolor() != b.get_markerfacecolor(), paper

@@ -480,7 +480,8 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
                 "Latency against map size",
                 f"Median host time per step over {n} query frames on random maps of each "
                 "size (solid; the band reaches the 95th percentile) and, for simulated "
-                f"methods, the modelled on-sensor time per frame (dashed).{note}",
+                "methods, the modelled on-sensor time per frame (dashed); hollow markers: "
+                f"the paper's Algorithm 1 preset of a filter drawn in its colour.{note}",
                 figures.png_bytes(lat),
             )
         )
