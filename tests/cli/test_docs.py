@@ -174,3 +174,22 @@ def test_the_param_examples_the_command_gives_are_accepted(monkeypatch, capsys):
         _accepted(
             ["-d", "synthetic:?places=6", "-m", method, "--param", value], monkeypatch, capsys
         )
+
+
+@pytest.mark.parametrize("command", ["evaluate", "score", "sweep"])
+def test_the_tolerance_help_gives_each_kinds_default(command):
+    # it said "Accepted distance to the true frame, in frames." and no default, while
+    # the run takes the dataset's own (Nordland 1, Gardens Point 2, a folder 0)
+    from click.testing import CliRunner
+
+    from ppaloc.cli.main import cli
+    from ppaloc.datasets import load_dataset
+    from ppaloc.datasets.loaders import folder, gardens_point, nordland
+
+    text = CliRunner().invoke(cli, [command, "--help"], terminal_width=200).output
+    text = " ".join(text.split("--tolerance", 1)[1].split("--recall")[0].split())
+    synthetic = load_dataset("synthetic:?places=10").tolerance
+    assert f"{nordland.DEFAULT_TOLERANCE} for nordland and synthetic" in text
+    assert synthetic == nordland.DEFAULT_TOLERANCE
+    assert f"{gardens_point.DEFAULT_TOLERANCE} for gardens-point" in text
+    assert f"{folder.DEFAULT_TOLERANCE} for the other kinds" in text

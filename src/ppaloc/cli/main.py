@@ -315,6 +315,13 @@ _LIVE_PORT = click.option(
     show_default=True,
     help="Port of the --live page (0: a free one).",
 )
+_TOLERANCE = click.option(
+    "--tolerance",
+    type=int,
+    help="Accepted distance to the true frame, in frames [default: the dataset's own: "
+    "1 for nordland and synthetic, 2 for gardens-point (0 with gt=vprbench), 0 for the "
+    "other kinds; docs/datasets.md, Kinds].",
+)
 _RECALL = click.option(
     "--recall",
     type=click.Choice(["A", "B", "C"], case_sensitive=False),
@@ -442,7 +449,7 @@ run.toml:
     multiple=True,
     help="Method name, repeatable (default: every available method).",
 )
-@click.option("--tolerance", type=int, help="Accepted distance to the true frame, in frames.")
+@_TOLERANCE
 @_RECALL
 @click.option("--seed", type=int, help="Seed for methods that draw random numbers.")
 @click.option(
@@ -557,7 +564,7 @@ A CSV of `ppaloc localise` is read as it is (frame, path, reference_frame).""",
 @click.option(
     "--dataset", "-d", help="Dataset spec KIND:PATH?key=value whose queries were predicted."
 )
-@click.option("--tolerance", type=int, help="Accepted distance to the true frame, in frames.")
+@_TOLERANCE
 @_RECALL
 @_RESULTS_OUT
 @_NO_REPORT
@@ -732,7 +739,7 @@ cells and retry the failed ones.""",
     metavar="METHOD.KEY=VALUE",
     help="A method parameter, repeatable; a list sweeps it, e.g. 'seqslam.ds=[10, 20]'.",
 )
-@click.option("--tolerance", type=int, help="Accepted distance to the true frame, in frames.")
+@_TOLERANCE
 @click.option("--seed", type=int, help="Seed for methods that draw random numbers.")
 @click.option("--no-report", is_flag=True, default=None, help="Write the summary files only.")
 @_CONFIG
