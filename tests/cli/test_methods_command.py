@@ -129,3 +129,12 @@ def test_a_choice_is_checked_by_value_not_by_its_exact_type():
 
     assert _fits(Count(2), Literal[1, 2]) and not _fits(True, Literal[1, 2])  # True == 1
     assert _fits(True, Literal[True, "auto"]) and not _fits(1, Literal[True])
+
+
+def test_the_enhance_row_says_a_window_of_one_is_refused():
+    # the row read "an integer in [0, 1000000]" and "0 off", and enhance=1 was refused
+    (row,) = [r for r in parameter_table("weighted-node-lbp")[0] if r[0] == "enhance"]
+    assert "at least 2" in row[3] and "0 off" in row[3]
+    make_localiser("weighted-node-lbp", enhance=2)
+    with pytest.raises(Exception, match="at least 2"):
+        make_localiser("weighted-node-lbp", enhance=1)

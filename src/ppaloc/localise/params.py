@@ -1301,7 +1301,7 @@ PARAM_LINES = {
     "max_advance": "the most nodes one frame may advance",
     "contrast": "low-res: grey-level deviation each image tile is normalised to; 0 off",
     "contrast_patch": "low-res: side of the normalised tiles, in 32-pixel blocks (8: whole)",
-    "enhance": "host float only: SeqSLAM's contrast enhancement window, nodes; 0 off",
+    "enhance": "host float only: SeqSLAM's contrast enhancement window, nodes, at least 2; 0 off",
     "local_gain": "units a node loses when all 2 local_window neighbours are closer",
     "local_window": "neighbours each side the local term compares a node with",
     "speed_window": "forward frames over which the detected path gives its speed; 0 off",
