@@ -138,3 +138,12 @@ def test_the_enhance_row_says_a_window_of_one_is_refused():
     make_localiser("weighted-node-lbp", enhance=2)
     with pytest.raises(Exception, match="at least 2"):
         make_localiser("weighted-node-lbp", enhance=1)
+
+
+def test_the_lane_speed_row_says_one_is_refused():
+    # the row read "an integer in [0, 3]", and lane_speed=1 was refused
+    (row,) = [r for r in parameter_table("weighted-node-lbp")[0] if r[0] == "lane_speed"]
+    assert "2 .. max_advance, or 0" in row[3]
+    make_localiser("weighted-node-lbp", lane_speed=2)
+    with pytest.raises(Exception, match=r"2 \.\. max_advance"):
+        make_localiser("weighted-node-lbp", lane_speed=1)

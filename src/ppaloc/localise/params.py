@@ -1309,7 +1309,8 @@ PARAM_LINES = {
     "lost_window": "confidence 0 while the detected node held one place this many frames",
     "speed_vary": "forward costs halved where no speed shows and this many lately varied; 0 off",
     "still_decay": "confidence lost a still frame where the map kept moving; 0 off",
-    "lane_speed": "the fastest speed lane, places a frame (0: none faster; see slow_lane)",
+    "lane_speed": "the fastest speed lane, places a frame: 2 .. max_advance, or 0 (none "
+    "faster; see slow_lane)",
     "lanes": "speed lanes above one place a frame, evenly spaced up to lane_speed",
     "slow_lane": "one more lane at half a place a frame",
     "lane_lead": "report a lane's estimate where its confidence leads by this; 0 off",
