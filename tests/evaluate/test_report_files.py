@@ -393,3 +393,14 @@ def test_latency_against_map_size_keeps_its_legend_and_tells_the_presets_apart()
         a, b = lines[default], lines[paper]
         assert a.get_color() == b.get_color() and a.get_linestyle() == b.get_linestyle()
         assert a.get_markerfacecolor() != b.get_markerfacecolor(), paper
+
+
+def test_a_recall_at_k_the_method_cannot_give_is_explained(folder):
+    # the report showed '-' under Recall@5 and Recall@10 (every on-sensor method's
+    # Recall@K) and its definitions did not say why
+    write_report(folder)
+    md = (folder / "report.md").read_text()
+    row = next(line for line in md.splitlines() if line.startswith("| alpha |") and "0.0" in line)
+    assert row.split("|")[3:5] == [" - ", " - "]  # a ranking of one candidate: no @5, @10
+    (term,) = [line for line in md.splitlines() if line.startswith("- **Recall@K**")]
+    assert "'-' where the method ranks fewer than K candidates" in term

@@ -62,7 +62,9 @@ TERMS: tuple[tuple[str, str], ...] = (
         "Recall@K",
         "queries with a true match whose K best candidates (the method's ranking, as "
         "reference frames) include a correct one / queries with a true match; every query "
-        "counts whatever its confidence, so it has no threshold and no A/B/C variant",
+        "counts whatever its confidence, so it has no threshold and no A/B/C variant; '-' "
+        "where the method ranks fewer than K candidates a query (the on-sensor pipelines "
+        "rank none)",
     ),
 )
 """The words the column definitions use, defined once."""
