@@ -404,3 +404,51 @@ def test_a_recall_at_k_the_method_cannot_give_is_explained(folder):
     assert row.split("|")[3:5] == [" - ", " - "]  # a ranking of one candidate: no @5, @10
     (term,) = [line for line in md.splitlines() if line.startswith("- **Recall@K**")]
     assert "'-' where the method ranks fewer than K candidates" in term
+
+
+def test_figures_of_many_methods_draw_the_best_of_each_family(monkeypatch):
+    # the demo's many places of one filter must not push the baselines out of its figures
+    from types import SimpleNamespace
+
+    monkeypatch.setattr(figures, "MAX_DRAWN", 4, raising=False)
+    f1s = {
+        "weighted-node-lowres": 0.99,
+        "weighted-node-lowres16": 0.98,
+        "weighted-node-lbp": 0.97,
+        "weighted-node-haar": 0.96,
+        "weighted-node-patch": 0.95,
+        "weighted-node-paper-lbp": 0.94,
+        "single-frame": 0.30,
+        "particle-filter": 0.90,
+        "seqslam": 0.80,
+    }
+    runs = {
+        name: SimpleNamespace(method=name, params={}, metrics=SimpleNamespace(f1_max=f1))
+        for name, f1 in f1s.items()
+    }
+    result = SimpleNamespace(runs=runs)
+    # four families of five: the best of the filter's robust places, its paper preset,
+    # the particle filter and SeqSLAM; single-frame is the family of lowest max F1
+    assert figures.drawn_methods(result) == [
+        "weighted-node-lowres",
+        "weighted-node-paper-lbp",
+        "particle-filter",
+        "seqslam",
+    ]
+    assert "the best of each family" in figures.drawn_note(result)
+    monkeypatch.setattr(figures, "MAX_DRAWN", 7, raising=False)  # room for two places more
+    assert figures.drawn_methods(result) == [
+        "weighted-node-lowres",
+        "weighted-node-lowres16",
+        "weighted-node-lbp",
+        "weighted-node-paper-lbp",
+        "single-frame",
+        "particle-filter",
+        "seqslam",
+    ]
+    # predictions read from a file are each a family of one: the highest max F1 alone
+    for run in runs.values():
+        run.params = {"predictions": "p.csv"}
+    monkeypatch.setattr(figures, "MAX_DRAWN", 4, raising=False)
+    assert figures.drawn_methods(result) == list(f1s)[:4]
+    assert "of highest max F1 of the 9" in figures.drawn_note(result)

@@ -15,6 +15,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ppaloc.evaluate.run import RunResult
+from ppaloc.methods import METHODS
 
 __all__ = [
     "MAX_DRAWN",
@@ -23,6 +24,7 @@ __all__ = [
     "drawn_note",
     "latency_per_frame",
     "latency_vs_map_size",
+    "method_family",
     "png_bytes",
     "position_along_route",
     "pr_curves",
@@ -46,10 +48,22 @@ panel per method grew a panel per label, and a predictions file of hundreds of l
 took minutes to lay out, for panels too small to read."""
 
 
+def method_family(result: RunResult, name: str) -> str:
+    """The family of a run's method: its implementation and preset (the five places of
+    the robust filter are one family, the paper's preset another, each baseline its own);
+    a method ppaloc does not know (predictions read from a file) is a family of one."""
+    run = result.runs[name]
+    spec = None if "predictions" in run.params else METHODS.get(run.method)
+    if spec is None:
+        return f"file:{name}"
+    return f"{spec.target}:{ {**spec.defaults, **run.params}.get('preset', '') }"
+
+
 def drawn_methods(result: RunResult, among: Sequence[str] | None = None) -> list[str]:
     """The methods a figure draws of ``among`` (default: every method), in the result's
-    order: every one up to :data:`MAX_DRAWN`, else the :data:`MAX_DRAWN` of highest max F1
-    (the first on a tie)."""
+    order: every one up to :data:`MAX_DRAWN`; else the best of each family
+    (:func:`method_family`; by max F1, the first on a tie), so every baseline is drawn
+    beside the filter's places, then the others of highest max F1."""
     names = list(result.runs) if among is None else [n for n in result.runs if n in among]
     if len(names) <= MAX_DRAWN:
         return names
@@ -58,19 +72,29 @@ def drawn_methods(result: RunResult, among: Sequence[str] | None = None) -> list
         v = result.runs[name].metrics.f1_max
         return float(v) if np.isfinite(v) else -1.0
 
-    best = set(sorted(names, key=lambda n: -f1(n))[:MAX_DRAWN])  # sorted is stable
+    ranked = sorted(names, key=lambda n: -f1(n))  # sorted is stable
+    heads = list({method_family(result, n): n for n in reversed(ranked)}.values())
+    heads = sorted(heads, key=lambda n: -f1(n))[:MAX_DRAWN]
+    best = set(heads) | set([n for n in ranked if n not in heads][: MAX_DRAWN - len(heads)])
     return [n for n in names if n in best]
 
 
 def drawn_note(result: RunResult, among: Sequence[str] | None = None) -> str:
     """A caption's sentence saying which methods a figure of ``among`` (default: every
     method) leaves out ('' if none)."""
-    n = len(result.runs) if among is None else len(among)
+    names = list(result.runs) if among is None else list(among)
+    n = len(names)
     if n <= MAX_DRAWN:
         return ""
+    if len({method_family(result, m) for m in names}) == n:  # every method its own family
+        return (
+            f" Drawn: the {MAX_DRAWN} methods of highest max F1 of the {n}; the tables show "
+            "every method."
+        )
     return (
-        f" Drawn: the {MAX_DRAWN} methods of highest max F1 of the {n}; the tables show "
-        "every method."
+        f" Drawn: {MAX_DRAWN} of the {n} methods, the best of each family (each baseline, "
+        "the filter's robust and paper presets, on the host and on the sensor) and then "
+        "those of highest max F1; the tables show every method."
     )
 
 
