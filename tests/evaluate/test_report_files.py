@@ -142,16 +142,19 @@ def test_no_legend_covers_the_estimates_or_the_weights(folder):
     assert not any(ax.get_legend() for ax in position.axes)
     weights = figures.weights_heatmaps(result)
     (ax,) = [a for a in weights.axes if a.images]
-    assert ax.get_legend() is None and ax.get_title().endswith("; dashed: the true node")
+    assert ax.get_legend() is None
+    assert ax.get_title().endswith("; cyan: the accepted nodes lie between the lines")
 
 
 def test_the_weights_figure_draws_the_truth_in_nodes(folder):
     result, _ = load_results(folder)
     fig = figures.weights_heatmaps(result)
     (ax,) = [a for a in fig.axes if a.images]
-    truth = ax.lines[0].get_ydata()
-    # middle accepted frames 0, 1.5, 3, 4, none -> nodes of frames 0-1, 0-1, 3-4, 3-4
-    np.testing.assert_array_equal(truth, [0, 0, 2, 2, np.nan])
+    low, high = (line.get_ydata() for line in ax.lines)
+    # accepted frames 0, 1-2, 3, 4, none; nodes of frames 0-1, 2, 3-4, 5: the accepted
+    # nodes 0, 0-1, 2, 2 bracketed half a node out, so the weights there stay visible
+    np.testing.assert_array_equal(low, [-0.5, -0.5, 1.5, 1.5, np.nan])
+    np.testing.assert_array_equal(high, [0.5, 1.5, 2.5, 2.5, np.nan])
     assert ax.get_ylabel() == "map node (index)" and "4 nodes for 6 reference frames" in (
         ax.get_title()
     )

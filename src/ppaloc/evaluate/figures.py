@@ -313,6 +313,7 @@ def weights_heatmaps(result: RunResult) -> Figure | None:
     fig = _figure(11.0, 2.6 * len(runs) + 0.4)
     axes = fig.subplots(len(runs), 1, squeeze=False)[:, 0]
     truth = _true_reference(result.ground_truth)
+    first, last = _truth_span(result.ground_truth)
     for ax, run in zip(axes, runs, strict=True):
         w = np.asarray(run.weights, dtype=np.float64)
         finite = w[np.isfinite(w)]
@@ -336,9 +337,12 @@ def weights_heatmaps(result: RunResult) -> Figure | None:
             title += f" for {result.n_reference} reference frames"
         title += ")"
         if frames is not None and len(frames) == n_nodes:
+            # the accepted nodes bracketed, half a node out: a line on the true node hid
+            # the weights it was drawn to be compared with (a one-node peak entirely)
             q = np.arange(len(truth))
-            ax.plot(q, true_nodes(truth, frames), color="cyan", lw=0.9, ls="--", label="true node")
-            title += "; dashed: the true node"  # a legend inside hid the first frames' weights
+            for edge, side in ((first, -0.5), (last, 0.5)):
+                ax.plot(q, true_nodes(edge, frames) + side, color="cyan", lw=0.7, alpha=0.8)
+            title += "; cyan: the accepted nodes lie between the lines"  # no legend inside
         else:
             title += "; true node not drawn: the folder lacks the map's frame_index"
         ax.set_title(title)

@@ -436,8 +436,9 @@ def _figures(result: RunResult, bench: dict[str, Any] | None) -> list[ReportFigu
                 "Per-node weight (or score) after each query frame, for methods that "
                 "record it, in the method's own units; y is the map's nodes (a keyframe map "
                 "has fewer nodes than reference frames); colour clipped to the 1st-99.5th "
-                "percentile. Dashed: the true node, the node whose own reference frame is the "
-                "last at or before the middle accepted frame of the query."
+                "percentile. Cyan: the accepted nodes lie between the two lines, half a node "
+                "outside them (a node stands for the reference frames from its own to the "
+                "next node's), so the weights on the true nodes are not covered."
                 + figures.drawn_note(
                     result, [n for n, r in result.runs.items() if r.weights is not None]
                 ),
