@@ -99,6 +99,41 @@ def test_methods_searching_the_same_speeds_share_one_warning_line(caplog) -> Non
     assert all(out[n]["warning"].startswith(f"{n} searches") for n in "abc")
 
 
+class _FollowsStops(_Declares):
+    follows_stops = True
+
+
+def test_a_method_that_follows_stops_is_checked_on_the_moving_frames(caplog) -> None:
+    # one place a frame with a stop of 20 frames in the middle: a third of the windows
+    # stand still, outside every range, but a motion model that calls the stop still
+    # follows it (the demo's own route at 100 places warned the filter's paper preset)
+    centres = [*range(20), *[20] * 20, *range(21, 40)]
+    gt = [np.array([c]) for c in centres]
+    moved = np.diff(centres, prepend=-1) > 0
+    locs = {"a": _Declares((1.0, 1.0)), "b": _FollowsStops((1.0, 1.0))}
+    with caplog.at_level(logging.WARNING, logger="ppaloc.evaluate.speed"):
+        out = speed_checks(locs, gt, moved=moved)
+    assert out["a"]["share_outside"] > 0.25 and out["a"]["stops_left_out"] == 0
+    assert out["b"] == {
+        "range": [1.0, 1.0],
+        "query_speed_median": 1.0,
+        "share_outside": 0.0,
+        "warning": None,
+        "stops_left_out": 19,
+    }
+    assert [r.getMessage()[:2] for r in caplog.records] == ["a "]
+    # without the dataset's moves no frame is known to stand: both are checked whole
+    assert speed_checks(locs, gt)["b"]["warning"] is not None
+
+
+def test_the_filters_image_motion_follows_stops() -> None:
+    from ppaloc.methods import make_localiser
+
+    assert make_localiser("weighted-node-lbp").follows_stops
+    assert make_localiser("onsensor-lbp", preset="paper").follows_stops
+    assert not make_localiser("weighted-node-lbp", motion="always_forward").follows_stops
+
+
 def test_baselines_declare_their_speeds() -> None:
     from ppaloc.methods import make_localiser
 

@@ -838,7 +838,9 @@ def run_evaluation(
     for name, (params, _) in plan.items():
         check_oracle_moves(name, params, len(dataset.query), f"query frames of {spec!r}")
     gt = PackedSets.from_sets(dataset.ground_truth)
-    speeds = speed_checks({name: loc for name, (_, loc) in plan.items()}, gt)  # logs warnings
+    speeds = speed_checks(  # logs warnings
+        {name: loc for name, (_, loc) in plan.items()}, gt, moved=dataset.query_moved
+    )
     positions_ok = dataset.reference_positions is not None and dataset.query_positions is not None
     runs: dict[str, MethodRun] = {}
     names = list(plan)

@@ -19,6 +19,10 @@ ground truth and says so, one line for the methods that search the same speeds:
 - :func:`speed_checks`: the check of every method that declares a range (its localiser's
   ``speed_range``), logged as a warning, one line for the methods that search the same
   speeds; each method's entry of ``results.json`` carries its own as ``speed_check``.
+  A method whose motion model tells a standing query from a moving one (its localiser's
+  ``follows_stops``: the weighted-node filter's image test) is checked on the frames the
+  dataset says moved (``query_moved``), where it has them: a stop is not a speed it
+  has to search.
 """
 
 from __future__ import annotations
@@ -213,6 +217,12 @@ def _warning(
     )
 
 
+def _follows_stops(localiser: Any, moved: np.ndarray | None) -> bool:
+    """Whether ``localiser``'s check leaves the query's stops out: it follows them and the
+    dataset says where they are."""
+    return moved is not None and bool(getattr(localiser, "follows_stops", False))
+
+
 def _names(names: Sequence[str]) -> str:
     """``a``, ``a and b each``, ``a, b and c each``: the subject of a warning shared by
     methods."""
@@ -222,7 +232,11 @@ def _names(names: Sequence[str]) -> str:
 
 
 def speed_checks(
-    localisers: Mapping[str, Any], ground_truth: Sequence[np.ndarray], *, window: int = WINDOW
+    localisers: Mapping[str, Any],
+    ground_truth: Sequence[np.ndarray],
+    *,
+    window: int = WINDOW,
+    moved: np.ndarray | None = None,
 ) -> dict[str, dict[str, Any]]:
     """The speed check of every localiser that declares ``speed_range``, the warnings logged
     once (``logging.WARNING``, on stderr under ``ppaloc``'s command line): one line for the
@@ -238,27 +252,41 @@ def speed_checks(
         Accepted reference frames per query.
     window : int
         Query frames per window.
+    moved : ndarray of bool, shape (M,), optional
+        The dataset's ``query_moved`` (True where the query advanced since the frame
+        before; the first frame counts as moved). A localiser whose ``follows_stops`` is
+        true is checked on the other frames left out: the speeds of the query in motion.
 
     Returns
     -------
     dict of str to dict
-        :func:`check_speed`'s result per method that declares a range.
+        :func:`check_speed`'s result per method that declares a range, with
+        ``stops_left_out``: the standing frames its check left out (0 where none were).
     """
     declared = {
-        name: (tuple(rng), getattr(loc, "speed_remedy", None))
+        name: (tuple(rng), getattr(loc, "speed_remedy", None), _follows_stops(loc, moved))
         for name, loc in localisers.items()
         if (rng := getattr(loc, "speed_range", None)) is not None
     }
     if not declared:
         return {}
-    speeds = window_speeds(match_centres(ground_truth), window)
+    centres = match_centres(ground_truth)
+    speeds = {False: window_speeds(centres, window)}
+    left_out = 0
+    if moved is not None and any(stops for _, _, stops in declared.values()):
+        keep = np.asarray(moved, dtype=bool).copy()
+        keep[:1] = True  # the first frame has no frame before it
+        left_out = int(np.count_nonzero(~keep))
+        speeds[True] = window_speeds(centres[keep], window)
     out = {}
-    warned: dict[tuple[tuple[float, float], str | None], list[str]] = {}
-    for name, (rng, remedy) in declared.items():
-        out[name] = check_speed(speeds, (rng[0], rng[1]), method=name, remedy=remedy)
+    warned: dict[tuple[tuple[float, float], str | None, bool], list[str]] = {}
+    for name, (rng, remedy, stops) in declared.items():
+        out[name] = check_speed(speeds[stops], (rng[0], rng[1]), method=name, remedy=remedy)
+        out[name]["stops_left_out"] = left_out if stops else 0
         if out[name]["warning"]:
-            warned.setdefault(((float(rng[0]), float(rng[1])), remedy), []).append(name)
-    for (rng, remedy), names in warned.items():  # one line for the methods alike
+            key = ((float(rng[0]), float(rng[1])), remedy, stops)
+            warned.setdefault(key, []).append(name)
+    for (rng, remedy, _), names in warned.items():  # one line for the methods alike
         first = out[names[0]]
         line = _warning(
             _names(names),

@@ -947,6 +947,13 @@ class DeclaredSpeeds:
         (:func:`speed_remedy`)."""
         return speed_remedy(self.params)
 
+    @property
+    def follows_stops(self) -> bool:
+        """Whether the filter's motion model tells a standing query from a moving one (the
+        image test and the oracle do; ``always_forward`` does not): its speed check leaves
+        the query's stops out, which it follows whatever its range."""
+        return self.params.motion != "always_forward"
+
 
 def path_speed(
     places: Sequence[int],
