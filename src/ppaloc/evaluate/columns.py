@@ -199,7 +199,9 @@ COLUMNS: tuple[Column, ...] = (
         "s",
         "host wall-clock time of build_map, including reading and converting the reference frames "
         "it is the first to read (on a route short enough for the methods to share its converted "
-        "frames, the first method reads them for all)",
+        "frames, the first method reads them for all); a simulated sensor's first run on a "
+        "machine also compiles the simulator's code, which is cached for the next runs "
+        "(`ppaloc warm-up` compiles it ahead)",
     ),
     Column(
         "F1 (representation)",
