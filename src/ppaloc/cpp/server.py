@@ -19,7 +19,8 @@ import shlex
 import struct
 import warnings
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import PurePath, PureWindowsPath
 from typing import Any, Protocol
@@ -294,10 +295,17 @@ class Session:
     def host(self, call: str, units: float = 0.0) -> None:
         """Charge a host-side cost (loop control, output to the host) to stage ``loop``,
         the boundary docs/sim-controller.md keeps apart from the chip's work."""
+        with self.host_side():
+            self.sim.timing.charge_call(call, units)
+
+    @contextmanager
+    def host_side(self) -> Iterator[None]:
+        """Simulator calls made for the host, as a display output's own scan: in stage
+        ``loop``, their time the frame's ``loop_us`` (docs/cpp.md, "Modelled time")."""
         timing = self.sim.timing
         t0 = timing.now_us
         with self.sim.stage("loop"):
-            timing.charge_call(call, units)
+            yield
         self._loop_us += timing.now_us - t0
 
     def loop(self) -> int:
@@ -871,7 +879,9 @@ def _output_areg(s: Session, a: list, line: int) -> None:
 def _output_events(s: Session, a: list, line: int) -> None:
     dreg, handle, max_num, h_dir, v_dir = a
     s.display(handle, line)
-    buffer = events_buffer(_events(s, "scan_events", dreg, max_num, h_dir, v_dir), max_num)
+    with s.host_side():  # a display output's scan, as scamp5_output_image's
+        found = _events(s, "scan_events", dreg, max_num, h_dir, v_dir)
+    buffer = events_buffer(found, max_num)
     s.host("usb_output", len(buffer))
     s._output(handle, event_marks((s.sim.rows, s.sim.cols), buffer, max_num), line)
 
@@ -879,7 +889,8 @@ def _output_events(s: Session, a: list, line: int) -> None:
 def _output_boundingbox(s: Session, a: list, line: int) -> bytes:
     dreg, handle = a
     s.display(handle, line)
-    found = s.sim.scan_boundingbox(dreg, scamp_addr=True)
+    with s.host_side():  # a display output's scan, as scamp5_output_image's
+        found = s.sim.scan_boundingbox(dreg, scamp_addr=True)
     box = bytes(4) if found is None else np.asarray(found, np.uint8).ravel().tobytes()
     s.host("usb_output", len(box))
     # the register's own box, drawn even where its bytes are zeros (a 1 at the top-right
