@@ -632,7 +632,7 @@ Examples:
 @click.option(
     "--max-build-s",
     type=float,
-    help="Skip a size whose map build would take longer than this (seconds).",
+    help="Skip a size whose map build would take longer than this (seconds) [default: no limit].",
 )
 @click.option(
     "--param",
