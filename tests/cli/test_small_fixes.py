@@ -143,10 +143,10 @@ def test_map_never_writes_into_its_own_dataset_folder(tmp_path, capsys, mean_mat
 def test_matrix_folders_of_long_specs_differ_beyond_their_number():
     from ppaloc.cli.commands import matrix_folder
 
-    a = "nordland:../shared/data/nordland-64x32?ref=summer&query=winter&start=100&stop=300"
+    a = "synthetic:?places=300&query=winter&seed=1&speed_var=0.65&stops=2&start=10&stop=300"
     b = a.replace("stop=300", "stop=400")
     name_a, name_b = matrix_folder(0, a), matrix_folder(0, b)
-    assert name_a != name_b  # both cut to the same 48 characters, told apart by the hash
+    assert name_a != name_b  # both cut to the same 64 characters, told apart by the hash
     assert name_a[:-8] == name_b[:-8]
     assert matrix_folder(0, a) == name_a  # the same spec, the same name, every run
 

@@ -273,23 +273,30 @@ def matrix_folder(position: int, spec: str) -> str:
     """The results folder of the dataset at ``position`` (0-based) of a matrix run.
 
     ``NN-<kind>-<last part of each path>-<keys>-<hash>``: the spec made readable (its
-    folders dropped, runs of other characters as ``-``, cut to 48 characters) and the
-    first 8 hex digits of the SHA-256 of the whole spec as run, so two specs never share
-    a name even where their readable parts are cut alike, and the same spec gets the same
-    name in every run.
+    folders dropped, the kind left out where the first path's last part begins with it,
+    runs of other characters as ``-``, cut to 64 characters) and the first 8 hex digits
+    of the SHA-256 of the whole spec as run, so two specs never share a name even where
+    their readable parts are cut alike, and the same spec gets the same name in every run.
 
     Examples
     --------
     >>> matrix_folder(0, "nordland:../shared/data/nordland-64x32?ref=summer&query=winter")
-    '01-nordland-nordland-64x32-ref-summer-query-winter-2a00ad56'
+    '01-nordland-64x32-ref-summer-query-winter-2a00ad56'
+    >>> matrix_folder(1, "synthetic:?places=300&query=night")
+    '02-synthetic-places-300-query-night-077fb80d'
     """
     import hashlib
     import re
 
+    def readable(text: str) -> str:
+        return re.sub(r"[^A-Za-z0-9]+", "-", text).strip("-")
+
     head, _, query = spec.partition("?")
     kind, _, paths = head.partition(":")
-    parts = [kind, *(re.split(r"[/\\]", p.strip().rstrip("/"))[-1] for p in paths.split(","))]
-    slug = re.sub(r"[^A-Za-z0-9]+", "-", "-".join([*parts, query])).strip("-")[:48].strip("-")
+    tails = [re.split(r"[/\\]", p.strip().rstrip("/"))[-1] for p in paths.split(",")]
+    said = tails[0] and readable(tails[0]).lower().startswith(readable(kind).lower())
+    parts = [*([] if said else [kind]), *tails]
+    slug = readable("-".join([*parts, query]))[:64].strip("-")
     digest = hashlib.sha256(spec.encode("utf-8", "surrogatepass")).hexdigest()[:8]
     return f"{position + 1:02d}-{slug or 'dataset'}-{digest}"
 
