@@ -46,6 +46,10 @@ def test_estimate_and_topomap_basics():
 def test_route_dataset_checks_ground_truth_length():
     with pytest.raises(ValueError, match="ground truth has 1 rows for 2 queries"):
         RouteDataset("x", [np.zeros((2, 2))], [np.zeros((2, 2))] * 2, [np.array([0])])
+    # the speed check and the motion agreement read one entry per query frame
+    with pytest.raises(ValueError, match="query_moved has 3 entries for 2 queries"):
+        gt = [np.array([0])] * 2
+        RouteDataset("x", [np.zeros((2, 2))], [np.zeros((2, 2))] * 2, gt, query_moved=[1] * 3)
 
 
 def test_unknown_method_names_choices():

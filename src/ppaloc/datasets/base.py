@@ -68,6 +68,11 @@ class RouteDataset:
             raise ValueError(
                 f"ground truth has {len(self.ground_truth)} rows for {len(self.query)} queries"
             )
+        if self.query_moved is not None and len(self.query_moved) != len(self.query):
+            raise ValueError(
+                f"query_moved has {len(self.query_moved)} entries for {len(self.query)} "
+                "queries: one per query frame"
+            )
 
     @property
     def soft_ground_truth(self) -> Sequence[np.ndarray] | None:
