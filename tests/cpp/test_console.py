@@ -30,7 +30,7 @@ def result(cxx, tmp_path_factory):
 def test_clear_empties_the_console_and_save_keeps_what_it_holds(result):
     run, out = result
     s = run.session
-    assert s.saved_texts == {
+    assert s.saved == {
         "first.txt": "a0\n",
         "console_0002.txt": "c1\n",  # "!save" without a name: the frame's
         "notes/log.txt": "c1\n!saved\n",  # "!saved" is text, not a command
@@ -83,4 +83,4 @@ def test_the_live_views_text_panel_follows_the_console():
     assert post("!clear") == []
     assert post("!clear\nthree") == ["three"]
     assert post("!save kept") == ["three"]
-    assert session.saved_texts == {"kept.txt": "three\n"}
+    assert session.saved == {"kept.txt": "three\n"}

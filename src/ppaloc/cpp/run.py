@@ -188,7 +188,7 @@ def run_files(session: Session) -> list[str]:
     --------
     >>> from types import SimpleNamespace
     >>> s = SimpleNamespace(displays={1: "", 2: "edges"}, outputs=[{1: 0}, {2: 0}],
-    ...                     saved_images={"a/b.bmp": 0}, saved_texts={"log.txt": ""})
+    ...                     saved={"a/b.bmp": 0, "log.txt": ""})
     >>> for name in run_files(s):
     ...     print(name)
     displays/display/frame_0000.png
@@ -200,8 +200,7 @@ def run_files(session: Session) -> list[str]:
     shown = [
         _display_file(names[h], f) for f, outputs in enumerate(session.outputs) for h in outputs
     ]
-    saved = [*session.saved_images, *session.saved_texts]
-    return sorted([*shown, *(f"{SAVED_FOLDER}/{rel}" for rel in saved)])
+    return sorted([*shown, *(f"{SAVED_FOLDER}/{rel}" for rel in session.saved)])
 
 
 def write_outputs(result: RunResult, folder: Path) -> None:
@@ -239,15 +238,15 @@ def write_outputs(result: RunResult, folder: Path) -> None:
     (folder / "timing.json").write_text(json.dumps(result.timing(), indent=1), encoding="utf-8")
     (folder / "summary.json").write_text(json.dumps(result.summary(), indent=1), encoding="utf-8")
     (folder / "stdout.txt").write_text(result.stdout, encoding="utf-8")
-    for rel, image in s.saved_images.items():  # vs_sim::save_image, as 8-bit grey BMPs
+    # vs_sim::save_image as 8-bit grey BMPs, vs_post_text("!save NAME") as UTF-8 text
+    for rel, saved in s.saved.items():
         path = folder / SAVED_FOLDER / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(path) as f:
-            Image.fromarray(image).save(f, format="BMP")
-    for rel, text in s.saved_texts.items():  # vs_post_text("!save NAME"): the console
-        path = folder / SAVED_FOLDER / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text, encoding="utf-8")
+            if isinstance(saved, str):
+                f.write(saved.encode("utf-8"))
+            else:
+                Image.fromarray(saved).save(f, format="BMP")
 
 
 def _bad_access_place(lines: Sequence[str], files: frozenset[str]) -> str:

@@ -229,10 +229,9 @@ class Session:
     live: LiveHook | None = None
     files: dict[int, str] = field(default_factory=dict)
     out_folder: PurePath | None = None
-    # vs_sim::save_image: 8-bit images by their path under the output folder's saved/
-    saved_images: dict[str, np.ndarray] = field(default_factory=dict)
-    # vs_post_text("!save NAME"): the console's text by its path under saved/
-    saved_texts: dict[str, str] = field(default_factory=dict)
+    # by path under the output folder's saved/ (the last save of a path wins): an 8-bit
+    # image of vs_sim::save_image, or the console's text of vs_post_text("!save NAME")
+    saved: dict[str, np.ndarray | str] = field(default_factory=dict)
     # the host app's console: the posted lines since its last "!clear", and how many
     # times it was cleared (the live view's text panel follows both)
     console: list[tuple[int, str]] = field(default_factory=list)
@@ -831,8 +830,7 @@ def _save_console(s: Session, name: str, posted: str, line: int) -> None:
         where = s.at(line) if line & LINE_MASK else s.program  # the shim sends no line
         s.warnings.append(f"{where}: {call}: not saved: {problem}")
         return
-    s.saved_images.pop(rel, None)  # the last save of a path wins
-    s.saved_texts[rel] = "".join(t if t.endswith("\n") else f"{t}\n" for _, t in s.console)
+    s.saved[rel] = "".join(t if t.endswith("\n") else f"{t}\n" for _, t in s.console)
     s._saved_folders.update(_parents(rel))
     posts = f"{len(s.console)} post{'' if len(s.console) == 1 else 's'}"
     s.note(f"{call}: the console's {posts} saved as {SAVED_FOLDER}/{rel}")
@@ -1206,8 +1204,7 @@ def _save_image(s: Session, a: list, line: int) -> None:
         problem = _saved_clash(s, rel)
     if problem is not None:
         raise ProgramError(f"{s.at(line)}: {call}: {problem}")
-    s.saved_texts.pop(rel, None)  # the last save of a path wins
-    s.saved_images[rel] = plane_to_image(s.sim.read(reg))
+    s.saved[rel] = plane_to_image(s.sim.read(reg))
     s._saved_folders.update(_parents(rel))
 
 
@@ -1219,8 +1216,7 @@ def _parents(rel: str) -> list[str]:
 def _saved_clash(s: Session, rel: str) -> str | None:
     """Why ``saved/rel`` cannot be written beside what this run saved (a file where a
     folder is wanted, or the reverse), or None."""
-    saved = s.saved_images.keys() | s.saved_texts.keys()
-    clash = next((p for p in _parents(rel) if p in saved), None)
+    clash = next((p for p in _parents(rel) if p in s.saved), None)
     if clash is not None:
         return f"{clash!r} is a file this run saved, not a folder"
     if rel in s._saved_folders:
