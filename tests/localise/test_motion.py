@@ -1,5 +1,9 @@
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from scipy import ndimage
 
 from ppaloc.errors import PpalocError
 from ppaloc.localise.motion import (
@@ -9,6 +13,8 @@ from ppaloc.localise.motion import (
     ImageMotion,
     OracleMotion,
     check_moves,
+    coherent_crossings,
+    counted_decision,
     crossing_counts,
     forward_decision,
     motion_planes,
@@ -53,8 +59,8 @@ def test_expanding_pattern_is_forward_still_is_stay():
     assert m.step(square(40)) is False  # first frame: no predecessor
     assert m.step(square(56)) is True  # edges moved outwards
     assert m.step(square(56)) is False  # nothing moved
-    changed, support = m.last_counts
-    assert changed == 0 and support > 0
+    changed, support, coherent = m.last_counts  # the coherent count says still
+    assert changed is None and coherent == 0 and support > 0
 
 
 def test_noise_is_stay():
@@ -72,7 +78,7 @@ def test_featureless_is_forward():
     m = ImageMotion()
     m.step(np.zeros((256, 256), np.uint8))
     assert m.step(np.zeros((256, 256), np.uint8)) is True
-    assert m.last_counts == (0, 0)
+    assert m.last_counts == (None, 0, None)  # featureless: forward on support alone
 
 
 def test_decision_golden():
@@ -82,6 +88,10 @@ def test_decision_golden():
     assert forward_decision(391, 50000, shift=7) is True
     assert forward_decision(0, 1023) is True
     assert forward_decision(0, 1024) is False
+    assert forward_decision(782, 50000, 391, coherent_shift=7) is True  # 391 * 128 = 50048
+    assert forward_decision(782, 50000, 390, coherent_shift=7) is False
+    assert forward_decision(781, 50000, 50000, coherent_shift=7) is False  # both must pass
+    assert forward_decision(0, 1023, 0, coherent_shift=7) is True
 
 
 def test_crossing_counts():
@@ -90,6 +100,76 @@ def test_crossing_counts():
     u1 = np.array([0, 1, 1, 0], bool)
     d1 = np.array([1, 0, 0, 0], bool)
     assert crossing_counts((u0, d0), (u1, d1)) == (2, 3)
+
+
+def test_coherent_counts_keep_only_crossings_with_a_crossing_neighbour():
+    u0 = np.zeros((4, 4), bool)
+    d0 = np.zeros((4, 4), bool)
+    d0[0, 0] = d0[2, 1] = d0[2, 2] = d0[3, 3] = True  # crossed: one alone, a pair, a corner
+    u1 = d0.copy()
+    d1 = np.zeros((4, 4), bool)
+    d1[3, 2] = True  # one more textured pixel, crossed by nothing
+    assert crossing_counts((u0, d0), (u1, d1)) == (4, 5)
+    assert crossing_counts((u0, d0), (u1, d1), coherent=True) == (4, 5, 2)
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(bool, st.tuples(st.integers(1, 9), st.integers(1, 9))))
+def test_coherent_crossings_are_those_with_a_crossing_4_neighbour(crossed):
+    cross = np.array([[0, 1, 0], [1, 0, 1], [0, 1, 0]])
+    near = ndimage.convolve(crossed.astype(int), cross, mode="constant", cval=0)
+    np.testing.assert_array_equal(coherent_crossings(crossed), crossed & (near > 0))
+
+
+def test_still_noise_is_dropped_and_a_moved_edge_kept():
+    """Pixel noise alone crosses single pixels (forward without the coherent count); a
+    square that grows crosses rings of them (forward either way)."""
+    rng = np.random.default_rng(3)
+    f = square(40).astype(int)
+    a, b = (np.clip(f + rng.normal(0, 6, f.shape), 0, 255).astype(np.uint8) for _ in range(2))
+    changed, support, coherent = crossing_counts(motion_planes(a), motion_planes(b), coherent=True)
+    assert changed << 6 >= support > coherent << 8  # the first bar passes, the second not
+    for coherent_shift, want in ((0, True), (8, False)):
+        m = ImageMotion(coherent_shift=coherent_shift)
+        m.step(a)
+        assert m.step(b) is want
+        assert m.last_counts == ((changed, support, None) if want else (None, support, coherent))
+        assert m.step(np.clip(square(48) + (b - square(40)), 0, 255)) is True
+    with pytest.raises(PpalocError, match="motion coherent_shift=-1 must be a non-negative"):
+        ImageMotion(coherent_shift=-1)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(0, 70000),
+    st.integers(0, 70000),
+    st.integers(0, 70000),
+    st.integers(0, 16),
+    st.integers(0, 16),
+    st.integers(0, 3000),
+)
+def test_counted_decision_is_the_rule_and_reads_support_and_coherent_first(
+    a, b, c, shift, coherent_shift, min_support
+):
+    """Whatever it leaves unread, the decision is :func:`forward_decision`'s on every count;
+    the first count read is ``changed`` without the coherent count, ``support`` with it."""
+    coherent, changed, support = sorted((a, b, c))  # coherent <= changed <= support
+    bars = {"shift": shift, "min_support": min_support, "coherent_shift": coherent_shift}
+    read: list[str] = []
+
+    def counter(name: str, value: int):
+        return lambda: read.append(name) or value
+
+    moved, counts = counted_decision(
+        counter("changed", changed), counter("support", support),
+        counter("coherent", coherent), **bars,
+    )  # fmt: skip
+    assert moved == forward_decision(changed, support, coherent, **bars)
+    assert read[0] == ("support" if coherent_shift else "changed")
+    assert [f for f in counts._fields if getattr(counts, f) is not None] == sorted(
+        read, key=counts._fields.index
+    )
+    assert len(read) == len(set(read))
 
 
 def test_reset_forgets_previous_frame():
@@ -124,6 +204,10 @@ def test_the_dead_zone_is_the_presets():
     assert WeightedNodeLocaliser("lbp").motion_model.margin == 4
     assert WeightedNodeLocaliser("lbp", preset="paper").motion_model.margin == 3
     assert ImageMotion().margin == MARGIN
+    assert FilterParams.create("lbp").motion_coherent_shift == 8
+    assert FilterParams.create("lbp", preset="paper").motion_coherent_shift == 0
+    assert WeightedNodeLocaliser("lbp").motion_model.coherent_shift == 8
+    assert WeightedNodeLocaliser("lbp", preset="paper").motion_model.coherent_shift == 0
 
 
 @pytest.mark.parametrize("moves", [float("nan"), [0, 2], [[True]], ["yes"], [0.5], "10"])

@@ -254,6 +254,87 @@ def test_motion_counts_are_exact():
     assert count(pipe.sensor, tmp) == SIZE * SIZE  # full 8x16 blocks: -128, no clip
 
 
+def _motion_counts(frames: list[np.ndarray], margin: int) -> list[tuple[int, int, int]]:
+    """The image motion test's ``(changed, support, coherent)`` in numpy at any array size:
+    block means of ``SIZE // 8`` pixels, the dead zone, the crossings, those of them with
+    a crossing among their four neighbours."""
+    from ppaloc.localise.motion import coherent_crossings
+
+    b = frames[0].shape[0] // 8
+    out, prev = [], None
+    for f in frames:
+        p = f.astype(np.int64)
+        sums = p.reshape(8, b, 8, b).sum(axis=(1, 3))
+        x = p * b * b - np.kron(sums, np.ones((b, b), np.int64))
+        u, d = x > 2 * b * b * margin, x < -2 * b * b * margin
+        if prev is not None:
+            crossed = (prev[0] & d) | (prev[1] & u)
+            coherent = int(coherent_crossings(crossed).sum())
+            out.append((int(crossed.sum()), int((u | d).sum()), coherent))
+        prev = (u, d)
+    return out
+
+
+@pytest.mark.parametrize("rep", ["lowres", "lbp", "lowres16"])
+@pytest.mark.parametrize(
+    ("shift", "coherent_shift", "read", "forward"),
+    [
+        (6, 8, "sk sk sk sk sk", "..F.F"),  # the defaults: the coherent count decides
+        (1, 12, "csk sk csk sk csk", "....F"),  # coherent between the bars: changed too
+        (6, 0, "cs cs cs cs cs", "..F.F"),  # the paper's test: changed, then support
+    ],
+)
+def test_motion_stage_counts_as_numpy_and_keeps_every_kept_register(
+    rep, shift, coherent_shift, read, forward
+):
+    """Consecutive frames with pixel noise (crossings alone) and a moved stripe (crossings
+    in runs): the counts the sensor reads are numpy's, its decisions the rule's, and
+    every digital register a role keeps (the valid node roots, the class masks, the
+    map's bits: some in R1-R4, which ``DNEWS`` overwrites with its direction) holds
+    what it held."""
+    from ppaloc.localise.motion import forward_decision
+
+    bars = {"motion_shift": shift, "motion_coherent_shift": coherent_shift}
+    params = FilterParams.create(rep, arithmetic="ppa8", **bars)
+    pipe = make_pipeline(rep, 4, params, size=SIZE)
+    rng = np.random.default_rng(9)
+    base = np.kron(rng.integers(0, 256, (16, 16)), np.ones((4, 4), np.int64))
+    frames = []
+    for move in (0, 0, 0, 3, 3, 9):
+        noisy = np.roll(base, move, axis=1) + rng.integers(-12, 13, base.shape)
+        frames.append(np.clip(noisy, 0, 255).astype(np.uint8))
+    roles = pipe.sensor.roles
+    kept = {
+        reg
+        for name, reg in roles.kept()
+        if reg.kind == "digital" and name not in ("d.u_prev", "d.d_prev")
+    }
+    assert {"R1", "R2", "R4"} <= {r.name for r in kept} if rep == "lowres" else kept
+    got, moved = [], []
+    for frame in frames:
+        pipe.capture(frame)
+        planes = {reg: rng.random((SIZE, SIZE)) < 0.5 for reg in kept}
+        for reg, plane in planes.items():
+            pipe.sim.write(reg, plane)
+        moved.append(pipe.motion(None))
+        for reg, plane in planes.items():
+            np.testing.assert_array_equal(pipe.sim.read(reg), plane, err_msg=reg.name)
+        got.append(pipe.planes.last_counts)
+    want = _motion_counts(frames, params.motion_margin)
+    names = {"c": "changed", "s": "support", "k": "coherent"}
+    for counts, full, letters in zip(got[1:], want, read.split(), strict=True):
+        assert [f for f in counts._fields if getattr(counts, f) is not None] == [
+            names[x] for x in "csk" if x in letters
+        ]
+        assert all(
+            getattr(counts, f) in (None, v) for f, v in zip(counts._fields, full, strict=True)
+        )
+    rule = [forward_decision(*w, shift=shift, coherent_shift=coherent_shift) for w in want]
+    assert moved[1:] == rule == [x == "F" for x in forward]
+    # the still frames' noise crosses pixels alone, the moved stripe's crossings run
+    assert want[0][0] > 4 * want[0][2] and want[2][0] < 2 * want[2][2]
+
+
 def test_make_pipeline_picks_the_places_of_the_representation():
     assert type(_pipe("lowres").places) is LowresPlaces
     assert type(_pipe("lbp", 4).places) is LbpPlaces

@@ -144,7 +144,7 @@ def motion_model(params: FilterParams) -> MotionModel | None:
     if params.motion == "always_forward":
         return AlwaysForward()
     if params.motion == "image":
-        return ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
+        return ImageMotion.of(params)
     return None
 
 

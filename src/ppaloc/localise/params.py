@@ -219,6 +219,10 @@ def _margin_default(representation: str, group: str, values: Mapping[str, Any]) 
     return MARGIN if group == "robust" else PAPER_MARGIN
 
 
+def _coherent_default(representation: str, group: str, values: Mapping[str, Any]) -> int:
+    return 8 if group == "robust" else 0
+
+
 def _keyframes_default(representation: str, group: str, values: Mapping[str, Any]) -> bool:
     return group == "robust" and values.get("motion", "image") == "image"
 
@@ -248,6 +252,11 @@ class FilterParams:
     motion_margin, motion_shift, motion_min_support : int
         The image motion test (:func:`ppaloc.localise.motion.forward_decision`); the
         dead zone ``motion_margin`` is 4 with the robust group, 3 with the paper's.
+    motion_coherent_shift : int
+        Forward also needs ``2**-motion_coherent_shift`` of the textured pixels crossed
+        beside another crossing (:func:`ppaloc.localise.motion.coherent_crossings`:
+        noise crosses pixels one by one); 0 turns it off. Default 8 (1/256) with the
+        robust group, 0 with the paper's (Algorithm 1 as the paper ran it).
     confidence_radius : int
         ``R`` of the confidence: best weight minus the best outside ``node +- R``.
     keyframes : bool
@@ -426,6 +435,9 @@ class FilterParams:
     )
     motion_shift: int = field(default=6, metadata=_param(None, "int", 6, 0, 16))
     motion_min_support: int = field(default=1024, metadata=_param(None, "int", 1024, 0, 256 * 256))
+    motion_coherent_shift: int = field(
+        default=8, metadata=_param(None, "int", _coherent_default, 0, 16)
+    )
     confidence_radius: int = field(default=10, metadata=_param(None, "int", 10, 0, MAX_WINDOW))
     keyframes: bool = field(default=True, metadata=_param(None, "bool", _keyframes_default))
     gain: int | None = field(default=4, metadata=_param("robust", "int", 4, 1, 32))
@@ -1298,6 +1310,7 @@ PARAM_LINES = {
     "motion_margin": "the motion test's dead zone, register units (two grey levels each)",
     "motion_shift": "forward where at least 2**-shift of the textured pixels saw an edge cross",
     "motion_min_support": "below this many textured pixels a frame counts as forward",
+    "motion_coherent_shift": "forward also needs 2**-shift crossed beside a crossing; 0 off",
     "confidence_radius": "confidence: the best weight minus the best outside +-R places",
     "keyframes": "one node per distinct place (a stop of the reference is one node)",
     "gain": "a frame's likelihood span between its best and its mean node, units",

@@ -111,7 +111,7 @@ def keyframe_test(params: FilterParams):
     """
     if not params.keyframes:
         return None
-    motion = ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
+    motion = ImageMotion.of(params)
     return motion.step
 
 
@@ -127,7 +127,7 @@ def place_test(params: FilterParams):
     """
     if params.keyframes or params.motion != "image" or not SCHEDULES[params.preset].runs:
         return None
-    motion = ImageMotion(params.motion_margin, params.motion_shift, params.motion_min_support)
+    motion = ImageMotion.of(params)
     return motion.step
 
 

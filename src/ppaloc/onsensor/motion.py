@@ -14,12 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ppaloc.localise.motion import forward_decision
+from ppaloc.localise.motion import MotionCounts, counted_decision
 from ppaloc.localise.params import FilterParams
 from ppaloc.onsensor.program import add_level, pull, tree_levels
 from ppaloc.onsensor.roles import DRegs
 from ppaloc.onsensor.sensor import Sensor
-from ppaloc.sim import FLAG, NEWS, Kernel, Register, east
+from ppaloc.sim import FLAG, NEWS, R1, R2, R3, R4, Kernel, Register, east, north, south, west
 
 __all__ = ["MotionPlanes", "count", "image_motion"]
 
@@ -32,12 +32,13 @@ class MotionPlanes:
     ----------
     have_prev : bool
         Whether the previous frame's planes are in ``d.u_prev`` and ``d.d_prev``.
-    last_counts : (int, int) or None
-        The last decision's ``(changed, support)``.
+    last_counts : MotionCounts or None
+        The counts the last decision read (the host's
+        :func:`ppaloc.localise.motion.counted_decision`).
     """
 
     have_prev: bool = False
-    last_counts: tuple[int, int] | None = None
+    last_counts: MotionCounts | None = None
 
     def forget(self) -> None:
         """No previous planes (a new query or a new traversal)."""
@@ -64,12 +65,23 @@ def image_motion(sensor: Sensor, memory: MotionPlanes, params: FilterParams) -> 
             memory.last_counts = None
             return False
         sensor.run(_logic, dr)
-        changed = count(sensor, dr.tmp_b)
-        support = count(sensor, dr.tmp_a)
-    memory.last_counts = (changed, support)
-    return forward_decision(
-        changed, support, shift=params.motion_shift, min_support=params.motion_min_support
-    )
+        crossings = [dr.tmp_b]  # where the crossings are when they are counted
+
+        def coherent() -> int:
+            source, neighbours, saves = _coherent_plan(sensor)
+            sensor.run(_coherent, dr, source, neighbours, saves)
+            crossings[0] = source
+            return count(sensor, neighbours)
+
+        moved, memory.last_counts = counted_decision(
+            lambda: count(sensor, crossings[0]),
+            lambda: count(sensor, dr.tmp_a),
+            coherent,
+            shift=params.motion_shift,
+            min_support=params.motion_min_support,
+            coherent_shift=params.motion_coherent_shift,
+        )
+    return moved
 
 
 def _diff(k: Kernel, out: Register, frame: Register, means: Register) -> None:
@@ -97,6 +109,50 @@ def _logic(k: Kernel, dr: DRegs) -> None:
     k.OR(dr.tmp_b, dr.cand, dr.tmp_a)  # changed
     k.OR(dr.tmp_a, dr.u, dr.d)  # support
     _keep(k, dr)
+
+
+#: The digital registers ``DNEWS`` overwrites with its direction first.
+_SELECTORS = (R1, R2, R3, R4)
+
+
+def _coherent_plan(sensor: Sensor) -> tuple[Register, Register, tuple]:
+    """``(source, neighbours, saves)`` of :func:`_coherent` for the sensor's roles.
+
+    ``DNEWS`` writes its direction into R1-R4 first, where some roles keep their planes
+    from frame to frame (the valid node roots; the 8x8 pipeline's class masks) and
+    ``tmp_b`` may hold the crossings. Once :func:`_logic` has run and ``support`` is
+    counted, ``u`` and ``d`` (copied to ``u_prev``, ``d_prev``), ``cand`` and ``tmp_a``
+    are free: the crossings move to one of them if they sit in R1-R4 (``source``, where
+    they stay to be counted), the coherent crossings are written to the next
+    (``neighbours``), and each kept plane in R1-R4 waits in one more (``saves``:
+    ``(kept, slot)`` pairs). ``pattern`` and ``root32`` are working roles, loaded again
+    before their next use.
+    """
+    dr = sensor.roles.d
+    free = [r for r in (dr.u, dr.d, dr.cand, dr.tmp_a) if r not in _SELECTORS]
+    kept = sorted({r for _, r in sensor.roles.kept() if r in _SELECTORS}, key=lambda r: r.index)
+    source = dr.tmp_b if dr.tmp_b not in _SELECTORS else free.pop(0)
+    if len(free) < 1 + len(kept):
+        raise AssertionError(
+            f"the coherent count needs {1 + len(kept)} free digital registers besides the "
+            f"crossings' and has {len(free)}"
+        )
+    neighbours = free.pop(0)
+    return source, neighbours, tuple(zip(kept, free, strict=False))
+
+
+def _coherent(k: Kernel, dr: DRegs, source: Register, neighbours: Register, saves: tuple) -> None:
+    """``neighbours := source AND the OR of its four neighbours`` (nothing beyond the
+    edge), the crossings (``tmp_b``) in ``source``; the planes kept in R1-R4 wait in
+    free registers meanwhile (:func:`_coherent_plan`)."""
+    if source != dr.tmp_b:
+        k.MOV(source, dr.tmp_b)
+    for kept, slot in saves:
+        k.MOV(slot, kept)
+    k.DNEWS(neighbours, source, north | east | south | west)
+    k.AND(neighbours, source, neighbours)
+    for kept, slot in saves:
+        k.MOV(kept, slot)
 
 
 def count(sensor: Sensor, dreg: Register) -> int:
