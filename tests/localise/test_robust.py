@@ -66,7 +66,9 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     confidence reported is the frame's (or the lane's) times the share of ``exp((x - max
     x) / concentration_temperature)`` held within one node of the detected one among
     the nodes within ``concentration_radius`` of it (at least 2; else 1), the lanes'
-    own leads and gates reading the confidence before it."""
+    own leads and gates reading the confidence before it; the filter's own estimate
+    reports 0 where its path held the map's last node over its last ``min(2,
+    lost_window)`` forward frames."""
     lane = [None] * (len(frames) + 1)
     lane_outs = []  # each lane's (reported, weights, confidence, node) per frame, fastest first
     lane_any = []  # each lane's path speed after each frame, no confidence asked
@@ -97,6 +99,7 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
     w = np.zeros(n)
     out, prev, path = [], None, []  # path: (node, confidence) of each forward frame
     lost_at = []  # whether the filter's own path had stalled, per frame
+    end_at = []  # ... or held the map's last node over END_WINDOW (2) forward frames
     still = 0  # frames since the last forward decision
     offs = []  # each speed the gate passed: off one node a frame by 3/8 or more
     speeds = [None]  # the path's speed after each frame (its gate's)
@@ -193,13 +196,18 @@ def naive_robust(nodes, frames, moves, p: FilterParams, frame_index=None, centre
         speeds.append(None if stalled else _gate(path, p, gate))  # a stalled lane: none
         anyway.append(None if stalled else _gate(path, p, 0))
         lost_at.append(stalled)
+        e = min(2, lost)
+        end_at.append(bool(e) and len(path) > e and all(m == n - 1 for m, _ in path[-1 - e :]))
     for t, (shown, w, score, node, share) in enumerate(out):  # a lane that leads: its own
         lanes = [o[t] for o in lane_outs]
         best = max(lanes, key=lambda o: o[2], default=None)  # the first of equals
+        own = True
         if p.lane_lead and best is not None and best[2] >= score + p.lane_lead and not lost_at[t]:
-            shown, score, share = best[0], best[2], best[4]
+            shown, score, share, own = best[0], best[2], best[4], False
         if centre is None:  # the confidence reported; a lane's keeps its own for the above
             score *= share
+            if own and end_at[t]:  # the filter's own path ran past the map's last node
+                score = min(score, 0.0)
         out[t] = (shown, w, score, node, share)
     return out, speeds, anyway
 
@@ -421,9 +429,10 @@ def test_follows_a_query_at_another_speed(route, pattern):
 @pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
 def test_a_query_that_leaves_the_map_is_reported_lost(route, arithmetic):
     """The query drives on past the map's last node: the estimate stays on it while the
-    motion test sees the frames move, so once it has held that place over its last
-    ``lost_window`` (8) forward frames the confidence is 0 (frames 17-19); before, it
-    is positive, and the estimates are the same with the rule off."""
+    motion test sees the frames move, so once it has held that place over its last two
+    forward frames (``END_WINDOW``; frames 11-19) the confidence is 0, and over
+    ``lost_window`` (8) anywhere on the map (frames 17-19); before, it is positive, and
+    the estimates are the same with the rules off."""
     kw = dict(arithmetic=arithmetic, motion="always_forward", confidence_radius=1)
     loc = WeightedNodeLocaliser("lowres", **kw)
     off = WeightedNodeLocaliser("lowres", lost_window=0, **kw)
@@ -436,16 +445,19 @@ def test_a_query_that_leaves_the_map_is_reported_lost(route, arithmetic):
     # every frame after the first is a forward one: frame i's window reaches frame i - 8
     stalled = [i for i in range(9, 20) if len(set(nodes[i - 8 : i + 1])) == 1]
     assert stalled == [17, 18, 19]
-    assert all(scores[i] == 0 for i in stalled)
-    assert all(scores[i] > 0 for i in range(3, 17))
-    assert all(plain[i].score > 0 for i in stalled)
+    past_end = [i for i in range(9, 20) if nodes[i - 2 : i + 1] == [9, 9, 9]]
+    assert past_end == list(range(11, 20))
+    assert all(scores[i] == 0 for i in past_end)
+    assert all(scores[i] > 0 for i in range(3, 11))
+    assert all(plain[i].score > 0 for i in range(3, 20))
 
 
 @pytest.mark.parametrize("arithmetic", ["float", "ppa8"])
 def test_a_query_that_stops_after_leaving_the_map_stays_lost(route, arithmetic):
     """A still frame keeps the last forward frame's record: the query drives past the
-    map's last node (reported lost from frame 17) and then stands (frames 20-24, called
-    still by the controller's decision, the oracle's here), so those frames are lost
+    map's last node (reported lost from frame 11, two forward frames on it) and then
+    stands (frames 20-24, called still by the controller's decision, the oracle's
+    here), so those frames are lost
     too, though their weights' margin is as high as before; a query that stops on the
     map keeps its confidence (``still_decay`` off: its own test is below)."""
     moves = [True] * 20 + [False] * 5
@@ -462,7 +474,7 @@ def test_a_query_that_stops_after_leaving_the_map_stays_lost(route, arithmetic):
         each.build_map(route[:10])
     got, plain = loc.localise(frames), off.localise(frames)
     assert [e.node for e in got] == [e.node for e in plain]
-    assert [e.score == 0 for e in got[3:]] == [False] * 14 + [True] * 8
+    assert [e.score == 0 for e in got[3:]] == [False] * 8 + [True] * 14
     assert all(e.score > 0 for e in plain[17:])
     on = WeightedNodeLocaliser("lowres", **kw)  # the same query stops on a longer map
     on.build_map(route)
@@ -511,9 +523,10 @@ def test_the_confidence_falls_on_still_frames_where_the_map_kept_moving(route, a
 def test_a_path_held_in_a_run_of_one_place_is_a_path_held(route):
     """On a map with runs the stall is counted in places: past a map whose last place is
     a run of 5 nodes, the estimate flows along the run (nodes 9-13) and holds its last
-    node, and the score falls to 0 once place 9 has held over 8 forward frames (frames
-    17-19), where counting nodes would not yet see a stall. (The detected nodes: the
-    centroid of the run's equal weights would report a node inside it.)"""
+    node, and the score falls to 0 once place 9, the map's last, has held over two
+    forward frames (frames 11-19; ``past_map_end``), where counting nodes would see no
+    stall before frame 15. (The detected nodes: the centroid of the run's equal weights
+    would report a node inside it.)"""
     ref = np.concatenate((route[:10], np.repeat(route[9:10], 4, axis=0)))
     places = np.array([*range(10), 9, 9, 9, 9])
     m = TopoMap("lowres", lowres_image(ref, 8), np.arange(14), places=places)
@@ -522,7 +535,7 @@ def test_a_path_held_in_a_run_of_one_place_is_a_path_held(route):
     loc.use_map(m)
     est = loc.localise(route)
     assert [e.node for e in est][9:] == [9, 10, 11, 12, *[13] * 7]
-    assert [e.score == 0 for e in est[9:]] == [False] * 8 + [True] * 3
+    assert [e.score == 0 for e in est[9:]] == [False] * 2 + [True] * 9
 
 
 def test_keyframes_merge_a_stop_into_one_node_that_predicts_its_own_frame():

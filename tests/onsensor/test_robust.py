@@ -373,7 +373,8 @@ def test_the_sensor_equals_the_host_on_a_synthetic_route(routes, rep, preset, mo
 def test_the_sensor_reports_a_query_that_leaves_the_map_lost_as_the_host_does(rep):
     """The map is a route's first 10 places and the query drives on through 10 more:
     the estimate holds the last node while the frames move, so the score falls to 0
-    (``lost_window``), on the sensor as on the host's ppa8 filter."""
+    (``past_map_end``: two forward frames on the map's last place), on the sensor as on
+    the host's ppa8 filter."""
     rng = np.random.default_rng(7)
     cells = rng.integers(0, 256, (20, 8, 8)).astype(np.uint8)
     frames = [np.kron(c, np.ones((32, 32), np.uint8)) for c in cells]
@@ -381,8 +382,8 @@ def test_the_sensor_reports_a_query_that_leaves_the_map_lost_as_the_host_does(re
     _, sensor = _agree(rep, frames[:10], frames, **kw)
     est = sensor.localise(frames)
     assert [e.node for e in est][10:] == [9] * 10
-    # held on node 9 from frame 9: frames 17-19 close a window of one place
-    assert [e.score == 0 for e in est[10:]] == [False] * 7 + [True] * 3
+    # held on node 9, the map's last, from frame 9: frames 11-19 close a window of two
+    assert [e.score == 0 for e in est[10:]] == [False] * 1 + [True] * 9
     assert min(e.score for e in est[3:10]) > 0
 
 

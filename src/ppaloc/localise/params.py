@@ -48,6 +48,7 @@ __all__ = [
     "DEFAULT_CONTRAST_PATCH",
     "DEFAULT_SHIFT",
     "DETECT_BITS",
+    "END_WINDOW",
     "FILTER_KEYS",
     "GAMMAS",
     "MAX_ALPHA",
@@ -80,6 +81,7 @@ __all__ = [
     "likelihood_shift",
     "local_centroid",
     "local_step",
+    "past_map_end",
     "path_speed",
     "path_stalled",
     "preset_group",
@@ -1079,6 +1081,37 @@ def path_stalled(places: Sequence[int], params: FilterParams) -> bool:
         return False
     tail = places[-1 - w :]
     return min(tail) == max(tail)
+
+
+END_WINDOW = 2
+"""Forward frames over which a path that holds the map's last place has run past it
+(:func:`past_map_end`): a query at the slowest speed the transition follows (1/2 a
+frame) leaves a place within two."""
+
+
+def past_map_end(places: Sequence[int], last_place: int, params: FilterParams) -> bool:
+    """Whether the estimate's path held the map's last place on each of its last
+    ``min(END_WINDOW, lost_window)`` forward frames and the one before them
+    (``places`` oldest first, as :func:`path_stalled` reads them).
+
+    Where the path stalls in the middle of the map a node that matches everything may
+    hold it, so :func:`path_stalled` waits ``lost_window`` forward frames; at the last
+    place the weights cannot go on, so a query still moving after :data:`END_WINDOW`
+    frames there has left the map (the route goes on past where it was mapped), and
+    the confidence says so from then on. Off with ``lost_window`` 0.
+
+    Examples
+    --------
+    >>> p = FilterParams.create("lbp")
+    >>> past_map_end([97, 98, 99, 99, 99], 99, p), past_map_end([97, 98, 99, 99], 99, p)
+    (True, False)
+    >>> past_map_end([50, 50, 50], 99, p)  # held, but not the last place
+    False
+    """
+    w = min(END_WINDOW, int(params.lost_window or 0))
+    if w == 0 or len(places) <= w:
+        return False
+    return all(place == last_place for place in places[-1 - w :])
 
 
 def stood_at_or_next(place_frames: np.ndarray) -> np.ndarray:

@@ -57,6 +57,7 @@ from ppaloc.localise.params import (
     lane_speed_taken,
     lane_speeds,
     local_centroid,
+    past_map_end,
     path_speed,
     path_stalled,
     speed_off,
@@ -369,7 +370,9 @@ class RobustSchedule(Schedule):
     last one: no new evidence); detection
     (in register arithmetic at :data:`~ppaloc.localise.params.DETECT_BITS` fraction
     bits), confidence (0 where the estimate's path stood still while the query moved,
-    and on the still frames after it, :func:`~ppaloc.localise.params.path_stalled`;
+    and on the still frames after it, :func:`~ppaloc.localise.params.path_stalled`,
+    and, on the filter's own estimate, where its path held the map's last place for
+    two forward frames, :func:`~ppaloc.localise.params.past_map_end`;
     on still frames less ``still_decay`` a frame where the map did not stand still,
     :func:`~ppaloc.localise.params.still_score`); normalisation. The frame reports a
     speed lane's estimate and confidence instead where the lane's leads the filter's by
@@ -402,6 +405,7 @@ class RobustSchedule(Schedule):
         self.lanes = ()  # their executors (:meth:`use_lanes`)
         #: Forward frames whose costs a lane's speed set since :meth:`reset`.
         self.lane_frames = 0
+        self._end_place: int | None = None  # the map's last place (:meth:`use_map`)
         super().__init__(params, oracle_moves)
 
     @property
@@ -477,6 +481,10 @@ class RobustSchedule(Schedule):
             result = replace(result, node=lane.node, score=lane.score, lane=k, share=lane.share)
         if self.centre is None:  # the confidence reported; a lane's result keeps its margin
             result = replace(result, score=result.score * result.share)
+        end = self._end_place  # the filter's own estimate, where the route went on past it
+        if self.centre is None and result.lane is None and end is not None:
+            if past_map_end(self._path_places, end, p):
+                result = replace(result, score=min(result.score, 0.0))
         return result
 
     def run_lanes(self, frame: np.ndarray, moved: bool) -> None:
@@ -542,6 +550,7 @@ class RobustSchedule(Schedule):
         for several reference frames."""
         super().use_map(topomap)
         self._stood_at = stood_at_or_next(topomap.place_frames())
+        self._end_place = self.place(len(topomap) - 1)
         for lane in self.lane_schedules:
             lane.use_map(topomap)
 
