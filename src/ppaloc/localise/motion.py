@@ -46,6 +46,7 @@ if TYPE_CHECKING:  # params imports this module's margins
     from ppaloc.localise.params import FilterParams
 
 __all__ = [
+    "COHERENT_SHIFT",
     "MARGIN",
     "PAPER_MARGIN",
     "AlwaysForward",
@@ -56,6 +57,7 @@ __all__ = [
     "check_moves",
     "coherent_crossings",
     "counted_decision",
+    "crossed_pixels",
     "crossing_counts",
     "forward_decision",
     "motion_planes",
@@ -70,6 +72,12 @@ MARGIN = 4
 
 PAPER_MARGIN = 3
 """The paper preset's dead zone (6 grey levels), as it was measured with Algorithm 1."""
+
+COHERENT_SHIFT = 8
+"""Default second bar of the test, the robust filter's: forward also needs ``2**-8`` of
+the textured pixels crossed beside another crossing (docs/localise.md, "The motion
+model": 7-9 measured on every route of ``benchmarks/eval_robust.py``, and its held-out
+ones)."""
 
 
 def motion_planes(frame: np.ndarray, margin: int = MARGIN) -> tuple[np.ndarray, np.ndarray]:
@@ -139,6 +147,15 @@ def coherent_crossings(crossed: np.ndarray) -> np.ndarray:
     return c & near
 
 
+def crossed_pixels(
+    previous: tuple[np.ndarray, np.ndarray], current: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """``(U_prev & D) | (D_prev & U)``: the pixels that crossed their block mean by more
+    than the margin between two frames' planes."""
+    (u0, d0), (u1, d1) = previous, current
+    return (u0 & d1) | (d0 & u1)
+
+
 def crossing_counts(
     previous: tuple[np.ndarray, np.ndarray],
     current: tuple[np.ndarray, np.ndarray],
@@ -153,11 +170,9 @@ def crossing_counts(
     On the PPA each is an exact count: block sums on the array read through the ADC
     (``global_count`` is only an estimate; docs/ppa8.md).
     """
-    u0, d0 = previous
-    u1, d1 = current
-    crossed = (u0 & d1) | (d0 & u1)
+    crossed = crossed_pixels(previous, current)
     changed = int(np.count_nonzero(crossed))
-    support = int(np.count_nonzero(u1 | d1))
+    support = int(np.count_nonzero(current[0] | current[1]))
     if not coherent:
         return changed, support
     return changed, support, int(np.count_nonzero(coherent_crossings(crossed)))
@@ -284,14 +299,14 @@ class ImageMotion(MotionModel):
         another crossing (:func:`coherent_crossings`); 0 turns the second test off. At
         night a still generated frame sees up to 2.3% of its textured pixels cross, one
         by one, from rendering noise, above the 1/64 of ``shift``; at most 0.2% of them
-        have a crossing neighbour, against 0.9% and more in a moving frame (default 8:
-        1/256, the two's geometric middle; docs/localise.md, "The motion model").
+        have a crossing neighbour, against 0.9% and more in a moving frame (default
+        :data:`COHERENT_SHIFT`, 8: 1/256, the two's geometric middle).
     """
 
     margin: int = MARGIN
     shift: int = 6
     min_support: int = 1024
-    coherent_shift: int = 8
+    coherent_shift: int = COHERENT_SHIFT
     name = "image"
 
     @classmethod
@@ -325,11 +340,10 @@ class ImageMotion(MotionModel):
         if previous is None:
             self.last_counts = None
             return False
-        (u0, d0), (u1, d1) = previous, planes
-        crossed = (u0 & d1) | (d0 & u1)
+        crossed = crossed_pixels(previous, planes)
         moved, self.last_counts = counted_decision(
             lambda: int(np.count_nonzero(crossed)),
-            lambda: int(np.count_nonzero(u1 | d1)),
+            lambda: int(np.count_nonzero(planes[0] | planes[1])),
             lambda: int(np.count_nonzero(coherent_crossings(crossed))),
             shift=self.shift,
             min_support=self.min_support,

@@ -39,7 +39,7 @@ import numpy as np
 from ppaloc.errors import PpalocError
 from ppaloc.localise.base import MethodParam
 from ppaloc.localise.likelihood import FLOAT_PLACES
-from ppaloc.localise.motion import MARGIN, PAPER_MARGIN
+from ppaloc.localise.motion import COHERENT_SHIFT, MARGIN, PAPER_MARGIN
 from ppaloc.place.normalise import MAX_CONTRAST
 
 __all__ = [
@@ -222,7 +222,7 @@ def _margin_default(representation: str, group: str, values: Mapping[str, Any]) 
 
 
 def _coherent_default(representation: str, group: str, values: Mapping[str, Any]) -> int:
-    return 8 if group == "robust" else 0
+    return COHERENT_SHIFT if group == "robust" else 0
 
 
 def _keyframes_default(representation: str, group: str, values: Mapping[str, Any]) -> bool:
@@ -438,7 +438,7 @@ class FilterParams:
     motion_shift: int = field(default=6, metadata=_param(None, "int", 6, 0, 16))
     motion_min_support: int = field(default=1024, metadata=_param(None, "int", 1024, 0, 256 * 256))
     motion_coherent_shift: int = field(
-        default=8, metadata=_param(None, "int", _coherent_default, 0, 16)
+        default=COHERENT_SHIFT, metadata=_param(None, "int", _coherent_default, 0, 16)
     )
     confidence_radius: int = field(default=10, metadata=_param(None, "int", 10, 0, MAX_WINDOW))
     keyframes: bool = field(default=True, metadata=_param(None, "bool", _keyframes_default))

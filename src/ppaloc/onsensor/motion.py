@@ -11,13 +11,14 @@ counted exactly on the array (:func:`count`) and the controller decides with the
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
 from ppaloc.localise.motion import MotionCounts, counted_decision
 from ppaloc.localise.params import FilterParams
 from ppaloc.onsensor.program import add_level, pull, tree_levels
-from ppaloc.onsensor.roles import DRegs
+from ppaloc.onsensor.roles import DRegs, Roles
 from ppaloc.onsensor.sensor import Sensor
 from ppaloc.sim import FLAG, NEWS, R1, R2, R3, R4, Kernel, Register, east, north, south, west
 
@@ -65,16 +66,17 @@ def image_motion(sensor: Sensor, memory: MotionPlanes, params: FilterParams) -> 
             memory.last_counts = None
             return False
         sensor.run(_logic, dr)
-        crossings = [dr.tmp_b]  # where the crossings are when they are counted
+        crossings = dr.tmp_b  # where the crossings are when they are counted
 
         def coherent() -> int:
-            source, neighbours, saves = _coherent_plan(sensor)
+            nonlocal crossings
+            source, neighbours, saves = _coherent_plan(sensor.roles)
             sensor.run(_coherent, dr, source, neighbours, saves)
-            crossings[0] = source
+            crossings = source
             return count(sensor, neighbours)
 
         moved, memory.last_counts = counted_decision(
-            lambda: count(sensor, crossings[0]),
+            lambda: count(sensor, crossings),
             lambda: count(sensor, dr.tmp_a),
             coherent,
             shift=params.motion_shift,
@@ -115,8 +117,10 @@ def _logic(k: Kernel, dr: DRegs) -> None:
 _SELECTORS = (R1, R2, R3, R4)
 
 
-def _coherent_plan(sensor: Sensor) -> tuple[Register, Register, tuple]:
-    """``(source, neighbours, saves)`` of :func:`_coherent` for the sensor's roles.
+@cache
+def _coherent_plan(roles: Roles) -> tuple[Register, Register, tuple]:
+    """``(source, neighbours, saves)`` of :func:`_coherent` for a pipeline's roles (the
+    same on every frame: worked out once).
 
     ``DNEWS`` writes its direction into R1-R4 first, where some roles keep their planes
     from frame to frame (the valid node roots; the 8x8 pipeline's class masks) and
@@ -128,9 +132,9 @@ def _coherent_plan(sensor: Sensor) -> tuple[Register, Register, tuple]:
     ``(kept, slot)`` pairs). ``pattern`` and ``root32`` are working roles, loaded again
     before their next use.
     """
-    dr = sensor.roles.d
+    dr = roles.d
     free = [r for r in (dr.u, dr.d, dr.cand, dr.tmp_a) if r not in _SELECTORS]
-    kept = sorted({r for _, r in sensor.roles.kept() if r in _SELECTORS}, key=lambda r: r.index)
+    kept = sorted({r for _, r in roles.kept() if r in _SELECTORS}, key=lambda r: r.index)
     source = dr.tmp_b if dr.tmp_b not in _SELECTORS else free.pop(0)
     if len(free) < 1 + len(kept):
         raise AssertionError(
